@@ -1,0 +1,197 @@
+#include "hwmodel/float_tracer.h"
+
+#include <algorithm>
+#include <atomic>
+#include <thread>
+
+#include "hwmodel/intersect_float.h"
+#include "hwmodel/traverse.h"
+
+namespace rtu::hw {
+
+namespace {
+
+// The closest hit so far, shared by the leaf tests of one ray.
+struct Closest {
+  float tmax;
+  uint32_t prim = kMissPrim;
+  float u = 0.0f, v = 0.0f;
+};
+
+inline bool test_leaf_prim(const LeafPrim& lp, uint32_t num_tris, const RayPrecomp& rp, float tmin, Closest& c) {
+  PrimHit h;
+  const bool hit = lp.prim < num_tris ? intersect_triangle(lp.a, lp.b, lp.c, rp, tmin, c.tmax, h)
+                                      : intersect_sphere(lp.a, lp.b.x, rp, tmin, c.tmax, h);
+  if (hit) {
+    c.tmax = h.t;
+    c.prim = lp.prim;
+    c.u = h.u;
+    c.v = h.v;
+  }
+  return hit;
+}
+
+template <int N>
+struct FloatPolicy {
+  using Dist = float;
+  static constexpr int kWidth = N;
+
+  const WideNode<N>* nodes;
+  const LeafPrim* prims;
+  uint32_t num_tris;
+  const RayPrecomp& rp;
+  float tmin;
+  bool any_hit;
+  Closest& closest;
+  TraversalStats& s;
+
+  int expand(uint32_t node, uint32_t refs[N], float dists[N], int& tested) const {
+    const WideNode<N>& n = nodes[node];
+    int k = 0;
+    for (int i = 0; i < N; ++i) {
+      if (n.child[i] == kEmptyChild) continue;
+      ++tested;
+      const float lo[3] = {n.bounds[0][i], n.bounds[2][i], n.bounds[4][i]};
+      const float hi[3] = {n.bounds[1][i], n.bounds[3][i], n.bounds[5][i]};
+      float t;
+      if (intersect_box(lo, hi, rp, tmin, closest.tmax, t)) {
+        refs[k] = n.child[i];
+        dists[k] = t;
+        ++k;
+      }
+    }
+    return k;
+  }
+
+  bool leaf(uint32_t ref) const {
+    const uint32_t first = leaf_first(ref), count = leaf_count(ref);
+    s.prim_tests += count;
+    bool found = false;
+    for (uint32_t i = 0; i < count; ++i) {
+      found |= test_leaf_prim(prims[first + i], num_tris, rp, tmin, closest);
+      if (found && any_hit) return true;
+    }
+    return found;
+  }
+
+  float limit() const { return closest.tmax; }
+};
+
+}  // namespace
+
+FloatTracer::FloatTracer(const Geometry& g, const TracerOptions& opt) : m_geom(g) {
+  const uint32_t n = g.num_bounded();
+  m_brute_cost = double(n) * opt.bvh.prim_cost;
+  if (opt.accel != AccelMode::kBrute && n > 0) {
+    m_bvh = Bvh::build(g, opt.bvh);
+    m_bvh_cost = m_bvh->figures().sah_cost;
+  }
+  // Automatic choice: no BVH when the whole scene fits in one leaf (a BVH would add its node visits to the same
+  // primitive tests), or when its SAH cost is not below the cost of testing every primitive.
+  const bool small = n <= uint32_t(opt.bvh.max_leaf_size);
+  m_use_bvh = opt.accel == AccelMode::kBvh ||
+              (opt.accel == AccelMode::kAuto && m_bvh && !small && m_bvh_cost < m_brute_cost);
+  if (n > 0 && !m_use_bvh) m_bvh.reset();
+
+  auto record = [&](uint32_t p) {
+    LeafPrim lp{};
+    lp.prim = p;
+    if (p < g.triangles.size()) {
+      const Triangle& t = g.triangles[p];
+      lp.a = t.v0;
+      lp.b = t.v1;
+      lp.c = t.v2;
+    } else {
+      const Sphere& s = g.spheres[p - g.triangles.size()];
+      lp.a = s.center;
+      lp.b = Vec3(s.radius, 0.0f, 0.0f);
+    }
+    return lp;
+  };
+  m_leaf_prims.resize(n);
+  if (m_bvh) {
+    m_bvh->visit([&](const auto& t) {
+      for (uint32_t i = 0; i < n; ++i) m_leaf_prims[i] = record(t.prim_ids[i]);
+    });
+  } else {
+    for (uint32_t i = 0; i < n; ++i) m_leaf_prims[i] = record(i);
+  }
+}
+
+template <int N>
+void FloatTracer::trace_bvh(const WideBvh<N>& t, const RayPrecomp& rp, float tmin, bool any_hit, Hit& h,
+                            TraversalStats& s) const {
+  Closest c{h.t, h.prim, h.u, h.v};
+  FloatPolicy<N> policy{t.nodes.data(), m_leaf_prims.data(), uint32_t(m_geom.triangles.size()), rp, tmin,
+                        any_hit, c, s};
+  traverse(policy, t.root_ref, any_hit, s);
+  h = Hit{c.tmax, c.prim, c.u, c.v};
+}
+
+Hit FloatTracer::trace(const Ray& r, bool any_hit, TraversalStats& s) const {
+  Hit h;
+  const RayStatus status = validate_ray(r);
+  if (status != RayStatus::kOk) {
+    ++s.invalid_rays;
+    ++s.invalid_by_reason[size_t(status)];
+    return h;
+  }
+  ++s.rays;
+  const RayPrecomp rp(r);
+  h.t = r.tmax;
+  // Planes first: they are few, often near (a ground), and shorten the interval for the BVH.
+  for (uint32_t i = 0; i < m_geom.planes.size(); ++i) {
+    PrimHit ph;
+    ++s.prim_tests;
+    if (intersect_plane(m_geom.planes[i], rp, r.tmin, h.t, ph)) {
+      h = Hit{ph.t, m_geom.plane_prim(i), 0.0f, 0.0f};
+      if (any_hit) break;
+    }
+  }
+  if (!(any_hit && h.hit()) && !m_leaf_prims.empty()) {
+    if (m_bvh) {
+      m_bvh->visit([&](const auto& t) { trace_bvh(t, rp, r.tmin, any_hit, h, s); });
+    } else {
+      Closest c{h.t, h.prim, h.u, h.v};
+      const uint32_t num_tris = uint32_t(m_geom.triangles.size());
+      s.prim_tests += m_leaf_prims.size();
+      for (const LeafPrim& lp : m_leaf_prims) {
+        if (test_leaf_prim(lp, num_tris, rp, r.tmin, c) && any_hit) break;
+      }
+      h = Hit{c.tmax, c.prim, c.u, c.v};
+    }
+  }
+  if (!h.hit()) return Hit{};
+  ++s.hits;
+  if (m_geom.kind(h.prim) == PrimKind::kSphere) {
+    const Sphere& sp = m_geom.spheres[h.prim - m_geom.triangles.size()];
+    sphere_uv(sp.center, r.origin + h.t * r.dir, h.u, h.v);
+  }
+  return h;
+}
+
+void FloatTracer::trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads,
+                              TraversalStats& s) const {
+  const int hw = std::max(1, int(std::thread::hardware_concurrency()));
+  const int nt = std::max(1, std::min(threads > 0 ? threads : hw, int((n + 1023) / 1024)));
+  constexpr size_t kChunk = 1024;
+  std::atomic<size_t> next{0};
+  std::vector<TraversalStats> per(static_cast<size_t>(nt));
+  auto work = [&](int id) {
+    for (;;) {
+      const size_t begin = next.fetch_add(kChunk);
+      if (begin >= n) break;
+      const size_t end = std::min(n, begin + kChunk);
+      TraversalStats local;  // per chunk, so threads do not share cache lines in the hot loop
+      for (size_t i = begin; i < end; ++i) hits[i] = trace(rays[i], any_hit, local);
+      per[size_t(id)].add(local);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int i = 1; i < nt; ++i) pool.emplace_back(work, i);
+  work(0);
+  for (std::thread& t : pool) t.join();
+  for (const TraversalStats& p : per) s.add(p);
+}
+
+}  // namespace rtu::hw

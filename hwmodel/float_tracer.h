@@ -1,0 +1,66 @@
+// The float device's tracer: the golden result. Planes (unbounded) are tested per ray first, only when the
+// scene has any; triangles and spheres through the BVH, or by brute force ("for each primitive") when the scene
+// is so small that a BVH costs more than it saves: all of it fits in one leaf, or the BVH's SAH cost is not
+// below the cost of testing every primitive.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "hwmodel/bvh.h"
+#include "hwmodel/geometry.h"
+#include "hwmodel/ray.h"
+#include "hwmodel/stats.h"
+
+namespace rtu::hw {
+
+struct RayPrecomp;
+
+enum class AccelMode : uint8_t { kAuto, kBvh, kBrute };
+
+struct TracerOptions {
+  AccelMode accel = AccelMode::kAuto;
+  BvhBuildParams bvh;
+};
+
+// A leaf-ordered copy of a bounded primitive, so a leaf's primitives are contiguous in memory.
+struct LeafPrim {
+  Vec3 a, b, c;   // triangle vertices; a sphere has its center in a and its radius in b.x
+  uint32_t prim;  // scene primitive index
+};
+static_assert(sizeof(LeafPrim) == 40);
+
+class FloatTracer {
+ public:
+  // Keeps a reference to `g`: it must outlive the tracer.
+  FloatTracer(const Geometry& g, const TracerOptions& opt = {});
+
+  // Traces one ray. Invalid rays (validate_ray) miss and are counted in s.invalid_rays.
+  Hit trace(const Ray& r, bool any_hit, TraversalStats& s) const;
+  // Traces rays[0, n) into hits with `threads` threads (0 = all cores). Results and summed statistics do not
+  // depend on the thread count.
+  void trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads, TraversalStats& s) const;
+
+  bool uses_bvh() const { return m_use_bvh; }
+  const Bvh* bvh() const { return m_bvh ? &*m_bvh : nullptr; }
+  // SAH-style cost estimates behind the automatic choice, in primitive-test units.
+  double bvh_cost() const { return m_bvh_cost; }
+  double brute_cost() const { return m_brute_cost; }
+  uint64_t leaf_prim_bytes() const { return m_leaf_prims.size() * sizeof(LeafPrim); }
+
+ private:
+  template <int N>
+  void trace_bvh(const WideBvh<N>& t, const RayPrecomp& rp, float tmin, bool any_hit, Hit& h,
+                 TraversalStats& s) const;
+
+  const Geometry& m_geom;
+  std::optional<Bvh> m_bvh;
+  std::vector<LeafPrim> m_leaf_prims;  // leaf order (BVH) or scene order (brute force)
+  bool m_use_bvh = false;
+  double m_bvh_cost = 0.0;
+  double m_brute_cost = 0.0;
+};
+
+}  // namespace rtu::hw

@@ -1,0 +1,64 @@
+// Scene geometry as the unit sees it: world-space triangles, spheres and planes, indexed in one space.
+// Primitive index p counts triangles first (in import order), then spheres, then planes.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "hwmodel/aabb.h"
+#include "hwmodel/vec.h"
+
+namespace rtu::hw {
+
+struct Triangle {
+  Vec3 v0, v1, v2;  // vertices; winding does not matter (no culling)
+  Aabb bounds() const {
+    Aabb b;
+    b.extend(v0);
+    b.extend(v1);
+    b.extend(v2);
+    return b;
+  }
+};
+
+struct Sphere {
+  Vec3 center;   // world-space center
+  float radius;  // > 0
+  Aabb bounds() const { return Aabb{center - Vec3(radius), center + Vec3(radius)}; }
+};
+
+// The unbounded plane {x : dot(x, normal) = offset}. Kept out of the BVH.
+struct Plane {
+  Vec3 normal;   // need not be unit length
+  float offset;  // c in dot(x, n) = c
+};
+
+enum class PrimKind : uint8_t { kTriangle, kSphere, kPlane };
+
+struct Geometry {
+  std::vector<Triangle> triangles;
+  std::vector<Sphere> spheres;
+  std::vector<Plane> planes;
+
+  uint32_t num_prims() const { return uint32_t(triangles.size() + spheres.size() + planes.size()); }
+  // Primitives that go into a BVH (triangles and spheres): indices [0, num_bounded()).
+  uint32_t num_bounded() const { return uint32_t(triangles.size() + spheres.size()); }
+  PrimKind kind(uint32_t prim) const {
+    if (prim < triangles.size()) return PrimKind::kTriangle;
+    return prim < num_bounded() ? PrimKind::kSphere : PrimKind::kPlane;
+  }
+  uint32_t sphere_prim(uint32_t i) const { return uint32_t(triangles.size()) + i; }
+  uint32_t plane_prim(uint32_t i) const { return num_bounded() + i; }
+  Aabb prim_bounds(uint32_t prim) const {
+    return prim < triangles.size() ? triangles[prim].bounds() : spheres[prim - triangles.size()].bounds();
+  }
+  // Bounds of the bounded primitives (planes excluded).
+  Aabb bounds() const {
+    Aabb b;
+    for (const Triangle& t : triangles) b.extend(t.bounds());
+    for (const Sphere& s : spheres) b.extend(s.bounds());
+    return b;
+  }
+};
+
+}  // namespace rtu::hw

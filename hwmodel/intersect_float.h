@@ -1,0 +1,173 @@
+// The float reference datapath: ray-box, ray-triangle, ray-sphere and ray-plane tests in IEEE single precision.
+// Pure functions: inputs -> outputs; statistics and traversal live around them.
+//
+// - Box: slab test with the conservative margin of Ize, "Robust BVH Ray Traversal" (JCGT 2013), as in pbrt-v4:
+//   t_far is scaled by 1 + 2 gamma(3) so rounding never culls a box the exact test accepts. Zero direction
+//   components give +-inf reciprocals; a 0 * inf NaN (origin exactly on a slab plane) counts as inside the slab.
+// - Triangle: the watertight test of Woop, Benthin and Wald, "Watertight Ray/Triangle Intersection" (JCGT 2013):
+//   vertices are translated to the ray origin and sheared so the ray is +z; edge functions that round to 0 are
+//   recomputed in double. A ray through a shared edge or vertex of a closed mesh hits at least one triangle.
+// - Sphere: the quadratic with the discriminant in the form of Haines et al., "Precision Improvements for
+//   Ray/Sphere Intersection" (Ray Tracing Gems, 2019), and roots by the stable q-form (no cancellation).
+// - Plane: t = (c - p.n) / (d.n); a ray parallel to the plane (d.n == 0) misses.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+#include "hwmodel/geometry.h"
+#include "hwmodel/ray.h"
+
+namespace rtu::hw {
+
+inline constexpr float kFloatEps = 0x1p-24f;  // unit roundoff of float (half an ulp of 1)
+constexpr float gamma_n(int n) { return (n * kFloatEps) / (1.0f - n * kFloatEps); }
+inline constexpr float kIzeScale = 1.0f + 2.0f * gamma_n(3);  // scales t_far of the slab test
+
+// Per-ray values shared by every box and triangle test of one traversal.
+struct RayPrecomp {
+  Vec3 origin;
+  Vec3 dir;
+  Vec3 inv_dir;    // 1/d per axis (+-inf for +-0)
+  int near_lo[3];  // 1 when the near slab plane on that axis is the low plane (inv_dir >= 0, including +inf)
+  int kx, ky, kz;  // Woop: kz = axis of largest |d|, kx, ky the others (swapped to keep winding)
+  float sx, sy, sz;
+
+  explicit RayPrecomp(const Ray& r) : origin(r.origin), dir(r.dir) {
+    for (int a = 0; a < 3; ++a) {
+      inv_dir[a] = 1.0f / r.dir[a];
+      near_lo[a] = std::signbit(inv_dir[a]) ? 0 : 1;
+    }
+    Vec3 ad = glm::abs(r.dir);
+    kz = ad.x >= ad.y && ad.x >= ad.z ? 0 : (ad.y >= ad.z ? 1 : 2);
+    kx = kz == 2 ? 0 : kz + 1;
+    ky = kx == 2 ? 0 : kx + 1;
+    if (r.dir[kz] < 0.0f) {
+      int t = kx;
+      kx = ky;
+      ky = t;
+    }
+    sx = r.dir[kx] / r.dir[kz];
+    sy = r.dir[ky] / r.dir[kz];
+    sz = 1.0f / r.dir[kz];
+  }
+};
+
+// Slab test of one box given as lo/hi per axis. On overlap of [tmin, tmax] returns true and the entry distance.
+inline bool intersect_box(const float lo[3], const float hi[3], const RayPrecomp& r, float tmin, float tmax,
+                          float& t_enter) {
+  float t0 = tmin, t1 = tmax;
+  for (int a = 0; a < 3; ++a) {
+    float tn = ((r.near_lo[a] ? lo[a] : hi[a]) - r.origin[a]) * r.inv_dir[a];
+    float tf = ((r.near_lo[a] ? hi[a] : lo[a]) - r.origin[a]) * r.inv_dir[a];
+    tf *= kIzeScale;
+    // Written so that a NaN (0 * inf) leaves the interval unchanged.
+    t0 = tn > t0 ? tn : t0;
+    t1 = tf < t1 ? tf : t1;
+  }
+  t_enter = t0;
+  return t0 <= t1;
+}
+
+inline bool intersect_box(const Aabb& b, const RayPrecomp& r, float tmin, float tmax, float& t_enter) {
+  const float lo[3] = {b.lo.x, b.lo.y, b.lo.z};
+  const float hi[3] = {b.hi.x, b.hi.y, b.hi.z};
+  return intersect_box(lo, hi, r, tmin, tmax, t_enter);
+}
+
+struct PrimHit {
+  float t;
+  float u, v;
+};
+
+// Watertight triangle test. Returns true for a hit with tmin <= t <= tmax (either facing).
+inline bool intersect_triangle(const Vec3& v0, const Vec3& v1, const Vec3& v2, const RayPrecomp& r, float tmin,
+                               float tmax, PrimHit& out) {
+  const Vec3 a = v0 - r.origin, b = v1 - r.origin, c = v2 - r.origin;
+  const float az = a[r.kz], bz = b[r.kz], cz = c[r.kz];
+  const float ax = a[r.kx] - r.sx * az, ay = a[r.ky] - r.sy * az;
+  const float bx = b[r.kx] - r.sx * bz, by = b[r.ky] - r.sy * bz;
+  const float cx = c[r.kx] - r.sx * cz, cy = c[r.ky] - r.sy * cz;
+  float u = cx * by - cy * bx;
+  float v = ax * cy - ay * cx;
+  float w = bx * ay - by * ax;
+  if (u == 0.0f || v == 0.0f || w == 0.0f) {
+    // Products of floats are exact in double, so these are the exact signs, rounded once to float.
+    u = float(double(cx) * double(by) - double(cy) * double(bx));
+    v = float(double(ax) * double(cy) - double(ay) * double(cx));
+    w = float(double(bx) * double(ay) - double(by) * double(ax));
+  }
+  if ((u < 0.0f || v < 0.0f || w < 0.0f) && (u > 0.0f || v > 0.0f || w > 0.0f)) return false;
+  const float det = u + v + w;
+  if (det == 0.0f) return false;
+  const float t_scaled = u * (r.sz * az) + v * (r.sz * bz) + w * (r.sz * cz);
+  const float sign = det < 0.0f ? -1.0f : 1.0f;
+  const float abs_det = det * sign, ts = t_scaled * sign;
+  if (ts < tmin * abs_det || ts > tmax * abs_det) return false;
+  const float inv_det = 1.0f / det;
+  out.t = t_scaled * inv_det;
+  if (out.t < tmin || out.t > tmax) return false;  // the division may round across an end of the interval
+  out.u = v * inv_det;
+  out.v = w * inv_det;
+  return true;
+}
+
+inline bool intersect_triangle(const Triangle& tri, const RayPrecomp& r, float tmin, float tmax, PrimHit& out) {
+  return intersect_triangle(tri.v0, tri.v1, tri.v2, r, tmin, tmax, out);
+}
+
+// Sphere: the nearest root in [tmin, tmax] (the far root when the near one is before tmin).
+inline bool intersect_sphere(const Vec3& center, float radius, const RayPrecomp& r, float tmin, float tmax,
+                             PrimHit& out) {
+  const Vec3 f = r.origin - center;
+  const float a = glm::dot(r.dir, r.dir);
+  const float b = -glm::dot(f, r.dir);  // -b/2 of the textbook quadratic
+  const float c = glm::dot(f, f) - radius * radius;
+  // (b^2 - a c) / a = r^2 - |f + (b/a) d|^2: the squared distance from the center to the line, without the
+  // cancellation of b^2 - a c.
+  const Vec3 l = f + (b / a) * r.dir;
+  const float disc = a * (radius * radius - glm::dot(l, l));
+  if (!(disc >= 0.0f)) return false;
+  const float q = b + std::copysign(std::sqrt(disc), b);
+  float t0, t1;
+  if (q == 0.0f) {
+    t0 = t1 = 0.0f;  // b == 0 and disc == 0: the origin touches the sphere tangentially
+  } else {
+    t0 = c / q;
+    t1 = q / a;
+  }
+  if (t0 > t1) std::swap(t0, t1);
+  float t = t0;
+  if (t < tmin) t = t1;
+  if (t < tmin || t > tmax) return false;
+  out.t = t;
+  out.u = out.v = 0.0f;  // filled for the final hit only (sphere_uv)
+  return true;
+}
+
+// Longitude/(2 pi) and colatitude/pi of a point on a sphere, the u, v of sphere hits.
+inline void sphere_uv(const Vec3& center, const Vec3& p, float& u, float& v) {
+  const Vec3 n = p - center;
+  const float len = glm::length(n);
+  if (!(len > 0.0f)) {
+    u = v = 0.0f;
+    return;
+  }
+  float phi = std::atan2(n.z, n.x);
+  if (phi < 0.0f) phi += 2.0f * 3.14159265358979f;
+  u = std::min(phi / (2.0f * 3.14159265358979f), std::nextafter(1.0f, 0.0f));
+  v = std::acos(std::clamp(n.y / len, -1.0f, 1.0f)) / 3.14159265358979f;
+}
+
+inline bool intersect_plane(const Plane& p, const RayPrecomp& r, float tmin, float tmax, PrimHit& out) {
+  const float dn = glm::dot(r.dir, p.normal);
+  if (dn == 0.0f) return false;
+  const float t = (p.offset - glm::dot(r.origin, p.normal)) / dn;
+  if (!(t >= tmin && t <= tmax)) return false;
+  out.t = t;
+  out.u = out.v = 0.0f;
+  return true;
+}
+
+}  // namespace rtu::hw

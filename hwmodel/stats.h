@@ -1,0 +1,33 @@
+// Traversal statistics, counted around the datapath (never inside it) and summed over rays and threads.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "hwmodel/ray.h"
+
+namespace rtu::hw {
+
+struct TraversalStats {
+  uint64_t rays = 0;           // rays traced (valid ones)
+  uint64_t hits = 0;           // rays with a hit
+  uint64_t nodes_visited = 0;  // inner nodes popped and tested
+  uint64_t leaves_visited = 0; // leaves whose primitives were tested
+  uint64_t box_tests = 0;      // child-box slab tests (occupied slots of visited nodes)
+  uint64_t prim_tests = 0;     // triangle, sphere and plane tests
+  uint64_t invalid_rays = 0;   // rays rejected at ray setup (reported as misses)
+  std::array<uint64_t, 8> invalid_by_reason{};  // indexed by RayStatus
+
+  void add(const TraversalStats& o) {
+    rays += o.rays;
+    hits += o.hits;
+    nodes_visited += o.nodes_visited;
+    leaves_visited += o.leaves_visited;
+    box_tests += o.box_tests;
+    prim_tests += o.prim_tests;
+    invalid_rays += o.invalid_rays;
+    for (size_t i = 0; i < invalid_by_reason.size(); ++i) invalid_by_reason[i] += o.invalid_by_reason[i];
+  }
+};
+
+}  // namespace rtu::hw

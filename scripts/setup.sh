@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages rtu needs when any is missing. As root it runs apt-get; otherwise it names the
+# packages and exits non-zero. Usage: scripts/setup.sh
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config   # toolchain
+  libglm-dev libcli11-dev nlohmann-json3-dev libstb-dev libassimp-dev  # libraries of the tool
+  catch2 libembree-dev                           # tests; Embree is the independent oracle and benchmark peer
+  assimp-testmodels                              # the real meshes used by tests and benchmarks
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  exit 0
+fi
+if [ "$(id -u)" -ne 0 ]; then
+  echo "rtu setup: missing Debian packages: ${missing[*]}" >&2
+  echo "rtu setup: install them with: sudo apt-get install -y ${missing[*]}" >&2
+  exit 1
+fi
+echo "rtu setup: installing ${missing[*]}" >&2
+export DEBIAN_FRONTEND=noninteractive
+apt-get update -qq
+apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2

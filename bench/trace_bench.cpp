@@ -1,0 +1,183 @@
+// trace_bench: MRays/s, build time, accel bytes and peak memory of the float reference and of Embree 3
+// (rtcIntersect1, one thread) on the same meshes and the same rays, measured in one run. Each tracer runs in a
+// child process of its own, so its peak resident memory (getrusage of the child) is its own.
+//
+//   trace_bench [--rays N] [--json F] [MESH...]      (default: the three assimp-testmodels meshes of README.md)
+#include <embree3/rtcore.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "embree_oracle.h"
+#include "host/ray_gen.h"
+#include "host/scene.h"
+#include "hwmodel/float_tracer.h"
+
+using namespace rtu;
+
+namespace {
+
+struct Result {
+  uint64_t triangles = 0;
+  double load_s = 0, build_s = 0, primary_s = 0, incoherent_s = 0;
+  uint64_t primary_hits = 0, incoherent_hits = 0;
+  uint64_t accel_bytes = 0;  // ours: nodes + index + leaf-ordered primitives; Embree: its memory monitor's peak
+  bool ok = false;
+  char error[256] = {};
+};
+
+double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+
+std::atomic<int64_t> g_embree_bytes{0}, g_embree_peak{0};
+bool embree_monitor(void*, ssize_t bytes, bool) {
+  const int64_t v = g_embree_bytes += bytes;
+  int64_t p = g_embree_peak.load();
+  while (v > p && !g_embree_peak.compare_exchange_weak(p, v)) {
+  }
+  return true;
+}
+
+Result run_tracer(const std::string& mesh, const std::string& tracer, uint64_t n) {
+  Result r;
+  double t0 = now();
+  hw::Geometry g;
+  g.triangles = host::import_mesh(mesh);
+  r.triangles = g.triangles.size();
+  r.load_s = now() - t0;
+  const host::Camera cam = host::frame_camera(g.bounds());
+  const std::vector<hw::Ray> primary = host::primary_rays(cam, n);
+  const std::vector<hw::Ray> incoherent = host::incoherent_rays(g.bounds(), n, 1);
+  auto time_rays = [&](auto&& trace_one, const std::vector<hw::Ray>& rays, uint64_t& hits) {
+    const double s = now();
+    for (const hw::Ray& ray : rays) hits += trace_one(ray).hit();
+    return now() - s;
+  };
+  if (tracer == "rtu-float") {
+    t0 = now();
+    hw::TracerOptions opt;
+    opt.accel = hw::AccelMode::kBvh;
+    const hw::FloatTracer t(g, opt);
+    r.build_s = now() - t0;
+    const hw::BvhFigures f = t.bvh()->figures();
+    r.accel_bytes = f.node_bytes + f.index_bytes + t.leaf_prim_bytes();
+    hw::TraversalStats s;
+    auto one = [&](const hw::Ray& ray) { return t.trace(ray, false, s); };
+    r.primary_s = time_rays(one, primary, r.primary_hits);
+    r.incoherent_s = time_rays(one, incoherent, r.incoherent_hits);
+  } else {
+    t0 = now();
+    const oracle::EmbreeScene e(g, "threads=1", embree_monitor);
+    r.build_s = now() - t0;
+    auto one = [&](const hw::Ray& ray) { return e.intersect(ray); };
+    r.primary_s = time_rays(one, primary, r.primary_hits);
+    r.incoherent_s = time_rays(one, incoherent, r.incoherent_hits);
+    r.accel_bytes = uint64_t(g_embree_peak.load());
+  }
+  r.ok = true;
+  return r;
+}
+
+// Runs one tracer in a child process; returns its result and peak RSS in bytes.
+Result run_child(const std::string& mesh, const std::string& tracer, uint64_t n, uint64_t& peak_rss) {
+  int fd[2];
+  if (pipe(fd) != 0) throw std::runtime_error("pipe failed");
+  const pid_t pid = fork();
+  if (pid == 0) {
+    close(fd[0]);
+    Result r;
+    try {
+      r = run_tracer(mesh, tracer, n);
+    } catch (const std::exception& e) {
+      std::snprintf(r.error, sizeof r.error, "%s", e.what());
+    }
+    const ssize_t w = write(fd[1], &r, sizeof r);
+    _exit(w == ssize_t(sizeof r) ? 0 : 1);
+  }
+  close(fd[1]);
+  Result r;
+  const ssize_t got = read(fd[0], &r, sizeof r);
+  close(fd[0]);
+  int status = 0;
+  rusage ru{};
+  wait4(pid, &status, 0, &ru);
+  peak_rss = uint64_t(ru.ru_maxrss) * 1024;
+  if (got != ssize_t(sizeof r)) {
+    r = Result{};
+    std::snprintf(r.error, sizeof r.error, "child failed (status %d)", status);
+  }
+  return r;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  uint64_t n = 1000000;
+  std::string json_path;
+  std::vector<std::string> meshes;
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--rays") && i + 1 < argc) {
+      n = std::stoull(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--json") && i + 1 < argc) {
+      json_path = argv[++i];
+    } else if (argv[i][0] == '-') {
+      std::fprintf(stderr, "usage: trace_bench [--rays N] [--json F] [MESH...]\n");
+      return 2;
+    } else {
+      meshes.push_back(argv[i]);
+    }
+  }
+  if (meshes.empty()) {
+    const std::string m = "/usr/share/assimp/models/";
+    meshes = {m + "glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb", m + "BLEND/SuzanneSubdiv_252.blend",
+              m + "IFC/AC14-FZK-Haus.ifc"};
+  }
+  nlohmann::ordered_json out = nlohmann::ordered_json::array();
+  std::printf("%llu primary + %llu incoherent rays per mesh, one thread\n\n", (unsigned long long)n,
+              (unsigned long long)n);
+  std::printf("| mesh | triangles | tracer | build s | primary MRays/s | incoherent MRays/s | accel B/tri | peak MiB |\n");
+  std::printf("|---|---:|---|---:|---:|---:|---:|---:|\n");
+  for (const std::string& mesh : meshes) {
+    Result res[2];
+    uint64_t rss[2] = {};
+    const char* names[2] = {"rtu-float", "embree"};
+    for (int k = 0; k < 2; ++k) {
+      res[k] = run_child(mesh, names[k], n, rss[k]);
+      const Result& r = res[k];
+      const std::string base = mesh.substr(mesh.find_last_of('/') + 1);
+      if (!r.ok) {
+        std::printf("| %s | | %s | error: %s | | | | |\n", base.c_str(), names[k], r.error);
+        continue;
+      }
+      std::printf("| %s | %llu | %s | %.2f | %.2f | %.2f | %.0f | %.0f |\n", base.c_str(),
+                  (unsigned long long)r.triangles, names[k], r.build_s, double(n) / r.primary_s * 1e-6,
+                  double(n) / r.incoherent_s * 1e-6, double(r.accel_bytes) / double(r.triangles),
+                  double(rss[k]) / (1 << 20));
+      out.push_back({{"mesh", mesh}, {"tracer", names[k]}, {"triangles", r.triangles}, {"rays", n},
+                     {"load_seconds", r.load_s}, {"build_seconds", r.build_s},
+                     {"primary_mrays_per_s", double(n) / r.primary_s * 1e-6},
+                     {"incoherent_mrays_per_s", double(n) / r.incoherent_s * 1e-6},
+                     {"primary_hits", r.primary_hits}, {"incoherent_hits", r.incoherent_hits},
+                     {"accel_bytes", r.accel_bytes}, {"peak_rss_bytes", rss[k]}});
+    }
+    if (res[0].ok && res[1].ok) {
+      std::printf("| | | rtu/embree | | %.2fx | %.2fx | | %.2fx |\n", res[1].primary_s / res[0].primary_s,
+                  res[1].incoherent_s / res[0].incoherent_s, double(rss[0]) / double(rss[1]));
+      if (res[0].primary_hits != res[1].primary_hits || res[0].incoherent_hits != res[1].incoherent_hits)
+        std::printf("|   | | hits differ: primary %llu vs %llu, incoherent %llu vs %llu | | | | | |\n",
+                    (unsigned long long)res[0].primary_hits, (unsigned long long)res[1].primary_hits,
+                    (unsigned long long)res[0].incoherent_hits, (unsigned long long)res[1].incoherent_hits);
+    }
+    std::fflush(stdout);
+  }
+  if (!json_path.empty()) std::ofstream(json_path) << out.dump(2) << '\n';
+  return 0;
+}

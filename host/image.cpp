@@ -1,0 +1,64 @@
+#include "host/image.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "host/error.h"
+
+#define STB_IMAGE_WRITE_IMPLEMENTATION
+#if defined(__GNUC__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
+#pragma GCC diagnostic ignored "-Wsign-compare"
+#endif
+#include <stb/stb_image_write.h>
+#if defined(__GNUC__)
+#pragma GCC diagnostic pop
+#endif
+
+namespace rtu::host {
+
+void write_png(const std::string& path, const Image& img) {
+  if (img.width <= 0 || img.height <= 0 || img.rgb.size() != size_t(img.width) * size_t(img.height) * 3)
+    throw Error(path + ": invalid image");
+  if (!stbi_write_png(path.c_str(), img.width, img.height, 3, img.rgb.data(), img.width * 3))
+    throw Error(path + ": cannot write PNG");
+}
+
+hw::Vec3 hit_normal(const hw::Geometry& g, const hw::Ray& ray, const hw::Hit& hit) {
+  hw::Vec3 n(0.0f, 0.0f, 1.0f);
+  switch (g.kind(hit.prim)) {
+    case hw::PrimKind::kTriangle: {
+      const hw::Triangle& t = g.triangles[hit.prim];
+      n = glm::cross(t.v1 - t.v0, t.v2 - t.v0);
+      break;
+    }
+    case hw::PrimKind::kSphere: {
+      const hw::Sphere& s = g.spheres[hit.prim - g.triangles.size()];
+      n = ray.origin + hit.t * ray.dir - s.center;
+      break;
+    }
+    case hw::PrimKind::kPlane: n = g.planes[hit.prim - g.num_bounded()].normal; break;
+  }
+  const float len = glm::length(n);
+  return len > 0.0f ? n / len : hw::Vec3(0.0f, 0.0f, 1.0f);
+}
+
+Image shade_hits(const Scene& scene, const std::vector<hw::Ray>& rays, const std::vector<hw::Hit>& hits, int width,
+                 int height) {
+  Image img{width, height, std::vector<uint8_t>(size_t(width) * size_t(height) * 3, 0)};
+  const size_t n = std::min(hits.size(), size_t(width) * size_t(height));
+  for (size_t i = 0; i < n; ++i) {
+    const hw::Hit& h = hits[i];
+    if (!h.hit()) continue;
+    const Material& m = scene.materials[scene.prim_material[h.prim]];
+    const hw::Vec3 base = m.type == MaterialType::kEmissive ? glm::min(m.emission, hw::Vec3(1.0f)) : m.color;
+    const float facing = std::abs(glm::dot(hit_normal(scene.geometry, rays[i], h), glm::normalize(rays[i].dir)));
+    const hw::Vec3 c = base * (0.15f + 0.85f * facing);
+    for (int k = 0; k < 3; ++k)
+      img.rgb[3 * i + size_t(k)] = uint8_t(std::lround(255.0f * std::pow(std::clamp(c[k], 0.0f, 1.0f), 1 / 2.2f)));
+  }
+  return img;
+}
+
+}  // namespace rtu::host

@@ -1,0 +1,27 @@
+// Images out: 8-bit RGB PNG.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "host/scene.h"
+
+namespace rtu::host {
+
+struct Image {
+  int width = 0, height = 0;
+  std::vector<uint8_t> rgb;  // row-major, top row first, 3 bytes per pixel
+};
+
+void write_png(const std::string& path, const Image& img);
+
+// A quick look at hits without a renderer: each pixel is the hit material's color times (0.15 + 0.85 |n.d|),
+// black on a miss. `hits` are of primary_rays(cam, width, height).
+Image shade_hits(const Scene& scene, const std::vector<hw::Ray>& rays, const std::vector<hw::Hit>& hits, int width,
+                 int height);
+
+// Geometric normal (unit length, not flipped) of primitive `hit.prim` at the hit point.
+hw::Vec3 hit_normal(const hw::Geometry& g, const hw::Ray& ray, const hw::Hit& hit);
+
+}  // namespace rtu::host

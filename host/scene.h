@@ -1,0 +1,88 @@
+// A scene as the host knows it: the unit's geometry plus what the renderer needs (materials, lights, camera).
+//
+// Primitive order (the contract of hit files, design.md): triangles first, in this order
+//   1. each mesh entry of the scene description, in file order; inside one mesh file, Assimp's node tree
+//      depth-first (a node's meshes in order, then its children in order), each mesh's faces in order;
+//   2. the two triangles of each area light, in file order;
+// then spheres in file order, then planes in file order. A bare mesh file is a scene with one mesh entry.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "hwmodel/geometry.h"
+#include "hwmodel/ray.h"
+#include "hwmodel/vec.h"
+
+namespace rtu::host {
+
+using hw::Vec3;
+
+enum class MaterialType : uint8_t { kDiffuse, kMirror, kGlass, kEmissive };
+
+struct Material {
+  std::string name;
+  MaterialType type = MaterialType::kDiffuse;
+  Vec3 color{0.8f};     // diffuse albedo, mirror/glass tint; unused for emissive
+  float ior = 1.5f;     // glass: index of refraction (> 0)
+  Vec3 emission{0.0f};  // emissive: radiance
+};
+
+enum class LightType : uint8_t { kPoint, kArea };
+
+struct Light {
+  LightType type = LightType::kPoint;
+  Vec3 position{0.0f};                // point: position; area: one corner of the parallelogram
+  Vec3 edge_u{0.0f};                  // area: first edge from the corner
+  Vec3 edge_v{0.0f};                  // area: second edge from the corner
+  Vec3 intensity{1.0f};               // point: radiant intensity (W/sr per channel); area: emitted radiance
+  uint32_t first_prim = hw::kNoPrim;  // area: index of its first triangle (the second follows)
+};
+
+struct Camera {
+  Vec3 position{0.0f, 0.0f, 5.0f};
+  Vec3 look_at{0.0f};
+  Vec3 up{0.0f, 1.0f, 0.0f};
+  float fov_y_deg = 45.0f;  // vertical field of view
+  int width = 640;          // default image resolution
+  int height = 480;
+};
+
+struct Scene {
+  std::string name;       // what it was loaded from (file path or builtin:NAME)
+  hw::Geometry geometry;  // triangles, spheres, planes in the documented order
+  std::vector<Material> materials;
+  std::vector<uint32_t> prim_material;  // per primitive index: index into materials
+  std::vector<Light> lights;
+  Camera camera;
+  bool has_camera = false;  // false: the camera was framed automatically around the bounds
+};
+
+// Loads a scene from `spec`: a scene description file (.json), any mesh file Assimp reads, or builtin:NAME
+// (see builtin_scene_names()). Throws Error with a message naming the input and the problem: missing file,
+// unparsable file, unknown key, NaN/Inf coordinates, index out of range, empty scene.
+Scene load_scene(const std::string& spec);
+
+// The two loaders behind load_scene (which validates what they return; call load_scene unless you need one).
+// A scene description file, schema in scenes/README.md. Relative mesh paths are relative to the file's folder.
+Scene load_scene_file(const std::string& path);
+// A built-in scene from its spec without the "builtin:" prefix, e.g. "icosphere?subdiv=5&radius=2".
+Scene load_builtin_scene(const std::string& spec);
+
+// Imports every triangle of a mesh file in the documented order, transformed to world space by the node tree.
+// Faces that are points or lines are dropped; polygons are triangulated. Throws Error on failure.
+std::vector<hw::Triangle> import_mesh(const std::string& path);
+
+// Names accepted by builtin:NAME, each with a one-line description.
+std::vector<std::pair<std::string, std::string>> builtin_scene_names();
+
+// Checks a loaded scene: finite coordinates, positive radii, non-zero plane normals, materials in range, at
+// least one primitive. Throws Error naming `scene.name` and the first problem.
+void validate_scene(const Scene& scene);
+
+// A camera that frames `bounds` from a diagonal direction (used when a scene has none).
+Camera frame_camera(const hw::Aabb& bounds);
+
+}  // namespace rtu::host

@@ -1,0 +1,21 @@
+// Tracing a whole ray set on the host: in chunks, with a progress line on a terminal, and a report of the
+// rays the unit rejected.
+#pragma once
+
+#include <cstdio>
+#include <vector>
+
+#include "hwmodel/float_tracer.h"
+
+namespace rtu::host {
+
+int resolved_threads(int threads);
+
+// Traces rays into hits (same size); returns the wall-clock seconds of tracing alone.
+double trace_with_progress(const hw::FloatTracer& tracer, const std::vector<hw::Ray>& rays,
+                           std::vector<hw::Hit>& hits, bool any_hit, int threads, hw::TraversalStats& stats);
+
+// Prints "N invalid rays ... first at index i (reason)" to `out` when any ray fails validate_ray; returns N.
+uint64_t report_invalid_rays(const std::vector<hw::Ray>& rays, std::FILE* out);
+
+}  // namespace rtu::host

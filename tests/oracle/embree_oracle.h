@@ -1,0 +1,36 @@
+// Embree 3 as an independent oracle and benchmark peer: triangles as an Embree triangle mesh, spheres as Embree
+// sphere points, planes tested in double precision beside Embree (Embree has no unbounded primitive). Returns
+// hits in the project's primitive numbering. Used by tests and benchmarks only.
+#pragma once
+
+#include <embree3/rtcore.h>
+
+#include <vector>
+
+#include "hwmodel/geometry.h"
+#include "hwmodel/ray.h"
+
+namespace rtu::oracle {
+
+class EmbreeScene {
+ public:
+  // `config` is Embree's device configuration, e.g. "threads=1"; `monitor`, if given, sees every allocation.
+  explicit EmbreeScene(const hw::Geometry& g, const char* config = "threads=1",
+                       RTCMemoryMonitorFunction monitor = nullptr);
+  ~EmbreeScene();
+  EmbreeScene(const EmbreeScene&) = delete;
+  EmbreeScene& operator=(const EmbreeScene&) = delete;
+
+  hw::Hit intersect(const hw::Ray& r) const;  // closest hit (rtcIntersect1)
+  bool occluded(const hw::Ray& r) const;      // any hit (rtcOccluded1)
+
+ private:
+  bool plane_hit(const hw::Ray& r, float tmax, hw::Hit& h) const;
+
+  const hw::Geometry& m_geom;
+  RTCDevice m_device = nullptr;
+  RTCScene m_scene = nullptr;
+  unsigned m_tri_geom = RTC_INVALID_GEOMETRY_ID, m_sphere_geom = RTC_INVALID_GEOMETRY_ID;
+};
+
+}  // namespace rtu::oracle

@@ -1,0 +1,154 @@
+// load_scene: dispatch on the spec, then one validation for every kind of input. Also the automatic camera.
+#include "host/scene.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cfloat>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <numbers>
+#include <string>
+
+#include "host/error.h"
+
+namespace rtu::host {
+namespace {
+
+constexpr const char* kBuiltinPrefix = "builtin:";
+
+bool finite(const Vec3& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+std::string format_vec(const Vec3& v) {
+  char buf[96];
+  std::snprintf(buf, sizeof(buf), "(%g, %g, %g)", double(v.x), double(v.y), double(v.z));
+  return buf;
+}
+
+bool has_json_extension(const std::string& spec) {
+  std::string ext = std::filesystem::path(spec).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return ext == ".json";
+}
+
+// A bare mesh file: one mesh entry with the default material, an automatic camera, and a point light at the
+// camera so a render is not black.
+Scene load_mesh_scene(const std::string& path) {
+  Scene scene;
+  scene.name = path;
+  scene.geometry.triangles = import_mesh(path);
+  scene.materials.push_back({"default", MaterialType::kDiffuse, Vec3(0.8f), 1.5f, Vec3(0.0f)});
+  scene.prim_material.assign(scene.geometry.triangles.size(), 0);
+  scene.camera = frame_camera(scene.geometry.bounds());
+  // Intensity = squared distance to the target: irradiance about 1 there.
+  const double d = glm::length(hw::DVec3(scene.camera.look_at) - hw::DVec3(scene.camera.position));
+  Light light;
+  light.type = LightType::kPoint;
+  light.position = scene.camera.position;
+  light.intensity = Vec3(float(std::min(d * d, double(FLT_MAX))));
+  scene.lights.push_back(light);
+  return scene;
+}
+
+}  // namespace
+
+Scene load_scene(const std::string& spec) {
+  Scene scene;
+  if (spec.rfind(kBuiltinPrefix, 0) == 0) {
+    scene = load_builtin_scene(spec.substr(std::char_traits<char>::length(kBuiltinPrefix)));
+  } else if (has_json_extension(spec)) {
+    scene = load_scene_file(spec);
+  } else {
+    scene = load_mesh_scene(spec);
+  }
+  scene.name = spec;
+  validate_scene(scene);
+  return scene;
+}
+
+void validate_scene(const Scene& scene) {
+  auto fail = [&](const std::string& problem) { throw Error(scene.name + ": " + problem); };
+  const hw::Geometry& g = scene.geometry;
+  if (g.num_prims() == 0) fail("empty scene (no triangles, spheres or planes)");
+
+  for (size_t i = 0; i < g.triangles.size(); ++i) {
+    const hw::Triangle& t = g.triangles[i];
+    if (!finite(t.v0) || !finite(t.v1) || !finite(t.v2)) {
+      fail("triangle " + std::to_string(i) + ": NaN/Inf coordinate " + format_vec(t.v0) + " " + format_vec(t.v1) +
+           " " + format_vec(t.v2));
+    }
+  }
+  for (size_t i = 0; i < g.spheres.size(); ++i) {
+    const hw::Sphere& s = g.spheres[i];
+    if (!finite(s.center)) fail("sphere " + std::to_string(i) + ": NaN/Inf center " + format_vec(s.center));
+    if (!(s.radius > 0.0f) || !std::isfinite(s.radius)) {
+      fail("sphere " + std::to_string(i) + ": radius must be finite and > 0, got " + std::to_string(s.radius));
+    }
+  }
+  for (size_t i = 0; i < g.planes.size(); ++i) {
+    const hw::Plane& p = g.planes[i];
+    if (!finite(p.normal) || !std::isfinite(p.offset)) fail("plane " + std::to_string(i) + ": NaN/Inf value");
+    if (p.normal == Vec3(0.0f)) fail("plane " + std::to_string(i) + ": zero normal");
+  }
+
+  if (scene.materials.empty()) fail("no materials");
+  if (scene.prim_material.size() != g.num_prims()) {
+    fail("prim_material has " + std::to_string(scene.prim_material.size()) + " entries for " +
+         std::to_string(g.num_prims()) + " primitives");
+  }
+  for (size_t i = 0; i < scene.prim_material.size(); ++i) {
+    if (scene.prim_material[i] >= scene.materials.size()) {
+      fail("primitive " + std::to_string(i) + ": material index out of range");
+    }
+  }
+  for (const Material& m : scene.materials) {
+    if (!finite(m.color) || !finite(m.emission) || !std::isfinite(m.ior) || !(m.ior > 0.0f)) {
+      fail("material '" + m.name + "': NaN/Inf or non-positive ior");
+    }
+  }
+
+  for (size_t i = 0; i < scene.lights.size(); ++i) {
+    const Light& l = scene.lights[i];
+    const std::string label = "light " + std::to_string(i);
+    if (!finite(l.position) || !finite(l.edge_u) || !finite(l.edge_v) || !finite(l.intensity)) {
+      fail(label + ": NaN/Inf value");
+    }
+    if (l.type == LightType::kArea && uint64_t(l.first_prim) + 2 > g.triangles.size()) {
+      fail(label + ": area light triangles out of range");
+    }
+  }
+
+  const Camera& c = scene.camera;
+  if (!finite(c.position) || !finite(c.look_at) || !finite(c.up) || !std::isfinite(c.fov_y_deg)) {
+    fail("camera: NaN/Inf value");
+  }
+  if (!(c.fov_y_deg > 0.0f && c.fov_y_deg < 180.0f)) fail("camera: fov_y must be in (0, 180) degrees");
+  if (c.width <= 0 || c.height <= 0) fail("camera: width and height must be > 0");
+  if (c.position == c.look_at) fail("camera: position and look_at are the same point");
+}
+
+Camera frame_camera(const hw::Aabb& bounds) {
+  Camera cam;  // empty or non-finite bounds (e.g. only planes): the default camera
+  if (bounds.empty() || !finite(bounds.lo) || !finite(bounds.hi)) return cam;
+
+  const hw::DVec3 lo(bounds.lo), hi(bounds.hi);
+  const hw::DVec3 center = 0.5 * (lo + hi);
+  double radius = 0.5 * glm::length(hi - lo);  // bounding sphere of the box
+  // A point or a tiny box far from the origin: keep the camera resolvably far from its target in float.
+  const double magnitude = std::max({std::fabs(center.x), std::fabs(center.y), std::fabs(center.z)});
+  if (!(radius > 0.0)) radius = 1.0;
+  radius = std::max(radius, 1e-4 * magnitude);
+
+  // Fit the bounding sphere in the vertical field of view (the horizontal one is wider at 4:3).
+  const double half_fov = 0.5 * double(cam.fov_y_deg) * std::numbers::pi / 180.0;
+  const double distance = radius / std::sin(half_fov);
+  const hw::DVec3 dir = glm::normalize(hw::DVec3(1.0, 0.6, 1.4));
+  cam.look_at = Vec3(center);
+  cam.position = Vec3(center + distance * dir);
+  cam.up = Vec3(0.0f, 1.0f, 0.0f);
+  return cam;
+}
+
+}  // namespace rtu::host

@@ -1,0 +1,508 @@
+// Scene description files (JSON). The schema is documented in scenes/README.md; keep the two in step.
+//
+// Strict by design: unknown or duplicate keys, wrong types or array lengths, non-finite numbers and unknown
+// names are errors that name the file and the key path (e.g. "meshes[2].transform.scale").
+#include <cfloat>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <nlohmann/json.hpp>
+
+#include "host/error.h"
+#include "host/generators.h"
+#include "host/scene.h"
+
+namespace rtu::host {
+namespace {
+
+using Json = nlohmann::ordered_json;  // keeps file order: materials and error reports follow the file
+using hw::DVec3;
+
+std::string join(const std::string& path, const std::string& key) {
+  return path.empty() ? key : path + "." + key;
+}
+std::string join(const std::string& path, size_t index) {
+  return path + "[" + std::to_string(index) + "]";
+}
+
+// scale, then rotate, then translate; applied in double, rounded to float once per vertex.
+struct Transform {
+  glm::dmat3 linear{1.0};
+  DVec3 translate{0.0};
+  bool identity = true;  // leave vertices bit-exact
+  Vec3 apply(const Vec3& p) const { return identity ? p : Vec3(linear * DVec3(p) + translate); }
+};
+
+// Reads typed values out of the parsed document; every failure names the file and the key path.
+class Reader {
+ public:
+  explicit Reader(std::string file) : m_file(std::move(file)) {}
+
+  const std::string& file() const { return m_file; }
+
+  [[noreturn]] void fail(const std::string& path, const std::string& problem) const {
+    throw Error(m_file + ": " + (path.empty() ? "" : path + ": ") + problem);
+  }
+
+  void check_keys(const Json& j, const std::string& path, const std::vector<std::string>& allowed) const {
+    for (const auto& item : j.items()) {
+      bool ok = false;
+      for (const std::string& a : allowed) ok = ok || item.key() == a;
+      if (ok) continue;
+      std::string list;
+      for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
+      throw Error(m_file + ": unknown key '" + join(path, item.key()) + "' (allowed here: " + list + ")");
+    }
+  }
+
+  const Json& object(const Json& j, const std::string& path) const {
+    if (!j.is_object()) fail(path, std::string("expected an object, got ") + j.type_name());
+    return j;
+  }
+  const Json& array(const Json& j, const std::string& path) const {
+    if (!j.is_array()) fail(path, std::string("expected an array, got ") + j.type_name());
+    return j;
+  }
+  std::string string(const Json& j, const std::string& path) const {
+    if (!j.is_string()) fail(path, std::string("expected a string, got ") + j.type_name());
+    return j.get<std::string>();
+  }
+  float number(const Json& j, const std::string& path) const {
+    if (!j.is_number()) fail(path, std::string("expected a number, got ") + j.type_name());
+    const double d = j.get<double>();
+    if (!std::isfinite(d)) fail(path, "not a finite number (NaN/Inf)");
+    if (std::fabs(d) > double(FLT_MAX)) fail(path, "out of float range (NaN/Inf as float)");
+    return float(d);
+  }
+  float positive(const Json& j, const std::string& path) const {
+    const float f = number(j, path);
+    if (!(f > 0.0f)) fail(path, "must be > 0, got " + j.dump());
+    return f;
+  }
+  int integer(const Json& j, const std::string& path, int lo, int hi) const {
+    const std::string range = " in " + std::to_string(lo) + ".." + std::to_string(hi);
+    if (!j.is_number_integer()) fail(path, "expected an integer" + range + ", got " + j.dump());
+    const bool in_range = j.is_number_unsigned()
+                              ? (lo <= 0 || j.get<uint64_t>() >= uint64_t(lo)) && j.get<uint64_t>() <= uint64_t(hi)
+                              : j.get<int64_t>() >= lo && j.get<int64_t>() <= hi;
+    if (!in_range) fail(path, "expected an integer" + range + ", got " + j.dump());
+    return int(j.get<int64_t>());
+  }
+  std::vector<float> numbers(const Json& j, const std::string& path, size_t n) const {
+    if (!j.is_array() || j.size() != n) {
+      fail(path, "expected an array of " + std::to_string(n) + " numbers, got " +
+                     (j.is_array() ? "an array of " + std::to_string(j.size()) : std::string(j.type_name())));
+    }
+    std::vector<float> out;
+    for (size_t i = 0; i < n; ++i) out.push_back(number(j[i], join(path, i)));
+    return out;
+  }
+  Vec3 vec3(const Json& j, const std::string& path) const {
+    const std::vector<float> v = numbers(j, path, 3);
+    return Vec3(v[0], v[1], v[2]);
+  }
+  Vec3 nonzero_vec3(const Json& j, const std::string& path) const {
+    const Vec3 v = vec3(j, path);
+    if (v == Vec3(0.0f)) fail(path, "must not be the zero vector");
+    return v;
+  }
+  Vec3 color(const Json& j, const std::string& path) const {
+    const Vec3 c = vec3(j, path);
+    if (c.x < 0.0f || c.y < 0.0f || c.z < 0.0f) fail(path, "color components must be >= 0");
+    return c;
+  }
+  // A number s (-> s in every component) or an array of n positive numbers (n = 2 or 3; z = 0 for n = 2).
+  Vec3 size(const Json& j, const std::string& path, size_t n) const {
+    if (j.is_number()) return Vec3(positive(j, path));
+    if (!j.is_array() || j.size() != n) {
+      fail(path, "expected a number or an array of " + std::to_string(n) + " numbers");
+    }
+    Vec3 s(0.0f);
+    for (size_t i = 0; i < n; ++i) s[int(i)] = positive(j[i], join(path, i));
+    return s;
+  }
+
+ private:
+  std::string m_file;
+};
+
+// Parses `text`, rejecting duplicate keys (nlohmann would keep the last one silently).
+Json parse_document(const std::string& file, const std::string& text) {
+  struct Frame {
+    bool object;
+    std::string key;   // object: current key
+    size_t index = 0;  // array: current element
+    std::set<std::string> keys;
+  };
+  std::vector<Frame> frames;
+  auto element_done = [&] {
+    if (!frames.empty() && !frames.back().object) ++frames.back().index;
+  };
+  auto current_path = [&] {
+    std::string path;
+    for (const Frame& f : frames) path = f.object ? join(path, f.key) : join(path, f.index);
+    return path;
+  };
+  Json::parser_callback_t callback = [&](int, Json::parse_event_t event, Json& parsed) {
+    switch (event) {
+      case Json::parse_event_t::object_start:
+        frames.push_back({true, "", 0, {}});
+        break;
+      case Json::parse_event_t::array_start:
+        frames.push_back({false, "", 0, {}});
+        break;
+      case Json::parse_event_t::key: {
+        Frame& top = frames.back();
+        top.key = parsed.get<std::string>();
+        if (!top.keys.insert(top.key).second) throw Error(file + ": duplicate key '" + current_path() + "'");
+        break;
+      }
+      case Json::parse_event_t::object_end:
+      case Json::parse_event_t::array_end:
+        frames.pop_back();
+        element_done();
+        break;
+      case Json::parse_event_t::value:
+        element_done();
+        break;
+    }
+    return true;
+  };
+  try {
+    return Json::parse(text, callback, /*allow_exceptions=*/true, /*ignore_comments=*/true);
+  } catch (const Json::parse_error& e) {
+    // e.what() is "[json.exception.parse_error.101] parse error at line 3, column 5: ..."; drop the tag.
+    std::string what = e.what();
+    const size_t tag_end = what.find("] ");
+    if (tag_end != std::string::npos) what = what.substr(tag_end + 2);
+    if (what.rfind("parse error", 0) != 0) what = "parse error: " + what;
+    throw Error(file + ": " + what);
+  } catch (const Json::out_of_range& e) {
+    // A number beyond double range, e.g. 1e999: the frames still point at it.
+    std::string what = e.what();
+    const size_t tag_end = what.find("] ");
+    if (tag_end != std::string::npos) what = what.substr(tag_end + 2);
+    throw Error(file + ": " + current_path() + ": " + what + " (not a finite number: NaN/Inf)");
+  }
+}
+
+// Everything being built, with the per-kind material lists merged into prim_material at the end.
+struct Builder {
+  const Reader& reader;
+  Scene scene;
+  std::map<std::string, uint32_t> material_index;
+  std::vector<uint32_t> tri_material, sphere_material, plane_material;
+
+  uint32_t material(const Json& parent, const std::string& path) const {
+    if (!parent.contains("material")) return material_index.at("default");
+    const std::string key = join(path, "material");
+    const std::string name = reader.string(parent["material"], key);
+    auto it = material_index.find(name);
+    if (it == material_index.end()) {
+      std::string known;
+      for (const auto& [n, i] : material_index) known += (known.empty() ? "" : ", ") + n;
+      reader.fail(key, "unknown material '" + name + "' (known: " + known + ")");
+    }
+    return it->second;
+  }
+};
+
+void read_camera(const Reader& r, const Json& j, Camera& cam) {
+  const std::string path = "camera";
+  r.object(j, path);
+  r.check_keys(j, path, {"position", "look_at", "up", "fov_y", "width", "height"});
+  if (j.contains("position")) cam.position = r.vec3(j["position"], join(path, "position"));
+  if (j.contains("look_at")) cam.look_at = r.vec3(j["look_at"], join(path, "look_at"));
+  if (j.contains("up")) cam.up = r.nonzero_vec3(j["up"], join(path, "up"));
+  if (j.contains("fov_y")) {
+    cam.fov_y_deg = r.number(j["fov_y"], join(path, "fov_y"));
+    if (!(cam.fov_y_deg > 0.0f && cam.fov_y_deg < 180.0f))
+      r.fail(join(path, "fov_y"), "must be in (0, 180) degrees");
+  }
+  if (j.contains("width")) cam.width = r.integer(j["width"], join(path, "width"), 1, 65536);
+  if (j.contains("height")) cam.height = r.integer(j["height"], join(path, "height"), 1, 65536);
+  const DVec3 view = DVec3(cam.look_at) - DVec3(cam.position);
+  if (view == DVec3(0.0)) r.fail(path, "position and look_at are the same point");
+  if (glm::cross(view, DVec3(cam.up)) == DVec3(0.0)) r.fail(join(path, "up"), "parallel to the view direction");
+}
+
+void read_materials(Builder& b, const Json& j) {
+  const Reader& r = b.reader;
+  r.object(j, "materials");
+  if (!j.contains("default")) {
+    b.scene.materials.push_back({"default", MaterialType::kDiffuse, Vec3(0.8f), 1.5f, Vec3(0.0f)});
+    b.material_index["default"] = 0;
+  }
+  for (const auto& item : j.items()) {
+    const std::string path = join("materials", item.key());
+    const Json& m = r.object(item.value(), path);
+    if (item.key().empty()) r.fail(path, "material names must not be empty");
+    r.check_keys(m, path, {"type", "color", "ior", "emission"});
+    Material mat;
+    mat.name = item.key();
+    const std::string type = m.contains("type") ? r.string(m["type"], join(path, "type")) : "diffuse";
+    static const std::map<std::string, MaterialType> kTypes = {{"diffuse", MaterialType::kDiffuse},
+                                                               {"mirror", MaterialType::kMirror},
+                                                               {"glass", MaterialType::kGlass},
+                                                               {"emissive", MaterialType::kEmissive}};
+    auto type_it = kTypes.find(type);
+    if (type_it == kTypes.end()) {
+      r.fail(join(path, "type"), "unknown material type '" + type + "' (valid: diffuse, mirror, glass, emissive)");
+    }
+    mat.type = type_it->second;
+
+    if (mat.type == MaterialType::kEmissive) {
+      if (m.contains("color")) r.fail(join(path, "color"), "emissive materials have no color; use 'emission'");
+      mat.emission = m.contains("emission") ? r.color(m["emission"], join(path, "emission")) : Vec3(1.0f);
+    } else {
+      if (m.contains("emission")) r.fail(join(path, "emission"), "only emissive materials have an emission");
+      if (m.contains("color")) mat.color = r.color(m["color"], join(path, "color"));
+    }
+    if (m.contains("ior")) {
+      if (mat.type != MaterialType::kGlass) r.fail(join(path, "ior"), "only glass materials have an ior");
+      mat.ior = r.positive(m["ior"], join(path, "ior"));
+    }
+    b.material_index[mat.name] = uint32_t(b.scene.materials.size());
+    b.scene.materials.push_back(mat);
+  }
+}
+
+Transform read_transform(const Reader& r, const Json& j, const std::string& path) {
+  r.object(j, path);
+  r.check_keys(j, path, {"scale", "rotate", "translate"});
+  Transform t;
+  glm::dmat3 scale(1.0), rotate(1.0);
+  if (j.contains("scale")) {
+    const std::string key = join(path, "scale");
+    const Vec3 s = j["scale"].is_number() ? Vec3(r.number(j["scale"], key)) : r.vec3(j["scale"], key);
+    if (s.x == 0.0f || s.y == 0.0f || s.z == 0.0f) r.fail(key, "scale factors must be non-zero");
+    scale = glm::dmat3(glm::dvec3(s.x, 0, 0), glm::dvec3(0, s.y, 0), glm::dvec3(0, 0, s.z));
+  }
+  if (j.contains("rotate")) {
+    const std::string key = join(path, "rotate");
+    const std::vector<float> a = r.numbers(j["rotate"], key, 4);
+    const DVec3 axis(a[0], a[1], a[2]);
+    if (axis == DVec3(0.0)) r.fail(key, "rotation axis must not be the zero vector");
+    rotate = glm::dmat3(glm::rotate(glm::dmat4(1.0), glm::radians(double(a[3])), glm::normalize(axis)));
+  }
+  if (j.contains("translate")) t.translate = DVec3(r.vec3(j["translate"], join(path, "translate")));
+  t.linear = rotate * scale;
+  t.identity = t.linear == glm::dmat3(1.0) && t.translate == DVec3(0.0);
+  return t;
+}
+
+// A "generate" entry: the generator and the keys it accepts.
+IndexedMesh generate(const Reader& r, const Json& j, const std::string& path, std::vector<std::string> keys) {
+  const std::string kind = r.string(j["generate"], join(path, "generate"));
+  auto param = [&](const char* key) -> const Json* { return j.contains(key) ? &j[key] : nullptr; };
+  IndexedMesh mesh;
+  if (kind == "icosphere") {
+    keys.insert(keys.end(), {"subdiv", "radius"});
+    r.check_keys(j, path, keys);
+    const int subdiv = param("subdiv") ? r.integer(j["subdiv"], join(path, "subdiv"), 0, kMaxIcosphereSubdiv) : 4;
+    const float radius = param("radius") ? r.positive(j["radius"], join(path, "radius")) : 1.0f;
+    mesh = make_icosphere(subdiv, radius);
+  } else if (kind == "torus") {
+    keys.insert(keys.end(), {"major_radius", "minor_radius", "major_segments", "minor_segments"});
+    r.check_keys(j, path, keys);
+    const float major = param("major_radius") ? r.positive(j["major_radius"], join(path, "major_radius")) : 1.0f;
+    const float minor = param("minor_radius") ? r.positive(j["minor_radius"], join(path, "minor_radius")) : 0.25f;
+    auto segments = [&](const char* key, int def) {
+      return param(key) ? r.integer(j[key], join(path, key), kMinTorusSegments, kMaxTorusSegments) : def;
+    };
+    mesh = make_torus(major, minor, segments("major_segments", 48), segments("minor_segments", 24));
+  } else if (kind == "box") {
+    keys.push_back("size");
+    r.check_keys(j, path, keys);
+    mesh = make_box(param("size") ? r.size(j["size"], join(path, "size"), 3) : Vec3(1.0f));
+  } else if (kind == "quad") {
+    keys.push_back("size");
+    r.check_keys(j, path, keys);
+    const Vec3 s = param("size") ? r.size(j["size"], join(path, "size"), 2) : Vec3(1.0f);
+    mesh = make_quad(s.x, s.y);
+  } else {
+    r.fail(join(path, "generate"), "unknown generator '" + kind + "' (valid: icosphere, torus, box, quad)");
+  }
+  return mesh;
+}
+
+void read_meshes(Builder& b, const Json& j, const std::filesystem::path& base_dir) {
+  const Reader& r = b.reader;
+  r.array(j, "meshes");
+  for (size_t i = 0; i < j.size(); ++i) {
+    const std::string path = join("meshes", i);
+    const Json& m = r.object(j[i], path);
+    const bool has_file = m.contains("file"), has_generate = m.contains("generate");
+    if (has_file == has_generate) r.fail(path, "needs exactly one of 'file' and 'generate'");
+    const uint32_t material = b.material(m, path);
+    const std::vector<std::string> common = {has_file ? "file" : "generate", "material", "transform"};
+    std::vector<hw::Triangle>& tris = b.scene.geometry.triangles;
+    const size_t first = tris.size();
+
+    if (has_file) {
+      r.check_keys(m, path, common);
+      const Transform t =
+          m.contains("transform") ? read_transform(r, m["transform"], join(path, "transform")) : Transform{};
+      std::filesystem::path file(r.string(m["file"], join(path, "file")));
+      if (file.is_relative()) file = base_dir / file;
+      std::vector<hw::Triangle> imported;
+      try {
+        imported = import_mesh(file.string());
+      } catch (const Error& e) {
+        r.fail(join(path, "file"), e.what());
+      }
+      if (imported.empty()) r.fail(join(path, "file"), file.string() + ": no triangles");
+      // Per vertex, deterministic: shared vertices stay bit-identical.
+      for (hw::Triangle& tri : imported) tri = {t.apply(tri.v0), t.apply(tri.v1), t.apply(tri.v2)};
+      if (tris.empty()) {
+        tris = std::move(imported);  // the common case of one large mesh: no copy
+      } else {
+        tris.insert(tris.end(), imported.begin(), imported.end());
+      }
+    } else {
+      IndexedMesh mesh = generate(r, m, path, common);
+      if (m.contains("transform")) {
+        const Transform t = read_transform(r, m["transform"], join(path, "transform"));
+        for (Vec3& v : mesh.vertices) v = t.apply(v);  // once per vertex, before expanding
+      }
+      append_triangles(mesh, tris);
+    }
+    b.tri_material.insert(b.tri_material.end(), tris.size() - first, material);
+  }
+}
+
+void read_spheres(Builder& b, const Json& j) {
+  const Reader& r = b.reader;
+  r.array(j, "spheres");
+  for (size_t i = 0; i < j.size(); ++i) {
+    const std::string path = join("spheres", i);
+    const Json& s = r.object(j[i], path);
+    r.check_keys(s, path, {"center", "radius", "material"});
+    if (!s.contains("center")) r.fail(path, "missing key 'center'");
+    if (!s.contains("radius")) r.fail(path, "missing key 'radius'");
+    const Vec3 center = r.vec3(s["center"], join(path, "center"));
+    const float radius = r.positive(s["radius"], join(path, "radius"));
+    b.sphere_material.push_back(b.material(s, path));
+    b.scene.geometry.spheres.push_back({center, radius});
+  }
+}
+
+void read_planes(Builder& b, const Json& j) {
+  const Reader& r = b.reader;
+  r.array(j, "planes");
+  for (size_t i = 0; i < j.size(); ++i) {
+    const std::string path = join("planes", i);
+    const Json& p = r.object(j[i], path);
+    r.check_keys(p, path, {"normal", "offset", "point", "material"});
+    if (!p.contains("normal")) r.fail(path, "missing key 'normal'");
+    const Vec3 normal = r.nonzero_vec3(p["normal"], join(path, "normal"));
+    if (p.contains("offset") && p.contains("point")) r.fail(path, "give either 'offset' or 'point', not both");
+    float offset = 0.0f;
+    if (p.contains("offset")) offset = r.number(p["offset"], join(path, "offset"));
+    if (p.contains("point")) {
+      const double c = glm::dot(DVec3(r.vec3(p["point"], join(path, "point"))), DVec3(normal));
+      if (!(std::fabs(c) <= double(FLT_MAX))) r.fail(join(path, "point"), "dot(point, normal) out of float range");
+      offset = float(c);
+    }
+    b.plane_material.push_back(b.material(p, path));
+    b.scene.geometry.planes.push_back({normal, offset});
+  }
+}
+
+// Point lights, and area lights with their two emissive triangles each (after every mesh triangle).
+void read_lights(Builder& b, const Json& j) {
+  const Reader& r = b.reader;
+  r.array(j, "lights");
+  for (size_t i = 0; i < j.size(); ++i) {
+    const std::string path = join("lights", i);
+    const Json& l = r.object(j[i], path);
+    if (!l.contains("type")) r.fail(path, "missing key 'type' (point or area)");
+    const std::string type = r.string(l["type"], join(path, "type"));
+    Light light;
+    if (type == "point") {
+      r.check_keys(l, path, {"type", "position", "intensity"});
+      if (!l.contains("position")) r.fail(path, "missing key 'position'");
+      light.type = LightType::kPoint;
+      light.position = r.vec3(l["position"], join(path, "position"));
+      if (l.contains("intensity")) light.intensity = r.color(l["intensity"], join(path, "intensity"));
+    } else if (type == "area") {
+      r.check_keys(l, path, {"type", "corner", "edge_u", "edge_v", "emission"});
+      for (const char* key : {"corner", "edge_u", "edge_v"}) {
+        if (!l.contains(key)) r.fail(path, std::string("missing key '") + key + "'");
+      }
+      light.type = LightType::kArea;
+      light.position = r.vec3(l["corner"], join(path, "corner"));
+      light.edge_u = r.nonzero_vec3(l["edge_u"], join(path, "edge_u"));
+      light.edge_v = r.nonzero_vec3(l["edge_v"], join(path, "edge_v"));
+      if (glm::cross(DVec3(light.edge_u), DVec3(light.edge_v)) == DVec3(0.0)) {
+        r.fail(path, "edge_u and edge_v are parallel");
+      }
+      light.intensity = l.contains("emission") ? r.color(l["emission"], join(path, "emission")) : Vec3(1.0f);
+
+      // Its own emissive material, then the triangles (corner, +u, +u+v) and (corner, +u+v, +v).
+      const uint32_t m = uint32_t(b.scene.materials.size());
+      b.scene.materials.push_back({path, MaterialType::kEmissive, Vec3(1.0f), 1.5f, light.intensity});
+      std::vector<hw::Triangle>& tris = b.scene.geometry.triangles;
+      light.first_prim = uint32_t(tris.size());
+      const Vec3 c = light.position, pu = c + light.edge_u, puv = pu + light.edge_v, pv = c + light.edge_v;
+      tris.push_back({c, pu, puv});
+      tris.push_back({c, puv, pv});
+      b.tri_material.insert(b.tri_material.end(), 2, m);
+    } else {
+      r.fail(join(path, "type"), "unknown light type '" + type + "' (valid: point, area)");
+    }
+    b.scene.lights.push_back(light);
+  }
+}
+
+}  // namespace
+
+Scene load_scene_file(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw Error(path + ": file not found");
+  if (!std::filesystem::is_regular_file(path, ec)) throw Error(path + ": not a regular file");
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  if (!in) throw Error(path + ": cannot read the file");
+
+  const Json root = parse_document(path, text.str());
+  const Reader r(path);
+  if (!root.is_object())
+    r.fail("", std::string("expected a JSON object at the top level, got ") + root.type_name());
+  r.check_keys(root, "", {"description", "camera", "materials", "meshes", "spheres", "planes", "lights"});
+
+  Builder b{r, {}, {}, {}, {}, {}};
+  b.scene.name = path;
+  try {
+    if (root.contains("description")) r.string(root["description"], "description");
+    read_materials(b, root.contains("materials") ? root["materials"] : Json::object());
+    // Triangle order: meshes, then area lights (scene.h). Lights are read after the meshes for that reason.
+    if (root.contains("meshes")) read_meshes(b, root["meshes"], std::filesystem::path(path).parent_path());
+    if (root.contains("lights")) read_lights(b, root["lights"]);
+    if (root.contains("spheres")) read_spheres(b, root["spheres"]);
+    if (root.contains("planes")) read_planes(b, root["planes"]);
+    if (root.contains("camera")) {
+      read_camera(r, root["camera"], b.scene.camera);
+      b.scene.has_camera = true;
+    }
+  } catch (const nlohmann::json::exception& e) {  // not expected: every access is type-checked first
+    r.fail("", e.what());
+  }
+
+  Scene& scene = b.scene;
+  scene.prim_material = b.tri_material;
+  scene.prim_material.insert(scene.prim_material.end(), b.sphere_material.begin(), b.sphere_material.end());
+  scene.prim_material.insert(scene.prim_material.end(), b.plane_material.begin(), b.plane_material.end());
+  if (!scene.has_camera) scene.camera = frame_camera(scene.geometry.bounds());
+  return std::move(b.scene);
+}
+
+}  // namespace rtu::host

@@ -35,7 +35,9 @@ struct Result {
   char error[256] = {};
 };
 
-double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+double now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
 
 std::atomic<int64_t> g_embree_bytes{0}, g_embree_peak{0};
 bool embree_monitor(void*, ssize_t bytes, bool) {
@@ -143,7 +145,8 @@ int main(int argc, char** argv) {
   nlohmann::ordered_json out = nlohmann::ordered_json::array();
   std::printf("%llu primary + %llu incoherent rays per mesh, one thread\n\n", (unsigned long long)n,
               (unsigned long long)n);
-  std::printf("| mesh | triangles | tracer | build s | primary MRays/s | incoherent MRays/s | accel B/tri | peak MiB |\n");
+  std::printf(
+      "| mesh | triangles | tracer | build s | primary MRays/s | incoherent MRays/s | accel B/tri | peak MiB |\n");
   std::printf("|---|---:|---|---:|---:|---:|---:|---:|\n");
   for (const std::string& mesh : meshes) {
     Result res[2];
@@ -161,12 +164,18 @@ int main(int argc, char** argv) {
                   (unsigned long long)r.triangles, names[k], r.build_s, double(n) / r.primary_s * 1e-6,
                   double(n) / r.incoherent_s * 1e-6, double(r.accel_bytes) / double(r.triangles),
                   double(rss[k]) / (1 << 20));
-      out.push_back({{"mesh", mesh}, {"tracer", names[k]}, {"triangles", r.triangles}, {"rays", n},
-                     {"load_seconds", r.load_s}, {"build_seconds", r.build_s},
+      out.push_back({{"mesh", mesh},
+                     {"tracer", names[k]},
+                     {"triangles", r.triangles},
+                     {"rays", n},
+                     {"load_seconds", r.load_s},
+                     {"build_seconds", r.build_s},
                      {"primary_mrays_per_s", double(n) / r.primary_s * 1e-6},
                      {"incoherent_mrays_per_s", double(n) / r.incoherent_s * 1e-6},
-                     {"primary_hits", r.primary_hits}, {"incoherent_hits", r.incoherent_hits},
-                     {"accel_bytes", r.accel_bytes}, {"peak_rss_bytes", rss[k]}});
+                     {"primary_hits", r.primary_hits},
+                     {"incoherent_hits", r.incoherent_hits},
+                     {"accel_bytes", r.accel_bytes},
+                     {"peak_rss_bytes", rss[k]}});
     }
     if (res[0].ok && res[1].ok) {
       std::printf("| | | rtu/embree | | %.2fx | %.2fx | | %.2fx |\n", res[1].primary_s / res[0].primary_s,

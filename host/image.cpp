@@ -38,7 +38,9 @@ hw::Vec3 hit_normal(const hw::Geometry& g, const hw::Ray& ray, const hw::Hit& hi
       n = ray.origin + hit.t * ray.dir - s.center;
       break;
     }
-    case hw::PrimKind::kPlane: n = g.planes[hit.prim - g.num_bounded()].normal; break;
+    case hw::PrimKind::kPlane:
+      n = g.planes[hit.prim - g.num_bounded()].normal;
+      break;
   }
   const float len = glm::length(n);
   return len > 0.0f ? n / len : hw::Vec3(0.0f, 0.0f, 1.0f);

@@ -139,8 +139,8 @@ void write_rays(const std::string& path, const std::vector<hw::Ray>& rays) {
   out << kRayCsvHeader << '\n';
   for (const hw::Ray& r : rays) {
     out << csv_float(r.origin.x) << ',' << csv_float(r.origin.y) << ',' << csv_float(r.origin.z) << ','
-        << csv_float(r.tmin) << ',' << csv_float(r.dir.x) << ',' << csv_float(r.dir.y) << ','
-        << csv_float(r.dir.z) << ',' << csv_float(r.tmax) << '\n';
+        << csv_float(r.tmin) << ',' << csv_float(r.dir.x) << ',' << csv_float(r.dir.y) << ',' << csv_float(r.dir.z)
+        << ',' << csv_float(r.tmax) << '\n';
   }
   if (!out.flush()) throw Error(path + ": write error");
 }

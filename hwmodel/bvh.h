@@ -24,20 +24,26 @@ inline constexpr int kMaxLeafSize = 16;
 inline constexpr uint32_t kMaxLeafFirst = (1u << 27) - 1;  // so that no leaf encodes to kEmptyChild
 inline constexpr uint32_t kMaxBvhPrims = 1u << 27;
 
-constexpr bool is_leaf(uint32_t ref) { return (ref & kLeafBit) != 0; }
-constexpr uint32_t leaf_first(uint32_t ref) { return ref & kMaxLeafFirst; }
-constexpr uint32_t leaf_count(uint32_t ref) { return ((ref >> 27) & 15u) + 1; }
+constexpr bool is_leaf(uint32_t ref) {
+  return (ref & kLeafBit) != 0;
+}
+constexpr uint32_t leaf_first(uint32_t ref) {
+  return ref & kMaxLeafFirst;
+}
+constexpr uint32_t leaf_count(uint32_t ref) {
+  return ((ref >> 27) & 15u) + 1;
+}
 constexpr uint32_t make_leaf(uint32_t first, uint32_t count) {
   return kLeafBit | ((count - 1) << 27) | first;
 }
 
 struct BvhBuildParams {
-  int width = 4;            // children per node: 2, 4 or 8
-  int max_leaf_size = 8;    // primitives per leaf, 1..16
-  int bins = 32;            // SAH bins per axis, 2..256
-  float node_cost = 1.0f;   // SAH cost of visiting one node (all its child boxes) relative to one primitive test
-  float prim_cost = 1.0f;   // SAH cost of one primitive test
-  int max_sah_depth = 48;   // below this depth splits are object medians, which bounds the depth by log2
+  int width = 4;           // children per node: 2, 4 or 8
+  int max_leaf_size = 8;   // primitives per leaf, 1..16
+  int bins = 32;           // SAH bins per axis, 2..256
+  float node_cost = 1.0f;  // SAH cost of visiting one node (all its child boxes) relative to one primitive test
+  float prim_cost = 1.0f;  // SAH cost of one primitive test
+  int max_sah_depth = 48;  // below this depth splits are object medians, which bounds the depth by log2
 };
 
 // Throws std::invalid_argument naming the bad parameter.
@@ -57,8 +63,8 @@ static_assert(sizeof(WideNode<2>) == 56 && sizeof(WideNode<4>) == 112 && sizeof(
 template <int N>
 struct WideBvh {
   static constexpr int kWidth = N;
-  std::vector<WideNode<N>> nodes;  // node 0 is the root when root_ref is not a leaf
-  std::vector<uint32_t> prim_ids;  // leaf order -> scene primitive index
+  std::vector<WideNode<N>> nodes;   // node 0 is the root when root_ref is not a leaf
+  std::vector<uint32_t> prim_ids;   // leaf order -> scene primitive index
   uint32_t root_ref = kEmptyChild;  // a node index (0) or, for a scene of one leaf, a leaf reference
   Aabb bounds;                      // bounds of all bounded primitives
 };
@@ -69,13 +75,13 @@ struct BvhFigures {
   uint64_t inner_nodes = 0;
   uint64_t leaves = 0;
   uint64_t prims = 0;
-  int depth = 0;               // inner-node levels on the longest root-to-leaf path (0 for a single leaf)
+  int depth = 0;  // inner-node levels on the longest root-to-leaf path (0 for a single leaf)
   int min_leaf = 0, max_leaf = 0;
   double mean_leaf = 0.0;
-  double mean_fill = 0.0;      // occupied child slots per inner node / width
-  double sah_cost = 0.0;       // expected cost of a random ray through the bounds (params' node and prim costs)
-  uint64_t node_bytes = 0;     // bytes of nodes
-  uint64_t index_bytes = 0;    // bytes of the leaf -> primitive index array
+  double mean_fill = 0.0;    // occupied child slots per inner node / width
+  double sah_cost = 0.0;     // expected cost of a random ray through the bounds (params' node and prim costs)
+  uint64_t node_bytes = 0;   // bytes of nodes
+  uint64_t index_bytes = 0;  // bytes of the leaf -> primitive index array
 };
 
 class Bvh {

@@ -16,7 +16,8 @@ void validate(const BvhBuildParams& p) {
   if (p.bins < 2 || p.bins > 256) throw std::invalid_argument("bvh bins must be in [2, 256]");
   if (!(p.node_cost >= 0.0f) || !(p.prim_cost > 0.0f))
     throw std::invalid_argument("bvh node_cost must be >= 0 and prim_cost > 0");
-  if (p.max_sah_depth < 1 || p.max_sah_depth > 64) throw std::invalid_argument("bvh max_sah_depth must be in [1, 64]");
+  if (p.max_sah_depth < 1 || p.max_sah_depth > 64)
+    throw std::invalid_argument("bvh max_sah_depth must be in [1, 64]");
 }
 
 namespace {
@@ -29,7 +30,7 @@ struct PrimRef {
 
 struct BinNode {
   Aabb box;
-  uint32_t left = 0, right = 0;  // children (inner node)
+  uint32_t left = 0, right = 0;   // children (inner node)
   uint32_t first = 0, count = 0;  // primitive range in refs (leaf when count > 0)
 };
 
@@ -302,9 +303,15 @@ Bvh Bvh::build(const Geometry& g, const BvhBuildParams& params) {
   Bvh b;
   b.m_params = params;
   switch (params.width) {
-    case 2: b.m_tree = build_wide<2>(g, params); break;
-    case 4: b.m_tree = build_wide<4>(g, params); break;
-    default: b.m_tree = build_wide<8>(g, params); break;
+    case 2:
+      b.m_tree = build_wide<2>(g, params);
+      break;
+    case 4:
+      b.m_tree = build_wide<4>(g, params);
+      break;
+    default:
+      b.m_tree = build_wide<8>(g, params);
+      break;
   }
   return b;
 }

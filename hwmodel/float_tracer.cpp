@@ -122,8 +122,8 @@ template <int N>
 void FloatTracer::trace_bvh(const WideBvh<N>& t, const RayPrecomp& rp, float tmin, bool any_hit, Hit& h,
                             TraversalStats& s) const {
   Closest c{h.t, h.prim, h.u, h.v};
-  FloatPolicy<N> policy{t.nodes.data(), m_leaf_prims.data(), uint32_t(m_geom.triangles.size()), rp, tmin,
-                        any_hit, c, s};
+  FloatPolicy<N> policy{
+      t.nodes.data(), m_leaf_prims.data(), uint32_t(m_geom.triangles.size()), rp, tmin, any_hit, c, s};
   traverse(policy, t.root_ref, any_hit, s);
   h = Hit{c.tmax, c.prim, c.u, c.v};
 }

@@ -23,7 +23,9 @@
 namespace rtu::hw {
 
 inline constexpr float kFloatEps = 0x1p-24f;  // unit roundoff of float (half an ulp of 1)
-constexpr float gamma_n(int n) { return (n * kFloatEps) / (1.0f - n * kFloatEps); }
+constexpr float gamma_n(int n) {
+  return (n * kFloatEps) / (1.0f - n * kFloatEps);
+}
 inline constexpr float kIzeScale = 1.0f + 2.0f * gamma_n(3);  // scales t_far of the slab test
 
 // Per-ray values shared by every box and triangle test of one traversal.

@@ -30,13 +30,14 @@ inline constexpr uint32_t kNoPrim = kMissPrim;
 // hit normal's longitude/(2 pi) in [0,1) and colatitude/pi in [0,1]; for a plane 0, 0.
 struct Hit {
   float t = std::numeric_limits<float>::infinity();  // ray parameter of the hit
-  uint32_t prim = kMissPrim;                          // scene primitive index: triangles, then spheres, then planes
-  float u = 0.0f;                                     // see above
-  float v = 0.0f;                                     // see above
+  uint32_t prim = kMissPrim;                         // scene primitive index: triangles, then spheres, then planes
+  float u = 0.0f;                                    // see above
+  float v = 0.0f;                                    // see above
   bool hit() const { return prim != kMissPrim; }
 };
 static_assert(sizeof(Hit) == 16);
-static_assert(offsetof(Hit, t) == 0 && offsetof(Hit, prim) == 4 && offsetof(Hit, u) == 8 && offsetof(Hit, v) == 12);
+static_assert(offsetof(Hit, t) == 0 && offsetof(Hit, prim) == 4 && offsetof(Hit, u) == 8 &&
+              offsetof(Hit, v) == 12);
 
 // Why a ray was rejected at ray setup. The value is the reason code reported in stats and errors.
 enum class RayStatus : uint8_t {

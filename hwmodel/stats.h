@@ -9,13 +9,13 @@
 namespace rtu::hw {
 
 struct TraversalStats {
-  uint64_t rays = 0;           // rays traced (valid ones)
-  uint64_t hits = 0;           // rays with a hit
-  uint64_t nodes_visited = 0;  // inner nodes popped and tested
-  uint64_t leaves_visited = 0; // leaves whose primitives were tested
-  uint64_t box_tests = 0;      // child-box slab tests (occupied slots of visited nodes)
-  uint64_t prim_tests = 0;     // triangle, sphere and plane tests
-  uint64_t invalid_rays = 0;   // rays rejected at ray setup (reported as misses)
+  uint64_t rays = 0;                            // rays traced (valid ones)
+  uint64_t hits = 0;                            // rays with a hit
+  uint64_t nodes_visited = 0;                   // inner nodes popped and tested
+  uint64_t leaves_visited = 0;                  // leaves whose primitives were tested
+  uint64_t box_tests = 0;                       // child-box slab tests (occupied slots of visited nodes)
+  uint64_t prim_tests = 0;                      // triangle, sphere and plane tests
+  uint64_t invalid_rays = 0;                    // rays rejected at ray setup (reported as misses)
   std::array<uint64_t, 8> invalid_by_reason{};  // indexed by RayStatus
 
   void add(const TraversalStats& o) {

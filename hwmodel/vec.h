@@ -9,6 +9,8 @@ using Vec3 = glm::vec3;
 using DVec3 = glm::dvec3;
 
 // Component access by runtime axis index (0 = x, 1 = y, 2 = z) without GLM's debug assertion overhead.
-inline float axis(const Vec3& v, int a) { return a == 0 ? v.x : (a == 1 ? v.y : v.z); }
+inline float axis(const Vec3& v, int a) {
+  return a == 0 ? v.x : (a == 1 ? v.y : v.z);
+}
 
 }  // namespace rtu::hw

@@ -22,7 +22,8 @@ void run_rays(const RaysOptions& o) {
   const Scene scene = load_scene(o.scene);
   std::vector<hw::Ray> rays;
   if (o.kind == "primary") {
-    if (o.count > 0 && (o.width > 0 || o.height > 0)) throw Error("rays: give --count or --width/--height, not both");
+    if (o.count > 0 && (o.width > 0 || o.height > 0))
+      throw Error("rays: give --count or --width/--height, not both");
     if (o.count > 0) {
       rays = primary_rays(scene.camera, o.count);
     } else {
@@ -42,8 +43,9 @@ void run_rays(const RaysOptions& o) {
 void add_rays(CLI::App& app) {
   auto o = std::make_shared<RaysOptions>();
   CLI::App* sub = app.add_subcommand(
-      "rays", "Write a ray file: the scene camera's primary rays, or incoherent rays (random origins inside the "
-              "bounds, random directions)");
+      "rays",
+      "Write a ray file: the scene camera's primary rays, or incoherent rays (random origins inside the "
+      "bounds, random directions)");
   sub->add_option("--scene", o->scene, "scene file, mesh file, or builtin:NAME")->required();
   sub->add_option("--kind", o->kind, "primary or incoherent")
       ->check(CLI::IsMember({"primary", "incoherent"}))

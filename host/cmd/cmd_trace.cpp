@@ -66,8 +66,9 @@ void add_trace(CLI::App& app) {
   auto o = std::make_shared<TraceOptions>();
   CLI::App* sub = app.add_subcommand("trace", "Trace a ray file on a device and write the hit file");
   sub->add_option("--scene", o->scene, "scene file, mesh file, or builtin:NAME")->required();
-  sub->add_option("--rays", o->rays, "ray file (32-byte binary records, or .csv)")->required()->check(
-      CLI::ExistingFile);
+  sub->add_option("--rays", o->rays, "ray file (32-byte binary records, or .csv)")
+      ->required()
+      ->check(CLI::ExistingFile);
   sub->add_option("--out", o->out, "hit file to write (16-byte binary records, or .csv)")->required();
   sub->add_option("--device", o->device, "device: float (the reference)")
       ->check(CLI::IsMember({"float"}))

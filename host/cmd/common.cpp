@@ -13,7 +13,8 @@ hw::TracerOptions AccelOptions::tracer() const {
   hw::TracerOptions t;
   t.bvh.width = bvh_width;
   t.bvh.max_leaf_size = leaf_size;
-  t.accel = accel == "bvh" ? hw::AccelMode::kBvh : (accel == "brute" ? hw::AccelMode::kBrute : hw::AccelMode::kAuto);
+  t.accel =
+      accel == "bvh" ? hw::AccelMode::kBvh : (accel == "brute" ? hw::AccelMode::kBrute : hw::AccelMode::kAuto);
   return t;
 }
 

@@ -4,9 +4,9 @@
 
 #include <sys/wait.h>
 
+#include <unistd.h>
 #include <cstdio>
 #include <cstring>
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>

@@ -1,8 +1,8 @@
 // Ray and hit files: round trips, CSV and binary, and bad input.
 #include <catch2/catch.hpp>
 
-#include <cstring>
 #include <unistd.h>
+#include <cstring>
 
 #include <filesystem>
 #include <fstream>
@@ -23,7 +23,9 @@ fs::path temp_dir() {
   return d;
 }
 
-void write_text(const fs::path& p, const std::string& s) { std::ofstream(p, std::ios::binary) << s; }
+void write_text(const fs::path& p, const std::string& s) {
+  std::ofstream(p, std::ios::binary) << s;
+}
 
 }  // namespace
 

@@ -48,7 +48,9 @@ bool stepped_triangle(const Triangle& t, const Ray& ray, PrimHit& out) {
   return true;
 }
 
-bool same_bits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+bool same_bits(float a, float b) {
+  return std::memcmp(&a, &b, sizeof a) == 0;
+}
 
 }  // namespace
 
@@ -60,7 +62,8 @@ TEST_CASE("triangle test rounds every operation as written (no FMA, no skipped r
   int at_vertex = 0, hits = 0;
   for (int i = 0; i < 200000; ++i) {
     const float scale = (i % 3 == 0) ? 1e4f : 1.0f;
-    Triangle t{{U(rng) * scale, U(rng) * scale, U(rng)}, {U(rng) * scale, U(rng), U(rng) * scale},
+    Triangle t{{U(rng) * scale, U(rng) * scale, U(rng)},
+               {U(rng) * scale, U(rng), U(rng) * scale},
                {U(rng), U(rng) * scale, U(rng) * scale}};
     // Aim at a vertex or at a point on an edge, so edge functions are near or exactly zero.
     const float s = (i % 2) ? 0.0f : std::abs(U(rng));

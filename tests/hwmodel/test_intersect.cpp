@@ -10,7 +10,9 @@ using namespace rtu::hw;
 
 namespace {
 const float kInf = std::numeric_limits<float>::infinity();
-Ray make_ray(Vec3 o, Vec3 d, float tmin = 0.0f, float tmax = kInf) { return Ray{o, tmin, d, tmax}; }
+Ray make_ray(Vec3 o, Vec3 d, float tmin = 0.0f, float tmax = kInf) {
+  return Ray{o, tmin, d, tmax};
+}
 }  // namespace
 
 TEST_CASE("slab test: hand-computed entry distances", "[float][box]") {

@@ -5,8 +5,7 @@
 
 namespace rtu::oracle {
 
-EmbreeScene::EmbreeScene(const hw::Geometry& g, const char* config, RTCMemoryMonitorFunction monitor)
-    : m_geom(g) {
+EmbreeScene::EmbreeScene(const hw::Geometry& g, const char* config, RTCMemoryMonitorFunction monitor) : m_geom(g) {
   m_device = rtcNewDevice(config);
   if (!m_device) throw std::runtime_error("embree: rtcNewDevice failed");
   if (monitor) rtcSetDeviceMemoryMonitorFunction(m_device, monitor, nullptr);

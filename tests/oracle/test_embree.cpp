@@ -56,8 +56,7 @@ Agreement compare(const host::Scene& scene, const hw::FloatTracer& ours, const o
     const hw::Vec3 p = r.origin + h.t * r.dir;
     const double s = std::max({std::abs(r.origin.x), std::abs(r.origin.y), std::abs(r.origin.z), std::abs(p.x),
                                std::abs(p.y), std::abs(p.z)});
-    const double cos_theta =
-        std::abs(glm::dot(host::hit_normal(scene.geometry, r, h), glm::normalize(r.dir)));
+    const double cos_theta = std::abs(glm::dot(host::hit_normal(scene.geometry, r, h), glm::normalize(r.dir)));
     const double unit = kEps * s / cos_theta;
     const double err = std::abs(double(h.t) - double(e.t)) * glm::length(hw::DVec3(r.dir));
     if (err > kTBoundFactor * unit) {
@@ -83,8 +82,8 @@ void check_scene(const std::string& spec, uint64_t n) {
     for (size_t i : a.examples) examples += std::to_string(i) + " ";
     INFO(spec << " " << kind << ": " << a.rays << " rays, " << a.both_hit << " both hit, " << a.hit_miss
               << " hit/miss disagreements, " << a.t_off << " t beyond bound, " << a.prim_diff
-              << " different primitives, worst t error " << a.worst_ratio << " eps S / cos; ray indices: "
-              << examples);
+              << " different primitives, worst t error " << a.worst_ratio
+              << " eps S / cos; ray indices: " << examples);
     std::printf("%s %s: %llu rays, %llu hit/miss disagreements, %llu t beyond %g eps S/cos (worst %.2f)\n",
                 spec.c_str(), kind, (unsigned long long)a.rays, (unsigned long long)a.hit_miss,
                 (unsigned long long)a.t_off, kTBoundFactor, a.worst_ratio);

@@ -1,12 +1,26 @@
 #include "host/trace_job.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <thread>
 
-#include "host/cmd/common.h"
-
 namespace rtu::host {
+
+Progress::Progress(const char* what, uint64_t total)
+    : m_what(what), m_total(total), m_enabled(isatty(STDERR_FILENO) != 0 && total > 0) {}
+
+void Progress::update(uint64_t done) {
+  if (!m_enabled) return;
+  std::fprintf(stderr, "\r%s: %3d%% (%llu/%llu)", m_what, int(100.0 * double(done) / double(m_total)),
+               (unsigned long long)done, (unsigned long long)m_total);
+  std::fflush(stderr);
+}
+
+Progress::~Progress() {
+  if (m_enabled) std::fprintf(stderr, "\r\033[K");
+}
 
 int resolved_threads(int threads) {
   return threads > 0 ? threads : std::max(1, int(std::thread::hardware_concurrency()));
@@ -16,7 +30,7 @@ double trace_with_progress(const hw::FloatTracer& tracer, const std::vector<hw::
                            std::vector<hw::Hit>& hits, bool any_hit, int threads, hw::TraversalStats& stats) {
   hits.resize(rays.size());
   constexpr size_t kChunk = size_t(1) << 18;
-  cmd::Progress progress("trace", rays.size());
+  Progress progress("trace", rays.size());
   const auto start = std::chrono::steady_clock::now();
   for (size_t begin = 0; begin < rays.size(); begin += kChunk) {
     const size_t n = std::min(kChunk, rays.size() - begin);

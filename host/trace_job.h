@@ -9,6 +9,19 @@
 
 namespace rtu::host {
 
+// A one-line progress display on stderr, only when stderr is a terminal.
+class Progress {
+ public:
+  Progress(const char* what, uint64_t total);
+  void update(uint64_t done);
+  ~Progress();
+
+ private:
+  const char* m_what;
+  uint64_t m_total;
+  bool m_enabled;
+};
+
 int resolved_threads(int threads);
 
 // Traces rays into hits (same size); returns the wall-clock seconds of tracing alone.

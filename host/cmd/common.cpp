@@ -1,7 +1,5 @@
 #include "host/cmd/common.h"
 
-#include <unistd.h>
-
 #include <cstdio>
 #include <fstream>
 
@@ -29,20 +27,6 @@ void add_accel_options(CLI::App& app, AccelOptions& o) {
                  "acceleration: bvh, brute (for each primitive), or auto (brute force when a BVH costs more)")
       ->check(CLI::IsMember({"auto", "bvh", "brute"}))
       ->capture_default_str();
-}
-
-Progress::Progress(const char* what, uint64_t total)
-    : m_what(what), m_total(total), m_enabled(isatty(STDERR_FILENO) != 0 && total > 0) {}
-
-void Progress::update(uint64_t done) {
-  if (!m_enabled) return;
-  std::fprintf(stderr, "\r%s: %3d%% (%llu/%llu)", m_what, int(100.0 * double(done) / double(m_total)),
-               (unsigned long long)done, (unsigned long long)m_total);
-  std::fflush(stderr);
-}
-
-Progress::~Progress() {
-  if (m_enabled) std::fprintf(stderr, "\r\033[K");
 }
 
 Json bvh_json(const hw::FloatTracer& t) {

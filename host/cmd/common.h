@@ -33,19 +33,6 @@ class Stopwatch {
   std::chrono::steady_clock::time_point m_start = std::chrono::steady_clock::now();
 };
 
-// A one-line progress display on stderr, only when stderr is a terminal.
-class Progress {
- public:
-  Progress(const char* what, uint64_t total);
-  void update(uint64_t done);
-  ~Progress();
-
- private:
-  const char* m_what;
-  uint64_t m_total;
-  bool m_enabled;
-};
-
 Json bvh_json(const hw::FloatTracer& t);
 Json traversal_json(const hw::TraversalStats& s);
 void write_json(const std::string& path, const Json& j);

@@ -248,25 +248,28 @@ template <int I, int F>
 rtu::hw::Fixed<I, F> sqrt(rtu::hw::Fixed<I, F> a) {
   return rtu::hw::Fixed<I, F>::sqrt(a, rtu::hw::Round::kNearestEven);
 }
+namespace detail_fixed {
+template <length_t L, int I, int F, qualifier Q, class Op>
+vec<L, rtu::hw::Fixed<I, F>, Q> componentwise(const vec<L, rtu::hw::Fixed<I, F>, Q>& a,
+                                              const vec<L, rtu::hw::Fixed<I, F>, Q>& b, Op op) {
+  vec<L, rtu::hw::Fixed<I, F>, Q> out;
+  for (length_t i = 0; i < L; ++i) out[i] = op(a[i], b[i]);
+  return out;
+}
+}  // namespace detail_fixed
 template <length_t L, int I, int F, qualifier Q>
 vec<L, rtu::hw::Fixed<I, F>, Q> abs(const vec<L, rtu::hw::Fixed<I, F>, Q>& v) {
-  vec<L, rtu::hw::Fixed<I, F>, Q> out;
-  for (length_t i = 0; i < L; ++i) out[i] = glm::abs(v[i]);
-  return out;
+  return detail_fixed::componentwise(v, v, [](auto x, auto) { return glm::abs(x); });
 }
 template <length_t L, int I, int F, qualifier Q>
 vec<L, rtu::hw::Fixed<I, F>, Q> min(const vec<L, rtu::hw::Fixed<I, F>, Q>& a,
                                     const vec<L, rtu::hw::Fixed<I, F>, Q>& b) {
-  vec<L, rtu::hw::Fixed<I, F>, Q> out;
-  for (length_t i = 0; i < L; ++i) out[i] = glm::min(a[i], b[i]);
-  return out;
+  return detail_fixed::componentwise(a, b, [](auto x, auto y) { return glm::min(x, y); });
 }
 template <length_t L, int I, int F, qualifier Q>
 vec<L, rtu::hw::Fixed<I, F>, Q> max(const vec<L, rtu::hw::Fixed<I, F>, Q>& a,
                                     const vec<L, rtu::hw::Fixed<I, F>, Q>& b) {
-  vec<L, rtu::hw::Fixed<I, F>, Q> out;
-  for (length_t i = 0; i < L; ++i) out[i] = glm::max(a[i], b[i]);
-  return out;
+  return detail_fixed::componentwise(a, b, [](auto x, auto y) { return glm::max(x, y); });
 }
 // Dot product with one rounding at the end (products summed exactly in 128 bits), as a hardware dot unit does.
 template <length_t L, int I, int F, qualifier Q>

@@ -82,16 +82,14 @@ struct FloatPolicy {
 FloatTracer::FloatTracer(const Geometry& g, const TracerOptions& opt) : m_geom(g) {
   const uint32_t n = g.num_bounded();
   m_brute_cost = double(n) * opt.bvh.prim_cost;
-  if (opt.accel != AccelMode::kBrute && n > 0) {
+  // Automatic choice: no BVH when the whole scene fits in one leaf (a BVH would add its node visits to the same
+  // primitive tests; not even built then), or when its SAH cost is not below the cost of testing every primitive.
+  const bool small = n <= uint32_t(opt.bvh.max_leaf_size);
+  if (n > 0 && (opt.accel == AccelMode::kBvh || (opt.accel == AccelMode::kAuto && !small))) {
     m_bvh = Bvh::build(g, opt.bvh);
     m_bvh_cost = m_bvh->figures().sah_cost;
   }
-  // Automatic choice: no BVH when the whole scene fits in one leaf (a BVH would add its node visits to the same
-  // primitive tests), or when its SAH cost is not below the cost of testing every primitive.
-  const bool small = n <= uint32_t(opt.bvh.max_leaf_size);
-  m_use_bvh = opt.accel == AccelMode::kBvh ||
-              (opt.accel == AccelMode::kAuto && m_bvh && !small && m_bvh_cost < m_brute_cost);
-  if (n > 0 && !m_use_bvh) m_bvh.reset();
+  if (m_bvh && opt.accel == AccelMode::kAuto && !(m_bvh_cost < m_brute_cost)) m_bvh.reset();
 
   auto record = [&](uint32_t p) {
     LeafPrim lp{};

@@ -43,7 +43,7 @@ class FloatTracer {
   // depend on the thread count.
   void trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads, TraversalStats& s) const;
 
-  bool uses_bvh() const { return m_use_bvh; }
+  bool uses_bvh() const { return m_bvh.has_value(); }
   const Bvh* bvh() const { return m_bvh ? &*m_bvh : nullptr; }
   // SAH-style cost estimates behind the automatic choice, in primitive-test units.
   double bvh_cost() const { return m_bvh_cost; }
@@ -56,9 +56,8 @@ class FloatTracer {
                  TraversalStats& s) const;
 
   const Geometry& m_geom;
-  std::optional<Bvh> m_bvh;
+  std::optional<Bvh> m_bvh;            // present exactly when the tracer uses it
   std::vector<LeafPrim> m_leaf_prims;  // leaf order (BVH) or scene order (brute force)
-  bool m_use_bvh = false;
   double m_bvh_cost = 0.0;
   double m_brute_cost = 0.0;
 };

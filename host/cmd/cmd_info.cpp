@@ -49,7 +49,7 @@ void run_info(const InfoOptions& o) {
   std::printf("materials    %zu, lights %zu\n", scene.materials.size(), scene.lights.size());
   std::printf("bounds       (%g, %g, %g) .. (%g, %g, %g)\n", b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
   std::printf("load         %.3f s, accel build %.3f s\n", load_s, build_s);
-  if (const hw::Bvh* bvh = tracer.bvh(); bvh && tracer.uses_bvh()) {
+  if (const hw::Bvh* bvh = tracer.bvh()) {
     const hw::BvhFigures f = bvh->figures();
     std::printf("bvh          width %d, %llu inner nodes, %llu leaves, depth %d\n", f.width,
                 (unsigned long long)f.inner_nodes, (unsigned long long)f.leaves, f.depth);

@@ -26,39 +26,30 @@ int resolved_threads(int threads) {
   return threads > 0 ? threads : std::max(1, int(std::thread::hardware_concurrency()));
 }
 
-double trace_with_progress(const hw::FloatTracer& tracer, const std::vector<hw::Ray>& rays,
-                           std::vector<hw::Hit>& hits, bool any_hit, int threads, hw::TraversalStats& stats) {
+double trace_with_progress(const TraceDevice& device, const std::vector<hw::Ray>& rays, std::vector<hw::Hit>& hits,
+                           bool any_hit, int threads, hw::TraversalStats& stats) {
   hits.resize(rays.size());
   constexpr size_t kChunk = size_t(1) << 18;
   Progress progress("trace", rays.size());
   const auto start = std::chrono::steady_clock::now();
   for (size_t begin = 0; begin < rays.size(); begin += kChunk) {
     const size_t n = std::min(kChunk, rays.size() - begin);
-    tracer.trace_batch(rays.data() + begin, hits.data() + begin, n, any_hit, resolved_threads(threads), stats);
+    hw::TraversalStats chunk;
+    device.trace_batch(rays.data() + begin, hits.data() + begin, n, any_hit, resolved_threads(threads), chunk);
+    if (chunk.first_invalid != UINT64_MAX) chunk.first_invalid += begin;
+    stats.add(chunk);
     progress.update(begin + n);
   }
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-uint64_t report_invalid_rays(const std::vector<hw::Ray>& rays, std::FILE* out) {
-  uint64_t count = 0;
-  size_t first = 0;
-  hw::RayStatus first_status = hw::RayStatus::kOk;
-  for (size_t i = 0; i < rays.size(); ++i) {
-    const hw::RayStatus s = hw::validate_ray(rays[i]);
-    if (s == hw::RayStatus::kOk) continue;
-    if (count++ == 0) {
-      first = i;
-      first_status = s;
-    }
-  }
-  if (count > 0) {
-    std::fprintf(out,
-                 "rtusim: warning: %llu invalid rays reported as misses; the first is ray %zu (%s). Invalid: "
-                 "NaN or Inf origin or direction, zero direction, NaN interval\n",
-                 (unsigned long long)count, first, hw::ray_status_name(first_status));
-  }
-  return count;
+void report_invalid_rays(const hw::TraversalStats& stats, std::FILE* out) {
+  if (stats.invalid_rays == 0) return;
+  std::fprintf(out,
+               "rtusim: warning: %llu invalid rays reported as misses; the first is ray %llu (%s). Invalid: NaN "
+               "or Inf origin or direction, zero direction, NaN interval, origin out of the frame (fixed)\n",
+               (unsigned long long)stats.invalid_rays, (unsigned long long)stats.first_invalid,
+               hw::ray_status_name(stats.first_invalid_reason));
 }
 
 }  // namespace rtu::host

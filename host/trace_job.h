@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <vector>
 
-#include "hwmodel/float_tracer.h"
+#include "host/device.h"
 
 namespace rtu::host {
 
@@ -25,10 +25,10 @@ class Progress {
 int resolved_threads(int threads);
 
 // Traces rays into hits (same size); returns the wall-clock seconds of tracing alone.
-double trace_with_progress(const hw::FloatTracer& tracer, const std::vector<hw::Ray>& rays,
-                           std::vector<hw::Hit>& hits, bool any_hit, int threads, hw::TraversalStats& stats);
+double trace_with_progress(const TraceDevice& device, const std::vector<hw::Ray>& rays, std::vector<hw::Hit>& hits,
+                           bool any_hit, int threads, hw::TraversalStats& stats);
 
-// Prints "N invalid rays ... first at index i (reason)" to `out` when any ray fails validate_ray; returns N.
-uint64_t report_invalid_rays(const std::vector<hw::Ray>& rays, std::FILE* out);
+// Prints "N invalid rays ... the first is ray i (reason)" to `out` when the device rejected any ray.
+void report_invalid_rays(const hw::TraversalStats& stats, std::FILE* out);
 
 }  // namespace rtu::host

@@ -1,9 +1,6 @@
 #include "hwmodel/float_tracer.h"
 
-#include <algorithm>
-#include <atomic>
-#include <thread>
-
+#include "hwmodel/batch.h"
 #include "hwmodel/intersect_float.h"
 #include "hwmodel/traverse.h"
 
@@ -79,17 +76,28 @@ struct FloatPolicy {
 
 }  // namespace
 
-FloatTracer::FloatTracer(const Geometry& g, const TracerOptions& opt) : m_geom(g) {
+std::optional<Bvh> choose_accel(const Geometry& g, const TracerOptions& opt, double* bvh_cost,
+                                double* brute_cost) {
   const uint32_t n = g.num_bounded();
-  m_brute_cost = double(n) * opt.bvh.prim_cost;
+  const double brute = double(n) * opt.bvh.prim_cost;
+  double cost = 0.0;
+  std::optional<Bvh> bvh;
   // Automatic choice: no BVH when the whole scene fits in one leaf (a BVH would add its node visits to the same
   // primitive tests; not even built then), or when its SAH cost is not below the cost of testing every primitive.
   const bool small = n <= uint32_t(opt.bvh.max_leaf_size);
   if (n > 0 && (opt.accel == AccelMode::kBvh || (opt.accel == AccelMode::kAuto && !small))) {
-    m_bvh = Bvh::build(g, opt.bvh);
-    m_bvh_cost = m_bvh->figures().sah_cost;
+    bvh = Bvh::build(g, opt.bvh);
+    cost = bvh->figures().sah_cost;
   }
-  if (m_bvh && opt.accel == AccelMode::kAuto && !(m_bvh_cost < m_brute_cost)) m_bvh.reset();
+  if (bvh && opt.accel == AccelMode::kAuto && !(cost < brute)) bvh.reset();
+  if (bvh_cost) *bvh_cost = cost;
+  if (brute_cost) *brute_cost = brute;
+  return bvh;
+}
+
+FloatTracer::FloatTracer(const Geometry& g, const TracerOptions& opt) : m_geom(g) {
+  const uint32_t n = g.num_bounded();
+  m_bvh = choose_accel(g, opt, &m_bvh_cost, &m_brute_cost);
 
   auto record = [&](uint32_t p) {
     LeafPrim lp{};
@@ -170,26 +178,7 @@ Hit FloatTracer::trace(const Ray& r, bool any_hit, TraversalStats& s) const {
 
 void FloatTracer::trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads,
                               TraversalStats& s) const {
-  const int hw = std::max(1, int(std::thread::hardware_concurrency()));
-  const int nt = std::max(1, std::min(threads > 0 ? threads : hw, int((n + 1023) / 1024)));
-  constexpr size_t kChunk = 1024;
-  std::atomic<size_t> next{0};
-  std::vector<TraversalStats> per(static_cast<size_t>(nt));
-  auto work = [&](int id) {
-    for (;;) {
-      const size_t begin = next.fetch_add(kChunk);
-      if (begin >= n) break;
-      const size_t end = std::min(n, begin + kChunk);
-      TraversalStats local;  // per chunk, so threads do not share cache lines in the hot loop
-      for (size_t i = begin; i < end; ++i) hits[i] = trace(rays[i], any_hit, local);
-      per[size_t(id)].add(local);
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int i = 1; i < nt; ++i) pool.emplace_back(work, i);
-  work(0);
-  for (std::thread& t : pool) t.join();
-  for (const TraversalStats& p : per) s.add(p);
+  run_batch(n, threads, s, [&](size_t i, TraversalStats& local) { hits[i] = trace(rays[i], any_hit, local); });
 }
 
 }  // namespace rtu::hw

@@ -25,6 +25,12 @@ struct TracerOptions {
   BvhBuildParams bvh;
 };
 
+// The automatic choice of every device: a BVH, or none ("for each primitive") when the whole scene fits in one
+// leaf or the BVH's SAH cost is not below the cost of testing every primitive (opt.accel forces either).
+// Writes both costs (in primitive tests per ray; bvh_cost 0 when none was built) when asked.
+std::optional<Bvh> choose_accel(const Geometry& g, const TracerOptions& opt, double* bvh_cost = nullptr,
+                                double* brute_cost = nullptr);
+
 // A leaf-ordered copy of a bounded primitive, so a leaf's primitives are contiguous in memory.
 struct LeafPrim {
   Vec3 a, b, c;   // triangle vertices; a sphere has its center in a and its radius in b.x

@@ -14,7 +14,7 @@ double QuantFrame::to_world(int64_t g, int axis) const {
   return std::ldexp(double(origin[axis] + g), step_exp);
 }
 
-int64_t QuantFrame::to_grid(float x, int axis, Round r) const {
+int64_t QuantFrame::to_grid(float x, int axis, Round r, int frac_bits) const {
   if (std::isnan(x)) {
     ++saturation_counter();
     return 0;
@@ -28,17 +28,17 @@ int64_t QuantFrame::to_grid(float x, int axis, Round r) const {
   const float frac = std::frexp(x, &k);
   const int64_t m = int64_t(std::ldexp(frac, 24));
   k -= 24;
-  // (x - origin * 2^e) / 2^e = m * 2^(k - e) - origin.
-  const int sh = k - step_exp;
-  const Wide o = origin[axis];
+  // (x - origin * 2^e) / 2^e * 2^f = m * 2^(k - e + f) - origin * 2^f.
+  const int sh = k - step_exp + frac_bits;
+  const Wide o = Wide(origin[axis]) << frac_bits;  // |origin| < 2^52, frac_bits <= 24: below 2^76
   Wide g;
   const Wide beyond = Wide(kGridLimit) + 1;  // any value past the limit; saturates below
   if (sh >= 0) {
     g = sh > 64 ? (m > 0 ? beyond : -beyond) : (Wide(m) << sh) - o;
-  } else if (-sh <= 64) {
-    g = round_shift(Wide(m) - (o << -sh), -sh, r);
+  } else if (-sh <= 40) {
+    g = round_shift(Wide(m) - (o << -sh), -sh, r);  // below 2^117
   } else {
-    // |m * 2^sh| < 2^-40: the result is -origin, or one step off it by the sign of m and the rounding.
+    // |m * 2^sh| < 2^-16: the result is -origin, or one step off it by the sign of m and the rounding.
     g = -o;
     if (m > 0 && r == Round::kUp) g += 1;
     if (m < 0 && r == Round::kDown) g -= 1;

@@ -27,9 +27,10 @@ struct QuantFrame {
 
   int64_t grid_max() const { return (int64_t(1) << bits) - 1; }
   double step() const;
-  // (x - origin) / step rounded by r, exactly (no rounding before the final one). Saturates (and counts) at
-  // +-kGridLimit; NaN saturates to 0 and is counted. Infinite x saturates.
-  int64_t to_grid(float x, int axis, Round r) const;
+  // (x - origin) / step * 2^frac_bits rounded by r, exactly (no rounding before the final one): the grid
+  // coordinate with frac_bits fraction bits (0..24). Saturates (and counts) at +-kGridLimit; NaN saturates to 0
+  // and is counted. Infinite x saturates.
+  int64_t to_grid(float x, int axis, Round r, int frac_bits = 0) const;
   // World coordinate of grid value g (exact when |origin + g| < 2^53).
   double to_world(int64_t g, int axis) const;
 };

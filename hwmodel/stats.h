@@ -17,6 +17,13 @@ struct TraversalStats {
   uint64_t prim_tests = 0;                      // triangle, sphere and plane tests
   uint64_t invalid_rays = 0;                    // rays rejected at ray setup (reported as misses)
   std::array<uint64_t, 8> invalid_by_reason{};  // indexed by RayStatus
+  uint64_t first_invalid = UINT64_MAX;          // index of the first invalid ray of a batch (run_batch)
+  RayStatus first_invalid_reason = RayStatus::kOk;
+  // Fixed-point devices only (0 on the float device):
+  uint64_t saturations = 0;          // values clamped to their format (fixed.h saturation_count) while tracing
+  uint64_t box_checks = 0;           // box tests repeated by the exact checker (when checking is on)
+  uint64_t box_false_negatives = 0;  // boxes the fixed test rejected and the exact test accepts: must be 0
+  uint64_t box_false_positives = 0;  // boxes the fixed test accepted and the exact test rejects (looseness)
 
   void add(const TraversalStats& o) {
     rays += o.rays;
@@ -27,6 +34,14 @@ struct TraversalStats {
     prim_tests += o.prim_tests;
     invalid_rays += o.invalid_rays;
     for (size_t i = 0; i < invalid_by_reason.size(); ++i) invalid_by_reason[i] += o.invalid_by_reason[i];
+    if (o.first_invalid < first_invalid) {
+      first_invalid = o.first_invalid;
+      first_invalid_reason = o.first_invalid_reason;
+    }
+    saturations += o.saturations;
+    box_checks += o.box_checks;
+    box_false_negatives += o.box_false_negatives;
+    box_false_positives += o.box_false_positives;
   }
 };
 

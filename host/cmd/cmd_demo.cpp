@@ -31,13 +31,13 @@ void run_demo(const DemoOptions& o) {
   const Scene scene = load_scene(o.scene);
   const double load_s = load_timer.seconds();
   Stopwatch build_timer;
-  const hw::FloatTracer tracer(scene.geometry, hw::TracerOptions{});
+  const std::unique_ptr<TraceDevice> tracer = make_device(scene.geometry, DeviceOptions{});
   const double build_s = build_timer.seconds();
   const int w = scene.camera.width, h = scene.camera.height;
   const std::vector<hw::Ray> rays = primary_rays(scene.camera, w, h);
   std::vector<hw::Hit> hits;
   hw::TraversalStats stats;
-  const double trace_s = trace_with_progress(tracer, rays, hits, false, o.threads, stats);
+  const double trace_s = trace_with_progress(*tracer, rays, hits, false, o.threads, stats);
 
   const std::string image_path = o.out + "/primary_float.png";
   const std::string hits_path = o.out + "/primary_float.hits";
@@ -53,7 +53,7 @@ void run_demo(const DemoOptions& o) {
               resolved_threads(o.threads));
   std::printf("  per ray: %.2f nodes, %.2f box tests, %.2f primitive tests (accel: %s)\n",
               double(stats.nodes_visited) / double(rays.size()), double(stats.box_tests) / double(rays.size()),
-              double(stats.prim_tests) / double(rays.size()), tracer.uses_bvh() ? "bvh" : "brute force");
+              double(stats.prim_tests) / double(rays.size()), tracer->bvh() ? "bvh" : "brute force");
   std::printf("  wrote %s, %s, %s\n", image_path.c_str(), hits_path.c_str(), report_path.c_str());
 
   Json j;
@@ -67,7 +67,7 @@ void run_demo(const DemoOptions& o) {
   dev["trace_seconds"] = trace_s;
   dev["rays_per_second"] = trace_s > 0 ? double(rays.size()) / trace_s : 0.0;
   j["devices"]["float"] = dev;
-  j["bvh"] = bvh_json(tracer);
+  j["bvh"] = bvh_json(*tracer);
   write_json(report_path, j);
 }
 

@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "host/cmd/common.h"
+#include "host/error.h"
 
 namespace rtu::host::cmd {
 
@@ -10,16 +11,34 @@ namespace {
 
 struct InfoOptions {
   std::string scene;
-  AccelOptions accel;
+  DeviceArgs dev;
   std::string json;
+  bool formats = false;
 };
 
+void list_formats() {
+  std::printf("%-9s %5s %5s %5s %5s %5s %5s %5s %7s  %s\n", "preset", "width", "coord", "child", "guard", "frac",
+              "dir", "rcp", "t", "node bytes");
+  for (const hw::FixedFormat& f : hw::format_presets()) {
+    const int q = f.child_bits <= 8 ? 1 : 2;
+    std::printf("%-9s %5d %5d %5d %5d %5d %5d %5d %4d.%-2d  %d\n", f.name.c_str(), f.width, f.coord_bits,
+                f.child_bits, f.guard_bits, f.frac_bits, f.dir_bits, f.rcp_bits, f.t_bits, f.t_frac_bits,
+                16 + 6 * f.width * q + 4 * f.width);
+  }
+}
+
 void run_info(const InfoOptions& o) {
+  if (o.formats) {
+    list_formats();
+    if (o.scene.empty()) return;
+  }
+  if (o.scene.empty()) throw Error("info: --scene is required (or --formats)");
   Stopwatch load_timer;
   const Scene scene = load_scene(o.scene);
   const double load_s = load_timer.seconds();
   Stopwatch build_timer;
-  const hw::FloatTracer tracer(scene.geometry, o.accel.tracer());
+  const DeviceOptions dopt = o.dev.options("fixed");
+  const std::unique_ptr<TraceDevice> device = make_device(scene.geometry, dopt);
   const double build_s = build_timer.seconds();
   const hw::Geometry& g = scene.geometry;
   const hw::Aabb b = g.bounds();
@@ -41,7 +60,8 @@ void run_info(const InfoOptions& o) {
                  {"framed_automatically", !scene.has_camera}};
   j["load_seconds"] = load_s;
   j["build_seconds"] = build_s;
-  j["bvh"] = bvh_json(tracer);
+  j["bvh"] = bvh_json(*device);
+  j["format"] = format_json(dopt.format);
 
   std::printf("scene        %s\n", scene.name.c_str());
   std::printf("primitives   %zu triangles, %zu spheres, %zu planes\n", g.triangles.size(), g.spheres.size(),
@@ -49,21 +69,33 @@ void run_info(const InfoOptions& o) {
   std::printf("materials    %zu, lights %zu\n", scene.materials.size(), scene.lights.size());
   std::printf("bounds       (%g, %g, %g) .. (%g, %g, %g)\n", b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
   std::printf("load         %.3f s, accel build %.3f s\n", load_s, build_s);
-  if (const hw::Bvh* bvh = tracer.bvh()) {
+  if (const hw::Bvh* bvh = device->bvh()) {
     const hw::BvhFigures f = bvh->figures();
     std::printf("bvh          width %d, %llu inner nodes, %llu leaves, depth %d\n", f.width,
                 (unsigned long long)f.inner_nodes, (unsigned long long)f.leaves, f.depth);
     std::printf("leaves       %d..%d primitives, mean %.2f; node fill %.0f%%\n", f.min_leaf, f.max_leaf,
                 f.mean_leaf, 100.0 * f.mean_fill);
     std::printf("sah cost     %.2f (brute force %.0f) in primitive tests per ray\n", f.sah_cost,
-                tracer.brute_cost());
-    std::printf("bytes        nodes %llu + index %llu = %.1f bytes per primitive (+ %llu leaf-ordered copies)\n",
+                device->brute_cost());
+    std::printf("float bvh    nodes %llu + index %llu bytes = %.1f bytes per primitive\n",
                 (unsigned long long)f.node_bytes, (unsigned long long)f.index_bytes,
-                f.prims ? double(f.node_bytes + f.index_bytes) / double(f.prims) : 0.0,
-                (unsigned long long)tracer.leaf_prim_bytes());
+                f.prims ? double(f.node_bytes + f.index_bytes) / double(f.prims) : 0.0);
   } else {
     std::printf("accel        brute force (%u bounded primitives: a BVH would cost more than it saves)\n",
                 g.num_bounded());
+  }
+  const hw::DeviceImage& img = *device->image();
+  std::printf("format       %s\n", dopt.format.describe().c_str());
+  std::printf("frame        2^%d grid steps of 2^%d world units per axis\n", dopt.format.coord_bits,
+              img.header().step_exp);
+  std::printf("fixed image  %zu bytes per node: nodes %llu + records %llu + planes %llu = %llu bytes\n",
+              img.node_bytes(), (unsigned long long)img.nodes_size(), (unsigned long long)img.records_size(),
+              (unsigned long long)img.planes_size(), (unsigned long long)img.size());
+  if (const hw::Bvh* bvh = device->bvh()) {
+    const hw::BvhFigures f = bvh->figures();
+    std::printf("bvh bytes    fixed nodes / float nodes = %.1f%% (%.1f%% of float nodes + index)\n",
+                100.0 * double(img.nodes_size()) / double(f.node_bytes),
+                100.0 * double(img.nodes_size()) / double(f.node_bytes + f.index_bytes));
   }
   if (!o.json.empty()) write_json(o.json, j);
 }
@@ -73,8 +105,9 @@ void run_info(const InfoOptions& o) {
 void add_info(CLI::App& app) {
   auto o = std::make_shared<InfoOptions>();
   CLI::App* sub = app.add_subcommand("info", "Describe a scene: primitive counts, bounds, BVH figures");
-  sub->add_option("--scene", o->scene, "scene file, mesh file, or builtin:NAME")->required();
-  add_accel_options(*sub, o->accel);
+  sub->add_option("--scene", o->scene, "scene file, mesh file, or builtin:NAME");
+  sub->add_flag("--formats", o->formats, "list the fixed-point format presets");
+  add_device_args(*sub, o->dev, "");
   sub->add_option("--json", o->json, "also write the figures as JSON to this file");
   sub->callback([o] { run_info(*o); });
 }

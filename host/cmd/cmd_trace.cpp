@@ -12,10 +12,10 @@ namespace rtu::host::cmd {
 namespace {
 
 struct TraceOptions {
-  std::string scene, rays, out, device = "float", stats;
+  std::string scene, rays, out, stats;
   bool any_hit = false;
   int threads = 0;
-  AccelOptions accel;
+  DeviceArgs dev;
 };
 
 void run_trace(const TraceOptions& o) {
@@ -25,19 +25,20 @@ void run_trace(const TraceOptions& o) {
   const std::vector<hw::Ray> rays = read_rays(o.rays);
 
   Stopwatch build_timer;
-  const hw::FloatTracer tracer(scene.geometry, o.accel.tracer());
+  const DeviceOptions dopt = o.dev.options(o.dev.device);
+  const std::unique_ptr<TraceDevice> device = make_device(scene.geometry, dopt);
   const double build_s = build_timer.seconds();
 
   std::vector<hw::Hit> hits(rays.size());
   hw::TraversalStats stats;
-  const double trace_s = trace_with_progress(tracer, rays, hits, o.any_hit, o.threads, stats);
+  const double trace_s = trace_with_progress(*device, rays, hits, o.any_hit, o.threads, stats);
   write_hits(o.out, hits);
 
-  report_invalid_rays(rays, stderr);
+  report_invalid_rays(stats, stderr);
   const uint64_t n = rays.size();
   std::printf("traced %llu rays on %s: %llu hits, %llu invalid, %.3f s, %.2f MRays/s\n", (unsigned long long)n,
-              o.device.c_str(), (unsigned long long)stats.hits, (unsigned long long)stats.invalid_rays, trace_s,
-              trace_s > 0 ? double(n) / trace_s * 1e-6 : 0.0);
+              o.dev.device.c_str(), (unsigned long long)stats.hits, (unsigned long long)stats.invalid_rays,
+              trace_s, trace_s > 0 ? double(n) / trace_s * 1e-6 : 0.0);
   std::printf("per ray: %.2f nodes, %.2f box tests, %.2f primitive tests\n",
               stats.rays ? double(stats.nodes_visited) / double(stats.rays) : 0.0,
               stats.rays ? double(stats.box_tests) / double(stats.rays) : 0.0,
@@ -47,7 +48,8 @@ void run_trace(const TraceOptions& o) {
     Json j;
     j["scene"] = scene.name;
     j["rays_file"] = o.rays;
-    j["device"] = o.device;
+    j["device"] = o.dev.device;
+    if (o.dev.device != "float") j["format"] = format_json(dopt.format);
     j["mode"] = o.any_hit ? "any_hit" : "closest_hit";
     j["threads"] = resolved_threads(o.threads);
     j.update(traversal_json(stats));
@@ -55,7 +57,7 @@ void run_trace(const TraceOptions& o) {
     j["rays_per_second"] = trace_s > 0 ? double(n) / trace_s : 0.0;
     j["load_seconds"] = load_s;
     j["build_seconds"] = build_s;
-    j["bvh"] = bvh_json(tracer);
+    j["bvh"] = bvh_json(*device);
     write_json(o.stats, j);
   }
 }
@@ -70,15 +72,12 @@ void add_trace(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingFile);
   sub->add_option("--out", o->out, "hit file to write (16-byte binary records, or .csv)")->required();
-  sub->add_option("--device", o->device, "device: float (the reference)")
-      ->check(CLI::IsMember({"float"}))
-      ->capture_default_str();
   sub->add_flag("--any-hit", o->any_hit, "any-hit queries (stop at the first hit, as shadow rays do)");
   sub->add_option("--threads", o->threads, "worker threads (0 = all cores); results do not depend on it")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   sub->add_option("--stats", o->stats, "write statistics as JSON to this file");
-  add_accel_options(*sub, o->accel);
+  add_device_args(*sub, o->dev, "device: float (the reference) or fixed (bit-accurate fixed point)");
   sub->callback([o] { run_trace(*o); });
 }
 

@@ -7,21 +7,31 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "host/device.h"
 #include "host/scene.h"
-#include "hwmodel/float_tracer.h"
 
 namespace rtu::host::cmd {
 
 using Json = nlohmann::ordered_json;
 
-struct AccelOptions {
-  int bvh_width = 4;
+// Device, acceleration and number-format options shared by the tracing commands.
+struct DeviceArgs {
+  std::string device = "float";
+  int bvh_width = 0;  // 0: the format's width (4 in the default format)
   int leaf_size = 8;
   std::string accel = "auto";
-  hw::TracerOptions tracer() const;
+  std::string format = "default";
+  // Overrides of the format preset's fields; -1 keeps the preset's value.
+  int coord_bits = -1, child_bits = -1, guard_bits = -1, frac_bits = -1, dir_bits = -1, rcp_bits = -1,
+      t_frac_bits = -1, t_bits = -1;
+
+  hw::FixedFormat fixed_format() const;  // preset + overrides + width; validated
+  DeviceOptions options(const std::string& device_name) const;
 };
 
-void add_accel_options(CLI::App& app, AccelOptions& o);
+// Adds --bvh-width, --leaf-size, --accel, --format and the per-field format options; --device too when
+// `device_help` is not empty.
+void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_help);
 
 class Stopwatch {
  public:
@@ -33,7 +43,16 @@ class Stopwatch {
   std::chrono::steady_clock::time_point m_start = std::chrono::steady_clock::now();
 };
 
-Json bvh_json(const hw::FloatTracer& t);
+// Rays from a --rays argument: a ray file, or "primary" (the camera's image), "primary:N", "primary:WxH",
+// "incoherent:N" (seeded by `seed`).
+std::vector<hw::Ray> rays_from_spec(const std::string& spec, const Scene& scene, uint64_t seed);
+inline constexpr const char* kRaySpecHelp =
+    "a ray file, or primary | primary:N | primary:WxH (the scene camera) | incoherent:N (random, --seed)";
+
+Json bvh_json(const TraceDevice& d);
+Json format_json(const hw::FixedFormat& f);
+// Bytes of the fixed device's image beside the float BVH's (nodes + leaf index) for the same tree.
+Json image_json(const hw::DeviceImage& img, const hw::Bvh* bvh);
 Json traversal_json(const hw::TraversalStats& s);
 void write_json(const std::string& path, const Json& j);
 
@@ -41,5 +60,6 @@ void add_info(CLI::App& app);
 void add_rays(CLI::App& app);
 void add_trace(CLI::App& app);
 void add_demo(CLI::App& app);
+void add_compare(CLI::App& app);
 
 }  // namespace rtu::host::cmd

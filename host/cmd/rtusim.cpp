@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
   rtu::host::cmd::add_info(app);
   rtu::host::cmd::add_rays(app);
   rtu::host::cmd::add_trace(app);
+  rtu::host::cmd::add_compare(app);
   rtu::host::cmd::add_demo(app);
   try {
     app.parse(argc, argv);

@@ -1,0 +1,70 @@
+#include "host/device.h"
+
+#include "host/error.h"
+
+namespace rtu::host {
+
+namespace {
+
+class FloatDevice final : public TraceDevice {
+ public:
+  FloatDevice(const hw::Geometry& g, const DeviceOptions& o) : m_tracer(g, o.tracer) {}
+  const std::string& name() const override { return m_name; }
+  void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
+                   hw::TraversalStats& s) const override {
+    m_tracer.trace_batch(rays, hits, n, any_hit, threads, s);
+  }
+  const hw::Bvh* bvh() const override { return m_tracer.bvh(); }
+  double bvh_cost() const override { return m_tracer.bvh_cost(); }
+  double brute_cost() const override { return m_tracer.brute_cost(); }
+  uint64_t prim_bytes() const override { return m_tracer.leaf_prim_bytes(); }
+
+ private:
+  std::string m_name = "float";
+  hw::FloatTracer m_tracer;
+};
+
+class FixedDevice final : public TraceDevice {
+ public:
+  FixedDevice(const hw::Geometry& g, const DeviceOptions& o)
+      : m_bvh(hw::choose_accel(g, o.tracer, &m_bvh_cost, &m_brute_cost)),
+        m_image(hw::encode_scene(g, o.format, m_bvh ? &*m_bvh : nullptr)),
+        m_tracer(m_image, hw::FixedTraceOptions{o.check_boxes}) {}
+  const std::string& name() const override { return m_name; }
+  void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
+                   hw::TraversalStats& s) const override {
+    m_tracer.trace_batch(rays, hits, n, any_hit, threads, s);
+  }
+  const hw::Bvh* bvh() const override { return m_bvh ? &*m_bvh : nullptr; }
+  double bvh_cost() const override { return m_bvh_cost; }
+  double brute_cost() const override { return m_brute_cost; }
+  const hw::DeviceImage* image() const override { return &m_image; }
+  uint64_t prim_bytes() const override { return m_image.records_size() + m_image.planes_size(); }
+
+ private:
+  std::string m_name = "fixed";
+  double m_bvh_cost = 0.0, m_brute_cost = 0.0;
+  std::optional<hw::Bvh> m_bvh;  // kept for figures; the tracer reads only the image
+  hw::DeviceImage m_image;
+  hw::FixedTracer m_tracer;
+};
+
+}  // namespace
+
+const std::vector<std::string>& device_names() {
+  static const std::vector<std::string> names = {"float", "fixed"};
+  return names;
+}
+
+std::unique_ptr<TraceDevice> make_device(const hw::Geometry& g, const DeviceOptions& o) {
+  DeviceOptions opt = o;
+  opt.tracer.bvh.width = o.format.width;
+  if (o.name == "float") return std::make_unique<FloatDevice>(g, opt);
+  if (o.name == "fixed") {
+    o.format.validate();
+    return std::make_unique<FixedDevice>(g, opt);
+  }
+  throw Error("unknown device '" + o.name + "' (known: float, fixed)");
+}
+
+}  // namespace rtu::host

@@ -1,0 +1,46 @@
+// The devices a host job can trace on, behind one interface: `float` (the reference) and `fixed` (the
+// bit-accurate fixed-point datapath over a device memory image). Both choose BVH or brute force by the same
+// rule (hw::choose_accel) and traverse the same tree, so they differ only in their numbers.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hwmodel/device_image.h"
+#include "hwmodel/fixed_format.h"
+#include "hwmodel/fixed_tracer.h"
+#include "hwmodel/float_tracer.h"
+
+namespace rtu::host {
+
+struct DeviceOptions {
+  std::string name = "float";  // "float" or "fixed"
+  hw::TracerOptions tracer;    // acceleration choice and BVH build (bvh.width is the format's width)
+  hw::FixedFormat format;      // the fixed device's number formats
+  bool check_boxes = false;    // fixed: repeat box tests exactly and count false negatives
+};
+
+const std::vector<std::string>& device_names();
+
+class TraceDevice {
+ public:
+  virtual ~TraceDevice() = default;
+  virtual const std::string& name() const = 0;
+  virtual void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
+                           hw::TraversalStats& s) const = 0;
+  // The BVH the device traverses (null: brute force), with its SAH and brute-force costs.
+  virtual const hw::Bvh* bvh() const = 0;
+  virtual double bvh_cost() const = 0;
+  virtual double brute_cost() const = 0;
+  // The fixed device's memory image (null for float).
+  virtual const hw::DeviceImage* image() const { return nullptr; }
+  // Bytes the float device keeps beside its BVH (leaf-ordered primitive copies).
+  virtual uint64_t prim_bytes() const = 0;
+};
+
+// Throws Error for an unknown device name and std::invalid_argument for a bad format.
+std::unique_ptr<TraceDevice> make_device(const hw::Geometry& g, const DeviceOptions& o);
+
+}  // namespace rtu::host

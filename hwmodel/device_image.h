@@ -1,0 +1,89 @@
+// The device memory image of a scene: what BIND_SCENE points the unit at. One position-independent block:
+// a header (format and frame), then BVH nodes (hw_format.h QNode), primitive records (40 bytes each, leaf order)
+// and plane records. Offsets are bytes from the start of the image; every section is 8-byte aligned.
+//
+// encode_scene() builds it from the scene and the float BVH (the same tree the float device traverses, so the
+// two devices differ only in numbers). Child boxes are the union of the float child box rounded outward to the
+// grid and the grid bounds of the quantized primitives below them; the encoder checks that every decoded box
+// contains both and throws std::logic_error if one does not.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "hwmodel/bvh.h"
+#include "hwmodel/fixed_format.h"
+#include "hwmodel/geometry.h"
+#include "hwmodel/hw_format.h"
+#include "hwmodel/quant_frame.h"
+
+namespace rtu::hw {
+
+inline constexpr uint32_t kImageMagic = 0x42555452u;  // "RTUB" little-endian
+inline constexpr uint16_t kImageVersion = 1;
+inline constexpr uint32_t kImageNoBvh = 1u;  // flags: no BVH; test every primitive record (tiny scenes)
+
+struct ImageHeader {
+  uint32_t magic;           // kImageMagic
+  uint16_t version;         // kImageVersion
+  uint8_t width;            // node width 2, 4 or 8
+  uint8_t q_bytes;          // bytes per child offset: 1 (child_bits <= 8) or 2
+  uint8_t coord_bits;       // FixedFormat fields, as encoded
+  uint8_t child_bits;       //
+  uint8_t guard_bits;       //
+  uint8_t frac_bits;        //
+  uint8_t dir_bits;         //
+  uint8_t rcp_bits;         //
+  uint8_t t_frac_bits;      //
+  uint8_t t_bits;           //
+  int32_t step_exp;         // quantization frame: grid step 2^step_exp world units
+  uint32_t flags;           // kImageNoBvh
+  int64_t frame_origin[3];  // quantization frame: world position of grid 0 = origin * 2^step_exp
+  uint32_t root_ref;        // node index 0, a leaf reference, or kEmptyChild (no bounded primitives)
+  uint32_t node_count;      // nodes at node_offset
+  uint32_t record_count;    // primitive records at record_offset
+  uint32_t plane_count;     // plane records at plane_offset
+  uint32_t num_triangles;   // scene primitive counts (the primitive index space)
+  uint32_t num_spheres;     //
+  uint64_t node_offset;     // byte offsets from the image start
+  uint64_t record_offset;   //
+  uint64_t plane_offset;    //
+  uint64_t total_bytes;     // size of the image
+};
+static_assert(sizeof(ImageHeader) == 104);
+
+class DeviceImage {
+ public:
+  const ImageHeader& header() const { return *reinterpret_cast<const ImageHeader*>(m_words.data()); }
+  const uint8_t* data() const { return reinterpret_cast<const uint8_t*>(m_words.data()); }
+  size_t size() const { return header().total_bytes; }
+
+  FixedFormat format() const;
+  QuantFrame frame() const;
+  size_t node_bytes() const;  // sizeof the node type
+  template <class Node>
+  const Node* nodes() const {
+    return reinterpret_cast<const Node*>(data() + header().node_offset);
+  }
+  const uint8_t* record(uint32_t i) const { return data() + header().record_offset + size_t(i) * kRecordBytes; }
+  const PlaneRecord* planes() const {
+    return reinterpret_cast<const PlaneRecord*>(data() + header().plane_offset);
+  }
+
+  // Section sizes in bytes.
+  uint64_t nodes_size() const { return uint64_t(header().node_count) * node_bytes(); }
+  uint64_t records_size() const { return uint64_t(header().record_count) * kRecordBytes; }
+  uint64_t planes_size() const { return uint64_t(header().plane_count) * sizeof(PlaneRecord); }
+
+ private:
+  friend DeviceImage encode_scene(const Geometry&, const FixedFormat&, const Bvh*);
+  std::vector<uint64_t> m_words;  // 8-byte aligned storage
+};
+
+// Encodes `g` in format `f` over `bvh` (its width must be f.width), or without a BVH when bvh is null (every
+// record tested). Throws std::invalid_argument for a bad format or a mismatched width, std::logic_error when a
+// quantized box fails to contain its exact box (a bug, never expected).
+DeviceImage encode_scene(const Geometry& g, const FixedFormat& f, const Bvh* bvh);
+
+}  // namespace rtu::hw

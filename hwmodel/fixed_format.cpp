@@ -1,0 +1,134 @@
+#include "hwmodel/fixed_format.h"
+
+#include <sstream>
+#include <stdexcept>
+
+namespace rtu::hw {
+
+// Magnitude bounds of the datapath's values (|x| < 2^bits), from the format (B, G, F, D, R, T as in the header):
+//   ray origin            |o| < 2^(B+G)           grid units, F fraction bits
+//   vertex, box plane     0 <= v < 2^(B+1)         grid units (decoded child boxes may overhang the grid by one
+//                                                  quantum of their parent, below 2^(B+1))
+//   translated A = v - o  |A| < 2^(B+G+1) = 2^a    with F fraction bits: a = B + G + F + 1 raw bits
+//   direction             |d| <= 2^D raw           D fraction bits, largest component >= 2^(D-1)
+//   reciprocal            |rcp| <= 2^(D+R) raw     R + D fraction bits (|d raw| >= 1)
+//   box product           |A * rcp| < 2^(a + D + R + 1)
+//   edge function         |d . (A x B)| < 3 * 2 * 2^(2a) * 2^D < 2^(2a + D + 3)
+//   triangle normal N     |N_i| < 2 * 2^(2B)       (from grid-integer edges below 2^B)
+//   t quotients           round(num * 2^s / den) computed as q * 2^s + round(rem * 2^s / den), rem < den, so
+//                         the widest term is den * 2^s: triangle den = N . d < 3 * 2^(2B+1) * 2^D,
+//                         sphere den = d . d <= 3 * 2^(2D) (and 2^(2s) for the half-chord),
+//                         plane den = n . d <= 3 * 2^(2D)
+int FixedFormat::translated_bits() const {
+  return coord_bits + guard_bits + frac_bits + 1;
+}
+int FixedFormat::box_product_bits() const {
+  return translated_bits() + dir_bits + rcp_bits + 1;
+}
+int FixedFormat::edge_function_bits() const {
+  return 2 * translated_bits() + dir_bits + 3;
+}
+int FixedFormat::t_shift() const {
+  return dir_bits - frac_bits + t_frac_bits;
+}
+
+void FixedFormat::validate() const {
+  auto fail = [&](const std::string& what) {
+    throw std::invalid_argument("fixed-point format " + name + ": " + what);
+  };
+  auto range = [&](const char* key, int v, int lo, int hi) {
+    if (v < lo || v > hi)
+      fail(std::string(key) + " = " + std::to_string(v) + " outside [" + std::to_string(lo) + ", " +
+           std::to_string(hi) + "]");
+  };
+  if (width != 2 && width != 4 && width != 8) fail("width must be 2, 4 or 8");
+  range("coord_bits", coord_bits, 2, 30);  // node origins and vertices are stored as int32
+  range("child_bits", child_bits, 1, 16);
+  range("guard_bits", guard_bits, 1, 16);
+  range("frac_bits", frac_bits, 0, 24);
+  range("dir_bits", dir_bits, 4, 30);  // directions and plane normals are stored as int32
+  range("rcp_bits", rcp_bits, 4, 40);
+  range("t_frac_bits", t_frac_bits, 0, 32);
+  range("t_bits", t_bits, 8, 62);
+  constexpr int kLimit = 126;  // magnitude bits of the 128-bit intermediates, one spare
+  auto fits = [&](const char* what, int bits) {
+    if (bits > kLimit) fail(std::string(what) + " needs " + std::to_string(bits) + " bits (> 126)");
+  };
+  const int a = translated_bits(), s = t_shift();
+  if (coord_bits + guard_bits + frac_bits > 60) fail("coord_bits + guard_bits + frac_bits must be <= 60");
+  if (dir_bits + rcp_bits > 62) fail("dir_bits + rcp_bits must be <= 62 (the reciprocal is 64 bits)");
+  if (s < 0) fail("dir_bits - frac_bits + t_frac_bits must be >= 0");
+  if (frac_bits + rcp_bits < t_frac_bits) fail("frac_bits + rcp_bits must be >= t_frac_bits");
+  if (t_bits < coord_bits + guard_bits + t_frac_bits + 3)
+    fail("t_bits must be >= coord_bits + guard_bits + t_frac_bits + 3 (t across the whole frame)");
+  fits("the box product", box_product_bits());
+  fits("the edge function", edge_function_bits());
+  fits("the triangle t numerator", 2 * coord_bits + a + 3);
+  fits("the triangle t quotient", 2 * coord_bits + dir_bits + 3 + s);
+  fits("the sphere/plane t quotient", 2 * dir_bits + 2 + s);
+  fits("the sphere half-chord quotient", 2 * dir_bits + 2 + 2 * s);
+  fits("the sphere closest-approach vector", t_bits + dir_bits + 1);
+  fits("the sphere distance", 2 * (a + 1) + 2);
+  fits("the exact box checker (model only)", a + s + dir_bits + 1);
+}
+
+std::string FixedFormat::describe() const {
+  std::ostringstream o;
+  o << name << ": width " << width << ", coord " << coord_bits << ", child " << child_bits << ", guard "
+    << guard_bits << ", frac " << frac_bits << ", dir " << dir_bits << ", rcp " << rcp_bits << ", t " << t_bits
+    << "." << t_frac_bits;
+  return o.str();
+}
+
+const std::vector<FixedFormat>& format_presets() {
+  static const std::vector<FixedFormat> presets = [] {
+    std::vector<FixedFormat> v;
+    FixedFormat d;  // the header's defaults
+    d.name = "default";
+    v.push_back(d);
+    FixedFormat wide = d;
+    wide.name = "wide8";
+    wide.width = 8;
+    v.push_back(wide);
+    FixedFormat binary = d;
+    binary.name = "binary";
+    binary.width = 2;
+    v.push_back(binary);
+    FixedFormat compact = d;
+    compact.name = "compact";
+    compact.coord_bits = 16;
+    compact.child_bits = 6;
+    compact.guard_bits = 4;
+    compact.frac_bits = 4;
+    compact.dir_bits = 16;
+    compact.rcp_bits = 16;
+    compact.t_frac_bits = 8;
+    compact.t_bits = 32;
+    v.push_back(compact);
+    FixedFormat precise = d;
+    precise.name = "precise";
+    precise.coord_bits = 28;
+    precise.child_bits = 12;
+    precise.guard_bits = 4;
+    precise.frac_bits = 10;
+    precise.dir_bits = 28;
+    precise.rcp_bits = 28;
+    precise.t_frac_bits = 16;
+    precise.t_bits = 60;
+    v.push_back(precise);
+    for (const FixedFormat& f : v) f.validate();
+    return v;
+  }();
+  return presets;
+}
+
+FixedFormat format_preset(const std::string& name) {
+  std::string names;
+  for (const FixedFormat& f : format_presets()) {
+    if (f.name == name) return f;
+    names += (names.empty() ? "" : ", ") + f.name;
+  }
+  throw std::invalid_argument("unknown format preset '" + name + "' (known: " + names + ")");
+}
+
+}  // namespace rtu::hw

@@ -1,0 +1,43 @@
+// The number formats of the fixed-point device, all run-time parameters so that sweeps can trade error for
+// cost. Units (see quant_frame.h): scene coordinates are integers on the frame's grid; a ray's direction is
+// scaled by a power of two so that its largest component lies in [1/2, 1]; "ray units" of t are world t times
+// that power of two, so t converts back to world units exactly.
+//
+// Widths below count magnitude bits; every signed value has one more (sign) bit. validate() checks that every
+// intermediate of the datapath fits the 127 magnitude bits of the model's widest integer, and says which limit
+// a format breaks: those limits are also the bits real hardware would need for the same exactness.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace rtu::hw {
+
+struct FixedFormat {
+  std::string name = "custom";  // preset name, or "custom"
+  int width = 4;                // BVH node width: 2, 4 or 8 children
+  int coord_bits = 24;          // B: vertices and boxes are grid integers in [0, 2^B - 1]; 2..30
+  int child_bits = 8;           // k: child box offsets relative to the parent, 1..16 (stored in 8 or 16 bits)
+  int guard_bits = 6;           // G: ray origins may lie in [-2^(B+G), 2^(B+G)) grid units (else out of frame)
+  int frac_bits = 8;            // F: fraction bits of ray origins, sphere centers and radii, plane offsets
+  int dir_bits = 24;            // D: fraction bits of the scaled direction (largest component in [1/2, 1])
+  int rcp_bits = 24;     // R: 1/direction has R + D fraction bits, so its relative rounding error is <= 2^-R
+  int t_frac_bits = 16;  // T: fraction bits of t (ray units); the t register is t_bits wide
+  int t_bits = 56;       // total magnitude bits of t: saturates at 2^t_bits - 1 raw (beyond every tmax)
+
+  // Throws std::invalid_argument with the rule a format breaks.
+  void validate() const;
+  // Bits of the widest intermediate of each unit (magnitude bits; see fixed_format.cpp for the derivation).
+  int translated_bits() const;     // a = B+G+F+1: a vertex or plane minus a ray origin, F fraction bits
+  int box_product_bits() const;    // (plane - origin) * reciprocal
+  int edge_function_bits() const;  // d . (A x B) of the triangle test
+  int t_shift() const;             // s = D - F + T: a quotient of (F-unit) / (D-unit) values -> t raw
+  std::string describe() const;    // one line: "width 4, B=24 k=8 ..."
+};
+
+// Named formats. "default" is what every command uses without format options.
+const std::vector<FixedFormat>& format_presets();
+// Throws std::invalid_argument listing the known names.
+FixedFormat format_preset(const std::string& name);
+
+}  // namespace rtu::hw

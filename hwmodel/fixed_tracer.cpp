@@ -1,0 +1,181 @@
+#include "hwmodel/fixed_tracer.h"
+
+#include <cmath>
+#include <cstring>
+
+#include "hwmodel/batch.h"
+#include "hwmodel/intersect_float.h"
+#include "hwmodel/traverse.h"
+
+namespace rtu::hw {
+
+namespace {
+
+struct Closest {
+  int64_t t;  // t raw; starts at the ray's tmax
+  uint32_t prim = kMissPrim;
+  float u = 0.0f, v = 0.0f;
+  const uint8_t* record = nullptr;  // the hit's primitive record (null for a plane)
+};
+
+// Tests one primitive record; on a closer (or equally near) hit updates c.
+inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c) {
+  uint32_t word;
+  FixedPrimHit h;
+  bool hit;
+  if (record_kind(rec) == RecordKind::kTriangle) {
+    TriangleRecord t;
+    std::memcpy(&t, rec, sizeof t);
+    word = t.prim;
+    hit = triangle_test(r, t.v, r.tmin, c.t, h);
+  } else {
+    SphereRecord s;
+    std::memcpy(&s, rec, sizeof s);
+    word = s.prim;
+    hit = sphere_test(r, s, r.tmin, c.t, h);
+  }
+  if (hit) {
+    c.t = h.t;
+    c.prim = word & kRecordPrimMask;
+    c.u = h.u;
+    c.v = h.v;
+    c.record = rec;
+  }
+  return hit;
+}
+
+template <int N, class Q>
+struct FixedPolicy {
+  using Dist = int64_t;
+  static constexpr int kWidth = N;
+
+  const QNode<N, Q>* nodes;
+  const DeviceImage& image;
+  const FixedRay& r;
+  bool any_hit;
+  bool check;
+  Closest& closest;
+  TraversalStats& s;
+
+  int expand(uint32_t node, uint32_t refs[N], int64_t dists[N], int& tested) const {
+    const QNode<N, Q>& n = nodes[node];
+    int k = 0;
+    for (int i = 0; i < n.count; ++i) {
+      ++tested;
+      int64_t lo[3], hi[3];
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a][i]) << n.exp[a]);
+        hi[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a + 1][i]) << n.exp[a]);
+      }
+      int64_t t;
+      const bool hit = box_test(r, lo, hi, r.tmin, closest.t, t);
+      if (check) {
+        ++s.box_checks;
+        const bool exact = box_test_exact(r, lo, hi, r.tmin, closest.t);
+        s.box_false_negatives += uint64_t(exact && !hit);
+        s.box_false_positives += uint64_t(hit && !exact);
+      }
+      if (hit) {
+        refs[k] = n.child[i];
+        dists[k] = t;
+        ++k;
+      }
+    }
+    return k;
+  }
+
+  bool leaf(uint32_t ref) const {
+    const uint32_t first = leaf_first(ref), count = leaf_count(ref);
+    s.prim_tests += count;
+    bool found = false;
+    for (uint32_t i = 0; i < count; ++i) {
+      found |= test_record(image.record(first + i), r, closest);
+      if (found && any_hit) return true;
+    }
+    return found;
+  }
+
+  int64_t limit() const { return closest.t; }
+};
+
+}  // namespace
+
+FixedTracer::FixedTracer(const DeviceImage& image, const FixedTraceOptions& opt)
+    : m_image(image), m_format(image.format()), m_frame(image.frame()), m_opt(opt) {}
+
+Hit FixedTracer::trace(const Ray& r, bool any_hit, TraversalStats& s) const {
+  FixedRay fr;
+  const uint64_t sat0 = saturation_count();
+  const RayStatus status = setup_ray(r, m_frame, m_format, fr);
+  if (status != RayStatus::kOk) {
+    ++s.invalid_rays;
+    ++s.invalid_by_reason[size_t(status)];
+    return Hit{};
+  }
+  ++s.rays;
+  const Hit h = trace_valid(r, fr, any_hit, s);
+  s.saturations += saturation_count() - sat0;
+  return h;
+}
+
+Hit FixedTracer::trace_valid(const Ray& r, const FixedRay& fr, bool any_hit, TraversalStats& s) const {
+  const ImageHeader& hd = m_image.header();
+  Closest c{fr.tmax};
+  if (fr.tmin > fr.tmax) return Hit{};
+  const PlaneRecord* planes = m_image.planes();
+  for (uint32_t i = 0; i < hd.plane_count; ++i) {
+    FixedPrimHit h;
+    ++s.prim_tests;
+    if (plane_test(fr, planes[i], fr.tmin, c.t, h)) {
+      c = Closest{h.t, planes[i].prim, 0.0f, 0.0f, nullptr};
+      if (any_hit) break;
+    }
+  }
+  if (!(any_hit && c.prim != kMissPrim) && hd.record_count > 0) {
+    if (hd.flags & kImageNoBvh) {
+      s.prim_tests += hd.record_count;
+      for (uint32_t i = 0; i < hd.record_count; ++i)
+        if (test_record(m_image.record(i), fr, c) && any_hit) break;
+    } else {
+      auto run = [&](auto node_tag) {
+        using Node = decltype(node_tag);
+        constexpr int N = sizeof(Node::child) / sizeof(uint32_t);
+        using Q = std::remove_cv_t<std::remove_reference_t<decltype(Node::q[0][0])>>;
+        FixedPolicy<N, Q> p{m_image.nodes<Node>(), m_image, fr, any_hit, m_opt.check_boxes, c, s};
+        traverse(p, hd.root_ref, any_hit, s);
+      };
+      const bool q8 = hd.q_bytes == 1;
+      switch (hd.width) {
+        case 2:
+          q8 ? run(QNode<2, uint8_t>{}) : run(QNode<2, uint16_t>{});
+          break;
+        case 4:
+          q8 ? run(QNode<4, uint8_t>{}) : run(QNode<4, uint16_t>{});
+          break;
+        default:
+          q8 ? run(QNode<8, uint8_t>{}) : run(QNode<8, uint16_t>{});
+          break;
+      }
+    }
+  }
+  if (c.prim == kMissPrim) return Hit{};
+  ++s.hits;
+  Hit h{t_to_world(c.t, fr), c.prim, c.u, c.v};
+  if (c.record && record_kind(c.record) == RecordKind::kSphere) {
+    // u, v of a sphere hit from its world center (a shading output, not part of the datapath).
+    SphereRecord sr;
+    std::memcpy(&sr, c.record, sizeof sr);
+    Vec3 center;
+    for (int a = 0; a < 3; ++a)
+      center[a] = float(m_frame.to_world(0, a) + std::ldexp(double(sr.center[a]), m_frame.step_exp - fr.frac));
+    sphere_uv(center, r.origin + h.t * r.dir, h.u, h.v);
+  }
+  return h;
+}
+
+void FixedTracer::trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads,
+                              TraversalStats& s) const {
+  run_batch(n, threads, s, [&](size_t i, TraversalStats& local) { hits[i] = trace(rays[i], any_hit, local); });
+}
+
+}  // namespace rtu::hw

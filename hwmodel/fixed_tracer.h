@@ -1,0 +1,44 @@
+// The fixed device's tracer: the bit-accurate fixed-point datapath (intersect_fixed.h) over a device memory image
+// (device_image.h), with the traversal loop the float device uses (traverse.h). Planes first, per ray; then the
+// BVH, or every record when the image has none. Reads nothing but the image.
+#pragma once
+
+#include <cstddef>
+
+#include "hwmodel/device_image.h"
+#include "hwmodel/intersect_fixed.h"
+#include "hwmodel/ray.h"
+#include "hwmodel/stats.h"
+
+namespace rtu::hw {
+
+struct FixedTraceOptions {
+  // Repeat every box test with the exact checker (box_test_exact) and count disagreements in the statistics
+  // (box_false_negatives must stay 0). Slower; what `rtusim compare` and the tests use.
+  bool check_boxes = false;
+};
+
+class FixedTracer {
+ public:
+  // Keeps a reference to `image`: it must outlive the tracer.
+  explicit FixedTracer(const DeviceImage& image, const FixedTraceOptions& opt = {});
+
+  // Traces one ray. Rays rejected at setup (setup_ray) miss and are counted by reason.
+  Hit trace(const Ray& r, bool any_hit, TraversalStats& s) const;
+  // As FloatTracer::trace_batch: results and summed statistics do not depend on the thread count.
+  void trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads, TraversalStats& s) const;
+
+  const DeviceImage& image() const { return m_image; }
+  const FixedFormat& format() const { return m_format; }
+  const QuantFrame& frame() const { return m_frame; }
+
+ private:
+  Hit trace_valid(const Ray& r, const FixedRay& fr, bool any_hit, TraversalStats& s) const;
+
+  const DeviceImage& m_image;
+  FixedFormat m_format;
+  QuantFrame m_frame;
+  FixedTraceOptions m_opt;
+};
+
+}  // namespace rtu::hw

@@ -1,0 +1,68 @@
+// The fixed-point device's memory formats: BVH nodes with quantized child boxes, and primitive records on the
+// grid of the quantization frame (quant_frame.h). All little-endian, naturally aligned, no implicit padding.
+//
+// Child boxes (after Vaidyanathan et al., "Watertight Ray Traversal with Reduced Precision", HPG 2016, and
+// Ylitie et al., "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide BVHs", HPG 2017): a node
+// stores an origin on the grid and a power-of-two scale per axis; child i's box on axis a is
+//   lo = origin[a] + (q[2a][i]   << exp[a]),   hi = origin[a] + (q[2a+1][i] << exp[a])
+// with k-bit offsets q (k = FixedFormat::child_bits). The encoder rounds lows down and highs up, so a decoded
+// box always contains the exact box; decoding is shifts and adds, exact on the grid.
+//
+// Child references are those of the float BVH (bvh.h): bit 31 leaf; a leaf holds primitive records
+// [first, first + count) with count - 1 in bits 27..30 and first in bits 0..26; otherwise a node index.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace rtu::hw {
+
+// Node of width N with child offsets stored in Q (uint8_t for k <= 8, uint16_t for k <= 16).
+template <int N, class Q>
+struct QNode {
+  int32_t origin[3];  // grid coordinates of the children's common low corner
+  int8_t exp[3];      // per-axis scale: one offset step = 2^exp grid steps (0 .. B+1)
+  uint8_t count;      // occupied child slots (they come first); the rest hold kEmptyChild
+  Q q[6][N];          // rows lo_x, hi_x, lo_y, hi_y, lo_z, hi_z; column = child slot; values < 2^k
+  uint32_t child[N];  // child reference per slot (see above)
+};
+static_assert(sizeof(QNode<2, uint8_t>) == 36 && sizeof(QNode<4, uint8_t>) == 56 &&
+              sizeof(QNode<8, uint8_t>) == 96);
+static_assert(sizeof(QNode<2, uint16_t>) == 48 && sizeof(QNode<4, uint16_t>) == 80 &&
+              sizeof(QNode<8, uint16_t>) == 144);
+using QNode4x8 = QNode<4, uint8_t>;
+static_assert(offsetof(QNode4x8, q) == 16 && offsetof(QNode4x8, child) == 40);
+
+// The kind of a primitive record, in bits 30..31 of its `prim` word.
+enum class RecordKind : uint32_t { kTriangle = 0, kSphere = 1 };
+inline constexpr uint32_t kRecordPrimMask = (1u << 30) - 1;
+
+// A primitive record: 40 bytes, triangle or sphere, told apart by the kind bits of its last word.
+struct TriangleRecord {
+  int32_t v[3][3];  // vertices v0, v1, v2 on the grid (integers in [0, 2^B - 1]), rounded to nearest
+  uint32_t prim;    // kind (bits 30..31) and scene primitive index (bits 0..29)
+};
+struct SphereRecord {
+  int64_t center[3];  // grid coordinates with F fraction bits, rounded to nearest
+  int64_t radius;     // grid units with F fraction bits, rounded up (> 0)
+  uint32_t reserved;  // 0
+  uint32_t prim;      // kind (bits 30..31) and scene primitive index (bits 0..29)
+};
+static_assert(sizeof(TriangleRecord) == 40 && sizeof(SphereRecord) == 40);
+// The prim word is the last 4 bytes of every record, so its kind bits are in byte 39.
+static_assert(offsetof(TriangleRecord, prim) == 36 && offsetof(SphereRecord, prim) == 36);
+inline constexpr size_t kRecordBytes = 40;
+inline RecordKind record_kind(const uint8_t* rec) {
+  return RecordKind(rec[39] >> 6);
+}
+
+// A plane {x : n . x = w} in grid space, tested per ray outside the BVH.
+struct PlaneRecord {
+  int32_t normal[3];  // normal scaled so the largest component is in [1/2, 1], D fraction bits, nearest
+  uint32_t prim;      // scene primitive index
+  int64_t offset;     // w in grid units (same scale as the normal), F fraction bits, nearest, saturated to
+                      // the translated range (2^(B+G+1) grid units)
+};
+static_assert(sizeof(PlaneRecord) == 24 && offsetof(PlaneRecord, offset) == 16);
+
+}  // namespace rtu::hw

@@ -1,0 +1,147 @@
+#include "hwmodel/intersect_fixed.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace rtu::hw {
+
+namespace {
+
+// x * 2^e rounded by r, exactly (x finite). Values beyond 2^70 in magnitude come back as +-2^70.
+Wide scaled_round(float x, int e, Round r) {
+  if (x == 0.0f) return 0;
+  int k = 0;
+  const float fr = std::frexp(x, &k);
+  const int64_t m = int64_t(std::ldexp(fr, 24));  // x = m * 2^(k - 24), |m| < 2^24
+  const int sh = k - 24 + e;
+  if (sh >= 0) {
+    if (sh > 46) return m > 0 ? (Wide(1) << 70) : -(Wide(1) << 70);
+    return Wide(m) << sh;
+  }
+  if (-sh > 100) {  // |x * 2^e| < 2^-76: 0, or one unit by the sign and the rounding
+    if (m > 0 && r == Round::kUp) return 1;
+    if (m < 0 && r == Round::kDown) return -1;
+    return 0;
+  }
+  return round_shift(Wide(m), -sh, r);
+}
+
+}  // namespace
+
+RayStatus setup_ray(const Ray& r, const QuantFrame& frame, const FixedFormat& f, FixedRay& out) {
+  const RayStatus st = validate_ray(r);
+  if (st != RayStatus::kOk) return st;
+  out.frac = f.frac_bits;
+  out.dir_bits = f.dir_bits;
+  out.box_shift = f.frac_bits + f.rcp_bits - f.t_frac_bits;
+  out.t_shift = f.t_shift();
+  out.t_limit = int64_t((uint64_t(1) << f.t_bits) - 1);
+
+  // Origin: grid.F, nearest; out of frame beyond the guard range. A coarse test in double first keeps far
+  // origins away from to_grid's saturation (which would be counted as an overflow of an in-range value).
+  const int range_exp = f.coord_bits + f.guard_bits;
+  const int64_t olim = int64_t(1) << (range_exp + f.frac_bits);
+  for (int a = 0; a < 3; ++a) {
+    const double rel = double(r.origin[a]) - std::ldexp(double(frame.origin[a]), frame.step_exp);
+    if (std::abs(rel) > std::ldexp(1.0, range_exp + 1 + frame.step_exp)) return RayStatus::kOutOfFrame;
+    out.o[a] = frame.to_grid(r.origin[a], a, Round::kNearestEven, f.frac_bits);
+    if (out.o[a] >= olim || out.o[a] <= -olim) return RayStatus::kOutOfFrame;
+  }
+
+  // Direction: scaled by 2^-(E+1) so the largest component is in [1/2, 1), then D fraction bits, nearest
+  // (the largest may round up to exactly 1). Components far smaller than the largest round to 0.
+  const float m = std::max({std::abs(r.dir.x), std::abs(r.dir.y), std::abs(r.dir.z)});
+  const int E = std::ilogb(m);
+  for (int a = 0; a < 3; ++a) {
+    out.d[a] = int64_t(scaled_round(r.dir[a], f.dir_bits - E - 1, Round::kNearestEven));
+    out.zero[a] = out.d[a] == 0;
+    const Wide one = Wide(1) << (f.dir_bits + f.rcp_bits);
+    out.rcp_dn[a] = out.zero[a] ? 0 : int64_t(div_round(one, out.d[a], Round::kDown));
+    out.rcp_up[a] = out.zero[a] ? 0 : int64_t(div_round(one, out.d[a], Round::kUp));
+  }
+  // Grid displacement per world t is dir * 2^-step_exp = d * 2^(E + 1 - step_exp): t_ray = t_world * 2^k.
+  const int k = E + 1 - frame.step_exp;
+  out.t_exp = f.t_frac_bits + k;
+  out.tmin = clamp_t(scaled_round(r.tmin, out.t_exp, Round::kDown), out.t_limit);
+  out.tmax = std::isinf(r.tmax) ? (r.tmax > 0 ? out.t_limit : -out.t_limit)
+                                : clamp_t(scaled_round(r.tmax, out.t_exp, Round::kUp), out.t_limit);
+  return RayStatus::kOk;
+}
+
+float t_to_world(int64_t t, const FixedRay& r) {
+  return float(std::ldexp(double(t), -r.t_exp));
+}
+
+bool box_test_exact(const FixedRay& r, const int64_t lo[3], const int64_t hi[3], int64_t tmin, int64_t tlim) {
+  // Distances as fractions p / q (q > 0) in t raw units: t = (plane - origin) * 2^s / d.
+  struct Frac {
+    Wide p, q;
+  };
+  Frac enters[4], exits[4];
+  int ne = 0, nx = 0;
+  enters[ne++] = {tmin, 1};
+  exits[nx++] = {tlim, 1};
+  for (int a = 0; a < 3; ++a) {
+    const int64_t dl = (lo[a] << r.frac) - r.o[a], dh = (hi[a] << r.frac) - r.o[a];
+    if (r.zero[a]) {
+      if (dl > 0 || dh < 0) return false;
+      continue;
+    }
+    const bool pos = r.d[a] > 0;
+    const Wide sgn = pos ? 1 : -1;
+    const int64_t dn = pos ? dl : dh, df = pos ? dh : dl;
+    enters[ne++] = {sgn * (Wide(dn) << r.t_shift), sgn * r.d[a]};
+    exits[nx++] = {sgn * (Wide(df) << r.t_shift), sgn * r.d[a]};
+  }
+  for (int i = 0; i < ne; ++i)
+    for (int j = 0; j < nx; ++j)
+      if (enters[i].p * exits[j].q > exits[j].p * enters[i].q) return false;
+  return true;
+}
+
+bool sphere_test(const FixedRay& r, const SphereRecord& s, int64_t tmin, int64_t tlim, FixedPrimHit& out) {
+  int64_t f[3];
+  for (int a = 0; a < 3; ++a) f[a] = r.o[a] - s.center[a];
+  Wide fd = 0, dd = 0;
+  for (int a = 0; a < 3; ++a) {
+    fd += Wide(f[a]) * r.d[a];
+    dd += Wide(r.d[a]) * r.d[a];
+  }
+  const int64_t tca = div_shift(-fd, dd, r.t_shift, Round::kNearestEven, r.t_limit);
+  // The perpendicular from the center to the line. Beyond 2^62 it is far outside any sphere of the frame
+  // (radii are below 2^(B+F+1)); clamping there keeps the miss and the squares inside 127 bits.
+  constexpr Wide kLMax = Wide(1) << 62;
+  Wide ll = 0;
+  for (int a = 0; a < 3; ++a) {
+    Wide l = f[a] + round_shift(Wide(tca) * r.d[a], r.t_shift, Round::kNearestEven);
+    l = l > kLMax ? kLMax : (l < -kLMax ? -kLMax : l);
+    ll += l * l;
+  }
+  const Wide disc = Wide(s.radius) * s.radius - ll;
+  if (disc < 0) return false;
+  const Wide h2 = div_shift_wide(disc, dd, 2 * r.t_shift, Round::kDown, Wide(1) << 124);
+  const int64_t h = clamp_t(isqrt_round(h2, Round::kNearestEven), r.t_limit);
+  const int64_t t0 = clamp_t(Wide(tca) - h, r.t_limit), t1 = clamp_t(Wide(tca) + h, r.t_limit);
+  const int64_t t = t0 >= tmin ? t0 : t1;
+  if (t < tmin || t > tlim) return false;
+  out.t = t;
+  out.u = out.v = 0.0f;  // filled for the final hit only (sphere_uv)
+  return true;
+}
+
+bool plane_test(const FixedRay& r, const PlaneRecord& p, int64_t tmin, int64_t tlim, FixedPrimHit& out) {
+  // n . x = w with n at D fraction bits and w, x at F: num and den share the scale 2^-(F+D) and 2^-2D.
+  Wide num = Wide(p.offset) << r.dir_bits, den = 0;
+  for (int a = 0; a < 3; ++a) {
+    num -= Wide(p.normal[a]) * r.o[a];
+    den += Wide(p.normal[a]) * r.d[a];
+  }
+  if (den == 0) return false;
+  const int64_t t = div_shift(num, den, r.t_shift, Round::kNearestEven, r.t_limit);
+  if (t < tmin || t > tlim) return false;
+  out.t = t;
+  out.u = out.v = 0.0f;
+  return true;
+}
+
+}  // namespace rtu::hw

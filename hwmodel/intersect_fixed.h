@@ -1,0 +1,155 @@
+// The fixed-point datapath: ray setup and the box, triangle, sphere and plane tests, as bit-accurate pure
+// functions on integers. Formats and the bounds behind every width: fixed_format.h/.cpp. Units:
+//   grid    integer coordinates of the quantization frame (quant_frame.h); values with F fraction bits are
+//           "grid.F" (raw = grid * 2^F)
+//   d       the direction scaled by 2^-k' so its largest component is in [1/2, 1], D fraction bits
+//   t       ray units (world t * 2^k, see FixedRay::t_exp), T fraction bits, clamped to +-t_limit
+// Intermediates are computed exactly in 128-bit integers (FixedFormat::validate() proves they fit); every
+// rounding is one explicit call with its direction.
+#pragma once
+
+#include <cstdint>
+
+#include "hwmodel/fixed.h"
+#include "hwmodel/fixed_format.h"
+#include "hwmodel/hw_format.h"
+#include "hwmodel/quant_frame.h"
+#include "hwmodel/ray.h"
+
+namespace rtu::hw {
+
+// A ray after setup, with the format constants the tests need.
+struct FixedRay {
+  int64_t o[3];       // origin, grid.F, nearest; |o| < 2^(B+G+F) raw
+  int64_t d[3];       // direction, D fraction bits, nearest; |d| <= 2^D raw, largest >= 2^(D-1)
+  int64_t rcp_dn[3];  // 1/d with R fraction bits rounded down (toward -inf); 0 where d = 0
+  int64_t rcp_up[3];  // 1/d with R fraction bits rounded up (toward +inf); 0 where d = 0
+  bool zero[3];       // d[a] == 0: the box test compares the origin with the slab instead
+  int64_t tmin;       // interval start, t raw, rounded down
+  int64_t tmax;       // interval end, t raw, rounded up (+inf -> t_limit)
+  int t_exp;          // world t = t raw * 2^-t_exp (t_exp = T + k)
+  int frac;           // F
+  int dir_bits;       // D
+  int box_shift;      // F + R - T: box product -> t raw
+  int t_shift;        // D - F + T: (grid.F / d) quotients -> t raw
+  int64_t t_limit;    // largest t raw: 2^t_bits - 1
+};
+
+// Ray setup: float world ray -> FixedRay. Rejects what validate_ray() rejects, and rays whose origin is out of
+// the frame's guard range (RayStatus::kOutOfFrame). An empty or negative interval is valid (it misses).
+RayStatus setup_ray(const Ray& r, const QuantFrame& frame, const FixedFormat& f, FixedRay& out);
+
+// World t of a t raw value (rounded to float, nearest).
+float t_to_world(int64_t t, const FixedRay& r);
+
+// round(num * 2^s / den) by r, exactly, with den != 0 and rem * 2^s inside 127 bits (rem < |den|;
+// validate() proves it for every use). A result beyond +-limit saturates to +-limit, not counted: the callers'
+// limits lie beyond every ray interval (or, for the sphere's squared half-chord, beyond every hit), so the
+// clamp never changes a decision.
+inline Wide div_shift_wide(Wide num, Wide den, int s, Round r, Wide limit) {
+  if (den < 0) {
+    num = -num;
+    den = -den;
+  }
+  Wide q = num / den, rem = num % den;
+  if (rem < 0) {
+    q -= 1;
+    rem += den;
+  }
+  const Wide qmax = (limit >> s) + 1;
+  if (q >= qmax) return limit;
+  if (q < -qmax) return -limit;
+  const Wide v = (q << s) + div_round(rem << s, den, r);
+  return v > limit ? limit : (v < -limit ? -limit : v);
+}
+inline int64_t div_shift(Wide num, Wide den, int s, Round r, int64_t limit) {
+  return int64_t(div_shift_wide(num, den, s, r, limit));
+}
+
+inline int64_t clamp_t(Wide v, int64_t limit) {
+  return int64_t(v > limit ? limit : (v < -limit ? -limit : v));
+}
+
+// Conservative slab test of the grid box [lo, hi] against [tmin, tlim]: t_near rounds down and t_far up (with
+// the reciprocal rounded the matching way for each sign), so no box the exact test accepts is rejected.
+// On acceptance writes the entry distance (rounded down) to t_near.
+inline bool box_test(const FixedRay& r, const int64_t lo[3], const int64_t hi[3], int64_t tmin, int64_t tlim,
+                     int64_t& t_near) {
+  int64_t t0 = tmin, t1 = tlim;
+  for (int a = 0; a < 3; ++a) {
+    const int64_t dl = (lo[a] << r.frac) - r.o[a], dh = (hi[a] << r.frac) - r.o[a];
+    if (r.zero[a]) {
+      if (dl > 0 || dh < 0) return false;  // parallel to the slab and outside it
+      continue;
+    }
+    const bool pos = r.d[a] > 0;
+    const int64_t dn = pos ? dl : dh, df = pos ? dh : dl;  // near and far plane, minus the origin
+    const int64_t tn = clamp_t(
+        round_shift(Wide(dn) * (dn >= 0 ? r.rcp_dn[a] : r.rcp_up[a]), r.box_shift, Round::kDown), r.t_limit);
+    const int64_t tf =
+        clamp_t(round_shift(Wide(df) * (df >= 0 ? r.rcp_up[a] : r.rcp_dn[a]), r.box_shift, Round::kUp), r.t_limit);
+    t0 = tn > t0 ? tn : t0;
+    t1 = tf < t1 ? tf : t1;
+  }
+  t_near = t0;
+  return t0 <= t1;
+}
+
+// The exact slab test of the same quantized ray and box over [tmin, tlim]: rational comparisons of
+// (plane - origin) / d in 128-bit integers, no reciprocal. The checker behind box_false_negatives.
+bool box_test_exact(const FixedRay& r, const int64_t lo[3], const int64_t hi[3], int64_t tmin, int64_t tlim);
+
+struct FixedPrimHit {
+  int64_t t;  // t raw
+  float u, v;
+};
+
+// Watertight triangle test on grid vertices. The edge functions e_i = d . (A_j x A_k) of the translated
+// vertices A = v - o are exact integers, so a shared edge gives exactly opposite values on its two triangles and
+// a ray through it hits at least one of them (both when it passes exactly through the edge). A hit needs all
+// three of one sign (zeros allowed) and a non-zero sum. t = N . A0 / N . d (N the grid normal), rounded to
+// nearest, in [tmin, tlim]. u, v (barycentrics of v1, v2) are e1 / sum and e2 / sum rounded to float.
+inline bool triangle_test(const FixedRay& r, const int32_t v[3][3], int64_t tmin, int64_t tlim,
+                          FixedPrimHit& out) {
+  int64_t A[3][3];
+  for (int i = 0; i < 3; ++i)
+    for (int a = 0; a < 3; ++a) A[i][a] = (int64_t(v[i][a]) << r.frac) - r.o[a];
+  auto edge = [&](const int64_t* p, const int64_t* q) {
+    const Wide cx = Wide(p[1]) * q[2] - Wide(p[2]) * q[1];
+    const Wide cy = Wide(p[2]) * q[0] - Wide(p[0]) * q[2];
+    const Wide cz = Wide(p[0]) * q[1] - Wide(p[1]) * q[0];
+    return cx * r.d[0] + cy * r.d[1] + cz * r.d[2];
+  };
+  const Wide e0 = edge(A[1], A[2]), e1 = edge(A[2], A[0]), e2 = edge(A[0], A[1]);
+  if ((e0 < 0 || e1 < 0 || e2 < 0) && (e0 > 0 || e1 > 0 || e2 > 0)) return false;
+  const Wide det = e0 + e1 + e2;
+  if (det == 0) return false;
+  int64_t ea[3], eb[3];
+  for (int a = 0; a < 3; ++a) {
+    ea[a] = int64_t(v[1][a]) - v[0][a];
+    eb[a] = int64_t(v[2][a]) - v[0][a];
+  }
+  const int64_t n[3] = {ea[1] * eb[2] - ea[2] * eb[1], ea[2] * eb[0] - ea[0] * eb[2],
+                        ea[0] * eb[1] - ea[1] * eb[0]};
+  const Wide num = Wide(n[0]) * A[0][0] + Wide(n[1]) * A[0][1] + Wide(n[2]) * A[0][2];
+  const Wide den = Wide(n[0]) * r.d[0] + Wide(n[1]) * r.d[1] + Wide(n[2]) * r.d[2];
+  if (den == 0) return false;  // cannot happen when det != 0 (det = 2^2F den); kept for safety
+  const int64_t t = div_shift(num, den, r.t_shift, Round::kNearestEven, r.t_limit);
+  if (t < tmin || t > tlim) return false;
+  out.t = t;
+  const double dd = double(det);
+  out.u = float(double(e1) / dd);
+  out.v = float(double(e2) / dd);
+  return true;
+}
+
+// Sphere test: the closest-approach parameter tca = -(f . d) / (d . d) (f = o - center), the perpendicular
+// l = f + tca d, disc = r^2 - |l|^2, half-chord h = sqrt(disc / (d . d)). No b^2 - ac: every value stays
+// within the frame's magnitude (the fixed-point form of the stable quadratic; rounding errors are absolute,
+// one unit in t or grid.F each). The near root, or the far one when the near is before tmin.
+bool sphere_test(const FixedRay& r, const SphereRecord& s, int64_t tmin, int64_t tlim, FixedPrimHit& out);
+
+// Plane test: t = (w - n . o) / (n . d), nearest; misses when n . d = 0.
+bool plane_test(const FixedRay& r, const PlaneRecord& p, int64_t tmin, int64_t tlim, FixedPrimHit& out);
+
+}  // namespace rtu::hw

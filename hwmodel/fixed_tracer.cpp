@@ -113,12 +113,20 @@ Hit FixedTracer::trace(const Ray& r, bool any_hit, TraversalStats& s) const {
     return Hit{};
   }
   ++s.rays;
-  const Hit h = trace_valid(r, fr, any_hit, s);
+  const Hit h = trace_valid(&r, fr, any_hit, s);
   s.saturations += saturation_count() - sat0;
   return h;
 }
 
-Hit FixedTracer::trace_valid(const Ray& r, const FixedRay& fr, bool any_hit, TraversalStats& s) const {
+Hit FixedTracer::trace_fixed(const FixedRay& r, bool any_hit, TraversalStats& s) const {
+  const uint64_t sat0 = saturation_count();
+  ++s.rays;
+  const Hit h = trace_valid(nullptr, r, any_hit, s);
+  s.saturations += saturation_count() - sat0;
+  return h;
+}
+
+Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s) const {
   const ImageHeader& hd = m_image.header();
   Closest c{fr.tmax};
   if (fr.tmin > fr.tmax) return Hit{};
@@ -161,14 +169,14 @@ Hit FixedTracer::trace_valid(const Ray& r, const FixedRay& fr, bool any_hit, Tra
   if (c.prim == kMissPrim) return Hit{};
   ++s.hits;
   Hit h{t_to_world(c.t, fr), c.prim, c.u, c.v};
-  if (c.record && record_kind(c.record) == RecordKind::kSphere) {
+  if (r && c.record && record_kind(c.record) == RecordKind::kSphere) {
     // u, v of a sphere hit from its world center (a shading output, not part of the datapath).
     SphereRecord sr;
     std::memcpy(&sr, c.record, sizeof sr);
     Vec3 center;
     for (int a = 0; a < 3; ++a)
       center[a] = float(m_frame.to_world(0, a) + std::ldexp(double(sr.center[a]), m_frame.step_exp - fr.frac));
-    sphere_uv(center, r.origin + h.t * r.dir, h.u, h.v);
+    sphere_uv(center, r->origin + h.t * r->dir, h.u, h.v);
   }
   return h;
 }

@@ -28,12 +28,16 @@ class FixedTracer {
   // As FloatTracer::trace_batch: results and summed statistics do not depend on the thread count.
   void trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads, TraversalStats& s) const;
 
+  // Traces a ray already set up in the image's format and frame (setup_ray, or built on the grid). The hit's t
+  // is world t (t_to_world); u, v of spheres are not filled (they need the float ray).
+  Hit trace_fixed(const FixedRay& r, bool any_hit, TraversalStats& s) const;
+
   const DeviceImage& image() const { return m_image; }
   const FixedFormat& format() const { return m_format; }
   const QuantFrame& frame() const { return m_frame; }
 
  private:
-  Hit trace_valid(const Ray& r, const FixedRay& fr, bool any_hit, TraversalStats& s) const;
+  Hit trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s) const;
 
   const DeviceImage& m_image;
   FixedFormat m_format;

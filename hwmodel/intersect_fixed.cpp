@@ -52,13 +52,9 @@ RayStatus setup_ray(const Ray& r, const QuantFrame& frame, const FixedFormat& f,
   // (the largest may round up to exactly 1). Components far smaller than the largest round to 0.
   const float m = std::max({std::abs(r.dir.x), std::abs(r.dir.y), std::abs(r.dir.z)});
   const int E = std::ilogb(m);
-  for (int a = 0; a < 3; ++a) {
-    out.d[a] = int64_t(scaled_round(r.dir[a], f.dir_bits - E - 1, Round::kNearestEven));
-    out.zero[a] = out.d[a] == 0;
-    const Wide one = Wide(1) << (f.dir_bits + f.rcp_bits);
-    out.rcp_dn[a] = out.zero[a] ? 0 : int64_t(div_round(one, out.d[a], Round::kDown));
-    out.rcp_up[a] = out.zero[a] ? 0 : int64_t(div_round(one, out.d[a], Round::kUp));
-  }
+  int64_t d[3];
+  for (int a = 0; a < 3; ++a) d[a] = int64_t(scaled_round(r.dir[a], f.dir_bits - E - 1, Round::kNearestEven));
+  set_direction(out, d, f);
   // Grid displacement per world t is dir * 2^-step_exp = d * 2^(E + 1 - step_exp): t_ray = t_world * 2^k.
   const int k = E + 1 - frame.step_exp;
   out.t_exp = f.t_frac_bits + k;
@@ -66,6 +62,16 @@ RayStatus setup_ray(const Ray& r, const QuantFrame& frame, const FixedFormat& f,
   out.tmax = std::isinf(r.tmax) ? (r.tmax > 0 ? out.t_limit : -out.t_limit)
                                 : clamp_t(scaled_round(r.tmax, out.t_exp, Round::kUp), out.t_limit);
   return RayStatus::kOk;
+}
+
+void set_direction(FixedRay& r, const int64_t d[3], const FixedFormat& f) {
+  const Wide one = Wide(1) << (f.dir_bits + f.rcp_bits);
+  for (int a = 0; a < 3; ++a) {
+    r.d[a] = d[a];
+    r.zero[a] = d[a] == 0;
+    r.rcp_dn[a] = r.zero[a] ? 0 : int64_t(div_round(one, d[a], Round::kDown));
+    r.rcp_up[a] = r.zero[a] ? 0 : int64_t(div_round(one, d[a], Round::kUp));
+  }
 }
 
 float t_to_world(int64_t t, const FixedRay& r) {

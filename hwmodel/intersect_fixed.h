@@ -39,6 +39,10 @@ struct FixedRay {
 // the frame's guard range (RayStatus::kOutOfFrame). An empty or negative interval is valid (it misses).
 RayStatus setup_ray(const Ray& r, const QuantFrame& frame, const FixedFormat& f, FixedRay& out);
 
+// Sets d, zero, rcp_dn and rcp_up from a direction already in D-fraction-bit form (|d| <= 2^D raw, largest
+// component >= 2^(D-1)); the part of setup_ray after the direction is scaled. For building rays on the grid.
+void set_direction(FixedRay& r, const int64_t d[3], const FixedFormat& f);
+
 // World t of a t raw value (rounded to float, nearest).
 float t_to_world(int64_t t, const FixedRay& r);
 

@@ -61,5 +61,6 @@ void add_rays(CLI::App& app);
 void add_trace(CLI::App& app);
 void add_demo(CLI::App& app);
 void add_compare(CLI::App& app);
+void add_stress(CLI::App& app);
 
 }  // namespace rtu::host::cmd

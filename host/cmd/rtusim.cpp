@@ -13,11 +13,14 @@ int main(int argc, char** argv) {
   rtu::host::cmd::add_rays(app);
   rtu::host::cmd::add_trace(app);
   rtu::host::cmd::add_compare(app);
+  rtu::host::cmd::add_stress(app);
   rtu::host::cmd::add_demo(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
+  } catch (const rtu::host::ExitStatus& e) {
+    return e.code();
   } catch (const rtu::host::Error& e) {
     std::fprintf(stderr, "rtusim: error: %s\n", e.what());
     return 2;

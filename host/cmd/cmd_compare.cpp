@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "host/cmd/common.h"
+#include "host/compare.h"
 #include "host/error.h"
 #include "host/ray_io.h"
 #include "host/trace_job.h"
@@ -22,13 +23,6 @@ struct CompareOptions {
   size_t max_list = 1000;
   uint64_t seed = 1;
   DeviceArgs dev;
-};
-
-struct Tally {
-  uint64_t rays = 0, compared = 0, hit_agree = 0, prim_agree = 0, false_misses = 0, false_hits = 0;
-  uint64_t other_prim = 0, t_compared = 0;
-  double t_rel_max = 0.0, t_rel_sum = 0.0;
-  uint64_t t_rel_max_ray = 0;
 };
 
 double ratio_minus_one(uint64_t a, uint64_t b) {
@@ -52,61 +46,34 @@ void run_compare(const CompareOptions& o) {
   const double ref_s = trace_with_progress(*ref, rays, ref_hits, o.any_hit, o.threads, ref_stats);
   const double dut_s = trace_with_progress(*dut, rays, dut_hits, o.any_hit, o.threads, dut_stats);
 
-  // Rays either device rejected are not compared (they are counted as invalid_rays).
-  Tally t;
-  t.rays = rays.size();
-  Json list = Json::array();
-  std::vector<hw::Ray> replay;
+  // Rays either device rejected are not compared (counted as invalid_rays). The fixed device also rejects
+  // origins out of its frame: re-checked here ray by ray.
+  std::vector<bool> valid(rays.size());
   uint64_t invalid_either = 0;
   for (size_t i = 0; i < rays.size(); ++i) {
-    const hw::Hit& a = ref_hits[i];
-    const hw::Hit& b = dut_hits[i];
-    // A ray both devices traced; the fixed device also rejects origins out of its frame, re-checked here.
     hw::FixedRay fr;
-    const bool dut_valid =
-        dut->image() ? hw::setup_ray(rays[i], dut->image()->frame(), dut_opt.format, fr) == hw::RayStatus::kOk
-                     : hw::validate_ray(rays[i]) == hw::RayStatus::kOk;
-    if (hw::validate_ray(rays[i]) != hw::RayStatus::kOk || !dut_valid) {
-      ++invalid_either;
-      continue;
-    }
-    ++t.compared;
-    const bool same_hit = a.hit() == b.hit();
-    t.hit_agree += same_hit;
-    t.prim_agree += a.prim == b.prim;
-    const char* kind = nullptr;
-    if (a.hit() && !b.hit()) {
-      ++t.false_misses;
-      kind = "false_miss";
-    } else if (!a.hit() && b.hit()) {
-      ++t.false_hits;
-      kind = "false_hit";
-    } else if (a.prim != b.prim && !o.any_hit) {
-      ++t.other_prim;
-      kind = "other_primitive";
-    }
-    if (a.hit() && b.hit() && a.prim == b.prim && !o.any_hit) {
-      const double denom = std::max(std::abs(double(a.t)), 1e-30);
-      const double rel = std::abs(double(b.t) - double(a.t)) / denom;
-      ++t.t_compared;
-      t.t_rel_sum += rel;
-      if (rel > t.t_rel_max) {
-        t.t_rel_max = rel;
-        t.t_rel_max_ray = i;
-      }
-    }
-    if (kind) {
-      if (list.size() < o.max_list)
-        list.push_back(
-            {{"ray", i},
-             {"kind", kind},
-             {"float", {{"prim", a.hit() ? Json(a.prim) : Json(nullptr)}, {"t", a.hit() ? a.t : -1.0f}}},
-             {dut->name(), {{"prim", b.hit() ? Json(b.prim) : Json(nullptr)}, {"t", b.hit() ? b.t : -1.0f}}}});
-      replay.push_back(rays[i]);
-    }
+    valid[i] = dut->image()
+                   ? hw::setup_ray(rays[i], dut->image()->frame(), dut_opt.format, fr) == hw::RayStatus::kOk
+                   : hw::validate_ray(rays[i]) == hw::RayStatus::kOk;
+    valid[i] = valid[i] && hw::validate_ray(rays[i]) == hw::RayStatus::kOk;
+    invalid_either += !valid[i];
   }
+  const HitComparison t = compare_hits(ref_hits, dut_hits, valid, o.any_hit);
   const double n = t.compared ? double(t.compared) : 1.0;
-  const uint64_t disagreements = t.false_misses + t.false_hits + t.other_prim;
+  const uint64_t disagreements = t.disagreements.size();
+  Json list = Json::array();
+  std::vector<hw::Ray> replay;
+  for (const RayDisagreement& d : t.disagreements) {
+    const hw::Hit& a = ref_hits[d.ray];
+    const hw::Hit& b = dut_hits[d.ray];
+    if (list.size() < o.max_list)
+      list.push_back(
+          {{"ray", d.ray},
+           {"kind", disagreement_name(d.kind)},
+           {"float", {{"prim", a.hit() ? Json(a.prim) : Json(nullptr)}, {"t", a.hit() ? a.t : -1.0f}}},
+           {dut->name(), {{"prim", b.hit() ? Json(b.prim) : Json(nullptr)}, {"t", b.hit() ? b.t : -1.0f}}}});
+    replay.push_back(rays[d.ray]);
+  }
 
   Json j;
   j["scene"] = scene.name;
@@ -125,7 +92,7 @@ void run_compare(const CompareOptions& o) {
   j["other_primitive"] = t.other_prim;
   j["t_rel_error_max"] = t.t_rel_max;
   j["t_rel_error_max_ray"] = t.t_rel_max_ray;
-  j["t_rel_error_mean"] = t.t_compared ? t.t_rel_sum / double(t.t_compared) : 0.0;
+  j["t_rel_error_mean"] = t.t_rel_mean;
   j["box_checks"] = dut_stats.box_checks;
   j["box_false_negatives"] = dut_stats.box_false_negatives;
   j["box_false_positives"] = dut_stats.box_false_positives;
@@ -148,7 +115,7 @@ void run_compare(const CompareOptions& o) {
       100.0 * double(t.hit_agree) / n, 100.0 * double(t.prim_agree) / n, (unsigned long long)t.false_misses,
       (unsigned long long)t.false_hits, (unsigned long long)t.other_prim);
   std::printf("  t relative error: max %.3g (ray %llu), mean %.3g\n", t.t_rel_max,
-              (unsigned long long)t.t_rel_max_ray, t.t_compared ? t.t_rel_sum / double(t.t_compared) : 0.0);
+              (unsigned long long)t.t_rel_max_ray, t.t_rel_mean);
   std::printf("  box tests checked exactly: %llu, false negatives %llu, false positives %llu\n",
               (unsigned long long)dut_stats.box_checks, (unsigned long long)dut_stats.box_false_negatives,
               (unsigned long long)dut_stats.box_false_positives);

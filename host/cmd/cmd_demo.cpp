@@ -1,11 +1,13 @@
 // rtusim demo: the main job on the built-in default scene, as the README's first command runs it. Loads the
-// scene, builds the BVH, traces the camera's primary rays on the float reference and writes a hit image, the
-// hit file and a JSON report. Later devices (fixed, timed) and the renderer join here as they arrive.
+// scene, traces the camera's primary rays on the float reference and on the fixed device (default format),
+// writes a hit image and a hit file per device and a JSON report, and prints the fixed device's error against
+// the float reference. The timed device (cycles) and the renderer join here as they arrive.
 #include <cstdio>
 #include <filesystem>
 #include <memory>
 
 #include "host/cmd/common.h"
+#include "host/compare.h"
 #include "host/error.h"
 #include "host/image.h"
 #include "host/ray_gen.h"
@@ -30,45 +32,73 @@ void run_demo(const DemoOptions& o) {
   Stopwatch load_timer;
   const Scene scene = load_scene(o.scene);
   const double load_s = load_timer.seconds();
-  Stopwatch build_timer;
-  const std::unique_ptr<TraceDevice> tracer = make_device(scene.geometry, DeviceOptions{});
-  const double build_s = build_timer.seconds();
   const int w = scene.camera.width, h = scene.camera.height;
   const std::vector<hw::Ray> rays = primary_rays(scene.camera, w, h);
-  std::vector<hw::Hit> hits;
-  hw::TraversalStats stats;
-  const double trace_s = trace_with_progress(*tracer, rays, hits, false, o.threads, stats);
-
-  const std::string image_path = o.out + "/primary_float.png";
-  const std::string hits_path = o.out + "/primary_float.hits";
-  const std::string report_path = o.out + "/report.json";
-  write_png(image_path, shade_hits(scene, rays, hits, w, h));
-  write_hits(hits_path, hits);
-
   const hw::Geometry& g = scene.geometry;
-  std::printf("rtusim demo: %s (%zu triangles, %zu spheres, %zu planes, %zu lights)\n", scene.name.c_str(),
-              g.triangles.size(), g.spheres.size(), g.planes.size(), scene.lights.size());
-  std::printf("  float device: %dx%d primary rays, %llu hits, %.2f MRays/s (%d threads)\n", w, h,
-              (unsigned long long)stats.hits, trace_s > 0 ? double(rays.size()) / trace_s * 1e-6 : 0.0,
-              resolved_threads(o.threads));
-  std::printf("  per ray: %.2f nodes, %.2f box tests, %.2f primitive tests (accel: %s)\n",
-              double(stats.nodes_visited) / double(rays.size()), double(stats.box_tests) / double(rays.size()),
-              double(stats.prim_tests) / double(rays.size()), tracer->bvh() ? "bvh" : "brute force");
-  std::printf("  wrote %s, %s, %s\n", image_path.c_str(), hits_path.c_str(), report_path.c_str());
+  std::printf("rtusim demo: %s (%zu triangles, %zu spheres, %zu planes, %zu lights), %dx%d primary rays\n",
+              scene.name.c_str(), g.triangles.size(), g.spheres.size(), g.planes.size(), scene.lights.size(), w,
+              h);
 
   Json j;
   j["scene"] = scene.name;
-  j["image"] = image_path;
   j["width"] = w;
   j["height"] = h;
   j["load_seconds"] = load_s;
-  j["build_seconds"] = build_s;
-  Json dev = traversal_json(stats);
-  dev["trace_seconds"] = trace_s;
-  dev["rays_per_second"] = trace_s > 0 ? double(rays.size()) / trace_s : 0.0;
-  j["devices"]["float"] = dev;
-  j["bvh"] = bvh_json(*tracer);
+  std::vector<std::vector<hw::Hit>> all_hits;
+  std::vector<std::string> written;
+  for (const std::string& name : {std::string("float"), std::string("fixed")}) {
+    DeviceOptions dopt;
+    dopt.name = name;
+    Stopwatch build_timer;
+    const std::unique_ptr<TraceDevice> device = make_device(g, dopt);
+    const double build_s = build_timer.seconds();
+    std::vector<hw::Hit> hits;
+    hw::TraversalStats stats;
+    const double trace_s = trace_with_progress(*device, rays, hits, false, o.threads, stats);
+    const std::string image_path = o.out + "/primary_" + name + ".png";
+    const std::string hits_path = o.out + "/primary_" + name + ".hits";
+    write_png(image_path, shade_hits(scene, rays, hits, w, h));
+    write_hits(hits_path, hits);
+    written.push_back(image_path);
+    written.push_back(hits_path);
+    const double n = double(rays.size());
+    std::printf(
+        "  %-5s device: %llu hits, %.2f MRays/s (%d threads); per ray %.2f nodes, %.2f box tests, %.2f "
+        "primitive tests (%s)\n",
+        name.c_str(), (unsigned long long)stats.hits, trace_s > 0 ? n / trace_s * 1e-6 : 0.0,
+        resolved_threads(o.threads), double(stats.nodes_visited) / n, double(stats.box_tests) / n,
+        double(stats.prim_tests) / n, device->bvh() ? "bvh" : "brute force");
+    Json dev = traversal_json(stats);
+    dev["image"] = image_path;
+    dev["build_seconds"] = build_s;
+    dev["trace_seconds"] = trace_s;
+    dev["rays_per_second"] = trace_s > 0 ? n / trace_s : 0.0;
+    dev["bvh"] = bvh_json(*device);
+    if (name == "fixed") dev["format"] = format_json(dopt.format);
+    j["devices"][name] = dev;
+    all_hits.push_back(std::move(hits));
+  }
+  // Error of the fixed device against the float reference, per ray and per image.
+  std::vector<bool> valid(rays.size());
+  for (size_t i = 0; i < rays.size(); ++i) valid[i] = hw::validate_ray(rays[i]) == hw::RayStatus::kOk;
+  const HitComparison c = compare_hits(all_hits[0], all_hits[1], valid, false);
+  std::printf(
+      "  fixed vs float: hit agreement %.4f%%, primitive agreement %.4f%%, t relative error mean %.2g "
+      "max %.2g; %zu pixels differ\n",
+      100.0 * c.hit_agreement(), 100.0 * c.prim_agreement(), c.t_rel_mean, c.t_rel_max, c.disagreements.size());
+  j["fixed_vs_float"] = {{"hit_agreement", c.hit_agreement()},
+                         {"prim_agreement", c.prim_agreement()},
+                         {"false_misses", c.false_misses},
+                         {"false_hits", c.false_hits},
+                         {"t_rel_error_mean", c.t_rel_mean},
+                         {"t_rel_error_max", c.t_rel_max},
+                         {"pixels_differing", c.disagreements.size()}};
+  const std::string report_path = o.out + "/report.json";
   write_json(report_path, j);
+  written.push_back(report_path);
+  std::printf("  wrote");
+  for (const std::string& f : written) std::printf(" %s", f.c_str());
+  std::printf("\n");
 }
 
 }  // namespace

@@ -44,7 +44,7 @@ fs::path temp_dir() {
 }  // namespace
 
 TEST_CASE("every subcommand has --help", "[cli]") {
-  for (const char* sub : {"info", "rays", "trace", "demo"}) {
+  for (const char* sub : {"info", "rays", "trace", "compare", "stress", "demo"}) {
     const Run r = run(std::string(sub) + " --help");
     INFO(r.output);
     CHECK(r.status == 0);
@@ -117,6 +117,13 @@ TEST_CASE("bad input: clear error, non-zero exit, no crash", "[cli]") {
       {"rays --scene builtin:seed --kind sideways --count 5 --out " + out, "sideways"},
       {"rays --scene builtin:seed --kind incoherent --out " + out, "--count"},
       {"info --scene builtin:seed --bvh-width 3", "bvh-width"},
+      {"info --scene builtin:seed --format nosuch", "nosuch"},
+      {"info --scene builtin:seed --coord-bits 31", "coord_bits"},
+      {"info --scene builtin:seed --coord-bits 30 --guard-bits 8 --frac-bits 20 --t-bits 60", "edge function"},
+      {"info --scene builtin:seed --dir-bits 30 --rcp-bits 40", "rcp"},
+      {"compare --scene builtin:seed --rays primary:0", "count"},
+      {"compare --scene builtin:seed --rays incoherent:x", "count"},
+      {"stress --count 10 --category nosuch", "nosuch"},
   };
   for (const Case& c : cases) {
     const Run r = run(c.args);
@@ -135,4 +142,86 @@ TEST_CASE("demo writes an image, hits and a report", "[cli]") {
   CHECK(fs::file_size(d / "primary_float.png") > 1000);
   const nlohmann::json j = nlohmann::json::parse(std::ifstream(d / "report.json"));
   CHECK(j["devices"]["float"]["hits"].get<uint64_t>() > 0);
+  // The fixed device renders the same image up to quantization: the default format keeps hit agreement above
+  // 99.99% on the seed scene (edges move by at most half a grid step of 2^-24 of the scene).
+  CHECK(fs::file_size(d / "primary_fixed.png") > 1000);
+  CHECK(j["devices"]["fixed"]["hits"].get<uint64_t>() > 0);
+  CHECK(j["fixed_vs_float"]["hit_agreement"].get<double>() >= 0.9999);
+}
+
+TEST_CASE("compare: the issue's JSON keys, conservative boxes, agreement on the seed scene", "[cli][fixed]") {
+  const fs::path d = temp_dir();
+  const std::string json = (d / "c.json").string(), replay = (d / "dis.rays").string();
+  const Run r =
+      run("compare --scene builtin:seed --rays incoherent:50000 --json " + json + " --disagreements " + replay);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
+  for (const char* key : {"rays", "hit_agreement", "prim_agreement", "false_misses", "false_hits", "invalid_rays",
+                          "t_rel_error_max", "t_rel_error_mean", "box_false_negatives", "node_visit_overhead",
+                          "prim_test_overhead", "disagreements", "format"})
+    CHECK(j.contains(key));
+  CHECK(j["rays"] == 50000);
+  CHECK(j["box_checks"].get<uint64_t>() > 100000);
+  CHECK(j["box_false_negatives"] == 0);
+  CHECK(j["hit_agreement"].get<double>() >= 0.9999);
+  // Quantized child boxes only grow, so the fixed device never visits fewer nodes than the float one on rays
+  // whose hits agree; 8-bit child boxes keep the growth small on this scene.
+  CHECK(j["node_visit_overhead"].get<double>() >= 0.0);
+  CHECK(j["node_visit_overhead"].get<double>() <= 0.05);
+  // Every listed disagreement names its ray; the replay file holds exactly the disagreeing rays.
+  CHECK(rtu::host::read_rays(replay).size() == j["disagreements_total"].get<size_t>());
+  for (const auto& e : j["disagreements"]) CHECK(e["ray"].get<uint64_t>() < 50000);
+}
+
+TEST_CASE("trace on the fixed device: formats, out-of-frame origins rejected with their reason", "[cli][fixed]") {
+  const fs::path d = temp_dir();
+  std::ofstream(d / "far.csv") << "ox,oy,oz,tmin,dx,dy,dz,tmax\n0,1,8,0,0,-0.3,-1,inf\n1e12,0,0,0,-1,0,0,inf\n";
+  const std::string stats = (d / "s.json").string();
+  const Run r = run("trace --device fixed --format compact --scene builtin:seed --rays " +
+                    (d / "far.csv").string() + " --out " + (d / "h.csv").string() + " --stats " + stats);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(r.output.find("ray 1 (out_of_frame)") != std::string::npos);
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+  CHECK(j["invalid_by_reason"]["out_of_frame"] == 1);
+  CHECK(j["format"]["coord_bits"] == 16);
+  const auto hits = rtu::host::read_hits((d / "h.csv").string());
+  REQUIRE(hits.size() == 2);
+  CHECK(hits[0].hit());
+  CHECK_FALSE(hits[1].hit());
+}
+
+TEST_CASE("info reports the fixed image: bytes per node and footprint per format", "[cli][fixed]") {
+  const fs::path d = temp_dir();
+  const Run list = run("info --formats");
+  REQUIRE(list.status == 0);
+  for (const char* p : {"default", "wide8", "binary", "compact", "precise"})
+    CHECK(list.output.find(p) != std::string::npos);
+  for (const auto& [format, node_bytes] :
+       {std::pair{"default", 56}, std::pair{"wide8", 96}, std::pair{"binary", 36}, std::pair{"precise", 80}}) {
+    const std::string json = (d / (std::string(format) + ".json")).string();
+    const Run r = run(std::string("info --scene builtin:seed --format ") + format + " --json " + json);
+    INFO(r.output);
+    REQUIRE(r.status == 0);
+    const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
+    CHECK(j["bvh"]["image"]["bytes_per_node"] == node_bytes);
+    CHECK(j["bvh"]["image"]["total_bytes"].get<uint64_t>() > j["bvh"]["image"]["node_bytes"].get<uint64_t>());
+  }
+}
+
+TEST_CASE("stress: every category runs, no promise breaks at the default format", "[cli][fixed][stress]") {
+  const fs::path d = temp_dir();
+  const std::string json = (d / "stress.json").string();
+  const Run r = run("stress --count 3000 --json " + json);
+  INFO(r.output);
+  CHECK(r.status == 0);
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
+  CHECK(j["failures"] == 0);
+  CHECK(j["categories"].size() == 11);
+  for (const auto& c : j["categories"]) {
+    INFO(c["name"]);
+    CHECK(c["cases"].get<uint64_t>() > 0);
+    CHECK(c["failure_rule"].get<std::string>().size() > 10);
+  }
 }

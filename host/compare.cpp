@@ -1,0 +1,56 @@
+#include "host/compare.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace rtu::host {
+
+const char* disagreement_name(Disagreement d) {
+  switch (d) {
+    case Disagreement::kFalseMiss:
+      return "false_miss";
+    case Disagreement::kFalseHit:
+      return "false_hit";
+    case Disagreement::kOtherPrimitive:
+      return "other_primitive";
+  }
+  return "?";
+}
+
+HitComparison compare_hits(const std::vector<hw::Hit>& ref, const std::vector<hw::Hit>& dev,
+                           const std::vector<bool>& valid, bool any_hit) {
+  HitComparison c;
+  c.rays = ref.size();
+  double t_sum = 0.0;
+  for (size_t i = 0; i < ref.size(); ++i) {
+    if (!valid[i]) continue;
+    const hw::Hit& a = ref[i];
+    const hw::Hit& b = dev[i];
+    ++c.compared;
+    c.hit_agree += a.hit() == b.hit();
+    c.prim_agree += a.prim == b.prim;
+    if (a.hit() && !b.hit()) {
+      ++c.false_misses;
+      c.disagreements.push_back({i, Disagreement::kFalseMiss});
+    } else if (!a.hit() && b.hit()) {
+      ++c.false_hits;
+      c.disagreements.push_back({i, Disagreement::kFalseHit});
+    } else if (a.prim != b.prim && !any_hit) {
+      ++c.other_prim;
+      c.disagreements.push_back({i, Disagreement::kOtherPrimitive});
+    }
+    if (a.hit() && b.hit() && a.prim == b.prim && !any_hit) {
+      const double rel = std::abs(double(b.t) - double(a.t)) / std::max(std::abs(double(a.t)), 1e-30);
+      ++c.t_compared;
+      t_sum += rel;
+      if (rel > c.t_rel_max) {
+        c.t_rel_max = rel;
+        c.t_rel_max_ray = i;
+      }
+    }
+  }
+  c.t_rel_mean = c.t_compared ? t_sum / double(c.t_compared) : 0.0;
+  return c;
+}
+
+}  // namespace rtu::host

@@ -131,6 +131,27 @@ constexpr Wide isqrt_round(Wide x, Round r) {
   return rest > s ? s + 1 : s;
 }
 
+// x = m * 2^e exactly for finite x, with |m| < 2^24 (read off the bits; no libm).
+inline void split_float(float x, int64_t& m, int& e) {
+  uint32_t b;
+  static_assert(sizeof b == sizeof x);
+  __builtin_memcpy(&b, &x, sizeof b);
+  const int biased = int((b >> 23) & 0xFFu);
+  const int64_t mant = int64_t(b & 0x7FFFFFu);
+  m = biased == 0 ? mant : (mant | 0x800000);  // subnormals have no hidden bit
+  e = (biased == 0 ? 1 : biased) - 150;
+  if (b >> 31) m = -m;
+}
+
+// 2^e as a double, exact; e in [-1022, 1023] is built from its bits.
+inline double pow2(int e) {
+  if (e < -1022 || e > 1023) return __builtin_ldexp(1.0, e);
+  const uint64_t b = uint64_t(e + 1023) << 52;
+  double d;
+  __builtin_memcpy(&d, &b, sizeof d);
+  return d;
+}
+
 template <int I, int F>
 struct Fixed {
   static_assert(I >= 0 && F >= 0 && 1 + I + F <= 62, "Fixed<I, F>: 1 + I + F must be at most 62 bits");

@@ -58,7 +58,8 @@ void FixedFormat::validate() const {
   if (coord_bits + guard_bits + frac_bits > 60) fail("coord_bits + guard_bits + frac_bits must be <= 60");
   if (dir_bits + rcp_bits > 62) fail("dir_bits + rcp_bits must be <= 62 (the reciprocal is 64 bits)");
   if (s < 0) fail("dir_bits - frac_bits + t_frac_bits must be >= 0");
-  if (frac_bits + rcp_bits < t_frac_bits) fail("frac_bits + rcp_bits must be >= t_frac_bits");
+  if (frac_bits + rcp_bits < t_frac_bits || frac_bits + rcp_bits - t_frac_bits > 63)
+    fail("frac_bits + rcp_bits - t_frac_bits must be in [0, 63]");
   if (t_bits < coord_bits + guard_bits + t_frac_bits + 3)
     fail("t_bits must be >= coord_bits + guard_bits + t_frac_bits + 3 (t across the whole frame)");
   fits("the box product", box_product_bits());

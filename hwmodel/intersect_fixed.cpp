@@ -10,10 +10,10 @@ namespace {
 // x * 2^e rounded by r, exactly (x finite). Values beyond 2^70 in magnitude come back as +-2^70.
 Wide scaled_round(float x, int e, Round r) {
   if (x == 0.0f) return 0;
-  int k = 0;
-  const float fr = std::frexp(x, &k);
-  const int64_t m = int64_t(std::ldexp(fr, 24));  // x = m * 2^(k - 24), |m| < 2^24
-  const int sh = k - 24 + e;
+  int64_t m;
+  int k;
+  split_float(x, m, k);  // x = m * 2^k, |m| < 2^24
+  const int sh = k + e;
   if (sh >= 0) {
     if (sh > 46) return m > 0 ? (Wide(1) << 70) : -(Wide(1) << 70);
     return Wide(m) << sh;
@@ -42,8 +42,8 @@ RayStatus setup_ray(const Ray& r, const QuantFrame& frame, const FixedFormat& f,
   const int range_exp = f.coord_bits + f.guard_bits;
   const int64_t olim = int64_t(1) << (range_exp + f.frac_bits);
   for (int a = 0; a < 3; ++a) {
-    const double rel = double(r.origin[a]) - std::ldexp(double(frame.origin[a]), frame.step_exp);
-    if (std::abs(rel) > std::ldexp(1.0, range_exp + 1 + frame.step_exp)) return RayStatus::kOutOfFrame;
+    const double rel = double(r.origin[a]) - double(frame.origin[a]) * pow2(frame.step_exp);
+    if (std::abs(rel) > pow2(range_exp + 1 + frame.step_exp)) return RayStatus::kOutOfFrame;
     out.o[a] = frame.to_grid(r.origin[a], a, Round::kNearestEven, f.frac_bits);
     if (out.o[a] >= olim || out.o[a] <= -olim) return RayStatus::kOutOfFrame;
   }
@@ -65,17 +65,23 @@ RayStatus setup_ray(const Ray& r, const QuantFrame& frame, const FixedFormat& f,
 }
 
 void set_direction(FixedRay& r, const int64_t d[3], const FixedFormat& f) {
-  const Wide one = Wide(1) << (f.dir_bits + f.rcp_bits);
+  const int64_t one = int64_t(1) << (f.dir_bits + f.rcp_bits);  // D + R <= 62 (validate)
   for (int a = 0; a < 3; ++a) {
     r.d[a] = d[a];
     r.zero[a] = d[a] == 0;
-    r.rcp_dn[a] = r.zero[a] ? 0 : int64_t(div_round(one, d[a], Round::kDown));
-    r.rcp_up[a] = r.zero[a] ? 0 : int64_t(div_round(one, d[a], Round::kUp));
+    if (r.zero[a]) {
+      r.rcp_dn[a] = r.rcp_up[a] = 0;
+      continue;
+    }
+    // One 64-bit division: q truncates toward zero; floor and ceil follow from the sign and the remainder.
+    const int64_t q = one / d[a], rem = one % d[a];
+    r.rcp_dn[a] = rem != 0 && d[a] < 0 ? q - 1 : q;
+    r.rcp_up[a] = rem != 0 && d[a] > 0 ? q + 1 : q;
   }
 }
 
 float t_to_world(int64_t t, const FixedRay& r) {
-  return float(std::ldexp(double(t), -r.t_exp));
+  return float(double(t) * pow2(-r.t_exp));
 }
 
 bool box_test_exact(const FixedRay& r, const int64_t lo[3], const int64_t hi[3], int64_t tmin, int64_t tlim) {

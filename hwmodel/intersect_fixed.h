@@ -79,7 +79,12 @@ inline int64_t clamp_t(Wide v, int64_t limit) {
 // On acceptance writes the entry distance (rounded down) to t_near.
 inline bool box_test(const FixedRay& r, const int64_t lo[3], const int64_t hi[3], int64_t tmin, int64_t tlim,
                      int64_t& t_near) {
-  int64_t t0 = tmin, t1 = tlim;
+  // The interval is kept in 128 bits: products need no clamp to the t register, since t0 starts at tmin and t1
+  // at tlim (both inside it), so the accepted t_near always fits.
+  Wide t0 = tmin, t1 = tlim;
+  const int s = r.box_shift;
+  if (s < 0 || s > 63) __builtin_unreachable();  // validate(): 0 <= F + R - T <= 63
+  const Wide round_up = (Wide(1) << s) - 1;
   for (int a = 0; a < 3; ++a) {
     const int64_t dl = (lo[a] << r.frac) - r.o[a], dh = (hi[a] << r.frac) - r.o[a];
     if (r.zero[a]) {
@@ -88,14 +93,14 @@ inline bool box_test(const FixedRay& r, const int64_t lo[3], const int64_t hi[3]
     }
     const bool pos = r.d[a] > 0;
     const int64_t dn = pos ? dl : dh, df = pos ? dh : dl;  // near and far plane, minus the origin
-    const int64_t tn = clamp_t(
-        round_shift(Wide(dn) * (dn >= 0 ? r.rcp_dn[a] : r.rcp_up[a]), r.box_shift, Round::kDown), r.t_limit);
-    const int64_t tf =
-        clamp_t(round_shift(Wide(df) * (df >= 0 ? r.rcp_up[a] : r.rcp_dn[a]), r.box_shift, Round::kUp), r.t_limit);
+    // Lower bound of dn / d: the reciprocal rounded toward the smaller product, then the product rounded down.
+    const Wide tn = (Wide(dn) * (dn >= 0 ? r.rcp_dn[a] : r.rcp_up[a])) >> s;
+    // Upper bound of df / d: the other reciprocal, then the product rounded up.
+    const Wide tf = (Wide(df) * (df >= 0 ? r.rcp_up[a] : r.rcp_dn[a]) + round_up) >> s;
     t0 = tn > t0 ? tn : t0;
     t1 = tf < t1 ? tf : t1;
   }
-  t_near = t0;
+  t_near = int64_t(t0);
   return t0 <= t1;
 }
 

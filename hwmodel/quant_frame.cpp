@@ -7,7 +7,7 @@
 namespace rtu::hw {
 
 double QuantFrame::step() const {
-  return std::ldexp(1.0, step_exp);
+  return pow2(step_exp);
 }
 
 double QuantFrame::to_world(int64_t g, int axis) const {
@@ -24,10 +24,9 @@ int64_t QuantFrame::to_grid(float x, int axis, Round r, int frac_bits) const {
     return x > 0 ? kGridLimit : -kGridLimit;
   }
   // x = m * 2^k exactly, with m a 24-bit integer.
-  int k = 0;
-  const float frac = std::frexp(x, &k);
-  const int64_t m = int64_t(std::ldexp(frac, 24));
-  k -= 24;
+  int64_t m;
+  int k;
+  split_float(x, m, k);
   // (x - origin * 2^e) / 2^e * 2^f = m * 2^(k - e + f) - origin * 2^f.
   const int sh = k - step_exp + frac_bits;
   const Wide o = Wide(origin[axis]) << frac_bits;  // |origin| < 2^52, frac_bits <= 24: below 2^76

@@ -1,6 +1,6 @@
-// trace_bench: MRays/s, build time, accel bytes and peak memory of the float reference and of Embree 3
-// (rtcIntersect1, one thread) on the same meshes and the same rays, measured in one run. Each tracer runs in a
-// child process of its own, so its peak resident memory (getrusage of the child) is its own.
+// trace_bench: MRays/s, build time, accel bytes and peak memory of the float reference, the fixed device (default
+// format) and Embree 3 (rtcIntersect1, one thread) on the same meshes and the same rays, measured in one run. Each
+// tracer runs in a child process of its own, so its peak resident memory (getrusage of the child) is its own.
 //
 //   trace_bench [--rays N] [--json F] [MESH...]      (default: the three assimp-testmodels meshes of README.md)
 #include <embree3/rtcore.h>
@@ -20,6 +20,8 @@
 #include "embree_oracle.h"
 #include "host/ray_gen.h"
 #include "host/scene.h"
+#include "hwmodel/device_image.h"
+#include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
 
 using namespace rtu;
@@ -30,7 +32,8 @@ struct Result {
   uint64_t triangles = 0;
   double load_s = 0, build_s = 0, primary_s = 0, incoherent_s = 0;
   uint64_t primary_hits = 0, incoherent_hits = 0;
-  uint64_t accel_bytes = 0;  // ours: nodes + index + leaf-ordered primitives; Embree: its memory monitor's peak
+  uint64_t accel_bytes = 0;  // float: nodes + index + leaf-ordered primitives; fixed: the device image;
+                             // Embree: its memory monitor's peak
   bool ok = false;
   char error[256] = {};
 };
@@ -71,6 +74,20 @@ Result run_tracer(const std::string& mesh, const std::string& tracer, uint64_t n
     r.build_s = now() - t0;
     const hw::BvhFigures f = t.bvh()->figures();
     r.accel_bytes = f.node_bytes + f.index_bytes + t.leaf_prim_bytes();
+    hw::TraversalStats s;
+    auto one = [&](const hw::Ray& ray) { return t.trace(ray, false, s); };
+    r.primary_s = time_rays(one, primary, r.primary_hits);
+    r.incoherent_s = time_rays(one, incoherent, r.incoherent_hits);
+  } else if (tracer == "rtu-fixed") {
+    t0 = now();
+    const hw::FixedFormat f = hw::format_preset("default");
+    hw::BvhBuildParams bp;
+    bp.width = f.width;
+    const hw::Bvh bvh = hw::Bvh::build(g, bp);
+    const hw::DeviceImage img = hw::encode_scene(g, f, &bvh);
+    const hw::FixedTracer t(img);
+    r.build_s = now() - t0;
+    r.accel_bytes = img.size();
     hw::TraversalStats s;
     auto one = [&](const hw::Ray& ray) { return t.trace(ray, false, s); };
     r.primary_s = time_rays(one, primary, r.primary_hits);
@@ -149,10 +166,10 @@ int main(int argc, char** argv) {
       "| mesh | triangles | tracer | build s | primary MRays/s | incoherent MRays/s | accel B/tri | peak MiB |\n");
   std::printf("|---|---:|---|---:|---:|---:|---:|---:|\n");
   for (const std::string& mesh : meshes) {
-    Result res[2];
-    uint64_t rss[2] = {};
-    const char* names[2] = {"rtu-float", "embree"};
-    for (int k = 0; k < 2; ++k) {
+    Result res[3];
+    uint64_t rss[3] = {};
+    const char* names[3] = {"rtu-float", "rtu-fixed", "embree"};
+    for (int k = 0; k < 3; ++k) {
       res[k] = run_child(mesh, names[k], n, rss[k]);
       const Result& r = res[k];
       const std::string base = mesh.substr(mesh.find_last_of('/') + 1);
@@ -177,13 +194,14 @@ int main(int argc, char** argv) {
                      {"accel_bytes", r.accel_bytes},
                      {"peak_rss_bytes", rss[k]}});
     }
-    if (res[0].ok && res[1].ok) {
-      std::printf("| | | rtu/embree | | %.2fx | %.2fx | | %.2fx |\n", res[1].primary_s / res[0].primary_s,
-                  res[1].incoherent_s / res[0].incoherent_s, double(rss[0]) / double(rss[1]));
-      if (res[0].primary_hits != res[1].primary_hits || res[0].incoherent_hits != res[1].incoherent_hits)
+    for (int k = 0; k < 2; ++k) {
+      if (!res[k].ok || !res[2].ok) continue;
+      std::printf("| | | %s/embree | | %.2fx | %.2fx | | %.2fx |\n", names[k], res[2].primary_s / res[k].primary_s,
+                  res[2].incoherent_s / res[k].incoherent_s, double(rss[k]) / double(rss[2]));
+      if (res[k].primary_hits != res[2].primary_hits || res[k].incoherent_hits != res[2].incoherent_hits)
         std::printf("|   | | hits differ: primary %llu vs %llu, incoherent %llu vs %llu | | | | | |\n",
-                    (unsigned long long)res[0].primary_hits, (unsigned long long)res[1].primary_hits,
-                    (unsigned long long)res[0].incoherent_hits, (unsigned long long)res[1].incoherent_hits);
+                    (unsigned long long)res[k].primary_hits, (unsigned long long)res[2].primary_hits,
+                    (unsigned long long)res[k].incoherent_hits, (unsigned long long)res[2].incoherent_hits);
     }
     std::fflush(stdout);
   }

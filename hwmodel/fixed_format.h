@@ -18,12 +18,12 @@ struct FixedFormat {
   int width = 4;                // BVH node width: 2, 4 or 8 children
   int coord_bits = 24;          // B: vertices and boxes are grid integers in [0, 2^B - 1]; 2..30
   int child_bits = 8;           // k: child box offsets relative to the parent, 1..16 (stored in 8 or 16 bits)
-  int guard_bits = 6;           // G: ray origins may lie in [-2^(B+G), 2^(B+G)) grid units (else out of frame)
+  int guard_bits = 6;           // G: ray origins must lie in (-2^(B+G), 2^(B+G)) grid units (else out of frame)
   int frac_bits = 8;            // F: fraction bits of ray origins, sphere centers and radii, plane offsets
   int dir_bits = 24;            // D: fraction bits of the scaled direction (largest component in [1/2, 1])
-  int rcp_bits = 24;     // R: 1/direction has R + D fraction bits, so its relative rounding error is <= 2^-R
-  int t_frac_bits = 16;  // T: fraction bits of t (ray units); the t register is t_bits wide
-  int t_bits = 56;       // total magnitude bits of t: saturates at 2^t_bits - 1 raw (beyond every tmax)
+  int rcp_bits = 20;            // R: 1/direction, R + 1 significant bits: relative rounding error <= 2^-R
+  int t_frac_bits = 16;         // T: fraction bits of t (ray units); the t register is t_bits wide
+  int t_bits = 56;              // total magnitude bits of t: saturates at 2^t_bits - 1 raw (beyond every tmax)
 
   // Throws std::invalid_argument with the rule a format breaks.
   void validate() const;

@@ -70,14 +70,23 @@ void set_direction(FixedRay& r, const int64_t d[3], const FixedFormat& f) {
     r.d[a] = d[a];
     r.zero[a] = d[a] == 0;
     if (r.zero[a]) {
-      r.rcp_dn[a] = r.rcp_up[a] = 0;
+      r.rcp_dn[a] = r.rcp_up[a] = r.rcpm_dn[a] = r.rcpm_up[a] = 0;
+      r.rcp_sh[a] = 0;
       continue;
     }
     // One 64-bit division: q truncates toward zero; floor and ceil follow from the sign and the remainder.
     const int64_t q = one / d[a], rem = one % d[a];
     r.rcp_dn[a] = rem != 0 && d[a] < 0 ? q - 1 : q;
     r.rcp_up[a] = rem != 0 && d[a] > 0 ? q + 1 : q;
+    // R + 1 significant bits: drop e low bits of the larger magnitude, rounding down and up again.
+    const uint64_t mag = uint64_t(std::max(std::abs(r.rcp_dn[a]), std::abs(r.rcp_up[a])));
+    const int bits = 64 - __builtin_clzll(mag);
+    const int e = std::max(0, bits - (f.rcp_bits + 1));
+    r.rcpm_dn[a] = int64_t(round_shift(r.rcp_dn[a], e, Round::kDown));
+    r.rcpm_up[a] = int64_t(round_shift(r.rcp_up[a], e, Round::kUp));
+    r.rcp_sh[a] = f.frac_bits + f.rcp_bits - f.t_frac_bits - e;
   }
+  r.narrow = f.translated_bits() + f.rcp_bits + 2 <= 63 && f.frac_bits + f.rcp_bits - f.t_frac_bits <= 61;
 }
 
 float t_to_world(int64_t t, const FixedRay& r) {
@@ -135,7 +144,7 @@ bool sphere_test(const FixedRay& r, const SphereRecord& s, int64_t tmin, int64_t
   const int64_t h = clamp_t(isqrt_round(h2, Round::kNearestEven), r.t_limit);
   const int64_t t0 = clamp_t(Wide(tca) - h, r.t_limit), t1 = clamp_t(Wide(tca) + h, r.t_limit);
   const int64_t t = t0 >= tmin ? t0 : t1;
-  if (t < tmin || t > tlim) return false;
+  if (t < tmin || t > tlim || !in_register(t, r)) return false;
   out.t = t;
   out.u = out.v = 0.0f;  // filled for the final hit only (sphere_uv)
   return true;
@@ -150,6 +159,11 @@ bool plane_test(const FixedRay& r, const PlaneRecord& p, int64_t tmin, int64_t t
   }
   if (den == 0) return false;
   const int64_t t = div_shift(num, den, r.t_shift, Round::kNearestEven, r.t_limit);
+  if (!in_register(t, r)) {
+    // A plane met beyond the unit's t range (far outside the frame): no hit, counted as a saturation.
+    if (t > 0 && tlim == r.t_limit) ++saturation_counter();
+    return false;
+  }
   if (t < tmin || t > tlim) return false;
   out.t = t;
   out.u = out.v = 0.0f;

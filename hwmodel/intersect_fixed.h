@@ -24,15 +24,22 @@ struct FixedRay {
   int64_t d[3];       // direction, D fraction bits, nearest; |d| <= 2^D raw, largest >= 2^(D-1)
   int64_t rcp_dn[3];  // 1/d with R fraction bits rounded down (toward -inf); 0 where d = 0
   int64_t rcp_up[3];  // 1/d with R fraction bits rounded up (toward +inf); 0 where d = 0
-  bool zero[3];       // d[a] == 0: the box test compares the origin with the slab instead
-  int64_t tmin;       // interval start, t raw, rounded down
-  int64_t tmax;       // interval end, t raw, rounded up (+inf -> t_limit)
-  int t_exp;          // world t = t raw * 2^-t_exp (t_exp = T + k)
-  int frac;           // F
-  int dir_bits;       // D
-  int box_shift;      // F + R - T: box product -> t raw
-  int t_shift;        // D - F + T: (grid.F / d) quotients -> t raw
-  int64_t t_limit;    // largest t raw: 2^t_bits - 1
+  // The box unit's reciprocals: rcp_dn and rcp_up rounded further to R + 1 significant bits (down and up), as
+  // mantissa * 2^e; the box test computes (plane - origin) * mantissa >> (F + R - T - e) (a left shift, clamped
+  // to +-2^62, when that is negative). Relative error still <= 2^-R, and 64-bit products when narrow.
+  int64_t rcpm_dn[3];
+  int64_t rcpm_up[3];
+  int rcp_sh[3];    // F + R - T - e per axis
+  bool narrow;      // a + R + 2 <= 63 and F + R - T <= 61: 64-bit products (the default format), else 128
+  bool zero[3];     // d[a] == 0: the box test compares the origin with the slab instead
+  int64_t tmin;     // interval start, t raw, rounded down
+  int64_t tmax;     // interval end, t raw, rounded up (+inf -> t_limit)
+  int t_exp;        // world t = t raw * 2^-t_exp (t_exp = T + k)
+  int frac;         // F
+  int dir_bits;     // D
+  int box_shift;    // F + R - T: box product -> t raw
+  int t_shift;      // D - F + T: (grid.F / d) quotients -> t raw
+  int64_t t_limit;  // largest t raw: 2^t_bits - 1
 };
 
 // Ray setup: float world ray -> FixedRay. Rejects what validate_ray() rejects, and rays whose origin is out of
@@ -70,6 +77,12 @@ inline int64_t div_shift(Wide num, Wide den, int s, Round r, int64_t limit) {
   return int64_t(div_shift_wide(num, den, s, r, limit));
 }
 
+// A primitive's t is a hit only strictly inside the t register: +-t_limit is where a quotient saturated, a
+// distance the unit cannot represent (beyond the frame and its guard range), so it is not reported.
+inline bool in_register(int64_t t, const FixedRay& r) {
+  return t > -r.t_limit && t < r.t_limit;
+}
+
 inline int64_t clamp_t(Wide v, int64_t limit) {
   return int64_t(v > limit ? limit : (v < -limit ? -limit : v));
 }
@@ -77,14 +90,29 @@ inline int64_t clamp_t(Wide v, int64_t limit) {
 // Conservative slab test of the grid box [lo, hi] against [tmin, tlim]: t_near rounds down and t_far up (with
 // the reciprocal rounded the matching way for each sign), so no box the exact test accepts is rejected.
 // On acceptance writes the entry distance (rounded down) to t_near.
-inline bool box_test(const FixedRay& r, const int64_t lo[3], const int64_t hi[3], int64_t tmin, int64_t tlim,
-                     int64_t& t_near) {
-  // The interval is kept in 128 bits: products need no clamp to the t register, since t0 starts at tmin and t1
-  // at tlim (both inside it), so the accepted t_near always fits.
-  Wide t0 = tmin, t1 = tlim;
-  const int s = r.box_shift;
-  if (s < 0 || s > 63) __builtin_unreachable();  // validate(): 0 <= F + R - T <= 63
-  const Wide round_up = (Wide(1) << s) - 1;
+// (plane - origin) * reciprocal mantissa, shifted to t raw: floor (up = false) or ceil (up = true). Values beyond
+// +-2^62 clamp there: outside every ray interval (t_bits <= 62), so the clamp never changes a decision.
+template <class Int>
+inline int64_t box_product(int64_t delta, int64_t m, int sh, bool up) {
+  constexpr int64_t kClamp = int64_t(1) << 62;
+  const Int p = Int(delta) * m;
+  if (sh >= 0) {
+    const Int q = up ? (p + ((Int(1) << sh) - 1)) >> sh : p >> sh;
+    return int64_t(q > Int(kClamp) ? Int(kClamp) : (q < -Int(kClamp) ? -Int(kClamp) : q));
+  }
+  const Int lim = Int(kClamp) >> -sh;  // exact: no rounding in a left shift
+  if (p >= lim) return kClamp;
+  if (p <= -lim) return -kClamp;
+  return int64_t(p) << -sh;
+}
+
+// Conservative slab test of the grid box [lo, hi] against [tmin, tlim]: t_near rounds down and t_far up (with
+// the reciprocal rounded the matching way for each sign), so no box the exact test accepts is rejected.
+// On acceptance writes the entry distance (rounded down) to t_near.
+template <class Int>
+inline bool box_test_impl(const FixedRay& r, const int64_t lo[3], const int64_t hi[3], int64_t tmin, int64_t tlim,
+                          int64_t& t_near) {
+  int64_t t0 = tmin, t1 = tlim;
   for (int a = 0; a < 3; ++a) {
     const int64_t dl = (lo[a] << r.frac) - r.o[a], dh = (hi[a] << r.frac) - r.o[a];
     if (r.zero[a]) {
@@ -93,15 +121,21 @@ inline bool box_test(const FixedRay& r, const int64_t lo[3], const int64_t hi[3]
     }
     const bool pos = r.d[a] > 0;
     const int64_t dn = pos ? dl : dh, df = pos ? dh : dl;  // near and far plane, minus the origin
-    // Lower bound of dn / d: the reciprocal rounded toward the smaller product, then the product rounded down.
-    const Wide tn = (Wide(dn) * (dn >= 0 ? r.rcp_dn[a] : r.rcp_up[a])) >> s;
-    // Upper bound of df / d: the other reciprocal, then the product rounded up.
-    const Wide tf = (Wide(df) * (df >= 0 ? r.rcp_up[a] : r.rcp_dn[a]) + round_up) >> s;
+    // Lower bound of dn / d: the reciprocal rounded toward the smaller product, the product rounded down; upper
+    // bound of df / d: the other reciprocal, the product rounded up.
+    const int64_t tn = box_product<Int>(dn, dn >= 0 ? r.rcpm_dn[a] : r.rcpm_up[a], r.rcp_sh[a], false);
+    const int64_t tf = box_product<Int>(df, df >= 0 ? r.rcpm_up[a] : r.rcpm_dn[a], r.rcp_sh[a], true);
     t0 = tn > t0 ? tn : t0;
     t1 = tf < t1 ? tf : t1;
   }
-  t_near = int64_t(t0);
+  t_near = t0;
   return t0 <= t1;
+}
+
+inline bool box_test(const FixedRay& r, const int64_t lo[3], const int64_t hi[3], int64_t tmin, int64_t tlim,
+                     int64_t& t_near) {
+  return r.narrow ? box_test_impl<int64_t>(r, lo, hi, tmin, tlim, t_near)
+                  : box_test_impl<Wide>(r, lo, hi, tmin, tlim, t_near);
 }
 
 // The exact slab test of the same quantized ray and box over [tmin, tlim]: rational comparisons of
@@ -144,7 +178,7 @@ inline bool triangle_test(const FixedRay& r, const int32_t v[3][3], int64_t tmin
   const Wide den = Wide(n[0]) * r.d[0] + Wide(n[1]) * r.d[1] + Wide(n[2]) * r.d[2];
   if (den == 0) return false;  // cannot happen when det != 0 (det = 2^2F den); kept for safety
   const int64_t t = div_shift(num, den, r.t_shift, Round::kNearestEven, r.t_limit);
-  if (t < tmin || t > tlim) return false;
+  if (t < tmin || t > tlim || !in_register(t, r)) return false;
   out.t = t;
   const double dd = double(det);
   out.u = float(double(e1) / dd);

@@ -58,28 +58,46 @@ struct FixedPolicy {
   TraversalStats& s;
 
   int expand(uint32_t node, uint32_t refs[N], int64_t dists[N], int& tested) const {
+    return r.narrow ? expand_impl<int64_t>(node, refs, dists, tested)
+                    : expand_impl<Wide>(node, refs, dists, tested);
+  }
+
+  // Child planes relative to the ray origin in grid.F: (origin << F) - o once per node and axis, then
+  // + (q << (exp + F)) per child plane: the decode and the subtraction of box_test in one step.
+  template <class Int>
+  int expand_impl(uint32_t node, uint32_t refs[N], int64_t dists[N], int& tested) const {
     const QNode<N, Q>& n = nodes[node];
+    int64_t base[3];
+    int sh[3];
+    for (int a = 0; a < 3; ++a) {
+      base[a] = (int64_t(n.origin[a]) << r.frac) - r.o[a];
+      sh[a] = n.exp[a] + r.frac;
+    }
     int k = 0;
     for (int i = 0; i < n.count; ++i) {
       ++tested;
-      int64_t lo[3], hi[3];
+      int64_t dl[3], dh[3];
       for (int a = 0; a < 3; ++a) {
-        lo[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a][i]) << n.exp[a]);
-        hi[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a + 1][i]) << n.exp[a]);
+        dl[a] = base[a] + (int64_t(n.q[2 * a][i]) << sh[a]);
+        dh[a] = base[a] + (int64_t(n.q[2 * a + 1][i]) << sh[a]);
       }
-      int64_t t;
-      const bool hit = box_test(r, lo, hi, r.tmin, closest.t, t);
+      int64_t t = 0;
+      const bool hit = box_test_delta<Int>(r, dl, dh, r.tmin, closest.t, t);
       if (check) {
+        int64_t lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) {
+          lo[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a][i]) << n.exp[a]);
+          hi[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a + 1][i]) << n.exp[a]);
+        }
         ++s.box_checks;
         const bool exact = box_test_exact(r, lo, hi, r.tmin, closest.t);
         s.box_false_negatives += uint64_t(exact && !hit);
         s.box_false_positives += uint64_t(hit && !exact);
       }
-      if (hit) {
-        refs[k] = n.child[i];
-        dists[k] = t;
-        ++k;
-      }
+      // Written unconditionally, kept when hit: whether a child is hit varies from child to child.
+      refs[k] = n.child[i];
+      dists[k] = t;
+      k += int(hit);
     }
     return k;
   }

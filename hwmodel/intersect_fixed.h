@@ -91,13 +91,15 @@ inline int64_t clamp_t(Wide v, int64_t limit) {
 // the reciprocal rounded the matching way for each sign), so no box the exact test accepts is rejected.
 // On acceptance writes the entry distance (rounded down) to t_near.
 // (plane - origin) * reciprocal mantissa, shifted to t raw: floor (up = false) or ceil (up = true). Values beyond
-// +-2^62 clamp there: outside every ray interval (t_bits <= 62), so the clamp never changes a decision.
+// +-2^62 clamp there: outside every ray interval (t_bits <= 62), so the clamp never changes a decision. On the
+// 64-bit path |product| < 2^62 (a + R + 2 <= 63), so a right shift cannot leave that range.
 template <class Int>
 inline int64_t box_product(int64_t delta, int64_t m, int sh, bool up) {
   constexpr int64_t kClamp = int64_t(1) << 62;
   const Int p = Int(delta) * m;
   if (sh >= 0) {
     const Int q = up ? (p + ((Int(1) << sh) - 1)) >> sh : p >> sh;
+    if constexpr (sizeof(Int) == 8) return q;
     return int64_t(q > Int(kClamp) ? Int(kClamp) : (q < -Int(kClamp) ? -Int(kClamp) : q));
   }
   const Int lim = Int(kClamp) >> -sh;  // exact: no rounding in a left shift
@@ -106,25 +108,29 @@ inline int64_t box_product(int64_t delta, int64_t m, int sh, bool up) {
   return int64_t(p) << -sh;
 }
 
-// Conservative slab test of the grid box [lo, hi] against [tmin, tlim]: t_near rounds down and t_far up (with
-// the reciprocal rounded the matching way for each sign), so no box the exact test accepts is rejected.
-// On acceptance writes the entry distance (rounded down) to t_near.
+// Conservative slab test of a box given by its planes minus the ray origin (grid.F: dl = (lo << F) - o,
+// dh = (hi << F) - o) against [tmin, tlim]: t_near rounds down and t_far up (with the reciprocal rounded the
+// matching way for each sign), so no box the exact test accepts is rejected. On acceptance writes the entry
+// distance (rounded down) to t_near.
 template <class Int>
-inline bool box_test_impl(const FixedRay& r, const int64_t lo[3], const int64_t hi[3], int64_t tmin, int64_t tlim,
-                          int64_t& t_near) {
+inline bool box_test_delta(const FixedRay& r, const int64_t dl[3], const int64_t dh[3], int64_t tmin, int64_t tlim,
+                           int64_t& t_near) {
   int64_t t0 = tmin, t1 = tlim;
   for (int a = 0; a < 3; ++a) {
-    const int64_t dl = (lo[a] << r.frac) - r.o[a], dh = (hi[a] << r.frac) - r.o[a];
     if (r.zero[a]) {
-      if (dl > 0 || dh < 0) return false;  // parallel to the slab and outside it
+      if (dl[a] > 0 || dh[a] < 0) return false;  // parallel to the slab and outside it
       continue;
     }
-    const bool pos = r.d[a] > 0;
-    const int64_t dn = pos ? dl : dh, df = pos ? dh : dl;  // near and far plane, minus the origin
+    const bool pos = r.d[a] > 0;                                       // the same for every child: predictable
+    const int64_t dn = pos ? dl[a] : dh[a], df = pos ? dh[a] : dl[a];  // near and far plane, minus the origin
     // Lower bound of dn / d: the reciprocal rounded toward the smaller product, the product rounded down; upper
     // bound of df / d: the other reciprocal, the product rounded up.
-    const int64_t tn = box_product<Int>(dn, dn >= 0 ? r.rcpm_dn[a] : r.rcpm_up[a], r.rcp_sh[a], false);
-    const int64_t tf = box_product<Int>(df, df >= 0 ? r.rcpm_up[a] : r.rcpm_dn[a], r.rcp_sh[a], true);
+    // The selects are masks, not branches: the signs of dn and df vary from child to child.
+    const int64_t diff = r.rcpm_dn[a] ^ r.rcpm_up[a];
+    const int64_t mn = r.rcpm_up[a] ^ (diff & -int64_t(dn >= 0));  // dn >= 0 ? rcpm_dn : rcpm_up
+    const int64_t mf = r.rcpm_dn[a] ^ (diff & -int64_t(df >= 0));  // df >= 0 ? rcpm_up : rcpm_dn
+    const int64_t tn = box_product<Int>(dn, mn, r.rcp_sh[a], false);
+    const int64_t tf = box_product<Int>(df, mf, r.rcp_sh[a], true);
     t0 = tn > t0 ? tn : t0;
     t1 = tf < t1 ? tf : t1;
   }
@@ -132,6 +138,18 @@ inline bool box_test_impl(const FixedRay& r, const int64_t lo[3], const int64_t 
   return t0 <= t1;
 }
 
+template <class Int>
+inline bool box_test_impl(const FixedRay& r, const int64_t lo[3], const int64_t hi[3], int64_t tmin, int64_t tlim,
+                          int64_t& t_near) {
+  int64_t dl[3], dh[3];
+  for (int a = 0; a < 3; ++a) {
+    dl[a] = (lo[a] << r.frac) - r.o[a];
+    dh[a] = (hi[a] << r.frac) - r.o[a];
+  }
+  return box_test_delta<Int>(r, dl, dh, tmin, tlim, t_near);
+}
+
+// The box test on grid boxes [lo, hi]; the 64-bit path when the format is narrow (same function).
 inline bool box_test(const FixedRay& r, const int64_t lo[3], const int64_t hi[3], int64_t tmin, int64_t tlim,
                      int64_t& t_near) {
   return r.narrow ? box_test_impl<int64_t>(r, lo, hi, tmin, tlim, t_near)

@@ -85,8 +85,9 @@ void run_compare(const CompareOptions& o) {
   j["rays"] = t.rays;
   j["compared_rays"] = t.compared;
   j["invalid_rays"] = invalid_either;
-  j["hit_agreement"] = double(t.hit_agree) / n;
-  j["prim_agreement"] = double(t.prim_agree) / n;
+  // Undefined (null) when no ray was valid on both devices.
+  j["hit_agreement"] = t.compared ? Json(double(t.hit_agree) / n) : Json(nullptr);
+  j["prim_agreement"] = t.compared ? Json(double(t.prim_agree) / n) : Json(nullptr);
   j["false_misses"] = t.false_misses;
   j["false_hits"] = t.false_hits;
   j["other_primitive"] = t.other_prim;
@@ -109,11 +110,14 @@ void run_compare(const CompareOptions& o) {
   std::printf("compare %s: float vs %s (%s) on %llu rays (%llu compared, %llu invalid)\n", scene.name.c_str(),
               dut->name().c_str(), dut_opt.format.name.c_str(), (unsigned long long)t.rays,
               (unsigned long long)t.compared, (unsigned long long)invalid_either);
-  std::printf(
-      "  hit agreement %.6f%%, primitive agreement %.6f%%: %llu false misses, %llu false hits, %llu other "
-      "primitive\n",
-      100.0 * double(t.hit_agree) / n, 100.0 * double(t.prim_agree) / n, (unsigned long long)t.false_misses,
-      (unsigned long long)t.false_hits, (unsigned long long)t.other_prim);
+  if (t.compared == 0)
+    std::printf("  no ray was valid on both devices: nothing compared\n");
+  else
+    std::printf(
+        "  hit agreement %.6f%%, primitive agreement %.6f%%: %llu false misses, %llu false hits, %llu other "
+        "primitive\n",
+        100.0 * double(t.hit_agree) / n, 100.0 * double(t.prim_agree) / n, (unsigned long long)t.false_misses,
+        (unsigned long long)t.false_hits, (unsigned long long)t.other_prim);
   std::printf("  t relative error: max %.3g (ray %llu), mean %.3g\n", t.t_rel_max,
               (unsigned long long)t.t_rel_max_ray, t.t_rel_mean);
   std::printf("  box tests checked exactly: %llu, false negatives %llu, false positives %llu\n",

@@ -224,4 +224,12 @@ TEST_CASE("stress: every category runs, no promise breaks at the default format"
     CHECK(c["cases"].get<uint64_t>() > 0);
     CHECK(c["failure_rule"].get<std::string>().size() > 10);
   }
+  // The promises hold at every width, not only the default: the narrowest preset, the 128-bit box path,
+  // binary and 8-wide nodes, and a 12-bit grid.
+  for (const char* f : {"--format compact", "--format precise", "--format binary", "--format wide8",
+                        "--coord-bits 12 --child-bits 4"}) {
+    const Run s = run(std::string("stress --count 1500 ") + f);
+    INFO(f << "\n" << s.output);
+    CHECK(s.status == 0);
+  }
 }

@@ -14,6 +14,7 @@ class FloatDevice final : public TraceDevice {
                    hw::TraversalStats& s) const override {
     m_tracer.trace_batch(rays, hits, n, any_hit, threads, s);
   }
+  hw::RayStatus ray_status(const hw::Ray& r) const override { return hw::validate_ray(r); }
   const hw::Bvh* bvh() const override { return m_tracer.bvh(); }
   double bvh_cost() const override { return m_tracer.bvh_cost(); }
   double brute_cost() const override { return m_tracer.brute_cost(); }
@@ -34,6 +35,10 @@ class FixedDevice final : public TraceDevice {
   void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
                    hw::TraversalStats& s) const override {
     m_tracer.trace_batch(rays, hits, n, any_hit, threads, s);
+  }
+  hw::RayStatus ray_status(const hw::Ray& r) const override {
+    hw::FixedRay fr;
+    return hw::setup_ray(r, m_tracer.frame(), m_tracer.format(), fr);
   }
   const hw::Bvh* bvh() const override { return m_bvh ? &*m_bvh : nullptr; }
   double bvh_cost() const override { return m_bvh_cost; }

@@ -30,6 +30,8 @@ class TraceDevice {
   virtual const std::string& name() const = 0;
   virtual void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
                            hw::TraversalStats& s) const = 0;
+  // What the device's ray setup says of r (a rejected ray is traced as a miss and counted by this reason).
+  virtual hw::RayStatus ray_status(const hw::Ray& r) const = 0;
   // The BVH the device traverses (null: brute force), with its SAH and brute-force costs.
   virtual const hw::Bvh* bvh() const = 0;
   virtual double bvh_cost() const = 0;

@@ -34,9 +34,7 @@ QuantFrame DeviceImage::frame() const {
 }
 
 size_t DeviceImage::node_bytes() const {
-  const ImageHeader& h = header();
-  const size_t n = h.width;
-  return 16 + 6 * n * h.q_bytes + 4 * n;  // = sizeof(QNode<N, Q>), see the static_asserts in hw_format.h
+  return qnode_bytes(header().width, header().q_bytes);
 }
 
 namespace {
@@ -233,7 +231,7 @@ DeviceImage encode_scene(const Geometry& g, const FixedFormat& f, const Bvh* bvh
   Encoder enc(g, f);
   std::vector<uint8_t> node_bytes, records;
   uint32_t root = kEmptyChild, node_count = 0, flags = 0;
-  const int q_bytes = f.child_bits <= 8 ? 1 : 2;
+  const int q_bytes = f.offset_bytes();
   if (bvh) {
     bvh->visit([&](const auto& t) {
       constexpr int N = std::decay_t<decltype(t)>::kWidth;

@@ -12,6 +12,8 @@
 // Values are exact two's complement: no undefined behaviour on overflow (intermediates are 128-bit).
 #pragma once
 
+#include <bit>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <type_traits>
@@ -133,9 +135,7 @@ constexpr Wide isqrt_round(Wide x, Round r) {
 
 // x = m * 2^e exactly for finite x, with |m| < 2^24 (read off the bits; no libm).
 inline void split_float(float x, int64_t& m, int& e) {
-  uint32_t b;
-  static_assert(sizeof b == sizeof x);
-  __builtin_memcpy(&b, &x, sizeof b);
+  const uint32_t b = std::bit_cast<uint32_t>(x);
   const int biased = int((b >> 23) & 0xFFu);
   const int64_t mant = int64_t(b & 0x7FFFFFu);
   m = biased == 0 ? mant : (mant | 0x800000);  // subnormals have no hidden bit
@@ -145,11 +145,8 @@ inline void split_float(float x, int64_t& m, int& e) {
 
 // 2^e as a double, exact; e in [-1022, 1023] is built from its bits.
 inline double pow2(int e) {
-  if (e < -1022 || e > 1023) return __builtin_ldexp(1.0, e);
-  const uint64_t b = uint64_t(e + 1023) << 52;
-  double d;
-  __builtin_memcpy(&d, &b, sizeof d);
-  return d;
+  if (e < -1022 || e > 1023) return std::ldexp(1.0, e);
+  return std::bit_cast<double>(uint64_t(e + 1023) << 52);
 }
 
 template <int I, int F>

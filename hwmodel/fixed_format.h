@@ -32,7 +32,8 @@ struct FixedFormat {
   int box_product_bits() const;    // (plane - origin) * reciprocal
   int edge_function_bits() const;  // d . (A x B) of the triangle test
   int t_shift() const;             // s = D - F + T: a quotient of (F-unit) / (D-unit) values -> t raw
-  std::string describe() const;    // one line: "width 4, B=24 k=8 ..."
+  int offset_bytes() const { return child_bits <= 8 ? 1 : 2; }  // storage of one child offset
+  std::string describe() const;                                 // one line: "width 4, B=24 k=8 ..."
 };
 
 // Named formats. "default" is what every command uses without format options.

@@ -123,23 +123,23 @@ FixedTracer::FixedTracer(const DeviceImage& image, const FixedTraceOptions& opt)
 
 Hit FixedTracer::trace(const Ray& r, bool any_hit, TraversalStats& s) const {
   FixedRay fr;
-  const uint64_t sat0 = saturation_count();
   const RayStatus status = setup_ray(r, m_frame, m_format, fr);
   if (status != RayStatus::kOk) {
     ++s.invalid_rays;
     ++s.invalid_by_reason[size_t(status)];
     return Hit{};
   }
-  ++s.rays;
-  const Hit h = trace_valid(&r, fr, any_hit, s);
-  s.saturations += saturation_count() - sat0;
-  return h;
+  return trace_counted(&r, fr, any_hit, s);
 }
 
 Hit FixedTracer::trace_fixed(const FixedRay& r, bool any_hit, TraversalStats& s) const {
+  return trace_counted(nullptr, r, any_hit, s);
+}
+
+Hit FixedTracer::trace_counted(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s) const {
   const uint64_t sat0 = saturation_count();
   ++s.rays;
-  const Hit h = trace_valid(nullptr, r, any_hit, s);
+  const Hit h = trace_valid(r, fr, any_hit, s);
   s.saturations += saturation_count() - sat0;
   return h;
 }

@@ -37,6 +37,8 @@ class FixedTracer {
   const QuantFrame& frame() const { return m_frame; }
 
  private:
+  // Counts the ray and the saturations of trace_valid. r (the world ray) is only for sphere u, v; may be null.
+  Hit trace_counted(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s) const;
   Hit trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s) const;
 
   const DeviceImage& m_image;

@@ -26,6 +26,13 @@ struct QNode {
   Q q[6][N];          // rows lo_x, hi_x, lo_y, hi_y, lo_z, hi_z; column = child slot; values < 2^k
   uint32_t child[N];  // child reference per slot (see above)
 };
+// Bytes of a QNode of `width` children with `q_bytes`-byte offsets, for code that knows the width at run time.
+constexpr size_t qnode_bytes(int width, int q_bytes) {
+  return 16 + size_t(width) * (6 * size_t(q_bytes) + 4);
+}
+static_assert(sizeof(QNode<2, uint8_t>) == qnode_bytes(2, 1) && sizeof(QNode<4, uint8_t>) == qnode_bytes(4, 1) &&
+              sizeof(QNode<8, uint8_t>) == qnode_bytes(8, 1) && sizeof(QNode<8, uint16_t>) == qnode_bytes(8, 2) &&
+              sizeof(QNode<4, uint16_t>) == qnode_bytes(4, 2) && sizeof(QNode<2, uint16_t>) == qnode_bytes(2, 2));
 static_assert(sizeof(QNode<2, uint8_t>) == 36 && sizeof(QNode<4, uint8_t>) == 56 &&
               sizeof(QNode<8, uint8_t>) == 96);
 static_assert(sizeof(QNode<2, uint16_t>) == 48 && sizeof(QNode<4, uint16_t>) == 80 &&

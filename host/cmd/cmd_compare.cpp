@@ -46,16 +46,11 @@ void run_compare(const CompareOptions& o) {
   const double ref_s = trace_with_progress(*ref, rays, ref_hits, o.any_hit, o.threads, ref_stats);
   const double dut_s = trace_with_progress(*dut, rays, dut_hits, o.any_hit, o.threads, dut_stats);
 
-  // Rays either device rejected are not compared (counted as invalid_rays). The fixed device also rejects
-  // origins out of its frame: re-checked here ray by ray.
+  // Rays either device rejected are not compared (counted as invalid_rays).
   std::vector<bool> valid(rays.size());
   uint64_t invalid_either = 0;
   for (size_t i = 0; i < rays.size(); ++i) {
-    hw::FixedRay fr;
-    valid[i] = dut->image()
-                   ? hw::setup_ray(rays[i], dut->image()->frame(), dut_opt.format, fr) == hw::RayStatus::kOk
-                   : hw::validate_ray(rays[i]) == hw::RayStatus::kOk;
-    valid[i] = valid[i] && hw::validate_ray(rays[i]) == hw::RayStatus::kOk;
+    valid[i] = ref->ray_status(rays[i]) == hw::RayStatus::kOk && dut->ray_status(rays[i]) == hw::RayStatus::kOk;
     invalid_either += !valid[i];
   }
   const HitComparison t = compare_hits(ref_hits, dut_hits, valid, o.any_hit);

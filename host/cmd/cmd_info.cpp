@@ -4,6 +4,7 @@
 
 #include "host/cmd/common.h"
 #include "host/error.h"
+#include "hwmodel/hw_format.h"
 
 namespace rtu::host::cmd {
 
@@ -20,10 +21,9 @@ void list_formats() {
   std::printf("%-9s %5s %5s %5s %5s %5s %5s %5s %7s  %s\n", "preset", "width", "coord", "child", "guard", "frac",
               "dir", "rcp", "t", "node bytes");
   for (const hw::FixedFormat& f : hw::format_presets()) {
-    const int q = f.child_bits <= 8 ? 1 : 2;
-    std::printf("%-9s %5d %5d %5d %5d %5d %5d %5d %4d.%-2d  %d\n", f.name.c_str(), f.width, f.coord_bits,
+    std::printf("%-9s %5d %5d %5d %5d %5d %5d %5d %4d.%-2d  %zu\n", f.name.c_str(), f.width, f.coord_bits,
                 f.child_bits, f.guard_bits, f.frac_bits, f.dir_bits, f.rcp_bits, f.t_bits, f.t_frac_bits,
-                16 + 6 * f.width * q + 4 * f.width);
+                hw::qnode_bytes(f.width, f.offset_bytes()));
   }
 }
 

@@ -100,8 +100,8 @@ void check_closed_fixed(const std::string& spec, uint64_t n_world, uint64_t n_gr
     // a power of two, exact. So the ray passes exactly through the vertex or edge point.
     const int F = f.frac_bits, D = f.dir_bits;
     hw::FixedRay proto;
-    REQUIRE(hw::setup_ray(hw::Ray{g.bounds().center(), 0.0f, hw::Vec3(1.0f, 0.0f, 0.0f), INFINITY},
-                          tracer.frame(), f, proto) == hw::RayStatus::kOk);
+    REQUIRE(hw::setup_ray(hw::Ray{g.bounds().center(), 0.0f, hw::Vec3(1.0f, 0.0f, 0.0f), INFINITY}, tracer.frame(),
+                          f, proto) == hw::RayStatus::kOk);
     int64_t center[3];
     for (int a = 0; a < 3; ++a) center[a] = proto.o[a];
     hw::Pcg32 rng(seed * 7 + uint64_t(width));

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "hwmodel/traverse.h"
+
 namespace rtu::hw {
 
 FixedFormat DeviceImage::format() const {
@@ -296,6 +298,170 @@ DeviceImage encode_scene(const Geometry& g, const FixedFormat& f, const Bvh* bvh
   if (!records.empty()) std::memcpy(base + h.record_offset, records.data(), records.size());
   if (!planes.empty()) std::memcpy(base + h.plane_offset, planes.data(), planes.size() * sizeof(PlaneRecord));
   return img;
+}
+
+}  // namespace rtu::hw
+
+namespace rtu::hw {
+
+namespace {
+
+[[noreturn]] void bad_image(const std::string& why) {
+  throw std::invalid_argument("scene image: " + why);
+}
+
+}  // namespace
+
+DeviceImage DeviceImage::from_bytes(const uint8_t* data, size_t bytes) {
+  if (bytes < sizeof(ImageHeader) || bytes % 8 != 0)
+    bad_image("size " + std::to_string(bytes) + " is below the header or not a multiple of 8");
+  DeviceImage img;
+  img.m_words.assign(bytes / 8, 0);
+  std::memcpy(img.m_words.data(), data, bytes);
+  img.check();
+  return img;
+}
+
+void DeviceImage::check() const {
+  const ImageHeader& h = header();
+  const uint64_t bytes = uint64_t(m_words.size()) * 8;
+  if (h.magic != kImageMagic) bad_image("bad magic");
+  if (h.version != kImageVersion) bad_image("unsupported version " + std::to_string(h.version));
+  if (h.total_bytes != bytes) bad_image("total_bytes differs from the bound size");
+  const FixedFormat f = format();
+  try {
+    f.validate();
+  } catch (const std::invalid_argument& e) {
+    bad_image(std::string("format: ") + e.what());
+  }
+  if (h.q_bytes != f.offset_bytes()) bad_image("offset bytes do not match child_bits");
+  if (h.flags & ~kImageNoBvh) bad_image("unknown flag bits");
+  // The frame: grid -> world must stay exact in double (quant_frame.h) and finite.
+  if (h.step_exp < -1000 || h.step_exp > 1000) bad_image("frame step exponent out of range");
+  for (int a = 0; a < 3; ++a)
+    if (h.frame_origin[a] <= -(int64_t(1) << 52) || h.frame_origin[a] >= (int64_t(1) << 52))
+      bad_image("frame origin out of range");
+  // Sections inside the image, aligned, not overlapping the header or each other.
+  const uint64_t nb = uint64_t(h.node_count) * node_bytes(), rb = uint64_t(h.record_count) * kRecordBytes,
+                 pb = uint64_t(h.plane_count) * sizeof(PlaneRecord);
+  auto section = [&](uint64_t off, uint64_t size, uint64_t after, const char* what) {
+    if (off % 8 != 0 || off < after || off > bytes || size > bytes - off)
+      bad_image(std::string(what) + " section outside the image or misaligned");
+  };
+  section(h.node_offset, nb, sizeof(ImageHeader), "node");
+  section(h.record_offset, rb, h.node_offset + nb, "record");
+  section(h.plane_offset, pb, h.record_offset + rb, "plane");
+  const uint64_t num_bounded = uint64_t(h.num_triangles) + h.num_spheres;
+  if (num_bounded + h.plane_count >= kRecordPrimMask) bad_image("too many primitives");
+  if (h.record_count != num_bounded) bad_image("record count differs from the primitive counts");
+
+  // Records: kind and index agree, coordinates inside the ranges validate() proves the datapath for.
+  const int B = f.coord_bits, F = f.frac_bits;
+  const int64_t grid_max = (int64_t(1) << B) - 1;
+  const int64_t center_lim = int64_t(1) << (B + f.guard_bits + F);  // like a ray origin
+  for (uint32_t i = 0; i < h.record_count; ++i) {
+    const uint8_t* rec = record(i);
+    uint32_t word;
+    std::memcpy(&word, rec + 36, 4);
+    const uint32_t p = word & kRecordPrimMask;
+    const uint32_t kind = word >> 30;
+    if (kind == uint32_t(RecordKind::kTriangle)) {
+      if (p >= h.num_triangles) bad_image("record " + std::to_string(i) + ": triangle index out of range");
+      TriangleRecord t;
+      std::memcpy(&t, rec, sizeof t);
+      for (const auto& v : t.v)
+        for (int32_t c : v)
+          if (c < 0 || c > grid_max) bad_image("record " + std::to_string(i) + ": vertex outside the grid");
+    } else if (kind == uint32_t(RecordKind::kSphere)) {
+      if (p < h.num_triangles || p >= num_bounded)
+        bad_image("record " + std::to_string(i) + ": sphere index out of range");
+      SphereRecord s;
+      std::memcpy(&s, rec, sizeof s);
+      for (int64_t c : s.center)
+        if (c <= -center_lim || c >= center_lim)
+          bad_image("record " + std::to_string(i) + ": center out of range");
+      if (s.radius <= 0 || s.radius > (int64_t(1) << (B + F + 1)) || s.reserved != 0)
+        bad_image("record " + std::to_string(i) + ": radius out of range");
+    } else {
+      bad_image("record " + std::to_string(i) + ": unknown kind");
+    }
+  }
+  const PlaneRecord* pl = planes();
+  const int64_t wmax = int64_t(1) << f.translated_bits();
+  for (uint32_t i = 0; i < h.plane_count; ++i) {
+    bool zero = true;
+    for (int32_t c : pl[i].normal) {
+      if (c < -(int64_t(1) << f.dir_bits) || c > (int64_t(1) << f.dir_bits))
+        bad_image("plane normal out of range");
+      zero = zero && c == 0;
+    }
+    if (zero || pl[i].offset <= -wmax || pl[i].offset >= wmax)
+      bad_image("plane " + std::to_string(i) + " invalid");
+    if (pl[i].prim != num_bounded + i) bad_image("plane " + std::to_string(i) + ": index out of order");
+  }
+
+  // Tree: leaves inside the records, children after their parent (so no cycles), and no path deeper than the
+  // traversal stack holds.
+  auto leaf_ok = [&](uint32_t ref) { return uint64_t(leaf_first(ref)) + leaf_count(ref) <= h.record_count; };
+  if (h.flags & kImageNoBvh) {
+    if (h.node_count != 0) bad_image("nodes in an image without a BVH");
+    return;
+  }
+  if (h.root_ref == kEmptyChild) {
+    if (h.record_count != 0 || h.node_count != 0) bad_image("empty root with primitives");
+    return;
+  }
+  if (is_leaf(h.root_ref)) {
+    if (!leaf_ok(h.root_ref)) bad_image("root leaf outside the records");
+    return;
+  }
+  if (h.root_ref != 0 || h.node_count == 0) bad_image("root must be node 0");
+  const int N = h.width;
+  const int64_t qlim = int64_t(1) << f.child_bits;
+  std::vector<uint32_t> depth(h.node_count, 0);
+  const uint8_t* nodes = data() + h.node_offset;
+  const size_t nbytes = node_bytes();
+  for (uint32_t n = 0; n < h.node_count; ++n) {
+    const uint8_t* nd = nodes + size_t(n) * nbytes;
+    int32_t origin[3];
+    int8_t exp[3];
+    std::memcpy(origin, nd, 12);
+    std::memcpy(exp, nd + 12, 3);
+    const uint8_t count = nd[15];
+    const std::string at = "node " + std::to_string(n) + ": ";
+    if (count < 1 || count > N) bad_image(at + "child count out of range");
+    for (int a = 0; a < 3; ++a)
+      if (exp[a] < 0 || exp[a] > B + 1) bad_image(at + "scale out of range");
+    // Decoded planes within [-2^B, 2^(B+1)] grid units: minus any valid ray origin they stay below 2^(B+G+1),
+    // the translated range the box unit's widths are derived for (G >= 1).
+    for (int r = 0; r < 6; ++r) {
+      for (int i = 0; i < N; ++i) {
+        uint32_t q = 0;
+        std::memcpy(&q, nd + 16 + size_t(r * N + i) * h.q_bytes, h.q_bytes);
+        if (int64_t(q) >= qlim) bad_image(at + "child offset wider than child_bits");
+        const int64_t plane = int64_t(origin[r / 2]) + (int64_t(q) << exp[r / 2]);
+        if (plane < -(int64_t(1) << B) || plane > (int64_t(1) << (B + 1))) bad_image(at + "box outside the grid");
+      }
+    }
+    const uint8_t* child = nd + 16 + size_t(6 * N) * h.q_bytes;
+    for (int i = 0; i < N; ++i) {
+      uint32_t ref;
+      std::memcpy(&ref, child + 4 * i, 4);
+      if (i >= count) {
+        if (ref != kEmptyChild) bad_image(at + "an empty slot holds a child");
+        continue;
+      }
+      if (is_leaf(ref)) {
+        if (!leaf_ok(ref)) bad_image(at + "leaf outside the records");
+      } else if (ref <= n || ref >= h.node_count) {
+        bad_image(at + "child node out of order or out of range");
+      } else {
+        depth[ref] = std::max(depth[ref], depth[n] + 1);
+      }
+    }
+    // The stack holds at most N - 1 entries per level above the deepest node.
+    if (uint64_t(depth[n] + 1) * uint64_t(N - 1) >= uint64_t(kTraversalStackSize)) bad_image(at + "too deep");
+  }
 }
 
 }  // namespace rtu::hw

@@ -76,8 +76,14 @@ class DeviceImage {
   uint64_t records_size() const { return uint64_t(header().record_count) * kRecordBytes; }
   uint64_t planes_size() const { return uint64_t(header().plane_count) * sizeof(PlaneRecord); }
 
+  // An image from bytes written by someone else (device memory): copied, then checked field by field so that
+  // tracing it cannot read outside it, loop, overflow the traversal stack or leave the ranges the format's
+  // bounds are proven for. Throws std::invalid_argument naming the first problem.
+  static DeviceImage from_bytes(const uint8_t* data, size_t bytes);
+
  private:
   friend DeviceImage encode_scene(const Geometry&, const FixedFormat&, const Bvh*);
+  void check() const;
   std::vector<uint64_t> m_words;  // 8-byte aligned storage
 };
 

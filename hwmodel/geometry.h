@@ -36,10 +36,15 @@ struct Plane {
 enum class PrimKind : uint8_t { kTriangle, kSphere, kPlane };
 
 struct Geometry {
+  struct Counts {
+    uint32_t triangles = 0, spheres = 0, planes = 0;
+  };
+
   std::vector<Triangle> triangles;
   std::vector<Sphere> spheres;
   std::vector<Plane> planes;
 
+  Counts counts() const { return {uint32_t(triangles.size()), uint32_t(spheres.size()), uint32_t(planes.size())}; }
   uint32_t num_prims() const { return uint32_t(triangles.size() + spheres.size() + planes.size()); }
   // Primitives that go into a BVH (triangles and spheres): indices [0, num_bounded()).
   uint32_t num_bounded() const { return uint32_t(triangles.size() + spheres.size()); }

@@ -1,0 +1,40 @@
+// The in-process model device behind the firmware's HAL: device memory, the command processor and a trace
+// engine (float or fixed), wired as the unit would be. The firmware sees only fw::Hal.
+#pragma once
+
+#include <atomic>
+#include <memory>
+#include <string>
+
+#include "firmware/hal.h"
+#include "hwmodel/command_processor.h"
+#include "hwmodel/device_memory.h"
+#include "hwmodel/engine.h"
+#include "hwmodel/fixed_format.h"
+
+namespace rtu::host {
+
+class ModelDevice final : public fw::Hal {
+ public:
+  // `engine` is "float" or "fixed" (throws Error otherwise); memory_bytes of device memory.
+  ModelDevice(const std::string& engine, uint64_t memory_bytes, const hw::EngineOptions& opt = {});
+
+  uint32_t read32(uint32_t offset) override { return m_cp.read(offset); }
+  void write32(uint32_t offset, uint32_t value) override { m_cp.write(offset, value); }
+  void barrier() override { std::atomic_thread_fence(std::memory_order_seq_cst); }
+  uint8_t* mem() override { return m_mem.data(); }
+  uint64_t mem_size() override { return m_mem.size(); }
+
+  const std::string& engine_name() const { return m_name; }
+  hw::DeviceMemory& memory() { return m_mem; }
+  hw::CommandProcessor& processor() { return m_cp; }
+  const hw::TraceEngine& engine() const { return *m_engine; }
+
+ private:
+  std::string m_name;
+  hw::DeviceMemory m_mem;
+  std::unique_ptr<hw::TraceEngine> m_engine;
+  hw::CommandProcessor m_cp;
+};
+
+}  // namespace rtu::host

@@ -1,0 +1,82 @@
+// Command packets: fixed 32-byte records the firmware writes into the ring (regs.h) and the command processor
+// consumes in order. Freestanding (only <cstdint>/<cstddef>): the firmware includes it. firmware/README.md has
+// the command table; every field not listed for an opcode is reserved and must be 0 (else kReservedBits).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace rtu::hw::cmd {
+
+enum class Opcode : uint8_t {
+  kNop = 0,        // nothing; advances the clock
+  kBindScene = 1,  // addr0 = scene image, value = its bytes (8-byte aligned)
+  kTrace = 2,      // addr0 = rays (count x 32 B), addr1 = hits (count x 16 B), 16-byte aligned; flags kTrace*
+  kFence = 3,      // writes the 64-bit value at addr0 (8-byte aligned) once every earlier packet is done
+  kTimestamp = 4,  // writes the 64-bit device clock at addr0 (8-byte aligned)
+};
+inline constexpr uint8_t kOpcodeCount = 5;
+
+inline constexpr uint8_t kTraceAnyHit = 1u << 0;  // TRACE: stop at the first hit (shadow rays)
+inline constexpr uint8_t kFenceIrq = 1u << 0;     // FENCE: raise kIrqFence when written
+
+// The kind of ray a TRACE carries: the device counts rays by type and bounce (no effect on results).
+enum class RayType : uint8_t { kPrimary = 0, kShadow, kReflection, kRefraction, kDiffuse, kOcclusion, kOther };
+inline constexpr uint8_t kRayTypeCount = 7;
+constexpr const char* ray_type_name(RayType t) {
+  switch (t) {
+    case RayType::kPrimary:
+      return "primary";
+    case RayType::kShadow:
+      return "shadow";
+    case RayType::kReflection:
+      return "reflection";
+    case RayType::kRefraction:
+      return "refraction";
+    case RayType::kDiffuse:
+      return "diffuse";
+    case RayType::kOcclusion:
+      return "occlusion";
+    case RayType::kOther:
+      return "other";
+  }
+  return "unknown";
+}
+
+inline constexpr uint32_t kMaxTraceCount = 1u << 24;  // rays per TRACE
+inline constexpr uint64_t kRayBytes = 32;             // hw::Ray
+inline constexpr uint64_t kHitBytes = 16;             // hw::Hit
+
+struct Packet {
+  uint8_t opcode;    // Opcode
+  uint8_t flags;     // per opcode: kTrace*, kFence*
+  uint8_t ray_type;  // TRACE: RayType; else 0
+  uint8_t bounce;    // TRACE: path depth of the rays (0 = camera rays); else 0
+  uint32_t count;    // TRACE: rays; else 0
+  uint64_t addr0;    // see Opcode
+  uint64_t addr1;    // TRACE: hit buffer; else 0
+  uint64_t value;    // BIND_SCENE: image bytes; FENCE: value written; else 0
+};
+static_assert(sizeof(Packet) == 32);
+static_assert(offsetof(Packet, count) == 4 && offsetof(Packet, addr0) == 8 && offsetof(Packet, addr1) == 16 &&
+              offsetof(Packet, value) == 24);
+inline constexpr uint32_t kPacketBytes = sizeof(Packet);
+
+constexpr Packet nop() {
+  return Packet{uint8_t(Opcode::kNop), 0, 0, 0, 0, 0, 0, 0};
+}
+constexpr Packet bind_scene(uint64_t image, uint64_t bytes) {
+  return Packet{uint8_t(Opcode::kBindScene), 0, 0, 0, 0, image, 0, bytes};
+}
+constexpr Packet trace(uint64_t rays, uint64_t hits, uint32_t count, bool any_hit, RayType type, uint8_t bounce) {
+  return Packet{
+      uint8_t(Opcode::kTrace), uint8_t(any_hit ? kTraceAnyHit : 0), uint8_t(type), bounce, count, rays, hits, 0};
+}
+constexpr Packet fence(uint64_t addr, uint64_t value, bool irq) {
+  return Packet{uint8_t(Opcode::kFence), uint8_t(irq ? kFenceIrq : 0), 0, 0, 0, addr, 0, value};
+}
+constexpr Packet timestamp(uint64_t addr) {
+  return Packet{uint8_t(Opcode::kTimestamp), 0, 0, 0, 0, addr, 0, 0};
+}
+
+}  // namespace rtu::hw::cmd

@@ -1,0 +1,168 @@
+#include "hwmodel/engine.h"
+
+#include <cmath>
+#include <cstring>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include "hwmodel/regs.h"
+
+namespace rtu::hw {
+
+namespace {
+
+constexpr uint64_t align8(uint64_t x) {
+  return (x + 7) & ~uint64_t(7);
+}
+
+uint64_t float_scene_bytes(uint64_t nt, uint64_t ns, uint64_t np) {
+  return align8(sizeof(FloatSceneHeader) + nt * sizeof(Triangle) + ns * sizeof(Sphere) + np * sizeof(Plane));
+}
+
+[[noreturn]] void bad_scene(const std::string& why) {
+  throw std::invalid_argument("float scene image: " + why);
+}
+
+bool finite3(const Vec3& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+}  // namespace
+
+std::vector<uint64_t> encode_float_scene(const Geometry& g) {
+  FloatSceneHeader h{};
+  h.magic = kFloatSceneMagic;
+  h.version = kFloatSceneVersion;
+  h.num_triangles = uint32_t(g.triangles.size());
+  h.num_spheres = uint32_t(g.spheres.size());
+  h.num_planes = uint32_t(g.planes.size());
+  h.total_bytes = float_scene_bytes(h.num_triangles, h.num_spheres, h.num_planes);
+  std::vector<uint64_t> words(h.total_bytes / 8, 0);
+  auto* p = reinterpret_cast<uint8_t*>(words.data());
+  std::memcpy(p, &h, sizeof h);
+  size_t off = sizeof h;
+  auto put = [&](const auto& v) {
+    const size_t n = v.size() * sizeof(v[0]);
+    if (n) std::memcpy(p + off, v.data(), n);
+    off += n;
+  };
+  put(g.triangles);
+  put(g.spheres);
+  put(g.planes);
+  return words;
+}
+
+Geometry decode_float_scene(const uint8_t* data, size_t bytes) {
+  FloatSceneHeader h;
+  if (bytes < sizeof h) bad_scene("smaller than its header");
+  std::memcpy(&h, data, sizeof h);
+  if (h.magic != kFloatSceneMagic) bad_scene("bad magic");
+  if (h.version != kFloatSceneVersion) bad_scene("unsupported version " + std::to_string(h.version));
+  if (h.reserved != 0 || h.reserved2 != 0) bad_scene("reserved fields not zero");
+  if (uint64_t(h.num_triangles) + h.num_spheres + h.num_planes >= kMaxBvhPrims) bad_scene("too many primitives");
+  if (h.total_bytes != bytes || float_scene_bytes(h.num_triangles, h.num_spheres, h.num_planes) != bytes)
+    bad_scene("size does not match the primitive counts");
+  Geometry g;
+  g.triangles.resize(h.num_triangles);
+  g.spheres.resize(h.num_spheres);
+  g.planes.resize(h.num_planes);
+  size_t off = sizeof h;
+  auto get = [&](auto& v) {
+    const size_t n = v.size() * sizeof(v[0]);
+    if (n) std::memcpy(v.data(), data + off, n);
+    off += n;
+  };
+  get(g.triangles);
+  get(g.spheres);
+  get(g.planes);
+  for (size_t i = 0; i < g.triangles.size(); ++i)
+    if (!finite3(g.triangles[i].v0) || !finite3(g.triangles[i].v1) || !finite3(g.triangles[i].v2))
+      bad_scene("triangle " + std::to_string(i) + " is not finite");
+  for (size_t i = 0; i < g.spheres.size(); ++i)
+    if (!finite3(g.spheres[i].center) || !(g.spheres[i].radius > 0.0f) || !std::isfinite(g.spheres[i].radius))
+      bad_scene("sphere " + std::to_string(i) + " is not finite or has no positive radius");
+  for (size_t i = 0; i < g.planes.size(); ++i) {
+    const Plane& p = g.planes[i];
+    if (!finite3(p.normal) || !std::isfinite(p.offset) || (p.normal.x == 0 && p.normal.y == 0 && p.normal.z == 0))
+      bad_scene("plane " + std::to_string(i) + " is not finite or has a zero normal");
+  }
+  return g;
+}
+
+namespace {
+
+class FloatEngine final : public TraceEngine {
+ public:
+  explicit FloatEngine(const EngineOptions& o) : m_opt(o) {}
+  const char* name() const override { return "float"; }
+  uint32_t caps() const override {
+    return reg::kCapTriangles | reg::kCapSpheres | reg::kCapPlanes | reg::kCapAnyHit;
+  }
+  void bind(const uint8_t* data, size_t bytes) override {
+    unbind();
+    Geometry g = decode_float_scene(data, bytes);  // throws before anything changes
+    m_geom = std::make_unique<Geometry>(std::move(g));
+    m_tracer = std::make_unique<FloatTracer>(*m_geom, m_opt.tracer);
+  }
+  bool bound() const override { return m_tracer != nullptr; }
+  void unbind() override {
+    m_tracer.reset();
+    m_geom.reset();
+  }
+  void trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const override {
+    m_tracer->trace_batch(rays, hits, n, any_hit, m_opt.threads, s);
+  }
+  Geometry::Counts counts() const override { return m_geom ? m_geom->counts() : Geometry::Counts{}; }
+  bool uses_bvh() const override { return m_tracer && m_tracer->uses_bvh(); }
+
+ private:
+  EngineOptions m_opt;
+  std::unique_ptr<Geometry> m_geom;
+  std::unique_ptr<FloatTracer> m_tracer;
+};
+
+class FixedEngine final : public TraceEngine {
+ public:
+  explicit FixedEngine(const EngineOptions& o) : m_opt(o) {}
+  const char* name() const override { return "fixed"; }
+  uint32_t caps() const override {
+    return reg::kCapTriangles | reg::kCapSpheres | reg::kCapPlanes | reg::kCapAnyHit | reg::kCapFixed;
+  }
+  void bind(const uint8_t* data, size_t bytes) override {
+    unbind();
+    DeviceImage img = DeviceImage::from_bytes(data, bytes);  // throws before anything changes
+    m_image = std::make_unique<DeviceImage>(std::move(img));
+    m_tracer = std::make_unique<FixedTracer>(*m_image, FixedTraceOptions{m_opt.check_boxes});
+  }
+  bool bound() const override { return m_tracer != nullptr; }
+  void unbind() override {
+    m_tracer.reset();
+    m_image.reset();
+  }
+  void trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const override {
+    m_tracer->trace_batch(rays, hits, n, any_hit, m_opt.threads, s);
+  }
+  Geometry::Counts counts() const override {
+    if (!m_image) return {};
+    const ImageHeader& h = m_image->header();
+    return {h.num_triangles, h.num_spheres, h.plane_count};
+  }
+  bool uses_bvh() const override { return m_image && !(m_image->header().flags & kImageNoBvh); }
+
+ private:
+  EngineOptions m_opt;
+  std::unique_ptr<DeviceImage> m_image;
+  std::unique_ptr<FixedTracer> m_tracer;
+};
+
+}  // namespace
+
+std::unique_ptr<TraceEngine> make_float_engine(const EngineOptions& o) {
+  return std::make_unique<FloatEngine>(o);
+}
+std::unique_ptr<TraceEngine> make_fixed_engine(const EngineOptions& o) {
+  return std::make_unique<FixedEngine>(o);
+}
+
+}  // namespace rtu::hw

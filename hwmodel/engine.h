@@ -1,0 +1,75 @@
+// The datapath behind the command processor (command_processor.h): a TraceEngine binds a scene image from device
+// memory and traces ray batches. Two engines: `float` (the reference) and `fixed` (the bit-accurate fixed-point
+// datapath); the timed device will wrap the fixed one.
+//
+// Scene images, written by the host into device memory and named by BIND_SCENE:
+// - fixed: the DeviceImage of device_image.h (hardware BVH nodes, fixed-point records), checked field by field
+//   at bind (DeviceImage::from_bytes);
+// - float: a FloatSceneHeader followed by the float triangles, spheres and planes of geometry.h. The float
+//   device builds its BVH when the scene is bound (it is the reference, not a model of a memory format), with
+//   the options it was made with.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hwmodel/fixed_tracer.h"
+#include "hwmodel/float_tracer.h"
+#include "hwmodel/geometry.h"
+#include "hwmodel/ray.h"
+#include "hwmodel/stats.h"
+
+namespace rtu::hw {
+
+inline constexpr uint32_t kFloatSceneMagic = 0x46555452u;  // "RTUF" little-endian
+inline constexpr uint16_t kFloatSceneVersion = 1;
+
+struct FloatSceneHeader {
+  uint32_t magic;          // kFloatSceneMagic
+  uint16_t version;        // kFloatSceneVersion
+  uint16_t reserved;       // 0
+  uint32_t num_triangles;  // Triangle records (36 B) follow the header
+  uint32_t num_spheres;    // then Sphere records (16 B)
+  uint32_t num_planes;     // then Plane records (16 B)
+  uint32_t reserved2;      // 0
+  uint64_t total_bytes;    // header + records, rounded up to a multiple of 8
+};
+static_assert(sizeof(FloatSceneHeader) == 32);
+static_assert(sizeof(Triangle) == 36 && sizeof(Sphere) == 16 && sizeof(Plane) == 16);
+
+// The float scene image of g (8-byte words so it can be copied anywhere aligned).
+std::vector<uint64_t> encode_float_scene(const Geometry& g);
+// Geometry from a float scene image; throws std::invalid_argument naming the problem (bad header, sizes,
+// non-finite values, non-positive radii, zero plane normals).
+Geometry decode_float_scene(const uint8_t* data, size_t bytes);
+
+struct EngineOptions {
+  int threads = 1;           // worker threads per TRACE (0 = all cores); results do not depend on it
+  TracerOptions tracer;      // float: acceleration choice and BVH build
+  bool check_boxes = false;  // fixed: repeat every box test exactly and count false negatives
+};
+
+class TraceEngine {
+ public:
+  virtual ~TraceEngine() = default;
+  virtual const char* name() const = 0;
+  // Capability bits (regs.h kCap*).
+  virtual uint32_t caps() const = 0;
+  // Binds the scene image [data, data + bytes); on failure keeps nothing bound and throws std::invalid_argument.
+  virtual void bind(const uint8_t* data, size_t bytes) = 0;
+  virtual bool bound() const = 0;
+  virtual void unbind() = 0;
+  // Traces n rays of the bound scene (rays and hits do not overlap).
+  virtual void trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const = 0;
+  // What the bound scene holds, for stats: primitive counts by kind, whether a BVH is used.
+  virtual Geometry::Counts counts() const = 0;
+  virtual bool uses_bvh() const = 0;
+};
+
+std::unique_ptr<TraceEngine> make_float_engine(const EngineOptions& o);
+std::unique_ptr<TraceEngine> make_fixed_engine(const EngineOptions& o);
+
+}  // namespace rtu::hw

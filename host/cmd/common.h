@@ -8,6 +8,7 @@
 #include <string>
 
 #include "host/device.h"
+#include "host/render.h"
 #include "host/scene.h"
 
 namespace rtu::host::cmd {
@@ -55,6 +56,10 @@ Json format_json(const hw::FixedFormat& f);
 Json image_json(const hw::DeviceImage& img, const hw::Bvh* bvh);
 Json traversal_json(const hw::TraversalStats& s);
 void write_json(const std::string& path, const Json& j);
+// A render's statistics (rays by type, commands, what was skipped and why, the unit's counters) and its one-line
+// summary on stdout.
+Json render_json(const RenderResult& r, const RenderOptions& o);
+void print_render_summary(const RenderResult& r, const RenderOptions& o);
 
 void add_info(CLI::App& app);
 void add_rays(CLI::App& app);
@@ -62,5 +67,7 @@ void add_trace(CLI::App& app);
 void add_demo(CLI::App& app);
 void add_compare(CLI::App& app);
 void add_stress(CLI::App& app);
+void add_render(CLI::App& app);
+void add_diff(CLI::App& app);
 
 }  // namespace rtu::host::cmd

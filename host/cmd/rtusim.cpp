@@ -14,6 +14,8 @@ int main(int argc, char** argv) {
   rtu::host::cmd::add_trace(app);
   rtu::host::cmd::add_compare(app);
   rtu::host::cmd::add_stress(app);
+  rtu::host::cmd::add_render(app);
+  rtu::host::cmd::add_diff(app);
   rtu::host::cmd::add_demo(app);
   try {
     app.parse(argc, argv);

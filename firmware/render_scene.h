@@ -1,0 +1,80 @@
+// What the renderer reads from device memory besides the unit's scene image: the camera, the render settings,
+// and shading data (materials, per-primitive surface data, lights). The host writes these records; the firmware
+// reads them. Little-endian, naturally aligned, sizes checked below. Freestanding.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace rtu::fw {
+
+struct F3 {
+  float x, y, z;
+};
+static_assert(sizeof(F3) == 12);
+
+enum class MaterialKind : uint32_t { kDiffuse = 0, kMirror = 1, kGlass = 2, kEmissive = 3 };
+
+struct MaterialRecord {
+  uint32_t kind;  // MaterialKind
+  F3 color;       // diffuse albedo, or the tint of a mirror or glass
+  float ior;      // glass: index of refraction (> 0)
+  F3 emission;    // emissive: radiance
+};
+static_assert(sizeof(MaterialRecord) == 32);
+
+enum class SurfaceKind : uint32_t { kTriangle = 0, kSphere = 1, kPlane = 2 };
+
+// Per primitive index (the unit's index space: triangles, spheres, planes).
+struct SurfaceRecord {
+  uint32_t kind;      // SurfaceKind
+  uint32_t material;  // index into the material table
+  F3 a;               // triangle v0; sphere center; plane normal (any length)
+  F3 b;               // triangle v1; sphere (radius, 0, 0); plane (offset, 0, 0)
+  F3 c;               // triangle v2; otherwise 0
+};
+static_assert(sizeof(SurfaceRecord) == 44);
+
+enum class LightKind : uint32_t { kPoint = 0, kArea = 1 };
+
+struct LightRecord {
+  uint32_t kind;  // LightKind
+  F3 position;    // point: position; area: a corner of the parallelogram
+  F3 edge_u;      // area: first edge from the corner
+  F3 edge_v;      // area: second edge
+  F3 power;       // point: radiant intensity (W/sr); area: emitted radiance
+};
+static_assert(sizeof(LightRecord) == 52);
+
+// Render flags.
+inline constexpr uint32_t kRenderIndirect = 1u << 0;  // diffuse indirect bounces (path tracing)
+inline constexpr uint32_t kRenderAo = 1u << 1;  // ambient occlusion at diffuse hits instead of indirect light
+
+struct RenderJob {
+  // Image and sampling.
+  uint32_t width, height;  // pixels
+  uint32_t spp;            // samples per pixel (1: pixel centers; more: jittered)
+  uint32_t max_depth;      // bounces after the camera ray (0: primary hits only, lit directly)
+  uint32_t flags;          // kRender*
+  uint32_t seed;           // of the per-sample generator: same seed, same image
+  // Camera: ray direction for pixel position (px, py) is forward + sx * right + sy * up with
+  // sx = (2 px / width - 1), sy = (1 - 2 py / height); right and up carry tan(fov/2) and the aspect ratio.
+  F3 eye, forward, right, up;
+  F3 background;      // radiance of rays that leave the scene (and the ambient light of occlusion rays)
+  float ao_distance;  // occlusion rays: length in world units
+  // Spawned rays start off the surface by offset_abs + offset_rel * (largest |coordinate| of hit and origin),
+  // along the normal on the side they leave: the float hit point's rounding (offset_rel) and, on the fixed
+  // device, the quantization of the surface (offset_abs, a few grid steps).
+  float offset_abs, offset_rel;
+  uint32_t num_prims, num_materials, num_lights;
+  uint32_t reserved;     // 0
+  uint64_t scene_bytes;  // bytes of the unit's scene image (BIND_SCENE)
+  uint64_t scene_image;  // device address of the unit's scene image
+  uint64_t surfaces;     // SurfaceRecord[num_prims]
+  uint64_t materials;    // MaterialRecord[num_materials]
+  uint64_t lights;       // LightRecord[num_lights]
+  uint64_t framebuffer;  // float[width * height * 3], linear RGB, written by the renderer (row 0 on top)
+};
+static_assert(sizeof(RenderJob) == 160);
+
+}  // namespace rtu::fw

@@ -1,0 +1,386 @@
+#include "firmware/renderer.h"
+
+#include <glm/glm.hpp>
+
+#include "hwmodel/ray.h"
+
+namespace rtu::fw {
+
+namespace {
+
+using V = glm::vec3;
+using hw::cmd::RayType;
+
+constexpr float kInvPi = 0.318309886183790671538f;
+constexpr float kInf = __builtin_inff();
+
+V vec(const F3& f) {
+  return V(f.x, f.y, f.z);
+}
+float max_abs(const V& v) {
+  return glm::max(glm::max(glm::abs(v.x), glm::abs(v.y)), glm::abs(v.z));
+}
+
+// splitmix64's finalizer: a counter-based generator, so every sample's numbers depend only on what it is.
+uint64_t mix(uint64_t x) {
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+struct Rng {
+  uint64_t state;
+  float next() {  // uniform in [0, 1), 24 bits
+    state = mix(state);
+    return float(state >> 40) * (1.0f / 16777216.0f);
+  }
+};
+Rng rng_for(uint32_t seed, uint32_t pixel, uint32_t sample, uint32_t bounce) {
+  return Rng{mix(mix(mix(uint64_t(seed) << 32 | pixel) ^ sample) ^ (uint64_t(bounce) << 40))};
+}
+
+// Cosine-weighted direction around unit n: a point of the unit disk by rejection (no trigonometry in the
+// firmware), lifted to the hemisphere.
+V cosine_direction(const V& n, Rng& rng) {
+  float x, y, r2;
+  int tries = 0;
+  do {
+    x = 2.0f * rng.next() - 1.0f;
+    y = 2.0f * rng.next() - 1.0f;
+    r2 = x * x + y * y;
+  } while (r2 >= 1.0f && ++tries < 64);
+  if (r2 >= 1.0f) x = y = r2 = 0.0f;
+  const float z = glm::sqrt(glm::max(0.0f, 1.0f - r2));
+  // Orthonormal basis around n (Duff et al. 2017, "Building an Orthonormal Basis, Revisited").
+  const float s = n.z >= 0.0f ? 1.0f : -1.0f;
+  const float a = -1.0f / (s + n.z), b = n.x * n.y * a;
+  const V t(1.0f + s * n.x * n.x * a, s * b, -s * n.x);
+  const V u(b, s + n.y * n.y * a, -n.y);
+  return glm::normalize(x * t + y * u + z * n);
+}
+
+struct Path {
+  V throughput;
+  uint32_t pixel;
+  uint32_t sample;
+  uint32_t count_emission;  // 1 after the camera or a specular bounce: emitters hit now are not lit by NEE
+};
+static_assert(sizeof(Path) == 24);
+
+struct Pending {  // a shadow or occlusion ray's contribution, added when it reaches its target
+  V radiance;
+  uint32_t pixel;
+};
+static_assert(sizeof(Pending) == 16);
+
+// Ray types of the bounce rays, in their TRACE order.
+constexpr RayType kBounceTypes[] = {RayType::kReflection, RayType::kRefraction, RayType::kDiffuse};
+constexpr int kNumBounceTypes = 3;
+
+class Renderer {
+ public:
+  Renderer(Hal& hal, Ring& ring, const RenderJob& job, RenderStats& st)
+      : m_hal(hal), m_ring(ring), m_job(job), m_st(st) {}
+
+  Status run(Arena& arena);
+
+ private:
+  Status trace(uint64_t rays, uint64_t hits, uint32_t n, bool any_hit, RayType type, uint32_t bounce) {
+    if (n == 0) return Status::kOk;
+    m_st.rays[uint32_t(type)] += n;
+    ++m_st.traces;
+    return m_ring.submit(hw::cmd::trace(rays, hits, n, any_hit, type, uint8_t(bounce > 255 ? 255 : bounce)));
+  }
+  void add(uint32_t pixel, const V& radiance) {
+    float* fb = at<float>(m_hal, m_job.framebuffer) + uint64_t(pixel) * 3;
+    fb[0] += radiance.x * m_inv_spp;
+    fb[1] += radiance.y * m_inv_spp;
+    fb[2] += radiance.z * m_inv_spp;
+  }
+  float offset(const V& p, const V& o) const {
+    return m_job.offset_abs + m_job.offset_rel * glm::max(max_abs(p), max_abs(o));
+  }
+  hw::Ray camera_ray(uint32_t pixel, uint32_t sample) const;
+  // Shades one hit: adds emission, queues shadow/occlusion rays, writes the bounce ray (returns its type index
+  // in kBounceTypes, or -1 when the path ends).
+  int shade(const hw::Ray& ray, const hw::Hit& hit, Path& path, uint32_t depth, hw::Ray& next);
+
+  Hal& m_hal;
+  Ring& m_ring;
+  const RenderJob& m_job;
+  RenderStats& m_st;
+  float m_inv_spp = 1.0f;
+  uint32_t m_shadow_slots = 0;  // shadow/occlusion rays per path vertex at most
+  // Working buffers (device addresses) and the shadow queue of the current bounce.
+  uint64_t m_shadow_rays = 0, m_shadow_hits = 0, m_pending = 0;
+  uint32_t m_num_shadow = 0, m_num_occlusion = 0;
+  uint32_t m_occlusion_base = 0;  // occlusion rays follow the shadow rays' region of the queue
+  hw::Ray* m_srays = nullptr;
+  Pending* m_spend = nullptr;
+  const SurfaceRecord* m_surf = nullptr;
+  const MaterialRecord* m_mat = nullptr;
+  const LightRecord* m_light = nullptr;
+};
+
+hw::Ray Renderer::camera_ray(uint32_t pixel, uint32_t sample) const {
+  const uint32_t x = pixel % m_job.width, y = pixel / m_job.width;
+  float jx = 0.5f, jy = 0.5f;
+  if (m_job.spp > 1) {
+    Rng rng = rng_for(m_job.seed, pixel, sample, 0xFFFFu);
+    jx = rng.next();
+    jy = rng.next();
+  }
+  const float sx = 2.0f * (float(x) + jx) / float(m_job.width) - 1.0f;
+  const float sy = 1.0f - 2.0f * (float(y) + jy) / float(m_job.height);
+  const V d = glm::normalize(vec(m_job.forward) + sx * vec(m_job.right) + sy * vec(m_job.up));
+  return hw::Ray{vec(m_job.eye), 0.0f, d, kInf};
+}
+
+int Renderer::shade(const hw::Ray& ray, const hw::Hit& hit, Path& path, uint32_t depth, hw::Ray& next) {
+  if (!hit.hit()) {
+    add(path.pixel, path.throughput * vec(m_job.background));
+    return -1;
+  }
+  if (hit.prim >= m_job.num_prims) return -1;  // the unit returned an index outside the scene: end the path
+  const SurfaceRecord& s = m_surf[hit.prim];
+  const MaterialRecord& m = m_mat[s.material < m_job.num_materials ? s.material : 0];
+  const V d = glm::normalize(ray.dir);
+  const V p = ray.origin + hit.t * ray.dir;
+  V n;
+  if (s.kind == uint32_t(SurfaceKind::kTriangle))
+    n = glm::cross(vec(s.b) - vec(s.a), vec(s.c) - vec(s.a));
+  else if (s.kind == uint32_t(SurfaceKind::kSphere))
+    n = p - vec(s.a);
+  else
+    n = vec(s.a);
+  const float nl = glm::length(n);
+  n = nl > 0.0f ? n / nl : -d;
+  const bool front = glm::dot(n, d) < 0.0f;
+  const V nf = front ? n : -n;  // facing the incoming ray
+  const float eps = offset(p, ray.origin);
+  const V above = p + eps * nf, below = p - eps * nf;
+  Rng rng = rng_for(m_job.seed, path.pixel, path.sample, depth + 1);
+  const bool can_bounce = depth < m_job.max_depth;
+
+  switch (MaterialKind(m.kind)) {
+    case MaterialKind::kEmissive:
+      if (path.count_emission) add(path.pixel, path.throughput * vec(m.emission));
+      return -1;
+    case MaterialKind::kMirror:
+      if (!can_bounce) return -1;
+      path.throughput *= vec(m.color);
+      path.count_emission = 1;
+      next = hw::Ray{above, 0.0f, glm::reflect(d, nf), kInf};
+      return 0;
+    case MaterialKind::kGlass: {
+      if (!can_bounce) return -1;
+      const float ior = m.ior > 0.0f ? m.ior : 1.5f;
+      const float n1 = front ? 1.0f : ior, n2 = front ? ior : 1.0f, eta = n1 / n2;
+      const float cos_i = glm::min(1.0f, -glm::dot(d, nf));
+      const float sin2_t = eta * eta * glm::max(0.0f, 1.0f - cos_i * cos_i);
+      path.throughput *= vec(m.color);
+      path.count_emission = 1;
+      float fresnel = 1.0f;  // total internal reflection
+      float cos_t = 0.0f;
+      if (sin2_t < 1.0f) {
+        cos_t = glm::sqrt(1.0f - sin2_t);
+        const float rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t);
+        const float rp = (n2 * cos_i - n1 * cos_t) / (n2 * cos_i + n1 * cos_t);
+        fresnel = 0.5f * (rs * rs + rp * rp);
+      }
+      if (rng.next() < fresnel) {
+        next = hw::Ray{above, 0.0f, glm::reflect(d, nf), kInf};
+        return 0;
+      }
+      next = hw::Ray{below, 0.0f, glm::normalize(eta * d + (eta * cos_i - cos_t) * nf), kInf};
+      return 1;
+    }
+    case MaterialKind::kDiffuse:
+    default:
+      break;
+  }
+
+  // Diffuse: light from every light through a shadow ray, then indirect light or occlusion.
+  const V brdf = vec(m.color) * kInvPi;
+  for (uint32_t l = 0; l < m_job.num_lights; ++l) {
+    const LightRecord& L = m_light[l];
+    V q = vec(L.position), power = vec(L.power);
+    float geometry = 1.0f;
+    if (L.kind == uint32_t(LightKind::kArea)) {
+      const V eu = vec(L.edge_u), ev = vec(L.edge_v);
+      q += rng.next() * eu + rng.next() * ev;
+      const V ln = glm::cross(eu, ev);
+      const V to = q - above;
+      const float dist2 = glm::dot(to, to), area = glm::length(ln);
+      geometry = dist2 > 0.0f && area > 0.0f ? glm::abs(glm::dot(ln / area, to)) / glm::sqrt(dist2) * area : 0.0f;
+    }
+    const V to = q - above;
+    const float dist2 = glm::dot(to, to);
+    if (!(dist2 > 0.0f)) continue;
+    const float dist = glm::sqrt(dist2);
+    const float cos_s = glm::dot(nf, to) / dist;
+    if (cos_s <= 0.0f || geometry <= 0.0f) continue;
+    // The ray reaches t = 1 at the light; stop short of it so an area light's own triangles do not shadow it.
+    const float tmax = 1.0f - 2.0f * eps / dist;
+    if (tmax <= 0.0f) continue;
+    m_srays[m_num_shadow] = hw::Ray{above, 0.0f, to, tmax};
+    m_spend[m_num_shadow] = Pending{path.throughput * brdf * power * (cos_s * geometry / dist2), path.pixel};
+    ++m_num_shadow;
+  }
+  if (m_job.flags & kRenderAo) {
+    // Ambient occlusion: a cosine-distributed ray of length ao_distance; the ambient light (the background
+    // radiance) arrives when it escapes: albedo / pi * (pi * ambient) per unoccluded sample.
+    const uint32_t slot = m_occlusion_base + m_num_occlusion++;
+    m_srays[slot] = hw::Ray{above, 0.0f, cosine_direction(nf, rng), m_job.ao_distance};
+    m_spend[slot] = Pending{path.throughput * vec(m.color) * vec(m_job.background), path.pixel};
+  }
+  if ((m_job.flags & kRenderIndirect) && !(m_job.flags & kRenderAo) && can_bounce) {
+    path.throughput *= vec(m.color);
+    path.count_emission = 0;
+    next = hw::Ray{above, 0.0f, cosine_direction(nf, rng), kInf};
+    return 2;
+  }
+  return -1;
+}
+
+Status Renderer::run(Arena& arena) {
+  const RenderJob& j = m_job;
+  m_surf = at<const SurfaceRecord>(m_hal, j.surfaces);
+  m_mat = at<const MaterialRecord>(m_hal, j.materials);
+  m_light = at<const LightRecord>(m_hal, j.lights);
+  m_inv_spp = 1.0f / float(j.spp ? j.spp : 1);
+  m_st.paths = uint64_t(j.width) * j.height * (j.spp ? j.spp : 1);
+
+  // What the scene needs, from its materials and lights.
+  bool diffuse = false, mirror = false, glass = false;
+  for (uint32_t i = 0; i < j.num_materials; ++i) {
+    diffuse |= m_mat[i].kind == uint32_t(MaterialKind::kDiffuse);
+    mirror |= m_mat[i].kind == uint32_t(MaterialKind::kMirror);
+    glass |= m_mat[i].kind == uint32_t(MaterialKind::kGlass);
+  }
+  const bool bounces = j.max_depth > 0;
+  m_st.need_shadow = diffuse && j.num_lights > 0;
+  m_st.need_reflection = bounces && (mirror || glass);
+  m_st.need_refraction = bounces && glass;
+  m_st.need_occlusion = diffuse && (j.flags & kRenderAo);
+  m_st.need_diffuse = bounces && diffuse && (j.flags & kRenderIndirect) && !(j.flags & kRenderAo);
+  const uint32_t light_slots = m_st.need_shadow ? j.num_lights : 0;
+  m_shadow_slots = light_slots + (m_st.need_occlusion ? 1 : 0);
+
+  Status s = m_ring.submit(hw::cmd::bind_scene(j.scene_image, j.scene_bytes));
+  if (s != Status::kOk) return s;
+
+  // Batch size: what the arena holds, per path: two path states, two ray buffers and a hit buffer, a type
+  // byte, and per shadow slot a ray, a hit and a pending contribution.
+  const uint64_t per_path = 2 * sizeof(Path) + 2 * sizeof(hw::Ray) + sizeof(hw::Hit) + 1 +
+                            uint64_t(m_shadow_slots) * (sizeof(hw::Ray) + sizeof(hw::Hit) + sizeof(Pending));
+  const uint64_t room = arena.size() > arena.used() + 1024 ? arena.size() - arena.used() - 1024 : 0;
+  uint64_t batch = room / per_path;
+  if (batch > m_st.paths) batch = m_st.paths;
+  if (batch > (1u << 18)) batch = 1u << 18;
+  if (batch == 0) return Status::kNoMemory;
+  m_st.batch_paths = uint32_t(batch);
+  const uint64_t a_paths = arena.alloc(batch * sizeof(Path)), a_next_paths = arena.alloc(batch * sizeof(Path));
+  const uint64_t a_rays = arena.alloc(batch * sizeof(hw::Ray)), a_next_rays = arena.alloc(batch * sizeof(hw::Ray));
+  const uint64_t a_hits = arena.alloc(batch * sizeof(hw::Hit)), a_types = arena.alloc(batch, 1);
+  const uint64_t shadow_n = batch * m_shadow_slots;
+  m_occlusion_base = uint32_t(batch * light_slots);
+  m_shadow_rays = arena.alloc(shadow_n * sizeof(hw::Ray) + 16);
+  m_shadow_hits = arena.alloc(shadow_n * sizeof(hw::Hit) + 16);
+  m_pending = arena.alloc(shadow_n * sizeof(Pending) + 16);
+  if (a_paths == Arena::kNull || a_next_paths == Arena::kNull || a_rays == Arena::kNull ||
+      a_next_rays == Arena::kNull || a_hits == Arena::kNull || a_types == Arena::kNull ||
+      m_shadow_rays == Arena::kNull || m_shadow_hits == Arena::kNull || m_pending == Arena::kNull)
+    return Status::kNoMemory;
+  m_srays = at<hw::Ray>(m_hal, m_shadow_rays);
+  m_spend = at<Pending>(m_hal, m_pending);
+  const hw::Hit* shits = at<const hw::Hit>(m_hal, m_shadow_hits);
+
+  float* fb = at<float>(m_hal, j.framebuffer);
+  for (uint64_t i = 0; i < uint64_t(j.width) * j.height * 3; ++i) fb[i] = 0.0f;
+
+  const uint32_t spp = j.spp ? j.spp : 1;
+  for (uint64_t first = 0; first < m_st.paths; first += batch) {
+    ++m_st.batches;
+    uint32_t n = uint32_t(m_st.paths - first < batch ? m_st.paths - first : batch);
+    Path* paths = at<Path>(m_hal, a_paths);
+    Path* next_paths = at<Path>(m_hal, a_next_paths);
+    hw::Ray* rays = at<hw::Ray>(m_hal, a_rays);
+    hw::Ray* next_rays = at<hw::Ray>(m_hal, a_next_rays);
+    const hw::Hit* hits = at<const hw::Hit>(m_hal, a_hits);
+    uint8_t* types = at<uint8_t>(m_hal, a_types);
+    const uint64_t ray_buf = a_rays;
+    for (uint32_t i = 0; i < n; ++i) {
+      const uint64_t k = first + i;
+      paths[i] = Path{V(1.0f), uint32_t(k / spp), uint32_t(k % spp), 1};
+      rays[i] = camera_ray(paths[i].pixel, paths[i].sample);
+    }
+    // Segments of the current ray buffer by type: [seg_begin[t], seg_begin[t] + seg_count[t]).
+    uint32_t seg_begin[kNumBounceTypes + 1] = {0, 0, 0, 0}, seg_count[kNumBounceTypes + 1] = {n, 0, 0, 0};
+    RayType seg_type[kNumBounceTypes + 1] = {RayType::kPrimary, RayType::kReflection, RayType::kRefraction,
+                                             RayType::kDiffuse};
+    for (uint32_t depth = 0; n > 0; ++depth) {
+      ++m_st.bounces;
+      for (int t = 0; t < kNumBounceTypes + 1; ++t) {
+        s = trace(ray_buf + uint64_t(seg_begin[t]) * sizeof(hw::Ray),
+                  a_hits + uint64_t(seg_begin[t]) * sizeof(hw::Hit), seg_count[t], false, seg_type[t], depth);
+        if (s != Status::kOk) return s;
+      }
+      if ((s = m_ring.sync()) != Status::kOk) return s;
+
+      // Shade: bounce rays staged in next_rays / next_paths with their type.
+      m_num_shadow = m_num_occlusion = 0;
+      uint32_t staged = 0, count[kNumBounceTypes] = {0, 0, 0};
+      for (uint32_t i = 0; i < n; ++i) {
+        hw::Ray next{};
+        const int t = shade(rays[i], hits[i], paths[i], depth, next);
+        if (t < 0) continue;
+        next_rays[staged] = next;
+        next_paths[staged] = paths[i];
+        types[staged] = uint8_t(t);
+        ++count[t];
+        ++staged;
+      }
+      // Shadow and occlusion rays: any-hit TRACEs; the contributions of those that reach their target.
+      if (m_num_shadow + m_num_occlusion > 0) {
+        if ((s = trace(m_shadow_rays, m_shadow_hits, m_num_shadow, true, RayType::kShadow, depth)) !=
+                Status::kOk ||
+            (s = trace(m_shadow_rays + uint64_t(m_occlusion_base) * sizeof(hw::Ray),
+                       m_shadow_hits + uint64_t(m_occlusion_base) * sizeof(hw::Hit), m_num_occlusion, true,
+                       RayType::kOcclusion, depth)) != Status::kOk)
+          return s;
+        if ((s = m_ring.sync()) != Status::kOk) return s;
+        for (uint32_t i = 0; i < m_num_shadow; ++i)
+          if (!shits[i].hit()) add(m_spend[i].pixel, m_spend[i].radiance);
+        for (uint32_t i = m_occlusion_base; i < m_occlusion_base + m_num_occlusion; ++i)
+          if (!shits[i].hit()) add(m_spend[i].pixel, m_spend[i].radiance);
+      }
+      // Group the staged rays by type into the ray buffer (stable), the paths likewise.
+      uint32_t begin[kNumBounceTypes] = {0, count[0], count[0] + count[1]};
+      for (int t = 0; t < kNumBounceTypes; ++t) {
+        seg_begin[t + 1] = begin[t];
+        seg_count[t + 1] = count[t];
+      }
+      seg_count[0] = 0;
+      for (uint32_t i = 0; i < staged; ++i) {
+        const uint32_t dst = begin[types[i]]++;
+        rays[dst] = next_rays[i];
+        paths[dst] = next_paths[i];
+      }
+      n = staged;
+    }
+  }
+  return Status::kOk;
+}
+
+}  // namespace
+
+Status render(Hal& hal, Ring& ring, Arena& arena, uint64_t job_addr, RenderStats& stats) {
+  stats = RenderStats{};
+  const RenderJob& job = *at<const RenderJob>(hal, job_addr);
+  if (job.width == 0 || job.height == 0 || job.num_materials == 0) return Status::kBadArgument;
+  Renderer r(hal, ring, job, stats);
+  return r.run(arena);
+}
+
+}  // namespace rtu::fw

@@ -1,0 +1,174 @@
+// rtusim render: render a scene with the firmware renderer on a device and write a PNG and statistics.
+#include <cstdio>
+#include <memory>
+
+#include "host/cmd/common.h"
+#include "host/error.h"
+#include "host/render.h"
+
+namespace rtu::host::cmd {
+
+namespace {
+
+struct RenderArgs {
+  std::string scene, out, stats;
+  DeviceArgs dev;
+  int threads = 0;
+  int width = 0, height = 0, spp = 1, max_depth = 4;
+  uint32_t seed = 1;
+  bool ao = false, no_indirect = false;
+  float ao_distance = 0.0f;
+  std::vector<float> background{0.0f, 0.0f, 0.0f};
+};
+
+RenderOptions options_from(const RenderArgs& a, const std::string& device) {
+  RenderOptions o;
+  o.device = a.dev.options(device);
+  o.threads = a.threads;
+  o.width = a.width;
+  o.height = a.height;
+  o.spp = a.spp;
+  o.max_depth = a.max_depth;
+  o.seed = a.seed;
+  o.ao = a.ao;
+  o.indirect = !a.no_indirect;
+  o.ao_distance = a.ao_distance;
+  o.background = Vec3(a.background[0], a.background[1], a.background[2]);
+  return o;
+}
+
+void run_render(const RenderArgs& a) {
+  const Scene scene = load_scene(a.scene);
+  const RenderOptions o = options_from(a, a.dev.device);
+  const RenderResult r = render(scene, o);
+  write_png(a.out, to_image(r));
+  print_render_summary(r, o);
+  std::printf("  wrote %s\n", a.out.c_str());
+  if (!a.stats.empty()) {
+    Json j = render_json(r, o);
+    j["scene"] = scene.name;
+    j["image"] = a.out;
+    write_json(a.stats, j);
+    std::printf("  wrote %s\n", a.stats.c_str());
+  }
+}
+
+}  // namespace
+
+void add_render(CLI::App& app) {
+  auto a = std::make_shared<RenderArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "render",
+      "Render a scene with the firmware renderer (wavefront path tracing: shadows, reflection, refraction, "
+      "diffuse light or ambient occlusion) on a device; PNG out");
+  sub->add_option("--scene", a->scene, "scene file, mesh file, or builtin:NAME")->required();
+  sub->add_option("--out", a->out, "PNG to write")->required();
+  sub->add_option("--stats", a->stats, "write statistics as JSON to this file");
+  add_device_args(*sub, a->dev, "device: float (the reference) or fixed (bit-accurate fixed point)");
+  sub->add_option("--threads", a->threads, "unit worker threads (0 = all cores); the image does not depend on it")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  sub->add_option("--width", a->width, "image width (default: the scene camera's)")->check(CLI::Range(1, 16384));
+  sub->add_option("--height", a->height, "image height (default: the scene camera's)")
+      ->check(CLI::Range(1, 16384));
+  sub->add_option("--spp", a->spp, "samples per pixel (1: pixel centers; more: jittered)")
+      ->check(CLI::Range(1, 65536))
+      ->capture_default_str();
+  sub->add_option("--max-depth", a->max_depth, "bounces after the camera ray (0: direct light only)")
+      ->check(CLI::Range(0, 64))
+      ->capture_default_str();
+  sub->add_option("--seed", a->seed, "seed of the sampling generator")->capture_default_str();
+  sub->add_flag("--ao", a->ao, "ambient occlusion at diffuse hits instead of diffuse indirect light");
+  sub->add_option("--ao-distance", a->ao_distance, "occlusion ray length (default: 1/4 of the scene diagonal)")
+      ->check(CLI::PositiveNumber);
+  sub->add_flag("--no-indirect", a->no_indirect, "no diffuse indirect bounces (direct light and specular only)");
+  sub->add_option("--background", a->background, "radiance R G B of rays that leave the scene")
+      ->expected(3)
+      ->check(CLI::Range(0.0f, 1e6f))
+      ->capture_default_str();
+  sub->callback([a] { run_render(*a); });
+}
+
+void print_render_summary(const RenderResult& r, const RenderOptions& o) {
+  using hw::cmd::RayType;
+  const auto& ry = r.fw.rays;
+  uint64_t total = 0;
+  for (uint64_t n : ry) total += n;
+  std::printf(
+      "  %-5s device: %dx%d, %d spp, depth %d: %llu rays (primary %llu, shadow %llu, reflection %llu, refraction "
+      "%llu, diffuse %llu, occlusion %llu) in %.2f s; %llu TRACE, %llu fences\n",
+      o.device.name.c_str(), r.width, r.height, o.spp, o.max_depth, (unsigned long long)total,
+      (unsigned long long)ry[int(RayType::kPrimary)], (unsigned long long)ry[int(RayType::kShadow)],
+      (unsigned long long)ry[int(RayType::kReflection)], (unsigned long long)ry[int(RayType::kRefraction)],
+      (unsigned long long)ry[int(RayType::kDiffuse)], (unsigned long long)ry[int(RayType::kOcclusion)], r.seconds,
+      (unsigned long long)r.fw.traces, (unsigned long long)r.ring.fences);
+}
+
+Json render_json(const RenderResult& r, const RenderOptions& o) {
+  using hw::cmd::RayType;
+  Json j;
+  j["device"] = o.device.name;
+  j["width"] = r.width;
+  j["height"] = r.height;
+  j["spp"] = o.spp;
+  j["max_depth"] = o.max_depth;
+  j["seed"] = o.seed;
+  j["mode"] = o.ao ? "ambient_occlusion" : (o.indirect ? "path_tracing" : "direct_and_specular");
+  j["seconds"] = r.seconds;
+  Json rays;
+  uint64_t total = 0;
+  for (int t = 0; t < hw::cmd::kRayTypeCount; ++t) {
+    rays[hw::cmd::ray_type_name(RayType(t))] = r.fw.rays[t];
+    total += r.fw.rays[t];
+  }
+  j["rays"] = rays;
+  j["rays_total"] = total;
+  j["rays_per_second"] = r.seconds > 0 ? double(total) / r.seconds : 0.0;
+  j["paths"] = r.fw.paths;
+  j["batches"] = r.fw.batches;
+  j["batch_paths"] = r.fw.batch_paths;
+  j["bounces"] = r.fw.bounces;
+  j["commands"] = {{"packets", r.ring.packets},
+                   {"trace", r.fw.traces},
+                   {"fences", r.ring.fences},
+                   {"doorbells", r.ring.doorbells},
+                   {"ring_full", r.ring.full}};
+  // What the scene did not need, and why: decided before any ray was built.
+  Json skipped = Json::object();
+  const bool any_diffuse = r.fw.need_shadow || r.fw.need_diffuse || r.fw.need_occlusion;
+  if (!r.fw.need_shadow)
+    skipped["shadow"] =
+        r.fw.rays[int(RayType::kShadow)] == 0 && any_diffuse ? "no lights" : "no lights or no diffuse surface";
+  if (!r.fw.need_reflection)
+    skipped["reflection"] = o.max_depth == 0 ? "max depth 0" : "no mirror or glass material";
+  if (!r.fw.need_refraction) skipped["refraction"] = o.max_depth == 0 ? "max depth 0" : "no glass material";
+  if (!r.fw.need_diffuse)
+    skipped["diffuse"] = o.ao ? "ambient occlusion instead"
+                              : (!o.indirect ? "indirect light off" : "no diffuse material or max depth 0");
+  if (!r.fw.need_occlusion) skipped["occlusion"] = o.ao ? "no diffuse material" : "ambient occlusion off";
+  if (r.counts.triangles == 0) skipped["triangle_unit"] = "no triangles";
+  if (r.counts.spheres == 0) skipped["sphere_unit"] = "no spheres";
+  if (r.counts.planes == 0) skipped["plane_unit"] = "no planes";
+  if (!r.uses_bvh) skipped["bvh"] = "brute force is cheaper for this scene (hw::choose_accel)";
+  j["skipped"] = skipped;
+  Json unit;
+  unit["primitives"] = {
+      {"triangles", r.counts.triangles}, {"spheres", r.counts.spheres}, {"planes", r.counts.planes}};
+  unit["accel"] = r.uses_bvh ? "bvh" : "brute_force";
+  unit["memory_bytes"] = r.device_memory_bytes;
+  unit["scene_image_bytes"] = r.scene_image_bytes;
+  unit["packets"] = r.device.packets;
+  Json by_type;
+  for (int t = 0; t < hw::cmd::kRayTypeCount; ++t) {
+    if (r.device.rays_by_type[t] == 0) continue;
+    by_type[hw::cmd::ray_type_name(RayType(t))] = traversal_json(r.device.stats_by_type[t]);
+  }
+  unit["by_ray_type"] = by_type;
+  unit["total"] = traversal_json(r.device.total());
+  j["unit"] = unit;
+  j["spawn_offset"] = {{"abs", r.offset_abs}, {"rel", r.offset_rel}};
+  if (o.device.name == "fixed") j["format"] = format_json(o.device.format);
+  return j;
+}
+
+}  // namespace rtu::host::cmd

@@ -1,0 +1,218 @@
+#include "host/render.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+
+#include "firmware/render_scene.h"
+#include "host/error.h"
+#include "host/model_device.h"
+#include "hwmodel/device_image.h"
+#include "hwmodel/engine.h"
+
+namespace rtu::host {
+
+namespace {
+
+fw::F3 f3(const Vec3& v) {
+  return fw::F3{v.x, v.y, v.z};
+}
+
+uint64_t align64(uint64_t x) {
+  return (x + 63) & ~uint64_t(63);
+}
+
+}  // namespace
+
+RenderResult render(const Scene& scene, const RenderOptions& o) {
+  const hw::Geometry& g = scene.geometry;
+  RenderResult res;
+  res.width = o.width > 0 ? o.width : scene.camera.width;
+  res.height = o.height > 0 ? o.height : scene.camera.height;
+  if (o.spp < 1 || o.spp > 65536) throw Error("render: spp must be in [1, 65536]");
+  if (o.max_depth < 0 || o.max_depth > 64) throw Error("render: max depth must be in [0, 64]");
+  if (uint64_t(res.width) * uint64_t(res.height) > (uint64_t(1) << 28))
+    throw Error("render: image too large (at most 2^28 pixels)");
+
+  // The unit's scene image, and the offsets spawned rays need on this device.
+  std::vector<uint64_t> image_words;
+  const hw::Aabb bounds = g.bounds();
+  const float extent = bounds.empty() ? 1.0f : std::max({bounds.extent().x, bounds.extent().y, bounds.extent().z});
+  float max_coord = 0.0f;
+  if (!bounds.empty())
+    for (int a = 0; a < 3; ++a) max_coord = std::max({max_coord, std::abs(bounds.lo[a]), std::abs(bounds.hi[a])});
+  // Float: the hit point o + t d carries a few float ulps of the largest coordinate involved; 2^-16 relative is
+  // 128 ulps (24-bit significands), and 2^-20 of the scene's size covers points near the origin.
+  res.offset_rel = std::ldexp(1.0f, -16);
+  res.offset_abs = std::ldexp(extent, -20);
+  hw::TracerOptions tracer = o.device.tracer;
+  if (o.device.name == "fixed") {
+    tracer.bvh.width = o.device.format.width;
+    const std::optional<hw::Bvh> bvh = hw::choose_accel(g, tracer);
+    const hw::DeviceImage img = hw::encode_scene(g, o.device.format, bvh ? &*bvh : nullptr);
+    image_words.assign(img.size() / 8, 0);
+    std::memcpy(image_words.data(), img.data(), img.size());
+    // Fixed: vertices round to the nearest grid point, so the unit's surface lies within sqrt(3)/2 grid steps
+    // of the float one, and hit t rounds to nearest in ray units; 4 grid steps clear both.
+    res.offset_abs = std::max(res.offset_abs, float(std::ldexp(4.0, img.frame().step_exp)));
+  } else if (o.device.name == "float") {
+    image_words = hw::encode_float_scene(g);
+  } else {
+    throw Error("unknown device '" + o.device.name + "' (devices: float, fixed)");
+  }
+  res.scene_image_bytes = image_words.size() * 8;
+
+  // Device memory layout: scene image, renderer records, framebuffer, then the firmware's arena.
+  const uint32_t nprims = g.num_prims();
+  std::vector<fw::SurfaceRecord> surfaces(nprims);
+  for (uint32_t p = 0; p < nprims; ++p) {
+    fw::SurfaceRecord& s = surfaces[p];
+    s.material = p < scene.prim_material.size() ? scene.prim_material[p] : 0;
+    switch (g.kind(p)) {
+      case hw::PrimKind::kTriangle: {
+        const hw::Triangle& t = g.triangles[p];
+        s.kind = uint32_t(fw::SurfaceKind::kTriangle);
+        s.a = f3(t.v0);
+        s.b = f3(t.v1);
+        s.c = f3(t.v2);
+        break;
+      }
+      case hw::PrimKind::kSphere: {
+        const hw::Sphere& sp = g.spheres[p - g.triangles.size()];
+        s.kind = uint32_t(fw::SurfaceKind::kSphere);
+        s.a = f3(sp.center);
+        s.b = fw::F3{sp.radius, 0.0f, 0.0f};
+        break;
+      }
+      case hw::PrimKind::kPlane: {
+        const hw::Plane& pl = g.planes[p - g.num_bounded()];
+        s.kind = uint32_t(fw::SurfaceKind::kPlane);
+        s.a = f3(pl.normal);
+        s.b = fw::F3{pl.offset, 0.0f, 0.0f};
+        break;
+      }
+    }
+  }
+  std::vector<fw::MaterialRecord> materials;
+  for (const Material& m : scene.materials) {
+    fw::MaterialRecord r{};
+    r.kind = uint32_t(m.type == MaterialType::kDiffuse  ? fw::MaterialKind::kDiffuse
+                      : m.type == MaterialType::kMirror ? fw::MaterialKind::kMirror
+                      : m.type == MaterialType::kGlass  ? fw::MaterialKind::kGlass
+                                                        : fw::MaterialKind::kEmissive);
+    r.color = f3(m.color);
+    r.ior = m.ior;
+    r.emission = f3(m.emission);
+    materials.push_back(r);
+  }
+  if (materials.empty()) materials.push_back(fw::MaterialRecord{0, {0.8f, 0.8f, 0.8f}, 1.5f, {0, 0, 0}});
+  std::vector<fw::LightRecord> lights;
+  for (const Light& l : scene.lights) {
+    fw::LightRecord r{};
+    r.kind = uint32_t(l.type == LightType::kPoint ? fw::LightKind::kPoint : fw::LightKind::kArea);
+    r.position = f3(l.position);
+    r.edge_u = f3(l.edge_u);
+    r.edge_v = f3(l.edge_v);
+    r.power = f3(l.intensity);
+    lights.push_back(r);
+  }
+
+  fw::RenderJob job{};
+  job.width = uint32_t(res.width);
+  job.height = uint32_t(res.height);
+  job.spp = uint32_t(o.spp);
+  job.max_depth = uint32_t(o.max_depth);
+  job.flags = (o.indirect ? fw::kRenderIndirect : 0u) | (o.ao ? fw::kRenderAo : 0u);
+  job.seed = o.seed;
+  {
+    const Camera& cam = scene.camera;
+    const glm::dvec3 eye(cam.position);
+    const glm::dvec3 fwd = glm::normalize(glm::dvec3(cam.look_at) - eye);
+    const glm::dvec3 right = glm::normalize(glm::cross(fwd, glm::dvec3(cam.up)));
+    const glm::dvec3 up = glm::cross(right, fwd);
+    const double ty = std::tan(double(cam.fov_y_deg) * 3.141592653589793 / 360.0);
+    const double tx = ty * double(res.width) / double(res.height);
+    job.eye = f3(Vec3(eye));
+    job.forward = f3(Vec3(fwd));
+    job.right = f3(Vec3(right * tx));
+    job.up = f3(Vec3(up * ty));
+  }
+  job.background = f3(o.background);
+  const float diag = bounds.empty() ? 1.0f : glm::length(bounds.extent());
+  job.ao_distance = o.ao_distance > 0.0f ? o.ao_distance : 0.25f * diag;
+  job.offset_abs = res.offset_abs;
+  job.offset_rel = res.offset_rel;
+  job.num_prims = nprims;
+  job.num_materials = uint32_t(materials.size());
+  job.num_lights = uint32_t(lights.size());
+  job.scene_bytes = res.scene_image_bytes;
+
+  uint64_t top = 0;
+  auto place = [&](uint64_t bytes) {
+    const uint64_t at = top;
+    top = align64(top + bytes);
+    return at;
+  };
+  job.scene_image = place(res.scene_image_bytes);
+  job.surfaces = place(surfaces.size() * sizeof(fw::SurfaceRecord));
+  job.materials = place(materials.size() * sizeof(fw::MaterialRecord));
+  job.lights = place(lights.size() * sizeof(fw::LightRecord));
+  job.framebuffer = place(uint64_t(res.width) * res.height * 3 * sizeof(float));
+  const uint64_t job_addr = place(sizeof job);
+  // The arena: the ring and up to 2^18 paths of working buffers (renderer.cpp sizes its batch from it).
+  const uint64_t paths = uint64_t(res.width) * res.height * uint64_t(o.spp);
+  const uint64_t per_path = 200 + 64 * (uint64_t(lights.size()) + 1);
+  const uint64_t arena_bytes = (1u << 16) + std::min<uint64_t>(paths, 1u << 18) * per_path;
+  const uint64_t arena_base = top;
+  res.device_memory_bytes = align64(arena_base + arena_bytes);
+
+  hw::EngineOptions eopt;
+  eopt.threads = o.threads;
+  eopt.tracer = tracer;
+  ModelDevice dev(o.device.name, res.device_memory_bytes, eopt);
+  hw::DeviceMemory& mem = dev.memory();
+  mem.write(job.scene_image, image_words.data(), res.scene_image_bytes);
+  mem.write(job.surfaces, surfaces.data(), surfaces.size() * sizeof(fw::SurfaceRecord));
+  mem.write(job.materials, materials.data(), materials.size() * sizeof(fw::MaterialRecord));
+  if (!lights.empty()) mem.write(job.lights, lights.data(), lights.size() * sizeof(fw::LightRecord));
+  mem.write(job_addr, &job, sizeof job);
+
+  const auto t0 = std::chrono::steady_clock::now();
+  fw::Arena arena(arena_base, arena_bytes);
+  fw::Ring ring;
+  fw::Status st = ring.init(dev, arena, 256);
+  if (st == fw::Status::kOk) st = fw::render(dev, ring, arena, job_addr, res.fw);
+  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (st != fw::Status::kOk) {
+    std::string why = std::string("render on the ") + o.device.name + " device failed: " + fw::status_name(st);
+    if (st == fw::Status::kDeviceError) {
+      why += std::string(" (") + hw::reg::error_name(dev.processor().error()) + " at ring slot " +
+             std::to_string(dev.read32(hw::reg::kErrorInfo)) + ")";
+    }
+    throw Error(why);
+  }
+  res.ring = ring.counters();
+  res.device = dev.processor().counters();
+  res.counts = dev.engine().counts();
+  res.uses_bvh = dev.engine().uses_bvh();
+  res.rgb.resize(size_t(res.width) * res.height * 3);
+  mem.read(job.framebuffer, res.rgb.data(), res.rgb.size() * sizeof(float));
+  return res;
+}
+
+Image to_image(const RenderResult& r) {
+  Image img;
+  img.width = r.width;
+  img.height = r.height;
+  img.rgb.resize(r.rgb.size());
+  for (size_t i = 0; i < r.rgb.size(); ++i) {
+    const double v = double(r.rgb[i]);
+    const double c = v > 0.0 ? std::min(v, 1.0) : 0.0;  // NaN -> 0
+    const double s = c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055;
+    img.rgb[i] = uint8_t(std::lround(s * 255.0));
+  }
+  return img;
+}
+
+}  // namespace rtu::host

@@ -1,0 +1,50 @@
+// Rendering through the firmware: the host writes the unit's scene image and the renderer's records into the
+// device memory of an in-process model device, runs the firmware renderer (firmware/renderer.h) against it
+// through the ring, and reads the framebuffer back.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "firmware/renderer.h"
+#include "firmware/ring.h"
+#include "host/device.h"
+#include "host/image.h"
+#include "host/scene.h"
+#include "hwmodel/command_processor.h"
+
+namespace rtu::host {
+
+struct RenderOptions {
+  DeviceOptions device;       // name (float | fixed), acceleration/BVH options, fixed format
+  int threads = 0;            // unit worker threads per TRACE (0 = all cores); the image does not depend on it
+  int width = 0, height = 0;  // 0: the scene camera's
+  int spp = 1;                // samples per pixel
+  int max_depth = 4;          // bounces after the camera ray
+  uint32_t seed = 1;          // of the sampling generator
+  bool indirect = true;       // diffuse indirect bounces (path tracing)
+  bool ao = false;            // ambient occlusion instead of diffuse indirect light
+  float ao_distance = 0.0f;   // 0: a quarter of the scene's bounding-box diagonal
+  Vec3 background{0.0f};      // radiance of escaping rays (the ambient light of occlusion)
+};
+
+struct RenderResult {
+  int width = 0, height = 0;
+  std::vector<float> rgb;  // linear radiance, 3 floats per pixel, top row first
+  fw::RenderStats fw;      // the firmware's view: rays by type, TRACE packets, what was skipped
+  fw::Ring::Counters ring;
+  hw::DeviceCounters device;    // the unit's view: packets by opcode, rays and traversal stats by type
+  hw::Geometry::Counts counts;  // primitives the unit holds, by kind
+  bool uses_bvh = false;
+  uint64_t device_memory_bytes = 0, scene_image_bytes = 0;
+  float offset_abs = 0.0f, offset_rel = 0.0f;  // the spawn offsets the job used
+  double seconds = 0.0;                        // wall time of the firmware run
+};
+
+// Throws Error when the device reports an error or the arena cannot hold one path.
+RenderResult render(const Scene& scene, const RenderOptions& o);
+
+// Clamp to [0, 1], sRGB transfer function, 8 bits.
+Image to_image(const RenderResult& r);
+
+}  // namespace rtu::host

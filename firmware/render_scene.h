@@ -62,9 +62,10 @@ struct RenderJob {
   F3 eye, forward, right, up;
   F3 background;      // radiance of rays that leave the scene (and the ambient light of occlusion rays)
   float ao_distance;  // occlusion rays: length in world units
-  // Spawned rays start off the surface by offset_abs + offset_rel * (largest |coordinate| of hit and origin),
-  // along the normal on the side they leave: the float hit point's rounding (offset_rel) and, on the fixed
-  // device, the quantization of the surface (offset_abs, a few grid steps).
+  // Spawned rays start off the surface: each coordinate i moves by offset_abs + offset_rel * max(|p_i|, |o_i|)
+  // (p the hit point, o the ray's origin) in the direction of the normal on the side they leave: the float hit
+  // point's rounding (offset_rel) and, on the fixed device, the quantization of the surface (offset_abs, a few
+  // grid steps).
   float offset_abs, offset_rel;
   uint32_t num_prims, num_materials, num_lights;
   uint32_t reserved;     // 0

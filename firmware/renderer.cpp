@@ -17,9 +17,6 @@ constexpr float kInf = __builtin_inff();
 V vec(const F3& f) {
   return V(f.x, f.y, f.z);
 }
-float max_abs(const V& v) {
-  return glm::max(glm::max(glm::abs(v.x), glm::abs(v.y)), glm::abs(v.z));
-}
 
 // splitmix64's finalizer: a counter-based generator, so every sample's numbers depend only on what it is.
 uint64_t mix(uint64_t x) {
@@ -97,8 +94,15 @@ class Renderer {
     fb[1] += radiance.y * m_inv_spp;
     fb[2] += radiance.z * m_inv_spp;
   }
-  float offset(const V& p, const V& o) const {
-    return m_job.offset_abs + m_job.offset_rel * glm::max(max_abs(p), max_abs(o));
+  // Offset of a spawned ray's origin from hit point p (ray origin o), per component, in the sign of the normal's
+  // component (after Waechter and Binder, "A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing
+  // Gems, 2019): each coordinate moves by offset_abs + offset_rel * max(|p_i|, |o_i|), the size of its own
+  // rounding error, so a component near 0 is not pushed by the ulps of a large one.
+  V offset(const V& p, const V& o, const V& n) const {
+    V e;
+    for (int i = 0; i < 3; ++i)
+      e[i] = (m_job.offset_abs + m_job.offset_rel * glm::max(glm::abs(p[i]), glm::abs(o[i]))) * n[i];
+    return e;
   }
   hw::Ray camera_ray(uint32_t pixel, uint32_t sample) const;
   // Shades one hit: adds emission, queues shadow/occlusion rays, writes the bounce ray (returns its type index
@@ -157,8 +161,9 @@ int Renderer::shade(const hw::Ray& ray, const hw::Hit& hit, Path& path, uint32_t
   n = nl > 0.0f ? n / nl : -d;
   const bool front = glm::dot(n, d) < 0.0f;
   const V nf = front ? n : -n;  // facing the incoming ray
-  const float eps = offset(p, ray.origin);
-  const V above = p + eps * nf, below = p - eps * nf;
+  const V off = offset(p, ray.origin, nf);
+  const V above = p + off, below = p - off;
+  const float eps = glm::length(off);
   Rng rng = rng_for(m_job.seed, path.pixel, path.sample, depth + 1);
   const bool can_bounce = depth < m_job.max_depth;
 

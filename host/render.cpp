@@ -42,9 +42,10 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   float max_coord = 0.0f;
   if (!bounds.empty())
     for (int a = 0; a < 3; ++a) max_coord = std::max({max_coord, std::abs(bounds.lo[a]), std::abs(bounds.hi[a])});
-  // Float: the hit point o + t d carries a few float ulps of the largest coordinate involved; 2^-16 relative is
-  // 128 ulps (24-bit significands), and 2^-20 of the scene's size covers points near the origin.
-  res.offset_rel = std::ldexp(1.0f, -16);
+  // Float: each coordinate of the hit point o + t d carries a few float ulps of the larger of |o_i| and |p_i|
+  // (the product t d_i and the sum round once each, and t's own error is a few ulps); 2^-19 relative is 16 ulps
+  // of a 24-bit significand, 4x over a 4-ulp estimate. 2^-20 of the scene's size covers coordinates near 0.
+  res.offset_rel = std::ldexp(1.0f, -19);
   res.offset_abs = std::ldexp(extent, -20);
   hw::TracerOptions tracer = o.device.tracer;
   if (o.device.name == "fixed") {

@@ -30,6 +30,20 @@ inline constexpr uint32_t kMemSizeLo = 0x48;    // RO  bytes of device memory, b
 inline constexpr uint32_t kMemSizeHi = 0x4C;    // RO  bits 32..63
 inline constexpr uint32_t kWindowBytes = 0x50;  // size of the MMIO window
 
+// The map is dense, ordered and word-aligned: each register 4 bytes after the one before it.
+namespace detail {
+inline constexpr uint32_t kOrder[] = {kId,         kVersion,   kCaps,       kControl,    kStatus,     kErrorCode,
+                                      kErrorInfo,  kIrqStatus, kIrqEnable,  kRingBaseLo, kRingBaseHi, kRingSize,
+                                      kRingHead,   kRingTail,  kClockLo,    kClockHi,    kFenceLo,    kFenceHi,
+                                      kMemSizeLo,  kMemSizeHi};
+constexpr bool dense() {
+  for (uint32_t i = 0; i < sizeof(kOrder) / sizeof(kOrder[0]); ++i)
+    if (kOrder[i] != 4 * i) return false;
+  return sizeof(kOrder) == kWindowBytes;
+}
+}  // namespace detail
+static_assert(detail::dense(), "register offsets must be 0, 4, 8, ... in the order above, filling the window");
+
 inline constexpr uint32_t kIdValue = 0x31555452u;  // "RTU1" little-endian
 inline constexpr uint32_t kVersionValue = (1u << 16) | 0u;
 

@@ -1,7 +1,11 @@
 #include "host/image.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <memory>
 
 #include "host/error.h"
 
@@ -16,6 +20,18 @@
 #pragma GCC diagnostic pop
 #endif
 
+#define STB_IMAGE_IMPLEMENTATION
+#define STBI_ONLY_PNG
+#if defined(__GNUC__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
+#pragma GCC diagnostic ignored "-Wsign-compare"
+#endif
+#include <stb/stb_image.h>
+#if defined(__GNUC__)
+#pragma GCC diagnostic pop
+#endif
+
 namespace rtu::host {
 
 void write_png(const std::string& path, const Image& img) {
@@ -23,6 +39,21 @@ void write_png(const std::string& path, const Image& img) {
     throw Error(path + ": invalid image");
   if (!stbi_write_png(path.c_str(), img.width, img.height, 3, img.rgb.data(), img.width * 3))
     throw Error(path + ": cannot write PNG");
+}
+
+Image read_png(const std::string& path) {
+  const std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+  if (!f) throw Error(path + ": cannot open (" + std::strerror(errno) + ")");
+  int w = 0, h = 0, channels = 0;
+  const std::unique_ptr<stbi_uc, void (*)(void*)> data(stbi_load_from_file(f.get(), &w, &h, &channels, 3),
+                                                       &stbi_image_free);
+  if (!data) {
+    const char* why = stbi_failure_reason();
+    throw Error(path + ": cannot read PNG (" + (why ? why : "unknown reason") + ")");
+  }
+  Image img{w, h, {}};
+  img.rgb.assign(data.get(), data.get() + size_t(w) * size_t(h) * 3);
+  return img;
 }
 
 hw::Vec3 hit_normal(const hw::Geometry& g, const hw::Ray& ray, const hw::Hit& hit) {

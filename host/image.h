@@ -1,4 +1,4 @@
-// Images out: 8-bit RGB PNG.
+// Images in and out: 8-bit RGB PNG.
 #pragma once
 
 #include <cstdint>
@@ -15,6 +15,11 @@ struct Image {
 };
 
 void write_png(const std::string& path, const Image& img);
+
+// Reads a PNG as 8-bit RGB: grey is replicated to three channels, alpha is dropped (not composited), 16-bit
+// channels are reduced to 8 bits. Throws Error naming the path and the reason on a missing, unreadable or
+// corrupt file.
+Image read_png(const std::string& path);
 
 // A quick look at hits without a renderer: each pixel is the hit material's color times (0.15 + 0.85 |n.d|),
 // black on a miss. `hits` are of primary_rays(cam, width, height).

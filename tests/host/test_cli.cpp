@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 
 #include <unistd.h>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 
@@ -12,6 +13,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "host/image.h"
 #include "host/ray_io.h"
 
 namespace fs = std::filesystem;
@@ -44,7 +46,7 @@ fs::path temp_dir() {
 }  // namespace
 
 TEST_CASE("every subcommand has --help", "[cli]") {
-  for (const char* sub : {"info", "rays", "trace", "compare", "stress", "demo"}) {
+  for (const char* sub : {"info", "rays", "trace", "compare", "stress", "demo", "diff"}) {
     const Run r = run(std::string(sub) + " --help");
     INFO(r.output);
     CHECK(r.status == 0);
@@ -231,5 +233,79 @@ TEST_CASE("stress: every category runs, no promise breaks at the default format"
     const Run s = run(std::string("stress --count 1500 ") + f);
     INFO(f << "\n" << s.output);
     CHECK(s.status == 0);
+  }
+}
+
+TEST_CASE("diff: identical and differing PNGs, JSON keys, heatmap", "[cli][image]") {
+  const fs::path d = temp_dir();
+  rtu::host::Image a{8, 4, std::vector<uint8_t>(8 * 4 * 3, 120)};
+  rtu::host::Image b = a;
+  b.rgb[3 * 9 + 2] = 130;  // one channel of one pixel off by 10
+  const std::string pa = (d / "a.png").string(), pa2 = (d / "a2.png").string(), pb = (d / "b.png").string();
+  rtu::host::write_png(pa, a);
+  rtu::host::write_png(pa2, a);
+  rtu::host::write_png(pb, b);
+
+  const std::string same_json = (d / "same.json").string();
+  const Run same = run("diff " + pa + " " + pa2 + " --json " + same_json);
+  INFO(same.output);
+  REQUIRE(same.status == 0);
+  CHECK(same.output.find("8x4") != std::string::npos);
+  CHECK(same.output.find("identical") != std::string::npos);
+  const nlohmann::json js = nlohmann::json::parse(std::ifstream(same_json));
+  CHECK(js["identical"] == true);
+  CHECK(js["psnr_db"].is_null());
+  CHECK(js["pixels_differing"] == 0);
+
+  const std::string json = (d / "diff.json").string(), heat = (d / "heat.png").string();
+  const Run r = run("diff " + pa + " " + pb + " --heatmap " + heat + " --scale 20 --json " + json);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(r.output.find("1 of 32 pixels differ") != std::string::npos);
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
+  for (const char* key : {"a", "b", "width", "height", "identical", "mse", "psnr_db", "max_abs", "mean_abs",
+                          "pixels_differing", "frac_pixels_differing", "heatmap", "heatmap_scale"})
+    CHECK(j.contains(key));
+  CHECK(j["width"] == 8);
+  CHECK(j["height"] == 4);
+  CHECK(j["identical"] == false);
+  CHECK(j["max_abs"] == 10);
+  CHECK(j["pixels_differing"] == 1);
+  CHECK(j["mse"].get<double>() == Approx(100.0 / 96.0));
+  CHECK(j["psnr_db"].get<double>() == Approx(10.0 * std::log10(255.0 * 255.0 * 96.0 / 100.0)));
+  CHECK(j["heatmap_scale"].get<double>() == 20.0);
+  const rtu::host::Image h = rtu::host::read_png(heat);
+  REQUIRE(h.width == 8);
+  REQUIRE(h.height == 4);
+  for (size_t p = 0; p < 32; ++p) {
+    const bool black = h.rgb[3 * p] == 0 && h.rgb[3 * p + 1] == 0 && h.rgb[3 * p + 2] == 0;
+    CHECK(black == (p != 9));
+  }
+}
+
+TEST_CASE("diff: missing, corrupt and mismatched files give a clear error and a non-zero exit", "[cli][image]") {
+  const fs::path d = temp_dir();
+  const std::string a = (d / "d4x4.png").string(), b = (d / "d4x3.png").string(), junk = (d / "junk.png").string();
+  rtu::host::write_png(a, rtu::host::Image{4, 4, std::vector<uint8_t>(4 * 4 * 3, 7)});
+  rtu::host::write_png(b, rtu::host::Image{4, 3, std::vector<uint8_t>(4 * 3 * 3, 7)});
+  std::ofstream(junk, std::ios::binary) << "not a png";
+  struct Case {
+    std::string args, words;
+  };
+  const Case cases[] = {
+      {"diff " + a + " " + (d / "nosuch.png").string(), "nosuch.png"},
+      {"diff " + (d / "nosuch.png").string() + " " + a, "nosuch.png"},
+      {"diff " + a + " " + junk, "junk.png"},
+      {"diff " + a + " " + b, "sizes differ"},
+      {"diff " + a + " " + b, "4x3"},
+      {"diff " + a + " " + a + " --scale 0", "--scale"},
+      {"diff " + a, "required"},
+  };
+  for (const Case& c : cases) {
+    const Run r = run(c.args);
+    INFO(c.args << "\n" << r.output);
+    CHECK(r.status != 0);
+    CHECK(r.status < 128);
+    CHECK(r.output.find(c.words) != std::string::npos);
   }
 }

@@ -1,0 +1,45 @@
+// Comparing two 8-bit RGB images: error metrics (MSE, PSNR, max and mean absolute error, pixels that differ) and
+// a heatmap that shows where they differ. Used by `rtusim diff`.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "host/image.h"
+
+namespace rtu::host {
+
+struct ImageDiff {
+  int width = 0, height = 0;
+  // Mean of the squared differences over all channels of all pixels (channel values 0..255).
+  double mse = 0.0;
+  // 10 log10(255^2 / mse) in dB; +infinity when the images are identical (mse == 0). JSON writes it as null.
+  double psnr_db = 0.0;
+  // Largest absolute difference of one channel (0..255).
+  int max_abs = 0;
+  // Mean absolute difference per channel value (0..255).
+  double mean_abs = 0.0;
+  // Pixels where at least one channel differs, and their fraction of all pixels.
+  uint64_t pixels_differing = 0;
+  double frac_pixels_differing = 0.0;
+
+  bool identical() const { return pixels_differing == 0; }
+};
+
+// Throws Error when the sizes differ (naming both), when an image is empty, or when an image's buffer does not
+// hold width x height x 3 bytes.
+ImageDiff diff_images(const Image& a, const Image& b);
+
+// One pixel per pixel of the inputs: the largest absolute channel difference d of that pixel, mapped to a color.
+// d == 0 is black, exactly and only there; d > 0 goes through t = min(d / full_scale, 1) along a piecewise
+// linear ramp (in 8-bit sRGB values) of
+//   t = 0: dim blue (0, 0, 64), 0.25: blue (0, 0, 255), 0.5: red (255, 0, 0), 0.75: yellow (255, 255, 0),
+//   1: white (255, 255, 255),
+// so the smallest difference is still visible against black, and differences of full_scale or more are white.
+// full_scale is in channel units (0..255 scale) and must be > 0 and finite. Throws Error like diff_images.
+Image diff_heatmap(const Image& a, const Image& b, double full_scale);
+
+// The color of the heatmap for a largest channel difference d (0..255) at full_scale.
+std::array<uint8_t, 3> heatmap_color(int d, double full_scale);
+
+}  // namespace rtu::host

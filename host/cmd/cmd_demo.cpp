@@ -1,7 +1,8 @@
 // rtusim demo: the main job on the built-in default scene, as the README's first command runs it. Loads the
-// scene, traces the camera's primary rays on the float reference and on the fixed device (default format),
-// writes a hit image and a hit file per device and a JSON report, and prints the fixed device's error against
-// the float reference. The timed device (cycles) and the renderer join here as they arrive.
+// scene; traces the camera's primary rays on the float reference and on the fixed device (default format) and
+// compares them ray by ray; renders the scene with the firmware renderer on both devices and compares the
+// images (PSNR, heatmap); writes images, hit files and a JSON report. The timed device (cycles) joins here when
+// it arrives.
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -10,8 +11,10 @@
 #include "host/compare.h"
 #include "host/error.h"
 #include "host/image.h"
+#include "host/image_diff.h"
 #include "host/ray_gen.h"
 #include "host/ray_io.h"
+#include "host/render.h"
 #include "host/trace_job.h"
 
 namespace rtu::host::cmd {
@@ -22,6 +25,7 @@ struct DemoOptions {
   std::string scene = "builtin:seed";
   std::string out = "out/demo";
   int threads = 0;
+  int spp = 4, max_depth = 4;
 };
 
 void run_demo(const DemoOptions& o) {
@@ -94,6 +98,43 @@ void run_demo(const DemoOptions& o) {
                          {"t_rel_error_mean", c.t_rel_mean},
                          {"t_rel_error_max", c.t_rel_max},
                          {"pixels_differing", c.disagreements.size()}};
+
+  // The firmware renderer on both devices, and the image error of fixed against float.
+  std::vector<Image> renders;
+  for (const std::string& name : {std::string("float"), std::string("fixed")}) {
+    RenderOptions ro;
+    ro.device.name = name;
+    ro.threads = o.threads;
+    ro.spp = o.spp;
+    ro.max_depth = o.max_depth;
+    ro.background = Vec3(0.02f, 0.02f, 0.03f);
+    const RenderResult r = render(scene, ro);
+    print_render_summary(r, ro);
+    renders.push_back(to_image(r));
+    const std::string path = o.out + "/render_" + name + ".png";
+    write_png(path, renders.back());
+    written.push_back(path);
+    Json rj = render_json(r, ro);
+    rj["image"] = path;
+    j["renders"][name] = rj;
+  }
+  const ImageDiff d = diff_images(renders[0], renders[1]);
+  const std::string heat_path = o.out + "/render_heatmap.png";
+  write_png(heat_path, diff_heatmap(renders[0], renders[1], 16.0));
+  written.push_back(heat_path);
+  char psnr[32];
+  std::snprintf(psnr, sizeof psnr, d.identical() ? "inf" : "%.2f", d.psnr_db);
+  std::printf(
+      "  fixed vs float render: PSNR %s dB, max abs %d, mean abs %.4f (of 255), %llu of %d pixels differ\n", psnr,
+      d.max_abs, d.mean_abs, (unsigned long long)d.pixels_differing, d.width * d.height);
+  j["render_fixed_vs_float"] = {{"psnr_db", d.identical() ? Json(nullptr) : Json(d.psnr_db)},
+                                {"max_abs", d.max_abs},
+                                {"mean_abs", d.mean_abs},
+                                {"pixels_differing", d.pixels_differing},
+                                {"frac_pixels_differing", d.frac_pixels_differing},
+                                {"heatmap", heat_path},
+                                {"heatmap_full_scale", 16}};
+
   const std::string report_path = o.out + "/report.json";
   write_json(report_path, j);
   written.push_back(report_path);
@@ -110,6 +151,10 @@ void add_demo(CLI::App& app) {
   sub->add_option("--scene", o->scene, "scene to run")->capture_default_str();
   sub->add_option("--out", o->out, "output directory")->capture_default_str();
   sub->add_option("--threads", o->threads, "worker threads (0 = all cores)")->capture_default_str();
+  sub->add_option("--spp", o->spp, "render: samples per pixel")->check(CLI::Range(1, 1024))->capture_default_str();
+  sub->add_option("--max-depth", o->max_depth, "render: bounces after the camera ray")
+      ->check(CLI::Range(0, 64))
+      ->capture_default_str();
   sub->callback([o] { run_demo(*o); });
 }
 

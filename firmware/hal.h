@@ -39,6 +39,11 @@ class Arena {
     return at;
   }
   void reset() { m_top = m_base; }
+  // Undo every allocation made since mark() returned m (for a request that fails halfway).
+  uint64_t mark() const { return m_top; }
+  void release(uint64_t m) {
+    if (m >= m_base && m <= m_top) m_top = m;
+  }
   uint64_t used() const { return m_top - m_base; }
   uint64_t size() const { return m_size; }
 

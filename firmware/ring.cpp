@@ -26,9 +26,13 @@ Status Ring::init(Hal& hal, Arena& arena, uint32_t slots) {
   m_hal = &hal;
   if (hal.read32(reg::kId) != reg::kIdValue) return Status::kNoDevice;
   if (slots < 2 || slots > reg::kMaxRingSlots || (slots & (slots - 1)) != 0) return Status::kBadArgument;
+  const uint64_t mark = arena.mark();
   const uint64_t ring = arena.alloc(uint64_t(slots) * hw::cmd::kPacketBytes, hw::cmd::kPacketBytes);
   const uint64_t fence = arena.alloc(8, 8);
-  if (ring == Arena::kNull || fence == Arena::kNull) return Status::kNoMemory;
+  if (ring == Arena::kNull || fence == Arena::kNull) {
+    arena.release(mark);  // nothing kept from a failed init
+    return Status::kNoMemory;
+  }
   m_base = ring;
   m_fence_addr = fence;
   m_slots = slots;

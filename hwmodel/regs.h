@@ -32,10 +32,10 @@ inline constexpr uint32_t kWindowBytes = 0x50;  // size of the MMIO window
 
 // The map is dense, ordered and word-aligned: each register 4 bytes after the one before it.
 namespace detail {
-inline constexpr uint32_t kOrder[] = {kId,         kVersion,   kCaps,       kControl,    kStatus,     kErrorCode,
-                                      kErrorInfo,  kIrqStatus, kIrqEnable,  kRingBaseLo, kRingBaseHi, kRingSize,
-                                      kRingHead,   kRingTail,  kClockLo,    kClockHi,    kFenceLo,    kFenceHi,
-                                      kMemSizeLo,  kMemSizeHi};
+inline constexpr uint32_t kOrder[] = {kId,         kVersion,   kCaps,      kControl,   kStatus,
+                                      kErrorCode,  kErrorInfo, kIrqStatus, kIrqEnable, kRingBaseLo,
+                                      kRingBaseHi, kRingSize,  kRingHead,  kRingTail,  kClockLo,
+                                      kClockHi,    kFenceLo,   kFenceHi,   kMemSizeLo, kMemSizeHi};
 constexpr bool dense() {
   for (uint32_t i = 0; i < sizeof(kOrder) / sizeof(kOrder[0]); ++i)
     if (kOrder[i] != 4 * i) return false;
@@ -55,7 +55,7 @@ inline constexpr uint32_t kCapFixed = 1u << 4;      // fixed-point datapath (els
 inline constexpr uint32_t kCapTimed = 1u << 5;      // the clock counts cycles (else packets)
 
 inline constexpr uint32_t kCtrlEnable = 1u << 0;  // consume the ring; setting it checks the ring registers
-inline constexpr uint32_t kCtrlReset = 1u << 1;   // clear error, interrupts, ring and bound scene
+inline constexpr uint32_t kCtrlReset = 1u << 1;   // clear error, IRQ status, ring, fence, bound scene
 
 inline constexpr uint32_t kStatusEnabled = 1u << 0;  // the ring is enabled and valid
 inline constexpr uint32_t kStatusIdle = 1u << 1;     // head == tail: nothing pending

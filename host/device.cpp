@@ -54,10 +54,46 @@ class FixedDevice final : public TraceDevice {
   hw::FixedTracer m_tracer;
 };
 
+// The fixed datapath with the timing model: the engine the command processor would run, called directly.
+class TimedDevice final : public TraceDevice {
+ public:
+  TimedDevice(const hw::Geometry& g, const DeviceOptions& o)
+      : m_bvh(hw::choose_accel(g, o.tracer, &m_bvh_cost, &m_brute_cost)),
+        m_image(hw::encode_scene(g, o.format, m_bvh ? &*m_bvh : nullptr)),
+        m_tracer(m_image),
+        m_engine(hw::EngineOptions{}, o.timing) {
+    m_engine.bind(m_image.data(), m_image.size());
+  }
+  const std::string& name() const override { return m_name; }
+  void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
+                   hw::TraversalStats& s) const override {
+    m_engine.set_threads(threads);
+    if (n > 0) m_engine.trace_cycles(rays, hits, n, any_hit, s, uint8_t(hw::cmd::RayType::kOther), 0);
+  }
+  hw::RayStatus ray_status(const hw::Ray& r) const override {
+    hw::FixedRay fr;
+    return hw::setup_ray(r, m_tracer.frame(), m_tracer.format(), fr);
+  }
+  const hw::Bvh* bvh() const override { return m_bvh ? &*m_bvh : nullptr; }
+  double bvh_cost() const override { return m_bvh_cost; }
+  double brute_cost() const override { return m_brute_cost; }
+  const hw::DeviceImage* image() const override { return &m_image; }
+  uint64_t prim_bytes() const override { return m_image.records_size() + m_image.planes_size(); }
+  const hw::TimedEngine* timed() const override { return &m_engine; }
+
+ private:
+  std::string m_name = "timed";
+  double m_bvh_cost = 0.0, m_brute_cost = 0.0;
+  std::optional<hw::Bvh> m_bvh;
+  hw::DeviceImage m_image;
+  hw::FixedTracer m_tracer;          // for ray_status
+  mutable hw::TimedEngine m_engine;  // simulation state changes as it traces
+};
+
 }  // namespace
 
 const std::vector<std::string>& device_names() {
-  static const std::vector<std::string> names = {"float", "fixed"};
+  static const std::vector<std::string> names = {"float", "fixed", "timed"};
   return names;
 }
 
@@ -69,7 +105,12 @@ std::unique_ptr<TraceDevice> make_device(const hw::Geometry& g, const DeviceOpti
     o.format.validate();
     return std::make_unique<FixedDevice>(g, opt);
   }
-  throw Error("unknown device '" + o.name + "' (known: float, fixed)");
+  if (o.name == "timed") {
+    o.format.validate();
+    o.timing.validate();
+    return std::make_unique<TimedDevice>(g, opt);
+  }
+  throw Error("unknown device '" + o.name + "' (known: float, fixed, timed)");
 }
 
 }  // namespace rtu::host

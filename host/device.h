@@ -12,14 +12,17 @@
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
+#include "hwmodel/timed_engine.h"
+#include "hwmodel/timing_config.h"
 
 namespace rtu::host {
 
 struct DeviceOptions {
-  std::string name = "float";  // "float" or "fixed"
+  std::string name = "float";  // "float", "fixed" or "timed"
   hw::TracerOptions tracer;    // acceleration choice and BVH build (bvh.width is the format's width)
   hw::FixedFormat format;      // the fixed device's number formats
   bool check_boxes = false;    // fixed: repeat box tests exactly and count false negatives
+  hw::TimingConfig timing;     // timed: the unit's configuration (its format and width are in `format`)
 };
 
 const std::vector<std::string>& device_names();
@@ -36,8 +39,10 @@ class TraceDevice {
   virtual const hw::Bvh* bvh() const = 0;
   virtual double bvh_cost() const = 0;
   virtual double brute_cost() const = 0;
-  // The fixed device's memory image (null for float).
+  // The fixed and timed devices' memory image (null for float).
   virtual const hw::DeviceImage* image() const { return nullptr; }
+  // The timed device's engine: cycles and timing statistics of what it traced (null for the others).
+  virtual const hw::TimedEngine* timed() const { return nullptr; }
   // Bytes the float device keeps beside its BVH (leaf-ordered primitive copies).
   virtual uint64_t prim_bytes() const = 0;
 };

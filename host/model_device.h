@@ -11,13 +11,16 @@
 #include "hwmodel/device_memory.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_format.h"
+#include "hwmodel/timed_engine.h"
 
 namespace rtu::host {
 
 class ModelDevice final : public fw::Hal {
  public:
-  // `engine` is "float" or "fixed" (throws Error otherwise); memory_bytes of device memory.
-  ModelDevice(const std::string& engine, uint64_t memory_bytes, const hw::EngineOptions& opt = {});
+  // `engine` is "float", "fixed" or "timed" (throws Error otherwise; `timing` configures the timed one);
+  // memory_bytes of device memory.
+  ModelDevice(const std::string& engine, uint64_t memory_bytes, const hw::EngineOptions& opt = {},
+              const hw::TimingConfig& timing = {});
 
   uint32_t read32(uint32_t offset) override { return m_cp.read(offset); }
   void write32(uint32_t offset, uint32_t value) override { m_cp.write(offset, value); }
@@ -29,6 +32,8 @@ class ModelDevice final : public fw::Hal {
   hw::DeviceMemory& memory() { return m_mem; }
   hw::CommandProcessor& processor() { return m_cp; }
   const hw::TraceEngine& engine() const { return *m_engine; }
+  // The timed engine (null for float and fixed).
+  const hw::TimedEngine* timed() const { return dynamic_cast<const hw::TimedEngine*>(m_engine.get()); }
 
  private:
   std::string m_name;

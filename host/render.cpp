@@ -48,7 +48,7 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   res.offset_rel = std::ldexp(1.0f, -19);
   res.offset_abs = std::ldexp(extent, -20);
   hw::TracerOptions tracer = o.device.tracer;
-  if (o.device.name == "fixed") {
+  if (o.device.name == "fixed" || o.device.name == "timed") {
     tracer.bvh.width = o.device.format.width;
     const std::optional<hw::Bvh> bvh = hw::choose_accel(g, tracer);
     const hw::DeviceImage img = hw::encode_scene(g, o.device.format, bvh ? &*bvh : nullptr);
@@ -60,7 +60,7 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   } else if (o.device.name == "float") {
     image_words = hw::encode_float_scene(g);
   } else {
-    throw Error("unknown device '" + o.device.name + "' (devices: float, fixed)");
+    throw Error("unknown device '" + o.device.name + "' (devices: float, fixed, timed)");
   }
   res.scene_image_bytes = image_words.size() * 8;
 
@@ -171,7 +171,7 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   hw::EngineOptions eopt;
   eopt.threads = o.threads;
   eopt.tracer = tracer;
-  ModelDevice dev(o.device.name, res.device_memory_bytes, eopt);
+  ModelDevice dev(o.device.name, res.device_memory_bytes, eopt, o.device.timing);
   hw::DeviceMemory& mem = dev.memory();
   mem.write(job.scene_image, image_words.data(), res.scene_image_bytes);
   mem.write(job.surfaces, surfaces.data(), surfaces.size() * sizeof(fw::SurfaceRecord));
@@ -197,6 +197,14 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   res.device = dev.processor().counters();
   res.counts = dev.engine().counts();
   res.uses_bvh = dev.engine().uses_bvh();
+  res.device_clock = uint64_t(dev.read32(hw::reg::kClockLo));
+  res.device_clock |= uint64_t(dev.read32(hw::reg::kClockHi)) << 32;
+  if (const hw::TimedEngine* te = dev.timed()) {
+    res.timed = true;
+    res.timing = te->timing();
+    res.timing_by_type = te->timing_by_type();
+    res.timing_by_bounce = te->timing_by_bounce();
+  }
   res.rgb.resize(size_t(res.width) * res.height * 3);
   mem.read(job.framebuffer, res.rgb.data(), res.rgb.size() * sizeof(float));
   return res;

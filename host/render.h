@@ -3,6 +3,8 @@
 // through the ring, and reads the framebuffer back.
 #pragma once
 
+#include <array>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -12,6 +14,7 @@
 #include "host/image.h"
 #include "host/scene.h"
 #include "hwmodel/command_processor.h"
+#include "hwmodel/timed_engine.h"
 
 namespace rtu::host {
 
@@ -39,6 +42,11 @@ struct RenderResult {
   uint64_t device_memory_bytes = 0, scene_image_bytes = 0;
   float offset_abs = 0.0f, offset_rel = 0.0f;  // the spawn offsets the job used
   double seconds = 0.0;                        // wall time of the firmware run
+  uint64_t device_clock = 0;                   // the unit's clock at the end (timed: cycles; else packets)
+  bool timed = false;                          // the timed device: the timing statistics below are filled
+  hw::TimingStats timing;
+  std::array<hw::TimingStats, hw::cmd::kRayTypeCount> timing_by_type{};
+  std::map<int, hw::TimingStats> timing_by_bounce;
 };
 
 // Throws Error when the device reports an error or the arena cannot hold one path.

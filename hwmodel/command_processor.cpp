@@ -133,10 +133,11 @@ void CommandProcessor::consume() {
   while (m_head != m_tail && m_error == ErrorCode::kNone) {
     cmd::Packet p;
     m_mem.read(m_ring_base + uint64_t(m_head) * cmd::kPacketBytes, &p, sizeof p);  // in range (checked at enable)
+    m_trace_cycles = 0;
     if (!execute(p)) return;  // head stays on the faulting packet
     ++m_counters.packets;
     ++m_counters.by_opcode[p.opcode];
-    ++m_clock;
+    m_clock += p.opcode == uint8_t(cmd::Opcode::kTrace) ? m_trace_cycles : m_engine.packet_cycles(p.opcode);
     m_head = (m_head + 1) & (m_ring_size - 1);
   }
 }
@@ -198,7 +199,7 @@ bool CommandProcessor::execute(const cmd::Packet& p) {
       m_mem.read(p.addr0, rays.data(), rb);
       const bool any_hit = (p.flags & cmd::kTraceAnyHit) != 0;
       TraversalStats s;
-      m_engine.trace(rays.data(), hits.data(), p.count, any_hit, s);
+      m_trace_cycles = m_engine.trace_cycles(rays.data(), hits.data(), p.count, any_hit, s, p.ray_type, p.bounce);
       m_mem.write(p.addr1, hits.data(), hb);
       m_counters.stats_by_type[p.ray_type].add(s);
       m_counters.rays_by_type[p.ray_type] += p.count;

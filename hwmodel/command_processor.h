@@ -1,12 +1,12 @@
 // The unit's front end: the register file (regs.h) and the command processor that consumes the ring of command
 // packets (commands.h) from device memory and runs them on a TraceEngine (engine.h).
 //
-// Functional model: a doorbell (a write of kRingTail) consumes every packet up to the new tail before the write
-// returns, in ring order; the device clock advances by one per packet consumed (the timed device will count
-// cycles instead). A malformed packet or register access sets the error code, the error info (the packet's ring
-// slot or the register offset), kStatusError and kIrqError, and stops consumption (head stays on the faulting
-// packet) until kCtrlReset. Every address is checked before use: no packet can make the model read or write
-// outside device memory, crash, or loop.
+// A doorbell (a write of kRingTail) consumes every packet up to the new tail before the write returns, in ring
+// order; the device clock advances by the engine's cycles per packet (functional engines: one per packet; the
+// timed engine: simulated cycles, one packet after another). A malformed packet or register access sets the error
+// code, the error info (the packet's ring slot or the register offset), kStatusError and kIrqError, and stops
+// consumption (head stays on the faulting packet) until kCtrlReset. Every address is checked before use: no packet
+// can make the model read or write outside device memory, crash, or loop.
 #pragma once
 
 #include <array>
@@ -73,6 +73,7 @@ class CommandProcessor {
   uint32_t m_ring_size = 0, m_head = 0, m_tail = 0;
   uint64_t m_fence = 0;
   uint64_t m_clock = 0;
+  uint64_t m_trace_cycles = 0;  // cycles of the TRACE being executed (the engine's answer)
   uint32_t m_clock_hi_latch = 0;
 };
 

@@ -64,6 +64,20 @@ class TraceEngine {
   virtual void unbind() = 0;
   // Traces n rays of the bound scene (rays and hits do not overlap).
   virtual void trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const = 0;
+  // Timing. Functional engines count one clock per packet; the timed engine returns simulated cycles.
+  // Cycles of a packet other than TRACE:
+  virtual uint64_t packet_cycles(uint8_t opcode) const {
+    (void)opcode;
+    return 1;
+  }
+  // trace() that returns the cycles the TRACE packet took; ray_type and bounce are for per-type statistics.
+  virtual uint64_t trace_cycles(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
+                                uint8_t ray_type, uint8_t bounce) {
+    (void)ray_type;
+    (void)bounce;
+    trace(rays, hits, n, any_hit, s);
+    return 1;
+  }
   // What the bound scene holds, for stats: primitive counts by kind, whether a BVH is used.
   virtual Geometry::Counts counts() const = 0;
   virtual bool uses_bvh() const = 0;

@@ -56,8 +56,10 @@ struct FixedPolicy {
   bool check;
   Closest& closest;
   TraversalStats& s;
+  std::vector<TraceEvent>* rec;  // the timing model's recorder, or null
 
   int expand(uint32_t node, uint32_t refs[N], int64_t dists[N], int& tested) const {
+    if (rec) rec->push_back(TraceEvent{TraceEvent::kNode, nodes[node].count, 0, node});
     return r.narrow ? expand_impl<int64_t>(node, refs, dists, tested)
                     : expand_impl<Wide>(node, refs, dists, tested);
   }
@@ -107,6 +109,8 @@ struct FixedPolicy {
     s.prim_tests += count;
     bool found = false;
     for (uint32_t i = 0; i < count; ++i) {
+      if (rec)
+        rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(image.record(first + i))), 0, first + i});
       found |= test_record(image.record(first + i), r, closest);
       if (found && any_hit) return true;
     }
@@ -114,6 +118,12 @@ struct FixedPolicy {
   }
 
   int64_t limit() const { return closest.t; }
+  void pushed(int n) const {
+    if (rec) rec->push_back(TraceEvent{TraceEvent::kPush, uint8_t(n), 0, 0});
+  }
+  void popped() const {
+    if (rec) rec->push_back(TraceEvent{TraceEvent::kPop, 0, 0, 0});
+  }
 };
 
 }  // namespace
@@ -136,15 +146,29 @@ Hit FixedTracer::trace_fixed(const FixedRay& r, bool any_hit, TraversalStats& s)
   return trace_counted(nullptr, r, any_hit, s);
 }
 
-Hit FixedTracer::trace_counted(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s) const {
+Hit FixedTracer::trace_recorded(const Ray& r, bool any_hit, TraversalStats& s,
+                                std::vector<TraceEvent>& events) const {
+  FixedRay fr;
+  const RayStatus status = setup_ray(r, m_frame, m_format, fr);
+  if (status != RayStatus::kOk) {
+    ++s.invalid_rays;
+    ++s.invalid_by_reason[size_t(status)];
+    return Hit{};
+  }
+  return trace_counted(&r, fr, any_hit, s, &events);
+}
+
+Hit FixedTracer::trace_counted(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s,
+                               std::vector<TraceEvent>* rec) const {
   const uint64_t sat0 = saturation_count();
   ++s.rays;
-  const Hit h = trace_valid(r, fr, any_hit, s);
+  const Hit h = trace_valid(r, fr, any_hit, s, rec);
   s.saturations += saturation_count() - sat0;
   return h;
 }
 
-Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s) const {
+Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s,
+                             std::vector<TraceEvent>* rec) const {
   const ImageHeader& hd = m_image.header();
   Closest c{fr.tmax};
   if (fr.tmin > fr.tmax) return Hit{};
@@ -152,6 +176,7 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
   for (uint32_t i = 0; i < hd.plane_count; ++i) {
     FixedPrimHit h;
     ++s.prim_tests;
+    if (rec) rec->push_back(TraceEvent{TraceEvent::kPlane, 0, 0, i});
     if (plane_test(fr, planes[i], fr.tmin, c.t, h)) {
       c = Closest{h.t, planes[i].prim, 0.0f, 0.0f, nullptr};
       if (any_hit) break;
@@ -160,14 +185,16 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
   if (!(any_hit && c.prim != kMissPrim) && hd.record_count > 0) {
     if (hd.flags & kImageNoBvh) {
       s.prim_tests += hd.record_count;
-      for (uint32_t i = 0; i < hd.record_count; ++i)
+      for (uint32_t i = 0; i < hd.record_count; ++i) {
+        if (rec) rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(m_image.record(i))), 0, i});
         if (test_record(m_image.record(i), fr, c) && any_hit) break;
+      }
     } else {
       auto run = [&](auto node_tag) {
         using Node = decltype(node_tag);
         constexpr int N = sizeof(Node::child) / sizeof(uint32_t);
         using Q = std::remove_cv_t<std::remove_reference_t<decltype(Node::q[0][0])>>;
-        FixedPolicy<N, Q> p{m_image.nodes<Node>(), m_image, fr, any_hit, m_opt.check_boxes, c, s};
+        FixedPolicy<N, Q> p{m_image.nodes<Node>(), m_image, fr, any_hit, m_opt.check_boxes, c, s, rec};
         traverse(p, hd.root_ref, any_hit, s);
       };
       const bool q8 = hd.q_bytes == 1;

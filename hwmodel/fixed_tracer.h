@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <vector>
 
 #include "hwmodel/device_image.h"
 #include "hwmodel/intersect_fixed.h"
@@ -11,6 +12,17 @@
 #include "hwmodel/stats.h"
 
 namespace rtu::hw {
+
+// What one ray did in the datapath, in order; the timing model replays it (timed_engine.h) so the timed device's
+// hits are the fixed device's by construction.
+struct TraceEvent {
+  enum Kind : uint8_t { kNode = 0, kPrim = 1, kPlane = 2, kPush = 3, kPop = 4 };
+  uint8_t kind;
+  uint8_t count;  // kNode: child boxes tested; kPrim: RecordKind; kPush: entries pushed; else 0
+  uint16_t reserved;
+  uint32_t index;  // kNode: node index; kPrim: record index; kPlane: plane index; else 0
+};
+static_assert(sizeof(TraceEvent) == 8);
 
 struct FixedTraceOptions {
   // Repeat every box test with the exact checker (box_test_exact) and count disagreements in the statistics
@@ -31,6 +43,8 @@ class FixedTracer {
   // Traces a ray already set up in the image's format and frame (setup_ray, or built on the grid). The hit's t
   // is world t (t_to_world); u, v of spheres are not filled (they need the float ray).
   Hit trace_fixed(const FixedRay& r, bool any_hit, TraversalStats& s) const;
+  // trace() that also appends the ray's datapath events to `events` (nothing for a ray rejected at setup).
+  Hit trace_recorded(const Ray& r, bool any_hit, TraversalStats& s, std::vector<TraceEvent>& events) const;
 
   const DeviceImage& image() const { return m_image; }
   const FixedFormat& format() const { return m_format; }
@@ -38,8 +52,10 @@ class FixedTracer {
 
  private:
   // Counts the ray and the saturations of trace_valid. r (the world ray) is only for sphere u, v; may be null.
-  Hit trace_counted(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s) const;
-  Hit trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s) const;
+  Hit trace_counted(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s,
+                    std::vector<TraceEvent>* rec = nullptr) const;
+  Hit trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s,
+                  std::vector<TraceEvent>* rec) const;
 
   const DeviceImage& m_image;
   FixedFormat m_format;

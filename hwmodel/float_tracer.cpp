@@ -72,6 +72,8 @@ struct FloatPolicy {
   }
 
   float limit() const { return closest.tmax; }
+  void pushed(int) const {}
+  void popped() const {}
 };
 
 }  // namespace

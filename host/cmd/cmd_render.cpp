@@ -43,6 +43,12 @@ void run_render(const RenderArgs& a) {
   const RenderResult r = render(scene, o);
   write_png(a.out, to_image(r));
   print_render_summary(r, o);
+  if (r.timed) {
+    std::printf("  ");
+    print_timing_summary(r.timing, o.device.timing);
+    std::printf("  device clock at the end (all packets, fences included): %llu cycles\n",
+                (unsigned long long)r.device_clock);
+  }
   std::printf("  wrote %s\n", a.out.c_str());
   if (!a.stats.empty()) {
     Json j = render_json(r, o);
@@ -64,7 +70,9 @@ void add_render(CLI::App& app) {
   sub->add_option("--scene", a->scene, "scene file, mesh file, or builtin:NAME")->required();
   sub->add_option("--out", a->out, "PNG to write")->required();
   sub->add_option("--stats", a->stats, "write statistics as JSON to this file");
-  add_device_args(*sub, a->dev, "device: float (the reference) or fixed (bit-accurate fixed point)");
+  add_device_args(*sub, a->dev,
+                  "device: float (the reference), fixed (bit-accurate fixed point) or timed (fixed point with the "
+                  "cycle-approximate timing model; --config, --set)");
   sub->add_option("--threads", a->threads, "unit worker threads (0 = all cores); the image does not depend on it")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
@@ -167,7 +175,23 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
   unit["total"] = traversal_json(r.device.total());
   j["unit"] = unit;
   j["spawn_offset"] = {{"abs", r.offset_abs}, {"rel", r.offset_rel}};
-  if (o.device.name == "fixed") j["format"] = format_json(o.device.format);
+  if (o.device.name != "float") j["format"] = format_json(o.device.format);
+  if (r.timed) {
+    Json t = timing_stats_json(r.timing, o.device.timing);
+    Json by_type = Json::object();
+    for (int k = 0; k < hw::cmd::kRayTypeCount; ++k)
+      if (r.timing_by_type[size_t(k)].rays > 0)
+        by_type[hw::cmd::ray_type_name(RayType(k))] =
+            timing_stats_json(r.timing_by_type[size_t(k)], o.device.timing);
+    t["by_ray_type"] = by_type;
+    Json by_bounce = Json::object();
+    for (const auto& [b, s] : r.timing_by_bounce)
+      by_bounce[std::to_string(b)] = timing_stats_json(s, o.device.timing);
+    t["by_bounce"] = by_bounce;
+    t["device_clock"] = r.device_clock;
+    t["config"] = timing_json(o.device.timing);
+    j["timing"] = t;
+  }
   return j;
 }
 

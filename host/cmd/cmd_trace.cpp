@@ -43,6 +43,7 @@ void run_trace(const TraceOptions& o) {
               stats.rays ? double(stats.nodes_visited) / double(stats.rays) : 0.0,
               stats.rays ? double(stats.box_tests) / double(stats.rays) : 0.0,
               stats.rays ? double(stats.prim_tests) / double(stats.rays) : 0.0);
+  if (const hw::TimedEngine* te = device->timed()) print_timing_summary(te->timing(), te->config());
 
   if (!o.stats.empty()) {
     Json j;
@@ -58,6 +59,7 @@ void run_trace(const TraceOptions& o) {
     j["load_seconds"] = load_s;
     j["build_seconds"] = build_s;
     j["bvh"] = bvh_json(*device);
+    if (const hw::TimedEngine* te = device->timed()) j["timing"] = timed_json(*te);
     write_json(o.stats, j);
   }
 }
@@ -77,7 +79,9 @@ void add_trace(CLI::App& app) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   sub->add_option("--stats", o->stats, "write statistics as JSON to this file");
-  add_device_args(*sub, o->dev, "device: float (the reference) or fixed (bit-accurate fixed point)");
+  add_device_args(*sub, o->dev,
+                  "device: float (the reference), fixed (bit-accurate fixed point) or timed (fixed point with the "
+                  "cycle-approximate timing model; --config, --set)");
   sub->callback([o] { run_trace(*o); });
 }
 

@@ -1,7 +1,11 @@
 #include "host/cmd/common.h"
 
+#include <algorithm>
+
+#include <charconv>
 #include <cstdio>
 #include <fstream>
+#include <stdexcept>
 
 #include "host/error.h"
 #include "host/ray_gen.h"
@@ -34,7 +38,15 @@ hw::FixedFormat DeviceArgs::fixed_format() const {
 DeviceOptions DeviceArgs::options(const std::string& device_name) const {
   DeviceOptions d;
   d.name = device_name;
-  d.format = fixed_format();
+  if (device_name == "timed") {
+    d.timing = timing_config_from(config, sets);
+    DeviceArgs a = *this;
+    a.format = d.timing.format;
+    if (a.bvh_width <= 0) a.bvh_width = d.timing.bvh_width;
+    d.format = a.fixed_format();
+  } else {
+    d.format = fixed_format();
+  }
   d.tracer.bvh.width = d.format.width;
   d.tracer.bvh.max_leaf_size = leaf_size;
   d.tracer.accel =
@@ -54,6 +66,10 @@ void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_hel
                  "acceleration: bvh, brute (for each primitive), or auto (brute force when a BVH costs more)")
       ->check(CLI::IsMember({"auto", "bvh", "brute"}))
       ->capture_default_str();
+  app.add_option("--config", o.config, "timed device: timing preset (rtusim config --list)")
+      ->check(CLI::IsMember(hw::timing_preset_names()))
+      ->capture_default_str();
+  app.add_option("--set", o.sets, "timed device: override a timing key, KEY=VALUE (repeatable)");
   std::vector<std::string> presets;
   for (const hw::FixedFormat& f : hw::format_presets()) presets.push_back(f.name);
   app.add_option("--format", o.format, "fixed-point format preset (rtusim info --formats lists them)")
@@ -198,6 +214,121 @@ void write_json(const std::string& path, const Json& j) {
   if (!out) throw Error(path + ": cannot open for writing");
   out << j.dump(2) << '\n';
   if (!out.flush()) throw Error(path + ": write error");
+}
+
+hw::TimingConfig timing_config_from(const std::string& preset, const std::vector<std::string>& sets) {
+  hw::TimingConfig c;
+  try {
+    c = hw::timing_preset(preset);
+  } catch (const std::invalid_argument& e) {
+    throw Error(e.what());
+  }
+  for (const std::string& s : sets) {
+    const size_t eq = s.find('=');
+    if (eq == std::string::npos) throw Error("--set '" + s + "' is not key=value");
+    try {
+      hw::set_timing_key(c, s.substr(0, eq), s.substr(eq + 1));
+    } catch (const std::invalid_argument& e) {
+      throw Error("--set " + s + ": " + e.what());
+    }
+  }
+  return c;
+}
+
+Json timing_json(const hw::TimingConfig& c) {
+  Json j;
+  j["preset"] = c.name;
+  for (const hw::TimingKey& k : hw::timing_keys(c)) {
+    // The value text is an integer, a double in its round-trip form, or text (the format's name).
+    const char* first = k.value.data();
+    const char* last = first + k.value.size();
+    long long i = 0;
+    double d = 0;
+    if (auto r = std::from_chars(first, last, i); !k.value.empty() && r.ec == std::errc() && r.ptr == last)
+      j[k.key] = i;
+    else if (auto r2 = std::from_chars(first, last, d); !k.value.empty() && r2.ec == std::errc() && r2.ptr == last)
+      j[k.key] = d;
+    else
+      j[k.key] = k.value;
+  }
+  return j;
+}
+
+}  // namespace rtu::host::cmd
+
+namespace rtu::host::cmd {
+
+Json timing_stats_json(const hw::TimingStats& s, const hw::TimingConfig& c) {
+  Json j;
+  const double cyc = double(s.cycles), rays = double(s.rays);
+  j["cycles"] = s.cycles;
+  j["packets"] = s.packets;
+  j["rays"] = s.rays;
+  j["cycles_per_ray"] = rays > 0 ? cyc / rays : 0.0;
+  j["rays_per_clock"] = cyc > 0 ? rays / cyc : 0.0;
+  j["seconds_at_clock"] = cyc / (c.clock_ghz * 1e9);
+  j["box_tests"] = s.box_tests;
+  j["triangle_tests"] = s.tri_tests;
+  j["sphere_tests"] = s.sphere_tests;
+  j["plane_tests"] = s.plane_tests;
+  j["utilization"] = {
+      {"box_units", cyc > 0 ? double(s.box_issue_cycles) / (cyc * c.box_units) : 0.0},
+      {"triangle_units", cyc > 0 ? double(s.tri_issue_cycles) / (cyc * c.tri_units * c.tri_rate) : 0.0},
+      {"dram", cyc > 0 ? double(s.dram_busy_cycles) / cyc : 0.0},
+      {"ray_slots", cyc > 0 ? double(s.slot_busy_cycles) / (cyc * c.ray_slots) : 0.0}};
+  const double accesses = double(s.cache_hits + s.cache_misses);
+  j["cache"] = {{"line_accesses", s.cache_hits + s.cache_misses},
+                {"hits", s.cache_hits},
+                {"misses", s.cache_misses},
+                {"hit_rate", accesses > 0 ? double(s.cache_hits) / accesses : 0.0}};
+  j["node_fetches"] = s.node_fetches;
+  j["prim_fetches"] = s.prim_fetches;
+  j["dram_bytes"] = s.dram_bytes;
+  j["dram_bytes_per_cycle"] = cyc > 0 ? double(s.dram_bytes) / cyc : 0.0;
+  j["dram_gb_per_s"] = cyc > 0 ? double(s.dram_bytes) / cyc * c.clock_ghz : 0.0;
+  j["stream_bytes"] = s.stream_bytes;
+  j["stack_spills"] = s.stack_spills;
+  j["stack_refills"] = s.stack_refills;
+  j["queue_stall_cycles"] = s.queue_stall_cycles;
+  // The unit cannot be faster than its busiest resource.
+  const double box = double(s.box_tests) / double(c.box_rate * c.box_units);
+  const double tri = double(s.tri_tests + s.sphere_tests + s.plane_tests) / double(c.tri_rate * c.tri_units);
+  const double mem = double(s.dram_bytes) / c.dram_bytes_per_cycle;
+  const double bound = std::max({box, tri, mem});
+  j["lower_bound"] = {{"cycles", bound},
+                      {"box", box},
+                      {"triangle", tri},
+                      {"dram", mem},
+                      {"limited_by", bound == box ? "box" : (bound == tri ? "triangle" : "dram")},
+                      {"cycles_over_bound", bound > 0 ? cyc / bound : 0.0}};
+  return j;
+}
+
+void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c) {
+  const Json j = timing_stats_json(s, c);
+  std::printf(
+      "timed (%s): %llu cycles, %.1f cycles per ray, %.3f rays per clock; cache hit rate %.3f, DRAM %.1f B/clock; "
+      "lower bound %.0f cycles (%s), cycles / bound %.2f\n",
+      c.name.c_str(), (unsigned long long)s.cycles, j["cycles_per_ray"].get<double>(),
+      j["rays_per_clock"].get<double>(), j["cache"]["hit_rate"].get<double>(),
+      j["dram_bytes_per_cycle"].get<double>(), j["lower_bound"]["cycles"].get<double>(),
+      j["lower_bound"]["limited_by"].get<std::string>().c_str(),
+      j["lower_bound"]["cycles_over_bound"].get<double>());
+}
+
+Json timed_json(const hw::TimedEngine& e) {
+  Json j = timing_stats_json(e.timing(), e.config());
+  Json by_type = Json::object();
+  for (int t = 0; t < hw::cmd::kRayTypeCount; ++t)
+    if (e.timing_by_type()[size_t(t)].rays > 0)
+      by_type[hw::cmd::ray_type_name(hw::cmd::RayType(t))] =
+          timing_stats_json(e.timing_by_type()[size_t(t)], e.config());
+  j["by_ray_type"] = by_type;
+  Json by_bounce = Json::object();
+  for (const auto& [b, s] : e.timing_by_bounce()) by_bounce[std::to_string(b)] = timing_stats_json(s, e.config());
+  j["by_bounce"] = by_bounce;
+  j["config"] = timing_json(e.config());
+  return j;
 }
 
 }  // namespace rtu::host::cmd

@@ -10,6 +10,7 @@
 #include "host/device.h"
 #include "host/render.h"
 #include "host/scene.h"
+#include "hwmodel/timing_config.h"
 
 namespace rtu::host::cmd {
 
@@ -25,6 +26,10 @@ struct DeviceArgs {
   // Overrides of the format preset's fields; -1 keeps the preset's value.
   int coord_bits = -1, child_bits = -1, guard_bits = -1, frac_bits = -1, dir_bits = -1, rcp_bits = -1,
       t_frac_bits = -1, t_bits = -1;
+  // The timed device: a timing preset and key=value overrides. Its format preset and BVH width come from the
+  // configuration (keys `format`, `bvh_width`); the per-field format options still apply on top.
+  std::string config = "rdna2";
+  std::vector<std::string> sets;
 
   hw::FixedFormat fixed_format() const;  // preset + overrides + width; validated
   DeviceOptions options(const std::string& device_name) const;
@@ -61,6 +66,20 @@ void write_json(const std::string& path, const Json& j);
 Json render_json(const RenderResult& r, const RenderOptions& o);
 void print_render_summary(const RenderResult& r, const RenderOptions& o);
 
+// A timing preset with "key=value" overrides applied in order (the `--config P --set k=v` options); throws Error
+// naming the override for a malformed one, an unknown preset or key, or a bad value.
+hw::TimingConfig timing_config_from(const std::string& preset, const std::vector<std::string>& sets);
+// {"preset": name, key: value, ...} in timing_keys() order: numbers as JSON numbers, text as strings.
+Json timing_json(const hw::TimingConfig& c);
+// What a timed run measured: cycles, cycles per ray, rays per clock, unit utilization, cache and DRAM figures,
+// stack spills, queue stalls, and the lower bound max(box tests / box rate, triangle tests / triangle rate,
+// DRAM bytes / bandwidth) with the cycles divided by it.
+Json timing_stats_json(const hw::TimingStats& s, const hw::TimingConfig& c);
+// The timed engine's statistics in total, by ray type and by bounce, with its configuration.
+Json timed_json(const hw::TimedEngine& e);
+// One line: cycles, cycles per ray, rays per clock, the lower bound and what limits it.
+void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c);
+
 void add_info(CLI::App& app);
 void add_rays(CLI::App& app);
 void add_trace(CLI::App& app);
@@ -69,5 +88,6 @@ void add_compare(CLI::App& app);
 void add_stress(CLI::App& app);
 void add_render(CLI::App& app);
 void add_diff(CLI::App& app);
+void add_config(CLI::App& app);
 
 }  // namespace rtu::host::cmd

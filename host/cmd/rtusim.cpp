@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   rtu::host::cmd::add_stress(app);
   rtu::host::cmd::add_render(app);
   rtu::host::cmd::add_diff(app);
+  rtu::host::cmd::add_config(app);
   rtu::host::cmd::add_demo(app);
   try {
     app.parse(argc, argv);

@@ -15,6 +15,7 @@
 
 #include "host/image.h"
 #include "host/ray_io.h"
+#include "hwmodel/timing_config.h"
 
 namespace fs = std::filesystem;
 
@@ -46,7 +47,7 @@ fs::path temp_dir() {
 }  // namespace
 
 TEST_CASE("every subcommand has --help", "[cli]") {
-  for (const char* sub : {"info", "rays", "trace", "compare", "stress", "demo", "diff"}) {
+  for (const char* sub : {"info", "rays", "trace", "compare", "stress", "demo", "diff", "config"}) {
     const Run r = run(std::string(sub) + " --help");
     INFO(r.output);
     CHECK(r.status == 0);
@@ -306,6 +307,78 @@ TEST_CASE("diff: missing, corrupt and mismatched files give a clear error and a 
     INFO(c.args << "\n" << r.output);
     CHECK(r.status != 0);
     CHECK(r.status < 128);
+    CHECK(r.output.find(c.words) != std::string::npos);
+  }
+}
+
+TEST_CASE("config: a preset's every key, --set overrides, JSON keys, --list", "[cli][timing][config]") {
+  const Run r = run("config --preset rdna2");
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  const std::vector<rtu::hw::TimingKey> keys = rtu::hw::timing_keys(rtu::hw::timing_preset("rdna2"));
+  for (const rtu::hw::TimingKey& k : keys) {
+    // A line "key<spaces> = value<spaces>   # description".
+    const size_t at = r.output.find("\n" + k.key + " ");
+    REQUIRE(at != std::string::npos);
+    const std::string line = r.output.substr(at + 1, r.output.find('\n', at + 1) - at - 1);
+    INFO(line);
+    CHECK(line.find("= " + k.value + " ") != std::string::npos);
+    CHECK(line.find("# " + k.description) != std::string::npos);
+  }
+
+  const Run s = run("config --preset intel --set ray_slots=64 --set box_latency=9");
+  INFO(s.output);
+  REQUIRE(s.status == 0);
+  CHECK(s.output.find("ray_slots") != std::string::npos);
+  CHECK(s.output.find("= 64 ") != std::string::npos);
+  CHECK(s.output.find("= 9 ") != std::string::npos);
+  CHECK(s.output.find("= 12 ") != std::string::npos);  // intel's box rate
+
+  const fs::path d = temp_dir();
+  const std::string json = (d / "timing.json").string();
+  REQUIRE(run("config --preset embedded --set clock_ghz=0.8 --json " + json).status == 0);
+  const nlohmann::ordered_json j = nlohmann::ordered_json::parse(std::ifstream(json));
+  CHECK(j["preset"] == "embedded");
+  std::vector<std::string> json_keys;
+  for (auto it = j.begin(); it != j.end(); ++it)
+    if (it.key() != "preset") json_keys.push_back(it.key());
+  std::vector<std::string> want;
+  for (const rtu::hw::TimingKey& k : keys) want.push_back(k.key);
+  CHECK(json_keys == want);
+  CHECK(j["format"] == "compact");
+  CHECK(j["bvh_width"].is_number_integer());
+  CHECK(j["bvh_width"] == 4);
+  CHECK(j["clock_ghz"].is_number());
+  CHECK(j["clock_ghz"].get<double>() == 0.8);
+  CHECK(j["dram_bytes_per_cycle"].is_number());
+
+  const Run l = run("config --list");
+  INFO(l.output);
+  REQUIRE(l.status == 0);
+  for (const std::string& n : rtu::hw::timing_preset_names()) CHECK(l.output.find(n + " ") != std::string::npos);
+  CHECK(l.output.find("RDNA2") != std::string::npos);
+}
+
+TEST_CASE("config: unknown preset or key, bad values, malformed --set: exit 2 naming the problem",
+          "[cli][timing][config]") {
+  struct Case {
+    std::string args, words;
+  };
+  const Case cases[] = {
+      {"config --preset amd", "amd"},
+      {"config --preset rdna2 --set ray_slot=4", "ray_slot"},
+      {"config --preset rdna2 --set ray_slots=12x", "ray_slots"},
+      {"config --preset rdna2 --set ray_slots=0", "ray_slots"},
+      {"config --preset rdna2 --set ray_slots=", "ray_slots"},
+      {"config --preset rdna2 --set bvh_width=6", "bvh_width"},
+      {"config --preset rdna2 --set clock_ghz=fast", "clock_ghz"},
+      {"config --preset rdna2 --set format=nosuch", "nosuch"},
+      {"config --preset rdna2 --set ray_slots", "key=value"},
+  };
+  for (const Case& c : cases) {
+    const Run r = run(c.args);
+    INFO(c.args << "\n" << r.output);
+    CHECK(r.status == 2);
     CHECK(r.output.find(c.words) != std::string::npos);
   }
 }

@@ -1,0 +1,158 @@
+// The timed device: the fixed datapath decides what happens, a cycle-approximate model of the unit decides when.
+//
+// Function: each ray is traced by the fixed device (FixedTracer::trace_recorded), which records what the datapath
+// did in order (node fetch + box tests, record fetch + primitive test, plane tests, stack pushes and pops). The
+// hits are therefore the fixed device's, bit for bit, and extra work caused by precision costs cycles.
+//
+// Timing (TimingModel below, configured by TimingConfig): the events of each ray are replayed in a ray slot.
+// Components and what they model:
+// - command processor: packet decode (packet_latency per packet); a FENCE completes fence_latency after the
+//   previous packet; TRACE packets run one after another (no overlap between packets).
+// - ray fetch: rays stream from the ray buffer at one per clock with ray_fetch_latency, at most queue_depth rays
+//   ahead of the slots (a bounded prefetch queue); ray setup issues one ray per clock, setup_latency deep.
+// - ray slots: ray_slots rays in flight; a free slot takes the next ray (in order; lowest free slot first). Each
+//   slot has a stack of stack_entries; deeper pushes spill 8 bytes to DRAM (bandwidth only) and pops of spilled
+//   entries wait for a DRAM read (latency and bandwidth).
+// - memory: node, record and plane fetches go through one set-associative LRU cache (cache_kib, cache_ways,
+//   line_bytes; hit after cache_latency; a line in flight is waited for, not fetched twice) into a DRAM channel
+//   with dram_latency and dram_bytes_per_cycle (one transfer at a time, ceil(bytes / bandwidth) cycles each).
+//   The image is taken to start at a line boundary. Ray and hit buffers stream through their own port: counted
+//   (stream_bytes), not in the DRAM channel.
+// - units: box_units box units, box_rate box tests per clock each: a node of c children issues for
+//   ceil(c / box_rate) clocks, its result comes box_latency after the first; tri_units triangle units of tri_rate
+//   tests per clock (tri_units * tri_rate issue slots, one test per clock each; spheres and planes use the same
+//   slots with their own latency). A request waits for the
+//   earliest free unit (first come, first served); waits longer than queue_depth clocks count as queue stalls.
+// - scheduler: traversal_latency from a unit result to the slot's next request; hit write-back one per clock,
+//   writeback_latency deep; a slot is free again the clock after its hit is issued to write-back.
+// Every request is served in the order of its cycle (ties by slot number), so the result does not depend on the
+// order in which the code evaluates components, and time jumps from event to event (idle cycles are skipped).
+// Left out: overlap of consecutive TRACE packets, DRAM banks and refresh, write-allocate of spills into the
+// cache, the area of each unit.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "hwmodel/commands.h"
+#include "hwmodel/engine.h"
+#include "hwmodel/fixed_tracer.h"
+#include "hwmodel/timing_config.h"
+
+namespace rtu::hw {
+
+inline constexpr uint64_t kRayBytesStream = 32;  // a ray read from the ray buffer
+inline constexpr uint64_t kHitBytesStream = 16;  // a hit written to the hit buffer
+
+struct TimingStats {
+  uint64_t packets = 0;  // TRACE packets simulated
+  uint64_t cycles = 0;   // cycles of those packets
+  uint64_t rays = 0;     // rays through the slots (including rays rejected at setup)
+  uint64_t box_tests = 0, tri_tests = 0, sphere_tests = 0, plane_tests = 0;
+  uint64_t box_issue_cycles = 0, tri_issue_cycles = 0;  // unit issue slots used, summed over the units
+  uint64_t node_fetches = 0, prim_fetches = 0;
+  uint64_t cache_hits = 0, cache_misses = 0;  // line accesses
+  uint64_t dram_bytes = 0, dram_busy_cycles = 0;
+  uint64_t stream_bytes = 0;  // ray and hit buffers
+  uint64_t stack_spills = 0, stack_refills = 0;
+  uint64_t queue_stall_cycles = 0;
+  uint64_t slot_busy_cycles = 0;  // sum over rays of the cycles from entering a slot to leaving it
+
+  void add(const TimingStats& o);
+};
+
+class TimingModel {
+ public:
+  // Where the bound image keeps its sections (addresses are image offsets).
+  struct Layout {
+    uint64_t node_offset = 0, node_bytes = 56, record_offset = 0, plane_offset = 0;
+  };
+  TimingModel(const TimingConfig& c, const Layout& layout);
+
+  // One TRACE packet of n rays: begin, then feed the rays' events in order (any number at a time; an empty list
+  // is a ray rejected at setup), then finish, which returns the packet's cycles from its decode to the last hit
+  // written. Memory stays bounded: a slot copies its ray's events when it takes the ray. The cache keeps its
+  // contents from packet to packet.
+  void begin(size_t n, TimingStats& s);
+  void feed(const std::vector<TraceEvent>* events, size_t m);
+  uint64_t finish();
+
+ private:
+  struct Line {
+    uint64_t tag = ~uint64_t(0);
+    uint64_t stamp = 0;  // LRU
+    uint64_t ready = 0;  // cycle the data is in the cache
+  };
+  struct Slot {
+    std::vector<TraceEvent> ev;
+    size_t pos = 0;
+    int depth = 0;            // stack entries
+    bool unit_phase = false;  // the current event's data has arrived; its unit request is next
+    uint64_t entered = 0;
+  };
+  void admit(uint32_t k, uint64_t free_at);
+  void simulate();  // until done or until a free slot needs a ray not fed yet
+  uint64_t access(uint64_t addr, uint64_t bytes, uint64_t t);
+  uint64_t line_access(uint64_t line, uint64_t t);
+  uint64_t dram(uint64_t bytes, uint64_t t);
+  uint64_t unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t);
+
+  TimingConfig m_c;
+  Layout m_layout;
+  std::vector<Line> m_cache;
+  uint64_t m_sets = 0, m_stamp = 0;
+  uint64_t m_dram_free = 0;
+  std::vector<uint64_t> m_box_free, m_tri_free;
+  uint64_t m_base = 0;  // cycle the current packet started (resources carry absolute cycles)
+
+  // The packet in flight.
+  TimingStats* m_s = nullptr;
+  size_t m_n = 0, m_next = 0;                       // rays in the packet, next ray to admit
+  const std::vector<TraceEvent>* m_feed = nullptr;  // the rays of the current feed() call
+  size_t m_feed_first = 0, m_feed_count = 0;        // their indices in the packet
+  std::vector<Slot> m_slots;
+  std::vector<std::pair<uint64_t, uint32_t>> m_heap;        // (cycle, slot): min-heap
+  std::vector<uint64_t> m_recent;                           // admission cycles of the last queue_depth rays
+  std::vector<std::pair<uint64_t, uint32_t>> m_free_slots;  // (cycle free, slot): min-heap
+  uint64_t m_t0 = 0, m_setup_free = 0, m_wb_free = 0, m_end = 0;
+};
+
+class TimedEngine final : public TraceEngine {
+ public:
+  TimedEngine(const EngineOptions& o, const TimingConfig& c);
+  const char* name() const override { return "timed"; }
+  uint32_t caps() const override;
+  void bind(const uint8_t* data, size_t bytes) override;
+  bool bound() const override { return m_tracer != nullptr; }
+  void unbind() override;
+  void trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const override;
+  uint64_t packet_cycles(uint8_t opcode) const override;
+  uint64_t trace_cycles(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s, uint8_t ray_type,
+                        uint8_t bounce) override;
+  Geometry::Counts counts() const override;
+  bool uses_bvh() const override;
+
+  const TimingConfig& config() const { return m_c; }
+  void set_threads(int threads) { m_opt.threads = threads; }
+  // Timing statistics of every TRACE since bind, in total, by ray type and by bounce.
+  const TimingStats& timing() const { return m_total; }
+  const std::array<TimingStats, cmd::kRayTypeCount>& timing_by_type() const { return m_by_type; }
+  const std::map<int, TimingStats>& timing_by_bounce() const { return m_by_bounce; }
+
+ private:
+  EngineOptions m_opt;
+  TimingConfig m_c;
+  std::unique_ptr<DeviceImage> m_image;
+  std::unique_ptr<FixedTracer> m_tracer;
+  std::unique_ptr<TimingModel> m_model;
+  TimingStats m_total;
+  std::array<TimingStats, cmd::kRayTypeCount> m_by_type{};
+  std::map<int, TimingStats> m_by_bounce;
+};
+
+std::unique_ptr<TraceEngine> make_timed_engine(const EngineOptions& o, const TimingConfig& c);
+
+}  // namespace rtu::hw

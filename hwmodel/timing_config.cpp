@@ -1,0 +1,304 @@
+#include "hwmodel/timing_config.h"
+
+#include <charconv>
+#include <cmath>
+#include <stdexcept>
+#include <system_error>
+#include <variant>
+
+#include "hwmodel/fixed_format.h"
+
+namespace rtu::hw {
+
+namespace {
+
+// One key: the field it names, its allowed range (ints and doubles) and a one-line description. The table is in
+// the order of the struct; validate(), timing_keys() and set_timing_key() all read it.
+struct KeyInfo {
+  const char* key;
+  std::variant<int TimingConfig::*, double TimingConfig::*, std::string TimingConfig::*> field;
+  double lo, hi;  // inclusive range of ints and doubles; unused for strings (the rules in validate())
+  const char* description;
+};
+
+constexpr int kMaxLatency = 100000;
+constexpr double kNoRange = -1e300;  // lo of a key whose rule is not a range (bvh_width: 2, 4 or 8)
+
+const std::vector<KeyInfo>& key_table() {
+  using C = TimingConfig;
+  static const std::vector<KeyInfo> table = {
+      {"format", &C::format, 0, 0, "fixed-point format preset of the datapath (rtusim info --formats)"},
+      {"bvh_width", &C::bvh_width, kNoRange, -kNoRange,
+       "children per BVH node: 2, 4 or 8 (overrides the format's width)"},
+      {"clock_ghz", &C::clock_ghz, 0.001, 1000, "clock in GHz, for reporting seconds and GB/s only"},
+      {"packet_latency", &C::packet_latency, 0, kMaxLatency,
+       "cycles from doorbell (or the previous packet) to a decoded packet"},
+      {"ray_fetch_latency", &C::ray_fetch_latency, 0, kMaxLatency,
+       "cycles to bring a ray from the ray buffer into setup (1 per clock)"},
+      {"setup_latency", &C::setup_latency, 0, kMaxLatency, "ray setup pipeline depth (float -> fixed, 1/d)"},
+      {"writeback_latency", &C::writeback_latency, 0, kMaxLatency, "hit write-back pipeline depth (1 per clock)"},
+      {"fence_latency", &C::fence_latency, 0, kMaxLatency, "cycles from the last earlier hit to the fence value"},
+      {"ray_slots", &C::ray_slots, 1, 4096, "rays in flight, each with its own traversal state"},
+      {"stack_entries", &C::stack_entries, 1, 64, "short stack per slot; deeper entries spill (8 bytes each)"},
+      {"traversal_latency", &C::traversal_latency, 0, kMaxLatency,
+       "scheduler: cycles from a unit result to the slot's next request"},
+      {"box_units", &C::box_units, 1, 64, "box test units"},
+      {"box_rate", &C::box_rate, 1, 64, "box tests per clock per unit (a node of width <= rate: one clock)"},
+      {"box_latency", &C::box_latency, 1, kMaxLatency, "box unit pipeline depth (issue to result)"},
+      {"tri_units", &C::tri_units, 1, 64, "triangle units (spheres and planes use them too)"},
+      {"tri_rate", &C::tri_rate, 1, 64, "triangle tests per clock per unit"},
+      {"tri_latency", &C::tri_latency, 1, kMaxLatency, "triangle test pipeline depth"},
+      {"sphere_latency", &C::sphere_latency, 1, kMaxLatency, "sphere test pipeline depth (triangle unit slot)"},
+      {"plane_latency", &C::plane_latency, 1, kMaxLatency, "plane test pipeline depth (triangle unit slot)"},
+      {"queue_depth", &C::queue_depth, 1, 4096, "requests each unit's input queue holds (more: a stall)"},
+      {"cache_kib", &C::cache_kib, 0, 65536, "node and primitive cache in KiB (0: no cache)"},
+      {"cache_ways", &C::cache_ways, 1, 64, "cache associativity"},
+      {"line_bytes", &C::line_bytes, 16, 4096, "cache line bytes, the unit of every fetch (a power of two)"},
+      {"cache_latency", &C::cache_latency, 0, kMaxLatency, "cache hit latency in cycles"},
+      {"dram_latency", &C::dram_latency, 0, kMaxLatency, "cycles from a miss to the first byte"},
+      {"dram_bytes_per_cycle", &C::dram_bytes_per_cycle, 0.001, 65536, "DRAM bandwidth in bytes per cycle"},
+  };
+  return table;
+}
+
+std::string known_keys() {
+  std::string s;
+  for (const KeyInfo& k : key_table()) s += (s.empty() ? "" : ", ") + std::string(k.key);
+  return s;
+}
+
+// Shortest text that parses back to the same double.
+std::string double_text(double v) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
+std::string range_text(double lo, double hi, bool is_int) {
+  std::string s(1, '[');  // appended piece by piece: GCC 12's -Wrestrict misfires on "[" + std::string
+  s += is_int ? std::to_string(int(lo)) : double_text(lo);
+  s += ", ";
+  s += is_int ? std::to_string(int(hi)) : double_text(hi);
+  s += ']';
+  return s;
+}
+
+}  // namespace
+
+void TimingConfig::validate() const {
+  auto fail = [&](const std::string& what) { throw std::invalid_argument("timing config " + name + ": " + what); };
+  for (const KeyInfo& k : key_table()) {
+    if (auto f = std::get_if<int TimingConfig::*>(&k.field)) {
+      const int v = this->*(*f);
+      if (v < k.lo || v > k.hi)
+        fail(std::string(k.key) + " = " + std::to_string(v) + " outside " + range_text(k.lo, k.hi, true));
+    } else if (auto d = std::get_if<double TimingConfig::*>(&k.field)) {
+      const double v = this->*(*d);
+      if (!std::isfinite(v) || v < k.lo || v > k.hi)
+        fail(std::string(k.key) + " = " + double_text(v) + " outside " + range_text(k.lo, k.hi, false));
+    }
+    // Rules beyond a range, checked in key order so that the first bad key is the one named.
+    const std::string key = k.key;
+    if (key == "format") {
+      std::string names;
+      bool known = false;
+      for (const FixedFormat& p : format_presets()) {
+        known = known || p.name == format;
+        names += (names.empty() ? "" : ", ") + p.name;
+      }
+      if (!known) fail("format = '" + format + "' is not a fixed-point format preset (known: " + names + ")");
+    } else if (key == "bvh_width") {
+      if (bvh_width != 2 && bvh_width != 4 && bvh_width != 8)
+        fail("bvh_width = " + std::to_string(bvh_width) + " must be 2, 4 or 8");
+    } else if (key == "line_bytes") {
+      if ((line_bytes & (line_bytes - 1)) != 0)
+        fail("line_bytes = " + std::to_string(line_bytes) + " must be a power of two in [16, 4096]");
+      const long long set_bytes = static_cast<long long>(cache_ways) * line_bytes;
+      if (cache_kib > 0 && (static_cast<long long>(cache_kib) * 1024) % set_bytes != 0)
+        fail("cache_kib = " + std::to_string(cache_kib) + ": " + std::to_string(cache_kib) +
+             " KiB is not a whole number of sets of cache_ways * line_bytes = " + std::to_string(set_bytes) +
+             " bytes");
+    }
+  }
+}
+
+// Where the presets' figures come from. Only the BVH width and the box and triangle tests per clock are published
+// by the vendors; the other figures are ours, chosen to be of the right order and stated as estimates. The model
+// has one cache level: "DRAM" stands for everything behind it (on a GPU: L1/L2, a last-level cache and VRAM), and
+// both GPU presets put it about 100 ns behind the unit.
+//
+// rdna2 (the default-constructed TimingConfig): one Ray Accelerator of an RDNA2 compute unit.
+//   - BVH4 and 4 ray-box or 1 ray-triangle test per clock per CU: AMD's RDNA2 announcement and "RDNA 2"
+//     Instruction Set Architecture reference guide (IMAGE_BVH_INTERSECT_RAY takes a 4-wide box node or one
+//     triangle per call); also Chips and Cheese, "RDNA 4's raytracing improvements" (2025), on RDNA2/3's single
+//     intersection engine of four box tests or one triangle test per cycle.
+//   - 2.0 GHz: the game clock of the RX 6800 XT / 6900 XT (2015 MHz) at its launch (AMD, 2020).
+//   - 32 ray slots: one wave32 of rays; RDNA2 runs traversal in shader code, one ray per lane (estimate).
+//   - 64 KiB 4-way cache with 64-byte lines: between RDNA's 16 KB per-CU L0 and 128 KB per-array L1 (AMD RDNA
+//     whitepaper, 2019); AMD's lines are 128 bytes for its 128-byte float box node, ours 64 bytes for the fixed
+//     device's 56-byte BVH4 node (hw_format.h).
+//   - 200 cycles (100 ns at 2 GHz) and one 64-byte line per clock behind the cache: estimates.
+//   - Pipeline depths (box 6, triangle 12, sphere 16, plane 8) and the command processor's latencies: estimates.
+// intel: one RTU of an Xe core of Intel's Arc A-series (Xe-HPG, "Alchemist").
+//   - 12 box tests and 1 triangle test per clock per RTU, in two traversal pipelines, with a dedicated BVH cache:
+//     Intel's Arc ray-tracing architecture disclosure (Aug./Sep. 2022, "Intel Arc Graphics: ray tracing"; as
+//     reported e.g. by TechPowerUp, "Intel Details its Ray Tracing Architecture", 2022-09-01). Modelled as one box
+//     unit of rate 12, so an 8-wide node issues in one clock.
+//   - BVH8: Intel's hardware BVH is 6-wide; the model supports 2, 4 or 8 and takes the next width up (format
+//     wide8).
+//   - 2.1 GHz: the Arc A770's graphics clock (Intel, 2022).
+//   - 64 ray slots: traversal runs in the RTU asynchronously from the shaders (Intel's "asynchronous ray
+//     tracing"), so more rays are in flight than one SIMD thread's (estimate).
+//   - 192 KiB 16-way cache (192 sets) with 64-byte lines: the Xe core's 192 KB L1/shared local memory (Intel
+//   Xe-HPG
+//     disclosures, 2021-2022), with the RTU's small BVH cache (8 KB on Alchemist per Chips and Cheese, "Raytracing
+//     on Intel's Arc B580", 2025) folded into it; Intel GPUs use 64-byte lines.
+//   - 210 cycles (100 ns at 2.1 GHz) and one 64-byte line per clock behind the cache: estimates, as for rdna2.
+// embedded: a small unit for a mobile or embedded SoC; no vendor publishes such figures, so all are our choices.
+//   - Format compact (16-bit grid coordinates), BVH4, one box unit of 2 tests per clock (a BVH4 node in two
+//     clocks), one triangle unit, shallower pipelines for the narrower datapath.
+//   - 1.0 GHz; 16 ray slots with 4-entry stacks; 16 KiB 4-way cache with 64-byte lines.
+//   - 100 cycles (100 ns at 1 GHz) and 16 bytes per cycle behind the cache: about one LPDDR4X-4266 x32 channel
+//     (17 GB/s) at 1 GHz.
+const std::vector<std::string>& timing_preset_names() {
+  static const std::vector<std::string> names = {"rdna2", "intel", "embedded"};
+  return names;
+}
+
+TimingConfig timing_preset(const std::string& name) {
+  TimingConfig c;
+  if (name == "rdna2") {
+    // Every field assigned, so that the preset stays what it says whatever the header's defaults become.
+    c.name = "rdna2";
+    c.format = "default";
+    c.bvh_width = 4;
+    c.clock_ghz = 2.0;
+    c.packet_latency = 20;
+    c.ray_fetch_latency = 10;
+    c.setup_latency = 8;
+    c.writeback_latency = 4;
+    c.fence_latency = 10;
+    c.ray_slots = 32;
+    c.stack_entries = 8;
+    c.traversal_latency = 2;
+    c.box_units = 1;
+    c.box_rate = 4;
+    c.box_latency = 6;
+    c.tri_units = 1;
+    c.tri_rate = 1;
+    c.tri_latency = 12;
+    c.sphere_latency = 16;
+    c.plane_latency = 8;
+    c.queue_depth = 16;
+    c.cache_kib = 64;
+    c.cache_ways = 4;
+    c.line_bytes = 64;
+    c.cache_latency = 4;
+    c.dram_latency = 200;
+    c.dram_bytes_per_cycle = 64.0;
+  } else if (name == "intel") {
+    c = timing_preset("rdna2");
+    c.name = "intel";
+    c.format = "wide8";
+    c.bvh_width = 8;
+    c.clock_ghz = 2.1;
+    c.ray_slots = 64;
+    c.box_units = 1;
+    c.box_rate = 12;
+    c.tri_units = 1;
+    c.tri_rate = 1;
+    c.cache_kib = 192;
+    c.cache_ways = 16;
+    c.line_bytes = 64;
+    c.dram_latency = 210;
+    c.dram_bytes_per_cycle = 64.0;
+  } else if (name == "embedded") {
+    c = timing_preset("rdna2");
+    c.name = "embedded";
+    c.format = "compact";
+    c.bvh_width = 4;
+    c.clock_ghz = 1.0;
+    c.ray_slots = 16;
+    c.stack_entries = 4;
+    c.box_units = 1;
+    c.box_rate = 2;
+    c.box_latency = 4;
+    c.tri_units = 1;
+    c.tri_rate = 1;
+    c.tri_latency = 10;
+    c.sphere_latency = 12;
+    c.plane_latency = 6;
+    c.queue_depth = 8;
+    c.cache_kib = 16;
+    c.cache_ways = 4;
+    c.line_bytes = 64;
+    c.cache_latency = 2;
+    c.dram_latency = 100;
+    c.dram_bytes_per_cycle = 16.0;
+  } else {
+    std::string names;
+    for (const std::string& n : timing_preset_names()) names += (names.empty() ? "" : ", ") + n;
+    throw std::invalid_argument("unknown timing preset '" + name + "' (known: " + names + ")");
+  }
+  return c;
+}
+
+std::string timing_preset_description(const std::string& name) {
+  if (name == "rdna2")
+    return "resembles one AMD RDNA2 Ray Accelerator: BVH4, 4 box tests or 1 triangle test per clock, 2.0 GHz";
+  if (name == "intel")
+    return "resembles one Intel Xe-HPG (Arc A-series) RTU: BVH8, 12 box tests and 1 triangle test per clock, "
+           "2.1 GHz";
+  if (name == "embedded")
+    return "a small embedded unit: format compact (16-bit coordinates), BVH4, 2 box tests per clock, 16 KiB "
+           "cache, 1.0 GHz";
+  timing_preset(name);  // throws, listing the names
+  return {};
+}
+
+std::vector<TimingKey> timing_keys(const TimingConfig& c) {
+  std::vector<TimingKey> keys;
+  for (const KeyInfo& k : key_table()) {
+    std::string value;
+    if (auto f = std::get_if<int TimingConfig::*>(&k.field))
+      value = std::to_string(c.*(*f));
+    else if (auto d = std::get_if<double TimingConfig::*>(&k.field))
+      value = double_text(c.*(*d));
+    else
+      value = c.*std::get<std::string TimingConfig::*>(k.field);
+    keys.push_back(TimingKey{k.key, value, k.description});
+  }
+  return keys;
+}
+
+void set_timing_key(TimingConfig& c, const std::string& key, const std::string& value) {
+  const KeyInfo* info = nullptr;
+  for (const KeyInfo& k : key_table())
+    if (key == k.key) info = &k;
+  if (info == nullptr)
+    throw std::invalid_argument("unknown timing config key '" + key + "' (known: " + known_keys() + ")");
+  auto bad = [&](const char* what) {
+    throw std::invalid_argument("timing config key " + key + ": '" + value + "' is not " + what);
+  };
+  TimingConfig t = c;
+  const char* first = value.data();
+  const char* last = value.data() + value.size();
+  if (auto f = std::get_if<int TimingConfig::*>(&info->field)) {
+    int v = 0;
+    const auto r = std::from_chars(first, last, v);
+    if (r.ec == std::errc::result_out_of_range && r.ptr == last) bad("an integer in range");
+    if (value.empty() || r.ec != std::errc() || r.ptr != last) bad("a decimal integer");
+    t.*(*f) = v;
+  } else if (auto d = std::get_if<double TimingConfig::*>(&info->field)) {
+    double v = 0;
+    const auto r = std::from_chars(first, last, v);
+    if (value.empty() || r.ec != std::errc() || r.ptr != last || !std::isfinite(v)) bad("a finite number");
+    t.*(*d) = v;
+  } else {
+    t.*std::get<std::string TimingConfig::*>(info->field) = value;
+  }
+  t.validate();
+  c = t;
+}
+
+}  // namespace rtu::hw

@@ -1,0 +1,82 @@
+// The timing model's configuration: every latency, rate and size of the timed device (timed_engine.h), as
+// named keys with presets. `rtusim config --preset P` prints a resolved configuration; `--set key=value`
+// overrides one key; unknown keys and out-of-range values are errors naming the key.
+//
+// Ranges (checked by validate()): latencies 0..100000 cycles (box, triangle, sphere and plane latencies >= 1);
+// units and rates 1..64; ray_slots and queue_depth 1..4096; stack_entries 1..64; cache_kib 0..65536 (a whole
+// number of sets: cache_kib * 1024 divisible by cache_ways * line_bytes); cache_ways 1..64; line_bytes a power
+// of two in 16..4096; clock_ghz 0.001..1000; dram_bytes_per_cycle 0.001..65536 (finite); bvh_width 2, 4 or 8;
+// format the name of a fixed-point format preset. The default-constructed configuration is the "rdna2" preset.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace rtu::hw {
+
+struct TimingConfig {
+  std::string name = "rdna2";      // preset it came from
+  std::string format = "default";  // fixed-point format preset of the datapath (fixed_format.h), e.g. compact
+  int bvh_width = 4;               // children per node: 2, 4 or 8 (overrides the format's width)
+  double clock_ghz = 2.0;          // for reporting time and bandwidth in seconds and GB/s only
+
+  // Command processor: packet fetch, ray fetch, hit write-back, fences.
+  int packet_latency = 20;     // cycles from doorbell (or the previous packet) to a decoded packet
+  int ray_fetch_latency = 10;  // cycles to bring a ray from the ray buffer into ray setup (streamed, 1 per clock)
+  int setup_latency = 8;       // ray setup pipeline depth (float -> fixed, reciprocal); 1 ray per clock
+  int writeback_latency = 4;   // hit write-back pipeline depth; 1 hit per clock
+  int fence_latency = 10;      // cycles from the last earlier hit written to the fence value in memory
+
+  // Ray slots and traversal.
+  int ray_slots = 32;         // rays in flight, each with its own traversal state
+  int stack_entries = 8;      // short stack per slot; deeper entries spill to memory (8 bytes each)
+  int traversal_latency = 2;  // scheduler: cycles from a unit result to the slot's next request
+
+  // Units: count, tests per clock per unit, pipeline depth (cycles from issue to result).
+  int box_units = 1;
+  int box_rate = 4;  // box tests per clock per unit (a node of width <= rate issues in one clock)
+  int box_latency = 6;
+  int tri_units = 1;
+  int tri_rate = 1;  // triangle tests per clock per unit
+  int tri_latency = 12;
+  int sphere_latency = 16;  // spheres and planes share the triangle units' issue slots (one test per clock)
+  int plane_latency = 8;
+  int queue_depth = 16;  // requests each unit's input queue holds; more wait in their slots (a stall)
+
+  // Memory: node and primitive fetches through one cache into DRAM.
+  int cache_kib = 64;  // 0: no cache
+  int cache_ways = 4;
+  int line_bytes = 64;
+  int cache_latency = 4;               // hit latency
+  int dram_latency = 200;              // cycles from request to the first byte
+  double dram_bytes_per_cycle = 64.0;  // bandwidth
+
+  // Checks every field; throws std::invalid_argument naming the first bad key and its allowed range.
+  void validate() const;
+};
+
+// The presets: "rdna2" (resembling AMD RDNA2's ray accelerator: BVH4, 4 box tests or 1 triangle test per clock),
+// "intel" (resembling Intel's RTU: 8-wide nodes, 12 box tests and 1 triangle test per clock), "embedded" (a small
+// unit: BVH4, 16-bit coordinates (format compact), one box unit, a small cache). timing_config.cpp says where
+// each figure comes from.
+const std::vector<std::string>& timing_preset_names();
+// Throws std::invalid_argument for an unknown name (listing the known ones).
+TimingConfig timing_preset(const std::string& name);
+// One line saying what a preset resembles (for `rtusim config --list`); throws like timing_preset().
+std::string timing_preset_description(const std::string& name);
+
+// One key of the configuration: name, value as text, one-line description.
+struct TimingKey {
+  std::string key, value, description;
+};
+// Every key in a fixed order (the order of the struct), `name` excepted (it is the preset, not a key). Values are
+// text that set_timing_key() parses back to the same value (doubles in their shortest round-trip form).
+std::vector<TimingKey> timing_keys(const TimingConfig& c);
+// Sets one key from text ("key=value" split by the caller); throws std::invalid_argument for an unknown key
+// (listing the known ones), a value that does not parse, or one out of range (validate()). Integers must be
+// whole decimal integers ("12x", "", "1e3" are refused); doubles must parse whole and be finite. `c` is left
+// unchanged when it throws. `name` is not changed.
+void set_timing_key(TimingConfig& c, const std::string& key, const std::string& value);
+
+}  // namespace rtu::hw

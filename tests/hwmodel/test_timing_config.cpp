@@ -1,0 +1,198 @@
+// The timing configuration: presets validate and differ where the hardware they resemble differs, every key
+// prints and parses back, and bad keys and values are refused with the key named.
+#include <catch2/catch.hpp>
+
+#include <stdexcept>
+#include <string>
+
+#include "hwmodel/fixed_format.h"
+#include "hwmodel/timing_config.h"
+
+using namespace rtu::hw;
+
+namespace {
+
+// The message of the std::invalid_argument `f` throws ("" when it throws nothing).
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::string value_of(const TimingConfig& c, const std::string& key) {
+  for (const TimingKey& k : timing_keys(c))
+    if (k.key == key) return k.value;
+  FAIL("no key " << key);
+  return "";
+}
+
+}  // namespace
+
+TEST_CASE("every timing preset validates and lists every key", "[timing][config]") {
+  REQUIRE(timing_preset_names() == std::vector<std::string>{"rdna2", "intel", "embedded"});
+  for (const std::string& name : timing_preset_names()) {
+    INFO(name);
+    const TimingConfig c = timing_preset(name);
+    CHECK(c.name == name);
+    CHECK_NOTHROW(c.validate());
+    CHECK_FALSE(timing_preset_description(name).empty());
+    const auto keys = timing_keys(c);
+    CHECK(keys.size() == 26);  // every field of TimingConfig but `name`
+    for (const TimingKey& k : keys) {
+      CHECK_FALSE(k.key.empty());
+      CHECK_FALSE(k.value.empty());
+      CHECK_FALSE(k.description.empty());
+    }
+    CHECK(keys.front().key == "format");
+    CHECK(keys.back().key == "dram_bytes_per_cycle");
+  }
+  // The default-constructed configuration is the rdna2 preset.
+  const auto a = timing_keys(TimingConfig{}), b = timing_keys(timing_preset("rdna2"));
+  REQUIRE(a.size() == b.size());
+  for (size_t i = 0; i < a.size(); ++i) CHECK(a[i].value == b[i].value);
+  CHECK(TimingConfig{}.name == "rdna2");
+}
+
+TEST_CASE("timing presets differ where the hardware does", "[timing][config]") {
+  const TimingConfig rdna2 = timing_preset("rdna2"), intel = timing_preset("intel"),
+                     embedded = timing_preset("embedded");
+  CHECK(rdna2.bvh_width == 4);
+  CHECK(rdna2.box_rate == 4);
+  CHECK(rdna2.tri_rate == 1);
+  CHECK(intel.bvh_width == 8);
+  CHECK(intel.box_rate == 12);
+  CHECK(intel.tri_rate == 1);
+  CHECK(embedded.format == "compact");
+  CHECK(embedded.bvh_width == 4);
+  CHECK(embedded.box_units == 1);
+  CHECK(embedded.box_rate <= 2);
+  CHECK(embedded.cache_kib == 16);
+  CHECK(embedded.ray_slots < rdna2.ray_slots);
+  // Every preset's format exists.
+  for (const std::string& name : timing_preset_names()) CHECK_NOTHROW(format_preset(timing_preset(name).format));
+}
+
+TEST_CASE("timing keys round-trip through their printed values", "[timing][config]") {
+  for (const std::string& from : timing_preset_names()) {
+    for (const std::string& onto : timing_preset_names()) {
+      if (from == onto) continue;
+      INFO(from << " onto " << onto);
+      const TimingConfig src = timing_preset(from);
+      TimingConfig dst = timing_preset(onto);
+      // In key order: each step validates, and no preset's cache size breaks another's whole-sets rule.
+      for (const TimingKey& k : timing_keys(src)) REQUIRE_NOTHROW(set_timing_key(dst, k.key, k.value));
+      const auto a = timing_keys(src), b = timing_keys(dst);
+      REQUIRE(a.size() == b.size());
+      for (size_t i = 0; i < a.size(); ++i) {
+        CHECK(a[i].key == b[i].key);
+        CHECK(a[i].value == b[i].value);
+      }
+      CHECK(dst.clock_ghz == src.clock_ghz);  // bit for bit, not only as text
+      CHECK(dst.dram_bytes_per_cycle == src.dram_bytes_per_cycle);
+      CHECK(dst.name == onto);  // set_timing_key leaves the name alone
+    }
+  }
+  // Doubles that need all 17 digits come back exactly.
+  TimingConfig c;
+  c.clock_ghz = 0.1 + 0.2;
+  c.dram_bytes_per_cycle = 1.0 / 3.0;
+  TimingConfig d;
+  set_timing_key(d, "clock_ghz", value_of(c, "clock_ghz"));
+  set_timing_key(d, "dram_bytes_per_cycle", value_of(c, "dram_bytes_per_cycle"));
+  CHECK(d.clock_ghz == c.clock_ghz);
+  CHECK(d.dram_bytes_per_cycle == c.dram_bytes_per_cycle);
+}
+
+TEST_CASE("set_timing_key sets what it parses and refuses the rest, naming the key", "[timing][config]") {
+  TimingConfig c = timing_preset("rdna2");
+  set_timing_key(c, "ray_slots", "64");
+  CHECK(c.ray_slots == 64);
+  set_timing_key(c, "dram_bytes_per_cycle", "12.5");
+  CHECK(c.dram_bytes_per_cycle == 12.5);
+  set_timing_key(c, "format", "compact");
+  CHECK(c.format == "compact");
+  set_timing_key(c, "line_bytes", "32");
+  CHECK(c.line_bytes == 32);
+  set_timing_key(c, "cache_kib", "0");  // no cache
+  CHECK(c.cache_kib == 0);
+
+  struct Case {
+    const char* key;
+    const char* value;
+    const char* words;  // besides the key
+  };
+  const Case cases[] = {
+      {"ray_slots", "12x", "integer"},
+      {"ray_slots", "", "integer"},
+      {"ray_slots", "1e99", "integer"},
+      {"ray_slots", "99999999999", "integer"},
+      {"ray_slots", " 5", "integer"},
+      {"ray_slots", "5.0", "integer"},
+      {"ray_slots", "0", "[1, 4096]"},
+      {"ray_slots", "4097", "[1, 4096]"},
+      {"stack_entries", "65", "[1, 64]"},
+      {"box_latency", "0", "[1, 100000]"},
+      {"tri_latency", "0", "[1, 100000]"},
+      {"dram_latency", "100001", "[0, 100000]"},
+      {"box_rate", "0", "[1, 64]"},
+      {"tri_units", "65", "[1, 64]"},
+      {"queue_depth", "-1", "[1, 4096]"},
+      {"cache_ways", "0", "[1, 64]"},
+      {"cache_kib", "65537", "[0, 65536]"},
+      {"cache_ways", "3", "whole number of sets"},  // 64 KiB of 3 x 64-byte sets
+      {"line_bytes", "48", "power of two"},
+      {"line_bytes", "8", "[16, 4096]"},
+      {"bvh_width", "3", "2, 4 or 8"},
+      {"bvh_width", "16", "2, 4 or 8"},
+      {"format", "nosuch", "nosuch"},
+      {"format", "", "format preset"},
+      {"clock_ghz", "0", "clock_ghz"},
+      {"clock_ghz", "-1", "clock_ghz"},
+      {"clock_ghz", "inf", "finite"},
+      {"clock_ghz", "nan", "finite"},
+      {"clock_ghz", "2GHz", "number"},
+      {"dram_bytes_per_cycle", "1e999", "finite"},
+      {"dram_bytes_per_cycle", "", "number"},
+  };
+  for (const Case& k : cases) {
+    INFO(k.key << " = '" << k.value << "'");
+    TimingConfig t = timing_preset("rdna2");
+    const std::string e = error_of([&] { set_timing_key(t, k.key, k.value); });
+    INFO(e);
+    CHECK(e.find(k.key) != std::string::npos);
+    CHECK(e.find(k.words) != std::string::npos);
+    // A refused value leaves the configuration as it was.
+    const auto a = timing_keys(t), b = timing_keys(timing_preset("rdna2"));
+    for (size_t i = 0; i < a.size(); ++i) CHECK(a[i].value == b[i].value);
+  }
+
+  const std::string unknown = error_of([&] { set_timing_key(c, "ray_slot", "4"); });
+  CHECK(unknown.find("ray_slot'") != std::string::npos);
+  CHECK(unknown.find("ray_slots") != std::string::npos);  // the known keys are listed
+  CHECK(unknown.find("dram_bytes_per_cycle") != std::string::npos);
+  CHECK(error_of([&] { set_timing_key(c, "name", "x"); }).find("unknown") != std::string::npos);
+}
+
+TEST_CASE("validate names the first bad key; unknown presets list the known ones", "[timing][config]") {
+  TimingConfig c;
+  c.queue_depth = 0;
+  c.cache_ways = 0;
+  CHECK(error_of([&] { c.validate(); }).find("queue_depth") != std::string::npos);
+  c = TimingConfig{};
+  c.dram_bytes_per_cycle = 0.0;
+  CHECK(error_of([&] { c.validate(); }).find("dram_bytes_per_cycle") != std::string::npos);
+  c = TimingConfig{};
+  c.cache_kib = 48;  // 48 KiB of 4-way 64-byte lines: 192 sets, fine
+  CHECK_NOTHROW(c.validate());
+  c.cache_ways = 5;  // 48 KiB / (5 * 64) is not whole
+  CHECK(error_of([&] { c.validate(); }).find("cache_kib") != std::string::npos);
+
+  const std::string e = error_of([] { timing_preset("amd"); });
+  CHECK(e.find("'amd'") != std::string::npos);
+  for (const std::string& n : timing_preset_names()) CHECK(e.find(n) != std::string::npos);
+  CHECK_THROWS_AS(timing_preset_description("amd"), std::invalid_argument);
+}

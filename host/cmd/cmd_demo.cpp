@@ -1,8 +1,8 @@
 // rtusim demo: the main job on the built-in default scene, as the README's first command runs it. Loads the
 // scene; traces the camera's primary rays on the float reference and on the fixed device (default format) and
 // compares them ray by ray; renders the scene with the firmware renderer on both devices and compares the
-// images (PSNR, heatmap); writes images, hit files and a JSON report. The timed device (cycles) joins here when
-// it arrives.
+// images (PSNR, heatmap); the fixed render runs on the timed device (same hits, plus cycles per frame); writes
+// images, hit files and a JSON report.
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -26,6 +26,7 @@ struct DemoOptions {
   std::string out = "out/demo";
   int threads = 0;
   int spp = 4, max_depth = 4;
+  std::string config = "rdna2";
 };
 
 void run_demo(const DemoOptions& o) {
@@ -99,23 +100,42 @@ void run_demo(const DemoOptions& o) {
                          {"t_rel_error_max", c.t_rel_max},
                          {"pixels_differing", c.disagreements.size()}};
 
-  // The firmware renderer on both devices, and the image error of fixed against float.
+  // The firmware renderer on the float reference and on the fixed datapath with the timing model (the timed
+  // device: the fixed device's hits and image, plus cycles), and the image error of fixed against float.
   std::vector<Image> renders;
   for (const std::string& name : {std::string("float"), std::string("fixed")}) {
     RenderOptions ro;
-    ro.device.name = name;
+    ro.device.name = name == "fixed" ? "timed" : name;
+    ro.device.timing = hw::timing_preset(o.config);
+    if (name == "fixed") {
+      ro.device.format = hw::format_preset(ro.device.timing.format);
+      ro.device.format.width = ro.device.timing.bvh_width;
+      ro.device.tracer.bvh.width = ro.device.format.width;
+    }
     ro.threads = o.threads;
     ro.spp = o.spp;
     ro.max_depth = o.max_depth;
     ro.background = Vec3(0.02f, 0.02f, 0.03f);
     const RenderResult r = render(scene, ro);
     print_render_summary(r, ro);
+    if (r.timed) {
+      std::printf("        ");
+      print_timing_summary(r.timing, ro.device.timing);
+      std::printf("        cycles per frame (every packet, fences included): %llu = %.3f ms at %.1f GHz\n",
+                  (unsigned long long)r.device_clock, double(r.device_clock) / (ro.device.timing.clock_ghz * 1e6),
+                  ro.device.timing.clock_ghz);
+    }
     renders.push_back(to_image(r));
     const std::string path = o.out + "/render_" + name + ".png";
     write_png(path, renders.back());
     written.push_back(path);
     Json rj = render_json(r, ro);
     rj["image"] = path;
+    if (r.timed) {
+      rj["timing"] = timing_stats_json(r.timing, ro.device.timing);
+      rj["timing"]["cycles_per_frame"] = r.device_clock;
+      rj["timing"]["config"] = timing_json(ro.device.timing);
+    }
     j["renders"][name] = rj;
   }
   const ImageDiff d = diff_images(renders[0], renders[1]);
@@ -151,6 +171,9 @@ void add_demo(CLI::App& app) {
   sub->add_option("--scene", o->scene, "scene to run")->capture_default_str();
   sub->add_option("--out", o->out, "output directory")->capture_default_str();
   sub->add_option("--threads", o->threads, "worker threads (0 = all cores)")->capture_default_str();
+  sub->add_option("--config", o->config, "timing preset of the fixed device's render (cycles)")
+      ->check(CLI::IsMember(hw::timing_preset_names()))
+      ->capture_default_str();
   sub->add_option("--spp", o->spp, "render: samples per pixel")->check(CLI::Range(1, 1024))->capture_default_str();
   sub->add_option("--max-depth", o->max_depth, "render: bounces after the camera ray")
       ->check(CLI::Range(0, 64))

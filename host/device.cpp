@@ -80,6 +80,7 @@ class TimedDevice final : public TraceDevice {
   const hw::DeviceImage* image() const override { return &m_image; }
   uint64_t prim_bytes() const override { return m_image.records_size() + m_image.planes_size(); }
   const hw::TimedEngine* timed() const override { return &m_engine; }
+  void set_pipeline_trace(hw::PipelineTrace* trace) override { m_engine.set_trace(trace); }
 
  private:
   std::string m_name = "timed";

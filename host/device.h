@@ -43,6 +43,8 @@ class TraceDevice {
   virtual const hw::DeviceImage* image() const { return nullptr; }
   // The timed device's engine: cycles and timing statistics of what it traced (null for the others).
   virtual const hw::TimedEngine* timed() const { return nullptr; }
+  // Timed device: record pipeline spans into `trace` (see hw::PipelineTrace); no effect on the others.
+  virtual void set_pipeline_trace(hw::PipelineTrace* trace) { (void)trace; }
   // Bytes the float device keeps beside its BVH (leaf-ordered primitive copies).
   virtual uint64_t prim_bytes() const = 0;
 };

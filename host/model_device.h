@@ -34,6 +34,7 @@ class ModelDevice final : public fw::Hal {
   const hw::TraceEngine& engine() const { return *m_engine; }
   // The timed engine (null for float and fixed).
   const hw::TimedEngine* timed() const { return dynamic_cast<const hw::TimedEngine*>(m_engine.get()); }
+  hw::TimedEngine* timed() { return dynamic_cast<hw::TimedEngine*>(m_engine.get()); }
 
  private:
   std::string m_name;

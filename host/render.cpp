@@ -172,6 +172,7 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   eopt.threads = o.threads;
   eopt.tracer = tracer;
   ModelDevice dev(o.device.name, res.device_memory_bytes, eopt, o.device.timing);
+  if (hw::TimedEngine* te = dev.timed()) te->set_trace(o.pipeline_trace);
   hw::DeviceMemory& mem = dev.memory();
   mem.write(job.scene_image, image_words.data(), res.scene_image_bytes);
   mem.write(job.surfaces, surfaces.data(), surfaces.size() * sizeof(fw::SurfaceRecord));

@@ -29,6 +29,7 @@ struct RenderOptions {
   bool ao = false;            // ambient occlusion instead of diffuse indirect light
   float ao_distance = 0.0f;   // 0: a quarter of the scene's bounding-box diagonal
   Vec3 background{0.0f};      // radiance of escaping rays (the ambient light of occlusion)
+  hw::PipelineTrace* pipeline_trace = nullptr;  // timed device: pipeline spans of a cycle window (or null)
 };
 
 struct RenderResult {

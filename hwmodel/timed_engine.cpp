@@ -130,6 +130,7 @@ void TimingModel::admit(uint32_t k, uint64_t free_at) {
   sl.depth = 0;
   sl.unit_phase = false;
   sl.entered = enter;
+  if (m_trace) m_trace->add(k, "setup", enter, enter + uint64_t(m_c.setup_latency));
   m_heap.push_back({enter + uint64_t(m_c.setup_latency), k});
   std::push_heap(m_heap.begin(), m_heap.end(), std::greater<>());
 }
@@ -164,6 +165,7 @@ void TimingModel::simulate() {
         const uint64_t st = std::max(t, m_wb_free);
         m_wb_free = st + 1;
         m_end = std::max(m_end, st + uint64_t(m_c.writeback_latency));
+        if (m_trace) m_trace->add(k, "write-back", st, st + 1);  // the slot hands its hit to the write-back pipe
         m_s->stream_bytes += kHitBytesStream;
         m_s->slot_busy_cycles += st + 1 - sl.entered;
         m_free_slots.push_back({st + 1, k});
@@ -186,6 +188,7 @@ void TimingModel::simulate() {
           if (uint64_t(sl.depth--) > SE) {
             ++m_s->stack_refills;
             next_t = dram(8, t);
+            if (m_trace) m_trace->add(k, "stack refill", t, next_t);
             waiting = true;
           }
           continue;
@@ -208,6 +211,7 @@ void TimingModel::simulate() {
           ++m_s->prim_fetches;
         }
         next_t = access(addr, bytes, t);
+        if (m_trace) m_trace->add(k, e.kind == TraceEvent::kNode ? "node fetch" : "record fetch", t, next_t);
         sl.unit_phase = true;
         waiting = true;
         continue;
@@ -217,6 +221,7 @@ void TimingModel::simulate() {
       if (e.kind == TraceEvent::kNode) {
         const uint64_t issue = (uint64_t(e.count) + uint64_t(m_c.box_rate) - 1) / uint64_t(m_c.box_rate);
         done = unit(m_box_free, issue, uint64_t(m_c.box_latency), t);
+        if (m_trace) m_trace->add(k, "box", t, done);
         m_s->box_tests += e.count;
         m_s->box_issue_cycles += issue;
       } else {
@@ -231,6 +236,11 @@ void TimingModel::simulate() {
           ++m_s->plane_tests;
         }
         done = unit(m_tri_free, 1, lat, t);
+        if (m_trace)
+          m_trace->add(
+              k,
+              e.kind == TraceEvent::kPlane ? "plane" : (lat == uint64_t(m_c.tri_latency) ? "triangle" : "sphere"),
+              t, done);
         ++m_s->tri_issue_cycles;
       }
       ++sl.pos;
@@ -284,6 +294,7 @@ void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   l.record_offset = h.record_offset;
   l.plane_offset = h.plane_offset;
   m_model = std::make_unique<TimingModel>(m_c, l);
+  m_model->set_trace(m_trace);
 }
 
 void TimedEngine::unbind() {

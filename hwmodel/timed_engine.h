@@ -64,6 +64,22 @@ struct TimingStats {
   void add(const TimingStats& o);
 };
 
+// Spans of pipeline activity in a window of cycles, for a Chrome/Perfetto trace (one track per ray slot).
+struct PipelineTrace {
+  struct Span {
+    uint32_t slot;
+    const char* what;  // "setup", "node fetch", "box", "record fetch", "triangle", "sphere", "plane",
+                       // "stack refill", "write-back"
+    uint64_t start, end;
+  };
+  uint64_t from = 0, to = 0;  // window [from, to) in device cycles since bind
+  size_t max_spans = 1000000;
+  std::vector<Span> spans;
+  void add(uint32_t slot, const char* what, uint64_t start, uint64_t end) {
+    if (end > from && start < to && spans.size() < max_spans) spans.push_back(Span{slot, what, start, end});
+  }
+};
+
 class TimingModel {
  public:
   // Where the bound image keeps its sections (addresses are image offsets).
@@ -77,6 +93,8 @@ class TimingModel {
   // written. Memory stays bounded: a slot copies its ray's events when it takes the ray. The cache keeps its
   // contents from packet to packet.
   void begin(size_t n, TimingStats& s);
+  // Records pipeline spans into `trace` (null: none).
+  void set_trace(PipelineTrace* trace) { m_trace = trace; }
   void feed(const std::vector<TraceEvent>* events, size_t m);
   uint64_t finish();
 
@@ -108,6 +126,7 @@ class TimingModel {
   std::vector<uint64_t> m_box_free, m_tri_free;
   uint64_t m_base = 0;  // cycle the current packet started (resources carry absolute cycles)
 
+  PipelineTrace* m_trace = nullptr;
   // The packet in flight.
   TimingStats* m_s = nullptr;
   size_t m_n = 0, m_next = 0;                       // rays in the packet, next ray to admit
@@ -137,6 +156,11 @@ class TimedEngine final : public TraceEngine {
 
   const TimingConfig& config() const { return m_c; }
   void set_threads(int threads) { m_opt.threads = threads; }
+  // Record pipeline spans of cycles [from, to) (cycles since bind); the trace must outlive the engine's use.
+  void set_trace(PipelineTrace* trace) {
+    m_trace = trace;
+    if (m_model) m_model->set_trace(trace);
+  }
   // Timing statistics of every TRACE since bind, in total, by ray type and by bounce.
   const TimingStats& timing() const { return m_total; }
   const std::array<TimingStats, cmd::kRayTypeCount>& timing_by_type() const { return m_by_type; }
@@ -148,6 +172,7 @@ class TimedEngine final : public TraceEngine {
   std::unique_ptr<DeviceImage> m_image;
   std::unique_ptr<FixedTracer> m_tracer;
   std::unique_ptr<TimingModel> m_model;
+  PipelineTrace* m_trace = nullptr;
   TimingStats m_total;
   std::array<TimingStats, cmd::kRayTypeCount> m_by_type{};
   std::map<int, TimingStats> m_by_bounce;

@@ -19,6 +19,7 @@ struct RenderArgs {
   bool ao = false, no_indirect = false;
   float ao_distance = 0.0f;
   std::vector<float> background{0.0f, 0.0f, 0.0f};
+  PipelineTraceArgs pipeline;
 };
 
 RenderOptions options_from(const RenderArgs& a, const std::string& device) {
@@ -39,8 +40,11 @@ RenderOptions options_from(const RenderArgs& a, const std::string& device) {
 
 void run_render(const RenderArgs& a) {
   const Scene scene = load_scene(a.scene);
-  const RenderOptions o = options_from(a, a.dev.device);
+  RenderOptions o = options_from(a, a.dev.device);
+  PipelineTraceArgs pt = a.pipeline;
+  o.pipeline_trace = pt.make();
   const RenderResult r = render(scene, o);
+  if (r.timed) pt.write();
   write_png(a.out, to_image(r));
   print_render_summary(r, o);
   if (r.timed) {
@@ -70,6 +74,7 @@ void add_render(CLI::App& app) {
   sub->add_option("--scene", a->scene, "scene file, mesh file, or builtin:NAME")->required();
   sub->add_option("--out", a->out, "PNG to write")->required();
   sub->add_option("--stats", a->stats, "write statistics as JSON to this file");
+  add_pipeline_trace_args(*sub, a->pipeline);
   add_device_args(*sub, a->dev,
                   "device: float (the reference), fixed (bit-accurate fixed point) or timed (fixed point with the "
                   "cycle-approximate timing model; --config, --set)");

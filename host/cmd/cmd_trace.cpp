@@ -16,6 +16,7 @@ struct TraceOptions {
   bool any_hit = false;
   int threads = 0;
   DeviceArgs dev;
+  PipelineTraceArgs pipeline;
 };
 
 void run_trace(const TraceOptions& o) {
@@ -27,6 +28,8 @@ void run_trace(const TraceOptions& o) {
   Stopwatch build_timer;
   const DeviceOptions dopt = o.dev.options(o.dev.device);
   const std::unique_ptr<TraceDevice> device = make_device(scene.geometry, dopt);
+  PipelineTraceArgs pt = o.pipeline;
+  device->set_pipeline_trace(pt.make());
   const double build_s = build_timer.seconds();
 
   std::vector<hw::Hit> hits(rays.size());
@@ -44,6 +47,7 @@ void run_trace(const TraceOptions& o) {
               stats.rays ? double(stats.box_tests) / double(stats.rays) : 0.0,
               stats.rays ? double(stats.prim_tests) / double(stats.rays) : 0.0);
   if (const hw::TimedEngine* te = device->timed()) print_timing_summary(te->timing(), te->config());
+  if (device->timed()) pt.write();
 
   if (!o.stats.empty()) {
     Json j;
@@ -79,6 +83,7 @@ void add_trace(CLI::App& app) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   sub->add_option("--stats", o->stats, "write statistics as JSON to this file");
+  add_pipeline_trace_args(*sub, o->pipeline);
   add_device_args(*sub, o->dev,
                   "device: float (the reference), fixed (bit-accurate fixed point) or timed (fixed point with the "
                   "cycle-approximate timing model; --config, --set)");

@@ -332,3 +332,57 @@ Json timed_json(const hw::TimedEngine& e) {
 }
 
 }  // namespace rtu::host::cmd
+
+namespace rtu::host::cmd {
+
+hw::PipelineTrace* PipelineTraceArgs::make() {
+  if (path.empty()) return nullptr;
+  const size_t colon = window.find(':');
+  uint64_t from = 0, to = 0;
+  auto parse = [&](const std::string& t, uint64_t& v) {
+    const auto r = std::from_chars(t.data(), t.data() + t.size(), v);
+    return r.ec == std::errc() && r.ptr == t.data() + t.size() && !t.empty();
+  };
+  if (colon == std::string::npos || !parse(window.substr(0, colon), from) ||
+      !parse(window.substr(colon + 1), to) || from >= to)
+    throw Error("--trace-window: expected FROM:TO in cycles with FROM < TO, got '" + window + "'");
+  trace.from = from;
+  trace.to = to;
+  return &trace;
+}
+
+void PipelineTraceArgs::write() const {
+  if (path.empty()) return;
+  Json events = Json::array();
+  for (const hw::PipelineTrace::Span& s : trace.spans)
+    events.push_back(
+        {{"name", s.what}, {"ph", "X"}, {"ts", s.start}, {"dur", s.end - s.start}, {"pid", 0}, {"tid", s.slot}});
+  for (uint32_t k = 0; k < 4096; ++k) {
+    bool used = false;
+    for (const hw::PipelineTrace::Span& s : trace.spans) used = used || s.slot == k;
+    if (!used) continue;
+    events.push_back({{"name", "thread_name"},
+                      {"ph", "M"},
+                      {"pid", 0},
+                      {"tid", k},
+                      {"args", {{"name", "ray slot " + std::to_string(k)}}}});
+  }
+  Json j;
+  j["traceEvents"] = events;
+  j["displayTimeUnit"] = "ns";
+  j["otherData"] = {{"time_unit", "1 us in the viewer = 1 cycle"},
+                    {"window", {trace.from, trace.to}},
+                    {"spans", trace.spans.size()}};
+  write_json(path, j);
+}
+
+void add_pipeline_trace_args(CLI::App& app, PipelineTraceArgs& a) {
+  app.add_option("--pipeline-trace", a.path,
+                 "timed device: write a Chrome/Perfetto trace (one track per ray slot) of --trace-window");
+  app.add_option("--trace-window", a.window,
+                 "cycles FROM:TO of the pipeline trace (the timing model's cycles: TRACE packets back to back "
+                 "since the scene was bound)")
+      ->capture_default_str();
+}
+
+}  // namespace rtu::host::cmd

@@ -79,6 +79,15 @@ Json timing_stats_json(const hw::TimingStats& s, const hw::TimingConfig& c);
 Json timed_json(const hw::TimedEngine& e);
 // One line: cycles, cycles per ray, rays per clock, the lower bound and what limits it.
 void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c);
+// --pipeline-trace F.json and --trace-window FROM:TO (cycles) of the timed device's commands.
+struct PipelineTraceArgs {
+  std::string path, window = "0:100000";
+  // The trace to pass to the device (null when no path was given); throws Error on a malformed window.
+  hw::PipelineTrace* make();
+  void write() const;  // Chrome/Perfetto JSON ("ts" and "dur" in cycles, shown as microseconds)
+  hw::PipelineTrace trace;
+};
+void add_pipeline_trace_args(CLI::App& app, PipelineTraceArgs& a);
 
 void add_info(CLI::App& app);
 void add_rays(CLI::App& app);

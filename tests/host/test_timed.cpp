@@ -128,3 +128,36 @@ TEST_CASE("a timed render equals the fixed render; the clock counts cycles", "[t
   CHECK(t.timing_by_type[int(rtu::hw::cmd::RayType::kShadow)].rays ==
         t.fw.rays[int(rtu::hw::cmd::RayType::kShadow)]);
 }
+
+TEST_CASE("the pipeline trace shows each slot's work in order, inside its window", "[timed]") {
+  const rtu::host::Scene s = rtu::host::load_scene("builtin:seed");
+  rtu::host::RenderOptions o;
+  o.width = 40;
+  o.height = 30;
+  o.max_depth = 2;
+  o.device = options("timed", "rdna2");
+  rtu::hw::PipelineTrace trace;
+  trace.from = 500;
+  trace.to = 4000;
+  o.pipeline_trace = &trace;
+  const rtu::host::RenderResult r = rtu::host::render(s, o);
+  REQUIRE(trace.spans.size() > 100);
+  std::vector<uint64_t> last_end(size_t(o.device.timing.ray_slots), 0);
+  bool box = false, fetch = false, wb = false;
+  for (const rtu::hw::PipelineTrace::Span& sp : trace.spans) {
+    CHECK(sp.end > trace.from);
+    CHECK(sp.start < trace.to);
+    CHECK(sp.start <= sp.end);
+    REQUIRE(sp.slot < last_end.size());
+    // A slot does one thing at a time: its spans follow one another.
+    CHECK(sp.start >= last_end[sp.slot]);
+    last_end[sp.slot] = sp.end;
+    box = box || std::string(sp.what) == "box";
+    fetch = fetch || std::string(sp.what) == "node fetch";
+    wb = wb || std::string(sp.what) == "write-back";
+  }
+  CHECK(box);
+  CHECK(fetch);
+  CHECK(wb);
+  CHECK(r.timing.cycles > trace.to);
+}

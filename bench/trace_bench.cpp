@@ -1,6 +1,9 @@
 // trace_bench: MRays/s, build time, accel bytes and peak memory of the float reference, the fixed device (default
-// format) and Embree 3 (rtcIntersect1, one thread) on the same meshes and the same rays, measured in one run. Each
-// tracer runs in a child process of its own, so its peak resident memory (getrusage of the child) is its own.
+// format), the timed device (rdna2 timing preset: the fixed datapath in the same format plus the timing model) and
+// Embree 3 (rtcIntersect1, one thread) on the same meshes and the same rays, measured in one run. Each tracer runs
+// in a child process of its own, so its peak resident memory (getrusage of the child) is its own. The timed
+// device's MRays/s are simulated rays per second of wall time; it traces each kind of ray as one TRACE packet
+// (one thread) and also reports the simulated cycles per ray.
 //
 //   trace_bench [--rays N] [--json F] [MESH...]      (default: the three assimp-testmodels meshes of README.md)
 #include <embree3/rtcore.h>
@@ -13,20 +16,25 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "embree_oracle.h"
+#include "host/device.h"
 #include "host/ray_gen.h"
 #include "host/scene.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
+#include "hwmodel/timing_config.h"
 
 using namespace rtu;
 
 namespace {
+
+constexpr const char* kTimedPreset = "rdna2";  // the timed tracer's timing preset
 
 struct Result {
   uint64_t triangles = 0;
@@ -34,6 +42,7 @@ struct Result {
   uint64_t primary_hits = 0, incoherent_hits = 0;
   uint64_t accel_bytes = 0;  // float: nodes + index + leaf-ordered primitives; fixed: the device image;
                              // Embree: its memory monitor's peak
+  uint64_t primary_cycles = 0, incoherent_cycles = 0;  // timed: simulated cycles of each packet
   bool ok = false;
   char error[256] = {};
 };
@@ -92,6 +101,33 @@ Result run_tracer(const std::string& mesh, const std::string& tracer, uint64_t n
     auto one = [&](const hw::Ray& ray) { return t.trace(ray, false, s); };
     r.primary_s = time_rays(one, primary, r.primary_hits);
     r.incoherent_s = time_rays(one, incoherent, r.incoherent_hits);
+  } else if (tracer == "rtu-timed") {
+    // As rtusim trace --device timed --config rdna2 builds it (host/cmd/common.cpp): the preset's format with
+    // the preset's BVH width; a BVH always, as for rtu-fixed.
+    t0 = now();
+    host::DeviceOptions o;
+    o.name = "timed";
+    o.timing = hw::timing_preset(kTimedPreset);
+    o.format = hw::format_preset(o.timing.format);
+    o.format.width = o.timing.bvh_width;
+    o.tracer.accel = hw::AccelMode::kBvh;
+    o.tracer.bvh.width = o.format.width;
+    const std::unique_ptr<host::TraceDevice> d = host::make_device(g, o);
+    r.build_s = now() - t0;
+    r.accel_bytes = d->image()->size();
+    std::vector<hw::Hit> hits(n);
+    auto time_packet = [&](const std::vector<hw::Ray>& rays, uint64_t& nhits, uint64_t& cycles) {
+      hw::TraversalStats s;
+      const uint64_t before = d->timed()->timing().cycles;
+      const double s0 = now();
+      d->trace_batch(rays.data(), hits.data(), rays.size(), false, 1, s);
+      const double dt = now() - s0;
+      cycles = d->timed()->timing().cycles - before;
+      for (size_t i = 0; i < rays.size(); ++i) nhits += hits[i].hit();
+      return dt;
+    };
+    r.primary_s = time_packet(primary, r.primary_hits, r.primary_cycles);
+    r.incoherent_s = time_packet(incoherent, r.incoherent_hits, r.incoherent_cycles);
   } else {
     t0 = now();
     const oracle::EmbreeScene e(g, "threads=1", embree_monitor);
@@ -165,11 +201,13 @@ int main(int argc, char** argv) {
   std::printf(
       "| mesh | triangles | tracer | build s | primary MRays/s | incoherent MRays/s | accel B/tri | peak MiB |\n");
   std::printf("|---|---:|---|---:|---:|---:|---:|---:|\n");
+  std::vector<std::string> cycle_rows;  // the timed device's simulated cycles, printed after the main table
   for (const std::string& mesh : meshes) {
-    Result res[3];
-    uint64_t rss[3] = {};
-    const char* names[3] = {"rtu-float", "rtu-fixed", "embree"};
-    for (int k = 0; k < 3; ++k) {
+    constexpr int kFixed = 1, kTimed = 2, kEmbree = 3;
+    Result res[4];
+    uint64_t rss[4] = {};
+    const char* names[4] = {"rtu-float", "rtu-fixed", "rtu-timed", "embree"};
+    for (int k = 0; k < 4; ++k) {
       res[k] = run_child(mesh, names[k], n, rss[k]);
       const Result& r = res[k];
       const std::string base = mesh.substr(mesh.find_last_of('/') + 1);
@@ -193,17 +231,42 @@ int main(int argc, char** argv) {
                      {"incoherent_hits", r.incoherent_hits},
                      {"accel_bytes", r.accel_bytes},
                      {"peak_rss_bytes", rss[k]}});
+      if (k == kTimed) {
+        nlohmann::ordered_json& j = out.back();
+        j["timing_preset"] = kTimedPreset;
+        j["primary_cycles"] = r.primary_cycles;
+        j["incoherent_cycles"] = r.incoherent_cycles;
+        j["primary_cycles_per_ray"] = double(r.primary_cycles) / double(n);
+        j["incoherent_cycles_per_ray"] = double(r.incoherent_cycles) / double(n);
+        char row[256];
+        std::snprintf(row, sizeof row, "| %s | %s | %.2f | %.2f | %.3f | %.3f |", base.c_str(), kTimedPreset,
+                      double(r.primary_cycles) / double(n), double(r.incoherent_cycles) / double(n),
+                      double(n) / double(r.primary_cycles), double(n) / double(r.incoherent_cycles));
+        cycle_rows.push_back(row);
+      }
     }
-    for (int k = 0; k < 2; ++k) {
-      if (!res[k].ok || !res[2].ok) continue;
-      std::printf("| | | %s/embree | | %.2fx | %.2fx | | %.2fx |\n", names[k], res[2].primary_s / res[k].primary_s,
-                  res[2].incoherent_s / res[k].incoherent_s, double(rss[k]) / double(rss[2]));
-      if (res[k].primary_hits != res[2].primary_hits || res[k].incoherent_hits != res[2].incoherent_hits)
+    // Ratios of speed (rays per second: higher is faster) and of peak memory.
+    auto ratio_row = [&](int k, int peer) {
+      if (!res[k].ok || !res[peer].ok) return;
+      std::printf("| | | %s/%s | | %.2fx | %.2fx | | %.2fx |\n", names[k], names[peer],
+                  res[peer].primary_s / res[k].primary_s, res[peer].incoherent_s / res[k].incoherent_s,
+                  double(rss[k]) / double(rss[peer]));
+      if (res[k].primary_hits != res[peer].primary_hits || res[k].incoherent_hits != res[peer].incoherent_hits)
         std::printf("|   | | hits differ: primary %llu vs %llu, incoherent %llu vs %llu | | | | | |\n",
-                    (unsigned long long)res[k].primary_hits, (unsigned long long)res[2].primary_hits,
-                    (unsigned long long)res[k].incoherent_hits, (unsigned long long)res[2].incoherent_hits);
-    }
+                    (unsigned long long)res[k].primary_hits, (unsigned long long)res[peer].primary_hits,
+                    (unsigned long long)res[k].incoherent_hits, (unsigned long long)res[peer].incoherent_hits);
+    };
+    for (int k = 0; k < kEmbree; ++k) ratio_row(k, kEmbree);
+    ratio_row(kTimed, kFixed);  // the target: >= 0.20x (at most 5x slower than the fixed device)
     std::fflush(stdout);
+  }
+  if (!cycle_rows.empty()) {
+    std::printf("\nrtu-timed: simulated cycles (each kind of ray as one TRACE packet)\n\n");
+    std::printf(
+        "| mesh | timing preset | primary cycles/ray | incoherent cycles/ray | primary rays/clock | incoherent "
+        "rays/clock |\n");
+    std::printf("|---|---|---:|---:|---:|---:|\n");
+    for (const std::string& row : cycle_rows) std::printf("%s\n", row.c_str());
   }
   if (!json_path.empty()) std::ofstream(json_path) << out.dump(2) << '\n';
   return 0;

@@ -290,8 +290,9 @@ Json timing_stats_json(const hw::TimingStats& s, const hw::TimingConfig& c) {
   j["stack_spills"] = s.stack_spills;
   j["stack_refills"] = s.stack_refills;
   j["queue_stall_cycles"] = s.queue_stall_cycles;
-  // The unit cannot be faster than its busiest resource.
-  const double box = double(s.box_tests) / double(c.box_rate * c.box_units);
+  // The unit cannot be faster than its busiest resource. Box tests count in whole clocks per node (a node of
+  // c children issues for ceil(c / box_rate) clocks), so the bound is the issue clocks over the units.
+  const double box = double(s.box_issue_cycles) / double(c.box_units);
   const double tri = double(s.tri_tests + s.sphere_tests + s.plane_tests) / double(c.tri_rate * c.tri_units);
   const double mem = double(s.dram_bytes) / c.dram_bytes_per_cycle;
   const double bound = std::max({box, tri, mem});

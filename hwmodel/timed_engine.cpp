@@ -44,10 +44,18 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout) : m_c(c), 
   m_tri_free.assign(size_t(c.tri_units) * size_t(c.tri_rate), 0);  // a unit of rate r: r issue slots per clock
   m_slots.resize(size_t(c.ray_slots));
   m_recent.assign(size_t(c.queue_depth), 0);
+  while ((uint64_t(1) << m_line_shift) < uint64_t(c.line_bytes)) ++m_line_shift;
+  m_line_xfer = xfer_cycles(uint64_t(c.line_bytes));
+  m_word_xfer = xfer_cycles(8);
+  for (uint64_t k = 0; k < m_box_issue.size(); ++k) m_box_issue[k] = (k + uint64_t(c.box_rate) - 1) / uint64_t(c.box_rate);
+}
+
+uint64_t TimingModel::xfer_cycles(uint64_t bytes) const {
+  return uint64_t(std::ceil(double(bytes) / m_c.dram_bytes_per_cycle));
 }
 
 uint64_t TimingModel::dram(uint64_t bytes, uint64_t t) {
-  const uint64_t xfer = uint64_t(std::ceil(double(bytes) / m_c.dram_bytes_per_cycle));
+  const uint64_t xfer = bytes == uint64_t(m_c.line_bytes) ? m_line_xfer : (bytes == 8 ? m_word_xfer : xfer_cycles(bytes));
   const uint64_t start = std::max(t, m_dram_free);
   m_dram_free = start + xfer;
   m_s->dram_bytes += bytes;
@@ -219,7 +227,7 @@ void TimingModel::simulate() {
       // The data is there: the unit request.
       uint64_t done;
       if (e.kind == TraceEvent::kNode) {
-        const uint64_t issue = (uint64_t(e.count) + uint64_t(m_c.box_rate) - 1) / uint64_t(m_c.box_rate);
+        const uint64_t issue = m_box_issue[e.count];
         done = unit(m_box_free, issue, uint64_t(m_c.box_latency), t);
         if (m_trace) m_trace->add(k, "box", t, done);
         m_s->box_tests += e.count;

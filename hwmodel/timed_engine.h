@@ -116,12 +116,16 @@ class TimingModel {
   uint64_t access(uint64_t addr, uint64_t bytes, uint64_t t);
   uint64_t line_access(uint64_t line, uint64_t t);
   uint64_t dram(uint64_t bytes, uint64_t t);
+  uint64_t xfer_cycles(uint64_t bytes) const;  // ceil(bytes / bandwidth)
   uint64_t unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t);
 
   TimingConfig m_c;
   Layout m_layout;
   std::vector<Line> m_cache;
   uint64_t m_sets = 0, m_stamp = 0;
+  int m_line_shift = 0;                       // log2(line_bytes)
+  uint64_t m_line_xfer = 0, m_word_xfer = 0;  // DRAM cycles of a line and of an 8-byte stack entry
+  std::array<uint64_t, 256> m_box_issue{};    // ceil(children / box_rate)
   uint64_t m_dram_free = 0;
   std::vector<uint64_t> m_box_free, m_tri_free;
   uint64_t m_base = 0;  // cycle the current packet started (resources carry absolute cycles)

@@ -25,17 +25,14 @@ class FloatDevice final : public TraceDevice {
   hw::FloatTracer m_tracer;
 };
 
-class FixedDevice final : public TraceDevice {
+// What the fixed and timed devices share: the float BVH (for figures; the datapath reads only the image), the
+// encoded image, and a fixed tracer over it.
+class ImageDevice : public TraceDevice {
  public:
-  FixedDevice(const hw::Geometry& g, const DeviceOptions& o)
+  ImageDevice(const hw::Geometry& g, const DeviceOptions& o)
       : m_bvh(hw::choose_accel(g, o.tracer, &m_bvh_cost, &m_brute_cost)),
         m_image(hw::encode_scene(g, o.format, m_bvh ? &*m_bvh : nullptr)),
         m_tracer(m_image, hw::FixedTraceOptions{o.check_boxes}) {}
-  const std::string& name() const override { return m_name; }
-  void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
-                   hw::TraversalStats& s) const override {
-    m_tracer.trace_batch(rays, hits, n, any_hit, threads, s);
-  }
   hw::RayStatus ray_status(const hw::Ray& r) const override {
     hw::FixedRay fr;
     return hw::setup_ray(r, m_tracer.frame(), m_tracer.format(), fr);
@@ -46,22 +43,31 @@ class FixedDevice final : public TraceDevice {
   const hw::DeviceImage* image() const override { return &m_image; }
   uint64_t prim_bytes() const override { return m_image.records_size() + m_image.planes_size(); }
 
- private:
-  std::string m_name = "fixed";
+ protected:
   double m_bvh_cost = 0.0, m_brute_cost = 0.0;
-  std::optional<hw::Bvh> m_bvh;  // kept for figures; the tracer reads only the image
+  std::optional<hw::Bvh> m_bvh;
   hw::DeviceImage m_image;
   hw::FixedTracer m_tracer;
 };
 
+class FixedDevice final : public ImageDevice {
+ public:
+  using ImageDevice::ImageDevice;
+  const std::string& name() const override { return m_name; }
+  void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
+                   hw::TraversalStats& s) const override {
+    m_tracer.trace_batch(rays, hits, n, any_hit, threads, s);
+  }
+
+ private:
+  std::string m_name = "fixed";
+};
+
 // The fixed datapath with the timing model: the engine the command processor would run, called directly.
-class TimedDevice final : public TraceDevice {
+class TimedDevice final : public ImageDevice {
  public:
   TimedDevice(const hw::Geometry& g, const DeviceOptions& o)
-      : m_bvh(hw::choose_accel(g, o.tracer, &m_bvh_cost, &m_brute_cost)),
-        m_image(hw::encode_scene(g, o.format, m_bvh ? &*m_bvh : nullptr)),
-        m_tracer(m_image),
-        m_engine(hw::EngineOptions{}, o.timing) {
+      : ImageDevice(g, o), m_engine(hw::EngineOptions{}, o.timing) {
     m_engine.bind(m_image.data(), m_image.size());
   }
   const std::string& name() const override { return m_name; }
@@ -70,24 +76,11 @@ class TimedDevice final : public TraceDevice {
     m_engine.set_threads(threads);
     if (n > 0) m_engine.trace_cycles(rays, hits, n, any_hit, s, uint8_t(hw::cmd::RayType::kOther), 0);
   }
-  hw::RayStatus ray_status(const hw::Ray& r) const override {
-    hw::FixedRay fr;
-    return hw::setup_ray(r, m_tracer.frame(), m_tracer.format(), fr);
-  }
-  const hw::Bvh* bvh() const override { return m_bvh ? &*m_bvh : nullptr; }
-  double bvh_cost() const override { return m_bvh_cost; }
-  double brute_cost() const override { return m_brute_cost; }
-  const hw::DeviceImage* image() const override { return &m_image; }
-  uint64_t prim_bytes() const override { return m_image.records_size() + m_image.planes_size(); }
   const hw::TimedEngine* timed() const override { return &m_engine; }
   void set_pipeline_trace(hw::PipelineTrace* trace) override { m_engine.set_trace(trace); }
 
  private:
   std::string m_name = "timed";
-  double m_bvh_cost = 0.0, m_brute_cost = 0.0;
-  std::optional<hw::Bvh> m_bvh;
-  hw::DeviceImage m_image;
-  hw::FixedTracer m_tracer;          // for ray_status
   mutable hw::TimedEngine m_engine;  // simulation state changes as it traces
 };
 

@@ -132,14 +132,7 @@ FixedTracer::FixedTracer(const DeviceImage& image, const FixedTraceOptions& opt)
     : m_image(image), m_format(image.format()), m_frame(image.frame()), m_opt(opt) {}
 
 Hit FixedTracer::trace(const Ray& r, bool any_hit, TraversalStats& s) const {
-  FixedRay fr;
-  const RayStatus status = setup_ray(r, m_frame, m_format, fr);
-  if (status != RayStatus::kOk) {
-    ++s.invalid_rays;
-    ++s.invalid_by_reason[size_t(status)];
-    return Hit{};
-  }
-  return trace_counted(&r, fr, any_hit, s);
+  return trace_world(r, any_hit, s, nullptr);
 }
 
 Hit FixedTracer::trace_fixed(const FixedRay& r, bool any_hit, TraversalStats& s) const {
@@ -148,6 +141,10 @@ Hit FixedTracer::trace_fixed(const FixedRay& r, bool any_hit, TraversalStats& s)
 
 Hit FixedTracer::trace_recorded(const Ray& r, bool any_hit, TraversalStats& s,
                                 std::vector<TraceEvent>& events) const {
+  return trace_world(r, any_hit, s, &events);
+}
+
+Hit FixedTracer::trace_world(const Ray& r, bool any_hit, TraversalStats& s, std::vector<TraceEvent>* rec) const {
   FixedRay fr;
   const RayStatus status = setup_ray(r, m_frame, m_format, fr);
   if (status != RayStatus::kOk) {
@@ -155,7 +152,7 @@ Hit FixedTracer::trace_recorded(const Ray& r, bool any_hit, TraversalStats& s,
     ++s.invalid_by_reason[size_t(status)];
     return Hit{};
   }
-  return trace_counted(&r, fr, any_hit, s, &events);
+  return trace_counted(&r, fr, any_hit, s, rec);
 }
 
 Hit FixedTracer::trace_counted(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s,

@@ -51,6 +51,8 @@ class FixedTracer {
   const QuantFrame& frame() const { return m_frame; }
 
  private:
+  // Ray setup, then trace_counted; rejected rays are counted by reason.
+  Hit trace_world(const Ray& r, bool any_hit, TraversalStats& s, std::vector<TraceEvent>* rec) const;
   // Counts the ray and the saturations of trace_valid. r (the world ray) is only for sphere u, v; may be null.
   Hit trace_counted(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s,
                     std::vector<TraceEvent>* rec = nullptr) const;

@@ -8,6 +8,7 @@ packages=(
   libglm-dev libcli11-dev nlohmann-json3-dev libstb-dev libassimp-dev  # libraries of the tool
   catch2 libembree-dev                           # tests; Embree is the independent oracle and benchmark peer
   assimp-testmodels                              # the real meshes used by tests and benchmarks
+  verilator yosys                                # the RTL box unit: simulation and tests (rtl_sim/), synthesis
 )
 
 missing=()

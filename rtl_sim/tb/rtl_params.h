@@ -1,0 +1,66 @@
+// The parameters of rtl/box_unit.sv for a fixed-point format, a node width and a pipeline depth: the one place
+// where the RTL's widths are derived from the C++ model's formats (hwmodel/fixed_format.h) and its latency from
+// the timing presets (hwmodel/timing_config.h). CMake runs rtl_params_main.cpp at configure time to verilate the
+// unit with these values; the testbench derives them again and checks that the Verilated models match.
+#pragma once
+
+#include <bit>
+#include <stdexcept>
+#include <string>
+
+#include "hwmodel/fixed_format.h"
+#include "hwmodel/timing_config.h"
+
+namespace rtu::rtl {
+
+struct BoxUnitParams {
+  int n = 0;        // N: child boxes per node
+  int k = 0;        // K: child offset bits
+  int a = 0;        // A: translated-delta magnitude bits, B + G + F + 1
+  int m = 0;        // M: reciprocal mantissa significant bits, R + 1
+  int tb = 0;       // TB: t magnitude bits (t_bits)
+  int shw = 0;      // SHW: width of the node shift exp + F (at most B + 1 + F)
+  int rsh = 0;      // RSH: largest right shift of a product, F + R - T
+  int lsh = 0;      // LSH: largest left shift, max(0, D - RSH) (rcp_sh >= RSH - D: d = 1 raw)
+  int latency = 0;  // LATENCY: pipeline depth in clocks
+  int frac = 0;     // F (not an RTL parameter: the testbench computes sh = exp + F)
+
+  // Derived widths of the ports (as box_unit.sv computes them).
+  int cw() const { return std::bit_width(unsigned(n)); }  // $clog2(N + 1)
+  int rsw() const { return std::bit_width(unsigned(lsh > rsh ? lsh : rsh)) + 1; }
+};
+
+// Throws std::invalid_argument when the format is not narrow (the unit implements the 64-bit path only).
+inline BoxUnitParams box_unit_params(const hw::FixedFormat& f, int width, int latency) {
+  f.validate();
+  BoxUnitParams p;
+  p.n = width;
+  p.k = f.child_bits;
+  p.a = f.translated_bits();
+  p.m = f.rcp_bits + 1;
+  p.tb = f.t_bits;
+  p.shw = std::bit_width(unsigned(f.coord_bits + 1 + f.frac_bits));
+  p.rsh = f.frac_bits + f.rcp_bits - f.t_frac_bits;
+  p.lsh = f.dir_bits > p.rsh ? f.dir_bits - p.rsh : 0;
+  p.latency = latency;
+  p.frac = f.frac_bits;
+  // The conditions of FixedRay::narrow (set_direction): products fit 63 bits, right shifts stay below 62.
+  if (f.translated_bits() + f.rcp_bits + 2 > 63 || p.rsh > 61)
+    throw std::invalid_argument("box_unit: format " + f.name + " is not narrow (needs 128-bit products)");
+  if (width < 1 || width > 8 || latency < 1) throw std::invalid_argument("box_unit: bad width or latency");
+  return p;
+}
+
+// The unit of a timing preset: its format, its BVH width and its box latency.
+inline BoxUnitParams box_unit_params(const hw::TimingConfig& c) {
+  return box_unit_params(hw::format_preset(c.format), c.bvh_width, c.box_latency);
+}
+
+// Verilator's -G options for these parameters, separated by spaces.
+inline std::string verilator_args(const BoxUnitParams& p) {
+  auto g = [](const char* name, int v) { return std::string("-G") + name + "=" + std::to_string(v); };
+  return g("N", p.n) + " " + g("K", p.k) + " " + g("A", p.a) + " " + g("M", p.m) + " " + g("TB", p.tb) + " " +
+         g("SHW", p.shw) + " " + g("RSH", p.rsh) + " " + g("LSH", p.lsh) + " " + g("LATENCY", p.latency);
+}
+
+}  // namespace rtu::rtl

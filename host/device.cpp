@@ -1,5 +1,6 @@
 #include "host/device.h"
 
+#include "host/box_units.h"
 #include "host/error.h"
 
 namespace rtu::host {
@@ -67,7 +68,7 @@ class FixedDevice final : public ImageDevice {
 class TimedDevice final : public ImageDevice {
  public:
   TimedDevice(const hw::Geometry& g, const DeviceOptions& o)
-      : ImageDevice(g, o), m_engine(hw::EngineOptions{}, o.timing) {
+      : ImageDevice(g, o), m_engine(hw::EngineOptions{}, o.timing, make_box_unit(o.timing)) {
     m_engine.bind(m_image.data(), m_image.size());
   }
   const std::string& name() const override { return m_name; }

@@ -1,5 +1,6 @@
 #include "host/model_device.h"
 
+#include "host/box_units.h"
 #include "host/error.h"
 
 namespace rtu::host {
@@ -10,7 +11,7 @@ std::unique_ptr<hw::TraceEngine> make_engine(const std::string& name, const hw::
                                              const hw::TimingConfig& timing) {
   if (name == "float") return hw::make_float_engine(opt);
   if (name == "fixed") return hw::make_fixed_engine(opt);
-  if (name == "timed") return hw::make_timed_engine(opt, timing);
+  if (name == "timed") return hw::make_timed_engine(opt, timing, make_box_unit(timing));
   throw Error("unknown device '" + name + "' (devices: float, fixed, timed)");
 }
 

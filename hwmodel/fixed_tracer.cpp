@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <cstring>
+#include <stdexcept>
+#include <string>
 
 #include "hwmodel/batch.h"
 #include "hwmodel/intersect_float.h"
@@ -57,11 +59,57 @@ struct FixedPolicy {
   Closest& closest;
   TraversalStats& s;
   std::vector<TraceEvent>* rec;  // the timing model's recorder, or null
+  BoxUnit* unit;                 // box tests by this unit instead of box_test_delta, or null
 
   int expand(uint32_t node, uint32_t refs[N], int64_t dists[N], int& tested) const {
-    if (rec) rec->push_back(TraceEvent{TraceEvent::kNode, nodes[node].count, 0, node});
+    if (unit) return expand_unit(node, refs, dists, tested);
+    if (rec) rec->push_back(TraceEvent{TraceEvent::kNode, nodes[node].count, 0, 0, node});
     return r.narrow ? expand_impl<int64_t>(node, refs, dists, tested)
                     : expand_impl<Wide>(node, refs, dists, tested);
+  }
+
+  // Repeats child i's box test exactly and counts a disagreement with the datapath's answer.
+  void check_child(const QNode<N, Q>& n, int i, bool hit) const {
+    int64_t lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a][i]) << n.exp[a]);
+      hi[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a + 1][i]) << n.exp[a]);
+    }
+    ++s.box_checks;
+    const bool exact = box_test_exact(r, lo, hi, r.tmin, closest.t);
+    s.box_false_negatives += uint64_t(exact && !hit);
+    s.box_false_positives += uint64_t(hit && !exact);
+  }
+
+  // The node through the box unit seam: the same decoded inputs, the hit children in slot order as
+  // expand_impl keeps them, and the unit's clocks in the recorded event.
+  int expand_unit(uint32_t node, uint32_t refs[N], int64_t dists[N], int& tested) const {
+    const QNode<N, Q>& n = nodes[node];
+    BoxUnitNode in{};
+    for (int a = 0; a < 3; ++a) {
+      in.base[a] = (int64_t(n.origin[a]) << r.frac) - r.o[a];
+      in.sh[a] = n.exp[a] + r.frac;
+    }
+    for (int row = 0; row < 6; ++row)
+      for (int i = 0; i < N; ++i) in.q[row][i] = uint16_t(n.q[row][i]);
+    in.count = n.count;
+    BoxUnitResult out;
+    unit->test(r, in, r.tmin, closest.t, out);
+    if (out.issue < 1 || out.issue > 255 || out.result < out.issue || out.result > 255)
+      throw std::logic_error(std::string("box unit ") + unit->name() + ": clocks (issue " +
+                             std::to_string(out.issue) + ", result " + std::to_string(out.result) +
+                             ") outside 1 <= issue <= result <= 255");
+    if (rec) rec->push_back(TraceEvent{TraceEvent::kNode, n.count, uint8_t(out.issue), uint8_t(out.result), node});
+    int k = 0;
+    for (int i = 0; i < n.count; ++i) {
+      ++tested;
+      const bool hit = (out.hit >> i) & 1u;
+      if (check) check_child(n, i, hit);
+      refs[k] = n.child[i];
+      dists[k] = out.t_near[i];
+      k += int(hit);
+    }
+    return k;
   }
 
   // Child planes relative to the ray origin in grid.F: (origin << F) - o once per node and axis, then
@@ -85,17 +133,7 @@ struct FixedPolicy {
       }
       int64_t t = 0;
       const bool hit = box_test_delta<Int>(r, dl, dh, r.tmin, closest.t, t);
-      if (check) {
-        int64_t lo[3], hi[3];
-        for (int a = 0; a < 3; ++a) {
-          lo[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a][i]) << n.exp[a]);
-          hi[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a + 1][i]) << n.exp[a]);
-        }
-        ++s.box_checks;
-        const bool exact = box_test_exact(r, lo, hi, r.tmin, closest.t);
-        s.box_false_negatives += uint64_t(exact && !hit);
-        s.box_false_positives += uint64_t(hit && !exact);
-      }
+      if (check) check_child(n, i, hit);
       // Written unconditionally, kept when hit: whether a child is hit varies from child to child.
       refs[k] = n.child[i];
       dists[k] = t;
@@ -110,7 +148,8 @@ struct FixedPolicy {
     bool found = false;
     for (uint32_t i = 0; i < count; ++i) {
       if (rec)
-        rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(image.record(first + i))), 0, first + i});
+        rec->push_back(
+            TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(image.record(first + i))), 0, 0, first + i});
       found |= test_record(image.record(first + i), r, closest);
       if (found && any_hit) return true;
     }
@@ -119,17 +158,20 @@ struct FixedPolicy {
 
   int64_t limit() const { return closest.t; }
   void pushed(int n) const {
-    if (rec) rec->push_back(TraceEvent{TraceEvent::kPush, uint8_t(n), 0, 0});
+    if (rec) rec->push_back(TraceEvent{TraceEvent::kPush, uint8_t(n), 0, 0, 0});
   }
   void popped() const {
-    if (rec) rec->push_back(TraceEvent{TraceEvent::kPop, 0, 0, 0});
+    if (rec) rec->push_back(TraceEvent{TraceEvent::kPop, 0, 0, 0, 0});
   }
 };
 
 }  // namespace
 
 FixedTracer::FixedTracer(const DeviceImage& image, const FixedTraceOptions& opt)
-    : m_image(image), m_format(image.format()), m_frame(image.frame()), m_opt(opt) {}
+    : m_image(image), m_format(image.format()), m_frame(image.frame()), m_opt(opt) {
+  if (m_opt.box_unit && !(image.header().flags & kImageNoBvh))
+    m_opt.box_unit->check_format(m_format, int(image.header().width));
+}
 
 Hit FixedTracer::trace(const Ray& r, bool any_hit, TraversalStats& s) const {
   return trace_world(r, any_hit, s, nullptr);
@@ -173,7 +215,7 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
   for (uint32_t i = 0; i < hd.plane_count; ++i) {
     FixedPrimHit h;
     ++s.prim_tests;
-    if (rec) rec->push_back(TraceEvent{TraceEvent::kPlane, 0, 0, i});
+    if (rec) rec->push_back(TraceEvent{TraceEvent::kPlane, 0, 0, 0, i});
     if (plane_test(fr, planes[i], fr.tmin, c.t, h)) {
       c = Closest{h.t, planes[i].prim, 0.0f, 0.0f, nullptr};
       if (any_hit) break;
@@ -183,7 +225,7 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
     if (hd.flags & kImageNoBvh) {
       s.prim_tests += hd.record_count;
       for (uint32_t i = 0; i < hd.record_count; ++i) {
-        if (rec) rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(m_image.record(i))), 0, i});
+        if (rec) rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(m_image.record(i))), 0, 0, i});
         if (test_record(m_image.record(i), fr, c) && any_hit) break;
       }
     } else {
@@ -191,7 +233,8 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
         using Node = decltype(node_tag);
         constexpr int N = sizeof(Node::child) / sizeof(uint32_t);
         using Q = std::remove_cv_t<std::remove_reference_t<decltype(Node::q[0][0])>>;
-        FixedPolicy<N, Q> p{m_image.nodes<Node>(), m_image, fr, any_hit, m_opt.check_boxes, c, s, rec};
+        FixedPolicy<N, Q> p{m_image.nodes<Node>(), m_image, fr, any_hit, m_opt.check_boxes, c, s, rec,
+                            m_opt.box_unit};
         traverse(p, hd.root_ref, any_hit, s);
       };
       const bool q8 = hd.q_bytes == 1;
@@ -225,6 +268,7 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
 
 void FixedTracer::trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads,
                               TraversalStats& s) const {
+  if (m_opt.box_unit) threads = 1;  // the unit is not thread-safe
   run_batch(n, threads, s, [&](size_t i, TraversalStats& local) { hits[i] = trace(rays[i], any_hit, local); });
 }
 

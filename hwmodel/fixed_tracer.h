@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "hwmodel/box_unit.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/intersect_fixed.h"
 #include "hwmodel/ray.h"
@@ -19,7 +20,9 @@ struct TraceEvent {
   enum Kind : uint8_t { kNode = 0, kPrim = 1, kPlane = 2, kPush = 3, kPop = 4 };
   uint8_t kind;
   uint8_t count;  // kNode: child boxes tested; kPrim: RecordKind; kPush: entries pushed; else 0
-  uint16_t reserved;
+  // kNode tested by a BoxUnit (box_unit.h): the clocks it reported (issue, result); 0, 0 for the C++ box test,
+  // whose clocks the timing model takes from its configuration.
+  uint8_t unit_issue, unit_result;
   uint32_t index;  // kNode: node index; kPrim: record index; kPlane: plane index; else 0
 };
 static_assert(sizeof(TraceEvent) == 8);
@@ -28,6 +31,9 @@ struct FixedTraceOptions {
   // Repeat every box test with the exact checker (box_test_exact) and count disagreements in the statistics
   // (box_false_negatives must stay 0). Slower; what `rtusim compare` and the tests use.
   bool check_boxes = false;
+  // Box tests by this unit instead of the C++ box test (co-simulation); not owned, must outlive the tracer's
+  // use. A tracer with a unit traces on one thread (trace_batch ignores its thread count).
+  BoxUnit* box_unit = nullptr;
 };
 
 class FixedTracer {

@@ -47,7 +47,9 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout) : m_c(c), 
   while ((uint64_t(1) << m_line_shift) < uint64_t(c.line_bytes)) ++m_line_shift;
   m_line_xfer = xfer_cycles(uint64_t(c.line_bytes));
   m_word_xfer = xfer_cycles(8);
-  for (uint64_t k = 0; k < m_box_issue.size(); ++k) m_box_issue[k] = (k + uint64_t(c.box_rate) - 1) / uint64_t(c.box_rate);
+  // A node takes at least one issue clock, even one without children (the RTL unit's sequencer does the same).
+  for (uint64_t k = 0; k < m_box_issue.size(); ++k)
+    m_box_issue[k] = std::max<uint64_t>(1, (k + uint64_t(c.box_rate) - 1) / uint64_t(c.box_rate));
 }
 
 uint64_t TimingModel::xfer_cycles(uint64_t bytes) const {
@@ -55,7 +57,8 @@ uint64_t TimingModel::xfer_cycles(uint64_t bytes) const {
 }
 
 uint64_t TimingModel::dram(uint64_t bytes, uint64_t t) {
-  const uint64_t xfer = bytes == uint64_t(m_c.line_bytes) ? m_line_xfer : (bytes == 8 ? m_word_xfer : xfer_cycles(bytes));
+  const uint64_t xfer =
+      bytes == uint64_t(m_c.line_bytes) ? m_line_xfer : (bytes == 8 ? m_word_xfer : xfer_cycles(bytes));
   const uint64_t start = std::max(t, m_dram_free);
   m_dram_free = start + xfer;
   m_s->dram_bytes += bytes;
@@ -227,8 +230,10 @@ void TimingModel::simulate() {
       // The data is there: the unit request.
       uint64_t done;
       if (e.kind == TraceEvent::kNode) {
-        const uint64_t issue = m_box_issue[e.count];
-        done = unit(m_box_free, issue, uint64_t(m_c.box_latency), t);
+        // The configured rate and depth, or the clocks the box unit that tested the node reported (box_unit.h).
+        const uint64_t issue = e.unit_issue ? e.unit_issue : m_box_issue[e.count];
+        const uint64_t latency = e.unit_issue ? uint64_t(e.unit_result) - issue + 1 : uint64_t(m_c.box_latency);
+        done = unit(m_box_free, issue, latency, t);
         if (m_trace) m_trace->add(k, "box", t, done);
         m_s->box_tests += e.count;
         m_s->box_issue_cycles += issue;
@@ -281,8 +286,14 @@ uint64_t TimingModel::finish() {
   return cycles;
 }
 
-TimedEngine::TimedEngine(const EngineOptions& o, const TimingConfig& c) : m_opt(o), m_c(c) {
+TimedEngine::TimedEngine(const EngineOptions& o, const TimingConfig& c, std::unique_ptr<BoxUnit> unit)
+    : m_opt(o), m_c(c), m_box_unit(std::move(unit)) {
   m_c.validate();
+  if (m_c.box_unit == "rtl" && !m_box_unit)
+    throw std::invalid_argument("timing config " + m_c.name + ": box_unit = rtl, but no RTL box unit is attached");
+  if (m_c.box_unit != "rtl" && m_box_unit)
+    throw std::invalid_argument("timing config " + m_c.name +
+                                ": a box unit is attached, but box_unit = " + m_c.box_unit);
 }
 
 uint32_t TimedEngine::caps() const {
@@ -293,8 +304,12 @@ uint32_t TimedEngine::caps() const {
 void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   unbind();
   DeviceImage img = DeviceImage::from_bytes(data, bytes);
-  m_image = std::make_unique<DeviceImage>(std::move(img));
-  m_tracer = std::make_unique<FixedTracer>(*m_image);
+  auto image = std::make_unique<DeviceImage>(std::move(img));
+  FixedTraceOptions to;
+  to.box_unit = m_box_unit.get();
+  auto tracer = std::make_unique<FixedTracer>(*image, to);  // throws when the box unit cannot take the format
+  m_image = std::move(image);
+  m_tracer = std::move(tracer);
   const ImageHeader& h = m_image->header();
   TimingModel::Layout l;
   l.node_offset = h.node_offset;
@@ -330,7 +345,8 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
   for (size_t first = 0; first < n; first += kChunk) {
     const size_t m = std::min(kChunk, n - first);
     TraversalStats local;
-    run_batch(m, m_opt.threads, local, [&](size_t i, TraversalStats& st) {
+    const int threads = m_box_unit ? 1 : m_opt.threads;  // a box unit is not thread-safe (box_unit.h)
+    run_batch(m, threads, local, [&](size_t i, TraversalStats& st) {
       events[i].clear();
       hits[first + i] = m_tracer->trace_recorded(rays[first + i], any_hit, st, events[i]);
     });
@@ -355,8 +371,9 @@ bool TimedEngine::uses_bvh() const {
   return m_image && !(m_image->header().flags & kImageNoBvh);
 }
 
-std::unique_ptr<TraceEngine> make_timed_engine(const EngineOptions& o, const TimingConfig& c) {
-  return std::make_unique<TimedEngine>(o, c);
+std::unique_ptr<TraceEngine> make_timed_engine(const EngineOptions& o, const TimingConfig& c,
+                                               std::unique_ptr<BoxUnit> unit) {
+  return std::make_unique<TimedEngine>(o, c, std::move(unit));
 }
 
 }  // namespace rtu::hw

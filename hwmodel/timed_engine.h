@@ -145,7 +145,9 @@ class TimingModel {
 
 class TimedEngine final : public TraceEngine {
  public:
-  TimedEngine(const EngineOptions& o, const TimingConfig& c);
+  // `unit` answers the box tests when c.box_unit is "rtl" (required then: std::invalid_argument without one);
+  // with "cpp" it must be null.
+  TimedEngine(const EngineOptions& o, const TimingConfig& c, std::unique_ptr<BoxUnit> unit = nullptr);
   const char* name() const override { return "timed"; }
   uint32_t caps() const override;
   void bind(const uint8_t* data, size_t bytes) override;
@@ -173,6 +175,7 @@ class TimedEngine final : public TraceEngine {
  private:
   EngineOptions m_opt;
   TimingConfig m_c;
+  std::unique_ptr<BoxUnit> m_box_unit;  // null: the C++ box test
   std::unique_ptr<DeviceImage> m_image;
   std::unique_ptr<FixedTracer> m_tracer;
   std::unique_ptr<TimingModel> m_model;
@@ -182,6 +185,7 @@ class TimedEngine final : public TraceEngine {
   std::map<int, TimingStats> m_by_bounce;
 };
 
-std::unique_ptr<TraceEngine> make_timed_engine(const EngineOptions& o, const TimingConfig& c);
+std::unique_ptr<TraceEngine> make_timed_engine(const EngineOptions& o, const TimingConfig& c,
+                                               std::unique_ptr<BoxUnit> unit = nullptr);
 
 }  // namespace rtu::hw

@@ -45,6 +45,8 @@ const std::vector<KeyInfo>& key_table() {
       {"box_units", &C::box_units, 1, 64, "box test units"},
       {"box_rate", &C::box_rate, 1, 64, "box tests per clock per unit (a node of width <= rate: one clock)"},
       {"box_latency", &C::box_latency, 1, kMaxLatency, "box unit pipeline depth (issue to result)"},
+      {"box_unit", &C::box_unit, 0, 0,
+       "box tests by cpp (the C++ datapath) or rtl (the Verilated RTL unit: co-simulation, its clocks per node)"},
       {"tri_units", &C::tri_units, 1, 64, "triangle units (spheres and planes use them too)"},
       {"tri_rate", &C::tri_rate, 1, 64, "triangle tests per clock per unit"},
       {"tri_latency", &C::tri_latency, 1, kMaxLatency, "triangle test pipeline depth"},
@@ -107,6 +109,8 @@ void TimingConfig::validate() const {
         names += (names.empty() ? "" : ", ") + p.name;
       }
       if (!known) fail("format = '" + format + "' is not a fixed-point format preset (known: " + names + ")");
+    } else if (key == "box_unit") {
+      if (box_unit != "cpp" && box_unit != "rtl") fail("box_unit = '" + box_unit + "' must be cpp or rtl");
     } else if (key == "bvh_width") {
       if (bvh_width != 2 && bvh_width != 4 && bvh_width != 8)
         fail("bvh_width = " + std::to_string(bvh_width) + " must be 2, 4 or 8");

@@ -6,7 +6,8 @@
 // units and rates 1..64; ray_slots and queue_depth 1..4096; stack_entries 1..64; cache_kib 0..65536 (a whole
 // number of sets: cache_kib * 1024 divisible by cache_ways * line_bytes); cache_ways 1..64; line_bytes a power
 // of two in 16..4096; clock_ghz 0.001..1000; dram_bytes_per_cycle 0.001..65536 (finite); bvh_width 2, 4 or 8;
-// format the name of a fixed-point format preset. The default-constructed configuration is the "rdna2" preset.
+// format the name of a fixed-point format preset; box_unit cpp or rtl. The default-constructed configuration is
+// the "rdna2" preset.
 #pragma once
 
 #include <cstdint>
@@ -37,6 +38,10 @@ struct TimingConfig {
   int box_units = 1;
   int box_rate = 4;  // box tests per clock per unit (a node of width <= rate issues in one clock)
   int box_latency = 6;
+  // Which box unit answers the box tests: "cpp" (the C++ datapath, box_rate and box_latency) or "rtl" (the
+  // Verilated RTL of rtl_sim/, co-simulation: its clocks per node replace box_rate and box_latency; hits stay
+  // the C++ unit's, bit for bit). The host attaches the RTL unit (hwmodel never sees it).
+  std::string box_unit = "cpp";
   int tri_units = 1;
   int tri_rate = 1;  // triangle tests per clock per unit
   int tri_latency = 12;

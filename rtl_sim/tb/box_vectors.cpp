@@ -138,22 +138,15 @@ void add_interval_variants(CaseSet& s, const BoxCase& c, int slot) {
 
 BoxInputs unit_inputs(const CaseSet& s, const BoxCase& c) {
   const FixedRay& r = s.rays[c.ray];
-  BoxInputs in{};
+  hw::BoxUnitNode n{};
   for (int a = 0; a < 3; ++a) {
-    in.base[a] = (int64_t(c.origin[a]) << r.frac) - r.o[a];
-    in.sh[a] = c.exp[a] + r.frac;
-    in.rcpm_dn[a] = r.rcpm_dn[a];
-    in.rcpm_up[a] = r.rcpm_up[a];
-    in.rcp_sh[a] = r.rcp_sh[a];
-    in.zero[a] = r.zero[a];
-    in.neg[a] = r.d[a] < 0;
+    n.base[a] = (int64_t(c.origin[a]) << r.frac) - r.o[a];
+    n.sh[a] = c.exp[a] + r.frac;
   }
   for (int row = 0; row < 6; ++row)
-    for (int i = 0; i < kMaxWidth; ++i) in.q[row][i] = c.q[row][i];
-  in.count = c.count;
-  in.tmin = c.tmin;
-  in.tlim = c.tlim;
-  return in;
+    for (int i = 0; i < kMaxWidth; ++i) n.q[row][i] = c.q[row][i];
+  n.count = c.count;
+  return unit_inputs(r, n, c.tmin, c.tlim);
 }
 
 void child_box(const BoxCase& c, int i, int64_t lo[3], int64_t hi[3]) {

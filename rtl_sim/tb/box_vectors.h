@@ -17,10 +17,9 @@
 
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/intersect_fixed.h"
+#include "rtl_sim/cosim/box_ports.h"
 
 namespace rtu::rtl {
-
-inline constexpr int kMaxWidth = 8;
 
 struct BoxCase {
   uint32_t ray = 0;               // index into CaseSet::rays
@@ -42,17 +41,7 @@ struct CaseSet {
   uint64_t child_tests() const;  // occupied slots over all cases
 };
 
-// The unit's inputs for a case, as integers (box_unit.sv's ports, before packing).
-struct BoxInputs {
-  int64_t base[3];  // (origin << F) - ray origin
-  int sh[3];        // exp + F
-  uint32_t q[6][kMaxWidth];
-  int count;
-  int64_t rcpm_dn[3], rcpm_up[3];
-  int rcp_sh[3];
-  bool zero[3], neg[3];
-  int64_t tmin, tlim;
-};
+// The unit's inputs for a case (box_ports.h).
 BoxInputs unit_inputs(const CaseSet& s, const BoxCase& c);
 
 // The C++ model's answer for one slot: hw::box_test_delta<int64_t> on the planes decoded as the fixed tracer

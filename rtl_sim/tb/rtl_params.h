@@ -15,6 +15,7 @@ namespace rtu::rtl {
 
 struct BoxUnitParams {
   int n = 0;        // N: child boxes per node
+  int lanes = 0;    // LANES: box tests per clock (the timing model's box_rate, at most N)
   int k = 0;        // K: child offset bits
   int a = 0;        // A: translated-delta magnitude bits, B + G + F + 1
   int m = 0;        // M: reciprocal mantissa significant bits, R + 1
@@ -31,10 +32,12 @@ struct BoxUnitParams {
 };
 
 // Throws std::invalid_argument when the format is not narrow (the unit implements the 64-bit path only).
-inline BoxUnitParams box_unit_params(const hw::FixedFormat& f, int width, int latency) {
+// `rate` is the box tests per clock (the timing model's box_rate); the unit has min(rate, width) lanes.
+inline BoxUnitParams box_unit_params(const hw::FixedFormat& f, int width, int rate, int latency) {
   f.validate();
   BoxUnitParams p;
   p.n = width;
+  p.lanes = rate < width ? rate : width;
   p.k = f.child_bits;
   p.a = f.translated_bits();
   p.m = f.rcp_bits + 1;
@@ -47,20 +50,39 @@ inline BoxUnitParams box_unit_params(const hw::FixedFormat& f, int width, int la
   // The conditions of FixedRay::narrow (set_direction): products fit 63 bits, right shifts stay below 62.
   if (f.translated_bits() + f.rcp_bits + 2 > 63 || p.rsh > 61)
     throw std::invalid_argument("box_unit: format " + f.name + " is not narrow (needs 128-bit products)");
-  if (width < 1 || width > 8 || latency < 1) throw std::invalid_argument("box_unit: bad width or latency");
+  if (width < 1 || width > 8 || rate < 1 || latency < 1)
+    throw std::invalid_argument("box_unit: bad width, rate or latency");
   return p;
 }
 
-// The unit of a timing preset: its format, its BVH width and its box latency.
+// The unit of a timing preset: its format, its BVH width, its box rate and its box latency.
 inline BoxUnitParams box_unit_params(const hw::TimingConfig& c) {
-  return box_unit_params(hw::format_preset(c.format), c.bvh_width, c.box_latency);
+  return box_unit_params(hw::format_preset(c.format), c.bvh_width, c.box_rate, c.box_latency);
+}
+
+// A unit's configuration from its spec: a timing preset ("intel") or a preset with keys changed as by `--set`
+// ("intel:box_rate=3"). Throws std::invalid_argument for an unknown preset or key or a bad value.
+inline hw::TimingConfig unit_config(const std::string& spec) {
+  size_t colon = spec.find(':');
+  hw::TimingConfig c = hw::timing_preset(spec.substr(0, colon));
+  while (colon != std::string::npos) {
+    const size_t from = colon + 1;
+    colon = spec.find(':', from);
+    const std::string kv = spec.substr(from, colon == std::string::npos ? std::string::npos : colon - from);
+    const size_t k = kv.find('=');
+    if (k == std::string::npos)
+      throw std::invalid_argument("unit spec " + spec + ": '" + kv + "' is not key=value");
+    hw::set_timing_key(c, kv.substr(0, k), kv.substr(k + 1));
+  }
+  return c;
 }
 
 // Verilator's -G options for these parameters, separated by spaces.
 inline std::string verilator_args(const BoxUnitParams& p) {
   auto g = [](const char* name, int v) { return std::string("-G") + name + "=" + std::to_string(v); };
-  return g("N", p.n) + " " + g("K", p.k) + " " + g("A", p.a) + " " + g("M", p.m) + " " + g("TB", p.tb) + " " +
-         g("SHW", p.shw) + " " + g("RSH", p.rsh) + " " + g("LSH", p.lsh) + " " + g("LATENCY", p.latency);
+  return g("N", p.n) + " " + g("LANES", p.lanes) + " " + g("K", p.k) + " " + g("A", p.a) + " " + g("M", p.m) +
+         " " + g("TB", p.tb) + " " + g("SHW", p.shw) + " " + g("RSH", p.rsh) + " " + g("LSH", p.lsh) + " " +
+         g("LATENCY", p.latency);
 }
 
 }  // namespace rtu::rtl

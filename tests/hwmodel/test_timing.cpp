@@ -54,10 +54,10 @@ TimingModel::Layout layout() {
 }
 
 TraceEvent node(uint32_t index, uint8_t children) {
-  return TraceEvent{TraceEvent::kNode, children, 0, index};
+  return TraceEvent{TraceEvent::kNode, children, 0, 0, index};
 }
 TraceEvent tri(uint32_t record) {
-  return TraceEvent{TraceEvent::kPrim, uint8_t(rtu::hw::RecordKind::kTriangle), 0, record};
+  return TraceEvent{TraceEvent::kPrim, uint8_t(rtu::hw::RecordKind::kTriangle), 0, 0, record};
 }
 
 uint64_t run(TimingModel& m, const std::vector<std::vector<TraceEvent>>& rays, TimingStats& s, size_t chunk = 0) {
@@ -137,8 +137,8 @@ TEST_CASE("stack entries beyond the short stack spill and refill through DRAM", 
   TimingConfig c = test_config();  // 4 stack entries
   TimingModel m(c, layout());
   std::vector<TraceEvent> ev;
-  ev.push_back(TraceEvent{TraceEvent::kPush, 6, 0, 0});                             // depth 6: two spills
-  for (int i = 0; i < 6; ++i) ev.push_back(TraceEvent{TraceEvent::kPop, 0, 0, 0});  // two refills
+  ev.push_back(TraceEvent{TraceEvent::kPush, 6, 0, 0, 0});                             // depth 6: two spills
+  for (int i = 0; i < 6; ++i) ev.push_back(TraceEvent{TraceEvent::kPop, 0, 0, 0, 0});  // two refills
   TimingStats s;
   const uint64_t cycles = run(m, {ev}, s);
   CHECK(s.stack_spills == 2);
@@ -163,7 +163,7 @@ TEST_CASE("feeding rays in chunks gives the same cycles; runs repeat exactly", "
     for (int j = 0; j < nodes; ++j) {
       x = x * 1664525u + 1013904223u;
       ev.push_back(node(x % 4096, uint8_t(1 + x % 4)));
-      if (x % 3 == 0) ev.push_back(TraceEvent{TraceEvent::kPush, uint8_t(1 + x % 3), 0, 0});
+      if (x % 3 == 0) ev.push_back(TraceEvent{TraceEvent::kPush, uint8_t(1 + x % 3), 0, 0, 0});
       if (x % 5 == 0) ev.push_back(tri(x % 10000));
     }
     if (i % 11 == 0) ev.clear();  // rejected at setup

@@ -41,7 +41,7 @@ TEST_CASE("every timing preset validates and lists every key", "[timing][config]
     CHECK_NOTHROW(c.validate());
     CHECK_FALSE(timing_preset_description(name).empty());
     const auto keys = timing_keys(c);
-    CHECK(keys.size() == 26);  // every field of TimingConfig but `name`
+    CHECK(keys.size() == 27);  // every field of TimingConfig but `name`
     for (const TimingKey& k : keys) {
       CHECK_FALSE(k.key.empty());
       CHECK_FALSE(k.value.empty());
@@ -150,6 +150,8 @@ TEST_CASE("set_timing_key sets what it parses and refuses the rest, naming the k
       {"bvh_width", "16", "2, 4 or 8"},
       {"format", "nosuch", "nosuch"},
       {"format", "", "format preset"},
+      {"box_unit", "verilog", "cpp or rtl"},
+      {"box_unit", "", "cpp or rtl"},
       {"clock_ghz", "0", "clock_ghz"},
       {"clock_ghz", "-1", "clock_ghz"},
       {"clock_ghz", "inf", "finite"},

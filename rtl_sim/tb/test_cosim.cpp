@@ -1,0 +1,170 @@
+// Co-simulation: the timed device with its box tests answered by the Verilated RTL unit (`--set box_unit=rtl`,
+// rtl_sim/cosim/) against the same device with the C++ box test. On a real mesh and the built-in scenes the hits
+// are identical bit for bit and so are the cycles and every timing statistic: the RTL's clocks per node (issue and
+// result, measured on its valid/ready ports) equal the presets' box_rate and box_latency. A unit one clock slower
+// changes the cycles, so the equality is a measurement, not a tautology. Tags: [rtl][cosim].
+#include <catch2/catch.hpp>
+
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "host/device.h"
+#include "host/error.h"
+#include "host/ray_gen.h"
+#include "host/render.h"
+#include "host/scene.h"
+#include "hwmodel/timed_engine.h"
+#include "hwmodel/timing_config.h"
+#include "rtl_sim/cosim/rtl_box_unit.h"
+#include "rtl_sim/tb/rtl_params.h"
+
+namespace {
+
+using rtu::host::DeviceOptions;
+using rtu::hw::Hit;
+using rtu::hw::Ray;
+
+constexpr const char* kIfc = "/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc";
+
+// A unit's configuration: a preset name, or a spec as rtl_params.h's unit_config() reads it.
+DeviceOptions options(const std::string& spec, const std::string& box_unit) {
+  DeviceOptions o;
+  o.name = "timed";
+  o.timing = rtu::rtl::unit_config(spec);
+  rtu::hw::set_timing_key(o.timing, "box_unit", box_unit);
+  o.format = rtu::hw::format_preset(o.timing.format);
+  o.format.width = o.timing.bvh_width;
+  o.tracer.bvh.width = o.format.width;
+  return o;
+}
+
+std::vector<Ray> rays_for(const rtu::host::Scene& s, size_t primary, size_t incoherent) {
+  std::vector<Ray> rays = rtu::host::primary_rays(s.camera, primary);
+  const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), incoherent, 11);
+  rays.insert(rays.end(), inc.begin(), inc.end());
+  return rays;
+}
+
+// Every field of the timing statistics.
+void check_same_timing(const rtu::hw::TimingStats& a, const rtu::hw::TimingStats& b) {
+  CHECK(a.cycles == b.cycles);
+  CHECK(a.rays == b.rays);
+  CHECK(a.box_tests == b.box_tests);
+  CHECK(a.box_issue_cycles == b.box_issue_cycles);
+  CHECK(a.tri_tests == b.tri_tests);
+  CHECK(a.node_fetches == b.node_fetches);
+  CHECK(a.cache_hits == b.cache_hits);
+  CHECK(a.cache_misses == b.cache_misses);
+  CHECK(a.dram_bytes == b.dram_bytes);
+  CHECK(a.stack_spills == b.stack_spills);
+  CHECK(a.queue_stall_cycles == b.queue_stall_cycles);
+  CHECK(a.slot_busy_cycles == b.slot_busy_cycles);
+}
+
+// A unit that answers as the RTL does but reports one clock more per node: the cycles must follow it.
+class SlowerUnit final : public rtu::hw::BoxUnit {
+ public:
+  explicit SlowerUnit(std::unique_ptr<rtu::hw::BoxUnit> inner) : m_inner(std::move(inner)) {}
+  const char* name() const override { return "rtl+1"; }
+  void check_format(const rtu::hw::FixedFormat& f, int width) const override { m_inner->check_format(f, width); }
+  void test(const rtu::hw::FixedRay& r, const rtu::hw::BoxUnitNode& n, int64_t tmin, int64_t tlim,
+            rtu::hw::BoxUnitResult& out) override {
+    m_inner->test(r, n, tmin, tlim, out);
+    ++out.result;
+  }
+
+ private:
+  std::unique_ptr<rtu::hw::BoxUnit> m_inner;
+};
+
+}  // namespace
+
+TEST_CASE("co-simulation: the RTL box unit gives the C++ unit's hits and cycles on a real mesh", "[rtl][cosim]") {
+  const rtu::host::Scene s = rtu::host::load_scene(kIfc);
+  const std::vector<Ray> rays = rays_for(s, 12000, 4000);
+  for (const rtu::rtl::RtlUnitInfo& u : rtu::rtl::rtl_units()) {
+    const std::string& preset = u.name;
+    CAPTURE(preset, u.spec);
+    const auto cpp = rtu::host::make_device(s.geometry, options(u.spec, "cpp"));
+    const auto rtl = rtu::host::make_device(s.geometry, options(u.spec, "rtl"));
+    for (bool any_hit : {false, true}) {
+      std::vector<Hit> hc(rays.size()), hr(rays.size());
+      rtu::hw::TraversalStats sc, sr;
+      cpp->trace_batch(rays.data(), hc.data(), rays.size(), any_hit, 2, sc);
+      rtl->trace_batch(rays.data(), hr.data(), rays.size(), any_hit, 2, sr);
+      CHECK(std::memcmp(hc.data(), hr.data(), hc.size() * sizeof(Hit)) == 0);
+      CHECK(sr.nodes_visited == sc.nodes_visited);
+      CHECK(sr.box_tests == sc.box_tests);
+      CHECK(sr.prim_tests == sc.prim_tests);
+      CHECK(sr.hits > 0);
+    }
+    check_same_timing(cpp->timed()->timing(), rtl->timed()->timing());
+    INFO(preset << ": " << rtl->timed()->timing().cycles << " cycles, " << rtl->timed()->timing().box_tests
+                << " box tests");
+    CHECK(rtl->timed()->timing().box_tests > 100000);
+  }
+}
+
+TEST_CASE("co-simulation: a render through the firmware is the same image in the same cycles", "[rtl][cosim]") {
+  const rtu::host::Scene s = rtu::host::load_scene("builtin:seed");
+  rtu::host::RenderOptions o;
+  o.width = 48;
+  o.height = 36;
+  o.max_depth = 3;
+  o.device = options("rdna2", "cpp");
+  const rtu::host::RenderResult c = rtu::host::render(s, o);
+  o.device = options("rdna2", "rtl");
+  const rtu::host::RenderResult r = rtu::host::render(s, o);
+  REQUIRE(c.rgb.size() == r.rgb.size());
+  CHECK(std::memcmp(c.rgb.data(), r.rgb.data(), c.rgb.size() * sizeof(float)) == 0);
+  CHECK(r.device_clock == c.device_clock);
+  check_same_timing(c.timing, r.timing);
+  CHECK(r.timing.box_tests > 0);
+}
+
+TEST_CASE("co-simulation: the cycles follow the unit's clocks", "[rtl][cosim]") {
+  const rtu::host::Scene s = rtu::host::load_scene("builtin:cornell");
+  const std::vector<Ray> rays = rays_for(s, 3000, 1000);
+  DeviceOptions fixed = options("rdna2", "cpp");
+  fixed.name = "fixed";
+  const auto image_device = rtu::host::make_device(s.geometry, fixed);  // the image the timed device binds
+  const rtu::hw::DeviceImage& img = *image_device->image();
+  auto run = [&](std::unique_ptr<rtu::hw::BoxUnit> unit, const std::string& box_unit) {
+    rtu::hw::TimedEngine e(rtu::hw::EngineOptions{}, options("rdna2", box_unit).timing, std::move(unit));
+    e.bind(img.data(), img.size());
+    std::vector<Hit> h(rays.size());
+    rtu::hw::TraversalStats st;
+    e.trace_cycles(rays.data(), h.data(), rays.size(), false, st, 0, 0);
+    return std::make_pair(e.timing(), h);
+  };
+  const auto [base, hb] = run(nullptr, "cpp");
+  const auto [same, hs] = run(rtu::rtl::make_rtl_box_unit(options("rdna2", "rtl").timing), "rtl");
+  const auto [slow, hl] =
+      run(std::make_unique<SlowerUnit>(rtu::rtl::make_rtl_box_unit(options("rdna2", "rtl").timing)), "rtl");
+  CHECK(same.cycles == base.cycles);
+  CHECK(slow.cycles > base.cycles);
+  CHECK(std::memcmp(hb.data(), hl.data(), hb.size() * sizeof(Hit)) == 0);  // timing never changes a hit
+}
+
+TEST_CASE("co-simulation: a configuration without a Verilated unit is a clear error", "[rtl][cosim]") {
+  const rtu::host::Scene s = rtu::host::load_scene("builtin:seed");
+  DeviceOptions o = options("rdna2", "rtl");
+  rtu::hw::set_timing_key(o.timing, "box_latency", "9");  // no unit was verilated with 9 stages
+  CHECK_THROWS_WITH(rtu::host::make_device(s.geometry, o), Catch::Contains("no Verilated box unit") &&
+                                                               Catch::Contains("LATENCY=9") &&
+                                                               Catch::Contains("rdna2 (rdna2): "));
+  // An image the unit cannot take: the configuration (bvh_width 4 picks the rdna2 unit) and the image (width 8)
+  // disagree; the unit refuses it at bind instead of testing half of each node.
+  DeviceOptions w = options("intel", "rtl");
+  rtu::hw::set_timing_key(w.timing, "bvh_width", "4");
+  CHECK(w.format.width == 8);
+  CHECK_THROWS_WITH(rtu::host::make_device(s.geometry, w),
+                    Catch::Contains("cannot test nodes") && Catch::Contains("width 8"));
+  // Without box_unit = rtl the engine refuses a unit, and with it requires one.
+  CHECK_THROWS_WITH(rtu::hw::TimedEngine(rtu::hw::EngineOptions{}, options("rdna2", "rtl").timing, nullptr),
+                    Catch::Contains("no RTL box unit is attached"));
+  CHECK_THROWS_WITH(rtu::hw::TimedEngine(rtu::hw::EngineOptions{}, options("rdna2", "cpp").timing,
+                                         rtu::rtl::make_rtl_box_unit(options("rdna2", "rtl").timing)),
+                    Catch::Contains("box_unit = cpp"));
+}

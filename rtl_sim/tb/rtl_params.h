@@ -7,6 +7,8 @@
 #include <bit>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/timing_config.h"
@@ -77,12 +79,23 @@ inline hw::TimingConfig unit_config(const std::string& spec) {
   return c;
 }
 
+// The unit's parameters by name, in box_unit.sv's order.
+inline std::vector<std::pair<std::string, int>> param_list(const BoxUnitParams& p) {
+  return {{"N", p.n},   {"LANES", p.lanes}, {"K", p.k},     {"A", p.a},     {"M", p.m},
+          {"TB", p.tb}, {"SHW", p.shw},     {"RSH", p.rsh}, {"LSH", p.lsh}, {"LATENCY", p.latency}};
+}
+
 // Verilator's -G options for these parameters, separated by spaces.
 inline std::string verilator_args(const BoxUnitParams& p) {
-  auto g = [](const char* name, int v) { return std::string("-G") + name + "=" + std::to_string(v); };
-  return g("N", p.n) + " " + g("LANES", p.lanes) + " " + g("K", p.k) + " " + g("A", p.a) + " " + g("M", p.m) +
-         " " + g("TB", p.tb) + " " + g("SHW", p.shw) + " " + g("RSH", p.rsh) + " " + g("LSH", p.lsh) + " " +
-         g("LATENCY", p.latency);
+  std::string s;
+  for (const auto& [name, value] : param_list(p)) {
+    if (!s.empty()) s += ' ';
+    s += "-G";
+    s += name;
+    s += '=';
+    s += std::to_string(value);
+  }
+  return s;
 }
 
 }  // namespace rtu::rtl

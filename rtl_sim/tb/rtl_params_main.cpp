@@ -1,15 +1,58 @@
-// Run by CMake at configure time (try_run): prints "NAME: -GN=.. -GLANES=.. ..." for each unit named on the
-// command line, so that the Verilated box units take their widths, lanes and latency from the C++ model. A unit is
-// a timing preset ("rdna2", named after it) or "NAME=SPEC" with SPEC as unit_config() reads it
-// ("intel_lanes3=intel:box_rate=3").
+// The box unit's parameters from the C++ model (rtl_params.h), for the build and for synthesis scripts.
+//   rtu_rtl_params NAME=SPEC...        "NAME: -GN=.. -GLANES=.. ..." per unit: what CMake verilates (run at
+//   configure
+//                                  time by try_run). A bare preset name is its own NAME and SPEC ("rdna2");
+//                                  SPEC is a preset with timing keys changed, as unit_config() reads it
+//                                  ("intel_lanes3=intel:box_rate=3").
+//   rtu_rtl_params --chparam SPEC [FORMAT_KEY=VALUE...]
+//                                  yosys `chparam -set` arguments for the unit of SPEC with its format's widths
+//                                  changed (coord_bits, child_bits, guard_bits, frac_bits, dir_bits, rcp_bits,
+//                                  t_frac_bits, t_bits), e.g. `--chparam rdna2 coord_bits=16` (bench/rtl_area.sh).
 #include <cstdio>
 #include <exception>
+#include <map>
 #include <string>
 
 #include "rtl_sim/tb/rtl_params.h"
 
+namespace {
+
+std::string chparam(int argc, char** argv) {
+  if (argc < 3) throw std::invalid_argument("--chparam needs a unit spec");
+  const rtu::hw::TimingConfig c = rtu::rtl::unit_config(argv[2]);
+  rtu::hw::FixedFormat f = rtu::hw::format_preset(c.format);
+  std::map<std::string, int*> keys = {{"coord_bits", &f.coord_bits},   {"child_bits", &f.child_bits},
+                                      {"guard_bits", &f.guard_bits},   {"frac_bits", &f.frac_bits},
+                                      {"dir_bits", &f.dir_bits},       {"rcp_bits", &f.rcp_bits},
+                                      {"t_frac_bits", &f.t_frac_bits}, {"t_bits", &f.t_bits}};
+  for (int i = 3; i < argc; ++i) {
+    const std::string kv = argv[i];
+    const size_t eq = kv.find('=');
+    const auto it = keys.find(kv.substr(0, eq));
+    if (eq == std::string::npos || it == keys.end())
+      throw std::invalid_argument("'" + kv + "' is not FORMAT_KEY=VALUE with a known format key");
+    *it->second = std::stoi(kv.substr(eq + 1));
+  }
+  const rtu::rtl::BoxUnitParams p = rtu::rtl::box_unit_params(f, c.bvh_width, c.box_rate, c.box_latency);
+  std::string r;
+  for (const auto& [name, value] : rtu::rtl::param_list(p)) {
+    if (!r.empty()) r += ' ';
+    r += "-set ";
+    r += name;
+    r += ' ';
+    r += std::to_string(value);
+  }
+  return r;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   try {
+    if (argc >= 2 && std::string(argv[1]) == "--chparam") {
+      std::printf("%s\n", chparam(argc, argv).c_str());
+      return 0;
+    }
     for (int i = 1; i < argc; ++i) {
       const std::string arg = argv[i];
       const size_t eq = arg.find('=');

@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# Area of the RTL ray-box unit (rtl_sim/rtl/box_unit.sv) against the error of its format: yosys (Debian `yosys`)
+# synthesizes the unit with the widths the C++ model derives for each row (rtu_rtl_params --chparam) to its
+# generic gate library and reports cells, flip-flops and yosys's CMOS transistor estimate (`stat -tech cmos`);
+# `rtusim compare` measures the same format's error against the float reference on one real mesh. Rows vary the
+# coordinate bits B, the child-offset bits k, the lanes (box tests per clock) and the node width. Lanes change
+# area and clocks per node, never a result, so their error columns repeat. Prints a Markdown table (README.md).
+#
+#   bench/rtl_area.sh [BUILD] [RAYS] [MESH]
+#     BUILD  default build/default (needs rtusim and rtl_sim/rtu_rtl_params);  RAYS  incoherent rays, 300000
+#     MESH   default the IFC house of assimp-testmodels
+# Takes minutes per row (yosys's abc on the multipliers); not part of the test suite.
+set -euo pipefail
+build=${1:-build/default}
+rays=${2:-300000}
+mesh=${3:-/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc}
+here=$(cd "$(dirname "$0")/.." && pwd)
+rtl="$here/rtl_sim/rtl"
+command -v yosys >/dev/null || { echo "rtl_area.sh: yosys is not installed (scripts/setup.sh installs it)" >&2; exit 1; }
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+
+get() {  # get KEY FILE: a top-level number of the compare JSON (one key per line)
+  sed -n "s/^  \"$1\": \([-0-9.e+]*\),*$/\1/p" "$2" | head -1
+}
+
+printf '| unit | format | N | lanes | cells | flip-flops | transistors (est.) | hit agreement | t rel err mean | node overhead | yosys s |\n'
+printf '|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n'
+while read -r label spec fmtkeys cmpopts; do
+  [ -z "$label" ] && continue
+  keys=${fmtkeys//,/ }
+  [ "$keys" = "-" ] && keys=""
+  # shellcheck disable=SC2086
+  params=$("$build/rtl_sim/rtu_rtl_params" --chparam "$spec" $keys)
+  cat >"$tmp/s.ys" <<EOF
+read_verilog -sv $rtl/pipe_delay.sv $rtl/box_core.sv $rtl/box_unit.sv
+chparam $params box_unit
+synth -flatten -top box_unit
+check -assert
+tee -o $tmp/stat.txt stat -tech cmos
+EOF
+  t0=$(date +%s)
+  yosys -q "$tmp/s.ys" >"$tmp/yosys.log" 2>&1 || { cat "$tmp/yosys.log" >&2; exit 1; }
+  secs=$(( $(date +%s) - t0 ))
+  cells=$(sed -n 's/^ *Number of cells: *\([0-9]*\)/\1/p' "$tmp/stat.txt" | tail -1)
+  ffs=$(grep -E '^\s+\$_(S?DFF|DFF)[A-Z_0-9]*\s' "$tmp/stat.txt" | awk '{s+=$2} END{print s+0}')
+  trans=$(sed -n 's/^ *Estimated number of transistors: *\([0-9+]*\)/\1/p' "$tmp/stat.txt" | tail -1)
+  n=$(sed -n 's/.*-set N \([0-9]*\).*/\1/p' <<<"$params")
+  lanes=$(sed -n 's/.*-set LANES \([0-9]*\).*/\1/p' <<<"$params")
+  # shellcheck disable=SC2086
+  "$build/rtusim" compare --scene "$mesh" --rays "incoherent:$rays" $cmpopts --json "$tmp/c.json" >/dev/null
+  printf '| %s | %s | %s | %s | %s | %s | %s | %.4f%% | %.2g | %+.2f%% | %s |\n' "$label" "${fmtkeys//,/ }" "$n" "$lanes" \
+    "$cells" "$ffs" "$trans" "$(awk "BEGIN{print 100*$(get hit_agreement "$tmp/c.json")}")" \
+    "$(get t_rel_error_mean "$tmp/c.json")" "$(awk "BEGIN{print 100*$(get node_visit_overhead "$tmp/c.json")}")" \
+    "$secs"
+done <<'ROWS'
+rdna2 rdna2 - --format default --bvh-width 4
+rdna2,B=12 rdna2 coord_bits=12 --coord-bits 12 --bvh-width 4
+rdna2,B=16 rdna2 coord_bits=16 --coord-bits 16 --bvh-width 4
+rdna2,B=20 rdna2 coord_bits=20 --coord-bits 20 --bvh-width 4
+rdna2,k=4 rdna2 child_bits=4 --child-bits 4 --bvh-width 4
+rdna2,lanes=2 rdna2:box_rate=2 - --format default --bvh-width 4
+rdna2,lanes=1 rdna2:box_rate=1 - --format default --bvh-width 4
+embedded embedded - --format compact --bvh-width 4
+intel intel - --format wide8 --bvh-width 8
+ROWS

@@ -69,6 +69,7 @@ class TimedDevice final : public ImageDevice {
  public:
   TimedDevice(const hw::Geometry& g, const DeviceOptions& o)
       : ImageDevice(g, o), m_engine(hw::EngineOptions{}, o.timing, make_box_unit(o.timing)) {
+    m_engine.set_sampling(o.sample);
     m_engine.bind(m_image.data(), m_image.size());
   }
   const std::string& name() const override { return m_name; }

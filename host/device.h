@@ -23,6 +23,7 @@ struct DeviceOptions {
   hw::FixedFormat format;      // the fixed device's number formats
   bool check_boxes = false;    // fixed: repeat box tests exactly and count false negatives
   hw::TimingConfig timing;     // timed: the unit's configuration (its format and width are in `format`)
+  hw::SampleOptions sample;    // timed: sampled timing (fraction 0: every ray simulated)
 };
 
 const std::vector<std::string>& device_names();

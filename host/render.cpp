@@ -172,7 +172,10 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   eopt.threads = o.threads;
   eopt.tracer = tracer;
   ModelDevice dev(o.device.name, res.device_memory_bytes, eopt, o.device.timing);
-  if (hw::TimedEngine* te = dev.timed()) te->set_trace(o.pipeline_trace);
+  if (hw::TimedEngine* te = dev.timed()) {
+    te->set_trace(o.pipeline_trace);
+    te->set_sampling(o.device.sample);  // the firmware needs every hit: only the timing model is sampled
+  }
   hw::DeviceMemory& mem = dev.memory();
   mem.write(job.scene_image, image_words.data(), res.scene_image_bytes);
   mem.write(job.surfaces, surfaces.data(), surfaces.size() * sizeof(fw::SurfaceRecord));
@@ -205,6 +208,7 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
     res.timing = te->timing();
     res.timing_by_type = te->timing_by_type();
     res.timing_by_bounce = te->timing_by_bounce();
+    res.sampling = te->sampling();
   }
   res.rgb.resize(size_t(res.width) * res.height * 3);
   mem.read(job.framebuffer, res.rgb.data(), res.rgb.size() * sizeof(float));

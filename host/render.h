@@ -48,6 +48,7 @@ struct RenderResult {
   hw::TimingStats timing;
   std::array<hw::TimingStats, hw::cmd::kRayTypeCount> timing_by_type{};
   std::map<int, hw::TimingStats> timing_by_bounce;
+  hw::SampleStats sampling;  // sampled timing (RenderOptions::device.sample): what was simulated
 };
 
 // Throws Error when the device reports an error or the arena cannot hold one path.

@@ -176,6 +176,7 @@ void TimingModel::simulate() {
         const uint64_t st = std::max(t, m_wb_free);
         m_wb_free = st + 1;
         m_end = std::max(m_end, st + uint64_t(m_c.writeback_latency));
+        if (m_done) m_done->push_back(st + uint64_t(m_c.writeback_latency));
         if (m_trace) m_trace->add(k, "write-back", st, st + 1);  // the slot hands its hit to the write-back pipe
         m_s->stream_bytes += kHitBytesStream;
         m_s->slot_busy_cycles += st + 1 - sl.entered;
@@ -335,29 +336,171 @@ uint64_t TimedEngine::packet_cycles(uint8_t opcode) const {
   return opcode == uint8_t(cmd::Opcode::kFence) ? p + uint64_t(m_c.fence_latency) : p;
 }
 
+void TimedEngine::record(const Ray* rays, Hit* hits, size_t first, size_t count, bool any_hit, TraversalStats& s,
+                         std::vector<std::vector<TraceEvent>>& events, size_t at) const {
+  TraversalStats local;
+  const int threads = m_box_unit ? 1 : m_opt.threads;  // a box unit is not thread-safe (box_unit.h)
+  run_batch(count, threads, local, [&](size_t i, TraversalStats& st) {
+    std::vector<TraceEvent>& ev = events[at + i];
+    ev.clear();
+    const Hit h = m_tracer->trace_recorded(rays[first + i], any_hit, st, ev);
+    if (hits) hits[first + i] = h;
+  });
+  if (local.first_invalid != UINT64_MAX) local.first_invalid += first;
+  s.add(local);
+}
+
 uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
                                    uint8_t ray_type, uint8_t bounce) {
-  // Chunks of rays: traced (and recorded) on the worker threads, then replayed through the model in order.
-  constexpr size_t kChunk = 4096;
-  std::vector<std::vector<TraceEvent>> events(std::min(n, kChunk));
   TimingStats ts;
-  m_model->begin(n, ts);
-  for (size_t first = 0; first < n; first += kChunk) {
-    const size_t m = std::min(kChunk, n - first);
-    TraversalStats local;
-    const int threads = m_box_unit ? 1 : m_opt.threads;  // a box unit is not thread-safe (box_unit.h)
-    run_batch(m, threads, local, [&](size_t i, TraversalStats& st) {
-      events[i].clear();
-      hits[first + i] = m_tracer->trace_recorded(rays[first + i], any_hit, st, events[i]);
-    });
-    if (local.first_invalid != UINT64_MAX) local.first_invalid += first;
-    s.add(local);
-    m_model->feed(events.data(), m);
+  uint64_t cycles;
+  ++m_sample_stats.packets;
+  m_sample_stats.rays += n;
+  const size_t U = m_sample.unit_rays;
+  const size_t k = m_sample.fraction > 0.0 ? size_t(std::llround(1.0 / m_sample.fraction)) : 1;
+  if (k >= 2 && n > U && (n - 1) / U >= 10 * k) {  // at least 10 units to measure
+    cycles = trace_cycles_sampled(rays, hits, n, any_hit, s, ts);
+  } else {
+    // Chunks of rays: traced (and recorded) on the worker threads, then replayed through the model in order.
+    constexpr size_t kChunk = 4096;
+    std::vector<std::vector<TraceEvent>> events(std::min(n, kChunk));
+    m_model->begin(n, ts);
+    for (size_t first = 0; first < n; first += kChunk) {
+      const size_t m = std::min(kChunk, n - first);
+      record(rays, hits, first, m, any_hit, s, events);
+      m_model->feed(events.data(), m);
+    }
+    cycles = m_model->finish();
+    m_sample_stats.rays_simulated += n;
   }
-  const uint64_t cycles = m_model->finish();
   m_total.add(ts);
   if (ray_type < cmd::kRayTypeCount) m_by_type[ray_type].add(ts);
   m_by_bounce[bounce].add(ts);
+  return cycles;
+}
+
+void TimedEngine::set_sampling(const SampleOptions& o) {
+  if (!(o.fraction >= 0.0 && o.fraction <= 1.0))
+    throw std::invalid_argument("sampled timing: the fraction must be in [0, 1]");
+  if (o.unit_rays == 0) throw std::invalid_argument("sampled timing: a unit needs at least one ray");
+  m_sample = o;
+}
+
+double SampleStats::ci95() const {
+  return 1.96 * std::sqrt(variance);
+}
+
+uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
+                                           TimingStats& ts) {
+  const size_t U = m_sample.unit_rays, W = m_sample.warmup_rays;
+  const size_t k = size_t(std::llround(1.0 / m_sample.fraction));
+  const size_t units = (n + U - 1) / U;  // unit 0 is simulated from the packet's start; 1 .. units-1 sampled
+  // The auxiliary variable of the ratio estimator, per unit: with hits needed the datapath traces every ray
+  // (exact hits), and each unit's throughput bound max(box tests / box rate, primitive tests / test slots, rays)
+  // comes with it, which the cycles follow far more closely than the ray count (primary rays through sky and
+  // through geometry differ tenfold in cost). Without hits only the sampled rays are traced: the ray count.
+  std::vector<double> aux(units);
+  TraversalStats scratch;
+  if (m_sample.need_hits) {
+    std::vector<uint32_t> box(n), prim(n);
+    run_batch(n, m_box_unit ? 1 : m_opt.threads, s, [&](size_t i, TraversalStats& st) {
+      const uint64_t b0 = st.box_tests, p0 = st.prim_tests;
+      hits[i] = m_tracer->trace(rays[i], any_hit, st);
+      box[i] = uint32_t(st.box_tests - b0);
+      prim[i] = uint32_t(st.prim_tests - p0);
+    });
+    const double box_rate = double(m_c.box_rate) * m_c.box_units, tri_rate = double(m_c.tri_rate) * m_c.tri_units;
+    for (size_t j = 0; j < units; ++j) {
+      double b = 0.0, p = 0.0;
+      const size_t end = std::min(n, (j + 1) * U);
+      for (size_t i = j * U; i < end; ++i) {
+        b += box[i];
+        p += prim[i];
+      }
+      aux[j] = std::max({b / box_rate, p / tri_rate, double(end - j * U)});
+    }
+  } else {
+    for (size_t j = 0; j < units; ++j) aux[j] = double(std::min(n, (j + 1) * U) - j * U);
+  }
+  TraversalStats& seg_stats = m_sample.need_hits ? scratch : s;
+
+  TimingStats sim;  // what the model simulated
+  std::vector<std::vector<TraceEvent>> events;
+  std::vector<uint64_t> done;
+  m_model->record_done(&done);
+  uint64_t simulated = 0;
+  // Simulates w warm-up rays, the u rays from `first` on and t tail rays after them as one packet (done: the
+  // sorted hit-write cycles); returns the datapath statistics of the u rays. The measured rays' cost is read
+  // between the w-th and the (w + u)-th hit written: with rays in flight on both sides, in steady state.
+  auto segment = [&](size_t first, size_t w, size_t u, size_t t) {
+    events.resize(std::max(events.size(), w + u + t));
+    TraversalStats other, st;
+    record(rays, nullptr, first - w, w, any_hit, other, events, 0);
+    record(rays, nullptr, first, u, any_hit, st, events, w);
+    record(rays, nullptr, first + u, t, any_hit, other, events, w + u);
+    done.clear();
+    m_model->begin(w + u + t, sim);
+    m_model->feed(events.data(), w + u + t);
+    m_model->finish();
+    std::sort(done.begin(), done.end());
+    simulated += w + u + t;
+    return st;
+  };
+  // Tail rays: enough to keep every slot busy past the measured rays' last hit.
+  const size_t tail = 4 * size_t(m_c.ray_slots);
+  const uint64_t start = m_model->clock();
+  // The first unit, from the packet's start (its fill), and the last unit, to the packet's end (its drain),
+  // exactly; the units between by the sample.
+  const size_t last = units - 1, u_last = n - last * U;
+  seg_stats.add(segment(0, 0, U, std::min(tail, n - U)));
+  const uint64_t first_cycles = done[U - 1] - start;
+  const size_t w_last = std::min(W, last * U);
+  seg_stats.add(segment(last * U, w_last, u_last, 0));
+  const uint64_t last_cycles = done.back() - done[w_last - 1];
+
+  // Systematic sample of units 1 .. units-2: every k-th from a seeded offset in [1, k].
+  const uint64_t offset = 1 + (m_sample.seed * 0x9E3779B97F4A7C15ull >> 32) % k;
+  double sum_c = 0.0, sum_u = 0.0;
+  std::vector<std::pair<double, double>> measured;  // (cycles, auxiliary) per measured unit
+  for (size_t j = offset; j < last; j += k) {
+    const size_t u0 = j * U, w = std::min(W, u0), t = std::min(tail, n - u0 - U);
+    seg_stats.add(segment(u0, w, U, t));
+    const double c = double(done[w + U - 1] - done[w - 1]);
+    measured.push_back({c, aux[j]});
+    sum_c += c;
+    sum_u += aux[j];
+  }
+  m_model->record_done(nullptr);
+  double rest = 0.0;  // the auxiliary summed over units 1 .. units-2
+  for (size_t j = 1; j < last; ++j) rest += aux[j];
+  const double ratio = sum_c / sum_u;
+  const double estimate = double(first_cycles) + ratio * rest + double(last_cycles);
+  // Variance of the ratio estimator: residuals c - ratio * u, finite-population corrected.
+  const double m = double(measured.size()), M = double(units - 2);
+  double ss = 0.0;
+  for (const auto& [c, u] : measured) ss += (c - ratio * u) * (c - ratio * u);
+  const double mean_u = sum_u / m;
+  const double var =
+      m > 1 ? (rest / mean_u) * (rest / mean_u) * (ss / (m - 1)) / m * std::max(0.0, 1.0 - m / M) : 0.0;
+  const uint64_t cycles = uint64_t(std::llround(estimate));
+  m_model->advance_to(start + cycles);
+
+  // The packet's statistics: the simulated rays' counters scaled to the packet, the estimated cycles.
+  const double scale = double(n) / double(simulated);
+  auto scaled = [&](uint64_t v) { return uint64_t(std::llround(double(v) * scale)); };
+  ts = sim;
+  ts.packets = 1;
+  ts.cycles = cycles;
+  ts.rays = n;
+  for (uint64_t* f : {&ts.box_tests, &ts.tri_tests, &ts.sphere_tests, &ts.plane_tests, &ts.box_issue_cycles,
+                      &ts.tri_issue_cycles, &ts.node_fetches, &ts.prim_fetches, &ts.cache_hits, &ts.cache_misses,
+                      &ts.dram_bytes, &ts.dram_busy_cycles, &ts.stream_bytes, &ts.stack_spills, &ts.stack_refills,
+                      &ts.queue_stall_cycles, &ts.slot_busy_cycles})
+    *f = scaled(*f);
+  ++m_sample_stats.packets_sampled;
+  m_sample_stats.rays_simulated += simulated;
+  m_sample_stats.units_measured += measured.size();
+  m_sample_stats.variance += var;
   return cycles;
 }
 

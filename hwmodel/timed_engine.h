@@ -97,6 +97,12 @@ class TimingModel {
   void set_trace(PipelineTrace* trace) { m_trace = trace; }
   void feed(const std::vector<TraceEvent>* events, size_t m);
   uint64_t finish();
+  // Appends the cycle each ray's hit is written (absolute, see clock()) to `done` (null: not recorded).
+  void record_done(std::vector<uint64_t>* done) { m_done = done; }
+  // The cycle the next packet starts at; advance_to() moves it forward (sampled simulation: the cycles a packet's
+  // unsimulated rays are estimated to take).
+  uint64_t clock() const { return m_base; }
+  void advance_to(uint64_t cycle) { m_base = cycle > m_base ? cycle : m_base; }
 
  private:
   struct Line {
@@ -131,6 +137,7 @@ class TimingModel {
   uint64_t m_base = 0;  // cycle the current packet started (resources carry absolute cycles)
 
   PipelineTrace* m_trace = nullptr;
+  std::vector<uint64_t>* m_done = nullptr;
   // The packet in flight.
   TimingStats* m_s = nullptr;
   size_t m_n = 0, m_next = 0;                       // rays in the packet, next ray to admit
@@ -141,6 +148,33 @@ class TimingModel {
   std::vector<uint64_t> m_recent;                           // admission cycles of the last queue_depth rays
   std::vector<std::pair<uint64_t, uint32_t>> m_free_slots;  // (cycle free, slot): min-heap
   uint64_t m_t0 = 0, m_setup_free = 0, m_wb_free = 0, m_end = 0;
+};
+
+// Sampled timing (SMARTS-style systematic sampling, Wunderlich et al., ISCA 2003): a TRACE packet is cut into
+// units of unit_rays consecutive rays. The first unit is simulated from the packet's start (its fill) and the last
+// to the packet's end (its drain); of the units between, every k-th (k = round(1 / fraction), from a seeded
+// offset) is simulated after warmup_rays rays simulated in detail but not measured (they refill the cache and
+// the slots) and before 4 x ray_slots tail rays, so that its cost, the cycles between the hit of the warm-up's
+// last ray and the unit's last hit counted in order of writing, is measured in steady state. The cycles of the
+// units between are a ratio estimate (Cochran, "Sampling Techniques", ch. 6): measured cycles / measured
+// auxiliary times the auxiliary of all of them, with a 95% confidence interval from the measured units' residuals
+// (finite-population corrected). The auxiliary is each unit's throughput bound from the datapath's test counts
+// when hits are needed (the datapath then traces every ray anyway; only the timing model is sampled), else its
+// ray count (only the sampled rays are traced: cycles only). Packets with fewer than 10 sampled units are
+// simulated in full. Timing counters (cache, DRAM, tests) are those of the simulated rays scaled to the packet.
+struct SampleOptions {
+  double fraction = 0.0;  // 0 (or >= 1): simulate every ray
+  uint32_t unit_rays = 256;
+  uint32_t warmup_rays = 512;
+  uint64_t seed = 1;
+  bool need_hits = true;
+};
+struct SampleStats {
+  uint64_t packets = 0, packets_sampled = 0;  // TRACE packets, and those estimated from a sample
+  uint64_t rays = 0, rays_simulated = 0;      // rays in them, and rays through the timing model (with warm-up)
+  uint64_t units_measured = 0;
+  double variance = 0.0;  // of the summed cycle estimate (0 for fully simulated packets)
+  double ci95() const;    // half-width of the 95% confidence interval of the cycles, 1.96 sqrt(variance)
 };
 
 class TimedEngine final : public TraceEngine {
@@ -162,6 +196,10 @@ class TimedEngine final : public TraceEngine {
 
   const TimingConfig& config() const { return m_c; }
   void set_threads(int threads) { m_opt.threads = threads; }
+  // Sampled timing of later TRACE packets (SampleOptions); throws std::invalid_argument for a fraction outside
+  // [0, 1] or a unit of 0 rays.
+  void set_sampling(const SampleOptions& o);
+  const SampleStats& sampling() const { return m_sample_stats; }
   // Record pipeline spans of cycles [from, to) (cycles since bind); the trace must outlive the engine's use.
   void set_trace(PipelineTrace* trace) {
     m_trace = trace;
@@ -180,6 +218,15 @@ class TimedEngine final : public TraceEngine {
   std::unique_ptr<FixedTracer> m_tracer;
   std::unique_ptr<TimingModel> m_model;
   PipelineTrace* m_trace = nullptr;
+  // One TRACE packet through the timing model with sampling (SampleOptions).
+  uint64_t trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
+                                TimingStats& ts);
+  // Traces rays [first, first + count) with recording; events[at + i] for ray first + i. Hits go to hits (or
+  // nowhere when null).
+  void record(const Ray* rays, Hit* hits, size_t first, size_t count, bool any_hit, TraversalStats& s,
+              std::vector<std::vector<TraceEvent>>& events, size_t at = 0) const;
+  SampleOptions m_sample;
+  SampleStats m_sample_stats;
   TimingStats m_total;
   std::array<TimingStats, cmd::kRayTypeCount> m_by_type{};
   std::map<int, TimingStats> m_by_bounce;

@@ -194,6 +194,7 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
       by_bounce[std::to_string(b)] = timing_stats_json(s, o.device.timing);
     t["by_bounce"] = by_bounce;
     t["device_clock"] = r.device_clock;
+    t["sample"] = sample_json(r.sampling);
     t["config"] = timing_json(o.device.timing);
     j["timing"] = t;
   }

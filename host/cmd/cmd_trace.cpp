@@ -25,8 +25,12 @@ void run_trace(const TraceOptions& o) {
   const double load_s = load_timer.seconds();
   const std::vector<hw::Ray> rays = read_rays(o.rays);
 
+  const bool cycles_only = o.out.empty();
+  if (cycles_only && !(o.dev.device == "timed" && o.dev.sample > 0.0))
+    throw Error("--out is required (it may be left out only with --device timed --sample F)");
   Stopwatch build_timer;
-  const DeviceOptions dopt = o.dev.options(o.dev.device);
+  DeviceOptions dopt = o.dev.options(o.dev.device);
+  dopt.sample.need_hits = !cycles_only;
   const std::unique_ptr<TraceDevice> device = make_device(scene.geometry, dopt);
   PipelineTraceArgs pt = o.pipeline;
   device->set_pipeline_trace(pt.make());
@@ -35,10 +39,11 @@ void run_trace(const TraceOptions& o) {
   std::vector<hw::Hit> hits(rays.size());
   hw::TraversalStats stats;
   const double trace_s = trace_with_progress(*device, rays, hits, o.any_hit, o.threads, stats);
-  write_hits(o.out, hits);
+  if (!cycles_only) write_hits(o.out, hits);
 
   report_invalid_rays(stats, stderr);
   const uint64_t n = rays.size();
+  if (cycles_only) std::printf("cycles only (--sample without --out): the counts below are the sampled rays'\n");
   std::printf("traced %llu rays on %s: %llu hits, %llu invalid, %.3f s, %.2f MRays/s\n", (unsigned long long)n,
               o.dev.device.c_str(), (unsigned long long)stats.hits, (unsigned long long)stats.invalid_rays,
               trace_s, trace_s > 0 ? double(n) / trace_s * 1e-6 : 0.0);
@@ -46,7 +51,14 @@ void run_trace(const TraceOptions& o) {
               stats.rays ? double(stats.nodes_visited) / double(stats.rays) : 0.0,
               stats.rays ? double(stats.box_tests) / double(stats.rays) : 0.0,
               stats.rays ? double(stats.prim_tests) / double(stats.rays) : 0.0);
-  if (const hw::TimedEngine* te = device->timed()) print_timing_summary(te->timing(), te->config());
+  if (const hw::TimedEngine* te = device->timed()) {
+    print_timing_summary(te->timing(), te->config());
+    const hw::SampleStats& ss = te->sampling();
+    if (ss.packets_sampled > 0)
+      std::printf("sampled: %llu of %llu packets estimated from %.1f%% of their rays; cycles +- %.0f (95%%)\n",
+                  (unsigned long long)ss.packets_sampled, (unsigned long long)ss.packets,
+                  100.0 * double(ss.rays_simulated) / double(ss.rays), ss.ci95());
+  }
   if (device->timed()) pt.write();
 
   if (!o.stats.empty()) {
@@ -77,7 +89,9 @@ void add_trace(CLI::App& app) {
   sub->add_option("--rays", o->rays, "ray file (32-byte binary records, or .csv)")
       ->required()
       ->check(CLI::ExistingFile);
-  sub->add_option("--out", o->out, "hit file to write (16-byte binary records, or .csv)")->required();
+  sub->add_option("--out", o->out,
+                  "hit file to write (16-byte binary records, or .csv); required unless --sample on the timed "
+                  "device, which without --out estimates cycles only and traces only the sampled rays");
   sub->add_flag("--any-hit", o->any_hit, "any-hit queries (stop at the first hit, as shadow rays do)");
   sub->add_option("--threads", o->threads, "worker threads (0 = all cores); results do not depend on it")
       ->check(CLI::NonNegativeNumber)

@@ -40,6 +40,9 @@ DeviceOptions DeviceArgs::options(const std::string& device_name) const {
   d.name = device_name;
   if (device_name == "timed") {
     d.timing = timing_config_from(config, sets);
+    d.sample.fraction = sample;
+    d.sample.unit_rays = sample_unit;
+    d.sample.warmup_rays = sample_warmup;
     DeviceArgs a = *this;
     a.format = d.timing.format;
     if (a.bvh_width <= 0) a.bvh_width = d.timing.bvh_width;
@@ -70,6 +73,17 @@ void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_hel
       ->check(CLI::IsMember(hw::timing_preset_names()))
       ->capture_default_str();
   app.add_option("--set", o.sets, "timed device: override a timing key, KEY=VALUE (repeatable)");
+  app.add_option("--sample", o.sample,
+                 "timed device: simulate this fraction of each packet's rays in the timing model (systematic "
+                 "sample of units, each after a warm-up) and estimate the cycles with a 95% interval; 0: all")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  app.add_option("--sample-unit", o.sample_unit, "timed device, --sample: rays per measured unit")
+      ->check(CLI::Range(1u, 1u << 20))
+      ->capture_default_str();
+  app.add_option("--sample-warmup", o.sample_warmup, "timed device, --sample: rays simulated before each unit")
+      ->check(CLI::Range(1u, 1u << 20))
+      ->capture_default_str();
   std::vector<std::string> presets;
   for (const hw::FixedFormat& f : hw::format_presets()) presets.push_back(f.name);
   app.add_option("--format", o.format, "fixed-point format preset (rtusim info --formats lists them)")
@@ -329,6 +343,19 @@ Json timed_json(const hw::TimedEngine& e) {
   for (const auto& [b, s] : e.timing_by_bounce()) by_bounce[std::to_string(b)] = timing_stats_json(s, e.config());
   j["by_bounce"] = by_bounce;
   j["config"] = timing_json(e.config());
+  j["sample"] = sample_json(e.sampling());
+  return j;
+}
+
+Json sample_json(const hw::SampleStats& s) {
+  Json j;
+  j["packets"] = s.packets;
+  j["packets_sampled"] = s.packets_sampled;
+  j["rays"] = s.rays;
+  j["rays_simulated"] = s.rays_simulated;
+  j["simulated_fraction"] = s.rays > 0 ? double(s.rays_simulated) / double(s.rays) : 0.0;
+  j["units_measured"] = s.units_measured;
+  j["cycles_ci95"] = s.ci95();
   return j;
 }
 

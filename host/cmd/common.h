@@ -30,6 +30,10 @@ struct DeviceArgs {
   // configuration (keys `format`, `bvh_width`); the per-field format options still apply on top.
   std::string config = "rdna2";
   std::vector<std::string> sets;
+  // The timed device: simulate this fraction of each TRACE packet's rays in the timing model and extrapolate
+  // (hw::SampleOptions); 0: every ray.
+  double sample = 0.0;
+  uint32_t sample_unit = 256, sample_warmup = 512;
 
   hw::FixedFormat fixed_format() const;  // preset + overrides + width; validated
   DeviceOptions options(const std::string& device_name) const;
@@ -77,6 +81,8 @@ Json timing_json(const hw::TimingConfig& c);
 Json timing_stats_json(const hw::TimingStats& s, const hw::TimingConfig& c);
 // The timed engine's statistics in total, by ray type and by bounce, with its configuration.
 Json timed_json(const hw::TimedEngine& e);
+// What sampled timing simulated (hw::SampleStats), with the 95% interval of the cycles.
+Json sample_json(const hw::SampleStats& s);
 // One line: cycles, cycles per ray, rays per clock, the lower bound and what limits it.
 void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c);
 // --pipeline-trace F.json and --trace-window FROM:TO (cycles) of the timed device's commands.

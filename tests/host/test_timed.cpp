@@ -161,3 +161,63 @@ TEST_CASE("the pipeline trace shows each slot's work in order, inside its window
   CHECK(wb);
   CHECK(r.timing.cycles > trace.to);
 }
+
+TEST_CASE("sampled timing estimates a packet's cycles within its interval; hits stay exact", "[timed][sample]") {
+  const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
+  const std::vector<Ray> primary = rtu::host::primary_rays(s.camera, 200000);
+  const std::vector<Ray> incoherent = rtu::host::incoherent_rays(s.geometry.bounds(), 200000, 5);
+  for (const std::vector<Ray>* rays : {&primary, &incoherent}) {
+    const size_t n = rays->size();
+    CAPTURE(rays == &primary ? "primary" : "incoherent");
+    const auto full = rtu::host::make_device(s.geometry, options("timed", "rdna2"));
+    std::vector<Hit> hf(n), hs(n), hc(n);
+    rtu::hw::TraversalStats sf, ss, sc;
+    full->trace_batch(rays->data(), hf.data(), n, false, 2, sf);
+    const uint64_t exact = full->timed()->timing().cycles;
+
+    DeviceOptions o = options("timed", "rdna2");
+    o.sample.fraction = 0.05;
+    const auto sampled = rtu::host::make_device(s.geometry, o);
+    sampled->trace_batch(rays->data(), hs.data(), n, false, 2, ss);
+    const rtu::hw::SampleStats& st = sampled->timed()->sampling();
+    const double est = double(sampled->timed()->timing().cycles), ci = st.ci95();
+    INFO("full " << exact << " cycles, sampled " << est << " +- " << ci << " (95%), " << st.rays_simulated
+                 << " of " << st.rays << " rays simulated");
+    REQUIRE(st.packets_sampled == 1);
+    // Every hit is the datapath's: only the timing model was sampled.
+    CHECK(std::memcmp(hf.data(), hs.data(), n * sizeof(Hit)) == 0);
+    CHECK(ss.box_tests == sf.box_tests);
+    // The estimate: inside twice its 95% half-width of the full simulation (a fixed seed makes this a
+    // deterministic check of the estimator and its interval, not a coin toss), and within 5%.
+    CHECK(std::abs(est - double(exact)) <= 2.0 * ci);
+    CHECK(std::abs(est - double(exact)) <= 0.05 * double(exact));
+    CHECK(ci > 0.0);
+    CHECK(ci < 0.1 * double(exact));
+    // About fraction * (warm-up + unit + tail) / unit of the rays went through the model, plus the first and last.
+    CHECK(st.rays_simulated < n / 4);
+
+    // Cycles only: only the sampled rays are traced; the estimate is of the same packet.
+    o.sample.need_hits = false;
+    const auto cycles_only = rtu::host::make_device(s.geometry, o);
+    cycles_only->trace_batch(rays->data(), hc.data(), n, false, 2, sc);
+    const double est2 = double(cycles_only->timed()->timing().cycles);
+    CHECK(std::abs(est2 - double(exact)) <= 2.0 * cycles_only->timed()->sampling().ci95());
+    CHECK(sc.rays < n / 4);
+
+    // The same seed gives the same estimate, whatever the thread count.
+    const auto again = rtu::host::make_device(s.geometry, o);
+    again->trace_batch(rays->data(), hc.data(), n, false, 1, sc);
+    CHECK(again->timed()->timing().cycles == cycles_only->timed()->timing().cycles);
+  }
+  // Fraction 0, or a packet too small for 10 sampled units: the full simulation, to the cycle.
+  DeviceOptions o = options("timed", "rdna2");
+  o.sample.fraction = 0.5;
+  const auto half = rtu::host::make_device(s.geometry, o);
+  const auto full = rtu::host::make_device(s.geometry, options("timed", "rdna2"));
+  std::vector<Hit> h(4000);
+  rtu::hw::TraversalStats st;
+  half->trace_batch(primary.data(), h.data(), 4000, false, 2, st);
+  full->trace_batch(primary.data(), h.data(), 4000, false, 2, st);
+  CHECK(half->timed()->sampling().packets_sampled == 0);
+  CHECK(half->timed()->timing().cycles == full->timed()->timing().cycles);
+}

@@ -1,7 +1,9 @@
 #include "hwmodel/fixed_format.h"
 
+#include <charconv>
 #include <sstream>
 #include <stdexcept>
+#include <system_error>
 
 namespace rtu::hw {
 
@@ -130,6 +132,44 @@ FixedFormat format_preset(const std::string& name) {
     names += (names.empty() ? "" : ", ") + f.name;
   }
   throw std::invalid_argument("unknown format preset '" + name + "' (known: " + names + ")");
+}
+
+int* format_field(FixedFormat& f, const std::string& key) {
+  if (key == "width") return &f.width;
+  if (key == "coord_bits") return &f.coord_bits;
+  if (key == "child_bits") return &f.child_bits;
+  if (key == "guard_bits") return &f.guard_bits;
+  if (key == "frac_bits") return &f.frac_bits;
+  if (key == "dir_bits") return &f.dir_bits;
+  if (key == "rcp_bits") return &f.rcp_bits;
+  if (key == "t_frac_bits") return &f.t_frac_bits;
+  if (key == "t_bits") return &f.t_bits;
+  return nullptr;
+}
+
+FixedFormat format_from_spec(const std::string& spec) {
+  size_t colon = spec.find(':');
+  FixedFormat f = format_preset(spec.substr(0, colon));
+  while (colon != std::string::npos) {
+    const size_t from = colon + 1;
+    colon = spec.find(':', from);
+    const std::string kv = spec.substr(from, colon == std::string::npos ? std::string::npos : colon - from);
+    const size_t eq = kv.find('=');
+    int* field = eq == std::string::npos ? nullptr : format_field(f, kv.substr(0, eq));
+    if (!field)
+      throw std::invalid_argument("format spec " + spec + ": '" + kv +
+                                  "' is not key=value with a format key (width, coord_bits, child_bits, guard_bits, "
+                                  "frac_bits, dir_bits, rcp_bits, t_frac_bits, t_bits)");
+    const std::string v = kv.substr(eq + 1);
+    int value = 0;
+    const auto r = std::from_chars(v.data(), v.data() + v.size(), value);
+    if (r.ec != std::errc() || r.ptr != v.data() + v.size() || v.empty())
+      throw std::invalid_argument("format spec " + spec + ": '" + v + "' is not an integer");
+    *field = value;
+  }
+  f.name = spec;
+  f.validate();
+  return f;
 }
 
 }  // namespace rtu::hw

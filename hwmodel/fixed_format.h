@@ -41,4 +41,13 @@ const std::vector<FixedFormat>& format_presets();
 // Throws std::invalid_argument listing the known names.
 FixedFormat format_preset(const std::string& name);
 
+// The integer fields by name (width, coord_bits, child_bits, guard_bits, frac_bits, dir_bits, rcp_bits,
+// t_frac_bits, t_bits); null for an unknown name.
+int* format_field(FixedFormat& f, const std::string& key);
+// A format from a spec: a preset name, optionally followed by ":key=value" changes of its fields
+// ("default:coord_bits=16:child_bits=6"). The result is validated and named by the spec. Throws
+// std::invalid_argument for an unknown preset or key, a value that is not an integer, or a format validate()
+// refuses.
+FixedFormat format_from_spec(const std::string& spec);
+
 }  // namespace rtu::hw

@@ -10,7 +10,6 @@
 //                                  t_frac_bits, t_bits), e.g. `--chparam rdna2 coord_bits=16` (bench/rtl_area.sh).
 #include <cstdio>
 #include <exception>
-#include <map>
 #include <string>
 
 #include "rtl_sim/tb/rtl_params.h"
@@ -21,17 +20,13 @@ std::string chparam(int argc, char** argv) {
   if (argc < 3) throw std::invalid_argument("--chparam needs a unit spec");
   const rtu::hw::TimingConfig c = rtu::rtl::unit_config(argv[2]);
   rtu::hw::FixedFormat f = rtu::hw::format_preset(c.format);
-  std::map<std::string, int*> keys = {{"coord_bits", &f.coord_bits},   {"child_bits", &f.child_bits},
-                                      {"guard_bits", &f.guard_bits},   {"frac_bits", &f.frac_bits},
-                                      {"dir_bits", &f.dir_bits},       {"rcp_bits", &f.rcp_bits},
-                                      {"t_frac_bits", &f.t_frac_bits}, {"t_bits", &f.t_bits}};
   for (int i = 3; i < argc; ++i) {
     const std::string kv = argv[i];
     const size_t eq = kv.find('=');
-    const auto it = keys.find(kv.substr(0, eq));
-    if (eq == std::string::npos || it == keys.end())
-      throw std::invalid_argument("'" + kv + "' is not FORMAT_KEY=VALUE with a known format key");
-    *it->second = std::stoi(kv.substr(eq + 1));
+    int* field = eq == std::string::npos ? nullptr : rtu::hw::format_field(f, kv.substr(0, eq));
+    if (!field || kv.substr(0, eq) == "width")
+      throw std::invalid_argument("'" + kv + "' is not FORMAT_KEY=VALUE with a format key (the width is bvh_width)");
+    *field = std::stoi(kv.substr(eq + 1));
   }
   const rtu::rtl::BoxUnitParams p = rtu::rtl::box_unit_params(f, c.bvh_width, c.box_rate, c.box_latency);
   std::string r;

@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 
 #include <unistd.h>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -47,7 +48,7 @@ fs::path temp_dir() {
 }  // namespace
 
 TEST_CASE("every subcommand has --help", "[cli]") {
-  for (const char* sub : {"info", "rays", "trace", "compare", "stress", "demo", "diff", "config"}) {
+  for (const char* sub : {"info", "rays", "trace", "compare", "stress", "demo", "diff", "config", "sweep"}) {
     const Run r = run(std::string(sub) + " --help");
     INFO(r.output);
     CHECK(r.status == 0);
@@ -381,4 +382,78 @@ TEST_CASE("config: unknown preset or key, bad values, malformed --set: exit 2 na
     CHECK(r.status == 2);
     CHECK(r.output.find(c.words) != std::string::npos);
   }
+}
+
+TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad input", "[cli][sweep]") {
+  const fs::path d = temp_dir();
+  const std::string whole = (d / "sweep_whole.csv").string(), a = (d / "sweep_a.csv").string(),
+                    b = (d / "sweep_b.csv").string(), merged = (d / "sweep_merged.csv").string();
+  for (const std::string& f : {whole, a, b, merged}) fs::remove(f);
+  const std::string grid =
+      "sweep --scene builtin:seed --formats default,compact,default:coord_bits=12 --bvh-width 4,8 --rays 3000 "
+      "--image-width 48 ";
+  Run r = run(grid + "--out " + whole);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  auto read_lines = [](const std::string& path) {
+    std::ifstream in(path);
+    std::vector<std::string> lines;
+    for (std::string l; std::getline(in, l);) lines.push_back(l);
+    return lines;
+  };
+  // Everything but the last column (the point's wall time) is deterministic.
+  auto strip_time = [](std::string l) { return l.substr(0, l.rfind(',')); };
+  const std::vector<std::string> w = read_lines(whole);
+  REQUIRE(w.size() == 7);  // header + 3 formats x 2 widths
+  CHECK(w[0].rfind("scene,format,bvh_width,config,rays,hit_agreement", 0) == 0);
+  // The default format agrees with float on every ray of the seed scene.
+  CHECK(w[1].find("builtin:seed,default,4,rdna2,6000,1,") == 0);
+  // Resume: nothing left to run, the file unchanged.
+  r = run(grid + "--out " + whole);
+  CHECK(r.status == 0);
+  CHECK(r.output.find("0 run, 6 already") != std::string::npos);
+  CHECK(read_lines(whole) == w);
+  // An interrupted row (no newline at the end) is dropped and run again.
+  {
+    std::ofstream f(whole, std::ios::app);
+    f << "builtin:seed,default,4";
+  }
+  r = run(grid + "--out " + whole);
+  CHECK(r.status == 0);
+  CHECK(r.output.find("unfinished row") != std::string::npos);
+  CHECK(read_lines(whole).size() == 7);
+  // Two shards merge into the same rows.
+  REQUIRE(run(grid + "--shard 1/2 --out " + a).status == 0);
+  REQUIRE(run(grid + "--shard 2/2 --out " + b).status == 0);
+  CHECK(read_lines(a).size() == 4);
+  CHECK(read_lines(b).size() == 4);
+  REQUIRE(run("sweep --merge " + a + " " + b + " --out " + merged).status == 0);
+  std::vector<std::string> m = read_lines(merged), ws = w;
+  REQUIRE(m.size() == ws.size());
+  for (auto* v : {&m, &ws}) {
+    for (std::string& l : *v) l = strip_time(l);
+    std::sort(v->begin() + 1, v->end());
+  }
+  CHECK(m == ws);
+  // Bad input: a clear error naming it, exit 2, nothing crashes.
+  for (const auto& [args, words] :
+       std::vector<std::pair<std::string, std::string>>{{"--formats nosuch", "unknown format preset"},
+                                                        {"--formats default:coord_bits=99", "coord_bits"},
+                                                        {"--formats default:bits=3", "format key"},
+                                                        {"--shard 3/2", "--shard"},
+                                                        {"--shard x", "--shard"},
+                                                        {"--bvh-width 3", "2, 4 or 8"},
+                                                        {"--config nosuch", "nosuch"}}) {
+    const Run e = run("sweep --scene builtin:seed " + args + " --rays 10 --out " + (d / "bad.csv").string());
+    INFO(args << ": " << e.output);
+    CHECK(e.status == 2);
+    CHECK(e.output.find(words) != std::string::npos);
+  }
+  {
+    std::ofstream f(d / "foreign.csv");
+    f << "a,b,c\n1,2,3\n";
+  }
+  const Run e = run("sweep --scene builtin:seed --rays 10 --out " + (d / "foreign.csv").string());
+  CHECK(e.status == 2);
+  CHECK(e.output.find("not a sweep file") != std::string::npos);
 }

@@ -1,0 +1,360 @@
+#include "host/sweep.h"
+
+#include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include "host/compare.h"
+#include "host/device.h"
+#include "host/error.h"
+#include "host/image_diff.h"
+#include "host/ray_gen.h"
+#include "host/render.h"
+#include "hwmodel/fixed_format.h"
+#include "hwmodel/timing_config.h"
+#include "rtl_sim/tb/rtl_params.h"
+
+namespace rtu::host {
+
+namespace {
+
+// Columns, in order; sweep_csv_line and read_sweep_csv follow it.
+const char* const kColumns[] = {"scene",
+                                "format",
+                                "bvh_width",
+                                "config",
+                                "rays",
+                                "hit_agreement",
+                                "prim_agreement",
+                                "false_misses",
+                                "false_hits",
+                                "t_rel_error_mean",
+                                "t_rel_error_max",
+                                "node_visit_overhead",
+                                "prim_test_overhead",
+                                "box_false_negatives",
+                                "psnr_db",
+                                "cycles",
+                                "cycles_per_ray",
+                                "bvh_bytes",
+                                "float_bvh_bytes",
+                                "rtl_cells",
+                                "rtl_transistors",
+                                "seconds"};
+constexpr size_t kColumnCount = sizeof(kColumns) / sizeof(kColumns[0]);
+
+std::string num(double v) {
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
+// A text field: quoted when it holds a comma or a quote (RFC 4180).
+std::string text(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string q(1, '"');
+  for (char c : s) {
+    q += c;
+    if (c == '"') q += c;
+  }
+  q += '"';
+  return q;
+}
+
+std::vector<std::string> split_csv(const std::string& line) {
+  std::vector<std::string> f(1);
+  bool quoted = false;
+  for (size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+        f.back() += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        f.back() += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      f.emplace_back();
+    } else {
+      f.back() += c;
+    }
+  }
+  return f;
+}
+
+double parse_double(const std::string& s, const std::string& where) {
+  if (s == "inf") return std::numeric_limits<double>::infinity();
+  if (s == "-inf") return -std::numeric_limits<double>::infinity();
+  double v = 0.0;
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (r.ec != std::errc() || r.ptr != s.data() + s.size() || s.empty())
+    throw Error(where + ": '" + s + "' is not a number");
+  return v;
+}
+
+template <class Int>
+Int parse_int(const std::string& s, const std::string& where) {
+  Int v = 0;
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (r.ec != std::errc() || r.ptr != s.data() + s.size() || s.empty())
+    throw Error(where + ": '" + s + "' is not an integer");
+  return v;
+}
+
+double ratio_minus_one(uint64_t a, uint64_t b) {
+  return b ? double(a) / double(b) - 1.0 : 0.0;
+}
+
+}  // namespace
+
+std::string SweepPoint::key() const {
+  std::string k = scene;
+  k += '|';
+  k += format;
+  k += '|';
+  k += std::to_string(bvh_width);
+  k += '|';
+  k += config;
+  return k;
+}
+
+// The float reference of one scene at one BVH width: its hits on the sweep's rays and its render.
+struct SweepCache {
+  struct Reference {
+    std::vector<hw::Hit> hits;
+    hw::TraversalStats stats;
+    uint64_t bvh_bytes = 0;
+    Image render;
+  };
+  std::vector<hw::Ray> rays;
+  std::map<int, Reference> by_width;
+};
+
+void SweepCacheDeleter::operator()(SweepCache* c) const {
+  delete c;
+}
+
+std::unique_ptr<SweepCache, SweepCacheDeleter> make_sweep_cache() {
+  return std::unique_ptr<SweepCache, SweepCacheDeleter>(new SweepCache);
+}
+
+AreaTable AreaTable::load(const std::string& path) {
+  AreaTable t;
+  std::ifstream in(path);
+  if (!in) throw Error("cannot read the area table " + path);
+  std::string line;
+  size_t n = 0;
+  std::vector<std::string> header;
+  while (std::getline(in, line)) {
+    ++n;
+    if (line.empty()) continue;
+    const std::vector<std::string> f = split_csv(line);
+    const std::string where = path + ":" + std::to_string(n);
+    if (header.empty()) {
+      header = f;
+      if (header.size() < 4 || header[0] != "params" || header[1] != "cells" || header[3] != "transistors")
+        throw Error(where + ": expected the header params,cells,flip_flops,transistors");
+      continue;
+    }
+    if (f.size() != header.size())
+      throw Error(where + ": " + std::to_string(f.size()) + " fields, expected " + std::to_string(header.size()));
+    t.by_params[f[0]] = Entry{parse_int<int64_t>(f[1], where), parse_int<int64_t>(f[3], where)};
+  }
+  return t;
+}
+
+SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOptions& o, const AreaTable& area,
+                         SweepCache& cache) {
+  const auto t0 = std::chrono::steady_clock::now();
+  SweepRow row;
+  row.p = p;
+  hw::FixedFormat format;
+  hw::TimingConfig timing;
+  try {
+    format = hw::format_from_spec(p.format);
+    format.width = p.bvh_width;
+    format.validate();
+    timing = hw::timing_preset(p.config);
+    hw::set_timing_key(timing, "bvh_width", std::to_string(p.bvh_width));
+  } catch (const std::invalid_argument& e) {
+    throw Error(std::string("sweep point ") + p.key() + ": " + e.what());
+  }
+  if (cache.rays.empty()) {
+    cache.rays = primary_rays(scene.camera, o.rays);
+    const std::vector<hw::Ray> inc = incoherent_rays(scene.geometry.bounds(), o.rays, o.seed);
+    cache.rays.insert(cache.rays.end(), inc.begin(), inc.end());
+  }
+  const std::vector<hw::Ray>& rays = cache.rays;
+  const size_t n = rays.size();
+  row.rays = n;
+  const int threads = o.threads;
+
+  DeviceOptions ref_opt;
+  ref_opt.name = "float";
+  ref_opt.tracer.bvh.width = p.bvh_width;
+  auto it = cache.by_width.find(p.bvh_width);
+  const auto ref = make_device(scene.geometry, ref_opt);
+  if (it == cache.by_width.end()) {
+    SweepCache::Reference r;
+    r.hits.resize(n);
+    ref->trace_batch(rays.data(), r.hits.data(), n, false, threads, r.stats);
+    if (const hw::Bvh* b = ref->bvh()) {
+      const hw::BvhFigures f = b->figures();
+      r.bvh_bytes = f.node_bytes + f.index_bytes;
+    }
+    r.bvh_bytes += ref->prim_bytes();
+    if (o.image_width > 0) {
+      RenderOptions ro;
+      ro.device = ref_opt;
+      ro.width = o.image_width;
+      ro.height = std::max(1, int(std::lround(double(o.image_width) * scene.camera.height / scene.camera.width)));
+      ro.max_depth = 2;
+      ro.threads = threads;
+      r.render = to_image(render(scene, ro));
+    }
+    it = cache.by_width.emplace(p.bvh_width, std::move(r)).first;
+  }
+  const SweepCache::Reference& refr = it->second;
+  row.float_bvh_bytes = refr.bvh_bytes;
+
+  DeviceOptions fixed_opt;
+  fixed_opt.name = "fixed";
+  fixed_opt.format = format;
+  fixed_opt.tracer.bvh.width = p.bvh_width;
+  fixed_opt.check_boxes = true;
+  const auto fixed = make_device(scene.geometry, fixed_opt);
+  std::vector<hw::Hit> hits(n);
+  hw::TraversalStats fs;
+  fixed->trace_batch(rays.data(), hits.data(), n, false, threads, fs);
+  std::vector<bool> valid(n);
+  for (size_t i = 0; i < n; ++i)
+    valid[i] = ref->ray_status(rays[i]) == hw::RayStatus::kOk && fixed->ray_status(rays[i]) == hw::RayStatus::kOk;
+  const HitComparison c = compare_hits(refr.hits, hits, valid, false);
+  row.hit_agreement = c.hit_agreement();
+  row.prim_agreement = c.prim_agreement();
+  row.false_misses = c.false_misses;
+  row.false_hits = c.false_hits;
+  row.t_rel_error_mean = c.t_rel_mean;
+  row.t_rel_error_max = c.t_rel_max;
+  row.node_visit_overhead = ratio_minus_one(fs.nodes_visited, refr.stats.nodes_visited);
+  row.prim_test_overhead = ratio_minus_one(fs.prim_tests, refr.stats.prim_tests);
+  row.box_false_negatives = fs.box_false_negatives;
+  row.bvh_bytes = fixed->image() ? fixed->image()->size() : 0;
+
+  if (o.image_width > 0) {
+    RenderOptions ro;
+    ro.device = fixed_opt;
+    ro.device.check_boxes = false;
+    ro.width = refr.render.width;
+    ro.height = refr.render.height;
+    ro.max_depth = 2;
+    ro.threads = threads;
+    row.psnr_db = diff_images(refr.render, to_image(render(scene, ro))).psnr_db;
+  }
+
+  DeviceOptions timed_opt = fixed_opt;
+  timed_opt.name = "timed";
+  timed_opt.check_boxes = false;
+  timed_opt.timing = timing;
+  const auto timed = make_device(scene.geometry, timed_opt);
+  hw::TraversalStats ts;
+  timed->trace_batch(rays.data(), hits.data(), n, false, threads, ts);
+  row.cycles = timed->timed()->timing().cycles;
+  row.cycles_per_ray = n ? double(row.cycles) / double(n) : 0.0;
+
+  try {
+    const std::string params =
+        rtl::verilator_args(rtl::box_unit_params(format, p.bvh_width, timing.box_rate, timing.box_latency));
+    const auto a = area.by_params.find(params);
+    if (a != area.by_params.end()) {
+      row.rtl_cells = a->second.cells;
+      row.rtl_transistors = a->second.transistors;
+    }
+  } catch (const std::invalid_argument&) {
+    // A wide format: the RTL unit has no such datapath (no area).
+  }
+  row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return row;
+}
+
+std::string sweep_csv_header() {
+  std::string s;
+  for (size_t i = 0; i < kColumnCount; ++i) {
+    if (i) s += ',';
+    s += kColumns[i];
+  }
+  return s;
+}
+
+std::string sweep_csv_line(const SweepRow& r) {
+  std::ostringstream o;
+  o << text(r.p.scene) << ',' << text(r.p.format) << ',' << r.p.bvh_width << ',' << text(r.p.config) << ','
+    << r.rays << ',' << num(r.hit_agreement) << ',' << num(r.prim_agreement) << ',' << r.false_misses << ','
+    << r.false_hits << ',' << num(r.t_rel_error_mean) << ',' << num(r.t_rel_error_max) << ','
+    << num(r.node_visit_overhead) << ',' << num(r.prim_test_overhead) << ',' << r.box_false_negatives << ','
+    << num(r.psnr_db) << ',' << r.cycles << ',' << num(r.cycles_per_ray) << ',' << r.bvh_bytes << ','
+    << r.float_bvh_bytes << ',' << r.rtl_cells << ',' << r.rtl_transistors << ',' << num(r.seconds);
+  return o.str();
+}
+
+std::vector<SweepRow> read_sweep_csv(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error("cannot read the sweep file " + path);
+  std::vector<SweepRow> rows;
+  std::string line;
+  size_t n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    const std::string where = path + ":" + std::to_string(n);
+    if (n == 1) {
+      if (line != sweep_csv_header())
+        throw Error(where + ": not a sweep file of this version (expected the header " + sweep_csv_header() + ")");
+      continue;
+    }
+    if (line.empty()) continue;
+    const std::vector<std::string> f = split_csv(line);
+    if (f.size() != kColumnCount)
+      throw Error(where + ": " + std::to_string(f.size()) + " fields, expected " + std::to_string(kColumnCount) +
+                  " (a row cut short? re-run the sweep to redo it)");
+    SweepRow r;
+    size_t k = 0;
+    r.p.scene = f[k++];
+    r.p.format = f[k++];
+    r.p.bvh_width = parse_int<int>(f[k++], where);
+    r.p.config = f[k++];
+    r.rays = parse_int<uint64_t>(f[k++], where);
+    r.hit_agreement = parse_double(f[k++], where);
+    r.prim_agreement = parse_double(f[k++], where);
+    r.false_misses = parse_int<uint64_t>(f[k++], where);
+    r.false_hits = parse_int<uint64_t>(f[k++], where);
+    r.t_rel_error_mean = parse_double(f[k++], where);
+    r.t_rel_error_max = parse_double(f[k++], where);
+    r.node_visit_overhead = parse_double(f[k++], where);
+    r.prim_test_overhead = parse_double(f[k++], where);
+    r.box_false_negatives = parse_int<uint64_t>(f[k++], where);
+    r.psnr_db = parse_double(f[k++], where);
+    r.cycles = parse_int<uint64_t>(f[k++], where);
+    r.cycles_per_ray = parse_double(f[k++], where);
+    r.bvh_bytes = parse_int<uint64_t>(f[k++], where);
+    r.float_bvh_bytes = parse_int<uint64_t>(f[k++], where);
+    r.rtl_cells = parse_int<int64_t>(f[k++], where);
+    r.rtl_transistors = parse_int<int64_t>(f[k++], where);
+    r.seconds = parse_double(f[k++], where);
+    rows.push_back(r);
+  }
+  if (n == 0) throw Error(path + ": empty (no header)");
+  return rows;
+}
+
+}  // namespace rtu::host

@@ -1,0 +1,79 @@
+// Run time against error: one point of a design sweep is a scene, a fixed-point format, a BVH width and a timing
+// preset. For each point the sweep measures accuracy against the float reference (the `compare` figures on
+// identical primary and incoherent rays, and the PSNR of a small firmware render), the simulated cycles of the
+// same rays on the timed device, the encoded BVH's bytes, the RTL box unit's area where a synthesis table knows
+// its parameters, and the simulator's own wall time. Rows go to a CSV that `rtusim sweep` resumes, shards and
+// merges and that `rtusim plan` and the plots read.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "host/scene.h"
+
+namespace rtu::host {
+
+struct SweepPoint {
+  std::string scene;   // load_scene spec
+  std::string format;  // hw::format_from_spec spec, e.g. "default" or "default:coord_bits=16"
+  int bvh_width = 4;
+  std::string config;       // timing preset
+  std::string key() const;  // scene|format|width|config: identifies a row
+};
+
+struct SweepRow {
+  SweepPoint p;
+  uint64_t rays = 0;  // compared and simulated (primary + incoherent)
+  double hit_agreement = 1.0, prim_agreement = 1.0;
+  uint64_t false_misses = 0, false_hits = 0;
+  double t_rel_error_mean = 0.0, t_rel_error_max = 0.0;
+  double node_visit_overhead = 0.0, prim_test_overhead = 0.0;
+  uint64_t box_false_negatives = 0;
+  double psnr_db = 0.0;  // fixed render against float render (inf when identical)
+  uint64_t cycles = 0;   // the rays on the timed device (closest hit)
+  double cycles_per_ray = 0.0;
+  uint64_t bvh_bytes = 0, float_bvh_bytes = 0;   // encoded nodes + records; the float BVH's nodes + indices
+  int64_t rtl_cells = -1, rtl_transistors = -1;  // -1: no synthesis result for this unit
+  double seconds = 0.0;                          // wall time of the point
+
+  double hit_disagreement() const { return 1.0 - hit_agreement; }
+};
+
+struct SweepOptions {
+  uint64_t rays = 20000;  // per kind: camera rays and as many incoherent rays (seed)
+  uint64_t seed = 1;
+  int image_width = 128;  // the PSNR render (1 sample per pixel, two bounces); 0: no render
+  int threads = 0;
+};
+
+// Synthesis results of the RTL box unit by its Verilator parameters (rtl_sim/tb/rtl_params.h verilator_args),
+// read from a CSV with the columns params,cells,flip_flops,transistors (bench/rtl_area.sh --csv writes it).
+struct AreaTable {
+  struct Entry {
+    int64_t cells = -1, transistors = -1;
+  };
+  std::map<std::string, Entry> by_params;
+  static AreaTable load(const std::string& path);  // throws Error for a malformed file
+};
+
+// Measures one point. `scene` must be the loaded p.scene. Caches the float reference per scene and width in
+// `cache` (opaque; keep one per scene).
+struct SweepCache;
+SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOptions& o, const AreaTable& area,
+                         SweepCache& cache);
+
+struct SweepCacheDeleter {
+  void operator()(SweepCache* c) const;
+};
+std::unique_ptr<SweepCache, SweepCacheDeleter> make_sweep_cache();
+
+// CSV: one header line, one row per point, in a fixed column order; numbers round-trip.
+std::string sweep_csv_header();
+std::string sweep_csv_line(const SweepRow& r);
+// Reads a sweep CSV (throws Error naming the line for a wrong header or a malformed row).
+std::vector<SweepRow> read_sweep_csv(const std::string& path);
+
+}  // namespace rtu::host

@@ -9,6 +9,8 @@
 #   bench/rtl_area.sh [BUILD] [RAYS] [MESH]
 #     BUILD  default build/default (needs rtusim and rtl_sim/rtu_rtl_params);  RAYS  incoherent rays, 300000
 #     MESH   default the IFC house of assimp-testmodels
+#   RTL_AREA_CSV=FILE also writes FILE with params,cells,flip_flops,transistors per unit (the Verilator -G
+#   options as key), the table `rtusim sweep --area` reads (bench/data/rtl_area.csv is this script's output).
 # Takes minutes per row (yosys's abc on the multipliers); not part of the test suite.
 set -euo pipefail
 build=${1:-build/default}
@@ -24,6 +26,8 @@ get() {  # get KEY FILE: a top-level number of the compare JSON (one key per lin
   sed -n "s/^  \"$1\": \([-0-9.e+]*\),*$/\1/p" "$2" | head -1
 }
 
+csv=${RTL_AREA_CSV:-}
+[ -n "$csv" ] && echo "params,cells,flip_flops,transistors" >"$csv"
 printf '| unit | format | N | lanes | cells | flip-flops | transistors (est.) | hit agreement | t rel err mean | node overhead | yosys s |\n'
 printf '|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n'
 while read -r label spec fmtkeys cmpopts; do
@@ -45,6 +49,7 @@ EOF
   cells=$(sed -n 's/^ *Number of cells: *\([0-9]*\)/\1/p' "$tmp/stat.txt" | tail -1)
   ffs=$(grep -E '^\s+\$_(S?DFF|DFF)[A-Z_0-9]*\s' "$tmp/stat.txt" | awk '{s+=$2} END{print s+0}')
   trans=$(sed -n 's/^ *Estimated number of transistors: *\([0-9+]*\)/\1/p' "$tmp/stat.txt" | tail -1)
+  [ -n "$csv" ] && echo "$(sed -E 's/-set ([A-Z]+) ([0-9]+)/-G\1=\2/g' <<<"$params"),$cells,$ffs,${trans%+}" >>"$csv"
   n=$(sed -n 's/.*-set N \([0-9]*\).*/\1/p' <<<"$params")
   lanes=$(sed -n 's/.*-set LANES \([0-9]*\).*/\1/p' <<<"$params")
   # shellcheck disable=SC2086

@@ -48,7 +48,8 @@ fs::path temp_dir() {
 }  // namespace
 
 TEST_CASE("every subcommand has --help", "[cli]") {
-  for (const char* sub : {"info", "rays", "trace", "compare", "stress", "demo", "diff", "config", "sweep"}) {
+  for (const char* sub :
+       {"info", "rays", "trace", "compare", "stress", "demo", "diff", "config", "sweep", "plan"}) {
     const Run r = run(std::string(sub) + " --help");
     INFO(r.output);
     CHECK(r.status == 0);
@@ -456,4 +457,44 @@ TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad 
   const Run e = run("sweep --scene builtin:seed --rays 10 --out " + (d / "foreign.csv").string());
   CHECK(e.status == 2);
   CHECK(e.output.find("not a sweep file") != std::string::npos);
+}
+
+TEST_CASE("plan: the fewest coordinate bits within the budget, and the reason; an impossible budget fails",
+          "[cli][sweep]") {
+  const fs::path d = temp_dir();
+  const std::string json = (d / "plan.json").string();
+  const Run r =
+      run("plan --scene builtin:cornell --max-error 2e-3 --bvh-width 4 --coord-bits 6,8,10,12,16 "
+          "--child-bits 6,8 --rays 3000 --image-width 0 --json " +
+          json);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  std::ifstream in(json);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  const auto& w = j["widths"][0];
+  REQUIRE(w["feasible"] == true);
+  const int b = w["coord_bits"];
+  // The chosen width meets the budget; the next fewer tried does not (or it was the fewest tried).
+  CHECK(w["error_at_coord_bits"].get<double>() <= 2e-3);
+  if (w.contains("fewer_coord_bits")) {
+    CHECK(w["fewer_coord_bits"].get<int>() < b);
+    CHECK(w["error_at_fewer_coord_bits"].get<double>() > 2e-3);
+    CHECK(r.output.find("why " + std::to_string(b) + " coordinate bits") != std::string::npos);
+  }
+  CHECK(j["plan"]["coord_bits"] == b);
+  CHECK(j["plan"]["error"].get<double>() <= 2e-3);
+  CHECK(j["plan"]["cycles"].get<uint64_t>() > 0);
+  // The plan skips bits: fewer than the default format's 24 are enough for this budget.
+  CHECK(b < 24);
+  // Every child-bit candidate that met the budget costs at least the chosen cycles.
+  for (const auto& k : w["child_bits"])
+    if (k["meets"] == true) CHECK(k["cycles"].get<uint64_t>() >= j["plan"]["cycles"].get<uint64_t>());
+  // No format can have a mean t error of exactly 0 at 2 coordinate bits only: exit 1, saying so.
+  const Run none =
+      run("plan --scene builtin:cornell --metric t --max-error 0 --bvh-width 4 --coord-bits 2 "
+          "--child-bits 8 --rays 500 --image-width 0");
+  CHECK(none.status == 1);
+  CHECK(none.output.find("no format meets") != std::string::npos);
+  CHECK(run("plan --scene builtin:cornell --max-error -1").status == 2);
+  CHECK(run("plan --scene builtin:cornell --max-error 1e-3 --metric psnr").status != 0);
 }

@@ -89,6 +89,41 @@ uint64_t TimingModel::line_access(uint64_t line, uint64_t t) {
   return victim->ready;
 }
 
+void TimingModel::warm(const std::vector<TraceEvent>* events, size_t m) {
+  if (m_cache.empty()) return;
+  const uint64_t lb = uint64_t(m_c.line_bytes);
+  for (size_t i = 0; i < m; ++i)
+    for (const TraceEvent& e : events[i]) {
+      uint64_t addr, bytes;
+      if (e.kind == TraceEvent::kNode) {
+        addr = m_layout.node_offset + uint64_t(e.index) * m_layout.node_bytes;
+        bytes = m_layout.node_bytes;
+      } else if (e.kind == TraceEvent::kPrim) {
+        addr = m_layout.record_offset + uint64_t(e.index) * kRecordBytes;
+        bytes = kRecordBytes;
+      } else if (e.kind == TraceEvent::kPlane) {
+        addr = m_layout.plane_offset + uint64_t(e.index) * sizeof(PlaneRecord);
+        bytes = sizeof(PlaneRecord);
+      } else {
+        continue;
+      }
+      for (uint64_t line = addr / lb; line <= (addr + bytes - 1) / lb; ++line) {
+        Line* ways = &m_cache[(line % m_sets) * uint64_t(m_c.cache_ways)];
+        Line* victim = ways;
+        bool hit = false;
+        for (int w = 0; w < m_c.cache_ways && !hit; ++w) {
+          if (ways[w].tag == line) {
+            ways[w].stamp = ++m_stamp;
+            hit = true;
+          } else if (ways[w].stamp < victim->stamp) {
+            victim = &ways[w];
+          }
+        }
+        if (!hit) *victim = Line{line, ++m_stamp, 0};  // in the cache, no time spent
+      }
+    }
+}
+
 uint64_t TimingModel::access(uint64_t addr, uint64_t bytes, uint64_t t) {
   const uint64_t lb = uint64_t(m_c.line_bytes);
   uint64_t ready = t;
@@ -428,7 +463,7 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   std::vector<std::vector<TraceEvent>> events;
   std::vector<uint64_t> done;
   m_model->record_done(&done);
-  uint64_t simulated = 0;
+  uint64_t simulated = 0, warmed = 0;
   // Simulates w warm-up rays, the u rays from `first` on and t tail rays after them as one packet (done: the
   // sorted hit-write cycles); returns the datapath statistics of the u rays. The measured rays' cost is read
   // between the w-th and the (w + u)-th hit written: with rays in flight on both sides, in steady state.
@@ -462,8 +497,17 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   const uint64_t offset = 1 + (m_sample.seed * 0x9E3779B97F4A7C15ull >> 32) % k;
   double sum_c = 0.0, sum_u = 0.0;
   std::vector<std::pair<double, double>> measured;  // (cycles, auxiliary) per measured unit
+  const size_t CW = m_sample.cache_warm_rays;
   for (size_t j = offset; j < last; j += k) {
     const size_t u0 = j * U, w = std::min(W, u0), t = std::min(tail, n - u0 - U);
+    const size_t cw = std::min(CW, u0 - w);
+    if (cw > 0) {  // functional warming of the cache by the rays before the detailed warm-up
+      events.resize(std::max(events.size(), cw));
+      TraversalStats other;
+      record(rays, nullptr, u0 - w - cw, cw, any_hit, other, events, 0);
+      m_model->warm(events.data(), cw);
+      warmed += cw;
+    }
     seg_stats.add(segment(u0, w, U, t));
     const double c = double(done[w + U - 1] - done[w - 1]);
     measured.push_back({c, aux[j]});
@@ -499,6 +543,7 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
     *f = scaled(*f);
   ++m_sample_stats.packets_sampled;
   m_sample_stats.rays_simulated += simulated;
+  m_sample_stats.rays_warmed += warmed;
   m_sample_stats.units_measured += measured.size();
   m_sample_stats.variance += var;
   return cycles;

@@ -97,6 +97,9 @@ class TimingModel {
   void set_trace(PipelineTrace* trace) { m_trace = trace; }
   void feed(const std::vector<TraceEvent>* events, size_t m);
   uint64_t finish();
+  // Functional warming (sampled timing): the cache takes the lines these rays' fetches touch, in order, with LRU
+  // updates, but no time passes and nothing is counted.
+  void warm(const std::vector<TraceEvent>* events, size_t m);
   // Appends the cycle each ray's hit is written (absolute, see clock()) to `done` (null: not recorded).
   void record_done(std::vector<uint64_t>* done) { m_done = done; }
   // The cycle the next packet starts at; advance_to() moves it forward (sampled simulation: the cycles a packet's
@@ -153,25 +156,30 @@ class TimingModel {
 // Sampled timing (SMARTS-style systematic sampling, Wunderlich et al., ISCA 2003): a TRACE packet is cut into
 // units of unit_rays consecutive rays. The first unit is simulated from the packet's start (its fill) and the last
 // to the packet's end (its drain); of the units between, every k-th (k = round(1 / fraction), from a seeded
-// offset) is simulated after warmup_rays rays simulated in detail but not measured (they refill the cache and
-// the slots) and before 4 x ray_slots tail rays, so that its cost, the cycles between the hit of the warm-up's
-// last ray and the unit's last hit counted in order of writing, is measured in steady state. The cycles of the
-// units between are a ratio estimate (Cochran, "Sampling Techniques", ch. 6): measured cycles / measured
-// auxiliary times the auxiliary of all of them, with a 95% confidence interval from the measured units' residuals
-// (finite-population corrected). The auxiliary is each unit's throughput bound from the datapath's test counts
-// when hits are needed (the datapath then traces every ray anyway; only the timing model is sampled), else its
-// ray count (only the sampled rays are traced: cycles only). Packets with fewer than 10 sampled units are
-// simulated in full. Timing counters (cache, DRAM, tests) are those of the simulated rays scaled to the packet.
+// offset) is simulated after cache_warm_rays rays whose fetches only warm the cache (functional warming, as
+// SMARTS does) and warmup_rays rays simulated in detail but not measured (slots and queues), and before 4 x
+// ray_slots tail rays, so that its cost, the cycles between the hit of the warm-up's last ray and the unit's last
+// hit counted in order of writing, is measured in steady state. The cycles of the units between are a ratio
+// estimate (Cochran, "Sampling Techniques", ch. 6): measured cycles / measured auxiliary times the auxiliary of
+// all of them, with a 95% confidence interval from the measured units' residuals (finite-population corrected).
+// The auxiliary is each unit's throughput bound from the datapath's test counts when hits are needed (the datapath
+// then traces every ray anyway; only the timing model is sampled), else its ray count (only the sampled rays are
+// traced: cycles only). Packets with fewer than 10 sampled units are simulated in full. Timing counters (cache,
+// DRAM, tests) are those of the simulated rays scaled to the packet.
 struct SampleOptions {
   double fraction = 0.0;  // 0 (or >= 1): simulate every ray
   uint32_t unit_rays = 256;
   uint32_t warmup_rays = 512;
+  // Rays before the detailed warm-up whose fetches only warm the cache (functional warming): coherent rays reuse
+  // the lines of rays far behind them (the previous image row), more than a detailed warm-up can afford.
+  uint32_t cache_warm_rays = 4096;
   uint64_t seed = 1;
   bool need_hits = true;
 };
 struct SampleStats {
   uint64_t packets = 0, packets_sampled = 0;  // TRACE packets, and those estimated from a sample
   uint64_t rays = 0, rays_simulated = 0;      // rays in them, and rays through the timing model (with warm-up)
+  uint64_t rays_warmed = 0;                   // rays traced only to warm the cache (functional warming)
   uint64_t units_measured = 0;
   double variance = 0.0;  // of the summed cycle estimate (0 for fully simulated packets)
   double ci95() const;    // half-width of the 95% confidence interval of the cycles, 1.96 sqrt(variance)

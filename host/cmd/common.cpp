@@ -353,6 +353,7 @@ Json sample_json(const hw::SampleStats& s) {
   j["packets_sampled"] = s.packets_sampled;
   j["rays"] = s.rays;
   j["rays_simulated"] = s.rays_simulated;
+  j["rays_warmed"] = s.rays_warmed;
   j["simulated_fraction"] = s.rays > 0 ? double(s.rays_simulated) / double(s.rays) : 0.0;
   j["units_measured"] = s.units_measured;
   j["cycles_ci95"] = s.ci95();

@@ -187,12 +187,19 @@ TEST_CASE("sampled timing estimates a packet's cycles within its interval; hits 
     // Every hit is the datapath's: only the timing model was sampled.
     CHECK(std::memcmp(hf.data(), hs.data(), n * sizeof(Hit)) == 0);
     CHECK(ss.box_tests == sf.box_tests);
-    // The estimate: inside twice its 95% half-width of the full simulation (a fixed seed makes this a
-    // deterministic check of the estimator and its interval, not a coin toss), and within 5%.
+    // The estimate lies inside twice its stated 95% half-width of the full simulation (a fixed seed makes this
+    // a deterministic check of the estimator and its interval, not a coin toss), and the interval is narrow
+    // enough to mean something: under 10% for 39 measured units of camera rays, whose cost varies tenfold
+    // between sky and geometry, and under 5% for incoherent rays, whose units cost alike (there the estimate
+    // must also be within 3%).
     CHECK(std::abs(est - double(exact)) <= 2.0 * ci);
-    CHECK(std::abs(est - double(exact)) <= 0.05 * double(exact));
     CHECK(ci > 0.0);
-    CHECK(ci < 0.1 * double(exact));
+    if (rays == &primary) {
+      CHECK(ci < 0.10 * double(exact));
+    } else {
+      CHECK(ci < 0.05 * double(exact));
+      CHECK(std::abs(est - double(exact)) <= 0.03 * double(exact));
+    }
     // About fraction * (warm-up + unit + tail) / unit of the rays went through the model, plus the first and last.
     CHECK(st.rays_simulated < n / 4);
 

@@ -202,6 +202,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
 
   DeviceOptions ref_opt;
   ref_opt.name = "float";
+  ref_opt.format.width = p.bvh_width;  // make_device builds every device's BVH at the format's width
   ref_opt.tracer.bvh.width = p.bvh_width;
   auto it = cache.by_width.find(p.bvh_width);
   const auto ref = make_device(scene.geometry, ref_opt);

@@ -62,11 +62,14 @@ class Raster {
     // Camera frame in double: eye, unit axes and the lengths of right and up (tan of the half angles).
     m_eye = glm::dvec3(job.eye.x, job.eye.y, job.eye.z);
     m_fwd = glm::dvec3(job.forward.x, job.forward.y, job.forward.z);
-    const glm::dvec3 r(job.right.x, job.right.y, job.right.z), u(job.up.x, job.up.y, job.up.z);
-    m_rlen = glm::length(r);
-    m_ulen = glm::length(u);
-    m_right = r / m_rlen;
-    m_up = u / m_ulen;
+    m_right = glm::dvec3(job.right.x, job.right.y, job.right.z);
+    m_up = glm::dvec3(job.up.x, job.up.y, job.up.z);
+    m_right2 = glm::dot(m_right, m_right);
+    m_up2 = glm::dot(m_up, m_up);
+    // The lengths only scale a sphere's bounding square (a pixel of margin): float square roots (the double
+    // one is a libm call here, and the firmware takes nothing from libm).
+    m_rlen = double(glm::length(vec(job.right)));
+    m_ulen = double(glm::length(vec(job.up)));
     if (job.raster_near > 0.0f) m_near = double(job.raster_near);
     m_gx = 1.0 + 2.0 * kGuardPixels / double(job.width);
     m_gy = 1.0 + 2.0 * kGuardPixels / double(job.height);
@@ -87,7 +90,7 @@ class Raster {
   CVert to_view(const F3& p, double u, double v) const {
     const glm::dvec3 d = glm::dvec3(p.x, p.y, p.z) - m_eye;
     // x, y scaled so that the image spans x/z in [-1, 1] (z the distance along forward).
-    return CVert{glm::dot(d, m_right) / m_rlen, glm::dot(d, m_up) / m_ulen, glm::dot(d, m_fwd), u, v};
+    return CVert{glm::dot(d, m_right) / m_right2, glm::dot(d, m_up) / m_up2, glm::dot(d, m_fwd), u, v};
   }
   // Signed distance of a view vertex to clip plane i (inside >= 0).
   double clip_distance(const CVert& c, int i) const {
@@ -144,7 +147,7 @@ class Raster {
   uint64_t m_p0 = 0, m_p1 = 0;  // pixels of the pass [p0, p1)
   int64_t m_y0 = 0, m_y1 = 0;   // its rows (inclusive)
   glm::dvec3 m_eye{0.0}, m_fwd{0.0}, m_right{0.0}, m_up{0.0};
-  double m_rlen = 1.0, m_ulen = 1.0, m_gx = 1.0, m_gy = 1.0;
+  double m_right2 = 1.0, m_up2 = 1.0, m_rlen = 1.0, m_ulen = 1.0, m_gx = 1.0, m_gy = 1.0;
   double m_near = 1e-6;  // > 0: projection divides by z
   int64_t m_smin = 0, m_smax = 0;
 };
@@ -347,7 +350,7 @@ void Raster::sphere(const SurfaceRecord& s, uint32_t prim) {
     const float disc = a * (radius * radius - glm::dot(l, l));
     if (!(disc >= 0.0f)) return;
     const float root = glm::sqrt(disc);
-    const float q = b + (b >= 0.0f ? root : -root);
+    const float q = b + __builtin_copysignf(root, b);  // the sign of b, -0 included, as the reference
     float t0 = 0.0f, t1 = 0.0f;
     if (q != 0.0f) {
       t0 = ff / q;

@@ -4,6 +4,7 @@
 
 #include "host/cmd/common.h"
 #include "host/error.h"
+#include "host/image_diff.h"
 #include "host/render.h"
 
 namespace rtu::host::cmd {
@@ -16,7 +17,7 @@ struct RenderArgs {
   int threads = 0;
   int width = 0, height = 0, spp = 1, max_depth = 4;
   uint32_t seed = 1;
-  bool ao = false, no_indirect = false;
+  bool ao = false, no_indirect = false, compare_modes = false;
   float ao_distance = 0.0f;
   std::vector<float> background{0.0f, 0.0f, 0.0f};
   PipelineTraceArgs pipeline;
@@ -59,10 +60,60 @@ void run_render(const RenderArgs& a) {
                   (unsigned long long)r.frame_cycles);
   }
   std::printf("  wrote %s\n", a.out.c_str());
+  Json modes;
+  if (a.compare_modes) {
+    // The other mode on the same device, for what hybrid saves: rays, cycles (timed) and the image difference.
+    RenderOptions other = o;
+    other.hybrid = !o.hybrid;
+    other.pipeline_trace = nullptr;
+    const RenderResult r2 = render(scene, other);
+    const RenderResult& rt = o.hybrid ? r2 : r;
+    const RenderResult& hy = o.hybrid ? r : r2;
+    auto total = [](const RenderResult& x) {
+      uint64_t n = 0;
+      for (uint64_t k : x.fw.rays) n += k;
+      return n;
+    };
+    auto mode = [&](const RenderResult& x) {
+      Json m = {{"rays_total", total(x)},
+                {"primary_rays", x.fw.rays[int(hw::cmd::RayType::kPrimary)]},
+                {"seconds", x.seconds}};
+      if (x.timed) {
+        m["raster_cycles"] = x.raster_cycles.cycles;
+        m["trace_cycles"] = x.device_clock;
+        m["frame_cycles"] = x.frame_cycles;
+      }
+      return m;
+    };
+    const ImageDiff d = diff_images(to_image(rt), to_image(hy));
+    // Saved: the primary rays hybrid did not trace. The secondary rays of the two differ a little where the
+    // primary hits do (edges), so the totals' difference is reported beside it.
+    const uint64_t saved =
+        rt.fw.rays[int(hw::cmd::RayType::kPrimary)] - hy.fw.rays[int(hw::cmd::RayType::kPrimary)];
+    modes = {{"raytrace", mode(rt)},
+             {"hybrid", mode(hy)},
+             {"rays_saved", saved},
+             {"rays_total_difference", int64_t(total(rt)) - int64_t(total(hy))}};
+    modes["psnr_db"] = d.identical() ? Json(nullptr) : Json(d.psnr_db);
+    modes["pixels_differing"] = d.pixels_differing;
+    std::printf(
+        "  modes: raytrace %llu rays, hybrid %llu rays (%llu primary rays saved); images: PSNR %.2f dB, %llu "
+        "pixels differ\n",
+        (unsigned long long)total(rt), (unsigned long long)total(hy), (unsigned long long)(total(rt) - total(hy)),
+        d.identical() ? 999.0 : d.psnr_db, (unsigned long long)d.pixels_differing);
+    if (r.timed) {
+      modes["frame_cycles_ratio"] = double(hy.frame_cycles) / double(rt.frame_cycles);
+      std::printf("  modes: raytrace %llu cycles, hybrid %llu cycles (raster %llu + trace %llu): %.3fx\n",
+                  (unsigned long long)rt.frame_cycles, (unsigned long long)hy.frame_cycles,
+                  (unsigned long long)hy.raster_cycles.cycles, (unsigned long long)hy.device_clock,
+                  double(rt.frame_cycles) / double(hy.frame_cycles));
+    }
+  }
   if (!a.stats.empty()) {
     Json j = render_json(r, o);
     j["scene"] = scene.name;
     j["image"] = a.out;
+    if (a.compare_modes) j["modes"] = modes;
     write_json(a.stats, j);
     std::printf("  wrote %s\n", a.stats.c_str());
   }
@@ -89,6 +140,9 @@ void add_render(CLI::App& app) {
          "into a G-buffer, only secondary rays traced")
       ->check(CLI::IsMember({"raytrace", "hybrid"}))
       ->capture_default_str();
+  sub->add_flag("--compare-modes", a->compare_modes,
+                "also render in the other mode on the same device and report both: rays, cycles (timed), the "
+                "rays hybrid saved and the images' PSNR (stats JSON key `modes`)");
   sub->add_option("--threads", a->threads, "unit worker threads (0 = all cores); the image does not depend on it")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();

@@ -382,3 +382,42 @@ TEST_CASE("config: unknown preset or key, bad values, malformed --set: exit 2 na
     CHECK(r.output.find(c.words) != std::string::npos);
   }
 }
+
+TEST_CASE("render --mode hybrid on the timed device: raster and trace cycles, rays saved, both modes",
+          "[cli][hybrid]") {
+  const fs::path d = temp_dir();
+  const std::string stats = (d / "hy.json").string();
+  const Run r =
+      run("render --scene builtin:seed --width 80 --height 60 --device timed --mode hybrid --max-depth 2 "
+          "--compare-modes --threads 2 --out " +
+          (d / "hy.png").string() + " --stats " + stats);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(r.output.find("rasterizer:") != std::string::npos);
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+  CHECK(j["render_mode"] == "hybrid");
+  CHECK(j["rays"]["primary"] == 0);
+  CHECK(j["rays_saved"]["primary"] == 80 * 60);
+  CHECK(j["raster"]["fragments"].get<uint64_t>() > 0);
+  const auto& t = j["timing"];
+  CHECK(t["raster_cycles"].get<uint64_t>() > 0);
+  CHECK(t["raster"]["limit"].is_string());
+  CHECK(t["frame_cycles"].get<uint64_t>() ==
+        t["raster_cycles"].get<uint64_t>() + t["trace_cycles"].get<uint64_t>());
+  CHECK(t["config"]["raster_setup_cycles"].is_number());
+  // Both modes: the raytrace render traced the primary rays hybrid saved, and its frame has no raster cycles.
+  const auto& m = j["modes"];
+  CHECK(m["raytrace"]["primary_rays"] == 80 * 60);
+  CHECK(m["hybrid"]["primary_rays"] == 0);
+  CHECK(m["rays_saved"] == 80 * 60);
+  CHECK(m["raytrace"]["raster_cycles"] == 0);
+  CHECK(m["raytrace"]["frame_cycles"] == m["raytrace"]["trace_cycles"]);
+  CHECK(m["hybrid"]["frame_cycles"] == t["frame_cycles"]);
+  CHECK((m["psnr_db"].is_null() || m["psnr_db"].get<double>() >= 30.0));
+  // raytrace is the default; an unknown mode is refused.
+  const Run rt = run("render --scene builtin:cornell --width 16 --height 16 --out " + (d / "rt.png").string() +
+                     " --stats " + (d / "rt.json").string());
+  REQUIRE(rt.status == 0);
+  CHECK(nlohmann::json::parse(std::ifstream(d / "rt.json"))["render_mode"] == "raytrace");
+  CHECK(run("render --scene builtin:cornell --mode raster --out " + (d / "x.png").string()).status != 0);
+}

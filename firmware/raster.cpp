@@ -11,6 +11,8 @@ using V = glm::vec3;
 
 constexpr float kInf = __builtin_inff();
 constexpr int64_t kOne = int64_t(1) << kSubpixelBits;
+// The edge functions' range (raster.h): coordinates below 2^27, products below 2^55, sums below 2^57.
+static_assert((double(kMaxRasterSide) + kGuardPixels) * double(kOne) < double(int64_t(1) << 27));
 
 V vec(const F3& f) {
   return V(f.x, f.y, f.z);
@@ -59,7 +61,8 @@ class Raster {
     m_p1 = (first + n - 1) / spp + 1;
     m_y0 = int64_t(m_p0 / job.width);
     m_y1 = int64_t((m_p1 - 1) / job.width);
-    // Camera frame in double: eye, unit axes and the lengths of right and up (tan of the half angles).
+    // Camera frame in double: eye, forward (unit), right and up (orthogonal to forward, with the lengths
+    // tan(fov/2) of the half angles, as RenderJob defines them) and their squared lengths.
     m_eye = glm::dvec3(job.eye.x, job.eye.y, job.eye.z);
     m_fwd = glm::dvec3(job.forward.x, job.forward.y, job.forward.z);
     m_right = glm::dvec3(job.right.x, job.right.y, job.right.z);

@@ -258,6 +258,7 @@ Status Renderer::run(Arena& arena) {
   // Hybrid mode with jittered samples adds each sample's offset in its pixel (the rasterizer's positions).
   const bool hybrid = (j.flags & kRenderHybrid) != 0;
   m_st.hybrid = hybrid;
+  if (hybrid && (j.width > kMaxRasterSide || j.height > kMaxRasterSide)) return Status::kBadArgument;
   const bool jitter_table = hybrid && j.spp > 1;
   const uint64_t per_path = 2 * sizeof(Path) + 2 * sizeof(hw::Ray) + sizeof(hw::Hit) + 1 +
                             uint64_t(m_shadow_slots) * (sizeof(hw::Ray) + sizeof(hw::Hit) + sizeof(Pending)) +

@@ -50,6 +50,9 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   if (o.max_depth < 0 || o.max_depth > 64) throw Error("render: max depth must be in [0, 64]");
   if (uint64_t(res.width) * uint64_t(res.height) > (uint64_t(1) << 28))
     throw Error("render: image too large (at most 2^28 pixels)");
+  if (o.hybrid && (uint32_t(res.width) > fw::kMaxRasterSide || uint32_t(res.height) > fw::kMaxRasterSide))
+    throw Error("render: hybrid mode rasterizes images of at most " + std::to_string(fw::kMaxRasterSide) +
+                " pixels a side");
 
   // The unit's scene image, and the offsets spawned rays need on this device.
   std::vector<uint64_t> image_words;

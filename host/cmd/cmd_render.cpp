@@ -252,6 +252,7 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
     skipped["diffuse"] = o.ao ? "ambient occlusion instead"
                               : (!o.indirect ? "indirect light off" : "no diffuse material or max depth 0");
   if (!r.fw.need_occlusion) skipped["occlusion"] = o.ao ? "no diffuse material" : "ambient occlusion off";
+  if (r.fw.hybrid) skipped["primary"] = "rasterized (hybrid mode)";
   if (r.counts.triangles == 0) skipped["triangle_unit"] = "no triangles";
   if (r.counts.spheres == 0) skipped["sphere_unit"] = "no spheres";
   if (r.counts.planes == 0) skipped["plane_unit"] = "no planes";

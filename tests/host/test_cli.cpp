@@ -399,6 +399,7 @@ TEST_CASE("render --mode hybrid on the timed device: raster and trace cycles, ra
   CHECK(j["rays"]["primary"] == 0);
   CHECK(j["rays_saved"]["primary"] == 80 * 60);
   CHECK(j["raster"]["fragments"].get<uint64_t>() > 0);
+  CHECK(j["skipped"]["primary"] == "rasterized (hybrid mode)");
   const auto& t = j["timing"];
   CHECK(t["raster_cycles"].get<uint64_t>() > 0);
   CHECK(t["raster"]["limit"].is_string());

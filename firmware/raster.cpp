@@ -211,6 +211,9 @@ void Raster::raster_piece(SVert a, SVert b, SVert c, const PlaneEq& plane, uint3
   // Pixels whose samples (at x * kOne + [smin, smax]) can fall in the bounding box.
   const int64_t x0 = ceil_div(minX - m_smax, kOne), x1 = floor_div(maxX - m_smin, kOne);
   const int64_t y0 = ceil_div(minY - m_smax, kOne), y1 = floor_div(maxY - m_smin, kOne);
+  // Culled before setup: no sample position in the bounding box (a small triangle between the samples, as GPUs
+  // cull them), or the box outside the image or the pass's rows.
+  if (x0 > x1 || y0 > y1) return;
   if (x1 < 0 || x0 > int64_t(m_job.width) - 1 || y1 < m_y0 || y0 > m_y1) return;
   ++m_st.setups;
   const double za = 1.0 / a.z, zb = 1.0 / b.z, zc = 1.0 / c.z;

@@ -217,6 +217,18 @@ TEST_CASE("raster: a triangle entirely behind the eye or beside the view is cull
   CHECK(st.samples_tested == 0);
   CHECK(st.prims_read == 2);
   CHECK(st.clears == 256);
+  // A small triangle between the pixel centers holds no sample in its bounding box: culled before setup. Moved
+  // over a center (3.5, 3.5) it is set up and covers that one sample.
+  for (double shift : {0.0, -0.25}) {
+    CAPTURE(shift);
+    RasterStats s2;
+    const double a = 3.55 + shift;  // (3.55, 4.2): no center inside; (3.3, 3.95): (3.5, 3.5) inside
+    const std::vector<Hit> g2 = raster(
+        j, {triangle(at_pixel(j, a, a, 2.0), at_pixel(j, a + 0.65, a, 2.0), at_pixel(j, a, a + 0.65, 2.0))}, s2);
+    CHECK(s2.setups == (shift == 0.0 ? 0u : 1u));
+    CHECK(s2.triangles_culled == (shift == 0.0 ? 1u : 0u));
+    CHECK(covered(g2) == (shift == 0.0 ? 0u : 1u));
+  }
 }
 
 TEST_CASE("raster: sphere impostors and plane passes equal the float reference at every sample", "[raster]") {

@@ -225,6 +225,20 @@ TEST_CASE("hybrid on the timed device: exact raster cycles from the configuratio
   }
 }
 
+TEST_CASE("hybrid renders repeat bit for bit, cycles included, whatever the thread count", "[hybrid][timing]") {
+  const Scene s = rtu::host::load_scene("builtin:seed");
+  RenderOptions o = options("timed", true, 80, 60);
+  o.spp = 2;
+  o.max_depth = 2;
+  const RenderResult a = rtu::host::render(s, o);
+  o.threads = 1;
+  const RenderResult b = rtu::host::render(s, o);
+  CHECK(a.rgb == b.rgb);
+  CHECK(a.frame_cycles == b.frame_cycles);
+  CHECK(a.raster_cycles.cycles == b.raster_cycles.cycles);
+  CHECK(a.raster_cycles.cycles > 0);
+}
+
 TEST_CASE("hybrid cost model: each stage limits in turn, latency per pass", "[hybrid][timing]") {
   rtu::hw::TimingConfig c = rtu::hw::timing_preset("rdna2");
   c.raster_setup_cycles = 2.0;

@@ -39,7 +39,7 @@ cases=(
   "builtin:icosphere|640|480|1|0|"
   "builtin:icosphere?subdiv=8|640|480|1|0|"
 )
-[ -r "$suzanne" ] && cases+=("$suzanne|320|240|1|0|" "$suzanne|1280|960|1|0|")
+[ -r "$suzanne" ] && cases+=("$suzanne|160|120|1|0|" "$suzanne|320|240|1|0|" "$suzanne|1280|960|1|0|")
 
 printf '| preset | scene | size, spp, depth | raytrace rays | hybrid rays | raytrace cycles | hybrid raster cycles (limit) | hybrid trace cycles | hybrid speedup | PSNR dB |\n'
 printf '|---|---|---|---:|---:|---:|---:|---:|---:|---:|\n'

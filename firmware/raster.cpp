@@ -28,6 +28,13 @@ int64_t floor_div(int64_t a, int64_t b) {  // b > 0
 int64_t ceil_div(int64_t a, int64_t b) {  // b > 0
   return -floor_div(-a, b);
 }
+// Finite and within a range where products of a few coordinates stay finite in double (NaN fails too).
+bool usable(double v) {
+  return v > -1e100 && v < 1e100;
+}
+bool usable(const F3& f) {
+  return usable(double(f.x)) && usable(double(f.y)) && usable(double(f.z));
+}
 double dmin(double a, double b) {
   return a < b ? a : b;
 }
@@ -241,6 +248,12 @@ void Raster::raster_piece(SVert a, SVert b, SVert c, const PlaneEq& plane, uint3
 }
 
 void Raster::triangle(const SurfaceRecord& s, uint32_t prim) {
+  // A record the host would not write (NaN or infinite coordinates) draws nothing rather than reaching the
+  // float-to-integer conversions with a value they cannot represent.
+  if (!usable(s.a) || !usable(s.b) || !usable(s.c)) {
+    ++m_st.triangles_culled;
+    return;
+  }
   CVert poly[kMaxPolygon + 1] = {to_view(s.a, 0.0, 0.0), to_view(s.b, 1.0, 0.0), to_view(s.c, 0.0, 1.0)};
   int count = 3;
   // Outcodes against the view frustum (clip space with w = z: x > w is right of the image) and the near plane:
@@ -312,6 +325,7 @@ void Raster::triangle(const SurfaceRecord& s, uint32_t prim) {
 }
 
 void Raster::sphere(const SurfaceRecord& s, uint32_t prim) {
+  if (!usable(s.a) || !(s.b.x > 0.0f && usable(double(s.b.x)))) return;  // not a sphere the host would write
   const CVert c = to_view(s.a, 0.0, 0.0);
   const double r = double(s.b.x);
   if (c.z + r <= 0.0) return;  // behind the eye
@@ -391,7 +405,8 @@ void Raster::plane(const SurfaceRecord& s, uint32_t prim) {
 
 void rasterize(const RenderJob& job, const SurfaceRecord* surfaces, const SampleOffset* offsets, uint64_t first,
                uint32_t n, hw::Hit* gbuf, RasterStats& stats) {
-  if (n == 0 || job.width == 0 || job.height == 0) return;
+  if (n == 0 || job.width == 0 || job.height == 0 || job.width > kMaxRasterSide || job.height > kMaxRasterSide)
+    return;
   ++stats.passes;
   Raster r(job, offsets, first, n, gbuf, stats);
   r.clear();

@@ -57,7 +57,9 @@ struct RasterStats {
 // into gbuf[0, n): texel k - first is the nearest primitive at that sample as a hit record: t along the
 // normalized camera ray, the primitive index, u, v (triangle barycentrics, p = (1-u-v) v0 + u v1 + v v2; 0, 0
 // for spheres and planes, whose normal follows from the hit point), or a miss (t = +inf, prim = kMissPrim).
-// offsets[k - first] is the sample's offset in its pixel (null at 1 spp: pixel centers).
+// offsets[k - first] is the sample's offset in its pixel (null at 1 spp: pixel centers). Draws nothing on an
+// image wider or taller than kMaxRasterSide; primitives with NaN or infinite coordinates (records the host
+// does not write) draw nothing.
 void rasterize(const RenderJob& job, const SurfaceRecord* surfaces, const SampleOffset* offsets, uint64_t first,
                uint32_t n, hw::Hit* gbuf, RasterStats& stats);
 

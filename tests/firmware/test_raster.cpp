@@ -323,3 +323,30 @@ TEST_CASE("raster: a pass over part of the image touches only its samples", "[ra
   CHECK(st.clears == total);
   CHECK(st.prims_read == 2 * st.passes);
 }
+
+TEST_CASE("raster: records with NaN or infinite coordinates draw nothing and break nothing", "[raster]") {
+  // The host validates scenes, so these come only from corrupted memory: they must not reach a float-to-integer
+  // conversion out of range (undefined behaviour; the sanitizer build runs this) nor write outside the G-buffer.
+  const RenderJob j = camera_job(16, 12);
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  const std::vector<SurfaceRecord> prims = {
+      triangle({nan, 0.0f, 2.0f}, {1.0f, 0.0f, 2.0f}, {0.0f, 1.0f, 2.0f}),
+      triangle({-inf, -1.0f, 2.0f}, {inf, -1.0f, 2.0f}, {0.0f, 1.0f, 2.0f}),
+      triangle({-1e38f, -1e38f, 1e38f}, {1e38f, -1e38f, 1e38f}, {0.0f, 1e38f, 1e38f}),  // huge but finite
+      {uint32_t(SurfaceKind::kSphere), 0, {0.0f, 0.0f, 3.0f}, {nan, 0.0f, 0.0f}, {}},
+      {uint32_t(SurfaceKind::kSphere), 0, {0.0f, inf, 3.0f}, {1.0f, 0.0f, 0.0f}, {}},
+      {uint32_t(SurfaceKind::kPlane), 0, {nan, 1.0f, 0.0f}, {0.0f, 0.0f, 0.0f}, {}},
+  };
+  RasterStats st;
+  std::vector<Hit> g = raster(j, prims, st);
+  CHECK(st.prims_read == prims.size());
+  CHECK(st.triangles_culled >= 2);
+  // Only the huge finite triangle may cover samples (it spans the view at depth 1e38).
+  for (const Hit& h : g) CHECK((!h.hit() || h.prim == 2));
+  // Too wide an image: nothing is drawn (the renderer refuses it before).
+  RenderJob wide = camera_job(rtu::fw::kMaxRasterSide + 1, 1);
+  wide.num_prims = 1;
+  std::vector<Hit> one(4);
+  rtu::fw::rasterize(wide, prims.data() + 2, nullptr, 0, 4, one.data(), st);
+  for (const Hit& h : one) CHECK_FALSE(h.hit());
+}

@@ -96,11 +96,13 @@ void run_render(const RenderArgs& a) {
              {"rays_total_difference", int64_t(total(rt)) - int64_t(total(hy))}};
     modes["psnr_db"] = d.identical() ? Json(nullptr) : Json(d.psnr_db);
     modes["pixels_differing"] = d.pixels_differing;
+    char psnr[32];
+    std::snprintf(psnr, sizeof psnr, d.identical() ? "inf" : "%.2f", d.psnr_db);
     std::printf(
-        "  modes: raytrace %llu rays, hybrid %llu rays (%llu primary rays saved); images: PSNR %.2f dB, %llu "
+        "  modes: raytrace %llu rays, hybrid %llu rays (%llu primary rays saved); images: PSNR %s dB, %llu "
         "pixels differ\n",
-        (unsigned long long)total(rt), (unsigned long long)total(hy), (unsigned long long)(total(rt) - total(hy)),
-        d.identical() ? 999.0 : d.psnr_db, (unsigned long long)d.pixels_differing);
+        (unsigned long long)total(rt), (unsigned long long)total(hy), (unsigned long long)saved, psnr,
+        (unsigned long long)d.pixels_differing);
     if (r.timed) {
       modes["frame_cycles_ratio"] = double(hy.frame_cycles) / double(rt.frame_cycles);
       std::printf("  modes: raytrace %llu cycles, hybrid %llu cycles (raster %llu + trace %llu): %.3fx\n",

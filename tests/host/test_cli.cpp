@@ -394,6 +394,7 @@ TEST_CASE("render --mode hybrid on the timed device: raster and trace cycles, ra
   INFO(r.output);
   REQUIRE(r.status == 0);
   CHECK(r.output.find("rasterizer:") != std::string::npos);
+  CHECK(r.output.find("(4800 primary rays saved)") != std::string::npos);
   const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
   CHECK(j["render_mode"] == "hybrid");
   CHECK(j["rays"]["primary"] == 0);

@@ -48,7 +48,8 @@ static_assert(sizeof(LightRecord) == 52);
 
 // Render flags.
 inline constexpr uint32_t kRenderIndirect = 1u << 0;  // diffuse indirect bounces (path tracing)
-inline constexpr uint32_t kRenderAo = 1u << 1;  // ambient occlusion at diffuse hits instead of indirect light
+inline constexpr uint32_t kRenderAo = 1u << 1;      // ambient occlusion at diffuse hits instead of indirect light
+inline constexpr uint32_t kRenderHybrid = 1u << 2;  // primary visibility by the rasterizer (firmware/raster.h)
 
 struct RenderJob {
   // Image and sampling.
@@ -68,14 +69,16 @@ struct RenderJob {
   // grid steps).
   float offset_abs, offset_rel;
   uint32_t num_prims, num_materials, num_lights;
-  uint32_t reserved;     // 0
-  uint64_t scene_bytes;  // bytes of the unit's scene image (BIND_SCENE)
-  uint64_t scene_image;  // device address of the unit's scene image
-  uint64_t surfaces;     // SurfaceRecord[num_prims]
-  uint64_t materials;    // MaterialRecord[num_materials]
-  uint64_t lights;       // LightRecord[num_lights]
-  uint64_t framebuffer;  // float[width * height * 3], linear RGB, written by the renderer (row 0 on top)
+  float raster_near;      // hybrid: the rasterizer's near plane, view-space distance along forward (> 0)
+  uint64_t scene_bytes;   // bytes of the unit's scene image (BIND_SCENE)
+  uint64_t scene_image;   // device address of the unit's scene image
+  uint64_t surfaces;      // SurfaceRecord[num_prims] (also the rasterizer's primitive table)
+  uint64_t materials;     // MaterialRecord[num_materials]
+  uint64_t lights;        // LightRecord[num_lights]
+  uint64_t framebuffer;   // float[width * height * 3], linear RGB, written by the renderer (row 0 on top)
+  uint64_t primary_hits;  // 0, or hw::Hit[width * height * spp]: each camera sample's primary hit (the G-buffer
+                          // texel in hybrid mode, the traced hit otherwise), in path order
 };
-static_assert(sizeof(RenderJob) == 160);
+static_assert(sizeof(RenderJob) == 168);
 
 }  // namespace rtu::fw

@@ -2,6 +2,8 @@
 
 #include <glm/glm.hpp>
 
+#include "firmware/raster.h"
+#include "firmware/sampling.h"
 #include "hwmodel/ray.h"
 
 namespace rtu::fw {
@@ -16,24 +18,6 @@ constexpr float kInf = __builtin_inff();
 
 V vec(const F3& f) {
   return V(f.x, f.y, f.z);
-}
-
-// splitmix64's finalizer: a counter-based generator, so every sample's numbers depend only on what it is.
-uint64_t mix(uint64_t x) {
-  x += 0x9E3779B97F4A7C15ull;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-  return x ^ (x >> 31);
-}
-struct Rng {
-  uint64_t state;
-  float next() {  // uniform in [0, 1), 24 bits
-    state = mix(state);
-    return float(state >> 40) * (1.0f / 16777216.0f);
-  }
-};
-Rng rng_for(uint32_t seed, uint32_t pixel, uint32_t sample, uint32_t bounce) {
-  return Rng{mix(mix(mix(uint64_t(seed) << 32 | pixel) ^ sample) ^ (uint64_t(bounce) << 40))};
 }
 
 // Cosine-weighted direction around unit n: a point of the unit disk by rejection (no trigonometry in the
@@ -128,14 +112,8 @@ class Renderer {
 
 hw::Ray Renderer::camera_ray(uint32_t pixel, uint32_t sample) const {
   const uint32_t x = pixel % m_job.width, y = pixel / m_job.width;
-  float jx = 0.5f, jy = 0.5f;
-  if (m_job.spp > 1) {
-    Rng rng = rng_for(m_job.seed, pixel, sample, 0xFFFFu);
-    jx = rng.next();
-    jy = rng.next();
-  }
-  const float sx = 2.0f * (float(x) + jx) / float(m_job.width) - 1.0f;
-  const float sy = 1.0f - 2.0f * (float(y) + jy) / float(m_job.height);
+  float sx, sy;
+  image_plane(m_job, x, y, sample_offset(m_job, pixel, sample), sx, sy);
   const V d = glm::normalize(vec(m_job.forward) + sx * vec(m_job.right) + sy * vec(m_job.up));
   return hw::Ray{vec(m_job.eye), 0.0f, d, kInf};
 }
@@ -277,8 +255,14 @@ Status Renderer::run(Arena& arena) {
 
   // Batch size: what the arena holds, per path: two path states, two ray buffers and a hit buffer, a type
   // byte, and per shadow slot a ray, a hit and a pending contribution.
+  // Hybrid mode with jittered samples adds each sample's offset in its pixel (the rasterizer's positions).
+  const bool hybrid = (j.flags & kRenderHybrid) != 0;
+  m_st.hybrid = hybrid;
+  if (hybrid && (j.width > kMaxRasterSide || j.height > kMaxRasterSide)) return Status::kBadArgument;
+  const bool jitter_table = hybrid && j.spp > 1;
   const uint64_t per_path = 2 * sizeof(Path) + 2 * sizeof(hw::Ray) + sizeof(hw::Hit) + 1 +
-                            uint64_t(m_shadow_slots) * (sizeof(hw::Ray) + sizeof(hw::Hit) + sizeof(Pending));
+                            uint64_t(m_shadow_slots) * (sizeof(hw::Ray) + sizeof(hw::Hit) + sizeof(Pending)) +
+                            (jitter_table ? sizeof(SampleOffset) : 0);
   const uint64_t room = arena.size() > arena.used() + 1024 ? arena.size() - arena.used() - 1024 : 0;
   uint64_t batch = room / per_path;
   if (batch > m_st.paths) batch = m_st.paths;
@@ -293,6 +277,8 @@ Status Renderer::run(Arena& arena) {
   m_shadow_rays = arena.alloc(shadow_n * sizeof(hw::Ray) + 16);
   m_shadow_hits = arena.alloc(shadow_n * sizeof(hw::Hit) + 16);
   m_pending = arena.alloc(shadow_n * sizeof(Pending) + 16);
+  const uint64_t a_offsets = jitter_table ? arena.alloc(batch * sizeof(SampleOffset)) : 0;
+  if (a_offsets == Arena::kNull) return Status::kNoMemory;
   if (a_paths == Arena::kNull || a_next_paths == Arena::kNull || a_rays == Arena::kNull ||
       a_next_rays == Arena::kNull || a_hits == Arena::kNull || a_types == Arena::kNull ||
       m_shadow_rays == Arena::kNull || m_shadow_hits == Arena::kNull || m_pending == Arena::kNull)
@@ -320,19 +306,35 @@ Status Renderer::run(Arena& arena) {
       paths[i] = Path{V(1.0f), uint32_t(k / spp), uint32_t(k % spp), 1};
       rays[i] = camera_ray(paths[i].pixel, paths[i].sample);
     }
+    if (hybrid) {
+      // Primary visibility from the rasterizer: the G-buffer is the primary hit buffer, the camera rays stay
+      // for shading (their origin and direction) but are not traced.
+      SampleOffset* offsets = jitter_table ? at<SampleOffset>(m_hal, a_offsets) : nullptr;
+      if (offsets)
+        for (uint32_t i = 0; i < n; ++i) offsets[i] = sample_offset(j, paths[i].pixel, paths[i].sample);
+      rasterize(j, m_surf, offsets, first, n, at<hw::Hit>(m_hal, a_hits), m_st.raster);
+      m_st.primary_rasterized += n;
+    }
     // Segments of the current ray buffer by type: [seg_begin[t], seg_begin[t] + seg_count[t]).
-    uint32_t seg_begin[kNumBounceTypes + 1] = {0, 0, 0, 0}, seg_count[kNumBounceTypes + 1] = {n, 0, 0, 0};
+    uint32_t seg_begin[kNumBounceTypes + 1] = {0, 0, 0, 0};
+    uint32_t seg_count[kNumBounceTypes + 1] = {hybrid ? 0u : n, 0, 0, 0};
     RayType seg_type[kNumBounceTypes + 1] = {RayType::kPrimary, RayType::kReflection, RayType::kRefraction,
                                              RayType::kDiffuse};
     for (uint32_t depth = 0; n > 0; ++depth) {
       ++m_st.bounces;
+      uint32_t submitted = 0;
       for (int t = 0; t < kNumBounceTypes + 1; ++t) {
         s = trace(ray_buf + uint64_t(seg_begin[t]) * sizeof(hw::Ray),
                   a_hits + uint64_t(seg_begin[t]) * sizeof(hw::Hit), seg_count[t], false, seg_type[t], depth);
         if (s != Status::kOk) return s;
+        submitted += seg_count[t];
       }
-      if ((s = m_ring.sync()) != Status::kOk) return s;
+      if (submitted > 0 && (s = m_ring.sync()) != Status::kOk) return s;
 
+      if (depth == 0 && j.primary_hits != 0) {  // the primary hits, for comparing the two modes
+        hw::Hit* out = at<hw::Hit>(m_hal, j.primary_hits) + first;
+        for (uint32_t i = 0; i < n; ++i) out[i] = hits[i];
+      }
       // Shade: bounce rays staged in next_rays / next_paths with their type.
       m_num_shadow = m_num_occlusion = 0;
       uint32_t staged = 0, count[kNumBounceTypes] = {0, 0, 0};

@@ -10,6 +10,7 @@
 #include <cstdint>
 
 #include "firmware/hal.h"
+#include "firmware/raster.h"
 #include "firmware/render_scene.h"
 #include "firmware/ring.h"
 #include "hwmodel/commands.h"
@@ -29,6 +30,10 @@ struct RenderStats {
   bool need_refraction = false;  // a glass material
   bool need_diffuse = false;     // indirect light on and a diffuse material
   bool need_occlusion = false;   // ambient occlusion on and a diffuse material
+  // Hybrid mode (kRenderHybrid): primary visibility came from the rasterizer, not from TRACE.
+  bool hybrid = false;
+  uint64_t primary_rasterized = 0;  // camera samples whose primary hit the G-buffer gave: primary rays saved
+  RasterStats raster;
 };
 
 // Renders job (a RenderJob at device address job_addr) through the ring; working buffers come from the arena.

@@ -19,6 +19,22 @@ fw::F3 f3(const Vec3& v) {
   return fw::F3{v.x, v.y, v.z};
 }
 
+}  // namespace
+
+hw::RasterWork raster_work(const fw::RasterStats& s) {
+  hw::RasterWork w;
+  w.passes = s.passes;
+  w.prims_read = s.prims_read;
+  w.setups = s.setups;
+  w.samples_tested = s.samples_tested;
+  w.fragments = s.fragments;
+  w.depth_writes = s.depth_writes;
+  w.clears = s.clears;
+  return w;
+}
+
+namespace {
+
 uint64_t align64(uint64_t x) {
   return (x + 63) & ~uint64_t(63);
 }
@@ -34,6 +50,9 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   if (o.max_depth < 0 || o.max_depth > 64) throw Error("render: max depth must be in [0, 64]");
   if (uint64_t(res.width) * uint64_t(res.height) > (uint64_t(1) << 28))
     throw Error("render: image too large (at most 2^28 pixels)");
+  if (o.hybrid && (uint32_t(res.width) > fw::kMaxRasterSide || uint32_t(res.height) > fw::kMaxRasterSide))
+    throw Error("render: hybrid mode rasterizes images of at most " + std::to_string(fw::kMaxRasterSide) +
+                " pixels a side");
 
   // The unit's scene image, and the offsets spawned rays need on this device.
   std::vector<uint64_t> image_words;
@@ -124,7 +143,8 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   job.height = uint32_t(res.height);
   job.spp = uint32_t(o.spp);
   job.max_depth = uint32_t(o.max_depth);
-  job.flags = (o.indirect ? fw::kRenderIndirect : 0u) | (o.ao ? fw::kRenderAo : 0u);
+  job.flags =
+      (o.indirect ? fw::kRenderIndirect : 0u) | (o.ao ? fw::kRenderAo : 0u) | (o.hybrid ? fw::kRenderHybrid : 0u);
   job.seed = o.seed;
   {
     const Camera& cam = scene.camera;
@@ -142,6 +162,9 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   job.background = f3(o.background);
   const float diag = bounds.empty() ? 1.0f : glm::length(bounds.extent());
   job.ao_distance = o.ao_distance > 0.0f ? o.ao_distance : 0.25f * diag;
+  // The rasterizer's near plane: geometry nearer to the eye than 2^-20 of the scene's size is clipped (the ray
+  // tracer would see it); small enough to lose nothing in any scene whose camera is not inside a surface.
+  job.raster_near = std::ldexp(extent, -20);
   job.offset_abs = res.offset_abs;
   job.offset_rel = res.offset_rel;
   job.num_prims = nprims;
@@ -160,9 +183,10 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   job.materials = place(materials.size() * sizeof(fw::MaterialRecord));
   job.lights = place(lights.size() * sizeof(fw::LightRecord));
   job.framebuffer = place(uint64_t(res.width) * res.height * 3 * sizeof(float));
+  const uint64_t paths = uint64_t(res.width) * res.height * uint64_t(o.spp);
+  if (o.keep_primary) job.primary_hits = place(paths * sizeof(hw::Hit));
   const uint64_t job_addr = place(sizeof job);
   // The arena: the ring and up to 2^18 paths of working buffers (renderer.cpp sizes its batch from it).
-  const uint64_t paths = uint64_t(res.width) * res.height * uint64_t(o.spp);
   const uint64_t per_path = 200 + 64 * (uint64_t(lights.size()) + 1);
   const uint64_t arena_bytes = (1u << 16) + std::min<uint64_t>(paths, 1u << 18) * per_path;
   const uint64_t arena_base = top;
@@ -209,9 +233,15 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
     res.timing_by_type = te->timing_by_type();
     res.timing_by_bounce = te->timing_by_bounce();
     res.sampling = te->sampling();
+    res.raster_cycles = hw::raster_cycles(raster_work(res.fw.raster), te->config());
+    res.frame_cycles = res.raster_cycles.cycles + res.device_clock;
   }
   res.rgb.resize(size_t(res.width) * res.height * 3);
   mem.read(job.framebuffer, res.rgb.data(), res.rgb.size() * sizeof(float));
+  if (o.keep_primary) {
+    res.primary.resize(paths);
+    mem.read(job.primary_hits, res.primary.data(), paths * sizeof(hw::Hit));
+  }
   return res;
 }
 

@@ -14,12 +14,14 @@
 #include "host/image.h"
 #include "host/scene.h"
 #include "hwmodel/command_processor.h"
+#include "hwmodel/raster_timing.h"
 #include "hwmodel/timed_engine.h"
 
 namespace rtu::host {
 
 struct RenderOptions {
   DeviceOptions device;       // name (float | fixed), acceleration/BVH options, fixed format
+  bool hybrid = false;        // primary visibility by the firmware rasterizer (G-buffer), secondary rays traced
   int threads = 0;            // unit worker threads per TRACE (0 = all cores); the image does not depend on it
   int width = 0, height = 0;  // 0: the scene camera's
   int spp = 1;                // samples per pixel
@@ -29,13 +31,17 @@ struct RenderOptions {
   bool ao = false;            // ambient occlusion instead of diffuse indirect light
   float ao_distance = 0.0f;   // 0: a quarter of the scene's bounding-box diagonal
   Vec3 background{0.0f};      // radiance of escaping rays (the ambient light of occlusion)
+  bool keep_primary = false;  // return every camera sample's primary hit (RenderResult::primary)
   hw::PipelineTrace* pipeline_trace = nullptr;  // timed device: pipeline spans of a cycle window (or null)
 };
 
 struct RenderResult {
   int width = 0, height = 0;
   std::vector<float> rgb;  // linear radiance, 3 floats per pixel, top row first
-  fw::RenderStats fw;      // the firmware's view: rays by type, TRACE packets, what was skipped
+  // keep_primary: per camera sample (pixel * spp + sample) its primary hit: the G-buffer texel (hybrid) or the
+  // unit's hit (raytrace).
+  std::vector<hw::Hit> primary;
+  fw::RenderStats fw;  // the firmware's view: rays by type, TRACE packets, what was skipped
   fw::Ring::Counters ring;
   hw::DeviceCounters device;    // the unit's view: packets by opcode, rays and traversal stats by type
   hw::Geometry::Counts counts;  // primitives the unit holds, by kind
@@ -49,10 +55,17 @@ struct RenderResult {
   std::array<hw::TimingStats, hw::cmd::kRayTypeCount> timing_by_type{};
   std::map<int, hw::TimingStats> timing_by_bounce;
   hw::SampleStats sampling;  // sampled timing (RenderOptions::device.sample): what was simulated
+  // Hybrid mode on the timed device: the rasterizer's cycles from its cost model (raster_timing.h); the frame's
+  // cycles are raster_cycles.cycles + device_clock (the raster passes and the unit's packets do not overlap).
+  hw::RasterCycles raster_cycles;
+  uint64_t frame_cycles = 0;  // timed: raster + device clock (raytrace mode: the device clock)
 };
 
 // Throws Error when the device reports an error or the arena cannot hold one path.
 RenderResult render(const Scene& scene, const RenderOptions& o);
+
+// The rasterizer's counts as its cost model takes them.
+hw::RasterWork raster_work(const fw::RasterStats& s);
 
 // Clamp to [0, 1], sRGB transfer function, 8 bits.
 Image to_image(const RenderResult& r);

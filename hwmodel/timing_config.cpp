@@ -59,6 +59,19 @@ const std::vector<KeyInfo>& key_table() {
       {"cache_latency", &C::cache_latency, 0, kMaxLatency, "cache hit latency in cycles"},
       {"dram_latency", &C::dram_latency, 0, kMaxLatency, "cycles from a miss to the first byte"},
       {"dram_bytes_per_cycle", &C::dram_bytes_per_cycle, 0.001, 65536, "DRAM bandwidth in bytes per cycle"},
+      {"raster_setup_cycles", &C::raster_setup_cycles, 0, kMaxLatency,
+       "hybrid rasterizer: cycles per primitive set up (triangle, sphere square, plane pass)"},
+      {"raster_samples_per_clock", &C::raster_samples_per_clock, 0.001, 4096,
+       "hybrid rasterizer: coverage tests per clock over each primitive's scan rectangle"},
+      {"raster_fragments_per_clock", &C::raster_fragments_per_clock, 0.001, 4096,
+       "hybrid rasterizer: covered samples per clock through interpolation and depth test"},
+      {"raster_latency", &C::raster_latency, 0, kMaxLatency, "hybrid rasterizer: pipeline depth, once per pass"},
+      {"raster_prim_bytes", &C::raster_prim_bytes, 0, 4096,
+       "hybrid rasterizer: bytes fetched per primitive per pass (DRAM channel)"},
+      {"raster_depth_bytes", &C::raster_depth_bytes, 1, 64,
+       "hybrid rasterizer: depth bytes read per fragment, written per pass and clear (DRAM channel)"},
+      {"raster_gbuffer_bytes", &C::raster_gbuffer_bytes, 0, 4096,
+       "hybrid rasterizer: G-buffer bytes written per depth pass besides depth (DRAM channel)"},
   };
   return table;
 }
@@ -164,6 +177,18 @@ void TimingConfig::validate() const {
 //   - 1.0 GHz; 16 ray slots with 4-entry stacks; 16 KiB 4-way cache with 64-byte lines.
 //   - 100 cycles (100 ns at 1 GHz) and 16 bytes per cycle behind the cache: about one LPDDR4X-4266 x32 channel
 //     (17 GB/s) at 1 GHz.
+// The rasterizer (hybrid mode): each preset models one ray-tracing unit, so its raster pipeline is that unit's
+// share of the GPU's raster hardware (whole-chip figures divided by the number of ray-tracing units); the
+// G-buffer texel is 16 bytes (4 of depth, 12 of primitive index and barycentrics), a primitive 36 bytes.
+//   - rdna2: Navi 21 (RX 6900 XT) has 80 CUs (80 Ray Accelerators), 4 primitive units (one triangle per clock
+//     each) and 128 ROPs (AMD RDNA2 specifications, 2020): 80 / 4 = 20 cycles per primitive and 128 / 80 = 1.6
+//     fragments per clock per unit. Coverage tests at 4x the fragment rate (a rasterizer rejects empty tiles
+//     of its scan faster than it emits fragments) and a 100-cycle pipeline: estimates.
+//   - intel: Arc A770 has 32 Xe cores (32 RTUs), 8 render slices with one geometry/raster pipeline each and
+//     128 ROPs (Intel, 2022): 32 / 8 = 4 cycles per primitive, 128 / 32 = 4 fragments per clock; coverage
+//     tests at 4x: estimate.
+//   - embedded: our choices for a small SoC GPU with one raster pipeline shared by two units: 8 cycles per
+//     primitive, 1 fragment and 4 coverage tests per clock, a 50-cycle pipeline.
 const std::vector<std::string>& timing_preset_names() {
   static const std::vector<std::string> names = {"rdna2", "intel", "embedded"};
   return names;
@@ -200,6 +225,13 @@ TimingConfig timing_preset(const std::string& name) {
     c.cache_latency = 4;
     c.dram_latency = 200;
     c.dram_bytes_per_cycle = 64.0;
+    c.raster_setup_cycles = 20.0;
+    c.raster_samples_per_clock = 6.4;
+    c.raster_fragments_per_clock = 1.6;
+    c.raster_latency = 100;
+    c.raster_prim_bytes = 36;
+    c.raster_depth_bytes = 4;
+    c.raster_gbuffer_bytes = 12;
   } else if (name == "intel") {
     c = timing_preset("rdna2");
     c.name = "intel";
@@ -216,6 +248,10 @@ TimingConfig timing_preset(const std::string& name) {
     c.line_bytes = 64;
     c.dram_latency = 210;
     c.dram_bytes_per_cycle = 64.0;
+    c.raster_setup_cycles = 4.0;
+    c.raster_samples_per_clock = 16.0;
+    c.raster_fragments_per_clock = 4.0;
+    c.raster_latency = 100;
   } else if (name == "embedded") {
     c = timing_preset("rdna2");
     c.name = "embedded";
@@ -239,6 +275,10 @@ TimingConfig timing_preset(const std::string& name) {
     c.cache_latency = 2;
     c.dram_latency = 100;
     c.dram_bytes_per_cycle = 16.0;
+    c.raster_setup_cycles = 8.0;
+    c.raster_samples_per_clock = 4.0;
+    c.raster_fragments_per_clock = 1.0;
+    c.raster_latency = 50;
   } else {
     std::string names;
     for (const std::string& n : timing_preset_names()) names += (names.empty() ? "" : ", ") + n;

@@ -5,7 +5,9 @@
 // Ranges (checked by validate()): latencies 0..100000 cycles (box, triangle, sphere and plane latencies >= 1);
 // units and rates 1..64; ray_slots and queue_depth 1..4096; stack_entries 1..64; cache_kib 0..65536 (a whole
 // number of sets: cache_kib * 1024 divisible by cache_ways * line_bytes); cache_ways 1..64; line_bytes a power
-// of two in 16..4096; clock_ghz 0.001..1000; dram_bytes_per_cycle 0.001..65536 (finite); bvh_width 2, 4 or 8;
+// of two in 16..4096; clock_ghz 0.001..1000; dram_bytes_per_cycle 0.001..65536 (finite); raster_setup_cycles
+// 0..100000; raster_samples_per_clock and raster_fragments_per_clock 0.001..4096; raster_latency 0..100000;
+// raster_prim_bytes 0..4096, raster_depth_bytes 1..64, raster_gbuffer_bytes 0..4096; bvh_width 2, 4 or 8;
 // format the name of a fixed-point format preset; box_unit cpp or rtl. The default-constructed configuration is
 // the "rdna2" preset.
 #pragma once
@@ -56,6 +58,15 @@ struct TimingConfig {
   int cache_latency = 4;               // hit latency
   int dram_latency = 200;              // cycles from request to the first byte
   double dram_bytes_per_cycle = 64.0;  // bandwidth
+
+  // Rasterizer of hybrid mode (raster_timing.h): a raster pipeline beside the unit, sharing its DRAM channel.
+  double raster_setup_cycles = 20.0;        // cycles per primitive set up
+  double raster_samples_per_clock = 6.4;    // coverage tests per clock (scan of each primitive's rectangle)
+  double raster_fragments_per_clock = 1.6;  // covered samples through interpolation and the depth test per clock
+  int raster_latency = 100;                 // pipeline depth, paid once per raster pass
+  int raster_prim_bytes = 36;               // bytes fetched per primitive per pass (three float3 vertices)
+  int raster_depth_bytes = 4;               // depth bytes read per fragment, written per pass and per clear
+  int raster_gbuffer_bytes = 12;            // G-buffer bytes written per pass besides depth (prim, u, v)
 
   // Checks every field; throws std::invalid_argument naming the first bad key and its allowed range.
   void validate() const;

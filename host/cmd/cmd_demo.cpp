@@ -1,7 +1,8 @@
 // rtusim demo: the main job on the built-in default scene, as the README's first command runs it. Loads the
 // scene; traces the camera's primary rays on the float reference and on the fixed device (default format) and
 // compares them ray by ray; renders the scene with the firmware renderer on both devices and compares the
-// images (PSNR, heatmap); the fixed render runs on the timed device (same hits, plus cycles per frame); writes
+// images (PSNR, heatmap); the fixed render runs on the timed device (same hits, plus cycles per frame), and
+// again in hybrid mode (primary visibility rasterized by the firmware: cycles of both modes); writes
 // images, hit files and a JSON report.
 #include <cstdio>
 #include <filesystem>
@@ -103,19 +104,25 @@ void run_demo(const DemoOptions& o) {
   // The firmware renderer on the float reference and on the fixed datapath with the timing model (the timed
   // device: the fixed device's hits and image, plus cycles), and the image error of fixed against float.
   std::vector<Image> renders;
-  for (const std::string& name : {std::string("float"), std::string("fixed")}) {
+  auto render_options = [&](const std::string& name, bool hybrid) {
     RenderOptions ro;
-    ro.device.name = name == "fixed" ? "timed" : name;
+    ro.device.name = name == "float" ? name : "timed";
     ro.device.timing = hw::timing_preset(o.config);
-    if (name == "fixed") {
+    if (name != "float") {
       ro.device.format = hw::format_preset(ro.device.timing.format);
       ro.device.format.width = ro.device.timing.bvh_width;
       ro.device.tracer.bvh.width = ro.device.format.width;
     }
+    ro.hybrid = hybrid;
     ro.threads = o.threads;
     ro.spp = o.spp;
     ro.max_depth = o.max_depth;
     ro.background = Vec3(0.02f, 0.02f, 0.03f);
+    return ro;
+  };
+  uint64_t raytrace_cycles = 0;
+  for (const std::string& name : {std::string("float"), std::string("fixed")}) {
+    const RenderOptions ro = render_options(name, false);
     const RenderResult r = render(scene, ro);
     print_render_summary(r, ro);
     if (r.timed) {
@@ -124,6 +131,7 @@ void run_demo(const DemoOptions& o) {
       std::printf("        cycles per frame (every packet, fences included): %llu = %.3f ms at %.1f GHz\n",
                   (unsigned long long)r.device_clock, double(r.device_clock) / (ro.device.timing.clock_ghz * 1e6),
                   ro.device.timing.clock_ghz);
+      raytrace_cycles = r.device_clock;
     }
     renders.push_back(to_image(r));
     const std::string path = o.out + "/render_" + name + ".png";
@@ -137,6 +145,30 @@ void run_demo(const DemoOptions& o) {
       rj["timing"]["config"] = timing_json(ro.device.timing);
     }
     j["renders"][name] = rj;
+  }
+  // Hybrid: the same frame on the timed device with primary visibility rasterized by the firmware.
+  {
+    const RenderOptions ro = render_options("hybrid", true);
+    const RenderResult r = render(scene, ro);
+    print_render_summary(r, ro);
+    std::printf("        hybrid frame: %llu cycles (raster %llu + trace %llu) against %llu ray-traced: %.2fx\n",
+                (unsigned long long)r.frame_cycles, (unsigned long long)r.raster_cycles.cycles,
+                (unsigned long long)r.device_clock, (unsigned long long)raytrace_cycles,
+                double(raytrace_cycles) / double(r.frame_cycles));
+    const Image img = to_image(r);
+    const std::string path = o.out + "/render_hybrid.png";
+    write_png(path, img);
+    written.push_back(path);
+    const ImageDiff hd = diff_images(renders[1], img);
+    Json rj = render_json(r, ro);
+    rj["image"] = path;
+    j["renders"]["hybrid"] = rj;
+    j["hybrid_vs_raytrace"] = {{"primary_rays_saved", r.fw.primary_rasterized},
+                               {"raytrace_cycles", raytrace_cycles},
+                               {"hybrid_cycles", r.frame_cycles},
+                               {"raster_cycles", r.raster_cycles.cycles},
+                               {"psnr_db", hd.identical() ? Json(nullptr) : Json(hd.psnr_db)},
+                               {"pixels_differing", hd.pixels_differing}};
   }
   const ImageDiff d = diff_images(renders[0], renders[1]);
   const std::string heat_path = o.out + "/render_heatmap.png";

@@ -4,6 +4,7 @@
 
 #include "host/cmd/common.h"
 #include "host/error.h"
+#include "host/image_diff.h"
 #include "host/render.h"
 
 namespace rtu::host::cmd {
@@ -11,12 +12,12 @@ namespace rtu::host::cmd {
 namespace {
 
 struct RenderArgs {
-  std::string scene, out, stats;
+  std::string scene, out, stats, mode = "raytrace";
   DeviceArgs dev;
   int threads = 0;
   int width = 0, height = 0, spp = 1, max_depth = 4;
   uint32_t seed = 1;
-  bool ao = false, no_indirect = false;
+  bool ao = false, no_indirect = false, compare_modes = false;
   float ao_distance = 0.0f;
   std::vector<float> background{0.0f, 0.0f, 0.0f};
   PipelineTraceArgs pipeline;
@@ -25,6 +26,7 @@ struct RenderArgs {
 RenderOptions options_from(const RenderArgs& a, const std::string& device) {
   RenderOptions o;
   o.device = a.dev.options(device);
+  o.hybrid = a.mode == "hybrid";
   o.threads = a.threads;
   o.width = a.width;
   o.height = a.height;
@@ -52,12 +54,68 @@ void run_render(const RenderArgs& a) {
     print_timing_summary(r.timing, o.device.timing);
     std::printf("  device clock at the end (all packets, fences included): %llu cycles\n",
                 (unsigned long long)r.device_clock);
+    if (o.hybrid)
+      std::printf("  rasterizer: %llu cycles (limit: %s); frame: %llu cycles (raster + trace)\n",
+                  (unsigned long long)r.raster_cycles.cycles, r.raster_cycles.limit,
+                  (unsigned long long)r.frame_cycles);
   }
   std::printf("  wrote %s\n", a.out.c_str());
+  Json modes;
+  if (a.compare_modes) {
+    // The other mode on the same device, for what hybrid saves: rays, cycles (timed) and the image difference.
+    RenderOptions other = o;
+    other.hybrid = !o.hybrid;
+    other.pipeline_trace = nullptr;
+    const RenderResult r2 = render(scene, other);
+    const RenderResult& rt = o.hybrid ? r2 : r;
+    const RenderResult& hy = o.hybrid ? r : r2;
+    auto total = [](const RenderResult& x) {
+      uint64_t n = 0;
+      for (uint64_t k : x.fw.rays) n += k;
+      return n;
+    };
+    auto mode = [&](const RenderResult& x) {
+      Json m = {{"rays_total", total(x)},
+                {"primary_rays", x.fw.rays[int(hw::cmd::RayType::kPrimary)]},
+                {"seconds", x.seconds}};
+      if (x.timed) {
+        m["raster_cycles"] = x.raster_cycles.cycles;
+        m["trace_cycles"] = x.device_clock;
+        m["frame_cycles"] = x.frame_cycles;
+      }
+      return m;
+    };
+    const ImageDiff d = diff_images(to_image(rt), to_image(hy));
+    // Saved: the primary rays hybrid did not trace. The secondary rays of the two differ a little where the
+    // primary hits do (edges), so the totals' difference is reported beside it.
+    const uint64_t saved =
+        rt.fw.rays[int(hw::cmd::RayType::kPrimary)] - hy.fw.rays[int(hw::cmd::RayType::kPrimary)];
+    modes = {{"raytrace", mode(rt)},
+             {"hybrid", mode(hy)},
+             {"rays_saved", saved},
+             {"rays_total_difference", int64_t(total(rt)) - int64_t(total(hy))}};
+    modes["psnr_db"] = d.identical() ? Json(nullptr) : Json(d.psnr_db);
+    modes["pixels_differing"] = d.pixels_differing;
+    char psnr[32];
+    std::snprintf(psnr, sizeof psnr, d.identical() ? "inf" : "%.2f", d.psnr_db);
+    std::printf(
+        "  modes: raytrace %llu rays, hybrid %llu rays (%llu primary rays saved); images: PSNR %s dB, %llu "
+        "pixels differ\n",
+        (unsigned long long)total(rt), (unsigned long long)total(hy), (unsigned long long)saved, psnr,
+        (unsigned long long)d.pixels_differing);
+    if (r.timed) {
+      modes["frame_cycles_ratio"] = double(hy.frame_cycles) / double(rt.frame_cycles);
+      std::printf("  modes: raytrace %llu cycles, hybrid %llu cycles (raster %llu + trace %llu): %.3fx\n",
+                  (unsigned long long)rt.frame_cycles, (unsigned long long)hy.frame_cycles,
+                  (unsigned long long)hy.raster_cycles.cycles, (unsigned long long)hy.device_clock,
+                  double(rt.frame_cycles) / double(hy.frame_cycles));
+    }
+  }
   if (!a.stats.empty()) {
     Json j = render_json(r, o);
     j["scene"] = scene.name;
     j["image"] = a.out;
+    if (a.compare_modes) j["modes"] = modes;
     write_json(a.stats, j);
     std::printf("  wrote %s\n", a.stats.c_str());
   }
@@ -78,6 +136,15 @@ void add_render(CLI::App& app) {
   add_device_args(*sub, a->dev,
                   "device: float (the reference), fixed (bit-accurate fixed point) or timed (fixed point with the "
                   "cycle-approximate timing model; --config, --set)");
+  sub->add_option(
+         "--mode", a->mode,
+         "raytrace: primary rays traced by the unit; hybrid: primary visibility rasterized by the firmware "
+         "into a G-buffer, only secondary rays traced")
+      ->check(CLI::IsMember({"raytrace", "hybrid"}))
+      ->capture_default_str();
+  sub->add_flag("--compare-modes", a->compare_modes,
+                "also render in the other mode on the same device and report both: rays, cycles (timed), the "
+                "rays hybrid saved and the images' PSNR (stats JSON key `modes`)");
   sub->add_option("--threads", a->threads, "unit worker threads (0 = all cores); the image does not depend on it")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
@@ -108,13 +175,25 @@ void print_render_summary(const RenderResult& r, const RenderOptions& o) {
   uint64_t total = 0;
   for (uint64_t n : ry) total += n;
   std::printf(
-      "  %-5s device: %dx%d, %d spp, depth %d: %llu rays (primary %llu, shadow %llu, reflection %llu, refraction "
+      "  %-5s device, %s: %dx%d, %d spp, depth %d: %llu rays (primary %llu, shadow %llu, reflection %llu, "
+      "refraction "
       "%llu, diffuse %llu, occlusion %llu) in %.2f s; %llu TRACE, %llu fences\n",
-      o.device.name.c_str(), r.width, r.height, o.spp, o.max_depth, (unsigned long long)total,
-      (unsigned long long)ry[int(RayType::kPrimary)], (unsigned long long)ry[int(RayType::kShadow)],
-      (unsigned long long)ry[int(RayType::kReflection)], (unsigned long long)ry[int(RayType::kRefraction)],
-      (unsigned long long)ry[int(RayType::kDiffuse)], (unsigned long long)ry[int(RayType::kOcclusion)], r.seconds,
-      (unsigned long long)r.fw.traces, (unsigned long long)r.ring.fences);
+      o.device.name.c_str(), o.hybrid ? "hybrid" : "raytrace", r.width, r.height, o.spp, o.max_depth,
+      (unsigned long long)total, (unsigned long long)ry[int(RayType::kPrimary)],
+      (unsigned long long)ry[int(RayType::kShadow)], (unsigned long long)ry[int(RayType::kReflection)],
+      (unsigned long long)ry[int(RayType::kRefraction)], (unsigned long long)ry[int(RayType::kDiffuse)],
+      (unsigned long long)ry[int(RayType::kOcclusion)], r.seconds, (unsigned long long)r.fw.traces,
+      (unsigned long long)r.ring.fences);
+  if (o.hybrid) {
+    const fw::RasterStats& rs = r.fw.raster;
+    std::printf(
+        "  rasterizer: %llu primary rays saved; %llu passes, %llu setups, %llu coverage tests, %llu fragments, "
+        "%llu depth writes; triangles culled %llu, clipped %llu, degenerate %llu\n",
+        (unsigned long long)r.fw.primary_rasterized, (unsigned long long)rs.passes, (unsigned long long)rs.setups,
+        (unsigned long long)rs.samples_tested, (unsigned long long)rs.fragments,
+        (unsigned long long)rs.depth_writes, (unsigned long long)rs.triangles_culled,
+        (unsigned long long)rs.triangles_clipped, (unsigned long long)rs.triangles_degenerate);
+  }
 }
 
 Json render_json(const RenderResult& r, const RenderOptions& o) {
@@ -127,6 +206,7 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
   j["max_depth"] = o.max_depth;
   j["seed"] = o.seed;
   j["mode"] = o.ao ? "ambient_occlusion" : (o.indirect ? "path_tracing" : "direct_and_specular");
+  j["render_mode"] = o.hybrid ? "hybrid" : "raytrace";
   j["seconds"] = r.seconds;
   Json rays;
   uint64_t total = 0;
@@ -137,6 +217,21 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
   j["rays"] = rays;
   j["rays_total"] = total;
   j["rays_per_second"] = r.seconds > 0 ? double(total) / r.seconds : 0.0;
+  // Primary rays the rasterizer made unnecessary (hybrid: every camera sample; raytrace: none).
+  j["rays_saved"] = {{"primary", r.fw.primary_rasterized}};
+  if (o.hybrid) {
+    const fw::RasterStats& rs = r.fw.raster;
+    j["raster"] = {{"passes", rs.passes},
+                   {"prims_read", rs.prims_read},
+                   {"setups", rs.setups},
+                   {"samples_tested", rs.samples_tested},
+                   {"fragments", rs.fragments},
+                   {"depth_writes", rs.depth_writes},
+                   {"clears", rs.clears},
+                   {"triangles_culled", rs.triangles_culled},
+                   {"triangles_clipped", rs.triangles_clipped},
+                   {"triangles_degenerate", rs.triangles_degenerate}};
+  }
   j["paths"] = r.fw.paths;
   j["batches"] = r.fw.batches;
   j["batch_paths"] = r.fw.batch_paths;
@@ -159,6 +254,7 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
     skipped["diffuse"] = o.ao ? "ambient occlusion instead"
                               : (!o.indirect ? "indirect light off" : "no diffuse material or max depth 0");
   if (!r.fw.need_occlusion) skipped["occlusion"] = o.ao ? "no diffuse material" : "ambient occlusion off";
+  if (r.fw.hybrid) skipped["primary"] = "rasterized (hybrid mode)";
   if (r.counts.triangles == 0) skipped["triangle_unit"] = "no triangles";
   if (r.counts.spheres == 0) skipped["sphere_unit"] = "no spheres";
   if (r.counts.planes == 0) skipped["plane_unit"] = "no planes";
@@ -195,6 +291,19 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
     t["by_bounce"] = by_bounce;
     t["device_clock"] = r.device_clock;
     t["sample"] = sample_json(r.sampling);
+    // The frame: the rasterizer's cycles (hybrid) and the unit's (every packet), which do not overlap.
+    const hw::RasterCycles& rc = r.raster_cycles;
+    t["raster"] = {{"cycles", rc.cycles},
+                   {"latency_cycles", rc.latency_cycles},
+                   {"setup_cycles", rc.setup_cycles},
+                   {"scan_cycles", rc.scan_cycles},
+                   {"fragment_cycles", rc.fragment_cycles},
+                   {"dram_cycles", rc.dram_cycles},
+                   {"dram_bytes", rc.dram_bytes},
+                   {"limit", rc.limit}};
+    t["raster_cycles"] = rc.cycles;
+    t["trace_cycles"] = r.device_clock;
+    t["frame_cycles"] = r.frame_cycles;
     t["config"] = timing_json(o.device.timing);
     j["timing"] = t;
   }

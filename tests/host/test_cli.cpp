@@ -511,3 +511,44 @@ TEST_CASE("plan: the fewest coordinate bits within the budget, and the reason; a
   CHECK(run("plan --scene builtin:cornell --max-error -1").status == 2);
   CHECK(run("plan --scene builtin:cornell --max-error 1e-3 --metric psnr").status != 0);
 }
+
+TEST_CASE("render --mode hybrid on the timed device: raster and trace cycles, rays saved, both modes",
+          "[cli][hybrid]") {
+  const fs::path d = temp_dir();
+  const std::string stats = (d / "hy.json").string();
+  const Run r =
+      run("render --scene builtin:seed --width 80 --height 60 --device timed --mode hybrid --max-depth 2 "
+          "--compare-modes --threads 2 --out " +
+          (d / "hy.png").string() + " --stats " + stats);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(r.output.find("rasterizer:") != std::string::npos);
+  CHECK(r.output.find("(4800 primary rays saved)") != std::string::npos);
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+  CHECK(j["render_mode"] == "hybrid");
+  CHECK(j["rays"]["primary"] == 0);
+  CHECK(j["rays_saved"]["primary"] == 80 * 60);
+  CHECK(j["raster"]["fragments"].get<uint64_t>() > 0);
+  CHECK(j["skipped"]["primary"] == "rasterized (hybrid mode)");
+  const auto& t = j["timing"];
+  CHECK(t["raster_cycles"].get<uint64_t>() > 0);
+  CHECK(t["raster"]["limit"].is_string());
+  CHECK(t["frame_cycles"].get<uint64_t>() ==
+        t["raster_cycles"].get<uint64_t>() + t["trace_cycles"].get<uint64_t>());
+  CHECK(t["config"]["raster_setup_cycles"].is_number());
+  // Both modes: the raytrace render traced the primary rays hybrid saved, and its frame has no raster cycles.
+  const auto& m = j["modes"];
+  CHECK(m["raytrace"]["primary_rays"] == 80 * 60);
+  CHECK(m["hybrid"]["primary_rays"] == 0);
+  CHECK(m["rays_saved"] == 80 * 60);
+  CHECK(m["raytrace"]["raster_cycles"] == 0);
+  CHECK(m["raytrace"]["frame_cycles"] == m["raytrace"]["trace_cycles"]);
+  CHECK(m["hybrid"]["frame_cycles"] == t["frame_cycles"]);
+  CHECK((m["psnr_db"].is_null() || m["psnr_db"].get<double>() >= 30.0));
+  // raytrace is the default; an unknown mode is refused.
+  const Run rt = run("render --scene builtin:cornell --width 16 --height 16 --out " + (d / "rt.png").string() +
+                     " --stats " + (d / "rt.json").string());
+  REQUIRE(rt.status == 0);
+  CHECK(nlohmann::json::parse(std::ifstream(d / "rt.json"))["render_mode"] == "raytrace");
+  CHECK(run("render --scene builtin:cornell --mode raster --out " + (d / "x.png").string()).status != 0);
+}

@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   rtu::host::cmd::add_config(app);
   rtu::host::cmd::add_demo(app);
   rtu::host::cmd::add_sweep(app);
+  rtu::host::cmd::add_report(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

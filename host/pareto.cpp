@@ -221,7 +221,7 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
       const std::string script = base + "_" + ename + ".gp";
       std::ostringstream gp;
       gp << "# Pareto plots of " << scene << " (rtusim pareto / rtusim report); run: gnuplot " << script << "\n"
-         << "set terminal pngcairo noenhanced size 1950,680 font 'sans,10'\n"
+         << "set terminal pngcairo noenhanced size 1950,800 font 'sans,10'\n"
          << "set output " << gp_quote(plot.png) << "\n"
          << "set datafile missing '?'\n"
          << "set grid\nset key top right\nset logscale y\nset format y '%.0e'\n"
@@ -257,9 +257,32 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
               << '\n';
           if (!f.flush()) throw Error("cannot write " + dir + "/" + front_file);
         }
+        // One label per place: points at the same cost and error (e.g. presets that differ only in timing, on
+        // the memory axis) share a label, "format/width/config+config; ...".
+        const std::string label_file = base + "_" + ename + "_" + pareto_cost_name(cost) + ".labels";
+        {
+          std::map<std::pair<double, double>, std::vector<size_t>> at;
+          for (size_t k = 0; k < pts.size(); ++k) at[pts[k]].push_back(which[k]);
+          std::ofstream f(dir + "/" + label_file);
+          for (const auto& [xy, members] : at) {
+            std::vector<std::pair<std::string, std::string>> groups;  // format/width, configs
+            for (size_t i : members) {
+              const std::string fw = rows[i].p.format + "/" + std::to_string(rows[i].p.bvh_width);
+              auto it = std::find_if(groups.begin(), groups.end(), [&](const auto& gr) { return gr.first == fw; });
+              if (it == groups.end())
+                groups.emplace_back(fw, rows[i].p.config);
+              else
+                it->second += "+" + rows[i].p.config;
+            }
+            std::string text;
+            for (const auto& [fw, configs] : groups) text += (text.empty() ? "" : ";") + fw + "/" + configs;
+            f << g(xy.first) << ' ' << g(xy.second) << ' ' << label_field(text) << '\n';
+          }
+          if (!f.flush()) throw Error("cannot write " + dir + "/" + label_file);
+        }
         gp << "set title " << gp_quote(std::string(cost_axis(cost))) << "\n"
            << "set xlabel " << gp_quote(pareto_cost_name(cost)) << "\n"
-           << "set yrange [" << g(yr.lo / 4) << ":" << g(yr.hi * 4) << "]\n";
+           << "set yrange [" << g(yr.lo / 4) << ":" << g(yr.hi * 30) << "]\n";
         if (pts.empty()) {
           gp << "unset logscale x\nset xrange [0:1]\nunset xtics\n"
              << "set label 1 'no area known for these points (rtl_cells = -1; rtusim sweep --area TABLE)' at "
@@ -279,8 +302,8 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
         }
         gp << "plot " << gp_quote(data) << " using " << c + 1 << ":" << ycol
            << " with points pt 7 ps 1.2 lc rgb '#3060c0' title 'sweep points', \\\n"
-           << "  '' using " << c + 1 << ":" << ycol
-           << ":6 with labels left offset char 0.6,0.4 font ',8' notitle, \\\n"
+           << "  " << gp_quote(label_file)
+           << " using 1:2:3 with labels left rotate by 25 offset char 0.5,0.3 font ',7' notitle, \\\n"
            << "  " << gp_quote(front_file)
            << " using 1:2 with steps lw 2 lc rgb '#d03020' title 'Pareto front', \\\n"
            << "  '' using 1:2 with points pt 6 ps 2 lw 2 lc rgb '#d03020' notitle\n";

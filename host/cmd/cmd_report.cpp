@@ -294,7 +294,14 @@ Json section_pareto(const std::vector<SweepRow>& rows, const std::string& source
             << (p.error == ParetoError::kHitDisagreement ? "hit disagreement" : "mean relative t error")
             << "</h3>\n<p>";
         h.img(p.png, p.scene + " Pareto plot", 1300);
-        h.s << "</p>\n<p>Front against cycles: " << esc(pj["front"]["cycles"].dump()) << "</p>\n";
+        h.s << "</p>\n<p>On the front against";
+        for (int c = 0; c < 3; ++c) {
+          h.s << (c ? "; " : " ") << pareto_cost_name(ParetoCost(c)) << ": ";
+          const Json& f = pj["front"][pareto_cost_name(ParetoCost(c))];
+          if (f.empty()) h.s << "(no points)";
+          for (size_t k = 0; k < f.size(); ++k) h.s << (k ? ", " : "") << esc(f[k].get<std::string>());
+        }
+        h.s << ".</p>\n";
         plots.push_back(pj);
       }
       j["message"] = "ok";

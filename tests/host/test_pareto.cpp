@@ -87,7 +87,7 @@ TEST_CASE("pareto plots: gnuplot writes one PNG per scene and error measure", "[
     INFO(p.png);
     const Image img = read_png((d / p.png).string());
     CHECK(img.width == 1950);
-    CHECK(img.height == 680);
+    CHECK(img.height == 800);
   }
   CHECK(plots[0].png == "pareto_seed_hit.png");
   CHECK(plots[1].png == "pareto_seed_terr.png");

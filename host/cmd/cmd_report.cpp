@@ -222,7 +222,7 @@ Json section_cycles(const std::vector<std::unique_ptr<Scene>>& scenes, const std
          "tests / box rate, triangle tests / triangle rate, DRAM bytes / bandwidth); <i>cycles / bound</i>: how "
          "far above it.</p>\n<table>\n<tr><th>preset</th><th>scene</th><th>rays</th><th>cycles</th>"
          "<th>cycles/ray</th><th>rays/clock</th><th>limited by</th><th>cycles / bound</th>"
-         "<th>cache hit rate</th><th>wall s</th></tr>\n";
+         "<th>cache hit rate</th><th>wall s (build + trace)</th></tr>\n";
   for (const std::string& preset : hw::timing_preset_names()) {
     DeviceArgs da;
     da.config = preset;

@@ -288,17 +288,26 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
              << "set label 1 'no area known for these points (rtl_cells = -1; rtusim sweep --area TABLE)' at "
                 "graph 0.5,0.5 center\n"
              << "plot '-' using 1:2 with points lc rgb 'white' notitle\n0.5 " << g(yr.lo) << "\ne\n"
-             << "unset label 1\nset xtics\n";
+             << "unset label 1\nset xtics autofreq\n";
           continue;
         }
         // A log axis over a wide range of costs; a linear one over a narrow range (a log axis would show no tick).
-        if (xr.hi >= 8.0 * xr.lo) {
-          gp << "set logscale x\nset xrange [" << g(xr.lo / 1.15) << ":" << g(xr.hi * 1.6) << "]\n"
-             << "set format x '%.0s%c'\n";
+        if (xr.hi >= 3.0 * xr.lo) {
+          // Ticks at 1, 2 and 5 times the powers of ten in range (gnuplot's own log ticks are decades only).
+          const double lo = xr.lo / 1.15, hi = xr.hi * 1.6;
+          gp << "set logscale x\nset xrange [" << g(lo) << ":" << g(hi) << "]\nset xtics (";
+          bool first = true;
+          for (double dec = std::pow(10.0, std::floor(std::log10(lo))); dec <= hi; dec *= 10.0)
+            for (double m : {1.0, 2.0, 5.0})
+              if (m * dec >= lo && m * dec <= hi) {
+                gp << (first ? "" : ", ") << g(m * dec);
+                first = false;
+              }
+          gp << ")\nset format x '%.0s%c'\n";
         } else {
           const double span = xr.hi > xr.lo ? xr.hi - xr.lo : 0.05 * xr.hi;
           gp << "unset logscale x\nset xrange [" << g(std::max(0.0, xr.lo - 0.08 * span)) << ":"
-             << g(xr.hi + 0.45 * span) << "]\nset format x '%g'\n";
+             << g(xr.hi + 0.45 * span) << "]\nset xtics autofreq\nset format x '%.2s%c'\n";
         }
         gp << "plot " << gp_quote(data) << " using " << c + 1 << ":" << ycol
            << " with points pt 7 ps 1.2 lc rgb '#3060c0' title 'sweep points', \\\n"

@@ -101,6 +101,7 @@ void add_trace(CLI::App& app);
 void add_demo(CLI::App& app);
 void add_sweep(CLI::App& app);
 void add_plan(CLI::App& app);
+void add_report(CLI::App& app);  // and `pareto`
 void add_compare(CLI::App& app);
 void add_stress(CLI::App& app);
 void add_render(CLI::App& app);

@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   rtu::host::cmd::add_demo(app);
   rtu::host::cmd::add_sweep(app);
   rtu::host::cmd::add_plan(app);
+  rtu::host::cmd::add_report(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -14,8 +14,10 @@
 # prim_tests_per_ray,cache_hit_rate,limited_by), OUTDIR/scaling.md (the table and, per preset, the least-squares
 # fit cycles/ray = a + b log2(n) with its R^2, the slope of log(cycles) against log(n): ~0 for log n growth, 1 for
 # linear growth, and the same log2 fit of the BVH nodes visited per ray, the traversal's work without memory) and OUTDIR/scaling.png (gnuplot, when installed; the script is OUTDIR/scaling.gp).
-# Raster cycles: the rasterizer cost model (hybrid mode, issue 7) is not on main yet; the column is left as a
-# TODO rather than invented. Reads the stats JSON with jq, or python3 when jq is missing.
+# Raster cycles: the same mesh rendered in hybrid mode (`rtusim render --mode hybrid --device timed`, the scene's
+# own camera, which also sees the sphere at the same coverage whatever n; a square image of the same side,
+# 1 spp, direct light only) gives the rasterizer's cycles from its cost model (hwmodel/raster_timing.h) and what
+# limits it; fitted like the ray tracing cycles. Reads the stats JSON with jq, or python3 when jq is missing.
 set -euo pipefail
 rtusim=${1:-build/default/rtusim}
 rays=${2:-100000}
@@ -84,7 +86,7 @@ awk -v s="$side" 'BEGIN {
 rays=$((side * side))
 
 csv=$out/scaling.csv
-echo "preset,subdiv,triangles,rays,hits,cycles,cycles_per_ray,nodes_per_ray,prim_tests_per_ray,cache_hit_rate,limited_by" >"$csv"
+echo "preset,subdiv,triangles,rays,hits,cycles,cycles_per_ray,nodes_per_ray,prim_tests_per_ray,cache_hit_rate,limited_by,raster_cycles,raster_limit" >"$csv"
 for preset in "${presets[@]}"; do
   for s in "${subdivs[@]}"; do
     n=$((20 * 4 ** s))
@@ -92,10 +94,14 @@ for preset in "${presets[@]}"; do
       --device timed --config "$preset" --threads "$threads" --stats "$tmp/stats.json" >/dev/null
     IFS=$'\t' read -r nr hits cycles cpr nodes prims hit lim < <(fields "$tmp/stats.json" rays hits timing.cycles \
       timing.cycles_per_ray nodes_visited prim_tests timing.cache.hit_rate timing.lower_bound.limited_by)
+    "$rtusim" render --scene "builtin:icosphere?subdiv=$s" --mode hybrid --device timed --config "$preset" \
+      --width "$side" --height "$side" --spp 1 --max-depth 0 --threads "$threads" --out "$tmp/hybrid.png" \
+      --stats "$tmp/render.json" >/dev/null
+    IFS=$'\t' read -r rc rlim < <(fields "$tmp/render.json" timing.raster.cycles timing.raster.limit)
     awk -v OFS=, -v p="$preset" -v s="$s" -v n="$n" -v nr="$nr" -v h="$hits" -v c="$cycles" -v cpr="$cpr" \
-      -v nodes="$nodes" -v prims="$prims" -v hit="$hit" -v lim="$lim" \
-      'BEGIN { print p, s, n, nr, h, c, sprintf("%.4f", cpr), sprintf("%.3f", nodes / nr), sprintf("%.3f", prims / nr), sprintf("%.4f", hit), lim }' >>"$csv"
-    echo "scaling.sh: $preset subdiv $s ($n triangles): $cycles cycles" >&2
+      -v nodes="$nodes" -v prims="$prims" -v hit="$hit" -v lim="$lim" -v rc="$rc" -v rlim="$rlim" \
+      'BEGIN { print p, s, n, nr, h, c, sprintf("%.4f", cpr), sprintf("%.3f", nodes / nr), sprintf("%.3f", prims / nr), sprintf("%.4f", hit), lim, rc, rlim }' >>"$csv"
+    echo "scaling.sh: $preset subdiv $s ($n triangles): $cycles cycles, raster $rc" >&2
   done
 done
 
@@ -103,9 +109,9 @@ done
 md=$out/scaling.md
 {
   printf '%s primary rays (%sx%s) of a pinhole camera at distance 4 framed on the icosphere of radius 1 (it covers pi/4 of the image at every n), one TRACE packet on the timed device, closest hit, `--threads %s`.\n\n' "$rays" "$side" "$side" "$threads"
-  printf '| preset | subdiv | triangles | hits | cycles | cycles/ray | nodes/ray | prim tests/ray | cache hit rate | limited by | raster cycles |\n'
-  printf '|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n'
-  awk -F, 'NR > 1 { printf "| %s | %s | %s | %s | %s | %.2f | %.2f | %.2f | %.3f | %s | TODO (issue 7) |\n", $1, $2, $3, $5, $6, $7, $8, $9, $10, $11 }' "$csv"
+  printf '| preset | subdiv | triangles | hits | cycles | cycles/ray | nodes/ray | prim tests/ray | cache hit rate | limited by | raster cycles (limit) |\n'
+  printf '|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|\n'
+  awk -F, 'NR > 1 { printf "| %s | %s | %s | %s | %s | %.2f | %.2f | %.2f | %.3f | %s | %s (%s) |\n", $1, $2, $3, $5, $6, $7, $8, $9, $10, $11, $12, $13 }' "$csv"
   printf '\nFits over n = triangles (least squares):\n\n'
   printf '| preset | cycles/ray = a + b log2(n): a | b (cycles/ray per doubling) | R^2 | slope of log(cycles) vs log(n) | cycles/ray at largest n / smallest n | n ratio | nodes/ray = a + b log2(n): b | R^2 |\n'
   printf '|---|---:|---:|---:|---:|---:|---:|---:|---:|\n'
@@ -130,7 +136,23 @@ md=$out/scaling.md
         printf "%s %.6g %.6g\n", p, a, b > "/dev/stderr"
       }
     }' "$csv" 2>"$tmp/fits"
-  printf '\nRaster cycles: TODO (issue 7): the rasterizer cost model of hybrid mode is not on main yet; a rasterizer touches every triangle, so its cost is expected to grow ~linearly in n (log-log slope ~1), but no figure is given here until that model exists.\n'
+  printf '\nRaster cycles against n (the hybrid render of the same sphere): slope of log(raster cycles) against log(n), over all n and over the largest four:\n\n'
+  printf '| preset | slope, all n | slope, largest four n | raster cycles at largest n / smallest n | n ratio |\n|---|---:|---:|---:|---:|\n'
+  awk -F, 'NR > 1 {
+      p = $1; if (!(p in k)) { order[++np] = p }
+      k[p]++; i = k[p]; lx[p, i] = log($3); ly[p, i] = log($12); if (i == 1) { r0[p] = $12; n0[p] = $3 } r1[p] = $12; n1[p] = $3
+    }
+    function slope(p, from, to,   i, m, sx, sy, sxx, sxy) {
+      m = 0; sx = sy = sxx = sxy = 0
+      for (i = from; i <= to; i++) { m++; sx += lx[p, i]; sy += ly[p, i]; sxx += lx[p, i] ^ 2; sxy += lx[p, i] * ly[p, i] }
+      return (m * sxy - sx * sy) / (m * sxx - sx * sx)
+    }
+    END {
+      for (j = 1; j <= np; j++) {
+        p = order[j]; m = k[p]
+        printf "| %s | %.3f | %.3f | %.1fx | %.0fx |\n", p, slope(p, 1, m), slope(p, m > 4 ? m - 3 : 1, m), r1[p] / r0[p], n1[p] / n0[p]
+      }
+    }' "$csv"
 } >"$md"
 cat "$md"
 

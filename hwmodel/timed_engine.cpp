@@ -436,26 +436,33 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   // through geometry differ tenfold in cost). Without hits only the sampled rays are traced: the ray count.
   std::vector<double> aux(units);
   TraversalStats scratch;
-  if (m_sample.need_hits) {
-    std::vector<uint32_t> box(n), prim(n);
-    run_batch(n, m_box_unit ? 1 : m_opt.threads, s, [&](size_t i, TraversalStats& st) {
-      const uint64_t b0 = st.box_tests, p0 = st.prim_tests;
-      hits[i] = m_tracer->trace(rays[i], any_hit, st);
-      box[i] = uint32_t(st.box_tests - b0);
-      prim[i] = uint32_t(st.prim_tests - p0);
-    });
-    const double box_rate = double(m_c.box_rate) * m_c.box_units, tri_rate = double(m_c.tri_rate) * m_c.tri_units;
-    for (size_t j = 0; j < units; ++j) {
-      double b = 0.0, p = 0.0;
-      const size_t end = std::min(n, (j + 1) * U);
-      for (size_t i = j * U; i < end; ++i) {
-        b += box[i];
-        p += prim[i];
-      }
-      aux[j] = std::max({b / box_rate, p / tri_rate, double(end - j * U)});
+  // Per ray the datapath's box and primitive tests: every ray with hits; without, every kProbe-th ray (a cheap
+  // functional probe, scaled up), which predicts a unit's cost nearly as well as tracing all of it.
+  constexpr size_t kProbe = 16;
+  const size_t stride = m_sample.need_hits ? 1 : kProbe;
+  const size_t probes = (n + stride - 1) / stride;
+  std::vector<uint32_t> box(probes), prim(probes);
+  TraversalStats probe_stats;
+  run_batch(probes, m_box_unit ? 1 : m_opt.threads, m_sample.need_hits ? s : probe_stats,
+            [&](size_t q, TraversalStats& st) {
+              const size_t i = q * stride;
+              const uint64_t b0 = st.box_tests, p0 = st.prim_tests;
+              const Hit h = m_tracer->trace(rays[i], any_hit, st);
+              if (m_sample.need_hits) hits[i] = h;
+              box[q] = uint32_t(st.box_tests - b0);
+              prim[q] = uint32_t(st.prim_tests - p0);
+            });
+  const double box_rate = double(m_c.box_rate) * m_c.box_units, tri_rate = double(m_c.tri_rate) * m_c.tri_units;
+  for (size_t j = 0; j < units; ++j) {
+    double b = 0.0, p = 0.0, m = 0.0;
+    const size_t end = std::min(n, (j + 1) * U);
+    for (size_t i = (j * U + stride - 1) / stride * stride; i < end; i += stride) {
+      b += box[i / stride];
+      p += prim[i / stride];
+      m += 1.0;
     }
-  } else {
-    for (size_t j = 0; j < units; ++j) aux[j] = double(std::min(n, (j + 1) * U) - j * U);
+    const double rays_in_unit = double(end - j * U), scale = m > 0.0 ? rays_in_unit / m : 0.0;
+    aux[j] = std::max({b * scale / box_rate, p * scale / tri_rate, rays_in_unit});
   }
   TraversalStats& seg_stats = m_sample.need_hits ? scratch : s;
 
@@ -495,8 +502,8 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
 
   // Systematic sample of units 1 .. units-2: every k-th from a seeded offset in [1, k].
   const uint64_t offset = 1 + (m_sample.seed * 0x9E3779B97F4A7C15ull >> 32) % k;
-  double sum_c = 0.0, sum_u = 0.0;
-  std::vector<std::pair<double, double>> measured;  // (cycles, auxiliary) per measured unit
+  std::vector<double> measured_c;  // cycles of each measured unit
+  std::vector<size_t> measured_j;  // its index
   const size_t CW = m_sample.cache_warm_rays;
   for (size_t j = offset; j < last; j += k) {
     const size_t u0 = j * U, w = std::min(W, u0), t = std::min(tail, n - u0 - U);
@@ -509,23 +516,39 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
       warmed += cw;
     }
     seg_stats.add(segment(u0, w, U, t));
-    const double c = double(done[w + U - 1] - done[w - 1]);
-    measured.push_back({c, aux[j]});
-    sum_c += c;
-    sum_u += aux[j];
+    measured_c.push_back(double(done[w + U - 1] - done[w - 1]));
+    measured_j.push_back(j);
   }
   m_model->record_done(nullptr);
-  double rest = 0.0;  // the auxiliary summed over units 1 .. units-2
-  for (size_t j = 1; j < last; ++j) rest += aux[j];
-  const double ratio = sum_c / sum_u;
-  const double estimate = double(first_cycles) + ratio * rest + double(last_cycles);
-  // Variance of the ratio estimator: residuals c - ratio * u, finite-population corrected.
-  const double m = double(measured.size()), M = double(units - 2);
-  double ss = 0.0;
-  for (const auto& [c, u] : measured) ss += (c - ratio * u) * (c - ratio * u);
-  const double mean_u = sum_u / m;
-  const double var =
-      m > 1 ? (rest / mean_u) * (rest / mean_u) * (ss / (m - 1)) / m * std::max(0.0, 1.0 - m / M) : 0.0;
+  // The ratio estimate of units 1 .. units-2 on an auxiliary x (known for every unit) and its variance from the
+  // residuals c - ratio * x, finite-population corrected.
+  const double m = double(measured_c.size()), M = double(units - 2);
+  auto ratio_estimate = [&](const std::vector<double>& x, double& var) {
+    double sum_c = 0.0, sum_x = 0.0, total = 0.0;
+    for (size_t q = 0; q < measured_c.size(); ++q) {
+      sum_c += measured_c[q];
+      sum_x += x[measured_j[q]];
+    }
+    for (size_t j = 1; j < last; ++j) total += x[j];
+    const double ratio = sum_c / sum_x, mean_x = sum_x / m;
+    double ss = 0.0;
+    for (size_t q = 0; q < measured_c.size(); ++q) {
+      const double r = measured_c[q] - ratio * x[measured_j[q]];
+      ss += r * r;
+    }
+    var = m > 1 ? (total / mean_x) * (total / mean_x) * (ss / (m - 1)) / m * std::max(0.0, 1.0 - m / M) : 0.0;
+    return ratio * total;
+  };
+  // Two auxiliaries: the test-count bound and the ray count; the one whose residuals are smaller is used (the
+  // bound follows camera rays' sky/geometry contrast; for incoherent rays, whose units cost alike, the probe's
+  // sampling noise can make the plain ray count the better one).
+  std::vector<double> count(units);
+  for (size_t j = 0; j < units; ++j) count[j] = double(std::min(n, (j + 1) * U) - j * U);
+  double var_bound = 0.0, var_count = 0.0;
+  const double est_bound = ratio_estimate(aux, var_bound), est_count = ratio_estimate(count, var_count);
+  const bool use_bound = var_bound <= var_count;
+  const double var = use_bound ? var_bound : var_count;
+  const double estimate = double(first_cycles) + (use_bound ? est_bound : est_count) + double(last_cycles);
   const uint64_t cycles = uint64_t(std::llround(estimate));
   m_model->advance_to(start + cycles);
 
@@ -544,7 +567,7 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   ++m_sample_stats.packets_sampled;
   m_sample_stats.rays_simulated += simulated;
   m_sample_stats.rays_warmed += warmed;
-  m_sample_stats.units_measured += measured.size();
+  m_sample_stats.units_measured += measured_c.size();
   m_sample_stats.variance += var;
   return cycles;
 }

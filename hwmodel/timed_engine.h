@@ -162,10 +162,11 @@ class TimingModel {
 // hit counted in order of writing, is measured in steady state. The cycles of the units between are a ratio
 // estimate (Cochran, "Sampling Techniques", ch. 6): measured cycles / measured auxiliary times the auxiliary of
 // all of them, with a 95% confidence interval from the measured units' residuals (finite-population corrected).
-// The auxiliary is each unit's throughput bound from the datapath's test counts when hits are needed (the datapath
-// then traces every ray anyway; only the timing model is sampled), else its ray count (only the sampled rays are
-// traced: cycles only). Packets with fewer than 10 sampled units are simulated in full. Timing counters (cache,
-// DRAM, tests) are those of the simulated rays scaled to the packet.
+// The auxiliary is each unit's throughput bound from the datapath's test counts: of every ray when hits are
+// needed (the datapath then traces every ray anyway; only the timing model is sampled), else of every 16th ray
+// scaled up (cycles only: a cheap functional probe, and the sampled rays). Packets with fewer than 10 sampled
+// units are simulated in full. Timing counters (cache, DRAM, tests) are those of the simulated rays scaled to the
+// packet.
 struct SampleOptions {
   double fraction = 0.0;  // 0 (or >= 1): simulate every ray
   uint32_t unit_rays = 256;

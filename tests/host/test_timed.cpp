@@ -207,8 +207,12 @@ TEST_CASE("sampled timing estimates a packet's cycles within its interval; hits 
     o.sample.need_hits = false;
     const auto cycles_only = rtu::host::make_device(s.geometry, o);
     cycles_only->trace_batch(rays->data(), hc.data(), n, false, 2, sc);
-    const double est2 = double(cycles_only->timed()->timing().cycles);
-    CHECK(std::abs(est2 - double(exact)) <= 2.0 * cycles_only->timed()->sampling().ci95());
+    // Its auxiliary is a 1-in-16 functional probe of each unit (or the ray count, whichever fits better), so its
+    // interval is also under 10%.
+    const double est2 = double(cycles_only->timed()->timing().cycles),
+                 ci2 = cycles_only->timed()->sampling().ci95();
+    CHECK(std::abs(est2 - double(exact)) <= 2.0 * ci2);
+    CHECK(ci2 < 0.10 * double(exact));
     CHECK(sc.rays < n / 4);
 
     // The same seed gives the same estimate, whatever the thread count.

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "host/error.h"
+#include "host/limits.h"
 #include "host/scene.h"
 
 namespace rtu::host {
@@ -62,6 +63,11 @@ std::vector<hw::Triangle> import_mesh(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw Error(path + ": file not found");
   if (!std::filesystem::is_regular_file(path, ec)) throw Error(path + ": not a regular file");
+  // Assimp holds the file and its parsed meshes at once (several times the file's bytes for text formats), then
+  // the triangles are copied out: refuse a file that cannot fit before reading it.
+  const uint64_t file_bytes = std::filesystem::file_size(path, ec);
+  if (!ec)
+    check_memory(path + ": importing a " + std::to_string(file_bytes >> 20) + " MiB mesh file", 8 * file_bytes);
 
   Assimp::Importer importer;
   const aiScene* scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_ValidateDataStructure);

@@ -11,6 +11,8 @@
 #include <string>
 
 #include "host/error.h"
+#include "host/limits.h"
+#include "hwmodel/bvh.h"
 
 namespace rtu::host {
 namespace {
@@ -68,10 +70,22 @@ Scene load_scene(const std::string& spec) {
   return scene;
 }
 
+void check_scene_size(const std::string& name, uint64_t prims) {
+  // The unit's primitive index (BVH leaves, device image records, float scene image) holds fewer than 2^27.
+  if (prims >= hw::kMaxBvhPrims)
+    throw Error(name + ": " + std::to_string(prims) +
+                " primitives: more than the unit's primitive index holds (at most " +
+                std::to_string(hw::kMaxBvhPrims - 1) + ")");
+  // A trace keeps the geometry, the float BVH, its leaf-ordered copies and the device image: 256 bytes per
+  // primitive is a floor (trace_bench's peaks are 87-136 MiB for 120k-250k triangles, import included).
+  check_memory(name + ": " + std::to_string(prims) + " primitives", prims * 256);
+}
+
 void validate_scene(const Scene& scene) {
   auto fail = [&](const std::string& problem) { throw Error(scene.name + ": " + problem); };
   const hw::Geometry& g = scene.geometry;
   if (g.num_prims() == 0) fail("empty scene (no triangles, spheres or planes)");
+  check_scene_size(scene.name, g.num_prims());
 
   for (size_t i = 0; i < g.triangles.size(); ++i) {
     const hw::Triangle& t = g.triangles[i];

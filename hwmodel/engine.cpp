@@ -133,7 +133,7 @@ class FixedEngine final : public TraceEngine {
     unbind();
     DeviceImage img = DeviceImage::from_bytes(data, bytes);  // throws before anything changes
     m_image = std::make_unique<DeviceImage>(std::move(img));
-    m_tracer = std::make_unique<FixedTracer>(*m_image, FixedTraceOptions{m_opt.check_boxes});
+    m_tracer = std::make_unique<FixedTracer>(*m_image, FixedTraceOptions{m_opt.check_boxes, m_opt.max_steps});
   }
   bool bound() const override { return m_tracer != nullptr; }
   void unbind() override {
@@ -141,7 +141,11 @@ class FixedEngine final : public TraceEngine {
     m_image.reset();
   }
   void trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const override {
-    m_tracer->trace_batch(rays, hits, n, any_hit, m_opt.threads, s);
+    TraversalStats local;
+    m_tracer->trace_batch(rays, hits, n, any_hit, m_opt.threads, local);
+    if (local.watchdog_rays > 0)
+      throw WatchdogError(m_tracer->watchdog_report(rays, n, any_hit, local.watchdog_rays), 0);
+    s.add(local);
   }
   Geometry::Counts counts() const override {
     if (!m_image) return {};

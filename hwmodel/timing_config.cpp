@@ -57,6 +57,8 @@ const std::vector<KeyInfo>& key_table() {
       {"cache_latency", &C::cache_latency, 0, kMaxLatency, "cache hit latency in cycles"},
       {"dram_latency", &C::dram_latency, 0, kMaxLatency, "cycles from a miss to the first byte"},
       {"dram_bytes_per_cycle", &C::dram_bytes_per_cycle, 0.001, 65536, "DRAM bandwidth in bytes per cycle"},
+      {"watchdog_cycles", &C::watchdog_cycles, 0, 2147483647,
+       "most cycles a ray may stay in its slot before a watchdog error (0: off)"},
   };
   return table;
 }
@@ -196,6 +198,8 @@ TimingConfig timing_preset(const std::string& name) {
     c.cache_latency = 4;
     c.dram_latency = 200;
     c.dram_bytes_per_cycle = 64.0;
+    // 50 ms at 2 GHz: far beyond any ray's traversal (the slowest in bench/cycles_table.sh take thousands).
+    c.watchdog_cycles = 100000000;
   } else if (name == "intel") {
     c = timing_preset("rdna2");
     c.name = "intel";

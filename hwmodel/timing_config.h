@@ -6,7 +6,8 @@
 // units and rates 1..64; ray_slots and queue_depth 1..4096; stack_entries 1..64; cache_kib 0..65536 (a whole
 // number of sets: cache_kib * 1024 divisible by cache_ways * line_bytes); cache_ways 1..64; line_bytes a power
 // of two in 16..4096; clock_ghz 0.001..1000; dram_bytes_per_cycle 0.001..65536 (finite); bvh_width 2, 4 or 8;
-// format the name of a fixed-point format preset. The default-constructed configuration is the "rdna2" preset.
+// format the name of a fixed-point format preset; watchdog_cycles 0..2^31-1 (0: off). The default-constructed
+// configuration is the "rdna2" preset.
 #pragma once
 
 #include <cstdint>
@@ -51,6 +52,10 @@ struct TimingConfig {
   int cache_latency = 4;               // hit latency
   int dram_latency = 200;              // cycles from request to the first byte
   double dram_bytes_per_cycle = 64.0;  // bandwidth
+
+  // Watchdog: the most cycles a ray may stay in its ray slot; a ray still there after that stops the TRACE with
+  // a watchdog error and a dump of the unit's state (timed_engine.h). 0: off.
+  int watchdog_cycles = 100000000;
 
   // Checks every field; throws std::invalid_argument naming the first bad key and its allowed range.
   void validate() const;

@@ -30,6 +30,7 @@ struct DeviceArgs {
   // configuration (keys `format`, `bvh_width`); the per-field format options still apply on top.
   std::string config = "rdna2";
   std::vector<std::string> sets;
+  uint64_t watchdog_steps = 0;  // fixed, timed: node and leaf visits per ray before the watchdog (0: automatic)
 
   hw::FixedFormat fixed_format() const;  // preset + overrides + width; validated
   DeviceOptions options(const std::string& device_name) const;

@@ -106,6 +106,21 @@ void validate_scene(const Scene& scene) {
     if (!finite(p.normal) || !std::isfinite(p.offset)) fail("plane " + std::to_string(i) + ": NaN/Inf value");
     if (p.normal == Vec3(0.0f)) fail("plane " + std::to_string(i) + ": zero normal");
   }
+  // Finite but huge: products of two values would overflow float (hw::kMaxCoordinate).
+  auto big = [](const Vec3& v) {
+    return std::fabs(v.x) > hw::kMaxCoordinate || std::fabs(v.y) > hw::kMaxCoordinate ||
+           std::fabs(v.z) > hw::kMaxCoordinate;
+  };
+  const std::string too_big = ": a value beyond 2^62 (4.6e18), where float products overflow";
+  for (size_t i = 0; i < g.triangles.size(); ++i)
+    if (big(g.triangles[i].v0) || big(g.triangles[i].v1) || big(g.triangles[i].v2))
+      fail("triangle " + std::to_string(i) + too_big);
+  for (size_t i = 0; i < g.spheres.size(); ++i)
+    if (big(g.spheres[i].center) || g.spheres[i].radius > hw::kMaxCoordinate)
+      fail("sphere " + std::to_string(i) + too_big);
+  for (size_t i = 0; i < g.planes.size(); ++i)
+    if (big(g.planes[i].normal) || std::fabs(g.planes[i].offset) > hw::kMaxCoordinate)
+      fail("plane " + std::to_string(i) + too_big);
 
   if (scene.materials.empty()) fail("no materials");
   if (scene.prim_material.size() != g.num_prims()) {

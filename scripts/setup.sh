@@ -9,6 +9,7 @@ packages=(
   catch2 libembree-dev                           # tests; Embree is the independent oracle and benchmark peer
   assimp-testmodels                              # the real meshes used by tests and benchmarks
   verilator yosys                                # the RTL box unit: simulation and tests (rtl_sim/), synthesis
+  clang libclang-rt-14-dev                       # libFuzzer targets with ASan + UBSan (preset fuzz, tests/fuzz/)
 )
 
 missing=()

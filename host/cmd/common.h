@@ -99,5 +99,6 @@ void add_stress(CLI::App& app);
 void add_render(CLI::App& app);
 void add_diff(CLI::App& app);
 void add_config(CLI::App& app);
+void add_soak(CLI::App& app);
 
 }  // namespace rtu::host::cmd

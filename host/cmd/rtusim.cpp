@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   rtu::host::cmd::add_diff(app);
   rtu::host::cmd::add_config(app);
   rtu::host::cmd::add_demo(app);
+  rtu::host::cmd::add_soak(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -33,8 +33,8 @@ inline constexpr Target kTargets[] = {{"scene_file", scene_file},     {"mesh_imp
                                       {"ray_file", ray_file},         {"command_processor", command_processor},
                                       {"device_image", device_image}, {"config", config}};
 
-// Once per process: RTU_MEMORY_LIMIT=256M unless set (inputs asking for more are refused, as on a small machine),
-// and a scratch directory for targets that read files.
+// Once per process: RTU_MEMORY_LIMIT=256M and RTU_IMPORT_TIMEOUT=10 unless set (inputs asking for more are
+// refused, as on a small machine), and a scratch directory for targets that read files.
 void init();
 // A file of the scratch directory holding these bytes; returns its path.
 std::string scratch_file(const std::string& name, const uint8_t* data, size_t size);

@@ -17,6 +17,7 @@ std::string g_dir;
 void init() {
   if (!g_dir.empty()) return;
   ::setenv("RTU_MEMORY_LIMIT", "256M", 0);
+  ::setenv("RTU_IMPORT_TIMEOUT", "10", 0);  // below libFuzzer's -timeout=30: an importer hang is an Error
   const std::filesystem::path d =
       std::filesystem::temp_directory_path() / ("rtu_fuzz_" + std::to_string(::getpid()));
   std::filesystem::create_directories(d);

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <string>
 
 #include "host/error.h"
@@ -162,6 +163,45 @@ TEST_CASE("finite but huge coordinates are refused (float products would overflo
   std::ofstream(dir / "ok.json") << R"({"materials": {"m": {}},
     "spheres": [{"center": [4e18, 0, 0], "radius": 1e18, "material": "m"}]})";
   CHECK(host::load_scene((dir / "ok.json").string()).geometry.spheres.size() == 1);
+}
+
+TEST_CASE("a PLY header Assimp would loop on is refused first", "[limits]") {
+  // Found by fuzz_mesh_import (tests/fuzz/regressions/mesh_import/assimp_ply_unknown_keyword_hang): Assimp 5.2's
+  // PLY parser never returns on a header line with an unknown keyword.
+  const fs::path dir = temp_dir();
+  const std::string head = "ply\nformat ascii 1.0\nelement vertex 3\n";
+  const std::string tail =
+      "property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+      "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+  std::ofstream(dir / "hang.ply") << head << "prortyep float x\n" << tail;
+  CHECK(contains(error_of([&] { host::import_mesh((dir / "hang.ply").string()); }),
+                 "hang.ply: PLY header line 4: unknown keyword 'prortyep'"));
+  std::ofstream(dir / "noend.ply") << "ply\nformat ascii 1.0\n";
+  CHECK(contains(error_of([&] { host::import_mesh((dir / "noend.ply").string()); }), "without end_header"));
+  std::ofstream(dir / "badprop.ply") << head << "property flot x\n" << tail;
+  CHECK(contains(error_of([&] { host::import_mesh((dir / "badprop.ply").string()); }),
+                 "expected 'property TYPE NAME'"));
+  std::ofstream(dir / "ok.ply") << "ply\nformat ascii 1.0\ncomment fine\nelement vertex 3\nproperty float x\n"
+                                << tail;
+  CHECK(host::import_mesh((dir / "ok.ply").string()).size() == 1);
+}
+
+TEST_CASE("a mesh file that crashes Assimp is an error, not a crash of rtu", "[limits]") {
+  // Found by fuzz_mesh_import (regressions/mesh_import/assimp_ply_triangulate_assert_abort): a PLY body that
+  // contradicts its header trips an assertion in Assimp's triangulation, which aborts. Assimp runs in a child
+  // process (host/mesh_import.cpp), so the abort becomes an Error naming the file.
+  const fs::path dir = temp_dir();
+  std::ifstream in(
+      fs::path(RTU_SOURCE_DIR) / "tests/fuzz/regressions/mesh_import/assimp_ply_triangulate_assert_abort",
+      std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  REQUIRE(bytes.size() > 1);
+  std::ofstream(dir / "abort.ply", std::ios::binary) << bytes.substr(1);  // byte 0 chose the format
+  const std::string e = error_of([&] { host::load_scene((dir / "abort.ply").string()); });
+  CHECK(contains(e, "abort.ply: the mesh importer (Assimp) crashed on this file (signal 6"));
+  // The same path still imports good files, with the triangles passed back bit for bit.
+  const std::vector<hw::Triangle> a = host::import_mesh("/usr/share/assimp/models/OBJ/spider.obj");
+  CHECK(a.size() == 1368);
 }
 
 TEST_CASE("scenes with more primitives than the unit's index holds are refused", "[limits]") {

@@ -21,6 +21,8 @@ using hw::Vec3;
 IndexedMesh make_icosphere(int subdiv, float radius, Vec3 offset) {
   if (subdiv < 0 || subdiv > kMaxIcosphereSubdiv) throw Error("icosphere: subdiv out of range");
   if (!(radius > 0.0f) || !std::isfinite(radius)) throw Error("icosphere: radius must be > 0");
+  // Refused before generating when the scene could not be traced (check_scene_size: index width, memory).
+  check_scene_size("icosphere subdiv " + std::to_string(subdiv), uint64_t(20) << (2 * subdiv));
 
   // Unit-sphere directions in double; rounded to float once at the end.
   const double t = (1.0 + std::sqrt(5.0)) / 2.0;
@@ -70,6 +72,8 @@ IndexedMesh make_torus(float major_radius, float minor_radius, int major_segment
   for (int n : {major_segments, minor_segments}) {
     if (n < kMinTorusSegments || n > kMaxTorusSegments) throw Error("torus: segment count out of range");
   }
+  check_scene_size("torus " + std::to_string(major_segments) + " x " + std::to_string(minor_segments),
+                   2 * uint64_t(major_segments) * uint64_t(minor_segments));
   IndexedMesh mesh;
   const double two_pi = 2.0 * std::numbers::pi;
   for (int i = 0; i < major_segments; ++i) {

@@ -33,7 +33,7 @@ class ImageDevice : public TraceDevice {
   ImageDevice(const hw::Geometry& g, const DeviceOptions& o)
       : m_bvh(hw::choose_accel(g, o.tracer, &m_bvh_cost, &m_brute_cost)),
         m_image(hw::encode_scene(g, o.format, m_bvh ? &*m_bvh : nullptr)),
-        m_tracer(m_image, hw::FixedTraceOptions{o.check_boxes}) {}
+        m_tracer(m_image, hw::FixedTraceOptions{o.check_boxes, o.max_steps}) {}
   hw::RayStatus ray_status(const hw::Ray& r) const override {
     hw::FixedRay fr;
     return hw::setup_ray(r, m_tracer.frame(), m_tracer.format(), fr);
@@ -57,7 +57,11 @@ class FixedDevice final : public ImageDevice {
   const std::string& name() const override { return m_name; }
   void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
                    hw::TraversalStats& s) const override {
-    m_tracer.trace_batch(rays, hits, n, any_hit, threads, s);
+    hw::TraversalStats local;
+    m_tracer.trace_batch(rays, hits, n, any_hit, threads, local);
+    if (local.watchdog_rays > 0)
+      throw hw::WatchdogError(m_tracer.watchdog_report(rays, n, any_hit, local.watchdog_rays), 0);
+    s.add(local);
   }
 
  private:
@@ -66,9 +70,15 @@ class FixedDevice final : public ImageDevice {
 
 // The fixed datapath with the timing model: the engine the command processor would run, called directly.
 class TimedDevice final : public ImageDevice {
+  static hw::EngineOptions engine_options(const DeviceOptions& o) {
+    hw::EngineOptions e;
+    e.max_steps = o.max_steps;
+    return e;
+  }
+
  public:
   TimedDevice(const hw::Geometry& g, const DeviceOptions& o)
-      : ImageDevice(g, o), m_engine(hw::EngineOptions{}, o.timing, make_box_unit(o.timing)) {
+      : ImageDevice(g, o), m_engine(engine_options(o), o.timing, make_box_unit(o.timing)) {
     m_engine.set_sampling(o.sample);
     m_engine.bind(m_image.data(), m_image.size());
   }

@@ -24,6 +24,7 @@ struct DeviceOptions {
   bool check_boxes = false;    // fixed: repeat box tests exactly and count false negatives
   hw::TimingConfig timing;     // timed: the unit's configuration (its format and width are in `format`)
   hw::SampleOptions sample;    // timed: sampled timing (fraction 0: every ray simulated)
+  uint64_t max_steps = 0;      // fixed, timed: traversal watchdog, node and leaf visits per ray (0: automatic)
 };
 
 const std::vector<std::string>& device_names();
@@ -50,7 +51,9 @@ class TraceDevice {
   virtual uint64_t prim_bytes() const = 0;
 };
 
-// Throws Error for an unknown device name and std::invalid_argument for a bad format.
+// Throws Error for an unknown device name and std::invalid_argument for a bad format. trace_batch throws
+// hw::WatchdogError (with the unit's state) when the watchdog stops a ray (fixed: step bound; timed: that or
+// the timing config's watchdog_cycles).
 std::unique_ptr<TraceDevice> make_device(const hw::Geometry& g, const DeviceOptions& o);
 
 }  // namespace rtu::host

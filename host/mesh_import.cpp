@@ -3,17 +3,34 @@
 // Only aiProcess_Triangulate and aiProcess_ValidateDataStructure are requested: steps such as
 // PreTransformVertices or SortByPType reorder meshes or faces and would break the documented order. The node
 // tree is walked here instead, accumulating node transforms (parent * child) into world space.
+//
+// Hardening (README "Hardening"): files beyond the memory budget are refused before reading; PLY headers are
+// checked first (Assimp 5.2 loops for ever on some); Assimp itself runs in a child process, so a file on which it
+// aborts, hangs (RTU_IMPORT_TIMEOUT) or leaks costs an Error, never rtusim.
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+#include <poll.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <assimp/Importer.hpp>
 
+#include <cctype>
+#include <cerrno>
+#include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "host/error.h"
+#include "host/limits.h"
 #include "host/scene.h"
 
 namespace rtu::host {
@@ -56,13 +73,77 @@ void walk_nodes(const aiScene& scene, Visit&& visit) {
   }
 }
 
+// PLY headers are checked here before Assimp sees them: Assimp 5.2's PLY parser loops for ever on a header line
+// with an unknown keyword (found by tests/fuzz/fuzz_mesh_import.cpp: "prortyep float x"). The grammar: "ply", then
+// lines of format / comment / obj_info / element NAME COUNT / property TYPE NAME / property list TYPE TYPE NAME,
+// then end_header; at most 64 KiB of header.
+std::vector<hw::Triangle> import_isolated(const std::string& path);
+
+void check_ply_header(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  if (!std::getline(in, line)) return;
+  // Assimp takes a file for PLY by its extension or by "ply" at its start, whatever follows on that line.
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  if (line.rfind("ply", 0) != 0 && ext != ".ply") return;
+  while (!line.empty() && std::isspace(static_cast<unsigned char>(line.back()))) line.pop_back();
+  if (line != "ply") throw Error(path + ": PLY header line 1: expected 'ply'");
+  static const std::set<std::string> types = {"char",  "uchar",  "short",   "ushort", "int",   "uint",
+                                              "float", "double", "int8",    "uint8",  "int16", "uint16",
+                                              "int32", "uint32", "float32", "float64"};
+  size_t bytes = line.size() + 1;
+  for (int n = 2; std::getline(in, line); ++n) {
+    bytes += line.size() + 1;
+    if (bytes > 65536) throw Error(path + ": PLY header longer than 64 KiB");
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::istringstream words(line);
+    std::vector<std::string> w;
+    for (std::string x; words >> x;) w.push_back(x);
+    auto bad = [&](const std::string& why) {
+      throw Error(path + ": PLY header line " + std::to_string(n) + ": " + why + " ('" + line + "')");
+    };
+    if (w.empty()) bad("empty line");
+    const std::string& k = w[0];
+    if (k == "end_header") return;
+    if (k == "comment" || k == "obj_info") continue;
+    if (k == "format") {
+      if (w.size() != 3 || (w[1] != "ascii" && w[1] != "binary_little_endian" && w[1] != "binary_big_endian"))
+        bad("expected 'format ascii|binary_little_endian|binary_big_endian VERSION'");
+    } else if (k == "element") {
+      if (w.size() != 3 || w[2].find_first_not_of("0123456789") != std::string::npos)
+        bad("expected 'element NAME COUNT'");
+    } else if (k == "property") {
+      const bool list = w.size() == 5 && w[1] == "list" && types.count(w[2]) && types.count(w[3]);
+      if (!list && !(w.size() == 3 && types.count(w[1])))
+        bad("expected 'property TYPE NAME' or 'property list TYPE TYPE NAME'");
+    } else {
+      bad("unknown keyword '" + k + "'");
+    }
+  }
+  throw Error(path + ": PLY header without end_header");
+}
+
 }  // namespace
 
 std::vector<hw::Triangle> import_mesh(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw Error(path + ": file not found");
   if (!std::filesystem::is_regular_file(path, ec)) throw Error(path + ": not a regular file");
+  // Assimp holds the file and its parsed meshes at once (several times the file's bytes for text formats), then
+  // the triangles are copied out: refuse a file that cannot fit before reading it.
+  const uint64_t file_bytes = std::filesystem::file_size(path, ec);
+  if (!ec)
+    check_memory(path + ": importing a " + std::to_string(file_bytes >> 20) + " MiB mesh file", 8 * file_bytes);
 
+  check_ply_header(path);
+  return import_isolated(path);
+}
+
+namespace {
+
+// The import proper, in the child process of import_isolated().
+std::vector<hw::Triangle> import_with_assimp(const std::string& path) {
   Assimp::Importer importer;
   const aiScene* scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_ValidateDataStructure);
   if (!scene && std::string(importer.GetErrorString()).find("contains no faces") != std::string::npos) {
@@ -112,5 +193,99 @@ std::vector<hw::Triangle> import_mesh(const std::string& path) {
   importer.FreeScene();
   return triangles;
 }
+
+bool write_all(int fd, const void* data, size_t n) {
+  const auto* p = static_cast<const char*>(data);
+  while (n > 0) {
+    const ssize_t w = ::write(fd, p, n);
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) return false;
+    p += w;
+    n -= size_t(w);
+  }
+  return true;
+}
+
+// Assimp runs in a child process: a file that makes it crash (its assertions abort, e.g. on a PLY body that
+// contradicts its header), hang or leak cannot take rtusim with it. The child sends {status, bytes} and then the
+// triangles (status 0) or the error message (status 1); the parent waits at most RTU_IMPORT_TIMEOUT seconds
+// (default 300). Found necessary by tests/fuzz/fuzz_mesh_import.cpp (README "Hardening").
+std::vector<hw::Triangle> import_isolated(const std::string& path) {
+  int timeout_s = 300;
+  if (const char* t = std::getenv("RTU_IMPORT_TIMEOUT"); t && std::atoi(t) > 0) timeout_s = std::atoi(t);
+  int fds[2];
+  if (::pipe(fds) != 0) throw Error(path + ": cannot import: pipe: " + std::strerror(errno));
+  std::fflush(nullptr);
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    ::close(fds[0]);
+    ::close(fds[1]);
+    throw Error(path + ": cannot import: fork: " + std::strerror(errno));
+  }
+  if (pid == 0) {  // the child: import, send, _exit (no atexit handlers, no leak report of Assimp's leaks)
+    ::close(fds[0]);
+    // Die by the signal if Assimp crashes: no handler inherited from the parent (a sanitizer's, a fuzzer's) may
+    // report the child's crash as the parent's.
+    for (int sig : {SIGABRT, SIGSEGV, SIGBUS, SIGFPE, SIGILL}) std::signal(sig, SIG_DFL);
+    uint64_t head[2] = {0, 0};
+    std::string message;
+    std::vector<hw::Triangle> tris;
+    try {
+      tris = import_with_assimp(path);
+      head[1] = tris.size() * sizeof(hw::Triangle);
+    } catch (const std::exception& e) {
+      message = e.what();
+      head[0] = 1;
+      head[1] = message.size();
+    }
+    const bool ok = write_all(fds[1], head, sizeof head) &&
+                    write_all(fds[1], head[0] ? static_cast<const void*>(message.data()) : tris.data(), head[1]);
+    ::_exit(ok ? 0 : 3);
+  }
+  ::close(fds[1]);
+  std::vector<char> data;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(timeout_s);
+  bool timed_out = false;
+  for (;;) {
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) {
+      timed_out = true;
+      break;
+    }
+    pollfd p{fds[0], POLLIN, 0};
+    const int r = ::poll(&p, 1, int(std::min<int64_t>(left.count(), 1000)));
+    if (r < 0 && errno == EINTR) continue;
+    if (r <= 0) continue;
+    char buf[1 << 16];
+    const ssize_t n = ::read(fds[0], buf, sizeof buf);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;  // the child closed its end (exited)
+    data.insert(data.end(), buf, buf + n);
+  }
+  ::close(fds[0]);
+  if (timed_out) ::kill(pid, SIGKILL);
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (timed_out)
+    throw Error(path + ": the mesh importer (Assimp) did not finish within " + std::to_string(timeout_s) +
+                " s (RTU_IMPORT_TIMEOUT); the file is malformed or too large");
+  if (WIFSIGNALED(status))
+    throw Error(path + ": the mesh importer (Assimp) crashed on this file (signal " +
+                std::to_string(WTERMSIG(status)) + ", " + strsignal(WTERMSIG(status)) + "): a malformed file");
+  uint64_t head[2] = {0, 0};
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || data.size() < sizeof head)
+    throw Error(path + ": the mesh importer (Assimp) failed without a message");
+  std::memcpy(head, data.data(), sizeof head);
+  if (data.size() != sizeof head + head[1] || (head[0] == 0 && head[1] % sizeof(hw::Triangle) != 0))
+    throw Error(path + ": the mesh importer (Assimp) sent a truncated answer");
+  if (head[0] != 0) throw Error(std::string(data.data() + sizeof head, head[1]));
+  std::vector<hw::Triangle> tris(head[1] / sizeof(hw::Triangle));
+  if (!tris.empty()) std::memcpy(tris.data(), data.data() + sizeof head, head[1]);
+  return tris;
+}
+
+}  // namespace
 
 }  // namespace rtu::host

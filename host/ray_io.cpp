@@ -5,11 +5,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <sstream>
 
 #include "host/error.h"
+#include "host/limits.h"
 
 namespace rtu::host {
 
@@ -28,6 +30,10 @@ File open_file(const std::string& path, const char* mode) {
   return f;
 }
 
+// Memory a job needs per record read: a ray file is traced into as many 16-byte hits.
+template <class T>
+constexpr uint64_t kNeededPerRecord = sizeof(T) == sizeof(hw::Ray) ? sizeof(hw::Ray) + sizeof(hw::Hit) : sizeof(T);
+
 template <class T>
 std::vector<T> read_binary(const std::string& path, const char* what) {
   File f = open_file(path, "rb");
@@ -39,6 +45,8 @@ std::vector<T> read_binary(const std::string& path, const char* what) {
     throw Error(path + ": size " + std::to_string(size) + " bytes is not a multiple of " +
                 std::to_string(sizeof(T)) + " (one " + what + "): truncated, or not a " + what + " file");
   }
+  check_memory(path + ": " + std::to_string(uint64_t(size) / sizeof(T)) + " " + what + "s",
+               uint64_t(size) / sizeof(T) * kNeededPerRecord<T>);
   std::vector<T> out(size_t(size) / sizeof(T));
   if (!out.empty() && std::fread(out.data(), sizeof(T), out.size(), f.get()) != out.size())
     throw Error(path + ": read error");
@@ -85,10 +93,16 @@ std::string csv_float(float x) {
   return buf;
 }
 
-template <class F>
-void read_csv(const std::string& path, const char* header, F&& on_line) {
+// The shortest CSV line of a record ("0,0,0,0,0,0,0,0\n" for a ray) bounds the records a file can hold.
+template <class T, class F>
+void read_csv(const std::string& path, const char* header, uint64_t min_line, F&& on_line) {
   std::ifstream in(path);
   if (!in) throw Error(path + ": cannot open: " + std::strerror(errno));
+  std::error_code ec;
+  const uint64_t size = std::filesystem::file_size(path, ec);
+  if (!ec)
+    check_memory(path + ": up to " + std::to_string(size / min_line) + " records",
+                 size / min_line * kNeededPerRecord<T>);
   std::string line;
   if (!std::getline(in, line)) throw Error(path + ": empty file (expected the header '" + header + "')");
   if (!line.empty() && line.back() == '\r') line.pop_back();
@@ -110,7 +124,7 @@ bool is_csv_path(const std::string& path) {
 std::vector<hw::Ray> read_rays(const std::string& path) {
   if (!is_csv_path(path)) return read_binary<hw::Ray>(path, "ray");
   std::vector<hw::Ray> rays;
-  read_csv(path, kRayCsvHeader, [&](const std::string& line) {
+  read_csv<hw::Ray>(path, kRayCsvHeader, 16, [&](const std::string& line) {
     float f[8];
     if (!parse_fields(line, f, 8)) return false;
     rays.push_back(hw::Ray{{f[0], f[1], f[2]}, f[3], {f[4], f[5], f[6]}, f[7]});
@@ -122,7 +136,7 @@ std::vector<hw::Ray> read_rays(const std::string& path) {
 std::vector<hw::Hit> read_hits(const std::string& path) {
   if (!is_csv_path(path)) return read_binary<hw::Hit>(path, "hit");
   std::vector<hw::Hit> hits;
-  read_csv(path, kHitCsvHeader, [&](const std::string& line) {
+  read_csv<hw::Hit>(path, kHitCsvHeader, 8, [&](const std::string& line) {
     float f[4];
     uint32_t prim = 0;
     if (!parse_fields(line, f, 4, 1, &prim)) return false;

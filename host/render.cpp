@@ -7,6 +7,7 @@
 
 #include "firmware/render_scene.h"
 #include "host/error.h"
+#include "host/limits.h"
 #include "host/model_device.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/engine.h"
@@ -191,10 +192,12 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   const uint64_t arena_bytes = (1u << 16) + std::min<uint64_t>(paths, 1u << 18) * per_path;
   const uint64_t arena_base = top;
   res.device_memory_bytes = align64(arena_base + arena_bytes);
+  check_memory("render: the unit's device memory", res.device_memory_bytes);
 
   hw::EngineOptions eopt;
   eopt.threads = o.threads;
   eopt.tracer = tracer;
+  eopt.max_steps = o.device.max_steps;
   ModelDevice dev(o.device.name, res.device_memory_bytes, eopt, o.device.timing);
   if (hw::TimedEngine* te = dev.timed()) {
     te->set_trace(o.pipeline_trace);
@@ -218,6 +221,7 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
     if (st == fw::Status::kDeviceError) {
       why += std::string(" (") + hw::reg::error_name(dev.processor().error()) + " at ring slot " +
              std::to_string(dev.read32(hw::reg::kErrorInfo)) + ")";
+      if (!dev.processor().error_detail().empty()) why += ":\n" + dev.processor().error_detail();
     }
     throw Error(why);
   }

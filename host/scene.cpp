@@ -11,6 +11,8 @@
 #include <string>
 
 #include "host/error.h"
+#include "host/limits.h"
+#include "hwmodel/bvh.h"
 
 namespace rtu::host {
 namespace {
@@ -68,10 +70,22 @@ Scene load_scene(const std::string& spec) {
   return scene;
 }
 
+void check_scene_size(const std::string& name, uint64_t prims) {
+  // The unit's primitive index (BVH leaves, device image records, float scene image) holds fewer than 2^27.
+  if (prims >= hw::kMaxBvhPrims)
+    throw Error(name + ": " + std::to_string(prims) +
+                " primitives: more than the unit's primitive index holds (at most " +
+                std::to_string(hw::kMaxBvhPrims - 1) + ")");
+  // A trace keeps the geometry, the float BVH, its leaf-ordered copies and the device image: 256 bytes per
+  // primitive is a floor (trace_bench's peaks are 87-136 MiB for 120k-250k triangles, import included).
+  check_memory(name + ": " + std::to_string(prims) + " primitives", prims * 256);
+}
+
 void validate_scene(const Scene& scene) {
   auto fail = [&](const std::string& problem) { throw Error(scene.name + ": " + problem); };
   const hw::Geometry& g = scene.geometry;
   if (g.num_prims() == 0) fail("empty scene (no triangles, spheres or planes)");
+  check_scene_size(scene.name, g.num_prims());
 
   for (size_t i = 0; i < g.triangles.size(); ++i) {
     const hw::Triangle& t = g.triangles[i];
@@ -92,6 +106,21 @@ void validate_scene(const Scene& scene) {
     if (!finite(p.normal) || !std::isfinite(p.offset)) fail("plane " + std::to_string(i) + ": NaN/Inf value");
     if (p.normal == Vec3(0.0f)) fail("plane " + std::to_string(i) + ": zero normal");
   }
+  // Finite but huge: products of two values would overflow float (hw::kMaxCoordinate).
+  auto big = [](const Vec3& v) {
+    return std::fabs(v.x) > hw::kMaxCoordinate || std::fabs(v.y) > hw::kMaxCoordinate ||
+           std::fabs(v.z) > hw::kMaxCoordinate;
+  };
+  const std::string too_big = ": a value beyond 2^62 (4.6e18), where float products overflow";
+  for (size_t i = 0; i < g.triangles.size(); ++i)
+    if (big(g.triangles[i].v0) || big(g.triangles[i].v1) || big(g.triangles[i].v2))
+      fail("triangle " + std::to_string(i) + too_big);
+  for (size_t i = 0; i < g.spheres.size(); ++i)
+    if (big(g.spheres[i].center) || g.spheres[i].radius > hw::kMaxCoordinate)
+      fail("sphere " + std::to_string(i) + too_big);
+  for (size_t i = 0; i < g.planes.size(); ++i)
+    if (big(g.planes[i].normal) || std::fabs(g.planes[i].offset) > hw::kMaxCoordinate)
+      fail("plane " + std::to_string(i) + too_big);
 
   if (scene.materials.empty()) fail("no materials");
   if (scene.prim_material.size() != g.num_prims()) {

@@ -75,6 +75,10 @@ Scene load_builtin_scene(const std::string& spec);
 // Faces that are points or lines are dropped; polygons are triangulated. Throws Error on failure.
 std::vector<hw::Triangle> import_mesh(const std::string& path);
 
+// Throws Error when a scene of `prims` primitives cannot be traced: more than the unit's primitive index holds
+// (hw::kMaxBvhPrims - 1), or more than the memory budget (host/limits.h) at 256 bytes per primitive.
+void check_scene_size(const std::string& name, uint64_t prims);
+
 // Names accepted by builtin:NAME, each with a one-line description.
 std::vector<std::pair<std::string, std::string>> builtin_scene_names();
 

@@ -58,8 +58,9 @@ class BinaryBuilder {
   };
 
   int bin_of(const PrimRef& r, int a, float cmin, float scale) const {
-    int b = int((r.centroid(a) - cmin) * scale);
-    return std::clamp(b, 0, m_p.bins - 1);
+    // Compared as float before converting: a NaN or an out-of-range value would make the conversion undefined.
+    const float x = (r.centroid(a) - cmin) * scale;
+    return x >= 0.0f ? (x < float(m_p.bins) ? int(x) : m_p.bins - 1) : 0;
   }
 
   [[gnu::noinline]] Split find_split(uint32_t begin, uint32_t end, const Aabb& cbox) const {

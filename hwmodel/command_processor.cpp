@@ -121,6 +121,7 @@ void CommandProcessor::reset() {
   m_irq_status = 0;
   m_error = ErrorCode::kNone;
   m_error_info = 0;
+  m_error_detail.clear();
   m_ring_base = 0;
   m_ring_size = 0;
   m_head = m_tail = 0;
@@ -172,8 +173,9 @@ bool CommandProcessor::execute(const cmd::Packet& p) {
       if (!check_buffer(p.addr0, p.value, 8)) return false;
       try {
         m_engine.bind(m_mem.data() + p.addr0, size_t(p.value));
-      } catch (const std::exception&) {  // a malformed image (std::invalid_argument) or no memory for it
+      } catch (const std::exception& e) {  // a malformed image (std::invalid_argument) or no memory for it
         raise(ErrorCode::kBadScene, m_head);
+        m_error_detail = e.what();
         return false;
       }
       return true;
@@ -199,7 +201,15 @@ bool CommandProcessor::execute(const cmd::Packet& p) {
       m_mem.read(p.addr0, rays.data(), rb);
       const bool any_hit = (p.flags & cmd::kTraceAnyHit) != 0;
       TraversalStats s;
-      m_trace_cycles = m_engine.trace_cycles(rays.data(), hits.data(), p.count, any_hit, s, p.ray_type, p.bounce);
+      try {
+        m_trace_cycles =
+            m_engine.trace_cycles(rays.data(), hits.data(), p.count, any_hit, s, p.ray_type, p.bounce);
+      } catch (const WatchdogError& e) {
+        raise(ErrorCode::kWatchdog, m_head);
+        m_error_detail = e.what();
+        m_clock += e.cycles();
+        return false;
+      }
       m_mem.write(p.addr1, hits.data(), hb);
       m_counters.stats_by_type[p.ray_type].add(s);
       m_counters.rays_by_type[p.ray_type] += p.count;

@@ -5,12 +5,14 @@
 // order; the device clock advances by the engine's cycles per packet (functional engines: one per packet; the
 // timed engine: simulated cycles, one packet after another). A malformed packet or register access sets the error
 // code, the error info (the packet's ring slot or the register offset), kStatusError and kIrqError, and stops
-// consumption (head stays on the faulting packet) until kCtrlReset. Every address is checked before use: no packet
-// can make the model read or write outside device memory, crash, or loop.
+// consumption (head stays on the faulting packet) until kCtrlReset. A TRACE the engine's watchdog stops
+// (WatchdogError) is the error kWatchdog: its hits are not written, the clock advances by the cycles it ran. Every
+// address is checked before use: no packet can make the model read or write outside device memory, crash, or loop.
 #pragma once
 
 #include <array>
 #include <cstdint>
+#include <string>
 
 #include "hwmodel/commands.h"
 #include "hwmodel/device_memory.h"
@@ -50,6 +52,9 @@ class CommandProcessor {
   // The interrupt line: some enabled interrupt status bit is set.
   bool irq_line() const { return (m_irq_status & m_irq_enable) != 0; }
   reg::ErrorCode error() const { return m_error; }
+  // Words beside the error code for the host (empty for most errors): for kWatchdog, the unit's state dump
+  // (WatchdogError::what()); for kBadScene, why the image was refused. Cleared by reset.
+  const std::string& error_detail() const { return m_error_detail; }
   const DeviceCounters& counters() const { return m_counters; }
   const TraceEngine& engine() const { return m_engine; }
   DeviceMemory& memory() { return m_mem; }
@@ -69,6 +74,7 @@ class CommandProcessor {
   uint32_t m_irq_status = 0, m_irq_enable = 0;
   reg::ErrorCode m_error = reg::ErrorCode::kNone;
   uint32_t m_error_info = 0;
+  std::string m_error_detail;
   uint64_t m_ring_base = 0;
   uint32_t m_ring_size = 0, m_head = 0, m_tail = 0;
   uint64_t m_fence = 0;

@@ -400,8 +400,8 @@ void DeviceImage::check() const {
     if (pl[i].prim != num_bounded + i) bad_image("plane " + std::to_string(i) + ": index out of order");
   }
 
-  // Tree: leaves inside the records, children after their parent (so no cycles), and no path deeper than the
-  // traversal stack holds.
+  // Tree: leaves inside the records, children after their parent (so no cycles), one parent per node (so no
+  // shared subtrees: a ray visits each node at most once), and no path deeper than the traversal stack holds.
   auto leaf_ok = [&](uint32_t ref) { return uint64_t(leaf_first(ref)) + leaf_count(ref) <= h.record_count; };
   if (h.flags & kImageNoBvh) {
     if (h.node_count != 0) bad_image("nodes in an image without a BVH");
@@ -455,8 +455,11 @@ void DeviceImage::check() const {
         if (!leaf_ok(ref)) bad_image(at + "leaf outside the records");
       } else if (ref <= n || ref >= h.node_count) {
         bad_image(at + "child node out of order or out of range");
+      } else if (depth[ref] != 0) {
+        // A node reached twice (a DAG) would be traversed once per path: exponential work for a small image.
+        bad_image(at + "child node " + std::to_string(ref) + " has a second parent (the BVH must be a tree)");
       } else {
-        depth[ref] = std::max(depth[ref], depth[n] + 1);
+        depth[ref] = depth[n] + 1;
       }
     }
     // The stack holds at most N - 1 entries per level above the deepest node.

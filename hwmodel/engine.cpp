@@ -24,8 +24,9 @@ uint64_t float_scene_bytes(uint64_t nt, uint64_t ns, uint64_t np) {
   throw std::invalid_argument("float scene image: " + why);
 }
 
+// Finite and within kMaxCoordinate.
 bool finite3(const Vec3& v) {
-  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+  return std::fabs(v.x) <= kMaxCoordinate && std::fabs(v.y) <= kMaxCoordinate && std::fabs(v.z) <= kMaxCoordinate;
 }
 
 }  // namespace
@@ -78,14 +79,15 @@ Geometry decode_float_scene(const uint8_t* data, size_t bytes) {
   get(g.planes);
   for (size_t i = 0; i < g.triangles.size(); ++i)
     if (!finite3(g.triangles[i].v0) || !finite3(g.triangles[i].v1) || !finite3(g.triangles[i].v2))
-      bad_scene("triangle " + std::to_string(i) + " is not finite");
+      bad_scene("triangle " + std::to_string(i) + " is not finite or beyond 2^62");
   for (size_t i = 0; i < g.spheres.size(); ++i)
-    if (!finite3(g.spheres[i].center) || !(g.spheres[i].radius > 0.0f) || !std::isfinite(g.spheres[i].radius))
-      bad_scene("sphere " + std::to_string(i) + " is not finite or has no positive radius");
+    if (!finite3(g.spheres[i].center) || !(g.spheres[i].radius > 0.0f) || !(g.spheres[i].radius <= kMaxCoordinate))
+      bad_scene("sphere " + std::to_string(i) + " is not finite, beyond 2^62 or has no positive radius");
   for (size_t i = 0; i < g.planes.size(); ++i) {
     const Plane& p = g.planes[i];
-    if (!finite3(p.normal) || !std::isfinite(p.offset) || (p.normal.x == 0 && p.normal.y == 0 && p.normal.z == 0))
-      bad_scene("plane " + std::to_string(i) + " is not finite or has a zero normal");
+    if (!finite3(p.normal) || !(std::fabs(p.offset) <= kMaxCoordinate) ||
+        (p.normal.x == 0 && p.normal.y == 0 && p.normal.z == 0))
+      bad_scene("plane " + std::to_string(i) + " is not finite, beyond 2^62 or has a zero normal");
   }
   return g;
 }
@@ -133,7 +135,7 @@ class FixedEngine final : public TraceEngine {
     unbind();
     DeviceImage img = DeviceImage::from_bytes(data, bytes);  // throws before anything changes
     m_image = std::make_unique<DeviceImage>(std::move(img));
-    m_tracer = std::make_unique<FixedTracer>(*m_image, FixedTraceOptions{m_opt.check_boxes});
+    m_tracer = std::make_unique<FixedTracer>(*m_image, FixedTraceOptions{m_opt.check_boxes, m_opt.max_steps});
   }
   bool bound() const override { return m_tracer != nullptr; }
   void unbind() override {
@@ -141,7 +143,11 @@ class FixedEngine final : public TraceEngine {
     m_image.reset();
   }
   void trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const override {
-    m_tracer->trace_batch(rays, hits, n, any_hit, m_opt.threads, s);
+    TraversalStats local;
+    m_tracer->trace_batch(rays, hits, n, any_hit, m_opt.threads, local);
+    if (local.watchdog_rays > 0)
+      throw WatchdogError(m_tracer->watchdog_report(rays, n, any_hit, local.watchdog_rays), 0);
+    s.add(local);
   }
   Geometry::Counts counts() const override {
     if (!m_image) return {};

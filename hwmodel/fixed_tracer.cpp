@@ -1,6 +1,8 @@
 #include "hwmodel/fixed_tracer.h"
 
+#include <cinttypes>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <stdexcept>
 #include <string>
@@ -60,8 +62,21 @@ struct FixedPolicy {
   TraversalStats& s;
   std::vector<TraceEvent>* rec;  // the timing model's recorder, or null
   BoxUnit* unit;                 // box tests by this unit instead of box_test_delta, or null
+  FixedTracer::WatchState& watch;
+  uint64_t step_limit;
+
+  // The watchdog: one step per node or leaf visit; past the bound the ray stops (nothing more is tested and
+  // limit() drops below every stacked entry, so the traversal loop empties its stack and ends).
+  bool stopped(uint32_t ref) const {
+    if (watch.fired) return true;
+    if (++watch.steps <= step_limit) return false;
+    watch.fired = true;
+    watch.ref = ref;
+    return true;
+  }
 
   int expand(uint32_t node, uint32_t refs[N], int64_t dists[N], int& tested) const {
+    if (stopped(node)) return 0;
     if (unit) return expand_unit(node, refs, dists, tested);
     if (rec) rec->push_back(TraceEvent{TraceEvent::kNode, nodes[node].count, 0, 0, node});
     return r.narrow ? expand_impl<int64_t>(node, refs, dists, tested)
@@ -143,6 +158,7 @@ struct FixedPolicy {
   }
 
   bool leaf(uint32_t ref) const {
+    if (stopped(ref)) return false;
     const uint32_t first = leaf_first(ref), count = leaf_count(ref);
     s.prim_tests += count;
     bool found = false;
@@ -156,11 +172,13 @@ struct FixedPolicy {
     return found;
   }
 
-  int64_t limit() const { return closest.t; }
+  int64_t limit() const { return watch.fired ? INT64_MIN : closest.t; }
   void pushed(int n) const {
+    if (!watch.fired) watch.depth += n;
     if (rec) rec->push_back(TraceEvent{TraceEvent::kPush, uint8_t(n), 0, 0, 0});
   }
   void popped() const {
+    if (!watch.fired) --watch.depth;
     if (rec) rec->push_back(TraceEvent{TraceEvent::kPop, 0, 0, 0, 0});
   }
 };
@@ -171,6 +189,8 @@ FixedTracer::FixedTracer(const DeviceImage& image, const FixedTraceOptions& opt)
     : m_image(image), m_format(image.format()), m_frame(image.frame()), m_opt(opt) {
   if (m_opt.box_unit && !(image.header().flags & kImageNoBvh))
     m_opt.box_unit->check_format(m_format, int(image.header().width));
+  m_step_limit =
+      opt.max_steps > 0 ? opt.max_steps : uint64_t(image.header().node_count) * image.header().width + 1;
 }
 
 Hit FixedTracer::trace(const Ray& r, bool any_hit, TraversalStats& s) const {
@@ -186,7 +206,8 @@ Hit FixedTracer::trace_recorded(const Ray& r, bool any_hit, TraversalStats& s,
   return trace_world(r, any_hit, s, &events);
 }
 
-Hit FixedTracer::trace_world(const Ray& r, bool any_hit, TraversalStats& s, std::vector<TraceEvent>* rec) const {
+Hit FixedTracer::trace_world(const Ray& r, bool any_hit, TraversalStats& s, std::vector<TraceEvent>* rec,
+                             WatchState* ws) const {
   FixedRay fr;
   const RayStatus status = setup_ray(r, m_frame, m_format, fr);
   if (status != RayStatus::kOk) {
@@ -194,20 +215,49 @@ Hit FixedTracer::trace_world(const Ray& r, bool any_hit, TraversalStats& s, std:
     ++s.invalid_by_reason[size_t(status)];
     return Hit{};
   }
-  return trace_counted(&r, fr, any_hit, s, rec);
+  return trace_counted(&r, fr, any_hit, s, rec, ws);
 }
 
 Hit FixedTracer::trace_counted(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s,
-                               std::vector<TraceEvent>* rec) const {
+                               std::vector<TraceEvent>* rec, WatchState* ws) const {
   const uint64_t sat0 = saturation_count();
   ++s.rays;
-  const Hit h = trace_valid(r, fr, any_hit, s, rec);
+  WatchState local;
+  WatchState& w = ws ? *ws : local;
+  Hit h = trace_valid(r, fr, any_hit, s, rec, w);
   s.saturations += saturation_count() - sat0;
+  if (w.fired) {  // stopped by the watchdog: a miss, counted; the engines turn it into an error
+    ++s.watchdog_rays;
+    if (h.prim != kMissPrim) --s.hits;
+    h = Hit{};
+  }
   return h;
 }
 
+std::string FixedTracer::watchdog_report(const Ray* rays, size_t n, bool any_hit, uint64_t stopped) const {
+  for (size_t i = 0; i < n; ++i) {
+    TraversalStats s;
+    WatchState w;
+    trace_world(rays[i], any_hit, s, nullptr, &w);
+    if (!w.fired) continue;
+    const Ray& r = rays[i];
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "traversal watchdog: ray %zu of %zu (origin %g %g %g, direction %g %g %g, t [%g, %g]) exceeded "
+                  "the step bound of %llu node and leaf visits; stopped before %s %u with %d stack entries; %llu "
+                  "rays of the batch were stopped",
+                  i, n, double(r.origin.x), double(r.origin.y), double(r.origin.z), double(r.dir.x),
+                  double(r.dir.y), double(r.dir.z), double(r.tmin), double(r.tmax),
+                  (unsigned long long)m_step_limit, is_leaf(w.ref) ? "leaf of record" : "node",
+                  is_leaf(w.ref) ? leaf_first(w.ref) : w.ref, w.depth, (unsigned long long)stopped);
+    return buf;
+  }
+  return "traversal watchdog: " + std::to_string(stopped) + " rays exceeded the step bound of " +
+         std::to_string(m_step_limit) + " node and leaf visits";
+}
+
 Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s,
-                             std::vector<TraceEvent>* rec) const {
+                             std::vector<TraceEvent>* rec, WatchState& watch) const {
   const ImageHeader& hd = m_image.header();
   Closest c{fr.tmax};
   if (fr.tmin > fr.tmax) return Hit{};
@@ -233,8 +283,8 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
         using Node = decltype(node_tag);
         constexpr int N = sizeof(Node::child) / sizeof(uint32_t);
         using Q = std::remove_cv_t<std::remove_reference_t<decltype(Node::q[0][0])>>;
-        FixedPolicy<N, Q> p{m_image.nodes<Node>(), m_image, fr, any_hit, m_opt.check_boxes, c, s, rec,
-                            m_opt.box_unit};
+        FixedPolicy<N, Q> p{m_image.nodes<Node>(), m_image, fr,          any_hit, m_opt.check_boxes, c, s, rec,
+                            m_opt.box_unit,        watch,   m_step_limit};
         traverse(p, hd.root_ref, any_hit, s);
       };
       const bool q8 = hd.q_bytes == 1;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "hwmodel/box_unit.h"
@@ -31,6 +32,11 @@ struct FixedTraceOptions {
   // Repeat every box test with the exact checker (box_test_exact) and count disagreements in the statistics
   // (box_false_negatives must stay 0). Slower; what `rtusim compare` and the tests use.
   bool check_boxes = false;
+  // The traversal watchdog: node and leaf visits one ray may make before it is stopped (a miss, counted in
+  // TraversalStats::watchdog_rays). 0: the image's bound, node_count * width + 1: in a tree (what
+  // DeviceImage::from_bytes accepts) every node and leaf reference is visited at most once, so only a
+  // corrupted image held outside from_bytes, or a smaller configured bound, can reach it.
+  uint64_t max_steps = 0;
   // Box tests by this unit instead of the C++ box test (co-simulation); not owned, must outlive the tracer's
   // use. A tracer with a unit traces on one thread (trace_batch ignores its thread count).
   BoxUnit* box_unit = nullptr;
@@ -52,23 +58,38 @@ class FixedTracer {
   // trace() that also appends the ray's datapath events to `events` (nothing for a ray rejected at setup).
   Hit trace_recorded(const Ray& r, bool any_hit, TraversalStats& s, std::vector<TraceEvent>& events) const;
 
+  // Where the watchdog stopped a ray.
+  struct WatchState {
+    uint64_t steps = 0;  // node and leaf visits so far
+    uint32_t ref = 0;    // the node or leaf reference it was about to visit when stopped
+    int depth = 0;       // traversal stack entries then
+    bool fired = false;
+  };
+  // The step bound in force (max_steps, or the image's own).
+  uint64_t step_limit() const { return m_step_limit; }
+  // After a batch in which the watchdog stopped rays: which ray was first and where it stood (node, stack
+  // depth, steps), for the WatchdogError the engines throw.
+  std::string watchdog_report(const Ray* rays, size_t n, bool any_hit, uint64_t stopped) const;
+
   const DeviceImage& image() const { return m_image; }
   const FixedFormat& format() const { return m_format; }
   const QuantFrame& frame() const { return m_frame; }
 
  private:
   // Ray setup, then trace_counted; rejected rays are counted by reason.
-  Hit trace_world(const Ray& r, bool any_hit, TraversalStats& s, std::vector<TraceEvent>* rec) const;
+  Hit trace_world(const Ray& r, bool any_hit, TraversalStats& s, std::vector<TraceEvent>* rec,
+                  WatchState* ws = nullptr) const;
   // Counts the ray and the saturations of trace_valid. r (the world ray) is only for sphere u, v; may be null.
   Hit trace_counted(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s,
-                    std::vector<TraceEvent>* rec = nullptr) const;
-  Hit trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s,
-                  std::vector<TraceEvent>* rec) const;
+                    std::vector<TraceEvent>* rec = nullptr, WatchState* ws = nullptr) const;
+  Hit trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s, std::vector<TraceEvent>* rec,
+                  WatchState& ws) const;
 
   const DeviceImage& m_image;
   FixedFormat m_format;
   QuantFrame m_frame;
   FixedTraceOptions m_opt;
+  uint64_t m_step_limit = 0;
 };
 
 }  // namespace rtu::hw

@@ -10,6 +10,11 @@
 
 namespace rtu::hw {
 
+// Largest magnitude of a scene coordinate, sphere radius, plane offset or normal component accepted at import and
+// at BIND_SCENE: the product of two stays finite in float (2^124 < FLT_MAX), so bounds, centroids and the float
+// datapath's dot products never overflow to Inf or NaN.
+inline constexpr float kMaxCoordinate = 0x1p62f;
+
 struct Triangle {
   Vec3 v0, v1, v2;  // vertices; winding does not matter (no culling)
   Aabb bounds() const {

@@ -81,6 +81,7 @@ enum class ErrorCode : uint32_t {
   kBadScene = 9,      // BIND_SCENE on bytes that are not a valid scene image for this device
   kOverlap = 10,      // a TRACE's hit buffer overlaps its ray buffer
   kBadRegister = 11,  // write to an unknown or read-only register, or an unaligned offset
+  kWatchdog = 12,     // the watchdog fired: a ray exceeded the cycle limit (timed) or the step bound (traversal)
 };
 
 constexpr const char* error_name(ErrorCode e) {
@@ -109,6 +110,8 @@ constexpr const char* error_name(ErrorCode e) {
       return "overlap";
     case ErrorCode::kBadRegister:
       return "bad_register";
+    case ErrorCode::kWatchdog:
+      return "watchdog";
   }
   return "unknown";
 }

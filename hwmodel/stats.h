@@ -24,6 +24,7 @@ struct TraversalStats {
   uint64_t box_checks = 0;           // box tests repeated by the exact checker (when checking is on)
   uint64_t box_false_negatives = 0;  // boxes the fixed test rejected and the exact test accepts: must be 0
   uint64_t box_false_positives = 0;  // boxes the fixed test accepted and the exact test rejects (looseness)
+  uint64_t watchdog_rays = 0;        // rays stopped by the traversal watchdog (step bound); traced as misses
 
   void add(const TraversalStats& o) {
     rays += o.rays;
@@ -42,6 +43,7 @@ struct TraversalStats {
     box_checks += o.box_checks;
     box_false_negatives += o.box_false_negatives;
     box_false_positives += o.box_false_positives;
+    watchdog_rays += o.watchdog_rays;
   }
 };
 

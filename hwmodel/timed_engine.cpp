@@ -4,6 +4,7 @@
 #include <cmath>
 #include <functional>
 #include <stdexcept>
+#include <string>
 
 #include "hwmodel/batch.h"
 #include "hwmodel/regs.h"
@@ -156,6 +157,8 @@ void TimingModel::begin(size_t n, TimingStats& s) {
   // Every slot is free when the packet is decoded; they take rays as the rays are fed.
   m_free_slots.clear();
   for (uint32_t k = 0; k < uint32_t(m_c.ray_slots); ++k) m_free_slots.push_back({m_t0, k});
+  for (Slot& sl : m_slots) sl.busy = false;
+  m_age.clear();
 }
 
 void TimingModel::admit(uint32_t k, uint64_t free_at) {
@@ -176,6 +179,9 @@ void TimingModel::admit(uint32_t k, uint64_t free_at) {
   sl.depth = 0;
   sl.unit_phase = false;
   sl.entered = enter;
+  sl.ray = i;
+  sl.busy = true;
+  if (m_c.watchdog_cycles > 0) m_age.push_back({enter, k});
   if (m_trace) m_trace->add(k, "setup", enter, enter + uint64_t(m_c.setup_latency));
   m_heap.push_back({enter + uint64_t(m_c.setup_latency), k});
   std::push_heap(m_heap.begin(), m_heap.end(), std::greater<>());
@@ -203,13 +209,17 @@ void TimingModel::simulate() {
     std::pop_heap(m_heap.begin(), m_heap.end(), std::greater<>());
     const auto [t, k] = m_heap.back();
     m_heap.pop_back();
+    if (m_c.watchdog_cycles > 0) watchdog(t);
     Slot& sl = m_slots[k];
     uint64_t next_t = 0;
     bool waiting = false;
     while (!waiting) {
       if (sl.pos == sl.ev.size()) {  // hit write-back; the slot is free the clock after
         const uint64_t st = std::max(t, m_wb_free);
+        if (m_c.watchdog_cycles > 0 && st + 1 - sl.entered > uint64_t(m_c.watchdog_cycles))
+          fire(k, sl.entered + uint64_t(m_c.watchdog_cycles) + 1);
         m_wb_free = st + 1;
+        sl.busy = false;
         m_end = std::max(m_end, st + uint64_t(m_c.writeback_latency));
         if (m_done) m_done->push_back(st + uint64_t(m_c.writeback_latency));
         if (m_trace) m_trace->add(k, "write-back", st, st + 1);  // the slot hands its hit to the write-back pipe
@@ -304,6 +314,72 @@ void TimingModel::simulate() {
   }
 }
 
+void TimingModel::watchdog(uint64_t t) {
+  // Entry cycles rise with admission, so the oldest ray still in a slot is the first valid entry.
+  while (!m_age.empty()) {
+    const auto [entered, k] = m_age.front();
+    if (!m_slots[k].busy || m_slots[k].entered != entered) {
+      m_age.pop_front();
+      continue;
+    }
+    // Every event before t has been served, and this ray's own next event is at t or later: at cycle
+    // entered + watchdog_cycles + 1 it is still in its slot.
+    if (t > entered + uint64_t(m_c.watchdog_cycles)) fire(k, entered + uint64_t(m_c.watchdog_cycles) + 1);
+    return;
+  }
+}
+
+void TimingModel::fire(uint32_t k, uint64_t cycle) {
+  const Slot& stuck = m_slots[k];
+  auto u = [](uint64_t v) { return std::to_string(v); };
+  auto event_name = [](const Slot& sl) -> std::string {
+    if (sl.pos >= sl.ev.size()) return "hit write-back";
+    const TraceEvent& e = sl.ev[sl.pos];
+    const std::string what = e.kind == TraceEvent::kNode    ? "node "
+                             : e.kind == TraceEvent::kPrim  ? "record "
+                             : e.kind == TraceEvent::kPlane ? "plane "
+                                                            : "stack entry ";
+    // unit_phase: its fetch is under way and the unit's test comes next; else the previous step is finishing.
+    return (sl.unit_phase ? "waiting for the data of " : "next: ") + what + std::to_string(e.index);
+  };
+  auto backlog = [&](const std::vector<uint64_t>& next_free) {
+    uint64_t queued = 0;
+    for (uint64_t f : next_free) queued += f > cycle ? f - cycle : 0;
+    return queued;
+  };
+  std::string d = "timed device watchdog: ray " + u(stuck.ray) + " of " + u(m_n) + " has been in ray slot " +
+                  u(k) + " for more than watchdog_cycles = " + std::to_string(m_c.watchdog_cycles) +
+                  " cycles (entered at cycle " + u(stuck.entered) + ")\n";
+  d += "unit state at cycle " + u(cycle) + " since bind (" + u(cycle - m_base) + " into this TRACE):\n";
+  size_t busy = 0;
+  for (const Slot& sl : m_slots) busy += sl.busy;
+  const uint64_t remaining = uint64_t(m_n - m_next);
+  d += "  rays: " + u(m_next) + " of " + u(m_n) + " taken from the ray buffer, " + u(busy) + " in slots, " +
+       u(m_next - busy) +
+       " done; ray prefetch queue: " + u(std::min<uint64_t>(remaining, uint64_t(m_c.queue_depth))) + " of " +
+       std::to_string(m_c.queue_depth) + " rays\n";
+  d += "  ray slots: " + u(busy) + " busy of " + std::to_string(m_c.ray_slots) + "\n";
+  size_t listed = 0;
+  for (uint32_t j = 0; j < m_slots.size(); ++j) {
+    const Slot& sl = m_slots[j];
+    if (!sl.busy) continue;
+    if (++listed > 64) {
+      d += "    ... " + u(busy - 64) + " more busy slots\n";
+      break;
+    }
+    d += "    slot " + u(j) + ": ray " + u(sl.ray) + ", entered " + u(sl.entered) + ", event " + u(sl.pos) +
+         " of " + u(sl.ev.size()) + " (" + event_name(sl) + "), stack depth " + std::to_string(sl.depth) + "\n";
+  }
+  d += "  box units: " + u(backlog(m_box_free)) +
+       " cycles of queued work; triangle units: " + u(backlog(m_tri_free)) + " cycles; DRAM channel busy for " +
+       u(m_dram_free > cycle ? m_dram_free - cycle : 0) + " more cycles; write-back free at " + u(m_wb_free) +
+       "\n";
+  d += "  this TRACE so far: cache hits " + u(m_s->cache_hits) + ", misses " + u(m_s->cache_misses) +
+       ", DRAM bytes " + u(m_s->dram_bytes) + ", stack spills " + u(m_s->stack_spills) + ", queue stall cycles " +
+       u(m_s->queue_stall_cycles);
+  throw WatchdogError(d, cycle - m_base);
+}
+
 void TimingModel::feed(const std::vector<TraceEvent>* events, size_t m) {
   m_feed = events;
   m_feed_first = m_next;
@@ -342,6 +418,7 @@ void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   DeviceImage img = DeviceImage::from_bytes(data, bytes);
   auto image = std::make_unique<DeviceImage>(std::move(img));
   FixedTraceOptions to;
+  to.max_steps = m_opt.max_steps;
   to.box_unit = m_box_unit.get();
   auto tracer = std::make_unique<FixedTracer>(*image, to);  // throws when the box unit cannot take the format
   m_image = std::move(image);
@@ -363,7 +440,11 @@ void TimedEngine::unbind() {
 }
 
 void TimedEngine::trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const {
-  m_tracer->trace_batch(rays, hits, n, any_hit, m_opt.threads, s);
+  TraversalStats local;
+  m_tracer->trace_batch(rays, hits, n, any_hit, m_opt.threads, local);
+  if (local.watchdog_rays > 0)
+    throw WatchdogError(m_tracer->watchdog_report(rays, n, any_hit, local.watchdog_rays), 0);
+  s.add(local);
 }
 
 uint64_t TimedEngine::packet_cycles(uint8_t opcode) const {
@@ -381,6 +462,8 @@ void TimedEngine::record(const Ray* rays, Hit* hits, size_t first, size_t count,
     const Hit h = m_tracer->trace_recorded(rays[first + i], any_hit, st, ev);
     if (hits) hits[first + i] = h;
   });
+  if (local.watchdog_rays > 0)
+    throw WatchdogError(m_tracer->watchdog_report(rays + first, count, any_hit, local.watchdog_rays), 0);
   if (local.first_invalid != UINT64_MAX) local.first_invalid += first;
   s.add(local);
 }
@@ -393,20 +476,27 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
   m_sample_stats.rays += n;
   const size_t U = m_sample.unit_rays;
   const size_t k = m_sample.fraction > 0.0 ? size_t(std::llround(1.0 / m_sample.fraction)) : 1;
-  if (k >= 2 && n > U && (n - 1) / U >= 10 * k) {  // at least 10 units to measure
-    cycles = trace_cycles_sampled(rays, hits, n, any_hit, s, ts);
-  } else {
-    // Chunks of rays: traced (and recorded) on the worker threads, then replayed through the model in order.
-    constexpr size_t kChunk = 4096;
-    std::vector<std::vector<TraceEvent>> events(std::min(n, kChunk));
-    m_model->begin(n, ts);
-    for (size_t first = 0; first < n; first += kChunk) {
-      const size_t m = std::min(kChunk, n - first);
-      record(rays, hits, first, m, any_hit, s, events);
-      m_model->feed(events.data(), m);
+  try {
+    if (k >= 2 && n > U && (n - 1) / U >= 10 * k) {  // at least 10 units to measure
+      cycles = trace_cycles_sampled(rays, hits, n, any_hit, s, ts);
+    } else {
+      // Chunks of rays: traced (and recorded) on the worker threads, then replayed through the model in order.
+      constexpr size_t kChunk = 4096;
+      std::vector<std::vector<TraceEvent>> events(std::min(n, kChunk));
+      m_model->begin(n, ts);
+      for (size_t first = 0; first < n; first += kChunk) {
+        const size_t m = std::min(kChunk, n - first);
+        record(rays, hits, first, m, any_hit, s, events);
+        m_model->feed(events.data(), m);
+      }
+      cycles = m_model->finish();
+      m_sample_stats.rays_simulated += n;
     }
-    cycles = m_model->finish();
-    m_sample_stats.rays_simulated += n;
+  } catch (const WatchdogError&) {
+    // The packet never finished: a fresh model (empty cache, clock at 0) for whatever comes after a reset.
+    m_model = std::make_unique<TimingModel>(m_c, TimingModel::Layout(m_model->layout()));
+    m_model->set_trace(m_trace);
+    throw;
   }
   m_total.add(ts);
   if (ray_type < cmd::kRayTypeCount) m_by_type[ray_type].add(ts);
@@ -452,6 +542,8 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
               box[q] = uint32_t(st.box_tests - b0);
               prim[q] = uint32_t(st.prim_tests - p0);
             });
+  const uint64_t stuck = m_sample.need_hits ? s.watchdog_rays : probe_stats.watchdog_rays;
+  if (stuck > 0) throw WatchdogError(m_tracer->watchdog_report(rays, n, any_hit, stuck), 0);
   const double box_rate = double(m_c.box_rate) * m_c.box_units, tri_rate = double(m_c.tri_rate) * m_c.tri_units;
   for (size_t j = 0; j < units; ++j) {
     double b = 0.0, p = 0.0, m = 0.0;

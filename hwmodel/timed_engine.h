@@ -25,6 +25,9 @@
 //   earliest free unit (first come, first served); waits longer than queue_depth clocks count as queue stalls.
 // - scheduler: traversal_latency from a unit result to the slot's next request; hit write-back one per clock,
 //   writeback_latency deep; a slot is free again the clock after its hit is issued to write-back.
+// - watchdog: a ray that stays in its slot more than watchdog_cycles stops the packet with a WatchdogError
+//   (engine.h) whose text dumps the unit at that cycle: the ray, every busy slot (ray, entry cycle, events done,
+//   stack depth, what it waits for), the prefetch queue, the units' and DRAM's queued work, cache figures.
 // Every request is served in the order of its cycle (ties by slot number), so the result does not depend on the
 // order in which the code evaluates components, and time jumps from event to event (idle cycles are skipped).
 // Left out: overlap of consecutive TRACE packets, DRAM banks and refresh, write-allocate of spills into the
@@ -33,8 +36,10 @@
 
 #include <array>
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "hwmodel/commands.h"
@@ -106,6 +111,7 @@ class TimingModel {
   // unsimulated rays are estimated to take).
   uint64_t clock() const { return m_base; }
   void advance_to(uint64_t cycle) { m_base = cycle > m_base ? cycle : m_base; }
+  const Layout& layout() const { return m_layout; }
 
  private:
   struct Line {
@@ -119,7 +125,12 @@ class TimingModel {
     int depth = 0;            // stack entries
     bool unit_phase = false;  // the current event's data has arrived; its unit request is next
     uint64_t entered = 0;
+    size_t ray = 0;  // index in the packet
+    bool busy = false;
   };
+  // The watchdog: fires when the oldest ray in a slot has been there more than watchdog_cycles at cycle t.
+  void watchdog(uint64_t t);
+  [[noreturn]] void fire(uint32_t k, uint64_t cycle);
   void admit(uint32_t k, uint64_t free_at);
   void simulate();  // until done or until a free slot needs a ray not fed yet
   uint64_t access(uint64_t addr, uint64_t bytes, uint64_t t);
@@ -151,6 +162,7 @@ class TimingModel {
   std::vector<uint64_t> m_recent;                           // admission cycles of the last queue_depth rays
   std::vector<std::pair<uint64_t, uint32_t>> m_free_slots;  // (cycle free, slot): min-heap
   uint64_t m_t0 = 0, m_setup_free = 0, m_wb_free = 0, m_end = 0;
+  std::deque<std::pair<uint64_t, uint32_t>> m_age;  // (entry cycle, slot) in admission order (entry cycles rise)
 };
 
 // Sampled timing (SMARTS-style systematic sampling, Wunderlich et al., ISCA 2003): a TRACE packet is cut into

@@ -72,6 +72,8 @@ const std::vector<KeyInfo>& key_table() {
        "hybrid rasterizer: depth bytes read per fragment, written per pass and clear (DRAM channel)"},
       {"raster_gbuffer_bytes", &C::raster_gbuffer_bytes, 0, 4096,
        "hybrid rasterizer: G-buffer bytes written per depth pass besides depth (DRAM channel)"},
+      {"watchdog_cycles", &C::watchdog_cycles, 0, 2147483647,
+       "most cycles a ray may stay in its slot before a watchdog error (0: off)"},
   };
   return table;
 }
@@ -232,6 +234,8 @@ TimingConfig timing_preset(const std::string& name) {
     c.raster_prim_bytes = 36;
     c.raster_depth_bytes = 4;
     c.raster_gbuffer_bytes = 12;
+    // 50 ms at 2 GHz: far beyond any ray's traversal (the slowest in bench/cycles_table.sh take thousands).
+    c.watchdog_cycles = 100000000;
   } else if (name == "intel") {
     c = timing_preset("rdna2");
     c.name = "intel";

@@ -8,8 +8,8 @@
 // of two in 16..4096; clock_ghz 0.001..1000; dram_bytes_per_cycle 0.001..65536 (finite); raster_setup_cycles
 // 0..100000; raster_samples_per_clock and raster_fragments_per_clock 0.001..4096; raster_latency 0..100000;
 // raster_prim_bytes 0..4096, raster_depth_bytes 1..64, raster_gbuffer_bytes 0..4096; bvh_width 2, 4 or 8;
-// format the name of a fixed-point format preset; box_unit cpp or rtl. The default-constructed configuration is
-// the "rdna2" preset.
+// format the name of a fixed-point format preset; box_unit cpp or rtl; watchdog_cycles 0..2^31-1 (0: off). The
+// default-constructed configuration is the "rdna2" preset.
 #pragma once
 
 #include <cstdint>
@@ -67,6 +67,9 @@ struct TimingConfig {
   int raster_prim_bytes = 36;               // bytes fetched per primitive per pass (three float3 vertices)
   int raster_depth_bytes = 4;               // depth bytes read per fragment, written per pass and per clear
   int raster_gbuffer_bytes = 12;            // G-buffer bytes written per pass besides depth (prim, u, v)
+  // Watchdog: the most cycles a ray may stay in its ray slot; a ray still there after that stops the TRACE with
+  // a watchdog error and a dump of the unit's state (timed_engine.h). 0: off.
+  int watchdog_cycles = 100000000;
 
   // Checks every field; throws std::invalid_argument naming the first bad key and its allowed range.
   void validate() const;

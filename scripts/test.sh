@@ -1,17 +1,46 @@
 #!/usr/bin/env bash
-# Sets up (Debian packages), builds the `default` preset and runs every test, then the firmware tests under the
-# `asan` preset. Usage: scripts/test.sh [ctest args]
+# Sets up (Debian packages), builds the `default` preset and runs every test; then the sanitizer stage, one build
+# of the `asan` preset (clang: AddressSanitizer + UndefinedBehaviorSanitizer + LeakSanitizer, with libFuzzer's
+# coverage instrumentation so that the same build holds the fuzz targets):
+#  1. the test suite but the Embree oracle (10^6-ray comparisons per scene, minutes under ASan; run by the default
+#     stage) and the RTL (Verilator models): the preset builds neither;
+#  2. `rtusim soak` for RTU_SOAK_SECONDS (default 20): random scenes and formats traced and rendered twice,
+#     identical bits and cycles, no leak;
+#  3. each libFuzzer target of tests/fuzz for RTU_FUZZ_SECONDS (default 20) from its seed corpus: a crash, leak,
+#     timeout (30 s) or an input needing over 2 GiB fails the run and leaves the reproducer in
+#     build/asan/fuzz-artifacts/. Executions per target: build/asan/fuzz-summary.txt.
+# RTU_SKIP_ASAN=1 skips the sanitizer stage. Usage: scripts/test.sh [ctest args]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 cmake --preset default >/dev/null
 cmake --build --preset default -j "$(nproc)"
 ctest --preset default "$@"
-# The command interface under AddressSanitizer + UndefinedBehaviorSanitizer: the ring and error-path tests and
-# >= 10^5 random packets and register writes per engine (tests/firmware). RTU_SKIP_ASAN=1 skips this step.
-if [[ "${RTU_SKIP_ASAN:-0}" != 1 ]]; then
-  cmake --preset asan >/dev/null
-  cmake --build --preset asan -j "$(nproc)" --target test_firmware
-  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-    build/asan/tests/test_firmware
+
+if [[ "${RTU_SKIP_ASAN:-0}" == 1 ]]; then
+  exit 0
 fi
+export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+export LSAN_OPTIONS=suppressions=$PWD/tests/fuzz/lsan.supp:print_suppressions=0  # Assimp's own leaks only
+cmake --preset asan >/dev/null
+cmake --build --preset asan -j "$(nproc)"
+ctest --preset asan
+build/asan/rtusim soak --seconds "${RTU_SOAK_SECONDS:-20}" --json build/asan/soak.json
+
+mkdir -p build/asan/fuzz-artifacts
+: >build/asan/fuzz-summary.txt
+for target in scene_file mesh_import ray_file command_processor device_image config; do
+  work=build/asan/fuzz-work/$target  # new inputs go here; the committed corpus is only read
+  mkdir -p "$work"
+  log=build/asan/fuzz-$target.log
+  if ! build/asan/fuzz_$target -max_total_time="${RTU_FUZZ_SECONDS:-20}" -rss_limit_mb=2048 -timeout=30 \
+      -print_final_stats=1 -artifact_prefix=build/asan/fuzz-artifacts/$target- "$work" tests/fuzz/corpus/$target \
+      >"$log" 2>&1; then
+    tail -n 60 "$log"
+    echo "fuzz_$target: FAILED (reproducer in build/asan/fuzz-artifacts/, log $log)" >&2
+    exit 1
+  fi
+  execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log")
+  cov=$(grep -o 'cov: [0-9]*' "$log" | tail -n 1)
+  echo "fuzz_$target: $execs executions in ${RTU_FUZZ_SECONDS:-20} s, $cov, no crash" | tee -a build/asan/fuzz-summary.txt
+done

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "host/error.h"
+#include "host/limits.h"
 #include "host/ray_gen.h"
 #include "host/ray_io.h"
 
@@ -52,6 +53,7 @@ DeviceOptions DeviceArgs::options(const std::string& device_name) const {
   }
   d.tracer.bvh.width = d.format.width;
   d.tracer.bvh.max_leaf_size = leaf_size;
+  d.max_steps = watchdog_steps;
   d.tracer.accel =
       accel == "bvh" ? hw::AccelMode::kBvh : (accel == "brute" ? hw::AccelMode::kBrute : hw::AccelMode::kAuto);
   return d;
@@ -84,6 +86,10 @@ void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_hel
   app.add_option("--sample-warmup", o.sample_warmup, "timed device, --sample: rays simulated before each unit")
       ->check(CLI::Range(1u, 1u << 20))
       ->capture_default_str();
+  app.add_option("--watchdog-steps", o.watchdog_steps,
+                 "fixed and timed devices: node and leaf visits one ray may make before the watchdog stops the "
+                 "trace with an error (0: the image's own bound, which a valid BVH never reaches)")
+      ->capture_default_str();
   std::vector<std::string> presets;
   for (const hw::FixedFormat& f : hw::format_presets()) presets.push_back(f.name);
   app.add_option("--format", o.format, "fixed-point format preset (rtusim info --formats lists them)")
@@ -115,17 +121,25 @@ std::vector<hw::Ray> rays_from_spec(const std::string& spec, const Scene& scene,
       throw Error("--rays " + spec + ": bad count '" + text + "'");
     return uint64_t(v);
   };
-  if (spec == "primary") return primary_rays(scene.camera, scene.camera.width, scene.camera.height);
+  auto fits = [&](uint64_t n) {  // a ray and its hit per ray
+    check_memory("--rays " + spec + ": " + std::to_string(n) + " rays", n * (sizeof(hw::Ray) + sizeof(hw::Hit)));
+    return n;
+  };
+  if (spec == "primary") {
+    fits(uint64_t(scene.camera.width) * uint64_t(scene.camera.height));
+    return primary_rays(scene.camera, scene.camera.width, scene.camera.height);
+  }
   if (spec.rfind("primary:", 0) == 0) {
     const std::string arg = spec.substr(8);
     const size_t x = arg.find('x');
-    if (x == std::string::npos) return primary_rays(scene.camera, number(arg));
+    if (x == std::string::npos) return primary_rays(scene.camera, fits(number(arg)));
     const uint64_t w = number(arg.substr(0, x)), h = number(arg.substr(x + 1));
     if (w > 65536 || h > 65536) throw Error("--rays " + spec + ": image larger than 65536 x 65536");
+    fits(w * h);
     return primary_rays(scene.camera, int(w), int(h));
   }
   if (spec.rfind("incoherent:", 0) == 0)
-    return incoherent_rays(scene.geometry.bounds(), number(spec.substr(11)), seed);
+    return incoherent_rays(scene.geometry.bounds(), fits(number(spec.substr(11))), seed);
   return read_rays(spec);
 }
 

@@ -34,6 +34,7 @@ struct DeviceArgs {
   // (hw::SampleOptions); 0: every ray.
   double sample = 0.0;
   uint32_t sample_unit = 256, sample_warmup = 512;
+  uint64_t watchdog_steps = 0;  // fixed, timed: node and leaf visits per ray before the watchdog (0: automatic)
 
   hw::FixedFormat fixed_format() const;  // preset + overrides + width; validated
   DeviceOptions options(const std::string& device_name) const;
@@ -107,5 +108,6 @@ void add_stress(CLI::App& app);
 void add_render(CLI::App& app);
 void add_diff(CLI::App& app);
 void add_config(CLI::App& app);
+void add_soak(CLI::App& app);
 
 }  // namespace rtu::host::cmd

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   rtu::host::cmd::add_sweep(app);
   rtu::host::cmd::add_plan(app);
   rtu::host::cmd::add_report(app);
+  rtu::host::cmd::add_soak(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

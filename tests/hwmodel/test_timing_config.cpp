@@ -41,14 +41,14 @@ TEST_CASE("every timing preset validates and lists every key", "[timing][config]
     CHECK_NOTHROW(c.validate());
     CHECK_FALSE(timing_preset_description(name).empty());
     const auto keys = timing_keys(c);
-    CHECK(keys.size() == 34);  // every field of TimingConfig but `name`
+    CHECK(keys.size() == 35);  // every field of TimingConfig but `name`
     for (const TimingKey& k : keys) {
       CHECK_FALSE(k.key.empty());
       CHECK_FALSE(k.value.empty());
       CHECK_FALSE(k.description.empty());
     }
     CHECK(keys.front().key == "format");
-    CHECK(keys.back().key == "raster_gbuffer_bytes");
+    CHECK(keys.back().key == "watchdog_cycles");
   }
   // The default-constructed configuration is the rdna2 preset.
   const auto a = timing_keys(TimingConfig{}), b = timing_keys(timing_preset("rdna2"));

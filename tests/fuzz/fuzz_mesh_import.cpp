@@ -1,0 +1,30 @@
+// Mesh files through the importer rtu owns (host/mesh_import.cpp over Assimp): the first byte picks the format
+// (OBJ, PLY, OFF, STL), the rest is the file. Accepted meshes give finite triangles; everything else an Error.
+#include <cmath>
+
+#include "host/error.h"
+#include "host/scene.h"
+#include "tests/fuzz/fuzz.h"
+
+namespace rtu::fuzz {
+
+int mesh_import(const uint8_t* data, size_t size) {
+  init();
+  if (size < 1) return 0;
+  static const char* const kExt[] = {"obj", "ply", "off", "stl"};
+  const std::string path = scratch_file(std::string("mesh.") + kExt[data[0] % 4], data + 1, size - 1);
+  std::vector<hw::Triangle> tris;
+  try {
+    tris = host::import_mesh(path);
+  } catch (const host::Error&) {
+    return 0;
+  }
+  for (const hw::Triangle& t : tris)
+    for (const hw::Vec3& v : {t.v0, t.v1, t.v2})
+      RTU_FUZZ_CHECK(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z));
+  return 0;
+}
+
+}  // namespace rtu::fuzz
+
+RTU_FUZZ_ENTRY(mesh_import)

@@ -1,0 +1,96 @@
+// Writes the binary seed corpora of the fuzz targets into DIR (default tests/fuzz/corpus): ray and hit files,
+// scene images in every format preset (fixed) and the float image, and command programs for each engine. The
+// text seeds (scene files, meshes, configuration) are written by hand. Usage: fuzz_make_seeds [DIR]
+#include <filesystem>
+#include <fstream>
+
+#include "host/ray_io.h"
+#include "hwmodel/commands.h"
+#include "hwmodel/device_image.h"
+#include "hwmodel/engine.h"
+#include "hwmodel/fixed_format.h"
+#include "hwmodel/float_tracer.h"
+#include "tests/fuzz/fuzz.h"
+
+using namespace rtu;
+namespace fs = std::filesystem;
+
+namespace {
+
+void put(const fs::path& p, const void* data, size_t n, int prefix = -1) {
+  fs::create_directories(p.parent_path());
+  std::ofstream out(p, std::ios::binary | std::ios::trunc);
+  if (prefix >= 0) out.put(char(prefix));
+  out.write(static_cast<const char*>(data), std::streamsize(n));
+}
+
+// The command program of fuzz_command_processor.cpp: ops of one byte plus their operands.
+struct Program {
+  std::vector<uint8_t> b;
+  template <class T>
+  void add(T v) {
+    const auto* p = reinterpret_cast<const uint8_t*>(&v);
+    b.insert(b.end(), p, p + sizeof v);
+  }
+  void packet(uint8_t kind, uint16_t count, uint8_t flags) {
+    add<uint8_t>(3);
+    add(kind);
+    add(count);
+    add(flags);
+  }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const fs::path dir = argc > 1 ? fs::path(argv[1]) : fs::path(RTU_SOURCE_DIR_SEEDS);
+  const hw::Geometry& g = fuzz::tiny_geometry();
+
+  const std::vector<hw::Ray> rays = fuzz::rays_around(g.bounds(), 8, 1);
+  put(dir / "ray_file" / "rays8.rays", rays.data(), rays.size() * sizeof(hw::Ray));
+  put(dir / "ray_file" / "ray1.rays", rays.data(), sizeof(hw::Ray));
+  host::write_rays((dir / "ray_file" / "rays3.csv").string(), {rays[0], rays[1], rays[2]});
+  const std::vector<hw::Hit> hits = {{1.5f, 3, 0.25f, 0.5f}, {INFINITY, hw::kMissPrim, 0, 0}};
+  host::write_hits((dir / "ray_file" / "hits2.csv").string(), hits);
+
+  for (const hw::FixedFormat& f : hw::format_presets()) {
+    hw::TracerOptions opt;
+    opt.accel = hw::AccelMode::kBvh;
+    opt.bvh.width = f.width;
+    opt.bvh.max_leaf_size = 2;
+    const std::optional<hw::Bvh> bvh = hw::choose_accel(g, opt);
+    const hw::DeviceImage img = hw::encode_scene(g, f, &*bvh);
+    put(dir / "device_image" / ("fixed_" + f.name + ".img"), img.data(), img.size(), 0);
+  }
+  const hw::DeviceImage brute = hw::encode_scene(g, hw::FixedFormat{}, nullptr);
+  put(dir / "device_image" / "fixed_brute.img", brute.data(), brute.size(), 0);
+  const std::vector<uint64_t> fimg = hw::encode_float_scene(g);
+  put(dir / "device_image" / "float.img", fimg.data(), fimg.size() * 8, 1);
+
+  for (uint8_t engine = 0; engine < 4; ++engine) {
+    Program p;
+    p.add(engine);
+    p.packet(1, 0, 1);   // BIND_SCENE of the whole image
+    p.packet(2, 99, 0);  // TRACE 100 closest-hit rays
+    p.packet(2, 9, 9);   // TRACE 10 any-hit shadow rays, bounce 1
+    p.packet(3, 7, 1);   // FENCE with IRQ
+    p.packet(4, 1, 0);   // TIMESTAMP
+    put(dir / "command_processor" / ("engine" + std::to_string(engine) + ".prog"), p.b.data(), p.b.size());
+  }
+  Program q;  // register traffic, a ring resize, a raw NOP, then work
+  q.add<uint8_t>(1);
+  q.add<uint8_t>(0);  // write IRQ_ENABLE = 3
+  q.add<uint8_t>(0x20);
+  q.add<uint32_t>(3);
+  q.add<uint8_t>(4);  // 4 slots
+  q.add<uint8_t>(1);
+  q.add<uint8_t>(2);  // raw NOP
+  const hw::cmd::Packet nop = hw::cmd::nop();
+  q.add(nop);
+  q.packet(1, 0, 1);
+  q.packet(2, 3, 0);
+  q.add<uint8_t>(1);  // read STATUS
+  q.add<uint8_t>(0x10);
+  put(dir / "command_processor" / "registers.prog", q.b.data(), q.b.size());
+  return 0;
+}

@@ -139,6 +139,8 @@ void CommandProcessor::consume() {
     ++m_counters.packets;
     ++m_counters.by_opcode[p.opcode];
     m_clock += p.opcode == uint8_t(cmd::Opcode::kTrace) ? m_trace_cycles : m_engine.packet_cycles(p.opcode);
+    if (p.opcode == uint8_t(cmd::Opcode::kFence) && (p.flags & cmd::kFenceIrq))
+      m_counters.last_irq_cycle = m_clock + m_engine.irq_latency();
     m_head = (m_head + 1) & (m_ring_size - 1);
   }
 }
@@ -225,6 +227,7 @@ bool CommandProcessor::execute(const cmd::Packet& p) {
       if (p.flags & cmd::kFenceIrq) {
         m_irq_status |= reg::kIrqFence;
         ++m_counters.irqs;
+        ++m_counters.fence_irqs;
       }
       return true;
     }

@@ -32,6 +32,11 @@ struct DeviceCounters {
   uint64_t max_bounce = 0;                                         // deepest bounce seen in a TRACE
   uint64_t errors = 0;                                             // errors raised
   uint64_t irqs = 0;                                               // interrupts raised (fence and error)
+  uint64_t fence_irqs = 0;                                         // of them, by a FENCE with kFenceIrq
+  // Device clock at which the latest fence interrupt reached the host: the FENCE's end plus the engine's
+  // irq_latency (0 on the functional engines). The model raises the line at once (the doorbell write returns
+  // after the packets ran); this is when hardware would.
+  uint64_t last_irq_cycle = 0;
   TraversalStats total() const {
     TraversalStats t;
     for (const TraversalStats& s : stats_by_type) t.add(s);

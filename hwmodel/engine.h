@@ -88,6 +88,8 @@ class TraceEngine {
     (void)opcode;
     return 1;
   }
+  // Cycles from a FENCE's value write to its interrupt reaching the host (timed: irq_latency; else 0).
+  virtual uint64_t irq_latency() const { return 0; }
   // trace() that returns the cycles the TRACE packet took; ray_type and bounce are for per-type statistics.
   virtual uint64_t trace_cycles(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
                                 uint8_t ray_type, uint8_t bounce) {

@@ -7,7 +7,9 @@
 // Timing (TimingModel below, configured by TimingConfig): the events of each ray are replayed in a ray slot.
 // Components and what they model:
 // - command processor: packet decode (packet_latency per packet); a FENCE completes fence_latency after the
-//   previous packet; TRACE packets run one after another (no overlap between packets).
+//   previous packet, and its interrupt (with kFenceIrq) reaches the host irq_latency after that (the device
+//   does not wait for it; DeviceCounters::last_irq_cycle); TRACE packets run one after another (no overlap
+//   between packets).
 // - ray fetch: rays stream from the ray buffer at one per clock with ray_fetch_latency, at most queue_depth rays
 //   ahead of the slots (a bounded prefetch queue); ray setup issues one ray per clock, setup_latency deep.
 // - ray slots: ray_slots rays in flight; a free slot takes the next ray (in order; lowest free slot first). Each
@@ -210,6 +212,7 @@ class TimedEngine final : public TraceEngine {
   void unbind() override;
   void trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const override;
   uint64_t packet_cycles(uint8_t opcode) const override;
+  uint64_t irq_latency() const override { return uint64_t(m_c.irq_latency); }
   uint64_t trace_cycles(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s, uint8_t ray_type,
                         uint8_t bounce) override;
   Geometry::Counts counts() const override;

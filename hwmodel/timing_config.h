@@ -30,6 +30,7 @@ struct TimingConfig {
   int setup_latency = 8;       // ray setup pipeline depth (float -> fixed, reciprocal); 1 ray per clock
   int writeback_latency = 4;   // hit write-back pipeline depth; 1 hit per clock
   int fence_latency = 10;      // cycles from the last earlier hit written to the fence value in memory
+  int irq_latency = 100;       // cycles from a FENCE's value write to its interrupt reaching the host (kIrqFence)
 
   // Ray slots and traversal.
   int ray_slots = 32;         // rays in flight, each with its own traversal state

@@ -290,6 +290,9 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
       by_bounce[std::to_string(b)] = timing_stats_json(s, o.device.timing);
     t["by_bounce"] = by_bounce;
     t["device_clock"] = r.device_clock;
+    // Fence interrupts: the host sees the frame's last fence irq_latency after the device clock's end.
+    t["fence_irqs"] = r.device.fence_irqs;
+    t["last_irq_cycle"] = r.device.last_irq_cycle;
     t["sample"] = sample_json(r.sampling);
     // The frame: the rasterizer's cycles (hybrid) and the unit's (every packet), which do not overlap.
     const hw::RasterCycles& rc = r.raster_cycles;

@@ -400,10 +400,13 @@ void PipelineTraceArgs::write() const {
   for (const hw::PipelineTrace::Span& s : trace.spans)
     events.push_back(
         {{"name", s.what}, {"ph", "X"}, {"ts", s.start}, {"dur", s.end - s.start}, {"pid", 0}, {"tid", s.slot}});
-  for (uint32_t k = 0; k < 4096; ++k) {
-    bool used = false;
-    for (const hw::PipelineTrace::Span& s : trace.spans) used = used || s.slot == k;
-    if (!used) continue;
+  std::vector<bool> used;  // slots with a span, named once each
+  for (const hw::PipelineTrace::Span& s : trace.spans) {
+    if (s.slot >= used.size()) used.resize(size_t(s.slot) + 1, false);
+    used[s.slot] = true;
+  }
+  for (uint32_t k = 0; k < used.size(); ++k) {
+    if (!used[k]) continue;
     events.push_back({{"name", "thread_name"},
                       {"ph", "M"},
                       {"pid", 0},

@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 #include "host/image.h"
@@ -513,6 +514,71 @@ TEST_CASE("plan: the fewest coordinate bits within the budget, and the reason; a
   CHECK(none.output.find("no format meets") != std::string::npos);
   CHECK(run("plan --scene builtin:cornell --max-error -1").status == 2);
   CHECK(run("plan --scene builtin:cornell --max-error 1e-3 --metric psnr").status != 0);
+}
+
+TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the pipeline trace file",
+          "[cli][timing]") {
+  const fs::path d = temp_dir();
+  const std::string rays = (d / "t.rays").string(), stats = (d / "t.json").string(),
+                    pipe = (d / "pipe.json").string();
+  REQUIRE(run("rays --scene builtin:seed --kind primary --count 3000 --out " + rays).status == 0);
+  const Run r = run("trace --scene builtin:seed --rays " + rays + " --out " + (d / "t.hits").string() +
+                    " --device timed --config intel --stats " + stats + " --pipeline-trace " + pipe +
+                    " --trace-window 100:1100");
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(r.output.find("timed (intel):") != std::string::npos);
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+  const auto& t = j["timing"];
+  const double cycles = t["cycles"].get<double>();
+  CHECK(t["rays"] == 3000);
+  CHECK(t["packets"] == 1);
+  CHECK(cycles > 0);
+  // The bound is the largest of its parts, named, and below the simulated cycles.
+  const auto& b = t["lower_bound"];
+  const double box = b["box"].get<double>(), tri = b["triangle"].get<double>(), dram = b["dram"].get<double>();
+  CHECK(b["cycles"].get<double>() == std::max({box, tri, dram}));
+  const std::string lim = b["limited_by"];
+  CHECK(b[lim == "box" ? "box" : (lim == "triangle" ? "triangle" : "dram")].get<double>() ==
+        b["cycles"].get<double>());
+  CHECK(b["cycles"].get<double>() <= cycles);
+  CHECK(b["cycles_over_bound"].get<double>() == Approx(cycles / b["cycles"].get<double>()));
+  CHECK(box == Approx(t["utilization"]["box_units"].get<double>() * cycles));
+  // One TRACE of primary rays: its breakdowns are the total.
+  CHECK(t["by_ray_type"].size() == 1);
+  CHECK(t["by_ray_type"]["primary"]["cycles"] == t["cycles"]);
+  CHECK(t["by_bounce"].size() == 1);
+  CHECK(t["by_bounce"]["0"]["box_tests"] == t["box_tests"]);
+  CHECK(t["config"]["box_rate"] == 12);
+  // The pipeline trace: Chrome trace events, spans overlapping the window, every slot named.
+  const nlohmann::json p = nlohmann::json::parse(std::ifstream(pipe));
+  REQUIRE(p["traceEvents"].is_array());
+  std::set<uint64_t> slots, named;
+  size_t spans = 0;
+  const std::set<std::string> kinds = {"setup",    "node fetch", "box",          "record fetch", "triangle",
+                                       "sphere",   "plane",      "stack refill", "write-back"};
+  for (const auto& e : p["traceEvents"]) {
+    if (e["ph"] == "M") {
+      CHECK(e["name"] == "thread_name");
+      named.insert(e["tid"].get<uint64_t>());
+      continue;
+    }
+    REQUIRE(e["ph"] == "X");
+    ++spans;
+    const uint64_t ts = e["ts"], dur = e["dur"];
+    CHECK(ts < 1100);
+    CHECK(ts + dur > 100);
+    CHECK(kinds.count(e["name"].get<std::string>()) == 1);
+    CHECK(e["tid"].get<uint64_t>() < 64);  // intel: 64 ray slots
+    slots.insert(e["tid"].get<uint64_t>());
+  }
+  CHECK(spans > 100);
+  CHECK(p["otherData"]["spans"] == spans);
+  CHECK(named == slots);
+  // A window that is not FROM < TO is refused.
+  CHECK(run("trace --scene builtin:seed --rays " + rays + " --out " + (d / "t.hits").string() +
+            " --device timed --pipeline-trace " + pipe + " --trace-window 9:9")
+            .status == 2);
 }
 
 TEST_CASE("render --mode hybrid on the timed device: raster and trace cycles, rays saved, both modes",

@@ -127,6 +127,33 @@ TEST_CASE("a timed render equals the fixed render; the clock counts cycles", "[t
   CHECK(t.timing.rays == rays);
   CHECK(t.timing_by_type[int(rtu::hw::cmd::RayType::kShadow)].rays ==
         t.fw.rays[int(rtu::hw::cmd::RayType::kShadow)]);
+  // The clock exactly: the TRACE packets' cycles, packet_latency for every other packet, and fence_latency more
+  // for each FENCE.
+  const rtu::hw::TimingConfig& c = o.device.timing;
+  const auto& ops = t.device.by_opcode;
+  const uint64_t traces = ops[size_t(rtu::hw::cmd::Opcode::kTrace)];
+  const uint64_t fences = ops[size_t(rtu::hw::cmd::Opcode::kFence)];
+  CHECK(traces == t.timing.packets);
+  CHECK(fences > 0);
+  CHECK(t.device_clock == t.timing.cycles + (t.device.packets - traces) * uint64_t(c.packet_latency) +
+                              fences * uint64_t(c.fence_latency));
+  // The firmware ends with a FENCE that asks for an interrupt: it reaches the host irq_latency after the clock's
+  // end. Every fence the firmware submits asks for one.
+  CHECK(t.device.fence_irqs == fences);
+  CHECK(t.device.last_irq_cycle == t.device_clock + uint64_t(c.irq_latency));
+  CHECK(f.device.last_irq_cycle == f.device_clock);  // functional engines: no latency
+  // The breakdowns add up to the total.
+  rtu::hw::TimingStats by_type, by_bounce;
+  for (const rtu::hw::TimingStats& x : t.timing_by_type) by_type.add(x);
+  for (const auto& [b, x] : t.timing_by_bounce) by_bounce.add(x);
+  CHECK(t.timing_by_bounce.size() == 4);  // bounces 0..3 at max_depth 3
+  for (const rtu::hw::TimingStats* x : {&by_type, &by_bounce}) {
+    CHECK(x->cycles == t.timing.cycles);
+    CHECK(x->rays == t.timing.rays);
+    CHECK(x->box_tests == t.timing.box_tests);
+    CHECK(x->dram_bytes == t.timing.dram_bytes);
+    CHECK(x->cache_hits == t.timing.cache_hits);
+  }
 }
 
 TEST_CASE("the pipeline trace shows each slot's work in order, inside its window", "[timed]") {

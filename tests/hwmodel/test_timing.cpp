@@ -127,10 +127,23 @@ TEST_CASE("a DRAM-bound stream reaches the configured bandwidth", "[timing]") {
   TimingStats s;
   const uint64_t cycles = run(m, rays, s);
   CHECK(s.dram_busy_cycles == 8 * n);
-  CHECK(cycles >= 8 * n);
+  // Exactly: the first request reaches the channel when the first ray leaves setup; from then on a request is
+  // always waiting (a slot frees ~120 clocks after its ray entered, long before the channel gets to the next
+  // ray), so the transfers run back to back and the last one ends 8 n clocks later; its ray then pays the DRAM
+  // latency, the box unit, the scheduler and the write-back.
+  const uint64_t first_request = c.packet_latency + c.ray_fetch_latency + c.setup_latency;
+  const uint64_t expected =
+      first_request + 8 * n + c.dram_latency + c.box_latency + c.traversal_latency + c.writeback_latency;
+  CHECK(cycles == expected);
   const double bandwidth = double(s.dram_bytes) / double(cycles);
   CHECK(bandwidth >= 0.99 * c.dram_bytes_per_cycle);
   CHECK(bandwidth <= c.dram_bytes_per_cycle);
+  // Half the bandwidth: twice the transfer time per line, the rest unchanged.
+  c.dram_bytes_per_cycle = 4.0;
+  TimingModel slow(c, layout());
+  TimingStats s2;
+  CHECK(run(slow, rays, s2) == first_request + 16 * n + c.dram_latency + c.box_latency + c.traversal_latency +
+                                   c.writeback_latency);
 }
 
 TEST_CASE("stack entries beyond the short stack spill and refill through DRAM", "[timing]") {

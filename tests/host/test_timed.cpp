@@ -65,7 +65,8 @@ std::vector<Ray> test_rays(const rtu::host::Scene& s, size_t n) {
 
 TEST_CASE("timed hits equal the fixed device's bit for bit; cycles repeat", "[timed]") {
   const std::vector<std::string> scenes = {"builtin:seed", "builtin:cornell", "builtin:icosphere_far?subdiv=3",
-                                           "/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc"};
+                                           "/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc",
+                                           "/usr/share/assimp/models/OBJ/WusonOBJ.obj"};
   for (const std::string& name : scenes) {
     const rtu::host::Scene s = rtu::host::load_scene(name);
     const std::vector<Ray> rays = test_rays(s, 20000);

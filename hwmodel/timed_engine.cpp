@@ -187,28 +187,44 @@ void TimingModel::admit(uint32_t k, uint64_t free_at) {
   std::push_heap(m_heap.begin(), m_heap.end(), std::greater<>());
 }
 
+namespace {
+
+// Replaces the smallest element of a min-heap (std::greater order) by v and restores the heap: one sift-down
+// instead of a pop and a push. Keys are unique (one entry per slot), so the order in which elements leave the
+// heap does not depend on its layout.
+template <class T>
+void replace_top(std::vector<T>& h, const T& v) {
+  const size_t n = h.size();
+  size_t i = 0;
+  for (;;) {
+    size_t c = 2 * i + 1;
+    if (c >= n) break;
+    if (c + 1 < n && h[c + 1] < h[c]) ++c;
+    if (!(h[c] < v)) break;
+    h[i] = h[c];
+    i = c;
+  }
+  h[i] = v;
+}
+
+}  // namespace
+
 void TimingModel::simulate() {
   const uint64_t SE = uint64_t(m_c.stack_entries);
   for (;;) {
     // Free slots take the next rays, earliest free first (ties: lowest slot).
     while (!m_free_slots.empty() && m_next < m_n) {
+      const auto [free_at, k] = m_free_slots.front();
+      if (!m_heap.empty() && m_heap.front().first < free_at) break;  // a busy slot acts first
+      if (m_next >= m_feed_first + m_feed_count) return;             // its ray is not fed yet
       std::pop_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
-      const auto [free_at, k] = m_free_slots.back();
-      if (!m_heap.empty() && m_heap.front().first < free_at) {  // a busy slot acts first
-        std::push_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
-        break;
-      }
-      if (m_next >= m_feed_first + m_feed_count) {  // its ray is not fed yet
-        std::push_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
-        return;
-      }
       m_free_slots.pop_back();
       admit(k, free_at);
     }
     if (m_heap.empty()) return;
-    std::pop_heap(m_heap.begin(), m_heap.end(), std::greater<>());
-    const auto [t, k] = m_heap.back();
-    m_heap.pop_back();
+    // The earliest slot acts; it stays at the top of the heap until it knows its next cycle (nothing below
+    // touches m_heap), then one sift-down replaces it (or it leaves).
+    const auto [t, k] = m_heap.front();
     if (m_c.watchdog_cycles > 0) watchdog(t);
     Slot& sl = m_slots[k];
     uint64_t next_t = 0;
@@ -308,8 +324,10 @@ void TimingModel::simulate() {
       waiting = true;
     }
     if (waiting) {
-      m_heap.push_back({next_t, k});
-      std::push_heap(m_heap.begin(), m_heap.end(), std::greater<>());
+      replace_top(m_heap, {next_t, k});
+    } else {
+      std::pop_heap(m_heap.begin(), m_heap.end(), std::greater<>());
+      m_heap.pop_back();
     }
   }
 }

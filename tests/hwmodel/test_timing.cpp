@@ -142,8 +142,8 @@ TEST_CASE("a DRAM-bound stream reaches the configured bandwidth", "[timing]") {
   c.dram_bytes_per_cycle = 4.0;
   TimingModel slow(c, layout());
   TimingStats s2;
-  CHECK(run(slow, rays, s2) == first_request + 16 * n + c.dram_latency + c.box_latency + c.traversal_latency +
-                                   c.writeback_latency);
+  CHECK(run(slow, rays, s2) ==
+        first_request + 16 * n + c.dram_latency + c.box_latency + c.traversal_latency + c.writeback_latency);
 }
 
 TEST_CASE("stack entries beyond the short stack spill and refill through DRAM", "[timing]") {

@@ -39,6 +39,7 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout) : m_c(c), 
   if (c.cache_kib > 0) {
     const uint64_t lines = uint64_t(c.cache_kib) * 1024 / uint64_t(c.line_bytes);
     m_sets = lines / uint64_t(c.cache_ways);
+    if ((m_sets & (m_sets - 1)) == 0) m_set_mask = m_sets - 1;
     m_cache.assign(lines, Line{});
   }
   m_box_free.assign(size_t(c.box_units), 0);
@@ -72,7 +73,7 @@ uint64_t TimingModel::line_access(uint64_t line, uint64_t t) {
     ++m_s->cache_misses;
     return dram(uint64_t(m_c.line_bytes), t);
   }
-  const uint64_t set = line % m_sets;
+  const uint64_t set = m_set_mask ? line & m_set_mask : line % m_sets;
   Line* ways = &m_cache[set * uint64_t(m_c.cache_ways)];
   Line* victim = ways;
   for (int w = 0; w < m_c.cache_ways; ++w) {
@@ -183,7 +184,7 @@ void TimingModel::admit(uint32_t k, uint64_t free_at) {
   sl.busy = true;
   if (m_c.watchdog_cycles > 0) m_age.push_back({enter, k});
   if (m_trace) m_trace->add(k, "setup", enter, enter + uint64_t(m_c.setup_latency));
-  m_heap.push_back({enter + uint64_t(m_c.setup_latency), k});
+  m_heap.push_back(heap_key(enter + uint64_t(m_c.setup_latency), k));
   std::push_heap(m_heap.begin(), m_heap.end(), std::greater<>());
 }
 
@@ -209,14 +210,20 @@ void replace_top(std::vector<T>& h, const T& v) {
 
 }  // namespace
 
+uint64_t TimingModel::heap_key(uint64_t cycle, uint32_t slot) {
+  if (cycle >> (64 - kSlotBits))  // 2^52 cycles: 26 days of a 2 GHz unit, beyond any run
+    throw std::overflow_error("timing model: cycle count beyond 2^52");
+  return cycle << kSlotBits | slot;
+}
+
 void TimingModel::simulate() {
   const uint64_t SE = uint64_t(m_c.stack_entries);
   for (;;) {
     // Free slots take the next rays, earliest free first (ties: lowest slot).
     while (!m_free_slots.empty() && m_next < m_n) {
       const auto [free_at, k] = m_free_slots.front();
-      if (!m_heap.empty() && m_heap.front().first < free_at) break;  // a busy slot acts first
-      if (m_next >= m_feed_first + m_feed_count) return;             // its ray is not fed yet
+      if (!m_heap.empty() && (m_heap.front() >> kSlotBits) < free_at) break;  // a busy slot acts first
+      if (m_next >= m_feed_first + m_feed_count) return;                      // its ray is not fed yet
       std::pop_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
       m_free_slots.pop_back();
       admit(k, free_at);
@@ -224,7 +231,8 @@ void TimingModel::simulate() {
     if (m_heap.empty()) return;
     // The earliest slot acts; it stays at the top of the heap until it knows its next cycle (nothing below
     // touches m_heap), then one sift-down replaces it (or it leaves).
-    const auto [t, k] = m_heap.front();
+    const uint64_t t = m_heap.front() >> kSlotBits;
+    const uint32_t k = uint32_t(m_heap.front() & ((uint64_t(1) << kSlotBits) - 1));
     if (m_c.watchdog_cycles > 0) watchdog(t);
     Slot& sl = m_slots[k];
     uint64_t next_t = 0;
@@ -324,7 +332,7 @@ void TimingModel::simulate() {
       waiting = true;
     }
     if (waiting) {
-      replace_top(m_heap, {next_t, k});
+      replace_top(m_heap, heap_key(next_t, k));
     } else {
       std::pop_heap(m_heap.begin(), m_heap.end(), std::greater<>());
       m_heap.pop_back();

@@ -140,11 +140,13 @@ class TimingModel {
   uint64_t dram(uint64_t bytes, uint64_t t);
   uint64_t xfer_cycles(uint64_t bytes) const;  // ceil(bytes / bandwidth)
   uint64_t unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t);
+  static uint64_t heap_key(uint64_t cycle, uint32_t slot);
 
   TimingConfig m_c;
   Layout m_layout;
   std::vector<Line> m_cache;
   uint64_t m_sets = 0, m_stamp = 0;
+  uint64_t m_set_mask = 0;                    // m_sets - 1 when m_sets is a power of two (else 0: a division)
   int m_line_shift = 0;                       // log2(line_bytes)
   uint64_t m_line_xfer = 0, m_word_xfer = 0;  // DRAM cycles of a line and of an 8-byte stack entry
   std::array<uint64_t, 256> m_box_issue{};    // ceil(children / box_rate)
@@ -160,7 +162,10 @@ class TimingModel {
   const std::vector<TraceEvent>* m_feed = nullptr;  // the rays of the current feed() call
   size_t m_feed_first = 0, m_feed_count = 0;        // their indices in the packet
   std::vector<Slot> m_slots;
-  std::vector<std::pair<uint64_t, uint32_t>> m_heap;        // (cycle, slot): min-heap
+  // Slots waiting for a cycle, as keys cycle << kSlotBits | slot (one compare orders by cycle, then slot): a
+  // min-heap.
+  static constexpr int kSlotBits = 12;  // ray_slots <= 4096 (validate())
+  std::vector<uint64_t> m_heap;
   std::vector<uint64_t> m_recent;                           // admission cycles of the last queue_depth rays
   std::vector<std::pair<uint64_t, uint32_t>> m_free_slots;  // (cycle free, slot): min-heap
   uint64_t m_t0 = 0, m_setup_free = 0, m_wb_free = 0, m_end = 0;

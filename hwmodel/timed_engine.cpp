@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <future>
 #include <stdexcept>
 #include <string>
 
@@ -507,13 +508,42 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
       cycles = trace_cycles_sampled(rays, hits, n, any_hit, s, ts);
     } else {
       // Chunks of rays: traced (and recorded) on the worker threads, then replayed through the model in order.
+      // With more than one thread the next chunk is recorded while the model replays this one (two event
+      // buffers): the datapath and the model are independent work, so both cores run. The order in which the
+      // model sees the events, and so every cycle, is the same either way.
       constexpr size_t kChunk = 4096;
-      std::vector<std::vector<TraceEvent>> events(std::min(n, kChunk));
+      const size_t buffers = m_opt.threads == 1 || n <= kChunk ? 1 : 2;
+      std::vector<std::vector<TraceEvent>> events[2];
+      for (size_t b = 0; b < buffers; ++b) events[b].resize(std::min(n, kChunk));
+      TraversalStats next_stats;  // the chunk being recorded in the background
+      auto record_chunk = [&](size_t first, std::vector<std::vector<TraceEvent>>& ev, TraversalStats& st) {
+        record(rays, hits, first, std::min(kChunk, n - first), any_hit, st, ev);
+      };
       m_model->begin(n, ts);
-      for (size_t first = 0; first < n; first += kChunk) {
-        const size_t m = std::min(kChunk, n - first);
-        record(rays, hits, first, m, any_hit, s, events);
-        m_model->feed(events.data(), m);
+      if (buffers == 1) {
+        for (size_t first = 0; first < n; first += kChunk) {
+          record_chunk(first, events[0], s);
+          m_model->feed(events[0].data(), std::min(kChunk, n - first));
+        }
+      } else {
+        record_chunk(0, events[0], s);
+        for (size_t first = 0, b = 0; first < n; first += kChunk, b ^= 1) {
+          std::future<void> next;
+          if (first + kChunk < n)
+            next = std::async(std::launch::async, record_chunk, first + kChunk, std::ref(events[b ^ 1]),
+                              std::ref(next_stats));
+          try {
+            m_model->feed(events[b].data(), std::min(kChunk, n - first));
+          } catch (...) {
+            if (next.valid()) next.wait();  // the recording thread uses this frame's buffers
+            throw;
+          }
+          if (next.valid()) {
+            next.get();  // rethrows a watchdog error of the datapath
+            s.add(next_stats);
+            next_stats = TraversalStats{};
+          }
+        }
       }
       cycles = m_model->finish();
       m_sample_stats.rays_simulated += n;

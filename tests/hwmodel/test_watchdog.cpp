@@ -232,6 +232,34 @@ TEST_CASE("traversal watchdog: a step bound stops fixed and timed TRACEs with kW
   CHECK(ok.cp->error() == ErrorCode::kNone);
 }
 
+TEST_CASE("traversal watchdog in a later chunk: the same error whether chunks are recorded ahead or not",
+          "[watchdog]") {
+  // 4100 rays that miss the scene (one node visit each), then rays into it: the bound of 2 visits is first
+  // exceeded in the second chunk of 4096 rays, which the timed engine records in the background while it
+  // replays the first when it has more than one thread.
+  const DeviceImage img = encode(soup());
+  std::vector<Ray> rays(4100, Ray{Vec3(5.0f), 0.0f, Vec3(1.0f), 1e30f});
+  const std::vector<Ray> into = rays_at_cube(4000);
+  rays.insert(rays.end(), into.begin(), into.end());
+  std::string dump[2];
+  for (int threads : {1, 2}) {
+    INFO(threads);
+    TimingConfig c = timing_preset("rdna2");
+    c.format = "binary";
+    c.bvh_width = 2;
+    EngineOptions o;
+    o.max_steps = 2;
+    o.threads = threads;
+    Rig rig(make_timed_engine(o, c));
+    const std::vector<Hit> got = rig.run(img.data(), img.size(), rays);
+    CHECK(rig.cp->error() == ErrorCode::kWatchdog);
+    for (const Hit& h : got) REQUIRE(h.prim == 12345u);
+    dump[threads - 1] = rig.cp->error_detail();
+    CHECK(contains(dump[threads - 1], "exceeded the step bound of 2 node and leaf visits"));
+  }
+  CHECK(dump[0] == dump[1]);
+}
+
 namespace {
 
 // Node i's children: every slot but the last points to node i + 1 (shared), the last to a leaf.

@@ -230,6 +230,11 @@ TEST_CASE("sampled timing estimates a packet's cycles within its interval; hits 
     }
     // About fraction * (warm-up + unit + tail) / unit of the rays went through the model, plus the first and last.
     CHECK(st.rays_simulated < n / 4);
+    // Functional warming walks back only as far as the simulated rays' lines need (timed_engine.h): for
+    // incoherent rays well short of the cache_warm_rays cap before each measured and each last unit.
+    const uint64_t walks = st.units_measured + st.packets_sampled;
+    CHECK(st.rays_warmed > 0);
+    if (rays == &incoherent) CHECK(st.rays_warmed < walks * rtu::hw::SampleOptions{}.cache_warm_rays * 3 / 4);
 
     // Cycles only: only the sampled rays are traced; the estimate is of the same packet.
     o.sample.need_hits = false;

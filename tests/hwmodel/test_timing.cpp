@@ -194,3 +194,68 @@ TEST_CASE("feeding rays in chunks gives the same cycles; runs repeat exactly", "
   }
   CHECK(reference > 0);
 }
+
+TEST_CASE("a backward walk fixes the cache the simulated rays meet: warming with it gives their cycles exactly",
+          "[timing][sample]") {
+  // Rays that touch the top of a tree (16 hot lines) and a drifting window of 600 lines, as camera rays sweeping
+  // an image do: the 256-line cache (16 KiB, 4 ways) holds the hot lines and part of the window.
+  const TimingConfig c = test_config();
+  uint32_t x = 777;
+  auto ray = [&](int i) {
+    std::vector<TraceEvent> ev;
+    for (int j = 0; j < 4; ++j) {
+      x = x * 1664525u + 1013904223u;
+      ev.push_back(node(x % 16, 4));
+      ev.push_back(node(uint32_t(16 + 2 * i + int(x >> 8) % 600), 4));
+    }
+    ev.push_back(tri(uint32_t(3 * i + (x >> 20) % 64)));
+    return ev;
+  };
+  std::vector<std::vector<TraceEvent>> history, future;
+  for (int i = 0; i < 3000; ++i) history.push_back(ray(i));
+  for (int i = 3000; i < 3400; ++i) future.push_back(ray(i));
+
+  // Reference: warmed with every earlier ray.
+  TimingModel full(c, layout());
+  full.warm(history.data(), history.size());
+  TimingStats sf;
+  const uint64_t reference = run(full, future, sf);
+
+  // The walk: chunks of 20 rays backwards from the future's first ray until no line of the future is open.
+  TimingModel walk(c, layout());
+  walk.walk_begin(future.data(), future.size());
+  const size_t lines = walk.walk_lines();
+  CHECK(lines > 256);  // more than the cache holds: what is in it at the start matters
+  size_t walked = 0, open = lines;
+  std::vector<size_t> opens;
+  while (open > 0 && walked < history.size()) {
+    walked += 20;
+    open = walk.walk_add(history.data() + (history.size() - walked), 20);
+    CHECK(open <= (opens.empty() ? lines : opens.back()));  // never rises
+    opens.push_back(open);
+  }
+  REQUIRE(open == 0);
+  CHECK(opens.size() >= 2);            // one chunk was not enough
+  CHECK(walked < history.size() / 2);  // and far fewer than the history were
+  // Whatever the cache held before (here: lines no ray touches), warming with the walked rays gives the
+  // simulated rays the reference's cycles and hits.
+  std::vector<std::vector<TraceEvent>> other;
+  for (uint32_t i = 0; i < 400; ++i) other.push_back({node(100000 + 7 * i, 4)});
+  for (bool stale : {false, true}) {
+    CAPTURE(stale);
+    TimingModel m(c, layout());
+    if (stale) m.warm(other.data(), other.size());
+    m.warm(history.data() + (history.size() - walked), walked);
+    TimingStats s;
+    CHECK(run(m, future, s) == reference);
+    CHECK(s.cache_hits == sf.cache_hits);
+    CHECK(s.cache_misses == sf.cache_misses);
+  }
+  // Stopping one chunk early leaves lines open, and the cycles are then not the reference's (a cold cache even
+  // less so): the walk's length is what it takes, not a margin.
+  TimingModel early(c, layout()), cold(c, layout());
+  early.warm(history.data() + (history.size() - walked + 20), walked - 20);
+  TimingStats se, sc;
+  CHECK(run(early, future, se) != reference);
+  CHECK(run(cold, future, sc) > reference);
+}

@@ -41,7 +41,8 @@ NodeRay make_node_ray(const FixedRay& r, const FixedFormat& f, int q_bytes, bool
   // when |base| < 2^(61 - R).
   nr.smax = 61 - 8 * q_bytes - f.rcp_bits;
   nr.blim = int64_t(1) << (61 - f.rcp_bits);
-  nr.simd = nr.fast && simd && !any_zero && node_simd_available();
+  // The AVX-512 kernel multiplies 32-bit halves: |m| <= 2^(R+1) must fit 32 signed bits.
+  nr.simd = nr.fast && simd && !any_zero && f.rcp_bits <= 30 && node_simd_available();
   return nr;
 }
 
@@ -86,8 +87,8 @@ inline __m512i load_row(const Q* row) {
 
 }  // namespace
 
-// Lanes are child slots. Per axis: the near and far planes' two products (vpmullq: exact, every value below
-// 2^63), min / max, the floor / ceil shift, then the running max of entries and min of exits.
+// Lanes are child slots. Per axis: the near and far planes' two products (exact, every value below 2^63),
+// min / max, the floor / ceil shift, then the running max of entries and min of exits.
 template <int N, class Q>
 int box_node_simd(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin, int64_t tlim, uint32_t refs[N],
                   int64_t dists[N]) {
@@ -97,13 +98,15 @@ int box_node_simd(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin, int64_t
     const int s = n.exp[a] + nr.frac;
     if (s > nr.smax || base >= nr.blim || base <= -nr.blim) return -1;
     const __m512i blo = _mm512_set1_epi64(base * nr.mlo[a]), bhi = _mm512_set1_epi64(base * nr.mhi[a]);
-    const __m512i mlo = _mm512_set1_epi64(int64_t(uint64_t(nr.mlo[a]) << s));
-    const __m512i mhi = _mm512_set1_epi64(int64_t(uint64_t(nr.mhi[a]) << s));
+    // q * (m << s) as (q * m) << s: q < 2^16 and |m| <= 2^(R+1) <= 2^31 are 32-bit values, so vpmuldq (32 x 32
+    // -> 64 bits, signed) gives q * m exactly, and the shift is exact (the result is below 2^62).
+    const __m512i mlo = _mm512_set1_epi64(nr.mlo[a]), mhi = _mm512_set1_epi64(nr.mhi[a]);
+    const __m128i ss = _mm_cvtsi32_si128(s);
     const __m512i qn = load_row<N, Q>(n.q[nr.near[a]]), qf = load_row<N, Q>(n.q[nr.near[a] ^ 1]);
-    const __m512i pn = _mm512_min_epi64(_mm512_add_epi64(blo, _mm512_mullo_epi64(qn, mlo)),
-                                        _mm512_add_epi64(bhi, _mm512_mullo_epi64(qn, mhi)));
-    const __m512i pf = _mm512_max_epi64(_mm512_add_epi64(blo, _mm512_mullo_epi64(qf, mlo)),
-                                        _mm512_add_epi64(bhi, _mm512_mullo_epi64(qf, mhi)));
+    const __m512i pn = _mm512_min_epi64(_mm512_add_epi64(blo, _mm512_sll_epi64(_mm512_mul_epi32(qn, mlo), ss)),
+                                        _mm512_add_epi64(bhi, _mm512_sll_epi64(_mm512_mul_epi32(qn, mhi), ss)));
+    const __m512i pf = _mm512_max_epi64(_mm512_add_epi64(blo, _mm512_sll_epi64(_mm512_mul_epi32(qf, mlo), ss)),
+                                        _mm512_add_epi64(bhi, _mm512_sll_epi64(_mm512_mul_epi32(qf, mhi), ss)));
     const __m128i sh = _mm_cvtsi32_si128(nr.sh[a]);
     t0 = _mm512_max_epi64(t0, _mm512_sra_epi64(pn, sh));
     t1 = _mm512_min_epi64(t1, _mm512_sra_epi64(_mm512_add_epi64(pf, _mm512_set1_epi64(nr.rnd[a])), sh));

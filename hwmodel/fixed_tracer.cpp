@@ -8,6 +8,7 @@
 #include <string>
 
 #include "hwmodel/batch.h"
+#include "hwmodel/box_node.h"
 #include "hwmodel/intersect_float.h"
 #include "hwmodel/traverse.h"
 
@@ -75,12 +76,38 @@ struct FixedPolicy {
     return true;
   }
 
+  NodeRay nr;  // the node kernels' constants (box_node.h), set by prepare()
+
+  void prepare(const FixedFormat& f) {
+    nr = make_node_ray(r, f, int(sizeof(Q)));
+    nr.fast = nr.fast && !check && !unit;
+  }
+
   int expand(uint32_t node, uint32_t refs[N], int64_t dists[N], int& tested) const {
     if (stopped(node)) return 0;
     if (unit) return expand_unit(node, refs, dists, tested);
     if (rec) rec->push_back(TraceEvent{TraceEvent::kNode, nodes[node].count, 0, 0, node});
+    if (nr.fast) {
+      const QNode<N, Q>& n = nodes[node];
+      const int k = box_node<N, Q>(nr, n, r.tmin, closest.t, refs, dists);
+      if (k >= 0) {
+        tested += n.count;
+        prefetch(refs, k);
+        return k;
+      }
+    }
     return r.narrow ? expand_impl<int64_t>(node, refs, dists, tested)
                     : expand_impl<Wide>(node, refs, dists, tested);
+  }
+
+  // Asks the cache for the accepted children's nodes or first records (a hint: no effect on any result).
+  void prefetch(const uint32_t refs[N], int k) const {
+    for (int j = 0; j < k; ++j) {
+      const char* p = is_leaf(refs[j]) ? reinterpret_cast<const char*>(image.record(leaf_first(refs[j])))
+                                       : reinterpret_cast<const char*>(&nodes[refs[j]]);
+      __builtin_prefetch(p);
+      __builtin_prefetch(p + 63);
+    }
   }
 
   // Repeats child i's box test exactly and counts a disagreement with the datapath's answer.
@@ -283,8 +310,9 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
         using Node = decltype(node_tag);
         constexpr int N = sizeof(Node::child) / sizeof(uint32_t);
         using Q = std::remove_cv_t<std::remove_reference_t<decltype(Node::q[0][0])>>;
-        FixedPolicy<N, Q> p{m_image.nodes<Node>(), m_image, fr,          any_hit, m_opt.check_boxes, c, s, rec,
-                            m_opt.box_unit,        watch,   m_step_limit};
+        FixedPolicy<N, Q> p{m_image.nodes<Node>(), m_image, fr,           any_hit, m_opt.check_boxes, c, s, rec,
+                            m_opt.box_unit,        watch,   m_step_limit, {}};
+        p.prepare(m_format);
         traverse(p, hd.root_ref, any_hit, s);
       };
       const bool q8 = hd.q_bytes == 1;

@@ -1,6 +1,7 @@
 #include "hwmodel/intersect_fixed.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 
 namespace rtu::hw {
@@ -8,12 +9,13 @@ namespace rtu::hw {
 namespace {
 
 // x * 2^e rounded by r, exactly (x finite). Values beyond 2^70 in magnitude come back as +-2^70.
-Wide scaled_round(float x, int e, Round r) {
+inline Wide scaled_round(float x, int e, Round r) {
   if (x == 0.0f) return 0;
   int64_t m;
   int k;
   split_float(x, m, k);  // x = m * 2^k, |m| < 2^24
   const int sh = k + e;
+  if (sh >= -62 && sh <= 38) return sh >= 0 ? Wide(m << sh) : Wide(round_shift64(m, -sh, r));  // 64 bits
   if (sh >= 0) {
     if (sh > 46) return m > 0 ? (Wide(1) << 70) : -(Wide(1) << 70);
     return Wide(m) << sh;
@@ -24,6 +26,14 @@ Wide scaled_round(float x, int e, Round r) {
     return 0;
   }
   return round_shift(Wide(m), -sh, r);
+}
+
+// std::ilogb of a finite x > 0, from its bits.
+inline int ilogb_float(float x) {
+  const uint32_t b = std::bit_cast<uint32_t>(x);
+  const int biased = int((b >> 23) & 0xFFu);
+  if (biased != 0) return biased - 127;
+  return (31 - __builtin_clz(b & 0x7FFFFFu)) - 149;  // subnormal
 }
 
 }  // namespace
@@ -51,7 +61,7 @@ RayStatus setup_ray(const Ray& r, const QuantFrame& frame, const FixedFormat& f,
   // Direction: scaled by 2^-(E+1) so the largest component is in [1/2, 1), then D fraction bits, nearest
   // (the largest may round up to exactly 1). Components far smaller than the largest round to 0.
   const float m = std::max({std::abs(r.dir.x), std::abs(r.dir.y), std::abs(r.dir.z)});
-  const int E = std::ilogb(m);
+  const int E = ilogb_float(m);
   int64_t d[3];
   for (int a = 0; a < 3; ++a) d[a] = int64_t(scaled_round(r.dir[a], f.dir_bits - E - 1, Round::kNearestEven));
   set_direction(out, d, f);
@@ -74,16 +84,39 @@ void set_direction(FixedRay& r, const int64_t d[3], const FixedFormat& f) {
       r.rcp_sh[a] = 0;
       continue;
     }
-    // One 64-bit division: q truncates toward zero; floor and ceil follow from the sign and the remainder.
-    const int64_t q = one / d[a], rem = one % d[a];
+    // q = one / d truncated toward zero, rem = one - q d (0 <= rem < |d|); floor and ceil follow from the
+    // sign and the remainder. The quotient comes from a double division (one is a power of two, d exact below
+    // 2^53) corrected to the exact integer one by the remainder: the double is within q 2^-52 + 1 of q, so one
+    // or two steps; a 64-bit division where that does not apply.
+    int64_t q, rem;
+    const int64_t ad = d[a] < 0 ? -d[a] : d[a], sg = d[a] < 0 ? -1 : 1;
+    if (ad < (int64_t(1) << 53)) {
+      q = int64_t(double(one) / double(d[a]));
+      rem = one - q * d[a];  // |q d| <= one (1 + 2^-52) + |d| < 2^63
+      if (rem < -4 * ad || rem >= 5 * ad) {
+        q = one / d[a];
+        rem = one % d[a];
+      }
+      while (rem < 0) {
+        q -= sg;
+        rem += ad;
+      }
+      while (rem >= ad) {
+        q += sg;
+        rem -= ad;
+      }
+    } else {
+      q = one / d[a];
+      rem = one % d[a];
+    }
     r.rcp_dn[a] = rem != 0 && d[a] < 0 ? q - 1 : q;
     r.rcp_up[a] = rem != 0 && d[a] > 0 ? q + 1 : q;
     // R + 1 significant bits: drop e low bits of the larger magnitude, rounding down and up again.
     const uint64_t mag = uint64_t(std::max(std::abs(r.rcp_dn[a]), std::abs(r.rcp_up[a])));
     const int bits = 64 - __builtin_clzll(mag);
     const int e = std::max(0, bits - (f.rcp_bits + 1));
-    r.rcpm_dn[a] = int64_t(round_shift(r.rcp_dn[a], e, Round::kDown));
-    r.rcpm_up[a] = int64_t(round_shift(r.rcp_up[a], e, Round::kUp));
+    r.rcpm_dn[a] = round_shift64(r.rcp_dn[a], e, Round::kDown);
+    r.rcpm_up[a] = round_shift64(r.rcp_up[a], e, Round::kUp);
     r.rcp_sh[a] = f.frac_bits + f.rcp_bits - f.t_frac_bits - e;
   }
   r.narrow = f.translated_bits() + f.rcp_bits + 2 <= 63 && f.frac_bits + f.rcp_bits - f.t_frac_bits <= 61;

@@ -181,7 +181,10 @@ inline bool triangle_test(const FixedRay& r, const int32_t v[3][3], int64_t tmin
     const Wide cz = Wide(p[0]) * q[1] - Wide(p[1]) * q[0];
     return cx * r.d[0] + cy * r.d[1] + cz * r.d[2];
   };
-  const Wide e0 = edge(A[1], A[2]), e1 = edge(A[2], A[0]), e2 = edge(A[0], A[1]);
+  // Two edge functions of strictly opposite signs already decide the miss: the third is not computed.
+  const Wide e0 = edge(A[1], A[2]), e1 = edge(A[2], A[0]);
+  if ((e0 < 0 && e1 > 0) || (e0 > 0 && e1 < 0)) return false;
+  const Wide e2 = edge(A[0], A[1]);
   if ((e0 < 0 || e1 < 0 || e2 < 0) && (e0 > 0 || e1 > 0 || e2 > 0)) return false;
   const Wide det = e0 + e1 + e2;
   if (det == 0) return false;

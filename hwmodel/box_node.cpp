@@ -1,0 +1,157 @@
+#include "hwmodel/box_node.h"
+
+#include <cstdlib>
+#include <cstring>
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#define RTU_NODE_SIMD 1
+#endif
+
+namespace rtu::hw {
+
+bool node_simd_available() {
+#ifdef RTU_NODE_SIMD
+  // RTU_NO_SIMD=1 in the environment keeps the scalar kernel (to compare the two).
+  static const bool ok = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+                         !(std::getenv("RTU_NO_SIMD") && std::getenv("RTU_NO_SIMD")[0] == '1');
+  return ok;
+#else
+  return false;
+#endif
+}
+
+NodeRay make_node_ray(const FixedRay& r, const FixedFormat& f, int q_bytes, bool simd) {
+  NodeRay nr;
+  nr.fast = r.narrow;
+  bool any_zero = false;
+  for (int a = 0; a < 3; ++a) {
+    nr.fast = nr.fast && r.rcp_sh[a] >= 0;
+    nr.zero[a] = r.zero[a];
+    any_zero = any_zero || r.zero[a];
+    nr.near[a] = r.d[a] > 0 ? 2 * a : 2 * a + 1;
+    nr.o[a] = r.o[a];
+    nr.mlo[a] = r.rcpm_dn[a];
+    nr.mhi[a] = r.rcpm_up[a];
+    nr.sh[a] = r.rcp_sh[a];
+    nr.rnd[a] = r.rcp_sh[a] > 0 && r.rcp_sh[a] < 63 ? (int64_t(1) << r.rcp_sh[a]) - 1 : 0;
+  }
+  nr.frac = r.frac;
+  // |m| <= 2^(R+1) and q < 2^(8 q_bytes): q * (m << s) < 2^62 when s <= 61 - 8 q_bytes - R; base * m < 2^62
+  // when |base| < 2^(61 - R).
+  nr.smax = 61 - 8 * q_bytes - f.rcp_bits;
+  nr.blim = int64_t(1) << (61 - f.rcp_bits);
+  // The AVX-512 kernel multiplies 32-bit halves: |m| <= 2^(R+1) must fit 32 signed bits.
+  nr.simd = nr.fast && simd && !any_zero && f.rcp_bits <= 30 && node_simd_available();
+  return nr;
+}
+
+#ifdef RTU_NODE_SIMD
+
+// Everything from here to the instantiations is compiled for AVX-512F/DQ; it runs only when
+// node_simd_available() (make_node_ray sets NodeRay::simd by it).
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx512f,avx512dq"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx512f,avx512dq")
+// GCC 12's AVX-512 intrinsics start from an "undefined" vector that -Wmaybe-uninitialized reports.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+
+namespace {
+
+// One row of N offsets, zero-extended to eight 64-bit lanes (lanes >= N are 0).
+template <int N, class Q>
+inline __m512i load_row(const Q* row) {
+  constexpr int kBytes = N * int(sizeof(Q));
+  __m128i v;
+  if constexpr (kBytes == 2) {
+    uint16_t x;
+    std::memcpy(&x, row, 2);
+    v = _mm_cvtsi32_si128(int(x));
+  } else if constexpr (kBytes == 4) {
+    uint32_t x;
+    std::memcpy(&x, row, 4);
+    v = _mm_cvtsi32_si128(int(x));
+  } else if constexpr (kBytes == 8) {
+    v = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(row));
+  } else {
+    static_assert(kBytes == 16);
+    v = _mm_loadu_si128(reinterpret_cast<const __m128i*>(row));
+  }
+  if constexpr (sizeof(Q) == 1) return _mm512_cvtepu8_epi64(v);
+  return _mm512_cvtepu16_epi64(v);
+}
+
+}  // namespace
+
+// Lanes are child slots. Per axis: the near and far planes' two products (exact, every value below 2^63),
+// min / max, the floor / ceil shift, then the running max of entries and min of exits.
+template <int N, class Q>
+int box_node_simd(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin, int64_t tlim, uint32_t refs[N],
+                  int64_t dists[N]) {
+  __m512i t0 = _mm512_set1_epi64(tmin), t1 = _mm512_set1_epi64(tlim);
+  for (int a = 0; a < 3; ++a) {
+    const int64_t base = (int64_t(n.origin[a]) << nr.frac) - nr.o[a];
+    const int s = n.exp[a] + nr.frac;
+    if (s > nr.smax || base >= nr.blim || base <= -nr.blim) return -1;
+    const __m512i blo = _mm512_set1_epi64(base * nr.mlo[a]), bhi = _mm512_set1_epi64(base * nr.mhi[a]);
+    // q * (m << s) as (q * m) << s: q < 2^16 and |m| <= 2^(R+1) <= 2^31 are 32-bit values, so vpmuldq (32 x 32
+    // -> 64 bits, signed) gives q * m exactly, and the shift is exact (the result is below 2^62).
+    const __m512i mlo = _mm512_set1_epi64(nr.mlo[a]), mhi = _mm512_set1_epi64(nr.mhi[a]);
+    const __m128i ss = _mm_cvtsi32_si128(s);
+    const __m512i qn = load_row<N, Q>(n.q[nr.near[a]]), qf = load_row<N, Q>(n.q[nr.near[a] ^ 1]);
+    const __m512i pn = _mm512_min_epi64(_mm512_add_epi64(blo, _mm512_sll_epi64(_mm512_mul_epi32(qn, mlo), ss)),
+                                        _mm512_add_epi64(bhi, _mm512_sll_epi64(_mm512_mul_epi32(qn, mhi), ss)));
+    const __m512i pf = _mm512_max_epi64(_mm512_add_epi64(blo, _mm512_sll_epi64(_mm512_mul_epi32(qf, mlo), ss)),
+                                        _mm512_add_epi64(bhi, _mm512_sll_epi64(_mm512_mul_epi32(qf, mhi), ss)));
+    const __m128i sh = _mm_cvtsi32_si128(nr.sh[a]);
+    t0 = _mm512_max_epi64(t0, _mm512_sra_epi64(pn, sh));
+    t1 = _mm512_min_epi64(t1, _mm512_sra_epi64(_mm512_add_epi64(pf, _mm512_set1_epi64(nr.rnd[a])), sh));
+  }
+  unsigned hit = unsigned(_mm512_cmple_epi64_mask(t0, t1)) & ((1u << n.count) - 1u);
+  alignas(64) int64_t tv[8];
+  _mm512_store_si512(tv, t0);
+  int k = 0;
+  while (hit) {
+    const int i = __builtin_ctz(hit);
+    hit &= hit - 1;
+    refs[k] = n.child[i];
+    dists[k] = tv[i];
+    ++k;
+  }
+  return k;
+}
+
+#else  // no AVX-512 kernel on this target: never chosen (node_simd_available() is false)
+
+template <int N, class Q>
+int box_node_simd(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin, int64_t tlim, uint32_t refs[N],
+                  int64_t dists[N]) {
+  return box_node_scalar<N, Q>(nr, n, tmin, tlim, refs, dists);
+}
+
+#endif
+
+#define RTU_BOX_NODE_SIMD(N, Q) \
+  template int box_node_simd<N, Q>(const NodeRay&, const QNode<N, Q>&, int64_t, int64_t, uint32_t[N], int64_t[N]);
+RTU_BOX_NODE_SIMD(2, uint8_t)
+RTU_BOX_NODE_SIMD(4, uint8_t)
+RTU_BOX_NODE_SIMD(8, uint8_t)
+RTU_BOX_NODE_SIMD(2, uint16_t)
+RTU_BOX_NODE_SIMD(4, uint16_t)
+RTU_BOX_NODE_SIMD(8, uint16_t)
+#undef RTU_BOX_NODE_SIMD
+
+#ifdef RTU_NODE_SIMD
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC diagnostic pop
+#pragma GCC pop_options
+#endif
+#endif
+
+}  // namespace rtu::hw

@@ -145,6 +145,7 @@ Result run_tracer(const std::string& mesh, const std::string& tracer, uint64_t n
 Result run_child(const std::string& mesh, const std::string& tracer, uint64_t n, uint64_t& peak_rss) {
   int fd[2];
   if (pipe(fd) != 0) throw std::runtime_error("pipe failed");
+  std::fflush(stdout);  // or the child inherits the unwritten table lines and prints them again
   const pid_t pid = fork();
   if (pid == 0) {
     close(fd[0]);

@@ -289,7 +289,8 @@ TEST_CASE("hybrid images agree with ray-traced images within a PSNR bound", "[hy
     const char* scene;
     int w, h, spp, depth;
   };
-  for (const Case& c : {Case{"builtin:seed", 320, 240, 1, 4}, Case{"builtin:cornell", 128, 128, 2, 3}}) {
+  for (const Case& c : {Case{"builtin:seed", 320, 240, 1, 4}, Case{"builtin:cornell", 128, 128, 2, 3},
+                        Case{"/usr/share/assimp/models/OBJ/WusonOBJ.obj", 160, 120, 1, 3}}) {
     const Scene scene = rtu::host::load_scene(c.scene);
     for (const char* dev : {"float", "fixed"}) {
       CAPTURE(c.scene, dev);

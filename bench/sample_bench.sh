@@ -8,8 +8,10 @@
 # time does, on a shared machine). Prints a Markdown table (README.md).
 #
 #   bench/sample_bench.sh [RTUSIM] [RAYS] [MESH...]     RAYS default 1000000; trace packets are 262,144 rays
-#   FRACTIONS="0.05 0.02" MODES="hits cycles-only" REPEAT=3 (environment): the sample fractions and modes
-#   measured, and the runs each time is the best of
+#   FRACTIONS="0.05 0.02" MODES="hits cycles-only" REPEAT=3 THREADS=1 (environment): the sample fractions and
+#   modes measured, the runs each time is the best of, and rtusim's --threads for both the full and the sampled
+#   simulation (the full one records the next chunk of rays while the model replays this one when it has two
+#   threads; the sampled one runs its short segments on one), so that both get the same cores
 set -euo pipefail
 rtusim=${1:-build/default/rtusim}
 rays=${2:-1000000}
@@ -18,6 +20,7 @@ meshes=("$@")
 read -r -a fractions <<< "${FRACTIONS:-0.05 0.02}"
 read -r -a modes <<< "${MODES:-hits cycles-only}"
 repeat=${REPEAT:-3}
+threads=${THREADS:-1}
 if [ ${#meshes[@]} -eq 0 ]; then
   m=/usr/share/assimp/models
   meshes=("$m/IFC/AC14-FZK-Haus.ifc" "$m/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb"
@@ -33,7 +36,7 @@ best() {  # best STATS ARGS...: runs rtusim ARGS --stats STATS $repeat times; pr
   local stats=$1 t b=
   shift
   for _ in $(seq "$repeat"); do
-    "$rtusim" "$@" --stats "$stats" >/dev/null
+    "$rtusim" "$@" --threads "$threads" --stats "$stats" >/dev/null
     t=$(num "['trace_seconds']" "$stats")
     b=$(awk -v t="$t" -v b="$b" 'BEGIN{print (b == "" || t < b) ? t : b}')
   done

@@ -61,11 +61,13 @@ inline int64_t saturate(Wide x, int bits) {
   return int64_t(x);
 }
 
-// x / 2^s rounded by r, for 0 <= s <= 120. Exact: no intermediate rounding.
-constexpr Wide round_shift(Wide x, int s, Round r) {
+// x / 2^s rounded by r, exactly (no intermediate rounding), in the integer type of x: for 0 <= s <= 120 on Wide,
+// 0 <= s <= 62 on int64_t (the 64-bit fast paths of ray setup; the same function where x fits 64 bits).
+template <class Int>
+constexpr Int round_shift_in(Int x, int s, Round r) {
   if (s <= 0) return x;
-  const Wide floor_q = x >> s;          // arithmetic shift: floor
-  const Wide rem = x - (floor_q << s);  // in [0, 2^s)
+  const Int floor_q = x >> s;          // arithmetic shift: floor
+  const Int rem = x - (floor_q << s);  // in [0, 2^s)
   if (rem == 0) return floor_q;
   switch (r) {
     case Round::kDown:
@@ -73,7 +75,7 @@ constexpr Wide round_shift(Wide x, int s, Round r) {
     case Round::kUp:
       return floor_q + 1;
     case Round::kNearestEven: {
-      const Wide half = Wide(1) << (s - 1);
+      const Int half = Int(1) << (s - 1);
       if (rem > half) return floor_q + 1;
       if (rem < half) return floor_q;
       return (floor_q & 1) ? floor_q + 1 : floor_q;
@@ -81,27 +83,11 @@ constexpr Wide round_shift(Wide x, int s, Round r) {
   }
   return floor_q;
 }
-
-// round_shift on 64-bit values, for 0 <= s <= 62: the same function where x fits 64 bits (the fast paths of
-// ray setup use it; tested against round_shift).
+constexpr Wide round_shift(Wide x, int s, Round r) {
+  return round_shift_in<Wide>(x, s, r);
+}
 constexpr int64_t round_shift64(int64_t x, int s, Round r) {
-  if (s <= 0) return x;
-  const int64_t floor_q = x >> s;
-  const uint64_t rem = uint64_t(x) & ((uint64_t(1) << s) - 1);  // x - floor_q * 2^s, in [0, 2^s)
-  if (rem == 0) return floor_q;
-  switch (r) {
-    case Round::kDown:
-      return floor_q;
-    case Round::kUp:
-      return floor_q + 1;
-    case Round::kNearestEven: {
-      const uint64_t half = uint64_t(1) << (s - 1);
-      if (rem > half) return floor_q + 1;
-      if (rem < half) return floor_q;
-      return (floor_q & 1) ? floor_q + 1 : floor_q;
-    }
-  }
-  return floor_q;
+  return round_shift_in<int64_t>(x, s, r);
 }
 
 // n / d rounded by r (d != 0). Exact.

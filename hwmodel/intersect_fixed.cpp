@@ -38,14 +38,18 @@ inline int ilogb_float(float x) {
 
 }  // namespace
 
+void set_format_fields(FixedRay& r, const FixedFormat& f) {
+  r.frac = f.frac_bits;
+  r.dir_bits = f.dir_bits;
+  r.box_shift = f.frac_bits + f.rcp_bits - f.t_frac_bits;
+  r.t_shift = f.t_shift();
+  r.t_limit = int64_t((uint64_t(1) << f.t_bits) - 1);
+}
+
 RayStatus setup_ray(const Ray& r, const QuantFrame& frame, const FixedFormat& f, FixedRay& out) {
   const RayStatus st = validate_ray(r);
   if (st != RayStatus::kOk) return st;
-  out.frac = f.frac_bits;
-  out.dir_bits = f.dir_bits;
-  out.box_shift = f.frac_bits + f.rcp_bits - f.t_frac_bits;
-  out.t_shift = f.t_shift();
-  out.t_limit = int64_t((uint64_t(1) << f.t_bits) - 1);
+  set_format_fields(out, f);
 
   // Origin: grid.F, nearest; out of frame beyond the guard range. A coarse test in double first keeps far
   // origins away from to_grid's saturation (which would be counted as an overflow of an in-range value).

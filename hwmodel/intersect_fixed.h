@@ -42,6 +42,10 @@ struct FixedRay {
   int64_t t_limit;  // largest t raw: 2^t_bits - 1
 };
 
+// The format constants of a FixedRay (frac, dir_bits, box_shift, t_shift, t_limit): the part of setup_ray that
+// depends on the format only, for code that builds rays on the grid.
+void set_format_fields(FixedRay& r, const FixedFormat& f);
+
 // Ray setup: float world ray -> FixedRay. Rejects what validate_ray() rejects, and rays whose origin is out of
 // the frame's guard range (RayStatus::kOutOfFrame). An empty or negative interval is valid (it misses).
 RayStatus setup_ray(const Ray& r, const QuantFrame& frame, const FixedFormat& f, FixedRay& out);

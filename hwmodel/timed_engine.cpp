@@ -74,7 +74,7 @@ uint64_t TimingModel::line_access(uint64_t line, uint64_t t) {
     ++m_s->cache_misses;
     return dram(uint64_t(m_c.line_bytes), t);
   }
-  const uint64_t set = m_set_mask ? line & m_set_mask : line % m_sets;
+  const uint64_t set = set_of(line);
   Line* ways = &m_cache[set * uint64_t(m_c.cache_ways)];
   Line* victim = ways;
   for (int w = 0; w < m_c.cache_ways; ++w) {
@@ -115,7 +115,7 @@ void TimingModel::warm(const std::vector<TraceEvent>* events, size_t m) {
   for (size_t i = 0; i < m; ++i)
     for (const TraceEvent& e : events[i])
       for_each_line(e, [&](uint64_t line) {
-        Line* ways = &m_cache[(line % m_sets) * uint64_t(m_c.cache_ways)];
+        Line* ways = &m_cache[set_of(line) * uint64_t(m_c.cache_ways)];
         Line* victim = ways;
         for (int w = 0; w < m_c.cache_ways; ++w) {
           if (ways[w].tag == line) {
@@ -139,7 +139,7 @@ void TimingModel::walk_begin(const std::vector<TraceEvent>* events, size_t m) {
   m_walk_lines.assign(m_cache.size(), 0);
   m_walk_count.assign(size_t(m_sets), 0);
   m_walk_open.assign(size_t(m_sets), 0);
-  for (uint64_t line : m_walk_need) ++m_walk_open[size_t(line % m_sets)];
+  for (uint64_t line : m_walk_need) ++m_walk_open[size_t(set_of(line))];
   m_walk_undetermined = m_walk_need.size();
 }
 
@@ -150,7 +150,7 @@ size_t TimingModel::walk_add(const std::vector<TraceEvent>* events, size_t m) {
   for (size_t i = 0; i < m && m_walk_undetermined > 0; ++i)
     for (const TraceEvent& e : events[i])
       for_each_line(e, [&](uint64_t line) {
-        const size_t set = size_t(line % m_sets);
+        const size_t set = size_t(set_of(line));
         uint8_t& c = m_walk_count[set];
         if (c == W) return;
         uint64_t* seen = &m_walk_lines[set * W];
@@ -563,29 +563,25 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
         record(rays, hits, first, std::min(kChunk, n - first), any_hit, st, ev);
       };
       m_model->begin(n, ts);
-      if (buffers == 1) {
-        for (size_t first = 0; first < n; first += kChunk) {
-          record_chunk(first, events[0], s);
-          m_model->feed(events[0].data(), std::min(kChunk, n - first));
+      record_chunk(0, events[0], s);
+      for (size_t first = 0, b = 0; first < n; first += kChunk, b = (b + 1) % buffers) {
+        const size_t after = first + kChunk;
+        std::future<void> next;  // the next chunk, recorded into the other buffer meanwhile
+        if (after < n && buffers == 2)
+          next =
+              std::async(std::launch::async, record_chunk, after, std::ref(events[b ^ 1]), std::ref(next_stats));
+        try {
+          m_model->feed(events[b].data(), std::min(kChunk, n - first));
+        } catch (...) {
+          if (next.valid()) next.wait();  // the recording thread uses this frame's buffers
+          throw;
         }
-      } else {
-        record_chunk(0, events[0], s);
-        for (size_t first = 0, b = 0; first < n; first += kChunk, b ^= 1) {
-          std::future<void> next;
-          if (first + kChunk < n)
-            next = std::async(std::launch::async, record_chunk, first + kChunk, std::ref(events[b ^ 1]),
-                              std::ref(next_stats));
-          try {
-            m_model->feed(events[b].data(), std::min(kChunk, n - first));
-          } catch (...) {
-            if (next.valid()) next.wait();  // the recording thread uses this frame's buffers
-            throw;
-          }
-          if (next.valid()) {
-            next.get();  // rethrows a watchdog error of the datapath
-            s.add(next_stats);
-            next_stats = TraversalStats{};
-          }
+        if (next.valid()) {
+          next.get();  // rethrows a watchdog error of the datapath
+          s.add(next_stats);
+          next_stats = TraversalStats{};
+        } else if (after < n) {
+          record_chunk(after, events[b], s);  // one buffer: the model is done with it (feed copies what it keeps)
         }
       }
       cycles = m_model->finish();

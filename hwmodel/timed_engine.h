@@ -152,6 +152,7 @@ class TimingModel {
   uint64_t xfer_cycles(uint64_t bytes) const;  // ceil(bytes / bandwidth)
   uint64_t unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t);
   static uint64_t heap_key(uint64_t cycle, uint32_t slot);
+  uint64_t set_of(uint64_t line) const { return m_set_mask ? line & m_set_mask : line % m_sets; }
   // Calls f(line) for every cache line the fetch of event e touches (none for stack events).
   template <class F>
   void for_each_line(const TraceEvent& e, F&& f) const;

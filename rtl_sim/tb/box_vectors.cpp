@@ -176,11 +176,7 @@ BoxExpect expected(const CaseSet& s, const BoxCase& c) {
 FixedRay grid_ray(const FixedFormat& f, const int64_t o[3], const int64_t d[3]) {
   FixedRay r{};
   for (int a = 0; a < 3; ++a) r.o[a] = o[a];
-  r.frac = f.frac_bits;
-  r.dir_bits = f.dir_bits;
-  r.box_shift = f.frac_bits + f.rcp_bits - f.t_frac_bits;
-  r.t_shift = f.t_shift();
-  r.t_limit = int64_t((uint64_t(1) << f.t_bits) - 1);
+  set_format_fields(r, f);
   r.t_exp = f.t_frac_bits;
   r.tmin = 0;
   r.tmax = r.t_limit;

@@ -539,8 +539,8 @@ TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the 
   const double box = b["box"].get<double>(), tri = b["triangle"].get<double>(), dram = b["dram"].get<double>();
   CHECK(b["cycles"].get<double>() == std::max({box, tri, dram}));
   const std::string lim = b["limited_by"];
-  CHECK(b[lim == "box" ? "box" : (lim == "triangle" ? "triangle" : "dram")].get<double>() ==
-        b["cycles"].get<double>());
+  REQUIRE((lim == "box" || lim == "triangle" || lim == "dram"));
+  CHECK(b[lim].get<double>() == b["cycles"].get<double>());
   CHECK(b["cycles"].get<double>() <= cycles);
   CHECK(b["cycles_over_bound"].get<double>() == Approx(cycles / b["cycles"].get<double>()));
   CHECK(box == Approx(t["utilization"]["box_units"].get<double>() * cycles));

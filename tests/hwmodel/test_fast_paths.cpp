@@ -369,11 +369,7 @@ void check_node_kernels(const FixedFormat& f, std::mt19937_64& rng, uint64_t& no
     }
   }
   FixedRay r{};
-  r.frac = f.frac_bits;
-  r.dir_bits = f.dir_bits;
-  r.box_shift = f.frac_bits + f.rcp_bits - f.t_frac_bits;
-  r.t_shift = f.t_shift();
-  r.t_limit = int64_t((uint64_t(1) << f.t_bits) - 1);
+  set_format_fields(r, f);
   r.t_exp = f.t_frac_bits;
   const int64_t glim = (int64_t(1) << (B + f.guard_bits + f.frac_bits)) - 1;
   for (int a = 0; a < 3; ++a) {

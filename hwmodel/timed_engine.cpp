@@ -171,9 +171,8 @@ size_t TimingModel::walk_add(const std::vector<TraceEvent>* events, size_t m) {
 }
 
 uint64_t TimingModel::access(uint64_t addr, uint64_t bytes, uint64_t t) {
-  const uint64_t lb = uint64_t(m_c.line_bytes);
   uint64_t ready = t;
-  for (uint64_t line = addr / lb; line <= (addr + bytes - 1) / lb; ++line)
+  for (uint64_t line = addr >> m_line_shift; line <= (addr + bytes - 1) >> m_line_shift; ++line)
     ready = std::max(ready, line_access(line, t));
   return ready;
 }
@@ -193,7 +192,7 @@ void TimingModel::begin(size_t n, TimingStats& s) {
   m_s = &s;
   m_n = n;
   m_next = 0;
-  m_heap.clear();
+  m_queue.reset(uint32_t(m_c.ray_slots));
   m_t0 = m_base + uint64_t(m_c.packet_latency);
   m_setup_free = m_wb_free = 0;
   m_end = m_t0;
@@ -204,6 +203,7 @@ void TimingModel::begin(size_t n, TimingStats& s) {
   for (uint32_t k = 0; k < uint32_t(m_c.ray_slots); ++k) m_free_slots.push_back({m_t0, k});
   for (Slot& sl : m_slots) sl.busy = false;
   m_age.clear();
+  m_watch_deadline = kNoDeadline;
 }
 
 void TimingModel::admit(uint32_t k, uint64_t free_at) {
@@ -226,38 +226,12 @@ void TimingModel::admit(uint32_t k, uint64_t free_at) {
   sl.entered = enter;
   sl.ray = i;
   sl.busy = true;
-  if (m_c.watchdog_cycles > 0) m_age.push_back({enter, k});
-  if (m_trace) m_trace->add(k, "setup", enter, enter + uint64_t(m_c.setup_latency));
-  m_heap.push_back(heap_key(enter + uint64_t(m_c.setup_latency), k));
-  std::push_heap(m_heap.begin(), m_heap.end(), std::greater<>());
-}
-
-namespace {
-
-// Replaces the smallest element of a min-heap (std::greater order) by v and restores the heap: one sift-down
-// instead of a pop and a push. Keys are unique (one entry per slot), so the order in which elements leave the
-// heap does not depend on its layout.
-template <class T>
-void replace_top(std::vector<T>& h, const T& v) {
-  const size_t n = h.size();
-  size_t i = 0;
-  for (;;) {
-    size_t c = 2 * i + 1;
-    if (c >= n) break;
-    if (c + 1 < n && h[c + 1] < h[c]) ++c;
-    if (!(h[c] < v)) break;
-    h[i] = h[c];
-    i = c;
+  if (m_c.watchdog_cycles > 0) {
+    if (m_watch_deadline == kNoDeadline) m_watch_deadline = enter + uint64_t(m_c.watchdog_cycles);
+    m_age.push_back({enter, k});
   }
-  h[i] = v;
-}
-
-}  // namespace
-
-uint64_t TimingModel::heap_key(uint64_t cycle, uint32_t slot) {
-  if (cycle >> (64 - kSlotBits))  // 2^52 cycles: 26 days of a 2 GHz unit, beyond any run
-    throw std::overflow_error("timing model: cycle count beyond 2^52");
-  return cycle << kSlotBits | slot;
+  if (m_trace) m_trace->add(k, "setup", enter, enter + uint64_t(m_c.setup_latency));
+  m_queue.push(enter + uint64_t(m_c.setup_latency), k);
 }
 
 void TimingModel::simulate() {
@@ -266,18 +240,18 @@ void TimingModel::simulate() {
     // Free slots take the next rays, earliest free first (ties: lowest slot).
     while (!m_free_slots.empty() && m_next < m_n) {
       const auto [free_at, k] = m_free_slots.front();
-      if (!m_heap.empty() && (m_heap.front() >> kSlotBits) < free_at) break;  // a busy slot acts first
+      if (!m_queue.empty() && m_queue.top_cycle() < free_at) break;  // a busy slot acts first
       if (m_next >= m_feed_first + m_feed_count) return;                      // its ray is not fed yet
       std::pop_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
       m_free_slots.pop_back();
       admit(k, free_at);
     }
-    if (m_heap.empty()) return;
-    // The earliest slot acts; it stays at the top of the heap until it knows its next cycle (nothing below
-    // touches m_heap), then one sift-down replaces it (or it leaves).
-    const uint64_t t = m_heap.front() >> kSlotBits;
-    const uint32_t k = uint32_t(m_heap.front() & ((uint64_t(1) << kSlotBits) - 1));
-    if (m_c.watchdog_cycles > 0) watchdog(t);
+    if (m_queue.empty()) return;
+    // The earliest slot acts, until it knows its next cycle (or leaves).
+    const uint64_t t = m_queue.top_cycle();
+    const uint32_t k = m_queue.top_slot();
+    m_queue.pop();
+    if (t > m_watch_deadline) watchdog(t);
     Slot& sl = m_slots[k];
     uint64_t next_t = 0;
     bool waiting = false;
@@ -288,6 +262,10 @@ void TimingModel::simulate() {
           fire(k, sl.entered + uint64_t(m_c.watchdog_cycles) + 1);
         m_wb_free = st + 1;
         sl.busy = false;
+        // Rays that left are dropped from the age queue's front (the watchdog skips them; this keeps it short).
+        while (!m_age.empty() && (!m_slots[m_age.front().second].busy ||
+                                  m_slots[m_age.front().second].entered != m_age.front().first))
+          m_age.pop_front();
         m_end = std::max(m_end, st + uint64_t(m_c.writeback_latency));
         if (m_done) m_done->push_back(st + uint64_t(m_c.writeback_latency));
         if (m_trace) m_trace->add(k, "write-back", st, st + 1);  // the slot hands its hit to the write-back pipe
@@ -375,12 +353,7 @@ void TimingModel::simulate() {
       next_t = done + uint64_t(m_c.traversal_latency);
       waiting = true;
     }
-    if (waiting) {
-      replace_top(m_heap, heap_key(next_t, k));
-    } else {
-      std::pop_heap(m_heap.begin(), m_heap.end(), std::greater<>());
-      m_heap.pop_back();
-    }
+    if (waiting) m_queue.push(next_t, k);
   }
 }
 
@@ -394,9 +367,11 @@ void TimingModel::watchdog(uint64_t t) {
     }
     // Every event before t has been served, and this ray's own next event is at t or later: at cycle
     // entered + watchdog_cycles + 1 it is still in its slot.
-    if (t > entered + uint64_t(m_c.watchdog_cycles)) fire(k, entered + uint64_t(m_c.watchdog_cycles) + 1);
+    m_watch_deadline = entered + uint64_t(m_c.watchdog_cycles);
+    if (t > m_watch_deadline) fire(k, m_watch_deadline + 1);
     return;
   }
+  m_watch_deadline = kNoDeadline;  // no ray in a slot; admit() sets the next
 }
 
 void TimingModel::fire(uint32_t k, uint64_t cycle) {

@@ -47,6 +47,7 @@
 #include "hwmodel/commands.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_tracer.h"
+#include "hwmodel/slot_queue.h"
 #include "hwmodel/timing_config.h"
 
 namespace rtu::hw {
@@ -151,7 +152,6 @@ class TimingModel {
   uint64_t dram(uint64_t bytes, uint64_t t);
   uint64_t xfer_cycles(uint64_t bytes) const;  // ceil(bytes / bandwidth)
   uint64_t unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t);
-  static uint64_t heap_key(uint64_t cycle, uint32_t slot);
   uint64_t set_of(uint64_t line) const { return m_set_mask ? line & m_set_mask : line % m_sets; }
   // Calls f(line) for every cache line the fetch of event e touches (none for stack events).
   template <class F>
@@ -184,14 +184,16 @@ class TimingModel {
   const std::vector<TraceEvent>* m_feed = nullptr;  // the rays of the current feed() call
   size_t m_feed_first = 0, m_feed_count = 0;        // their indices in the packet
   std::vector<Slot> m_slots;
-  // Slots waiting for a cycle, as keys cycle << kSlotBits | slot (one compare orders by cycle, then slot): a
-  // min-heap.
-  static constexpr int kSlotBits = 12;  // ray_slots <= 4096 (validate())
-  std::vector<uint64_t> m_heap;
+  SlotQueue m_queue;  // busy slots waiting for a cycle, served by (cycle, slot); ray_slots <= 4096 (validate())
   std::vector<uint64_t> m_recent;                           // admission cycles of the last queue_depth rays
   std::vector<std::pair<uint64_t, uint32_t>> m_free_slots;  // (cycle free, slot): min-heap
   uint64_t m_t0 = 0, m_setup_free = 0, m_wb_free = 0, m_end = 0;
   std::deque<std::pair<uint64_t, uint32_t>> m_age;  // (entry cycle, slot) in admission order (entry cycles rise)
+  // No ray can have outstayed the watchdog at a cycle <= this: the entry cycle of the oldest ray in m_age when
+  // watchdog() last looked, plus watchdog_cycles (rays only leave, so the true oldest is no older). watchdog()
+  // runs only past it.
+  static constexpr uint64_t kNoDeadline = ~uint64_t(0);
+  uint64_t m_watch_deadline = kNoDeadline;
 };
 
 // Sampled timing (SMARTS-style systematic sampling, Wunderlich et al., ISCA 2003): a TRACE packet is cut into

@@ -44,12 +44,10 @@ class SlotQueue {
     if (cycle >> (64 - kSlotBits))  // 2^52 cycles: 26 days of a 2 GHz unit, beyond any run
       throw std::overflow_error("timing model: cycle count beyond 2^52");
     if (cycle < m_now) throw std::logic_error("slot queue: a cycle before the last one served");
-    if (cycle - m_now < kWheel) {
+    if (cycle - m_now < kWheel) [[likely]]
       set_near(cycle, slot);
-    } else {
-      m_far.push_back(cycle << kSlotBits | slot);
-      std::push_heap(m_far.begin(), m_far.end(), std::greater<>());
-    }
+    else
+      push_far(cycle, slot);
     if (m_top_valid && (cycle < m_top_cycle || (cycle == m_top_cycle && slot < m_top_slot))) m_top_valid = false;
   }
 
@@ -72,8 +70,9 @@ class SlotQueue {
     } else {
       const size_t b = size_t(m_top_cycle & (kWheel - 1));
       uint64_t* w = &m_bits[b * m_words];
-      w[m_top_slot >> 6] &= ~(uint64_t(1) << (m_top_slot & 63));
-      bool any = false;
+      const uint64_t left = w[m_top_slot >> 6] & ~(uint64_t(1) << (m_top_slot & 63));
+      w[m_top_slot >> 6] = left;
+      bool any = left != 0;
       for (uint32_t i = 0; i < m_words && !any; ++i) any = w[i] != 0;
       if (!any) m_busy[b >> 6] &= ~(uint64_t(1) << (b & 63));
       --m_near;
@@ -81,6 +80,18 @@ class SlotQueue {
     m_now = m_top_cycle;
     m_top_valid = false;
     // Far entries that came within range move to the ring (all far entries stay >= m_now + kWheel).
+    if (!m_far.empty() && (m_far.front() >> kSlotBits) - m_now < kWheel) [[unlikely]]
+      pull_far();
+  }
+
+ private:
+  static constexpr size_t kBusyWords = size_t(kWheel / 64);
+
+  [[gnu::noinline]] void push_far(uint64_t cycle, uint32_t slot) {
+    m_far.push_back(cycle << kSlotBits | slot);
+    std::push_heap(m_far.begin(), m_far.end(), std::greater<>());
+  }
+  [[gnu::noinline]] void pull_far() {
     while (!m_far.empty() && (m_far.front() >> kSlotBits) - m_now < kWheel) {
       const uint64_t key = m_far.front();
       std::pop_heap(m_far.begin(), m_far.end(), std::greater<>());
@@ -88,10 +99,6 @@ class SlotQueue {
       set_near(key >> kSlotBits, uint32_t(key & ((uint64_t(1) << kSlotBits) - 1)));
     }
   }
-
- private:
-  static constexpr size_t kBusyWords = size_t(kWheel / 64);
-
   void set_near(uint64_t cycle, uint32_t slot) {
     const size_t b = size_t(cycle & (kWheel - 1));
     m_bits[b * m_words + (slot >> 6)] |= uint64_t(1) << (slot & 63);

@@ -218,8 +218,7 @@ void TimingModel::admit(uint32_t k, uint64_t free_at) {
   m_s->stream_bytes += kRayBytesStream;
   ++m_s->rays;
   Slot& sl = m_slots[k];
-  const std::vector<TraceEvent>& ev = m_feed[i - m_feed_first];
-  sl.ev.assign(ev.begin(), ev.end());
+  sl.ev.swap(m_feed[i - m_feed_first]);
   sl.pos = 0;
   sl.depth = 0;
   sl.unit_phase = false;
@@ -425,7 +424,7 @@ void TimingModel::fire(uint32_t k, uint64_t cycle) {
   throw WatchdogError(d, cycle - m_base);
 }
 
-void TimingModel::feed(const std::vector<TraceEvent>* events, size_t m) {
+void TimingModel::feed(std::vector<TraceEvent>* events, size_t m) {
   m_feed = events;
   m_feed_first = m_next;
   m_feed_count = m;
@@ -556,7 +555,7 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
           s.add(next_stats);
           next_stats = TraversalStats{};
         } else if (after < n) {
-          record_chunk(after, events[b], s);  // one buffer: the model is done with it (feed copies what it keeps)
+          record_chunk(after, events[b], s);  // one buffer: the model is done with it (feed swapped out what it keeps)
         }
       }
       cycles = m_model->finish();

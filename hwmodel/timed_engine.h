@@ -98,12 +98,13 @@ class TimingModel {
 
   // One TRACE packet of n rays: begin, then feed the rays' events in order (any number at a time; an empty list
   // is a ray rejected at setup), then finish, which returns the packet's cycles from its decode to the last hit
-  // written. Memory stays bounded: a slot copies its ray's events when it takes the ray. The cache keeps its
-  // contents from packet to packet.
+  // written. Memory stays bounded: a slot takes its ray's event list when it takes the ray, by swapping it with
+  // the list of the slot's previous ray, so a fed list comes back with unspecified contents and its capacity for
+  // the caller to record into again. The cache keeps its contents from packet to packet.
   void begin(size_t n, TimingStats& s);
   // Records pipeline spans into `trace` (null: none).
   void set_trace(PipelineTrace* trace) { m_trace = trace; }
-  void feed(const std::vector<TraceEvent>* events, size_t m);
+  void feed(std::vector<TraceEvent>* events, size_t m);
   uint64_t finish();
   // Functional warming (sampled timing): the cache takes the lines these rays' fetches touch, in order, with LRU
   // updates, but no time passes and nothing is counted.
@@ -181,7 +182,7 @@ class TimingModel {
   // The packet in flight.
   TimingStats* m_s = nullptr;
   size_t m_n = 0, m_next = 0;                       // rays in the packet, next ray to admit
-  const std::vector<TraceEvent>* m_feed = nullptr;  // the rays of the current feed() call
+  std::vector<TraceEvent>* m_feed = nullptr;        // the rays of the current feed() call
   size_t m_feed_first = 0, m_feed_count = 0;        // their indices in the packet
   std::vector<Slot> m_slots;
   SlotQueue m_queue;  // busy slots waiting for a cycle, served by (cycle, slot); ray_slots <= 4096 (validate())

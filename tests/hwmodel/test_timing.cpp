@@ -60,8 +60,8 @@ TraceEvent tri(uint32_t record) {
   return TraceEvent{TraceEvent::kPrim, uint8_t(rtu::hw::RecordKind::kTriangle), 0, 0, record};
 }
 
-uint64_t run(TimingModel& m, const std::vector<std::vector<TraceEvent>>& rays, TimingStats& s, size_t chunk = 0) {
-  m.begin(rays.size(), s);
+uint64_t run(TimingModel& m, std::vector<std::vector<TraceEvent>> rays, TimingStats& s, size_t chunk = 0) {
+  m.begin(rays.size(), s);  // a copy: feed() takes the event lists
   if (chunk == 0) chunk = rays.size();
   for (size_t i = 0; i < rays.size(); i += chunk) m.feed(rays.data() + i, std::min(chunk, rays.size() - i));
   return m.finish();

@@ -231,6 +231,7 @@ void TimingModel::admit(uint32_t k, uint64_t free_at) {
   }
   if (m_trace) m_trace->add(k, "setup", enter, enter + uint64_t(m_c.setup_latency));
   m_queue.push(enter + uint64_t(m_c.setup_latency), k);
+  __builtin_prefetch(sl.ev.data());
 }
 
 void TimingModel::simulate() {
@@ -352,7 +353,11 @@ void TimingModel::simulate() {
       next_t = done + uint64_t(m_c.traversal_latency);
       waiting = true;
     }
-    if (waiting) m_queue.push(next_t, k);
+    if (waiting) {
+      m_queue.push(next_t, k);
+      // The slot's next event is read when it comes up again, after other slots' events: start the load now.
+      __builtin_prefetch(sl.ev.data() + sl.pos);
+    }
   }
 }
 

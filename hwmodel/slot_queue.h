@@ -23,7 +23,7 @@ namespace rtu::hw {
 
 class SlotQueue {
  public:
-  static constexpr int kSlotBits = 12;  // slots < 4096: far keys are cycle << 12 | slot
+  static constexpr int kSlotBits = 12;      // slots < 4096: far keys are cycle << 12 | slot
   static constexpr uint64_t kWheel = 1024;  // cycles held in the ring of buckets (a power of two)
 
   // Empty, for slots 0 .. slots - 1 (at most 2^kSlotBits), with no cycle served yet.
@@ -134,12 +134,12 @@ class SlotQueue {
     m_top_slot = i * 64 + uint32_t(__builtin_ctzll(words[i]));
   }
 
-  uint32_t m_words = 1;              // 64-bit words per bucket
-  std::vector<uint64_t> m_bits;      // kWheel buckets of m_words words: bit s of a bucket = slot s waits there
+  uint32_t m_words = 1;          // 64-bit words per bucket
+  std::vector<uint64_t> m_bits;  // kWheel buckets of m_words words: bit s of a bucket = slot s waits there
   std::array<uint64_t, kBusyWords> m_busy{};  // bit b: bucket b is not empty
-  std::vector<uint64_t> m_far;       // cycle << kSlotBits | slot, min-heap, cycles >= m_now + kWheel
-  uint64_t m_now = 0;                // the last cycle popped
-  size_t m_near = 0;                 // entries in the ring
+  std::vector<uint64_t> m_far;                // cycle << kSlotBits | slot, min-heap, cycles >= m_now + kWheel
+  uint64_t m_now = 0;                         // the last cycle popped
+  size_t m_near = 0;                          // entries in the ring
   bool m_top_valid = false, m_top_far = false;
   uint64_t m_top_cycle = 0;
   uint32_t m_top_slot = 0;

@@ -129,13 +129,19 @@ void TimingModel::warm(const std::vector<TraceEvent>* events, size_t m) {
 }
 
 void TimingModel::walk_begin(const std::vector<TraceEvent>* events, size_t m) {
+  for (uint64_t line : m_walk_need) m_walk_mark[size_t(line)] = 0;  // the previous walk's marks
   m_walk_need.clear();
   m_walk_undetermined = 0;
   if (m_cache.empty()) return;  // nothing to warm
   for (size_t i = 0; i < m; ++i)
-    for (const TraceEvent& e : events[i]) for_each_line(e, [&](uint64_t line) { m_walk_need.push_back(line); });
-  std::sort(m_walk_need.begin(), m_walk_need.end());
-  m_walk_need.erase(std::unique(m_walk_need.begin(), m_walk_need.end()), m_walk_need.end());
+    for (const TraceEvent& e : events[i])
+      for_each_line(e, [&](uint64_t line) {
+        if (line >= m_walk_mark.size()) m_walk_mark.resize(size_t(line) + 1, 0);  // lines of the image: bounded
+        if (!m_walk_mark[size_t(line)]) {
+          m_walk_mark[size_t(line)] = 1;
+          m_walk_need.push_back(line);
+        }
+      });
   m_walk_lines.assign(m_cache.size(), 0);
   m_walk_count.assign(size_t(m_sets), 0);
   m_walk_open.assign(size_t(m_sets), 0);
@@ -157,8 +163,8 @@ size_t TimingModel::walk_add(const std::vector<TraceEvent>* events, size_t m) {
         for (size_t w = 0; w < c; ++w)
           if (seen[w] == line) return;
         seen[c] = line;
-        const auto it = std::lower_bound(m_walk_need.begin(), m_walk_need.end(), line);
-        if (it != m_walk_need.end() && *it == line) {  // a simulated ray's line, in the cache at the point
+        if (line < m_walk_mark.size() &&
+            m_walk_mark[size_t(line)]) {  // a simulated ray's line, in the cache at the point
           --m_walk_open[set];
           --m_walk_undetermined;
         }
@@ -241,7 +247,7 @@ void TimingModel::simulate() {
     while (!m_free_slots.empty() && m_next < m_n) {
       const auto [free_at, k] = m_free_slots.front();
       if (!m_queue.empty() && m_queue.top_cycle() < free_at) break;  // a busy slot acts first
-      if (m_next >= m_feed_first + m_feed_count) return;                      // its ray is not fed yet
+      if (m_next >= m_feed_first + m_feed_count) return;             // its ray is not fed yet
       std::pop_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
       m_free_slots.pop_back();
       admit(k, free_at);
@@ -524,10 +530,17 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
   ++m_sample_stats.packets;
   m_sample_stats.rays += n;
   const size_t U = m_sample.unit_rays;
-  const size_t k = m_sample.fraction > 0.0 ? size_t(std::llround(1.0 / m_sample.fraction)) : 1;
+  size_t k = m_sample.fraction > 0.0 ? size_t(std::llround(1.0 / m_sample.fraction)) : 1;
+  if (k >= 2 && (n <= U || (n - 1) / U < 10 * k)) {
+    // Fewer than 10 units to measure at every k-th: every k'-th for the largest k' that gives 10, if the
+    // measured units with their warm-up and tail rays are then at most half of the packet's rays.
+    const size_t k10 = n <= U ? 0 : (n - 1) / U / 10;
+    const size_t per_unit = size_t(m_sample.warmup_rays) + U + 2 * size_t(m_c.ray_slots);
+    k = k10 * U >= 2 * per_unit ? k10 : 1;
+  }
   try {
-    if (k >= 2 && n > U && (n - 1) / U >= 10 * k) {  // at least 10 units to measure
-      cycles = trace_cycles_sampled(rays, hits, n, any_hit, s, ts);
+    if (k >= 2) {
+      cycles = trace_cycles_sampled(rays, hits, n, any_hit, s, ts, k);
     } else {
       // Chunks of rays: traced (and recorded) on the worker threads, then replayed through the model in order.
       // With more than one thread the next chunk is recorded while the model replays this one (two event
@@ -560,7 +573,8 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
           s.add(next_stats);
           next_stats = TraversalStats{};
         } else if (after < n) {
-          record_chunk(after, events[b], s);  // one buffer: the model is done with it (feed swapped out what it keeps)
+          record_chunk(after, events[b],
+                       s);  // one buffer: the model is done with it (feed swapped out what it keeps)
         }
       }
       cycles = m_model->finish();
@@ -590,9 +604,8 @@ double SampleStats::ci95() const {
 }
 
 uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
-                                           TimingStats& ts) {
+                                           TimingStats& ts, size_t k) {
   const size_t U = m_sample.unit_rays, W = m_sample.warmup_rays;
-  const size_t k = size_t(std::llround(1.0 / m_sample.fraction));
   const size_t units = (n + U - 1) / U;  // unit 0 is simulated from the packet's start; 1 .. units-1 sampled
   // The auxiliary variable of the ratio estimator, per unit: with hits needed the datapath traces every ray
   // (exact hits), and each unit's throughput bound max(box tests / box rate, primitive tests / test slots, rays)

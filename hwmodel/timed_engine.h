@@ -170,10 +170,11 @@ class TimingModel {
   std::vector<uint64_t> m_box_free, m_tri_free;
   uint64_t m_base = 0;  // cycle the current packet started (resources carry absolute cycles)
   // The backward walk (walk_begin): per set the distinct lines seen so far (at most cache_ways) and how many; the
-  // simulated rays' distinct lines (sorted), per set how many of them are undetermined, and in all.
+  // simulated rays' distinct lines, per set how many of them are undetermined, and in all.
   std::vector<uint64_t> m_walk_lines;
   std::vector<uint8_t> m_walk_count;
-  std::vector<uint64_t> m_walk_need;
+  std::vector<uint64_t> m_walk_need;  // in the order first touched
+  std::vector<uint8_t> m_walk_mark;   // by line index: 1 for the lines in m_walk_need
   std::vector<uint32_t> m_walk_open;
   size_t m_walk_undetermined = 0;
 
@@ -181,9 +182,9 @@ class TimingModel {
   std::vector<uint64_t>* m_done = nullptr;
   // The packet in flight.
   TimingStats* m_s = nullptr;
-  size_t m_n = 0, m_next = 0;                       // rays in the packet, next ray to admit
-  std::vector<TraceEvent>* m_feed = nullptr;        // the rays of the current feed() call
-  size_t m_feed_first = 0, m_feed_count = 0;        // their indices in the packet
+  size_t m_n = 0, m_next = 0;                 // rays in the packet, next ray to admit
+  std::vector<TraceEvent>* m_feed = nullptr;  // the rays of the current feed() call
+  size_t m_feed_first = 0, m_feed_count = 0;  // their indices in the packet
   std::vector<Slot> m_slots;
   SlotQueue m_queue;  // busy slots waiting for a cycle, served by (cycle, slot); ray_slots <= 4096 (validate())
   std::vector<uint64_t> m_recent;                           // admission cycles of the last queue_depth rays
@@ -209,9 +210,10 @@ class TimingModel {
 // all of them, with a 95% confidence interval from the measured units' residuals (finite-population corrected).
 // The auxiliary is each unit's throughput bound from the datapath's test counts: of every ray when hits are
 // needed (the datapath then traces every ray anyway; only the timing model is sampled), else of every 16th ray
-// scaled up (cycles only: a cheap functional probe, and the sampled rays). Packets with fewer than 10 sampled
-// units are simulated in full. Timing counters (cache, DRAM, tests) are those of the simulated rays scaled to the
-// packet.
+// scaled up (cycles only: a cheap functional probe, and the sampled rays). A packet too short for 10 measured
+// units at every k-th is sampled at the largest k that gives 10 (a short last packet of a ray file), provided the
+// measured units' rays with their warm-up and tail are still at most half of its rays; otherwise it is simulated
+// in full. Timing counters (cache, DRAM, tests) are those of the simulated rays scaled to the packet.
 struct SampleOptions {
   double fraction = 0.0;  // 0 (or >= 1): simulate every ray
   uint32_t unit_rays = 256;
@@ -278,7 +280,7 @@ class TimedEngine final : public TraceEngine {
   PipelineTrace* m_trace = nullptr;
   // One TRACE packet through the timing model with sampling (SampleOptions).
   uint64_t trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
-                                TimingStats& ts);
+                                TimingStats& ts, size_t k);  // every k-th unit measured (k >= 2)
   // Traces rays [first, first + count) with recording; events[at + i] for ray first + i. Hits go to hits (or
   // nowhere when null).
   void record(const Ray* rays, Hit* hits, size_t first, size_t count, bool any_hit, TraversalStats& s,

@@ -253,6 +253,25 @@ TEST_CASE("sampled timing estimates a packet's cycles within its interval; hits 
     again->trace_batch(rays->data(), hc.data(), n, false, 1, sc);
     CHECK(again->timed()->timing().cycles == cycles_only->timed()->timing().cycles);
   }
+  // A packet too short for 10 measured units at 1 in 100 (781 units) is sampled at 1 in 78: 10 units measured,
+  // the estimate within its interval of the full simulation.
+  {
+    DeviceOptions o = options("timed", "rdna2");
+    o.sample.fraction = 0.01;
+    o.sample.need_hits = false;
+    const auto sparse = rtu::host::make_device(s.geometry, o);
+    const auto full = rtu::host::make_device(s.geometry, options("timed", "rdna2"));
+    std::vector<Hit> h(primary.size());
+    rtu::hw::TraversalStats st;
+    sparse->trace_batch(primary.data(), h.data(), primary.size(), false, 2, st);
+    full->trace_batch(primary.data(), h.data(), primary.size(), false, 2, st);
+    const rtu::hw::SampleStats& ss = sparse->timed()->sampling();
+    const double est = double(sparse->timed()->timing().cycles), exact = double(full->timed()->timing().cycles);
+    INFO("full " << exact << ", sampled " << est << " +- " << ss.ci95());
+    CHECK(ss.packets_sampled == 1);
+    CHECK(ss.units_measured == 10);
+    CHECK(std::abs(est - exact) <= 2.0 * ss.ci95());
+  }
   // Fraction 0, or a packet too small for 10 sampled units: the full simulation, to the cycle.
   DeviceOptions o = options("timed", "rdna2");
   o.sample.fraction = 0.5;

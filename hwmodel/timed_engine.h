@@ -209,8 +209,10 @@ class TimingModel {
 // estimate (Cochran, "Sampling Techniques", ch. 6): measured cycles / measured auxiliary times the auxiliary of
 // all of them, with a 95% confidence interval from the measured units' residuals (finite-population corrected).
 // The auxiliary is each unit's throughput bound from the datapath's test counts: of every ray when hits are
-// needed (the datapath then traces every ray anyway; only the timing model is sampled), else of every 16th ray
-// scaled up (cycles only: a cheap functional probe, and the sampled rays). A packet too short for 10 measured
+// needed (the datapath then traces every ray anyway; only the timing model is sampled), else of every 32nd ray
+// scaled up for the units not measured (cycles only: a cheap functional probe that estimates the auxiliary's
+// total) and of all rays for the measured ones (two-phase sampling). Measured units are drawn afresh for each
+// packet. A packet too short for 10 measured
 // units at every k-th is sampled at the largest k that gives 10 (a short last packet of a ray file), provided the
 // measured units' rays with their warm-up and tail are still at most half of its rays; otherwise it is simulated
 // in full. Timing counters (cache, DRAM, tests) are those of the simulated rays scaled to the packet.

@@ -240,7 +240,7 @@ TEST_CASE("sampled timing estimates a packet's cycles within its interval; hits 
     o.sample.need_hits = false;
     const auto cycles_only = rtu::host::make_device(s.geometry, o);
     cycles_only->trace_batch(rays->data(), hc.data(), n, false, 2, sc);
-    // Its auxiliary is a 1-in-16 functional probe of each unit (or the ray count, whichever fits better), so its
+    // Its auxiliary is a 1-in-32 functional probe of each unit (or the ray count, whichever fits better), so its
     // interval is also under 10%.
     const double est2 = double(cycles_only->timed()->timing().cycles),
                  ci2 = cycles_only->timed()->sampling().ci95();

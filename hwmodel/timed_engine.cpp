@@ -717,6 +717,7 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   const uint64_t offset = 1 + (draw >> 32) % k;
   std::vector<double> measured_c;  // cycles of each measured unit
   std::vector<size_t> measured_j;  // its index
+  double probe_error2 = 0.0;       // sum over measured units of (probe's auxiliary - exact auxiliary)^2
   for (size_t j = offset; j < last; j += k) {
     const size_t u0 = j * U, w = std::min(W, u0), t = std::min(tail, n - u0 - U);
     const TraversalStats st = segment(u0, w, U, t, true);
@@ -726,7 +727,9 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
     // A measured unit's rays were all traced: its own bound replaces the probe's estimate of it (two-phase
     // sampling: the probe estimates the auxiliary's total, the measured units pair their cycles with the exact
     // value; the same where every ray is probed).
-    aux[j] = std::max({double(st.box_tests) / box_rate, double(st.prim_tests) / tri_rate, double(U)});
+    const double exact = std::max({double(st.box_tests) / box_rate, double(st.prim_tests) / tri_rate, double(U)});
+    probe_error2 += (aux[j] - exact) * (aux[j] - exact);
+    aux[j] = exact;
   }
   // The last unit, after the sampled ones (the cache as they and its functional warming leave it).
   const size_t w_last = std::min(W, last * U);
@@ -759,6 +762,14 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   for (size_t j = 0; j < units; ++j) count[j] = double(std::min(n, (j + 1) * U) - j * U);
   double var_bound = 0.0, var_count = 0.0;
   const double est_bound = ratio_estimate(aux, var_bound), est_count = ratio_estimate(count, var_count);
+  // The probe's error in the bound's total: each unit not measured carries its own, whose variance the measured
+  // units show (their probe value against their exact one); the estimate scales it by the ratio.
+  double total_bound = 0.0;
+  for (size_t j = 1; j < last; ++j) total_bound += aux[j];
+  if (m > 0 && total_bound > 0.0) {
+    const double ratio = est_bound / total_bound;
+    var_bound += ratio * ratio * (M - m) * (probe_error2 / m);
+  }
   const bool use_bound = var_bound <= var_count;
   const double var = use_bound ? var_bound : var_count;
   const double estimate = double(first_cycles) + (use_bound ? est_bound : est_count) + double(last_cycles);

@@ -67,18 +67,23 @@ class SlotQueue {
     if (m_top_far) {
       std::pop_heap(m_far.begin(), m_far.end(), std::greater<>());
       m_far.pop_back();
+      m_top_valid = false;
     } else {
       const size_t b = size_t(m_top_cycle & (kWheel - 1));
       uint64_t* w = &m_bits[b * m_words];
-      const uint64_t left = w[m_top_slot >> 6] & ~(uint64_t(1) << (m_top_slot & 63));
-      w[m_top_slot >> 6] = left;
-      bool any = left != 0;
-      for (uint32_t i = 0; i < m_words && !any; ++i) any = w[i] != 0;
-      if (!any) m_busy[b >> 6] &= ~(uint64_t(1) << (b & 63));
+      const uint32_t i = m_top_slot >> 6;
+      const uint64_t left = w[i] & ~(uint64_t(1) << (m_top_slot & 63));
+      w[i] = left;
       --m_near;
+      bool any = left != 0;
+      for (uint32_t j = i + 1; j < m_words && !any; ++j) any = w[j] != 0;
+      if (!any) m_busy[b >> 6] &= ~(uint64_t(1) << (b & 63));
+      // The next slot of the same cycle is the new top when this word holds one (lower words are empty): far
+      // entries that come into range below are later than it.
+      m_top_valid = left != 0;
+      if (m_top_valid) m_top_slot = i * 64 + uint32_t(__builtin_ctzll(left));
     }
     m_now = m_top_cycle;
-    m_top_valid = false;
     // Far entries that came within range move to the ring (all far entries stay >= m_now + kWheel).
     if (!m_far.empty() && (m_far.front() >> kSlotBits) - m_now < kWheel) [[unlikely]]
       pull_far();

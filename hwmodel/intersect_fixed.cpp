@@ -58,7 +58,8 @@ RayStatus setup_ray(const Ray& r, const QuantFrame& frame, const FixedFormat& f,
   for (int a = 0; a < 3; ++a) {
     const double rel = double(r.origin[a]) - double(frame.origin[a]) * pow2(frame.step_exp);
     if (std::abs(rel) > pow2(range_exp + 1 + frame.step_exp)) return RayStatus::kOutOfFrame;
-    out.o[a] = frame.to_grid(r.origin[a], a, Round::kNearestEven, f.frac_bits);
+    if (!frame.to_grid_64(r.origin[a], a, Round::kNearestEven, f.frac_bits, out.o[a]))
+      out.o[a] = frame.to_grid(r.origin[a], a, Round::kNearestEven, f.frac_bits);
     if (out.o[a] >= olim || out.o[a] <= -olim) return RayStatus::kOutOfFrame;
   }
 

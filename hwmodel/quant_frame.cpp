@@ -23,36 +23,12 @@ int64_t QuantFrame::to_grid(float x, int axis, Round r, int frac_bits) const {
     ++saturation_counter();
     return x > 0 ? kGridLimit : -kGridLimit;
   }
-  // x = m * 2^k exactly, with m a 24-bit integer.
+  int64_t g64;
+  if (to_grid_64(x, axis, r, frac_bits, g64)) return g64;
   int64_t m;
   int k;
   split_float(x, m, k);
-  // (x - origin * 2^e) / 2^e * 2^f = m * 2^(k - e + f) - origin * 2^f.
   const int sh = k - step_exp + frac_bits;
-  // The same in 64 bits when every intermediate stays below 2^62 (the common case: frames near the world
-  // origin, coordinates within a few powers of two of the frame).
-  const int64_t og = origin[axis];
-  if (og > -(int64_t(1) << 36) && og < (int64_t(1) << 36)) {
-    const int64_t o64 = og << frac_bits;  // |o64| < 2^60
-    int64_t g64;
-    bool fits = true;
-    if (sh >= 0) {
-      fits = sh <= 36;  // |m << sh| < 2^60
-      g64 = fits ? (m << sh) - o64 : 0;
-    } else {
-      const int ns = -sh;
-      const int64_t oa = o64 < 0 ? -o64 : o64;
-      fits = ns <= 36 && oa < (int64_t(1) << (60 - ns));  // |o64 << ns| < 2^60
-      g64 = fits ? round_shift64(m - o64 * (int64_t(1) << ns), ns, r) : 0;
-    }
-    if (fits) {
-      if (g64 > kGridLimit || g64 < -kGridLimit) {
-        ++saturation_counter();
-        return g64 > 0 ? kGridLimit : -kGridLimit;
-      }
-      return g64;
-    }
-  }
   const Wide o = Wide(origin[axis]) << frac_bits;  // |origin| < 2^52, frac_bits <= 24: below 2^76
   Wide g;
   const Wide beyond = Wide(kGridLimit) + 1;  // any value past the limit; saturates below

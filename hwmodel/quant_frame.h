@@ -31,6 +31,30 @@ struct QuantFrame {
   // coordinate with frac_bits fraction bits (0..24). Saturates (and counts) at +-kGridLimit; NaN saturates to 0
   // and is counted. Infinite x saturates.
   int64_t to_grid(float x, int axis, Round r, int frac_bits = 0) const;
+  // The same for a finite x where every intermediate stays below 2^62 in 64 bits (frames near the world origin,
+  // coordinates within a few powers of two of the frame: the common case); false where it does not (then
+  // to_grid). Never saturates: its results are below 2^61 in magnitude. Inline, for ray setup.
+  bool to_grid_64(float x, int axis, Round r, int frac_bits, int64_t& g) const {
+    // x = m * 2^k exactly, with m a 24-bit integer; (x - origin * 2^e) / 2^e * 2^f = m * 2^(k - e + f) - origin *
+    // 2^f.
+    int64_t m;
+    int k;
+    split_float(x, m, k);
+    const int sh = k - step_exp + frac_bits;
+    const int64_t og = origin[axis];
+    if (og <= -(int64_t(1) << 36) || og >= (int64_t(1) << 36)) return false;
+    const int64_t o64 = og << frac_bits;  // |o64| < 2^60
+    if (sh >= 0) {
+      if (sh > 36) return false;
+      g = (m << sh) - o64;  // |m << sh| < 2^60: |g| < 2^61
+      return true;
+    }
+    const int ns = -sh;
+    const int64_t oa = o64 < 0 ? -o64 : o64;
+    if (ns > 36 || oa >= (int64_t(1) << (60 - ns))) return false;  // |o64 << ns| < 2^60
+    g = round_shift64(m - o64 * (int64_t(1) << ns), ns, r);        // below 2^61 before the shift
+    return true;
+  }
   // World coordinate of grid value g (exact when |origin + g| < 2^53).
   double to_world(int64_t g, int axis) const;
 };

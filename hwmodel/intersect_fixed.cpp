@@ -51,15 +51,19 @@ RayStatus setup_ray(const Ray& r, const QuantFrame& frame, const FixedFormat& f,
   if (st != RayStatus::kOk) return st;
   set_format_fields(out, f);
 
-  // Origin: grid.F, nearest; out of frame beyond the guard range. A coarse test in double first keeps far
-  // origins away from to_grid's saturation (which would be counted as an overflow of an in-range value).
+  // Origin: grid.F, nearest; out of frame beyond the guard range. Where to_grid's 64-bit path does not apply, a
+  // coarse test in double first keeps far origins away from to_grid's saturation (which would be counted as an
+  // overflow of an in-range value). The 64-bit path cannot saturate, and the coarse test rejects only origins
+  // beyond twice the guard range (|rel| > 2^(B+G+1) steps, up to double rounding), which the exact test below
+  // rejects as well: the same status either way.
   const int range_exp = f.coord_bits + f.guard_bits;
   const int64_t olim = int64_t(1) << (range_exp + f.frac_bits);
   for (int a = 0; a < 3; ++a) {
-    const double rel = double(r.origin[a]) - double(frame.origin[a]) * pow2(frame.step_exp);
-    if (std::abs(rel) > pow2(range_exp + 1 + frame.step_exp)) return RayStatus::kOutOfFrame;
-    if (!frame.to_grid_64(r.origin[a], a, Round::kNearestEven, f.frac_bits, out.o[a]))
+    if (!frame.to_grid_64(r.origin[a], a, Round::kNearestEven, f.frac_bits, out.o[a])) {
+      const double rel = double(r.origin[a]) - double(frame.origin[a]) * pow2(frame.step_exp);
+      if (std::abs(rel) > pow2(range_exp + 1 + frame.step_exp)) return RayStatus::kOutOfFrame;
       out.o[a] = frame.to_grid(r.origin[a], a, Round::kNearestEven, f.frac_bits);
+    }
     if (out.o[a] >= olim || out.o[a] <= -olim) return RayStatus::kOutOfFrame;
   }
 

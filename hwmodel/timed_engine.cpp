@@ -163,8 +163,8 @@ size_t TimingModel::walk_add(const std::vector<TraceEvent>* events, size_t m) {
         for (size_t w = 0; w < c; ++w)
           if (seen[w] == line) return;
         seen[c] = line;
-        if (line < m_walk_mark.size() &&
-            m_walk_mark[size_t(line)]) {  // a simulated ray's line, in the cache at the point
+        // A simulated ray's line: in the cache at the point.
+        if (line < m_walk_mark.size() && m_walk_mark[size_t(line)]) {
           --m_walk_open[set];
           --m_walk_undetermined;
         }
@@ -174,13 +174,6 @@ size_t TimingModel::walk_add(const std::vector<TraceEvent>* events, size_t m) {
         }
       });
   return m_walk_undetermined;
-}
-
-uint64_t TimingModel::access(uint64_t addr, uint64_t bytes, uint64_t t) {
-  uint64_t ready = t;
-  for (uint64_t line = addr >> m_line_shift; line <= (addr + bytes - 1) >> m_line_shift; ++line)
-    ready = std::max(ready, line_access(line, t));
-  return ready;
 }
 
 uint64_t TimingModel::unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t) {
@@ -304,22 +297,10 @@ void TimingModel::simulate() {
         default:
           break;
       }
-      if (!sl.unit_phase) {  // fetch the data the unit needs
-        uint64_t addr, bytes;
-        if (e.kind == TraceEvent::kNode) {
-          addr = m_layout.node_offset + uint64_t(e.index) * m_layout.node_bytes;
-          bytes = m_layout.node_bytes;
-          ++m_s->node_fetches;
-        } else if (e.kind == TraceEvent::kPrim) {
-          addr = m_layout.record_offset + uint64_t(e.index) * kRecordBytes;
-          bytes = kRecordBytes;
-          ++m_s->prim_fetches;
-        } else {
-          addr = m_layout.plane_offset + uint64_t(e.index) * sizeof(PlaneRecord);
-          bytes = sizeof(PlaneRecord);
-          ++m_s->prim_fetches;
-        }
-        next_t = access(addr, bytes, t);
+      if (!sl.unit_phase) {  // fetch the data the unit needs: ready when its last line is
+        ++(e.kind == TraceEvent::kNode ? m_s->node_fetches : m_s->prim_fetches);
+        next_t = t;
+        for_each_line(e, [&](uint64_t line) { next_t = std::max(next_t, line_access(line, t)); });
         if (m_trace) m_trace->add(k, e.kind == TraceEvent::kNode ? "node fetch" : "record fetch", t, next_t);
         sl.unit_phase = true;
         waiting = true;
@@ -573,8 +554,8 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
           s.add(next_stats);
           next_stats = TraversalStats{};
         } else if (after < n) {
-          record_chunk(after, events[b],
-                       s);  // one buffer: the model is done with it (feed swapped out what it keeps)
+          // One buffer: the model is done with it (feed swapped out what it keeps).
+          record_chunk(after, events[b], s);
         }
       }
       cycles = m_model->finish();
@@ -739,14 +720,15 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   // The ratio estimate of units 1 .. units-2 on an auxiliary x (known for every unit) and its variance from the
   // residuals c - ratio * x, finite-population corrected.
   const double m = double(measured_c.size()), M = double(units - 2);
-  auto ratio_estimate = [&](const std::vector<double>& x, double& var) {
+  auto ratio_estimate = [&](const std::vector<double>& x, double& var, double& ratio) {
     double sum_c = 0.0, sum_x = 0.0, total = 0.0;
     for (size_t q = 0; q < measured_c.size(); ++q) {
       sum_c += measured_c[q];
       sum_x += x[measured_j[q]];
     }
     for (size_t j = 1; j < last; ++j) total += x[j];
-    const double ratio = sum_c / sum_x, mean_x = sum_x / m;
+    ratio = sum_c / sum_x;
+    const double mean_x = sum_x / m;
     double ss = 0.0;
     for (size_t q = 0; q < measured_c.size(); ++q) {
       const double r = measured_c[q] - ratio * x[measured_j[q]];
@@ -760,16 +742,12 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   // sampling noise can make the plain ray count the better one).
   std::vector<double> count(units);
   for (size_t j = 0; j < units; ++j) count[j] = double(std::min(n, (j + 1) * U) - j * U);
-  double var_bound = 0.0, var_count = 0.0;
-  const double est_bound = ratio_estimate(aux, var_bound), est_count = ratio_estimate(count, var_count);
+  double var_bound = 0.0, var_count = 0.0, ratio_bound = 0.0, ratio_count = 0.0;
+  const double est_bound = ratio_estimate(aux, var_bound, ratio_bound),
+               est_count = ratio_estimate(count, var_count, ratio_count);
   // The probe's error in the bound's total: each unit not measured carries its own, whose variance the measured
   // units show (their probe value against their exact one); the estimate scales it by the ratio.
-  double total_bound = 0.0;
-  for (size_t j = 1; j < last; ++j) total_bound += aux[j];
-  if (m > 0 && total_bound > 0.0) {
-    const double ratio = est_bound / total_bound;
-    var_bound += ratio * ratio * (M - m) * (probe_error2 / m);
-  }
+  var_bound += ratio_bound * ratio_bound * (M - m) * (probe_error2 / m);
   const bool use_bound = var_bound <= var_count;
   const double var = use_bound ? var_bound : var_count;
   const double estimate = double(first_cycles) + (use_bound ? est_bound : est_count) + double(last_cycles);

@@ -148,7 +148,6 @@ class TimingModel {
   [[noreturn]] void fire(uint32_t k, uint64_t cycle);
   void admit(uint32_t k, uint64_t free_at);
   void simulate();  // until done or until a free slot needs a ray not fed yet
-  uint64_t access(uint64_t addr, uint64_t bytes, uint64_t t);
   uint64_t line_access(uint64_t line, uint64_t t);
   uint64_t dram(uint64_t bytes, uint64_t t);
   uint64_t xfer_cycles(uint64_t bytes) const;  // ceil(bytes / bandwidth)

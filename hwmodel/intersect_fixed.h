@@ -179,6 +179,22 @@ inline bool triangle_test(const FixedRay& r, const int32_t v[3][3], int64_t tmin
   int64_t A[3][3];
   for (int i = 0; i < 3; ++i)
     for (int a = 0; a < 3; ++a) A[i][a] = (int64_t(v[i][a]) << r.frac) - r.o[a];
+  // The same integers two ways. In general d . (p x q), the cross product in 128 bits. When every |A| < 2^(62 - D)
+  // (vertices near the frame, the common case; only origins far into the guard range exceed it), by the triple
+  // product d . (p x q) = p . (q x d): q x d has components |q_y d_z - q_z d_y| < 2^63, exact in 64 bits, and
+  // A2 x d serves e0 = A1 . (A2 x d) and e1 = -A0 . (A2 x d), A1 x d serves e2 = A0 . (A1 x d).
+  uint64_t mag = 0;
+  for (int i = 0; i < 3; ++i)
+    for (int a = 0; a < 3; ++a) mag |= uint64_t(A[i][a] < 0 ? -A[i][a] : A[i][a]);
+  const bool short_cross = mag < (uint64_t(1) << (62 - r.dir_bits));  // D <= 30 (FixedFormat::validate)
+  auto cross_d = [&](const int64_t* q, int64_t* c) {
+    c[0] = q[1] * r.d[2] - q[2] * r.d[1];
+    c[1] = q[2] * r.d[0] - q[0] * r.d[2];
+    c[2] = q[0] * r.d[1] - q[1] * r.d[0];
+  };
+  auto dot = [](const int64_t* p, const int64_t* c) {
+    return Wide(p[0]) * c[0] + Wide(p[1]) * c[1] + Wide(p[2]) * c[2];
+  };
   auto edge = [&](const int64_t* p, const int64_t* q) {
     const Wide cx = Wide(p[1]) * q[2] - Wide(p[2]) * q[1];
     const Wide cy = Wide(p[2]) * q[0] - Wide(p[0]) * q[2];
@@ -186,9 +202,25 @@ inline bool triangle_test(const FixedRay& r, const int32_t v[3][3], int64_t tmin
     return cx * r.d[0] + cy * r.d[1] + cz * r.d[2];
   };
   // Two edge functions of strictly opposite signs already decide the miss: the third is not computed.
-  const Wide e0 = edge(A[1], A[2]), e1 = edge(A[2], A[0]);
+  Wide e0, e1;
+  if (short_cross) {
+    int64_t m[3];
+    cross_d(A[2], m);
+    e0 = dot(A[1], m);
+    e1 = -dot(A[0], m);
+  } else {
+    e0 = edge(A[1], A[2]);
+    e1 = edge(A[2], A[0]);
+  }
   if ((e0 < 0 && e1 > 0) || (e0 > 0 && e1 < 0)) return false;
-  const Wide e2 = edge(A[0], A[1]);
+  Wide e2;
+  if (short_cross) {
+    int64_t n[3];
+    cross_d(A[1], n);
+    e2 = dot(A[0], n);
+  } else {
+    e2 = edge(A[0], A[1]);
+  }
   if ((e0 < 0 || e1 < 0 || e2 < 0) && (e0 > 0 || e1 > 0 || e2 > 0)) return false;
   const Wide det = e0 + e1 + e2;
   if (det == 0) return false;

@@ -3,6 +3,8 @@
 //   in set_direction, ilogb from the bits) against reference copies of the exact 128-bit/division code, on
 //   millions of random floats with subnormals, powers of two, +-0, huge and tiny magnitudes;
 // - round_shift64 against round_shift;
+// - the triangle test's 64-bit q x d edge functions against the 128-bit d . (p x q) code, on triangles of every
+//   size with rays exactly through their vertices and edges, from origins near and far (both paths);
 // - the node kernels of box_node.h (scalar and, where the CPU has it, AVX-512) against box_test child by child
 //   on random nodes and rays: ties, origins on planes, zero and tiny direction components, every width and both
 //   offset types.
@@ -127,6 +129,42 @@ RayStatus setup_ray_ref(const Ray& r, const QuantFrame& frame, const FixedFormat
   out.tmax = std::isinf(r.tmax) ? (r.tmax > 0 ? out.t_limit : -out.t_limit)
                                 : clamp_t(scaled_round_ref(r.tmax, out.t_exp, Round::kUp), out.t_limit);
   return RayStatus::kOk;
+}
+
+// triangle_test with every edge function as d . (p x q) in 128 bits (before the 64-bit q x d path).
+bool triangle_test_ref(const FixedRay& r, const int32_t v[3][3], int64_t tmin, int64_t tlim, FixedPrimHit& out) {
+  int64_t A[3][3];
+  for (int i = 0; i < 3; ++i)
+    for (int a = 0; a < 3; ++a) A[i][a] = (int64_t(v[i][a]) << r.frac) - r.o[a];
+  auto edge = [&](const int64_t* p, const int64_t* q) {
+    const Wide cx = Wide(p[1]) * q[2] - Wide(p[2]) * q[1];
+    const Wide cy = Wide(p[2]) * q[0] - Wide(p[0]) * q[2];
+    const Wide cz = Wide(p[0]) * q[1] - Wide(p[1]) * q[0];
+    return cx * r.d[0] + cy * r.d[1] + cz * r.d[2];
+  };
+  const Wide e0 = edge(A[1], A[2]), e1 = edge(A[2], A[0]);
+  if ((e0 < 0 && e1 > 0) || (e0 > 0 && e1 < 0)) return false;
+  const Wide e2 = edge(A[0], A[1]);
+  if ((e0 < 0 || e1 < 0 || e2 < 0) && (e0 > 0 || e1 > 0 || e2 > 0)) return false;
+  const Wide det = e0 + e1 + e2;
+  if (det == 0) return false;
+  int64_t ea[3], eb[3];
+  for (int a = 0; a < 3; ++a) {
+    ea[a] = int64_t(v[1][a]) - v[0][a];
+    eb[a] = int64_t(v[2][a]) - v[0][a];
+  }
+  const int64_t n[3] = {ea[1] * eb[2] - ea[2] * eb[1], ea[2] * eb[0] - ea[0] * eb[2],
+                        ea[0] * eb[1] - ea[1] * eb[0]};
+  const Wide num = Wide(n[0]) * A[0][0] + Wide(n[1]) * A[0][1] + Wide(n[2]) * A[0][2];
+  const Wide den = Wide(n[0]) * r.d[0] + Wide(n[1]) * r.d[1] + Wide(n[2]) * r.d[2];
+  if (den == 0) return false;
+  const int64_t t = div_shift(num, den, r.t_shift, Round::kNearestEven, r.t_limit);
+  if (t < tmin || t > tlim || !in_register(t, r)) return false;
+  out.t = t;
+  const double dd = double(det);
+  out.u = float(double(e1) / dd);
+  out.v = float(double(e2) / dd);
+  return true;
 }
 
 // ---- Helpers ----
@@ -487,4 +525,91 @@ TEST_CASE("node kernels: scalar and AVX-512 equal box_test child by child (rando
   CHECK(accepted > nodes / 4);  // the random nodes are hit often enough to compare distances
   CHECK(declined < nodes / 2);
   if (node_simd_available()) CHECK(simd_nodes > nodes / 4);
+}
+
+TEST_CASE("triangle test: the 64-bit q x d edge functions equal the 128-bit code, through vertices and edges",
+          "[fixed][fast][triangle]") {
+  std::mt19937_64 rng(23);
+  auto rint = [&](int64_t lo, int64_t hi) { return lo + int64_t(rng() % uint64_t(hi - lo + 1)); };
+  uint64_t cases = 0, hits = 0, through = 0, short_path = 0, long_path = 0;
+  for (const FixedFormat& f : format_presets()) {
+    FixedRay proto{};
+    set_format_fields(proto, f);
+    const int B = f.coord_bits, F = f.frac_bits;
+    const int64_t gmax = (int64_t(1) << B) - 1, dmax = int64_t(1) << f.dir_bits;
+    const int64_t olim = (int64_t(1) << (B + f.guard_bits + F)) - 1;
+    const uint64_t short_lim = uint64_t(1) << (62 - f.dir_bits);
+    for (int i = 0; i < 200000; ++i) {
+      // Vertices anywhere on the grid, clustered (small triangles), or collinear.
+      int32_t v[3][3];
+      const int kind = int(rng() % 4);
+      const int64_t span = kind == 0 ? gmax : (int64_t(1) << (rng() % B));
+      int64_t base[3];
+      for (int a = 0; a < 3; ++a) base[a] = rint(0, gmax - std::min(span, gmax));
+      for (int j = 0; j < 3; ++j)
+        for (int a = 0; a < 3; ++a) v[j][a] = int32_t(base[a] + rint(0, std::min(span, gmax)));
+      if (kind == 3)
+        for (int a = 0; a < 3; ++a) v[2][a] = int32_t((int64_t(v[0][a]) + v[1][a]) / 2);
+      // A point: a vertex, the midpoint of an edge (exactly on it, F >= 1), inside, or anywhere.
+      int64_t p[3];
+      const int aim = int(rng() % 4);
+      const int j0 = int(rng() % 3), j1 = (j0 + 1) % 3;
+      for (int a = 0; a < 3; ++a) {
+        const int64_t v0 = int64_t(v[j0][a]) << F, v1 = int64_t(v[j1][a]) << F;
+        if (aim == 0)
+          p[a] = v0;
+        else if (aim == 1)
+          p[a] = (v0 + v1) / 2;
+        else if (aim == 2)
+          p[a] = (v0 + v1 + (int64_t(v[3 - j0 - j1][a]) << F)) / 3;
+        else
+          p[a] = rint(0, gmax) << F;
+      }
+      // The ray passes exactly through p: origin p - d * 2^s (or just off it), s up to the guard range.
+      int64_t d[3], m = 0;
+      for (int a = 0; a < 3; ++a) {
+        d[a] = rint(-dmax, dmax) >> (rng() % 4 == 0 ? rng() % 20 : 0);
+        if (rng() % 12 == 0) d[a] = 0;
+        m = std::max(m, std::abs(d[a]));
+      }
+      if (m < dmax / 2) d[rng() % 3] = (rng() & 1) ? dmax : -dmax;
+      const int s = int(rng() % uint64_t(B + f.guard_bits + F - f.dir_bits + 1));
+      FixedRay r = proto;
+      bool in_range = true;
+      for (int a = 0; a < 3; ++a) {
+        r.o[a] = p[a] - d[a] * (int64_t(1) << s);
+        if (rng() % 8 == 0) r.o[a] += rint(-3, 3);
+        in_range = in_range && r.o[a] > -olim && r.o[a] < olim;
+      }
+      if (!in_range) continue;
+      set_direction(r, d, f);
+      const int64_t tlim = (rng() % 4 == 0) ? rint(0, r.t_limit) : r.t_limit;
+      FixedPrimHit hg{}, hw{};
+      const bool got = triangle_test(r, v, 0, tlim, hg);
+      const bool want = triangle_test_ref(r, v, 0, tlim, hw);
+      if (got != want || (got && (hg.t != hw.t || hg.u != hw.u || hg.v != hw.v))) {
+        INFO(f.name << " v " << v[0][0] << " " << v[0][1] << " " << v[0][2] << " / " << v[1][0] << " " << v[1][1]
+                    << " " << v[1][2] << " / " << v[2][0] << " " << v[2][1] << " " << v[2][2] << " o " << r.o[0]
+                    << " " << r.o[1] << " " << r.o[2] << " d " << d[0] << " " << d[1] << " " << d[2]);
+        REQUIRE(got == want);
+        REQUIRE(hg.t == hw.t);
+        REQUIRE(hg.u == hw.u);
+        REQUIRE(hg.v == hw.v);
+      }
+      uint64_t mag = 0;
+      for (int j = 0; j < 3; ++j)
+        for (int a = 0; a < 3; ++a) mag |= uint64_t(std::abs((int64_t(v[j][a]) << F) - r.o[a]));
+      (mag < short_lim ? short_path : long_path) += 1;
+      ++cases;
+      hits += uint64_t(want);
+      through += uint64_t(want && aim <= 1);
+    }
+  }
+  INFO("cases " << cases << " hits " << hits << " through vertices and edges " << through << " 64-bit path "
+                << short_path << " 128-bit path " << long_path);
+  CHECK(cases > 700000);
+  CHECK(hits > cases / 10);
+  CHECK(through > cases / 20);    // exact zeros of the edge functions
+  CHECK(short_path > cases / 2);  // both paths
+  CHECK(long_path > cases / 100);
 }

@@ -5,7 +5,8 @@
 # auxiliary is the ray count). Error of the estimate against the full simulation's cycles, the 95% interval the
 # estimate states, and the timed device's trace time (stats `trace_seconds`, excluding scene load and BVH build)
 # against the full simulation's, each the best of REPEAT runs (the cycles do not change from run to run; the
-# time does, on a shared machine). Prints a Markdown table (README.md).
+# time does, on a shared machine); each repetition runs the full and then the sampled simulations, so both
+# times come from the same stretches of the machine's speed. Prints a Markdown table (README.md).
 #
 #   bench/sample_bench.sh [RTUSIM] [RAYS] [MESH...]     RAYS default 1000000; trace packets are 262,144 rays
 #   FRACTIONS="0.05 0.02" MODES="hits cycles-only" REPEAT=3 THREADS=1 (environment): the sample fractions and
@@ -32,16 +33,13 @@ trap 'rm -rf "$tmp"' EXIT
 num() {  # num PATH FILE: a number from the stats JSON, by a Python-style path
   python3 -c "import json,sys; d=json.load(open(sys.argv[2])); print(eval('d'+sys.argv[1]))" "$1" "$2"
 }
-best() {  # best STATS ARGS...: runs rtusim ARGS --stats STATS $repeat times; prints the least trace_seconds
-  local stats=$1 t b=
+run() {  # run STATS ARGS...: one rtusim run; prints its trace_seconds
+  local stats=$1
   shift
-  for _ in $(seq "$repeat"); do
-    "$rtusim" "$@" --threads "$threads" --stats "$stats" >/dev/null
-    t=$(num "['trace_seconds']" "$stats")
-    b=$(awk -v t="$t" -v b="$b" 'BEGIN{print (b == "" || t < b) ? t : b}')
-  done
-  echo "$b"
+  "$rtusim" "$@" --threads "$threads" --stats "$stats" >/dev/null
+  num "['trace_seconds']" "$stats"
 }
+least() { awk -v a="$1" -v b="$2" 'BEGIN{print (a == "" || b < a) ? b : a}'; }
 
 printf '| mesh | rays | mode | sample | cycles (full) | estimate | error | 95%% interval | rays simulated | trace s (full / sampled) | speed-up |\n'
 printf '|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n'
@@ -49,21 +47,33 @@ for mesh in "${meshes[@]}"; do
   base=$(basename "$mesh")
   for kind in primary incoherent; do
     "$rtusim" rays --scene "$mesh" --kind "$kind" --count "$rays" --out "$tmp/r.bin" >/dev/null
-    full_s=$(best "$tmp/full.json" trace --scene "$mesh" --rays "$tmp/r.bin" --device timed --out "$tmp/h.bin")
-    full=$(num "['timing']['cycles']" "$tmp/full.json")
-    for mode in "${modes[@]}"; do
-      for f in "${fractions[@]}"; do
+    # Each repetition runs the full simulation and then every sampled one, so that the full and the sampled
+    # times are taken in the same stretch of the machine's speed; each is the best of its REPEAT runs.
+    configs=()
+    for mode in "${modes[@]}"; do for f in "${fractions[@]}"; do configs+=("$mode:$f"); done; done
+    full_s=
+    declare -A s_s=()
+    for _ in $(seq "$repeat"); do
+      t=$(run "$tmp/full.json" trace --scene "$mesh" --rays "$tmp/r.bin" --device timed --out "$tmp/h.bin")
+      full_s=$(least "$full_s" "$t")
+      for c in "${configs[@]}"; do
+        mode=${c%%:*} f=${c#*:}
         out=(--out "$tmp/h2.bin")
         [ "$mode" = cycles-only ] && out=()
-        s_s=$(best "$tmp/s.json" trace --scene "$mesh" --rays "$tmp/r.bin" --device timed --sample "$f" "${out[@]}")
-        est=$(num "['timing']['cycles']" "$tmp/s.json")
-        ci=$(num "['timing']['sample']['cycles_ci95']" "$tmp/s.json")
-        simf=$(num "['timing']['sample']['simulated_fraction']" "$tmp/s.json")
-        awk -v b="$base" -v k="$kind" -v m="$mode" -v f="$f" -v full="$full" -v est="$est" -v ci="$ci" \
-          -v simf="$simf" -v fs="$full_s" -v ss="$s_s" 'BEGIN{
-            printf "| %s | %s | %s | %g | %d | %d | %+.2f%% | +-%.1f%% | %.1f%% | %.2f / %.2f | %.1fx |\n",
-              b, k, m, f, full, est, 100*(est-full)/full, 100*ci/full, 100*simf, fs, ss, fs/ss }'
+        t=$(run "$tmp/s_$c.json" trace --scene "$mesh" --rays "$tmp/r.bin" --device timed --sample "$f" "${out[@]}")
+        s_s[$c]=$(least "${s_s[$c]:-}" "$t")
       done
+    done
+    full=$(num "['timing']['cycles']" "$tmp/full.json")
+    for c in "${configs[@]}"; do
+      mode=${c%%:*} f=${c#*:}
+      est=$(num "['timing']['cycles']" "$tmp/s_$c.json")
+      ci=$(num "['timing']['sample']['cycles_ci95']" "$tmp/s_$c.json")
+      simf=$(num "['timing']['sample']['simulated_fraction']" "$tmp/s_$c.json")
+      awk -v b="$base" -v k="$kind" -v m="$mode" -v f="$f" -v full="$full" -v est="$est" -v ci="$ci" \
+        -v simf="$simf" -v fs="$full_s" -v ss="${s_s[$c]}" 'BEGIN{
+          printf "| %s | %s | %s | %g | %d | %d | %+.2f%% | +-%.1f%% | %.1f%% | %.2f / %.2f | %.1fx |\n",
+            b, k, m, f, full, est, 100*(est-full)/full, 100*ci/full, 100*simf, fs, ss, fs/ss }'
     done
   done
 done

@@ -246,10 +246,9 @@ void TimingModel::simulate() {
       admit(k, free_at);
     }
     if (m_queue.empty()) return;
-    // The earliest slot acts, until it knows its next cycle (or leaves).
+    // The earliest slot acts, until it knows its next cycle (replace_top: it waits again) or leaves (pop).
     const uint64_t t = m_queue.top_cycle();
     const uint32_t k = m_queue.top_slot();
-    m_queue.pop();
     if (t > m_watch_deadline) watchdog(t);
     Slot& sl = m_slots[k];
     uint64_t next_t = 0;
@@ -272,6 +271,7 @@ void TimingModel::simulate() {
         m_s->slot_busy_cycles += st + 1 - sl.entered;
         m_free_slots.push_back({st + 1, k});
         std::push_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
+        m_queue.pop();
         break;
       }
       const TraceEvent& e = sl.ev[sl.pos];
@@ -341,7 +341,7 @@ void TimingModel::simulate() {
       waiting = true;
     }
     if (waiting) {
-      m_queue.push(next_t, k);
+      m_queue.replace_top(next_t);
       // The slot's next event is read when it comes up again, after other slots' events: start the load now.
       __builtin_prefetch(sl.ev.data() + sl.pos);
     }

@@ -1,6 +1,7 @@
-// The timing model's event queue (hwmodel/slot_queue.h) against the order it replaces: one min-heap of
-// (cycle, slot) keys. Random schedules that mix waits of a few cycles with waits beyond the ring (the far heap),
-// ties between slots, slot counts on both sides of a 64-bit word, and the contract's errors.
+// The timing model's event queue (hwmodel/slot_queue.h) against the order it must serve: a std::set of
+// (cycle, slot) pairs. Random schedules that mix waits of a few cycles with long ones, ties between slots, slots
+// that leave and come back, the served slot re-queued by replace_top or by pop and push, slot counts from 1 to
+// 4,096 (powers of two and between), and the contract's errors.
 #include <catch2/catch.hpp>
 #include <cstdint>
 #include <set>
@@ -36,7 +37,6 @@ size_t run_schedule(uint32_t slots, uint64_t seed, size_t steps, uint64_t long_w
     REQUIRE(!q.empty());
     REQUIRE(q.top_cycle() == want.first);
     REQUIRE(q.top_slot() == want.second);
-    q.pop();
     ref.erase(ref.begin());
     ++pops;
     now = want.first;
@@ -47,14 +47,20 @@ size_t run_schedule(uint32_t slots, uint64_t seed, size_t steps, uint64_t long_w
     } else if (r < 80) {
       wait = 0;
     } else if (r < 90) {
-      wait = SlotQueue::kWheel - 2 + rng.next_u32() % 5;  // either side of the ring's edge
+      wait = 1022 + rng.next_u32() % 5;  // a memory latency
     } else if (r < 97) {
-      wait = long_wait + rng.next_u32() % long_wait;  // a DRAM miss behind a queue: the far heap
+      wait = long_wait + rng.next_u32() % long_wait;  // a DRAM miss behind a queue
     } else {
+      q.pop();
       idle.push_back(want.second);  // the slot leaves
       continue;
     }
-    q.push(now + wait, want.second);
+    if (rng.next_u32() % 2) {  // the model's way: the served slot waits again
+      q.replace_top(now + wait);
+    } else {
+      q.pop();
+      q.push(now + wait, want.second);
+    }
     ref.insert({now + wait, want.second});
     // A slot that left may come back (admission), at or after the current cycle.
     if (!idle.empty() && rng.next_u32() % 4 == 0) {
@@ -80,22 +86,21 @@ TEST_CASE("slot queue: serves the order of a (cycle, slot) min-heap", "[timing]"
   }
 }
 
-TEST_CASE("slot queue: only far entries, then the ring again", "[timing]") {
+TEST_CASE("slot queue: ties go to the lowest slot, long waits keep their place", "[timing]") {
   SlotQueue q;
   q.reset(8);
-  // Everything beyond the ring from the start: the heap alone, then entries moving back into the ring.
   q.push(5000, 3);
   q.push(5000, 1);
   q.push(9000, 0);
   CHECK(q.top_cycle() == 5000);
   CHECK(q.top_slot() == 1);
-  q.pop();
-  q.push(5001, 1);  // in the ring now (5001 - 5000 < kWheel), behind slot 3 at 5000
+  q.replace_top(5001);  // slot 1 again, behind slot 3 at 5000
   CHECK(q.top_slot() == 3);
   q.pop();
   CHECK(q.top_cycle() == 5001);
+  CHECK(q.top_slot() == 1);
   q.pop();
-  CHECK(q.top_cycle() == 9000);  // came into range from the far heap at some pop, or is still there
+  CHECK(q.top_cycle() == 9000);
   CHECK(q.top_slot() == 0);
   q.pop();
   CHECK(q.empty());
@@ -112,4 +117,14 @@ TEST_CASE("slot queue: contract errors", "[timing]") {
   CHECK_THROWS_AS(q.push(uint64_t(1) << 52, 1), std::overflow_error);
   CHECK_NOTHROW(q.push(100, 1));  // the cycle just served is allowed
   CHECK(q.top_cycle() == 100);
+  CHECK_THROWS_AS(q.push(200, 1), std::logic_error);     // slot 1 is queued already
+  CHECK_THROWS_AS(q.replace_top(99), std::logic_error);  // before the cycle served
+  CHECK_THROWS_AS(q.replace_top(uint64_t(1) << 52), std::overflow_error);
+  SlotQueue one;
+  one.reset(1);  // a single slot: the root is its leaf
+  one.push(7, 0);
+  one.replace_top(9);
+  CHECK(one.top_cycle() == 9);
+  one.pop();
+  CHECK(one.empty());
 }

@@ -72,10 +72,17 @@ class SlotQueue {
       throw std::logic_error("slot queue: a cycle before the last one served");
   }
   void set(uint32_t slot, uint64_t key) {
+    // The running minimum stays in a register: each level loads only the sibling (an address known up front), so
+    // the walk is a chain of compares, not of stores read back.
     uint64_t* t = m_tree.data();
     size_t i = m_leaves + slot;
-    t[i] = key;
-    for (i >>= 1; i >= 1; i >>= 1) t[i] = std::min(t[2 * i], t[2 * i + 1]);
+    uint64_t v = key;
+    t[i] = v;
+    while (i > 1) {
+      v = std::min(v, t[i ^ 1]);
+      i >>= 1;
+      t[i] = v;
+    }
   }
 
   uint32_t m_leaves = 1;         // a power of two >= the slots

@@ -1,5 +1,6 @@
 #include "hwmodel/fixed_tracer.h"
 
+#include <algorithm>
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
@@ -77,6 +78,8 @@ struct FixedPolicy {
   }
 
   NodeRay nr;  // the node kernels' constants (box_node.h), set by prepare()
+  int short_stack = -1;       // FixedTraceOptions::record_short_stack
+  mutable int rec_depth = 0;  // stack entries, as the recorder counts them (every push and pop)
 
   void prepare(const FixedFormat& f) {
     nr = make_node_ray(r, f, int(sizeof(Q)));
@@ -202,11 +205,26 @@ struct FixedPolicy {
   int64_t limit() const { return watch.fired ? INT64_MIN : closest.t; }
   void pushed(int n) const {
     if (!watch.fired) watch.depth += n;
-    if (rec) rec->push_back(TraceEvent{TraceEvent::kPush, uint8_t(n), 0, 0, 0});
+    if (rec) {
+      if (short_stack < 0) {
+        rec->push_back(TraceEvent{TraceEvent::kPush, uint8_t(n), 0, 0, 0});
+      } else {
+        // Entries beyond the short stack after the push, less those beyond it before.
+        const int over = std::max(0, rec_depth + n - short_stack) - std::max(0, rec_depth - short_stack);
+        if (over > 0) rec->push_back(TraceEvent{TraceEvent::kSpill, uint8_t(over), 0, 0, 0});
+      }
+      rec_depth += n;
+    }
   }
   void popped() const {
     if (!watch.fired) --watch.depth;
-    if (rec) rec->push_back(TraceEvent{TraceEvent::kPop, 0, 0, 0, 0});
+    if (rec) {
+      if (short_stack < 0)
+        rec->push_back(TraceEvent{TraceEvent::kPop, 0, 0, 0, 0});
+      else if (rec_depth > short_stack)
+        rec->push_back(TraceEvent{TraceEvent::kRefill, 0, 0, 0, 0});
+      --rec_depth;
+    }
   }
 };
 
@@ -311,7 +329,8 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
         constexpr int N = sizeof(Node::child) / sizeof(uint32_t);
         using Q = std::remove_cv_t<std::remove_reference_t<decltype(Node::q[0][0])>>;
         FixedPolicy<N, Q> p{m_image.nodes<Node>(), m_image, fr,           any_hit, m_opt.check_boxes, c, s, rec,
-                            m_opt.box_unit,        watch,   m_step_limit, {}};
+                            m_opt.box_unit,        watch,   m_step_limit, {},
+                            m_opt.record_short_stack};
         p.prepare(m_format);
         traverse(p, hd.root_ref, any_hit, s);
       };

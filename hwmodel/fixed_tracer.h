@@ -17,10 +17,14 @@ namespace rtu::hw {
 
 // What one ray did in the datapath, in order; the timing model replays it (timed_engine.h) so the timed device's
 // hits are the fixed device's by construction.
+// The stack traffic comes in one of two forms (FixedTraceOptions::record_short_stack): every push and pop (kPush,
+// kPop), or only what passes a short stack of a given size (kSpill: entries pushed beyond it, kRefill: one entry
+// popped from beyond it), which is all the timing model charges for, in fewer events.
 struct TraceEvent {
-  enum Kind : uint8_t { kNode = 0, kPrim = 1, kPlane = 2, kPush = 3, kPop = 4 };
+  enum Kind : uint8_t { kNode = 0, kPrim = 1, kPlane = 2, kPush = 3, kPop = 4, kSpill = 5, kRefill = 6 };
   uint8_t kind;
-  uint8_t count;  // kNode: child boxes tested; kPrim: RecordKind; kPush: entries pushed; else 0
+  uint8_t count;  // kNode: child boxes tested; kPrim: RecordKind; kPush: entries pushed; kSpill: entries spilled
+                  // (pushed beyond the short stack); else 0
   // kNode tested by a BoxUnit (box_unit.h): the clocks it reported (issue, result); 0, 0 for the C++ box test,
   // whose clocks the timing model takes from its configuration.
   uint8_t unit_issue, unit_result;
@@ -40,6 +44,10 @@ struct FixedTraceOptions {
   // Box tests by this unit instead of the C++ box test (co-simulation); not owned, must outlive the tracer's
   // use. A tracer with a unit traces on one thread (trace_batch ignores its thread count).
   BoxUnit* box_unit = nullptr;
+  // Recording (trace_recorded): -1 records every push and pop (kPush, kPop); N >= 0 records the stack as a short
+  // stack of N entries sees it: pushes and pops within it are left out, entries pushed beyond it are kSpill
+  // events, entries popped from beyond it kRefill events (the timing engine sets its stack_entries here).
+  int record_short_stack = -1;
 };
 
 class FixedTracer {

@@ -53,6 +53,13 @@ class SlotQueue {
     set(top_slot(), kEmpty);
   }
 
+  // Moves a queued slot to cycle (>= the last cycle served).
+  void requeue(uint32_t slot, uint64_t cycle) {
+    check(cycle);
+    if (m_tree[m_leaves + slot] == kEmpty) throw std::logic_error("slot queue: requeue of a slot not queued");
+    set(slot, cycle << kSlotBits | slot);
+  }
+
   // pop() and push(cycle, top_slot()) in one walk: the top slot is served and waits again until cycle.
   void replace_top(uint64_t cycle) {
     const uint32_t slot = top_slot();

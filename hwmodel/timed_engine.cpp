@@ -50,6 +50,8 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout) : m_c(c), 
   while ((uint64_t(1) << m_line_shift) < uint64_t(c.line_bytes)) ++m_line_shift;
   m_line_xfer = xfer_cycles(uint64_t(c.line_bytes));
   m_word_xfer = xfer_cycles(8);
+  m_min_fetch = m_cache.empty() ? m_line_xfer + uint64_t(c.dram_latency) : uint64_t(c.cache_latency);
+  m_waiting.reserve(size_t(c.ray_slots));
   // A node takes at least one issue clock, even one without children (the RTL unit's sequencer does the same).
   for (uint64_t k = 0; k < m_box_issue.size(); ++k)
     m_box_issue[k] = std::max<uint64_t>(1, (k + uint64_t(c.box_rate) - 1) / uint64_t(c.box_rate));
@@ -192,6 +194,7 @@ void TimingModel::begin(size_t n, TimingStats& s) {
   m_n = n;
   m_next = 0;
   m_queue.reset(uint32_t(m_c.ray_slots));
+  m_waiting.clear();
   m_t0 = m_base + uint64_t(m_c.packet_latency);
   m_setup_free = m_wb_free = 0;
   m_end = m_t0;
@@ -220,6 +223,7 @@ void TimingModel::admit(uint32_t k, uint64_t free_at) {
   sl.ev.swap(m_feed[i - m_feed_first]);
   sl.pos = 0;
   sl.depth = 0;
+  sl.spilled = 0;
   sl.unit_phase = false;
   sl.entered = enter;
   sl.ray = i;
@@ -231,6 +235,62 @@ void TimingModel::admit(uint32_t k, uint64_t free_at) {
   if (m_trace) m_trace->add(k, "setup", enter, enter + uint64_t(m_c.setup_latency));
   m_queue.push(enter + uint64_t(m_c.setup_latency), k);
   __builtin_prefetch(sl.ev.data());
+}
+
+void TimingModel::spill(Slot& sl, uint64_t t) {
+  ++sl.spilled;
+  ++m_s->stack_spills;
+  dram(8, t);  // bandwidth only: the write leaves the slot
+}
+
+uint64_t TimingModel::refill(Slot& sl, uint32_t k, uint64_t t) {
+  --sl.spilled;
+  ++m_s->stack_refills;
+  const uint64_t ready = dram(8, t);
+  if (m_trace) m_trace->add(k, "stack refill", t, ready);
+  return ready;
+}
+
+uint64_t TimingModel::unit_request(const TraceEvent& e, uint32_t k, uint64_t t) {
+  uint64_t done;
+  if (e.kind == TraceEvent::kNode) {
+    // The configured rate and depth, or the clocks the box unit that tested the node reported (box_unit.h).
+    const uint64_t issue = e.unit_issue ? e.unit_issue : m_box_issue[e.count];
+    const uint64_t latency = e.unit_issue ? uint64_t(e.unit_result) - issue + 1 : uint64_t(m_c.box_latency);
+    done = unit(m_box_free, issue, latency, t);
+    if (m_trace) m_trace->add(k, "box", t, done);
+    m_s->box_tests += e.count;
+    m_s->box_issue_cycles += issue;
+    return done;
+  }
+  uint64_t lat = uint64_t(m_c.plane_latency);
+  if (e.kind == TraceEvent::kPrim && e.count == uint8_t(RecordKind::kTriangle)) {
+    lat = uint64_t(m_c.tri_latency);
+    ++m_s->tri_tests;
+  } else if (e.kind == TraceEvent::kPrim) {
+    lat = uint64_t(m_c.sphere_latency);
+    ++m_s->sphere_tests;
+  } else {
+    ++m_s->plane_tests;
+  }
+  done = unit(m_tri_free, 1, lat, t);
+  if (m_trace)
+    m_trace->add(k, e.kind == TraceEvent::kPlane ? "plane" : (lat == uint64_t(m_c.tri_latency) ? "triangle" : "sphere"),
+                 t, done);
+  ++m_s->tri_issue_cycles;
+  return done;
+}
+
+void TimingModel::serve_waiting() {
+  const uint64_t key = m_waiting.front();
+  std::pop_heap(m_waiting.begin(), m_waiting.end(), std::greater<>());
+  m_waiting.pop_back();
+  const uint32_t w = uint32_t(key & ((uint64_t(1) << SlotQueue::kSlotBits) - 1));
+  Slot& sl = m_slots[w];
+  const uint64_t done = unit_request(sl.ev[sl.pos], w, key >> SlotQueue::kSlotBits);
+  ++sl.pos;
+  sl.unit_phase = false;
+  m_queue.requeue(w, done + uint64_t(m_c.traversal_latency));
 }
 
 void TimingModel::simulate() {
@@ -277,22 +337,25 @@ void TimingModel::simulate() {
       const TraceEvent& e = sl.ev[sl.pos];
       switch (e.kind) {
         case TraceEvent::kPush:
-          for (int j = 0; j < e.count; ++j) {
-            if (uint64_t(++sl.depth) > SE) {
-              ++m_s->stack_spills;
-              dram(8, t);  // bandwidth only: the write leaves the slot
-            }
-          }
+          for (int j = 0; j < e.count; ++j)
+            if (uint64_t(++sl.depth) > SE) spill(sl, t);
           ++sl.pos;
           continue;
         case TraceEvent::kPop:
           ++sl.pos;
           if (uint64_t(sl.depth--) > SE) {
-            ++m_s->stack_refills;
-            next_t = dram(8, t);
-            if (m_trace) m_trace->add(k, "stack refill", t, next_t);
+            next_t = refill(sl, k, t);
             waiting = true;
           }
+          continue;
+        case TraceEvent::kSpill:  // the recorder left out the stack traffic within the short stack
+          for (int j = 0; j < e.count; ++j) spill(sl, t);
+          ++sl.pos;
+          continue;
+        case TraceEvent::kRefill:
+          ++sl.pos;
+          next_t = refill(sl, k, t);
+          waiting = true;
           continue;
         default:
           break;
@@ -302,42 +365,32 @@ void TimingModel::simulate() {
         next_t = t;
         for_each_line(e, [&](uint64_t line) { next_t = std::max(next_t, line_access(line, t)); });
         if (m_trace) m_trace->add(k, e.kind == TraceEvent::kNode ? "node fetch" : "record fetch", t, next_t);
-        sl.unit_phase = true;
-        waiting = true;
-        continue;
-      }
-      // The data is there: the unit request.
-      uint64_t done;
-      if (e.kind == TraceEvent::kNode) {
-        // The configured rate and depth, or the clocks the box unit that tested the node reported (box_unit.h).
-        const uint64_t issue = e.unit_issue ? e.unit_issue : m_box_issue[e.count];
-        const uint64_t latency = e.unit_issue ? uint64_t(e.unit_result) - issue + 1 : uint64_t(m_c.box_latency);
-        done = unit(m_box_free, issue, latency, t);
-        if (m_trace) m_trace->add(k, "box", t, done);
-        m_s->box_tests += e.count;
-        m_s->box_issue_cycles += issue;
-      } else {
-        uint64_t lat = uint64_t(m_c.plane_latency);
-        if (e.kind == TraceEvent::kPrim && e.count == uint8_t(RecordKind::kTriangle)) {
-          lat = uint64_t(m_c.tri_latency);
-          ++m_s->tri_tests;
-        } else if (e.kind == TraceEvent::kPrim) {
-          lat = uint64_t(m_c.sphere_latency);
-          ++m_s->sphere_tests;
-        } else {
-          ++m_s->plane_tests;
+        // The unit request at next_t. Requests reach the units in the order of (cycle, slot), and only they
+        // touch the units' state, so a request may be served before its cycle if no request can come before it.
+        // A fetch from now on is at t or later and takes at least m_min_fetch, so where this one took that long,
+        // every later fetch's request comes after this one's (at t itself, slots served later are higher), and
+        // so does every request still waiting once those before it (m_waiting, earliest first) are served: all
+        // are served now and the slot skips a wake-up, with every cycle as if each had waited for its own.
+        if (next_t != t + m_min_fetch) {
+          m_waiting.push_back(next_t << SlotQueue::kSlotBits | k);
+          std::push_heap(m_waiting.begin(), m_waiting.end(), std::greater<>());
+          sl.unit_phase = true;
+          waiting = true;
+          continue;
         }
-        done = unit(m_tri_free, 1, lat, t);
-        if (m_trace)
-          m_trace->add(
-              k,
-              e.kind == TraceEvent::kPlane ? "plane" : (lat == uint64_t(m_c.tri_latency) ? "triangle" : "sphere"),
-              t, done);
-        ++m_s->tri_issue_cycles;
+        const uint64_t key = next_t << SlotQueue::kSlotBits | k;
+        while (!m_waiting.empty() && m_waiting.front() < key) serve_waiting();
+        next_t = unit_request(e, k, next_t) + uint64_t(m_c.traversal_latency);
+      } else {
+        // This slot's request is the earliest waiting one (the queue serves in the same order).
+        if (m_waiting.empty() || m_waiting.front() != (t << SlotQueue::kSlotBits | k)) [[unlikely]]
+          throw std::logic_error("timing model: unit requests out of order");
+        std::pop_heap(m_waiting.begin(), m_waiting.end(), std::greater<>());
+        m_waiting.pop_back();
+        next_t = unit_request(e, k, t) + uint64_t(m_c.traversal_latency);
+        sl.unit_phase = false;
       }
       ++sl.pos;
-      sl.unit_phase = false;
-      next_t = done + uint64_t(m_c.traversal_latency);
       waiting = true;
     }
     if (waiting) {
@@ -404,7 +457,8 @@ void TimingModel::fire(uint32_t k, uint64_t cycle) {
       break;
     }
     d += "    slot " + u(j) + ": ray " + u(sl.ray) + ", entered " + u(sl.entered) + ", event " + u(sl.pos) +
-         " of " + u(sl.ev.size()) + " (" + event_name(sl) + "), stack depth " + std::to_string(sl.depth) + "\n";
+         " of " + u(sl.ev.size()) + " (" + event_name(sl) + "), stack entries spilled to memory " +
+         std::to_string(sl.spilled) + "\n";
   }
   d += "  box units: " + u(backlog(m_box_free)) +
        " cycles of queued work; triangle units: " + u(backlog(m_tri_free)) + " cycles; DRAM channel busy for " +
@@ -455,6 +509,7 @@ void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   auto image = std::make_unique<DeviceImage>(std::move(img));
   FixedTraceOptions to;
   to.max_steps = m_opt.max_steps;
+  to.record_short_stack = m_c.stack_entries;  // the model charges only for entries beyond it
   to.box_unit = m_box_unit.get();
   auto tracer = std::make_unique<FixedTracer>(*image, to);  // throws when the box unit cannot take the format
   m_image = std::move(image);

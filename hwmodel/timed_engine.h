@@ -29,7 +29,7 @@
 //   writeback_latency deep; a slot is free again the clock after its hit is issued to write-back.
 // - watchdog: a ray that stays in its slot more than watchdog_cycles stops the packet with a WatchdogError
 //   (engine.h) whose text dumps the unit at that cycle: the ray, every busy slot (ray, entry cycle, events done,
-//   stack depth, what it waits for), the prefetch queue, the units' and DRAM's queued work, cache figures.
+//   stack entries spilled, what it waits for), the prefetch queue, the units' and DRAM's queued work, cache figures.
 // Every request is served in the order of its cycle (ties by slot number), so the result does not depend on the
 // order in which the code evaluates components, and time jumps from event to event (idle cycles are skipped).
 // Left out: overlap of consecutive TRACE packets, DRAM banks and refresh, write-allocate of spills into the
@@ -137,7 +137,8 @@ class TimingModel {
   struct Slot {
     std::vector<TraceEvent> ev;
     size_t pos = 0;
-    int depth = 0;            // stack entries
+    int depth = 0;            // stack entries (kPush, kPop events)
+    int spilled = 0;          // stack entries beyond the short stack, in memory
     bool unit_phase = false;  // the current event's data has arrived; its unit request is next
     uint64_t entered = 0;
     size_t ray = 0;  // index in the packet
@@ -148,6 +149,11 @@ class TimingModel {
   [[noreturn]] void fire(uint32_t k, uint64_t cycle);
   void admit(uint32_t k, uint64_t free_at);
   void simulate();  // until done or until a free slot needs a ray not fed yet
+  // The unit request of event e of slot k at cycle t: when its result is there.
+  uint64_t unit_request(const TraceEvent& e, uint32_t k, uint64_t t);
+  void serve_waiting();  // serves the earliest waiting request now (its slot wakes after the result)
+  void spill(Slot& sl, uint64_t t);                    // one stack entry written to memory at t
+  uint64_t refill(Slot& sl, uint32_t k, uint64_t t);  // one read back from t: when it is there
   uint64_t line_access(uint64_t line, uint64_t t);
   uint64_t dram(uint64_t bytes, uint64_t t);
   uint64_t xfer_cycles(uint64_t bytes) const;  // ceil(bytes / bandwidth)
@@ -167,6 +173,11 @@ class TimingModel {
   std::array<uint64_t, 256> m_box_issue{};    // ceil(children / box_rate)
   uint64_t m_dram_free = 0;
   std::vector<uint64_t> m_box_free, m_tri_free;
+  // Unit requests whose slot waits for its cycle (cycle << 12 | slot, a min-heap); the others went ahead at
+  // their fetch (simulate()). m_min_fetch: the fewest cycles any fetch takes (a cache hit, or without a cache a
+  // line from DRAM).
+  std::vector<uint64_t> m_waiting;
+  uint64_t m_min_fetch = 0;
   uint64_t m_base = 0;  // cycle the current packet started (resources carry absolute cycles)
   // The backward walk (walk_begin): per set the distinct lines seen so far (at most cache_ways) and how many; the
   // simulated rays' distinct lines, per set how many of them are undetermined, and in all.

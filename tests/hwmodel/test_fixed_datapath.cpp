@@ -36,6 +36,7 @@
 #include "hwmodel/intersect_fixed.h"
 #include "hwmodel/quant_frame.h"
 #include "hwmodel/rng.h"
+#include "hwmodel/timed_engine.h"
 
 using namespace rtu::hw;
 
@@ -1691,4 +1692,78 @@ TEST_CASE("fixed tracer against the float tracer: hits agree, any-hit = closest-
   CHECK(s1.box_checks == s2.box_checks);
   CHECK(s1.box_false_negatives == s2.box_false_negatives);
   CHECK(s1.box_false_positives == s2.box_false_positives);
+}
+
+TEST_CASE("recording the stack as a short stack sees it: the timing model's cycles and statistics are unchanged",
+          "[fixed][timing]") {
+  // Binary BVH over 3,000 triangles: random rays reach stack depths well past the short stacks tried below.
+  const Geometry g = random_scene(31, 3000, 8);
+  const std::vector<Ray> rays = random_rays(32, 4000);
+  FixedFormat f = format_preset("default");
+  f.width = 2;
+  BvhBuildParams bp;
+  bp.width = 2;
+  const Bvh bvh = Bvh::build(g, bp);
+  const DeviceImage img = encode_scene(g, f, &bvh);
+  TimingModel::Layout l;
+  l.node_offset = img.header().node_offset;
+  l.node_bytes = img.node_bytes();
+  l.record_offset = img.header().record_offset;
+  l.plane_offset = img.header().plane_offset;
+  const FixedTracer raw(img);
+  for (int se : {1, 2, 3, 8}) {
+    INFO("short stack " << se);
+    FixedTraceOptions o;
+    o.record_short_stack = se;
+    const FixedTracer filtered(img, o);
+    std::vector<std::vector<TraceEvent>> ev_raw(rays.size()), ev_short(rays.size());
+    uint64_t spill_events = 0;
+    for (size_t i = 0; i < rays.size(); ++i) {
+      TraversalStats s1, s2;
+      const Hit a = raw.trace_recorded(rays[i], false, s1, ev_raw[i]);
+      const Hit b = filtered.trace_recorded(rays[i], false, s2, ev_short[i]);
+      REQUIRE(std::memcmp(&a, &b, sizeof(Hit)) == 0);
+      // The same node, record and plane events in the same order; no push or pop left; the spills and refills
+      // where the raw stream's depth passes the short stack.
+      std::vector<TraceEvent> expect;
+      int depth = 0;
+      for (const TraceEvent& e : ev_raw[i]) {
+        if (e.kind == TraceEvent::kPush) {
+          int over = 0;
+          for (int j = 0; j < e.count; ++j) over += ++depth > se;
+          if (over > 0) expect.push_back(TraceEvent{TraceEvent::kSpill, uint8_t(over), 0, 0, 0});
+        } else if (e.kind == TraceEvent::kPop) {
+          if (depth-- > se) expect.push_back(TraceEvent{TraceEvent::kRefill, 0, 0, 0, 0});
+        } else {
+          expect.push_back(e);
+        }
+      }
+      REQUIRE(expect.size() == ev_short[i].size());
+      REQUIRE(std::memcmp(expect.data(), ev_short[i].data(), expect.size() * sizeof(TraceEvent)) == 0);
+      for (const TraceEvent& e : ev_short[i]) spill_events += e.kind == TraceEvent::kSpill;
+    }
+    if (se <= 3) CHECK(spill_events > 100);  // the spill path is exercised
+    TimingConfig c = timing_preset("rdna2");
+    c.stack_entries = se;
+    c.ray_slots = 16;
+    TimingStats t1, t2;
+    TimingModel m1(c, l), m2(c, l);
+    m1.begin(rays.size(), t1);
+    m1.feed(ev_raw.data(), rays.size());
+    const uint64_t c1 = m1.finish();
+    m2.begin(rays.size(), t2);
+    m2.feed(ev_short.data(), rays.size());
+    const uint64_t c2 = m2.finish();
+    CHECK(c1 == c2);
+    CHECK(t1.stack_spills == t2.stack_spills);
+    CHECK(t1.stack_refills == t2.stack_refills);
+    CHECK(t1.dram_bytes == t2.dram_bytes);
+    CHECK(t1.cache_hits == t2.cache_hits);
+    CHECK(t1.cache_misses == t2.cache_misses);
+    CHECK(t1.queue_stall_cycles == t2.queue_stall_cycles);
+    CHECK(t1.slot_busy_cycles == t2.slot_busy_cycles);
+    CHECK(t1.box_tests == t2.box_tests);
+    CHECK(t1.tri_tests == t2.tri_tests);
+    if (se <= 3) CHECK(t1.stack_spills > 0);
+  }
 }

@@ -127,6 +127,9 @@ class TimingModel {
   uint64_t clock() const { return m_base; }
   void advance_to(uint64_t cycle) { m_base = cycle > m_base ? cycle : m_base; }
   const Layout& layout() const { return m_layout; }
+  // Off: every unit request waits for a wake-up of its slot at its own cycle, none is served at its fetch
+  // (simulate()); the same cycles, slower. For tests.
+  void set_early_requests(bool on) { m_early = on; }
 
  private:
   struct Line {
@@ -178,6 +181,7 @@ class TimingModel {
   // line from DRAM).
   std::vector<uint64_t> m_waiting;
   uint64_t m_min_fetch = 0;
+  bool m_early = true;
   uint64_t m_base = 0;  // cycle the current packet started (resources carry absolute cycles)
   // The backward walk (walk_begin): per set the distinct lines seen so far (at most cache_ways) and how many; the
   // simulated rays' distinct lines, per set how many of them are undetermined, and in all.

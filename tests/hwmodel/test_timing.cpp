@@ -195,6 +195,80 @@ TEST_CASE("feeding rays in chunks gives the same cycles; runs repeat exactly", "
   CHECK(reference > 0);
 }
 
+TEST_CASE("unit requests served at their fetch give the cycles of requests each served at its own cycle",
+          "[timing]") {
+  // Streams that mix hot lines (hits), a wide footprint (misses), lines still in flight, planes, spheres and stack
+  // traffic, on configurations from one slot to many, one unit to several, with and without a cache: the model
+  // with early requests (the default) and without must agree on every cycle and every statistic.
+  std::vector<std::vector<TraceEvent>> rays;
+  uint32_t x = 777;
+  auto next = [&] { return x = x * 1664525u + 1013904223u; };
+  for (int i = 0; i < 2500; ++i) {
+    std::vector<TraceEvent> ev;
+    const int steps = 1 + int(next() % 9);
+    for (int j = 0; j < steps; ++j) {
+      const uint32_t r = next();
+      const uint32_t idx = r % 8 < 5 ? (r >> 8) % 24 : (r >> 8) % 20000;  // 5 in 8 hot
+      ev.push_back(node(idx, uint8_t(1 + (r >> 4) % 8)));
+      if (r % 3 == 0) ev.push_back(TraceEvent{TraceEvent::kPush, uint8_t(1 + (r >> 3) % 3), 0, 0, 0});
+      if (r % 5 == 0) ev.push_back(tri((r >> 7) % (r % 2 ? 40 : 30000)));
+      if (r % 13 == 0) ev.push_back(TraceEvent{TraceEvent::kPrim, uint8_t(rtu::hw::RecordKind::kSphere), 0, 0, 7});
+      if (r % 17 == 0) ev.push_back(TraceEvent{TraceEvent::kPlane, 0, 0, 0, r % 3});
+      if (r % 4 == 0) ev.push_back(TraceEvent{TraceEvent::kPop, 0, 0, 0, 0});
+    }
+    if (i % 23 == 0) ev.clear();
+    rays.push_back(ev);
+  }
+  struct Variant {
+    int slots, box_units, tri_units, tri_rate, cache_kib, cache_latency, dram_latency;
+    double bandwidth;
+  };
+  const Variant variants[] = {{64, 1, 1, 1, 16, 2, 100, 8.0}, {1, 1, 1, 1, 16, 2, 100, 8.0},
+                              {7, 2, 3, 1, 1, 1, 40, 64.0},   {200, 1, 1, 2, 4, 5, 300, 2.0},
+                              {33, 3, 1, 1, 0, 2, 20, 16.0},  {16, 1, 2, 1, 64, 1, 0, 64.0}};
+  for (const Variant& v : variants) {
+    TimingConfig c = test_config();
+    c.ray_slots = v.slots;
+    c.box_units = v.box_units;
+    c.tri_units = v.tri_units;
+    c.tri_rate = v.tri_rate;
+    c.cache_kib = v.cache_kib;
+    c.cache_latency = v.cache_latency;
+    c.dram_latency = v.dram_latency;
+    c.dram_bytes_per_cycle = v.bandwidth;
+    c.stack_entries = 2;
+    c.queue_depth = 8;
+    CAPTURE(v.slots, v.box_units, v.tri_units, v.tri_rate, v.cache_kib, v.cache_latency, v.dram_latency);
+    TimingModel early(c, layout()), late(c, layout());
+    late.set_early_requests(false);
+    std::vector<uint64_t> done_early, done_late;
+    early.record_done(&done_early);
+    late.record_done(&done_late);
+    TimingStats a, b;
+    uint64_t ca = 0, cb = 0;
+    for (int packet = 0; packet < 2; ++packet) {  // the second packet starts from the first one's cache
+      ca += run(early, rays, a, 100);
+      cb += run(late, rays, b, 100);
+    }
+    CHECK(ca == cb);
+    CHECK(done_early == done_late);
+    CHECK(a.cycles == b.cycles);
+    CHECK(a.cache_hits == b.cache_hits);
+    CHECK(a.cache_misses == b.cache_misses);
+    CHECK(a.dram_bytes == b.dram_bytes);
+    CHECK(a.dram_busy_cycles == b.dram_busy_cycles);
+    CHECK(a.queue_stall_cycles == b.queue_stall_cycles);
+    CHECK(a.slot_busy_cycles == b.slot_busy_cycles);
+    CHECK(a.box_issue_cycles == b.box_issue_cycles);
+    CHECK(a.tri_issue_cycles == b.tri_issue_cycles);
+    CHECK(a.stack_spills == b.stack_spills);
+    CHECK(a.stack_refills == b.stack_refills);
+    // Both kinds of fetch occur, so both paths are taken.
+    CHECK(a.cache_misses > 100);
+    if (v.cache_kib > 0) CHECK(a.cache_hits > 1000);
+  }
+}
+
 TEST_CASE("a backward walk fixes the cache the simulated rays meet: warming with it gives their cycles exactly",
           "[timing][sample]") {
   // Rays that touch the top of a tree (16 hot lines) and a drifting window of 600 lines, as camera rays sweeping

@@ -78,15 +78,24 @@ uint64_t TimingModel::line_access(uint64_t line, uint64_t t) {
   }
   const uint64_t set = set_of(line);
   Line* ways = &m_cache[set * uint64_t(m_c.cache_ways)];
-  Line* victim = ways;
-  for (int w = 0; w < m_c.cache_ways; ++w) {
-    if (ways[w].tag == line) {
-      ++m_s->cache_hits;
-      ways[w].stamp = ++m_stamp;
-      return std::max(t, ways[w].ready) + uint64_t(m_c.cache_latency);
-    }
-    if (ways[w].stamp < victim->stamp) victim = &ways[w];  // never-used lines have stamp 0
+  // Every way compared, without an early exit: which way holds the line is data (a bit mask), not a branch; a
+  // line is in at most one way.
+  uint64_t match = 0;
+  if (m_c.cache_ways == 4) {  // the presets' associativity: unrolled
+    match = uint64_t(ways[0].tag == line) | uint64_t(ways[1].tag == line) << 1 |
+            uint64_t(ways[2].tag == line) << 2 | uint64_t(ways[3].tag == line) << 3;
+  } else {
+    for (int w = 0; w < m_c.cache_ways; ++w) match |= uint64_t(ways[w].tag == line) << w;
   }
+  if (match != 0) {
+    Line& l = ways[__builtin_ctzll(match)];
+    ++m_s->cache_hits;
+    l.stamp = ++m_stamp;
+    return std::max(t, l.ready) + uint64_t(m_c.cache_latency);
+  }
+  Line* victim = ways;  // the least recent way; never-used lines have stamp 0
+  for (int w = 1; w < m_c.cache_ways; ++w)
+    if (ways[w].stamp < victim->stamp) victim = &ways[w];
   ++m_s->cache_misses;
   victim->tag = line;
   victim->stamp = ++m_stamp;

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The plotting scripts of bench/ end to end on small inputs: bench/pareto.sh (PNGs per scene and error measure;
 # without gnuplot a message and exit 2) and bench/scaling.sh (rows per preset and level, the fits, nodes per ray
-# growing with n, the raster TODO; bad RAYS: exit 2). Usage: check_bench_plots.sh RTUSIM SOURCE_DIR
+# growing with n, the raster cycles and their fit; bad RAYS: exit 2). Usage: check_bench_plots.sh RTUSIM SOURCE_DIR
 set -uo pipefail
 rtusim=$1
 src=$2

@@ -71,13 +71,7 @@ uint64_t TimingModel::dram(uint64_t bytes, uint64_t t) {
   return start + xfer + uint64_t(m_c.dram_latency);
 }
 
-uint64_t TimingModel::line_access(uint64_t line, uint64_t t) {
-  if (m_cache.empty()) {
-    ++m_s->cache_misses;
-    return dram(uint64_t(m_c.line_bytes), t);
-  }
-  const uint64_t set = set_of(line);
-  Line* ways = &m_cache[set * uint64_t(m_c.cache_ways)];
+int TimingModel::find_way(const Line* ways, uint64_t line) const {
   // Every way compared, without an early exit: which way holds the line is data (a bit mask), not a branch; a
   // line is in at most one way.
   uint64_t match = 0;
@@ -87,15 +81,31 @@ uint64_t TimingModel::line_access(uint64_t line, uint64_t t) {
   } else {
     for (int w = 0; w < m_c.cache_ways; ++w) match |= uint64_t(ways[w].tag == line) << w;
   }
-  if (match != 0) {
-    Line& l = ways[__builtin_ctzll(match)];
+  return match != 0 ? __builtin_ctzll(match) : -1;
+}
+
+TimingModel::Line* TimingModel::lru_way(Line* ways) const {
+  Line* victim = ways;  // the first of the least recent; never-used lines have stamp 0
+  for (int w = 1; w < m_c.cache_ways; ++w)
+    if (ways[w].stamp < victim->stamp) victim = &ways[w];
+  return victim;
+}
+
+uint64_t TimingModel::line_access(uint64_t line, uint64_t t) {
+  if (m_cache.empty()) {
+    ++m_s->cache_misses;
+    return dram(uint64_t(m_c.line_bytes), t);
+  }
+  const uint64_t set = set_of(line);
+  Line* ways = &m_cache[set * uint64_t(m_c.cache_ways)];
+  const int w = find_way(ways, line);
+  if (w >= 0) {
+    Line& l = ways[w];
     ++m_s->cache_hits;
     l.stamp = ++m_stamp;
     return std::max(t, l.ready) + uint64_t(m_c.cache_latency);
   }
-  Line* victim = ways;  // the least recent way; never-used lines have stamp 0
-  for (int w = 1; w < m_c.cache_ways; ++w)
-    if (ways[w].stamp < victim->stamp) victim = &ways[w];
+  Line* victim = lru_way(ways);
   ++m_s->cache_misses;
   victim->tag = line;
   victim->stamp = ++m_stamp;
@@ -127,15 +137,12 @@ void TimingModel::warm(const std::vector<TraceEvent>* events, size_t m) {
     for (const TraceEvent& e : events[i])
       for_each_line(e, [&](uint64_t line) {
         Line* ways = &m_cache[set_of(line) * uint64_t(m_c.cache_ways)];
-        Line* victim = ways;
-        for (int w = 0; w < m_c.cache_ways; ++w) {
-          if (ways[w].tag == line) {
-            ways[w].stamp = ++m_stamp;
-            return;
-          }
-          if (ways[w].stamp < victim->stamp) victim = &ways[w];
+        const int w = find_way(ways, line);
+        if (w >= 0) {
+          ways[w].stamp = ++m_stamp;
+          return;
         }
-        *victim = Line{line, ++m_stamp, 0};  // in the cache, no time spent
+        *lru_way(ways) = Line{line, ++m_stamp, 0};  // in the cache, no time spent
       });
 }
 

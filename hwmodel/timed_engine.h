@@ -158,6 +158,8 @@ class TimingModel {
   void spill(Slot& sl, uint64_t t);                    // one stack entry written to memory at t
   uint64_t refill(Slot& sl, uint32_t k, uint64_t t);  // one read back from t: when it is there
   uint64_t line_access(uint64_t line, uint64_t t);
+  int find_way(const Line* ways, uint64_t line) const;  // the way of a set holding line, or -1
+  Line* lru_way(Line* ways) const;                       // the set's least recently used way
   uint64_t dram(uint64_t bytes, uint64_t t);
   uint64_t xfer_cycles(uint64_t bytes) const;  // ceil(bytes / bandwidth)
   uint64_t unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t);

@@ -77,7 +77,7 @@ struct FixedPolicy {
     return true;
   }
 
-  NodeRay nr;  // the node kernels' constants (box_node.h), set by prepare()
+  NodeRay nr;                 // the node kernels' constants (box_node.h), set by prepare()
   int short_stack = -1;       // FixedTraceOptions::record_short_stack
   mutable int rec_depth = 0;  // stack entries, as the recorder counts them (every push and pop)
 
@@ -328,9 +328,9 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
         using Node = decltype(node_tag);
         constexpr int N = sizeof(Node::child) / sizeof(uint32_t);
         using Q = std::remove_cv_t<std::remove_reference_t<decltype(Node::q[0][0])>>;
-        FixedPolicy<N, Q> p{m_image.nodes<Node>(), m_image, fr,           any_hit, m_opt.check_boxes, c, s, rec,
-                            m_opt.box_unit,        watch,   m_step_limit, {},
-                            m_opt.record_short_stack};
+        FixedPolicy<N, Q> p{
+            m_image.nodes<Node>(), m_image, fr,           any_hit, m_opt.check_boxes,       c, s, rec,
+            m_opt.box_unit,        watch,   m_step_limit, {},      m_opt.record_short_stack};
         p.prepare(m_format);
         traverse(p, hd.root_ref, any_hit, s);
       };

@@ -291,8 +291,9 @@ uint64_t TimingModel::unit_request(const TraceEvent& e, uint32_t k, uint64_t t) 
   }
   done = unit(m_tri_free, 1, lat, t);
   if (m_trace)
-    m_trace->add(k, e.kind == TraceEvent::kPlane ? "plane" : (lat == uint64_t(m_c.tri_latency) ? "triangle" : "sphere"),
-                 t, done);
+    m_trace->add(
+        k, e.kind == TraceEvent::kPlane ? "plane" : (lat == uint64_t(m_c.tri_latency) ? "triangle" : "sphere"), t,
+        done);
   ++m_s->tri_issue_cycles;
   return done;
 }

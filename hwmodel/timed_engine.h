@@ -29,7 +29,8 @@
 //   writeback_latency deep; a slot is free again the clock after its hit is issued to write-back.
 // - watchdog: a ray that stays in its slot more than watchdog_cycles stops the packet with a WatchdogError
 //   (engine.h) whose text dumps the unit at that cycle: the ray, every busy slot (ray, entry cycle, events done,
-//   stack entries spilled, what it waits for), the prefetch queue, the units' and DRAM's queued work, cache figures.
+//   stack entries spilled, what it waits for), the prefetch queue, the units' and DRAM's queued work, cache
+//   figures.
 // Every request is served in the order of its cycle (ties by slot number), so the result does not depend on the
 // order in which the code evaluates components, and time jumps from event to event (idle cycles are skipped).
 // Left out: overlap of consecutive TRACE packets, DRAM banks and refresh, write-allocate of spills into the
@@ -154,12 +155,12 @@ class TimingModel {
   void simulate();  // until done or until a free slot needs a ray not fed yet
   // The unit request of event e of slot k at cycle t: when its result is there.
   uint64_t unit_request(const TraceEvent& e, uint32_t k, uint64_t t);
-  void serve_waiting();  // serves the earliest waiting request now (its slot wakes after the result)
-  void spill(Slot& sl, uint64_t t);                    // one stack entry written to memory at t
+  void serve_waiting();              // serves the earliest waiting request now (its slot wakes after the result)
+  void spill(Slot& sl, uint64_t t);  // one stack entry written to memory at t
   uint64_t refill(Slot& sl, uint32_t k, uint64_t t);  // one read back from t: when it is there
   uint64_t line_access(uint64_t line, uint64_t t);
   int find_way(const Line* ways, uint64_t line) const;  // the way of a set holding line, or -1
-  Line* lru_way(Line* ways) const;                       // the set's least recently used way
+  Line* lru_way(Line* ways) const;                      // the set's least recently used way
   uint64_t dram(uint64_t bytes, uint64_t t);
   uint64_t xfer_cycles(uint64_t bytes) const;  // ceil(bytes / bandwidth)
   uint64_t unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t);

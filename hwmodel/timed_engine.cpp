@@ -388,14 +388,14 @@ void TimingModel::simulate() {
         // every later fetch's request comes after this one's (at t itself, slots served later are higher), and
         // so does every request still waiting once those before it (m_waiting, earliest first) are served: all
         // are served now and the slot skips a wake-up, with every cycle as if each had waited for its own.
+        const uint64_t key = next_t << SlotQueue::kSlotBits | k;
         if (!m_early || next_t != t + m_min_fetch) {
-          m_waiting.push_back(next_t << SlotQueue::kSlotBits | k);
+          m_waiting.push_back(key);
           std::push_heap(m_waiting.begin(), m_waiting.end(), std::greater<>());
           sl.unit_phase = true;
           waiting = true;
           continue;
         }
-        const uint64_t key = next_t << SlotQueue::kSlotBits | k;
         while (!m_waiting.empty() && m_waiting.front() < key) serve_waiting();
         next_t = unit_request(e, k, next_t) + uint64_t(m_c.traversal_latency);
       } else {

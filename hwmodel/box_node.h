@@ -38,11 +38,35 @@ struct NodeRay {
   int64_t rnd[3];          // 2^sh - 1: ceil of the far planes' shift
 };
 
-// q_bytes: 1 or 2 (the node's offset type). simd = false forces the scalar kernel (for tests).
-NodeRay make_node_ray(const FixedRay& r, const FixedFormat& f, int q_bytes, bool simd = true);
-
 // True when the CPU runs the AVX-512 kernel (x86-64 with AVX-512F and DQ).
 bool node_simd_available();
+
+// q_bytes: 1 or 2 (the node's offset type). simd = false forces the scalar kernel (for tests). Inline: built once
+// per ray, in place.
+inline NodeRay make_node_ray(const FixedRay& r, const FixedFormat& f, int q_bytes, bool simd = true) {
+  NodeRay nr;
+  nr.fast = r.narrow;
+  bool any_zero = false;
+  for (int a = 0; a < 3; ++a) {
+    nr.fast = nr.fast && r.rcp_sh[a] >= 0;
+    nr.zero[a] = r.zero[a];
+    any_zero = any_zero || r.zero[a];
+    nr.near[a] = r.d[a] > 0 ? 2 * a : 2 * a + 1;
+    nr.o[a] = r.o[a];
+    nr.mlo[a] = r.rcpm_dn[a];
+    nr.mhi[a] = r.rcpm_up[a];
+    nr.sh[a] = r.rcp_sh[a];
+    nr.rnd[a] = r.rcp_sh[a] > 0 && r.rcp_sh[a] < 63 ? (int64_t(1) << r.rcp_sh[a]) - 1 : 0;
+  }
+  nr.frac = r.frac;
+  // |m| <= 2^(R+1) and q < 2^(8 q_bytes): q * (m << s) < 2^62 when s <= 61 - 8 q_bytes - R; base * m < 2^62
+  // when |base| < 2^(61 - R).
+  nr.smax = 61 - 8 * q_bytes - f.rcp_bits;
+  nr.blim = int64_t(1) << (61 - f.rcp_bits);
+  // The AVX-512 kernel multiplies 32-bit halves: |m| <= 2^(R+1) must fit 32 signed bits.
+  nr.simd = nr.fast && simd && !any_zero && f.rcp_bits <= 30 && node_simd_available();
+  return nr;
+}
 
 // Both kernels: tests the occupied children of n against [tmin, tlim]; writes the accepted ones (slot order)
 // and their entry distances; returns how many, or -1 when the node is outside the kernels' bounds (then

@@ -25,7 +25,7 @@ struct Closest {
 };
 
 // Tests one primitive record; on a closer (or equally near) hit updates c.
-inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c) {
+inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool short_edges) {
   uint32_t word;
   FixedPrimHit h;
   bool hit;
@@ -33,7 +33,7 @@ inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c) {
     TriangleRecord t;
     std::memcpy(&t, rec, sizeof t);
     word = t.prim;
-    hit = triangle_test(r, t.v, r.tmin, c.t, h);
+    hit = triangle_test(r, t.v, r.tmin, c.t, h, short_edges);
   } else {
     SphereRecord s;
     std::memcpy(&s, rec, sizeof s);
@@ -77,12 +77,30 @@ struct FixedPolicy {
     return true;
   }
 
-  NodeRay nr;                 // the node kernels' constants (box_node.h), set by prepare()
+  NodeRay nr;                 // the node kernels' constants (box_node.h): node_ray()
+  bool short_edges;           // short_edges_known for the ray
   int short_stack = -1;       // FixedTraceOptions::record_short_stack
   mutable int rec_depth = 0;  // stack entries, as the recorder counts them (every push and pop)
 
-  void prepare(const FixedFormat& f) {
-    nr = make_node_ray(r, f, int(sizeof(Q)));
+  // A constructor, not aggregate initialization: GCC 12 clears the whole object before an aggregate's fields
+  // (rep stos, a stall once per ray).
+  FixedPolicy(const QNode<N, Q>* nodes_, const DeviceImage& image_, const FixedRay& r_, bool any_hit_, bool check_,
+              Closest& closest_, TraversalStats& s_, std::vector<TraceEvent>* rec_, BoxUnit* unit_,
+              FixedTracer::WatchState& watch_, uint64_t step_limit_, const FixedFormat& f, int short_stack_)
+      : nodes(nodes_),
+        image(image_),
+        r(r_),
+        any_hit(any_hit_),
+        check(check_),
+        closest(closest_),
+        s(s_),
+        rec(rec_),
+        unit(unit_),
+        watch(watch_),
+        step_limit(step_limit_),
+        nr(make_node_ray(r_, f, int(sizeof(Q)))),
+        short_edges(short_edges_known(r_, f.coord_bits)),
+        short_stack(short_stack_) {
     nr.fast = nr.fast && !check && !unit;
   }
 
@@ -196,7 +214,7 @@ struct FixedPolicy {
       if (rec)
         rec->push_back(
             TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(image.record(first + i))), 0, 0, first + i});
-      found |= test_record(image.record(first + i), r, closest);
+      found |= test_record(image.record(first + i), r, closest, short_edges);
       if (found && any_hit) return true;
     }
     return found;
@@ -231,7 +249,7 @@ struct FixedPolicy {
 }  // namespace
 
 FixedTracer::FixedTracer(const DeviceImage& image, const FixedTraceOptions& opt)
-    : m_image(image), m_format(image.format()), m_frame(image.frame()), m_opt(opt) {
+    : m_image(image), m_format(image.format()), m_frame(image.frame()), m_setup(m_frame, m_format), m_opt(opt) {
   if (m_opt.box_unit && !(image.header().flags & kImageNoBvh))
     m_opt.box_unit->check_format(m_format, int(image.header().width));
   m_step_limit =
@@ -254,7 +272,7 @@ Hit FixedTracer::trace_recorded(const Ray& r, bool any_hit, TraversalStats& s,
 Hit FixedTracer::trace_world(const Ray& r, bool any_hit, TraversalStats& s, std::vector<TraceEvent>* rec,
                              WatchState* ws) const {
   FixedRay fr;
-  const RayStatus status = setup_ray(r, m_frame, m_format, fr);
+  const RayStatus status = m_setup(r, fr);
   if (status != RayStatus::kOk) {
     ++s.invalid_rays;
     ++s.invalid_by_reason[size_t(status)];
@@ -318,20 +336,19 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
   }
   if (!(any_hit && c.prim != kMissPrim) && hd.record_count > 0) {
     if (hd.flags & kImageNoBvh) {
+      const bool short_brute = short_edges_known(fr, m_format.coord_bits);
       s.prim_tests += hd.record_count;
       for (uint32_t i = 0; i < hd.record_count; ++i) {
         if (rec) rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(m_image.record(i))), 0, 0, i});
-        if (test_record(m_image.record(i), fr, c) && any_hit) break;
+        if (test_record(m_image.record(i), fr, c, short_brute) && any_hit) break;
       }
     } else {
       auto run = [&](auto node_tag) {
         using Node = decltype(node_tag);
         constexpr int N = sizeof(Node::child) / sizeof(uint32_t);
         using Q = std::remove_cv_t<std::remove_reference_t<decltype(Node::q[0][0])>>;
-        FixedPolicy<N, Q> p{
-            m_image.nodes<Node>(), m_image, fr,           any_hit, m_opt.check_boxes,       c, s, rec,
-            m_opt.box_unit,        watch,   m_step_limit, {},      m_opt.record_short_stack};
-        p.prepare(m_format);
+        FixedPolicy<N, Q> p(m_image.nodes<Node>(), m_image, fr, any_hit, m_opt.check_boxes, c, s, rec,
+                            m_opt.box_unit, watch, m_step_limit, m_format, m_opt.record_short_stack);
         traverse(p, hd.root_ref, any_hit, s);
       };
       const bool q8 = hd.q_bytes == 1;

@@ -96,6 +96,7 @@ class FixedTracer {
   const DeviceImage& m_image;
   FixedFormat m_format;
   QuantFrame m_frame;
+  RaySetup m_setup;  // setup_ray for m_frame and m_format
   FixedTraceOptions m_opt;
   uint64_t m_step_limit = 0;
 };

@@ -83,52 +83,139 @@ RayStatus setup_ray(const Ray& r, const QuantFrame& frame, const FixedFormat& f,
   return RayStatus::kOk;
 }
 
+namespace {
+
+// One axis of set_direction: one = 2^(D+R), sh0 = F + R - T.
+inline void set_axis(FixedRay& r, int a, int64_t d, int64_t one, int rcp_bits, int sh0) {
+  r.d[a] = d;
+  r.zero[a] = d == 0;
+  if (d == 0) {
+    r.rcp_dn[a] = r.rcp_up[a] = r.rcpm_dn[a] = r.rcpm_up[a] = 0;
+    r.rcp_sh[a] = 0;
+    return;
+  }
+  // q = one / d truncated toward zero, rem = one - q d (0 <= rem < |d|); floor and ceil follow from the
+  // sign and the remainder. The quotient comes from a double division (one is a power of two, d exact below
+  // 2^53) corrected to the exact integer one by the remainder: the double is within q 2^-52 + 1 of q, so one
+  // or two steps; a 64-bit division where that does not apply.
+  int64_t q, rem;
+  const int64_t ad = d < 0 ? -d : d, sg = d < 0 ? -1 : 1;
+  if (ad < (int64_t(1) << 53)) {
+    q = int64_t(double(one) / double(d));
+    rem = one - q * d;  // |q d| <= one (1 + 2^-52) + |d| < 2^63
+    if (rem < -4 * ad || rem >= 5 * ad) {
+      q = one / d;
+      rem = one % d;
+    }
+    while (rem < 0) {
+      q -= sg;
+      rem += ad;
+    }
+    while (rem >= ad) {
+      q += sg;
+      rem -= ad;
+    }
+  } else {
+    q = one / d;
+    rem = one % d;
+  }
+  r.rcp_dn[a] = rem != 0 && d < 0 ? q - 1 : q;
+  r.rcp_up[a] = rem != 0 && d > 0 ? q + 1 : q;
+  // R + 1 significant bits: drop e low bits of the larger magnitude, rounding down and up again.
+  const uint64_t mag = uint64_t(std::max(std::abs(r.rcp_dn[a]), std::abs(r.rcp_up[a])));
+  const int bits = 64 - __builtin_clzll(mag);
+  const int e = std::max(0, bits - (rcp_bits + 1));
+  r.rcpm_dn[a] = r.rcp_dn[a] >> e;                                       // floor
+  r.rcpm_up[a] = e == 0 ? r.rcp_up[a] : ((r.rcp_up[a] - 1) >> e) + 1;  // ceil
+  r.rcp_sh[a] = sh0 - e;
+}
+
+}  // namespace
+
 void set_direction(FixedRay& r, const int64_t d[3], const FixedFormat& f) {
   const int64_t one = int64_t(1) << (f.dir_bits + f.rcp_bits);  // D + R <= 62 (validate)
-  for (int a = 0; a < 3; ++a) {
-    r.d[a] = d[a];
-    r.zero[a] = d[a] == 0;
-    if (r.zero[a]) {
-      r.rcp_dn[a] = r.rcp_up[a] = r.rcpm_dn[a] = r.rcpm_up[a] = 0;
-      r.rcp_sh[a] = 0;
-      continue;
-    }
-    // q = one / d truncated toward zero, rem = one - q d (0 <= rem < |d|); floor and ceil follow from the
-    // sign and the remainder. The quotient comes from a double division (one is a power of two, d exact below
-    // 2^53) corrected to the exact integer one by the remainder: the double is within q 2^-52 + 1 of q, so one
-    // or two steps; a 64-bit division where that does not apply.
-    int64_t q, rem;
-    const int64_t ad = d[a] < 0 ? -d[a] : d[a], sg = d[a] < 0 ? -1 : 1;
-    if (ad < (int64_t(1) << 53)) {
-      q = int64_t(double(one) / double(d[a]));
-      rem = one - q * d[a];  // |q d| <= one (1 + 2^-52) + |d| < 2^63
-      if (rem < -4 * ad || rem >= 5 * ad) {
-        q = one / d[a];
-        rem = one % d[a];
-      }
-      while (rem < 0) {
-        q -= sg;
-        rem += ad;
-      }
-      while (rem >= ad) {
-        q += sg;
-        rem -= ad;
-      }
-    } else {
-      q = one / d[a];
-      rem = one % d[a];
-    }
-    r.rcp_dn[a] = rem != 0 && d[a] < 0 ? q - 1 : q;
-    r.rcp_up[a] = rem != 0 && d[a] > 0 ? q + 1 : q;
-    // R + 1 significant bits: drop e low bits of the larger magnitude, rounding down and up again.
-    const uint64_t mag = uint64_t(std::max(std::abs(r.rcp_dn[a]), std::abs(r.rcp_up[a])));
-    const int bits = 64 - __builtin_clzll(mag);
-    const int e = std::max(0, bits - (f.rcp_bits + 1));
-    r.rcpm_dn[a] = round_shift64(r.rcp_dn[a], e, Round::kDown);
-    r.rcpm_up[a] = round_shift64(r.rcp_up[a], e, Round::kUp);
-    r.rcp_sh[a] = f.frac_bits + f.rcp_bits - f.t_frac_bits - e;
-  }
+  const int sh0 = f.frac_bits + f.rcp_bits - f.t_frac_bits;
+  for (int a = 0; a < 3; ++a) set_axis(r, a, d[a], one, f.rcp_bits, sh0);
   r.narrow = f.translated_bits() + f.rcp_bits + 2 <= 63 && f.frac_bits + f.rcp_bits - f.t_frac_bits <= 61;
+}
+
+RaySetup::RaySetup(const QuantFrame& frame, const FixedFormat& f) : m_frame(frame), m_f(f) {
+  // The fast path's origin conversion is to_grid_64's: a frame origin within 2^36 steps of world 0.
+  m_fast = true;
+  for (int a = 0; a < 3; ++a) {
+    m_fast = m_fast && frame.origin[a] > -(int64_t(1) << 36) && frame.origin[a] < (int64_t(1) << 36);
+    m_o64[a] = m_fast ? frame.origin[a] << f.frac_bits : 0;
+  }
+  m_olim = int64_t(1) << (f.coord_bits + f.guard_bits + f.frac_bits);
+  m_one = int64_t(1) << (f.dir_bits + f.rcp_bits);
+  m_origin_sh = f.frac_bits - frame.step_exp;
+  set_format_fields(m_fields, f);
+  const int64_t d[3] = {int64_t(1) << f.dir_bits, 0, 0};
+  set_direction(m_fields, d, f);  // for narrow
+}
+
+RayStatus RaySetup::operator()(const Ray& r, FixedRay& out) const {
+  if (!m_fast) return setup_ray(r, m_frame, m_f, out);
+  uint32_t ob[3], db[3];
+  for (int a = 0; a < 3; ++a) {
+    ob[a] = std::bit_cast<uint32_t>(r.origin[a]);
+    db[a] = std::bit_cast<uint32_t>(r.dir[a]);
+  }
+  const uint32_t bmin = std::bit_cast<uint32_t>(r.tmin), bmax = std::bit_cast<uint32_t>(r.tmax);
+  // What validate_ray rejects goes through setup_ray, which gives the reason: a NaN or infinite origin or
+  // direction component (exponent all ones), a zero direction, a NaN interval end or an infinite tmin.
+  constexpr uint32_t kExp = 0x7F800000u, kMag = 0x7FFFFFFFu;
+  bool odd = (bmin & kExp) == kExp || (bmax & kMag) > kExp || ((db[0] | db[1] | db[2]) & kMag) == 0;
+  for (int a = 0; a < 3; ++a) odd = odd || (ob[a] & kExp) == kExp || (db[a] & kExp) == kExp;
+  if (odd) return setup_ray(r, m_frame, m_f, out);
+
+  // Origin: to_grid_64 (the frame origin is within its bounds), with 0 exact.
+  for (int a = 0; a < 3; ++a) {
+    int64_t m;
+    int k;
+    split_float(r.origin[a], m, k);
+    const int sh = k + m_origin_sh;
+    int64_t g;
+    if (m == 0) {
+      g = -m_o64[a];
+    } else if (sh >= 0) {
+      if (sh > 36) return setup_ray(r, m_frame, m_f, out);
+      g = (m << sh) - m_o64[a];
+    } else {
+      const int ns = -sh;
+      const int64_t oa = m_o64[a] < 0 ? -m_o64[a] : m_o64[a];
+      if (ns > 36 || oa >= (int64_t(1) << (60 - ns))) return setup_ray(r, m_frame, m_f, out);
+      g = round_shift64(m - m_o64[a] * (int64_t(1) << ns), ns, Round::kNearestEven);
+    }
+    if (g >= m_olim || g <= -m_olim) return RayStatus::kOutOfFrame;
+    out.o[a] = g;
+  }
+
+  // Direction: scaled_round's 64-bit path. The largest component's exponent E; the others' shifts are at most
+  // D - 24 (normal) or D - 1 (subnormal); one below -62 leaves |value| < 2^24 2^-63, which rounds to 0.
+  const uint32_t mb = std::max({db[0] & kMag, db[1] & kMag, db[2] & kMag});  // bit order = magnitude order
+  const int E = ilogb_float(std::bit_cast<float>(mb));
+  const int D = m_f.dir_bits;
+  for (int a = 0; a < 3; ++a) {
+    int64_t m;
+    int k;
+    split_float(r.dir[a], m, k);
+    const int sh = k + D - E - 1;
+    const int64_t d = m == 0 ? 0 : sh >= 0 ? m << sh : sh < -62 ? 0 : round_shift64(m, -sh, Round::kNearestEven);
+    set_axis(out, a, d, m_one, m_f.rcp_bits, m_fields.box_shift);
+  }
+  out.narrow = m_fields.narrow;
+  out.frac = m_fields.frac;
+  out.dir_bits = m_fields.dir_bits;
+  out.box_shift = m_fields.box_shift;
+  out.t_shift = m_fields.t_shift;
+  out.t_limit = m_fields.t_limit;
+  const int kk = E + 1 - m_frame.step_exp;
+  out.t_exp = m_f.t_frac_bits + kk;
+  out.tmin = bmin == 0 ? 0 : clamp_t(scaled_round(r.tmin, out.t_exp, Round::kDown), out.t_limit);
+  out.tmax = std::isinf(r.tmax) ? (r.tmax > 0 ? out.t_limit : -out.t_limit)
+                                : clamp_t(scaled_round(r.tmax, out.t_exp, Round::kUp), out.t_limit);
+  return RayStatus::kOk;
 }
 
 float t_to_world(int64_t t, const FixedRay& r) {

@@ -50,6 +50,26 @@ void set_format_fields(FixedRay& r, const FixedFormat& f);
 // the frame's guard range (RayStatus::kOutOfFrame). An empty or negative interval is valid (it misses).
 RayStatus setup_ray(const Ray& r, const QuantFrame& frame, const FixedFormat& f, FixedRay& out);
 
+// setup_ray for one frame and format, with their constants worked out once: the same FixedRay and status bit
+// for bit (tests/hwmodel/test_fast_paths.cpp compares them on rays of every kind), in about a third of the
+// instructions on the common path (finite rays, a frame near the world origin, origins within the frame's guard
+// range, a format with D + R <= 52); other rays go through setup_ray. For tracers, which set up every ray.
+class RaySetup {
+ public:
+  RaySetup(const QuantFrame& frame, const FixedFormat& f);
+  RayStatus operator()(const Ray& r, FixedRay& out) const;
+
+ private:
+  QuantFrame m_frame;
+  FixedFormat m_f;
+  bool m_fast = false;  // the frame origin and format allow the fast path
+  int64_t m_o64[3] = {};  // frame origin << F
+  int64_t m_olim = 0;     // 2^(B+G+F): origins at or beyond it are out of frame
+  int64_t m_one = 0;      // 2^(D+R)
+  int m_origin_sh = 0;    // F - step_exp: a float's exponent k -> the origin's shift k + m_origin_sh
+  FixedRay m_fields{};    // frac, dir_bits, box_shift, t_shift, t_limit and narrow, copied into every ray
+};
+
 // Sets d, zero, rcp_dn and rcp_up from a direction already in D-fraction-bit form (|d| <= 2^D raw, largest
 // component >= 2^(D-1)); the part of setup_ray after the direction is scaled. For building rays on the grid.
 void set_direction(FixedRay& r, const int64_t d[3], const FixedFormat& f);
@@ -174,8 +194,10 @@ struct FixedPrimHit {
 // a ray through it hits at least one of them (both when it passes exactly through the edge). A hit needs all
 // three of one sign (zeros allowed) and a non-zero sum. t = N . A0 / N . d (N the grid normal), rounded to
 // nearest, in [tmin, tlim]. u, v (barycentrics of v1, v2) are e1 / sum and e2 / sum rounded to float.
-inline bool triangle_test(const FixedRay& r, const int32_t v[3][3], int64_t tmin, int64_t tlim,
-                          FixedPrimHit& out) {
+// short_known: the caller knows every |A| < 2^(62 - D) (short_edges_known: vertices on the grid, an origin near
+// it), which spares the per-triangle magnitude test of the 64-bit path.
+inline bool triangle_test(const FixedRay& r, const int32_t v[3][3], int64_t tmin, int64_t tlim, FixedPrimHit& out,
+                          bool short_known = false) {
   int64_t A[3][3];
   for (int i = 0; i < 3; ++i)
     for (int a = 0; a < 3; ++a) A[i][a] = (int64_t(v[i][a]) << r.frac) - r.o[a];
@@ -183,10 +205,13 @@ inline bool triangle_test(const FixedRay& r, const int32_t v[3][3], int64_t tmin
   // (vertices near the frame, the common case; only origins far into the guard range exceed it), by the triple
   // product d . (p x q) = p . (q x d): q x d has components |q_y d_z - q_z d_y| < 2^63, exact in 64 bits, and
   // A2 x d serves e0 = A1 . (A2 x d) and e1 = -A0 . (A2 x d), A1 x d serves e2 = A0 . (A1 x d).
-  uint64_t mag = 0;
-  for (int i = 0; i < 3; ++i)
-    for (int a = 0; a < 3; ++a) mag |= uint64_t(A[i][a] < 0 ? -A[i][a] : A[i][a]);
-  const bool short_cross = mag < (uint64_t(1) << (62 - r.dir_bits));  // D <= 30 (FixedFormat::validate)
+  bool short_cross = short_known;
+  if (!short_cross) {
+    uint64_t mag = 0;
+    for (int i = 0; i < 3; ++i)
+      for (int a = 0; a < 3; ++a) mag |= uint64_t(A[i][a] < 0 ? -A[i][a] : A[i][a]);
+    short_cross = mag < (uint64_t(1) << (62 - r.dir_bits));  // D <= 30 (FixedFormat::validate)
+  }
   auto cross_d = [&](const int64_t* q, int64_t* c) {
     c[0] = q[1] * r.d[2] - q[2] * r.d[1];
     c[1] = q[2] * r.d[0] - q[0] * r.d[2];
@@ -240,6 +265,18 @@ inline bool triangle_test(const FixedRay& r, const int32_t v[3][3], int64_t tmin
   const double dd = double(det);
   out.u = float(double(e1) / dd);
   out.v = float(double(e2) / dd);
+  return true;
+}
+
+// True when every vertex on the grid [0, 2^B - 1]^3 minus the ray's origin (grid.F) is below 2^(62 - D) in
+// magnitude on every axis: then triangle_test's 64-bit path applies to every triangle record of the image (the
+// image's validation keeps its vertices on the grid), and triangle_test(..., short_known = true) skips the test.
+inline bool short_edges_known(const FixedRay& r, int coord_bits) {
+  const int64_t top = ((int64_t(1) << coord_bits) - 1) << r.frac, lim = int64_t(1) << (62 - r.dir_bits);
+  for (int a = 0; a < 3; ++a) {
+    const int64_t lo = -r.o[a], hi = top - r.o[a];
+    if (lo >= lim || lo <= -lim || hi >= lim || hi <= -lim) return false;
+  }
   return true;
 }
 

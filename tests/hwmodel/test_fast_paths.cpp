@@ -539,7 +539,7 @@ TEST_CASE("triangle test: the 64-bit q x d edge functions equal the 128-bit code
           "[fixed][fast][triangle]") {
   std::mt19937_64 rng(23);
   auto rint = [&](int64_t lo, int64_t hi) { return lo + int64_t(rng() % uint64_t(hi - lo + 1)); };
-  uint64_t cases = 0, hits = 0, through = 0, short_path = 0, long_path = 0;
+  uint64_t cases = 0, hits = 0, through = 0, short_path = 0, long_path = 0, known = 0;
   for (const FixedFormat& f : format_presets()) {
     FixedRay proto{};
     set_format_fields(proto, f);
@@ -608,6 +608,16 @@ TEST_CASE("triangle test: the 64-bit q x d edge functions equal the 128-bit code
       for (int j = 0; j < 3; ++j)
         for (int a = 0; a < 3; ++a) mag |= uint64_t(std::abs((int64_t(v[j][a]) << F) - r.o[a]));
       (mag < short_lim ? short_path : long_path) += 1;
+      // The per-ray bound the tracer uses (every grid vertex): when it holds, this triangle's |A| are below it too
+      // and the test without its own magnitude check gives the same answer.
+      if (short_edges_known(r, B)) {
+        ++known;
+        REQUIRE(mag < short_lim);
+        FixedPrimHit hk{};
+        const bool got_k = triangle_test(r, v, 0, tlim, hk, true);
+        REQUIRE(got_k == want);
+        if (want) REQUIRE((hk.t == hw.t && hk.u == hw.u && hk.v == hw.v));
+      }
       ++cases;
       hits += uint64_t(want);
       through += uint64_t(want && aim <= 1);
@@ -620,4 +630,6 @@ TEST_CASE("triangle test: the 64-bit q x d edge functions equal the 128-bit code
   CHECK(through > cases / 20);    // exact zeros of the edge functions
   CHECK(short_path > cases / 2);  // both paths
   CHECK(long_path > cases / 100);
+  CHECK(known > cases / 4);  // the per-ray bound holds for origins near the grid, not for those far into the guard
+  CHECK(known < short_path);
 }

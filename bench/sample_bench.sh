@@ -9,10 +9,12 @@
 # times come from the same stretches of the machine's speed. Prints a Markdown table (README.md).
 #
 #   bench/sample_bench.sh [RTUSIM] [RAYS] [MESH...]     RAYS default 1000000; trace packets are 262,144 rays
-#   FRACTIONS="0.05 0.02" MODES="hits cycles-only" REPEAT=3 THREADS=1 (environment): the sample fractions and
-#   modes measured, the runs each time is the best of, and rtusim's --threads for both the full and the sampled
+#   FRACTIONS="0.05 0.02" MODES="hits cycles-only" REPEAT=3 THREADS=1 SEEDS=1 (environment): the sample fractions
+#   and modes measured, the runs each time is the best of, rtusim's --threads for both the full and the sampled
 #   simulation (the full one records the next chunk of rays while the model replays this one when it has two
-#   threads; the sampled one runs its short segments on one), so that both get the same cores
+#   threads; the sampled one runs its short segments on one), so that both get the same cores, and the number
+#   of samples (--sample-seed 1 .. SEEDS) whose errors are summarized: one sample's error says little about an
+#   estimator, the spread over many does (mean and largest |error|, how many lay inside their 95% interval)
 set -euo pipefail
 rtusim=${1:-build/default/rtusim}
 rays=${2:-1000000}
@@ -22,6 +24,7 @@ read -r -a fractions <<< "${FRACTIONS:-0.05 0.02}"
 read -r -a modes <<< "${MODES:-hits cycles-only}"
 repeat=${REPEAT:-3}
 threads=${THREADS:-1}
+seeds=${SEEDS:-1}
 if [ ${#meshes[@]} -eq 0 ]; then
   m=/usr/share/assimp/models
   meshes=("$m/IFC/AC14-FZK-Haus.ifc" "$m/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb"
@@ -41,8 +44,13 @@ run() {  # run STATS ARGS...: one rtusim run; prints its trace_seconds
 }
 least() { awk -v a="$1" -v b="$2" 'BEGIN{print (a == "" || b < a) ? b : a}'; }
 
-printf '| mesh | rays | mode | sample | cycles (full) | estimate | error | 95%% interval | rays simulated | trace s (full / sampled) | speed-up |\n'
-printf '|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n'
+if [ "$seeds" -gt 1 ]; then
+  printf '| mesh | rays | mode | sample | cycles (full) | estimate | error | 95%% interval | rays simulated | trace s (full / sampled) | speed-up | seeds | mean / max abs error | in interval |\n'
+  printf '|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n'
+else
+  printf '| mesh | rays | mode | sample | cycles (full) | estimate | error | 95%% interval | rays simulated | trace s (full / sampled) | speed-up |\n'
+  printf '|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n'
+fi
 for mesh in "${meshes[@]}"; do
   base=$(basename "$mesh")
   for kind in primary incoherent; do
@@ -70,10 +78,28 @@ for mesh in "${meshes[@]}"; do
       est=$(num "['timing']['cycles']" "$tmp/s_$c.json")
       ci=$(num "['timing']['sample']['cycles_ci95']" "$tmp/s_$c.json")
       simf=$(num "['timing']['sample']['simulated_fraction']" "$tmp/s_$c.json")
+      # Further samples (seeds 2 .. SEEDS): their estimates and intervals only.
+      errs="$est:$ci"
+      for seed in $(seq 2 "$seeds"); do
+        out=(--out "$tmp/h2.bin")
+        [ "$mode" = cycles-only ] && out=()
+        "$rtusim" trace --scene "$mesh" --rays "$tmp/r.bin" --device timed --sample "$f" --sample-seed "$seed" \
+          "${out[@]}" --threads "$threads" --stats "$tmp/seed.json" >/dev/null
+        errs="$errs $(num "['timing']['cycles']" "$tmp/seed.json"):$(num "['timing']['sample']['cycles_ci95']" "$tmp/seed.json")"
+      done
       awk -v b="$base" -v k="$kind" -v m="$mode" -v f="$f" -v full="$full" -v est="$est" -v ci="$ci" \
-        -v simf="$simf" -v fs="$full_s" -v ss="${s_s[$c]}" 'BEGIN{
-          printf "| %s | %s | %s | %g | %d | %d | %+.2f%% | +-%.1f%% | %.1f%% | %.2f / %.2f | %.1fx |\n",
-            b, k, m, f, full, est, 100*(est-full)/full, 100*ci/full, 100*simf, fs, ss, fs/ss }'
+        -v simf="$simf" -v fs="$full_s" -v ss="${s_s[$c]}" -v seeds="$seeds" -v errs="$errs" 'BEGIN{
+          printf "| %s | %s | %s | %g | %d | %d | %+.2f%% | +-%.1f%% | %.1f%% | %.2f / %.2f | %.1fx |",
+            b, k, m, f, full, est, 100*(est-full)/full, 100*ci/full, 100*simf, fs, ss, fs/ss
+          if (seeds > 1) {
+            n = split(errs, e, " "); sum = 0; mx = 0; inside = 0
+            for (i = 1; i <= n; i++) {
+              split(e[i], p, ":"); a = p[1] - full; if (a < 0) a = -a
+              sum += a; if (a > mx) mx = a; if (a <= p[2]) inside++
+            }
+            printf " %d | %.2f%% / %.2f%% | %d of %d |", n, 100*sum/n/full, 100*mx/full, inside, n
+          }
+          printf "\n" }'
     done
   done
 done

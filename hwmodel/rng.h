@@ -28,4 +28,13 @@ class Pcg32 {
   uint64_t m_inc;
 };
 
+// SplitMix64's output function (Steele, Lea and Flood, "Fast Splittable Pseudorandom Number Generators",
+// OOPSLA 2014): a 64-bit mix in which nearby inputs give unrelated outputs, for seeds drawn per item.
+constexpr uint64_t splitmix64(uint64_t x) {
+  x += 0x9E3779B97F4A7C15ULL;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
+  return x ^ (x >> 31);
+}
+
 }  // namespace rtu::hw

@@ -44,6 +44,7 @@ DeviceOptions DeviceArgs::options(const std::string& device_name) const {
     d.sample.fraction = sample;
     d.sample.unit_rays = sample_unit;
     d.sample.warmup_rays = sample_warmup;
+    d.sample.seed = sample_seed;
     DeviceArgs a = *this;
     a.format = d.timing.format;
     if (a.bvh_width <= 0) a.bvh_width = d.timing.bvh_width;
@@ -85,6 +86,10 @@ void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_hel
       ->capture_default_str();
   app.add_option("--sample-warmup", o.sample_warmup, "timed device, --sample: rays simulated before each unit")
       ->check(CLI::Range(1u, 1u << 20))
+      ->capture_default_str();
+  app.add_option("--sample-seed", o.sample_seed,
+                 "timed device, --sample: seed of the measured units' offsets (another seed, another sample: "
+                 "how far the estimate moves from seed to seed is its error)")
       ->capture_default_str();
   app.add_option("--watchdog-steps", o.watchdog_steps,
                  "fixed and timed devices: node and leaf visits one ray may make before the watchdog stops the "

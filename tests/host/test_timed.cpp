@@ -217,13 +217,14 @@ TEST_CASE("sampled timing estimates a packet's cycles within its interval; hits 
     CHECK(ss.box_tests == sf.box_tests);
     // The estimate lies inside twice its stated 95% half-width of the full simulation (a fixed seed makes this
     // a deterministic check of the estimator and its interval, not a coin toss), and the interval is narrow
-    // enough to mean something: under 10% for 39 measured units of camera rays, whose cost varies tenfold
-    // between sky and geometry, and under 5% for incoherent rays, whose units cost alike (there the estimate
-    // must also be within 3%).
+    // enough to mean something: under 12% for 39 measured units of camera rays, whose cost varies tenfold
+    // between sky and geometry (a jackknife interval: wider than the residual formula's, which held the truth
+    // too rarely with so few units; timed_engine.cpp), and under 5% for incoherent rays, whose units cost alike
+    // (there the estimate must also be within 3%).
     CHECK(std::abs(est - double(exact)) <= 2.0 * ci);
     CHECK(ci > 0.0);
     if (rays == &primary) {
-      CHECK(ci < 0.10 * double(exact));
+      CHECK(ci < 0.12 * double(exact));
     } else {
       CHECK(ci < 0.05 * double(exact));
       CHECK(std::abs(est - double(exact)) <= 0.03 * double(exact));
@@ -241,11 +242,11 @@ TEST_CASE("sampled timing estimates a packet's cycles within its interval; hits 
     const auto cycles_only = rtu::host::make_device(s.geometry, o);
     cycles_only->trace_batch(rays->data(), hc.data(), n, false, 2, sc);
     // Its auxiliary is a 1-in-32 functional probe of each unit (or the ray count, whichever fits better), so its
-    // interval is also under 10%.
+    // interval is also under 12%.
     const double est2 = double(cycles_only->timed()->timing().cycles),
                  ci2 = cycles_only->timed()->sampling().ci95();
     CHECK(std::abs(est2 - double(exact)) <= 2.0 * ci2);
-    CHECK(ci2 < 0.10 * double(exact));
+    CHECK(ci2 < 0.12 * double(exact));
     CHECK(sc.rays < n / 4);
 
     // The same seed gives the same estimate, whatever the thread count.

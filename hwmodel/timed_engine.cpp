@@ -668,9 +668,10 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   // max(rays, box tests / box rate, primitive tests / test rate) it replaced: the probe's estimate of a sum is
   // unbiased, that of a maximum is not (a maximum of noisy estimates lies above the maximum of their means), and
   // the measured units pair their cycles with exact values while the rest carry the probe's. On the six 4M-ray
-  // benchmark rows at F = 0.01 (every second unit measured, then 50 systematic samples of those drawn offline)
-  // the bound's estimates of SuzanneSubdiv_252 incoherent rays were 1.5% low on average with a 95% interval
-  // that held the truth in 26% of the samples; the sum's, 0.5% and 92%.
+  // benchmark rows at F = 0.01, cycles only, ten seeds each (README, "Sampled timing"), the mean |error| went
+  // from 1.51 / 1.32 / 2.76 / 0.51 / 2.64 / 0.33% to 1.20 / 0.97 / 1.86 / 0.24 / 2.54 / 0.31% (AC14-FZK-Haus,
+  // 2CylinderEngine, SuzanneSubdiv_252; camera / incoherent rays) and the estimates inside their 95% interval
+  // from 50 of 60 to 57 of 60.
   std::vector<double> aux(units);
   TraversalStats scratch;
   // Per ray the datapath's box and primitive tests: every ray with hits; without, every kProbe-th ray (a cheap
@@ -802,8 +803,9 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   // variance (the ratio recomputed with each measured unit left out; Cochran, "Sampling Techniques", 3rd ed.,
   // 6.10), finite-population corrected. The residual formula it replaced, (total / mean x)^2 s_r^2 / m, runs
   // low with ~10 units a packet and skewed units (camera rays: a few through geometry among many through sky):
-  // offline, as above, its 95% intervals held the truth in 78% of the samples of AC14-FZK-Haus and
-  // 2CylinderEngine camera rays; the jackknife's in 86-90%.
+  // replaying 50 systematic samples offline from a run that measured every second unit, its 95% intervals held
+  // the truth in 78% of the samples of AC14-FZK-Haus and 2CylinderEngine camera rays, the jackknife's in
+  // 86-90%. On the ten seeds above both held it equally often; the jackknife's intervals are 10-15% wider.
   const double m = double(measured_c.size()), M = double(units - 2);
   auto ratio_estimate = [&](const std::vector<double>& x, double& var, double& ratio) {
     double sum_c = 0.0, sum_x = 0.0, total = 0.0;

@@ -125,7 +125,7 @@ inline void set_axis(FixedRay& r, int a, int64_t d, int64_t one, int rcp_bits, i
   const uint64_t mag = uint64_t(std::max(std::abs(r.rcp_dn[a]), std::abs(r.rcp_up[a])));
   const int bits = 64 - __builtin_clzll(mag);
   const int e = std::max(0, bits - (rcp_bits + 1));
-  r.rcpm_dn[a] = r.rcp_dn[a] >> e;                                       // floor
+  r.rcpm_dn[a] = r.rcp_dn[a] >> e;                                     // floor
   r.rcpm_up[a] = e == 0 ? r.rcp_up[a] : ((r.rcp_up[a] - 1) >> e) + 1;  // ceil
   r.rcp_sh[a] = sh0 - e;
 }

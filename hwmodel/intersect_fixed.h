@@ -62,7 +62,7 @@ class RaySetup {
  private:
   QuantFrame m_frame;
   FixedFormat m_f;
-  bool m_fast = false;  // the frame origin and format allow the fast path
+  bool m_fast = false;    // the frame origin and format allow the fast path
   int64_t m_o64[3] = {};  // frame origin << F
   int64_t m_olim = 0;     // 2^(B+G+F): origins at or beyond it are out of frame
   int64_t m_one = 0;      // 2^(D+R)

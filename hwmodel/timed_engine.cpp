@@ -777,7 +777,8 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   // Systematic sample of units 1 .. units-2: every k-th from a seeded offset in [1, k], drawn afresh for each
   // packet (the seed and the packet's number since the engine was made), so that the packets of one large run,
   // often consecutive rows of one image, are sampled independently and their errors average out.
-  const uint64_t offset = 1 + (splitmix64(m_sample.seed + 0x9E3779B97F4A7C15ull * m_sample_stats.packets_sampled) >> 32) % k;
+  const uint64_t offset =
+      1 + (splitmix64(m_sample.seed + 0x9E3779B97F4A7C15ull * m_sample_stats.packets_sampled) >> 32) % k;
   std::vector<double> measured_c;  // cycles of each measured unit
   std::vector<size_t> measured_j;  // its index
   double probe_error2 = 0.0;       // sum over measured units of (probe's auxiliary - exact auxiliary)^2

@@ -581,6 +581,31 @@ TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the 
             .status == 2);
 }
 
+TEST_CASE("trace --sample: --sample-seed draws the sample; the same seed, the same estimate", "[cli][timing]") {
+  const fs::path d = temp_dir();
+  const std::string rays = (d / "s.rays").string(), stats = (d / "s.json").string();
+  REQUIRE(run("rays --scene builtin:seed --kind incoherent --count 20000 --out " + rays).status == 0);
+  // Units of 16 rays with 16 warm-up rays: 1,250 units, every 20th measured (F = 0.05), cycles only.
+  auto estimate = [&](int seed) {
+    const Run r =
+        run("trace --scene builtin:seed --rays " + rays + " --device timed --sample 0.05 --sample-unit 16" +
+            " --sample-warmup 16 --sample-seed " + std::to_string(seed) + " --stats " + stats);
+    INFO(r.output);
+    REQUIRE(r.status == 0);
+    const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+    REQUIRE(j["timing"]["sample"]["units_measured"].get<uint64_t>() > 50);
+    return j["timing"]["cycles"].get<uint64_t>();
+  };
+  const uint64_t a = estimate(1), b = estimate(1), c = estimate(2), e = estimate(3);
+  CHECK(a == b);
+  CHECK((c != a || e != a));  // other offsets, other units measured
+  const Run bad =
+      run("trace --scene builtin:seed --rays " + rays + " --device timed --sample 0.05 --sample-seed x");
+  CHECK(bad.status != 0);
+  CHECK(bad.status < 128);
+  CHECK(bad.output.find("--sample-seed") != std::string::npos);
+}
+
 TEST_CASE("render --mode hybrid on the timed device: raster and trace cycles, rays saved, both modes",
           "[cli][hybrid]") {
   const fs::path d = temp_dir();

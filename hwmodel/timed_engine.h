@@ -224,12 +224,13 @@ class TimingModel {
 // ray_slots tail rays, so that its cost, the cycles between the hit of the warm-up's last ray and the unit's last
 // hit counted in order of writing, is measured in steady state. The cycles of the units between are a ratio
 // estimate (Cochran, "Sampling Techniques", ch. 6): measured cycles / measured auxiliary times the auxiliary of
-// all of them, with a 95% confidence interval from the measured units' residuals (finite-population corrected).
-// The auxiliary is each unit's throughput bound from the datapath's test counts: of every ray when hits are
-// needed (the datapath then traces every ray anyway; only the timing model is sampled), else of every 32nd ray
-// scaled up for the units not measured (cycles only: a cheap functional probe that estimates the auxiliary's
-// total) and of all rays for the measured ones (two-phase sampling). Measured units are drawn afresh for each
-// packet. A packet too short for 10 measured
+// all of them, with a 95% confidence interval from the jackknife variance of the ratio (finite-population
+// corrected). The auxiliary is each unit's work from the datapath's test counts, rays + box tests / box rate +
+// primitive tests / test rate (or the plain ray count, whichever gives the smaller variance): of every ray when
+// hits are needed (the datapath then traces every ray anyway; only the timing model is sampled), else of every
+// 32nd ray scaled up for the units not measured (cycles only: a cheap functional probe that estimates the
+// auxiliary's total) and of all rays for the measured ones (two-phase sampling). Measured units are drawn afresh
+// for each packet (offsets from the seed and the packet's number). A packet too short for 10 measured
 // units at every k-th is sampled at the largest k that gives 10 (a short last packet of a ray file), provided the
 // measured units' rays with their warm-up and tail are still at most half of its rays; otherwise it is simulated
 // in full. Timing counters (cache, DRAM, tests) are those of the simulated rays scaled to the packet.

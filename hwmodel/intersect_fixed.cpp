@@ -85,6 +85,11 @@ RayStatus setup_ray(const Ray& r, const QuantFrame& frame, const FixedFormat& f,
 
 namespace {
 
+// FixedRay::narrow: the box test's products fit 64 bits in this format.
+bool narrow_products(const FixedFormat& f) {
+  return f.translated_bits() + f.rcp_bits + 2 <= 63 && f.frac_bits + f.rcp_bits - f.t_frac_bits <= 61;
+}
+
 // One axis of set_direction: one = 2^(D+R), sh0 = F + R - T.
 inline void set_axis(FixedRay& r, int a, int64_t d, int64_t one, int rcp_bits, int sh0) {
   r.d[a] = d;
@@ -136,26 +141,17 @@ void set_direction(FixedRay& r, const int64_t d[3], const FixedFormat& f) {
   const int64_t one = int64_t(1) << (f.dir_bits + f.rcp_bits);  // D + R <= 62 (validate)
   const int sh0 = f.frac_bits + f.rcp_bits - f.t_frac_bits;
   for (int a = 0; a < 3; ++a) set_axis(r, a, d[a], one, f.rcp_bits, sh0);
-  r.narrow = f.translated_bits() + f.rcp_bits + 2 <= 63 && f.frac_bits + f.rcp_bits - f.t_frac_bits <= 61;
+  r.narrow = narrow_products(f);
 }
 
 RaySetup::RaySetup(const QuantFrame& frame, const FixedFormat& f) : m_frame(frame), m_f(f) {
-  // The fast path's origin conversion is to_grid_64's: a frame origin within 2^36 steps of world 0.
-  m_fast = true;
-  for (int a = 0; a < 3; ++a) {
-    m_fast = m_fast && frame.origin[a] > -(int64_t(1) << 36) && frame.origin[a] < (int64_t(1) << 36);
-    m_o64[a] = m_fast ? frame.origin[a] << f.frac_bits : 0;
-  }
   m_olim = int64_t(1) << (f.coord_bits + f.guard_bits + f.frac_bits);
   m_one = int64_t(1) << (f.dir_bits + f.rcp_bits);
-  m_origin_sh = f.frac_bits - frame.step_exp;
   set_format_fields(m_fields, f);
-  const int64_t d[3] = {int64_t(1) << f.dir_bits, 0, 0};
-  set_direction(m_fields, d, f);  // for narrow
+  m_fields.narrow = narrow_products(f);
 }
 
 RayStatus RaySetup::operator()(const Ray& r, FixedRay& out) const {
-  if (!m_fast) return setup_ray(r, m_frame, m_f, out);
   uint32_t ob[3], db[3];
   for (int a = 0; a < 3; ++a) {
     ob[a] = std::bit_cast<uint32_t>(r.origin[a]);
@@ -169,24 +165,11 @@ RayStatus RaySetup::operator()(const Ray& r, FixedRay& out) const {
   for (int a = 0; a < 3; ++a) odd = odd || (ob[a] & kExp) == kExp || (db[a] & kExp) == kExp;
   if (odd) return setup_ray(r, m_frame, m_f, out);
 
-  // Origin: to_grid_64 (the frame origin is within its bounds), with 0 exact.
+  // Origin: to_grid_64 (setup_ray's first choice too); where it does not apply, setup_ray's slower paths.
   for (int a = 0; a < 3; ++a) {
-    int64_t m;
-    int k;
-    split_float(r.origin[a], m, k);
-    const int sh = k + m_origin_sh;
     int64_t g;
-    if (m == 0) {
-      g = -m_o64[a];
-    } else if (sh >= 0) {
-      if (sh > 36) return setup_ray(r, m_frame, m_f, out);
-      g = (m << sh) - m_o64[a];
-    } else {
-      const int ns = -sh;
-      const int64_t oa = m_o64[a] < 0 ? -m_o64[a] : m_o64[a];
-      if (ns > 36 || oa >= (int64_t(1) << (60 - ns))) return setup_ray(r, m_frame, m_f, out);
-      g = round_shift64(m - m_o64[a] * (int64_t(1) << ns), ns, Round::kNearestEven);
-    }
+    if (!m_frame.to_grid_64(r.origin[a], a, Round::kNearestEven, m_f.frac_bits, g))
+      return setup_ray(r, m_frame, m_f, out);
     if (g >= m_olim || g <= -m_olim) return RayStatus::kOutOfFrame;
     out.o[a] = g;
   }

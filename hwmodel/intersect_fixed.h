@@ -51,9 +51,9 @@ void set_format_fields(FixedRay& r, const FixedFormat& f);
 RayStatus setup_ray(const Ray& r, const QuantFrame& frame, const FixedFormat& f, FixedRay& out);
 
 // setup_ray for one frame and format, with their constants worked out once: the same FixedRay and status bit
-// for bit (tests/hwmodel/test_fast_paths.cpp compares them on rays of every kind), in about a third of the
-// instructions on the common path (finite rays, a frame near the world origin, origins within the frame's guard
-// range, a format with D + R <= 52); other rays go through setup_ray. For tracers, which set up every ray.
+// for bit (tests/hwmodel/test_fast_paths.cpp compares them on rays of every kind), in fewer instructions on the
+// common path (finite rays, origins where to_grid_64 applies); other rays go through setup_ray. For tracers,
+// which set up every ray.
 class RaySetup {
  public:
   RaySetup(const QuantFrame& frame, const FixedFormat& f);
@@ -62,12 +62,9 @@ class RaySetup {
  private:
   QuantFrame m_frame;
   FixedFormat m_f;
-  bool m_fast = false;    // the frame origin and format allow the fast path
-  int64_t m_o64[3] = {};  // frame origin << F
-  int64_t m_olim = 0;     // 2^(B+G+F): origins at or beyond it are out of frame
-  int64_t m_one = 0;      // 2^(D+R)
-  int m_origin_sh = 0;    // F - step_exp: a float's exponent k -> the origin's shift k + m_origin_sh
-  FixedRay m_fields{};    // frac, dir_bits, box_shift, t_shift, t_limit and narrow, copied into every ray
+  int64_t m_olim = 0;   // 2^(B+G+F): origins at or beyond it are out of frame
+  int64_t m_one = 0;    // 2^(D+R)
+  FixedRay m_fields{};  // frac, dir_bits, box_shift, t_shift, t_limit and narrow, copied into every ray
 };
 
 // Sets d, zero, rcp_dn and rcp_up from a direction already in D-fraction-bit form (|d| <= 2^D raw, largest

@@ -44,6 +44,10 @@ struct QuantFrame {
     const int64_t og = origin[axis];
     if (og <= -(int64_t(1) << 36) || og >= (int64_t(1) << 36)) return false;
     const int64_t o64 = og << frac_bits;  // |o64| < 2^60
+    if (m == 0) {  // +-0: exactly the frame origin's negative (its exponent would send it down the slow path)
+      g = -o64;
+      return true;
+    }
     if (sh >= 0) {
       if (sh > 36) return false;
       g = (m << sh) - o64;  // |m << sh| < 2^60: |g| < 2^61

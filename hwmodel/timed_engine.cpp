@@ -299,10 +299,15 @@ uint64_t TimingModel::unit_request(const TraceEvent& e, uint32_t k, uint64_t t) 
   return done;
 }
 
-void TimingModel::serve_waiting() {
+uint64_t TimingModel::pop_waiting() {
   const uint64_t key = m_waiting.front();
   std::pop_heap(m_waiting.begin(), m_waiting.end(), std::greater<>());
   m_waiting.pop_back();
+  return key;
+}
+
+void TimingModel::serve_waiting() {
+  const uint64_t key = pop_waiting();
   const uint32_t w = uint32_t(key & ((uint64_t(1) << SlotQueue::kSlotBits) - 1));
   Slot& sl = m_slots[w];
   const uint64_t done = unit_request(sl.ev[sl.pos], w, key >> SlotQueue::kSlotBits);
@@ -403,8 +408,7 @@ void TimingModel::simulate() {
         // This slot's request is the earliest waiting one (the queue serves in the same order).
         if (m_waiting.empty() || m_waiting.front() != (t << SlotQueue::kSlotBits | k)) [[unlikely]]
           throw std::logic_error("timing model: unit requests out of order");
-        std::pop_heap(m_waiting.begin(), m_waiting.end(), std::greater<>());
-        m_waiting.pop_back();
+        pop_waiting();
         next_t = unit_request(e, k, t) + uint64_t(m_c.traversal_latency);
         sl.unit_phase = false;
       }
@@ -788,7 +792,7 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
     seg_stats.add(st);
     measured_c.push_back(double(done[w + U - 1] - done[w - 1]));
     measured_j.push_back(j);
-    // A measured unit's rays were all traced: its own bound replaces the probe's estimate of it (two-phase
+    // A measured unit's rays were all traced: its own work replaces the probe's estimate of it (two-phase
     // sampling: the probe estimates the auxiliary's total, the measured units pair their cycles with the exact
     // value; the same where every ray is probed).
     const double exact = double(U) + double(st.box_tests) / box_rate + double(st.prim_tests) / tri_rate;

@@ -156,6 +156,7 @@ class TimingModel {
   // The unit request of event e of slot k at cycle t: when its result is there.
   uint64_t unit_request(const TraceEvent& e, uint32_t k, uint64_t t);
   void serve_waiting();              // serves the earliest waiting request now (its slot wakes after the result)
+  uint64_t pop_waiting();            // removes and returns the earliest waiting request's key
   void spill(Slot& sl, uint64_t t);  // one stack entry written to memory at t
   uint64_t refill(Slot& sl, uint32_t k, uint64_t t);  // one read back from t: when it is there
   uint64_t line_access(uint64_t line, uint64_t t);

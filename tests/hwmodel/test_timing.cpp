@@ -9,6 +9,7 @@
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
 #include "hwmodel/timed_engine.h"
+#include "timing_checks.h"
 
 using rtu::hw::TimingConfig;
 using rtu::hw::TimingModel;
@@ -252,17 +253,7 @@ TEST_CASE("unit requests served at their fetch give the cycles of requests each 
     }
     CHECK(ca == cb);
     CHECK(done_early == done_late);
-    CHECK(a.cycles == b.cycles);
-    CHECK(a.cache_hits == b.cache_hits);
-    CHECK(a.cache_misses == b.cache_misses);
-    CHECK(a.dram_bytes == b.dram_bytes);
-    CHECK(a.dram_busy_cycles == b.dram_busy_cycles);
-    CHECK(a.queue_stall_cycles == b.queue_stall_cycles);
-    CHECK(a.slot_busy_cycles == b.slot_busy_cycles);
-    CHECK(a.box_issue_cycles == b.box_issue_cycles);
-    CHECK(a.tri_issue_cycles == b.tri_issue_cycles);
-    CHECK(a.stack_spills == b.stack_spills);
-    CHECK(a.stack_refills == b.stack_refills);
+    check_same_timing(a, b);
     // Both kinds of fetch occur, so both paths are taken.
     CHECK(a.cache_misses > 100);
     if (v.cache_kib > 0) CHECK(a.cache_hits > 1000);

@@ -162,7 +162,7 @@ TEST_CASE("ring init reports a device that refuses the ring at enable", "[ring][
   CHECK(ring.error_info() == reg::kControl);
 }
 
-TEST_CASE("ring submit writes only memory; each commit is a barrier, then the tail", "[ring][mock]") {
+TEST_CASE("ring submit writes only memory, each commit is a barrier, then the tail", "[ring][mock]") {
   MockHal hal(64 * 1024);
   Arena arena(0, 64 * 1024);
   Ring ring;
@@ -271,7 +271,7 @@ TEST_CASE("ring: 1000 packets through 4 slots with random commits arrive complet
   CHECK(hal.consumed() == 1000);
 }
 
-TEST_CASE("ring: a full ring is committed, then waited on; a device that never moves gives kTimeout",
+TEST_CASE("ring: a full ring is committed, then waited on, a device that never moves gives kTimeout",
           "[ring][mock]") {
   MockHal hal(4096);
   Arena arena(0, 4096);

@@ -476,7 +476,7 @@ TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad 
   CHECK(e.output.find("not a sweep file") != std::string::npos);
 }
 
-TEST_CASE("plan: the fewest coordinate bits within the budget, and the reason; an impossible budget fails",
+TEST_CASE("plan: the fewest coordinate bits within the budget, and the reason, an impossible budget fails",
           "[cli][sweep]") {
   const fs::path d = temp_dir();
   const std::string json = (d / "plan.json").string();
@@ -581,7 +581,7 @@ TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the 
             .status == 2);
 }
 
-TEST_CASE("trace --sample: --sample-seed draws the sample; the same seed, the same estimate", "[cli][timing]") {
+TEST_CASE("trace --sample: --sample-seed draws the sample, the same seed, the same estimate", "[cli][timing]") {
   const fs::path d = temp_dir();
   const std::string rays = (d / "s.rays").string(), stats = (d / "s.json").string();
   REQUIRE(run("rays --scene builtin:seed --kind incoherent --count 20000 --out " + rays).status == 0);

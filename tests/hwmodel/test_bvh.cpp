@@ -180,7 +180,7 @@ TEST_CASE("statistics and hits do not depend on the thread count", "[bvh][float]
   CHECK(s1.prim_tests == s2.prim_tests);
 }
 
-TEST_CASE("tiny scenes use brute force automatically; planes stay out of the BVH", "[bvh][float]") {
+TEST_CASE("tiny scenes use brute force automatically, planes stay out of the BVH", "[bvh][float]") {
   Geometry g;
   g.triangles.push_back({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
   g.spheres.push_back({{0, 0, -3}, 1.0f});

@@ -322,7 +322,7 @@ Ray grid_ray(const int64_t origin[3], const int64_t dir[3], int k) {
 
 // ---------------------------------------------------------------------------------------------------------------
 
-TEST_CASE("fixed formats: every preset validates; bad widths are rejected with their rule", "[fixed][format]") {
+TEST_CASE("fixed formats: every preset validates, bad widths are rejected with their rule", "[fixed][format]") {
   REQUIRE_FALSE(format_presets().empty());
   for (const FixedFormat& f : format_presets()) {
     INFO(f.describe());
@@ -364,7 +364,7 @@ TEST_CASE("fixed formats: every preset validates; bad widths are rejected with t
   CHECK_THROWS_AS(format_preset("nope"), std::invalid_argument);
 }
 
-TEST_CASE("quantization frame: fraction bits equal a finer frame; rounding checked in world space",
+TEST_CASE("quantization frame: fraction bits equal a finer frame, rounding checked in world space",
           "[fixed][frame]") {
   const uint64_t seed = 4711;
   INFO("seed " << seed);
@@ -869,7 +869,7 @@ TEST_CASE("triangle test: rays exactly through a shared edge or vertex hit (wate
   CHECK(fan_rays > 2000);
 }
 
-TEST_CASE("triangle test: hit/miss and t against long double Moller-Trumbore; degenerate triangles miss",
+TEST_CASE("triangle test: hit/miss and t against long double Moller-Trumbore, degenerate triangles miss",
           "[fixed][triangle]") {
   const uint64_t seed = 99991;
   INFO("seed " << seed);

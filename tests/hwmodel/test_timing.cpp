@@ -165,7 +165,7 @@ TEST_CASE("stack entries beyond the short stack spill and refill through DRAM", 
   CHECK(cycles == expected);
 }
 
-TEST_CASE("feeding rays in chunks gives the same cycles; runs repeat exactly", "[timing]") {
+TEST_CASE("feeding rays in chunks gives the same cycles, runs repeat exactly", "[timing]") {
   TimingConfig c = test_config();
   c.ray_slots = 7;
   c.queue_depth = 3;

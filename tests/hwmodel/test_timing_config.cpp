@@ -179,7 +179,7 @@ TEST_CASE("set_timing_key sets what it parses and refuses the rest, naming the k
   CHECK(error_of([&] { set_timing_key(c, "name", "x"); }).find("unknown") != std::string::npos);
 }
 
-TEST_CASE("validate names the first bad key; unknown presets list the known ones", "[timing][config]") {
+TEST_CASE("validate names the first bad key, unknown presets list the known ones", "[timing][config]") {
   TimingConfig c;
   c.queue_depth = 0;
   c.cache_ways = 0;

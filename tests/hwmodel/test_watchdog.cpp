@@ -287,7 +287,7 @@ void make_dag(uint8_t* image, uint32_t nodes) {
 
 }  // namespace
 
-TEST_CASE("from_bytes refuses shared subtrees; the automatic step bound stops them anyway", "[watchdog]") {
+TEST_CASE("from_bytes refuses shared subtrees, the automatic step bound stops them anyway", "[watchdog]") {
   const DeviceImage good = encode(soup(), 4);
   REQUIRE(good.header().node_count >= 20);
   std::vector<uint64_t> words(good.size() / 8);

@@ -682,14 +682,23 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   // functional probe, scaled up) for the auxiliary's total; a measured unit's own value comes from all its rays
   // (below). On 4M camera rays of the three benchmark meshes at F = 0.01 a 1-in-32 probe gave the same errors
   // as 1-in-16 to within 0.15% of the cycles, in about 20% less time.
+  // The probed ray of each block of kProbe rays is drawn at random within it (seeded), not its first: a fixed
+  // position probes the same image columns in every row when the row is a multiple of kProbe pixels (a 512-pixel
+  // row: columns 0, 32, ..., 480), and on AC14-FZK-Haus's camera at 512 x 384 those columns' work is 3.7% below
+  // the image's, a bias of every estimate that no number of measured units removes.
   constexpr size_t kProbe = 32;
   const size_t stride = m_sample.need_hits ? 1 : kProbe;
   const size_t probes = (n + stride - 1) / stride;
+  const uint64_t draw = splitmix64(m_sample.seed + 0x9E3779B97F4A7C15ull * m_sample_stats.packets_sampled);
+  auto probed = [&](size_t q) {  // the ray probed in block q
+    const size_t first = q * stride, len = std::min(stride, n - first);
+    return len == 1 ? first : first + size_t(splitmix64(draw ^ (0xD1B54A32D192ED03ull * (q + 1))) % len);
+  };
   std::vector<uint32_t> box(probes), prim(probes);
   TraversalStats probe_stats;
   run_batch(probes, m_box_unit ? 1 : m_opt.threads, m_sample.need_hits ? s : probe_stats,
             [&](size_t q, TraversalStats& st) {
-              const size_t i = q * stride;
+              const size_t i = probed(q);
               const uint64_t b0 = st.box_tests, p0 = st.prim_tests;
               const Hit h = m_tracer->trace(rays[i], any_hit, st);
               if (m_sample.need_hits) hits[i] = h;
@@ -699,16 +708,19 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   const uint64_t stuck = m_sample.need_hits ? s.watchdog_rays : probe_stats.watchdog_rays;
   if (stuck > 0) throw WatchdogError(m_tracer->watchdog_report(rays, n, any_hit, stuck), 0);
   const double box_rate = double(m_c.box_rate) * m_c.box_units, tri_rate = double(m_c.tri_rate) * m_c.tri_units;
+  std::vector<double> unit_box(units), unit_prim(units), unit_probes(units);
+  for (size_t q = 0; q < probes; ++q) {
+    const size_t j = probed(q) / U;
+    unit_box[j] += box[q];
+    unit_prim[j] += prim[q];
+    unit_probes[j] += 1.0;
+  }
+  std::vector<uint8_t> tests_prims(units);  // the unit's probed rays test a primitive (the strata, below)
   for (size_t j = 0; j < units; ++j) {
-    double b = 0.0, p = 0.0, m = 0.0;
-    const size_t end = std::min(n, (j + 1) * U);
-    for (size_t i = (j * U + stride - 1) / stride * stride; i < end; i += stride) {
-      b += box[i / stride];
-      p += prim[i / stride];
-      m += 1.0;
-    }
-    const double rays_in_unit = double(end - j * U), scale = m > 0.0 ? rays_in_unit / m : 0.0;
-    aux[j] = rays_in_unit + b * scale / box_rate + p * scale / tri_rate;
+    const double rays_in_unit = double(std::min(n, (j + 1) * U) - j * U),
+                 scale = unit_probes[j] > 0.0 ? rays_in_unit / unit_probes[j] : 0.0;
+    aux[j] = rays_in_unit + unit_box[j] * scale / box_rate + unit_prim[j] * scale / tri_rate;
+    tests_prims[j] = unit_prim[j] > 0.0;
   }
   TraversalStats& seg_stats = m_sample.need_hits ? scratch : s;
 
@@ -778,25 +790,72 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   seg_stats.add(segment(0, 0, U, std::min(tail, n - U), false));
   const uint64_t first_cycles = done[U - 1] - start;
 
-  // Systematic sample of units 1 .. units-2: every k-th from a seeded offset in [1, k], drawn afresh for each
-  // packet (the seed and the packet's number since the engine was made), so that the packets of one large run,
-  // often consecutive rows of one image, are sampled independently and their errors average out.
-  const uint64_t offset =
-      1 + (splitmix64(m_sample.seed + 0x9E3779B97F4A7C15ull * m_sample_stats.packets_sampled) >> 32) % k;
-  std::vector<double> measured_c;  // cycles of each measured unit
-  std::vector<size_t> measured_j;  // its index
-  double probe_error2 = 0.0;       // sum over measured units of (probe's auxiliary - exact auxiliary)^2
-  for (size_t j = offset; j < last; j += k) {
+  // The units 1 .. units-2 to measure, in strata (below), drawn afresh for each packet (from the seed and the
+  // packet's number since the engine was made), so that the packets of one large run, often consecutive rows of
+  // one image, are sampled independently and their errors average out.
+  struct Stratum {
+    std::vector<size_t> units;       // its units, in order
+    std::vector<size_t> picked;      // the measured ones among them (indices into units)
+    std::vector<double> measured_c;  // their cycles
+    double probe_error2 = 0.0;       // sum over them of (probe's auxiliary - exact auxiliary)^2
+  };
+  std::vector<Stratum> strata;
+  {
+    // Two strata where both are large: the units whose probed rays test no primitive and those whose rays do
+    // (camera rays: sky and geometry, a few units costing ten times the rest). The sample is shared in
+    // proportion to each stratum's total auxiliary (so the costly units get most of it), at least 2 each, and
+    // spread evenly over each stratum's units in order (systematic, from a seeded fraction of a step).
+    // Otherwise one stratum of every unit, every k-th from a seeded offset in [1, k] (systematic sampling; the
+    // incoherent streams, where nearly every unit tests primitives). Why: on 4M camera rays of the benchmark
+    // meshes at F = 0.01 (k = 100), replaying 300-400 draws offline over every unit's cycles from a full
+    // simulation (cycles only), the systematic sample's error was 1.6 / 3.9 / 3.8% rms on AC14-FZK-Haus /
+    // 2CylinderEngine / SuzanneSubdiv_252, the strata's 1.2-1.3 / 1.6-2.4 / 1.9-2.0%: one in five units tests
+    // a primitive there and a systematic sample of ~10 units a packet holds two or three of them, its step
+    // in step with the image's rows (every 100th unit of 256 rays at a row of ~2,300: at 90 or 99 the
+    // systematic sample's error was 9-22% rms).
+    std::vector<size_t> without, with;
+    for (size_t j = 1; j < last; ++j) (tests_prims[j] ? with : without).push_back(j);
+    if (without.size() >= 2 * k && with.size() >= 2 * k) {
+      double x_without = 0.0, x_with = 0.0;
+      for (size_t j : without) x_without += aux[j];
+      for (size_t j : with) x_with += aux[j];
+      const size_t total = std::max<size_t>(4, size_t(std::llround(double(last - 1) / double(k))));
+      const size_t n0 =
+          std::clamp<size_t>(size_t(std::llround(double(total) * x_without / (x_without + x_with))), 2, total - 2);
+      const size_t take[2] = {std::min(n0, without.size()), std::min(total - n0, with.size())};
+      strata.resize(2);
+      strata[0].units = std::move(without);
+      strata[1].units = std::move(with);
+      for (size_t h = 0; h < 2; ++h) {
+        Stratum& st = strata[h];
+        const double step = double(st.units.size()) / double(take[h]);
+        const double from = double(splitmix64(draw + h + 1) >> 11) * 0x1p-53 * step;  // in [0, step)
+        for (size_t i = 0; i < take[h]; ++i)
+          st.picked.push_back(std::min(st.units.size() - 1, size_t(from + double(i) * step)));
+      }
+    } else {
+      strata.resize(1);
+      for (size_t j = 1; j < last; ++j) strata[0].units.push_back(j);
+      for (size_t j = 1 + (draw >> 32) % k; j < last; j += k) strata[0].picked.push_back(j - 1);
+    }
+  }
+  // Measured in the order of the rays (each after its warm-up, the cache carried from the one before).
+  std::vector<std::pair<size_t, size_t>> order;  // (unit, stratum)
+  for (size_t h = 0; h < strata.size(); ++h)
+    for (size_t q : strata[h].picked) order.push_back({strata[h].units[q], h});
+  std::sort(order.begin(), order.end());
+  size_t measured = 0;
+  for (const auto& [j, h] : order) {
     const size_t u0 = j * U, w = std::min(W, u0), t = std::min(tail, n - u0 - U);
     const TraversalStats st = segment(u0, w, U, t, true);
     seg_stats.add(st);
-    measured_c.push_back(double(done[w + U - 1] - done[w - 1]));
-    measured_j.push_back(j);
+    strata[h].measured_c.push_back(double(done[w + U - 1] - done[w - 1]));
+    ++measured;
     // A measured unit's rays were all traced: its own work replaces the probe's estimate of it (two-phase
     // sampling: the probe estimates the auxiliary's total, the measured units pair their cycles with the exact
     // value; the same where every ray is probed).
     const double exact = double(U) + double(st.box_tests) / box_rate + double(st.prim_tests) / tri_rate;
-    probe_error2 += (aux[j] - exact) * (aux[j] - exact);
+    strata[h].probe_error2 += (aux[j] - exact) * (aux[j] - exact);
     aux[j] = exact;
   }
   // The last unit, after the sampled ones (the cache as they and its functional warming leave it).
@@ -804,50 +863,43 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   seg_stats.add(segment(last * U, w_last, u_last, 0, true));
   const uint64_t last_cycles = done.back() - done[w_last - 1];
   m_model->record_done(nullptr);
-  // The ratio estimate of units 1 .. units-2 on an auxiliary x (known for every unit), and its jackknife
-  // variance (the ratio recomputed with each measured unit left out; Cochran, "Sampling Techniques", 3rd ed.,
-  // 6.10), finite-population corrected. The residual formula it replaced, (total / mean x)^2 s_r^2 / m, runs
-  // low with ~10 units a packet and skewed units (camera rays: a few through geometry among many through sky):
-  // replaying 50 systematic samples offline from a run that measured every second unit, its 95% intervals held
-  // the truth in 78% of the samples of AC14-FZK-Haus and 2CylinderEngine camera rays, the jackknife's in
-  // 86-90%. On the ten seeds above both held it equally often; the jackknife's intervals are 10-15% wider.
-  const double m = double(measured_c.size()), M = double(units - 2);
-  auto ratio_estimate = [&](const std::vector<double>& x, double& var, double& ratio) {
+  // Each stratum's cycles: the ratio estimate on the work (known for every unit), and its jackknife variance
+  // (the ratio recomputed with each measured unit left out; Cochran, "Sampling Techniques", 3rd ed., 6.10),
+  // finite-population corrected; the packet's, their sums (separate ratio estimates, Cochran 6.10). The
+  // residual formula the jackknife replaced, (total / mean x)^2 s_r^2 / m, runs low with ~10 units a packet and
+  // skewed units (camera rays: a few through geometry among many through sky): replaying 50 systematic samples
+  // offline from a run that measured every second unit, its 95% intervals held the truth in 78% of the samples
+  // of AC14-FZK-Haus and 2CylinderEngine camera rays, the jackknife's in 86-90%.
+  // (The plain ray count, the other auxiliary once offered where its variance came out smaller, is gone: the
+  // two variances, each from ~10 units, came out nearly equal in packets where the estimates were 2x apart,
+  // and in the offline replays above the count's choice never helped: camera rows 1.6-4.0% rms with it, the
+  // same or better without; incoherent ones 0.43 -> 0.38%, 0.42 -> 0.41%, 0.73 -> 0.70%.)
+  double estimate = double(first_cycles) + double(last_cycles), var = 0.0;
+  for (const Stratum& st : strata) {
+    const double m = double(st.measured_c.size()), M = double(st.units.size());
     double sum_c = 0.0, sum_x = 0.0, total = 0.0;
-    for (size_t q = 0; q < measured_c.size(); ++q) {
-      sum_c += measured_c[q];
-      sum_x += x[measured_j[q]];
+    for (size_t q = 0; q < st.picked.size(); ++q) {
+      sum_c += st.measured_c[q];
+      sum_x += aux[st.units[st.picked[q]]];
     }
-    for (size_t j = 1; j < last; ++j) total += x[j];
-    ratio = sum_c / sum_x;
-    var = 0.0;
+    for (size_t j : st.units) total += aux[j];
+    const double ratio = sum_x > 0.0 ? sum_c / sum_x : 0.0;
+    estimate += ratio * total;
     if (m > 1) {
       double sum_r = 0.0, sum_r2 = 0.0;
-      for (size_t q = 0; q < measured_c.size(); ++q) {
-        const double rest = sum_x - x[measured_j[q]];
-        const double r = rest > 0.0 ? (sum_c - measured_c[q]) / rest : ratio;
+      for (size_t q = 0; q < st.picked.size(); ++q) {
+        const double rest = sum_x - aux[st.units[st.picked[q]]];
+        const double r = rest > 0.0 ? (sum_c - st.measured_c[q]) / rest : ratio;
         sum_r += r;
         sum_r2 += r * r;
       }
       const double spread = std::max(0.0, sum_r2 - sum_r * sum_r / m);  // sum of (r_(q) - mean)^2
-      var = (m - 1) / m * spread * total * total * std::max(0.0, 1.0 - m / M);
+      var += (m - 1) / m * spread * total * total * std::max(0.0, 1.0 - m / M);
     }
-    return ratio * total;
-  };
-  // Two auxiliaries: the work and the ray count; the one with the smaller variance is used (the work follows
-  // camera rays' sky/geometry contrast; for incoherent rays, whose units cost alike, the probe's sampling noise
-  // can make the plain ray count the better one).
-  std::vector<double> count(units);
-  for (size_t j = 0; j < units; ++j) count[j] = double(std::min(n, (j + 1) * U) - j * U);
-  double var_work = 0.0, var_count = 0.0, ratio_work = 0.0, ratio_count = 0.0;
-  const double est_work = ratio_estimate(aux, var_work, ratio_work),
-               est_count = ratio_estimate(count, var_count, ratio_count);
-  // The probe's error in the work's total: each unit not measured carries its own, whose variance the measured
-  // units show (their probe value against their exact one); the estimate scales it by the ratio.
-  var_work += ratio_work * ratio_work * (M - m) * (probe_error2 / m);
-  const bool use_work = var_work <= var_count;
-  const double var = use_work ? var_work : var_count;
-  const double estimate = double(first_cycles) + (use_work ? est_work : est_count) + double(last_cycles);
+    // The probe's error in the work's total: each unit not measured carries its own, whose variance the measured
+    // units show (their probe value against their exact one); the estimate scales it by the ratio.
+    if (m > 0) var += ratio * ratio * (M - m) * (st.probe_error2 / m);
+  }
   const uint64_t cycles = uint64_t(std::llround(estimate));
   m_model->advance_to(start + cycles);
 
@@ -866,7 +918,8 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   ++m_sample_stats.packets_sampled;
   m_sample_stats.rays_simulated += simulated;
   m_sample_stats.rays_warmed += warmed;
-  m_sample_stats.units_measured += measured_c.size();
+  m_sample_stats.units_measured += measured;
+  if (strata.size() > 1) ++m_sample_stats.packets_stratified;
   m_sample_stats.variance += var;
   return cycles;
 }

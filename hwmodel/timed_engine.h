@@ -216,25 +216,28 @@ class TimingModel {
   uint64_t m_watch_deadline = kNoDeadline;
 };
 
-// Sampled timing (SMARTS-style systematic sampling, Wunderlich et al., ISCA 2003): a TRACE packet is cut into
-// units of unit_rays consecutive rays. The first unit is simulated from the packet's start (its fill) and the last
-// to the packet's end (its drain); of the units between, every k-th (k = round(1 / fraction), from a seeded
-// offset) is simulated after rays whose fetches only warm the cache (functional warming, as SMARTS does; walked
-// backwards until they fix the cache state the simulated rays meet, TimingModel::walk_add, at most
-// cache_warm_rays) and warmup_rays rays simulated in detail but not measured (slots and queues), and before 2 x
-// ray_slots tail rays, so that its cost, the cycles between the hit of the warm-up's last ray and the unit's last
-// hit counted in order of writing, is measured in steady state. The cycles of the units between are a ratio
-// estimate (Cochran, "Sampling Techniques", ch. 6): measured cycles / measured auxiliary times the auxiliary of
-// all of them, with a 95% confidence interval from the jackknife variance of the ratio (finite-population
-// corrected). The auxiliary is each unit's work from the datapath's test counts, rays + box tests / box rate +
-// primitive tests / test rate (or the plain ray count, whichever gives the smaller variance): of every ray when
-// hits are needed (the datapath then traces every ray anyway; only the timing model is sampled), else of every
-// 32nd ray scaled up for the units not measured (cycles only: a cheap functional probe that estimates the
-// auxiliary's total) and of all rays for the measured ones (two-phase sampling). Measured units are drawn afresh
-// for each packet (offsets from the seed and the packet's number). A packet too short for 10 measured
-// units at every k-th is sampled at the largest k that gives 10 (a short last packet of a ray file), provided the
-// measured units' rays with their warm-up and tail are still at most half of its rays; otherwise it is simulated
-// in full. Timing counters (cache, DRAM, tests) are those of the simulated rays scaled to the packet.
+// Sampled timing (SMARTS-style sampling, Wunderlich et al., ISCA 2003): a TRACE packet is cut into units of
+// unit_rays consecutive rays. The first unit is simulated from the packet's start (its fill) and the last to the
+// packet's end (its drain); of the units between, about one in k (k = round(1 / fraction)) is simulated after rays
+// whose fetches only warm the cache (functional warming, as SMARTS does; walked backwards until they fix the
+// cache state the simulated rays meet, TimingModel::walk_add, at most cache_warm_rays) and warmup_rays rays
+// simulated in detail but not measured (slots and queues), and before 2 x ray_slots tail rays, so that its cost,
+// the cycles between the hit of the warm-up's last ray and the unit's last hit counted in order of writing, is
+// measured in steady state. The units between are sampled in strata where there are two large ones (units whose
+// rays test no primitive and units whose rays do: camera rays' sky and geometry), the sample shared by each
+// stratum's auxiliary total and spread evenly over its units; otherwise systematically, every k-th from a seeded
+// offset. Each stratum's cycles are a ratio estimate (Cochran, "Sampling Techniques", ch. 6): measured cycles /
+// measured auxiliary times the auxiliary of all its units, with the jackknife variance of the ratio
+// (finite-population corrected); the packet's 95% interval is from their sum. The auxiliary is each unit's work
+// from the datapath's test counts, rays + box tests / box rate + primitive tests / test rate: of every ray when
+// hits are needed (the datapath then traces every ray anyway; only the timing model is sampled), else of one ray
+// in each block of 32, at a seeded random place in the block, scaled up for the units not measured (cycles only:
+// a cheap functional probe that estimates the auxiliary's total) and of all rays for the measured ones (two-phase
+// sampling). Measured units and probed rays are drawn afresh for each packet (from the seed and the packet's
+// number). A packet too short for 10 measured units at every k-th is sampled at the largest k that gives 10 (a
+// short last packet of a ray file), provided the measured units' rays with their warm-up and tail are still at
+// most half of its rays; otherwise it is simulated in full. Timing counters (cache, DRAM, tests) are those of the
+// simulated rays scaled to the packet.
 struct SampleOptions {
   double fraction = 0.0;  // 0 (or >= 1): simulate every ray
   uint32_t unit_rays = 256;
@@ -253,8 +256,9 @@ struct SampleStats {
   uint64_t rays = 0, rays_simulated = 0;      // rays in them, and rays through the timing model (with warm-up)
   uint64_t rays_warmed = 0;                   // rays traced only to warm the cache (functional warming)
   uint64_t units_measured = 0;
-  double variance = 0.0;  // of the summed cycle estimate (0 for fully simulated packets)
-  double ci95() const;    // half-width of the 95% confidence interval of the cycles, 1.96 sqrt(variance)
+  uint64_t packets_stratified = 0;  // sampled in two strata: units testing no primitive, units testing some
+  double variance = 0.0;            // of the summed cycle estimate (0 for fully simulated packets)
+  double ci95() const;              // half-width of the 95% confidence interval of the cycles, 1.96 sqrt(variance)
 };
 
 class TimedEngine final : public TraceEngine {

@@ -375,6 +375,7 @@ Json sample_json(const hw::SampleStats& s) {
   j["rays_warmed"] = s.rays_warmed;
   j["simulated_fraction"] = s.rays > 0 ? double(s.rays_simulated) / double(s.rays) : 0.0;
   j["units_measured"] = s.units_measured;
+  j["packets_stratified"] = s.packets_stratified;
   j["cycles_ci95"] = s.ci95();
   return j;
 }

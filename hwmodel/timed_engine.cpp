@@ -699,6 +699,8 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   run_batch(probes, m_box_unit ? 1 : m_opt.threads, m_sample.need_hits ? s : probe_stats,
             [&](size_t q, TraversalStats& st) {
               const size_t i = probed(q);
+              // The hardware prefetcher follows a constant stride, not these: fetch a few rays ahead.
+              if (q + 8 < probes) __builtin_prefetch(&rays[probed(q + 8)]);
               const uint64_t b0 = st.box_tests, p0 = st.prim_tests;
               const Hit h = m_tracer->trace(rays[i], any_hit, st);
               if (m_sample.need_hits) hits[i] = h;
@@ -802,26 +804,31 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   std::vector<Stratum> strata;
   {
     // Two strata where both are large: the units whose probed rays test no primitive and those whose rays do
-    // (camera rays: sky and geometry, a few units costing ten times the rest). The sample is shared in
-    // proportion to each stratum's total auxiliary (so the costly units get most of it), at least 2 each, and
-    // spread evenly over each stratum's units in order (systematic, from a seeded fraction of a step).
+    // (camera rays: sky and geometry, a few units costing ten times the rest). The sample is shared by
+    // sqrt(units x total auxiliary) of each stratum (below), at least 2 each, and spread evenly over each
+    // stratum's units in order (systematic, from a seeded fraction of a step).
     // Otherwise one stratum of every unit, every k-th from a seeded offset in [1, k] (systematic sampling; the
     // incoherent streams, where nearly every unit tests primitives). Why: on 4M camera rays of the benchmark
-    // meshes at F = 0.01 (k = 100), replaying 300-400 draws offline over every unit's cycles from a full
-    // simulation (cycles only), the systematic sample's error was 1.6 / 3.9 / 3.8% rms on AC14-FZK-Haus /
-    // 2CylinderEngine / SuzanneSubdiv_252, the strata's 1.2-1.3 / 1.6-2.4 / 1.9-2.0%: one in five units tests
-    // a primitive there and a systematic sample of ~10 units a packet holds two or three of them, its step
-    // in step with the image's rows (every 100th unit of 256 rays at a row of ~2,300: at 90 or 99 the
-    // systematic sample's error was 9-22% rms).
+    // meshes at F = 0.01 (k = 100), cycles only, 30 seeds each, the systematic sample's error was 1.49 / 3.21 /
+    // 3.23% rms on AC14-FZK-Haus / 2CylinderEngine / SuzanneSubdiv_252, the strata's 1.26 / 1.73 / 1.90%, for
+    // about 8% more time (geometry units walk further to warm the cache): one in five units tests a primitive
+    // there, a systematic sample of ~10 units a packet holds two or three of them, and its step goes in step
+    // with the image's rows (replayed offline over every unit's cycles from a full simulation: at every 90th or
+    // 99th unit of 256 rays, rows of ~2,300, its error was 9-22% rms). Sharing by total auxiliary instead
+    // (n_h ~ X_h) gave the same errors for 10% more time; by unit count (n_h ~ N_h), 1.74 / 2.55 / 2.64%.
     std::vector<size_t> without, with;
     for (size_t j = 1; j < last; ++j) (tests_prims[j] ? with : without).push_back(j);
     if (without.size() >= 2 * k && with.size() >= 2 * k) {
+      // Neyman's allocation with costs (Cochran, 5.5): n_h ~ N_h S_h / sqrt(c_h); with a unit's spread S_h and
+      // its simulation cost c_h both following its work (mean x_h), n_h ~ N_h sqrt(x_h) = sqrt(N_h X_h).
       double x_without = 0.0, x_with = 0.0;
       for (size_t j : without) x_without += aux[j];
       for (size_t j : with) x_with += aux[j];
+      const double share_without = std::sqrt(double(without.size()) * x_without),
+                   share_with = std::sqrt(double(with.size()) * x_with);
       const size_t total = std::max<size_t>(4, size_t(std::llround(double(last - 1) / double(k))));
-      const size_t n0 =
-          std::clamp<size_t>(size_t(std::llround(double(total) * x_without / (x_without + x_with))), 2, total - 2);
+      const size_t n0 = std::clamp<size_t>(
+          size_t(std::llround(double(total) * share_without / (share_without + share_with))), 2, total - 2);
       const size_t take[2] = {std::min(n0, without.size()), std::min(total - n0, with.size())};
       strata.resize(2);
       strata[0].units = std::move(without);

@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Sampled timing against full simulation: `rtusim trace --device timed --sample F` on 1M primary and 1M incoherent
 # rays of real meshes, with hits (every ray traced by the datapath, the timing model sampled; the estimator's
-# auxiliary is each unit's test-count bound) and cycles only (no --out: only the sampled rays are traced; the
-# auxiliary is the ray count). Error of the estimate against the full simulation's cycles, the 95% interval the
-# estimate states, and the timed device's trace time (stats `trace_seconds`, excluding scene load and BVH build)
-# against the full simulation's, each the best of REPEAT runs (the cycles do not change from run to run; the
-# time does, on a shared machine); each repetition runs the full and then the sampled simulations, so both
-# times come from the same stretches of the machine's speed. Prints a Markdown table (README.md).
+# auxiliary is each unit's work from its test counts) and cycles only (no --out: only the sampled rays are traced;
+# the auxiliary of the units not measured comes from a 1-in-32 probe). Error of the estimate against the full
+# simulation's cycles, the 95% interval the estimate states, and the timed device's trace time (stats
+# `trace_seconds`, excluding scene load and BVH build) against the full simulation's, each the best of REPEAT
+# runs (the cycles do not change from run to run; the time does, on a shared machine); each repetition runs the
+# full and then the sampled simulations, so both times come from the same stretches of the machine's speed.
+# Prints a Markdown table (README.md).
 #
 #   bench/sample_bench.sh [RTUSIM] [RAYS] [MESH...]     RAYS default 1000000; trace packets are 262,144 rays
 #   FRACTIONS="0.05 0.02" MODES="hits cycles-only" REPEAT=3 THREADS=1 SEEDS=1 (environment): the sample fractions

@@ -247,7 +247,7 @@ TEST_CASE("sampled timing estimates a packet's cycles within its interval, hits 
     CHECK(std::abs(est2 - double(exact)) <= 2.0 * ci2);
     CHECK(ci2 < 0.12 * double(exact));
     CHECK(sc.rays < n / 4);
-    // Camera rays fall into two strata (units testing no primitive: 71% of these; units testing some), each far
+    // Camera rays fall into two strata (units testing no primitive, most of these; units testing some), each far
     // above the 2k = 40 units a stratum needs; incoherent rays' units nearly all test primitives: one stratum.
     CHECK(cycles_only->timed()->sampling().packets_stratified == (rays == &primary ? 1u : 0u));
 

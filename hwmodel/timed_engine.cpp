@@ -672,35 +672,36 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   // max(rays, box tests / box rate, primitive tests / test rate) it replaced: the probe's estimate of a sum is
   // unbiased, that of a maximum is not (a maximum of noisy estimates lies above the maximum of their means), and
   // the measured units pair their cycles with exact values while the rest carry the probe's. On the six 4M-ray
-  // benchmark rows at F = 0.01, cycles only, ten seeds each (README, "Sampled timing"), the mean |error| went
-  // from 1.51 / 1.32 / 2.76 / 0.51 / 2.64 / 0.33% to 1.20 / 0.97 / 1.86 / 0.24 / 2.54 / 0.31% (AC14-FZK-Haus,
-  // 2CylinderEngine, SuzanneSubdiv_252; camera / incoherent rays) and the estimates inside their 95% interval
-  // from 50 of 60 to 57 of 60.
+  // benchmark rows at F = 0.01, cycles only, ten seeds each (README, "Sampled timing"; before the strata below),
+  // the mean |error| went from 1.51 / 1.32 / 2.76 / 0.51 / 2.64 / 0.33% to 1.20 / 0.97 / 1.86 / 0.24 / 2.54 /
+  // 0.31% (AC14-FZK-Haus, 2CylinderEngine, SuzanneSubdiv_252; camera / incoherent rays) and the estimates inside
+  // their 95% interval from 50 of 60 to 57 of 60.
   std::vector<double> aux(units);
   TraversalStats scratch;
-  // Per ray the datapath's box and primitive tests: every ray with hits; without, every kProbe-th ray (a cheap
-  // functional probe, scaled up) for the auxiliary's total; a measured unit's own value comes from all its rays
-  // (below). On 4M camera rays of the three benchmark meshes at F = 0.01 a 1-in-32 probe gave the same errors
-  // as 1-in-16 to within 0.15% of the cycles, in about 20% less time.
-  // The probed ray of each block of kProbe rays is drawn at random within it (seeded), not its first: a fixed
-  // position probes the same image columns in every row when the row is a multiple of kProbe pixels (a 512-pixel
-  // row: columns 0, 32, ..., 480), and on AC14-FZK-Haus's camera at 512 x 384 those columns' work is 3.7% below
-  // the image's, a bias of every estimate that no number of measured units removes.
+  // Per ray the datapath's box and primitive tests: every ray with hits; without, one ray in each block of
+  // kProbe (a cheap functional probe, scaled up) for the auxiliary's total; a measured unit's own value comes from
+  // all its rays (below). On 4M camera rays of the three benchmark meshes at F = 0.01 a 1-in-32 probe gave the
+  // same errors as 1-in-16 to within 0.15% of the cycles, in about 20% less time. The probed ray of each block of
+  // kProbe rays is drawn at random within it (seeded), not its first: a fixed position probes the same image
+  // columns in every row when the row is a multiple of kProbe pixels (a 512-pixel row: columns 0, 32, ..., 480),
+  // and on AC14-FZK-Haus's camera at 512 x 384 those columns' work is 3.7% below the image's, a bias of every
+  // estimate that no number of measured units removes.
   constexpr size_t kProbe = 32;
   const size_t stride = m_sample.need_hits ? 1 : kProbe;
   const size_t probes = (n + stride - 1) / stride;
   const uint64_t draw = splitmix64(m_sample.seed + 0x9E3779B97F4A7C15ull * m_sample_stats.packets_sampled);
-  auto probed = [&](size_t q) {  // the ray probed in block q
+  std::vector<size_t> probed(probes);  // the ray probed in block q
+  for (size_t q = 0; q < probes; ++q) {
     const size_t first = q * stride, len = std::min(stride, n - first);
-    return len == 1 ? first : first + size_t(splitmix64(draw ^ (0xD1B54A32D192ED03ull * (q + 1))) % len);
-  };
+    probed[q] = len == 1 ? first : first + size_t(splitmix64(draw ^ (0xD1B54A32D192ED03ull * (q + 1))) % len);
+  }
   std::vector<uint32_t> box(probes), prim(probes);
   TraversalStats probe_stats;
   run_batch(probes, m_box_unit ? 1 : m_opt.threads, m_sample.need_hits ? s : probe_stats,
             [&](size_t q, TraversalStats& st) {
-              const size_t i = probed(q);
+              const size_t i = probed[q];
               // The hardware prefetcher follows a constant stride, not these: fetch a few rays ahead.
-              if (q + 8 < probes) __builtin_prefetch(&rays[probed(q + 8)]);
+              if (q + 8 < probes) __builtin_prefetch(&rays[probed[q + 8]]);
               const uint64_t b0 = st.box_tests, p0 = st.prim_tests;
               const Hit h = m_tracer->trace(rays[i], any_hit, st);
               if (m_sample.need_hits) hits[i] = h;
@@ -712,7 +713,7 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   const double box_rate = double(m_c.box_rate) * m_c.box_units, tri_rate = double(m_c.tri_rate) * m_c.tri_units;
   std::vector<double> unit_box(units), unit_prim(units), unit_probes(units);
   for (size_t q = 0; q < probes; ++q) {
-    const size_t j = probed(q) / U;
+    const size_t j = probed[q] / U;
     unit_box[j] += box[q];
     unit_prim[j] += prim[q];
     unit_probes[j] += 1.0;
@@ -797,7 +798,7 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   // one image, are sampled independently and their errors average out.
   struct Stratum {
     std::vector<size_t> units;       // its units, in order
-    std::vector<size_t> picked;      // the measured ones among them (indices into units)
+    std::vector<size_t> picked;      // the measured ones among them, in order
     std::vector<double> measured_c;  // their cycles
     double probe_error2 = 0.0;       // sum over them of (probe's auxiliary - exact auxiliary)^2
   };
@@ -838,26 +839,24 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
         const double step = double(st.units.size()) / double(take[h]);
         const double from = double(splitmix64(draw + h + 1) >> 11) * 0x1p-53 * step;  // in [0, step)
         for (size_t i = 0; i < take[h]; ++i)
-          st.picked.push_back(std::min(st.units.size() - 1, size_t(from + double(i) * step)));
+          st.picked.push_back(st.units[std::min(st.units.size() - 1, size_t(from + double(i) * step))]);
       }
     } else {
       strata.resize(1);
       for (size_t j = 1; j < last; ++j) strata[0].units.push_back(j);
-      for (size_t j = 1 + (draw >> 32) % k; j < last; j += k) strata[0].picked.push_back(j - 1);
+      for (size_t j = 1 + (draw >> 32) % k; j < last; j += k) strata[0].picked.push_back(j);
     }
   }
   // Measured in the order of the rays (each after its warm-up, the cache carried from the one before).
   std::vector<std::pair<size_t, size_t>> order;  // (unit, stratum)
   for (size_t h = 0; h < strata.size(); ++h)
-    for (size_t q : strata[h].picked) order.push_back({strata[h].units[q], h});
+    for (size_t j : strata[h].picked) order.push_back({j, h});
   std::sort(order.begin(), order.end());
-  size_t measured = 0;
   for (const auto& [j, h] : order) {
     const size_t u0 = j * U, w = std::min(W, u0), t = std::min(tail, n - u0 - U);
     const TraversalStats st = segment(u0, w, U, t, true);
     seg_stats.add(st);
     strata[h].measured_c.push_back(double(done[w + U - 1] - done[w - 1]));
-    ++measured;
     // A measured unit's rays were all traced: its own work replaces the probe's estimate of it (two-phase
     // sampling: the probe estimates the auxiliary's total, the measured units pair their cycles with the exact
     // value; the same where every ray is probed).
@@ -887,7 +886,7 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
     double sum_c = 0.0, sum_x = 0.0, total = 0.0;
     for (size_t q = 0; q < st.picked.size(); ++q) {
       sum_c += st.measured_c[q];
-      sum_x += aux[st.units[st.picked[q]]];
+      sum_x += aux[st.picked[q]];
     }
     for (size_t j : st.units) total += aux[j];
     const double ratio = sum_x > 0.0 ? sum_c / sum_x : 0.0;
@@ -895,7 +894,7 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
     if (m > 1) {
       double sum_r = 0.0, sum_r2 = 0.0;
       for (size_t q = 0; q < st.picked.size(); ++q) {
-        const double rest = sum_x - aux[st.units[st.picked[q]]];
+        const double rest = sum_x - aux[st.picked[q]];
         const double r = rest > 0.0 ? (sum_c - st.measured_c[q]) / rest : ratio;
         sum_r += r;
         sum_r2 += r * r;
@@ -925,7 +924,7 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   ++m_sample_stats.packets_sampled;
   m_sample_stats.rays_simulated += simulated;
   m_sample_stats.rays_warmed += warmed;
-  m_sample_stats.units_measured += measured;
+  m_sample_stats.units_measured += order.size();
   if (strata.size() > 1) ++m_sample_stats.packets_stratified;
   m_sample_stats.variance += var;
   return cycles;

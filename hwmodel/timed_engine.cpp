@@ -1,9 +1,12 @@
 #include "hwmodel/timed_engine.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdlib>
 #include <functional>
 #include <future>
+#include <iterator>
 #include <stdexcept>
 #include <string>
 
@@ -349,6 +352,7 @@ void TimingModel::simulate() {
           m_age.pop_front();
         m_end = std::max(m_end, st + uint64_t(m_c.writeback_latency));
         if (m_done) m_done->push_back(st + uint64_t(m_c.writeback_latency));
+        if (m_entered) m_entered->push_back(sl.entered);
         if (m_trace) m_trace->add(k, "write-back", st, st + 1);  // the slot hands its hit to the write-back pipe
         m_s->stream_bytes += kHitBytesStream;
         m_s->slot_busy_cycles += st + 1 - sl.entered;
@@ -544,6 +548,7 @@ void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   l.plane_offset = h.plane_offset;
   m_model = std::make_unique<TimingModel>(m_c, l);
   m_model->set_trace(m_trace);
+  m_slot_time.clear();  // another scene, other streams
 }
 
 void TimedEngine::unbind() {
@@ -593,12 +598,14 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
     // Fewer than 10 units to measure at every k-th: every k'-th for the largest k' that gives 10, if the
     // measured units with their warm-up and tail rays are then at most half of the packet's rays.
     const size_t k10 = n <= U ? 0 : (n - 1) / U / 10;
-    const size_t per_unit = size_t(m_sample.warmup_rays) + U + 2 * size_t(m_c.ray_slots);
+    const size_t per_unit =
+        warmup_rays(m_slot_time[uint32_t(ray_type) << 8 | bounce]) + U + 2 * size_t(m_c.ray_slots);
     k = k10 * U >= 2 * per_unit ? k10 : 1;
   }
   try {
     if (k >= 2) {
-      cycles = trace_cycles_sampled(rays, hits, n, any_hit, s, ts, k);
+      cycles =
+          trace_cycles_sampled(rays, hits, n, any_hit, s, ts, k, m_slot_time[uint32_t(ray_type) << 8 | bounce]);
     } else {
       // Chunks of rays: traced (and recorded) on the worker threads, then replayed through the model in order.
       // With more than one thread the next chunk is recorded while the model replays this one (two event
@@ -661,9 +668,38 @@ double SampleStats::ci95() const {
   return 1.96 * std::sqrt(variance);
 }
 
+size_t TimedEngine::warmup_rays(const SlotTime& st) const {
+  // The detailed warm-up before a measured unit (SampleOptions::warmup_rays = 0: chosen here, from what the
+  // stream's measured units showed). A segment starts with every ray slot free, but in the full simulation some
+  // slots are held at that point by rays that entered long before: a stream's slowest rays (chains of cache
+  // misses) stay in flight while hundreds of others pass, and in steady state they hold a share of the slots'
+  // time. After a warm-up of w rays, rays that entered up to w rays before the unit can hold slots in it; the
+  // older ones are missing, and the unit runs with more free slots than it would: faster. The share of slot time
+  // they would hold: of each measured ray's time in its slot, the part beyond the time w + U/2 rays take to pass
+  // at its unit's rate (a ray that entered before the segment and is still in flight at the unit's middle),
+  // summed and divided by the rays' total time in slots. From full simulations of the benchmark streams (4M rays,
+  // every unit), at w = 256 / 512 / 1024: AC14-FZK-Haus incoherent rays 2.5 / 0.74 / 0.06%, and ~160 measured
+  // units' cycles against the same units of the full simulation 3.0 / 0.6 / 0.0% low (sums; three seeds): the
+  // share predicts the warm-up's bias. 2CylinderEngine and SuzanneSubdiv_252 incoherent 0.37 / 0.04 / 0 and
+  // 0.23 / 0.02 / 0%; camera rays at most 0.1% at 256. The warm-up is the shortest of kWarmupGrid (multiples of
+  // ray_slots) whose share, over the measured units of the stream so far (this ray type and bounce since bind),
+  // is at most kShare (0.5%: the measured units of those streams came out 0.13-0.43% low, against 0.6% with a
+  // fixed 512 on AC14-FZK-Haus incoherent rays); 16 x ray_slots until kSeen rays are seen. No shorter than 8 x
+  // ray_slots: with 4 x, AC14-FZK-Haus camera units measured 1.1% slow (a fill transient the share does not see;
+  // 2CylinderEngine and SuzanneSubdiv_252 camera units +0.13 / +0.22% at 4 x), with 8 x 0.4%.
+  constexpr double kShare = 0.005;
+  constexpr uint64_t kSeen = 512;
+  const size_t slots = size_t(m_c.ray_slots);
+  if (m_sample.warmup_rays > 0) return m_sample.warmup_rays;
+  if (st.rays < kSeen) return 16 * slots;
+  for (size_t g = 0; g < std::size(kWarmupGrid); ++g)
+    if (st.late[g] <= kShare * st.held) return kWarmupGrid[g] * slots;
+  return kWarmupGrid[std::size(kWarmupGrid) - 1] * slots;
+}
+
 uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
-                                           TimingStats& ts, size_t k) {
-  const size_t U = m_sample.unit_rays, W = m_sample.warmup_rays;
+                                           TimingStats& ts, size_t k, SlotTime& slot_time) {
+  const size_t U = m_sample.unit_rays;
   const size_t units = (n + U - 1) / U;  // unit 0 is simulated from the packet's start; 1 .. units-1 sampled
   // The auxiliary variable of the ratio estimator, per unit: with hits needed the datapath traces every ray
   // (exact hits), and each unit's work rays + box tests / box rate + primitive tests / test rate comes with it,
@@ -729,9 +765,30 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
 
   TimingStats sim;  // what the model simulated
   std::vector<std::vector<TraceEvent>> events;
-  std::vector<uint64_t> done;
-  m_model->record_done(&done);
+  std::vector<uint64_t> done, entered, written;
+  m_model->record_done(&written, &entered);
   uint64_t simulated = 0, warmed = 0;
+  // After a segment: done sorted; for a measured unit (w warm-up rays, U rays, t > 0 tail rays) its rays' time in
+  // their slots into the stream's account (warmup_rays()), at the unit's rate.
+  auto observe = [&](size_t w, size_t u, size_t t) {
+    done = written;
+    std::sort(done.begin(), done.end());
+    if (w == 0 || u != U || t == 0 || m_sample.warmup_rays > 0) return;
+    const double per_ray = double(done[w + U - 1] - done[w - 1]) / double(U);
+    // The unit's rays: slots take rays in order, each entering after the one before.
+    std::vector<uint64_t> in_order(entered);
+    std::sort(in_order.begin(), in_order.end());
+    const uint64_t lo = in_order[w], hi = in_order[w + U - 1];
+    for (size_t i = 0; i < written.size(); ++i) {
+      if (entered[i] < lo || entered[i] > hi) continue;
+      const double life = double(written[i] - entered[i]);
+      slot_time.held += life;
+      for (size_t g = 0; g < std::size(kWarmupGrid); ++g)
+        slot_time.late[g] +=
+            std::max(0.0, life - double(kWarmupGrid[g] * size_t(m_c.ray_slots) + U / 2) * per_ray);
+    }
+    slot_time.rays += U;
+  };
   // Functional warming of the cache before ray `end` (a detailed warm-up's first), for the `sim` rays simulated
   // from there on (their events in events[0, sim)): the rays before it are walked backwards in chunks (each traced
   // forward, with recording) until the state of nearly every line the simulated rays touch is known
@@ -778,7 +835,9 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
     m_model->begin(w + u + t, sim);
     m_model->feed(events.data(), w + u + t);
     m_model->finish();
-    std::sort(done.begin(), done.end());
+    observe(w, u, t);
+    written.clear();
+    entered.clear();
     simulated += w + u + t;
     return st;
   };
@@ -852,8 +911,10 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   for (size_t h = 0; h < strata.size(); ++h)
     for (size_t j : strata[h].picked) order.push_back({j, h});
   std::sort(order.begin(), order.end());
+  uint64_t warmup_total = 0;
   for (const auto& [j, h] : order) {
-    const size_t u0 = j * U, w = std::min(W, u0), t = std::min(tail, n - u0 - U);
+    const size_t u0 = j * U, w = std::min(warmup_rays(slot_time), u0), t = std::min(tail, n - u0 - U);
+    warmup_total += w;
     const TraversalStats st = segment(u0, w, U, t, true);
     seg_stats.add(st);
     strata[h].measured_c.push_back(double(done[w + U - 1] - done[w - 1]));
@@ -865,7 +926,7 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
     aux[j] = exact;
   }
   // The last unit, after the sampled ones (the cache as they and its functional warming leave it).
-  const size_t w_last = std::min(W, last * U);
+  const size_t w_last = std::min(warmup_rays(slot_time), last * U);
   seg_stats.add(segment(last * U, w_last, u_last, 0, true));
   const uint64_t last_cycles = done.back() - done[w_last - 1];
   m_model->record_done(nullptr);
@@ -925,6 +986,7 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   m_sample_stats.rays_simulated += simulated;
   m_sample_stats.rays_warmed += warmed;
   m_sample_stats.units_measured += order.size();
+  m_sample_stats.warmup_rays += warmup_total;
   if (strata.size() > 1) ++m_sample_stats.packets_stratified;
   m_sample_stats.variance += var;
   return cycles;

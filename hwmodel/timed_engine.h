@@ -40,6 +40,7 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <iterator>
 #include <map>
 #include <memory>
 #include <string>
@@ -121,8 +122,12 @@ class TimingModel {
   void walk_begin(const std::vector<TraceEvent>* events, size_t m);
   size_t walk_add(const std::vector<TraceEvent>* events, size_t m);
   size_t walk_lines() const { return m_walk_need.size(); }  // the simulated rays' distinct lines
-  // Appends the cycle each ray's hit is written (absolute, see clock()) to `done` (null: not recorded).
-  void record_done(std::vector<uint64_t>* done) { m_done = done; }
+  // Appends the cycle each ray's hit is written (absolute, see clock()) to `done` (null: not recorded), in the
+  // order they are written, and the cycle the ray entered its slot to `entered` (if given), in the same order.
+  void record_done(std::vector<uint64_t>* done, std::vector<uint64_t>* entered = nullptr) {
+    m_done = done;
+    m_entered = entered;
+  }
   // The cycle the next packet starts at; advance_to() moves it forward (sampled simulation: the cycles a packet's
   // unsimulated rays are estimated to take).
   uint64_t clock() const { return m_base; }
@@ -198,6 +203,7 @@ class TimingModel {
 
   PipelineTrace* m_trace = nullptr;
   std::vector<uint64_t>* m_done = nullptr;
+  std::vector<uint64_t>* m_entered = nullptr;
   // The packet in flight.
   TimingStats* m_s = nullptr;
   size_t m_n = 0, m_next = 0;                 // rays in the packet, next ray to admit
@@ -220,10 +226,10 @@ class TimingModel {
 // unit_rays consecutive rays. The first unit is simulated from the packet's start (its fill) and the last to the
 // packet's end (its drain); of the units between, about one in k (k = round(1 / fraction)) is simulated after rays
 // whose fetches only warm the cache (functional warming, as SMARTS does; walked backwards until they fix the
-// cache state the simulated rays meet, TimingModel::walk_add, at most cache_warm_rays) and warmup_rays rays
-// simulated in detail but not measured (slots and queues), and before 2 x ray_slots tail rays, so that its cost,
-// the cycles between the hit of the warm-up's last ray and the unit's last hit counted in order of writing, is
-// measured in steady state. The units between are sampled in strata where there are two large ones (units whose
+// cache state the simulated rays meet, TimingModel::walk_add, at most cache_warm_rays) and a detailed warm-up of
+// rays simulated but not measured (slots and queues; as long as the stream's slowest rays need, warmup_rays()),
+// and before 2 x ray_slots tail rays, so that its cost, the cycles between the hit of the warm-up's last ray and
+// the unit's last hit counted in order of writing, is measured in steady state. The units between are sampled in strata where there are two large ones (units whose
 // rays test no primitive and units whose rays do: camera rays' sky and geometry), the sample shared by
 // sqrt(units x auxiliary total) of each stratum (Neyman's allocation with costs) and spread evenly over its units;
 // otherwise systematically, every k-th from a seeded offset. Each stratum's cycles are a ratio estimate (Cochran,
@@ -241,9 +247,9 @@ class TimingModel {
 struct SampleOptions {
   double fraction = 0.0;  // 0 (or >= 1): simulate every ray
   uint32_t unit_rays = 256;
-  // Detailed warm-up: the triangle unit's queue of a triangle-bound stream takes several hundred rays to settle
-  // (AC14-FZK-Haus incoherent: 256 rays measure 3% fewer cycles than 1024, 512 rays 0.6% fewer).
-  uint32_t warmup_rays = 512;
+  // Detailed warm-up before each measured unit; 0: chosen for each stream from how long its rays hold their slots
+  // (TimedEngine::warmup_rays; a fixed 256 measured AC14-FZK-Haus incoherent units 3% low, 512 0.6%, 1024 0.0%).
+  uint32_t warmup_rays = 0;
   // At most this many rays before the detailed warm-up warm the cache functionally (fetches only): as many as it
   // takes to fix the cache state the simulated rays meet (a few hundred incoherent rays; camera rays find their
   // lines in the previous image row, more than a detailed warm-up can afford).
@@ -256,6 +262,7 @@ struct SampleStats {
   uint64_t rays = 0, rays_simulated = 0;      // rays in them, and rays through the timing model (with warm-up)
   uint64_t rays_warmed = 0;                   // rays traced only to warm the cache (functional warming)
   uint64_t units_measured = 0;
+  uint64_t warmup_rays = 0;         // detailed warm-up rays simulated before the measured units, in all
   uint64_t packets_stratified = 0;  // sampled in two strata: units testing no primitive, units testing some
   double variance = 0.0;            // of the summed cycle estimate (0 for fully simulated packets)
   double ci95() const;              // half-width of the 95% confidence interval of the cycles, 1.96 sqrt(variance)
@@ -303,9 +310,22 @@ class TimedEngine final : public TraceEngine {
   std::unique_ptr<FixedTracer> m_tracer;
   std::unique_ptr<TimingModel> m_model;
   PipelineTrace* m_trace = nullptr;
+  // What sampled packets' measured units showed of the time their rays hold slots, per ray type and bounce (the
+  // detailed warm-up's length, trace_cycles_sampled): the time in slots, and of it the part beyond the time
+  // kWarmupGrid[g] x ray_slots + unit_rays / 2 rays take to pass.
+  static constexpr size_t kWarmupGrid[] = {8,  10, 12, 14, 16, 18, 20, 22,
+                                           24, 28, 32, 40, 48, 56, 64};  // x ray_slots
+  struct SlotTime {
+    std::array<double, std::size(kWarmupGrid)> late{};
+    double held = 0.0;
+    uint64_t rays = 0;
+  };
+  std::map<uint32_t, SlotTime> m_slot_time;
   // One TRACE packet through the timing model with sampling (SampleOptions).
   uint64_t trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
-                                TimingStats& ts, size_t k);  // every k-th unit measured (k >= 2)
+                                TimingStats& ts, size_t k,
+                                SlotTime& slot_time);  // every k-th unit measured (k >= 2)
+  size_t warmup_rays(const SlotTime& st) const;        // the detailed warm-up for a stream that showed st
   // Traces rays [first, first + count) with recording; events[at + i] for ray first + i. Hits go to hits (or
   // nowhere when null).
   void record(const Ray* rays, Hit* hits, size_t first, size_t count, bool any_hit, TraversalStats& s,

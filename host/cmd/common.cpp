@@ -84,8 +84,10 @@ void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_hel
   app.add_option("--sample-unit", o.sample_unit, "timed device, --sample: rays per measured unit")
       ->check(CLI::Range(1u, 1u << 20))
       ->capture_default_str();
-  app.add_option("--sample-warmup", o.sample_warmup, "timed device, --sample: rays simulated before each unit")
-      ->check(CLI::Range(1u, 1u << 20))
+  app.add_option("--sample-warmup", o.sample_warmup,
+                 "timed device, --sample: rays simulated in detail before each unit (0: chosen per packet from "
+                 "how long the simulated rays hold their slots)")
+      ->check(CLI::Range(0u, 1u << 20))
       ->capture_default_str();
   app.add_option("--sample-seed", o.sample_seed,
                  "timed device, --sample: seed of the measured units' offsets (another seed, another sample: "
@@ -375,6 +377,7 @@ Json sample_json(const hw::SampleStats& s) {
   j["rays_warmed"] = s.rays_warmed;
   j["simulated_fraction"] = s.rays > 0 ? double(s.rays_simulated) / double(s.rays) : 0.0;
   j["units_measured"] = s.units_measured;
+  j["warmup_rays_mean"] = s.units_measured > 0 ? double(s.warmup_rays) / double(s.units_measured) : 0.0;
   j["packets_stratified"] = s.packets_stratified;
   j["cycles_ci95"] = s.ci95();
   return j;

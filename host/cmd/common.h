@@ -33,7 +33,7 @@ struct DeviceArgs {
   // The timed device: simulate this fraction of each TRACE packet's rays in the timing model and extrapolate
   // (hw::SampleOptions); 0: every ray.
   double sample = 0.0;
-  uint32_t sample_unit = 256, sample_warmup = 512;
+  uint32_t sample_unit = 256, sample_warmup = 0;
   uint64_t sample_seed = 1;
   uint64_t watchdog_steps = 0;  // fixed, timed: node and leaf visits per ray before the watchdog (0: automatic)
 

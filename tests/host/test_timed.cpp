@@ -288,6 +288,50 @@ TEST_CASE("sampled timing estimates a packet's cycles within its interval, hits 
   CHECK(half->timed()->timing().cycles == full->timed()->timing().cycles);
 }
 
+TEST_CASE("sampled timing: the detailed warm-up is as long as the stream's slowest rays need", "[timed][sample]") {
+  // AC14-FZK-Haus incoherent rays: chains of cache misses keep a few rays in their slots while hundreds of others
+  // pass, so a short warm-up leaves out rays that would hold slots during the measured unit, and the unit runs
+  // fast (at 4M rays: 3.0% low with 256 rays of warm-up, 0.6% with 512, 0.0% with 1,024). The same seed measures
+  // the same units whatever the warm-up, so the estimates below differ by the warm-up alone: each is the ratio
+  // of ~39 units' cycles, and their paired differences scatter by about 4% per unit at 256 (the per-unit rms
+  // against the full simulation at 4M rays), +-0.7% on the sum, while the bias at 256 is ~3%: the fixed 256 must
+  // come out below the 1,024 one, and the chosen warm-up (longer than 256 here) at least halfway closer to it.
+  // Camera rays, whose slowest rays are few and near each other, keep the shortest warm-up (8 x ray_slots) or
+  // near it after the first two units (16 x until 512 rays are seen).
+  const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
+  const std::vector<Ray> incoherent = rtu::host::incoherent_rays(s.geometry.bounds(), 200000, 5);
+  const std::vector<Ray> primary = rtu::host::primary_rays(s.camera, 200000);
+  auto run = [&](const std::vector<Ray>& rays, uint32_t warmup, double* mean_warmup) {
+    DeviceOptions o = options("timed", "rdna2");
+    o.sample.fraction = 0.05;
+    o.sample.need_hits = false;
+    o.sample.warmup_rays = warmup;
+    const auto d = rtu::host::make_device(s.geometry, o);
+    std::vector<Hit> h(rays.size());
+    rtu::hw::TraversalStats st;
+    d->trace_batch(rays.data(), h.data(), rays.size(), false, 2, st);
+    const rtu::hw::SampleStats& ss = d->timed()->sampling();
+    REQUIRE(ss.units_measured > 30);
+    if (mean_warmup) *mean_warmup = double(ss.warmup_rays) / double(ss.units_measured);
+    return double(d->timed()->timing().cycles);
+  };
+  const int slots = options("timed", "rdna2").timing.ray_slots;
+  double chosen_warmup = 0.0, fixed_warmup = 0.0;
+  const double short_w = run(incoherent, uint32_t(8 * slots), &fixed_warmup),
+               long_w = run(incoherent, 1024, nullptr), chosen = run(incoherent, 0, &chosen_warmup);
+  INFO("incoherent: 256 rays of warm-up " << short_w << ", 1024 " << long_w << ", chosen (mean " << chosen_warmup
+                                          << " rays) " << chosen);
+  CHECK(fixed_warmup == 8 * slots);
+  CHECK(chosen_warmup > 14 * slots);  // 560 rays on average (2026-12-02)
+  CHECK(short_w < long_w * (1.0 - 0.01));
+  CHECK(std::abs(chosen - long_w) < 0.5 * std::abs(short_w - long_w));
+  double camera_warmup = 0.0;
+  run(primary, 0, &camera_warmup);
+  INFO("camera rays: mean warm-up " << camera_warmup);
+  CHECK(camera_warmup < 11 * slots);  // 304 rays on average (2026-12-02)
+  CHECK(camera_warmup >= 8 * slots);
+}
+
 TEST_CASE("sampled timing: an image whose rows hold a whole number of units is not sampled in step with them",
           "[timed][sample]") {
   // A 512 x 384 camera image: a row is 2 units of 256 rays and 16 probe blocks of 32. A systematic sample of every

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdlib>
 #include <functional>
 #include <future>
 #include <iterator>
@@ -351,8 +350,10 @@ void TimingModel::simulate() {
                                   m_slots[m_age.front().second].entered != m_age.front().first))
           m_age.pop_front();
         m_end = std::max(m_end, st + uint64_t(m_c.writeback_latency));
-        if (m_done) m_done->push_back(st + uint64_t(m_c.writeback_latency));
-        if (m_entered) m_entered->push_back(sl.entered);
+        if (m_done) {
+          m_done->push_back(st + uint64_t(m_c.writeback_latency));
+          if (m_entered) m_entered->push_back(sl.entered);
+        }
         if (m_trace) m_trace->add(k, "write-back", st, st + 1);  // the slot hands its hit to the write-back pipe
         m_s->stream_bytes += kHitBytesStream;
         m_s->slot_busy_cycles += st + 1 - sl.entered;
@@ -594,18 +595,17 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
   m_sample_stats.rays += n;
   const size_t U = m_sample.unit_rays;
   size_t k = m_sample.fraction > 0.0 ? size_t(std::llround(1.0 / m_sample.fraction)) : 1;
+  SlotTime& stream = m_slot_time[uint32_t(ray_type) << 8 | bounce];  // what this stream's rays showed so far
   if (k >= 2 && (n <= U || (n - 1) / U < 10 * k)) {
     // Fewer than 10 units to measure at every k-th: every k'-th for the largest k' that gives 10, if the
     // measured units with their warm-up and tail rays are then at most half of the packet's rays.
     const size_t k10 = n <= U ? 0 : (n - 1) / U / 10;
-    const size_t per_unit =
-        warmup_rays(m_slot_time[uint32_t(ray_type) << 8 | bounce]) + U + 2 * size_t(m_c.ray_slots);
+    const size_t per_unit = warmup_rays(stream) + U + 2 * size_t(m_c.ray_slots);
     k = k10 * U >= 2 * per_unit ? k10 : 1;
   }
   try {
     if (k >= 2) {
-      cycles =
-          trace_cycles_sampled(rays, hits, n, any_hit, s, ts, k, m_slot_time[uint32_t(ray_type) << 8 | bounce]);
+      cycles = trace_cycles_sampled(rays, hits, n, any_hit, s, ts, k, stream);
     } else {
       // Chunks of rays: traced (and recorded) on the worker threads, then replayed through the model in order.
       // With more than one thread the next chunk is recorded while the model replays this one (two event
@@ -779,13 +779,14 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
     std::vector<uint64_t> in_order(entered);
     std::sort(in_order.begin(), in_order.end());
     const uint64_t lo = in_order[w], hi = in_order[w + U - 1];
+    std::array<double, std::size(kWarmupGrid)> after;  // the time w + U/2 rays take, for each w of the grid
+    for (size_t g = 0; g < after.size(); ++g)
+      after[g] = double(kWarmupGrid[g] * size_t(m_c.ray_slots) + U / 2) * per_ray;
     for (size_t i = 0; i < written.size(); ++i) {
       if (entered[i] < lo || entered[i] > hi) continue;
       const double life = double(written[i] - entered[i]);
       slot_time.held += life;
-      for (size_t g = 0; g < std::size(kWarmupGrid); ++g)
-        slot_time.late[g] +=
-            std::max(0.0, life - double(kWarmupGrid[g] * size_t(m_c.ray_slots) + U / 2) * per_ray);
+      for (size_t g = 0; g < after.size(); ++g) slot_time.late[g] += std::max(0.0, life - after[g]);
     }
     slot_time.rays += U;
   };

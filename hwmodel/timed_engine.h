@@ -229,21 +229,22 @@ class TimingModel {
 // cache state the simulated rays meet, TimingModel::walk_add, at most cache_warm_rays) and a detailed warm-up of
 // rays simulated but not measured (slots and queues; as long as the stream's slowest rays need, warmup_rays()),
 // and before 2 x ray_slots tail rays, so that its cost, the cycles between the hit of the warm-up's last ray and
-// the unit's last hit counted in order of writing, is measured in steady state. The units between are sampled in strata where there are two large ones (units whose
-// rays test no primitive and units whose rays do: camera rays' sky and geometry), the sample shared by
-// sqrt(units x auxiliary total) of each stratum (Neyman's allocation with costs) and spread evenly over its units;
-// otherwise systematically, every k-th from a seeded offset. Each stratum's cycles are a ratio estimate (Cochran,
-// "Sampling Techniques", ch. 6): measured cycles / measured auxiliary times the auxiliary of all its units, with
-// the jackknife variance of the ratio (finite-population corrected); the packet's 95% interval is from their sum.
-// The auxiliary is each unit's work from the datapath's test counts, rays + box tests / box rate + primitive tests
-// / test rate: of every ray when hits are needed (the datapath then traces every ray anyway; only the timing model
-// is sampled), else of one ray in each block of 32, at a seeded random place in the block, scaled up for the units
-// not measured (cycles only: a cheap functional probe that estimates the auxiliary's total) and of all rays for
-// the measured ones (two-phase sampling). Measured units and probed rays are drawn afresh for each packet (from
-// the seed and the packet's number). A packet too short for 10 measured units at every k-th is sampled at the
-// largest k that gives 10 (a short last packet of a ray file), provided the measured units' rays with their
-// warm-up and tail are still at most half of its rays; otherwise it is simulated in full. Timing counters (cache,
-// DRAM, tests) are those of the simulated rays scaled to the packet.
+// the unit's last hit counted in order of writing, is measured in steady state. The units between are sampled in
+// strata where there are two large ones (units whose rays test no primitive and units whose rays do: camera rays'
+// sky and geometry), the sample shared by sqrt(units x auxiliary total) of each stratum (Neyman's allocation with
+// costs) and spread evenly over its units; otherwise systematically, every k-th from a seeded offset. Each
+// stratum's cycles are a ratio estimate (Cochran, "Sampling Techniques", ch. 6): measured cycles / measured
+// auxiliary times the auxiliary of all its units, with the jackknife variance of the ratio (finite-population
+// corrected); the packet's 95% interval is from their sum. The auxiliary is each unit's work from the datapath's
+// test counts, rays + box tests / box rate + primitive tests / test rate: of every ray when hits are needed (the
+// datapath then traces every ray anyway; only the timing model is sampled), else of one ray in each block of 32,
+// at a seeded random place in the block, scaled up for the units not measured (cycles only: a cheap functional
+// probe that estimates the auxiliary's total) and of all rays for the measured ones (two-phase sampling). Measured
+// units and probed rays are drawn afresh for each packet (from the seed and the packet's number). A packet too
+// short for 10 measured units at every k-th is sampled at the largest k that gives 10 (a short last packet of a
+// ray file), provided the measured units' rays with their warm-up and tail are still at most half of its rays;
+// otherwise it is simulated in full. Timing counters (cache, DRAM, tests) are those of the simulated rays scaled
+// to the packet.
 struct SampleOptions {
   double fraction = 0.0;  // 0 (or >= 1): simulate every ray
   uint32_t unit_rays = 256;

@@ -20,7 +20,9 @@ namespace rtu::hw {
 template <class Fn>
 void run_batch(size_t n, int threads, TraversalStats& s, Fn&& fn) {
   constexpr size_t kChunk = 1024;
-  const int hw = std::max(1, int(std::thread::hardware_concurrency()));
+  // Asked once: std::thread::hardware_concurrency() reads /sys on every call (6 us here), and sampled timing
+  // runs batches of a few dozen rays.
+  static const int hw = std::max(1, int(std::thread::hardware_concurrency()));
   const int nt = std::max(1, std::min(threads > 0 ? threads : hw, int((n + kChunk - 1) / kChunk)));
   std::atomic<size_t> next{0};
   std::vector<TraversalStats> per(static_cast<size_t>(nt));

@@ -116,7 +116,7 @@ uint64_t TimingModel::line_access(uint64_t line, uint64_t t) {
   return victim->ready;
 }
 
-template <class F>
+template <bool Reverse, class F>
 void TimingModel::for_each_line(const TraceEvent& e, F&& f) const {
   uint64_t addr, bytes;
   if (e.kind == TraceEvent::kNode) {
@@ -131,14 +131,19 @@ void TimingModel::for_each_line(const TraceEvent& e, F&& f) const {
   } else {
     return;
   }
-  for (uint64_t line = addr >> m_line_shift; line <= (addr + bytes - 1) >> m_line_shift; ++line) f(line);
+  const uint64_t lo = addr >> m_line_shift, hi = (addr + bytes - 1) >> m_line_shift;
+  if constexpr (Reverse) {
+    for (uint64_t line = hi + 1; line-- > lo;) f(line);
+  } else {
+    for (uint64_t line = lo; line <= hi; ++line) f(line);
+  }
 }
 
 void TimingModel::warm(const std::vector<TraceEvent>* events, size_t m) {
   if (m_cache.empty()) return;
   for (size_t i = 0; i < m; ++i)
     for (const TraceEvent& e : events[i])
-      for_each_line(e, [&](uint64_t line) {
+      for_each_line<false>(e, [&](uint64_t line) {
         Line* ways = &m_cache[set_of(line) * uint64_t(m_c.cache_ways)];
         const int w = find_way(ways, line);
         if (w >= 0) {
@@ -156,7 +161,7 @@ void TimingModel::walk_begin(const std::vector<TraceEvent>* events, size_t m) {
   if (m_cache.empty()) return;  // nothing to warm
   for (size_t i = 0; i < m; ++i)
     for (const TraceEvent& e : events[i])
-      for_each_line(e, [&](uint64_t line) {
+      for_each_line<false>(e, [&](uint64_t line) {
         if (line >= m_walk_mark.size()) m_walk_mark.resize(size_t(line) + 1, 0);  // lines of the image: bounded
         if (!m_walk_mark[size_t(line)]) {
           m_walk_mark[size_t(line)] = 1;
@@ -165,24 +170,28 @@ void TimingModel::walk_begin(const std::vector<TraceEvent>* events, size_t m) {
       });
   m_walk_lines.assign(m_cache.size(), 0);
   m_walk_count.assign(size_t(m_sets), 0);
+  m_walk_sets.clear();
   m_walk_open.assign(size_t(m_sets), 0);
   for (uint64_t line : m_walk_need) ++m_walk_open[size_t(set_of(line))];
   m_walk_undetermined = m_walk_need.size();
 }
 
-size_t TimingModel::walk_add(const std::vector<TraceEvent>* events, size_t m) {
+size_t TimingModel::walk_add(const std::vector<TraceEvent>* events, size_t m, size_t enough) {
+  if (m_cache.empty()) return m;
   const size_t W = size_t(m_c.cache_ways);
-  // Within the rays given, order does not matter: a set is full with cache_ways distinct lines, whichever come
-  // last; only lines new to a set not yet full are kept.
-  for (size_t i = 0; i < m && m_walk_undetermined > 0; ++i)
-    for (const TraceEvent& e : events[i])
-      for_each_line(e, [&](uint64_t line) {
+  // Backwards, ray by ray and fetch by fetch from the last: a set's lines are kept in the order of their last
+  // touch before the point (most recent first), which is the order warming forward would leave them in.
+  for (size_t i = m; i-- > 0;) {
+    const std::vector<TraceEvent>& ev = events[i];
+    for (size_t j = ev.size(); j-- > 0;)
+      for_each_line<true>(ev[j], [&](uint64_t line) {
         const size_t set = size_t(set_of(line));
         uint8_t& c = m_walk_count[set];
         if (c == W) return;
         uint64_t* seen = &m_walk_lines[set * W];
         for (size_t w = 0; w < c; ++w)
           if (seen[w] == line) return;
+        if (c == 0) m_walk_sets.push_back(uint32_t(set));
         seen[c] = line;
         // A simulated ray's line: in the cache at the point.
         if (line < m_walk_mark.size() && m_walk_mark[size_t(line)]) {
@@ -194,7 +203,43 @@ size_t TimingModel::walk_add(const std::vector<TraceEvent>* events, size_t m) {
           m_walk_open[set] = 0;
         }
       });
-  return m_walk_undetermined;
+    if (m_walk_undetermined <= enough) return m - i;
+  }
+  return m;
+}
+
+void TimingModel::walk_install() {
+  if (m_cache.empty()) return;
+  const size_t W = size_t(m_c.cache_ways);
+  // Warming forward with the rays walked would touch each set's walked lines in the order opposite to the walk's
+  // and leave, per set, those lines (the most recent first) over the lines it held before and were not touched,
+  // in their old order, cut to cache_ways; a line already held keeps its ready cycle, a new one is ready at 0.
+  // Written directly: stamps above every stamp so far, in that order (LRU compares stamps within a set only, and
+  // which way holds a line is not observable: a line is in at most one way, and empty ways are all alike).
+  const uint64_t base = m_stamp;
+  m_walk_fresh.resize(W);
+  for (uint32_t set : m_walk_sets) {
+    const size_t c = m_walk_count[set];
+    const uint64_t* seen = &m_walk_lines[size_t(set) * W];
+    Line* ways = &m_cache[size_t(set) * W];
+    size_t k = 0;
+    for (size_t j = 0; j < c; ++j) {
+      const int w = find_way(ways, seen[j]);
+      m_walk_fresh[k++] = Line{seen[j], base + uint64_t(c - j), w >= 0 ? ways[w].ready : 0};
+    }
+    // The old lines not touched, most recent first (a set's stamps are distinct; empty ways have stamp 0).
+    std::sort(ways, ways + W, [](const Line& a, const Line& b) { return a.stamp > b.stamp; });
+    for (size_t w = 0; w < W && k < W; ++w) {
+      if (ways[w].stamp == 0) break;
+      bool touched = false;
+      for (size_t j = 0; j < c; ++j) touched = touched || seen[j] == ways[w].tag;
+      if (!touched) m_walk_fresh[k++] = ways[w];
+    }
+    for (size_t w = 0; w < W; ++w) ways[w] = w < k ? m_walk_fresh[w] : Line{};
+    m_walk_count[set] = 0;
+  }
+  m_walk_sets.clear();
+  m_stamp = base + W;
 }
 
 uint64_t TimingModel::unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t) {
@@ -391,7 +436,7 @@ void TimingModel::simulate() {
       if (!sl.unit_phase) {  // fetch the data the unit needs: ready when its last line is
         ++(e.kind == TraceEvent::kNode ? m_s->node_fetches : m_s->prim_fetches);
         next_t = t;
-        for_each_line(e, [&](uint64_t line) { next_t = std::max(next_t, line_access(line, t)); });
+        for_each_line<false>(e, [&](uint64_t line) { next_t = std::max(next_t, line_access(line, t)); });
         if (m_trace) m_trace->add(k, e.kind == TraceEvent::kNode ? "node fetch" : "record fetch", t, next_t);
         // The unit request at next_t. Requests reach the units in the order of (cycle, slot), and only they
         // touch the units' state, so a request may be served before its cycle if no request can come before it.
@@ -794,33 +839,35 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   // from there on (their events in events[0, sim)): the rays before it are walked backwards in chunks (each traced
   // forward, with recording) until the state of nearly every line the simulated rays touch is known
   // (TimingModel::walk_add: the cache then holds for them what warming with every earlier ray of the packet would
-  // leave) or cache_warm_rays are walked, then warmed in forward order. Incoherent rays touch many lines each and
-  // fill the cache in a few hundred rays; camera rays find their lines in the previous image row.
+  // leave) or cache_warm_rays are walked, then put into the cache as warming with them in forward order would
+  // (TimingModel::walk_install, in time proportional to the sets touched). Incoherent rays touch many lines each
+  // and fill the cache in a few hundred rays; camera rays find their lines in the previous image row.
   const size_t CW = m_sample.cache_warm_rays;
-  std::vector<std::vector<TraceEvent>> walk_events(CW);  // ray end - walked + i at CW - walked + i
+  std::vector<std::vector<TraceEvent>> walk_events(CW);  // ray end - traced + i at CW - traced + i
   // A walk stops when at most 1 in 20 of those lines is undetermined: lines of sets so rarely used that a few
   // thousand rays do not fill them (the whole image of a small scene fits the cache), where the cache keeps what
   // earlier units left. On the benchmark scenes stopping at 1%, 3% or 10% moves the estimates by under 0.1%.
   constexpr double kUndetermined = 0.05;
-  // Chunks double from 32 rays up to 256: a walk overshoots its stopping point by at most one chunk. (Doubling up
-  // to 1,024, 4M rays at F = 0.01 walked 20% more on 2CylinderEngine camera rays and 31% more on AC14-FZK-Haus
-  // incoherent ones, for estimates within 0.1% of these.)
-  constexpr size_t kWalkChunkMax = 256;
+  // The walk stops at the ray with which the count falls to that bound, wherever it lies in the chunk traced:
+  // the rays warmed, and so every estimate, do not depend on the chunks, which only decide how many rays are
+  // traced beyond that ray and not used. Chunks double from 32 rays up to kWalkChunkMax.
+  constexpr size_t kWalkChunkMax = 64;
   auto warm_before = [&](size_t end, size_t sim) {
     const size_t reach = std::min(CW, end);
     m_model->walk_begin(events.data(), sim);
     const size_t enough = size_t(kUndetermined * double(m_model->walk_lines()));
-    size_t walked = 0, chunk = 32, open = m_model->walk_lines();  // doubling chunks: few rays when few suffice
-    while (walked < reach && open > enough) {
-      const size_t c = std::min(chunk, reach - walked);
+    size_t traced = 0, chunk = 32;
+    while (traced < reach && m_model->walk_open() > enough) {
+      const size_t c = std::min(chunk, reach - traced);
       TraversalStats other;
-      record(rays, nullptr, end - walked - c, c, any_hit, other, walk_events, CW - walked - c);
-      walked += c;
-      open = m_model->walk_add(walk_events.data() + (CW - walked), c);
+      record(rays, nullptr, end - traced - c, c, any_hit, other, walk_events, CW - traced - c);
+      const size_t taken = m_model->walk_add(walk_events.data() + (CW - traced - c), c, enough);
+      traced += c;
+      if (taken < c) break;
       chunk = std::min<size_t>(2 * chunk, kWalkChunkMax);
     }
-    m_model->warm(walk_events.data() + (CW - walked), walked);
-    warmed += walked;
+    m_model->walk_install();
+    warmed += traced;
   };
   // Simulates w warm-up rays, the u rays from `first` on and t tail rays after them as one packet (done: the
   // sorted hit-write cycles); returns the datapath statistics of the u rays. The measured rays' cost is read

@@ -120,7 +120,13 @@ class TimingModel {
   // undetermined (neither seen nor in a full set). At 0, warming with the rays walked, in forward order, gives
   // the simulated rays the cache they would meet after warming with every earlier ray.
   void walk_begin(const std::vector<TraceEvent>* events, size_t m);
-  size_t walk_add(const std::vector<TraceEvent>* events, size_t m);
+  // walk_add takes the rays backwards from the last and stops after the first (the last in order) with which at
+  // most `enough` lines are undetermined; returns how many of the m rays it took (the last ones), m if it took
+  // all. walk_install() then puts into the cache what warming forward with the rays taken since walk_begin()
+  // would: the same contents and LRU order, in time proportional to the sets touched, not to the rays.
+  size_t walk_add(const std::vector<TraceEvent>* events, size_t m, size_t enough = 0);
+  size_t walk_open() const { return m_walk_undetermined; }
+  void walk_install();
   size_t walk_lines() const { return m_walk_need.size(); }  // the simulated rays' distinct lines
   // Appends the cycle each ray's hit is written (absolute, see clock()) to `done` (null: not recorded), in the
   // order they are written, and the cycle the ray entered its slot to `entered` (if given), in the same order.
@@ -172,8 +178,8 @@ class TimingModel {
   uint64_t unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t);
   uint64_t set_of(uint64_t line) const { return m_set_mask ? line & m_set_mask : line % m_sets; }
   // Calls f(line) for every cache line the fetch of event e touches (none for stack events).
-  template <class F>
-  void for_each_line(const TraceEvent& e, F&& f) const;
+  template <bool Reverse, class F>
+  void for_each_line(const TraceEvent& e, F&& f) const;  // Reverse: the event's lines last first
 
   TimingConfig m_c;
   Layout m_layout;
@@ -199,6 +205,8 @@ class TimingModel {
   std::vector<uint64_t> m_walk_need;  // in the order first touched
   std::vector<uint8_t> m_walk_mark;   // by line index: 1 for the lines in m_walk_need
   std::vector<uint32_t> m_walk_open;
+  std::vector<uint32_t> m_walk_sets;  // the sets the walk has seen a line of
+  std::vector<Line> m_walk_fresh;     // walk_install's scratch: a set's new contents
   size_t m_walk_undetermined = 0;
 
   PipelineTrace* m_trace = nullptr;

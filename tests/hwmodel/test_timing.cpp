@@ -1,5 +1,6 @@
 // The timing model (hwmodel/timed_engine.h): exact cycles of microbenchmarks built from synthetic datapath
 // events, feeding in chunks changes nothing, and the timed engine's hits are the fixed device's bit for bit.
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cstring>
 #include <vector>
@@ -295,7 +296,8 @@ TEST_CASE("a backward walk fixes the cache the simulated rays meet: warming with
   std::vector<size_t> opens;
   while (open > 0 && walked < history.size()) {
     walked += 20;
-    open = walk.walk_add(history.data() + (history.size() - walked), 20);
+    walk.walk_add(history.data() + (history.size() - walked), 20);
+    open = walk.walk_open();
     CHECK(open <= (opens.empty() ? lines : opens.back()));  // never rises
     opens.push_back(open);
   }
@@ -323,4 +325,129 @@ TEST_CASE("a backward walk fixes the cache the simulated rays meet: warming with
   TimingStats se, sc;
   CHECK(run(early, future, se) != reference);
   CHECK(run(cold, future, sc) > reference);
+}
+
+TEST_CASE("walk_install leaves the cache that warming forward with the rays walked leaves, whatever the chunks",
+          "[timing][sample]") {
+  // Nodes of 56 bytes straddle lines, so a fetch touches two lines; with one set of 64 ways (the second
+  // configuration) their order within the fetch matters too. The cache starts with stale contents, some of them
+  // lines the future touches: where the walk stops before every line is determined (enough > 0), the old lines
+  // and their LRU order decide those.
+  TimingConfig one_set = test_config();
+  one_set.cache_kib = 4;
+  one_set.cache_ways = 64;
+  for (const TimingConfig& c : {test_config(), one_set}) {
+    CAPTURE(c.cache_ways);
+    TimingModel::Layout l = layout();
+    l.node_bytes = 56;
+    uint32_t x = 4242;
+    auto ray = [&](int i) {
+      std::vector<TraceEvent> ev;
+      for (int j = 0; j < 4; ++j) {
+        x = x * 1664525u + 1013904223u;
+        ev.push_back(node(x % 16, 4));
+        ev.push_back(node(uint32_t(16 + 2 * i + int(x >> 8) % 600), 4));
+      }
+      ev.push_back(tri(uint32_t(3 * i + (x >> 20) % 64)));
+      return ev;
+    };
+    std::vector<std::vector<TraceEvent>> stale, history, future;
+    for (uint32_t i = 0; i < 300; ++i) stale.push_back({node(100000 + 7 * i, 4), node(6016 + 5 * i, 4)});
+    for (int i = 0; i < 3000; ++i) history.push_back(ray(i));
+    for (int i = 3000; i < 3400; ++i) future.push_back(ray(i));
+
+    TimingModel full(c, l);
+    full.warm(stale.data(), stale.size());
+    full.warm(history.data(), history.size());
+    TimingStats sf;
+    const uint64_t reference = run(full, future, sf);
+
+    size_t lines = 0;
+    {
+      TimingModel m(c, l);
+      m.walk_begin(future.data(), future.size());
+      lines = m.walk_lines();
+    }
+    REQUIRE(lines > size_t(c.cache_kib) * 1024 / 64);  // more than the cache holds
+    for (size_t enough : {size_t(0), lines / 20, lines / 4}) {
+      size_t taken_first = 0;
+      for (size_t chunk : {1, 7, 20, 64}) {
+        CAPTURE(enough, chunk);
+        TimingModel walk(c, l), warm(c, l);
+        walk.warm(stale.data(), stale.size());
+        warm.warm(stale.data(), stale.size());
+        walk.walk_begin(future.data(), future.size());
+        size_t traced = 0, taken = 0;
+        while (traced < history.size() && walk.walk_open() > enough) {
+          const size_t n = std::min(chunk, history.size() - traced);
+          const size_t t = walk.walk_add(history.data() + (history.size() - traced - n), n, enough);
+          REQUIRE(t <= n);
+          traced += n;
+          taken += t;
+          if (t < n) break;
+        }
+        CHECK(walk.walk_open() <= enough);
+        // Where the walk stops does not depend on the chunks: it is the first ray (backwards) that brings the
+        // undetermined lines down to `enough`.
+        if (taken_first == 0) taken_first = taken;
+        CHECK(taken == taken_first);
+        CHECK(taken < history.size() / 2);
+        walk.walk_install();
+        warm.warm(history.data() + (history.size() - taken), taken);
+        TimingStats s1, s2;
+        const uint64_t c1 = run(walk, future, s1), c2 = run(warm, future, s2);
+        CHECK(c1 == c2);
+        CHECK(s1.cache_hits == s2.cache_hits);
+        CHECK(s1.cache_misses == s2.cache_misses);
+        if (enough == 0) {
+          CHECK(c1 == reference);
+          CHECK(s1.cache_misses == sf.cache_misses);
+        }
+      }
+    }
+  }
+}
+
+TEST_CASE("walk_install: a fetch's lines in the order it touches them, and a set's old lines below the walk's",
+          "[timing][sample]") {
+  // One set of 16 ways. Nodes of 128 bytes: node k is lines 2k and 2k + 1. Records start at line 101 (record 0
+  // is on line 101 only, record 10 on line 107 only).
+  TimingConfig c = test_config();
+  c.cache_kib = 1;
+  c.cache_ways = 16;
+  TimingModel::Layout l = layout();
+  l.node_bytes = 128;
+  l.record_offset = 101 * 64;
+  const std::vector<std::vector<TraceEvent>> future{{tri(0)}};
+
+  // Forward: lines 100, 101, then 15 others: the set keeps 101 and drops 100. Backwards the walk meets the 15,
+  // then node 50's lines last first: 101 is the 16th. Taking them first first would keep 100 instead.
+  const std::vector<std::vector<TraceEvent>> history{
+      {node(50, 4)},
+      {node(60, 4), node(61, 4), node(62, 4), node(63, 4), node(64, 4), node(65, 4), node(66, 4), tri(10)}};
+  TimingModel warm(c, l), walk(c, l);
+  warm.warm(history.data(), history.size());
+  walk.walk_begin(future.data(), future.size());
+  CHECK(walk.walk_add(history.data(), history.size()) == 2);
+  CHECK(walk.walk_open() == 0);
+  walk.walk_install();
+  TimingStats s1, s2;
+  CHECK(run(warm, future, s1) == run(walk, future, s2));
+  CHECK(s1.cache_hits == 1);
+  CHECK(s2.cache_hits == 1);
+
+  // A set the walk does not fill keeps its old lines below the walked ones: record 0 (line 101) from before.
+  const std::vector<std::vector<TraceEvent>> short_history{{node(60, 4)}};
+  TimingModel warm2(c, l), walk2(c, l);
+  warm2.warm(future.data(), future.size());
+  walk2.warm(future.data(), future.size());
+  warm2.warm(short_history.data(), short_history.size());
+  walk2.walk_begin(future.data(), future.size());
+  walk2.walk_add(short_history.data(), short_history.size());
+  CHECK(walk2.walk_open() == 1);  // not seen, and the set is not full
+  walk2.walk_install();
+  TimingStats s3, s4;
+  CHECK(run(warm2, future, s3) == run(walk2, future, s4));
+  CHECK(s3.cache_hits == 1);
+  CHECK(s4.cache_hits == 1);
 }

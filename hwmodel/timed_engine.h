@@ -108,8 +108,9 @@ class TimingModel {
   void set_trace(PipelineTrace* trace) { m_trace = trace; }
   void feed(std::vector<TraceEvent>* events, size_t m);
   uint64_t finish();
-  // Functional warming (sampled timing): the cache takes the lines these rays' fetches touch, in order, with LRU
-  // updates, but no time passes and nothing is counted.
+  // Functional warming: the cache takes the lines these rays' fetches touch, in order, with LRU updates, but no
+  // time passes and nothing is counted. Sampled timing warms through the walk below (walk_install leaves the same
+  // cache, in less time); this is the definition the tests hold walk_install to.
   void warm(const std::vector<TraceEvent>* events, size_t m);
   // How far back functional warming must reach. An LRU cache's contents at a point are, in each set, the
   // cache_ways most recent distinct lines touched before it, in that order. Of the lines that rays simulated after

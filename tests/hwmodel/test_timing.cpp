@@ -62,6 +62,19 @@ TraceEvent tri(uint32_t record) {
   return TraceEvent{TraceEvent::kPrim, uint8_t(rtu::hw::RecordKind::kTriangle), 0, 0, record};
 }
 
+// Ray i of a sweep: fetches of the top of a tree (16 hot nodes) and of a window of 600 nodes drifting by 2 per
+// ray, as camera rays sweeping an image make, and a triangle; x is the generator's state.
+std::vector<TraceEvent> sweep_ray(uint32_t& x, int i) {
+  std::vector<TraceEvent> ev;
+  for (int j = 0; j < 4; ++j) {
+    x = x * 1664525u + 1013904223u;
+    ev.push_back(node(x % 16, 4));
+    ev.push_back(node(uint32_t(16 + 2 * i + int(x >> 8) % 600), 4));
+  }
+  ev.push_back(tri(uint32_t(3 * i + (x >> 20) % 64)));
+  return ev;
+}
+
 uint64_t run(TimingModel& m, std::vector<std::vector<TraceEvent>> rays, TimingStats& s, size_t chunk = 0) {
   m.begin(rays.size(), s);  // a copy: feed() takes the event lists
   if (chunk == 0) chunk = rays.size();
@@ -267,16 +280,7 @@ TEST_CASE("a backward walk fixes the cache the simulated rays meet: warming with
   // an image do: the 256-line cache (16 KiB, 4 ways) holds the hot lines and part of the window.
   const TimingConfig c = test_config();
   uint32_t x = 777;
-  auto ray = [&](int i) {
-    std::vector<TraceEvent> ev;
-    for (int j = 0; j < 4; ++j) {
-      x = x * 1664525u + 1013904223u;
-      ev.push_back(node(x % 16, 4));
-      ev.push_back(node(uint32_t(16 + 2 * i + int(x >> 8) % 600), 4));
-    }
-    ev.push_back(tri(uint32_t(3 * i + (x >> 20) % 64)));
-    return ev;
-  };
+  auto ray = [&](int i) { return sweep_ray(x, i); };
   std::vector<std::vector<TraceEvent>> history, future;
   for (int i = 0; i < 3000; ++i) history.push_back(ray(i));
   for (int i = 3000; i < 3400; ++i) future.push_back(ray(i));
@@ -341,16 +345,7 @@ TEST_CASE("walk_install leaves the cache that warming forward with the rays walk
     TimingModel::Layout l = layout();
     l.node_bytes = 56;
     uint32_t x = 4242;
-    auto ray = [&](int i) {
-      std::vector<TraceEvent> ev;
-      for (int j = 0; j < 4; ++j) {
-        x = x * 1664525u + 1013904223u;
-        ev.push_back(node(x % 16, 4));
-        ev.push_back(node(uint32_t(16 + 2 * i + int(x >> 8) % 600), 4));
-      }
-      ev.push_back(tri(uint32_t(3 * i + (x >> 20) % 64)));
-      return ev;
-    };
+    auto ray = [&](int i) { return sweep_ray(x, i); };
     std::vector<std::vector<TraceEvent>> stale, history, future;
     for (uint32_t i = 0; i < 300; ++i) stale.push_back({node(100000 + 7 * i, 4), node(6016 + 5 * i, 4)});
     for (int i = 0; i < 3000; ++i) history.push_back(ray(i));

@@ -77,8 +77,9 @@ void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_hel
       ->capture_default_str();
   app.add_option("--set", o.sets, "timed device: override a timing key, KEY=VALUE (repeatable)");
   app.add_option("--sample", o.sample,
-                 "timed device: simulate this fraction of each packet's rays in the timing model (systematic "
-                 "sample of units, each after a warm-up) and estimate the cycles with a 95% interval; 0: all")
+                 "timed device: simulate this fraction of each packet's rays in the timing model (units of rays "
+                 "sampled in strata or systematically, each after functional cache warming and a warm-up) and "
+                 "estimate the cycles with a 95% interval; 0: all")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   app.add_option("--sample-unit", o.sample_unit, "timed device, --sample: rays per measured unit")

@@ -236,9 +236,7 @@ void TimingModel::walk_install() {
       if (!touched) m_walk_fresh[k++] = ways[w];
     }
     for (size_t w = 0; w < W; ++w) ways[w] = w < k ? m_walk_fresh[w] : Line{};
-    m_walk_count[set] = 0;
   }
-  m_walk_sets.clear();
   m_stamp = base + W;
 }
 

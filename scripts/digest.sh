@@ -1,0 +1,106 @@
+#!/usr/bin/env bash
+# A digest of what the model computes, for refactorings that must change no behaviour: hits (t, primitive, u, v)
+# and statistics (traversal, timing, cycles) of
+#  - the float, fixed and timed devices on three real meshes, primary and incoherent rays, closest hit;
+#  - the timed device under each timing preset (rdna2, intel, embedded), and one sampled run per mesh;
+#  - firmware renders of the built-in scenes on the float and timed devices (image bytes and render statistics),
+#    ray traced and hybrid.
+# Wall-clock fields (seconds, rays per second) and file names are dropped from the JSON; everything else is kept.
+# Prints one line per run and a final digest over all of them; two builds that print the same final line computed
+# the same results on these inputs.
+# Usage: scripts/digest.sh [RTUSIM] [RAYS]     (RAYS per kind and mesh, default 20000; about two minutes)
+set -euo pipefail
+rtusim=${1:-build/default/rtusim}
+rays=${2:-20000}
+models=/usr/share/assimp/models
+meshes=(
+  "$models/IFC/AC14-FZK-Haus.ifc"
+  "$models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb"
+  "$models/BLEND/SuzanneSubdiv_252.blend"
+)
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+
+# The JSON without wall-clock figures and paths, keys sorted, as one line.
+strip_json() {
+  python3 - "$1" <<'EOF'
+import json, sys
+drop = {"trace_seconds", "rays_per_second", "load_seconds", "build_seconds", "seconds", "wall_seconds",
+        "render_seconds", "rays_file", "out", "image", "path", "threads"}
+def clean(v):
+    if isinstance(v, dict):
+        return {k: clean(x) for k, x in v.items() if k not in drop and not k.endswith("_seconds")}
+    if isinstance(v, list):
+        return [clean(x) for x in v]
+    return v
+print(json.dumps(clean(json.load(open(sys.argv[1]))), sort_keys=True))
+EOF
+}
+
+keep=${DIGEST_KEEP:-}  # a folder: the stripped JSON of every run is kept there, to find what differs
+[[ -n $keep ]] && mkdir -p "$keep"
+
+line() {  # name, files...: the name and a hash of the files' contents (JSON files stripped first)
+  local name=$1; shift
+  local h
+  if [[ -n $keep ]]; then
+    for f in "$@"; do
+      if [[ $f == *.json ]]; then strip_json "$f" | python3 -m json.tool >"$keep/${name//\//_}.json"; fi
+    done
+  fi
+  h=$(for f in "$@"; do
+        if [[ $f == *.json ]]; then strip_json "$f"; else sha256sum <"$f"; fi
+      done | sha256sum | cut -c1-16)
+  echo "$name $h" | tee -a "$work/all"
+}
+
+for mesh in "${meshes[@]}"; do
+  m=$(basename "$mesh")
+  for kind in primary incoherent; do
+    if [[ $kind == primary ]]; then
+      "$rtusim" rays --scene "$mesh" --kind primary --width 160 --height $((rays / 160)) --out "$work/r.bin" >/dev/null
+    else
+      "$rtusim" rays --scene "$mesh" --kind incoherent --count "$rays" --seed 7 --out "$work/r.bin" >/dev/null
+    fi
+    for dev in float fixed; do
+      "$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device $dev --threads 2 --out "$work/h.bin" \
+        --stats "$work/s.json" >/dev/null 2>&1
+      line "$m/$kind/$dev" "$work/h.bin" "$work/s.json"
+    done
+    for preset in rdna2 intel embedded; do
+      "$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device timed --config $preset --threads 2 \
+        --out "$work/h.bin" --stats "$work/s.json" >/dev/null 2>&1
+      line "$m/$kind/timed-$preset" "$work/h.bin" "$work/s.json"
+    done
+    "$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device timed --config rdna2 --threads 2 \
+      --sample 0.05 --sample-seed 3 --out "$work/h.bin" --stats "$work/s.json" >/dev/null 2>&1
+    line "$m/$kind/timed-sampled" "$work/h.bin" "$work/s.json"
+  done
+done
+
+# Sampled timing on a longer packet (strata, probe, walk, adaptive warm-up), with hits and cycles only; any-hit.
+mesh=${meshes[0]}
+"$rtusim" rays --scene "$mesh" --kind primary --width 400 --height 300 --out "$work/r.bin" >/dev/null
+"$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device timed --config rdna2 --threads 2 \
+  --sample 0.02 --sample-seed 5 --out "$work/h.bin" --stats "$work/s.json" >/dev/null 2>&1
+line "sampled-120k/hits" "$work/h.bin" "$work/s.json"
+"$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device timed --config intel --threads 2 \
+  --sample 0.02 --sample-seed 5 --stats "$work/s.json" >/dev/null 2>&1
+line "sampled-120k/cycles-only" "$work/s.json"
+for dev in fixed timed; do
+  "$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device $dev --any-hit --threads 2 --out "$work/h.bin" \
+    --stats "$work/s.json" >/dev/null 2>&1
+  line "any-hit/$dev" "$work/h.bin" "$work/s.json"
+done
+
+for scene in seed cornell; do
+  for dev in float timed; do
+    for mode in raytrace hybrid; do
+      "$rtusim" render --scene builtin:$scene --device $dev --mode $mode --width 96 --height 72 --spp 1 \
+        --max-depth 2 --threads 2 --out "$work/i.png" --stats "$work/s.json" >/dev/null 2>&1
+      line "render/$scene/$dev/$mode" "$work/i.png" "$work/s.json"
+    done
+  done
+done
+
+echo "digest $(sha256sum <"$work/all" | cut -c1-16)"

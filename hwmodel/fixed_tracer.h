@@ -15,7 +15,7 @@
 
 namespace rtu::hw {
 
-// What one ray did in the datapath, in order; the timing model replays it (timed_engine.h) so the timed device's
+// What one ray did in the datapath, in order; the timing model replays it (timing_model.h) so the timed device's
 // hits are the fixed device's by construction.
 // The stack traffic comes in one of two forms (FixedTraceOptions::record_short_stack): every push and pop (kPush,
 // kPop), or only what passes a short stack of a given size (kSpill: entries pushed beyond it, kRefill: one entry

@@ -1,5 +1,5 @@
-// The timing model's configuration: every latency, rate and size of the timed device (timed_engine.h), as
-// named keys with presets. `rtusim config --preset P` prints a resolved configuration; `--set key=value`
+// The timing model's configuration: every latency, rate and size of the timed device (timing_model.h), as named
+// keys with presets. `rtusim config --preset P` prints a resolved configuration; `--set key=value`
 // overrides one key; unknown keys and out-of-range values are errors naming the key.
 //
 // Ranges (checked by validate()): latencies 0..100000 cycles (box, triangle, sphere and plane latencies >= 1);
@@ -69,7 +69,7 @@ struct TimingConfig {
   int raster_depth_bytes = 4;               // depth bytes read per fragment, written per pass and per clear
   int raster_gbuffer_bytes = 12;            // G-buffer bytes written per pass besides depth (prim, u, v)
   // Watchdog: the most cycles a ray may stay in its ray slot; a ray still there after that stops the TRACE with
-  // a watchdog error and a dump of the unit's state (timed_engine.h). 0: off.
+  // a watchdog error and a dump of the unit's state (timing_model.h). 0: off.
   int watchdog_cycles = 100000000;
 
   // Checks every field; throws std::invalid_argument naming the first bad key and its allowed range.

@@ -1,0 +1,113 @@
+// The timed device's node cache: node, primitive record and plane fetches go through it into the DRAM channel.
+//
+// Models: cache_kib of line_bytes lines, cache_ways-way set associative, LRU replacement; a hit's data is there
+// cache_latency cycles after the access (or when the line arrives, for a line still in flight: it is waited for,
+// not fetched twice); a miss asks the DRAM channel for the line cache_latency cycles after the access. The set
+// is the line number modulo the number of sets. cache_kib = 0: no cache, every access goes to DRAM.
+// Any number of accesses per cycle (no port or bank conflicts); no MSHR limit.
+// Left out: write-allocate of stack spills (they bypass the cache), prefetching, replacement other than LRU.
+//
+// Sampled timing warms the cache without simulating time: warm() takes lines in order (what forward functional
+// warming does); the backward walk (walk_*) finds how few of the lines before a point fix the cache the rays after
+// it meet, and installs them as warm() would (timing_model.h says how the timing model drives it).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "hwmodel/dram_channel.h"
+#include "hwmodel/timing_config.h"
+#include "hwmodel/timing_stats.h"
+
+namespace rtu::hw {
+
+class NodeCache {
+ public:
+  explicit NodeCache(const TimingConfig& c);
+  bool enabled() const { return !m_lines.empty(); }
+  uint64_t latency() const { return m_latency; }
+
+  // An access to `line` at cycle t: returns the cycle its data is there. Counts a hit or a miss.
+  uint64_t access(uint64_t line, uint64_t t, DramChannel& dram, TimingStats& s) {
+    if (m_lines.empty()) {
+      ++s.cache_misses;
+      return dram.transfer(m_line_bytes, t, s);
+    }
+    Line* ways = set_ways(line);
+    const int w = find_way(ways, line);
+    if (w >= 0) {
+      Line& l = ways[w];
+      ++s.cache_hits;
+      l.stamp = ++m_stamp;
+      return std::max(t, l.ready) + m_latency;
+    }
+    Line* victim = lru_way(ways);
+    ++s.cache_misses;
+    victim->tag = line;
+    victim->stamp = ++m_stamp;
+    victim->ready = dram.transfer(m_line_bytes, t + m_latency, s);
+    return victim->ready;
+  }
+
+  // Functional warming: the line is made the most recent of its set (brought in, ready at once, if absent).
+  void warm(uint64_t line);
+
+  // The backward walk. An LRU cache's contents at a point are, in each set, the cache_ways most recent distinct
+  // lines touched before it. walk_need() names the lines the rays after the point touch (in any order, repeats
+  // allowed); walk_start() begins the walk; walk_see() then takes the lines before the point from the latest
+  // backwards. A needed line is determined once it is seen (it is in the cache at the point) or its set has
+  // cache_ways other lines seen (it is not). walk_install() puts into the cache what warming forward with the seen
+  // lines would: the same contents and LRU order, in time proportional to the sets touched.
+  void walk_reset();  // forgets the previous walk (call before walk_need)
+  void walk_need(uint64_t line);
+  void walk_start();
+  void walk_see(uint64_t line);
+  size_t walk_needed() const { return m_walk_need.size(); }  // distinct lines named by walk_need
+  size_t walk_open() const { return m_walk_undetermined; }   // of them, not yet determined
+  void walk_install();
+
+ private:
+  struct Line {
+    uint64_t tag = ~uint64_t(0);
+    uint64_t stamp = 0;  // LRU: larger is more recent; 0: never used
+    uint64_t ready = 0;  // cycle the data is in the cache
+  };
+  uint64_t set_of(uint64_t line) const { return m_set_mask ? line & m_set_mask : line % m_sets; }
+  Line* set_ways(uint64_t line) { return &m_lines[set_of(line) * m_ways]; }
+  // The way of a set holding line, or -1. Every way is compared, without an early exit: which way holds the line
+  // is data (a bit mask), not a branch; a line is in at most one way.
+  int find_way(const Line* ways, uint64_t line) const {
+    uint64_t match = 0;
+    if (m_ways == 4) {  // the presets' associativity: unrolled
+      match = uint64_t(ways[0].tag == line) | uint64_t(ways[1].tag == line) << 1 |
+              uint64_t(ways[2].tag == line) << 2 | uint64_t(ways[3].tag == line) << 3;
+    } else {
+      for (uint64_t w = 0; w < m_ways; ++w) match |= uint64_t(ways[w].tag == line) << w;
+    }
+    return match != 0 ? __builtin_ctzll(match) : -1;
+  }
+  Line* lru_way(Line* ways) const {
+    Line* victim = ways;  // the first of the least recent; never-used lines have stamp 0
+    for (uint64_t w = 1; w < m_ways; ++w)
+      if (ways[w].stamp < victim->stamp) victim = &ways[w];
+    return victim;
+  }
+
+  uint64_t m_ways, m_line_bytes, m_latency;
+  std::vector<Line> m_lines;
+  uint64_t m_sets = 0, m_stamp = 0;
+  uint64_t m_set_mask = 0;  // m_sets - 1 when m_sets is a power of two (else 0: a division)
+
+  // The walk: per set the distinct lines seen so far (at most cache_ways) and how many; the needed lines, per set
+  // how many of them are undetermined, and in all.
+  std::vector<uint64_t> m_walk_lines;
+  std::vector<uint8_t> m_walk_count;
+  std::vector<uint64_t> m_walk_need;  // in the order first named
+  std::vector<uint8_t> m_walk_mark;   // by line number: 1 for the lines in m_walk_need
+  std::vector<uint32_t> m_walk_open;
+  std::vector<uint32_t> m_walk_sets;  // the sets the walk has seen a line of
+  std::vector<Line> m_walk_fresh;     // walk_install's scratch: a set's new contents
+  size_t m_walk_undetermined = 0;
+};
+
+}  // namespace rtu::hw

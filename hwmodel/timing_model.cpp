@@ -1,0 +1,395 @@
+#include "hwmodel/timing_model.h"
+
+#include <algorithm>
+#include <functional>
+#include <stdexcept>
+#include <string>
+
+#include "hwmodel/engine.h"
+
+namespace rtu::hw {
+
+TimingModel::TimingModel(const TimingConfig& c, const Layout& layout)
+    : m_c((c.validate(), c)), m_layout(layout), m_cache(c), m_dram(c) {
+  m_box_free.assign(size_t(c.box_units), 0);
+  m_tri_free.assign(size_t(c.tri_units) * size_t(c.tri_rate), 0);  // a unit of rate r: r issue slots per clock
+  m_slots.resize(size_t(c.ray_slots));
+  m_recent.assign(size_t(c.queue_depth), 0);
+  while ((uint64_t(1) << m_line_shift) < uint64_t(c.line_bytes)) ++m_line_shift;
+  m_min_fetch = m_cache.enabled() ? m_cache.latency() : m_dram.line_cycles() + m_dram.latency();
+  m_waiting.reserve(size_t(c.ray_slots));
+  // A node takes at least one issue clock, even one without children (the RTL unit's sequencer does the same).
+  for (uint64_t k = 0; k < m_box_issue.size(); ++k)
+    m_box_issue[k] = std::max<uint64_t>(1, (k + uint64_t(c.box_rate) - 1) / uint64_t(c.box_rate));
+}
+
+template <bool Reverse, class F>
+void TimingModel::for_each_line(const TraceEvent& e, F&& f) const {
+  uint64_t addr, bytes;
+  if (e.kind == TraceEvent::kNode) {
+    addr = m_layout.node_offset + uint64_t(e.index) * m_layout.node_bytes;
+    bytes = m_layout.node_bytes;
+  } else if (e.kind == TraceEvent::kPrim) {
+    addr = m_layout.record_offset + uint64_t(e.index) * kRecordBytes;
+    bytes = kRecordBytes;
+  } else if (e.kind == TraceEvent::kPlane) {
+    addr = m_layout.plane_offset + uint64_t(e.index) * sizeof(PlaneRecord);
+    bytes = sizeof(PlaneRecord);
+  } else {
+    return;
+  }
+  const uint64_t lo = addr >> m_line_shift, hi = (addr + bytes - 1) >> m_line_shift;
+  if constexpr (Reverse) {
+    for (uint64_t line = hi + 1; line-- > lo;) f(line);
+  } else {
+    for (uint64_t line = lo; line <= hi; ++line) f(line);
+  }
+}
+
+void TimingModel::warm(const std::vector<TraceEvent>* events, size_t m) {
+  if (!m_cache.enabled()) return;
+  for (size_t i = 0; i < m; ++i)
+    for (const TraceEvent& e : events[i]) for_each_line<false>(e, [&](uint64_t line) { m_cache.warm(line); });
+}
+
+void TimingModel::walk_begin(const std::vector<TraceEvent>* events, size_t m) {
+  m_cache.walk_reset();
+  if (!m_cache.enabled()) return;  // nothing to warm
+  for (size_t i = 0; i < m; ++i)
+    for (const TraceEvent& e : events[i]) for_each_line<false>(e, [&](uint64_t line) { m_cache.walk_need(line); });
+  m_cache.walk_start();
+}
+
+size_t TimingModel::walk_add(const std::vector<TraceEvent>* events, size_t m, size_t enough) {
+  if (!m_cache.enabled()) return m;
+  // Backwards, ray by ray and fetch by fetch from the last, each fetch's lines last first: the order opposite to
+  // the one in which warming forward would touch them.
+  for (size_t i = m; i-- > 0;) {
+    const std::vector<TraceEvent>& ev = events[i];
+    for (size_t j = ev.size(); j-- > 0;)
+      for_each_line<true>(ev[j], [&](uint64_t line) { m_cache.walk_see(line); });
+    if (m_cache.walk_open() <= enough) return m - i;
+  }
+  return m;
+}
+
+uint64_t TimingModel::unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t) {
+  size_t best = 0;
+  for (size_t j = 1; j < next_free.size(); ++j)
+    if (next_free[j] < next_free[best]) best = j;
+  const uint64_t start = std::max(t, next_free[best]);
+  next_free[best] = start + issue;
+  const uint64_t wait = start - t;
+  if (wait > uint64_t(m_c.queue_depth)) m_s->queue_stall_cycles += wait - uint64_t(m_c.queue_depth);
+  return start + latency + issue - 1;
+}
+
+void TimingModel::begin(size_t n, TimingStats& s) {
+  m_s = &s;
+  m_n = n;
+  m_next = 0;
+  m_queue.reset(uint32_t(m_c.ray_slots));
+  m_waiting.clear();
+  m_t0 = m_base + uint64_t(m_c.packet_latency);
+  m_setup_free = m_wb_free = 0;
+  m_end = m_t0;
+  std::fill(m_recent.begin(), m_recent.end(), 0);
+  ++s.packets;
+  // Every slot is free when the packet is decoded; they take rays as the rays are fed.
+  m_free_slots.clear();
+  for (uint32_t k = 0; k < uint32_t(m_c.ray_slots); ++k) m_free_slots.push_back({m_t0, k});
+  for (Slot& sl : m_slots) sl.busy = false;
+  m_age.clear();
+  m_watch_deadline = kNoDeadline;
+}
+
+void TimingModel::admit(uint32_t k, uint64_t free_at) {
+  const size_t i = m_next++;
+  uint64_t fetch = m_t0 + i;
+  const size_t D = m_recent.size();
+  if (i >= D) fetch = std::max(fetch, m_recent[i % D]);  // the prefetch queue holds D rays
+  const uint64_t arrive = fetch + uint64_t(m_c.ray_fetch_latency);
+  const uint64_t enter = std::max({arrive, free_at, m_setup_free});
+  m_setup_free = enter + 1;
+  m_recent[i % D] = enter;
+  m_s->stream_bytes += kRayBytesStream;
+  ++m_s->rays;
+  Slot& sl = m_slots[k];
+  sl.ev.swap(m_feed[i - m_feed_first]);
+  sl.pos = 0;
+  sl.depth = 0;
+  sl.spilled = 0;
+  sl.unit_phase = false;
+  sl.entered = enter;
+  sl.ray = i;
+  sl.busy = true;
+  if (m_c.watchdog_cycles > 0) {
+    if (m_watch_deadline == kNoDeadline) m_watch_deadline = enter + uint64_t(m_c.watchdog_cycles);
+    m_age.push_back({enter, k});
+  }
+  if (m_trace) m_trace->add(k, "setup", enter, enter + uint64_t(m_c.setup_latency));
+  m_queue.push(enter + uint64_t(m_c.setup_latency), k);
+  __builtin_prefetch(sl.ev.data());
+}
+
+void TimingModel::spill(Slot& sl, uint64_t t) {
+  ++sl.spilled;
+  ++m_s->stack_spills;
+  m_dram.transfer(8, t, *m_s);  // bandwidth only: the write leaves the slot
+}
+
+uint64_t TimingModel::refill(Slot& sl, uint32_t k, uint64_t t) {
+  --sl.spilled;
+  ++m_s->stack_refills;
+  const uint64_t ready = m_dram.transfer(8, t, *m_s);
+  if (m_trace) m_trace->add(k, "stack refill", t, ready);
+  return ready;
+}
+
+uint64_t TimingModel::unit_request(const TraceEvent& e, uint32_t k, uint64_t t) {
+  uint64_t done;
+  if (e.kind == TraceEvent::kNode) {
+    // The configured rate and depth, or the clocks the box unit that tested the node reported (box_unit.h).
+    const uint64_t issue = e.unit_issue ? e.unit_issue : m_box_issue[e.count];
+    const uint64_t latency = e.unit_issue ? uint64_t(e.unit_result) - issue + 1 : uint64_t(m_c.box_latency);
+    done = unit(m_box_free, issue, latency, t);
+    if (m_trace) m_trace->add(k, "box", t, done);
+    m_s->box_tests += e.count;
+    m_s->box_issue_cycles += issue;
+    return done;
+  }
+  uint64_t lat = uint64_t(m_c.plane_latency);
+  if (e.kind == TraceEvent::kPrim && e.count == uint8_t(RecordKind::kTriangle)) {
+    lat = uint64_t(m_c.tri_latency);
+    ++m_s->tri_tests;
+  } else if (e.kind == TraceEvent::kPrim) {
+    lat = uint64_t(m_c.sphere_latency);
+    ++m_s->sphere_tests;
+  } else {
+    ++m_s->plane_tests;
+  }
+  done = unit(m_tri_free, 1, lat, t);
+  if (m_trace)
+    m_trace->add(
+        k, e.kind == TraceEvent::kPlane ? "plane" : (lat == uint64_t(m_c.tri_latency) ? "triangle" : "sphere"), t,
+        done);
+  ++m_s->tri_issue_cycles;
+  return done;
+}
+
+uint64_t TimingModel::pop_waiting() {
+  const uint64_t key = m_waiting.front();
+  std::pop_heap(m_waiting.begin(), m_waiting.end(), std::greater<>());
+  m_waiting.pop_back();
+  return key;
+}
+
+void TimingModel::serve_waiting() {
+  const uint64_t key = pop_waiting();
+  const uint32_t w = uint32_t(key & ((uint64_t(1) << SlotQueue::kSlotBits) - 1));
+  Slot& sl = m_slots[w];
+  const uint64_t done = unit_request(sl.ev[sl.pos], w, key >> SlotQueue::kSlotBits);
+  ++sl.pos;
+  sl.unit_phase = false;
+  m_queue.requeue(w, done + uint64_t(m_c.traversal_latency));
+}
+
+void TimingModel::simulate() {
+  const uint64_t SE = uint64_t(m_c.stack_entries);
+  for (;;) {
+    // Free slots take the next rays, earliest free first (ties: lowest slot).
+    while (!m_free_slots.empty() && m_next < m_n) {
+      const auto [free_at, k] = m_free_slots.front();
+      if (!m_queue.empty() && m_queue.top_cycle() < free_at) break;  // a busy slot acts first
+      if (m_next >= m_feed_first + m_feed_count) return;             // its ray is not fed yet
+      std::pop_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
+      m_free_slots.pop_back();
+      admit(k, free_at);
+    }
+    if (m_queue.empty()) return;
+    // The earliest slot acts, until it knows its next cycle (replace_top: it waits again) or leaves (pop).
+    const uint64_t t = m_queue.top_cycle();
+    const uint32_t k = m_queue.top_slot();
+    if (t > m_watch_deadline) watchdog(t);
+    Slot& sl = m_slots[k];
+    uint64_t next_t = 0;
+    bool waiting = false;
+    while (!waiting) {
+      if (sl.pos == sl.ev.size()) {  // hit write-back; the slot is free the clock after
+        const uint64_t st = std::max(t, m_wb_free);
+        if (m_c.watchdog_cycles > 0 && st + 1 - sl.entered > uint64_t(m_c.watchdog_cycles))
+          fire(k, sl.entered + uint64_t(m_c.watchdog_cycles) + 1);
+        m_wb_free = st + 1;
+        sl.busy = false;
+        // Rays that left are dropped from the age queue's front (the watchdog skips them; this keeps it short).
+        while (!m_age.empty() && (!m_slots[m_age.front().second].busy ||
+                                  m_slots[m_age.front().second].entered != m_age.front().first))
+          m_age.pop_front();
+        m_end = std::max(m_end, st + uint64_t(m_c.writeback_latency));
+        if (m_done) {
+          m_done->push_back(st + uint64_t(m_c.writeback_latency));
+          if (m_entered) m_entered->push_back(sl.entered);
+        }
+        if (m_trace) m_trace->add(k, "write-back", st, st + 1);  // the slot hands its hit to the write-back pipe
+        m_s->stream_bytes += kHitBytesStream;
+        m_s->slot_busy_cycles += st + 1 - sl.entered;
+        m_free_slots.push_back({st + 1, k});
+        std::push_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
+        m_queue.pop();
+        break;
+      }
+      const TraceEvent& e = sl.ev[sl.pos];
+      switch (e.kind) {
+        case TraceEvent::kPush:
+          for (int j = 0; j < e.count; ++j)
+            if (uint64_t(++sl.depth) > SE) spill(sl, t);
+          ++sl.pos;
+          continue;
+        case TraceEvent::kPop:
+          ++sl.pos;
+          if (uint64_t(sl.depth--) > SE) {
+            next_t = refill(sl, k, t);
+            waiting = true;
+          }
+          continue;
+        case TraceEvent::kSpill:  // the recorder left out the stack traffic within the short stack
+          for (int j = 0; j < e.count; ++j) spill(sl, t);
+          ++sl.pos;
+          continue;
+        case TraceEvent::kRefill:
+          ++sl.pos;
+          next_t = refill(sl, k, t);
+          waiting = true;
+          continue;
+        default:
+          break;
+      }
+      if (!sl.unit_phase) {  // fetch the data the unit needs: ready when its last line is
+        ++(e.kind == TraceEvent::kNode ? m_s->node_fetches : m_s->prim_fetches);
+        next_t = t;
+        for_each_line<false>(
+            e, [&](uint64_t line) { next_t = std::max(next_t, m_cache.access(line, t, m_dram, *m_s)); });
+        if (m_trace) m_trace->add(k, e.kind == TraceEvent::kNode ? "node fetch" : "record fetch", t, next_t);
+        // The unit request at next_t. Requests reach the units in the order of (cycle, slot), and only they
+        // touch the units' state, so a request may be served before its cycle if no request can come before it.
+        // A fetch from now on is at t or later and takes at least m_min_fetch, so where this one took that long,
+        // every later fetch's request comes after this one's (at t itself, slots served later are higher), and
+        // so does every request still waiting once those before it (m_waiting, earliest first) are served: all
+        // are served now and the slot skips a wake-up, with every cycle as if each had waited for its own.
+        const uint64_t key = next_t << SlotQueue::kSlotBits | k;
+        if (!m_early || next_t != t + m_min_fetch) {
+          m_waiting.push_back(key);
+          std::push_heap(m_waiting.begin(), m_waiting.end(), std::greater<>());
+          sl.unit_phase = true;
+          waiting = true;
+          continue;
+        }
+        while (!m_waiting.empty() && m_waiting.front() < key) serve_waiting();
+        next_t = unit_request(e, k, next_t) + uint64_t(m_c.traversal_latency);
+      } else {
+        // This slot's request is the earliest waiting one (the queue serves in the same order).
+        if (m_waiting.empty() || m_waiting.front() != (t << SlotQueue::kSlotBits | k)) [[unlikely]]
+          throw std::logic_error("timing model: unit requests out of order");
+        pop_waiting();
+        next_t = unit_request(e, k, t) + uint64_t(m_c.traversal_latency);
+        sl.unit_phase = false;
+      }
+      ++sl.pos;
+      waiting = true;
+    }
+    if (waiting) {
+      m_queue.replace_top(next_t);
+      // The slot's next event is read when it comes up again, after other slots' events: start the load now.
+      __builtin_prefetch(sl.ev.data() + sl.pos);
+    }
+  }
+}
+
+void TimingModel::watchdog(uint64_t t) {
+  // Entry cycles rise with admission, so the oldest ray still in a slot is the first valid entry.
+  while (!m_age.empty()) {
+    const auto [entered, k] = m_age.front();
+    if (!m_slots[k].busy || m_slots[k].entered != entered) {
+      m_age.pop_front();
+      continue;
+    }
+    // Every event before t has been served, and this ray's own next event is at t or later: at cycle
+    // entered + watchdog_cycles + 1 it is still in its slot.
+    m_watch_deadline = entered + uint64_t(m_c.watchdog_cycles);
+    if (t > m_watch_deadline) fire(k, m_watch_deadline + 1);
+    return;
+  }
+  m_watch_deadline = kNoDeadline;  // no ray in a slot; admit() sets the next
+}
+
+void TimingModel::fire(uint32_t k, uint64_t cycle) {
+  const Slot& stuck = m_slots[k];
+  auto u = [](uint64_t v) { return std::to_string(v); };
+  auto event_name = [](const Slot& sl) -> std::string {
+    if (sl.pos >= sl.ev.size()) return "hit write-back";
+    const TraceEvent& e = sl.ev[sl.pos];
+    const std::string what = e.kind == TraceEvent::kNode    ? "node "
+                             : e.kind == TraceEvent::kPrim  ? "record "
+                             : e.kind == TraceEvent::kPlane ? "plane "
+                                                            : "stack entry ";
+    // unit_phase: its fetch is under way and the unit's test comes next; else the previous step is finishing.
+    return (sl.unit_phase ? "waiting for the data of " : "next: ") + what + std::to_string(e.index);
+  };
+  auto backlog = [&](const std::vector<uint64_t>& next_free) {
+    uint64_t queued = 0;
+    for (uint64_t f : next_free) queued += f > cycle ? f - cycle : 0;
+    return queued;
+  };
+  std::string d = "timed device watchdog: ray " + u(stuck.ray) + " of " + u(m_n) + " has been in ray slot " +
+                  u(k) + " for more than watchdog_cycles = " + std::to_string(m_c.watchdog_cycles) +
+                  " cycles (entered at cycle " + u(stuck.entered) + ")\n";
+  d += "unit state at cycle " + u(cycle) + " since bind (" + u(cycle - m_base) + " into this TRACE):\n";
+  size_t busy = 0;
+  for (const Slot& sl : m_slots) busy += sl.busy;
+  const uint64_t remaining = uint64_t(m_n - m_next);
+  d += "  rays: " + u(m_next) + " of " + u(m_n) + " taken from the ray buffer, " + u(busy) + " in slots, " +
+       u(m_next - busy) +
+       " done; ray prefetch queue: " + u(std::min<uint64_t>(remaining, uint64_t(m_c.queue_depth))) + " of " +
+       std::to_string(m_c.queue_depth) + " rays\n";
+  d += "  ray slots: " + u(busy) + " busy of " + std::to_string(m_c.ray_slots) + "\n";
+  size_t listed = 0;
+  for (uint32_t j = 0; j < m_slots.size(); ++j) {
+    const Slot& sl = m_slots[j];
+    if (!sl.busy) continue;
+    if (++listed > 64) {
+      d += "    ... " + u(busy - 64) + " more busy slots\n";
+      break;
+    }
+    d += "    slot " + u(j) + ": ray " + u(sl.ray) + ", entered " + u(sl.entered) + ", event " + u(sl.pos) +
+         " of " + u(sl.ev.size()) + " (" + event_name(sl) + "), stack entries spilled to memory " +
+         std::to_string(sl.spilled) + "\n";
+  }
+  d += "  box units: " + u(backlog(m_box_free)) +
+       " cycles of queued work; triangle units: " + u(backlog(m_tri_free)) + " cycles; DRAM channel busy for " +
+       u(m_dram.free_at() > cycle ? m_dram.free_at() - cycle : 0) + " more cycles; write-back free at " +
+       u(m_wb_free) + "\n";
+  d += "  this TRACE so far: cache hits " + u(m_s->cache_hits) + ", misses " + u(m_s->cache_misses) +
+       ", DRAM bytes " + u(m_s->dram_bytes) + ", stack spills " + u(m_s->stack_spills) + ", queue stall cycles " +
+       u(m_s->queue_stall_cycles);
+  throw WatchdogError(d, cycle - m_base);
+}
+
+void TimingModel::feed(std::vector<TraceEvent>* events, size_t m) {
+  m_feed = events;
+  m_feed_first = m_next;
+  m_feed_count = m;
+  simulate();
+  m_feed = nullptr;
+}
+
+uint64_t TimingModel::finish() {
+  m_feed_count = 0;
+  m_feed_first = m_next;
+  simulate();
+  const uint64_t cycles = m_end - m_base;
+  m_base = m_end;
+  m_s->cycles += cycles;
+  return cycles;
+}
+
+}  // namespace rtu::hw

@@ -1,0 +1,186 @@
+// The timed device's timing model: the events of each ray (what the fixed datapath did, in order: node fetch and
+// box tests, record fetch and primitive test, plane tests, stack pushes and pops; fixed_tracer.h) are replayed in
+// a ray slot of a cycle-approximate model of the unit, configured by TimingConfig. Components, what they model
+// and the keys that set them (docs/timing-model.md has the full reference):
+// - command processor: packet decode (packet_latency per packet); a FENCE completes fence_latency after the
+//   previous packet, and its interrupt (with kFenceIrq) reaches the host irq_latency after that (the device
+//   does not wait for it; DeviceCounters::last_irq_cycle); TRACE packets run one after another (no overlap
+//   between packets).
+// - ray fetch: rays stream from the ray buffer at one per clock with ray_fetch_latency, at most queue_depth rays
+//   ahead of the slots (a bounded prefetch queue); ray setup issues one ray per clock, setup_latency deep.
+// - ray slots: ray_slots rays in flight; a free slot takes the next ray (in order; lowest free slot first). Each
+//   slot has a stack of stack_entries; deeper pushes spill 8 bytes to DRAM (bandwidth only) and pops of spilled
+//   entries wait for a DRAM read (latency and bandwidth).
+// - memory: node, record and plane fetches go through the node cache (node_cache.h) into the DRAM channel
+//   (dram_channel.h). The image is taken to start at a line boundary. Ray and hit buffers stream through their
+//   own port: counted (stream_bytes), not in the DRAM channel.
+// - units: box_units box units, box_rate box tests per clock each: a node of c children issues for
+//   ceil(c / box_rate) clocks (at least one), its result comes box_latency after the first; or, with an RTL box
+//   unit attached, the clocks that unit reported for the node (box_unit.h). tri_units triangle units of tri_rate
+//   tests per clock (tri_units * tri_rate issue slots, one test per clock each; spheres and planes use the same
+//   slots with their own latency). A request waits for the earliest free unit (first come, first served); waits
+//   longer than queue_depth clocks count as queue stalls.
+// - scheduler: traversal_latency from a unit result to the slot's next request; hit write-back one per clock,
+//   writeback_latency deep; a slot is free again the clock after its hit is issued to write-back.
+// - watchdog: a ray that stays in its slot more than watchdog_cycles stops the packet with a WatchdogError
+//   (engine.h) whose text dumps the unit at that cycle: the ray, every busy slot (ray, entry cycle, events done,
+//   stack entries spilled, what it waits for), the prefetch queue, the units' and DRAM's queued work, cache
+//   figures.
+// Every request is served in the order of its cycle (ties by slot number), so the result does not depend on the
+// order in which the code evaluates components, and time jumps from event to event (idle cycles are skipped).
+// Left out: overlap of consecutive TRACE packets, DRAM banks and refresh, write-allocate of spills into the
+// cache, the area and energy of each unit.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <deque>
+#include <utility>
+#include <vector>
+
+#include "hwmodel/dram_channel.h"
+#include "hwmodel/fixed_tracer.h"
+#include "hwmodel/node_cache.h"
+#include "hwmodel/slot_queue.h"
+#include "hwmodel/timing_config.h"
+#include "hwmodel/timing_stats.h"
+
+namespace rtu::hw {
+
+inline constexpr uint64_t kRayBytesStream = 32;  // a ray read from the ray buffer
+inline constexpr uint64_t kHitBytesStream = 16;  // a hit written to the hit buffer
+
+// Spans of pipeline activity in a window of cycles, for a Chrome/Perfetto trace (one track per ray slot).
+struct PipelineTrace {
+  struct Span {
+    uint32_t slot;
+    const char* what;  // "setup", "node fetch", "box", "record fetch", "triangle", "sphere", "plane",
+                       // "stack refill", "write-back"
+    uint64_t start, end;
+  };
+  uint64_t from = 0, to = 0;  // window [from, to) in device cycles since bind
+  size_t max_spans = 1000000;
+  std::vector<Span> spans;
+  void add(uint32_t slot, const char* what, uint64_t start, uint64_t end) {
+    if (end > from && start < to && spans.size() < max_spans) spans.push_back(Span{slot, what, start, end});
+  }
+};
+
+class TimingModel {
+ public:
+  // Where the bound image keeps its sections (addresses are image offsets).
+  struct Layout {
+    uint64_t node_offset = 0, node_bytes = 56, record_offset = 0, plane_offset = 0;
+  };
+  TimingModel(const TimingConfig& c, const Layout& layout);
+
+  // One TRACE packet of n rays: begin, then feed the rays' events in order (any number at a time; an empty list
+  // is a ray rejected at setup), then finish, which returns the packet's cycles from its decode to the last hit
+  // written. Memory stays bounded: a slot takes its ray's event list when it takes the ray, by swapping it with
+  // the list of the slot's previous ray, so a fed list comes back with unspecified contents and its capacity for
+  // the caller to record into again. The cache keeps its contents from packet to packet.
+  void begin(size_t n, TimingStats& s);
+  // Records pipeline spans into `trace` (null: none).
+  void set_trace(PipelineTrace* trace) { m_trace = trace; }
+  void feed(std::vector<TraceEvent>* events, size_t m);
+  uint64_t finish();
+  // Functional warming: the cache takes the lines these rays' fetches touch, in order, with LRU updates, but no
+  // time passes and nothing is counted. Sampled timing warms through the walk below (walk_install leaves the same
+  // cache, in less time); this is the definition the tests hold walk_install to.
+  void warm(const std::vector<TraceEvent>* events, size_t m);
+  // How far back functional warming must reach. An LRU cache's contents at a point are, in each set, the
+  // cache_ways most recent distinct lines touched before it, in that order. Of the lines that rays simulated after
+  // the point touch, a line is in the cache at the point if it is among those of its set, and is not if its set
+  // holds that many other lines; a set's older lines only matter if such a line is touched. walk_begin(events, m)
+  // takes the rays to be simulated and starts a walk backwards from the point; walk_add() takes rays that come
+  // before all rays given since walk_begin() and returns how many of the simulated rays' distinct lines are still
+  // undetermined (neither seen nor in a full set). At 0, warming with the rays walked, in forward order, gives
+  // the simulated rays the cache they would meet after warming with every earlier ray.
+  void walk_begin(const std::vector<TraceEvent>* events, size_t m);
+  // walk_add takes the rays backwards from the last and stops after the first (the last in order) with which at
+  // most `enough` lines are undetermined; returns how many of the m rays it took (the last ones), m if it took
+  // all. walk_install() then puts into the cache what warming forward with the rays taken since walk_begin()
+  // would: the same contents and LRU order, in time proportional to the sets touched, not to the rays.
+  size_t walk_add(const std::vector<TraceEvent>* events, size_t m, size_t enough = 0);
+  size_t walk_open() const { return m_cache.walk_open(); }
+  void walk_install() { m_cache.walk_install(); }
+  size_t walk_lines() const { return m_cache.walk_needed(); }  // the simulated rays' distinct lines
+  // Appends the cycle each ray's hit is written (absolute, see clock()) to `done` (null: not recorded), in the
+  // order they are written, and the cycle the ray entered its slot to `entered` (if given), in the same order.
+  void record_done(std::vector<uint64_t>* done, std::vector<uint64_t>* entered = nullptr) {
+    m_done = done;
+    m_entered = entered;
+  }
+  // The cycle the next packet starts at; advance_to() moves it forward (sampled simulation: the cycles a packet's
+  // unsimulated rays are estimated to take).
+  uint64_t clock() const { return m_base; }
+  void advance_to(uint64_t cycle) { m_base = cycle > m_base ? cycle : m_base; }
+  const Layout& layout() const { return m_layout; }
+  // Off: every unit request waits for a wake-up of its slot at its own cycle, none is served at its fetch
+  // (simulate()); the same cycles, slower. For tests.
+  void set_early_requests(bool on) { m_early = on; }
+
+ private:
+  struct Slot {
+    std::vector<TraceEvent> ev;
+    size_t pos = 0;
+    int depth = 0;            // stack entries (kPush, kPop events)
+    int spilled = 0;          // stack entries beyond the short stack, in memory
+    bool unit_phase = false;  // the current event's data has arrived; its unit request is next
+    uint64_t entered = 0;
+    size_t ray = 0;  // index in the packet
+    bool busy = false;
+  };
+  // The watchdog: fires when the oldest ray in a slot has been there more than watchdog_cycles at cycle t.
+  void watchdog(uint64_t t);
+  [[noreturn]] void fire(uint32_t k, uint64_t cycle);
+  void admit(uint32_t k, uint64_t free_at);
+  void simulate();  // until done or until a free slot needs a ray not fed yet
+  // The unit request of event e of slot k at cycle t: when its result is there.
+  uint64_t unit_request(const TraceEvent& e, uint32_t k, uint64_t t);
+  void serve_waiting();              // serves the earliest waiting request now (its slot wakes after the result)
+  uint64_t pop_waiting();            // removes and returns the earliest waiting request's key
+  void spill(Slot& sl, uint64_t t);  // one stack entry written to memory at t
+  uint64_t refill(Slot& sl, uint32_t k, uint64_t t);  // one read back from t: when it is there
+  uint64_t unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t);
+  // Calls f(line) for every cache line the fetch of event e touches (none for stack events).
+  template <bool Reverse, class F>
+  void for_each_line(const TraceEvent& e, F&& f) const;  // Reverse: the event's lines last first
+
+  TimingConfig m_c;
+  Layout m_layout;
+  NodeCache m_cache;
+  DramChannel m_dram;
+  int m_line_shift = 0;                     // log2(line_bytes)
+  std::array<uint64_t, 256> m_box_issue{};  // ceil(children / box_rate)
+  std::vector<uint64_t> m_box_free, m_tri_free;
+  // Unit requests whose slot waits for its cycle (cycle << 12 | slot, a min-heap); the others went ahead at
+  // their fetch (simulate()). m_min_fetch: the fewest cycles any fetch takes (a cache hit, or without a cache a
+  // line from DRAM).
+  std::vector<uint64_t> m_waiting;
+  uint64_t m_min_fetch = 0;
+  bool m_early = true;
+  uint64_t m_base = 0;  // cycle the current packet started (resources carry absolute cycles)
+
+  PipelineTrace* m_trace = nullptr;
+  std::vector<uint64_t>* m_done = nullptr;
+  std::vector<uint64_t>* m_entered = nullptr;
+  // The packet in flight.
+  TimingStats* m_s = nullptr;
+  size_t m_n = 0, m_next = 0;                 // rays in the packet, next ray to admit
+  std::vector<TraceEvent>* m_feed = nullptr;  // the rays of the current feed() call
+  size_t m_feed_first = 0, m_feed_count = 0;  // their indices in the packet
+  std::vector<Slot> m_slots;
+  SlotQueue m_queue;  // busy slots waiting for a cycle, served by (cycle, slot); ray_slots <= 4096 (validate())
+  std::vector<uint64_t> m_recent;                           // admission cycles of the last queue_depth rays
+  std::vector<std::pair<uint64_t, uint32_t>> m_free_slots;  // (cycle free, slot): min-heap
+  uint64_t m_t0 = 0, m_setup_free = 0, m_wb_free = 0, m_end = 0;
+  std::deque<std::pair<uint64_t, uint32_t>> m_age;  // (entry cycle, slot) in admission order (entry cycles rise)
+  // No ray can have outstayed the watchdog at a cycle <= this: the entry cycle of the oldest ray in m_age when
+  // watchdog() last looked, plus watchdog_cycles (rays only leave, so the true oldest is no older). watchdog()
+  // runs only past it.
+  static constexpr uint64_t kNoDeadline = ~uint64_t(0);
+  uint64_t m_watch_deadline = kNoDeadline;
+};
+
+}  // namespace rtu::hw

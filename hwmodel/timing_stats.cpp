@@ -1,0 +1,185 @@
+#include "hwmodel/timing_stats.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+namespace rtu::hw {
+
+namespace {
+
+using S = TimingStats;
+constexpr SampleScale kPacket = SampleScale::kPacket, kPerRay = SampleScale::kPerRay;
+
+// The counters, in the order of the struct.
+constexpr std::array<TimingCounter, 20> kCounters = {{
+    {"packets", &S::packets, "packets", "TRACE packets simulated", kPacket},
+    {"cycles", &S::cycles, "cycles", "cycles of those packets, from decode to the last hit written", kPacket},
+    {"rays", &S::rays, "rays", "rays through the ray slots (rays rejected at setup included)", kPacket},
+    {"box_tests", &S::box_tests, "tests", "ray-box tests (one per child of a node visited)", kPerRay},
+    {"tri_tests", &S::tri_tests, "tests", "ray-triangle tests", kPerRay},
+    {"sphere_tests", &S::sphere_tests, "tests", "ray-sphere tests (in the triangle units' issue slots)", kPerRay},
+    {"plane_tests", &S::plane_tests, "tests", "ray-plane tests (in the triangle units' issue slots)", kPerRay},
+    {"box_issue_cycles", &S::box_issue_cycles, "unit clocks",
+     "box unit issue clocks used, summed over the units (ceil(children / box_rate) per node)", kPerRay},
+    {"tri_issue_cycles", &S::tri_issue_cycles, "unit clocks",
+     "triangle unit issue slots used (one per triangle, sphere or plane test)", kPerRay},
+    {"node_fetches", &S::node_fetches, "fetches", "node fetches (each one or more cache lines)", kPerRay},
+    {"prim_fetches", &S::prim_fetches, "fetches", "primitive record and plane fetches", kPerRay},
+    {"cache_hits", &S::cache_hits, "lines", "cache line accesses that hit (a line in flight counts as a hit)",
+     kPerRay},
+    {"cache_misses", &S::cache_misses, "lines", "cache line accesses that missed and went to DRAM", kPerRay},
+    {"dram_bytes", &S::dram_bytes, "bytes",
+     "bytes moved over the DRAM channel (line fills, stack spills and refills)", kPerRay},
+    {"dram_busy_cycles", &S::dram_busy_cycles, "cycles", "cycles the DRAM channel spent transferring", kPerRay},
+    {"stream_bytes", &S::stream_bytes, "bytes", "ray buffer reads and hit buffer writes (their own port)",
+     kPerRay},
+    {"stack_spills", &S::stack_spills, "entries", "stack entries beyond the short stack written to memory",
+     kPerRay},
+    {"stack_refills", &S::stack_refills, "entries", "spilled stack entries read back", kPerRay},
+    {"queue_stall_cycles", &S::queue_stall_cycles, "cycles",
+     "cycles unit requests waited beyond queue_depth for a free unit", kPerRay},
+    {"slot_busy_cycles", &S::slot_busy_cycles, "cycles",
+     "sum over rays of the cycles from entering a ray slot to leaving it", kPerRay},
+}};
+static_assert(sizeof(TimingStats) == kCounters.size() * sizeof(uint64_t), "a counter is missing from the table");
+
+const TimingCounter& counter(uint64_t S::*member) {
+  for (const TimingCounter& c : kCounters)
+    if (c.member == member) return c;
+  return kCounters[0];  // unreachable: every member is in the table (the static_assert above)
+}
+
+double ratio(double a, double b) {
+  return b > 0 ? a / b : 0.0;
+}
+
+// The report: a counter shown under its own unit and description, or a figure derived from the counters and the
+// configuration.
+using Value = std::variant<uint64_t, double, std::string>;
+struct ReportEntry {
+  const char* key;
+  uint64_t S::*member;  // a counter (the figure fields below unused)
+  const char* unit;
+  const char* description;
+  Value (*figure)(const S&, const TimingConfig&);
+};
+
+ReportEntry count(const char* key, uint64_t S::*member) {
+  const TimingCounter& c = counter(member);
+  return {key, member, c.unit, c.description, nullptr};
+}
+ReportEntry figure(const char* key, const char* unit, const char* description,
+                   Value (*f)(const S&, const TimingConfig&)) {
+  return {key, nullptr, unit, description, f};
+}
+
+const std::vector<ReportEntry>& report_table() {
+  using C = TimingConfig;
+  static const std::vector<ReportEntry> table = {
+      count("cycles", &S::cycles),
+      count("packets", &S::packets),
+      count("rays", &S::rays),
+      figure("cycles_per_ray", "cycles/ray", "cycles / rays",
+             [](const S& s, const C&) -> Value { return ratio(double(s.cycles), double(s.rays)); }),
+      figure("rays_per_clock", "rays/cycle", "rays / cycles",
+             [](const S& s, const C&) -> Value { return ratio(double(s.rays), double(s.cycles)); }),
+      figure("seconds_at_clock", "s", "cycles at clock_ghz",
+             [](const S& s, const C& c) -> Value { return double(s.cycles) / (c.clock_ghz * 1e9); }),
+      count("box_tests", &S::box_tests),
+      count("triangle_tests", &S::tri_tests),
+      count("sphere_tests", &S::sphere_tests),
+      count("plane_tests", &S::plane_tests),
+      figure("utilization.box_units", "1", "box unit issue clocks used / (cycles x box_units)",
+             [](const S& s, const C& c) -> Value {
+               return s.cycles > 0 ? double(s.box_issue_cycles) / (double(s.cycles) * c.box_units) : 0.0;
+             }),
+      figure("utilization.triangle_units", "1", "triangle unit issue slots used / (cycles x tri_units x tri_rate)",
+             [](const S& s, const C& c) -> Value {
+               return s.cycles > 0 ? double(s.tri_issue_cycles) / (double(s.cycles) * c.tri_units * c.tri_rate)
+                                   : 0.0;
+             }),
+      figure("utilization.dram", "1", "DRAM channel busy cycles / cycles",
+             [](const S& s, const C&) -> Value { return ratio(double(s.dram_busy_cycles), double(s.cycles)); }),
+      figure("utilization.ray_slots", "1", "slot busy cycles / (cycles x ray_slots)",
+             [](const S& s, const C& c) -> Value {
+               return s.cycles > 0 ? double(s.slot_busy_cycles) / (double(s.cycles) * c.ray_slots) : 0.0;
+             }),
+      figure("cache.line_accesses", "lines", "cache line accesses (hits + misses)",
+             [](const S& s, const C&) -> Value { return s.cache_hits + s.cache_misses; }),
+      count("cache.hits", &S::cache_hits),
+      count("cache.misses", &S::cache_misses),
+      figure("cache.hit_rate", "1", "hits / line accesses",
+             [](const S& s, const C&) -> Value {
+               return ratio(double(s.cache_hits), double(s.cache_hits + s.cache_misses));
+             }),
+      count("node_fetches", &S::node_fetches),
+      count("prim_fetches", &S::prim_fetches),
+      count("dram_bytes", &S::dram_bytes),
+      figure("dram_bytes_per_cycle", "bytes/cycle", "DRAM bytes / cycles",
+             [](const S& s, const C&) -> Value { return ratio(double(s.dram_bytes), double(s.cycles)); }),
+      figure("dram_gb_per_s", "GB/s", "DRAM bytes / cycles at clock_ghz",
+             [](const S& s, const C& c) -> Value {
+               return s.cycles > 0 ? double(s.dram_bytes) / double(s.cycles) * c.clock_ghz : 0.0;
+             }),
+      count("stream_bytes", &S::stream_bytes),
+      count("stack_spills", &S::stack_spills),
+      count("stack_refills", &S::stack_refills),
+      count("queue_stall_cycles", &S::queue_stall_cycles),
+      figure("lower_bound.cycles", "cycles", "the largest of the box, triangle and DRAM bounds",
+             [](const S& s, const C& c) -> Value { return lower_bound(s, c).cycles; }),
+      figure("lower_bound.box", "cycles", "box unit issue clocks / box_units",
+             [](const S& s, const C& c) -> Value { return lower_bound(s, c).box; }),
+      figure("lower_bound.triangle", "cycles", "triangle, sphere and plane tests / (tri_rate x tri_units)",
+             [](const S& s, const C& c) -> Value { return lower_bound(s, c).triangle; }),
+      figure("lower_bound.dram", "cycles", "DRAM bytes / dram_bytes_per_cycle",
+             [](const S& s, const C& c) -> Value { return lower_bound(s, c).dram; }),
+      figure("lower_bound.limited_by", "", "which bound is the largest: box, triangle or dram",
+             [](const S& s, const C& c) -> Value { return std::string(lower_bound(s, c).limited_by); }),
+      figure("lower_bound.cycles_over_bound", "1", "simulated cycles / lower bound",
+             [](const S& s, const C& c) -> Value { return lower_bound(s, c).cycles_over_bound; }),
+  };
+  return table;
+}
+
+}  // namespace
+
+std::span<const TimingCounter> timing_counters() {
+  return kCounters;
+}
+
+void TimingStats::add(const TimingStats& o) {
+  for (const TimingCounter& c : kCounters) this->*c.member += o.*c.member;
+}
+
+void scale_sampled(TimingStats& s, double factor) {
+  for (const TimingCounter& c : kCounters)
+    if (c.scale == SampleScale::kPerRay) s.*c.member = uint64_t(std::llround(double(s.*c.member) * factor));
+}
+
+LowerBound lower_bound(const TimingStats& s, const TimingConfig& c) {
+  LowerBound b;
+  b.box = double(s.box_issue_cycles) / double(c.box_units);
+  b.triangle = double(s.tri_tests + s.sphere_tests + s.plane_tests) / double(c.tri_rate * c.tri_units);
+  b.dram = double(s.dram_bytes) / c.dram_bytes_per_cycle;
+  b.cycles = std::max({b.box, b.triangle, b.dram});
+  b.limited_by = b.cycles == b.box ? "box" : (b.cycles == b.triangle ? "triangle" : "dram");
+  b.cycles_over_bound = b.cycles > 0 ? double(s.cycles) / b.cycles : 0.0;
+  return b;
+}
+
+std::vector<TimingStatValue> timing_report(const TimingStats& s, const TimingConfig& c) {
+  std::vector<TimingStatValue> out;
+  out.reserve(report_table().size());
+  for (const ReportEntry& e : report_table())
+    out.push_back({e.key, e.unit, e.description, e.member ? Value(s.*e.member) : e.figure(s, c)});
+  return out;
+}
+
+std::vector<TimingStatValue> timing_report_keys() {
+  std::vector<TimingStatValue> out;
+  for (const ReportEntry& e : report_table()) out.push_back({e.key, e.unit, e.description, uint64_t(0)});
+  return out;
+}
+
+}  // namespace rtu::hw

@@ -1,0 +1,79 @@
+// The timed device's statistics: counters the timing model adds up while it simulates (TimingStats), and the
+// figures a report derives from them and the configuration (rates, utilisation, the lower bound).
+//
+// Each statistic is declared once, in the tables of timing_stats.cpp: the counters with their unit, description
+// and how sampled timing extrapolates them; the report (the stats JSON, in its order) with each entry's key,
+// unit and description. Merging runs (add), scaling a sample to its packet (scale_sampled), the JSON
+// (host/stats_json.cpp), `rtusim config --stats` and the tests' field-by-field comparisons all read the tables,
+// so a new counter is one line in TimingStats and one in the counter table.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "hwmodel/timing_config.h"
+
+namespace rtu::hw {
+
+struct TimingStats {
+  uint64_t packets = 0;  // TRACE packets simulated
+  uint64_t cycles = 0;   // cycles of those packets
+  uint64_t rays = 0;     // rays through the slots (including rays rejected at setup)
+  uint64_t box_tests = 0, tri_tests = 0, sphere_tests = 0, plane_tests = 0;
+  uint64_t box_issue_cycles = 0, tri_issue_cycles = 0;  // unit issue slots used, summed over the units
+  uint64_t node_fetches = 0, prim_fetches = 0;
+  uint64_t cache_hits = 0, cache_misses = 0;  // line accesses
+  uint64_t dram_bytes = 0, dram_busy_cycles = 0;
+  uint64_t stream_bytes = 0;  // ray and hit buffers
+  uint64_t stack_spills = 0, stack_refills = 0;
+  uint64_t queue_stall_cycles = 0;
+  uint64_t slot_busy_cycles = 0;  // sum over rays of the cycles from entering a slot to leaving it
+
+  void add(const TimingStats& o);  // every counter summed (runs, packets, ray types merge this way)
+};
+
+// How sampled timing (sampler.h) turns the counters of the rays it simulated into a packet's.
+enum class SampleScale : uint8_t {
+  kPacket,  // set for the packet as a whole: packets (1), cycles (the estimate), rays (the packet's count)
+  kPerRay,  // simulated value x packet rays / simulated rays, rounded to nearest
+};
+
+struct TimingCounter {
+  const char* name;  // the member's name
+  uint64_t TimingStats::*member;
+  const char* unit;
+  const char* description;
+  SampleScale scale;
+};
+// Every counter of TimingStats, in the order of the struct.
+std::span<const TimingCounter> timing_counters();
+
+// Multiplies every kPerRay counter by `factor`, rounded to nearest; kPacket counters are left to the caller.
+void scale_sampled(TimingStats& s, double factor);
+
+// The unit cannot be faster than its busiest resource: box tests count in whole issue clocks per node (a node of c
+// children issues for ceil(c / box_rate) clocks) over the box units; triangle, sphere and plane tests one per
+// issue slot of the triangle units; DRAM bytes over its bandwidth.
+struct LowerBound {
+  double box = 0.0, triangle = 0.0, dram = 0.0;
+  double cycles = 0.0;             // the largest of the three
+  const char* limited_by = "box";  // "box", "triangle" or "dram"
+  double cycles_over_bound = 0.0;  // simulated cycles / cycles (0 without a bound)
+};
+LowerBound lower_bound(const TimingStats& s, const TimingConfig& c);
+
+// One entry of a timing report: what the stats JSON holds for a TimingStats, in its order.
+struct TimingStatValue {
+  const char* key;  // JSON key; "a.b" is key b of object a
+  const char* unit;
+  const char* description;
+  std::variant<uint64_t, double, std::string> value;
+};
+std::vector<TimingStatValue> timing_report(const TimingStats& s, const TimingConfig& c);
+// The report's entries without values (for `rtusim config --stats`).
+std::vector<TimingStatValue> timing_report_keys();
+
+}  // namespace rtu::hw

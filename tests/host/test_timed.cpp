@@ -13,6 +13,7 @@
 #include "host/render.h"
 #include "host/scene.h"
 #include "hwmodel/timing_config.h"
+#include "tests/hwmodel/timing_checks.h"
 
 using rtu::host::DeviceOptions;
 using rtu::hw::Hit;
@@ -148,13 +149,8 @@ TEST_CASE("a timed render equals the fixed render, the clock counts cycles", "[t
   for (const rtu::hw::TimingStats& x : t.timing_by_type) by_type.add(x);
   for (const auto& [b, x] : t.timing_by_bounce) by_bounce.add(x);
   CHECK(t.timing_by_bounce.size() == 4);  // bounces 0..3 at max_depth 3
-  for (const rtu::hw::TimingStats* x : {&by_type, &by_bounce}) {
-    CHECK(x->cycles == t.timing.cycles);
-    CHECK(x->rays == t.timing.rays);
-    CHECK(x->box_tests == t.timing.box_tests);
-    CHECK(x->dram_bytes == t.timing.dram_bytes);
-    CHECK(x->cache_hits == t.timing.cache_hits);
-  }
+  check_same_timing(by_type, t.timing);  // every counter
+  check_same_timing(by_bounce, t.timing);
 }
 
 TEST_CASE("the pipeline trace shows each slot's work in order, inside its window", "[timed]") {

@@ -44,14 +44,8 @@ void FixedFormat::validate() const {
            std::to_string(hi) + "]");
   };
   if (width != 2 && width != 4 && width != 8) fail("width must be 2, 4 or 8");
-  range("coord_bits", coord_bits, 2, 30);  // node origins and vertices are stored as int32
-  range("child_bits", child_bits, 1, 16);
-  range("guard_bits", guard_bits, 1, 16);
-  range("frac_bits", frac_bits, 0, 24);
-  range("dir_bits", dir_bits, 4, 30);  // directions and plane normals are stored as int32
-  range("rcp_bits", rcp_bits, 4, 40);
-  range("t_frac_bits", t_frac_bits, 0, 32);
-  range("t_bits", t_bits, 8, 62);
+  for (const FormatField& f : format_fields())
+    if (f.member != &FixedFormat::width) range(f.key, this->*f.member, f.lo, f.hi);
   constexpr int kLimit = 126;  // magnitude bits of the 128-bit intermediates, one spare
   auto fits = [&](const char* what, int bits) {
     if (bits > kLimit) fail(std::string(what) + " needs " + std::to_string(bits) + " bits (> 126)");
@@ -134,16 +128,38 @@ FixedFormat format_preset(const std::string& name) {
   throw std::invalid_argument("unknown format preset '" + name + "' (known: " + names + ")");
 }
 
+namespace {
+
+using F = FixedFormat;
+constexpr FormatField kFields[] = {
+    {"width", "", &F::width, 2, 8, "BVH node width: 2, 4 or 8 children"},
+    // Node origins and vertices are stored as int32.
+    {"coord_bits", "B", &F::coord_bits, 2, 30, "grid bits of vertices and boxes"},
+    {"child_bits", "k", &F::child_bits, 1, 16, "bits of a child box offset relative to its parent"},
+    {"guard_bits", "G", &F::guard_bits, 1, 16, "guard bits: ray origins within 2^(B+G) grid units"},
+    {"frac_bits", "F", &F::frac_bits, 0, 24, "fraction bits of origins, sphere centers and radii, plane offsets"},
+    // Directions and plane normals are stored as int32.
+    {"dir_bits", "D", &F::dir_bits, 4, 30, "fraction bits of the scaled direction"},
+    {"rcp_bits", "R", &F::rcp_bits, 4, 40, "reciprocal bits: relative rounding error <= 2^-R"},
+    {"t_frac_bits", "T", &F::t_frac_bits, 0, 32, "fraction bits of t (ray units)"},
+    {"t_bits", "", &F::t_bits, 8, 62, "magnitude bits of the t register"},
+};
+
+}  // namespace
+
+std::span<const FormatField> format_fields() {
+  return kFields;
+}
+
+std::string format_field_keys() {
+  std::string s;
+  for (const FormatField& f : kFields) s += (s.empty() ? "" : ", ") + std::string(f.key);
+  return s;
+}
+
 int* format_field(FixedFormat& f, const std::string& key) {
-  if (key == "width") return &f.width;
-  if (key == "coord_bits") return &f.coord_bits;
-  if (key == "child_bits") return &f.child_bits;
-  if (key == "guard_bits") return &f.guard_bits;
-  if (key == "frac_bits") return &f.frac_bits;
-  if (key == "dir_bits") return &f.dir_bits;
-  if (key == "rcp_bits") return &f.rcp_bits;
-  if (key == "t_frac_bits") return &f.t_frac_bits;
-  if (key == "t_bits") return &f.t_bits;
+  for (const FormatField& d : kFields)
+    if (key == d.key) return &(f.*d.member);
   return nullptr;
 }
 
@@ -158,8 +174,7 @@ FixedFormat format_from_spec(const std::string& spec) {
     int* field = eq == std::string::npos ? nullptr : format_field(f, kv.substr(0, eq));
     if (!field)
       throw std::invalid_argument("format spec " + spec + ": '" + kv +
-                                  "' is not key=value with a format key (width, coord_bits, child_bits, guard_bits, "
-                                  "frac_bits, dir_bits, rcp_bits, t_frac_bits, t_bits)");
+                                  "' is not key=value with a format key (" + format_field_keys() + ")");
     const std::string v = kv.substr(eq + 1);
     int value = 0;
     const auto r = std::from_chars(v.data(), v.data() + v.size(), value);

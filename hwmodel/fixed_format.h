@@ -8,6 +8,7 @@
 // a format breaks: those limits are also the bits real hardware would need for the same exactness.
 #pragma once
 
+#include <span>
 #include <string>
 #include <vector>
 
@@ -41,8 +42,21 @@ const std::vector<FixedFormat>& format_presets();
 // Throws std::invalid_argument listing the known names.
 FixedFormat format_preset(const std::string& name);
 
-// The integer fields by name (width, coord_bits, child_bits, guard_bits, frac_bits, dir_bits, rcp_bits,
-// t_frac_bits, t_bits); null for an unknown name.
+// One integer field of a format, declared once: validate(), format_field(), format specs, the CLI's per-field
+// options, the stats JSON and `rtusim info --formats` read this table.
+struct FormatField {
+  const char* key;     // "coord_bits" (the CLI option is "--coord-bits")
+  const char* symbol;  // "B" (fixed_format.h's letters; "" for width)
+  int FixedFormat::*member;
+  int lo, hi;  // the field's own range (validate() also checks rules across fields; width: 2, 4 or 8)
+  const char* description;
+};
+// Every integer field, in the order of the struct.
+std::span<const FormatField> format_fields();
+// The keys of format_fields(), comma-separated (for messages).
+std::string format_field_keys();
+
+// The integer field of that key; null for an unknown key.
 int* format_field(FixedFormat& f, const std::string& key);
 // A format from a spec: a preset name, optionally followed by ":key=value" changes of its fields
 // ("default:coord_bits=16:child_bits=6"). The result is validated and named by the spec. Throws

@@ -143,7 +143,7 @@ TEST_CASE("demo writes an image, hits and a report", "[cli]") {
   CHECK(j["fixed_vs_float"]["hit_agreement"].get<double>() >= 0.9999);
 }
 
-TEST_CASE("compare: the issue's JSON keys, conservative boxes, agreement on the seed scene", "[cli][fixed]") {
+TEST_CASE("compare: the JSON report's keys, conservative boxes, agreement on the seed scene", "[cli][fixed]") {
   const fs::path d = temp_dir();
   const std::string json = (d / "c.json").string(), replay = (d / "dis.rays").string();
   const Run r = run_rtusim("compare --scene builtin:seed --rays incoherent:50000 --json " + json +

@@ -1,8 +1,8 @@
 // Inputs beyond what the machine or the unit can hold are refused with a message and exit status 2, before
 // anything large is allocated: the memory budget (RTU_MEMORY_LIMIT), ray files and generated rays, scenes, mesh
 // files, render sizes; the primitive index width. And the watchdogs from the command line: a clear error with
-// the unit's state, exit status 2. (Ring and packet limits: tests/firmware/test_ring.cpp; BVH depth and shared
-// subtrees: tests/hwmodel/test_watchdog.cpp.)
+// the unit's state, exit status 2. (Ring and packet limits: tests/firmware/test_command_processor_errors.cpp;
+// BVH depth and shared subtrees: tests/hwmodel/test_watchdog.cpp.)
 #include <catch2/catch.hpp>
 
 #include <unistd.h>

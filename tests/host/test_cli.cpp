@@ -2,14 +2,10 @@
 // exit, never a crash.
 #include <catch2/catch.hpp>
 
-#include <sys/wait.h>
-
 #include <unistd.h>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <cstring>
 
 #include <filesystem>
@@ -22,27 +18,13 @@
 #include "host/ray_io.h"
 #include "host/sweep.h"
 #include "hwmodel/timing_config.h"
+#include "tests/host/run_process.h"
 
 namespace fs = std::filesystem;
+using rtu::test::Run;
+using rtu::test::run_rtusim;
 
 namespace {
-
-struct Run {
-  int status;
-  std::string output;  // stdout and stderr
-};
-
-Run run(const std::string& args) {
-  const std::string cmd = std::string(RTUSIM_EXE) + " " + args + " 2>&1";
-  std::FILE* p = popen(cmd.c_str(), "r");
-  REQUIRE(p != nullptr);
-  std::string out;
-  char buf[4096];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
-  const int st = pclose(p);
-  return Run{WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st), out};
-}
 
 fs::path temp_dir() {
   fs::path d = fs::temp_directory_path() / ("rtu_test_cli_" + std::to_string(::getpid()));
@@ -55,26 +37,28 @@ fs::path temp_dir() {
 TEST_CASE("every subcommand has --help", "[cli]") {
   for (const char* sub : {"info", "rays", "trace", "compare", "stress", "demo", "diff", "config", "sweep", "plan",
                           "report", "pareto"}) {
-    const Run r = run(std::string(sub) + " --help");
+    const Run r = run_rtusim(std::string(sub) + " --help");
     INFO(r.output);
     CHECK(r.status == 0);
     CHECK(r.output.find("--") != std::string::npos);
   }
-  CHECK(run("frobnicate").status != 0);
-  CHECK(run("").status != 0);
+  CHECK(run_rtusim("frobnicate").status != 0);
+  CHECK(run_rtusim("").status != 0);
 }
 
 TEST_CASE("rays -> trace round trip on a built-in scene, CSV and binary give the same hits", "[cli]") {
   const fs::path d = temp_dir();
   const std::string rays = (d / "p.rays").string(), rays_csv = (d / "p.csv").string();
-  REQUIRE(run("rays --scene builtin:seed --kind primary --count 20000 --out " + rays).status == 0);
-  REQUIRE(run("rays --scene builtin:seed --kind primary --count 20000 --out " + rays_csv).status == 0);
+  REQUIRE(run_rtusim("rays --scene builtin:seed --kind primary --count 20000 --out " + rays).status == 0);
+  REQUIRE(run_rtusim("rays --scene builtin:seed --kind primary --count 20000 --out " + rays_csv).status == 0);
   const std::string stats = (d / "s.json").string();
-  const Run t = run("trace --scene builtin:seed --rays " + rays + " --out " + (d / "h.bin").string() +
-                    " --stats " + stats + " --bvh-width 8");
+  const Run t = run_rtusim("trace --scene builtin:seed --rays " + rays + " --out " + (d / "h.bin").string() +
+                           " --stats " + stats + " --bvh-width 8");
   INFO(t.output);
   REQUIRE(t.status == 0);
-  REQUIRE(run("trace --scene builtin:seed --rays " + rays_csv + " --out " + (d / "h.csv").string()).status == 0);
+  REQUIRE(
+      run_rtusim("trace --scene builtin:seed --rays " + rays_csv + " --out " + (d / "h.csv").string()).status ==
+      0);
   const auto a = rtu::host::read_hits((d / "h.bin").string()), b = rtu::host::read_hits((d / "h.csv").string());
   REQUIRE(a.size() == 20000);
   REQUIRE(std::memcmp(a.data(), b.data(), a.size() * sizeof(a[0])) == 0);
@@ -93,8 +77,8 @@ TEST_CASE("trace with NaN rays warns, counts them and writes misses", "[cli]") {
   const fs::path d = temp_dir();
   std::ofstream(d / "nan.csv") << "ox,oy,oz,tmin,dx,dy,dz,tmax\n0,1,8,0,0,0,-1,inf\nnan,0,0,0,1,0,0,inf\n"
                                   "0,0,0,0,0,-0,0,inf\n";
-  const Run r = run("trace --scene builtin:seed --rays " + (d / "nan.csv").string() + " --out " +
-                    (d / "h.csv").string() + " --stats " + (d / "s.json").string());
+  const Run r = run_rtusim("trace --scene builtin:seed --rays " + (d / "nan.csv").string() + " --out " +
+                           (d / "h.csv").string() + " --stats " + (d / "s.json").string());
   INFO(r.output);
   CHECK(r.status == 0);
   CHECK(r.output.find("2 invalid rays") != std::string::npos);
@@ -136,7 +120,7 @@ TEST_CASE("bad input: clear error, non-zero exit, no crash", "[cli]") {
       {"stress --count 10 --category nosuch", "nosuch"},
   };
   for (const Case& c : cases) {
-    const Run r = run(c.args);
+    const Run r = run_rtusim(c.args);
     INFO(c.args << "\n" << r.output);
     CHECK(r.status != 0);
     CHECK(r.status < 128);  // not killed by a signal
@@ -146,7 +130,7 @@ TEST_CASE("bad input: clear error, non-zero exit, no crash", "[cli]") {
 
 TEST_CASE("demo writes an image, hits and a report", "[cli]") {
   const fs::path d = temp_dir() / "demo";
-  const Run r = run("demo --out " + d.string());
+  const Run r = run_rtusim("demo --out " + d.string());
   INFO(r.output);
   REQUIRE(r.status == 0);
   CHECK(fs::file_size(d / "primary_float.png") > 1000);
@@ -159,11 +143,11 @@ TEST_CASE("demo writes an image, hits and a report", "[cli]") {
   CHECK(j["fixed_vs_float"]["hit_agreement"].get<double>() >= 0.9999);
 }
 
-TEST_CASE("compare: the issue's JSON keys, conservative boxes, agreement on the seed scene", "[cli][fixed]") {
+TEST_CASE("compare: the JSON report's keys, conservative boxes, agreement on the seed scene", "[cli][fixed]") {
   const fs::path d = temp_dir();
   const std::string json = (d / "c.json").string(), replay = (d / "dis.rays").string();
-  const Run r =
-      run("compare --scene builtin:seed --rays incoherent:50000 --json " + json + " --disagreements " + replay);
+  const Run r = run_rtusim("compare --scene builtin:seed --rays incoherent:50000 --json " + json +
+                           " --disagreements " + replay);
   INFO(r.output);
   REQUIRE(r.status == 0);
   const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
@@ -188,8 +172,8 @@ TEST_CASE("trace on the fixed device: formats, out-of-frame origins rejected wit
   const fs::path d = temp_dir();
   std::ofstream(d / "far.csv") << "ox,oy,oz,tmin,dx,dy,dz,tmax\n0,1,8,0,0,-0.3,-1,inf\n1e12,0,0,0,-1,0,0,inf\n";
   const std::string stats = (d / "s.json").string();
-  const Run r = run("trace --device fixed --format compact --scene builtin:seed --rays " +
-                    (d / "far.csv").string() + " --out " + (d / "h.csv").string() + " --stats " + stats);
+  const Run r = run_rtusim("trace --device fixed --format compact --scene builtin:seed --rays " +
+                           (d / "far.csv").string() + " --out " + (d / "h.csv").string() + " --stats " + stats);
   INFO(r.output);
   REQUIRE(r.status == 0);
   CHECK(r.output.find("ray 1 (out_of_frame)") != std::string::npos);
@@ -204,14 +188,14 @@ TEST_CASE("trace on the fixed device: formats, out-of-frame origins rejected wit
 
 TEST_CASE("info reports the fixed image: bytes per node and footprint per format", "[cli][fixed]") {
   const fs::path d = temp_dir();
-  const Run list = run("info --formats");
+  const Run list = run_rtusim("info --formats");
   REQUIRE(list.status == 0);
   for (const char* p : {"default", "wide8", "binary", "compact", "precise"})
     CHECK(list.output.find(p) != std::string::npos);
   for (const auto& [format, node_bytes] :
        {std::pair{"default", 56}, std::pair{"wide8", 96}, std::pair{"binary", 36}, std::pair{"precise", 80}}) {
     const std::string json = (d / (std::string(format) + ".json")).string();
-    const Run r = run(std::string("info --scene builtin:seed --format ") + format + " --json " + json);
+    const Run r = run_rtusim(std::string("info --scene builtin:seed --format ") + format + " --json " + json);
     INFO(r.output);
     REQUIRE(r.status == 0);
     const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
@@ -223,7 +207,7 @@ TEST_CASE("info reports the fixed image: bytes per node and footprint per format
 TEST_CASE("stress: every category runs, no promise breaks at the default format", "[cli][fixed][stress]") {
   const fs::path d = temp_dir();
   const std::string json = (d / "stress.json").string();
-  const Run r = run("stress --count 3000 --json " + json);
+  const Run r = run_rtusim("stress --count 3000 --json " + json);
   INFO(r.output);
   CHECK(r.status == 0);
   const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
@@ -238,7 +222,7 @@ TEST_CASE("stress: every category runs, no promise breaks at the default format"
   // binary and 8-wide nodes, and a 12-bit grid.
   for (const char* f : {"--format compact", "--format precise", "--format binary", "--format wide8",
                         "--coord-bits 12 --child-bits 4"}) {
-    const Run s = run(std::string("stress --count 1500 ") + f);
+    const Run s = run_rtusim(std::string("stress --count 1500 ") + f);
     INFO(f << "\n" << s.output);
     CHECK(s.status == 0);
   }
@@ -255,7 +239,7 @@ TEST_CASE("diff: identical and differing PNGs, JSON keys, heatmap", "[cli][image
   rtu::host::write_png(pb, b);
 
   const std::string same_json = (d / "same.json").string();
-  const Run same = run("diff " + pa + " " + pa2 + " --json " + same_json);
+  const Run same = run_rtusim("diff " + pa + " " + pa2 + " --json " + same_json);
   INFO(same.output);
   REQUIRE(same.status == 0);
   CHECK(same.output.find("8x4") != std::string::npos);
@@ -266,7 +250,7 @@ TEST_CASE("diff: identical and differing PNGs, JSON keys, heatmap", "[cli][image
   CHECK(js["pixels_differing"] == 0);
 
   const std::string json = (d / "diff.json").string(), heat = (d / "heat.png").string();
-  const Run r = run("diff " + pa + " " + pb + " --heatmap " + heat + " --scale 20 --json " + json);
+  const Run r = run_rtusim("diff " + pa + " " + pb + " --heatmap " + heat + " --scale 20 --json " + json);
   INFO(r.output);
   REQUIRE(r.status == 0);
   CHECK(r.output.find("1 of 32 pixels differ") != std::string::npos);
@@ -310,7 +294,7 @@ TEST_CASE("diff: missing, corrupt and mismatched files give a clear error and a 
       {"diff " + a, "required"},
   };
   for (const Case& c : cases) {
-    const Run r = run(c.args);
+    const Run r = run_rtusim(c.args);
     INFO(c.args << "\n" << r.output);
     CHECK(r.status != 0);
     CHECK(r.status < 128);
@@ -319,7 +303,7 @@ TEST_CASE("diff: missing, corrupt and mismatched files give a clear error and a 
 }
 
 TEST_CASE("config: a preset's every key, --set overrides, JSON keys, --list", "[cli][timing][config]") {
-  const Run r = run("config --preset rdna2");
+  const Run r = run_rtusim("config --preset rdna2");
   INFO(r.output);
   REQUIRE(r.status == 0);
   const std::vector<rtu::hw::TimingKey> keys = rtu::hw::timing_keys(rtu::hw::timing_preset("rdna2"));
@@ -333,7 +317,7 @@ TEST_CASE("config: a preset's every key, --set overrides, JSON keys, --list", "[
     CHECK(line.find("# " + k.description) != std::string::npos);
   }
 
-  const Run s = run("config --preset intel --set ray_slots=64 --set box_latency=9");
+  const Run s = run_rtusim("config --preset intel --set ray_slots=64 --set box_latency=9");
   INFO(s.output);
   REQUIRE(s.status == 0);
   CHECK(s.output.find("ray_slots") != std::string::npos);
@@ -343,7 +327,7 @@ TEST_CASE("config: a preset's every key, --set overrides, JSON keys, --list", "[
 
   const fs::path d = temp_dir();
   const std::string json = (d / "timing.json").string();
-  REQUIRE(run("config --preset embedded --set clock_ghz=0.8 --json " + json).status == 0);
+  REQUIRE(run_rtusim("config --preset embedded --set clock_ghz=0.8 --json " + json).status == 0);
   const nlohmann::ordered_json j = nlohmann::ordered_json::parse(std::ifstream(json));
   CHECK(j["preset"] == "embedded");
   std::vector<std::string> json_keys;
@@ -359,7 +343,7 @@ TEST_CASE("config: a preset's every key, --set overrides, JSON keys, --list", "[
   CHECK(j["clock_ghz"].get<double>() == 0.8);
   CHECK(j["dram_bytes_per_cycle"].is_number());
 
-  const Run l = run("config --list");
+  const Run l = run_rtusim("config --list");
   INFO(l.output);
   REQUIRE(l.status == 0);
   for (const std::string& n : rtu::hw::timing_preset_names()) CHECK(l.output.find(n + " ") != std::string::npos);
@@ -383,7 +367,7 @@ TEST_CASE("config: unknown preset or key, bad values, malformed --set: exit 2 na
       {"config --preset rdna2 --set ray_slots", "key=value"},
   };
   for (const Case& c : cases) {
-    const Run r = run(c.args);
+    const Run r = run_rtusim(c.args);
     INFO(c.args << "\n" << r.output);
     CHECK(r.status == 2);
     CHECK(r.output.find(c.words) != std::string::npos);
@@ -398,7 +382,7 @@ TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad 
   const std::string grid =
       "sweep --scene builtin:seed --formats default,compact,default:coord_bits=12 --bvh-width 4,8 --rays 3000 "
       "--image-width 48 ";
-  Run r = run(grid + "--out " + whole);
+  Run r = run_rtusim(grid + "--out " + whole);
   INFO(r.output);
   REQUIRE(r.status == 0);
   auto read_lines = [](const std::string& path) {
@@ -427,7 +411,7 @@ TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad 
     CHECK(node_overhead <= 0.25);
   }
   // Resume: nothing left to run, the file unchanged.
-  r = run(grid + "--out " + whole);
+  r = run_rtusim(grid + "--out " + whole);
   CHECK(r.status == 0);
   CHECK(r.output.find("0 run, 6 already") != std::string::npos);
   CHECK(read_lines(whole) == w);
@@ -436,16 +420,16 @@ TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad 
     std::ofstream f(whole, std::ios::app);
     f << "builtin:seed,default,4";
   }
-  r = run(grid + "--out " + whole);
+  r = run_rtusim(grid + "--out " + whole);
   CHECK(r.status == 0);
   CHECK(r.output.find("unfinished row") != std::string::npos);
   CHECK(read_lines(whole).size() == 7);
   // Two shards merge into the same rows.
-  REQUIRE(run(grid + "--shard 1/2 --out " + a).status == 0);
-  REQUIRE(run(grid + "--shard 2/2 --out " + b).status == 0);
+  REQUIRE(run_rtusim(grid + "--shard 1/2 --out " + a).status == 0);
+  REQUIRE(run_rtusim(grid + "--shard 2/2 --out " + b).status == 0);
   CHECK(read_lines(a).size() == 4);
   CHECK(read_lines(b).size() == 4);
-  REQUIRE(run("sweep --merge " + a + " " + b + " --out " + merged).status == 0);
+  REQUIRE(run_rtusim("sweep --merge " + a + " " + b + " --out " + merged).status == 0);
   std::vector<std::string> m = read_lines(merged), ws = w;
   REQUIRE(m.size() == ws.size());
   for (auto* v : {&m, &ws}) {
@@ -462,7 +446,8 @@ TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad 
                                                         {"--shard x", "--shard"},
                                                         {"--bvh-width 3", "2, 4 or 8"},
                                                         {"--config nosuch", "nosuch"}}) {
-    const Run e = run("sweep --scene builtin:seed " + args + " --rays 10 --out " + (d / "bad.csv").string());
+    const Run e =
+        run_rtusim("sweep --scene builtin:seed " + args + " --rays 10 --out " + (d / "bad.csv").string());
     INFO(args << ": " << e.output);
     CHECK(e.status == 2);
     CHECK(e.output.find(words) != std::string::npos);
@@ -471,7 +456,7 @@ TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad 
     std::ofstream f(d / "foreign.csv");
     f << "a,b,c\n1,2,3\n";
   }
-  const Run e = run("sweep --scene builtin:seed --rays 10 --out " + (d / "foreign.csv").string());
+  const Run e = run_rtusim("sweep --scene builtin:seed --rays 10 --out " + (d / "foreign.csv").string());
   CHECK(e.status == 2);
   CHECK(e.output.find("not a sweep file") != std::string::npos);
 }
@@ -480,10 +465,10 @@ TEST_CASE("plan: the fewest coordinate bits within the budget, and the reason, a
           "[cli][sweep]") {
   const fs::path d = temp_dir();
   const std::string json = (d / "plan.json").string();
-  const Run r =
-      run("plan --scene builtin:cornell --max-error 2e-3 --bvh-width 4 --coord-bits 6,8,10,12,16 "
-          "--child-bits 6,8 --rays 3000 --image-width 0 --json " +
-          json);
+  const Run r = run_rtusim(
+      "plan --scene builtin:cornell --max-error 2e-3 --bvh-width 4 --coord-bits 6,8,10,12,16 "
+      "--child-bits 6,8 --rays 3000 --image-width 0 --json " +
+      json);
   INFO(r.output);
   REQUIRE(r.status == 0);
   std::ifstream in(json);
@@ -507,13 +492,13 @@ TEST_CASE("plan: the fewest coordinate bits within the budget, and the reason, a
   for (const auto& k : w["child_bits"])
     if (k["meets"] == true) CHECK(k["cycles"].get<uint64_t>() >= j["plan"]["cycles"].get<uint64_t>());
   // No format can have a mean t error of exactly 0 at 2 coordinate bits only: exit 1, saying so.
-  const Run none =
-      run("plan --scene builtin:cornell --metric t --max-error 0 --bvh-width 4 --coord-bits 2 "
-          "--child-bits 8 --rays 500 --image-width 0");
+  const Run none = run_rtusim(
+      "plan --scene builtin:cornell --metric t --max-error 0 --bvh-width 4 --coord-bits 2 "
+      "--child-bits 8 --rays 500 --image-width 0");
   CHECK(none.status == 1);
   CHECK(none.output.find("no format meets") != std::string::npos);
-  CHECK(run("plan --scene builtin:cornell --max-error -1").status == 2);
-  CHECK(run("plan --scene builtin:cornell --max-error 1e-3 --metric psnr").status != 0);
+  CHECK(run_rtusim("plan --scene builtin:cornell --max-error -1").status == 2);
+  CHECK(run_rtusim("plan --scene builtin:cornell --max-error 1e-3 --metric psnr").status != 0);
 }
 
 TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the pipeline trace file",
@@ -521,10 +506,10 @@ TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the 
   const fs::path d = temp_dir();
   const std::string rays = (d / "t.rays").string(), stats = (d / "t.json").string(),
                     pipe = (d / "pipe.json").string();
-  REQUIRE(run("rays --scene builtin:seed --kind primary --count 3000 --out " + rays).status == 0);
-  const Run r = run("trace --scene builtin:seed --rays " + rays + " --out " + (d / "t.hits").string() +
-                    " --device timed --config intel --stats " + stats + " --pipeline-trace " + pipe +
-                    " --trace-window 100:1100");
+  REQUIRE(run_rtusim("rays --scene builtin:seed --kind primary --count 3000 --out " + rays).status == 0);
+  const Run r = run_rtusim("trace --scene builtin:seed --rays " + rays + " --out " + (d / "t.hits").string() +
+                           " --device timed --config intel --stats " + stats + " --pipeline-trace " + pipe +
+                           " --trace-window 100:1100");
   INFO(r.output);
   REQUIRE(r.status == 0);
   CHECK(r.output.find("timed (intel):") != std::string::npos);
@@ -576,20 +561,20 @@ TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the 
   CHECK(p["otherData"]["spans"] == spans);
   CHECK(named == slots);
   // A window that is not FROM < TO is refused.
-  CHECK(run("trace --scene builtin:seed --rays " + rays + " --out " + (d / "t.hits").string() +
-            " --device timed --pipeline-trace " + pipe + " --trace-window 9:9")
+  CHECK(run_rtusim("trace --scene builtin:seed --rays " + rays + " --out " + (d / "t.hits").string() +
+                   " --device timed --pipeline-trace " + pipe + " --trace-window 9:9")
             .status == 2);
 }
 
 TEST_CASE("trace --sample: --sample-seed draws the sample, the same seed, the same estimate", "[cli][timing]") {
   const fs::path d = temp_dir();
   const std::string rays = (d / "s.rays").string(), stats = (d / "s.json").string();
-  REQUIRE(run("rays --scene builtin:seed --kind incoherent --count 20000 --out " + rays).status == 0);
+  REQUIRE(run_rtusim("rays --scene builtin:seed --kind incoherent --count 20000 --out " + rays).status == 0);
   // Units of 16 rays with 16 warm-up rays: 1,250 units, every 20th measured (F = 0.05), cycles only.
   auto estimate = [&](int seed) {
     const Run r =
-        run("trace --scene builtin:seed --rays " + rays + " --device timed --sample 0.05 --sample-unit 16" +
-            " --sample-warmup 16 --sample-seed " + std::to_string(seed) + " --stats " + stats);
+        run_rtusim("trace --scene builtin:seed --rays " + rays + " --device timed --sample 0.05 --sample-unit 16" +
+                   " --sample-warmup 16 --sample-seed " + std::to_string(seed) + " --stats " + stats);
     INFO(r.output);
     REQUIRE(r.status == 0);
     const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
@@ -600,7 +585,7 @@ TEST_CASE("trace --sample: --sample-seed draws the sample, the same seed, the sa
   CHECK(a == b);
   CHECK((c != a || e != a));  // other offsets, other units measured
   const Run bad =
-      run("trace --scene builtin:seed --rays " + rays + " --device timed --sample 0.05 --sample-seed x");
+      run_rtusim("trace --scene builtin:seed --rays " + rays + " --device timed --sample 0.05 --sample-seed x");
   CHECK(bad.status != 0);
   CHECK(bad.status < 128);
   CHECK(bad.output.find("--sample-seed") != std::string::npos);
@@ -610,10 +595,10 @@ TEST_CASE("render --mode hybrid on the timed device: raster and trace cycles, ra
           "[cli][hybrid]") {
   const fs::path d = temp_dir();
   const std::string stats = (d / "hy.json").string();
-  const Run r =
-      run("render --scene builtin:seed --width 80 --height 60 --device timed --mode hybrid --max-depth 2 "
-          "--compare-modes --threads 2 --out " +
-          (d / "hy.png").string() + " --stats " + stats);
+  const Run r = run_rtusim(
+      "render --scene builtin:seed --width 80 --height 60 --device timed --mode hybrid --max-depth 2 "
+      "--compare-modes --threads 2 --out " +
+      (d / "hy.png").string() + " --stats " + stats);
   INFO(r.output);
   REQUIRE(r.status == 0);
   CHECK(r.output.find("rasterizer:") != std::string::npos);
@@ -640,11 +625,11 @@ TEST_CASE("render --mode hybrid on the timed device: raster and trace cycles, ra
   CHECK(m["hybrid"]["frame_cycles"] == t["frame_cycles"]);
   CHECK((m["psnr_db"].is_null() || m["psnr_db"].get<double>() >= 30.0));
   // raytrace is the default; an unknown mode is refused.
-  const Run rt = run("render --scene builtin:cornell --width 16 --height 16 --out " + (d / "rt.png").string() +
-                     " --stats " + (d / "rt.json").string());
+  const Run rt = run_rtusim("render --scene builtin:cornell --width 16 --height 16 --out " +
+                            (d / "rt.png").string() + " --stats " + (d / "rt.json").string());
   REQUIRE(rt.status == 0);
   CHECK(nlohmann::json::parse(std::ifstream(d / "rt.json"))["render_mode"] == "raytrace");
-  CHECK(run("render --scene builtin:cornell --mode raster --out " + (d / "x.png").string()).status != 0);
+  CHECK(run_rtusim("render --scene builtin:cornell --mode raster --out " + (d / "x.png").string()).status != 0);
 }
 
 namespace {
@@ -672,7 +657,7 @@ std::string slurp(const fs::path& p) {
 TEST_CASE("report --quick: a static page, its images, consistent figures", "[cli][report]") {
   const fs::path d = temp_dir() / "report";
   fs::remove_all(d);
-  const Run r = run("report --quick --threads 2 --out " + d.string());
+  const Run r = run_rtusim("report --quick --threads 2 --out " + d.string());
   INFO(r.output);
   REQUIRE(r.status == 0);
   for (const char* f :
@@ -751,10 +736,10 @@ TEST_CASE("report --quick: a static page, its images, consistent figures", "[cli
     const fs::path d2 = temp_dir() / "report_nognuplot";
     fs::remove_all(d2);
     // rtusim by its absolute path needs no PATH; gnuplot is not found on it.
-    const std::string cmd = "PATH=/nonexistent " + std::string(RTUSIM_EXE) +
-                            " report --quick --threads 2 --scene " + "builtin:cornell --sweep " +
-                            (d / "sweep.csv").string() + " --out " + d2.string() + " >/dev/null 2>&1";
-    CHECK(std::system(cmd.c_str()) == 0);
+    const Run r2 = run_rtusim("PATH=/nonexistent", "report --quick --threads 2 --scene builtin:cornell --sweep " +
+                                                       (d / "sweep.csv").string() + " --out " + d2.string());
+    INFO(r2.output);
+    CHECK(r2.status == 0);
     const std::string h2 = slurp(d2 / "index.html");
     CHECK(h2.find("gnuplot was not found") != std::string::npos);
     const nlohmann::json j2 = nlohmann::json::parse(slurp(d2 / "report.json"));
@@ -762,12 +747,11 @@ TEST_CASE("report --quick: a static page, its images, consistent figures", "[cli
     CHECK(j2.at("sweep").at("plots").empty());
     CHECK(j2.at("sweep").at("points") == 10);  // the given sweep's rows
     for (const std::string& s : html_sources(h2)) CHECK(fs::exists(d2 / s));
-    const std::string pcmd = "PATH=/nonexistent " + std::string(RTUSIM_EXE) + " pareto --sweep " +
-                             (d / "sweep.csv").string() + " --out " + (d2 / "p").string() + " 2>" +
-                             (d2 / "err.txt").string();
-    const int st = std::system(pcmd.c_str());
-    CHECK(WIFEXITED(st));
-    CHECK(WEXITSTATUS(st) == 2);
+    // The message goes to stderr: the command sends stderr to a file.
+    const Run p2 = run_rtusim("PATH=/nonexistent", "pareto --sweep " + (d / "sweep.csv").string() + " --out " +
+                                                       (d2 / "p").string() + " 2>" + (d2 / "err.txt").string());
+    CHECK(p2.exited);
+    CHECK(p2.status == 2);
     CHECK(slurp(d2 / "err.txt").find("gnuplot not found") != std::string::npos);
   }
 }
@@ -798,7 +782,7 @@ TEST_CASE("report and pareto: bad input gives a clear error and exit 2", "[cli][
            {"pareto --sweep " + (d / "foreign.csv").string() + out, "not a sweep file"},
            {"pareto --sweep " + (d / "missing.csv").string() + out, "cannot read"}}) {
     const auto t0 = std::chrono::steady_clock::now();
-    const Run r = run(args);
+    const Run r = run_rtusim(args);
     INFO(args << "\n" << r.output);
     CHECK(r.status == 2);
     CHECK(r.output.find(words) != std::string::npos);

@@ -1,14 +1,12 @@
 // Inputs beyond what the machine or the unit can hold are refused with a message and exit status 2, before
 // anything large is allocated: the memory budget (RTU_MEMORY_LIMIT), ray files and generated rays, scenes, mesh
 // files, render sizes; the primitive index width. And the watchdogs from the command line: a clear error with
-// the unit's state, exit status 2. (Ring and packet limits: tests/firmware/test_ring.cpp; BVH depth and shared
-// subtrees: tests/hwmodel/test_watchdog.cpp.)
+// the unit's state, exit status 2. (Ring and packet limits: tests/firmware/test_command_processor_errors.cpp;
+// BVH depth and shared subtrees: tests/hwmodel/test_watchdog.cpp.)
 #include <catch2/catch.hpp>
 
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -22,28 +20,14 @@
 #include "host/ray_io.h"
 #include "host/scene.h"
 #include "hwmodel/bvh.h"
+#include "tests/host/run_process.h"
 
 using namespace rtu;
 namespace fs = std::filesystem;
+using rtu::test::Run;
+using rtu::test::run_rtusim;
 
 namespace {
-
-struct Run {
-  int status;
-  std::string output;
-};
-
-Run run(const std::string& env, const std::string& args) {
-  const std::string cmd = env + " " + std::string(RTUSIM_EXE) + " " + args + " 2>&1";
-  std::FILE* p = popen(cmd.c_str(), "r");
-  REQUIRE(p != nullptr);
-  std::string out;
-  char buf[4096];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
-  const int st = pclose(p);
-  return Run{WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st), out};
-}
 
 fs::path temp_dir() {
   fs::path d = fs::temp_directory_path() / ("rtu_test_limits_" + std::to_string(::getpid()));
@@ -111,8 +95,9 @@ TEST_CASE("memory limit: ray files larger than the budget are refused before the
   // CSV: the file size bounds the rays it can hold (a line is at least 16 bytes).
   CHECK(contains(error_of([&] { host::read_rays((dir / "r.csv").string()); }), "r.csv: up to"));
   // From the command line: exit status 2 and the message.
-  const Run r = run("RTU_MEMORY_LIMIT=40K", "trace --scene 'builtin:icosphere?subdiv=0' --rays " +
-                                                (dir / "r.bin").string() + " --out " + (dir / "h.bin").string());
+  const Run r =
+      run_rtusim("RTU_MEMORY_LIMIT=40K", "trace --scene 'builtin:icosphere?subdiv=0' --rays " +
+                                             (dir / "r.bin").string() + " --out " + (dir / "h.bin").string());
   INFO(r.output);
   CHECK(r.status == 2);
   CHECK(contains(r.output, "rtusim: error: "));
@@ -122,11 +107,11 @@ TEST_CASE("memory limit: ray files larger than the budget are refused before the
 TEST_CASE("memory limit: generated rays, scenes, mesh files and render memory are checked", "[limits]") {
   const fs::path dir = temp_dir();
   // 10^11 incoherent rays would need 4.8 TB: refused at once, whatever the machine.
-  Run r = run("", "compare --scene builtin:seed --rays incoherent:100000000000");
+  Run r = run_rtusim("compare --scene builtin:seed --rays incoherent:100000000000");
   INFO(r.output);
   CHECK(r.status == 2);
   CHECK(contains(r.output, "--rays incoherent:100000000000: 100000000000 rays needs about"));
-  r = run("", "compare --scene builtin:seed --rays primary:65536x65536");
+  r = run_rtusim("compare --scene builtin:seed --rays primary:65536x65536");
   CHECK(r.status == 2);
   CHECK(contains(r.output, "4294967296 rays needs about"));
 
@@ -144,8 +129,8 @@ TEST_CASE("memory limit: generated rays, scenes, mesh files and render memory ar
   }
   CHECK(host::load_scene((dir / "m.obj").string()).geometry.triangles.size() == 1);
   // Render: the unit's device memory (scene image, framebuffer, arena).
-  r = run("RTU_MEMORY_LIMIT=2M",
-          "render --scene builtin:seed --width 1024 --height 1024 --out " + (dir / "i.png").string());
+  r = run_rtusim("RTU_MEMORY_LIMIT=2M",
+                 "render --scene builtin:seed --width 1024 --height 1024 --out " + (dir / "i.png").string());
   INFO(r.output);
   CHECK(r.status == 2);
   CHECK(contains(r.output, "render: the unit's device memory needs about"));
@@ -215,25 +200,25 @@ TEST_CASE("scenes with more primitives than the unit's index holds are refused",
 TEST_CASE("watchdogs from the command line: exit status 2 with the unit's state", "[limits][watchdog]") {
   const fs::path dir = temp_dir();
   const std::string rays = (dir / "p.rays").string(), hits = (dir / "p.hits").string();
-  REQUIRE(run("", "rays --scene builtin:seed --kind primary --count 500 --out " + rays).status == 0);
-  Run r = run("", "trace --scene builtin:seed --rays " + rays + " --out " + hits +
-                      " --device timed --set watchdog_cycles=100");
+  REQUIRE(run_rtusim("rays --scene builtin:seed --kind primary --count 500 --out " + rays).status == 0);
+  Run r = run_rtusim("trace --scene builtin:seed --rays " + rays + " --out " + hits +
+                     " --device timed --set watchdog_cycles=100");
   INFO(r.output);
   CHECK(r.status == 2);
   CHECK(contains(r.output, "rtusim: error: timed device watchdog: ray 0 of 500 has been in ray slot 0"));
   CHECK(contains(r.output, "unit state at cycle"));
-  r = run("",
-          "trace --scene builtin:seed --rays " + rays + " --out " + hits + " --device fixed --watchdog-steps 2");
+  r = run_rtusim("trace --scene builtin:seed --rays " + rays + " --out " + hits +
+                 " --device fixed --watchdog-steps 2");
   CHECK(r.status == 2);
   CHECK(contains(r.output, "traversal watchdog: ray"));
   // Through the firmware and the command processor: the render names the error and prints the dump.
-  r = run("",
-          "render --scene builtin:seed --width 32 --height 24 --device timed --set watchdog_cycles=100 --out " +
-              (dir / "w.png").string());
+  r = run_rtusim(
+      "render --scene builtin:seed --width 32 --height 24 --device timed --set watchdog_cycles=100 --out " +
+      (dir / "w.png").string());
   CHECK(r.status == 2);
   CHECK(contains(r.output, "device_error (watchdog at ring slot"));
   CHECK(contains(r.output, "ray slots: "));
   // The defaults never fire on real work.
-  r = run("", "trace --scene builtin:seed --rays " + rays + " --out " + hits + " --device timed");
+  r = run_rtusim("trace --scene builtin:seed --rays " + rays + " --out " + hits + " --device timed");
   CHECK(r.status == 0);
 }

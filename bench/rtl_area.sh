@@ -4,7 +4,7 @@
 # generic gate library and reports cells, flip-flops and yosys's CMOS transistor estimate (`stat -tech cmos`);
 # `rtusim compare` measures the same format's error against the float reference on one real mesh. Rows vary the
 # coordinate bits B, the child-offset bits k, the lanes (box tests per clock) and the node width. Lanes change
-# area and clocks per node, never a result, so their error columns repeat. Prints a Markdown table (README.md).
+# area and clocks per node, never a result, so their error columns repeat. Prints a Markdown table (bench/results/rtl-area.md).
 #
 #   bench/rtl_area.sh [BUILD] [RAYS] [MESH]
 #     BUILD  default build/default (needs rtusim and rtl_sim/rtu_rtl_params);  RAYS  incoherent rays, 300000

@@ -7,7 +7,7 @@
 # `trace_seconds`, excluding scene load and BVH build) against the full simulation's, each the best of REPEAT
 # runs (the cycles do not change from run to run; the time does, on a shared machine); each repetition runs the
 # full and then the sampled simulations, so both times come from the same stretches of the machine's speed.
-# Prints a Markdown table (README.md).
+# Prints a Markdown table (bench/results/sampled-timing.md).
 #
 #   bench/sample_bench.sh [RTUSIM] [RAYS] [MESH...]     RAYS default 1000000; trace packets are 262,144 rays
 #   FRACTIONS="0.05 0.02" MODES="hits cycles-only" REPEAT=3 THREADS=1 SEEDS=1 (environment): the sample fractions

@@ -1,6 +1,6 @@
 // The box tests of one node's children, fast: the same function as box_test_delta<int64_t> applied child by
 // child (as FixedPolicy::expand_impl does), restructured for speed. Bit for bit the same accepted children (in
-// slot order) and entry distances; tests/hwmodel/test_box_node.cpp compares them on random and edge-case nodes.
+// slot order) and entry distances; tests/hwmodel/test_fast_paths.cpp compares them on random and edge-case nodes.
 //
 // Per node and axis the plane of child i, minus the ray origin, is base + (q_i << s) (base = (origin << F) - o,
 // s = exp + F), and box_test_delta's product is (base + (q_i << s)) * m = base * m + q_i * (m << s) exactly:

@@ -1,4 +1,4 @@
-// Ray and hit records: the layout of the user-facing ray and hit files (design.md, "Ray and hit files") and of
+// Ray and hit records: the layout of the user-facing ray and hit files (docs/file-formats.md) and of
 // the ray/hit buffers the unit reads and writes. Little-endian, no padding.
 #pragma once
 

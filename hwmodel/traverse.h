@@ -1,4 +1,4 @@
-// The traversal loop shared by every datapath (float now, fixed point later): a stack of child references with
+// The traversal loop shared by every datapath (float and fixed point): a stack of child references with
 // their entry distances, nearest child first, entries farther than the closest hit skipped, early exit for
 // any-hit. The datapath is a Policy:
 //   using Dist = ...;                                   // entry-distance type (float, or a fixed-point t)

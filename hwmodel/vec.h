@@ -1,4 +1,4 @@
-// Shared vector vocabulary of the unit: GLM vectors of float (the float reference) and, later, of Fixed<>.
+// Shared vector vocabulary of the unit: GLM vectors of float and double (fixed.h adds GLM over Fixed<>).
 #pragma once
 
 #include <glm/glm.hpp>

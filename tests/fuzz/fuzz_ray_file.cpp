@@ -1,7 +1,7 @@
 // Ray and hit files (host/ray_io.cpp), binary and CSV: a binary file is accepted exactly when its size is a
 // multiple of the record and then holds the bytes unchanged; CSV is parsed line by line. The rays are then traced
 // on the float, fixed and timed devices over a tiny scene (hostile floats through ray setup): every hit names a
-// primitive or misses, and the timed device's hits equal the fixed device's bit for bit (design.md).
+// primitive or misses, and the timed device's hits equal the fixed device's bit for bit (docs/architecture.md).
 #include <cmath>
 #include <memory>
 

@@ -283,7 +283,7 @@ TEST_CASE("hybrid images agree with ray-traced images within a PSNR bound", "[hy
   // that order. So the images differ essentially on the <= 0.1% of pixels whose primary hit differs (and where
   // the secondary rays of edge pixels see other things): even at full-scale error on each of them, MSE <=
   // 0.001 * 255^2, PSNR >= 10 log10(1 / 0.001) = 30 dB. Measured: identical images here; 47 dB and more at full
-  // size on the timed presets (README.md, "Hybrid rendering").
+  // size on the timed presets (bench/results/hybrid.md).
   // At 2 spp the jittered samples agree as well: the rasterizer places them where the camera rays go.
   struct Case {
     const char* scene;

@@ -50,7 +50,9 @@ struct TimingConfig {
   int tri_latency = 12;
   int sphere_latency = 16;  // spheres and planes share the triangle units' issue slots (one test per clock)
   int plane_latency = 8;
-  int queue_depth = 16;  // requests each unit's input queue holds; more wait in their slots (a stall)
+  // Rays the ray prefetch queue holds ahead of the slots, and clocks a unit request may wait for a free unit
+  // before the wait counts as a queue stall (waiting requests stay in their slots; there is no request buffer).
+  int queue_depth = 16;
 
   // Memory: node and primitive fetches through one cache into DRAM.
   int cache_kib = 64;  // 0: no cache

@@ -77,43 +77,52 @@ std::string FixedFormat::describe() const {
   return o.str();
 }
 
+namespace {
+
+// Applies "key=value:key=value..." (the text after a preset name and its colon; one change at least) to f;
+// `spec` names the whole spec in messages.
+void apply_changes(FixedFormat& f, const std::string& changes, const std::string& spec) {
+  for (size_t from = 0;;) {
+    const size_t colon = changes.find(':', from);
+    const std::string kv = changes.substr(from, colon == std::string::npos ? std::string::npos : colon - from);
+    const size_t eq = kv.find('=');
+    int* field = eq == std::string::npos ? nullptr : format_field(f, kv.substr(0, eq));
+    if (!field)
+      throw std::invalid_argument("format spec " + spec + ": '" + kv + "' is not key=value with a format key (" +
+                                  format_field_keys() + ")");
+    const std::string v = kv.substr(eq + 1);
+    int value = 0;
+    const auto r = std::from_chars(v.data(), v.data() + v.size(), value);
+    if (r.ec != std::errc() || r.ptr != v.data() + v.size() || v.empty())
+      throw std::invalid_argument("format spec " + spec + ": '" + v + "' is not an integer");
+    *field = value;
+    if (colon == std::string::npos) break;
+    from = colon + 1;
+  }
+}
+
+}  // namespace
+
 const std::vector<FixedFormat>& format_presets() {
+  // Each preset: the header's defaults with these changes.
+  static const std::pair<const char*, const char*> kPresets[] = {
+      {"default", ""},
+      {"wide8", "width=8"},
+      {"binary", "width=2"},
+      {"compact",
+       "coord_bits=16:child_bits=6:guard_bits=4:frac_bits=4:dir_bits=16:rcp_bits=16:t_frac_bits=8:t_bits=32"},
+      {"precise",
+       "coord_bits=28:child_bits=12:guard_bits=4:frac_bits=10:dir_bits=28:rcp_bits=28:t_frac_bits=16:t_bits=60"},
+  };
   static const std::vector<FixedFormat> presets = [] {
     std::vector<FixedFormat> v;
-    FixedFormat d;  // the header's defaults
-    d.name = "default";
-    v.push_back(d);
-    FixedFormat wide = d;
-    wide.name = "wide8";
-    wide.width = 8;
-    v.push_back(wide);
-    FixedFormat binary = d;
-    binary.name = "binary";
-    binary.width = 2;
-    v.push_back(binary);
-    FixedFormat compact = d;
-    compact.name = "compact";
-    compact.coord_bits = 16;
-    compact.child_bits = 6;
-    compact.guard_bits = 4;
-    compact.frac_bits = 4;
-    compact.dir_bits = 16;
-    compact.rcp_bits = 16;
-    compact.t_frac_bits = 8;
-    compact.t_bits = 32;
-    v.push_back(compact);
-    FixedFormat precise = d;
-    precise.name = "precise";
-    precise.coord_bits = 28;
-    precise.child_bits = 12;
-    precise.guard_bits = 4;
-    precise.frac_bits = 10;
-    precise.dir_bits = 28;
-    precise.rcp_bits = 28;
-    precise.t_frac_bits = 16;
-    precise.t_bits = 60;
-    v.push_back(precise);
-    for (const FixedFormat& f : v) f.validate();
+    for (const auto& [name, changes] : kPresets) {
+      FixedFormat f;
+      if (*changes) apply_changes(f, changes, name);
+      f.name = name;
+      f.validate();
+      v.push_back(f);
+    }
     return v;
   }();
   return presets;
@@ -164,24 +173,9 @@ int* format_field(FixedFormat& f, const std::string& key) {
 }
 
 FixedFormat format_from_spec(const std::string& spec) {
-  size_t colon = spec.find(':');
+  const size_t colon = spec.find(':');
   FixedFormat f = format_preset(spec.substr(0, colon));
-  while (colon != std::string::npos) {
-    const size_t from = colon + 1;
-    colon = spec.find(':', from);
-    const std::string kv = spec.substr(from, colon == std::string::npos ? std::string::npos : colon - from);
-    const size_t eq = kv.find('=');
-    int* field = eq == std::string::npos ? nullptr : format_field(f, kv.substr(0, eq));
-    if (!field)
-      throw std::invalid_argument("format spec " + spec + ": '" + kv +
-                                  "' is not key=value with a format key (" + format_field_keys() + ")");
-    const std::string v = kv.substr(eq + 1);
-    int value = 0;
-    const auto r = std::from_chars(v.data(), v.data() + v.size(), value);
-    if (r.ec != std::errc() || r.ptr != v.data() + v.size() || v.empty())
-      throw std::invalid_argument("format spec " + spec + ": '" + v + "' is not an integer");
-    *field = value;
-  }
+  if (colon != std::string::npos) apply_changes(f, spec.substr(colon + 1), spec);
   f.name = spec;
   f.validate();
   return f;

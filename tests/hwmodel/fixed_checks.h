@@ -64,6 +64,11 @@ inline float rand_float(Pcg32& g, float lo, float hi) {
 inline bool one_in(Pcg32& g, uint32_t n) {
   return g.next_u32() % n == 0;
 }
+// A random t interval around t = 1 (a ray aimed at a target there): it may start or end before or after it.
+inline void random_interval(Pcg32& g, Ray& ray) {
+  ray.tmin = one_in(g, 4) ? rand_float(g, 0.0f, 1.5f) : 0.0f;
+  ray.tmax = one_in(g, 4) ? rand_float(g, 0.5f, 2.0f) : kInf;
+}
 inline double rand_double(Pcg32& g, double lo, double hi) {
   return lo + (hi - lo) * (double(next_u64(g) >> 11) * 0x1p-53);
 }

@@ -58,8 +58,7 @@ TEST_CASE("sphere and plane tests against long double on the same quantized inpu
         ray.dir[a] = float(target - double(ray.origin[a]));
       }
       if (ray.dir.x == 0.0f && ray.dir.y == 0.0f && ray.dir.z == 0.0f) continue;
-      ray.tmin = one_in(rng, 4) ? rand_float(rng, 0.0f, 1.5f) : 0.0f;
-      ray.tmax = one_in(rng, 4) ? rand_float(rng, 0.5f, 2.0f) : kInf;
+      random_interval(rng, ray);
       FixedRay fr;
       REQUIRE(setup_ray(ray, frame, f, fr) == RayStatus::kOk);
 
@@ -176,8 +175,7 @@ TEST_CASE("sphere and plane tests against long double on the same quantized inpu
         ray.dir[a] = float(rand_double(rng, -0.2, 1.2) * gmax - double(ray.origin[a]));
       }
       if (ray.dir.x == 0.0f && ray.dir.y == 0.0f && ray.dir.z == 0.0f) continue;
-      ray.tmin = one_in(rng, 4) ? rand_float(rng, 0.0f, 1.5f) : 0.0f;
-      ray.tmax = one_in(rng, 4) ? rand_float(rng, 0.5f, 2.0f) : kInf;
+      random_interval(rng, ray);
       FixedRay fr;
       REQUIRE(setup_ray(ray, frame, f, fr) == RayStatus::kOk);
       // Reference t = (w - n.o) / (n.d) in ray units. Inputs are exact; n.o and n.d are sums of three products

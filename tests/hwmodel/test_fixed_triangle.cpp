@@ -231,8 +231,7 @@ TEST_CASE("triangle test: hit/miss and t against long double Moller-Trumbore, de
       }
       if (ray.dir.x == 0.0f && ray.dir.y == 0.0f && ray.dir.z == 0.0f) continue;
       // The target is at world t = 1: intervals that start or end before or after it.
-      ray.tmin = one_in(rng, 4) ? rand_float(rng, 0.0f, 1.5f) : 0.0f;
-      ray.tmax = one_in(rng, 4) ? rand_float(rng, 0.5f, 2.0f) : kInf;
+      random_interval(rng, ray);
       FixedRay fr;
       REQUIRE(setup_ray(ray, frame, f, fr) == RayStatus::kOk);
       FixedPrimHit h{};

@@ -106,7 +106,7 @@ Result run_tracer(const std::string& mesh, const std::string& tracer, uint64_t n
     // the preset's BVH width; a BVH always, as for rtu-fixed.
     t0 = now();
     host::DeviceOptions o;
-    o.name = "timed";
+    o.kind = rtu::hw::DeviceKind::kTimed;
     o.timing = hw::timing_preset(kTimedPreset);
     o.format = hw::format_preset(o.timing.format);
     o.format.width = o.timing.bvh_width;

@@ -1,7 +1,8 @@
 #include "host/device.h"
 
+#include <stdexcept>
+
 #include "host/box_units.h"
-#include "host/error.h"
 
 namespace rtu::host {
 
@@ -10,7 +11,7 @@ namespace {
 class FloatDevice final : public TraceDevice {
  public:
   FloatDevice(const hw::Geometry& g, const DeviceOptions& o) : m_tracer(g, o.tracer) {}
-  const std::string& name() const override { return m_name; }
+  hw::DeviceKind kind() const override { return hw::DeviceKind::kFloat; }
   void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
                    hw::TraversalStats& s) const override {
     m_tracer.trace_batch(rays, hits, n, any_hit, threads, s);
@@ -22,7 +23,6 @@ class FloatDevice final : public TraceDevice {
   uint64_t prim_bytes() const override { return m_tracer.leaf_prim_bytes(); }
 
  private:
-  std::string m_name = "float";
   hw::FloatTracer m_tracer;
 };
 
@@ -54,7 +54,7 @@ class ImageDevice : public TraceDevice {
 class FixedDevice final : public ImageDevice {
  public:
   using ImageDevice::ImageDevice;
-  const std::string& name() const override { return m_name; }
+  hw::DeviceKind kind() const override { return hw::DeviceKind::kFixed; }
   void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
                    hw::TraversalStats& s) const override {
     hw::TraversalStats local;
@@ -63,9 +63,6 @@ class FixedDevice final : public ImageDevice {
       throw hw::WatchdogError(m_tracer.watchdog_report(rays, n, any_hit, local.watchdog_rays), 0);
     s.add(local);
   }
-
- private:
-  std::string m_name = "fixed";
 };
 
 // The fixed datapath with the timing model: the engine the command processor would run, called directly.
@@ -82,7 +79,7 @@ class TimedDevice final : public ImageDevice {
     m_engine.set_sampling(o.sample);
     m_engine.bind(m_image.data(), m_image.size());
   }
-  const std::string& name() const override { return m_name; }
+  hw::DeviceKind kind() const override { return hw::DeviceKind::kTimed; }
   void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
                    hw::TraversalStats& s) const override {
     m_engine.set_threads(threads);
@@ -92,31 +89,26 @@ class TimedDevice final : public ImageDevice {
   void set_pipeline_trace(hw::PipelineTrace* trace) override { m_engine.set_trace(trace); }
 
  private:
-  std::string m_name = "timed";
   mutable hw::TimedEngine m_engine;  // simulation state changes as it traces
 };
 
 }  // namespace
 
-const std::vector<std::string>& device_names() {
-  static const std::vector<std::string> names = {"float", "fixed", "timed"};
-  return names;
-}
-
 std::unique_ptr<TraceDevice> make_device(const hw::Geometry& g, const DeviceOptions& o) {
   DeviceOptions opt = o;
   opt.tracer.bvh.width = o.format.width;
-  if (o.name == "float") return std::make_unique<FloatDevice>(g, opt);
-  if (o.name == "fixed") {
-    o.format.validate();
-    return std::make_unique<FixedDevice>(g, opt);
+  switch (o.kind) {
+    case hw::DeviceKind::kFloat:
+      return std::make_unique<FloatDevice>(g, opt);
+    case hw::DeviceKind::kFixed:
+      o.format.validate();
+      return std::make_unique<FixedDevice>(g, opt);
+    case hw::DeviceKind::kTimed:
+      o.format.validate();
+      o.timing.validate();
+      return std::make_unique<TimedDevice>(g, opt);
   }
-  if (o.name == "timed") {
-    o.format.validate();
-    o.timing.validate();
-    return std::make_unique<TimedDevice>(g, opt);
-  }
-  throw Error("unknown device '" + o.name + "' (known: float, fixed, timed)");
+  throw std::invalid_argument("make_device: not a device kind");
 }
 
 }  // namespace rtu::host

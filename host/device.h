@@ -1,6 +1,8 @@
-// The devices a host job can trace on, behind one interface: `float` (the reference) and `fixed` (the
-// bit-accurate fixed-point datapath over a device memory image). Both choose BVH or brute force by the same
-// rule (hw::choose_accel) and traverse the same tree, so they differ only in their numbers.
+// The devices a host job drives directly, without firmware (trace, compare, stress, sweep), behind one interface:
+// `float` (the reference), `fixed` (the bit-accurate fixed-point datapath over a device memory image) and `timed`
+// (the fixed datapath with the timing model, called as the command processor would call it). All choose BVH or
+// brute force by the same rule (hw::choose_accel) and traverse the same tree, so they differ only in their
+// numbers.
 #pragma once
 
 #include <memory>
@@ -9,6 +11,7 @@
 #include <vector>
 
 #include "hwmodel/device_image.h"
+#include "hwmodel/device_kind.h"
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
@@ -18,21 +21,20 @@
 namespace rtu::host {
 
 struct DeviceOptions {
-  std::string name = "float";  // "float", "fixed" or "timed"
-  hw::TracerOptions tracer;    // acceleration choice and BVH build (bvh.width is the format's width)
-  hw::FixedFormat format;      // the fixed device's number formats
-  bool check_boxes = false;    // fixed: repeat box tests exactly and count false negatives
-  hw::TimingConfig timing;     // timed: the unit's configuration (its format and width are in `format`)
-  hw::SampleOptions sample;    // timed: sampled timing (fraction 0: every ray simulated)
-  uint64_t max_steps = 0;      // fixed, timed: traversal watchdog, node and leaf visits per ray (0: automatic)
+  hw::DeviceKind kind = hw::DeviceKind::kFloat;
+  hw::TracerOptions tracer;  // acceleration choice and BVH build (bvh.width is the format's width)
+  hw::FixedFormat format;    // the fixed device's number formats
+  bool check_boxes = false;  // fixed: repeat box tests exactly and count false negatives
+  hw::TimingConfig timing;   // timed: the unit's configuration (its format and width are in `format`)
+  hw::SampleOptions sample;  // timed: sampled timing (fraction 0: every ray simulated)
+  uint64_t max_steps = 0;    // fixed, timed: traversal watchdog, node and leaf visits per ray (0: automatic)
 };
-
-const std::vector<std::string>& device_names();
 
 class TraceDevice {
  public:
   virtual ~TraceDevice() = default;
-  virtual const std::string& name() const = 0;
+  virtual hw::DeviceKind kind() const = 0;
+  const char* name() const { return hw::device_kind_name(kind()); }
   virtual void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
                            hw::TraversalStats& s) const = 0;
   // What the device's ray setup says of r (a rejected ray is traced as a miss and counted by this reason).
@@ -51,7 +53,8 @@ class TraceDevice {
   virtual uint64_t prim_bytes() const = 0;
 };
 
-// Throws Error for an unknown device name and std::invalid_argument for a bad format. trace_batch throws
+// Throws std::invalid_argument for a bad format or timing configuration, Error for a box unit this build lacks.
+// trace_batch throws
 // hw::WatchdogError (with the unit's state) when the watchdog stops a ray (fixed: step bound; timed: that or
 // the timing config's watchdog_cycles).
 std::unique_ptr<TraceDevice> make_device(const hw::Geometry& g, const DeviceOptions& o);

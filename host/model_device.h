@@ -1,13 +1,13 @@
 // The in-process model device behind the firmware's HAL: device memory, the command processor and a trace
-// engine (float or fixed), wired as the unit would be. The firmware sees only fw::Hal.
+// engine (float, fixed or timed), wired as the unit would be. The firmware sees only fw::Hal.
 #pragma once
 
 #include <atomic>
 #include <memory>
-#include <string>
 
 #include "firmware/hal.h"
 #include "hwmodel/command_processor.h"
+#include "hwmodel/device_kind.h"
 #include "hwmodel/device_memory.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_format.h"
@@ -17,9 +17,9 @@ namespace rtu::host {
 
 class ModelDevice final : public fw::Hal {
  public:
-  // `engine` is "float", "fixed" or "timed" (throws Error otherwise; `timing` configures the timed one);
-  // memory_bytes of device memory.
-  ModelDevice(const std::string& engine, uint64_t memory_bytes, const hw::EngineOptions& opt = {},
+  // The engine of `kind` (hw::make_engine; `timing` configures the timed one, and its box_unit key chooses the box
+  // unit: make_box_unit) over memory_bytes of device memory.
+  ModelDevice(hw::DeviceKind kind, uint64_t memory_bytes, const hw::EngineOptions& opt = {},
               const hw::TimingConfig& timing = {});
 
   uint32_t read32(uint32_t offset) override { return m_cp.read(offset); }
@@ -28,7 +28,7 @@ class ModelDevice final : public fw::Hal {
   uint8_t* mem() override { return m_mem.data(); }
   uint64_t mem_size() override { return m_mem.size(); }
 
-  const std::string& engine_name() const { return m_name; }
+  hw::DeviceKind kind() const { return m_kind; }
   hw::DeviceMemory& memory() { return m_mem; }
   hw::CommandProcessor& processor() { return m_cp; }
   const hw::TraceEngine& engine() const { return *m_engine; }
@@ -37,7 +37,7 @@ class ModelDevice final : public fw::Hal {
   hw::TimedEngine* timed() { return dynamic_cast<hw::TimedEngine*>(m_engine.get()); }
 
  private:
-  std::string m_name;
+  hw::DeviceKind m_kind;
   hw::DeviceMemory m_mem;
   std::unique_ptr<hw::TraceEngine> m_engine;
   hw::CommandProcessor m_cp;

@@ -20,7 +20,7 @@
 namespace rtu::host {
 
 struct RenderOptions {
-  DeviceOptions device;       // name (float | fixed), acceleration/BVH options, fixed format
+  DeviceOptions device;       // kind (float, fixed, timed), acceleration/BVH options, fixed format, timing
   bool hybrid = false;        // primary visibility by the firmware rasterizer (G-buffer), secondary rays traced
   int threads = 0;            // unit worker threads per TRACE (0 = all cores); the image does not depend on it
   int width = 0, height = 0;  // 0: the scene camera's

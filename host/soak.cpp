@@ -82,13 +82,13 @@ SoakResult soak(const SoakOptions& o) {
     hw::Pcg32 rng(seed);
     const Scene scene = random_scene(rng);
     DeviceOptions fixed;
-    fixed.name = "fixed";
+    fixed.kind = hw::DeviceKind::kFixed;
     fixed.format = formats[rng.next_u32() % formats.size()];
     fixed.format.width = 2 << (rng.next_u32() % 3);
     fixed.tracer.bvh.width = fixed.format.width;
     fixed.tracer.bvh.max_leaf_size = 1 + int(rng.next_u32() % 8);
     DeviceOptions timed = fixed;
-    timed.name = "timed";
+    timed.kind = hw::DeviceKind::kTimed;
     timed.timing = hw::timing_preset(timings[rng.next_u32() % timings.size()]);
     timed.timing.format = fixed.format.name;
     timed.timing.bvh_width = fixed.format.width;

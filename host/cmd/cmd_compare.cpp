@@ -32,9 +32,9 @@ double ratio_minus_one(uint64_t a, uint64_t b) {
 void run_compare(const CompareOptions& o) {
   const Scene scene = load_scene(o.scene);
   const std::vector<hw::Ray> rays = rays_from_spec(o.rays, scene, o.seed);
-  const DeviceOptions ref_opt = o.dev.options("float");
+  const DeviceOptions ref_opt = o.dev.options(hw::DeviceKind::kFloat);
   const DeviceOptions dut_opt = [&] {
-    DeviceOptions d = o.dev.options(o.dev.device);
+    DeviceOptions d = o.dev.options(o.dev.kind());
     d.check_boxes = true;
     return d;
   }();
@@ -103,8 +103,8 @@ void run_compare(const CompareOptions& o) {
   j["disagreements"] = list;
 
   std::printf("compare %s: float vs %s (%s) on %llu rays (%llu compared, %llu invalid)\n", scene.name.c_str(),
-              dut->name().c_str(), dut_opt.format.name.c_str(), (unsigned long long)t.rays,
-              (unsigned long long)t.compared, (unsigned long long)invalid_either);
+              dut->name(), dut_opt.format.name.c_str(), (unsigned long long)t.rays, (unsigned long long)t.compared,
+              (unsigned long long)invalid_either);
   if (t.compared == 0)
     std::printf("  no ray was valid on both devices: nothing compared\n");
   else

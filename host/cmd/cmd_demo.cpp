@@ -55,7 +55,7 @@ void run_demo(const DemoOptions& o) {
   std::vector<bool> valid(rays.size(), true);  // on both devices: only those are compared
   for (const std::string& name : {std::string("float"), std::string("fixed")}) {
     DeviceOptions dopt;
-    dopt.name = name;
+    dopt.kind = hw::parse_device_kind(name);
     Stopwatch build_timer;
     const std::unique_ptr<TraceDevice> device = make_device(g, dopt);
     const double build_s = build_timer.seconds();
@@ -106,7 +106,7 @@ void run_demo(const DemoOptions& o) {
   std::vector<Image> renders;
   auto render_options = [&](const std::string& name, bool hybrid) {
     RenderOptions ro;
-    ro.device.name = name == "float" ? name : "timed";
+    ro.device.kind = name == "float" ? hw::DeviceKind::kFloat : hw::DeviceKind::kTimed;
     ro.device.timing = hw::timing_preset(o.config);
     if (name != "float") {
       ro.device.format = hw::format_preset(ro.device.timing.format);

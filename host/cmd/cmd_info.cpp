@@ -37,7 +37,7 @@ void run_info(const InfoOptions& o) {
   const Scene scene = load_scene(o.scene);
   const double load_s = load_timer.seconds();
   Stopwatch build_timer;
-  const DeviceOptions dopt = o.dev.options("fixed");
+  const DeviceOptions dopt = o.dev.options(hw::DeviceKind::kFixed);
   const std::unique_ptr<TraceDevice> device = make_device(scene.geometry, dopt);
   const double build_s = build_timer.seconds();
   const hw::Geometry& g = scene.geometry;

@@ -158,7 +158,7 @@ Json section_renders(const Scene& scene, const std::string& spec, const ReportAr
     DeviceArgs da;
     da.config = "rdna2";
     RenderOptions ro;
-    ro.device = da.options(name == "fixed" ? "timed" : "float");
+    ro.device = da.options(name == "fixed" ? hw::DeviceKind::kTimed : hw::DeviceKind::kFloat);
     ro.threads = a.threads;
     ro.width = w;
     ro.height = ht;
@@ -171,7 +171,7 @@ Json section_renders(const Scene& scene, const std::string& spec, const ReportAr
     write_png(a.out + "/" + file, images.back());
     Json rj;
     rj["image"] = file;
-    rj["device"] = ro.device.name;
+    rj["device"] = hw::device_kind_name(ro.device.kind);
     rj["seconds"] = r.seconds;
     uint64_t rays = 0;
     for (int t = 0; t < hw::cmd::kRayTypeCount; ++t) rays += r.fw.rays[t];
@@ -181,7 +181,7 @@ Json section_renders(const Scene& scene, const std::string& spec, const ReportAr
       rj["trace_cycles"] = r.timing.cycles;
     }
     j[name] = rj;
-    std::printf("  render %s on %s: %.2f s\n", spec.c_str(), ro.device.name.c_str(), r.seconds);
+    std::printf("  render %s on %s: %.2f s\n", spec.c_str(), hw::device_kind_name(ro.device.kind), r.seconds);
   }
   const ImageDiff d = diff_images(images[0], images[1]);
   write_png(a.out + "/render_heatmap.png", diff_heatmap(images[0], images[1], 16.0));
@@ -226,7 +226,7 @@ Json section_cycles(const std::vector<std::unique_ptr<Scene>>& scenes, const std
   for (const std::string& preset : hw::timing_preset_names()) {
     DeviceArgs da;
     da.config = preset;
-    const DeviceOptions opt = da.options("timed");
+    const DeviceOptions opt = da.options(hw::DeviceKind::kTimed);
     for (size_t i = 0; i < scenes.size(); ++i) {
       const std::vector<hw::Ray> rays = primary_rays(scenes[i]->camera, z.cycle_rays);
       const Stopwatch sw;

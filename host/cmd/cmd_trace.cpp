@@ -25,11 +25,12 @@ void run_trace(const TraceOptions& o) {
   const double load_s = load_timer.seconds();
   const std::vector<hw::Ray> rays = read_rays(o.rays);
 
+  const hw::DeviceKind kind = o.dev.kind();
   const bool cycles_only = o.out.empty();
-  if (cycles_only && !(o.dev.device == "timed" && o.dev.sample > 0.0))
+  if (cycles_only && !(kind == hw::DeviceKind::kTimed && o.dev.sample > 0.0))
     throw Error("--out is required (it may be left out only with --device timed --sample F)");
   Stopwatch build_timer;
-  DeviceOptions dopt = o.dev.options(o.dev.device);
+  DeviceOptions dopt = o.dev.options(kind);
   dopt.sample.need_hits = !cycles_only;
   const std::unique_ptr<TraceDevice> device = make_device(scene.geometry, dopt);
   PipelineTraceArgs pt = o.pipeline;
@@ -66,7 +67,7 @@ void run_trace(const TraceOptions& o) {
     j["scene"] = scene.name;
     j["rays_file"] = o.rays;
     j["device"] = o.dev.device;
-    if (o.dev.device != "float") j["format"] = format_json(dopt.format);
+    if (kind != hw::DeviceKind::kFloat) j["format"] = format_json(dopt.format);
     j["mode"] = o.any_hit ? "any_hit" : "closest_hit";
     j["threads"] = resolved_threads(o.threads);
     j.update(traversal_json(stats));

@@ -120,7 +120,7 @@ bool same_hits(const std::vector<hw::Hit>& a, const std::vector<hw::Hit>& b) {
 struct Rig {
   explicit Rig(const std::string& engine, uint32_t ring_slots = 16)
       : name(engine),
-        dev(engine, kMemBytes),
+        dev(rtu::hw::parse_device_kind(engine), kMemBytes),
         slots(ring_slots),
         buffers(kRingArenaBytes, kMemBytes - kRingArenaBytes) {
     const SceneData& sd = seed_scene();

@@ -22,11 +22,11 @@ struct Devices {
   std::unique_ptr<host::TraceDevice> flt, fix, tim;
   Devices() {
     host::DeviceOptions o;
-    o.name = "float";
+    o.kind = rtu::hw::DeviceKind::kFloat;
     flt = host::make_device(tiny_geometry(), o);
-    o.name = "fixed";
+    o.kind = rtu::hw::DeviceKind::kFixed;
     fix = host::make_device(tiny_geometry(), o);
-    o.name = "timed";
+    o.kind = rtu::hw::DeviceKind::kTimed;
     tim = host::make_device(tiny_geometry(), o);
   }
 };

@@ -50,7 +50,7 @@ int scene_file(const uint8_t* data, size_t size) {
   rays.insert(rays.end(), more.begin(), more.end());
   for (const char* device : {"float", "fixed"}) {
     host::DeviceOptions o;
-    o.name = device;
+    o.kind = rtu::hw::parse_device_kind(device);
     std::unique_ptr<host::TraceDevice> d;
     try {
       d = host::make_device(g, o);
@@ -74,7 +74,7 @@ int scene_file(const uint8_t* data, size_t size) {
 
   // The firmware renderer on the fixed device: materials, lights and camera as the file gives them.
   host::RenderOptions ro;
-  ro.device.name = "fixed";
+  ro.device.kind = rtu::hw::DeviceKind::kFixed;
   ro.width = 4;
   ro.height = 3;
   ro.max_depth = 2;

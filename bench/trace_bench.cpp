@@ -102,7 +102,7 @@ Result run_tracer(const std::string& mesh, const std::string& tracer, uint64_t n
     r.primary_s = time_rays(one, primary, r.primary_hits);
     r.incoherent_s = time_rays(one, incoherent, r.incoherent_hits);
   } else if (tracer == "rtu-timed") {
-    // As rtusim trace --device timed --config rdna2 builds it (host/cmd/common.cpp): the preset's format with
+    // As rtusim trace --device timed --config rdna2 builds it (DeviceSettings::options): the preset's format with
     // the preset's BVH width; a BVH always, as for rtu-fixed.
     t0 = now();
     host::DeviceOptions o;

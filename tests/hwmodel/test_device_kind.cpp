@@ -32,7 +32,7 @@ TEST_CASE("device kinds: names round-trip, and an unknown name says which are kn
   CHECK_THROWS_AS(rtu::hw::parse_device_kind(""), std::invalid_argument);
 }
 
-TEST_CASE("make_engine: the engine of each kind; only the timed one takes a box unit", "[device]") {
+TEST_CASE("make_engine: the engine of each kind, and a box unit for the timed one only", "[device]") {
   const rtu::hw::TimingConfig c = rtu::hw::timing_preset("rdna2");
   for (const DeviceKind k : {DeviceKind::kFloat, DeviceKind::kFixed, DeviceKind::kTimed}) {
     const std::unique_ptr<rtu::hw::TraceEngine> e = rtu::hw::make_engine(k, {}, c);

@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <utility>
 
 #include "host/device.h"
 #include "host/error.h"
@@ -92,11 +93,11 @@ DemoResult run_demo(const DemoOptions& o, const std::function<void(DemoStage, co
   // The firmware renderer on the float reference and on the fixed datapath with the timing model (the timed
   // device: the fixed device's hits and image, plus cycles), and the image error of fixed against float.
   std::vector<Image> renders;
-  auto render_options = [&](const std::string& name, bool hybrid) {
+  auto render_options = [&](hw::DeviceKind kind, bool hybrid) {
     RenderOptions ro;
-    ro.device.kind = name == "float" ? hw::DeviceKind::kFloat : hw::DeviceKind::kTimed;
+    ro.device.kind = kind;
     ro.device.timing = hw::timing_preset(o.config);
-    if (name != "float") {
+    if (kind != hw::DeviceKind::kFloat) {
       ro.device.format = hw::format_preset(ro.device.timing.format);
       ro.device.format.width = ro.device.timing.bvh_width;
       ro.device.tracer.bvh.width = ro.device.format.width;
@@ -109,8 +110,10 @@ DemoResult run_demo(const DemoOptions& o, const std::function<void(DemoStage, co
     return ro;
   };
   uint64_t raytrace_cycles = 0;
-  for (const std::string& name : {std::string("float"), std::string("fixed")}) {
-    const RenderOptions ro = render_options(name, false);
+  // Named by datapath: "fixed" is the fixed datapath on the timed device.
+  for (const auto& [name, kind] : {std::pair<std::string, hw::DeviceKind>{"float", hw::DeviceKind::kFloat},
+                                   {"fixed", hw::DeviceKind::kTimed}}) {
+    const RenderOptions ro = render_options(kind, false);
     res.renders.push_back(DemoRender{name, ro, render(scene, ro)});
     const RenderResult& r = res.renders.back().result;
     if (r.timed) raytrace_cycles = r.device_clock;
@@ -130,7 +133,7 @@ DemoResult run_demo(const DemoOptions& o, const std::function<void(DemoStage, co
   }
   // Hybrid: the same frame on the timed device with primary visibility rasterized by the firmware.
   {
-    const RenderOptions ro = render_options("hybrid", true);
+    const RenderOptions ro = render_options(hw::DeviceKind::kTimed, true);
     res.renders.push_back(DemoRender{"hybrid", ro, render(scene, ro)});
     const RenderResult& r = res.renders.back().result;
     done(DemoStage::kHybrid);

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <memory>
 #include <sstream>
+#include <utility>
 
 #include "host/device_settings.h"
 #include "host/error.h"
@@ -152,11 +153,13 @@ Json section_renders(const Scene& scene, const std::string& spec, const ReportOp
   j["max_depth"] = z.max_depth;
   j["config"] = "rdna2";
   std::vector<Image> images;
-  for (const std::string name : {"float", "fixed"}) {
+  // Named by datapath: "fixed" is the fixed datapath on the timed device.
+  for (const auto& [name, kind] : {std::pair<std::string, hw::DeviceKind>{"float", hw::DeviceKind::kFloat},
+                                   {"fixed", hw::DeviceKind::kTimed}}) {
     DeviceSettings da;
     da.config = "rdna2";
     RenderOptions ro;
-    ro.device = da.options(name == "fixed" ? hw::DeviceKind::kTimed : hw::DeviceKind::kFloat);
+    ro.device = da.options(kind);
     ro.threads = a.threads;
     ro.width = w;
     ro.height = ht;

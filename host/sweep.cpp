@@ -18,7 +18,7 @@
 #include "host/render.h"
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/timing_config.h"
-#include "rtl_sim/tb/rtl_params.h"
+#include "rtl_sim/params/rtl_params.h"
 
 namespace rtu::host {
 

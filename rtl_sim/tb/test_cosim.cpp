@@ -17,7 +17,7 @@
 #include "hwmodel/timed_engine.h"
 #include "hwmodel/timing_config.h"
 #include "rtl_sim/cosim/rtl_box_unit.h"
-#include "rtl_sim/tb/rtl_params.h"
+#include "rtl_sim/params/rtl_params.h"
 
 namespace {
 

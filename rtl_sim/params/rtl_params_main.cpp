@@ -12,7 +12,7 @@
 #include <exception>
 #include <string>
 
-#include "rtl_sim/tb/rtl_params.h"
+#include "rtl_sim/params/rtl_params.h"
 
 namespace {
 
@@ -25,7 +25,8 @@ std::string chparam(int argc, char** argv) {
     const size_t eq = kv.find('=');
     int* field = eq == std::string::npos ? nullptr : rtu::hw::format_field(f, kv.substr(0, eq));
     if (!field || kv.substr(0, eq) == "width")
-      throw std::invalid_argument("'" + kv + "' is not FORMAT_KEY=VALUE with a format key (the width is bvh_width)");
+      throw std::invalid_argument("'" + kv +
+                                  "' is not FORMAT_KEY=VALUE with a format key (the width is bvh_width)");
     *field = std::stoi(kv.substr(eq + 1));
   }
   const rtu::rtl::BoxUnitParams p = rtu::rtl::box_unit_params(f, c.bvh_width, c.box_rate, c.box_latency);

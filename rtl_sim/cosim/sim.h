@@ -1,6 +1,6 @@
-// Shared helpers of the Verilator testbenches: a clocked simulation of a Verilated model (clock, synchronous
-// reset, bounded waits so that a test that would hang fails after a number of cycles, VCD dump), bit packing of
-// wide ports, and the testbench's environment knobs:
+// Shared helpers of what drives a Verilated model (the co-simulation adapter and the testbenches): a clocked
+// simulation (clock, synchronous reset, bounded waits so that a test that would hang fails after a number of
+// cycles, VCD dump), bit packing of wide ports, and the testbench's environment knobs:
 //   RTU_RTL_SEED=S          seed of the randomized tests (default: each test's fixed seed; printed on failure)
 //   RTU_RTL_TRACE=1         dump a VCD of every simulation run (first RTU_RTL_TRACE_CYCLES cycles, default 20000)
 //   RTU_RTL_VCD_DIR=DIR     where VCDs go (default: the working directory); a failing comparison always re-runs

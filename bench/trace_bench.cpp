@@ -21,8 +21,8 @@
 #include <string>
 #include <vector>
 
-#include "embree_oracle.h"
 #include "host/device.h"
+#include "host/embree_oracle.h"
 #include "host/ray_gen.h"
 #include "host/scene.h"
 #include "hwmodel/device_image.h"

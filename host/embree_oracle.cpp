@@ -1,4 +1,4 @@
-#include "embree_oracle.h"
+#include "host/embree_oracle.h"
 
 #include <limits>
 #include <stdexcept>

@@ -3,11 +3,11 @@
 #include <cstdio>
 #include <memory>
 
-#include "host/cmd/common.h"
+#include "host/cli/common.h"
 #include "host/demo.h"
 #include "host/trace_job.h"
 
-namespace rtu::host::cmd {
+namespace rtu::host::cli {
 
 namespace {
 
@@ -101,4 +101,4 @@ void add_demo(CLI::App& app) {
   sub->callback([o] { run(*o); });
 }
 
-}  // namespace rtu::host::cmd
+}  // namespace rtu::host::cli

@@ -2,12 +2,12 @@
 #include <cstdio>
 #include <memory>
 
-#include "host/cmd/common.h"
+#include "host/cli/common.h"
 #include "host/error.h"
 #include "host/image_diff.h"
 #include "host/render.h"
 
-namespace rtu::host::cmd {
+namespace rtu::host::cli {
 
 namespace {
 
@@ -196,4 +196,4 @@ void print_render_summary(const RenderResult& r, const RenderOptions& o) {
   }
 }
 
-}  // namespace rtu::host::cmd
+}  // namespace rtu::host::cli

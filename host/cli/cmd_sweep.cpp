@@ -8,13 +8,13 @@
 #include <memory>
 #include <set>
 
-#include "host/cmd/common.h"
+#include "host/cli/common.h"
 #include "host/error.h"
 #include "host/sweep.h"
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/timing_config.h"
 
-namespace rtu::host::cmd {
+namespace rtu::host::cli {
 
 namespace {
 
@@ -176,4 +176,4 @@ void add_sweep(CLI::App& app) {
   sub->callback([a] { run_sweep(*a); });
 }
 
-}  // namespace rtu::host::cmd
+}  // namespace rtu::host::cli

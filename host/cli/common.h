@@ -16,7 +16,7 @@
 #include "hwmodel/device_kind.h"
 #include "hwmodel/timing_config.h"
 
-namespace rtu::host::cmd {
+namespace rtu::host::cli {
 
 // Device, acceleration and number-format options shared by the tracing commands (host::DeviceSettings), and the
 // device's name.
@@ -60,4 +60,4 @@ void add_diff(CLI::App& app);
 void add_config(CLI::App& app);
 void add_soak(CLI::App& app);
 
-}  // namespace rtu::host::cmd
+}  // namespace rtu::host::cli

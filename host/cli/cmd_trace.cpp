@@ -2,12 +2,12 @@
 #include <cstdio>
 #include <memory>
 
-#include "host/cmd/common.h"
+#include "host/cli/common.h"
 #include "host/error.h"
 #include "host/ray_io.h"
 #include "host/trace_job.h"
 
-namespace rtu::host::cmd {
+namespace rtu::host::cli {
 
 namespace {
 
@@ -105,4 +105,4 @@ void add_trace(CLI::App& app) {
   sub->callback([o] { run_trace(*o); });
 }
 
-}  // namespace rtu::host::cmd
+}  // namespace rtu::host::cli

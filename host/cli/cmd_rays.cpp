@@ -2,12 +2,12 @@
 #include <cstdio>
 #include <memory>
 
-#include "host/cmd/common.h"
+#include "host/cli/common.h"
 #include "host/error.h"
 #include "host/ray_gen.h"
 #include "host/ray_io.h"
 
-namespace rtu::host::cmd {
+namespace rtu::host::cli {
 
 namespace {
 
@@ -61,4 +61,4 @@ void add_rays(CLI::App& app) {
   sub->callback([o] { run_rays(*o); });
 }
 
-}  // namespace rtu::host::cmd
+}  // namespace rtu::host::cli

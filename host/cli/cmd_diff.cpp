@@ -4,12 +4,12 @@
 #include <cstdio>
 #include <memory>
 
-#include "host/cmd/common.h"
+#include "host/cli/common.h"
 #include "host/error.h"
 #include "host/image.h"
 #include "host/image_diff.h"
 
-namespace rtu::host::cmd {
+namespace rtu::host::cli {
 
 namespace {
 
@@ -77,4 +77,4 @@ void add_diff(CLI::App& app) {
   sub->callback([o] { run_diff(*o); });
 }
 
-}  // namespace rtu::host::cmd
+}  // namespace rtu::host::cli

@@ -4,12 +4,12 @@
 #include <cstdio>
 #include <memory>
 
-#include "host/cmd/common.h"
+#include "host/cli/common.h"
 #include "host/error.h"
 #include "host/plan.h"
 #include "hwmodel/fixed_format.h"
 
-namespace rtu::host::cmd {
+namespace rtu::host::cli {
 
 namespace {
 
@@ -118,4 +118,4 @@ void add_plan(CLI::App& app) {
   sub->callback([a] { run_plan(*a); });
 }
 
-}  // namespace rtu::host::cmd
+}  // namespace rtu::host::cli

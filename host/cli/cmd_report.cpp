@@ -4,13 +4,13 @@
 #include <filesystem>
 #include <memory>
 
-#include "host/cmd/common.h"
+#include "host/cli/common.h"
 #include "host/error.h"
 #include "host/pareto.h"
 #include "host/report.h"
 #include "host/sweep.h"
 
-namespace rtu::host::cmd {
+namespace rtu::host::cli {
 
 namespace {
 
@@ -90,4 +90,4 @@ void add_report(CLI::App& app) {
   ps->callback([p] { run_pareto(*p); });
 }
 
-}  // namespace rtu::host::cmd
+}  // namespace rtu::host::cli

@@ -2,26 +2,26 @@
 #include <cstdio>
 #include <exception>
 
-#include "host/cmd/common.h"
+#include "host/cli/common.h"
 #include "host/error.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"rtusim: a model of a fixed-function ray-tracing unit (float reference, scenes, rays, hits)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "rtusim 0.1.0");
-  rtu::host::cmd::add_info(app);
-  rtu::host::cmd::add_rays(app);
-  rtu::host::cmd::add_trace(app);
-  rtu::host::cmd::add_compare(app);
-  rtu::host::cmd::add_stress(app);
-  rtu::host::cmd::add_render(app);
-  rtu::host::cmd::add_diff(app);
-  rtu::host::cmd::add_config(app);
-  rtu::host::cmd::add_demo(app);
-  rtu::host::cmd::add_sweep(app);
-  rtu::host::cmd::add_plan(app);
-  rtu::host::cmd::add_report(app);
-  rtu::host::cmd::add_soak(app);
+  rtu::host::cli::add_info(app);
+  rtu::host::cli::add_rays(app);
+  rtu::host::cli::add_trace(app);
+  rtu::host::cli::add_compare(app);
+  rtu::host::cli::add_stress(app);
+  rtu::host::cli::add_render(app);
+  rtu::host::cli::add_diff(app);
+  rtu::host::cli::add_config(app);
+  rtu::host::cli::add_demo(app);
+  rtu::host::cli::add_sweep(app);
+  rtu::host::cli::add_plan(app);
+  rtu::host::cli::add_report(app);
+  rtu::host::cli::add_soak(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

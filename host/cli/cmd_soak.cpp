@@ -2,11 +2,11 @@
 #include <cstdio>
 #include <memory>
 
-#include "host/cmd/common.h"
+#include "host/cli/common.h"
 #include "host/error.h"
 #include "host/soak.h"
 
-namespace rtu::host::cmd {
+namespace rtu::host::cli {
 
 namespace {
 
@@ -60,4 +60,4 @@ void add_soak(CLI::App& app) {
   sub->callback([a] { run_soak(*a); });
 }
 
-}  // namespace rtu::host::cmd
+}  // namespace rtu::host::cli

@@ -1,8 +1,8 @@
-#include "host/cmd/common.h"
+#include "host/cli/common.h"
 
 #include <cstdio>
 
-namespace rtu::host::cmd {
+namespace rtu::host::cli {
 
 void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_help) {
   if (!device_help.empty())
@@ -62,9 +62,9 @@ void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_hel
   field("--t-bits", o.t_bits, "magnitude bits of the t register (8..62)");
 }
 
-}  // namespace rtu::host::cmd
+}  // namespace rtu::host::cli
 
-namespace rtu::host::cmd {
+namespace rtu::host::cli {
 
 void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c) {
   const Json j = timing_stats_json(s, c);
@@ -78,9 +78,9 @@ void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c) {
       j["lower_bound"]["cycles_over_bound"].get<double>());
 }
 
-}  // namespace rtu::host::cmd
+}  // namespace rtu::host::cli
 
-namespace rtu::host::cmd {
+namespace rtu::host::cli {
 
 hw::PipelineTrace* PipelineTraceArgs::make() {
   if (path.empty()) return nullptr;
@@ -102,4 +102,4 @@ void add_pipeline_trace_args(CLI::App& app, PipelineTraceArgs& a) {
       ->capture_default_str();
 }
 
-}  // namespace rtu::host::cmd
+}  // namespace rtu::host::cli

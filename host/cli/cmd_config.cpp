@@ -4,10 +4,10 @@
 #include <cstdio>
 #include <memory>
 
-#include "host/cmd/common.h"
+#include "host/cli/common.h"
 #include "host/error.h"
 
-namespace rtu::host::cmd {
+namespace rtu::host::cli {
 
 namespace {
 
@@ -59,4 +59,4 @@ void add_config(CLI::App& app) {
   sub->callback([o] { run_config(*o); });
 }
 
-}  // namespace rtu::host::cmd
+}  // namespace rtu::host::cli

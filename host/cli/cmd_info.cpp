@@ -2,11 +2,11 @@
 #include <cstdio>
 #include <memory>
 
-#include "host/cmd/common.h"
+#include "host/cli/common.h"
 #include "host/error.h"
 #include "hwmodel/hw_format.h"
 
-namespace rtu::host::cmd {
+namespace rtu::host::cli {
 
 namespace {
 
@@ -112,4 +112,4 @@ void add_info(CLI::App& app) {
   sub->callback([o] { run_info(*o); });
 }
 
-}  // namespace rtu::host::cmd
+}  // namespace rtu::host::cli

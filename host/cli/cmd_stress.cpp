@@ -3,11 +3,11 @@
 #include <cstdio>
 #include <memory>
 
-#include "host/cmd/common.h"
+#include "host/cli/common.h"
 #include "host/error.h"
 #include "host/stress.h"
 
-namespace rtu::host::cmd {
+namespace rtu::host::cli {
 
 namespace {
 
@@ -83,4 +83,4 @@ void add_stress(CLI::App& app) {
   sub->callback([a] { run(*a); });
 }
 
-}  // namespace rtu::host::cmd
+}  // namespace rtu::host::cli

@@ -6,13 +6,13 @@
 #include <cstdio>
 #include <memory>
 
-#include "host/cmd/common.h"
+#include "host/cli/common.h"
 #include "host/compare.h"
 #include "host/error.h"
 #include "host/ray_io.h"
 #include "host/trace_job.h"
 
-namespace rtu::host::cmd {
+namespace rtu::host::cli {
 
 namespace {
 
@@ -154,4 +154,4 @@ void add_compare(CLI::App& app) {
   sub->callback([o] { run_compare(*o); });
 }
 
-}  // namespace rtu::host::cmd
+}  // namespace rtu::host::cli

@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "host/device.h"
+#include "host/direct_device.h"
 #include "host/embree_oracle.h"
 #include "host/ray_gen.h"
 #include "host/scene.h"
@@ -112,7 +112,7 @@ Result run_tracer(const std::string& mesh, const std::string& tracer, uint64_t n
     o.format.width = o.timing.bvh_width;
     o.tracer.accel = hw::AccelMode::kBvh;
     o.tracer.bvh.width = o.format.width;
-    const std::unique_ptr<host::TraceDevice> d = host::make_device(g, o);
+    const std::unique_ptr<host::DirectDevice> d = host::make_device(g, o);
     r.build_s = now() - t0;
     r.accel_bytes = d->image()->size();
     std::vector<hw::Hit> hits(n);

@@ -4,7 +4,7 @@
 #include <memory>
 #include <utility>
 
-#include "host/device.h"
+#include "host/direct_device.h"
 #include "host/error.h"
 #include "host/image.h"
 #include "host/ray_gen.h"
@@ -53,7 +53,7 @@ DemoResult run_demo(const DemoOptions& o, const std::function<void(DemoStage, co
     DeviceOptions dopt;
     dopt.kind = kind;
     Stopwatch build_timer;
-    const std::unique_ptr<TraceDevice> device = make_device(g, dopt);
+    const std::unique_ptr<DirectDevice> device = make_device(g, dopt);
     const double build_s = build_timer.seconds();
     for (size_t i = 0; i < rays.size(); ++i)
       valid[i] = valid[i] && device->ray_status(rays[i]) == hw::RayStatus::kOk;

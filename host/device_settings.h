@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "host/device.h"
+#include "host/direct_device.h"
 #include "hwmodel/device_kind.h"
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/timing_config.h"

@@ -10,7 +10,7 @@
 
 #include "firmware/renderer.h"
 #include "firmware/ring.h"
-#include "host/device.h"
+#include "host/direct_device.h"
 #include "host/image.h"
 #include "host/scene.h"
 #include "hwmodel/command_processor.h"

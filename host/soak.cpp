@@ -5,7 +5,7 @@
 #include <cstring>
 #include <memory>
 
-#include "host/device.h"
+#include "host/direct_device.h"
 #include "host/error.h"
 #include "host/ray_gen.h"
 #include "host/render.h"
@@ -107,7 +107,7 @@ SoakResult soak(const SoakOptions& o) {
     uint64_t cycles[2] = {0, 0};
     for (int dev = 0; dev < 2; ++dev) {
       for (int run = 0; run < 2; ++run) {
-        const std::unique_ptr<TraceDevice> d = make_device(scene.geometry, dev == 0 ? fixed : timed);
+        const std::unique_ptr<DirectDevice> d = make_device(scene.geometry, dev == 0 ? fixed : timed);
         if (dev == 0 && run == 0 && d->bvh()) ++res.scenes_with_bvh;
         hits[dev][run].resize(rays.size());
         hw::TraversalStats s;

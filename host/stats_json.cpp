@@ -8,7 +8,7 @@
 
 namespace rtu::host {
 
-Json bvh_json(const TraceDevice& d) {
+Json bvh_json(const DirectDevice& d) {
   Json j;
   j["accel"] = d.bvh() ? "bvh" : "brute";
   j["brute_cost"] = d.brute_cost();

@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "host/device.h"
+#include "host/direct_device.h"
 #include "host/render.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/fixed_format.h"
@@ -18,7 +18,7 @@ namespace rtu::host {
 
 using Json = nlohmann::ordered_json;
 
-Json bvh_json(const TraceDevice& d);
+Json bvh_json(const DirectDevice& d);
 Json format_json(const hw::FixedFormat& f);
 // Bytes of the fixed device's image beside the float BVH's (nodes + leaf index) for the same tree.
 Json image_json(const hw::DeviceImage& img, const hw::Bvh* bvh);

@@ -11,7 +11,7 @@
 #include <stdexcept>
 
 #include "host/compare.h"
-#include "host/device.h"
+#include "host/direct_device.h"
 #include "host/error.h"
 #include "host/image_diff.h"
 #include "host/ray_gen.h"

@@ -38,8 +38,8 @@ void run_compare(const CompareOptions& o) {
     d.check_boxes = true;
     return d;
   }();
-  const std::unique_ptr<TraceDevice> ref = make_device(scene.geometry, ref_opt);
-  const std::unique_ptr<TraceDevice> dut = make_device(scene.geometry, dut_opt);
+  const std::unique_ptr<DirectDevice> ref = make_device(scene.geometry, ref_opt);
+  const std::unique_ptr<DirectDevice> dut = make_device(scene.geometry, dut_opt);
 
   std::vector<hw::Hit> ref_hits, dut_hits;
   hw::TraversalStats ref_stats, dut_stats;

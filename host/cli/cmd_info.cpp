@@ -38,7 +38,7 @@ void run_info(const InfoOptions& o) {
   const double load_s = load_timer.seconds();
   Stopwatch build_timer;
   const DeviceOptions dopt = o.dev.options(hw::DeviceKind::kFixed);
-  const std::unique_ptr<TraceDevice> device = make_device(scene.geometry, dopt);
+  const std::unique_ptr<DirectDevice> device = make_device(scene.geometry, dopt);
   const double build_s = build_timer.seconds();
   const hw::Geometry& g = scene.geometry;
   const hw::Aabb b = g.bounds();

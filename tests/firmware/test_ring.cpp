@@ -50,7 +50,8 @@ constexpr uint64_t kRingArenaBytes = 64 << 10;  // [0, 64 KiB): the ring and its
 const char* const kEngines[] = {"float", "fixed"};
 
 // The seed scene and its images for both engines, built once. The float engine builds its BVH from the float
-// image with default options; the fixed image is encoded over the BVH the host would choose (host/device.cpp).
+// image with default options; the fixed image is encoded over the BVH the host would choose
+// (host/direct_device.cpp).
 struct SceneData {
   host::Scene scene;
   hw::TracerOptions tracer;

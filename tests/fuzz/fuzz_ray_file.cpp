@@ -5,7 +5,7 @@
 #include <cmath>
 #include <memory>
 
-#include "host/device.h"
+#include "host/direct_device.h"
 #include "host/error.h"
 #include "host/ray_io.h"
 #include "tests/fuzz/fuzz.h"
@@ -19,7 +19,7 @@ bool same_float(float a, float b) {
 }
 
 struct Devices {
-  std::unique_ptr<host::TraceDevice> flt, fix, tim;
+  std::unique_ptr<host::DirectDevice> flt, fix, tim;
   Devices() {
     host::DeviceOptions o;
     o.kind = rtu::hw::DeviceKind::kFloat;

@@ -7,7 +7,7 @@
 #include <memory>
 #include <stdexcept>
 
-#include "host/device.h"
+#include "host/direct_device.h"
 #include "host/error.h"
 #include "host/ray_gen.h"
 #include "host/render.h"
@@ -51,7 +51,7 @@ int scene_file(const uint8_t* data, size_t size) {
   for (const char* device : {"float", "fixed"}) {
     host::DeviceOptions o;
     o.kind = rtu::hw::parse_device_kind(device);
-    std::unique_ptr<host::TraceDevice> d;
+    std::unique_ptr<host::DirectDevice> d;
     try {
       d = host::make_device(g, o);
     } catch (const std::invalid_argument&) {

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "host/device.h"
+#include "host/direct_device.h"
 #include "host/ray_gen.h"
 #include "host/render.h"
 #include "host/scene.h"

@@ -30,9 +30,9 @@ struct DeviceOptions {
   uint64_t max_steps = 0;    // fixed, timed: traversal watchdog, node and leaf visits per ray (0: automatic)
 };
 
-class TraceDevice {
+class DirectDevice {
  public:
-  virtual ~TraceDevice() = default;
+  virtual ~DirectDevice() = default;
   virtual hw::DeviceKind kind() const = 0;
   const char* name() const { return hw::device_kind_name(kind()); }
   virtual void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
@@ -57,6 +57,6 @@ class TraceDevice {
 // trace_batch throws
 // hw::WatchdogError (with the unit's state) when the watchdog stops a ray (fixed: step bound; timed: that or
 // the timing config's watchdog_cycles).
-std::unique_ptr<TraceDevice> make_device(const hw::Geometry& g, const DeviceOptions& o);
+std::unique_ptr<DirectDevice> make_device(const hw::Geometry& g, const DeviceOptions& o);
 
 }  // namespace rtu::host

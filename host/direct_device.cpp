@@ -1,4 +1,4 @@
-#include "host/device.h"
+#include "host/direct_device.h"
 
 #include <stdexcept>
 
@@ -8,7 +8,7 @@ namespace rtu::host {
 
 namespace {
 
-class FloatDevice final : public TraceDevice {
+class FloatDevice final : public DirectDevice {
  public:
   FloatDevice(const hw::Geometry& g, const DeviceOptions& o) : m_tracer(g, o.tracer) {}
   hw::DeviceKind kind() const override { return hw::DeviceKind::kFloat; }
@@ -28,7 +28,7 @@ class FloatDevice final : public TraceDevice {
 
 // What the fixed and timed devices share: the float BVH (for figures; the datapath reads only the image), the
 // encoded image, and a fixed tracer over it.
-class ImageDevice : public TraceDevice {
+class ImageDevice : public DirectDevice {
  public:
   ImageDevice(const hw::Geometry& g, const DeviceOptions& o)
       : m_bvh(hw::choose_accel(g, o.tracer, &m_bvh_cost, &m_brute_cost)),
@@ -94,7 +94,7 @@ class TimedDevice final : public ImageDevice {
 
 }  // namespace
 
-std::unique_ptr<TraceDevice> make_device(const hw::Geometry& g, const DeviceOptions& o) {
+std::unique_ptr<DirectDevice> make_device(const hw::Geometry& g, const DeviceOptions& o) {
   DeviceOptions opt = o;
   opt.tracer.bvh.width = o.format.width;
   switch (o.kind) {

@@ -7,8 +7,8 @@
 
 #include "firmware/render_scene.h"
 #include "host/error.h"
+#include "host/firmware_device.h"
 #include "host/limits.h"
-#include "host/model_device.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/engine.h"
 
@@ -196,7 +196,7 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   eopt.threads = o.threads;
   eopt.tracer = tracer;
   eopt.max_steps = o.device.max_steps;
-  ModelDevice dev(o.device.kind, res.device_memory_bytes, eopt, o.device.timing);
+  FirmwareDevice dev(o.device.kind, res.device_memory_bytes, eopt, o.device.timing);
   if (hw::TimedEngine* te = dev.timed()) {
     te->set_trace(o.pipeline_trace);
     te->set_sampling(o.device.sample);  // the firmware needs every hit: only the timing model is sampled

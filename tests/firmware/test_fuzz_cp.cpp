@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "host/model_device.h"
+#include "host/firmware_device.h"
 #include "host/ray_gen.h"
 #include "host/scene.h"
 #include "hwmodel/bvh.h"
@@ -400,7 +400,7 @@ class CpFuzzer {
     }
   }
 
-  host::ModelDevice m_dev;
+  host::FirmwareDevice m_dev;
   std::mt19937_64 m_rng;
   std::vector<uint64_t> m_image;
   uint64_t m_image_bytes;

@@ -1,4 +1,4 @@
-// The firmware ring driver against the real model device (host::ModelDevice over the float and fixed engines),
+// The firmware ring driver against the real model device (host::FirmwareDevice over the float and fixed engines),
 // and every error path of the command processor (hwmodel/command_processor.cpp):
 // - wraparound (4 slots, 1000 packets, their order proven by TIMESTAMPs), a full ring, many fences (fence word,
 //   kFenceLo/Hi, the fence interrupt and its write-1-to-clear), TIMESTAMPs, counters by ray type;
@@ -24,7 +24,7 @@
 
 #include "firmware/hal.h"
 #include "firmware/ring.h"
-#include "host/model_device.h"
+#include "host/firmware_device.h"
 #include "host/ray_gen.h"
 #include "host/scene.h"
 #include "hwmodel/bvh.h"
@@ -181,7 +181,7 @@ struct Rig {
   }
 
   std::string name;
-  host::ModelDevice dev;
+  host::FirmwareDevice dev;
   uint32_t slots;
   fw::Arena ring_arena, buffers;
   fw::Ring ring;

@@ -15,12 +15,12 @@
 
 namespace rtu::host {
 
-class ModelDevice final : public fw::Hal {
+class FirmwareDevice final : public fw::Hal {
  public:
   // The engine of `kind` (hw::make_engine; `timing` configures the timed one, and its box_unit key chooses the box
   // unit: make_box_unit) over memory_bytes of device memory.
-  ModelDevice(hw::DeviceKind kind, uint64_t memory_bytes, const hw::EngineOptions& opt = {},
-              const hw::TimingConfig& timing = {});
+  FirmwareDevice(hw::DeviceKind kind, uint64_t memory_bytes, const hw::EngineOptions& opt = {},
+                 const hw::TimingConfig& timing = {});
 
   uint32_t read32(uint32_t offset) override { return m_cp.read(offset); }
   void write32(uint32_t offset, uint32_t value) override { m_cp.write(offset, value); }

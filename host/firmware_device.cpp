@@ -1,11 +1,11 @@
-#include "host/model_device.h"
+#include "host/firmware_device.h"
 
 #include "host/box_units.h"
 
 namespace rtu::host {
 
-ModelDevice::ModelDevice(hw::DeviceKind kind, uint64_t memory_bytes, const hw::EngineOptions& opt,
-                         const hw::TimingConfig& timing)
+FirmwareDevice::FirmwareDevice(hw::DeviceKind kind, uint64_t memory_bytes, const hw::EngineOptions& opt,
+                               const hw::TimingConfig& timing)
     : m_kind(kind),
       m_mem(memory_bytes),
       m_engine(

@@ -54,9 +54,8 @@ class DirectDevice {
 };
 
 // Throws std::invalid_argument for a bad format or timing configuration, Error for a box unit this build lacks.
-// trace_batch throws
-// hw::WatchdogError (with the unit's state) when the watchdog stops a ray (fixed: step bound; timed: that or
-// the timing config's watchdog_cycles).
+// trace_batch throws hw::WatchdogError (with the unit's state) when the watchdog stops a ray (fixed: step bound;
+// timed: that or the timing config's watchdog_cycles).
 std::unique_ptr<DirectDevice> make_device(const hw::Geometry& g, const DeviceOptions& o);
 
 }  // namespace rtu::host

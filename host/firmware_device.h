@@ -1,5 +1,7 @@
-// The in-process model device behind the firmware's HAL: device memory, the command processor and a trace
-// engine (float, fixed or timed), wired as the unit would be. The firmware sees only fw::Hal.
+// The whole device as the firmware sees it, in process: device memory, the register file and command processor,
+// and the trace engine of a device kind (float, fixed or timed), wired as the unit would be. The firmware sees
+// only fw::Hal; host jobs that run firmware (render, soak, the demo's renders) drive it this way. DirectDevice
+// (direct_device.h) calls the same datapaths directly, without firmware.
 #pragma once
 
 #include <atomic>

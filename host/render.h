@@ -1,6 +1,6 @@
 // Rendering through the firmware: the host writes the unit's scene image and the renderer's records into the
-// device memory of an in-process model device, runs the firmware renderer (firmware/renderer.h) against it
-// through the ring, and reads the framebuffer back.
+// device memory of an in-process device (FirmwareDevice), runs the firmware renderer (firmware/renderer.h) against
+// it through the ring, and reads the framebuffer back.
 #pragma once
 
 #include <array>

@@ -21,8 +21,8 @@
 #include <string>
 #include <vector>
 
-#include "embree_oracle.h"
-#include "host/device.h"
+#include "host/direct_device.h"
+#include "host/embree_oracle.h"
 #include "host/ray_gen.h"
 #include "host/scene.h"
 #include "hwmodel/device_image.h"
@@ -102,17 +102,17 @@ Result run_tracer(const std::string& mesh, const std::string& tracer, uint64_t n
     r.primary_s = time_rays(one, primary, r.primary_hits);
     r.incoherent_s = time_rays(one, incoherent, r.incoherent_hits);
   } else if (tracer == "rtu-timed") {
-    // As rtusim trace --device timed --config rdna2 builds it (host/cmd/common.cpp): the preset's format with
+    // As rtusim trace --device timed --config rdna2 builds it (DeviceSettings::options): the preset's format with
     // the preset's BVH width; a BVH always, as for rtu-fixed.
     t0 = now();
     host::DeviceOptions o;
-    o.name = "timed";
+    o.kind = rtu::hw::DeviceKind::kTimed;
     o.timing = hw::timing_preset(kTimedPreset);
     o.format = hw::format_preset(o.timing.format);
     o.format.width = o.timing.bvh_width;
     o.tracer.accel = hw::AccelMode::kBvh;
     o.tracer.bvh.width = o.format.width;
-    const std::unique_ptr<host::TraceDevice> d = host::make_device(g, o);
+    const std::unique_ptr<host::DirectDevice> d = host::make_device(g, o);
     r.build_s = now() - t0;
     r.accel_bytes = d->image()->size();
     std::vector<hw::Hit> hits(n);

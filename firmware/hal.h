@@ -1,6 +1,6 @@
 // The firmware's only door to the unit: MMIO registers, a write barrier and device memory. Backends: the
-// in-process model device (host/model_device.h) and a recording mock for unit tests (tests/firmware/).
-// Freestanding: no heap, no exceptions, no RTTI, no I/O.
+// in-process device (host::FirmwareDevice, host/firmware_device.h) and a recording mock for unit tests
+// (tests/firmware/). Freestanding: no heap, no exceptions, no RTTI, no I/O.
 #pragma once
 
 #include <cstddef>

@@ -3,33 +3,34 @@
 #include <stdexcept>
 
 #include "host/error.h"
-#ifdef RTU_HAVE_RTL
-#include "rtl_sim/cosim/rtl_box_unit.h"
-#endif
 
 namespace rtu::host {
 
+namespace {
+
+BoxUnitFactory g_make_rtl = nullptr;  // constant-initialized: set before main by rtl_box_unit.cpp
+
+}  // namespace
+
+void register_rtl_box_unit(BoxUnitFactory make) {
+  g_make_rtl = make;
+}
+
 bool have_rtl_box_unit() {
-#ifdef RTU_HAVE_RTL
-  return true;
-#else
-  return false;
-#endif
+  return g_make_rtl != nullptr;
 }
 
 std::unique_ptr<hw::BoxUnit> make_box_unit(const hw::TimingConfig& c) {
   if (c.box_unit != "rtl") return nullptr;
-#ifdef RTU_HAVE_RTL
+  if (!g_make_rtl)
+    throw Error(
+        "box_unit = rtl: this build has no RTL box unit (rtl_sim/ needs Verilator: run scripts/setup.sh, "
+        "then configure and build again)");
   try {
-    return rtl::make_rtl_box_unit(c);
+    return g_make_rtl(c);
   } catch (const std::invalid_argument& e) {
     throw Error(e.what());
   }
-#else
-  throw Error(
-      "box_unit = rtl: this build has no RTL box unit (rtl_sim/ needs Verilator: run scripts/setup.sh, "
-      "then configure and build again)");
-#endif
 }
 
 }  // namespace rtu::host

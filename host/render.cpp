@@ -7,8 +7,8 @@
 
 #include "firmware/render_scene.h"
 #include "host/error.h"
+#include "host/firmware_device.h"
 #include "host/limits.h"
-#include "host/model_device.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/engine.h"
 
@@ -68,7 +68,7 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   res.offset_rel = std::ldexp(1.0f, -19);
   res.offset_abs = std::ldexp(extent, -20);
   hw::TracerOptions tracer = o.device.tracer;
-  if (o.device.name == "fixed" || o.device.name == "timed") {
+  if (o.device.kind != hw::DeviceKind::kFloat) {
     tracer.bvh.width = o.device.format.width;
     const std::optional<hw::Bvh> bvh = hw::choose_accel(g, tracer);
     const hw::DeviceImage img = hw::encode_scene(g, o.device.format, bvh ? &*bvh : nullptr);
@@ -77,10 +77,8 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
     // Fixed: vertices round to the nearest grid point, so the unit's surface lies within sqrt(3)/2 grid steps
     // of the float one, and hit t rounds to nearest in ray units; 4 grid steps clear both.
     res.offset_abs = std::max(res.offset_abs, float(std::ldexp(4.0, img.frame().step_exp)));
-  } else if (o.device.name == "float") {
-    image_words = hw::encode_float_scene(g);
   } else {
-    throw Error("unknown device '" + o.device.name + "' (devices: float, fixed, timed)");
+    image_words = hw::encode_float_scene(g);
   }
   res.scene_image_bytes = image_words.size() * 8;
 
@@ -198,7 +196,7 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   eopt.threads = o.threads;
   eopt.tracer = tracer;
   eopt.max_steps = o.device.max_steps;
-  ModelDevice dev(o.device.name, res.device_memory_bytes, eopt, o.device.timing);
+  FirmwareDevice dev(o.device.kind, res.device_memory_bytes, eopt, o.device.timing);
   if (hw::TimedEngine* te = dev.timed()) {
     te->set_trace(o.pipeline_trace);
     te->set_sampling(o.device.sample);  // the firmware needs every hit: only the timing model is sampled
@@ -217,7 +215,8 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   if (st == fw::Status::kOk) st = fw::render(dev, ring, arena, job_addr, res.fw);
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (st != fw::Status::kOk) {
-    std::string why = std::string("render on the ") + o.device.name + " device failed: " + fw::status_name(st);
+    std::string why = std::string("render on the ") + hw::device_kind_name(o.device.kind) +
+                      " device failed: " + fw::status_name(st);
     if (st == fw::Status::kDeviceError) {
       why += std::string(" (") + hw::reg::error_name(dev.processor().error()) + " at ring slot " +
              std::to_string(dev.read32(hw::reg::kErrorInfo)) + ")";

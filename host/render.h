@@ -1,6 +1,6 @@
 // Rendering through the firmware: the host writes the unit's scene image and the renderer's records into the
-// device memory of an in-process model device, runs the firmware renderer (firmware/renderer.h) against it
-// through the ring, and reads the framebuffer back.
+// device memory of an in-process device (FirmwareDevice), runs the firmware renderer (firmware/renderer.h) against
+// it through the ring, and reads the framebuffer back.
 #pragma once
 
 #include <array>
@@ -10,7 +10,7 @@
 
 #include "firmware/renderer.h"
 #include "firmware/ring.h"
-#include "host/device.h"
+#include "host/direct_device.h"
 #include "host/image.h"
 #include "host/scene.h"
 #include "hwmodel/command_processor.h"
@@ -20,7 +20,7 @@
 namespace rtu::host {
 
 struct RenderOptions {
-  DeviceOptions device;       // name (float | fixed), acceleration/BVH options, fixed format
+  DeviceOptions device;       // kind (float, fixed, timed), acceleration/BVH options, fixed format, timing
   bool hybrid = false;        // primary visibility by the firmware rasterizer (G-buffer), secondary rays traced
   int threads = 0;            // unit worker threads per TRACE (0 = all cores); the image does not depend on it
   int width = 0, height = 0;  // 0: the scene camera's

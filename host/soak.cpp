@@ -5,7 +5,7 @@
 #include <cstring>
 #include <memory>
 
-#include "host/device.h"
+#include "host/direct_device.h"
 #include "host/error.h"
 #include "host/ray_gen.h"
 #include "host/render.h"
@@ -82,13 +82,13 @@ SoakResult soak(const SoakOptions& o) {
     hw::Pcg32 rng(seed);
     const Scene scene = random_scene(rng);
     DeviceOptions fixed;
-    fixed.name = "fixed";
+    fixed.kind = hw::DeviceKind::kFixed;
     fixed.format = formats[rng.next_u32() % formats.size()];
     fixed.format.width = 2 << (rng.next_u32() % 3);
     fixed.tracer.bvh.width = fixed.format.width;
     fixed.tracer.bvh.max_leaf_size = 1 + int(rng.next_u32() % 8);
     DeviceOptions timed = fixed;
-    timed.name = "timed";
+    timed.kind = hw::DeviceKind::kTimed;
     timed.timing = hw::timing_preset(timings[rng.next_u32() % timings.size()]);
     timed.timing.format = fixed.format.name;
     timed.timing.bvh_width = fixed.format.width;
@@ -107,7 +107,7 @@ SoakResult soak(const SoakOptions& o) {
     uint64_t cycles[2] = {0, 0};
     for (int dev = 0; dev < 2; ++dev) {
       for (int run = 0; run < 2; ++run) {
-        const std::unique_ptr<TraceDevice> d = make_device(scene.geometry, dev == 0 ? fixed : timed);
+        const std::unique_ptr<DirectDevice> d = make_device(scene.geometry, dev == 0 ? fixed : timed);
         if (dev == 0 && run == 0 && d->bvh()) ++res.scenes_with_bvh;
         hits[dev][run].resize(rays.size());
         hw::TraversalStats s;

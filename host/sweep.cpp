@@ -11,14 +11,14 @@
 #include <stdexcept>
 
 #include "host/compare.h"
-#include "host/device.h"
+#include "host/direct_device.h"
 #include "host/error.h"
 #include "host/image_diff.h"
 #include "host/ray_gen.h"
 #include "host/render.h"
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/timing_config.h"
-#include "rtl_sim/tb/rtl_params.h"
+#include "rtl_sim/params/rtl_params.h"
 
 namespace rtu::host {
 
@@ -201,7 +201,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   const int threads = o.threads;
 
   DeviceOptions ref_opt;
-  ref_opt.name = "float";
+  ref_opt.kind = hw::DeviceKind::kFloat;
   ref_opt.format.width = p.bvh_width;  // make_device builds every device's BVH at the format's width
   ref_opt.tracer.bvh.width = p.bvh_width;
   auto it = cache.by_width.find(p.bvh_width);
@@ -230,7 +230,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   row.float_bvh_bytes = refr.bvh_bytes;
 
   DeviceOptions fixed_opt;
-  fixed_opt.name = "fixed";
+  fixed_opt.kind = hw::DeviceKind::kFixed;
   fixed_opt.format = format;
   fixed_opt.tracer.bvh.width = p.bvh_width;
   fixed_opt.check_boxes = true;
@@ -265,7 +265,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   }
 
   DeviceOptions timed_opt = fixed_opt;
-  timed_opt.name = "timed";
+  timed_opt.kind = hw::DeviceKind::kTimed;
   timed_opt.check_boxes = false;
   timed_opt.timing = timing;
   const auto timed = make_device(scene.geometry, timed_opt);

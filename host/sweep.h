@@ -49,7 +49,7 @@ struct SweepOptions {
   int threads = 0;
 };
 
-// Synthesis results of the RTL box unit by its Verilator parameters (rtl_sim/tb/rtl_params.h verilator_args),
+// Synthesis results of the RTL box unit by its Verilator parameters (rtl_sim/params/rtl_params.h verilator_args),
 // read from a CSV with the columns params,cells,flip_flops,transistors (bench/rtl_area.sh --csv writes it).
 struct AreaTable {
   struct Entry {

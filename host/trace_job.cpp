@@ -26,8 +26,8 @@ int resolved_threads(int threads) {
   return threads > 0 ? threads : std::max(1, int(std::thread::hardware_concurrency()));
 }
 
-double trace_with_progress(const TraceDevice& device, const std::vector<hw::Ray>& rays, std::vector<hw::Hit>& hits,
-                           bool any_hit, int threads, hw::TraversalStats& stats) {
+double trace_with_progress(const DirectDevice& device, const std::vector<hw::Ray>& rays,
+                           std::vector<hw::Hit>& hits, bool any_hit, int threads, hw::TraversalStats& stats) {
   hits.resize(rays.size());
   constexpr size_t kChunk = size_t(1) << 18;
   Progress progress("trace", rays.size());

@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <vector>
 
-#include "host/device.h"
+#include "host/direct_device.h"
 
 namespace rtu::host {
 
@@ -25,8 +25,8 @@ class Progress {
 int resolved_threads(int threads);
 
 // Traces rays into hits (same size); returns the wall-clock seconds of tracing alone.
-double trace_with_progress(const TraceDevice& device, const std::vector<hw::Ray>& rays, std::vector<hw::Hit>& hits,
-                           bool any_hit, int threads, hw::TraversalStats& stats);
+double trace_with_progress(const DirectDevice& device, const std::vector<hw::Ray>& rays,
+                           std::vector<hw::Hit>& hits, bool any_hit, int threads, hw::TraversalStats& stats);
 
 // Prints "N invalid rays ... the first is ray i (reason)" to `out` when the device rejected any ray.
 void report_invalid_rays(const hw::TraversalStats& stats, std::FILE* out);

@@ -5,8 +5,10 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "hwmodel/regs.h"
+#include "hwmodel/timed_engine.h"
 
 namespace rtu::hw {
 
@@ -163,6 +165,14 @@ class FixedEngine final : public TraceEngine {
 };
 
 }  // namespace
+
+std::unique_ptr<TraceEngine> make_engine(DeviceKind kind, const EngineOptions& o, const TimingConfig& c,
+                                         std::unique_ptr<BoxUnit> unit) {
+  if (kind == DeviceKind::kTimed) return make_timed_engine(o, c, std::move(unit));
+  if (unit)
+    throw std::invalid_argument(std::string("the ") + device_kind_name(kind) + " engine takes no box unit");
+  return kind == DeviceKind::kFloat ? make_float_engine(o) : make_fixed_engine(o);
+}
 
 std::unique_ptr<TraceEngine> make_float_engine(const EngineOptions& o) {
   return std::make_unique<FloatEngine>(o);

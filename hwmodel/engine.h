@@ -1,6 +1,6 @@
 // The datapath behind the command processor (command_processor.h): a TraceEngine binds a scene image from device
-// memory and traces ray batches. Two engines: `float` (the reference) and `fixed` (the bit-accurate fixed-point
-// datapath); the timed device will wrap the fixed one.
+// memory and traces ray batches. One engine per device kind (device_kind.h): `float` (the reference), `fixed` (the
+// bit-accurate fixed-point datapath) and `timed` (the fixed datapath with the timing model, timed_engine.h).
 //
 // Scene images, written by the host into device memory and named by BIND_SCENE:
 // - fixed: the DeviceImage of device_image.h (hardware BVH nodes, fixed-point records), checked field by field
@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "hwmodel/box_unit.h"
+#include "hwmodel/device_kind.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
 #include "hwmodel/geometry.h"
@@ -103,6 +105,12 @@ class TraceEngine {
   virtual bool uses_bvh() const = 0;
 };
 
+struct TimingConfig;
+
+// The engine of a device kind. `c` configures the timed engine, and `unit` answers its box tests when c.box_unit
+// is "rtl" (TimedEngine); the float and fixed engines take no box unit (std::invalid_argument when one is given).
+std::unique_ptr<TraceEngine> make_engine(DeviceKind kind, const EngineOptions& o, const TimingConfig& c,
+                                         std::unique_ptr<BoxUnit> unit = nullptr);
 std::unique_ptr<TraceEngine> make_float_engine(const EngineOptions& o);
 std::unique_ptr<TraceEngine> make_fixed_engine(const EngineOptions& o);
 

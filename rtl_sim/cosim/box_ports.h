@@ -10,8 +10,8 @@
 
 #include "hwmodel/box_unit.h"
 #include "hwmodel/intersect_fixed.h"
-#include "rtl_sim/tb/rtl_params.h"
-#include "rtl_sim/tb/sim.h"
+#include "rtl_sim/cosim/sim.h"
+#include "rtl_sim/params/rtl_params.h"
 
 namespace rtu::rtl {
 

@@ -8,8 +8,8 @@
 #include "Vbox_unit_rdna2.h"
 #include "rtl_models.h"
 #include "rtl_sim/cosim/box_ports.h"
-#include "rtl_sim/tb/rtl_params.h"
-#include "rtl_sim/tb/sim.h"
+#include "rtl_sim/cosim/sim.h"
+#include "rtl_sim/params/rtl_params.h"
 
 namespace rtu::rtl {
 

@@ -10,7 +10,7 @@
 // and for axes with d[a] == 0 the slab test dl <= 0 <= dh instead; t0 = max(tmin, tn...), t1 = min(tlim, tf...),
 // hit = t0 <= t1 (and the slot is occupied, i < count); t_near = t0.
 //
-// Widths (parameters; rtl_sim/tb/rtl_params.h derives them from a FixedFormat, signed values carry one sign bit
+// Widths (parameters; rtl_sim/params/rtl_params.h derives them from a FixedFormat, signed values carry one sign bit
 // more than their magnitude bits):
 //   base, dl, dh      A+1 bits signed, |x| < 2^A, A = B+G+F+1 (FixedFormat::translated_bits)
 //   rcpm_dn/up        M+2 bits signed, |m| <= 2^M, M = rcp_bits + 1 (the mantissa's significant bits)

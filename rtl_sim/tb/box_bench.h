@@ -13,9 +13,9 @@
 
 #include "hwmodel/rng.h"
 #include "rtl_sim/cosim/box_ports.h"
+#include "rtl_sim/cosim/sim.h"
+#include "rtl_sim/params/rtl_params.h"
 #include "rtl_sim/tb/box_vectors.h"
-#include "rtl_sim/tb/rtl_params.h"
-#include "rtl_sim/tb/sim.h"
 
 namespace rtu::rtl {
 

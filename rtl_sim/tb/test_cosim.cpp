@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "host/device.h"
+#include "host/direct_device.h"
 #include "host/error.h"
 #include "host/ray_gen.h"
 #include "host/render.h"
@@ -17,7 +17,7 @@
 #include "hwmodel/timed_engine.h"
 #include "hwmodel/timing_config.h"
 #include "rtl_sim/cosim/rtl_box_unit.h"
-#include "rtl_sim/tb/rtl_params.h"
+#include "rtl_sim/params/rtl_params.h"
 
 namespace {
 
@@ -30,7 +30,7 @@ constexpr const char* kIfc = "/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc";
 // A unit's configuration: a preset name, or a spec as rtl_params.h's unit_config() reads it.
 DeviceOptions options(const std::string& spec, const std::string& box_unit) {
   DeviceOptions o;
-  o.name = "timed";
+  o.kind = rtu::hw::DeviceKind::kTimed;
   o.timing = rtu::rtl::unit_config(spec);
   rtu::hw::set_timing_key(o.timing, "box_unit", box_unit);
   o.format = rtu::hw::format_preset(o.timing.format);
@@ -127,7 +127,7 @@ TEST_CASE("co-simulation: the cycles follow the unit's clocks", "[rtl][cosim]") 
   const rtu::host::Scene s = rtu::host::load_scene("builtin:cornell");
   const std::vector<Ray> rays = rays_for(s, 3000, 1000);
   DeviceOptions fixed = options("rdna2", "cpp");
-  fixed.name = "fixed";
+  fixed.kind = rtu::hw::DeviceKind::kFixed;
   const auto image_device = rtu::host::make_device(s.geometry, fixed);  // the image the timed device binds
   const rtu::hw::DeviceImage& img = *image_device->image();
   auto run = [&](std::unique_ptr<rtu::hw::BoxUnit> unit, const std::string& box_unit) {

@@ -1,6 +1,6 @@
 // Shared by the tests of the ring driver on the model device (test_ring.cpp) and of the command processor's error
 // paths (test_command_processor_errors.cpp): the seed scene and its images for both engines, the hits the tracers
-// give when called directly, rays of every kind, and Rig, a host::ModelDevice driven by the firmware ring driver
+// give when called directly, rays of every kind, and Rig, a host::FirmwareDevice driven by the firmware ring driver
 // with the scene image of its engine in device memory.
 #pragma once
 
@@ -15,10 +15,11 @@
 
 #include "firmware/hal.h"
 #include "firmware/ring.h"
-#include "host/model_device.h"
+#include "host/firmware_device.h"
 #include "host/scene.h"
 #include "hwmodel/bvh.h"
 #include "hwmodel/commands.h"
+#include "hwmodel/device_kind.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_tracer.h"
@@ -32,7 +33,7 @@ inline constexpr uint64_t kRingArenaBytes = 64 << 10;  // [0, 64 KiB): the ring 
 inline const char* const kEngines[] = {"float", "fixed"};
 
 // The seed scene and its images for both engines, built once. The float engine builds its BVH from the float
-// image with default options; the fixed image is encoded over the BVH the host would choose (host/device.cpp).
+// image with default options; the fixed image is encoded over the BVH the host would choose (host/direct_device.cpp).
 struct SceneData {
   host::Scene scene;
   hw::TracerOptions tracer;
@@ -58,7 +59,7 @@ bool same_hits(const std::vector<hw::Hit>& a, const std::vector<hw::Hit>& b);
 struct Rig {
   explicit Rig(const std::string& engine, uint32_t ring_slots = 16)
       : name(engine),
-        dev(engine, kMemBytes),
+        dev(rtu::hw::parse_device_kind(engine), kMemBytes),
         slots(ring_slots),
         buffers(kRingArenaBytes, kMemBytes - kRingArenaBytes) {
     const SceneData& sd = seed_scene();
@@ -118,7 +119,7 @@ struct Rig {
   }
 
   std::string name;
-  host::ModelDevice dev;
+  host::FirmwareDevice dev;
   uint32_t slots;
   fw::Arena ring_arena, buffers;
   fw::Ring ring;

@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "host/model_device.h"
+#include "host/firmware_device.h"
 #include "host/ray_gen.h"
 #include "host/scene.h"
 #include "hwmodel/bvh.h"
@@ -115,7 +115,10 @@ struct FuzzResult {
 class CpFuzzer {
  public:
   CpFuzzer(const std::string& engine, const std::vector<uint64_t>& image, uint64_t seed)
-      : m_dev(engine, kMem), m_rng(seed), m_image(image), m_image_bytes(image.size() * 8) {
+      : m_dev(rtu::hw::parse_device_kind(engine), kMem),
+        m_rng(seed),
+        m_image(image),
+        m_image_bytes(image.size() * 8) {
     REQUIRE(kImageAt + m_image_bytes <= kRaysAt);
     std::memcpy(m_dev.mem() + kImageAt, image.data(), m_image_bytes);
     // Rays through the scene's neighbourhood (stray hits turn some into garbage later: fuzzing too).
@@ -397,7 +400,7 @@ class CpFuzzer {
     }
   }
 
-  host::ModelDevice m_dev;
+  host::FirmwareDevice m_dev;
   std::mt19937_64 m_rng;
   std::vector<uint64_t> m_image;
   uint64_t m_image_bytes;

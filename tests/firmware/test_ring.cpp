@@ -1,4 +1,4 @@
-// The firmware ring driver against the real model device (host::ModelDevice over the float and fixed engines,
+// The firmware ring driver against the real model device (host::FirmwareDevice over the float and fixed engines,
 // model_rig.h):
 // - wraparound (4 slots, 1000 packets, their order proven by TIMESTAMPs), a full ring (and one whose first packet
 //   faults), many fences (fence word, kFenceLo/Hi, the fence interrupt and its write-1-to-clear), TIMESTAMPs,

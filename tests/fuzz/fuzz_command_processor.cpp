@@ -5,7 +5,7 @@
 // the watchdog fires only on the engine configured to (a valid image never reaches the automatic step bound).
 #include <memory>
 
-#include "host/model_device.h"
+#include "host/firmware_device.h"
 #include "hwmodel/commands.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/engine.h"
@@ -48,7 +48,10 @@ int command_processor(const uint8_t* data, size_t size) {
   const int engine = in.get<uint8_t>() % 4;
   hw::TimingConfig tc;
   if (engine == 3) tc.watchdog_cycles = 64;
-  host::ModelDevice dev(engine == 0 ? "float" : engine == 1 ? "fixed" : "timed", kMem, hw::EngineOptions{}, tc);
+  host::FirmwareDevice dev(engine == 0   ? hw::DeviceKind::kFloat
+                           : engine == 1 ? hw::DeviceKind::kFixed
+                                         : hw::DeviceKind::kTimed,
+                           kMem, hw::EngineOptions{}, tc);
   const std::vector<uint64_t>& image = engine == 0 ? float_image : fixed_image;
   const uint64_t image_bytes = image.size() * 8;
   dev.memory().write(kImageAt, image.data(), image_bytes);

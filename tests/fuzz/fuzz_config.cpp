@@ -7,7 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "host/cmd/common.h"
+#include "host/device_settings.h"
 #include "host/error.h"
 #include "host/limits.h"
 #include "hwmodel/device_image.h"
@@ -108,7 +108,7 @@ int config(const uint8_t* data, size_t size) {
 
   hw::TimingConfig c;
   try {
-    c = host::cmd::timing_config_from(preset, sets);
+    c = host::timing_config_from(preset, sets);
   } catch (const host::Error&) {
     return 0;
   }

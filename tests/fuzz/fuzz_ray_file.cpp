@@ -5,7 +5,7 @@
 #include <cmath>
 #include <memory>
 
-#include "host/device.h"
+#include "host/direct_device.h"
 #include "host/error.h"
 #include "host/ray_io.h"
 #include "tests/fuzz/fuzz.h"
@@ -19,14 +19,14 @@ bool same_float(float a, float b) {
 }
 
 struct Devices {
-  std::unique_ptr<host::TraceDevice> flt, fix, tim;
+  std::unique_ptr<host::DirectDevice> flt, fix, tim;
   Devices() {
     host::DeviceOptions o;
-    o.name = "float";
+    o.kind = rtu::hw::DeviceKind::kFloat;
     flt = host::make_device(tiny_geometry(), o);
-    o.name = "fixed";
+    o.kind = rtu::hw::DeviceKind::kFixed;
     fix = host::make_device(tiny_geometry(), o);
-    o.name = "timed";
+    o.kind = rtu::hw::DeviceKind::kTimed;
     tim = host::make_device(tiny_geometry(), o);
   }
 };

@@ -7,7 +7,7 @@
 #include <memory>
 #include <stdexcept>
 
-#include "host/device.h"
+#include "host/direct_device.h"
 #include "host/error.h"
 #include "host/ray_gen.h"
 #include "host/render.h"
@@ -50,8 +50,8 @@ int scene_file(const uint8_t* data, size_t size) {
   rays.insert(rays.end(), more.begin(), more.end());
   for (const char* device : {"float", "fixed"}) {
     host::DeviceOptions o;
-    o.name = device;
-    std::unique_ptr<host::TraceDevice> d;
+    o.kind = rtu::hw::parse_device_kind(device);
+    std::unique_ptr<host::DirectDevice> d;
     try {
       d = host::make_device(g, o);
     } catch (const std::invalid_argument&) {
@@ -74,7 +74,7 @@ int scene_file(const uint8_t* data, size_t size) {
 
   // The firmware renderer on the fixed device: materials, lights and camera as the file gives them.
   host::RenderOptions ro;
-  ro.device.name = "fixed";
+  ro.device.kind = rtu::hw::DeviceKind::kFixed;
   ro.width = 4;
   ro.height = 3;
   ro.max_depth = 2;

@@ -65,7 +65,7 @@ Visibility compare_visibility(const RenderResult& rt, const RenderResult& hy) {
 
 RenderOptions options(const std::string& device, bool hybrid, int w, int h) {
   RenderOptions o;
-  o.device.name = device;
+  o.device.kind = rtu::hw::parse_device_kind(device);
   o.hybrid = hybrid;
   o.width = w;
   o.height = h;

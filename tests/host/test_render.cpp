@@ -51,7 +51,7 @@ Scene object_scene(MaterialType type, bool sphere_primitive, Vec3 offset = Vec3(
 
 RenderOptions small(const std::string& device, int w = 64, int h = 48) {
   RenderOptions o;
-  o.device.name = device;
+  o.device.kind = rtu::hw::parse_device_kind(device);
   o.width = w;
   o.height = h;
   o.threads = 2;
@@ -257,7 +257,7 @@ TEST_CASE("float and fixed renders agree within the format's error", "[render]")
     o.max_depth = 5;
     o.background = Vec3(0.02f, 0.02f, 0.03f);
     const rtu::host::Image a = rtu::host::to_image(rtu::host::render(s, o));
-    o.device.name = "fixed";
+    o.device.kind = rtu::hw::DeviceKind::kFixed;
     const rtu::host::Image b = rtu::host::to_image(rtu::host::render(s, o));
     const rtu::host::ImageDiff d = rtu::host::diff_images(a, b);
     CAPTURE(d.psnr_db, d.pixels_differing);

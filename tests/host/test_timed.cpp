@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "host/device.h"
+#include "host/direct_device.h"
 #include "host/ray_gen.h"
 #include "host/render.h"
 #include "host/scene.h"
@@ -24,7 +24,7 @@ namespace {
 
 DeviceOptions options(const std::string& device, const std::string& preset) {
   DeviceOptions o;
-  o.name = device;
+  o.kind = rtu::hw::parse_device_kind(device);
   o.timing = rtu::hw::timing_preset(preset);
   o.format = rtu::hw::format_preset(o.timing.format);
   o.format.width = o.timing.bvh_width;

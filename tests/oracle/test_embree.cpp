@@ -14,7 +14,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "embree_oracle.h"
+#include "host/embree_oracle.h"
 #include "host/image.h"
 #include "host/ray_gen.h"
 #include "host/scene.h"

@@ -1,0 +1,115 @@
+// rtusim info: what a scene holds and what its BVH looks like.
+#include <cstdio>
+#include <memory>
+
+#include "host/cli/common.h"
+#include "host/error.h"
+#include "hwmodel/hw_format.h"
+
+namespace rtu::host::cli {
+
+namespace {
+
+struct InfoOptions {
+  std::string scene;
+  DeviceArgs dev;
+  std::string json;
+  bool formats = false;
+};
+
+void list_formats() {
+  std::printf("%-9s %5s %5s %5s %5s %5s %5s %5s %7s  %s\n", "preset", "width", "coord", "child", "guard", "frac",
+              "dir", "rcp", "t", "node bytes");
+  for (const hw::FixedFormat& f : hw::format_presets()) {
+    std::printf("%-9s %5d %5d %5d %5d %5d %5d %5d %4d.%-2d  %zu\n", f.name.c_str(), f.width, f.coord_bits,
+                f.child_bits, f.guard_bits, f.frac_bits, f.dir_bits, f.rcp_bits, f.t_bits, f.t_frac_bits,
+                hw::qnode_bytes(f.width, f.offset_bytes()));
+  }
+}
+
+void run_info(const InfoOptions& o) {
+  if (o.formats) {
+    list_formats();
+    if (o.scene.empty()) return;
+  }
+  if (o.scene.empty()) throw Error("info: --scene is required (or --formats)");
+  Stopwatch load_timer;
+  const Scene scene = load_scene(o.scene);
+  const double load_s = load_timer.seconds();
+  Stopwatch build_timer;
+  const DeviceOptions dopt = o.dev.options(hw::DeviceKind::kFixed);
+  const std::unique_ptr<DirectDevice> device = make_device(scene.geometry, dopt);
+  const double build_s = build_timer.seconds();
+  const hw::Geometry& g = scene.geometry;
+  const hw::Aabb b = g.bounds();
+
+  Json j;
+  j["scene"] = scene.name;
+  j["triangles"] = g.triangles.size();
+  j["spheres"] = g.spheres.size();
+  j["planes"] = g.planes.size();
+  j["materials"] = scene.materials.size();
+  j["lights"] = scene.lights.size();
+  j["bounds_lo"] = {b.lo.x, b.lo.y, b.lo.z};
+  j["bounds_hi"] = {b.hi.x, b.hi.y, b.hi.z};
+  j["camera"] = {{"position", {scene.camera.position.x, scene.camera.position.y, scene.camera.position.z}},
+                 {"look_at", {scene.camera.look_at.x, scene.camera.look_at.y, scene.camera.look_at.z}},
+                 {"fov_y", scene.camera.fov_y_deg},
+                 {"width", scene.camera.width},
+                 {"height", scene.camera.height},
+                 {"framed_automatically", !scene.has_camera}};
+  j["load_seconds"] = load_s;
+  j["build_seconds"] = build_s;
+  j["bvh"] = bvh_json(*device);
+  j["format"] = format_json(dopt.format);
+
+  std::printf("scene        %s\n", scene.name.c_str());
+  std::printf("primitives   %zu triangles, %zu spheres, %zu planes\n", g.triangles.size(), g.spheres.size(),
+              g.planes.size());
+  std::printf("materials    %zu, lights %zu\n", scene.materials.size(), scene.lights.size());
+  std::printf("bounds       (%g, %g, %g) .. (%g, %g, %g)\n", b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
+  std::printf("load         %.3f s, accel build %.3f s\n", load_s, build_s);
+  if (const hw::Bvh* bvh = device->bvh()) {
+    const hw::BvhFigures f = bvh->figures();
+    std::printf("bvh          width %d, %llu inner nodes, %llu leaves, depth %d\n", f.width,
+                (unsigned long long)f.inner_nodes, (unsigned long long)f.leaves, f.depth);
+    std::printf("leaves       %d..%d primitives, mean %.2f; node fill %.0f%%\n", f.min_leaf, f.max_leaf,
+                f.mean_leaf, 100.0 * f.mean_fill);
+    std::printf("sah cost     %.2f (brute force %.0f) in primitive tests per ray\n", f.sah_cost,
+                device->brute_cost());
+    std::printf("float bvh    nodes %llu + index %llu bytes = %.1f bytes per primitive\n",
+                (unsigned long long)f.node_bytes, (unsigned long long)f.index_bytes,
+                f.prims ? double(f.node_bytes + f.index_bytes) / double(f.prims) : 0.0);
+  } else {
+    std::printf("accel        brute force (%u bounded primitives: a BVH would cost more than it saves)\n",
+                g.num_bounded());
+  }
+  const hw::DeviceImage& img = *device->image();
+  std::printf("format       %s\n", dopt.format.describe().c_str());
+  std::printf("frame        2^%d grid steps of 2^%d world units per axis\n", dopt.format.coord_bits,
+              img.header().step_exp);
+  std::printf("fixed image  %zu bytes per node: nodes %llu + records %llu + planes %llu = %llu bytes\n",
+              img.node_bytes(), (unsigned long long)img.nodes_size(), (unsigned long long)img.records_size(),
+              (unsigned long long)img.planes_size(), (unsigned long long)img.size());
+  if (const hw::Bvh* bvh = device->bvh()) {
+    const hw::BvhFigures f = bvh->figures();
+    std::printf("bvh bytes    fixed nodes / float nodes = %.1f%% (%.1f%% of float nodes + index)\n",
+                100.0 * double(img.nodes_size()) / double(f.node_bytes),
+                100.0 * double(img.nodes_size()) / double(f.node_bytes + f.index_bytes));
+  }
+  if (!o.json.empty()) write_json(o.json, j);
+}
+
+}  // namespace
+
+void add_info(CLI::App& app) {
+  auto o = std::make_shared<InfoOptions>();
+  CLI::App* sub = app.add_subcommand("info", "Describe a scene: primitive counts, bounds, BVH figures");
+  sub->add_option("--scene", o->scene, "scene file, mesh file, or builtin:NAME");
+  sub->add_flag("--formats", o->formats, "list the fixed-point format presets");
+  add_device_args(*sub, o->dev, "");
+  sub->add_option("--json", o->json, "also write the figures as JSON to this file");
+  sub->callback([o] { run_info(*o); });
+}
+
+}  // namespace rtu::host::cli

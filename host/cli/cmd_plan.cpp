@@ -1,0 +1,121 @@
+// rtusim plan: the cheapest format for a scene within an error budget (host/plan.h); prints each candidate as it
+// is measured and the plan with why it was chosen.
+#include <algorithm>
+#include <cstdio>
+#include <memory>
+
+#include "host/cli/common.h"
+#include "host/error.h"
+#include "host/plan.h"
+#include "hwmodel/fixed_format.h"
+
+namespace rtu::host::cli {
+
+namespace {
+
+struct PlanArgs {
+  PlanOptions o;
+  std::string json;
+};
+
+void print_step(const PlanStep& s, const PlanOptions& a) {
+  switch (s.stage) {
+    case PlanStage::kCoordBits:
+      std::printf("width %d: coordinate bits, fewest first (child bits 8)\n", s.width);
+      break;
+    case PlanStage::kCandidate: {
+      const SweepRow& r = *s.row;
+      std::printf("  %-40s w%d: %s %.3g, PSNR %.1f dB, %llu cycles, %llu bytes%s\n", r.p.format.c_str(), s.width,
+                  a.metric == "t" ? "t error" : "hit disagreement", plan_error(r, a.metric), r.psnr_db,
+                  (unsigned long long)r.cycles, (unsigned long long)r.bvh_bytes, s.meets ? "" : "  (over budget)");
+      std::fflush(stdout);
+      break;
+    }
+    case PlanStage::kInfeasible:
+      std::printf("  no coordinate width meets the budget at width %d\n", s.width);
+      break;
+    case PlanStage::kChildBits:
+      std::printf("width %d, %d coordinate bits: child-offset bits\n", s.width, s.coord_bits);
+      break;
+    case PlanStage::kDefault:
+      std::printf("default format at width %d, for comparison\n", s.width);
+      break;
+  }
+}
+
+void run_plan(const PlanArgs& args) {
+  const PlanOptions& a = args.o;
+  const PlanResult res = plan_format(a, [&](const PlanStep& s) { print_step(s, a); });
+  const Json& j = res.json;
+  if (!res.found) {
+    if (!args.json.empty()) write_json(args.json, j);
+    std::printf("plan: no format meets %s <= %g on %s\n", a.metric.c_str(), a.max_error, res.scene.c_str());
+    throw ExitStatus(1);
+  }
+  const SweepRow* best = &res.best;
+  const SweepRow& def = res.reference;
+  const hw::FixedFormat& f = res.format;
+  std::printf(
+      "plan for %s (%s <= %g%s, %s): %s at BVH width %d: %d coordinate bits, %d child-offset bits; %llu cycles, "
+      "%llu bytes, error %.3g\n",
+      res.scene.c_str(), a.metric == "t" ? "t error" : "hit disagreement", a.max_error,
+      a.min_psnr > 0 ? (", PSNR >= " + std::to_string(a.min_psnr)).c_str() : "", a.config.c_str(),
+      best->p.format.c_str(), best->p.bvh_width, f.coord_bits, f.child_bits, (unsigned long long)best->cycles,
+      (unsigned long long)best->bvh_bytes, plan_error(*best, a.metric));
+  for (const Json& jw : j["widths"])
+    if (jw["bvh_width"] == best->p.bvh_width && jw.contains("fewer_coord_bits"))
+      std::printf("  why %d coordinate bits: %d give %s %.3g > %g\n", jw["coord_bits"].get<int>(),
+                  jw["fewer_coord_bits"].get<int>(), a.metric == "t" ? "t error" : "hit disagreement",
+                  jw["error_at_fewer_coord_bits"].get<double>(), a.max_error);
+  std::printf("  against the default format (24 coordinate bits, 8 child bits): %+.1f%% cycles, %+.1f%% bytes\n",
+              100.0 * (double(best->cycles) / double(std::max<uint64_t>(def.cycles, 1)) - 1.0),
+              100.0 * (double(best->bvh_bytes) / double(std::max<uint64_t>(def.bvh_bytes, 1)) - 1.0));
+  if (best->rtl_cells >= 0 && def.rtl_cells >= 0)
+    std::printf("  RTL box unit: %lld cells against %lld for the default format (%+.1f%%)\n",
+                (long long)best->rtl_cells, (long long)def.rtl_cells,
+                100.0 * (double(best->rtl_cells) / double(def.rtl_cells) - 1.0));
+  if (!args.json.empty()) write_json(args.json, j);
+}
+
+}  // namespace
+
+void add_plan(CLI::App& app) {
+  auto a = std::make_shared<PlanArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "plan", "The cheapest format (coordinate bits, offset bits, BVH width) meeting an error budget on a scene");
+  sub->add_option("--scene", a->o.scene, "scene file, mesh file or builtin:NAME")->required();
+  sub->add_option("--max-error", a->o.max_error, "error budget of --metric")->required();
+  sub->add_option("--metric", a->o.metric,
+                  "hit: fraction of rays whose hit/miss differs from float; t: mean relative t error")
+      ->check(CLI::IsMember({"hit", "t"}))
+      ->capture_default_str();
+  sub->add_option("--min-psnr", a->o.min_psnr, "also require the render's PSNR against float (dB; 0: no)")
+      ->capture_default_str();
+  sub->add_option("--config", a->o.config, "timing preset whose cycles are the cost")->capture_default_str();
+  sub->add_option("--bvh-width", a->o.widths, "BVH widths to consider, comma-separated")
+      ->delimiter(',')
+      ->check(CLI::IsMember({2, 4, 8}))
+      ->capture_default_str();
+  sub->add_option("--coord-bits", a->o.coord_bits, "coordinate bits to try, fewest first, comma-separated")
+      ->delimiter(',')
+      ->check(CLI::Range(2, 30))
+      ->capture_default_str();
+  sub->add_option("--child-bits", a->o.child_bits, "child-offset bits to try, comma-separated")
+      ->delimiter(',')
+      ->check(CLI::Range(1, 16))
+      ->capture_default_str();
+  sub->add_option("--rays", a->o.sweep.rays, "camera rays and as many incoherent rays per candidate")
+      ->check(CLI::Range(uint64_t(1), uint64_t(1) << 26))
+      ->capture_default_str();
+  sub->add_option("--image-width", a->o.sweep.image_width, "width of the PSNR render (0: none)")
+      ->check(CLI::Range(0, 4096))
+      ->capture_default_str();
+  sub->add_option("--threads", a->o.sweep.threads, "worker threads (0 = all cores)")
+      ->check(CLI::NonNegativeNumber);
+  sub->add_option("--area", a->o.area, "RTL area table for the rtl_cells figures (bench/data/rtl_area.csv)")
+      ->check(CLI::ExistingFile);
+  sub->add_option("--json", a->json, "write the plan and every candidate's figures as JSON");
+  sub->callback([a] { run_plan(*a); });
+}
+
+}  // namespace rtu::host::cli

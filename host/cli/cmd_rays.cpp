@@ -1,0 +1,64 @@
+// rtusim rays: write a ray file of the scene camera's primary rays or of incoherent rays.
+#include <cstdio>
+#include <memory>
+
+#include "host/cli/common.h"
+#include "host/error.h"
+#include "host/ray_gen.h"
+#include "host/ray_io.h"
+
+namespace rtu::host::cli {
+
+namespace {
+
+struct RaysOptions {
+  std::string scene, kind = "primary", out;
+  uint64_t count = 0;
+  int width = 0, height = 0;
+  uint64_t seed = 1;
+};
+
+void run_rays(const RaysOptions& o) {
+  const Scene scene = load_scene(o.scene);
+  std::vector<hw::Ray> rays;
+  if (o.kind == "primary") {
+    if (o.count > 0 && (o.width > 0 || o.height > 0))
+      throw Error("rays: give --count or --width/--height, not both");
+    if (o.count > 0) {
+      rays = primary_rays(scene.camera, o.count);
+    } else {
+      rays = primary_rays(scene.camera, o.width > 0 ? o.width : scene.camera.width,
+                          o.height > 0 ? o.height : scene.camera.height);
+    }
+  } else {
+    if (o.count == 0) throw Error("rays: --kind incoherent needs --count N (N > 0)");
+    rays = incoherent_rays(scene.geometry.bounds(), o.count, o.seed);
+  }
+  write_rays(o.out, rays);
+  std::printf("wrote %zu %s rays to %s\n", rays.size(), o.kind.c_str(), o.out.c_str());
+}
+
+}  // namespace
+
+void add_rays(CLI::App& app) {
+  auto o = std::make_shared<RaysOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "rays",
+      "Write a ray file: the scene camera's primary rays, or incoherent rays (random origins inside the "
+      "bounds, random directions)");
+  sub->add_option("--scene", o->scene, "scene file, mesh file, or builtin:NAME")->required();
+  sub->add_option("--kind", o->kind, "primary or incoherent")
+      ->check(CLI::IsMember({"primary", "incoherent"}))
+      ->capture_default_str();
+  sub->add_option("--count", o->count,
+                  "number of rays (primary: a grid with the camera's aspect ratio, first N in scanline order)");
+  sub->add_option("--width", o->width, "primary: image width (default: the scene camera's)")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--height", o->height, "primary: image height (default: the scene camera's)")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--seed", o->seed, "incoherent: seed of the PCG32 generator")->capture_default_str();
+  sub->add_option("--out", o->out, "ray file to write (.csv for text)")->required();
+  sub->callback([o] { run_rays(*o); });
+}
+
+}  // namespace rtu::host::cli

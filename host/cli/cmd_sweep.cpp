@@ -1,0 +1,179 @@
+// rtusim sweep: run time against error over a grid of scenes, formats, BVH widths and timing presets
+// (host/sweep.h), one CSV row per point. Resumable (points already in --out are skipped), shardable (--shard k/N
+// runs every N-th point, so independent jobs split a large sweep) and mergeable (--merge).
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <memory>
+#include <set>
+
+#include "host/cli/common.h"
+#include "host/error.h"
+#include "host/sweep.h"
+#include "hwmodel/fixed_format.h"
+#include "hwmodel/timing_config.h"
+
+namespace rtu::host::cli {
+
+namespace {
+
+struct SweepArgs {
+  std::vector<std::string> scenes, formats{"default"}, configs{"rdna2"}, merge;
+  std::vector<int> widths{4};
+  std::string out, shard = "1/1", area;
+  SweepOptions opt;
+};
+
+// "k/N" with 1 <= k <= N.
+std::pair<size_t, size_t> parse_shard(const std::string& s) {
+  const size_t slash = s.find('/');
+  try {
+    if (slash != std::string::npos) {
+      size_t a = 0, b = 0;
+      const size_t k = std::stoul(s.substr(0, slash), &a), n = std::stoul(s.substr(slash + 1), &b);
+      if (a == slash && b == s.size() - slash - 1 && k >= 1 && k <= n) return {k, n};
+    }
+  } catch (const std::exception&) {
+  }
+  throw Error("--shard: expected k/N with 1 <= k <= N, got '" + s + "'");
+}
+
+void write_rows(const std::string& path, const std::vector<SweepRow>& rows) {
+  std::ofstream out(path, std::ios::trunc);
+  out << sweep_csv_header() << '\n';
+  for (const SweepRow& r : rows) out << sweep_csv_line(r) << '\n';
+  if (!out.flush()) throw Error("cannot write " + path);
+}
+
+void run_merge(const SweepArgs& a) {
+  std::vector<SweepRow> all;
+  std::set<std::string> keys;
+  size_t duplicates = 0;
+  for (const std::string& f : a.merge)
+    for (const SweepRow& r : read_sweep_csv(f)) {
+      if (keys.insert(r.p.key()).second)
+        all.push_back(r);
+      else
+        ++duplicates;
+    }
+  write_rows(a.out, all);
+  std::printf("merged %zu files: %zu points (%zu duplicates dropped) -> %s\n", a.merge.size(), all.size(),
+              duplicates, a.out.c_str());
+}
+
+void run_sweep(const SweepArgs& a) {
+  if (!a.merge.empty()) return run_merge(a);
+  if (a.scenes.empty()) throw Error("sweep: --scene is required (or --merge FILES)");
+  const auto [shard, shards] = parse_shard(a.shard);
+  // Every point's format and configuration is checked before the first one runs.
+  for (const std::string& f : a.formats) {
+    try {
+      hw::format_from_spec(f);
+    } catch (const std::invalid_argument& e) {
+      throw Error(std::string("--formats: ") + e.what());
+    }
+  }
+  for (const std::string& c : a.configs) {
+    try {
+      hw::timing_preset(c);
+    } catch (const std::invalid_argument& e) {
+      throw Error(std::string("--config: ") + e.what());
+    }
+  }
+  for (int w : a.widths)
+    if (w != 2 && w != 4 && w != 8) throw Error("--bvh-width: " + std::to_string(w) + " is not 2, 4 or 8");
+  const AreaTable area = a.area.empty() ? AreaTable{} : AreaTable::load(a.area);
+
+  // Resume: the points already in --out are done. A last line without its newline is a row an interrupted
+  // sweep did not finish writing: it is dropped (and run again).
+  std::set<std::string> done;
+  bool exists = std::filesystem::exists(a.out) && std::filesystem::file_size(a.out) > 0;
+  if (exists) {
+    std::string text;
+    {
+      std::ifstream in(a.out, std::ios::binary);
+      text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    if (text.back() != '\n') {
+      const size_t keep = text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1;
+      std::fprintf(stderr, "rtusim: warning: %s ends in an unfinished row; dropping it\n", a.out.c_str());
+      std::filesystem::resize_file(a.out, keep);
+      exists = keep > 0;
+    }
+  }
+  if (exists)
+    for (const SweepRow& r : read_sweep_csv(a.out)) done.insert(r.p.key());
+  std::ofstream out(a.out, std::ios::app);
+  if (!out) throw Error("cannot write " + a.out);
+  if (!exists) out << sweep_csv_header() << '\n' << std::flush;
+
+  size_t index = 0, ran = 0, skipped = 0;
+  for (const std::string& scene_spec : a.scenes) {
+    std::unique_ptr<Scene> scene;  // loaded when this shard has a point of it
+    auto cache = make_sweep_cache();
+    for (int w : a.widths)
+      for (const std::string& f : a.formats)
+        for (const std::string& c : a.configs) {
+          const SweepPoint p{scene_spec, f, w, c};
+          if (index++ % shards != shard - 1) continue;
+          if (done.count(p.key())) {
+            ++skipped;
+            continue;
+          }
+          if (!scene) scene = std::make_unique<Scene>(load_scene(scene_spec));
+          const SweepRow r = run_sweep_point(*scene, p, a.opt, area, *cache);
+          out << sweep_csv_line(r) << '\n' << std::flush;  // a row at a time: an interrupted sweep resumes
+          if (!out) throw Error("cannot write " + a.out);
+          ++ran;
+          std::printf(
+              "%s %s w%d %s: hit agreement %.5f%%, t err %.2g, PSNR %.1f dB, %llu cycles, %llu bytes, %.1f s\n",
+              scene->name.c_str(), f.c_str(), w, c.c_str(), 100.0 * r.hit_agreement, r.t_rel_error_mean, r.psnr_db,
+              (unsigned long long)r.cycles, (unsigned long long)r.bvh_bytes, r.seconds);
+          std::fflush(stdout);
+        }
+  }
+  std::printf("sweep: %zu points in this shard (%zu/%zu), %zu run, %zu already in %s\n", ran + skipped, shard,
+              shards, ran, skipped, a.out.c_str());
+}
+
+}  // namespace
+
+void add_sweep(CLI::App& app) {
+  auto a = std::make_shared<SweepArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "sweep",
+      "Run time against error over scenes x formats x BVH widths x timing presets; one CSV row per point");
+  sub->add_option("--scene", a->scenes, "scene file, mesh file or builtin:NAME (repeatable)");
+  sub->add_option("--formats", a->formats,
+                  "format specs, comma-separated: a preset, or a preset with changes, e.g. "
+                  "default:coord_bits=16:child_bits=6")
+      ->delimiter(',')
+      ->capture_default_str();
+  sub->add_option("--bvh-width", a->widths, "BVH widths, comma-separated (2, 4, 8)")
+      ->delimiter(',')
+      ->capture_default_str();
+  sub->add_option("--config", a->configs, "timing presets, comma-separated")
+      ->delimiter(',')
+      ->capture_default_str();
+  sub->add_option("--rays", a->opt.rays, "camera rays and as many incoherent rays per point")
+      ->check(CLI::Range(uint64_t(1), uint64_t(1) << 26))
+      ->capture_default_str();
+  sub->add_option("--seed", a->opt.seed, "seed of the incoherent rays")->capture_default_str();
+  sub->add_option("--image-width", a->opt.image_width, "width of the PSNR render (0: none)")
+      ->check(CLI::Range(0, 4096))
+      ->capture_default_str();
+  sub->add_option("--threads", a->opt.threads, "worker threads (0 = all cores); results do not depend on it")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  sub->add_option("--area", a->area,
+                  "RTL area table (CSV params,cells,flip_flops,transistors; bench/rtl_area.sh writes it)")
+      ->check(CLI::ExistingFile);
+  sub->add_option("--shard", a->shard, "run every N-th point, starting at the k-th: k/N")->capture_default_str();
+  sub->add_option("--merge", a->merge, "merge these sweep CSVs into --out (no points run)")
+      ->check(CLI::ExistingFile);
+  sub->add_option("--out", a->out, "CSV to write; points already in it are skipped (resume)")->required();
+  sub->callback([a] { run_sweep(*a); });
+}
+
+}  // namespace rtu::host::cli

@@ -1,0 +1,108 @@
+// rtusim trace: ray file in, hit file out, on a device.
+#include <cstdio>
+#include <memory>
+
+#include "host/cli/common.h"
+#include "host/error.h"
+#include "host/ray_io.h"
+#include "host/trace_job.h"
+
+namespace rtu::host::cli {
+
+namespace {
+
+struct TraceOptions {
+  std::string scene, rays, out, stats;
+  bool any_hit = false;
+  int threads = 0;
+  DeviceArgs dev;
+  PipelineTraceArgs pipeline;
+};
+
+void run_trace(const TraceOptions& o) {
+  Stopwatch load_timer;
+  const Scene scene = load_scene(o.scene);
+  const double load_s = load_timer.seconds();
+  const std::vector<hw::Ray> rays = read_rays(o.rays);
+
+  const hw::DeviceKind kind = o.dev.kind();
+  const bool cycles_only = o.out.empty();
+  if (cycles_only && !(kind == hw::DeviceKind::kTimed && o.dev.sample > 0.0))
+    throw Error("--out is required (it may be left out only with --device timed --sample F)");
+  Stopwatch build_timer;
+  DeviceOptions dopt = o.dev.options(kind);
+  dopt.sample.need_hits = !cycles_only;
+  const std::unique_ptr<DirectDevice> device = make_device(scene.geometry, dopt);
+  PipelineTraceArgs pt = o.pipeline;
+  device->set_pipeline_trace(pt.make());
+  const double build_s = build_timer.seconds();
+
+  std::vector<hw::Hit> hits(rays.size());
+  hw::TraversalStats stats;
+  const double trace_s = trace_with_progress(*device, rays, hits, o.any_hit, o.threads, stats);
+  if (!cycles_only) write_hits(o.out, hits);
+
+  report_invalid_rays(stats, stderr);
+  const uint64_t n = rays.size();
+  if (cycles_only) std::printf("cycles only (--sample without --out): the counts below are the sampled rays'\n");
+  std::printf("traced %llu rays on %s: %llu hits, %llu invalid, %.3f s, %.2f MRays/s\n", (unsigned long long)n,
+              o.dev.device.c_str(), (unsigned long long)stats.hits, (unsigned long long)stats.invalid_rays,
+              trace_s, trace_s > 0 ? double(n) / trace_s * 1e-6 : 0.0);
+  std::printf("per ray: %.2f nodes, %.2f box tests, %.2f primitive tests\n",
+              stats.rays ? double(stats.nodes_visited) / double(stats.rays) : 0.0,
+              stats.rays ? double(stats.box_tests) / double(stats.rays) : 0.0,
+              stats.rays ? double(stats.prim_tests) / double(stats.rays) : 0.0);
+  if (const hw::TimedEngine* te = device->timed()) {
+    print_timing_summary(te->timing(), te->config());
+    const hw::SampleStats& ss = te->sampling();
+    if (ss.packets_sampled > 0)
+      std::printf("sampled: %llu of %llu packets estimated from %.1f%% of their rays; cycles +- %.0f (95%%)\n",
+                  (unsigned long long)ss.packets_sampled, (unsigned long long)ss.packets,
+                  100.0 * double(ss.rays_simulated) / double(ss.rays), ss.ci95());
+  }
+  if (device->timed()) pt.write();
+
+  if (!o.stats.empty()) {
+    Json j;
+    j["scene"] = scene.name;
+    j["rays_file"] = o.rays;
+    j["device"] = o.dev.device;
+    if (kind != hw::DeviceKind::kFloat) j["format"] = format_json(dopt.format);
+    j["mode"] = o.any_hit ? "any_hit" : "closest_hit";
+    j["threads"] = resolved_threads(o.threads);
+    j.update(traversal_json(stats));
+    j["trace_seconds"] = trace_s;
+    j["rays_per_second"] = trace_s > 0 ? double(n) / trace_s : 0.0;
+    j["load_seconds"] = load_s;
+    j["build_seconds"] = build_s;
+    j["bvh"] = bvh_json(*device);
+    if (const hw::TimedEngine* te = device->timed()) j["timing"] = timed_json(*te);
+    write_json(o.stats, j);
+  }
+}
+
+}  // namespace
+
+void add_trace(CLI::App& app) {
+  auto o = std::make_shared<TraceOptions>();
+  CLI::App* sub = app.add_subcommand("trace", "Trace a ray file on a device and write the hit file");
+  sub->add_option("--scene", o->scene, "scene file, mesh file, or builtin:NAME")->required();
+  sub->add_option("--rays", o->rays, "ray file (32-byte binary records, or .csv)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  sub->add_option("--out", o->out,
+                  "hit file to write (16-byte binary records, or .csv); required unless --sample on the timed "
+                  "device, which without --out estimates cycles only and traces only the sampled rays");
+  sub->add_flag("--any-hit", o->any_hit, "any-hit queries (stop at the first hit, as shadow rays do)");
+  sub->add_option("--threads", o->threads, "worker threads (0 = all cores); results do not depend on it")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  sub->add_option("--stats", o->stats, "write statistics as JSON to this file");
+  add_pipeline_trace_args(*sub, o->pipeline);
+  add_device_args(*sub, o->dev,
+                  "device: float (the reference), fixed (bit-accurate fixed point) or timed (fixed point with the "
+                  "cycle-approximate timing model; --config, --set)");
+  sub->callback([o] { run_trace(*o); });
+}
+
+}  // namespace rtu::host::cli

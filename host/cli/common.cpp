@@ -1,0 +1,105 @@
+#include "host/cli/common.h"
+
+#include <cstdio>
+
+namespace rtu::host::cli {
+
+void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_help) {
+  if (!device_help.empty())
+    app.add_option("--device", o.device, device_help)
+        ->check(CLI::IsMember(hw::device_kind_names()))
+        ->capture_default_str();
+  app.add_option("--bvh-width", o.bvh_width, "BVH children per node (default: the format's width, 4)")
+      ->check(CLI::IsMember({2, 4, 8}));
+  app.add_option("--leaf-size", o.leaf_size, "maximum primitives per BVH leaf")
+      ->check(CLI::Range(1, hw::kMaxLeafSize))
+      ->capture_default_str();
+  app.add_option("--accel", o.accel,
+                 "acceleration: bvh, brute (for each primitive), or auto (brute force when a BVH costs more)")
+      ->check(CLI::IsMember({"auto", "bvh", "brute"}))
+      ->capture_default_str();
+  app.add_option("--config", o.config, "timed device: timing preset (rtusim config --list)")
+      ->check(CLI::IsMember(hw::timing_preset_names()))
+      ->capture_default_str();
+  app.add_option("--set", o.sets, "timed device: override a timing key, KEY=VALUE (repeatable)");
+  app.add_option("--sample", o.sample,
+                 "timed device: simulate this fraction of each packet's rays in the timing model (units of rays "
+                 "sampled in strata or systematically, each after functional cache warming and a warm-up) and "
+                 "estimate the cycles with a 95% interval; 0: all")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  app.add_option("--sample-unit", o.sample_unit, "timed device, --sample: rays per measured unit")
+      ->check(CLI::Range(1u, 1u << 20))
+      ->capture_default_str();
+  app.add_option("--sample-warmup", o.sample_warmup,
+                 "timed device, --sample: rays simulated in detail before each unit (0: chosen per packet from "
+                 "how long the simulated rays hold their slots)")
+      ->check(CLI::Range(0u, 1u << 20))
+      ->capture_default_str();
+  app.add_option("--sample-seed", o.sample_seed,
+                 "timed device, --sample: seed of the measured units' offsets (another seed, another sample: "
+                 "how far the estimate moves from seed to seed is its error)")
+      ->capture_default_str();
+  app.add_option("--watchdog-steps", o.watchdog_steps,
+                 "fixed and timed devices: node and leaf visits one ray may make before the watchdog stops the "
+                 "trace with an error (0: the image's own bound, which a valid BVH never reaches)")
+      ->capture_default_str();
+  std::vector<std::string> presets;
+  for (const hw::FixedFormat& f : hw::format_presets()) presets.push_back(f.name);
+  app.add_option("--format", o.format, "fixed-point format preset (rtusim info --formats lists them)")
+      ->check(CLI::IsMember(presets))
+      ->capture_default_str();
+  auto field = [&](const char* flag, int& v, const char* help) {
+    app.add_option(flag, v, help)->check(CLI::NonNegativeNumber)->group("Fixed-point format (overrides)");
+  };
+  field("--coord-bits", o.coord_bits, "B: grid bits of scene coordinates (2..30)");
+  field("--child-bits", o.child_bits, "k: bits of child box offsets (1..16)");
+  field("--guard-bits", o.guard_bits, "G: ray origins may lie 2^G scene extents out (1..16)");
+  field("--frac-bits", o.frac_bits, "F: fraction bits of origins, sphere centers/radii, plane offsets (0..24)");
+  field("--dir-bits", o.dir_bits, "D: fraction bits of the scaled direction (4..30)");
+  field("--rcp-bits", o.rcp_bits, "R: fraction bits of the reciprocal (4..40)");
+  field("--t-frac-bits", o.t_frac_bits, "T: fraction bits of t (0..32)");
+  field("--t-bits", o.t_bits, "magnitude bits of the t register (8..62)");
+}
+
+}  // namespace rtu::host::cli
+
+namespace rtu::host::cli {
+
+void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c) {
+  const Json j = timing_stats_json(s, c);
+  std::printf(
+      "timed (%s): %llu cycles, %.1f cycles per ray, %.3f rays per clock; cache hit rate %.3f, DRAM %.1f B/clock; "
+      "lower bound %.0f cycles (%s), cycles / bound %.2f\n",
+      c.name.c_str(), (unsigned long long)s.cycles, j["cycles_per_ray"].get<double>(),
+      j["rays_per_clock"].get<double>(), j["cache"]["hit_rate"].get<double>(),
+      j["dram_bytes_per_cycle"].get<double>(), j["lower_bound"]["cycles"].get<double>(),
+      j["lower_bound"]["limited_by"].get<std::string>().c_str(),
+      j["lower_bound"]["cycles_over_bound"].get<double>());
+}
+
+}  // namespace rtu::host::cli
+
+namespace rtu::host::cli {
+
+hw::PipelineTrace* PipelineTraceArgs::make() {
+  if (path.empty()) return nullptr;
+  trace = pipeline_trace_window(window);
+  return &trace;
+}
+
+void PipelineTraceArgs::write() const {
+  if (path.empty()) return;
+  write_pipeline_trace(path, trace);
+}
+
+void add_pipeline_trace_args(CLI::App& app, PipelineTraceArgs& a) {
+  app.add_option("--pipeline-trace", a.path,
+                 "timed device: write a Chrome/Perfetto trace (one track per ray slot) of --trace-window");
+  app.add_option("--trace-window", a.window,
+                 "cycles FROM:TO of the pipeline trace (the timing model's cycles: TRACE packets back to back "
+                 "since the scene was bound)")
+      ->capture_default_str();
+}
+
+}  // namespace rtu::host::cli

@@ -1,0 +1,63 @@
+// Shared pieces of the rtusim subcommands: the device options every tracing command takes, the pipeline-trace
+// options, one-line summaries on stdout, and the subcommands themselves.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <string>
+
+#include "host/device_settings.h"
+#include "host/direct_device.h"
+#include "host/pipeline_trace.h"
+#include "host/ray_spec.h"
+#include "host/render.h"
+#include "host/scene.h"
+#include "host/stats_json.h"
+#include "host/stopwatch.h"
+#include "hwmodel/device_kind.h"
+#include "hwmodel/timing_config.h"
+
+namespace rtu::host::cli {
+
+// Device, acceleration and number-format options shared by the tracing commands (host::DeviceSettings), and the
+// device's name.
+struct DeviceArgs : DeviceSettings {
+  std::string device = "float";
+  hw::DeviceKind kind() const { return hw::parse_device_kind(device); }
+};
+
+// Adds --bvh-width, --leaf-size, --accel, --format and the per-field format options; --device too when
+// `device_help` is not empty.
+void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_help);
+
+inline constexpr const char* kRaySpecHelp =
+    "a ray file, or primary | primary:N | primary:WxH (the scene camera) | incoherent:N (random, --seed)";
+
+// A render's one-line summary on stdout (and the rasterizer's in hybrid mode).
+void print_render_summary(const RenderResult& r, const RenderOptions& o);
+// One line: cycles, cycles per ray, rays per clock, the lower bound and what limits it.
+void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c);
+// --pipeline-trace F.json and --trace-window FROM:TO (cycles) of the timed device's commands.
+struct PipelineTraceArgs {
+  std::string path, window = "0:100000";
+  // The trace to pass to the device (null when no path was given); throws Error on a malformed window.
+  hw::PipelineTrace* make();
+  void write() const;  // Chrome/Perfetto JSON ("ts" and "dur" in cycles, shown as microseconds)
+  hw::PipelineTrace trace;
+};
+void add_pipeline_trace_args(CLI::App& app, PipelineTraceArgs& a);
+
+void add_info(CLI::App& app);
+void add_rays(CLI::App& app);
+void add_trace(CLI::App& app);
+void add_demo(CLI::App& app);
+void add_sweep(CLI::App& app);
+void add_plan(CLI::App& app);
+void add_report(CLI::App& app);  // and `pareto`
+void add_compare(CLI::App& app);
+void add_stress(CLI::App& app);
+void add_render(CLI::App& app);
+void add_diff(CLI::App& app);
+void add_config(CLI::App& app);
+void add_soak(CLI::App& app);
+
+}  // namespace rtu::host::cli

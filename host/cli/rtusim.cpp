@@ -1,0 +1,39 @@
+// rtusim: the command line of the rtu toolkit. One subcommand per job; `rtusim SUBCOMMAND --help` for each.
+#include <cstdio>
+#include <exception>
+
+#include "host/cli/common.h"
+#include "host/error.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"rtusim: a model of a fixed-function ray-tracing unit (float reference, scenes, rays, hits)"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "rtusim 0.1.0");
+  rtu::host::cli::add_info(app);
+  rtu::host::cli::add_rays(app);
+  rtu::host::cli::add_trace(app);
+  rtu::host::cli::add_compare(app);
+  rtu::host::cli::add_stress(app);
+  rtu::host::cli::add_render(app);
+  rtu::host::cli::add_diff(app);
+  rtu::host::cli::add_config(app);
+  rtu::host::cli::add_demo(app);
+  rtu::host::cli::add_sweep(app);
+  rtu::host::cli::add_plan(app);
+  rtu::host::cli::add_report(app);
+  rtu::host::cli::add_soak(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const rtu::host::ExitStatus& e) {
+    return e.code();
+  } catch (const rtu::host::Error& e) {
+    std::fprintf(stderr, "rtusim: error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "rtusim: error: %s\n", e.what());
+    return 2;
+  }
+  return 0;
+}

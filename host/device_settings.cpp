@@ -1,0 +1,74 @@
+#include "host/device_settings.h"
+
+#include <stdexcept>
+
+#include "host/error.h"
+
+namespace rtu::host {
+
+hw::FixedFormat DeviceSettings::fixed_format() const {
+  hw::FixedFormat f = hw::format_preset(format);
+  std::string changed;
+  auto set = [&](int& field, int value, const char* key) {
+    if (value < 0) return;
+    field = value;
+    changed += std::string(changed.empty() ? "+" : ",") + key + "=" + std::to_string(value);
+  };
+  set(f.coord_bits, coord_bits, "coord_bits");
+  set(f.child_bits, child_bits, "child_bits");
+  set(f.guard_bits, guard_bits, "guard_bits");
+  set(f.frac_bits, frac_bits, "frac_bits");
+  set(f.dir_bits, dir_bits, "dir_bits");
+  set(f.rcp_bits, rcp_bits, "rcp_bits");
+  set(f.t_frac_bits, t_frac_bits, "t_frac_bits");
+  set(f.t_bits, t_bits, "t_bits");
+  set(f.width, bvh_width > 0 ? bvh_width : -1, "width");
+  f.name += changed;
+  f.validate();
+  return f;
+}
+
+DeviceOptions DeviceSettings::options(hw::DeviceKind kind) const {
+  DeviceOptions d;
+  d.kind = kind;
+  if (kind == hw::DeviceKind::kTimed) {
+    d.timing = timing_config_from(config, sets);
+    d.sample.fraction = sample;
+    d.sample.unit_rays = sample_unit;
+    d.sample.warmup_rays = sample_warmup;
+    d.sample.seed = sample_seed;
+    DeviceSettings a = *this;
+    a.format = d.timing.format;
+    if (a.bvh_width <= 0) a.bvh_width = d.timing.bvh_width;
+    d.format = a.fixed_format();
+  } else {
+    d.format = fixed_format();
+  }
+  d.tracer.bvh.width = d.format.width;
+  d.tracer.bvh.max_leaf_size = leaf_size;
+  d.max_steps = watchdog_steps;
+  d.tracer.accel =
+      accel == "bvh" ? hw::AccelMode::kBvh : (accel == "brute" ? hw::AccelMode::kBrute : hw::AccelMode::kAuto);
+  return d;
+}
+
+hw::TimingConfig timing_config_from(const std::string& preset, const std::vector<std::string>& sets) {
+  hw::TimingConfig c;
+  try {
+    c = hw::timing_preset(preset);
+  } catch (const std::invalid_argument& e) {
+    throw Error(e.what());
+  }
+  for (const std::string& s : sets) {
+    const size_t eq = s.find('=');
+    if (eq == std::string::npos) throw Error("--set '" + s + "' is not key=value");
+    try {
+      hw::set_timing_key(c, s.substr(0, eq), s.substr(eq + 1));
+    } catch (const std::invalid_argument& e) {
+      throw Error("--set " + s + ": " + e.what());
+    }
+  }
+  return c;
+}
+
+}  // namespace rtu::host

@@ -1,0 +1,45 @@
+// A device as a user describes it, by names: a number-format preset with per-field overrides, the BVH build and
+// acceleration, and for the timed device a timing preset with key=value overrides and sampled timing (the device
+// options of rtusim's tracing commands). options() resolves them into the DeviceOptions a device is made with.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "host/direct_device.h"
+#include "hwmodel/device_kind.h"
+#include "hwmodel/fixed_format.h"
+#include "hwmodel/timing_config.h"
+
+namespace rtu::host {
+
+struct DeviceSettings {
+  int bvh_width = 0;  // 0: the format's width (4 in the default format)
+  int leaf_size = 8;
+  std::string accel = "auto";  // auto, bvh or brute
+  std::string format = "default";
+  // Overrides of the format preset's fields; -1 keeps the preset's value.
+  int coord_bits = -1, child_bits = -1, guard_bits = -1, frac_bits = -1, dir_bits = -1, rcp_bits = -1,
+      t_frac_bits = -1, t_bits = -1;
+  // The timed device: a timing preset and key=value overrides. Its format preset and BVH width come from the
+  // configuration (keys `format`, `bvh_width`); the per-field format options still apply on top.
+  std::string config = "rdna2";
+  std::vector<std::string> sets;
+  // The timed device: simulate this fraction of each TRACE packet's rays in the timing model and extrapolate
+  // (hw::SampleOptions); 0: every ray.
+  double sample = 0.0;
+  uint32_t sample_unit = 256, sample_warmup = 0;
+  uint64_t sample_seed = 1;
+  uint64_t watchdog_steps = 0;  // fixed, timed: node and leaf visits per ray before the watchdog (0: automatic)
+
+  hw::FixedFormat fixed_format() const;  // preset + overrides + width; validated (std::invalid_argument)
+  // The options of a device of `kind`; throws as timing_config_from and fixed_format do.
+  DeviceOptions options(hw::DeviceKind kind) const;
+};
+
+// A timing preset with "key=value" overrides applied in order (the `--config P --set k=v` options); throws Error
+// naming the override for a malformed one, an unknown preset or key, or a bad value.
+hw::TimingConfig timing_config_from(const std::string& preset, const std::vector<std::string>& sets);
+
+}  // namespace rtu::host

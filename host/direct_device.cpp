@@ -1,0 +1,114 @@
+#include "host/direct_device.h"
+
+#include <stdexcept>
+
+#include "host/box_units.h"
+
+namespace rtu::host {
+
+namespace {
+
+class FloatDevice final : public DirectDevice {
+ public:
+  FloatDevice(const hw::Geometry& g, const DeviceOptions& o) : m_tracer(g, o.tracer) {}
+  hw::DeviceKind kind() const override { return hw::DeviceKind::kFloat; }
+  void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
+                   hw::TraversalStats& s) const override {
+    m_tracer.trace_batch(rays, hits, n, any_hit, threads, s);
+  }
+  hw::RayStatus ray_status(const hw::Ray& r) const override { return hw::validate_ray(r); }
+  const hw::Bvh* bvh() const override { return m_tracer.bvh(); }
+  double bvh_cost() const override { return m_tracer.bvh_cost(); }
+  double brute_cost() const override { return m_tracer.brute_cost(); }
+  uint64_t prim_bytes() const override { return m_tracer.leaf_prim_bytes(); }
+
+ private:
+  hw::FloatTracer m_tracer;
+};
+
+// What the fixed and timed devices share: the float BVH (for figures; the datapath reads only the image), the
+// encoded image, and a fixed tracer over it.
+class ImageDevice : public DirectDevice {
+ public:
+  ImageDevice(const hw::Geometry& g, const DeviceOptions& o)
+      : m_bvh(hw::choose_accel(g, o.tracer, &m_bvh_cost, &m_brute_cost)),
+        m_image(hw::encode_scene(g, o.format, m_bvh ? &*m_bvh : nullptr)),
+        m_tracer(m_image, hw::FixedTraceOptions{o.check_boxes, o.max_steps}) {}
+  hw::RayStatus ray_status(const hw::Ray& r) const override {
+    hw::FixedRay fr;
+    return hw::setup_ray(r, m_tracer.frame(), m_tracer.format(), fr);
+  }
+  const hw::Bvh* bvh() const override { return m_bvh ? &*m_bvh : nullptr; }
+  double bvh_cost() const override { return m_bvh_cost; }
+  double brute_cost() const override { return m_brute_cost; }
+  const hw::DeviceImage* image() const override { return &m_image; }
+  uint64_t prim_bytes() const override { return m_image.records_size() + m_image.planes_size(); }
+
+ protected:
+  double m_bvh_cost = 0.0, m_brute_cost = 0.0;
+  std::optional<hw::Bvh> m_bvh;
+  hw::DeviceImage m_image;
+  hw::FixedTracer m_tracer;
+};
+
+class FixedDevice final : public ImageDevice {
+ public:
+  using ImageDevice::ImageDevice;
+  hw::DeviceKind kind() const override { return hw::DeviceKind::kFixed; }
+  void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
+                   hw::TraversalStats& s) const override {
+    hw::TraversalStats local;
+    m_tracer.trace_batch(rays, hits, n, any_hit, threads, local);
+    if (local.watchdog_rays > 0)
+      throw hw::WatchdogError(m_tracer.watchdog_report(rays, n, any_hit, local.watchdog_rays), 0);
+    s.add(local);
+  }
+};
+
+// The fixed datapath with the timing model: the engine the command processor would run, called directly.
+class TimedDevice final : public ImageDevice {
+  static hw::EngineOptions engine_options(const DeviceOptions& o) {
+    hw::EngineOptions e;
+    e.max_steps = o.max_steps;
+    return e;
+  }
+
+ public:
+  TimedDevice(const hw::Geometry& g, const DeviceOptions& o)
+      : ImageDevice(g, o), m_engine(engine_options(o), o.timing, make_box_unit(o.timing)) {
+    m_engine.set_sampling(o.sample);
+    m_engine.bind(m_image.data(), m_image.size());
+  }
+  hw::DeviceKind kind() const override { return hw::DeviceKind::kTimed; }
+  void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
+                   hw::TraversalStats& s) const override {
+    m_engine.set_threads(threads);
+    if (n > 0) m_engine.trace_cycles(rays, hits, n, any_hit, s, uint8_t(hw::cmd::RayType::kOther), 0);
+  }
+  const hw::TimedEngine* timed() const override { return &m_engine; }
+  void set_pipeline_trace(hw::PipelineTrace* trace) override { m_engine.set_trace(trace); }
+
+ private:
+  mutable hw::TimedEngine m_engine;  // simulation state changes as it traces
+};
+
+}  // namespace
+
+std::unique_ptr<DirectDevice> make_device(const hw::Geometry& g, const DeviceOptions& o) {
+  DeviceOptions opt = o;
+  opt.tracer.bvh.width = o.format.width;
+  switch (o.kind) {
+    case hw::DeviceKind::kFloat:
+      return std::make_unique<FloatDevice>(g, opt);
+    case hw::DeviceKind::kFixed:
+      o.format.validate();
+      return std::make_unique<FixedDevice>(g, opt);
+    case hw::DeviceKind::kTimed:
+      o.format.validate();
+      o.timing.validate();
+      return std::make_unique<TimedDevice>(g, opt);
+  }
+  throw std::invalid_argument("make_device: not a device kind");
+}
+
+}  // namespace rtu::host

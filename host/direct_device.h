@@ -1,0 +1,61 @@
+// The devices a host job drives directly, without firmware (trace, compare, stress, sweep), behind one interface:
+// `float` (the reference), `fixed` (the bit-accurate fixed-point datapath over a device memory image) and `timed`
+// (the fixed datapath with the timing model, called as the command processor would call it). All choose BVH or
+// brute force by the same rule (hw::choose_accel) and traverse the same tree, so they differ only in their
+// numbers.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hwmodel/device_image.h"
+#include "hwmodel/device_kind.h"
+#include "hwmodel/fixed_format.h"
+#include "hwmodel/fixed_tracer.h"
+#include "hwmodel/float_tracer.h"
+#include "hwmodel/timed_engine.h"
+#include "hwmodel/timing_config.h"
+
+namespace rtu::host {
+
+struct DeviceOptions {
+  hw::DeviceKind kind = hw::DeviceKind::kFloat;
+  hw::TracerOptions tracer;  // acceleration choice and BVH build (bvh.width is the format's width)
+  hw::FixedFormat format;    // the fixed device's number formats
+  bool check_boxes = false;  // fixed: repeat box tests exactly and count false negatives
+  hw::TimingConfig timing;   // timed: the unit's configuration (its format and width are in `format`)
+  hw::SampleOptions sample;  // timed: sampled timing (fraction 0: every ray simulated)
+  uint64_t max_steps = 0;    // fixed, timed: traversal watchdog, node and leaf visits per ray (0: automatic)
+};
+
+class DirectDevice {
+ public:
+  virtual ~DirectDevice() = default;
+  virtual hw::DeviceKind kind() const = 0;
+  const char* name() const { return hw::device_kind_name(kind()); }
+  virtual void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
+                           hw::TraversalStats& s) const = 0;
+  // What the device's ray setup says of r (a rejected ray is traced as a miss and counted by this reason).
+  virtual hw::RayStatus ray_status(const hw::Ray& r) const = 0;
+  // The BVH the device traverses (null: brute force), with its SAH and brute-force costs.
+  virtual const hw::Bvh* bvh() const = 0;
+  virtual double bvh_cost() const = 0;
+  virtual double brute_cost() const = 0;
+  // The fixed and timed devices' memory image (null for float).
+  virtual const hw::DeviceImage* image() const { return nullptr; }
+  // The timed device's engine: cycles and timing statistics of what it traced (null for the others).
+  virtual const hw::TimedEngine* timed() const { return nullptr; }
+  // Timed device: record pipeline spans into `trace` (see hw::PipelineTrace); no effect on the others.
+  virtual void set_pipeline_trace(hw::PipelineTrace* trace) { (void)trace; }
+  // Bytes the float device keeps beside its BVH (leaf-ordered primitive copies).
+  virtual uint64_t prim_bytes() const = 0;
+};
+
+// Throws std::invalid_argument for a bad format or timing configuration, Error for a box unit this build lacks.
+// trace_batch throws hw::WatchdogError (with the unit's state) when the watchdog stops a ray (fixed: step bound;
+// timed: that or the timing config's watchdog_cycles).
+std::unique_ptr<DirectDevice> make_device(const hw::Geometry& g, const DeviceOptions& o);
+
+}  // namespace rtu::host

@@ -1,0 +1,48 @@
+#include "host/ray_spec.h"
+
+#include <exception>
+#include <string>
+
+#include "host/error.h"
+#include "host/limits.h"
+#include "host/ray_gen.h"
+#include "host/ray_io.h"
+
+namespace rtu::host {
+
+std::vector<hw::Ray> rays_from_spec(const std::string& spec, const Scene& scene, uint64_t seed) {
+  auto number = [&](const std::string& text) {
+    size_t used = 0;
+    unsigned long long v = 0;
+    try {
+      v = std::stoull(text, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != text.size() || v == 0 || text[0] == '-')
+      throw Error("--rays " + spec + ": bad count '" + text + "'");
+    return uint64_t(v);
+  };
+  auto fits = [&](uint64_t n) {  // a ray and its hit per ray
+    check_memory("--rays " + spec + ": " + std::to_string(n) + " rays", n * (sizeof(hw::Ray) + sizeof(hw::Hit)));
+    return n;
+  };
+  if (spec == "primary") {
+    fits(uint64_t(scene.camera.width) * uint64_t(scene.camera.height));
+    return primary_rays(scene.camera, scene.camera.width, scene.camera.height);
+  }
+  if (spec.rfind("primary:", 0) == 0) {
+    const std::string arg = spec.substr(8);
+    const size_t x = arg.find('x');
+    if (x == std::string::npos) return primary_rays(scene.camera, fits(number(arg)));
+    const uint64_t w = number(arg.substr(0, x)), h = number(arg.substr(x + 1));
+    if (w > 65536 || h > 65536) throw Error("--rays " + spec + ": image larger than 65536 x 65536");
+    fits(w * h);
+    return primary_rays(scene.camera, int(w), int(h));
+  }
+  if (spec.rfind("incoherent:", 0) == 0)
+    return incoherent_rays(scene.geometry.bounds(), fits(number(spec.substr(11))), seed);
+  return read_rays(spec);
+}
+
+}  // namespace rtu::host

@@ -1,0 +1,17 @@
+// Rays named by a spec (rtusim's --rays): a ray file, or rays generated from the scene.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "host/scene.h"
+#include "hwmodel/ray.h"
+
+namespace rtu::host {
+
+// Rays from a spec: a ray file, or "primary" (the camera's image), "primary:N", "primary:WxH", "incoherent:N"
+// (seeded by `seed`). Throws Error naming --rays for a bad count or a set of rays too large for memory.
+std::vector<hw::Ray> rays_from_spec(const std::string& spec, const Scene& scene, uint64_t seed);
+
+}  // namespace rtu::host

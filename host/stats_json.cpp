@@ -1,0 +1,334 @@
+#include "host/stats_json.h"
+
+#include <algorithm>
+#include <charconv>
+#include <fstream>
+
+#include "host/error.h"
+
+namespace rtu::host {
+
+Json bvh_json(const DirectDevice& d) {
+  Json j;
+  j["accel"] = d.bvh() ? "bvh" : "brute";
+  j["brute_cost"] = d.brute_cost();
+  if (const hw::Bvh* b = d.bvh()) {
+    const hw::BvhFigures f = b->figures();
+    j["width"] = f.width;
+    j["inner_nodes"] = f.inner_nodes;
+    j["leaves"] = f.leaves;
+    j["prims"] = f.prims;
+    j["depth"] = f.depth;
+    j["leaf_size_min"] = f.min_leaf;
+    j["leaf_size_max"] = f.max_leaf;
+    j["leaf_size_mean"] = f.mean_leaf;
+    j["node_fill"] = f.mean_fill;
+    j["sah_cost"] = f.sah_cost;
+    j["node_bytes"] = f.node_bytes;
+    j["index_bytes"] = f.index_bytes;
+    j["bytes_per_prim"] = f.prims ? double(f.node_bytes + f.index_bytes) / double(f.prims) : 0.0;
+  }
+  j["prim_bytes"] = d.prim_bytes();
+  if (const hw::DeviceImage* img = d.image()) j["image"] = image_json(*img, d.bvh());
+  return j;
+}
+
+Json format_json(const hw::FixedFormat& f) {
+  Json j;
+  j["name"] = f.name;
+  j["width"] = f.width;
+  j["coord_bits"] = f.coord_bits;
+  j["child_bits"] = f.child_bits;
+  j["guard_bits"] = f.guard_bits;
+  j["frac_bits"] = f.frac_bits;
+  j["dir_bits"] = f.dir_bits;
+  j["rcp_bits"] = f.rcp_bits;
+  j["t_frac_bits"] = f.t_frac_bits;
+  j["t_bits"] = f.t_bits;
+  j["box_product_bits"] = f.box_product_bits();
+  j["edge_function_bits"] = f.edge_function_bits();
+  return j;
+}
+
+Json image_json(const hw::DeviceImage& img, const hw::Bvh* bvh) {
+  const hw::ImageHeader& h = img.header();
+  Json j;
+  j["bytes_per_node"] = img.node_bytes();
+  j["nodes"] = h.node_count;
+  j["node_bytes"] = img.nodes_size();
+  j["records"] = h.record_count;
+  j["record_bytes"] = img.records_size();
+  j["plane_bytes"] = img.planes_size();
+  j["total_bytes"] = img.size();
+  j["frame"] = {{"coord_bits", h.coord_bits},
+                {"step_exp", h.step_exp},
+                {"origin", {h.frame_origin[0], h.frame_origin[1], h.frame_origin[2]}}};
+  if (bvh) {
+    const hw::BvhFigures f = bvh->figures();
+    j["float_node_bytes"] = f.node_bytes;
+    j["float_index_bytes"] = f.index_bytes;
+    // Nodes against nodes (the strict figure); the image also needs no leaf index array (its records carry
+    // their primitive index), which the second figure credits.
+    j["node_bytes_ratio"] = f.node_bytes ? double(img.nodes_size()) / double(f.node_bytes) : 0.0;
+    j["bvh_bytes_ratio"] = f.node_bytes ? double(img.nodes_size()) / double(f.node_bytes + f.index_bytes) : 0.0;
+  }
+  return j;
+}
+
+Json traversal_json(const hw::TraversalStats& s) {
+  Json j;
+  j["rays"] = s.rays + s.invalid_rays;
+  j["valid_rays"] = s.rays;
+  j["hits"] = s.hits;
+  j["invalid_rays"] = s.invalid_rays;
+  Json reasons = Json::object();
+  for (size_t i = 1; i < s.invalid_by_reason.size(); ++i)
+    if (s.invalid_by_reason[i]) reasons[hw::ray_status_name(hw::RayStatus(i))] = s.invalid_by_reason[i];
+  j["invalid_by_reason"] = reasons;
+  j["nodes_visited"] = s.nodes_visited;
+  j["leaves_visited"] = s.leaves_visited;
+  j["box_tests"] = s.box_tests;
+  j["prim_tests"] = s.prim_tests;
+  j["saturations"] = s.saturations;
+  if (s.box_checks) {
+    j["box_checks"] = s.box_checks;
+    j["box_false_negatives"] = s.box_false_negatives;
+    j["box_false_positives"] = s.box_false_positives;
+  }
+  const double n = s.rays ? double(s.rays) : 1.0;
+  j["nodes_per_ray"] = double(s.nodes_visited) / n;
+  j["box_tests_per_ray"] = double(s.box_tests) / n;
+  j["prim_tests_per_ray"] = double(s.prim_tests) / n;
+  return j;
+}
+
+void write_json(const std::string& path, const Json& j) {
+  std::ofstream out(path);
+  if (!out) throw Error(path + ": cannot open for writing");
+  out << j.dump(2) << '\n';
+  if (!out.flush()) throw Error(path + ": write error");
+}
+
+Json timing_json(const hw::TimingConfig& c) {
+  Json j;
+  j["preset"] = c.name;
+  for (const hw::TimingKey& k : hw::timing_keys(c)) {
+    // The value text is an integer, a double in its round-trip form, or text (the format's name).
+    const char* first = k.value.data();
+    const char* last = first + k.value.size();
+    long long i = 0;
+    double d = 0;
+    if (auto r = std::from_chars(first, last, i); !k.value.empty() && r.ec == std::errc() && r.ptr == last)
+      j[k.key] = i;
+    else if (auto r2 = std::from_chars(first, last, d); !k.value.empty() && r2.ec == std::errc() && r2.ptr == last)
+      j[k.key] = d;
+    else
+      j[k.key] = k.value;
+  }
+  return j;
+}
+
+}  // namespace rtu::host
+
+namespace rtu::host {
+
+Json timing_stats_json(const hw::TimingStats& s, const hw::TimingConfig& c) {
+  Json j;
+  const double cyc = double(s.cycles), rays = double(s.rays);
+  j["cycles"] = s.cycles;
+  j["packets"] = s.packets;
+  j["rays"] = s.rays;
+  j["cycles_per_ray"] = rays > 0 ? cyc / rays : 0.0;
+  j["rays_per_clock"] = cyc > 0 ? rays / cyc : 0.0;
+  j["seconds_at_clock"] = cyc / (c.clock_ghz * 1e9);
+  j["box_tests"] = s.box_tests;
+  j["triangle_tests"] = s.tri_tests;
+  j["sphere_tests"] = s.sphere_tests;
+  j["plane_tests"] = s.plane_tests;
+  j["utilization"] = {
+      {"box_units", cyc > 0 ? double(s.box_issue_cycles) / (cyc * c.box_units) : 0.0},
+      {"triangle_units", cyc > 0 ? double(s.tri_issue_cycles) / (cyc * c.tri_units * c.tri_rate) : 0.0},
+      {"dram", cyc > 0 ? double(s.dram_busy_cycles) / cyc : 0.0},
+      {"ray_slots", cyc > 0 ? double(s.slot_busy_cycles) / (cyc * c.ray_slots) : 0.0}};
+  const double accesses = double(s.cache_hits + s.cache_misses);
+  j["cache"] = {{"line_accesses", s.cache_hits + s.cache_misses},
+                {"hits", s.cache_hits},
+                {"misses", s.cache_misses},
+                {"hit_rate", accesses > 0 ? double(s.cache_hits) / accesses : 0.0}};
+  j["node_fetches"] = s.node_fetches;
+  j["prim_fetches"] = s.prim_fetches;
+  j["dram_bytes"] = s.dram_bytes;
+  j["dram_bytes_per_cycle"] = cyc > 0 ? double(s.dram_bytes) / cyc : 0.0;
+  j["dram_gb_per_s"] = cyc > 0 ? double(s.dram_bytes) / cyc * c.clock_ghz : 0.0;
+  j["stream_bytes"] = s.stream_bytes;
+  j["stack_spills"] = s.stack_spills;
+  j["stack_refills"] = s.stack_refills;
+  j["queue_stall_cycles"] = s.queue_stall_cycles;
+  // The unit cannot be faster than its busiest resource. Box tests count in whole clocks per node (a node of
+  // c children issues for ceil(c / box_rate) clocks), so the bound is the issue clocks over the units.
+  const double box = double(s.box_issue_cycles) / double(c.box_units);
+  const double tri = double(s.tri_tests + s.sphere_tests + s.plane_tests) / double(c.tri_rate * c.tri_units);
+  const double mem = double(s.dram_bytes) / c.dram_bytes_per_cycle;
+  const double bound = std::max({box, tri, mem});
+  j["lower_bound"] = {{"cycles", bound},
+                      {"box", box},
+                      {"triangle", tri},
+                      {"dram", mem},
+                      {"limited_by", bound == box ? "box" : (bound == tri ? "triangle" : "dram")},
+                      {"cycles_over_bound", bound > 0 ? cyc / bound : 0.0}};
+  return j;
+}
+
+Json timed_json(const hw::TimedEngine& e) {
+  Json j = timing_stats_json(e.timing(), e.config());
+  Json by_type = Json::object();
+  for (int t = 0; t < hw::cmd::kRayTypeCount; ++t)
+    if (e.timing_by_type()[size_t(t)].rays > 0)
+      by_type[hw::cmd::ray_type_name(hw::cmd::RayType(t))] =
+          timing_stats_json(e.timing_by_type()[size_t(t)], e.config());
+  j["by_ray_type"] = by_type;
+  Json by_bounce = Json::object();
+  for (const auto& [b, s] : e.timing_by_bounce()) by_bounce[std::to_string(b)] = timing_stats_json(s, e.config());
+  j["by_bounce"] = by_bounce;
+  j["config"] = timing_json(e.config());
+  j["sample"] = sample_json(e.sampling());
+  return j;
+}
+
+Json sample_json(const hw::SampleStats& s) {
+  Json j;
+  j["packets"] = s.packets;
+  j["packets_sampled"] = s.packets_sampled;
+  j["rays"] = s.rays;
+  j["rays_simulated"] = s.rays_simulated;
+  j["rays_warmed"] = s.rays_warmed;
+  j["simulated_fraction"] = s.rays > 0 ? double(s.rays_simulated) / double(s.rays) : 0.0;
+  j["units_measured"] = s.units_measured;
+  j["warmup_rays_mean"] = s.units_measured > 0 ? double(s.warmup_rays) / double(s.units_measured) : 0.0;
+  j["packets_stratified"] = s.packets_stratified;
+  j["cycles_ci95"] = s.ci95();
+  return j;
+}
+
+}  // namespace rtu::host
+
+namespace rtu::host {
+
+Json render_json(const RenderResult& r, const RenderOptions& o) {
+  using hw::cmd::RayType;
+  Json j;
+  j["device"] = hw::device_kind_name(o.device.kind);
+  j["width"] = r.width;
+  j["height"] = r.height;
+  j["spp"] = o.spp;
+  j["max_depth"] = o.max_depth;
+  j["seed"] = o.seed;
+  j["mode"] = o.ao ? "ambient_occlusion" : (o.indirect ? "path_tracing" : "direct_and_specular");
+  j["render_mode"] = o.hybrid ? "hybrid" : "raytrace";
+  j["seconds"] = r.seconds;
+  Json rays;
+  uint64_t total = 0;
+  for (int t = 0; t < hw::cmd::kRayTypeCount; ++t) {
+    rays[hw::cmd::ray_type_name(RayType(t))] = r.fw.rays[t];
+    total += r.fw.rays[t];
+  }
+  j["rays"] = rays;
+  j["rays_total"] = total;
+  j["rays_per_second"] = r.seconds > 0 ? double(total) / r.seconds : 0.0;
+  // Primary rays the rasterizer made unnecessary (hybrid: every camera sample; raytrace: none).
+  j["rays_saved"] = {{"primary", r.fw.primary_rasterized}};
+  if (o.hybrid) {
+    const fw::RasterStats& rs = r.fw.raster;
+    j["raster"] = {{"passes", rs.passes},
+                   {"prims_read", rs.prims_read},
+                   {"setups", rs.setups},
+                   {"samples_tested", rs.samples_tested},
+                   {"fragments", rs.fragments},
+                   {"depth_writes", rs.depth_writes},
+                   {"clears", rs.clears},
+                   {"triangles_culled", rs.triangles_culled},
+                   {"triangles_clipped", rs.triangles_clipped},
+                   {"triangles_degenerate", rs.triangles_degenerate}};
+  }
+  j["paths"] = r.fw.paths;
+  j["batches"] = r.fw.batches;
+  j["batch_paths"] = r.fw.batch_paths;
+  j["bounces"] = r.fw.bounces;
+  j["commands"] = {{"packets", r.ring.packets},
+                   {"trace", r.fw.traces},
+                   {"fences", r.ring.fences},
+                   {"doorbells", r.ring.doorbells},
+                   {"ring_full", r.ring.full}};
+  // What the scene did not need, and why: decided before any ray was built.
+  Json skipped = Json::object();
+  const bool any_diffuse = r.fw.need_shadow || r.fw.need_diffuse || r.fw.need_occlusion;
+  if (!r.fw.need_shadow)
+    skipped["shadow"] =
+        r.fw.rays[int(RayType::kShadow)] == 0 && any_diffuse ? "no lights" : "no lights or no diffuse surface";
+  if (!r.fw.need_reflection)
+    skipped["reflection"] = o.max_depth == 0 ? "max depth 0" : "no mirror or glass material";
+  if (!r.fw.need_refraction) skipped["refraction"] = o.max_depth == 0 ? "max depth 0" : "no glass material";
+  if (!r.fw.need_diffuse)
+    skipped["diffuse"] = o.ao ? "ambient occlusion instead"
+                              : (!o.indirect ? "indirect light off" : "no diffuse material or max depth 0");
+  if (!r.fw.need_occlusion) skipped["occlusion"] = o.ao ? "no diffuse material" : "ambient occlusion off";
+  if (r.fw.hybrid) skipped["primary"] = "rasterized (hybrid mode)";
+  if (r.counts.triangles == 0) skipped["triangle_unit"] = "no triangles";
+  if (r.counts.spheres == 0) skipped["sphere_unit"] = "no spheres";
+  if (r.counts.planes == 0) skipped["plane_unit"] = "no planes";
+  if (!r.uses_bvh) skipped["bvh"] = "brute force is cheaper for this scene (hw::choose_accel)";
+  j["skipped"] = skipped;
+  Json unit;
+  unit["primitives"] = {
+      {"triangles", r.counts.triangles}, {"spheres", r.counts.spheres}, {"planes", r.counts.planes}};
+  unit["accel"] = r.uses_bvh ? "bvh" : "brute_force";
+  unit["memory_bytes"] = r.device_memory_bytes;
+  unit["scene_image_bytes"] = r.scene_image_bytes;
+  unit["packets"] = r.device.packets;
+  Json by_type;
+  for (int t = 0; t < hw::cmd::kRayTypeCount; ++t) {
+    if (r.device.rays_by_type[t] == 0) continue;
+    by_type[hw::cmd::ray_type_name(RayType(t))] = traversal_json(r.device.stats_by_type[t]);
+  }
+  unit["by_ray_type"] = by_type;
+  unit["total"] = traversal_json(r.device.total());
+  j["unit"] = unit;
+  j["spawn_offset"] = {{"abs", r.offset_abs}, {"rel", r.offset_rel}};
+  if (o.device.kind != hw::DeviceKind::kFloat) j["format"] = format_json(o.device.format);
+  if (r.timed) {
+    Json t = timing_stats_json(r.timing, o.device.timing);
+    Json by_type = Json::object();
+    for (int k = 0; k < hw::cmd::kRayTypeCount; ++k)
+      if (r.timing_by_type[size_t(k)].rays > 0)
+        by_type[hw::cmd::ray_type_name(RayType(k))] =
+            timing_stats_json(r.timing_by_type[size_t(k)], o.device.timing);
+    t["by_ray_type"] = by_type;
+    Json by_bounce = Json::object();
+    for (const auto& [b, s] : r.timing_by_bounce)
+      by_bounce[std::to_string(b)] = timing_stats_json(s, o.device.timing);
+    t["by_bounce"] = by_bounce;
+    t["device_clock"] = r.device_clock;
+    // Fence interrupts: the host sees the frame's last fence irq_latency after the device clock's end.
+    t["fence_irqs"] = r.device.fence_irqs;
+    t["last_irq_cycle"] = r.device.last_irq_cycle;
+    t["sample"] = sample_json(r.sampling);
+    // The frame: the rasterizer's cycles (hybrid) and the unit's (every packet), which do not overlap.
+    const hw::RasterCycles& rc = r.raster_cycles;
+    t["raster"] = {{"cycles", rc.cycles},
+                   {"latency_cycles", rc.latency_cycles},
+                   {"setup_cycles", rc.setup_cycles},
+                   {"scan_cycles", rc.scan_cycles},
+                   {"fragment_cycles", rc.fragment_cycles},
+                   {"dram_cycles", rc.dram_cycles},
+                   {"dram_bytes", rc.dram_bytes},
+                   {"limit", rc.limit}};
+    t["raster_cycles"] = rc.cycles;
+    t["trace_cycles"] = r.device_clock;
+    t["frame_cycles"] = r.frame_cycles;
+    t["config"] = timing_json(o.device.timing);
+    j["timing"] = t;
+  }
+  return j;
+}
+
+}  // namespace rtu::host

@@ -1,0 +1,44 @@
+// Figures as JSON, as rtusim writes them (--stats, --json, report.json): the BVH and the device image, the number
+// format, traversal statistics, the timing configuration and what a timed run measured, and a render's
+// statistics.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "host/direct_device.h"
+#include "host/render.h"
+#include "hwmodel/device_image.h"
+#include "hwmodel/fixed_format.h"
+#include "hwmodel/stats.h"
+#include "hwmodel/timed_engine.h"
+#include "hwmodel/timing_config.h"
+
+namespace rtu::host {
+
+using Json = nlohmann::ordered_json;
+
+Json bvh_json(const DirectDevice& d);
+Json format_json(const hw::FixedFormat& f);
+// Bytes of the fixed device's image beside the float BVH's (nodes + leaf index) for the same tree.
+Json image_json(const hw::DeviceImage& img, const hw::Bvh* bvh);
+Json traversal_json(const hw::TraversalStats& s);
+// Writes j indented by 2; throws Error when the file cannot be written.
+void write_json(const std::string& path, const Json& j);
+
+// {"preset": name, key: value, ...} in timing_keys() order: numbers as JSON numbers, text as strings.
+Json timing_json(const hw::TimingConfig& c);
+// What a timed run measured: cycles, cycles per ray, rays per clock, unit utilization, cache and DRAM figures,
+// stack spills, queue stalls, and the lower bound max(box tests / box rate, triangle tests / triangle rate,
+// DRAM bytes / bandwidth) with the cycles divided by it.
+Json timing_stats_json(const hw::TimingStats& s, const hw::TimingConfig& c);
+// The timed engine's statistics in total, by ray type and by bounce, with its configuration.
+Json timed_json(const hw::TimedEngine& e);
+// What sampled timing simulated (hw::SampleStats), with the 95% interval of the cycles.
+Json sample_json(const hw::SampleStats& s);
+
+// A render's statistics: rays by type, commands, what was skipped and why, the unit's counters, and on the timed
+// device its timing (in total, by ray type and bounce, the rasterizer's cycles and the frame's).
+Json render_json(const RenderResult& r, const RenderOptions& o);
+
+}  // namespace rtu::host

@@ -14,14 +14,13 @@ hw::FixedFormat DeviceSettings::fixed_format() const {
     field = value;
     changed += std::string(changed.empty() ? "+" : ",") + key + "=" + std::to_string(value);
   };
-  set(f.coord_bits, coord_bits, "coord_bits");
-  set(f.child_bits, child_bits, "child_bits");
-  set(f.guard_bits, guard_bits, "guard_bits");
-  set(f.frac_bits, frac_bits, "frac_bits");
-  set(f.dir_bits, dir_bits, "dir_bits");
-  set(f.rcp_bits, rcp_bits, "rcp_bits");
-  set(f.t_frac_bits, t_frac_bits, "t_frac_bits");
-  set(f.t_bits, t_bits, "t_bits");
+  for (const hw::FormatField& d : hw::format_fields()) {
+    if (d.member == &hw::FixedFormat::width) continue;  // last, from bvh_width
+    const auto it = format_fields.find(d.key);
+    if (it != format_fields.end()) set(f.*d.member, it->second, d.key);
+  }
+  for (const auto& [key, value] : format_fields)
+    if (key == "width" || !hw::format_field(f, key)) throw Error("unknown format field '" + key + "'");
   set(f.width, bvh_width > 0 ? bvh_width : -1, "width");
   f.name += changed;
   f.validate();

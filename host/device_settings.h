@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -19,9 +20,9 @@ struct DeviceSettings {
   int leaf_size = 8;
   std::string accel = "auto";  // auto, bvh or brute
   std::string format = "default";
-  // Overrides of the format preset's fields; -1 keeps the preset's value.
-  int coord_bits = -1, child_bits = -1, guard_bits = -1, frac_bits = -1, dir_bits = -1, rcp_bits = -1,
-      t_frac_bits = -1, t_bits = -1;
+  // Overrides of the format preset's fields (hw::format_fields() but width, which bvh_width sets), by key; a field
+  // not named keeps the preset's value.
+  std::map<std::string, int> format_fields;
   // The timed device: a timing preset and key=value overrides. Its format preset and BVH width come from the
   // configuration (keys `format`, `bvh_width`); the per-field format options still apply on top.
   std::string config = "rdna2";

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <charconv>
 #include <fstream>
+#include <variant>
 
 #include "host/error.h"
 
@@ -36,15 +37,7 @@ Json bvh_json(const DirectDevice& d) {
 Json format_json(const hw::FixedFormat& f) {
   Json j;
   j["name"] = f.name;
-  j["width"] = f.width;
-  j["coord_bits"] = f.coord_bits;
-  j["child_bits"] = f.child_bits;
-  j["guard_bits"] = f.guard_bits;
-  j["frac_bits"] = f.frac_bits;
-  j["dir_bits"] = f.dir_bits;
-  j["rcp_bits"] = f.rcp_bits;
-  j["t_frac_bits"] = f.t_frac_bits;
-  j["t_bits"] = f.t_bits;
+  for (const hw::FormatField& field : hw::format_fields()) j[field.key] = f.*field.member;
   j["box_product_bits"] = f.box_product_bits();
   j["edge_function_bits"] = f.edge_function_bits();
   return j;
@@ -133,49 +126,14 @@ Json timing_json(const hw::TimingConfig& c) {
 namespace rtu::host {
 
 Json timing_stats_json(const hw::TimingStats& s, const hw::TimingConfig& c) {
+  // The report table of timing_stats.h, in its order; "a.b" is key b of object a.
   Json j;
-  const double cyc = double(s.cycles), rays = double(s.rays);
-  j["cycles"] = s.cycles;
-  j["packets"] = s.packets;
-  j["rays"] = s.rays;
-  j["cycles_per_ray"] = rays > 0 ? cyc / rays : 0.0;
-  j["rays_per_clock"] = cyc > 0 ? rays / cyc : 0.0;
-  j["seconds_at_clock"] = cyc / (c.clock_ghz * 1e9);
-  j["box_tests"] = s.box_tests;
-  j["triangle_tests"] = s.tri_tests;
-  j["sphere_tests"] = s.sphere_tests;
-  j["plane_tests"] = s.plane_tests;
-  j["utilization"] = {
-      {"box_units", cyc > 0 ? double(s.box_issue_cycles) / (cyc * c.box_units) : 0.0},
-      {"triangle_units", cyc > 0 ? double(s.tri_issue_cycles) / (cyc * c.tri_units * c.tri_rate) : 0.0},
-      {"dram", cyc > 0 ? double(s.dram_busy_cycles) / cyc : 0.0},
-      {"ray_slots", cyc > 0 ? double(s.slot_busy_cycles) / (cyc * c.ray_slots) : 0.0}};
-  const double accesses = double(s.cache_hits + s.cache_misses);
-  j["cache"] = {{"line_accesses", s.cache_hits + s.cache_misses},
-                {"hits", s.cache_hits},
-                {"misses", s.cache_misses},
-                {"hit_rate", accesses > 0 ? double(s.cache_hits) / accesses : 0.0}};
-  j["node_fetches"] = s.node_fetches;
-  j["prim_fetches"] = s.prim_fetches;
-  j["dram_bytes"] = s.dram_bytes;
-  j["dram_bytes_per_cycle"] = cyc > 0 ? double(s.dram_bytes) / cyc : 0.0;
-  j["dram_gb_per_s"] = cyc > 0 ? double(s.dram_bytes) / cyc * c.clock_ghz : 0.0;
-  j["stream_bytes"] = s.stream_bytes;
-  j["stack_spills"] = s.stack_spills;
-  j["stack_refills"] = s.stack_refills;
-  j["queue_stall_cycles"] = s.queue_stall_cycles;
-  // The unit cannot be faster than its busiest resource. Box tests count in whole clocks per node (a node of
-  // c children issues for ceil(c / box_rate) clocks), so the bound is the issue clocks over the units.
-  const double box = double(s.box_issue_cycles) / double(c.box_units);
-  const double tri = double(s.tri_tests + s.sphere_tests + s.plane_tests) / double(c.tri_rate * c.tri_units);
-  const double mem = double(s.dram_bytes) / c.dram_bytes_per_cycle;
-  const double bound = std::max({box, tri, mem});
-  j["lower_bound"] = {{"cycles", bound},
-                      {"box", box},
-                      {"triangle", tri},
-                      {"dram", mem},
-                      {"limited_by", bound == box ? "box" : (bound == tri ? "triangle" : "dram")},
-                      {"cycles_over_bound", bound > 0 ? cyc / bound : 0.0}};
+  for (const hw::TimingStatValue& v : hw::timing_report(s, c)) {
+    const std::string key = v.key;
+    const size_t dot = key.find('.');
+    Json& slot = dot == std::string::npos ? j[key] : j[key.substr(0, dot)][key.substr(dot + 1)];
+    std::visit([&](const auto& x) { slot = x; }, v.value);
+  }
   return j;
 }
 

@@ -1,5 +1,5 @@
 // rtusim config: print a timing preset with overrides as `key = value   # description` lines (and as JSON), or
-// list the presets.
+// list the presets, or the statistics a timed run reports.
 #include <algorithm>
 #include <cstdio>
 #include <memory>
@@ -14,10 +14,26 @@ namespace {
 struct ConfigOptions {
   std::string preset = "rdna2", json;
   std::vector<std::string> sets;
-  bool list = false;
+  bool list = false, stats = false;
 };
 
+// The timed device's statistics: the report (the stats JSON's `timing` object) and the counters behind it.
+void print_stats() {
+  std::printf("# the stats JSON's timing object (also per ray type and per bounce), in its order\n");
+  for (const hw::TimingStatValue& v : hw::timing_report_keys())
+    std::printf("%-30s %-12s %s\n", v.key, v.unit, v.description);
+  std::printf(
+      "\n# the counters the timing model keeps (sampled timing: per-ray counters are scaled to the packet)\n");
+  for (const hw::TimingCounter& c : hw::timing_counters())
+    std::printf("%-30s %-12s %s%s\n", c.name, c.unit, c.description,
+                c.scale == hw::SampleScale::kPacket ? " (set for the whole packet when sampled)" : "");
+}
+
 void run_config(const ConfigOptions& o) {
+  if (o.stats) {
+    print_stats();
+    return;
+  }
   if (o.list) {
     size_t w = 0;
     for (const std::string& n : hw::timing_preset_names()) w = std::max(w, n.size());
@@ -47,8 +63,9 @@ void add_config(CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
       "config",
       "Print the timing model's configuration: a preset with --set overrides, every key with its value and "
-      "what it means; or --list the presets");
+      "what it means; or --list the presets, or --stats the statistics a timed run reports");
   CLI::Option* list = sub->add_flag("--list", o->list, "list the presets with what each resembles");
+  sub->add_flag("--stats", o->stats, "list the timed device's statistics: key, unit and meaning")->excludes(list);
   sub->add_option("--preset", o->preset, "timing preset (--list shows them)")
       ->capture_default_str()
       ->excludes(list);

@@ -1,5 +1,6 @@
 #include "host/cli/common.h"
 
+#include <algorithm>
 #include <cstdio>
 
 namespace rtu::host::cli {
@@ -49,17 +50,19 @@ void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_hel
   app.add_option("--format", o.format, "fixed-point format preset (rtusim info --formats lists them)")
       ->check(CLI::IsMember(presets))
       ->capture_default_str();
-  auto field = [&](const char* flag, int& v, const char* help) {
-    app.add_option(flag, v, help)->check(CLI::NonNegativeNumber)->group("Fixed-point format (overrides)");
-  };
-  field("--coord-bits", o.coord_bits, "B: grid bits of scene coordinates (2..30)");
-  field("--child-bits", o.child_bits, "k: bits of child box offsets (1..16)");
-  field("--guard-bits", o.guard_bits, "G: ray origins may lie 2^G scene extents out (1..16)");
-  field("--frac-bits", o.frac_bits, "F: fraction bits of origins, sphere centers/radii, plane offsets (0..24)");
-  field("--dir-bits", o.dir_bits, "D: fraction bits of the scaled direction (4..30)");
-  field("--rcp-bits", o.rcp_bits, "R: fraction bits of the reciprocal (4..40)");
-  field("--t-frac-bits", o.t_frac_bits, "T: fraction bits of t (0..32)");
-  field("--t-bits", o.t_bits, "magnitude bits of the t register (8..62)");
+  // One option per field of the format table (width has --bvh-width): --coord-bits for coord_bits, ...
+  for (const hw::FormatField& f : hw::format_fields()) {
+    if (f.member == &hw::FixedFormat::width) continue;
+    std::string flag = std::string("--") + f.key;
+    std::replace(flag.begin(), flag.end(), '_', '-');
+    const std::string help = std::string(*f.symbol ? f.symbol : "") + (*f.symbol ? ": " : "") + f.description +
+                             " (" + std::to_string(f.lo) + ".." + std::to_string(f.hi) + ")";
+    const std::string key = f.key;
+    app.add_option_function<int>(
+           flag, [&o, key](int v) { o.format_fields[key] = v; }, help)
+        ->check(CLI::NonNegativeNumber)
+        ->group("Fixed-point format (overrides)");
+  }
 }
 
 }  // namespace rtu::host::cli

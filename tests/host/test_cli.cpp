@@ -535,6 +535,21 @@ TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the 
   CHECK(t["by_bounce"].size() == 1);
   CHECK(t["by_bounce"]["0"]["box_tests"] == t["box_tests"]);
   CHECK(t["config"]["box_rate"] == 12);
+  // `config --stats` lists every statistic of the timing object, each with its unit and meaning.
+  const Run list = run_rtusim("config --stats");
+  REQUIRE(list.status == 0);
+  std::vector<std::string> leaves;
+  for (const auto& [key, v] : t.items()) {
+    if (key == "by_ray_type" || key == "by_bounce" || key == "config" || key == "sample") continue;
+    if (!v.is_object()) leaves.push_back(key);
+    for (const auto& [sub, x] : v.items())
+      if (v.is_object()) leaves.push_back(key + "." + sub);
+  }
+  for (const std::string& leaf : leaves) {
+    CAPTURE(leaf);
+    CHECK(list.output.find("\n" + leaf + " ") != std::string::npos);
+  }
+  CHECK(leaves.size() >= 30);
   // The pipeline trace: Chrome trace events, spans overlapping the window, every slot named.
   const nlohmann::json p = nlohmann::json::parse(std::ifstream(pipe));
   REQUIRE(p["traceEvents"].is_array());

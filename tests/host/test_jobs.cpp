@@ -224,7 +224,7 @@ TEST_CASE("ray specs, timing overrides and pipeline-trace windows as the command
 
   rtu::host::DeviceSettings d;
   d.config = "intel";
-  d.coord_bits = 16;
+  d.format_fields["coord_bits"] = 16;
   const rtu::host::DeviceOptions timed = d.options(rtu::hw::DeviceKind::kTimed);
   CHECK(timed.kind == rtu::hw::DeviceKind::kTimed);
   CHECK(timed.format.coord_bits == 16);

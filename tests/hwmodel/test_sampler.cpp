@@ -162,7 +162,7 @@ TEST_CASE("sampler: the detailed warm-up follows how long the stream's rays hold
   CHECK(warmup_rays(a, slots, 0) == 40 * slots);
 }
 
-TEST_CASE("timing statistics: one table for every counter; add, scaling and the report read it", "[timing]") {
+TEST_CASE("timing statistics: one table for every counter, which add, scaling and the report read", "[timing]") {
   std::set<std::string> names;
   TimingStats a, b;
   uint64_t v = 1;

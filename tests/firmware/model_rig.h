@@ -1,7 +1,7 @@
 // Shared by the tests of the ring driver on the model device (test_ring.cpp) and of the command processor's error
 // paths (test_command_processor_errors.cpp): the seed scene and its images for both engines, the hits the tracers
-// give when called directly, rays of every kind, and Rig, a host::FirmwareDevice driven by the firmware ring driver
-// with the scene image of its engine in device memory.
+// give when called directly, rays of every kind, and Rig, a host::FirmwareDevice driven by the firmware ring
+// driver with the scene image of its engine in device memory.
 #pragma once
 
 #include <catch2/catch.hpp>
@@ -19,8 +19,8 @@
 #include "host/scene.h"
 #include "hwmodel/bvh.h"
 #include "hwmodel/commands.h"
-#include "hwmodel/device_kind.h"
 #include "hwmodel/device_image.h"
+#include "hwmodel/device_kind.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
@@ -28,12 +28,19 @@
 
 namespace rtu::test {
 
+// The names the ring tests use.
+namespace cmd = hw::cmd;
+namespace reg = hw::reg;
+using fw::Status;
+using reg::ErrorCode;
+
 inline constexpr uint64_t kMemBytes = 8u << 20;        // device memory of every rig
 inline constexpr uint64_t kRingArenaBytes = 64 << 10;  // [0, 64 KiB): the ring and its fence word; buffers above
 inline const char* const kEngines[] = {"float", "fixed"};
 
 // The seed scene and its images for both engines, built once. The float engine builds its BVH from the float
-// image with default options; the fixed image is encoded over the BVH the host would choose (host/direct_device.cpp).
+// image with default options; the fixed image is encoded over the BVH the host would choose
+// (host/direct_device.cpp).
 struct SceneData {
   host::Scene scene;
   hw::TracerOptions tracer;

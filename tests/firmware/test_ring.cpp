@@ -24,10 +24,6 @@
 
 using namespace rtu;
 using namespace rtu::test;
-namespace cmd = hw::cmd;
-namespace reg = hw::reg;
-using fw::Status;
-using reg::ErrorCode;
 
 TEST_CASE("ring on the model device: 1000 packets through 4 slots, in order", "[ring]") {
   for (const char* engine : kEngines) {

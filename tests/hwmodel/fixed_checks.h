@@ -112,31 +112,18 @@ inline std::string describe_tri(const int32_t v[3][3]) {
 // A custom format with a coarse direction and reciprocal (D = 6, R = 4) and no fraction bits, so the box test's
 // roundings are as large as any format allows, and small coordinates (B = 10).
 inline FixedFormat coarse_format() {
-  FixedFormat f;
+  FixedFormat f = format_from_spec(
+      "default:coord_bits=10:child_bits=4:guard_bits=2:frac_bits=0:dir_bits=6:rcp_bits=4:t_frac_bits=0:t_bits=20");
   f.name = "coarse";
-  f.coord_bits = 10;
-  f.child_bits = 4;
-  f.guard_bits = 2;
-  f.frac_bits = 0;
-  f.dir_bits = 6;
-  f.rcp_bits = 4;
-  f.t_frac_bits = 0;
-  f.t_bits = 20;
   return f;
 }
 
 // A custom format with positions much finer than t (F = 16, T = 8): the sphere test's rounding of the
 // perpendicular to grid.F then costs well under a unit of t (see the sphere test case).
 inline FixedFormat fine_position_format() {
-  FixedFormat f;
+  FixedFormat f = format_from_spec(
+      "default:coord_bits=16:guard_bits=4:frac_bits=16:dir_bits=24:rcp_bits=24:t_frac_bits=8:t_bits=40");
   f.name = "fine-position";
-  f.coord_bits = 16;
-  f.guard_bits = 4;
-  f.frac_bits = 16;
-  f.dir_bits = 24;
-  f.rcp_bits = 24;
-  f.t_frac_bits = 8;
-  f.t_bits = 40;
   return f;
 }
 

@@ -79,14 +79,9 @@ TEST_CASE("ray setup: invalid rays, guard range, infinite tmax, signed zeros, po
   // just inside are accepted. A small format and a frame with origin 0 make the boundary values exact floats:
   // +-(2^(B+G) - 2^-F) needs B + G + F = 20 bits.
   FixedFormat small;
-  small.coord_bits = 8;
-  small.guard_bits = 4;
-  small.frac_bits = 8;
-  small.dir_bits = 16;
-  small.rcp_bits = 16;
-  small.t_frac_bits = 8;
-  small.t_bits = 32;
-  REQUIRE_NOTHROW(small.validate());
+  REQUIRE_NOTHROW(
+      small = format_from_spec(
+          "default:coord_bits=8:guard_bits=4:frac_bits=8:dir_bits=16:rcp_bits=16:t_frac_bits=8:t_bits=32"));
   const int range = small.coord_bits + small.guard_bits;
   const int64_t olim = int64_t(1) << (range + small.frac_bits);
   {

@@ -2,8 +2,8 @@
 //
 // Every generator builds an indexed mesh: each vertex is computed exactly once, and faces refer to vertices by
 // index. Expanding the faces into triangles copies the vertices, so triangles that share a vertex share its
-// exact float bits, and a closed generated mesh stays watertight (design.md, "Watertight triangles"). To keep
-// that, transform the indexed vertices (once each) before expanding, never the expanded triangles.
+// exact float bits, and a closed generated mesh stays watertight (docs/architecture.md, "Numerics promises"). To
+// keep that, transform the indexed vertices (once each) before expanding, never the expanded triangles.
 // All generated closed meshes are consistently wound, counter-clockwise seen from outside.
 #pragma once
 

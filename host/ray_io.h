@@ -1,5 +1,5 @@
-// Ray and hit files (design.md): little-endian binary without header (32-byte rays, 16-byte hits), or CSV with
-// a header line when the file name ends in ".csv".
+// Ray and hit files (docs/file-formats.md): little-endian binary without header (32-byte rays, 16-byte hits), or
+// CSV with a header line when the file name ends in ".csv".
 #pragma once
 
 #include <string>

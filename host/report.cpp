@@ -347,7 +347,7 @@ Json section_stress(const ReportOptions& a, const ReportSizes& z, Html& h, uint6
   failures = 0;
   h.s << "<h2>Stress suite</h2>\n<p><code>rtusim stress --count " << o.count
       << "</code> (default format): rays aimed where ray tracers break; a failure is a broken promise of "
-         "design.md.</p>\n<table>\n<tr><th>category</th><th>cases</th><th>failures</th><th>seconds</th>"
+         "docs/architecture.md.</p>\n<table>\n<tr><th>category</th><th>cases</th><th>failures</th><th>seconds</th>"
          "<th>what fails</th></tr>\n";
   for (const StressResult& r : results) {
     cases += r.cases;

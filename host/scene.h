@@ -1,6 +1,6 @@
 // A scene as the host knows it: the unit's geometry plus what the renderer needs (materials, lights, camera).
 //
-// Primitive order (the contract of hit files, design.md): triangles first, in this order
+// Primitive order (the contract of hit files, docs/file-formats.md): triangles first, in this order
 //   1. each mesh entry of the scene description, in file order; inside one mesh file, Assimp's node tree
 //      depth-first (a node's meshes in order, then its children in order), each mesh's faces in order;
 //   2. the two triangles of each area light, in file order;

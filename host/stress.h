@@ -1,8 +1,8 @@
 // The numerical-stability suite (`rtusim stress`): generated scenes and rays aimed at the places where ray
 // tracers break, run on the float and fixed devices. Each category says what it checks and what counts as a
-// failure: a broken promise of design.md (a leak through a closed mesh, a box rejected that exact arithmetic
-// accepts, a bad ray not rejected, a hit on a degenerate triangle, a self-hit from a properly offset origin,
-// results that depend on the thread count). Figures that are not promises (precision losses the format
+// failure: a broken promise of docs/architecture.md (a leak through a closed mesh, a box rejected that exact
+// arithmetic accepts, a bad ray not rejected, a hit on a degenerate triangle, a self-hit from a properly offset
+// origin, results that depend on the thread count). Figures that are not promises (precision losses the format
 // implies) are reported beside the failures.
 #pragma once
 

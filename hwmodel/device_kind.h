@@ -1,4 +1,5 @@
-// The kinds of device the model can be, by what traces the rays (design.md, "One firmware, several devices"):
+// The kinds of device the model can be, by what traces the rays (docs/architecture.md, "Devices, tracers and
+// engines"):
 // - float: the float reference datapath (robust, conservative), no timing;
 // - fixed: the bit-accurate fixed-point datapath over a device memory image, no timing;
 // - timed: the same fixed datapath with the cycle-approximate timing model (hits identical to fixed).

@@ -1,8 +1,8 @@
-// libFuzzer targets for rtu's untrusted inputs (docs/guide/hardening.md). Each target is a function of the input bytes
-// that returns 0; expected rejections (host::Error, std::invalid_argument) are caught inside, any other exception
-// or a broken invariant (RTU_FUZZ_CHECK) aborts, which libFuzzer records as a crash. The same functions run in
-// the default and asan builds over the committed seed corpora and crash reproducers (test_fuzz_corpus.cpp), so
-// every crash found stays a regression test.
+// libFuzzer targets for rtu's untrusted inputs (docs/guide/hardening.md). Each target is a function of the input
+// bytes that returns 0; expected rejections (host::Error, std::invalid_argument) are caught inside, any other
+// exception or a broken invariant (RTU_FUZZ_CHECK) aborts, which libFuzzer records as a crash. The same functions
+// run in the default and asan builds over the committed seed corpora and crash reproducers (test_fuzz_corpus.cpp),
+// so every crash found stays a regression test.
 #pragma once
 
 #include <cstddef>

@@ -245,10 +245,10 @@ TEST_CASE("golden image: the float device renders the seed scene as recorded", "
 }
 
 TEST_CASE("float and fixed renders agree within the format's error", "[render]") {
-  // The default format agrees with float on >= 99.99% of hits (bench/results/fixed-vs-float-error.md); a path diverges only where
-  // one of its <= 6 segments hits differently, so <= 6e-4 of the samples differ, each by at most full scale:
-  // MSE <= 6e-4 * 255^2, PSNR >= 10 log10(1 / 6e-4) = 32 dB. The t errors (1e-7 relative) move shading by far
-  // less than a level.
+  // The default format agrees with float on >= 99.99% of hits (bench/results/fixed-vs-float-error.md); a path
+  // diverges only where one of its <= 6 segments hits differently, so <= 6e-4 of the samples differ, each by at
+  // most full scale: MSE <= 6e-4 * 255^2, PSNR >= 10 log10(1 / 6e-4) = 32 dB. The t errors (1e-7 relative) move
+  // shading by far less than a level.
   for (const char* name : {"builtin:seed", "builtin:cornell"}) {
     CAPTURE(name);
     const Scene s = rtu::host::load_scene(name);

@@ -149,7 +149,7 @@ TEST_CASE("a timed render equals the fixed render, the clock counts cycles", "[t
   for (const rtu::hw::TimingStats& x : t.timing_by_type) by_type.add(x);
   for (const auto& [b, x] : t.timing_by_bounce) by_bounce.add(x);
   CHECK(t.timing_by_bounce.size() == 4);  // bounces 0..3 at max_depth 3
-  check_same_timing(by_type, t.timing);  // every counter
+  check_same_timing(by_type, t.timing);   // every counter
   check_same_timing(by_bounce, t.timing);
 }
 

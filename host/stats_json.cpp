@@ -1,8 +1,10 @@
 #include "host/stats_json.h"
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <fstream>
+#include <map>
 #include <variant>
 
 #include "host/error.h"
@@ -121,10 +123,6 @@ Json timing_json(const hw::TimingConfig& c) {
   return j;
 }
 
-}  // namespace rtu::host
-
-namespace rtu::host {
-
 Json timing_stats_json(const hw::TimingStats& s, const hw::TimingConfig& c) {
   // The report table of timing_stats.h, in its order; "a.b" is key b of object a.
   Json j;
@@ -137,17 +135,28 @@ Json timing_stats_json(const hw::TimingStats& s, const hw::TimingConfig& c) {
   return j;
 }
 
-Json timed_json(const hw::TimedEngine& e) {
-  Json j = timing_stats_json(e.timing(), e.config());
-  Json by_type = Json::object();
+namespace {
+
+// The statistics in total, then by ray type (the types that ran rays) and by bounce.
+Json timing_breakdown_json(const hw::TimingStats& total,
+                           const std::array<hw::TimingStats, hw::cmd::kRayTypeCount>& by_type,
+                           const std::map<int, hw::TimingStats>& by_bounce, const hw::TimingConfig& c) {
+  Json j = timing_stats_json(total, c);
+  Json types = Json::object();
   for (int t = 0; t < hw::cmd::kRayTypeCount; ++t)
-    if (e.timing_by_type()[size_t(t)].rays > 0)
-      by_type[hw::cmd::ray_type_name(hw::cmd::RayType(t))] =
-          timing_stats_json(e.timing_by_type()[size_t(t)], e.config());
-  j["by_ray_type"] = by_type;
-  Json by_bounce = Json::object();
-  for (const auto& [b, s] : e.timing_by_bounce()) by_bounce[std::to_string(b)] = timing_stats_json(s, e.config());
-  j["by_bounce"] = by_bounce;
+    if (by_type[size_t(t)].rays > 0)
+      types[hw::cmd::ray_type_name(hw::cmd::RayType(t))] = timing_stats_json(by_type[size_t(t)], c);
+  j["by_ray_type"] = types;
+  Json bounces = Json::object();
+  for (const auto& [b, s] : by_bounce) bounces[std::to_string(b)] = timing_stats_json(s, c);
+  j["by_bounce"] = bounces;
+  return j;
+}
+
+}  // namespace
+
+Json timed_json(const hw::TimedEngine& e) {
+  Json j = timing_breakdown_json(e.timing(), e.timing_by_type(), e.timing_by_bounce(), e.config());
   j["config"] = timing_json(e.config());
   j["sample"] = sample_json(e.sampling());
   return j;
@@ -167,10 +176,6 @@ Json sample_json(const hw::SampleStats& s) {
   j["cycles_ci95"] = s.ci95();
   return j;
 }
-
-}  // namespace rtu::host
-
-namespace rtu::host {
 
 Json render_json(const RenderResult& r, const RenderOptions& o) {
   using hw::cmd::RayType;
@@ -254,17 +259,7 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
   j["spawn_offset"] = {{"abs", r.offset_abs}, {"rel", r.offset_rel}};
   if (o.device.kind != hw::DeviceKind::kFloat) j["format"] = format_json(o.device.format);
   if (r.timed) {
-    Json t = timing_stats_json(r.timing, o.device.timing);
-    Json by_type = Json::object();
-    for (int k = 0; k < hw::cmd::kRayTypeCount; ++k)
-      if (r.timing_by_type[size_t(k)].rays > 0)
-        by_type[hw::cmd::ray_type_name(RayType(k))] =
-            timing_stats_json(r.timing_by_type[size_t(k)], o.device.timing);
-    t["by_ray_type"] = by_type;
-    Json by_bounce = Json::object();
-    for (const auto& [b, s] : r.timing_by_bounce)
-      by_bounce[std::to_string(b)] = timing_stats_json(s, o.device.timing);
-    t["by_bounce"] = by_bounce;
+    Json t = timing_breakdown_json(r.timing, r.timing_by_type, r.timing_by_bounce, o.device.timing);
     t["device_clock"] = r.device_clock;
     // Fence interrupts: the host sees the frame's last fence irq_latency after the device clock's end.
     t["fence_irqs"] = r.device.fence_irqs;

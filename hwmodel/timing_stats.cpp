@@ -62,7 +62,7 @@ struct ReportEntry {
   uint64_t S::*member;  // a counter (the figure fields below unused)
   const char* unit;
   const char* description;
-  Value (*figure)(const S&, const TimingConfig&);
+  Value (*figure)(const S&, const TimingConfig&, const LowerBound&);
 };
 
 ReportEntry count(const char* key, uint64_t S::*member) {
@@ -70,7 +70,7 @@ ReportEntry count(const char* key, uint64_t S::*member) {
   return {key, member, c.unit, c.description, nullptr};
 }
 ReportEntry figure(const char* key, const char* unit, const char* description,
-                   Value (*f)(const S&, const TimingConfig&)) {
+                   Value (*f)(const S&, const TimingConfig&, const LowerBound&)) {
   return {key, nullptr, unit, description, f};
 }
 
@@ -81,45 +81,55 @@ const std::vector<ReportEntry>& report_table() {
       count("packets", &S::packets),
       count("rays", &S::rays),
       figure("cycles_per_ray", "cycles/ray", "cycles / rays",
-             [](const S& s, const C&) -> Value { return ratio(double(s.cycles), double(s.rays)); }),
+             [](const S& s, const C&, const LowerBound&) -> Value {
+               return ratio(double(s.cycles), double(s.rays));
+             }),
       figure("rays_per_clock", "rays/cycle", "rays / cycles",
-             [](const S& s, const C&) -> Value { return ratio(double(s.rays), double(s.cycles)); }),
+             [](const S& s, const C&, const LowerBound&) -> Value {
+               return ratio(double(s.rays), double(s.cycles));
+             }),
       figure("seconds_at_clock", "s", "cycles at clock_ghz",
-             [](const S& s, const C& c) -> Value { return double(s.cycles) / (c.clock_ghz * 1e9); }),
+             [](const S& s, const C& c, const LowerBound&) -> Value {
+               return double(s.cycles) / (c.clock_ghz * 1e9);
+             }),
       count("box_tests", &S::box_tests),
       count("triangle_tests", &S::tri_tests),
       count("sphere_tests", &S::sphere_tests),
       count("plane_tests", &S::plane_tests),
       figure("utilization.box_units", "1", "box unit issue clocks used / (cycles x box_units)",
-             [](const S& s, const C& c) -> Value {
+             [](const S& s, const C& c, const LowerBound&) -> Value {
                return s.cycles > 0 ? double(s.box_issue_cycles) / (double(s.cycles) * c.box_units) : 0.0;
              }),
       figure("utilization.triangle_units", "1", "triangle unit issue slots used / (cycles x tri_units x tri_rate)",
-             [](const S& s, const C& c) -> Value {
+             [](const S& s, const C& c, const LowerBound&) -> Value {
                return s.cycles > 0 ? double(s.tri_issue_cycles) / (double(s.cycles) * c.tri_units * c.tri_rate)
                                    : 0.0;
              }),
       figure("utilization.dram", "1", "DRAM channel busy cycles / cycles",
-             [](const S& s, const C&) -> Value { return ratio(double(s.dram_busy_cycles), double(s.cycles)); }),
+             [](const S& s, const C&, const LowerBound&) -> Value {
+               return ratio(double(s.dram_busy_cycles), double(s.cycles));
+             }),
       figure("utilization.ray_slots", "1", "slot busy cycles / (cycles x ray_slots)",
-             [](const S& s, const C& c) -> Value {
+             [](const S& s, const C& c, const LowerBound&) -> Value {
                return s.cycles > 0 ? double(s.slot_busy_cycles) / (double(s.cycles) * c.ray_slots) : 0.0;
              }),
       figure("cache.line_accesses", "lines", "cache line accesses (hits + misses)",
-             [](const S& s, const C&) -> Value { return s.cache_hits + s.cache_misses; }),
+             [](const S& s, const C&, const LowerBound&) -> Value { return s.cache_hits + s.cache_misses; }),
       count("cache.hits", &S::cache_hits),
       count("cache.misses", &S::cache_misses),
       figure("cache.hit_rate", "1", "hits / line accesses",
-             [](const S& s, const C&) -> Value {
+             [](const S& s, const C&, const LowerBound&) -> Value {
                return ratio(double(s.cache_hits), double(s.cache_hits + s.cache_misses));
              }),
       count("node_fetches", &S::node_fetches),
       count("prim_fetches", &S::prim_fetches),
       count("dram_bytes", &S::dram_bytes),
       figure("dram_bytes_per_cycle", "bytes/cycle", "DRAM bytes / cycles",
-             [](const S& s, const C&) -> Value { return ratio(double(s.dram_bytes), double(s.cycles)); }),
+             [](const S& s, const C&, const LowerBound&) -> Value {
+               return ratio(double(s.dram_bytes), double(s.cycles));
+             }),
       figure("dram_gb_per_s", "GB/s", "DRAM bytes / cycles at clock_ghz",
-             [](const S& s, const C& c) -> Value {
+             [](const S& s, const C& c, const LowerBound&) -> Value {
                return s.cycles > 0 ? double(s.dram_bytes) / double(s.cycles) * c.clock_ghz : 0.0;
              }),
       count("stream_bytes", &S::stream_bytes),
@@ -127,17 +137,17 @@ const std::vector<ReportEntry>& report_table() {
       count("stack_refills", &S::stack_refills),
       count("queue_stall_cycles", &S::queue_stall_cycles),
       figure("lower_bound.cycles", "cycles", "the largest of the box, triangle and DRAM bounds",
-             [](const S& s, const C& c) -> Value { return lower_bound(s, c).cycles; }),
+             [](const S&, const C&, const LowerBound& b) -> Value { return b.cycles; }),
       figure("lower_bound.box", "cycles", "box unit issue clocks / box_units",
-             [](const S& s, const C& c) -> Value { return lower_bound(s, c).box; }),
+             [](const S&, const C&, const LowerBound& b) -> Value { return b.box; }),
       figure("lower_bound.triangle", "cycles", "triangle, sphere and plane tests / (tri_rate x tri_units)",
-             [](const S& s, const C& c) -> Value { return lower_bound(s, c).triangle; }),
+             [](const S&, const C&, const LowerBound& b) -> Value { return b.triangle; }),
       figure("lower_bound.dram", "cycles", "DRAM bytes / dram_bytes_per_cycle",
-             [](const S& s, const C& c) -> Value { return lower_bound(s, c).dram; }),
+             [](const S&, const C&, const LowerBound& b) -> Value { return b.dram; }),
       figure("lower_bound.limited_by", "", "which bound is the largest: box, triangle or dram",
-             [](const S& s, const C& c) -> Value { return std::string(lower_bound(s, c).limited_by); }),
+             [](const S&, const C&, const LowerBound& b) -> Value { return std::string(b.limited_by); }),
       figure("lower_bound.cycles_over_bound", "1", "simulated cycles / lower bound",
-             [](const S& s, const C& c) -> Value { return lower_bound(s, c).cycles_over_bound; }),
+             [](const S&, const C&, const LowerBound& b) -> Value { return b.cycles_over_bound; }),
   };
   return table;
 }
@@ -171,8 +181,9 @@ LowerBound lower_bound(const TimingStats& s, const TimingConfig& c) {
 std::vector<TimingStatValue> timing_report(const TimingStats& s, const TimingConfig& c) {
   std::vector<TimingStatValue> out;
   out.reserve(report_table().size());
+  const LowerBound b = lower_bound(s, c);
   for (const ReportEntry& e : report_table())
-    out.push_back({e.key, e.unit, e.description, e.member ? Value(s.*e.member) : e.figure(s, c)});
+    out.push_back({e.key, e.unit, e.description, e.member ? Value(s.*e.member) : e.figure(s, c, b)});
   return out;
 }
 

@@ -47,9 +47,11 @@ void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_hel
       ->capture_default_str();
   std::vector<std::string> presets;
   for (const hw::FixedFormat& f : hw::format_presets()) presets.push_back(f.name);
-  app.add_option("--format", o.format, "fixed-point format preset (rtusim info --formats lists them)")
-      ->check(CLI::IsMember(presets))
-      ->capture_default_str();
+  app.add_option(
+         "--format", o.format,
+         "fixed-point format preset (rtusim info --formats lists them; default: default, on the timed device "
+         "the --config's format, which this replaces as --set format=NAME does)")
+      ->check(CLI::IsMember(presets));
   // One option per field of the format table (width has --bvh-width): --coord-bits for coord_bits, ...
   for (const hw::FormatField& f : hw::format_fields()) {
     if (f.member == &hw::FixedFormat::width) continue;

@@ -231,6 +231,32 @@ TEST_CASE("ray specs, timing overrides and pipeline-trace windows as the command
   CHECK(timed.format.width == timed.timing.bvh_width);  // the preset's width, as --config gives it
   CHECK(d.options(rtu::hw::DeviceKind::kFloat).kind == rtu::hw::DeviceKind::kFloat);
 
+  // One design point, one configuration: --format and --bvh-width on the timed device are the configuration's
+  // keys, spelled either way.
+  rtu::host::DeviceSettings by_option, by_set;
+  by_option.format = "compact";
+  by_option.bvh_width = 8;
+  by_set.sets = {"format=compact", "bvh_width=8"};
+  const rtu::host::DeviceOptions a = by_option.options(rtu::hw::DeviceKind::kTimed);
+  const rtu::host::DeviceOptions b = by_set.options(rtu::hw::DeviceKind::kTimed);
+  CHECK(a.timing.format == "compact");
+  CHECK(a.timing.bvh_width == 8);
+  const auto keys_a = rtu::hw::timing_keys(a.timing), keys_b = rtu::hw::timing_keys(b.timing);
+  REQUIRE(keys_a.size() == keys_b.size());
+  for (size_t i = 0; i < keys_a.size(); ++i) CHECK(keys_a[i].value == keys_b[i].value);
+  CHECK(a.format.name == b.format.name);
+  CHECK(a.format.coord_bits == rtu::hw::format_preset("compact").coord_bits);
+  CHECK(a.format.width == 8);
+  rtu::host::DeviceSettings clash = by_option;
+  clash.sets = {"format=wide8"};
+  CHECK_THROWS_WITH(clash.options(rtu::hw::DeviceKind::kTimed), Catch::Contains("--set format=wide8"));
+  // Without --format the fixed device takes the default format and the timed device its configuration's.
+  rtu::host::DeviceSettings plain;
+  plain.config = "embedded";
+  CHECK(plain.options(rtu::hw::DeviceKind::kFixed).format.name == "default");
+  CHECK(plain.options(rtu::hw::DeviceKind::kTimed).format.coord_bits ==
+        rtu::hw::format_preset(rtu::hw::timing_preset("embedded").format).coord_bits);
+
   const rtu::hw::PipelineTrace t = rtu::host::pipeline_trace_window("10:20");
   CHECK(t.from == 10);
   CHECK(t.to == 20);

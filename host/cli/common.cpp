@@ -71,15 +71,15 @@ void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_hel
 
 namespace rtu::host::cli {
 
-void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c) {
+void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, bool sampled) {
   const Json j = timing_stats_json(s, c);
   std::printf(
-      "timed (%s): %llu cycles, %.1f cycles per ray, %.3f rays per clock; cache hit rate %.3f, DRAM %.1f B/clock; "
-      "lower bound %.0f cycles (%s), cycles / bound %.2f\n",
-      c.name.c_str(), (unsigned long long)s.cycles, j["cycles_per_ray"].get<double>(),
+      "timed (%s): %s%llu cycles, %.1f cycles per ray, %.3f rays per clock; cache hit rate %.3f, DRAM %.1f "
+      "B/clock; lower bound %s%.0f cycles (%s%s), cycles / bound %.2f\n",
+      c.name.c_str(), sampled ? "~" : "", (unsigned long long)s.cycles, j["cycles_per_ray"].get<double>(),
       j["rays_per_clock"].get<double>(), j["cache"]["hit_rate"].get<double>(),
-      j["dram_bytes_per_cycle"].get<double>(), j["lower_bound"]["cycles"].get<double>(),
-      j["lower_bound"]["limited_by"].get<std::string>().c_str(),
+      j["dram_bytes_per_cycle"].get<double>(), sampled ? "~" : "", j["lower_bound"]["cycles"].get<double>(),
+      j["lower_bound"]["limited_by"].get<std::string>().c_str(), sampled ? ", estimated from the sample" : "",
       j["lower_bound"]["cycles_over_bound"].get<double>());
 }
 

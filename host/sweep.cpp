@@ -248,6 +248,9 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   row.false_hits = c.false_hits;
   row.t_rel_error_mean = c.t_rel_mean;
   row.t_rel_error_max = c.t_rel_max;
+  row.compared_rays = c.compared;
+  row.t_compared_rays = c.t_compared;
+  row.t_rel_error_sd = c.t_rel_sd;
   row.node_visit_overhead = ratio_minus_one(fs.nodes_visited, refr.stats.nodes_visited);
   row.prim_test_overhead = ratio_minus_one(fs.prim_tests, refr.stats.prim_tests);
   row.box_false_negatives = fs.box_false_negatives;

@@ -4,11 +4,13 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
 
+#include "host/compare.h"
 #include "host/demo.h"
 #include "host/device_settings.h"
 #include "host/error.h"
@@ -17,6 +19,7 @@
 #include "host/ray_spec.h"
 #include "host/report.h"
 #include "host/scene.h"
+#include "hwmodel/timing_config.h"
 
 namespace fs = std::filesystem;
 using rtu::host::Json;
@@ -96,7 +99,7 @@ TEST_CASE("plan: the chosen format meets its budget on the sample it measured, w
     if (!seen) CHECK_FALSE(rtu::host::plan_meets(c, o));
   }
   CHECK(seen);
-  // The reference is the default format at the plan's width, measured last.
+  // The reference is the configuration's format (rdna2: default) at the plan's width, measured last.
   CHECK(r.reference.p.format == "default");
   CHECK(r.reference.p.bvh_width == r.best.p.bvh_width);
   REQUIRE(!stages.empty());
@@ -106,6 +109,92 @@ TEST_CASE("plan: the chosen format meets its budget on the sample it measured, w
   CHECK(r.json["plan"]["format"] == r.best.p.format);
   CHECK(r.json["plan"]["cycles"] == r.best.cycles);
   CHECK(r.json["default"]["cycles"] == r.reference.cycles);
+}
+
+TEST_CASE("compare_hits: a ray starting on a surface has a large relative but a small distance error", "[jobs]") {
+  // Ray 0 starts a millionth of a unit from the surface it hits; ray 1 hits at t = 10. |d| = 2, a grid step of
+  // 1e-5 world units.
+  std::vector<rtu::hw::Ray> rays(2);
+  rays[0].dir = rays[1].dir = rtu::hw::Vec3(0.0f, 0.0f, 2.0f);
+  std::vector<rtu::hw::Hit> ref(2), dev(2);
+  ref[0].prim = dev[0].prim = ref[1].prim = dev[1].prim = 0;
+  ref[0].t = 1e-6f;
+  dev[0].t = 3e-6f;  // relative error 2; distance 4e-6 = 0.4 steps
+  ref[1].t = 10.0f;
+  dev[1].t = 10.0001f;  // relative error 1e-5; distance 2e-4 = 20 steps
+  const rtu::host::HitComparison c = rtu::host::compare_hits(ref, dev, {true, true}, false, &rays, 1e-5);
+  CHECK(c.t_rel_max == Approx(2.0).epsilon(1e-6));
+  CHECK(c.t_rel_max_ray == 0);
+  CHECK(c.t_abs_steps_max == Approx(double(10.0001f - 10.0f) * 2.0 / 1e-5).epsilon(1e-9));
+  CHECK(c.t_abs_steps_max_ray == 1);
+  CHECK(c.t_abs_steps_mean ==
+        Approx((double(3e-6f) - double(1e-6f)) * 2.0 / 1e-5 / 2.0 + c.t_abs_steps_max / 2.0));
+  // Without a grid step the distance is not computed.
+  CHECK(rtu::host::compare_hits(ref, dev, {true, true}, false).t_abs_steps_max == 0.0);
+}
+
+TEST_CASE("plan: the confidence bounds hold their definitions", "[jobs][plan]") {
+  using rtu::host::proportion_upper_bound;
+  // Clopper-Pearson: P(X <= k | n, p_u) = 1 - confidence, checked by summing the binomial terms directly.
+  for (const auto& [k, n] : {std::pair<uint64_t, uint64_t>{0, 10}, {1, 10}, {5, 20}, {17, 300}, {99, 1000}}) {
+    const double pu = proportion_upper_bound(k, n, 0.95);
+    CHECK(pu > double(k) / double(n));
+    double cdf = 0.0, term = std::pow(1.0 - pu, double(n));  // P(X = 0)
+    for (uint64_t i = 0; i <= k; ++i) {
+      cdf += term;
+      term *= double(n - i) / double(i + 1) * pu / (1.0 - pu);
+    }
+    CHECK(cdf == Approx(0.05).epsilon(1e-9));
+  }
+  CHECK(proportion_upper_bound(0, 1000, 0.95) == Approx(1.0 - std::pow(0.05, 1.0 / 1000.0)).epsilon(1e-12));
+  // Many trials, few successes: the Poisson limit, chi2(0.95; 2(k + 1)) / 2n; chi2(0.95; 6) = 12.5916. The two
+  // differ by O(k / n) relatively.
+  CHECK(proportion_upper_bound(2, 40000, 0.95) == Approx(12.5916 / 80000.0).epsilon(1e-3));
+  CHECK(proportion_upper_bound(3, 3, 0.95) == 1.0);
+  CHECK(proportion_upper_bound(0, 0, 0.95) == 1.0);
+  // Mean: z(0.95) = 1.644854.
+  CHECK(rtu::host::mean_upper_bound(0.5, 2.0, 400, 0.95) == Approx(0.5 + 1.644854 * 2.0 / 20.0).epsilon(1e-6));
+  CHECK(std::isinf(rtu::host::mean_upper_bound(0.5, 2.0, 1, 0.95)));
+}
+
+TEST_CASE("plan: a seed, a stated bound that meets the budget, and the configuration's own format",
+          "[jobs][plan]") {
+  rtu::host::PlanOptions o;
+  o.scene = "builtin:icosphere?subdiv=2";
+  o.config = "embedded";  // its format is compact, not default
+  o.max_error = 0.05;
+  o.widths = {4};
+  o.coord_bits = {4, 8, 12, 16};
+  o.child_bits = {4, 6};
+  o.sweep.rays = 400;
+  o.sweep.image_width = 0;
+  o.sweep.threads = 1;
+  o.sweep.seed = 7;
+  const rtu::host::PlanResult a = rtu::host::plan_format(o);
+  REQUIRE(a.found);
+  const std::string base = rtu::hw::timing_preset("embedded").format;
+  CHECK(a.best.p.format.rfind(base + ":", 0) == 0);
+  CHECK(a.reference.p.format == base);
+  CHECK(a.json["base_format"] == base);
+  CHECK(a.json["seed"] == 7);
+  CHECK(a.json["confidence"] == 0.95);
+  // The stated bound is the error's: above the measured rate, within the budget, and what plan_meets compares.
+  const double bound = a.json["plan"]["error_bound"].get<double>();
+  CHECK(bound == rtu::host::plan_error_bound(a.best, o));
+  CHECK(bound >= rtu::host::plan_error(a.best, "hit"));
+  CHECK(bound <= o.max_error);
+  CHECK(bound ==
+        rtu::host::proportion_upper_bound(a.best.false_misses + a.best.false_hits, a.best.compared_rays, 0.95));
+  // Same seed, same plan; the seed picks the incoherent rays.
+  const rtu::host::PlanResult again = rtu::host::plan_format(o);
+  CHECK(again.json.dump() == a.json.dump());
+  o.sweep.seed = 8;
+  const rtu::host::PlanResult other = rtu::host::plan_format(o);
+  CHECK(other.json["seed"] == 8);
+  CHECK(other.json["widths"].dump() != a.json["widths"].dump());
+  // A budget that zero disagreements on these rays cannot show is refused, naming the rays needed.
+  o.max_error = 1e-4;
+  CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("use --rays"));
 }
 
 TEST_CASE("plan: a bad metric or budget is refused before the scene is loaded", "[jobs][plan]") {

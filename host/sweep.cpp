@@ -150,9 +150,20 @@ std::unique_ptr<SweepCache, SweepCacheDeleter> make_sweep_cache() {
 }
 
 AreaTable AreaTable::load(const std::string& path) {
-  AreaTable t;
   std::ifstream in(path);
   if (!in) throw Error("cannot read the area table " + path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse(text.str(), path);
+}
+
+AreaTable AreaTable::shipped() {
+  return parse(shipped_area_csv(), std::string(kShippedAreaTable) + " (compiled in)");
+}
+
+AreaTable AreaTable::parse(const std::string& text, const std::string& name) {
+  AreaTable t;
+  std::istringstream in(text);
   std::string line;
   size_t n = 0;
   std::vector<std::string> header;
@@ -160,7 +171,7 @@ AreaTable AreaTable::load(const std::string& path) {
     ++n;
     if (line.empty()) continue;
     const std::vector<std::string> f = split_csv(line);
-    const std::string where = path + ":" + std::to_string(n);
+    const std::string where = name + ":" + std::to_string(n);
     if (header.empty()) {
       header = f;
       if (header.size() < 4 || header[0] != "params" || header[1] != "cells" || header[3] != "transistors")

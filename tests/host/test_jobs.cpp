@@ -4,7 +4,9 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -14,11 +16,14 @@
 #include "host/demo.h"
 #include "host/device_settings.h"
 #include "host/error.h"
+#include "host/image.h"
+#include "host/image_diff.h"
 #include "host/pipeline_trace.h"
 #include "host/plan.h"
 #include "host/ray_spec.h"
 #include "host/report.h"
 #include "host/scene.h"
+#include "host/sweep.h"
 #include "hwmodel/timing_config.h"
 
 namespace fs = std::filesystem;
@@ -285,6 +290,61 @@ TEST_CASE("report: the page, report.json, the sweep CSV and every image it embed
   CHECK(j["cycles"].size() == rtu::hw::timing_preset_names().size());  // one scene: one row per preset
   CHECK(j["sweep"]["points"] == rtu::host::read_sweep_csv(o.out + "/sweep.csv").size());
   CHECK(j["stress"]["failures"] == 0);
+
+  // The renders are shown at least 320 px wide (twice their size in the quick report, pixelated).
+  for (const char* img : {"render_float.png", "render_fixed.png", "render_heatmap.png"}) {
+    CAPTURE(img);
+    const size_t at = html.find("src=\"" + std::string(img) + "\"");
+    REQUIRE(at != std::string::npos);
+    const size_t w = html.find("width=\"", at);
+    REQUIRE(w != std::string::npos);
+    CHECK(std::stoi(html.substr(w + 7)) >= 320);
+    CHECK(std::stoi(html.substr(w + 7)) == 2 * j["renders"]["width"].get<int>());
+  }
+  // The heatmap: each pixel has the ramp's colour for its largest channel difference on the log scale whose full
+  // scale report.json gives, and the page has the colour bar with its tick values.
+  const rtu::host::Image fa = rtu::host::read_png(o.out + "/render_float.png");
+  const rtu::host::Image fb = rtu::host::read_png(o.out + "/render_fixed.png");
+  const rtu::host::Image heat = rtu::host::read_png(o.out + "/render_heatmap.png");
+  const int full_scale = j["renders"]["heatmap_full_scale"].get<int>();
+  CHECK(full_scale == rtu::host::diff_ramp_full_scale(j["renders"]["max_abs"].get<int>()));
+  REQUIRE(heat.rgb.size() == fa.rgb.size());
+  size_t wrong = 0;
+  for (size_t p = 0; p < size_t(fa.width) * size_t(fa.height); ++p) {
+    int d = 0;
+    for (size_t k = 0; k < 3; ++k) d = std::max(d, std::abs(int(fa.rgb[3 * p + k]) - int(fb.rgb[3 * p + k])));
+    const auto c = rtu::host::diff_ramp_color(rtu::host::diff_ramp_t(d, full_scale));
+    wrong += c[0] != heat.rgb[3 * p] || c[1] != heat.rgb[3 * p + 1] || c[2] != heat.rgb[3 * p + 2];
+  }
+  CHECK(wrong == 0);
+  CHECK(html.find("class=\"colorbar\"") != std::string::npos);
+  CHECK(html.find("linear-gradient(to right, rgb(252,253,191) 0.00%") != std::string::npos);
+  CHECK(html.find(">" + std::to_string(full_scale) + "</span>") != std::string::npos);
+  CHECK(html.find(">0</span>") != std::string::npos);
+  // RTL areas come from the table the project ships (no --area): the default format at rdna2 has one.
+  CHECK(j["sweep"]["area_source"].get<std::string>().find("bench/data/rtl_area.csv") != std::string::npos);
+  size_t with_area = 0;
+  for (const rtu::host::SweepRow& row : rtu::host::read_sweep_csv(o.out + "/sweep.csv")) {
+    with_area += row.rtl_cells > 0;
+    if (row.p.format == "default" && row.p.config == "rdna2" && row.p.bvh_width == 4) CHECK(row.rtl_cells > 0);
+  }
+  CHECK(with_area > 0);
+  for (const Json& p : j["sweep"]["plots"]) CHECK(p["area_panel"] == true);
+}
+
+TEST_CASE("report: the area table compiled in is the one the project ships", "[jobs][report]") {
+  const rtu::host::AreaTable shipped = rtu::host::AreaTable::shipped();
+  const rtu::host::AreaTable file =
+      rtu::host::AreaTable::load(std::string(RTU_SOURCE_DIR) + "/" + rtu::host::kShippedAreaTable);
+  CHECK(shipped.by_params.size() >= 9);
+  REQUIRE(shipped.by_params.size() == file.by_params.size());
+  for (const auto& [params, e] : file.by_params) {
+    CAPTURE(params);
+    REQUIRE(shipped.by_params.count(params) == 1);
+    CHECK(shipped.by_params.at(params).cells == e.cells);
+    CHECK(shipped.by_params.at(params).transistors == e.transistors);
+  }
+  CHECK_THROWS_WITH(rtu::host::AreaTable::parse("a,b\n", "t.csv"), Catch::Contains("t.csv:1"));
 }
 
 TEST_CASE("report: an output directory that cannot be created is refused before any work", "[jobs][report]") {

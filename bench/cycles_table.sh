@@ -12,10 +12,11 @@
 #   packets' cycles, device clock = the unit's clock at the end (packet decode and fences included);
 # - each mesh traced with `rtusim trace --device timed` on RAYS primary and RAYS incoherent rays (`rtusim rays`,
 #   the same ray files for every preset), one TRACE packet per run.
-# Columns: cycles/ray and rays/clock from the TRACE cycles; limited by = the largest of box tests / box rate,
-# triangle tests / triangle rate, DRAM bytes / bandwidth; cycles / bound = cycles over that lower bound; cache hit
-# rate over line accesses; wall s = the simulator's time tracing (trace: trace_seconds; render: seconds, firmware
-# and shading included), sim. MRays/s = rays / wall s (simulated rays per second of the host).
+# Columns: cycles/ray and rays/clock from the TRACE cycles; limited by = the largest of rays (one a clock), box
+# tests / box rate, triangle tests / triangle rate, DRAM bytes / bandwidth; cycles / bound = cycles over that
+# lower bound; cache hit rate over line accesses; wall s = the simulator's time tracing (trace: trace_seconds;
+# render: seconds, firmware and shading included), sim. MRays/s = rays / wall s (simulated rays per second of the
+# host).
 # Reads the stats JSON with jq, or python3 when jq is missing.
 set -euo pipefail
 rtusim=${1:-build/default/rtusim}

@@ -39,11 +39,7 @@ void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   m_image = std::move(image);
   m_tracer = std::move(tracer);
   const ImageHeader& h = m_image->header();
-  TimingModel::Layout l;
-  l.node_offset = h.node_offset;
-  l.node_bytes = m_image->node_bytes();
-  l.record_offset = h.record_offset;
-  l.plane_offset = h.plane_offset;
+  const TimingModel::Layout l = TimingModel::layout_of(h, m_image->node_bytes(), uint64_t(m_c.layout_align));
   m_model = std::make_unique<TimingModel>(m_c, l);
   m_model->set_trace(m_trace);
   m_slot_time.clear();  // another scene, other streams

@@ -59,6 +59,8 @@ const std::vector<KeyInfo>& key_table() {
       {"cache_kib", &C::cache_kib, 0, 65536, "node and primitive cache in KiB (0: no cache)"},
       {"cache_ways", &C::cache_ways, 1, 64, "cache associativity"},
       {"line_bytes", &C::line_bytes, 16, 4096, "cache line bytes, the unit of every fetch (a power of two)"},
+      {"layout_align", &C::layout_align, 0, 4096,
+       "fetch addresses: 0 packed as the image; a power of two >= 8 pads and aligns each node and record to it"},
       {"cache_latency", &C::cache_latency, 0, kMaxLatency, "cache hit latency in cycles"},
       {"dram_latency", &C::dram_latency, 0, kMaxLatency, "cycles from a miss to the first byte"},
       {"dram_bytes_per_cycle", &C::dram_bytes_per_cycle, 0.001, 65536, "DRAM bandwidth in bytes per cycle"},
@@ -132,6 +134,9 @@ void TimingConfig::validate() const {
     } else if (key == "bvh_width") {
       if (bvh_width != 2 && bvh_width != 4 && bvh_width != 8)
         fail("bvh_width = " + std::to_string(bvh_width) + " must be 2, 4 or 8");
+    } else if (key == "layout_align") {
+      if (layout_align != 0 && (layout_align < 8 || (layout_align & (layout_align - 1)) != 0))
+        fail("layout_align = " + std::to_string(layout_align) + " must be 0 or a power of two in [8, 4096]");
     } else if (key == "line_bytes") {
       if ((line_bytes & (line_bytes - 1)) != 0)
         fail("line_bytes = " + std::to_string(line_bytes) + " must be a power of two in [16, 4096]");
@@ -231,6 +236,7 @@ TimingConfig timing_preset(const std::string& name) {
     c.cache_kib = 64;
     c.cache_ways = 4;
     c.line_bytes = 64;
+    c.layout_align = 0;
     c.cache_latency = 4;
     c.dram_latency = 200;
     c.dram_bytes_per_cycle = 64.0;
@@ -257,6 +263,7 @@ TimingConfig timing_preset(const std::string& name) {
     c.cache_kib = 192;
     c.cache_ways = 16;
     c.line_bytes = 64;
+    c.layout_align = 0;
     c.dram_latency = 210;
     c.dram_bytes_per_cycle = 64.0;
     c.raster_setup_cycles = 4.0;
@@ -283,6 +290,7 @@ TimingConfig timing_preset(const std::string& name) {
     c.cache_kib = 16;
     c.cache_ways = 4;
     c.line_bytes = 64;
+    c.layout_align = 0;
     c.cache_latency = 2;
     c.dram_latency = 100;
     c.dram_bytes_per_cycle = 16.0;

@@ -58,6 +58,12 @@ struct TimingConfig {
   int cache_kib = 64;  // 0: no cache
   int cache_ways = 4;
   int line_bytes = 64;
+  // Where fetches fall in memory: 0 packs nodes, primitive records and plane records back to back as the device
+  // image lays them out (a 56-byte node straddles two 64-byte lines about 7 times in 8); a power of two in
+  // [8, 4096] pads each to a multiple of it and aligns each section's start, as a padded layout would (64 with
+  // 64-byte lines: one line per node and record, at 64/56 the node bytes and 64/40 the record bytes). The
+  // functional image is unchanged; only the timing model's addresses and the padded footprint differ.
+  int layout_align = 0;
   int cache_latency = 4;               // hit latency
   int dram_latency = 200;              // cycles from request to the first byte
   double dram_bytes_per_cycle = 64.0;  // bandwidth

@@ -23,17 +23,39 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout)
     m_box_issue[k] = std::max<uint64_t>(1, (k + uint64_t(c.box_rate) - 1) / uint64_t(c.box_rate));
 }
 
+TimingModel::Layout TimingModel::layout_of(const ImageHeader& h, uint64_t node_bytes, uint64_t align) {
+  Layout l;
+  l.node_bytes = node_bytes;
+  if (align == 0) {
+    l.node_offset = h.node_offset;
+    l.record_offset = h.record_offset;
+    l.plane_offset = h.plane_offset;
+    l.node_stride = node_bytes;
+    l.total_bytes = h.total_bytes;
+    return l;
+  }
+  auto up = [align](uint64_t v) { return (v + align - 1) / align * align; };
+  l.node_stride = up(node_bytes);
+  l.record_stride = up(kRecordBytes);
+  l.plane_stride = up(sizeof(PlaneRecord));
+  l.node_offset = up(h.node_offset);
+  l.record_offset = up(l.node_offset + uint64_t(h.node_count) * l.node_stride);
+  l.plane_offset = up(l.record_offset + uint64_t(h.record_count) * l.record_stride);
+  l.total_bytes = l.plane_offset + uint64_t(h.plane_count) * l.plane_stride;
+  return l;
+}
+
 template <bool Reverse, class F>
 void TimingModel::for_each_line(const TraceEvent& e, F&& f) const {
   uint64_t addr, bytes;
   if (e.kind == TraceEvent::kNode) {
-    addr = m_layout.node_offset + uint64_t(e.index) * m_layout.node_bytes;
+    addr = m_layout.node_offset + uint64_t(e.index) * m_layout.node_stride;
     bytes = m_layout.node_bytes;
   } else if (e.kind == TraceEvent::kPrim) {
-    addr = m_layout.record_offset + uint64_t(e.index) * kRecordBytes;
+    addr = m_layout.record_offset + uint64_t(e.index) * m_layout.record_stride;
     bytes = kRecordBytes;
   } else if (e.kind == TraceEvent::kPlane) {
-    addr = m_layout.plane_offset + uint64_t(e.index) * sizeof(PlaneRecord);
+    addr = m_layout.plane_offset + uint64_t(e.index) * m_layout.plane_stride;
     bytes = sizeof(PlaneRecord);
   } else {
     return;

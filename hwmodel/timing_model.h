@@ -38,6 +38,7 @@
 #include <utility>
 #include <vector>
 
+#include "hwmodel/device_image.h"
 #include "hwmodel/dram_channel.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/node_cache.h"
@@ -69,9 +70,16 @@ struct PipelineTrace {
 class TimingModel {
  public:
   // Where the bound image keeps its sections (addresses are image offsets).
+  // Where the fetched items lie: byte offsets of the sections and bytes from one item to the next. Each fetch
+  // touches the lines of [offset + index * stride, + the item's size).
   struct Layout {
     uint64_t node_offset = 0, node_bytes = 56, record_offset = 0, plane_offset = 0;
+    uint64_t node_stride = 56, record_stride = kRecordBytes, plane_stride = sizeof(PlaneRecord);
+    uint64_t total_bytes = 0;  // the footprint of the sections so placed, from offset 0
   };
+  // The image's own layout (packed), or with `align` > 0 every item padded to a multiple of it and every section
+  // start aligned to it (TimingConfig::layout_align).
+  static Layout layout_of(const ImageHeader& h, uint64_t node_bytes, uint64_t align);
   TimingModel(const TimingConfig& c, const Layout& layout);
 
   // One TRACE packet of n rays: begin, then feed the rays' events in order (any number at a time; an empty list

@@ -102,6 +102,43 @@ TEST_CASE("timed hits equal the fixed device's bit for bit, cycles repeat", "[ti
   }
 }
 
+TEST_CASE("layout_align: nodes and records padded to the line take one line per fetch, hits unchanged",
+          "[timed]") {
+  const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
+  const std::vector<Ray> rays = test_rays(s, 5000);
+  struct Run {
+    std::vector<Hit> hits;
+    rtu::hw::TimingStats t;
+  };
+  auto run = [&](int align) {
+    DeviceOptions o = options("timed", "rdna2");  // 64-byte lines, 56-byte BVH4 nodes, 40-byte records
+    o.timing.layout_align = align;
+    const auto d = rtu::host::make_device(s.geometry, o);
+    Run r{std::vector<Hit>(rays.size()), {}};
+    rtu::hw::TraversalStats st;
+    d->trace_batch(rays.data(), r.hits.data(), rays.size(), false, 1, st);
+    r.t = d->timed()->timing();
+    return r;
+  };
+  const Run packed = run(0), line = run(64), eight = run(8);
+  const auto lines = [](const rtu::hw::TimingStats& t) { return t.cache_hits + t.cache_misses; };
+  const auto fetches = [](const rtu::hw::TimingStats& t) { return t.node_fetches + t.prim_fetches; };
+  // The datapath reads the packed image either way: the same hits and the same fetches.
+  CHECK(std::memcmp(packed.hits.data(), line.hits.data(), rays.size() * sizeof(Hit)) == 0);
+  REQUIRE(fetches(line.t) == fetches(packed.t));
+  // Padded to the line, a fetch is one line; packed, most 56-byte nodes and 40-byte records straddle two.
+  CHECK(lines(line.t) == fetches(line.t));
+  CHECK(double(lines(packed.t)) > 1.3 * double(fetches(packed.t)));
+  // Every section is 8-byte aligned and every item a multiple of 8 bytes: align 8 is the packed layout.
+  CHECK(eight.t.cycles == packed.t.cycles);
+  CHECK(lines(eight.t) == lines(packed.t));
+  rtu::hw::TimingConfig c = rtu::hw::timing_preset("rdna2");
+  c.layout_align = 24;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("layout_align = 24"));
+  c.layout_align = 4;
+  CHECK_THROWS_AS(c.validate(), std::invalid_argument);
+}
+
 TEST_CASE("a timed render equals the fixed render, the clock counts cycles", "[timed]") {
   const rtu::host::Scene s = rtu::host::load_scene("builtin:seed");
   rtu::host::RenderOptions o;

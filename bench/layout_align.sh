@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Packed against line-aligned layout on the timed device: cycles, cache lines per fetch, DRAM bytes and hit rate
+# with `--set layout_align=0` (nodes and records back to back, as the image lays them out) and
+# `--set layout_align=64` (each padded to the 64-byte line), per mesh, preset rdna2, primary and incoherent rays.
+#
+#   bench/layout_align.sh [RTUSIM] [RAYS] [MESH...]
+#     RTUSIM  default build/default/rtusim;  RAYS  rays per kind, default 50000;  MESH  default two
+#     assimp-testmodels meshes
+# Prints a Markdown table. Reads the stats JSON with python3.
+set -euo pipefail
+rtusim=${1:-build/default/rtusim}
+rays=${2:-50000}
+shift $(( $# > 2 ? 2 : $# ))
+meshes=("$@")
+if [ ${#meshes[@]} -eq 0 ]; then
+  m=/usr/share/assimp/models
+  meshes=("$m/IFC/AC14-FZK-Haus.ifc" "$m/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb")
+fi
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+echo "| mesh | rays | layout_align | cycles | lines per fetch | DRAM bytes | cache hit rate | cycles vs packed |"
+echo "|---|---|---|---|---|---|---|---|"
+for mesh in "${meshes[@]}"; do
+  "$rtusim" rays --scene "$mesh" --kind primary --count "$rays" --out "$tmp/primary.bin" >/dev/null
+  "$rtusim" rays --scene "$mesh" --kind incoherent --count "$rays" --out "$tmp/incoherent.bin" >/dev/null
+  for kind in primary incoherent; do
+    for align in 0 64; do
+      "$rtusim" trace --scene "$mesh" --rays "$tmp/$kind.bin" --out "$tmp/hits.bin" --device timed \
+        --config rdna2 --set layout_align=$align --threads 1 --stats "$tmp/s$align.json" >/dev/null
+    done
+    python3 - "$mesh" "$kind" "$tmp/s0.json" "$tmp/s64.json" <<'PY'
+import json, os, sys
+mesh, kind, packed_file, aligned_file = sys.argv[1:5]
+packed = json.load(open(packed_file))["timing"]
+for align, f in (("0", packed_file), ("64", aligned_file)):
+    t = json.load(open(f))["timing"]
+    lines = t["cache"]["hits"] + t["cache"]["misses"]
+    fetches = t["node_fetches"] + t["prim_fetches"]
+    print(f"| {os.path.basename(mesh)} | {kind} | {align} | {t['cycles']} | {lines / fetches:.3f} | "
+          f"{t['dram_bytes']} | {t['cache']['hit_rate']:.3f} | {t['cycles'] / packed['cycles']:.3f} |")
+PY
+  done
+done

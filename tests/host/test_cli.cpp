@@ -806,3 +806,27 @@ TEST_CASE("report and pareto: bad input gives a clear error and exit 2", "[cli][
     CHECK(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < 5.0);
   }
 }
+
+TEST_CASE("usage errors exit 2 with CLI11's message, --help and --version exit 0", "[cli]") {
+  const fs::path d = temp_dir();
+  struct Case {
+    std::string args, words;
+  };
+  const Case cases[] = {
+      {"info --scene builtin:seed --frobnicate", "--frobnicate"},  // an unknown option
+      {"stress --count 0", "--count"},                             // a value out of range
+      {"info --scene builtin:seed --bvh-width x", "--bvh-width"},  // a value that does not parse
+      {"rays --scene builtin:seed", "--out"},                      // a required option missing
+      {"frobnicate", "subcommand"},                                // an unknown subcommand
+      {"", "subcommand"},                                          // none
+  };
+  for (const Case& c : cases) {
+    const Run r = run_rtusim(c.args);
+    INFO(c.args << "\n" << r.output);
+    CHECK(r.status == 2);
+    CHECK(r.output.find(c.words) != std::string::npos);
+    CHECK(r.output.find("--help") != std::string::npos);  // "Run with --help for more information."
+  }
+  CHECK(run_rtusim("--version").status == 0);
+  CHECK(run_rtusim("trace --help").status == 0);
+}

@@ -136,6 +136,9 @@ void add_render(CLI::App& app) {
   add_device_args(*sub, a->dev,
                   "device: float (the reference), fixed (bit-accurate fixed point) or timed (fixed point with the "
                   "cycle-approximate timing model; --config, --set)");
+  add_timing_args(*sub, a->dev);
+  add_sampling_args(*sub, a->dev);
+  add_watchdog_args(*sub, a->dev);
   sub->add_option(
          "--mode", a->mode,
          "raytrace: primary rays traced by the unit; hybrid: primary visibility rasterized by the firmware "
@@ -166,7 +169,10 @@ void add_render(CLI::App& app) {
       ->expected(3)
       ->check(CLI::Range(0.0f, 1e6f))
       ->capture_default_str();
-  sub->callback([a] { run_render(*a); });
+  sub->callback([a, sub] {
+    check_device_args(*sub, a->dev);
+    run_render(*a);
+  });
 }
 
 void print_render_summary(const RenderResult& r, const RenderOptions& o) {

@@ -830,3 +830,77 @@ TEST_CASE("usage errors exit 2 with CLI11's message, --help and --version exit 0
   CHECK(run_rtusim("--version").status == 0);
   CHECK(run_rtusim("trace --help").status == 0);
 }
+
+TEST_CASE("device options: a command lists only those it uses, and refuses those the device ignores", "[cli]") {
+  const fs::path d = temp_dir();
+  const std::string rays = (d / "dev_opts.rays").string(), hits = (d / "dev_opts.hits").string();
+  REQUIRE(run_rtusim("rays --scene builtin:seed --count 500 --out " + rays).status == 0);
+  auto help = [](const std::string& sub) {
+    const Run r = run_rtusim(sub + " --help");
+    REQUIRE(r.status == 0);
+    return r.output;
+  };
+  // An option is listed when a line of the help starts with it (descriptions may name other options).
+  auto lists = [](const std::string& text, const std::string& option) {
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) {
+      const size_t at = line.find_first_not_of(' ');
+      if (at == std::string::npos || line.compare(at, option.size(), option) != 0) continue;
+      const size_t end = at + option.size();
+      if (end == line.size() || line[end] == ' ' || line[end] == ',') return true;
+    }
+    return false;
+  };
+  // info and stress never run the timed device; stress builds no BVH of its own options either.
+  for (const char* sub : {"info", "stress"}) {
+    const std::string h = help(sub);
+    INFO(h);
+    for (const char* option : {"--config", "--set", "--sample", "--sample-unit", "--sample-warmup",
+                               "--sample-seed", "--watchdog-steps", "--device"})
+      CHECK_FALSE(lists(h, option));
+    CHECK(lists(h, "--format"));
+    CHECK(lists(h, "--coord-bits"));
+    CHECK(lists(h, "--bvh-width"));
+  }
+  CHECK(lists(help("info"), "--leaf-size"));
+  CHECK_FALSE(lists(help("stress"), "--leaf-size"));
+  CHECK_FALSE(lists(help("stress"), "--accel"));
+  // compare reports no cycles: the timing configuration (the timed device's format) but no sampling.
+  const std::string ch = help("compare");
+  CHECK(lists(ch, "--config"));
+  CHECK(lists(ch, "--watchdog-steps"));
+  CHECK_FALSE(lists(ch, "--sample"));
+  for (const char* sub : {"trace", "render"})
+    for (const char* option : {"--config", "--set", "--sample", "--sample-seed", "--watchdog-steps"})
+      CHECK(lists(help(sub), option));
+  CHECK(run_rtusim("info --scene builtin:seed --sample 0.1").status == 2);
+
+  // Given for a device that does not use them: a usage error naming the option and the device it applies to.
+  const std::string trace = "trace --scene builtin:seed --rays " + rays + " --out " + hits + " ";
+  struct Case {
+    std::string args, words;
+  };
+  const Case cases[] = {
+      {trace + "--device float --sample 0.1", "--sample applies to --device timed only"},
+      {trace + "--device fixed --sample-seed 3", "--sample-seed applies to --device timed only"},
+      {trace + "--device fixed --config intel", "--config applies to --device timed only"},
+      {trace + "--device fixed --set cache_kib=64", "--set applies to --device timed only"},
+      {trace + "--device fixed --pipeline-trace " + (d / "p.json").string(), "--pipeline-trace applies"},
+      {trace + "--device float --watchdog-steps 10", "--watchdog-steps applies to --device fixed or timed only"},
+      {trace + "--device float --coord-bits 16", "--coord-bits applies to --device fixed or timed only"},
+      {"compare --scene builtin:seed --rays primary:100 --device fixed --config intel", "--config applies"},
+      {"render --scene builtin:seed --width 8 --height 8 --out " + (d / "x.png").string() +
+           " --device float --sample 0.5",
+       "--sample applies"},
+  };
+  for (const Case& c : cases) {
+    const Run r = run_rtusim(c.args);
+    INFO(c.args << "\n" << r.output);
+    CHECK(r.status == 2);
+    CHECK(r.output.find(c.words) != std::string::npos);
+  }
+  // The same options where the device uses them, and defaults given on no device, are fine.
+  CHECK(run_rtusim(trace + "--device timed --config intel --sample 0.5 --sample-seed 3").status == 0);
+  CHECK(run_rtusim(trace + "--device fixed --watchdog-steps 100000 --coord-bits 16").status == 0);
+  CHECK(run_rtusim(trace + "--device float --bvh-width 8").status == 0);
+}

@@ -904,3 +904,26 @@ TEST_CASE("device options: a command lists only those it uses, and refuses those
   CHECK(run_rtusim(trace + "--device fixed --watchdog-steps 100000 --coord-bits 16").status == 0);
   CHECK(run_rtusim(trace + "--device float --bvh-width 8").status == 0);
 }
+
+TEST_CASE("rays: --count 0 refused, options of the other kind refused", "[cli]") {
+  const fs::path d = temp_dir();
+  const std::string out = (d / "r.rays").string();
+  fs::remove(out);
+  const Run zero = run_rtusim("rays --scene builtin:seed --count 0 --out " + out);
+  INFO(zero.output);
+  CHECK(zero.status == 2);
+  CHECK(zero.output.find("--count") != std::string::npos);
+  CHECK_FALSE(fs::exists(out));  // not the whole image
+  for (const auto& [args, words] : std::vector<std::pair<std::string, std::string>>{
+           {"--kind incoherent --count 10 --width 4", "--width applies to --kind primary only"},
+           {"--kind incoherent --count 10 --height 4", "--height applies to --kind primary only"},
+           {"--kind primary --seed 7", "--seed applies to --kind incoherent only"}}) {
+    const Run r = run_rtusim("rays --scene builtin:seed " + args + " --out " + out);
+    INFO(args << "\n" << r.output);
+    CHECK(r.status == 2);
+    CHECK(r.output.find(words) != std::string::npos);
+  }
+  const Run one = run_rtusim("rays --scene builtin:seed --count 1 --out " + out);
+  CHECK(one.status == 0);
+  CHECK(rtu::host::read_rays(out).size() == 1);
+}

@@ -155,6 +155,8 @@ void add_compare(CLI::App& app) {
   sub->add_option("--disagreements", o->disagreements, "write the disagreeing rays to this ray file (replay)");
   sub->callback([o, sub] {
     check_device_args(*sub, o->dev);
+    if (sub->count("--seed") > 0 && o->rays.rfind("incoherent", 0) != 0)
+      throw CLI::ValidationError("--seed applies to --rays incoherent[:N] only");
     run_compare(*o);
   });
 }

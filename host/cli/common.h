@@ -45,7 +45,8 @@ void add_watchdog_args(CLI::App& app, DeviceArgs& o);
 void check_device_args(const CLI::App& app, const DeviceArgs& o);
 
 inline constexpr const char* kRaySpecHelp =
-    "a ray file, or primary | primary:N | primary:WxH (the scene camera) | incoherent:N (random, --seed)";
+    "a ray file, or primary | primary:N | primary:WxH (the scene camera) | incoherent | incoherent:N (random, "
+    "--seed; without N as many as primary)";
 
 // A render's one-line summary on stdout (and the rasterizer's in hybrid mode).
 void print_render_summary(const RenderResult& r, const RenderOptions& o);

@@ -927,3 +927,27 @@ TEST_CASE("rays: --count 0 refused, options of the other kind refused", "[cli]")
   CHECK(one.status == 0);
   CHECK(rtu::host::read_rays(out).size() == 1);
 }
+
+TEST_CASE("compare --rays: incoherent without a count, and a spec that is neither a kind nor a file", "[cli]") {
+  const fs::path d = temp_dir();
+  const std::string json = (d / "c_inc.json").string();
+  const Run r = run_rtusim("compare --scene builtin:cornell --rays incoherent --json " + json);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  const Run p = run_rtusim("compare --scene builtin:cornell --rays primary --json " + json + "_p");
+  REQUIRE(p.status == 0);
+  // As many as the camera's image has.
+  const nlohmann::json a = nlohmann::json::parse(std::ifstream(json)),
+                       b = nlohmann::json::parse(std::ifstream(json + "_p"));
+  CHECK(a["rays"] == b["rays"]);
+  CHECK(a["rays"].get<uint64_t>() > 0);
+  const Run bad = run_rtusim("compare --scene builtin:cornell --rays incoherrent:100");
+  INFO(bad.output);
+  CHECK(bad.status == 2);
+  CHECK(bad.output.find("no such ray file, and not a ray spec") != std::string::npos);
+  CHECK(bad.output.find("incoherent:N") != std::string::npos);
+  // --seed draws incoherent rays only.
+  const Run seed = run_rtusim("compare --scene builtin:cornell --rays primary:100 --seed 3");
+  CHECK(seed.status == 2);
+  CHECK(seed.output.find("--seed applies to --rays incoherent") != std::string::npos);
+}

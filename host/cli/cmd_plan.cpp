@@ -91,7 +91,9 @@ void add_plan(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--min-psnr", a->o.min_psnr, "also require the render's PSNR against float (dB; 0: no)")
       ->capture_default_str();
-  sub->add_option("--config", a->o.config, "timing preset whose cycles are the cost")->capture_default_str();
+  sub->add_option("--config", a->o.config, "timing preset whose cycles are the cost")
+      ->check(CLI::IsMember(hw::timing_preset_names()))
+      ->capture_default_str();
   sub->add_option("--bvh-width", a->o.widths, "BVH widths to consider, comma-separated")
       ->delimiter(',')
       ->check(CLI::IsMember({2, 4, 8}))

@@ -74,13 +74,6 @@ void run_sweep(const SweepArgs& a) {
       throw Error(std::string("--formats: ") + e.what());
     }
   }
-  for (const std::string& c : a.configs) {
-    try {
-      hw::timing_preset(c);
-    } catch (const std::invalid_argument& e) {
-      throw Error(std::string("--config: ") + e.what());
-    }
-  }
   for (int w : a.widths)
     if (w != 2 && w != 4 && w != 8) throw Error("--bvh-width: " + std::to_string(w) + " is not 2, 4 or 8");
   const AreaTable area = a.area.empty() ? AreaTable{} : AreaTable::load(a.area);
@@ -155,6 +148,7 @@ void add_sweep(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--config", a->configs, "timing presets, comma-separated")
       ->delimiter(',')
+      ->check(CLI::IsMember(hw::timing_preset_names()))  // each element
       ->capture_default_str();
   sub->add_option("--rays", a->opt.rays, "camera rays and as many incoherent rays per point")
       ->check(CLI::Range(uint64_t(1), uint64_t(1) << 26))

@@ -303,7 +303,7 @@ TEST_CASE("diff: missing, corrupt and mismatched files give a clear error and a 
 }
 
 TEST_CASE("config: a preset's every key, --set overrides, JSON keys, --list", "[cli][timing][config]") {
-  const Run r = run_rtusim("config --preset rdna2");
+  const Run r = run_rtusim("config --config rdna2");
   INFO(r.output);
   REQUIRE(r.status == 0);
   const std::vector<rtu::hw::TimingKey> keys = rtu::hw::timing_keys(rtu::hw::timing_preset("rdna2"));
@@ -317,7 +317,7 @@ TEST_CASE("config: a preset's every key, --set overrides, JSON keys, --list", "[
     CHECK(line.find("# " + k.description) != std::string::npos);
   }
 
-  const Run s = run_rtusim("config --preset intel --set ray_slots=64 --set box_latency=9");
+  const Run s = run_rtusim("config --config intel --set ray_slots=64 --set box_latency=9");
   INFO(s.output);
   REQUIRE(s.status == 0);
   CHECK(s.output.find("ray_slots") != std::string::npos);
@@ -327,7 +327,7 @@ TEST_CASE("config: a preset's every key, --set overrides, JSON keys, --list", "[
 
   const fs::path d = temp_dir();
   const std::string json = (d / "timing.json").string();
-  REQUIRE(run_rtusim("config --preset embedded --set clock_ghz=0.8 --json " + json).status == 0);
+  REQUIRE(run_rtusim("config --config embedded --set clock_ghz=0.8 --json " + json).status == 0);
   const nlohmann::ordered_json j = nlohmann::ordered_json::parse(std::ifstream(json));
   CHECK(j["preset"] == "embedded");
   std::vector<std::string> json_keys;
@@ -356,15 +356,15 @@ TEST_CASE("config: unknown preset or key, bad values, malformed --set: exit 2 na
     std::string args, words;
   };
   const Case cases[] = {
-      {"config --preset amd", "amd"},
-      {"config --preset rdna2 --set ray_slot=4", "ray_slot"},
-      {"config --preset rdna2 --set ray_slots=12x", "ray_slots"},
-      {"config --preset rdna2 --set ray_slots=0", "ray_slots"},
-      {"config --preset rdna2 --set ray_slots=", "ray_slots"},
-      {"config --preset rdna2 --set bvh_width=6", "bvh_width"},
-      {"config --preset rdna2 --set clock_ghz=fast", "clock_ghz"},
-      {"config --preset rdna2 --set format=nosuch", "nosuch"},
-      {"config --preset rdna2 --set ray_slots", "key=value"},
+      {"config --config amd", "amd"},
+      {"config --config rdna2 --set ray_slot=4", "ray_slot"},
+      {"config --config rdna2 --set ray_slots=12x", "ray_slots"},
+      {"config --config rdna2 --set ray_slots=0", "ray_slots"},
+      {"config --config rdna2 --set ray_slots=", "ray_slots"},
+      {"config --config rdna2 --set bvh_width=6", "bvh_width"},
+      {"config --config rdna2 --set clock_ghz=fast", "clock_ghz"},
+      {"config --config rdna2 --set format=nosuch", "nosuch"},
+      {"config --config rdna2 --set ray_slots", "key=value"},
   };
   for (const Case& c : cases) {
     const Run r = run_rtusim(c.args);
@@ -950,4 +950,36 @@ TEST_CASE("compare --rays: incoherent without a count, and a spec that is neithe
   const Run seed = run_rtusim("compare --scene builtin:cornell --rays primary:100 --seed 3");
   CHECK(seed.status == 2);
   CHECK(seed.output.find("--seed applies to --rays incoherent") != std::string::npos);
+}
+
+TEST_CASE("config --config as everywhere else (--preset still works), timing presets listed and checked",
+          "[cli][timing][config]") {
+  const Run a = run_rtusim("config --config intel"), b = run_rtusim("config --preset intel");
+  REQUIRE(a.status == 0);
+  REQUIRE(b.status == 0);
+  CHECK(a.output == b.output);
+  CHECK(a.output.find("preset intel") != std::string::npos);
+  const Run h = run_rtusim("config --help");
+  CHECK(h.output.find("--config") != std::string::npos);
+  CHECK(h.output.find("--preset") == std::string::npos);  // the old name, not listed
+  for (const char* args :
+       {"config --preset intel --config rdna2", "config --preset intel --list", "config --stats --json x.json",
+        "config --stats --config intel", "config --list --set ray_slots=4"}) {
+    const Run r = run_rtusim(args);
+    INFO(args << "\n" << r.output);
+    CHECK(r.status == 2);
+  }
+  // sweep and plan list the presets and refuse others, as the device options do.
+  for (const char* sub : {"sweep", "plan"}) {
+    const Run r = run_rtusim(std::string(sub) + " --help");
+    INFO(r.output);
+    CHECK(r.output.find("rdna2,intel,embedded") != std::string::npos);
+  }
+  const Run p = run_rtusim("plan --scene builtin:cornell --max-error 1e-3 --config amd");
+  CHECK(p.status == 2);
+  CHECK(p.output.find("amd not in") != std::string::npos);
+  const Run s = run_rtusim("sweep --scene builtin:cornell --config rdna2,amd --out " +
+                           (temp_dir() / "presets.csv").string());
+  CHECK(s.status == 2);
+  CHECK(s.output.find("amd not in") != std::string::npos);
 }

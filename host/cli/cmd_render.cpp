@@ -161,10 +161,13 @@ void add_render(CLI::App& app) {
       ->check(CLI::Range(0, 64))
       ->capture_default_str();
   sub->add_option("--seed", a->seed, "seed of the sampling generator")->capture_default_str();
-  sub->add_flag("--ao", a->ao, "ambient occlusion at diffuse hits instead of diffuse indirect light");
+  CLI::Option* ao =
+      sub->add_flag("--ao", a->ao, "ambient occlusion at diffuse hits instead of diffuse indirect light");
   sub->add_option("--ao-distance", a->ao_distance, "occlusion ray length (default: 1/4 of the scene diagonal)")
-      ->check(CLI::PositiveNumber);
-  sub->add_flag("--no-indirect", a->no_indirect, "no diffuse indirect bounces (direct light and specular only)");
+      ->check(CLI::PositiveNumber)
+      ->needs(ao);
+  sub->add_flag("--no-indirect", a->no_indirect, "no diffuse indirect bounces (direct light and specular only)")
+      ->excludes(ao);  // --ao has none already
   sub->add_option("--background", a->background, "radiance R G B of rays that leave the scene")
       ->expected(3)
       ->check(CLI::Range(0.0f, 1e6f))

@@ -164,8 +164,13 @@ void add_sweep(CLI::App& app) {
                   "RTL area table (CSV params,cells,flip_flops,transistors; bench/rtl_area.sh writes it)")
       ->check(CLI::ExistingFile);
   sub->add_option("--shard", a->shard, "run every N-th point, starting at the k-th: k/N")->capture_default_str();
-  sub->add_option("--merge", a->merge, "merge these sweep CSVs into --out (no points run)")
-      ->check(CLI::ExistingFile);
+  CLI::Option* merge =
+      sub->add_option("--merge", a->merge, "merge these sweep CSVs into --out (no points run)")
+          ->check(CLI::ExistingFile);
+  // Merging runs no point: the options of a run would be ignored, so they are refused with it.
+  for (const char* name : {"--scene", "--formats", "--bvh-width", "--config", "--rays", "--seed", "--image-width",
+                           "--threads", "--area", "--shard"})
+    merge->excludes(sub->get_option(name));
   sub->add_option("--out", a->out, "CSV to write; points already in it are skipped (resume)")->required();
   sub->callback([a] { run_sweep(*a); });
 }

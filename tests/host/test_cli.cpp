@@ -983,3 +983,23 @@ TEST_CASE("config --config as everywhere else (--preset still works), timing pre
   CHECK(s.status == 2);
   CHECK(s.output.find("amd not in") != std::string::npos);
 }
+
+TEST_CASE("options that would be ignored are refused: diff, info, report, sweep --merge, render", "[cli]") {
+  const fs::path d = temp_dir();
+  const std::string png = (d / "ign.png").string();
+  REQUIRE(run_rtusim("render --scene builtin:cornell --width 8 --height 8 --out " + png).status == 0);
+  for (const auto& [args, words] : std::vector<std::pair<std::string, std::string>>{
+           {"diff " + png + " " + png + " --scale 4", "--heatmap"},
+           {"info --formats --json " + (d / "f.json").string(), "--scene"},
+           {"report --sweep " + (d / "s.csv").string() + " --area " + (d / "a.csv").string() + " --out " +
+                (d / "rep").string(),
+            "--area"},
+           {"sweep --merge " + png + " --rays 64 --out " + (d / "m.csv").string(), "--rays"},
+           {"render --scene builtin:cornell --ao-distance 2 --out " + png, "--ao"},
+           {"render --scene builtin:cornell --ao --no-indirect --out " + png, "--no-indirect"}}) {
+    const Run r = run_rtusim(args);
+    INFO(args << "\n" << r.output);
+    CHECK(r.status == 2);
+    CHECK(r.output.find(words) != std::string::npos);
+  }
+}

@@ -43,6 +43,7 @@ RenderOptions options_from(const RenderArgs& a, hw::DeviceKind device) {
 void run_render(const RenderArgs& a) {
   const Scene scene = load_scene(a.scene);
   RenderOptions o = options_from(a, a.dev.kind());
+  o.progress = true;  // on stderr, when it is a terminal (as trace's)
   PipelineTraceArgs pt = a.pipeline;
   o.pipeline_trace = pt.make();
   const RenderResult r = render(scene, o);

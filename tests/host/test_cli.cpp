@@ -1003,3 +1003,25 @@ TEST_CASE("options that would be ignored are refused: diff, info, report, sweep 
     CHECK(r.output.find(words) != std::string::npos);
   }
 }
+
+TEST_CASE("render: a progress line on a terminal, none otherwise", "[cli]") {
+  if (rtu::test::run_process("command -v script").status != 0) {
+    WARN("no `script` (util-linux) to give rtusim a terminal: the terminal half is not checked");
+    return;
+  }
+  const fs::path d = temp_dir();
+  const std::string args =
+      "render --scene builtin:cornell --width 32 --height 32 --spp 2 --out " + (d / "prog.png").string();
+  // script(1) runs the command on a pseudo-terminal: stderr is a terminal there.
+  const Run tty = rtu::test::run_process("script -qec '" + std::string(RTUSIM_EXE) + " " + args + "' /dev/null");
+  INFO(tty.output);
+  REQUIRE(tty.status == 0);
+  CHECK(tty.output.find("render: ") != std::string::npos);
+  CHECK(tty.output.find("(batch 1/1, bounce 0)") != std::string::npos);
+  CHECK(tty.output.find("\033[K") != std::string::npos);  // cleared before the summary
+  const Run pipe = run_rtusim(args);
+  INFO(pipe.output);
+  REQUIRE(pipe.status == 0);
+  CHECK(pipe.output.find("batch 1/") == std::string::npos);
+  CHECK(pipe.output.find('\r') == std::string::npos);
+}

@@ -395,17 +395,17 @@ TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad 
   auto strip_time = [](std::string l) { return l.substr(0, l.rfind(',')); };
   const std::vector<std::string> w = read_lines(whole);
   REQUIRE(w.size() == 7);  // header + 3 formats x 2 widths
-  CHECK(w[0].rfind("scene,format,bvh_width,config,rays,hit_agreement", 0) == 0);
-  // The default format agrees with float on every ray of the seed scene.
-  CHECK(w[1].find("builtin:seed,default,4,rdna2,6000,1,") == 0);
+  CHECK(w[0].rfind("scene,format,bvh_width,config,rays,seed,image_width,hit_agreement", 0) == 0);
+  // The default format agrees with float on every ray of the seed scene (3000 + 3000 rays, seed 1, 48 wide).
+  CHECK(w[1].find("builtin:seed,default,4,rdna2,6000,1,48,1,") == 0);
   // At every width the fixed device traverses the float reference's tree of the same width: quantized boxes
   // only grow, so it visits a few percent more nodes, never far fewer (a reference of another width would).
   for (size_t i = 1; i < w.size(); ++i) {
     std::vector<std::string> f;
     std::stringstream ss(w[i]);
     for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
-    REQUIRE(f.size() == 22);
-    const double node_overhead = std::stod(f[11]);
+    REQUIRE(f.size() == 24);
+    const double node_overhead = std::stod(f[13]);
     INFO(w[i]);
     CHECK(node_overhead >= -0.01);
     CHECK(node_overhead <= 0.25);
@@ -781,7 +781,7 @@ TEST_CASE("report and pareto: bad input gives a clear error and exit 2", "[cli][
     std::ofstream(d / "short.csv") << rtu::host::sweep_csv_header() << "\nbuiltin:seed,default,4\n";
     std::ofstream(d / "nan.csv")
         << rtu::host::sweep_csv_header()
-        << "\nbuiltin:seed,default,4,rdna2,10,x,1,0,0,0,0,0,0,0,inf,5,0.5,100,100,-1,-1,0.1\n";
+        << "\nbuiltin:seed,default,4,rdna2,10,1,48,x,1,0,0,0,0,0,0,0,inf,5,0.5,100,100,-1,-1,0.1\n";
     std::ofstream(d / "empty_rows.csv") << rtu::host::sweep_csv_header() << "\n";
   }
   const std::string out = " --out " + (d / "o").string();
@@ -1024,4 +1024,46 @@ TEST_CASE("render: a progress line on a terminal, none otherwise", "[cli]") {
   REQUIRE(pipe.status == 0);
   CHECK(pipe.output.find("batch 1/") == std::string::npos);
   CHECK(pipe.output.find('\r') == std::string::npos);
+}
+
+TEST_CASE("sweep: resume reruns points made with other --rays, --seed or --image-width, merge refuses a mix",
+          "[cli][sweep]") {
+  const fs::path d = temp_dir();
+  const std::string f = (d / "params.csv").string(), g = (d / "params_g.csv").string(),
+                    m = (d / "params_m.csv").string();
+  for (const std::string& x : {f, g, m}) fs::remove(x);
+  const std::string grid = "sweep --scene builtin:cornell --formats default,compact ";
+  Run r = run_rtusim(grid + "--rays 64 --image-width 0 --out " + f);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(r.output.find("2 run, 0 already") != std::string::npos);
+  r = run_rtusim(grid + "--rays 64 --image-width 0 --out " + f);  // the same parameters: nothing to do
+  CHECK(r.output.find("0 run, 2 already") != std::string::npos);
+  r = run_rtusim(grid + "--rays 128 --image-width 0 --out " + f);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(r.output.find("2 run, 0 already") != std::string::npos);
+  CHECK(r.output.find("other run parameters") != std::string::npos);
+  r = run_rtusim(grid + "--rays 128 --seed 2 --image-width 0 --out " + f);
+  CHECK(r.output.find("2 run, 0 already") != std::string::npos);
+  r = run_rtusim(grid + "--rays 128 --seed 2 --image-width 8 --out " + f);
+  CHECK(r.output.find("2 run, 0 already") != std::string::npos);
+  const std::vector<rtu::host::SweepRow> rows = rtu::host::read_sweep_csv(f);
+  REQUIRE(rows.size() == 8);
+  CHECK(rows[0].rays == 128);  // 64 camera + 64 incoherent rays
+  CHECK(rows[2].rays == 256);
+  CHECK(rows[4].seed == 2);
+  CHECK(rows[6].image_width == 8);
+  CHECK(rtu::host::sweep_run_params(rows[6]) == "--rays 128 --seed 2 --image-width 8");
+
+  REQUIRE(run_rtusim(grid + "--rays 128 --image-width 0 --out " + g).status == 0);
+  const Run mixed = run_rtusim("sweep --merge " + f + " --out " + m);
+  CHECK(mixed.status == 2);
+  CHECK(mixed.output.find("only rows made with the same run parameters merge") != std::string::npos);
+  REQUIRE(run_rtusim(grid + "--rays 64 --image-width 0 --out " + m).status == 0);
+  const Run two = run_rtusim("sweep --merge " + g + " " + m + " --out " + (d / "params_mm.csv").string());
+  INFO(two.output);
+  CHECK(two.status == 2);
+  CHECK(two.output.find("--rays 128 --seed 1 --image-width 0") != std::string::npos);
+  CHECK(two.output.find("--rays 64 --seed 1 --image-width 0") != std::string::npos);
 }

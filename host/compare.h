@@ -26,7 +26,13 @@ struct HitComparison {
   uint64_t other_prim = 0;    // both hit, different primitives (closest hit only)
   uint64_t t_compared = 0;    // both hit the same primitive
   double t_rel_max = 0.0, t_rel_mean = 0.0;
+  double t_rel_sd = 0.0;  // sample standard deviation of the relative error over the t_compared rays
   uint64_t t_rel_max_ray = 0;
+  // The same hits' error as a distance along the ray, |t_dev - t_ref| |d|, in grid steps of the device's
+  // quantization frame (0 when no grid step was given). A ray starting on a surface has a tiny t_ref: its relative
+  // error can be large while its distance error is a fraction of a step.
+  double t_abs_steps_max = 0.0, t_abs_steps_mean = 0.0;
+  uint64_t t_abs_steps_max_ray = 0;
   std::vector<RayDisagreement> disagreements;  // every disagreeing ray, in ray order
 
   double hit_agreement() const { return compared ? double(hit_agree) / double(compared) : 1.0; }
@@ -34,8 +40,10 @@ struct HitComparison {
 };
 
 // valid[i]: ray i was valid on both devices (invalid rays are not compared). For any-hit queries only hit/miss
-// is compared. t relative error = |t_dev - t_ref| / |t_ref|.
+// is compared. t relative error = |t_dev - t_ref| / |t_ref|; with `rays` and a grid step (world units) the
+// distance error in steps too.
 HitComparison compare_hits(const std::vector<hw::Hit>& ref, const std::vector<hw::Hit>& dev,
-                           const std::vector<bool>& valid, bool any_hit);
+                           const std::vector<bool>& valid, bool any_hit,
+                           const std::vector<hw::Ray>* rays = nullptr, double grid_step = 0.0);
 
 }  // namespace rtu::host

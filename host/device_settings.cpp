@@ -7,7 +7,7 @@
 namespace rtu::host {
 
 hw::FixedFormat DeviceSettings::fixed_format() const {
-  hw::FixedFormat f = hw::format_preset(format);
+  hw::FixedFormat f = hw::format_preset(format.empty() ? "default" : format);
   std::string changed;
   auto set = [&](int& field, int value, const char* key) {
     if (value < 0) return;
@@ -32,6 +32,15 @@ DeviceOptions DeviceSettings::options(hw::DeviceKind kind) const {
   d.kind = kind;
   if (kind == hw::DeviceKind::kTimed) {
     d.timing = timing_config_from(config, sets);
+    // --format and --bvh-width name the configuration's keys; both spellings of one point must agree.
+    auto replace_key = [&](const char* key, const std::string& value, const char* option) {
+      for (const std::string& s : sets)
+        if (s.rfind(std::string(key) + "=", 0) == 0 && s.substr(s.find('=') + 1) != value)
+          throw Error(std::string(option) + " " + value + " and --set " + s + " name two values of one key");
+      hw::set_timing_key(d.timing, key, value);
+    };
+    if (!format.empty()) replace_key("format", format, "--format");
+    if (bvh_width > 0) replace_key("bvh_width", std::to_string(bvh_width), "--bvh-width");
     d.sample.fraction = sample;
     d.sample.unit_rays = sample_unit;
     d.sample.warmup_rays = sample_warmup;

@@ -19,12 +19,16 @@ struct DeviceSettings {
   int bvh_width = 0;  // 0: the format's width (4 in the default format)
   int leaf_size = 8;
   std::string accel = "auto";  // auto, bvh or brute
-  std::string format = "default";
+  // Fixed-point format preset; empty: "default" on the fixed device, the timing configuration's own (key `format`)
+  // on the timed device. Named on the timed device it replaces the configuration's `format` key, as
+  // `--set format=NAME` does: one design point, one set of cycles, whichever way it is named.
+  std::string format;
   // Overrides of the format preset's fields (hw::format_fields() but width, which bvh_width sets), by key; a field
   // not named keeps the preset's value.
   std::map<std::string, int> format_fields;
-  // The timed device: a timing preset and key=value overrides. Its format preset and BVH width come from the
-  // configuration (keys `format`, `bvh_width`); the per-field format options still apply on top.
+  // The timed device: a timing preset and key=value overrides. Its format preset and BVH width are the
+  // configuration's keys `format` and `bvh_width`, which `format` and `bvh_width` above replace when set (a
+  // --set of the same key with another value is an error); the per-field format options apply on top.
   std::string config = "rdna2";
   std::vector<std::string> sets;
   // The timed device: simulate this fraction of each TRACE packet's rays in the timing model and extrapolate

@@ -90,4 +90,44 @@ Image diff_heatmap(const Image& a, const Image& b, double full_scale) {
   return out;
 }
 
+std::array<uint8_t, 3> diff_ramp_color(double t) {
+  t = std::isnan(t) ? 1.0 : std::clamp(t, 0.0, 1.0);
+  size_t i = 0;
+  while (i + 2 < std::size(kDiffRamp) && t > kDiffRamp[i + 1].t) ++i;
+  const RampStop &lo = kDiffRamp[i], &hi = kDiffRamp[i + 1];
+  const double f = (t - lo.t) / (hi.t - lo.t);
+  const auto mix = [f](uint8_t a, uint8_t b) { return uint8_t(std::lround(a + f * (double(b) - double(a)))); };
+  return {mix(lo.r, hi.r), mix(lo.g, hi.g), mix(lo.b, hi.b)};
+}
+
+int diff_ramp_full_scale(int max_abs) {
+  int s = 1;
+  while (s < max_abs && s < 255) s = 2 * s + 1;
+  return s;
+}
+
+double diff_ramp_t(int d, int full_scale) {
+  d = std::clamp(d, 0, full_scale);
+  return std::log2(1.0 + d) / std::log2(1.0 + full_scale);
+}
+
+Image diff_heatmap_log(const Image& a, const Image& b, int full_scale) {
+  check_pair(a, b, "image diff heatmap");
+  if (full_scale < 1 || full_scale > 255 || ((full_scale + 1) & full_scale) != 0)
+    throw Error("image diff heatmap: the log full scale must be 2^k - 1 with k = 1..8, got " +
+                std::to_string(full_scale));
+  // One colour per possible difference, computed once.
+  std::array<std::array<uint8_t, 3>, 256> lut;
+  for (int d = 0; d < 256; ++d) lut[size_t(d)] = diff_ramp_color(diff_ramp_t(d, full_scale));
+  Image out{a.width, a.height, std::vector<uint8_t>(a.rgb.size())};
+  const size_t pixels = size_t(a.width) * size_t(a.height);
+  for (size_t p = 0; p < pixels; ++p) {
+    int d = 0;
+    for (size_t k = 0; k < 3; ++k) d = std::max(d, std::abs(int(a.rgb[3 * p + k]) - int(b.rgb[3 * p + k])));
+    const std::array<uint8_t, 3>& c = lut[size_t(d)];
+    std::copy(c.begin(), c.end(), out.rgb.begin() + std::ptrdiff_t(3 * p));
+  }
+  return out;
+}
+
 }  // namespace rtu::host

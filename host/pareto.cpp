@@ -22,8 +22,6 @@ namespace rtu::host {
 
 namespace {
 
-constexpr ParetoCost kCosts[3] = {ParetoCost::kCycles, ParetoCost::kBvhBytes, ParetoCost::kRtlCells};
-
 // A file-name-safe tag of a scene spec: the name of a builtin or the file's stem.
 std::string scene_tag(const std::string& scene) {
   std::string s = scene;
@@ -95,6 +93,26 @@ struct Range {
   }
   bool empty() const { return lo > hi; }
 };
+
+// Point numbers as text: ascending, a run of three or more consecutive numbers as "first-last", e.g. "1-3,7".
+std::string number_list(std::vector<size_t> n) {
+  std::sort(n.begin(), n.end());
+  std::string t;
+  for (size_t i = 0; i < n.size();) {
+    size_t j = i;
+    while (j + 1 < n.size() && n[j + 1] == n[j] + 1) ++j;
+    if (!t.empty()) t += ',';
+    t += std::to_string(n[i]);
+    if (j >= i + 2) {
+      t += '-';  // appended apart: GCC 12 warns (-Wrestrict, falsely) on "-" + std::to_string(...)
+      t += std::to_string(n[j]);
+      i = j + 1;
+    } else {
+      ++i;
+    }
+  }
+  return t;
+}
 
 const char* cost_axis(ParetoCost c) {
   switch (c) {
@@ -179,6 +197,42 @@ std::string find_gnuplot() {
   return "";
 }
 
+bool boxes_overlap(const LabelBox& a, const LabelBox& b) {
+  return a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1;
+}
+
+std::vector<LabelPlace> place_labels(const std::vector<LabelRequest>& labels,
+                                     const std::vector<LabelBox>& obstacles, const LabelBox& bounds) {
+  // Directions from the point to the box, as (dx, dy) in -1..1: the box's near edge or corner sits `r` away.
+  static constexpr int kDirs[8][2] = {{1, 0}, {1, -1}, {0, -1}, {-1, -1}, {-1, 0}, {-1, 1}, {0, 1}, {1, 1}};
+  // Ring distances in pixels: the first beside the marker, the rest with a leader line.
+  static constexpr double kRings[] = {10.0, 26.0, 46.0, 72.0};
+  std::vector<LabelPlace> out(labels.size());
+  std::vector<LabelBox> taken;
+  for (size_t i = 0; i < labels.size(); ++i) {
+    const LabelRequest& q = labels[i];
+    for (size_t ring = 0; ring < std::size(kRings) && !out[i].placed; ++ring) {
+      const double r = kRings[ring];
+      for (const auto& d : kDirs) {
+        LabelBox b;
+        // Horizontally: right of the point, left of it, or centred on it; vertically likewise.
+        b.x0 = d[0] > 0 ? q.x + r : d[0] < 0 ? q.x - r - q.w : q.x - q.w / 2;
+        b.y0 = d[1] > 0 ? q.y + r : d[1] < 0 ? q.y - r - q.h : q.y - q.h / 2;
+        b.x1 = b.x0 + q.w;
+        b.y1 = b.y0 + q.h;
+        if (b.x0 < bounds.x0 || b.y0 < bounds.y0 || b.x1 > bounds.x1 || b.y1 > bounds.y1) continue;
+        const auto hits = [&](const LabelBox& o) { return boxes_overlap(b, o); };
+        if (std::any_of(obstacles.begin(), obstacles.end(), hits) || std::any_of(taken.begin(), taken.end(), hits))
+          continue;
+        out[i] = LabelPlace{true, ring > 0, b};
+        taken.push_back(b);
+        break;
+      }
+    }
+  }
+  return out;
+}
+
 std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, const std::string& dir,
                                            const std::string& gnuplot) {
   if (rows.empty()) throw Error("pareto: the sweep has no rows");
@@ -200,122 +254,207 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
     const std::string data = base + ".dat";
     {
       std::ofstream f(dir + "/" + data);
-      f << "# " << scene << ": cycles bvh_bytes rtl_cells hit_disagreement t_rel_error_mean label (? = unknown)\n";
-      for (size_t i : idx) {
-        const SweepRow& r = rows[i];
+      f << "# " << scene
+        << ": cycles bvh_bytes rtl_cells hit_disagreement t_rel_error_mean label number (? = unknown)\n";
+      for (size_t k = 0; k < idx.size(); ++k) {
+        const SweepRow& r = rows[idx[k]];
         f << r.cycles << ' ' << r.bvh_bytes << ' ' << (r.rtl_cells >= 0 ? std::to_string(r.rtl_cells) : "?") << ' '
           << g(pareto_error(r, ParetoError::kHitDisagreement)) << ' '
-          << g(pareto_error(r, ParetoError::kTRelErrorMean)) << ' ' << label_field(pareto_label(r.p)) << '\n';
+          << g(pareto_error(r, ParetoError::kTRelErrorMean)) << ' ' << label_field(pareto_label(r.p)) << ' '
+          << k + 1 << '\n';
       }
       if (!f.flush()) throw Error("cannot write " + dir + "/" + data);
     }
     uint64_t rays = 0;
     for (size_t i : idx) rays = std::max(rays, rows[i].rays);
+    // The panels drawn: area only when some row of the scene has one.
+    std::vector<ParetoCost> costs = {ParetoCost::kCycles, ParetoCost::kBvhBytes};
+    const bool area_panel = std::any_of(idx.begin(), idx.end(),
+                                        [&](size_t i) { return pareto_cost(rows[i], ParetoCost::kRtlCells) > 0; });
+    if (area_panel) costs.push_back(ParetoCost::kRtlCells);
+    const int panel_rows = int(costs.size() + 1) / 2;
+    const double width = kParetoPlotWidth, height = kParetoTitleHeight + panel_rows * kParetoPanelHeight;
+    const auto sx = [&](double px) { return g(px / width); };
+    const auto sy = [&](double py) { return g(1.0 - py / height); };
     for (ParetoError e : {ParetoError::kHitDisagreement, ParetoError::kTRelErrorMean}) {
       ParetoPlot plot;
       plot.scene = scene;
       plot.error = e;
       plot.points = idx.size();
+      plot.rows = idx;
+      plot.area_panel = area_panel;
       const std::string ename = e == ParetoError::kHitDisagreement ? "hit" : "terr";
       plot.png = base + "_" + ename + ".png";
       const std::string script = base + "_" + ename + ".gp";
       std::ostringstream gp;
       gp << "# Pareto plots of " << scene << " (rtusim pareto / rtusim report); run: gnuplot " << script << "\n"
-         << "set terminal pngcairo noenhanced size 1950,800 font 'sans,10'\n"
+         << "set terminal pngcairo noenhanced size " << kParetoPlotWidth << "," << int(height)
+         << " font 'sans,9'\n"
          << "set output " << gp_quote(plot.png) << "\n"
          << "set datafile missing '?'\n"
-         << "set grid\nset key top right\nset logscale y\nset format y '%.0e'\n"
+         << "set grid\nunset key\nset logscale y\nset format y '%.0e'\n"
+         << "set style textbox opaque noborder margins 1,1\n"
          << "set ylabel " << gp_quote(error_axis(e)) << "\n";
-      std::string title = scene + ": " + error_axis(e) + " against cost, " + std::to_string(idx.size()) +
-                          " points (format/width/config); line: the Pareto front";
-      title += e == ParetoError::kHitDisagreement ? "; 0 is drawn at 1/rays = " + g(rays ? 1.0 / double(rays) : 0)
-                                                  : "; 0 is drawn at " + g(kZeroTError);
-      gp << "set multiplot layout 1,3 title " << gp_quote(title) << "\n";
+      std::string title =
+          scene + ": " + error_axis(e) + " against cost, " + std::to_string(idx.size()) + " points";
+      title += e == ParetoError::kHitDisagreement ? " (0 is drawn at 1/rays = " + g(rays ? 1.0 / double(rays) : 0)
+                                                  : " (0 is drawn at " + g(kZeroTError);
+      title += ")";
+      const std::string legend =
+          "numbers: the points (the scene's rows, format/width/config, in the table under the plots); blue: "
+          "sweep points; red staircase and circles: the Pareto front";
+      // The title lines are labels at fixed places, so that they cannot move the panels.
+      // Drawn with the first panel (each panel starts with `unset label`).
+      const std::string title_labels = "set label 101 " + gp_quote(title) + " at screen 0.5," + sy(13) +
+                                       " center font ',11'\nset label 102 " + gp_quote(legend) +
+                                       " at screen 0.5," + sy(30) + " center\n";
+      gp << "set multiplot\n";
       Range yr;
       for (size_t i : idx) yr.add(pareto_error(rows[i], e));
+      const double ylo = yr.lo / 3, yhi = yr.hi * 3;
       const int ycol = e == ParetoError::kHitDisagreement ? 4 : 5;
-      for (int c = 0; c < 3; ++c) {
-        const ParetoCost cost = kCosts[c];
+      for (size_t c = 0; c < costs.size(); ++c) {
+        const ParetoCost cost = costs[c];
+        const int ci = int(cost);  // index into plot.front and the data file's columns
         std::vector<std::pair<double, double>> pts;
-        std::vector<size_t> which;
+        std::vector<size_t> which;  // position in idx (the point's number - 1)
         Range xr;
-        for (size_t i : idx) {
-          const double x = pareto_cost(rows[i], cost);
+        for (size_t k = 0; k < idx.size(); ++k) {
+          const double x = pareto_cost(rows[idx[k]], cost);
           if (x <= 0.0) continue;
-          pts.emplace_back(x, pareto_error(rows[i], e));
-          which.push_back(i);
+          pts.emplace_back(x, pareto_error(rows[idx[k]], e));
+          which.push_back(k);
           xr.add(x);
         }
         const std::vector<size_t> front = pareto_front(pts);
-        for (size_t f : front) plot.front[c].push_back(which[f]);
+        for (size_t f : front) plot.front[ci].push_back(idx[which[f]]);
         const std::string front_file = base + "_" + ename + "_" + pareto_cost_name(cost) + ".front";
         {
           std::ofstream f(dir + "/" + front_file);
           f << "# the Pareto front: " << pareto_cost_name(cost) << ' ' << pareto_error_name(e) << " label\n";
           for (size_t k : front)
-            f << g(pts[k].first) << ' ' << g(pts[k].second) << ' ' << label_field(pareto_label(rows[which[k]].p))
-              << '\n';
+            f << g(pts[k].first) << ' ' << g(pts[k].second) << ' '
+              << label_field(pareto_label(rows[idx[which[k]]].p)) << '\n';
           if (!f.flush()) throw Error("cannot write " + dir + "/" + front_file);
         }
-        // One label per place: points at the same cost and error (e.g. presets that differ only in timing, on
-        // the memory axis) share a label, "format/width/config+config; ...".
+        // The panel's place in the image (two per row) and its plot area in pixels (y down): margins for the
+        // error axis on the left, the panel title on top and the cost axis below.
+        const double cx = double(c % 2) * width / 2, cy = kParetoTitleHeight + double(c / 2) * kParetoPanelHeight;
+        const double x0 = cx + 85, x1 = cx + width / 2 - 20, y0 = cy + 30, y1 = cy + kParetoPanelHeight - 60;
+        // The cost axis: logarithmic over a wide range of costs, linear over a narrow one (a log axis would show
+        // no tick there).
+        const bool logx = xr.hi >= 3.0 * xr.lo;
+        double xlo, xhi;
+        if (logx) {
+          xlo = xr.lo / 1.3;
+          xhi = xr.hi * 1.3;
+        } else {
+          const double span = xr.hi > xr.lo ? xr.hi - xr.lo : 0.05 * xr.hi;
+          xlo = std::max(0.0, xr.lo - 0.15 * span);
+          xhi = xr.hi + 0.15 * span;
+        }
+        const auto px = [&](double x) {
+          const double f = logx ? std::log(x / xlo) / std::log(xhi / xlo) : (x - xlo) / (xhi - xlo);
+          return x0 + f * (x1 - x0);
+        };
+        const auto py = [&](double y) { return y1 - std::log(y / ylo) / std::log(yhi / ylo) * (y1 - y0); };
+        // One label per place: points drawn on the same spot (within 4 px, so that the eye cannot tell them
+        // apart; e.g. presets that differ only in timing, on the memory axis) share one, "3-5" or "1,4". Places
+        // with a point of the front are labelled first.
+        struct Place {
+          double x, y;                  // pixels of the first point of the place
+          std::vector<size_t> members;  // numbers - 1
+          bool front = false;
+        };
+        std::vector<Place> places;
+        std::set<size_t> front_set(front.begin(), front.end());
+        for (size_t k = 0; k < pts.size(); ++k) {
+          const double mx = px(pts[k].first), my = py(pts[k].second);
+          auto it = std::find_if(places.begin(), places.end(), [&](const Place& pl) {
+            return std::abs(pl.x - mx) <= 4.0 && std::abs(pl.y - my) <= 4.0;
+          });
+          if (it == places.end()) {
+            places.push_back(Place{mx, my, {}, false});
+            it = places.end() - 1;
+          }
+          it->members.push_back(which[k]);
+          it->front = it->front || front_set.count(k) > 0;
+        }
+        std::stable_sort(places.begin(), places.end(),
+                         [](const Place& a, const Place& b) { return a.front && !b.front; });
+        std::vector<LabelRequest> requests;
+        std::vector<LabelBox> markers;
+        std::vector<std::string> texts;
+        for (const Place& pl : places) {
+          std::vector<size_t> numbers;
+          for (size_t k : pl.members) numbers.push_back(k + 1);
+          texts.push_back(number_list(numbers));
+          // Glyphs of the 9 pt font are at most 8 px wide and 13 px high; 2 px of room on each side.
+          requests.push_back(LabelRequest{pl.x, pl.y, 8.0 * double(texts.back().size()) + 4.0, 16.0});
+          const double m = pl.front ? 9.0 : 6.0;  // the marker's half size (front: the red circle)
+          markers.push_back(LabelBox{pl.x - m, pl.y - m, pl.x + m, pl.y + m});
+        }
+        const std::vector<LabelPlace> placed = place_labels(requests, markers, LabelBox{x0, y0, x1, y1});
         const std::string label_file = base + "_" + ename + "_" + pareto_cost_name(cost) + ".labels";
+        std::ostringstream labels_gp;
         {
-          std::map<std::pair<double, double>, std::vector<size_t>> at;
-          for (size_t k = 0; k < pts.size(); ++k) at[pts[k]].push_back(which[k]);
           std::ofstream f(dir + "/" + label_file);
-          for (const auto& [xy, members] : at) {
-            std::vector<std::pair<std::string, std::string>> groups;  // format/width, configs
-            for (size_t i : members) {
-              const std::string fw = rows[i].p.format + "/" + std::to_string(rows[i].p.bvh_width);
-              auto it = std::find_if(groups.begin(), groups.end(), [&](const auto& gr) { return gr.first == fw; });
-              if (it == groups.end())
-                groups.emplace_back(fw, rows[i].p.config);
-              else
-                it->second += "+" + rows[i].p.config;
+          f << "# numbers point_x point_y box_x0 box_y0 box_x1 box_y1 leader (pixels of " << plot.png
+            << ", y down; - when no free place was found)\n";
+          for (size_t k = 0; k < places.size(); ++k) {
+            const LabelPlace& p = placed[k];
+            f << label_field(texts[k]) << ' ' << g(requests[k].x) << ' ' << g(requests[k].y);
+            if (!p.placed) {
+              f << " - - - - -\n";
+              ++plot.unlabelled;
+              continue;
             }
-            std::string text;
-            for (const auto& [fw, configs] : groups) text += (text.empty() ? "" : ";") + fw + "/" + configs;
-            f << g(xy.first) << ' ' << g(xy.second) << ' ' << label_field(text) << '\n';
+            f << ' ' << g(p.box.x0) << ' ' << g(p.box.y0) << ' ' << g(p.box.x1) << ' ' << g(p.box.y1) << ' '
+              << (p.leader ? 1 : 0) << '\n';
+            labels_gp << "set label " << k + 1 << ' ' << gp_quote(texts[k]) << " at screen " << sx(p.box.x0 + 2)
+                      << "," << sy((p.box.y0 + p.box.y1) / 2) << " left front boxed\n";
+            if (p.leader) {
+              // From the marker's edge to the nearest point of the box.
+              const double bx = std::clamp(requests[k].x, p.box.x0, p.box.x1);
+              const double by = std::clamp(requests[k].y, p.box.y0, p.box.y1);
+              labels_gp << "set arrow " << k + 1 << " from screen " << sx(requests[k].x) << ","
+                        << sy(requests[k].y) << " to screen " << sx(bx) << "," << sy(by)
+                        << " nohead lc rgb '#909090' lw 1 back\n";
+            }
           }
           if (!f.flush()) throw Error("cannot write " + dir + "/" + label_file);
         }
-        gp << "set title " << gp_quote(std::string(cost_axis(cost))) << "\n"
+        gp << "unset label\nunset arrow\n"
+           << (c == 0 ? title_labels : std::string()) << "set lmargin at screen " << sx(x0)
+           << "\nset rmargin at screen " << sx(x1) << "\n"
+           << "set tmargin at screen " << sy(y0) << "\nset bmargin at screen " << sy(y1) << "\n"
+           << "set title " << gp_quote(std::string(cost_axis(cost))) << "\n"
            << "set xlabel " << gp_quote(pareto_cost_name(cost)) << "\n"
-           << "set yrange [" << g(yr.lo / 4) << ":" << g(yr.hi * 30) << "]\n";
-        if (pts.empty()) {
-          gp << "unset logscale x\nset xrange [0:1]\nunset xtics\n"
-             << "set label 1 'no area known for these points (rtl_cells = -1; rtusim sweep --area TABLE)' at "
-                "graph 0.5,0.5 center\n"
-             << "plot '-' using 1:2 with points lc rgb 'white' notitle\n0.5 " << g(yr.lo) << "\ne\n"
-             << "unset label 1\nset xtics autofreq\n";
-          continue;
-        }
-        // A log axis over a wide range of costs; a linear one over a narrow range (a log axis would show no tick).
-        if (xr.hi >= 3.0 * xr.lo) {
+           << "set yrange [" << g(ylo) << ":" << g(yhi) << "]\n"
+           << "set xrange [" << g(xlo) << ":" << g(xhi) << "]\n";
+        if (logx) {
           // Ticks at 1, 2 and 5 times the powers of ten in range (gnuplot's own log ticks are decades only).
-          const double lo = xr.lo / 1.15, hi = xr.hi * 1.6;
-          gp << "set logscale x\nset xrange [" << g(lo) << ":" << g(hi) << "]\nset xtics (";
+          gp << "set logscale x\nset xtics (";
           bool first = true;
-          for (double dec = std::pow(10.0, std::floor(std::log10(lo))); dec <= hi; dec *= 10.0)
+          for (double dec = std::pow(10.0, std::floor(std::log10(xlo))); dec <= xhi; dec *= 10.0)
             for (double m : {1.0, 2.0, 5.0})
-              if (m * dec >= lo && m * dec <= hi) {
+              if (m * dec >= xlo && m * dec <= xhi) {
                 gp << (first ? "" : ", ") << g(m * dec);
                 first = false;
               }
           gp << ")\nset format x '%.0s%c'\n";
         } else {
-          const double span = xr.hi > xr.lo ? xr.hi - xr.lo : 0.05 * xr.hi;
-          gp << "unset logscale x\nset xrange [" << g(std::max(0.0, xr.lo - 0.08 * span)) << ":"
-             << g(xr.hi + 0.45 * span) << "]\nset xtics autofreq\nset format x '%.2s%c'\n";
+          // Enough decimals of the mantissa (gnuplot's %s, scaled by the %c prefix) that ticks about a fifth of
+          // the range apart print differently.
+          const double unit = std::pow(1000.0, std::floor(std::log10(xhi) / 3.0));
+          const int decimals = std::clamp(int(std::ceil(-std::log10((xhi - xlo) / unit / 5.0))), 0, 3);
+          gp << "unset logscale x\nset xtics autofreq\nset format x '%." << decimals << "s%c'\n";
         }
-        gp << "plot " << gp_quote(data) << " using " << c + 1 << ":" << ycol
-           << " with points pt 7 ps 1.2 lc rgb '#3060c0' title 'sweep points', \\\n"
-           << "  " << gp_quote(label_file)
-           << " using 1:2:3 with labels left rotate by 25 offset char 0.5,0.3 font ',7' notitle, \\\n"
-           << "  " << gp_quote(front_file)
-           << " using 1:2 with steps lw 2 lc rgb '#d03020' title 'Pareto front', \\\n"
-           << "  '' using 1:2 with points pt 6 ps 2 lw 2 lc rgb '#d03020' notitle\n";
+        gp << labels_gp.str();
+        gp << "plot " << gp_quote(data) << " using " << ci + 1 << ":" << ycol
+           << " with points pt 7 ps 1.2 lc rgb '#3060c0', \\\n"
+           << "  " << gp_quote(front_file) << " using 1:2 with steps lw 2 lc rgb '#d03020', \\\n"
+           << "  '' using 1:2 with points pt 6 ps 2 lw 2 lc rgb '#d03020'\n";
       }
       gp << "unset multiplot\n";
       {

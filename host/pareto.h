@@ -1,6 +1,9 @@
 // Pareto fronts of a design sweep (host/sweep.h) and their plots, drawn by gnuplot (PNG, pngcairo terminal).
 // For each scene of a sweep, error (log scale) against three costs: simulated cycles, encoded BVH bytes and the
-// RTL box unit's area in cells (rows without a synthesis result, rtl_cells = -1, are left out of that panel).
+// RTL box unit's area in cells (rows without a synthesis result, rtl_cells = -1, are left out of that panel; when
+// no row of the scene has one, the panel is left out). Points are numbered per scene (1 = the scene's first row);
+// the numbers are placed beside the points so that no two overlap (place_labels), and the page or the data
+// files say which point a number is.
 // Two error measures: hit disagreement (1 - hit agreement, a zero drawn at 1 / rays: "fewer than one ray in
 // the sample") and the mean relative t error (a zero drawn at kZeroTError). A point is on the front when no
 // other point of the scene is at most as costly and at most as wrong and better in one of the two.
@@ -38,18 +41,52 @@ std::string pareto_label(const SweepPoint& p);
 // The gnuplot executable on PATH, or "" when there is none.
 std::string find_gnuplot();
 
+// Label placement, in pixels of the image (x right, y down).
+struct LabelBox {
+  double x0 = 0, y0 = 0, x1 = 0, y1 = 0;  // x0 <= x1, y0 <= y1
+};
+// True when the boxes share interior area (touching edges do not overlap).
+bool boxes_overlap(const LabelBox& a, const LabelBox& b);
+struct LabelRequest {
+  double x = 0, y = 0;  // the point the label names
+  double w = 0, h = 0;  // the label's box
+};
+struct LabelPlace {
+  bool placed = false;  // false: no free place was found (the label is left out)
+  bool leader = false;  // placed away from its point: draw a line from the point to the box
+  LabelBox box;
+};
+// Places labels greedily in the order given: each goes to the first free place among positions around its point
+// (right, above, left, below and the corners, in rings of growing distance; from the second ring on with a
+// leader line). A place is free when its box lies inside `bounds` and overlaps no obstacle (e.g. the points'
+// markers) and no label placed before it. So no two placed boxes overlap; a label with no free place is not
+// placed.
+std::vector<LabelPlace> place_labels(const std::vector<LabelRequest>& labels,
+                                     const std::vector<LabelBox>& obstacles, const LabelBox& bounds);
+
+// The size of the plot images: two panels per row, so a PNG is kParetoPlotWidth wide (it fits a 1280 px window
+// at its natural size) and kParetoPanelHeight per row of panels plus a title.
+inline constexpr int kParetoPlotWidth = 1200;
+inline constexpr int kParetoPanelHeight = 480;
+inline constexpr int kParetoTitleHeight = 50;
+
 struct ParetoPlot {
   std::string scene;  // as in the sweep
   ParetoError error;
   std::string png;  // file name inside the output directory
   size_t points = 0;
+  // The scene's rows, as indices into the rows given: point number k + 1 on the plot is rows[k].
+  std::vector<size_t> rows;
   // Per cost (cycles, bytes, area): the front, as row indices into the rows given.
   std::vector<size_t> front[3];
+  bool area_panel = false;  // false: no row of the scene has an area, the panel is left out
+  size_t unlabelled = 0;    // places (over all panels) whose number found no free spot
 };
 
-// Writes, per scene of `rows`, the data, the gnuplot script and two PNGs (one per error measure, three panels
-// each) into `dir` (which must exist), running `gnuplot`. Throws Error when there are no rows or gnuplot fails
-// (naming its log file).
+// Writes, per scene of `rows`, the data, the gnuplot script and two PNGs (one per error measure, two or three
+// panels each) into `dir` (which must exist), running `gnuplot`. Beside each panel's data, a `.labels` file lists
+// every numbered place with its box in pixels. Throws Error when there are no rows or gnuplot fails (naming its
+// log file).
 std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, const std::string& dir,
                                            const std::string& gnuplot);
 

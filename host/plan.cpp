@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 
@@ -12,8 +13,39 @@ namespace rtu::host {
 
 namespace {
 
-std::string spec(int b, int k) {
-  return "default:coord_bits=" + std::to_string(b) + ":child_bits=" + std::to_string(k);
+// A candidate: the configuration's format with b coordinate and k child-offset bits.
+std::string spec(const std::string& base, int b, int k) {
+  return base + ":coord_bits=" + std::to_string(b) + ":child_bits=" + std::to_string(k);
+}
+
+// log P(X = i) for X ~ Binomial(n, p), 0 < p < 1.
+double log_binomial_pmf(uint64_t i, uint64_t n, double p) {
+  const double di = double(i), dn = double(n);
+  return std::lgamma(dn + 1.0) - std::lgamma(di + 1.0) - std::lgamma(dn - di + 1.0) + di * std::log(p) +
+         (dn - di) * std::log1p(-p);
+}
+
+// P(X <= k) for X ~ Binomial(n, p), for p >= k / n: the terms fall from i = k downward (the mode is at or above
+// k), so the sum stops once a term is below 2^-60 of it.
+double binomial_cdf_upper_tail_side(uint64_t k, uint64_t n, double p) {
+  double term = std::exp(log_binomial_pmf(k, n, p));
+  double sum = term;
+  const double q_over_p = (1.0 - p) / p;
+  for (uint64_t i = k; i > 0 && term > sum * 0x1p-60; --i) {
+    term *= double(i) / double(n - i + 1) * q_over_p;
+    sum += term;
+  }
+  return sum;
+}
+
+// The standard normal's quantile by bisection of erfc (the bound needs a few digits, not speed).
+double normal_quantile(double c) {
+  double lo = -40.0, hi = 40.0;
+  for (int it = 0; it < 200; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (0.5 * std::erfc(-mid / std::sqrt(2.0)) < c ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
 }
 
 }  // namespace
@@ -22,18 +54,55 @@ double plan_error(const SweepRow& r, const std::string& metric) {
   return metric == "t" ? r.t_rel_error_mean : std::max(r.hit_disagreement(), 0.0);
 }
 
+double proportion_upper_bound(uint64_t k, uint64_t n, double confidence) {
+  if (n == 0 || k >= n) return 1.0;
+  const double alpha = 1.0 - confidence;
+  if (k == 0) return -std::expm1(std::log(alpha) / double(n));  // (1 - p)^n = alpha, exactly
+  // P(X <= k) falls as p rises: bisect on [k / n, 1].
+  double lo = double(k) / double(n), hi = 1.0;
+  for (int it = 0; it < 100 && hi - lo > 1e-15 * hi; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (binomial_cdf_upper_tail_side(k, n, mid) > alpha ? lo : hi) = mid;
+  }
+  return hi;
+}
+
+double mean_upper_bound(double mean, double sd, uint64_t n, double confidence) {
+  if (n < 2) return std::numeric_limits<double>::infinity();
+  return mean + normal_quantile(confidence) * sd / std::sqrt(double(n));
+}
+
+double plan_error_bound(const SweepRow& r, const PlanOptions& o) {
+  if (o.metric == "t")
+    return mean_upper_bound(r.t_rel_error_mean, r.t_rel_error_sd, r.t_compared_rays, o.confidence);
+  return proportion_upper_bound(r.false_misses + r.false_hits, r.compared_rays, o.confidence);
+}
+
 bool plan_meets(const SweepRow& r, const PlanOptions& o) {
-  return plan_error(r, o.metric) <= o.max_error && r.box_false_negatives == 0 &&
+  return plan_error_bound(r, o) <= o.max_error && r.box_false_negatives == 0 &&
          (o.min_psnr <= 0.0 || r.psnr_db >= o.min_psnr);
 }
 
 PlanResult plan_format(const PlanOptions& a, const std::function<void(const PlanStep&)>& progress) {
   if (a.metric != "hit" && a.metric != "t") throw Error("--metric: hit or t, got '" + a.metric + "'");
   if (!(a.max_error >= 0.0) || !std::isfinite(a.max_error)) throw Error("--max-error: a finite number >= 0");
+  if (!(a.confidence > 0.0 && a.confidence < 1.0)) throw Error("--confidence: a number in (0, 1)");
+  std::string base;
   try {
-    hw::timing_preset(a.config);
+    base = hw::timing_preset(a.config).format;
   } catch (const std::invalid_argument& e) {
     throw Error(std::string("--config: ") + e.what());
+  }
+  // Zero disagreements on every ray is the best a candidate can show; below that bound no format can meet the
+  // budget, however good.
+  const uint64_t sample = 2 * a.sweep.rays;
+  if (a.metric == "hit" && proportion_upper_bound(0, sample, a.confidence) > a.max_error) {
+    uint64_t need = sample;
+    while (proportion_upper_bound(0, need, a.confidence) > a.max_error) need *= 2;
+    throw Error("--max-error " + std::to_string(a.max_error) + " cannot be shown on " + std::to_string(sample) +
+                " rays: with no disagreement at all the " + std::to_string(a.confidence) + " upper bound is " +
+                std::to_string(proportion_upper_bound(0, sample, a.confidence)) + "; use --rays " +
+                std::to_string(need / 2) + " or more");
   }
   const Scene scene = load_scene(a.scene);
   const AreaTable area = a.area.empty() ? AreaTable{} : AreaTable::load(a.area);
@@ -55,16 +124,22 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
   j["scene"] = scene.name;
   j["metric"] = a.metric == "t" ? "t_rel_error_mean" : "hit_disagreement";
   j["max_error"] = a.max_error;
+  j["confidence"] = a.confidence;
+  j["seed"] = a.sweep.seed;
+  j["rays"] = sample;
   j["min_psnr"] = a.min_psnr;
   j["config"] = a.config;
+  j["base_format"] = base;
+  j["cost"] = "cycles on " + a.config + ", then BVH bytes";
   Json per_width = Json::array();
   std::unique_ptr<SweepRow> best;
+  const int base_child_bits = hw::format_preset(base).child_bits;
   for (int w : a.widths) {
     report(PlanStage::kCoordBits, w);
     // The fewest coordinate bits that meet the budget (error falls with bits; the first that meets is taken).
     std::unique_ptr<SweepRow> first_ok, last_bad;
     for (int b : a.coord_bits) {
-      SweepRow r = point(spec(b, 8), w);
+      SweepRow r = point(spec(base, b, base_child_bits), w);
       if (meets(r)) {
         first_ok = std::make_unique<SweepRow>(r);
         break;
@@ -85,9 +160,10 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
     SweepRow chosen = *first_ok;
     Json ks = Json::array();
     for (int k : a.child_bits) {
-      SweepRow r = k == 8 ? *first_ok : point(spec(b, k), w);
+      SweepRow r = k == base_child_bits ? *first_ok : point(spec(base, b, k), w);
       ks.push_back({{"child_bits", k},
                     {"error", plan_error(r, a.metric)},
+                    {"error_bound", plan_error_bound(r, a)},
                     {"cycles", r.cycles},
                     {"bytes", r.bvh_bytes},
                     {"meets", meets(r)}});
@@ -97,27 +173,33 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
     jw["feasible"] = true;
     jw["coord_bits"] = b;
     jw["error_at_coord_bits"] = plan_error(*first_ok, a.metric);
+    jw["error_bound_at_coord_bits"] = plan_error_bound(*first_ok, a);
     if (last_bad) {
       jw["fewer_coord_bits"] = hw::format_from_spec(last_bad->p.format).coord_bits;
       jw["error_at_fewer_coord_bits"] = plan_error(*last_bad, a.metric);
+      jw["error_bound_at_fewer_coord_bits"] = plan_error_bound(*last_bad, a);
     }
     jw["child_bits"] = ks;
-    jw["chosen"] = {{"format", chosen.p.format}, {"cycles", chosen.cycles},
-                    {"bytes", chosen.bvh_bytes}, {"error", plan_error(chosen, a.metric)},
-                    {"psnr_db", chosen.psnr_db}, {"rtl_cells", chosen.rtl_cells}};
+    jw["chosen"] = {{"format", chosen.p.format},
+                    {"cycles", chosen.cycles},
+                    {"bytes", chosen.bvh_bytes},
+                    {"error", plan_error(chosen, a.metric)},
+                    {"error_bound", plan_error_bound(chosen, a)},
+                    {"psnr_db", chosen.psnr_db},
+                    {"rtl_cells", chosen.rtl_cells}};
     per_width.push_back(jw);
     if (!best || chosen.cycles < best->cycles ||
         (chosen.cycles == best->cycles && chosen.bvh_bytes < best->bvh_bytes))
       best = std::make_unique<SweepRow>(chosen);
   }
   j["widths"] = per_width;
-  // The default format at the chosen width, for comparison.
+  // The configuration's own format at the chosen width, for comparison.
   if (!best) {
     j["plan"] = nullptr;
     return res;
   }
   report(PlanStage::kDefault, best->p.bvh_width);
-  const SweepRow def = point("default", best->p.bvh_width);
+  const SweepRow def = point(base, best->p.bvh_width);
   const hw::FixedFormat f = hw::format_from_spec(best->p.format);
   j["plan"] = {{"format", best->p.format},
                {"bvh_width", best->p.bvh_width},
@@ -126,11 +208,14 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
                {"cycles", best->cycles},
                {"bytes", best->bvh_bytes},
                {"error", plan_error(*best, a.metric)},
+               {"error_bound", plan_error_bound(*best, a)},
                {"psnr_db", best->psnr_db},
                {"rtl_cells", best->rtl_cells}};
-  j["default"] = {{"cycles", def.cycles},
+  j["default"] = {{"format", base},
+                  {"cycles", def.cycles},
                   {"bytes", def.bvh_bytes},
                   {"error", plan_error(def, a.metric)},
+                  {"error_bound", plan_error_bound(def, a)},
                   {"rtl_cells", def.rtl_cells}};
   res.found = true;
   res.best = *best;

@@ -1,7 +1,15 @@
-// The cheapest format for a scene within an error budget (rtusim plan). Skips the bits a scene does not need: per
-// BVH width, the fewest coordinate bits whose error meets the budget, then the child-offset bits with the fewest
-// cycles, then the width with the fewest cycles (bytes break ties). Every candidate is a sweep point (sweep.h):
-// the same error, cycles and bytes as `rtusim sweep`.
+// The cheapest format for a scene within an error budget (rtusim plan). "Cheapest" is the fewest cycles of the
+// rays on the timing preset (`config`), then the fewest BVH bytes; RTL area is reported, not minimised. Skips the
+// bits a scene does not need: per BVH width, the fewest coordinate bits whose error meets the budget, then the
+// child-offset bits with the fewest cycles, then the width with the fewest cycles (bytes break ties). Candidates
+// vary the configuration's own format (its `format` key): coordinate and child-offset bits, every other field as
+// the preset has it. Every candidate is a sweep point (sweep.h): the same error, cycles and bytes as `rtusim
+// sweep`.
+//
+// The error is measured on a sample of rays (the camera's and as many incoherent rays, `sweep.seed`), so a
+// candidate meets the budget only when a one-sided upper confidence bound on its error does: for the hit metric
+// the Clopper-Pearson bound on the disagreement rate (exact for a binomial sample), for the t metric the mean's
+// normal-approximation bound, mean + z sd / sqrt(rays hitting the same primitive).
 #pragma once
 
 #include <functional>
@@ -19,6 +27,7 @@ struct PlanOptions {
   std::string metric = "hit";  // hit: fraction of rays whose hit/miss differs from float; t: mean relative t error
   double max_error = 1e-4;     // the budget of `metric`
   double min_psnr = 0.0;       // also require the render's PSNR against float (dB; 0: no)
+  double confidence = 0.95;    // of the error's upper bound, in (0, 1)
   std::string config = "rdna2";      // timing preset whose cycles are the cost
   std::string area;                  // RTL area table for the rtl_cells figures (empty: none)
   std::vector<int> widths{2, 4, 8};  // BVH widths to consider
@@ -29,11 +38,11 @@ struct PlanOptions {
 
 // What the planner is doing, as it goes.
 enum class PlanStage {
-  kCoordBits,   // starts on `width`: coordinate bits, fewest first (child bits 8)
+  kCoordBits,   // starts on `width`: coordinate bits, fewest first (the configuration format's child bits)
   kCandidate,   // measured `row` (a sweep point), which `meets` the budget or not
   kInfeasible,  // no coordinate width meets the budget at `width`
   kChildBits,   // `width` needs `coord_bits` coordinate bits: now the child-offset bits
-  kDefault,     // measures the default format at `width` (the plan's), for comparison
+  kDefault,     // measures the configuration's own format at `width` (the plan's), for comparison
 };
 struct PlanStep {
   PlanStage stage = PlanStage::kCoordBits;
@@ -48,18 +57,29 @@ struct PlanResult {
   bool found = false;      // a format meets the budget at some width; the rest is set only then
   SweepRow best;           // the plan: its format, BVH width and figures
   hw::FixedFormat format;  // best's format
-  SweepRow reference;      // the default format at the plan's width
-  // {scene, metric, max_error, min_psnr, config, widths: [every width's candidates], plan, default} (plan: null
-  // when nothing meets the budget)
+  SweepRow reference;      // the configuration's own format at the plan's width
+  // {scene, metric, max_error, confidence, seed, rays, min_psnr, config, base_format, cost, widths: [every
+  // width's candidates], plan, default} (plan: null when nothing meets the budget)
   Json json;
 };
 
 // The error `metric` ("hit" or "t") measures of a row.
 double plan_error(const SweepRow& r, const std::string& metric);
-// True when r meets the options' budget: error, no box false negatives, and the PSNR when one is required.
+// The upper confidence bound of that error at o.confidence (o.metric); +inf when the row has no sample for it.
+double plan_error_bound(const SweepRow& r, const PlanOptions& o);
+// True when r meets the options' budget: the error's upper bound, no box false negatives, and the PSNR when one
+// is required.
 bool plan_meets(const SweepRow& r, const PlanOptions& o);
 
-// Plans a format. Checks the metric, the budget and the preset before loading the scene (Error naming the option);
+// One-sided upper confidence bound on a binomial proportion from k successes in n trials (Clopper-Pearson): the
+// p at which P(X <= k) = 1 - confidence. 1 when n is 0.
+double proportion_upper_bound(uint64_t k, uint64_t n, double confidence);
+// One-sided upper confidence bound on a mean from n samples of mean `mean` and standard deviation `sd` (normal
+// approximation): mean + z sd / sqrt(n), z the standard normal's `confidence` quantile. +inf when n < 2.
+double mean_upper_bound(double mean, double sd, uint64_t n, double confidence);
+
+// Plans a format. Checks the metric, the budget, the confidence and the preset before loading the scene (Error
+// naming the option; also when the budget is below what zero disagreements on the rays can show);
 // `progress`, when given, sees every step.
 PlanResult plan_format(const PlanOptions& o, const std::function<void(const PlanStep&)>& progress = {});
 

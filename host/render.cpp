@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <optional>
 
@@ -308,6 +309,37 @@ Image to_image(const RenderResult& r) {
     img.rgb[i] = uint8_t(std::lround(s * 255.0));
   }
   return img;
+}
+
+std::vector<std::string> render_warnings(const RenderResult& r) {
+  std::vector<std::string> out;
+  const hw::TraversalStats all = r.device.total();
+  if (all.invalid_rays == 0) return out;
+  const uint64_t traced = all.rays + all.invalid_rays;
+  std::string by_type, by_reason;
+  for (uint8_t k = 0; k < hw::cmd::kRayTypeCount; ++k) {
+    const uint64_t n = r.device.stats_by_type[k].invalid_rays;
+    if (n == 0) continue;
+    by_type += (by_type.empty() ? "" : ", ") + std::string(hw::cmd::ray_type_name(hw::cmd::RayType(k))) + " " +
+               std::to_string(n) + " of " + std::to_string(n + r.device.stats_by_type[k].rays);
+  }
+  for (size_t k = 1; k < all.invalid_by_reason.size(); ++k)
+    if (all.invalid_by_reason[k] > 0)
+      by_reason += (by_reason.empty() ? "" : ", ") + std::string(hw::ray_status_name(hw::RayStatus(k))) + " " +
+                   std::to_string(all.invalid_by_reason[k]);
+  char pct[32];
+  std::snprintf(pct, sizeof pct, "%.3g%%", 100.0 * double(all.invalid_rays) / double(traced));
+  out.push_back(std::to_string(all.invalid_rays) + " of " + std::to_string(traced) + " traced rays (" + pct +
+                ") were invalid on the device and traced as misses: " + by_type + " (" + by_reason + ")");
+  if (2 * all.invalid_rays > traced) {
+    std::string why = "most rays were invalid: the image is mostly background";
+    if (all.invalid_by_reason[size_t(hw::RayStatus::kOutOfFrame)] > 0)
+      why +=
+          "; out_of_frame: ray origins lie beyond the format's guard range around the scene (2^guard_bits "
+          "frame sizes); move the camera closer or raise --guard-bits";
+    out.push_back(why);
+  }
+  return out;
 }
 
 }  // namespace rtu::host

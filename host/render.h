@@ -68,6 +68,12 @@ RenderResult render(const Scene& scene, const RenderOptions& o);
 // The rasterizer's counts as its cost model takes them.
 hw::RasterWork raster_work(const fw::RasterStats& s);
 
+// What the user must know about a render's rays: the rays the device rejected at ray setup (a fixed-point device
+// cannot represent an origin beyond its format's guard range, out_of_frame; a NaN from a material) were traced as
+// misses, so their pixels or light are missing. One line per finding, by ray type and reason; a separate line
+// when most traced rays were rejected (the image is mostly background). Empty when every ray was valid.
+std::vector<std::string> render_warnings(const RenderResult& r);
+
 // Clamp to [0, 1], sRGB transfer function, 8 bits.
 Image to_image(const RenderResult& r);
 

@@ -1,6 +1,7 @@
 #include "host/report.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -29,6 +30,7 @@ using Progress = std::function<void(const ReportStep&)>;
 
 struct ReportSizes {
   int render_width, spp, max_depth;
+  int render_zoom;  // the renders are shown this many times their size (pixelated), to be judged by eye
   uint64_t cycle_rays;
   std::vector<std::string> formats, configs;
   std::vector<int> widths;
@@ -39,7 +41,8 @@ struct ReportSizes {
 ReportSizes sizes(bool quick) {
   ReportSizes s;
   if (quick) {
-    s.render_width = 160;
+    s.render_width = 192;
+    s.render_zoom = 2;
     s.spp = 1;
     s.max_depth = 2;
     s.cycle_rays = 5000;
@@ -51,6 +54,7 @@ ReportSizes sizes(bool quick) {
     s.stress_count = 200;
   } else {
     s.render_width = 640;
+    s.render_zoom = 1;
     s.spp = 4;
     s.max_depth = 4;
     s.cycle_rays = 100000;
@@ -123,13 +127,38 @@ void write_text(const std::string& path, const std::string& text) {
 struct Html {
   std::ostringstream s;
   std::vector<std::string> images;  // every image the page embeds
-  void img(const std::string& file, const std::string& alt, int width = 0) {
+  // An image at its natural size, or `width` x `height` CSS pixels when given (never wider than the page: the
+  // style sheet sets max-width: 100% and height: auto).
+  void img(const std::string& file, const std::string& alt, int width = 0, int height = 0,
+           const char* cls = nullptr) {
     images.push_back(file);
     s << "<img src=\"" << esc(file) << "\" alt=\"" << esc(alt) << "\"";
     if (width > 0) s << " width=\"" << width << "\"";
+    if (height > 0) s << " height=\"" << height << "\"";
+    if (cls) s << " class=\"" << cls << "\"";
     s << ">";
   }
 };
+
+std::string css_rgb(const std::array<uint8_t, 3>& c) {
+  return "rgb(" + std::to_string(c[0]) + "," + std::to_string(c[1]) + "," + std::to_string(c[2]) + ")";
+}
+
+// The heatmap's colour bar: a CSS gradient through the ramp's stops (CSS interpolates in sRGB, as the ramp does,
+// so the bar shows exactly the heatmap's colours) and the differences at t = j / k, 2^j - 1 levels.
+void colour_bar(Html& h, int full_scale, int width) {
+  h.s << "<div class=\"colorbar\" style=\"width: " << width << "px\"><div class=\"ramp\" style=\"background: "
+      << "linear-gradient(to right";
+  for (const RampStop& r : kDiffRamp)
+    h.s << ", " << css_rgb({r.r, r.g, r.b}) << " " << fmt("%.2f", 100.0 * r.t) << "%";
+  h.s << ")\"></div><div class=\"ticks\">";
+  const int k = int(std::lround(std::log2(full_scale + 1.0)));
+  for (int j = 0; j <= k; ++j)
+    h.s << "<span style=\"left: " << fmt("%.2f", 100.0 * j / k) << "%\">" << ((1 << j) - 1) << "</span>";
+  h.s << "</div><div class=\"caption\">largest channel difference of a pixel, in levels of 255 (log scale"
+      << (full_scale < 255 ? "; " + std::to_string(full_scale) + " or more at the dark end" : std::string())
+      << ")</div></div>\n";
+}
 
 void step(const Progress& progress, ReportStage stage, uint64_t count, const std::string& message = "") {
   if (!progress) return;
@@ -192,9 +221,13 @@ Json section_renders(const Scene& scene, const std::string& spec, const ReportOp
     }
   }
   const ImageDiff d = diff_images(images[0], images[1]);
-  write_png(a.out + "/render_heatmap.png", diff_heatmap(images[0], images[1], 16.0));
+  // A log scale up to the largest difference (rounded up to 2^k - 1), so that both a one-level difference and
+  // the worst pixel are visible; the page shows the scale.
+  const int full_scale = diff_ramp_full_scale(d.max_abs);
+  write_png(a.out + "/render_heatmap.png", diff_heatmap_log(images[0], images[1], full_scale));
   j["heatmap"] = "render_heatmap.png";
-  j["heatmap_full_scale"] = 16;
+  j["heatmap_full_scale"] = full_scale;
+  j["heatmap_scale"] = "log2(1 + d) / log2(1 + full_scale) along the ramp of host/image_diff.h (kDiffRamp)";
   j["psnr_db"] = d.identical() ? Json(nullptr) : Json(d.psnr_db);
   j["max_abs"] = d.max_abs;
   j["mean_abs"] = d.mean_abs;
@@ -202,18 +235,22 @@ Json section_renders(const Scene& scene, const std::string& spec, const ReportOp
   j["frac_pixels_differing"] = d.frac_pixels_differing;
 
   h.s << "<h2>Renders: float reference, fixed datapath, difference</h2>\n<p>" << esc(spec) << ", " << w << "x"
-      << ht << ", " << z.spp << " spp, depth " << z.max_depth
-      << ", rendered by the firmware. The fixed render runs on the timed device (rdna2 preset: its format and "
-         "BVH width), whose hits equal the fixed device's bit for bit.</p>\n<table class=\"imgs\"><tr>";
-  const int shown = std::max(w, 320);
-  for (const auto& [file, caption] : {std::pair<std::string, std::string>{"render_float.png", "float reference"},
-                                      {"render_fixed.png", "fixed datapath (timed, rdna2)"},
-                                      {"render_heatmap.png", "difference heatmap (white = 16 levels or more)"}}) {
-    h.s << "<td>";
-    h.img(file, caption, shown);
-    h.s << "<br>" << esc(caption) << "</td>";
+      << ht << ", " << z.spp << " spp, depth " << z.max_depth << ", rendered by the firmware"
+      << (z.render_zoom > 1 ? ", shown " + std::to_string(z.render_zoom) + " times their size" : std::string())
+      << ". The fixed render runs on the timed device (rdna2 preset: its format and BVH width), whose hits equal "
+         "the fixed device's bit for bit.</p>\n<div class=\"imgs\">\n";
+  const int shown_w = w * z.render_zoom, shown_h = ht * z.render_zoom;
+  for (const auto& [file, caption] :
+       {std::pair<std::string, std::string>{"render_float.png", "float reference"},
+        {"render_fixed.png", "fixed datapath (timed, rdna2)"},
+        {"render_heatmap.png", "difference heatmap: light = equal, darker = larger difference"}}) {
+    h.s << "<figure style=\"width: " << shown_w << "px\">";  // captions wrap within the image's width
+    h.img(file, caption, shown_w, shown_h, "render");
+    h.s << "<figcaption>" << esc(caption) << "</figcaption>";
+    if (file == "render_heatmap.png") colour_bar(h, full_scale, std::min(shown_w, 400));
+    h.s << "</figure>\n";
   }
-  h.s << "</tr></table>\n<p>Fixed against float: PSNR " << psnr_text(d) << " dB, largest difference " << d.max_abs
+  h.s << "</div>\n<p>Fixed against float: PSNR " << psnr_text(d) << " dB, largest difference " << d.max_abs
       << " levels, " << d.pixels_differing << " of " << d.width * d.height << " pixels differ. Cycles per frame "
       << "(every packet): " << j["fixed"].value("cycles_per_frame", uint64_t(0)) << " for "
       << j["fixed"]["rays"].get<uint64_t>() << " rays.</p>\n";
@@ -270,19 +307,45 @@ Json section_cycles(const std::vector<std::unique_ptr<Scene>>& scenes, const std
   return rows;
 }
 
-// The sweep (read or run) and its Pareto plots.
-Json section_pareto(const std::vector<SweepRow>& rows, const std::string& source, const ReportOptions& a,
-                    Html& h) {
+// What the page says about the area panel of one scene: left out (no row has an area) or which points lack one.
+void area_note(const std::vector<SweepRow>& rows, const std::vector<size_t>& idx, const std::string& area_source,
+               Html& h) {
+  std::vector<std::string> missing;
+  for (size_t i : idx)
+    if (rows[i].rtl_cells < 0) missing.push_back(pareto_label(rows[i].p));
+  if (missing.empty()) return;
+  if (missing.size() == idx.size()) {
+    h.s << "<p class=\"note\">No point of this scene has an RTL area (rtl_cells = -1 in the sweep), so the area "
+           "panel is left out. Areas are yosys syntheses of the RTL box unit per parameter set: "
+           "<code>RTL_AREA_CSV=FILE bench/rtl_area.sh</code> writes such a table (the project ships <code>"
+        << kShippedAreaTable << "</code>), and <code>rtusim sweep --area FILE</code> or <code>rtusim report "
+        << "--area FILE</code> (for the sweep it runs) puts it into a sweep.</p>\n";
+    return;
+  }
+  h.s << "<p class=\"note\">" << missing.size() << " of " << idx.size()
+      << " points have no RTL area and are left out of the area panel: the area table (" << esc(area_source)
+      << ") has no synthesis of their box unit's parameters (";
+  for (size_t k = 0; k < missing.size(); ++k) h.s << (k ? ", " : "") << esc(missing[k]);
+  h.s << "). <code>bench/rtl_area.sh</code> synthesizes more rows.</p>\n";
+}
+
+// The sweep (read or run) and its Pareto plots: per scene the two plots and the table of its numbered points.
+Json section_pareto(const std::vector<SweepRow>& rows, const std::string& source, const std::string& area_source,
+                    const ReportOptions& a, Html& h) {
   Json j;
   j["source"] = source;
+  j["area_source"] = area_source;
   j["file"] = "sweep.csv";
   j["points"] = rows.size();
   h.s << "<h2>Run time against error: Pareto fronts</h2>\n<p>Sweep: " << esc(source) << ", " << rows.size()
-      << " points (<a href=\"sweep.csv\">sweep.csv</a>). Error against cycles, memory and area per scene; the "
-         "line is the Pareto front (points no other point beats in both error and cost).</p>\n";
+      << " points (<a href=\"sweep.csv\">sweep.csv</a>); RTL areas: " << esc(area_source)
+      << ". Error against cycles, memory and area per scene; the red staircase is the Pareto front (points no "
+         "other point beats in both error and cost). The numbers on the plots are the points of the table under "
+         "them; points at the same place share one number list (\"3-5\").</p>\n";
   const std::string gnuplot = find_gnuplot();
   j["gnuplot"] = gnuplot.empty() ? Json(nullptr) : Json(gnuplot);
   Json plots = Json::array();
+  std::vector<ParetoPlot> ps;
   if (gnuplot.empty()) {
     j["message"] = "gnuplot not found on PATH: no plots (install the Debian package gnuplot-nox)";
     h.s << "<p class=\"warn\">gnuplot was not found on PATH, so there are no Pareto plots here. Install the "
@@ -290,47 +353,69 @@ Json section_pareto(const std::vector<SweepRow>& rows, const std::string& source
            "sweep.csv --out DIR</code>).</p>\n";
   } else {
     try {
-      const std::vector<ParetoPlot> ps = write_pareto_plots(rows, a.out, gnuplot);
-      for (const ParetoPlot& p : ps) {
-        Json pj = {
-            {"scene", p.scene}, {"error", pareto_error_name(p.error)}, {"image", p.png}, {"points", p.points}};
-        for (int c = 0; c < 3; ++c) {
-          Json f = Json::array();
-          for (size_t i : p.front[c]) f.push_back(pareto_label(rows[i].p));
-          pj["front"][pareto_cost_name(ParetoCost(c))] = f;
-        }
-        h.s << "<h3>" << esc(p.scene) << ": "
-            << (p.error == ParetoError::kHitDisagreement ? "hit disagreement" : "mean relative t error")
-            << "</h3>\n<p>";
-        h.img(p.png, p.scene + " Pareto plot", 1300);
-        h.s << "</p>\n<p>On the front against";
-        for (int c = 0; c < 3; ++c) {
-          h.s << (c ? "; " : " ") << pareto_cost_name(ParetoCost(c)) << ": ";
-          const Json& f = pj["front"][pareto_cost_name(ParetoCost(c))];
-          if (f.empty()) h.s << "(no points)";
-          for (size_t k = 0; k < f.size(); ++k) h.s << (k ? ", " : "") << esc(f[k].get<std::string>());
-        }
-        h.s << ".</p>\n";
-        plots.push_back(pj);
-      }
+      ps = write_pareto_plots(rows, a.out, gnuplot);
       j["message"] = "ok";
     } catch (const Error& e) {
       j["message"] = e.what();
       h.s << "<p class=\"warn\">The plots failed: " << esc(e.what()) << "</p>\n";
     }
   }
+  // Rows by scene, in the order scenes first appear (as write_pareto_plots numbers them).
+  std::vector<std::pair<std::string, std::vector<size_t>>> scenes;
+  for (size_t i = 0; i < rows.size(); ++i) {
+    auto it =
+        std::find_if(scenes.begin(), scenes.end(), [&](const auto& s) { return s.first == rows[i].p.scene; });
+    if (it == scenes.end()) {
+      scenes.push_back({rows[i].p.scene, {}});
+      it = scenes.end() - 1;
+    }
+    it->second.push_back(i);
+  }
+  for (const auto& [scene, idx] : scenes) {
+    h.s << "<h3>" << esc(scene) << "</h3>\n";
+    for (const ParetoPlot& p : ps) {
+      if (p.scene != scene) continue;
+      Json pj = {{"scene", p.scene},   {"error", pareto_error_name(p.error)}, {"image", p.png},
+                 {"points", p.points}, {"area_panel", p.area_panel},          {"unlabelled", p.unlabelled}};
+      for (int c = 0; c < 3; ++c) {
+        Json f = Json::array();
+        for (size_t i : p.front[c]) f.push_back(pareto_label(rows[i].p));
+        pj["front"][pareto_cost_name(ParetoCost(c))] = f;
+      }
+      h.s << "<h4>" << (p.error == ParetoError::kHitDisagreement ? "hit disagreement" : "mean relative t error")
+          << "</h4>\n<p>";
+      h.img(p.png, p.scene + " Pareto plot", 0, 0, "plot");
+      h.s << "</p>\n<p>On the front against";
+      for (int c = 0; c < 3; ++c) {
+        if (c == int(ParetoCost::kRtlCells) && !p.area_panel) continue;
+        h.s << (c ? "; " : " ") << pareto_cost_name(ParetoCost(c)) << ": ";
+        const Json& f = pj["front"][pareto_cost_name(ParetoCost(c))];
+        if (f.empty()) h.s << "(no points)";
+        for (size_t k = 0; k < f.size(); ++k) h.s << (k ? ", " : "") << esc(f[k].get<std::string>());
+      }
+      h.s << ".";
+      if (p.unlabelled > 0)
+        h.s << " " << p.unlabelled << " places found no free spot for their number (too crowded); the table "
+            << "gives every point's cost and error.";
+      h.s << "</p>\n";
+      plots.push_back(pj);
+    }
+    area_note(rows, idx, area_source, h);
+    // The scene's points, numbered as on the plots.
+    h.s << "<table>\n<tr><th>#</th><th>format/width/config</th><th>hit agreement</th><th>t error mean</th>"
+           "<th>PSNR dB</th><th>cycles</th><th>cycles/ray</th><th>BVH bytes</th><th>RTL cells</th></tr>\n";
+    for (size_t k = 0; k < idx.size(); ++k) {
+      const SweepRow& r = rows[idx[k]];
+      h.s << "<tr><td class=\"n\">" << k + 1 << "</td><td>" << esc(pareto_label(r.p)) << "</td><td class=\"n\">"
+          << fmt("%.4f%%", 100.0 * r.hit_agreement) << "</td><td class=\"n\">" << fmt("%.2g", r.t_rel_error_mean)
+          << "</td><td class=\"n\">" << (std::isinf(r.psnr_db) ? std::string("inf") : fmt("%.1f", r.psnr_db))
+          << "</td><td class=\"n\">" << r.cycles << "</td><td class=\"n\">" << fmt("%.2f", r.cycles_per_ray)
+          << "</td><td class=\"n\">" << r.bvh_bytes << "</td><td class=\"n\">"
+          << (r.rtl_cells >= 0 ? std::to_string(r.rtl_cells) : std::string("-")) << "</td></tr>\n";
+    }
+    h.s << "</table>\n";
+  }
   j["plots"] = plots;
-  // The table of the sweep's rows.
-  h.s << "<table>\n<tr><th>scene</th><th>format/width/config</th><th>hit agreement</th><th>t error mean</th>"
-         "<th>PSNR dB</th><th>cycles/ray</th><th>BVH bytes</th><th>RTL cells</th></tr>\n";
-  for (const SweepRow& r : rows)
-    h.s << "<tr><td>" << esc(r.p.scene) << "</td><td>" << esc(pareto_label(r.p)) << "</td><td class=\"n\">"
-        << fmt("%.4f%%", 100.0 * r.hit_agreement) << "</td><td class=\"n\">" << fmt("%.2g", r.t_rel_error_mean)
-        << "</td><td class=\"n\">" << (std::isinf(r.psnr_db) ? std::string("inf") : fmt("%.1f", r.psnr_db))
-        << "</td><td class=\"n\">" << fmt("%.2f", r.cycles_per_ray) << "</td><td class=\"n\">" << r.bvh_bytes
-        << "</td><td class=\"n\">" << (r.rtl_cells >= 0 ? std::to_string(r.rtl_cells) : std::string("-"))
-        << "</td></tr>\n";
-  h.s << "</table>\n";
   return j;
 }
 
@@ -378,7 +463,11 @@ ReportResult write_report(ReportOptions a, const Progress& progress) {
     rows = read_sweep_csv(a.sweep);
     if (rows.empty()) throw Error("--sweep " + a.sweep + ": no rows (run rtusim sweep first)");
   }
-  const AreaTable area = a.area.empty() ? AreaTable{} : AreaTable::load(a.area);
+  // The sweep run here takes its RTL areas from --area, else from the table the project ships.
+  const AreaTable area = a.area.empty() ? AreaTable::shipped() : AreaTable::load(a.area);
+  const std::string area_source = !a.sweep.empty() ? "as in the given sweep CSV"
+                                  : a.area.empty() ? std::string(kShippedAreaTable) + " (shipped with rtusim)"
+                                                   : a.area;
   std::vector<std::unique_ptr<Scene>> scenes;
   for (const std::string& s : a.scenes) scenes.push_back(std::make_unique<Scene>(load_scene(s)));
   step(progress, ReportStage::kStart, scenes.size());
@@ -418,7 +507,7 @@ ReportResult write_report(ReportOptions a, const Progress& progress) {
     for (const SweepRow& r : rows) csv << sweep_csv_line(r) << '\n';
     write_text(a.out + "/sweep.csv", csv.str());
   }
-  j["sweep"] = section_pareto(rows, source, a, h);
+  j["sweep"] = section_pareto(rows, source, area_source, a, h);
   step(progress, ReportStage::kSweep, rows.size(), j["sweep"]["message"].get<std::string>());
   uint64_t& failures = res.stress_failures;
   j["stress"] = section_stress(a, z, h, failures);
@@ -429,11 +518,21 @@ ReportResult write_report(ReportOptions a, const Progress& progress) {
 
   std::ostringstream page;
   page << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>rtu report</title>\n"
+          // Nothing may be wider than the window: images shrink to the page (max-width), the renders wrap to the
+          // next line when three do not fit, and long words in table cells may break.
           "<style>\nbody { font-family: sans-serif; margin: 1.5em; max-width: 1400px; }\n"
+          "img { max-width: 100%; height: auto; }\nimg.render { image-rendering: pixelated; }\n"
           "table { border-collapse: collapse; margin: 0.5em 0; }\n"
-          "td, th { border: 1px solid #bbb; padding: 0.2em 0.5em; }\ntd.n { text-align: right; }\n"
-          "table.imgs td { border: none; text-align: center; }\nimg { image-rendering: pixelated; }\n"
-          ".warn { color: #a00; font-weight: bold; }\ntr.fail { background: #fdd; }\n</style>\n</head>\n<body>\n"
+          "td, th { border: 1px solid #bbb; padding: 0.2em 0.5em; overflow-wrap: anywhere; }\n"
+          "td.n { text-align: right; }\n"
+          "div.imgs { display: flex; flex-wrap: wrap; gap: 1em; align-items: flex-start; }\n"
+          "div.imgs figure { margin: 0; max-width: 100%; text-align: center; }\n"
+          ".colorbar { max-width: 100%; margin: 0.4em auto 0 auto; font-size: 0.85em; }\n"
+          ".colorbar .ramp { height: 14px; border: 1px solid #888; }\n"
+          ".colorbar .ticks { position: relative; height: 1.3em; }\n"
+          ".colorbar .ticks span { position: absolute; transform: translateX(-50%); top: 0.1em; }\n"
+          ".warn { color: #a00; font-weight: bold; }\n.note { color: #444; }\ntr.fail { background: #fdd; }\n"
+          "</style>\n</head>\n<body>\n"
           "<h1>rtu report: run time against error</h1>\n<p>Written by <code>rtusim report"
        << (a.quick ? " --quick" : "") << "</code> in " << fmt("%.1f", j["seconds"].get<double>())
        << " s. Every figure is also in <a href=\"report.json\">report.json</a>.</p>\n"

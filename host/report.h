@@ -1,11 +1,14 @@
 // One static HTML page (no server, no script; relative links) of run time against error, with the figures as
 // report.json beside it (rtusim report):
 // - renders of the first scene (default builtin:seed) by the firmware on the float reference and on the fixed
-//   datapath with timing (the timed device), and the heatmap of their difference (as `rtusim demo` does);
+//   datapath with timing (the timed device), and the log heatmap of their difference (diff_heatmap_log) with its
+//   colour bar;
 // - cycles per scene for each timing preset: the scenes' primary rays traced as one TRACE packet on the timed
 //   device (as bench/cycles_table.sh does for meshes);
-// - Pareto plots of a sweep (pareto.h, drawn by gnuplot): the given sweep CSV, or a small sweep run here over
-//   the scenes; without gnuplot the page says so;
+// - Pareto plots of a sweep (pareto.h, drawn by gnuplot) and per scene a table of its numbered points: the given
+//   sweep CSV, or a small sweep run here over the scenes with the RTL areas of --area or the shipped table;
+//   without gnuplot the page says so;
+// The page fits a 1280 px window (tests/host/check_report_browser.sh checks it in headless Chromium).
 // - the stress suite (`rtusim stress`) with a small count.
 #pragma once
 
@@ -21,9 +24,9 @@ namespace rtu::host {
 struct ReportOptions {
   std::string out;                  // output directory: index.html, report.json, PNGs, sweep.csv
   std::string sweep;                // sweep CSV to plot; empty: run a small sweep here
-  std::string area;                 // RTL area table for the sweep run here (empty: none)
+  std::string area;                 // RTL area table for the sweep run here (empty: the shipped one, sweep.h)
   std::vector<std::string> scenes;  // empty: builtin:seed and builtin:cornell; the first is rendered
-  bool quick = false;               // small sizes (renders 160 wide, few rays, small sweep)
+  bool quick = false;               // small sizes (renders 192 wide, few rays, small sweep)
   int threads = 0;                  // 0: all cores
 };
 

@@ -257,6 +257,7 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
   unit["total"] = traversal_json(r.device.total());
   j["unit"] = unit;
   j["spawn_offset"] = {{"abs", r.offset_abs}, {"rel", r.offset_rel}};
+  j["warnings"] = render_warnings(r);
   if (o.device.kind != hw::DeviceKind::kFloat) j["format"] = format_json(o.device.format);
   if (r.timed) {
     Json t = timing_breakdown_json(r.timing, r.timing_by_type, r.timing_by_bounce, o.device.timing);

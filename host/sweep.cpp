@@ -152,9 +152,20 @@ std::unique_ptr<SweepCache, SweepCacheDeleter> make_sweep_cache() {
 }
 
 AreaTable AreaTable::load(const std::string& path) {
-  AreaTable t;
   std::ifstream in(path);
   if (!in) throw Error("cannot read the area table " + path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse(text.str(), path);
+}
+
+AreaTable AreaTable::shipped() {
+  return parse(shipped_area_csv(), std::string(kShippedAreaTable) + " (compiled in)");
+}
+
+AreaTable AreaTable::parse(const std::string& text, const std::string& name) {
+  AreaTable t;
+  std::istringstream in(text);
   std::string line;
   size_t n = 0;
   std::vector<std::string> header;
@@ -162,7 +173,7 @@ AreaTable AreaTable::load(const std::string& path) {
     ++n;
     if (line.empty()) continue;
     const std::vector<std::string> f = split_csv(line);
-    const std::string where = path + ":" + std::to_string(n);
+    const std::string where = name + ":" + std::to_string(n);
     if (header.empty()) {
       header = f;
       if (header.size() < 4 || header[0] != "params" || header[1] != "cells" || header[3] != "transistors")
@@ -252,6 +263,9 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   row.false_hits = c.false_hits;
   row.t_rel_error_mean = c.t_rel_mean;
   row.t_rel_error_max = c.t_rel_max;
+  row.compared_rays = c.compared;
+  row.t_compared_rays = c.t_compared;
+  row.t_rel_error_sd = c.t_rel_sd;
   row.node_visit_overhead = ratio_minus_one(fs.nodes_visited, refr.stats.nodes_visited);
   row.prim_test_overhead = ratio_minus_one(fs.prim_tests, refr.stats.prim_tests);
   row.box_false_negatives = fs.box_false_negatives;

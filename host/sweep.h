@@ -34,6 +34,10 @@ struct SweepRow {
   double hit_agreement = 1.0, prim_agreement = 1.0;
   uint64_t false_misses = 0, false_hits = 0;
   double t_rel_error_mean = 0.0, t_rel_error_max = 0.0;
+  // For confidence bounds (host/plan.h), not in the CSV: rays valid on both devices, of them the rays hitting
+  // the same primitive (the t error's sample), and the t error's sample standard deviation.
+  uint64_t compared_rays = 0, t_compared_rays = 0;
+  double t_rel_error_sd = 0.0;
   double node_visit_overhead = 0.0, prim_test_overhead = 0.0;
   uint64_t box_false_negatives = 0;
   double psnr_db = 0.0;  // fixed render against float render (inf when identical)
@@ -54,14 +58,23 @@ struct SweepOptions {
 };
 
 // Synthesis results of the RTL box unit by its Verilator parameters (rtl_sim/params/rtl_params.h verilator_args),
-// read from a CSV with the columns params,cells,flip_flops,transistors (bench/rtl_area.sh --csv writes it).
+// read from a CSV with the columns params,cells,flip_flops,transistors (bench/rtl_area.sh with RTL_AREA_CSV
+// writes it).
 struct AreaTable {
   struct Entry {
     int64_t cells = -1, transistors = -1;
   };
   std::map<std::string, Entry> by_params;
   static AreaTable load(const std::string& path);  // throws Error for a malformed file
+  // The CSV's text; `name` is what errors call it. Throws Error for a malformed table.
+  static AreaTable parse(const std::string& text, const std::string& name);
+  // The table the project ships, bench/data/rtl_area.csv, compiled into the library (host/CMakeLists.txt), so
+  // that it is there wherever rtusim runs.
+  static AreaTable shipped();
 };
+inline constexpr const char* kShippedAreaTable = "bench/data/rtl_area.csv";
+// The text of the shipped table (generated from kShippedAreaTable at configure time).
+const char* shipped_area_csv();
 
 // Measures one point. `scene` must be the loaded p.scene. Caches the float reference per scene and width in
 // `cache` (opaque; keep one per scene).

@@ -136,15 +136,17 @@ const std::vector<ReportEntry>& report_table() {
       count("stack_spills", &S::stack_spills),
       count("stack_refills", &S::stack_refills),
       count("queue_stall_cycles", &S::queue_stall_cycles),
-      figure("lower_bound.cycles", "cycles", "the largest of the box, triangle and DRAM bounds",
+      figure("lower_bound.cycles", "cycles", "the largest of the ray fetch, box, triangle and DRAM bounds",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.cycles; }),
+      figure("lower_bound.fetch", "cycles", "rays / 1 per clock (ray fetch and ray setup issue one ray a clock)",
+             [](const S&, const C&, const LowerBound& b) -> Value { return b.fetch; }),
       figure("lower_bound.box", "cycles", "box unit issue clocks / box_units",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.box; }),
       figure("lower_bound.triangle", "cycles", "triangle, sphere and plane tests / (tri_rate x tri_units)",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.triangle; }),
       figure("lower_bound.dram", "cycles", "DRAM bytes / dram_bytes_per_cycle",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.dram; }),
-      figure("lower_bound.limited_by", "", "which bound is the largest: box, triangle or dram",
+      figure("lower_bound.limited_by", "", "which bound is the largest: fetch, box, triangle or dram",
              [](const S&, const C&, const LowerBound& b) -> Value { return std::string(b.limited_by); }),
       figure("lower_bound.cycles_over_bound", "1", "simulated cycles / lower bound",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.cycles_over_bound; }),
@@ -169,11 +171,15 @@ void scale_sampled(TimingStats& s, double factor) {
 
 LowerBound lower_bound(const TimingStats& s, const TimingConfig& c) {
   LowerBound b;
+  b.fetch = double(s.rays);
   b.box = double(s.box_issue_cycles) / double(c.box_units);
   b.triangle = double(s.tri_tests + s.sphere_tests + s.plane_tests) / double(c.tri_rate * c.tri_units);
   b.dram = double(s.dram_bytes) / c.dram_bytes_per_cycle;
-  b.cycles = std::max({b.box, b.triangle, b.dram});
-  b.limited_by = b.cycles == b.box ? "box" : (b.cycles == b.triangle ? "triangle" : "dram");
+  b.cycles = std::max({b.fetch, b.box, b.triangle, b.dram});
+  b.limited_by = b.cycles == b.box        ? "box"
+                 : b.cycles == b.triangle ? "triangle"
+                 : b.cycles == b.dram     ? "dram"
+                                          : "fetch";
   b.cycles_over_bound = b.cycles > 0 ? double(s.cycles) / b.cycles : 0.0;
   return b;
 }

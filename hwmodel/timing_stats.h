@@ -58,9 +58,10 @@ void scale_sampled(TimingStats& s, double factor);
 // children issues for ceil(c / box_rate) clocks) over the box units; triangle, sphere and plane tests one per
 // issue slot of the triangle units; DRAM bytes over its bandwidth.
 struct LowerBound {
-  double box = 0.0, triangle = 0.0, dram = 0.0;
-  double cycles = 0.0;             // the largest of the three
-  const char* limited_by = "box";  // "box", "triangle" or "dram"
+  // fetch: rays / 1 per clock (the ray buffer streams and ray setup issues one ray per clock)
+  double fetch = 0.0, box = 0.0, triangle = 0.0, dram = 0.0;
+  double cycles = 0.0;             // the largest of the four
+  const char* limited_by = "box";  // "fetch", "box", "triangle" or "dram"
   double cycles_over_bound = 0.0;  // simulated cycles / cycles (0 without a bound)
 };
 LowerBound lower_bound(const TimingStats& s, const TimingConfig& c);

@@ -10,6 +10,7 @@ packages=(
   assimp-testmodels                              # the real meshes used by tests and benchmarks
   verilator yosys                                # the RTL box unit: simulation and tests (rtl_sim/), synthesis
   gnuplot-nox                                    # Pareto and scaling plots (rtusim pareto|report, bench/)
+  chromium                                       # headless browser: the report page test (report_browser)
   clang libclang-rt-14-dev                       # libFuzzer targets with ASan + UBSan (preset fuzz, tests/fuzz/)
 )
 

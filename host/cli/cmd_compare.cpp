@@ -53,7 +53,11 @@ void run_compare(const CompareOptions& o) {
     valid[i] = ref->ray_status(rays[i]) == hw::RayStatus::kOk && dut->ray_status(rays[i]) == hw::RayStatus::kOk;
     invalid_either += !valid[i];
   }
-  const HitComparison t = compare_hits(ref_hits, dut_hits, valid, o.any_hit);
+  const double grid_step = dut->image() ? dut->image()->frame().step() : 0.0;
+  const HitComparison t = compare_hits(ref_hits, dut_hits, valid, o.any_hit, &rays, grid_step);
+  // The fixed device repeats its box tests exactly (check_boxes); the timed device's datapath is the fixed
+  // device's, bit for bit, and does not repeat them.
+  const bool boxes_checked = dut->kind() == hw::DeviceKind::kFixed;
   const double n = t.compared ? double(t.compared) : 1.0;
   const uint64_t disagreements = t.disagreements.size();
   Json list = Json::array();
@@ -82,16 +86,24 @@ void run_compare(const CompareOptions& o) {
   j["invalid_rays"] = invalid_either;
   // Undefined (null) when no ray was valid on both devices.
   j["hit_agreement"] = t.compared ? Json(double(t.hit_agree) / n) : Json(nullptr);
-  j["prim_agreement"] = t.compared ? Json(double(t.prim_agree) / n) : Json(nullptr);
+  // Any-hit queries return some hit, not the closest: primitives and t are not compared there (null).
+  j["prim_agreement"] = t.compared && !o.any_hit ? Json(double(t.prim_agree) / n) : Json(nullptr);
   j["false_misses"] = t.false_misses;
   j["false_hits"] = t.false_hits;
   j["other_primitive"] = t.other_prim;
-  j["t_rel_error_max"] = t.t_rel_max;
-  j["t_rel_error_max_ray"] = t.t_rel_max_ray;
-  j["t_rel_error_mean"] = t.t_rel_mean;
-  j["box_checks"] = dut_stats.box_checks;
-  j["box_false_negatives"] = dut_stats.box_false_negatives;
-  j["box_false_positives"] = dut_stats.box_false_positives;
+  const bool t_compared = t.compared && !o.any_hit;
+  j["t_compared_rays"] = t.t_compared;
+  j["t_rel_error_max"] = t_compared ? Json(t.t_rel_max) : Json(nullptr);
+  j["t_rel_error_max_ray"] = t_compared ? Json(t.t_rel_max_ray) : Json(nullptr);
+  j["t_rel_error_mean"] = t_compared ? Json(t.t_rel_mean) : Json(nullptr);
+  j["grid_step"] = grid_step > 0.0 ? Json(grid_step) : Json(nullptr);
+  j["t_abs_error_steps_max"] = t_compared && grid_step > 0.0 ? Json(t.t_abs_steps_max) : Json(nullptr);
+  j["t_abs_error_steps_max_ray"] = t_compared && grid_step > 0.0 ? Json(t.t_abs_steps_max_ray) : Json(nullptr);
+  j["t_abs_error_steps_mean"] = t_compared && grid_step > 0.0 ? Json(t.t_abs_steps_mean) : Json(nullptr);
+  // Null where the device did not check its box tests (the timed device).
+  j["box_checks"] = boxes_checked ? Json(dut_stats.box_checks) : Json(nullptr);
+  j["box_false_negatives"] = boxes_checked ? Json(dut_stats.box_false_negatives) : Json(nullptr);
+  j["box_false_positives"] = boxes_checked ? Json(dut_stats.box_false_positives) : Json(nullptr);
   j["node_visit_overhead"] = ratio_minus_one(dut_stats.nodes_visited, ref_stats.nodes_visited);
   j["prim_test_overhead"] = ratio_minus_one(dut_stats.prim_tests, ref_stats.prim_tests);
   j["box_test_overhead"] = ratio_minus_one(dut_stats.box_tests, ref_stats.box_tests);
@@ -105,19 +117,49 @@ void run_compare(const CompareOptions& o) {
   std::printf("compare %s: float vs %s (%s) on %llu rays (%llu compared, %llu invalid)\n", scene.name.c_str(),
               dut->name(), dut_opt.format.name.c_str(), (unsigned long long)t.rays, (unsigned long long)t.compared,
               (unsigned long long)invalid_either);
-  if (t.compared == 0)
-    std::printf("  no ray was valid on both devices: nothing compared\n");
+  if (invalid_either > 0) {
+    std::printf("  invalid rays (not compared) by reason on float / %s:", dut->name());
+    for (size_t k = 1; k < ref_stats.invalid_by_reason.size(); ++k)
+      if (ref_stats.invalid_by_reason[k] + dut_stats.invalid_by_reason[k] > 0)
+        std::printf(" %s %llu / %llu", hw::ray_status_name(hw::RayStatus(k)),
+                    (unsigned long long)ref_stats.invalid_by_reason[k],
+                    (unsigned long long)dut_stats.invalid_by_reason[k]);
+    std::printf("\n");
+  }
+  if (t.compared == 0) {
+    if (!o.json.empty()) write_json(o.json, j);
+    throw Error("no ray was valid on both devices: nothing compared" +
+                std::string(dut_stats.invalid_by_reason[size_t(hw::RayStatus::kOutOfFrame)] > 0
+                                ? " (out_of_frame: the ray origins lie beyond the format's guard range around the "
+                                  "scene; move them closer or raise --guard-bits)"
+                                : ""));
+  }
+  if (o.any_hit)
+    std::printf(
+        "  hit agreement %.6f%%: %llu false misses, %llu false hits (any-hit: only hit/miss is compared)\n",
+        100.0 * double(t.hit_agree) / n, (unsigned long long)t.false_misses, (unsigned long long)t.false_hits);
   else
     std::printf(
         "  hit agreement %.6f%%, primitive agreement %.6f%%: %llu false misses, %llu false hits, %llu other "
         "primitive\n",
         100.0 * double(t.hit_agree) / n, 100.0 * double(t.prim_agree) / n, (unsigned long long)t.false_misses,
         (unsigned long long)t.false_hits, (unsigned long long)t.other_prim);
-  std::printf("  t relative error: max %.3g (ray %llu), mean %.3g\n", t.t_rel_max,
-              (unsigned long long)t.t_rel_max_ray, t.t_rel_mean);
-  std::printf("  box tests checked exactly: %llu, false negatives %llu, false positives %llu\n",
-              (unsigned long long)dut_stats.box_checks, (unsigned long long)dut_stats.box_false_negatives,
-              (unsigned long long)dut_stats.box_false_positives);
+  if (t_compared) {
+    std::printf("  t error on %llu rays hitting the same primitive: relative max %.3g (ray %llu), mean %.3g",
+                (unsigned long long)t.t_compared, t.t_rel_max, (unsigned long long)t.t_rel_max_ray, t.t_rel_mean);
+    if (grid_step > 0.0)
+      std::printf("; distance max %.3g grid steps (ray %llu), mean %.3g (a step is %.3g world units)",
+                  t.t_abs_steps_max, (unsigned long long)t.t_abs_steps_max_ray, t.t_abs_steps_mean, grid_step);
+    std::printf("\n");
+  }
+  if (boxes_checked)
+    std::printf("  box tests checked exactly: %llu, false negatives %llu, false positives %llu\n",
+                (unsigned long long)dut_stats.box_checks, (unsigned long long)dut_stats.box_false_negatives,
+                (unsigned long long)dut_stats.box_false_positives);
+  else if (dut->kind() == hw::DeviceKind::kTimed)
+    std::printf(
+        "  box tests: not checked on the timed device (its datapath is the fixed device's; --device fixed "
+        "checks them)\n");
   std::printf("  overhead vs float: nodes %+.3f%%, primitive tests %+.3f%%; saturations %llu\n",
               100.0 * ratio_minus_one(dut_stats.nodes_visited, ref_stats.nodes_visited),
               100.0 * ratio_minus_one(dut_stats.prim_tests, ref_stats.prim_tests),

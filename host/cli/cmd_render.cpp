@@ -50,9 +50,10 @@ void run_render(const RenderArgs& a) {
   if (r.timed) pt.write();
   write_png(a.out, to_image(r));
   print_render_summary(r, o);
+  for (const std::string& w : render_warnings(r)) std::fprintf(stderr, "rtusim: warning: %s\n", w.c_str());
   if (r.timed) {
     std::printf("  ");
-    print_timing_summary(r.timing, o.device.timing);
+    print_timing_summary(r.timing, o.device.timing, r.sampling.packets_sampled > 0);
     std::printf("  device clock at the end (all packets, fences included): %llu cycles\n",
                 (unsigned long long)r.device_clock);
     if (o.hybrid)

@@ -76,9 +76,10 @@ void add_report(CLI::App& app) {
   sub->add_option("--scene", a->scenes,
                   "scenes (repeatable; default builtin:seed and builtin:cornell): the first is rendered, all are "
                   "in the cycles table and in the sweep run here");
-  sub->add_option("--area", a->area, "RTL area table for the sweep run here (bench/data/rtl_area.csv)")
+  sub->add_option("--area", a->area,
+                  "RTL area table for the sweep run here (default: bench/data/rtl_area.csv, compiled in)")
       ->excludes(sweep);  // a given sweep CSV holds its area figures already
-  sub->add_flag("--quick", a->quick, "small sizes (renders 160 wide, few rays, small sweep): well under 30 s");
+  sub->add_flag("--quick", a->quick, "small sizes (renders 192 wide, few rays, small sweep): well under 30 s");
   sub->add_option("--threads", a->threads, "worker threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();

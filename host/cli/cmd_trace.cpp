@@ -53,7 +53,7 @@ void run_trace(const TraceOptions& o) {
               stats.rays ? double(stats.box_tests) / double(stats.rays) : 0.0,
               stats.rays ? double(stats.prim_tests) / double(stats.rays) : 0.0);
   if (const hw::TimedEngine* te = device->timed()) {
-    print_timing_summary(te->timing(), te->config());
+    print_timing_summary(te->timing(), te->config(), te->sampling().packets_sampled > 0);
     const hw::SampleStats& ss = te->sampling();
     if (ss.packets_sampled > 0)
       std::printf("sampled: %llu of %llu packets estimated from %.1f%% of their rays; cycles +- %.0f (95%%)\n",

@@ -75,9 +75,11 @@ void add_watchdog_args(CLI::App& app, DeviceArgs& o) {
 void add_format_args(CLI::App& app, DeviceArgs& o) {
   std::vector<std::string> presets;
   for (const hw::FixedFormat& f : hw::format_presets()) presets.push_back(f.name);
-  app.add_option("--format", o.format, "fixed-point format preset (rtusim info --formats lists them)")
-      ->check(CLI::IsMember(presets))
-      ->capture_default_str();
+  app.add_option(
+         "--format", o.format,
+         "fixed-point format preset (rtusim info --formats lists them; default: default, on the timed device "
+         "the --config's format, which this replaces as --set format=NAME does)")
+      ->check(CLI::IsMember(presets));
   // One option per field of the format table (width has --bvh-width): --coord-bits for coord_bits, ...
   for (const hw::FormatField& f : hw::format_fields()) {
     if (f.member == &hw::FixedFormat::width) continue;
@@ -118,15 +120,15 @@ void check_device_args(const CLI::App& app, const DeviceArgs& o) {
 
 namespace rtu::host::cli {
 
-void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c) {
+void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, bool sampled) {
   const Json j = timing_stats_json(s, c);
   std::printf(
-      "timed (%s): %llu cycles, %.1f cycles per ray, %.3f rays per clock; cache hit rate %.3f, DRAM %.1f B/clock; "
-      "lower bound %.0f cycles (%s), cycles / bound %.2f\n",
-      c.name.c_str(), (unsigned long long)s.cycles, j["cycles_per_ray"].get<double>(),
+      "timed (%s): %s%llu cycles, %.1f cycles per ray, %.3f rays per clock; cache hit rate %.3f, DRAM %.1f "
+      "B/clock; lower bound %s%.0f cycles (%s%s), cycles / bound %.2f\n",
+      c.name.c_str(), sampled ? "~" : "", (unsigned long long)s.cycles, j["cycles_per_ray"].get<double>(),
       j["rays_per_clock"].get<double>(), j["cache"]["hit_rate"].get<double>(),
-      j["dram_bytes_per_cycle"].get<double>(), j["lower_bound"]["cycles"].get<double>(),
-      j["lower_bound"]["limited_by"].get<std::string>().c_str(),
+      j["dram_bytes_per_cycle"].get<double>(), sampled ? "~" : "", j["lower_bound"]["cycles"].get<double>(),
+      j["lower_bound"]["limited_by"].get<std::string>().c_str(), sampled ? ", estimated from the sample" : "",
       j["lower_bound"]["cycles_over_bound"].get<double>());
 }
 

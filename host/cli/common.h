@@ -50,8 +50,9 @@ inline constexpr const char* kRaySpecHelp =
 
 // A render's one-line summary on stdout (and the rasterizer's in hybrid mode).
 void print_render_summary(const RenderResult& r, const RenderOptions& o);
-// One line: cycles, cycles per ray, rays per clock, the lower bound and what limits it.
-void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c);
+// One line: cycles, cycles per ray, rays per clock, the lower bound and what limits it. `sampled`: the counters
+// are estimates from sampled timing, and the line says the bound is too.
+void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, bool sampled = false);
 // --pipeline-trace F.json and --trace-window FROM:TO (cycles) of the timed device's commands.
 struct PipelineTraceArgs {
   std::string path, window = "0:100000";

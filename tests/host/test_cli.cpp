@@ -168,6 +168,65 @@ TEST_CASE("compare: the JSON report's keys, conservative boxes, agreement on the
   for (const auto& e : j["disagreements"]) CHECK(e["ray"].get<uint64_t>() < 50000);
 }
 
+TEST_CASE("compare: what it did not check it does not report", "[cli][fixed]") {
+  const fs::path d = temp_dir();
+  const std::string json = (d / "c2.json").string();
+  // Any-hit: a hit is any hit, so primitives and t are not compared.
+  Run r = run_rtusim("compare --scene builtin:cornell --rays primary:3000 --any-hit --json " + json);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(r.output.find("primitive agreement") == std::string::npos);
+  CHECK(r.output.find("t error") == std::string::npos);
+  nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
+  CHECK(j["prim_agreement"].is_null());
+  CHECK(j["t_rel_error_max"].is_null());
+  CHECK(j["box_checks"].get<uint64_t>() > 0);
+  // The timed device does not repeat its box tests: no "false negatives 0" it did not count.
+  r = run_rtusim("compare --scene builtin:cornell --rays primary:3000 --device timed --json " + json);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(r.output.find("false negatives") == std::string::npos);
+  CHECK(r.output.find("not checked on the timed device") != std::string::npos);
+  j = nlohmann::json::parse(std::ifstream(json));
+  CHECK(j["box_false_negatives"].is_null());
+  // Closest hit: the distance error in grid steps beside the relative one, from the device's frame.
+  REQUIRE(j["grid_step"].is_number());
+  CHECK(j["grid_step"].get<double>() > 0.0);
+  CHECK(j["t_abs_error_steps_mean"].get<double>() <= j["t_abs_error_steps_max"].get<double>());
+  CHECK(r.output.find("grid steps") != std::string::npos);
+}
+
+TEST_CASE("a camera beyond the fixed-point frame: render says so, compare fails naming the reason",
+          "[cli][fixed]") {
+  const fs::path d = temp_dir();
+  // A unit sphere seen from 2000 units: 1000 frame sizes away, beyond the default format's 2^6 guard range.
+  std::ofstream(d / "far.json") << R"({"camera": {"position": [0, 0, 2000], "look_at": [0, 0, 0], "fov_y": 0.1,
+    "width": 32, "height": 24}, "spheres": [{"center": [0, 0, 0], "radius": 1}],
+    "lights": [{"type": "point", "position": [3, 6, 4], "intensity": [60, 60, 60]}]})";
+  const std::string scene = (d / "far.json").string(), stats = (d / "far-stats.json").string();
+  Run r = run_rtusim("render --scene " + scene + " --device fixed --out " + (d / "far.png").string() +
+                     " --stats " + stats);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(r.output.find("768 of 768 traced rays (100%) were invalid") != std::string::npos);
+  CHECK(r.output.find("most rays were invalid") != std::string::npos);
+  CHECK(r.output.find("out_of_frame 768") != std::string::npos);
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+  CHECK(j["unit"]["total"]["invalid_rays"] == 768);
+  CHECK(j["warnings"].size() == 2);
+  // The float device represents every ray: no warning.
+  r = run_rtusim("render --scene " + scene + " --device float --out " + (d / "far-float.png").string());
+  CHECK(r.status == 0);
+  CHECK(r.output.find("warning") == std::string::npos);
+  // Nothing valid on both devices: an error, not a row of zeros.
+  r = run_rtusim("compare --scene " + scene + " --rays primary");
+  CHECK(r.exited);
+  CHECK(r.status != 0);
+  CHECK(r.output.find("nothing compared") != std::string::npos);
+  CHECK(r.output.find("out_of_frame 0 / 768") != std::string::npos);
+  CHECK(r.output.find("t error") == std::string::npos);
+}
+
 TEST_CASE("trace on the fixed device: formats, out-of-frame origins rejected with their reason", "[cli][fixed]") {
   const fs::path d = temp_dir();
   std::ofstream(d / "far.csv") << "ox,oy,oz,tmin,dx,dy,dz,tmax\n0,1,8,0,0,-0.3,-1,inf\n1e12,0,0,0,-1,0,0,inf\n";
@@ -476,15 +535,16 @@ TEST_CASE("plan: the fewest coordinate bits within the budget, and the reason, a
   const auto& w = j["widths"][0];
   REQUIRE(w["feasible"] == true);
   const int b = w["coord_bits"];
-  // The chosen width meets the budget; the next fewer tried does not (or it was the fewest tried).
-  CHECK(w["error_at_coord_bits"].get<double>() <= 2e-3);
+  // The chosen width's error bound meets the budget; the next fewer tried does not (or it was the fewest tried).
+  CHECK(w["error_bound_at_coord_bits"].get<double>() <= 2e-3);
+  CHECK(w["error_at_coord_bits"].get<double>() <= w["error_bound_at_coord_bits"].get<double>());
   if (w.contains("fewer_coord_bits")) {
     CHECK(w["fewer_coord_bits"].get<int>() < b);
-    CHECK(w["error_at_fewer_coord_bits"].get<double>() > 2e-3);
+    CHECK(w["error_bound_at_fewer_coord_bits"].get<double>() > 2e-3);
     CHECK(r.output.find("why " + std::to_string(b) + " coordinate bits") != std::string::npos);
   }
   CHECK(j["plan"]["coord_bits"] == b);
-  CHECK(j["plan"]["error"].get<double>() <= 2e-3);
+  CHECK(j["plan"]["error_bound"].get<double>() <= 2e-3);
   CHECK(j["plan"]["cycles"].get<uint64_t>() > 0);
   // The plan skips bits: fewer than the default format's 24 are enough for this budget.
   CHECK(b < 24);
@@ -522,9 +582,10 @@ TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the 
   // The bound is the largest of its parts, named, and below the simulated cycles.
   const auto& b = t["lower_bound"];
   const double box = b["box"].get<double>(), tri = b["triangle"].get<double>(), dram = b["dram"].get<double>();
-  CHECK(b["cycles"].get<double>() == std::max({box, tri, dram}));
+  CHECK(b["fetch"].get<double>() == 3000.0);  // one ray per clock
+  CHECK(b["cycles"].get<double>() == std::max({box, tri, dram, 3000.0}));
   const std::string lim = b["limited_by"];
-  REQUIRE((lim == "box" || lim == "triangle" || lim == "dram"));
+  REQUIRE((lim == "box" || lim == "triangle" || lim == "dram" || lim == "fetch"));
   CHECK(b[lim].get<double>() == b["cycles"].get<double>());
   CHECK(b["cycles"].get<double>() <= cycles);
   CHECK(b["cycles_over_bound"].get<double>() == Approx(cycles / b["cycles"].get<double>()));

@@ -4,9 +4,11 @@
 
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <random>
 
 #include "host/error.h"
@@ -170,4 +172,61 @@ TEST_CASE("heatmap: black where equal, non-black where not, the documented ramp"
     CHECK(sum >= prev);
     prev = sum;
   }
+}
+
+TEST_CASE("log heatmap: the perceptual ramp, its log scale, no black, exact colours per pixel", "[image]") {
+  using C = std::array<uint8_t, 3>;
+  // The ramp's ends and stops are its documented colours.
+  CHECK(diff_ramp_color(0.0) == C{252, 253, 191});
+  CHECK(diff_ramp_color(1.0) == C{28, 16, 68});
+  CHECK(diff_ramp_color(-1.0) == diff_ramp_color(0.0));
+  CHECK(diff_ramp_color(2.0) == diff_ramp_color(1.0));
+  for (const RampStop& s : kDiffRamp) CHECK(diff_ramp_color(s.t) == C{s.r, s.g, s.b});
+  // Lightness (Rec. 709 luma of the sRGB values) never rises along the ramp and falls from stop to stop; no
+  // colour is near black, so an image that differs nowhere is light, not dark.
+  const auto luma = [](const C& c) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; };
+  double prev = 1e9;
+  for (int i = 0; i <= 1000; ++i) {
+    const C c = diff_ramp_color(i / 1000.0);
+    INFO("t = " << i / 1000.0);
+    CHECK(luma(c) <= prev + 0.5);  // rounding to 8 bits may lift a sample by half a level
+    CHECK(luma(c) > 20.0);
+    prev = luma(c);
+  }
+  for (size_t k = 1; k < std::size(kDiffRamp); ++k) {
+    const RampStop &a = kDiffRamp[k - 1], &b = kDiffRamp[k];
+    CHECK(luma({b.r, b.g, b.b}) < luma({a.r, a.g, a.b}) - 10.0);
+  }
+  // Full scales: 2^k - 1 at least the largest difference.
+  CHECK(diff_ramp_full_scale(0) == 1);
+  CHECK(diff_ramp_full_scale(1) == 1);
+  CHECK(diff_ramp_full_scale(2) == 3);
+  CHECK(diff_ramp_full_scale(16) == 31);
+  CHECK(diff_ramp_full_scale(255) == 255);
+  // The log scale: 2^j - 1 levels at j / k, saturating at the full scale.
+  CHECK(diff_ramp_t(0, 15) == 0.0);
+  CHECK(diff_ramp_t(1, 15) == Approx(0.25));
+  CHECK(diff_ramp_t(3, 15) == Approx(0.5));
+  CHECK(diff_ramp_t(15, 15) == Approx(1.0));
+  CHECK(diff_ramp_t(200, 15) == Approx(1.0));
+  // Per pixel: the colour of its largest channel difference.
+  const Image a = solid(4, 1, 50, 50, 50);
+  Image b = a;
+  b.rgb[3 * 1 + 0] = 51;   // d = 1
+  b.rgb[3 * 2 + 1] = 57;   // d = 7
+  b.rgb[3 * 3 + 2] = 250;  // d = 200, above the full scale
+  const Image h = diff_heatmap_log(a, b, 15);
+  REQUIRE(h.rgb.size() == 12);
+  const int d[4] = {0, 1, 7, 200};
+  for (size_t p = 0; p < 4; ++p) {
+    INFO("pixel " << p);
+    CHECK(C{h.rgb[3 * p], h.rgb[3 * p + 1], h.rgb[3 * p + 2]} == diff_ramp_color(diff_ramp_t(d[p], 15)));
+  }
+  CHECK(C{h.rgb[0], h.rgb[1], h.rgb[2]} == diff_ramp_color(0.0));
+  CHECK(C{h.rgb[9], h.rgb[10], h.rgb[11]} == diff_ramp_color(1.0));
+  // One level of difference is clearly apart from none.
+  CHECK(luma({h.rgb[3], h.rgb[4], h.rgb[5]}) < luma({h.rgb[0], h.rgb[1], h.rgb[2]}) - 20.0);
+  CHECK_THROWS_AS(diff_heatmap_log(a, b, 16), Error);
+  CHECK_THROWS_AS(diff_heatmap_log(a, b, 0), Error);
+  CHECK_THROWS_AS(diff_heatmap_log(a, solid(3, 1, 0, 0, 0), 15), Error);
 }

@@ -4,19 +4,27 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
 
+#include "host/compare.h"
 #include "host/demo.h"
 #include "host/device_settings.h"
 #include "host/error.h"
+#include "host/image.h"
+#include "host/image_diff.h"
 #include "host/pipeline_trace.h"
 #include "host/plan.h"
 #include "host/ray_spec.h"
 #include "host/report.h"
 #include "host/scene.h"
+#include "host/sweep.h"
+#include "hwmodel/timing_config.h"
 
 namespace fs = std::filesystem;
 using rtu::host::Json;
@@ -96,7 +104,7 @@ TEST_CASE("plan: the chosen format meets its budget on the sample it measured, w
     if (!seen) CHECK_FALSE(rtu::host::plan_meets(c, o));
   }
   CHECK(seen);
-  // The reference is the default format at the plan's width, measured last.
+  // The reference is the configuration's format (rdna2: default) at the plan's width, measured last.
   CHECK(r.reference.p.format == "default");
   CHECK(r.reference.p.bvh_width == r.best.p.bvh_width);
   REQUIRE(!stages.empty());
@@ -108,12 +116,98 @@ TEST_CASE("plan: the chosen format meets its budget on the sample it measured, w
   CHECK(r.json["default"]["cycles"] == r.reference.cycles);
 }
 
+TEST_CASE("compare_hits: a ray starting on a surface has a large relative but a small distance error", "[jobs]") {
+  // Ray 0 starts a millionth of a unit from the surface it hits; ray 1 hits at t = 10. |d| = 2, a grid step of
+  // 1e-5 world units.
+  std::vector<rtu::hw::Ray> rays(2);
+  rays[0].dir = rays[1].dir = rtu::hw::Vec3(0.0f, 0.0f, 2.0f);
+  std::vector<rtu::hw::Hit> ref(2), dev(2);
+  ref[0].prim = dev[0].prim = ref[1].prim = dev[1].prim = 0;
+  ref[0].t = 1e-6f;
+  dev[0].t = 3e-6f;  // relative error 2; distance 4e-6 = 0.4 steps
+  ref[1].t = 10.0f;
+  dev[1].t = 10.0001f;  // relative error 1e-5; distance 2e-4 = 20 steps
+  const rtu::host::HitComparison c = rtu::host::compare_hits(ref, dev, {true, true}, false, &rays, 1e-5);
+  CHECK(c.t_rel_max == Approx(2.0).epsilon(1e-6));
+  CHECK(c.t_rel_max_ray == 0);
+  CHECK(c.t_abs_steps_max == Approx(double(10.0001f - 10.0f) * 2.0 / 1e-5).epsilon(1e-9));
+  CHECK(c.t_abs_steps_max_ray == 1);
+  CHECK(c.t_abs_steps_mean ==
+        Approx((double(3e-6f) - double(1e-6f)) * 2.0 / 1e-5 / 2.0 + c.t_abs_steps_max / 2.0));
+  // Without a grid step the distance is not computed.
+  CHECK(rtu::host::compare_hits(ref, dev, {true, true}, false).t_abs_steps_max == 0.0);
+}
+
+TEST_CASE("plan: the confidence bounds hold their definitions", "[jobs][plan]") {
+  using rtu::host::proportion_upper_bound;
+  // Clopper-Pearson: P(X <= k | n, p_u) = 1 - confidence, checked by summing the binomial terms directly.
+  for (const auto& [k, n] : {std::pair<uint64_t, uint64_t>{0, 10}, {1, 10}, {5, 20}, {17, 300}, {99, 1000}}) {
+    const double pu = proportion_upper_bound(k, n, 0.95);
+    CHECK(pu > double(k) / double(n));
+    double cdf = 0.0, term = std::pow(1.0 - pu, double(n));  // P(X = 0)
+    for (uint64_t i = 0; i <= k; ++i) {
+      cdf += term;
+      term *= double(n - i) / double(i + 1) * pu / (1.0 - pu);
+    }
+    CHECK(cdf == Approx(0.05).epsilon(1e-9));
+  }
+  CHECK(proportion_upper_bound(0, 1000, 0.95) == Approx(1.0 - std::pow(0.05, 1.0 / 1000.0)).epsilon(1e-12));
+  // Many trials, few successes: the Poisson limit, chi2(0.95; 2(k + 1)) / 2n; chi2(0.95; 6) = 12.5916. The two
+  // differ by O(k / n) relatively.
+  CHECK(proportion_upper_bound(2, 40000, 0.95) == Approx(12.5916 / 80000.0).epsilon(1e-3));
+  CHECK(proportion_upper_bound(3, 3, 0.95) == 1.0);
+  CHECK(proportion_upper_bound(0, 0, 0.95) == 1.0);
+  // Mean: z(0.95) = 1.644854.
+  CHECK(rtu::host::mean_upper_bound(0.5, 2.0, 400, 0.95) == Approx(0.5 + 1.644854 * 2.0 / 20.0).epsilon(1e-6));
+  CHECK(std::isinf(rtu::host::mean_upper_bound(0.5, 2.0, 1, 0.95)));
+}
+
+TEST_CASE("plan: a seed, a stated bound that meets the budget, and the configuration's own format",
+          "[jobs][plan]") {
+  rtu::host::PlanOptions o;
+  o.scene = "builtin:icosphere?subdiv=2";
+  o.config = "embedded";  // its format is compact, not default
+  o.max_error = 0.05;
+  o.widths = {4};
+  o.coord_bits = {4, 8, 12, 16};
+  o.child_bits = {4, 6};
+  o.sweep.rays = 400;
+  o.sweep.image_width = 0;
+  o.sweep.threads = 1;
+  o.sweep.seed = 7;
+  const rtu::host::PlanResult a = rtu::host::plan_format(o);
+  REQUIRE(a.found);
+  const std::string base = rtu::hw::timing_preset("embedded").format;
+  CHECK(a.best.p.format.rfind(base + ":", 0) == 0);
+  CHECK(a.reference.p.format == base);
+  CHECK(a.json["base_format"] == base);
+  CHECK(a.json["seed"] == 7);
+  CHECK(a.json["confidence"] == 0.95);
+  // The stated bound is the error's: above the measured rate, within the budget, and what plan_meets compares.
+  const double bound = a.json["plan"]["error_bound"].get<double>();
+  CHECK(bound == rtu::host::plan_error_bound(a.best, o));
+  CHECK(bound >= rtu::host::plan_error(a.best, "hit"));
+  CHECK(bound <= o.max_error);
+  CHECK(bound ==
+        rtu::host::proportion_upper_bound(a.best.false_misses + a.best.false_hits, a.best.compared_rays, 0.95));
+  // Same seed, same plan; the seed picks the incoherent rays.
+  const rtu::host::PlanResult again = rtu::host::plan_format(o);
+  CHECK(again.json.dump() == a.json.dump());
+  o.sweep.seed = 8;
+  const rtu::host::PlanResult other = rtu::host::plan_format(o);
+  CHECK(other.json["seed"] == 8);
+  CHECK(other.json["widths"].dump() != a.json["widths"].dump());
+  // A budget that zero disagreements on these rays cannot show is refused, naming the rays needed.
+  o.max_error = 1e-4;
+  CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("use --rays"));
+}
+
 TEST_CASE("plan: a bad metric or budget is refused before the scene is loaded", "[jobs][plan]") {
   rtu::host::PlanOptions o;
   o.scene = "no/such/scene.obj";
   o.metric = "psnr";
   CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("--metric"));
-  o.metric = "t";
+  o.metric = std::string("t");  // a move: GCC 12 -Wrestrict misfires on copying "t" over "psnr" here
   o.max_error = -1.0;
   CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("--max-error"));
   o.max_error = 0.1;
@@ -196,6 +290,61 @@ TEST_CASE("report: the page, report.json, the sweep CSV and every image it embed
   CHECK(j["cycles"].size() == rtu::hw::timing_preset_names().size());  // one scene: one row per preset
   CHECK(j["sweep"]["points"] == rtu::host::read_sweep_csv(o.out + "/sweep.csv").size());
   CHECK(j["stress"]["failures"] == 0);
+
+  // The renders are shown at least 320 px wide (twice their size in the quick report, pixelated).
+  for (const char* img : {"render_float.png", "render_fixed.png", "render_heatmap.png"}) {
+    CAPTURE(img);
+    const size_t at = html.find("src=\"" + std::string(img) + "\"");
+    REQUIRE(at != std::string::npos);
+    const size_t w = html.find("width=\"", at);
+    REQUIRE(w != std::string::npos);
+    CHECK(std::stoi(html.substr(w + 7)) >= 320);
+    CHECK(std::stoi(html.substr(w + 7)) == 2 * j["renders"]["width"].get<int>());
+  }
+  // The heatmap: each pixel has the ramp's colour for its largest channel difference on the log scale whose full
+  // scale report.json gives, and the page has the colour bar with its tick values.
+  const rtu::host::Image fa = rtu::host::read_png(o.out + "/render_float.png");
+  const rtu::host::Image fb = rtu::host::read_png(o.out + "/render_fixed.png");
+  const rtu::host::Image heat = rtu::host::read_png(o.out + "/render_heatmap.png");
+  const int full_scale = j["renders"]["heatmap_full_scale"].get<int>();
+  CHECK(full_scale == rtu::host::diff_ramp_full_scale(j["renders"]["max_abs"].get<int>()));
+  REQUIRE(heat.rgb.size() == fa.rgb.size());
+  size_t wrong = 0;
+  for (size_t p = 0; p < size_t(fa.width) * size_t(fa.height); ++p) {
+    int d = 0;
+    for (size_t k = 0; k < 3; ++k) d = std::max(d, std::abs(int(fa.rgb[3 * p + k]) - int(fb.rgb[3 * p + k])));
+    const auto c = rtu::host::diff_ramp_color(rtu::host::diff_ramp_t(d, full_scale));
+    wrong += c[0] != heat.rgb[3 * p] || c[1] != heat.rgb[3 * p + 1] || c[2] != heat.rgb[3 * p + 2];
+  }
+  CHECK(wrong == 0);
+  CHECK(html.find("class=\"colorbar\"") != std::string::npos);
+  CHECK(html.find("linear-gradient(to right, rgb(252,253,191) 0.00%") != std::string::npos);
+  CHECK(html.find(">" + std::to_string(full_scale) + "</span>") != std::string::npos);
+  CHECK(html.find(">0</span>") != std::string::npos);
+  // RTL areas come from the table the project ships (no --area): the default format at rdna2 has one.
+  CHECK(j["sweep"]["area_source"].get<std::string>().find("bench/data/rtl_area.csv") != std::string::npos);
+  size_t with_area = 0;
+  for (const rtu::host::SweepRow& row : rtu::host::read_sweep_csv(o.out + "/sweep.csv")) {
+    with_area += row.rtl_cells > 0;
+    if (row.p.format == "default" && row.p.config == "rdna2" && row.p.bvh_width == 4) CHECK(row.rtl_cells > 0);
+  }
+  CHECK(with_area > 0);
+  for (const Json& p : j["sweep"]["plots"]) CHECK(p["area_panel"] == true);
+}
+
+TEST_CASE("report: the area table compiled in is the one the project ships", "[jobs][report]") {
+  const rtu::host::AreaTable shipped = rtu::host::AreaTable::shipped();
+  const rtu::host::AreaTable file =
+      rtu::host::AreaTable::load(std::string(RTU_SOURCE_DIR) + "/" + rtu::host::kShippedAreaTable);
+  CHECK(shipped.by_params.size() >= 9);
+  REQUIRE(shipped.by_params.size() == file.by_params.size());
+  for (const auto& [params, e] : file.by_params) {
+    CAPTURE(params);
+    REQUIRE(shipped.by_params.count(params) == 1);
+    CHECK(shipped.by_params.at(params).cells == e.cells);
+    CHECK(shipped.by_params.at(params).transistors == e.transistors);
+  }
+  CHECK_THROWS_WITH(rtu::host::AreaTable::parse("a,b\n", "t.csv"), Catch::Contains("t.csv:1"));
 }
 
 TEST_CASE("report: an output directory that cannot be created is refused before any work", "[jobs][report]") {
@@ -230,6 +379,32 @@ TEST_CASE("ray specs, timing overrides and pipeline-trace windows as the command
   CHECK(timed.format.coord_bits == 16);
   CHECK(timed.format.width == timed.timing.bvh_width);  // the preset's width, as --config gives it
   CHECK(d.options(rtu::hw::DeviceKind::kFloat).kind == rtu::hw::DeviceKind::kFloat);
+
+  // One design point, one configuration: --format and --bvh-width on the timed device are the configuration's
+  // keys, spelled either way.
+  rtu::host::DeviceSettings by_option, by_set;
+  by_option.format = "compact";
+  by_option.bvh_width = 8;
+  by_set.sets = {"format=compact", "bvh_width=8"};
+  const rtu::host::DeviceOptions a = by_option.options(rtu::hw::DeviceKind::kTimed);
+  const rtu::host::DeviceOptions b = by_set.options(rtu::hw::DeviceKind::kTimed);
+  CHECK(a.timing.format == "compact");
+  CHECK(a.timing.bvh_width == 8);
+  const auto keys_a = rtu::hw::timing_keys(a.timing), keys_b = rtu::hw::timing_keys(b.timing);
+  REQUIRE(keys_a.size() == keys_b.size());
+  for (size_t i = 0; i < keys_a.size(); ++i) CHECK(keys_a[i].value == keys_b[i].value);
+  CHECK(a.format.name == b.format.name);
+  CHECK(a.format.coord_bits == rtu::hw::format_preset("compact").coord_bits);
+  CHECK(a.format.width == 8);
+  rtu::host::DeviceSettings clash = by_option;
+  clash.sets = {"format=wide8"};
+  CHECK_THROWS_WITH(clash.options(rtu::hw::DeviceKind::kTimed), Catch::Contains("--set format=wide8"));
+  // Without --format the fixed device takes the default format and the timed device its configuration's.
+  rtu::host::DeviceSettings plain;
+  plain.config = "embedded";
+  CHECK(plain.options(rtu::hw::DeviceKind::kFixed).format.name == "default");
+  CHECK(plain.options(rtu::hw::DeviceKind::kTimed).format.coord_bits ==
+        rtu::hw::format_preset(rtu::hw::timing_preset("embedded").format).coord_bits);
 
   const rtu::hw::PipelineTrace t = rtu::host::pipeline_trace_window("10:20");
   CHECK(t.from == 10);

@@ -1,11 +1,15 @@
 // Pareto fronts of a sweep (host/pareto.h): which points are on the front, how zero errors are drawn on the log
-// axis, and the gnuplot step writing one PNG per scene and error measure.
+// axis, where the point numbers go (no two overlap), and the gnuplot step writing one PNG per scene and error
+// measure.
 #include <catch2/catch.hpp>
 
 #include <unistd.h>
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <random>
+#include <sstream>
 
 #include "host/error.h"
 #include "host/image.h"
@@ -59,6 +63,118 @@ TEST_CASE("pareto: errors floored for the log axis, unknown area, labels", "[par
   CHECK(pareto_label(r.p) == "default:coord_bits=16/8/intel");
 }
 
+namespace {
+
+// Checks that placed labels overlap neither each other nor an obstacle and lie inside the bounds.
+void check_placement(const std::vector<LabelRequest>& q, const std::vector<LabelPlace>& p,
+                     const std::vector<LabelBox>& obstacles, const LabelBox& bounds) {
+  REQUIRE(p.size() == q.size());
+  for (size_t i = 0; i < p.size(); ++i) {
+    if (!p[i].placed) continue;
+    INFO("label " << i);
+    const LabelBox& b = p[i].box;
+    CHECK(b.x1 - b.x0 == Approx(q[i].w));
+    CHECK(b.y1 - b.y0 == Approx(q[i].h));
+    CHECK(b.x0 >= bounds.x0);
+    CHECK(b.y0 >= bounds.y0);
+    CHECK(b.x1 <= bounds.x1);
+    CHECK(b.y1 <= bounds.y1);
+    for (const LabelBox& o : obstacles) CHECK_FALSE(boxes_overlap(b, o));
+    for (size_t j = 0; j < i; ++j)
+      if (p[j].placed) CHECK_FALSE(boxes_overlap(b, p[j].box));
+  }
+}
+
+// The labels of one panel as write_pareto_plots lists them: placed boxes and how many found no place.
+struct PanelLabels {
+  std::vector<LabelBox> boxes;
+  size_t unplaced = 0, places = 0;
+};
+PanelLabels read_labels(const fs::path& file) {
+  PanelLabels out;
+  std::ifstream in(file);
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    ++out.places;
+    std::istringstream ss(line);
+    std::string text, x0;
+    double px = 0, py = 0;
+    ss >> text >> px >> py >> x0;
+    if (x0 == "-") {
+      ++out.unplaced;
+      continue;
+    }
+    LabelBox b;
+    b.x0 = std::stod(x0);
+    ss >> b.y0 >> b.x1 >> b.y1;
+    out.boxes.push_back(b);
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("label placement: no two labels overlap, none covers a point, each stays by its point", "[pareto]") {
+  CHECK(boxes_overlap(LabelBox{0, 0, 10, 10}, LabelBox{5, 5, 15, 15}));
+  CHECK_FALSE(boxes_overlap(LabelBox{0, 0, 10, 10}, LabelBox{10, 0, 20, 10}));  // edges touch
+  CHECK_FALSE(boxes_overlap(LabelBox{0, 0, 10, 10}, LabelBox{0, 11, 10, 20}));
+  const LabelBox bounds{0, 0, 500, 400};
+  // Sparse points: every label beside its point, no leader line.
+  {
+    std::vector<LabelRequest> q;
+    std::vector<LabelBox> marks;
+    for (int i = 0; i < 5; ++i) {
+      q.push_back(LabelRequest{50.0 + 100 * i, 200.0, 20, 16});
+      marks.push_back(LabelBox{q.back().x - 6, q.back().y - 6, q.back().x + 6, q.back().y + 6});
+    }
+    const std::vector<LabelPlace> p = place_labels(q, marks, bounds);
+    check_placement(q, p, marks, bounds);
+    for (size_t i = 0; i < p.size(); ++i) {
+      CHECK(p[i].placed);
+      CHECK_FALSE(p[i].leader);
+      CHECK(p[i].box.x0 == Approx(q[i].x + 10));  // the first choice: right of the point
+    }
+  }
+  // A crowded cluster (as a sweep's points bunch on a log axis): labels at one fixed offset would pile up (the
+  // old plots' unreadable string); placed ones must not, and most still find a place.
+  {
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> jitter(-12.0, 12.0);
+    std::vector<LabelRequest> q;
+    std::vector<LabelBox> marks;
+    for (int i = 0; i < 30; ++i) {
+      q.push_back(
+          LabelRequest{250 + 3.0 * i + jitter(rng), 200 - 2.0 * i + jitter(rng), 8.0 * (i < 9 ? 1 : 2) + 4, 16});
+      marks.push_back(LabelBox{q.back().x - 6, q.back().y - 6, q.back().x + 6, q.back().y + 6});
+    }
+    size_t naive_overlaps = 0;
+    for (size_t i = 0; i < q.size(); ++i)
+      for (size_t j = 0; j < i; ++j)
+        naive_overlaps += boxes_overlap(LabelBox{q[i].x + 8, q[i].y - 8, q[i].x + 8 + q[i].w, q[i].y + 8},
+                                        LabelBox{q[j].x + 8, q[j].y - 8, q[j].x + 8 + q[j].w, q[j].y + 8});
+    CHECK(naive_overlaps > 10);
+    const std::vector<LabelPlace> p = place_labels(q, marks, bounds);
+    check_placement(q, p, marks, bounds);
+    const size_t placed = size_t(std::count_if(p.begin(), p.end(), [](const LabelPlace& l) { return l.placed; }));
+    CHECK(placed >= 25);
+    // A label is never far from its point: within the outermost ring plus its own size.
+    for (size_t i = 0; i < p.size(); ++i)
+      if (p[i].placed) {
+        const double dx = std::max({p[i].box.x0 - q[i].x, q[i].x - p[i].box.x1, 0.0});
+        const double dy = std::max({p[i].box.y0 - q[i].y, q[i].y - p[i].box.y1, 0.0});
+        CHECK(std::hypot(dx, dy) <= 100.0);
+      }
+  }
+  // More labels than room: some are not placed, and the placed ones still do not overlap.
+  {
+    const LabelBox tiny{0, 0, 60, 40};
+    std::vector<LabelRequest> q(20, LabelRequest{30, 20, 20, 10});
+    const std::vector<LabelPlace> p = place_labels(q, {}, tiny);
+    check_placement(q, p, {}, tiny);
+    CHECK(std::count_if(p.begin(), p.end(), [](const LabelPlace& l) { return !l.placed; }) > 0);
+  }
+}
+
 TEST_CASE("pareto plots: gnuplot writes one PNG per scene and error measure", "[pareto]") {
   const std::string gnuplot = find_gnuplot();
   if (gnuplot.empty()) {
@@ -81,14 +197,53 @@ TEST_CASE("pareto plots: gnuplot writes one PNG per scene and error measure", "[
     r.rtl_cells = i == 0 ? 50000 : -1;  // one point with area, then none
     rows.push_back(r);
   }
+  // A crowded scene: 24 points whose costs and errors differ by little, so that their numbers compete for room.
+  for (int i = 0; i < 24; ++i) {
+    SweepRow r;
+    r.p = SweepPoint{"builtin:cornell", "default:coord_bits=" + std::to_string(10 + i), 4, "rdna2"};
+    r.rays = 1000;
+    r.hit_agreement = 1.0 - 0.001 * (1 + i % 5);
+    r.t_rel_error_mean = 1e-4 * (1 + i % 7);
+    r.cycles = 10000 + 50 * uint64_t(i);
+    r.bvh_bytes = 8000 + 20 * uint64_t(i % 6);
+    r.rtl_cells = 100000 + 1000 * i;
+    rows.push_back(r);
+  }
   const std::vector<ParetoPlot> plots = write_pareto_plots(rows, d.string(), gnuplot);
-  REQUIRE(plots.size() == 4);  // 2 scenes x 2 error measures
+  REQUIRE(plots.size() == 6);  // 3 scenes x 2 error measures
   for (const ParetoPlot& p : plots) {
     INFO(p.png);
     const Image img = read_png((d / p.png).string());
-    CHECK(img.width == 1950);
-    CHECK(img.height == 800);
+    // Fits a 1280 px window; two panels per row: area (a third panel, a second row) only where a row has one.
+    CHECK(img.width == kParetoPlotWidth);
+    CHECK(img.width <= 1200);
+    CHECK(img.height == kParetoTitleHeight + (p.area_panel ? 2 : 1) * kParetoPanelHeight);
+    // Every panel's numbers: no two boxes overlap, each inside the image; crowding may leave a few out.
+    for (const char* cost : {"cycles", "bvh_bytes", "rtl_cells"}) {
+      const std::string stem = p.png.substr(0, p.png.size() - 4);
+      const fs::path f = d / (stem + "_" + cost + ".labels");
+      INFO(f);
+      if (std::string(cost) == "rtl_cells" && !p.area_panel) {
+        CHECK_FALSE(fs::exists(f));
+        continue;
+      }
+      const PanelLabels l = read_labels(f);
+      CHECK(l.places > 0);
+      CHECK(l.boxes.size() + l.unplaced == l.places);
+      for (size_t i = 0; i < l.boxes.size(); ++i) {
+        CHECK(l.boxes[i].x0 >= 0);
+        CHECK(l.boxes[i].x1 <= img.width);
+        CHECK(l.boxes[i].y1 <= img.height);
+        for (size_t j = 0; j < i; ++j) CHECK_FALSE(boxes_overlap(l.boxes[i], l.boxes[j]));
+      }
+    }
+    CHECK(p.rows.size() == p.points);
   }
+  CHECK(plots[0].area_panel);
+  CHECK_FALSE(plots[2].area_panel);  // the mesh's row has no area: its panel is left out
+  CHECK(plots[4].points == 24);
+  CHECK(plots[4].unlabelled <= 4);  // crowded, but nearly every place keeps its number
+  CHECK(plots[0].unlabelled == 0);  // sparse: every number placed
   CHECK(plots[0].png == "pareto_seed_hit.png");
   CHECK(plots[1].png == "pareto_seed_terr.png");
   CHECK(plots[2].png == "pareto_Some_Mesh_hit.png");

@@ -228,5 +228,11 @@ TEST_CASE("timing statistics: the lower bound is the busiest resource", "[timing
   b = lower_bound(s, c);
   CHECK(std::string(b.limited_by) == "box");
   CHECK(b.cycles == 500.0);
+  // One ray per clock through fetch and setup: 700 rays need 700 clocks whatever the units do.
+  s.rays = 700;
+  b = lower_bound(s, c);
+  CHECK(b.fetch == 700.0);
+  CHECK(std::string(b.limited_by) == "fetch");
+  CHECK(b.cycles == 700.0);
   CHECK(lower_bound(TimingStats{}, c).cycles_over_bound == 0.0);
 }

@@ -2,7 +2,7 @@
 # Pareto plots of a sweep: error against cycles, memory and area, per scene, as PNGs drawn by gnuplot.
 #
 #   bench/pareto.sh SWEEP.csv OUTDIR [RTUSIM]
-#     SWEEP.csv  a CSV of `rtusim sweep` (header scene,format,bvh_width,config,rays,hit_agreement,...)
+#     SWEEP.csv  a CSV of `rtusim sweep` (header scene,format,bvh_width,config,rays,seed,image_width,hit_agreement,...)
 #     OUTDIR     created if needed; gets per scene pareto_<scene>_hit.png (error = hit disagreement,
 #                1 - hit agreement, a zero drawn at 1 / rays) and pareto_<scene>_terr.png (error = mean relative
 #                t error, a zero drawn at 1e-10), three panels each: against cycles, bvh_bytes and rtl_cells

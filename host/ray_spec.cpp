@@ -1,7 +1,9 @@
 #include "host/ray_spec.h"
 
 #include <exception>
+#include <filesystem>
 #include <string>
+#include <system_error>
 
 #include "host/error.h"
 #include "host/limits.h"
@@ -40,8 +42,17 @@ std::vector<hw::Ray> rays_from_spec(const std::string& spec, const Scene& scene,
     fits(w * h);
     return primary_rays(scene.camera, int(w), int(h));
   }
+  // "incoherent" alone: as many rays as "primary" has, so the two kinds compare at one size.
+  if (spec == "incoherent") {
+    const uint64_t n = uint64_t(scene.camera.width) * uint64_t(scene.camera.height);
+    return incoherent_rays(scene.geometry.bounds(), fits(n), seed);
+  }
   if (spec.rfind("incoherent:", 0) == 0)
     return incoherent_rays(scene.geometry.bounds(), fits(number(spec.substr(11))), seed);
+  // Anything else names a ray file; one that does not exist is most likely a misspelled kind.
+  std::error_code ec;
+  if (!std::filesystem::exists(spec, ec))
+    throw Error("--rays " + spec + ": no such ray file, and not a ray spec (" + kRaySpecKinds + ")");
   return read_rays(spec);
 }
 

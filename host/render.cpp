@@ -5,11 +5,13 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 
 #include "firmware/render_scene.h"
 #include "host/error.h"
 #include "host/firmware_device.h"
 #include "host/limits.h"
+#include "host/trace_job.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/engine.h"
 
@@ -20,6 +22,48 @@ namespace {
 fw::F3 f3(const Vec3& v) {
   return fw::F3{v.x, v.y, v.z};
 }
+
+// The device as the firmware sees it, with a progress line (RenderOptions::progress): every doorbell (a write of
+// the ring's tail) redraws the line from the firmware's own counters (fw::RenderStats: the batch of camera paths
+// and the bounce it is at), so the firmware needs no hook. Progress is counted in bounces of batches, at most
+// max_depth + 1 per batch; a batch whose first bounce submits nothing counts its first doorbell as bounce 0.
+class ProgressHal final : public fw::Hal {
+ public:
+  ProgressHal(FirmwareDevice& dev, const fw::RenderStats& stats, int max_depth)
+      : m_dev(dev), m_stats(stats), m_steps(uint64_t(max_depth) + 1) {}
+
+  uint32_t read32(uint32_t offset) override { return m_dev.read32(offset); }
+  void write32(uint32_t offset, uint32_t value) override {
+    if (offset == hw::reg::kRingTail) update();
+    m_dev.write32(offset, value);
+  }
+  void barrier() override { m_dev.barrier(); }
+  uint8_t* mem() override { return m_dev.mem(); }
+  uint64_t mem_size() override { return m_dev.mem_size(); }
+
+ private:
+  void update() {
+    if (m_stats.batches == 0 || m_stats.batch_paths == 0) return;  // the ring's setup, before the first batch
+    if (m_stats.batches != m_batch) {
+      m_batch = m_stats.batches;
+      m_first_bounce = m_stats.bounces;
+    }
+    const uint64_t batches = (m_stats.paths + m_stats.batch_paths - 1) / m_stats.batch_paths;
+    const uint64_t bounce = std::min(m_stats.bounces - m_first_bounce, m_steps - 1);
+    const uint64_t done = (m_batch - 1) * m_steps + bounce;
+    if (m_progress && done == m_shown) return;  // several doorbells per bounce: drawn once
+    if (!m_progress) m_progress.emplace("render", batches * m_steps);
+    m_shown = done;
+    m_progress->update(done, "batch " + std::to_string(m_batch) + "/" + std::to_string(batches) + ", bounce " +
+                                 std::to_string(bounce));
+  }
+
+  FirmwareDevice& m_dev;
+  const fw::RenderStats& m_stats;
+  const uint64_t m_steps;
+  uint64_t m_batch = 0, m_first_bounce = 0, m_shown = 0;
+  std::optional<Progress> m_progress;  // made at the first batch, when the firmware has chosen the batch size
+};
 
 }  // namespace
 
@@ -212,8 +256,12 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   fw::Arena arena(arena_base, arena_bytes);
   fw::Ring ring;
-  fw::Status st = ring.init(dev, arena, 256);
-  if (st == fw::Status::kOk) st = fw::render(dev, ring, arena, job_addr, res.fw);
+  std::optional<ProgressHal> watched;
+  if (o.progress) watched.emplace(dev, res.fw, o.max_depth);
+  fw::Hal& hal = watched ? static_cast<fw::Hal&>(*watched) : dev;
+  fw::Status st = ring.init(hal, arena, 256);
+  if (st == fw::Status::kOk) st = fw::render(hal, ring, arena, job_addr, res.fw);
+  watched.reset();  // the progress line cleared before anything else is printed
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (st != fw::Status::kOk) {
     std::string why = std::string("render on the ") + hw::device_kind_name(o.device.kind) +

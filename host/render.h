@@ -33,6 +33,7 @@ struct RenderOptions {
   Vec3 background{0.0f};      // radiance of escaping rays (the ambient light of occlusion)
   bool keep_primary = false;  // return every camera sample's primary hit (RenderResult::primary)
   hw::PipelineTrace* pipeline_trace = nullptr;  // timed device: pipeline spans of a cycle window (or null)
+  bool progress = false;  // a progress line on stderr while rendering, when stderr is a terminal (host::Progress)
 };
 
 struct RenderResult {

@@ -30,6 +30,8 @@ const char* const kColumns[] = {"scene",
                                 "bvh_width",
                                 "config",
                                 "rays",
+                                "seed",
+                                "image_width",
                                 "hit_agreement",
                                 "prim_agreement",
                                 "false_misses",
@@ -209,6 +211,8 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   const std::vector<hw::Ray>& rays = cache.rays;
   const size_t n = rays.size();
   row.rays = n;
+  row.seed = o.seed;
+  row.image_width = o.image_width;
   const int threads = o.threads;
 
   DeviceOptions ref_opt;
@@ -303,6 +307,17 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   return row;
 }
 
+std::string sweep_run_params(const SweepRow& r) {
+  // `rays` counts both kinds: --rays N made N camera and N incoherent rays.
+  return "--rays " + std::to_string(r.rays / 2) + " --seed " + std::to_string(r.seed) + " --image-width " +
+         std::to_string(r.image_width);
+}
+
+std::string sweep_run_params(const SweepOptions& o) {
+  return "--rays " + std::to_string(o.rays) + " --seed " + std::to_string(o.seed) + " --image-width " +
+         std::to_string(o.image_width);
+}
+
 std::string sweep_csv_header() {
   std::string s;
   for (size_t i = 0; i < kColumnCount; ++i) {
@@ -315,11 +330,12 @@ std::string sweep_csv_header() {
 std::string sweep_csv_line(const SweepRow& r) {
   std::ostringstream o;
   o << text(r.p.scene) << ',' << text(r.p.format) << ',' << r.p.bvh_width << ',' << text(r.p.config) << ','
-    << r.rays << ',' << num(r.hit_agreement) << ',' << num(r.prim_agreement) << ',' << r.false_misses << ','
-    << r.false_hits << ',' << num(r.t_rel_error_mean) << ',' << num(r.t_rel_error_max) << ','
-    << num(r.node_visit_overhead) << ',' << num(r.prim_test_overhead) << ',' << r.box_false_negatives << ','
-    << num(r.psnr_db) << ',' << r.cycles << ',' << num(r.cycles_per_ray) << ',' << r.bvh_bytes << ','
-    << r.float_bvh_bytes << ',' << r.rtl_cells << ',' << r.rtl_transistors << ',' << num(r.seconds);
+    << r.rays << ',' << r.seed << ',' << r.image_width << ',' << num(r.hit_agreement) << ','
+    << num(r.prim_agreement) << ',' << r.false_misses << ',' << r.false_hits << ',' << num(r.t_rel_error_mean)
+    << ',' << num(r.t_rel_error_max) << ',' << num(r.node_visit_overhead) << ',' << num(r.prim_test_overhead)
+    << ',' << r.box_false_negatives << ',' << num(r.psnr_db) << ',' << r.cycles << ',' << num(r.cycles_per_ray)
+    << ',' << r.bvh_bytes << ',' << r.float_bvh_bytes << ',' << r.rtl_cells << ',' << r.rtl_transistors << ','
+    << num(r.seconds);
   return o.str();
 }
 
@@ -349,6 +365,8 @@ std::vector<SweepRow> read_sweep_csv(const std::string& path) {
     r.p.bvh_width = parse_int<int>(f[k++], where);
     r.p.config = f[k++];
     r.rays = parse_int<uint64_t>(f[k++], where);
+    r.seed = parse_int<uint64_t>(f[k++], where);
+    r.image_width = parse_int<int>(f[k++], where);
     r.hit_agreement = parse_double(f[k++], where);
     r.prim_agreement = parse_double(f[k++], where);
     r.false_misses = parse_int<uint64_t>(f[k++], where);

@@ -27,6 +27,10 @@ struct SweepPoint {
 struct SweepRow {
   SweepPoint p;
   uint64_t rays = 0;  // compared and simulated (primary + incoherent)
+  // With `rays`, the run parameters the row was made with (SweepOptions): the same point made with others measures
+  // other rays or another render, so resume and merge tell them apart (sweep_run_params).
+  uint64_t seed = 1;
+  int image_width = 0;
   double hit_agreement = 1.0, prim_agreement = 1.0;
   uint64_t false_misses = 0, false_hits = 0;
   double t_rel_error_mean = 0.0, t_rel_error_max = 0.0;
@@ -82,6 +86,11 @@ struct SweepCacheDeleter {
   void operator()(SweepCache* c) const;
 };
 std::unique_ptr<SweepCache, SweepCacheDeleter> make_sweep_cache();
+
+// The run parameters of a row, or of the rows a sweep with these options makes, as rtusim sweep's options spell
+// them: "--rays N --seed S --image-width W". Rows are interchangeable (resume, merge) only when these are equal.
+std::string sweep_run_params(const SweepRow& r);
+std::string sweep_run_params(const SweepOptions& o);
 
 // CSV: one header line, one row per point, in a fixed column order; numbers round-trip.
 std::string sweep_csv_header();

@@ -18,6 +18,13 @@ void Progress::update(uint64_t done) {
   std::fflush(stderr);
 }
 
+void Progress::update(uint64_t done, const std::string& where) {
+  if (!m_enabled) return;
+  // Padded with blanks: a shorter line than the last must cover it.
+  std::fprintf(stderr, "\r%s: %3d%% (%s)   ", m_what, int(100.0 * double(done) / double(m_total)), where.c_str());
+  std::fflush(stderr);
+}
+
 Progress::~Progress() {
   if (m_enabled) std::fprintf(stderr, "\r\033[K");
 }

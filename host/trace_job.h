@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdio>
+#include <string>
 #include <vector>
 
 #include "host/direct_device.h"
@@ -13,7 +14,8 @@ namespace rtu::host {
 class Progress {
  public:
   Progress(const char* what, uint64_t total);
-  void update(uint64_t done);
+  void update(uint64_t done);                            // "what: P% (done/total)"
+  void update(uint64_t done, const std::string& where);  // "what: P% (where)"
   ~Progress();
 
  private:

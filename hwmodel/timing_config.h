@@ -1,5 +1,5 @@
 // The timing model's configuration: every latency, rate and size of the timed device (timing_model.h), as named
-// keys with presets. `rtusim config --preset P` prints a resolved configuration; `--set key=value`
+// keys with presets. `rtusim config --config P` prints a resolved configuration; `--set key=value`
 // overrides one key; unknown keys and out-of-range values are errors naming the key.
 //
 // Ranges (checked by validate()): latencies 0..100000 cycles (box, triangle, sphere and plane latencies >= 1);

@@ -186,6 +186,8 @@ void add_compare(CLI::App& app) {
   sub->add_option("--seed", o->seed, "seed of generated incoherent rays")->capture_default_str();
   o->dev.device = "fixed";
   add_device_args(*sub, o->dev, "device to compare with the float reference");
+  add_timing_args(*sub, o->dev);  // the timed device's format and BVH width; compare reports no cycles
+  add_watchdog_args(*sub, o->dev);
   sub->add_flag("--any-hit", o->any_hit, "any-hit queries (only hit/miss is compared)");
   sub->add_option("--threads", o->threads, "worker threads (0 = all cores); results do not depend on it")
       ->check(CLI::NonNegativeNumber)
@@ -193,7 +195,12 @@ void add_compare(CLI::App& app) {
   sub->add_option("--json", o->json, "write the comparison as JSON to this file");
   sub->add_option("--max-list", o->max_list, "disagreeing rays listed in the JSON")->capture_default_str();
   sub->add_option("--disagreements", o->disagreements, "write the disagreeing rays to this ray file (replay)");
-  sub->callback([o] { run_compare(*o); });
+  sub->callback([o, sub] {
+    check_device_args(*sub, o->dev);
+    if (sub->count("--seed") > 0 && o->rays.rfind("incoherent", 0) != 0)
+      throw CLI::ValidationError("--seed applies to --rays incoherent[:N] only");
+    run_compare(*o);
+  });
 }
 
 }  // namespace rtu::host::cli

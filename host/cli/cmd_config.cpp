@@ -12,7 +12,7 @@ namespace rtu::host::cli {
 namespace {
 
 struct ConfigOptions {
-  std::string preset = "rdna2", json;
+  std::string preset = "rdna2", json;  // --config (or its old name --preset)
   std::vector<std::string> sets;
   bool list = false, stats = false;
 };
@@ -65,15 +65,28 @@ void add_config(CLI::App& app) {
       "Print the timing model's configuration: a preset with --set overrides, every key with its value and "
       "what it means; or --list the presets, or --stats the statistics a timed run reports");
   CLI::Option* list = sub->add_flag("--list", o->list, "list the presets with what each resembles");
-  sub->add_flag("--stats", o->stats, "list the timed device's statistics: key, unit and meaning")->excludes(list);
-  sub->add_option("--preset", o->preset, "timing preset (--list shows them)")
-      ->capture_default_str()
-      ->excludes(list);
-  sub->add_option("--set", o->sets, "override one key: key=value (repeatable; applied in order, each checked)")
-      ->excludes(list);
-  sub->add_option("--json", o->json, "also write the configuration as JSON: {\"preset\": P, key: value, ...}")
-      ->excludes(list);
-  sub->callback([o] { run_config(*o); });
+  CLI::Option* stats =
+      sub->add_flag("--stats", o->stats, "list the timed device's statistics: key, unit and meaning")
+          ->excludes(list);
+  // --config, as every other command names the timing preset; --preset is its old name, kept working but not
+  // listed.
+  CLI::Option* config = sub->add_option("--config", o->preset, "timing preset (--list shows them)")
+                            ->check(CLI::IsMember(hw::timing_preset_names()))
+                            ->capture_default_str();
+  sub->add_option("--preset", o->preset, "the old name of --config")
+      ->check(CLI::IsMember(hw::timing_preset_names()))
+      ->group("");  // hidden; checked in the callback (an excludes() would name it in the others' help)
+  CLI::Option* set = sub->add_option("--set", o->sets,
+                                     "override one key: key=value (repeatable; applied in order, each checked)");
+  CLI::Option* json =
+      sub->add_option("--json", o->json, "also write the configuration as JSON: {\"preset\": P, key: value, ...}");
+  // --list and --stats print no configuration: the options of one are refused with them.
+  for (CLI::Option* opt : {config, set, json}) opt->excludes(list)->excludes(stats);
+  sub->callback([o, sub] {
+    if (sub->count("--preset") > 0 && sub->count("--config") + sub->count("--list") + sub->count("--stats") > 0)
+      throw CLI::ValidationError("--preset (the old name of --config) excludes --config, --list and --stats");
+    run_config(*o);
+  });
 }
 
 }  // namespace rtu::host::cli

@@ -91,7 +91,7 @@ void add_demo(CLI::App& app) {
   sub->add_option("--scene", o->scene, "scene to run")->capture_default_str();
   sub->add_option("--out", o->out, "output directory")->capture_default_str();
   sub->add_option("--threads", o->threads, "worker threads (0 = all cores)")->capture_default_str();
-  sub->add_option("--config", o->config, "timing preset of the fixed device's render (cycles)")
+  sub->add_option("--config", o->config, "timing preset of the timed device's renders (cycles)")
       ->check(CLI::IsMember(hw::timing_preset_names()))
       ->capture_default_str();
   sub->add_option("--spp", o->spp, "render: samples per pixel")->check(CLI::Range(1, 1024))->capture_default_str();

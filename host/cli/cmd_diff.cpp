@@ -67,12 +67,14 @@ void add_diff(CLI::App& app) {
       "that differ; optionally a heatmap of where they differ");
   sub->add_option("a", o->a, "first PNG")->required();
   sub->add_option("b", o->b, "second PNG")->required();
-  sub->add_option("--heatmap", o->heatmap,
-                  "write a PNG of the largest channel difference per pixel: black where equal, then dim blue, "
-                  "blue, red, yellow, white at the full scale");
+  CLI::Option* heatmap =
+      sub->add_option("--heatmap", o->heatmap,
+                      "write a PNG of the largest channel difference per pixel: black where equal, then dim blue, "
+                      "blue, red, yellow, white at the full scale");
   sub->add_option("--scale", o->scale,
                   "heatmap full scale in channel units (default: the largest difference found)")
-      ->check(CLI::PositiveNumber);
+      ->check(CLI::PositiveNumber)
+      ->needs(heatmap);  // the scale of the heatmap only
   sub->add_option("--json", o->json, "write the metrics as JSON (psnr_db is null when the images are identical)");
   sub->callback([o] { run_diff(*o); });
 }

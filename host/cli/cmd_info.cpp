@@ -105,10 +105,10 @@ void run_info(const InfoOptions& o) {
 void add_info(CLI::App& app) {
   auto o = std::make_shared<InfoOptions>();
   CLI::App* sub = app.add_subcommand("info", "Describe a scene: primitive counts, bounds, BVH figures");
-  sub->add_option("--scene", o->scene, "scene file, mesh file, or builtin:NAME");
+  CLI::Option* scene = sub->add_option("--scene", o->scene, "scene file, mesh file, or builtin:NAME");
   sub->add_flag("--formats", o->formats, "list the fixed-point format presets");
   add_device_args(*sub, o->dev, "");
-  sub->add_option("--json", o->json, "also write the figures as JSON to this file");
+  sub->add_option("--json", o->json, "also write the scene's figures as JSON to this file")->needs(scene);
   sub->callback([o] { run_info(*o); });
 }
 

@@ -111,6 +111,7 @@ void add_plan(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--config", a->o.config,
                   "timing preset whose cycles are the cost; its format is the one whose bits the plan varies")
+      ->check(CLI::IsMember(hw::timing_preset_names()))
       ->capture_default_str();
   sub->add_option("--bvh-width", a->o.widths, "BVH widths to consider, comma-separated")
       ->delimiter(',')

@@ -18,7 +18,13 @@ struct RaysOptions {
   uint64_t seed = 1;
 };
 
-void run_rays(const RaysOptions& o) {
+void run_rays(const CLI::App& sub, const RaysOptions& o) {
+  // Options of the other kind would be ignored: refused instead.
+  const bool primary = o.kind == "primary";
+  for (const char* name : {"--width", "--height"})
+    if (!primary && sub.count(name) > 0)
+      throw CLI::ValidationError(std::string(name) + " applies to --kind primary only");
+  if (primary && sub.count("--seed") > 0) throw CLI::ValidationError("--seed applies to --kind incoherent only");
   const Scene scene = load_scene(o.scene);
   std::vector<hw::Ray> rays;
   if (o.kind == "primary") {
@@ -51,14 +57,16 @@ void add_rays(CLI::App& app) {
       ->check(CLI::IsMember({"primary", "incoherent"}))
       ->capture_default_str();
   sub->add_option("--count", o->count,
-                  "number of rays (primary: a grid with the camera's aspect ratio, first N in scanline order)");
+                  "number of rays (primary: a grid with the camera's aspect ratio, first N in scanline order, "
+                  "default the camera's image; incoherent: required)")
+      ->check(CLI::Range(uint64_t(1), uint64_t(1) << 32));  // 0 would mean "not given": refused
   sub->add_option("--width", o->width, "primary: image width (default: the scene camera's)")
       ->check(CLI::PositiveNumber);
   sub->add_option("--height", o->height, "primary: image height (default: the scene camera's)")
       ->check(CLI::PositiveNumber);
   sub->add_option("--seed", o->seed, "incoherent: seed of the PCG32 generator")->capture_default_str();
   sub->add_option("--out", o->out, "ray file to write (.csv for text)")->required();
-  sub->callback([o] { run_rays(*o); });
+  sub->callback([o, sub] { run_rays(*sub, *o); });
 }
 
 }  // namespace rtu::host::cli

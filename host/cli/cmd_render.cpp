@@ -43,6 +43,7 @@ RenderOptions options_from(const RenderArgs& a, hw::DeviceKind device) {
 void run_render(const RenderArgs& a) {
   const Scene scene = load_scene(a.scene);
   RenderOptions o = options_from(a, a.dev.kind());
+  o.progress = true;  // on stderr, when it is a terminal (as trace's)
   PipelineTraceArgs pt = a.pipeline;
   o.pipeline_trace = pt.make();
   const RenderResult r = render(scene, o);
@@ -137,6 +138,9 @@ void add_render(CLI::App& app) {
   add_device_args(*sub, a->dev,
                   "device: float (the reference), fixed (bit-accurate fixed point) or timed (fixed point with the "
                   "cycle-approximate timing model; --config, --set)");
+  add_timing_args(*sub, a->dev);
+  add_sampling_args(*sub, a->dev);
+  add_watchdog_args(*sub, a->dev);
   sub->add_option(
          "--mode", a->mode,
          "raytrace: primary rays traced by the unit; hybrid: primary visibility rasterized by the firmware "
@@ -159,15 +163,21 @@ void add_render(CLI::App& app) {
       ->check(CLI::Range(0, 64))
       ->capture_default_str();
   sub->add_option("--seed", a->seed, "seed of the sampling generator")->capture_default_str();
-  sub->add_flag("--ao", a->ao, "ambient occlusion at diffuse hits instead of diffuse indirect light");
+  CLI::Option* ao =
+      sub->add_flag("--ao", a->ao, "ambient occlusion at diffuse hits instead of diffuse indirect light");
   sub->add_option("--ao-distance", a->ao_distance, "occlusion ray length (default: 1/4 of the scene diagonal)")
-      ->check(CLI::PositiveNumber);
-  sub->add_flag("--no-indirect", a->no_indirect, "no diffuse indirect bounces (direct light and specular only)");
+      ->check(CLI::PositiveNumber)
+      ->needs(ao);
+  sub->add_flag("--no-indirect", a->no_indirect, "no diffuse indirect bounces (direct light and specular only)")
+      ->excludes(ao);  // --ao has none already
   sub->add_option("--background", a->background, "radiance R G B of rays that leave the scene")
       ->expected(3)
       ->check(CLI::Range(0.0f, 1e6f))
       ->capture_default_str();
-  sub->callback([a] { run_render(*a); });
+  sub->callback([a, sub] {
+    check_device_args(*sub, a->dev);
+    run_render(*a);
+  });
 }
 
 void print_render_summary(const RenderResult& r, const RenderOptions& o) {

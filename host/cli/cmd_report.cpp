@@ -71,12 +71,14 @@ void add_report(CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
       "report", "Write a static HTML report: renders, cycles per scene, Pareto plots of a sweep, stress results");
   sub->add_option("--out", a->out, "output directory (index.html, report.json, PNGs, sweep.csv)")->required();
-  sub->add_option("--sweep", a->sweep, "sweep CSV to plot (rtusim sweep); default: run a small sweep here");
+  CLI::Option* sweep =
+      sub->add_option("--sweep", a->sweep, "sweep CSV to plot (rtusim sweep); default: run a small sweep here");
   sub->add_option("--scene", a->scenes,
                   "scenes (repeatable; default builtin:seed and builtin:cornell): the first is rendered, all are "
                   "in the cycles table and in the sweep run here");
   sub->add_option("--area", a->area,
-                  "RTL area table for the sweep run here (default: bench/data/rtl_area.csv, compiled in)");
+                  "RTL area table for the sweep run here (default: bench/data/rtl_area.csv, compiled in)")
+      ->excludes(sweep);  // a given sweep CSV holds its area figures already
   sub->add_flag("--quick", a->quick, "small sizes (renders 192 wide, few rays, small sweep): well under 30 s");
   sub->add_option("--threads", a->threads, "worker threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber)

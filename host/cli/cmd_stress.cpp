@@ -79,7 +79,7 @@ void add_stress(CLI::App& app) {
   sub->add_option("--category", a->only, "run only these categories (repeatable)")
       ->check(CLI::IsMember(stress_categories()));
   sub->add_option("--json", a->json, "write per-category results as JSON to this file");
-  add_device_args(*sub, a->dev, "");
+  add_format_args(*sub, a->dev);
   sub->callback([a] { run(*a); });
 }
 

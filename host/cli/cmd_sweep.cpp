@@ -1,6 +1,7 @@
 // rtusim sweep: run time against error over a grid of scenes, formats, BVH widths and timing presets
-// (host/sweep.h), one CSV row per point. Resumable (points already in --out are skipped), shardable (--shard k/N
-// runs every N-th point, so independent jobs split a large sweep) and mergeable (--merge).
+// (host/sweep.h), one CSV row per point. Resumable (points already in --out made with the same --rays, --seed and
+// --image-width are skipped), shardable (--shard k/N runs every N-th point, so independent jobs split a large
+// sweep) and mergeable (--merge, of rows made with the same run parameters).
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -50,8 +51,18 @@ void run_merge(const SweepArgs& a) {
   std::vector<SweepRow> all;
   std::set<std::string> keys;
   size_t duplicates = 0;
+  std::string params, params_file;  // the run parameters of the first row, and its file
   for (const std::string& f : a.merge)
     for (const SweepRow& r : read_sweep_csv(f)) {
+      // Rows made with other rays or another render are not parts of one sweep.
+      const std::string p = sweep_run_params(r);
+      if (params.empty()) {
+        params = p;
+        params_file = f;
+      } else if (p != params) {
+        throw Error("--merge: rows made with different run parameters, " + params + " (in " + params_file +
+                    ") and " + p + " (in " + f + "): only rows made with the same run parameters merge");
+      }
       if (keys.insert(r.p.key()).second)
         all.push_back(r);
       else
@@ -74,19 +85,13 @@ void run_sweep(const SweepArgs& a) {
       throw Error(std::string("--formats: ") + e.what());
     }
   }
-  for (const std::string& c : a.configs) {
-    try {
-      hw::timing_preset(c);
-    } catch (const std::invalid_argument& e) {
-      throw Error(std::string("--config: ") + e.what());
-    }
-  }
   for (int w : a.widths)
     if (w != 2 && w != 4 && w != 8) throw Error("--bvh-width: " + std::to_string(w) + " is not 2, 4 or 8");
   const AreaTable area = a.area.empty() ? AreaTable{} : AreaTable::load(a.area);
 
-  // Resume: the points already in --out are done. A last line without its newline is a row an interrupted
-  // sweep did not finish writing: it is dropped (and run again).
+  // Resume: the points already in --out with this sweep's run parameters are done; rows made with others stay in
+  // the file, beside the new ones. A last line without its newline is a row an interrupted sweep did not finish
+  // writing: it is dropped (and run again).
   std::set<std::string> done;
   bool exists = std::filesystem::exists(a.out) && std::filesystem::file_size(a.out) > 0;
   if (exists) {
@@ -102,8 +107,24 @@ void run_sweep(const SweepArgs& a) {
       exists = keep > 0;
     }
   }
-  if (exists)
-    for (const SweepRow& r : read_sweep_csv(a.out)) done.insert(r.p.key());
+  const std::string params = sweep_run_params(a.opt);
+  if (exists) {
+    size_t others = 0;
+    std::string other;
+    for (const SweepRow& r : read_sweep_csv(a.out)) {
+      if (sweep_run_params(r) == params) {
+        done.insert(r.p.key());
+      } else {
+        ++others;
+        other = sweep_run_params(r);
+      }
+    }
+    if (others > 0)
+      std::fprintf(stderr,
+                   "rtusim: warning: %s holds %zu rows made with other run parameters (e.g. %s); they are kept, "
+                   "and this sweep's points run again with %s beside them (--merge refuses such a file)\n",
+                   a.out.c_str(), others, other.c_str(), params.c_str());
+  }
   std::ofstream out(a.out, std::ios::app);
   if (!out) throw Error("cannot write " + a.out);
   if (!exists) out << sweep_csv_header() << '\n' << std::flush;
@@ -155,6 +176,7 @@ void add_sweep(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--config", a->configs, "timing presets, comma-separated")
       ->delimiter(',')
+      ->check(CLI::IsMember(hw::timing_preset_names()))  // each element
       ->capture_default_str();
   sub->add_option("--rays", a->opt.rays, "camera rays and as many incoherent rays per point")
       ->check(CLI::Range(uint64_t(1), uint64_t(1) << 26))
@@ -170,9 +192,19 @@ void add_sweep(CLI::App& app) {
                   "RTL area table (CSV params,cells,flip_flops,transistors; bench/rtl_area.sh writes it)")
       ->check(CLI::ExistingFile);
   sub->add_option("--shard", a->shard, "run every N-th point, starting at the k-th: k/N")->capture_default_str();
-  sub->add_option("--merge", a->merge, "merge these sweep CSVs into --out (no points run)")
-      ->check(CLI::ExistingFile);
-  sub->add_option("--out", a->out, "CSV to write; points already in it are skipped (resume)")->required();
+  CLI::Option* merge =
+      sub->add_option("--merge", a->merge,
+                      "merge these sweep CSVs into --out (no points run; their rows must share --rays, --seed and "
+                      "--image-width)")
+          ->check(CLI::ExistingFile);
+  // Merging runs no point: the options of a run would be ignored, so they are refused with it.
+  for (const char* name : {"--scene", "--formats", "--bvh-width", "--config", "--rays", "--seed", "--image-width",
+                           "--threads", "--area", "--shard"})
+    merge->excludes(sub->get_option(name));
+  sub->add_option("--out", a->out,
+                  "CSV to write; points already in it made with the same --rays, --seed and --image-width are "
+                  "skipped (resume)")
+      ->required();
   sub->callback([a] { run_sweep(*a); });
 }
 

@@ -102,7 +102,13 @@ void add_trace(CLI::App& app) {
   add_device_args(*sub, o->dev,
                   "device: float (the reference), fixed (bit-accurate fixed point) or timed (fixed point with the "
                   "cycle-approximate timing model; --config, --set)");
-  sub->callback([o] { run_trace(*o); });
+  add_timing_args(*sub, o->dev);
+  add_sampling_args(*sub, o->dev);
+  add_watchdog_args(*sub, o->dev);
+  sub->callback([o, sub] {
+    check_device_args(*sub, o->dev);
+    run_trace(*o);
+  });
 }
 
 }  // namespace rtu::host::cli

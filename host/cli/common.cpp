@@ -2,16 +2,31 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <string>
+#include <vector>
 
 namespace rtu::host::cli {
+
+namespace {
+
+// The option of a format field: --coord-bits for coord_bits, ...
+std::string format_field_flag(const hw::FormatField& f) {
+  std::string flag = std::string("--") + f.key;
+  std::replace(flag.begin(), flag.end(), '_', '-');
+  return flag;
+}
+
+// The timed device's options that only it uses (add_timing_args, add_sampling_args, add_pipeline_trace_args).
+const char* const kTimedOnly[] = {"--config",        "--set",         "--sample",         "--sample-unit",
+                                  "--sample-warmup", "--sample-seed", "--pipeline-trace", "--trace-window"};
+
+}  // namespace
 
 void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_help) {
   if (!device_help.empty())
     app.add_option("--device", o.device, device_help)
         ->check(CLI::IsMember(hw::device_kind_names()))
         ->capture_default_str();
-  app.add_option("--bvh-width", o.bvh_width, "BVH children per node (default: the format's width, 4)")
-      ->check(CLI::IsMember({2, 4, 8}));
   app.add_option("--leaf-size", o.leaf_size, "maximum primitives per BVH leaf")
       ->check(CLI::Range(1, hw::kMaxLeafSize))
       ->capture_default_str();
@@ -19,10 +34,17 @@ void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_hel
                  "acceleration: bvh, brute (for each primitive), or auto (brute force when a BVH costs more)")
       ->check(CLI::IsMember({"auto", "bvh", "brute"}))
       ->capture_default_str();
+  add_format_args(app, o);
+}
+
+void add_timing_args(CLI::App& app, DeviceArgs& o) {
   app.add_option("--config", o.config, "timed device: timing preset (rtusim config --list)")
       ->check(CLI::IsMember(hw::timing_preset_names()))
       ->capture_default_str();
   app.add_option("--set", o.sets, "timed device: override a timing key, KEY=VALUE (repeatable)");
+}
+
+void add_sampling_args(CLI::App& app, DeviceArgs& o) {
   app.add_option("--sample", o.sample,
                  "timed device: simulate this fraction of each packet's rays in the timing model (units of rays "
                  "sampled in strata or systematically, each after functional cache warming and a warm-up) and "
@@ -41,10 +63,16 @@ void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_hel
                  "timed device, --sample: seed of the measured units' offsets (another seed, another sample: "
                  "how far the estimate moves from seed to seed is its error)")
       ->capture_default_str();
+}
+
+void add_watchdog_args(CLI::App& app, DeviceArgs& o) {
   app.add_option("--watchdog-steps", o.watchdog_steps,
                  "fixed and timed devices: node and leaf visits one ray may make before the watchdog stops the "
                  "trace with an error (0: the image's own bound, which a valid BVH never reaches)")
       ->capture_default_str();
+}
+
+void add_format_args(CLI::App& app, DeviceArgs& o) {
   std::vector<std::string> presets;
   for (const hw::FixedFormat& f : hw::format_presets()) presets.push_back(f.name);
   app.add_option(
@@ -55,8 +83,7 @@ void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_hel
   // One option per field of the format table (width has --bvh-width): --coord-bits for coord_bits, ...
   for (const hw::FormatField& f : hw::format_fields()) {
     if (f.member == &hw::FixedFormat::width) continue;
-    std::string flag = std::string("--") + f.key;
-    std::replace(flag.begin(), flag.end(), '_', '-');
+    const std::string flag = format_field_flag(f);
     const std::string help = std::string(*f.symbol ? f.symbol : "") + (*f.symbol ? ": " : "") + f.description +
                              " (" + std::to_string(f.lo) + ".." + std::to_string(f.hi) + ")";
     const std::string key = f.key;
@@ -64,6 +91,28 @@ void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_hel
            flag, [&o, key](int v) { o.format_fields[key] = v; }, help)
         ->check(CLI::NonNegativeNumber)
         ->group("Fixed-point format (overrides)");
+  }
+  app.add_option("--bvh-width", o.bvh_width, "BVH children per node (default: the format's width, 4)")
+      ->check(CLI::IsMember({2, 4, 8}));
+}
+
+void check_device_args(const CLI::App& app, const DeviceArgs& o) {
+  const hw::DeviceKind kind = o.kind();
+  auto given = [&](const std::string& name) {
+    const CLI::Option* opt = app.get_option_no_throw(name);
+    return opt != nullptr && opt->count() > 0;
+  };
+  if (kind != hw::DeviceKind::kTimed)
+    for (const char* name : kTimedOnly)
+      if (given(name))
+        throw CLI::ValidationError(std::string(name) + " applies to --device timed only (not " + o.device + ")");
+  if (kind == hw::DeviceKind::kFloat) {
+    // The float reference has no watchdog and no fixed-point format (its BVH width is --bvh-width's).
+    std::vector<std::string> fixed_only{"--watchdog-steps"};
+    for (const hw::FormatField& f : hw::format_fields())
+      if (f.member != &hw::FixedFormat::width) fixed_only.push_back(format_field_flag(f));
+    for (const std::string& name : fixed_only)
+      if (given(name)) throw CLI::ValidationError(name + " applies to --device fixed or timed only (not float)");
   }
 }
 

@@ -25,12 +25,28 @@ struct DeviceArgs : DeviceSettings {
   hw::DeviceKind kind() const { return hw::parse_device_kind(device); }
 };
 
-// Adds --bvh-width, --leaf-size, --accel, --format and the per-field format options; --device too when
-// `device_help` is not empty.
+// The device options come in pieces so that a command lists only the options it uses:
+// - add_device_args: --leaf-size, --accel and the format options (add_format_args); --device too when
+//   `device_help` is not empty;
+// - add_format_args: --bvh-width, --format and the per-field format options (--coord-bits, ...);
+// - add_timing_args: --config and --set, the timed device's timing configuration;
+// - add_sampling_args: --sample, --sample-unit, --sample-warmup, --sample-seed, the timed device's sampled timing;
+// - add_watchdog_args: --watchdog-steps, the fixed and timed devices' watchdog.
 void add_device_args(CLI::App& app, DeviceArgs& o, const std::string& device_help);
+void add_format_args(CLI::App& app, DeviceArgs& o);
+void add_timing_args(CLI::App& app, DeviceArgs& o);
+void add_sampling_args(CLI::App& app, DeviceArgs& o);
+void add_watchdog_args(CLI::App& app, DeviceArgs& o);
+
+// For a command with --device: refuses (CLI::ValidationError, a usage error) each device option of `app` that was
+// given on the command line (not left at its default) while the chosen device does not use it: the timing,
+// sampling and pipeline-trace options on any device but timed, the watchdog and the per-field format options on
+// float. Call it first thing in the command's callback.
+void check_device_args(const CLI::App& app, const DeviceArgs& o);
 
 inline constexpr const char* kRaySpecHelp =
-    "a ray file, or primary | primary:N | primary:WxH (the scene camera) | incoherent:N (random, --seed)";
+    "a ray file, or primary | primary:N | primary:WxH (the scene camera) | incoherent | incoherent:N (random, "
+    "--seed; without N as many as primary)";
 
 // A render's one-line summary on stdout (and the rasterizer's in hybrid mode).
 void print_render_summary(const RenderResult& r, const RenderOptions& o);

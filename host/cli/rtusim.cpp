@@ -25,7 +25,9 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version exit 0; every usage error (unknown option, bad value, missing or conflicting options)
+    // prints CLI11's message and exits 2, as bad input does (docs/guide/hardening.md), not with CLI11's codes.
+    return app.exit(e) == 0 ? 0 : 2;
   } catch (const rtu::host::ExitStatus& e) {
     return e.code();
   } catch (const rtu::host::Error& e) {

@@ -362,7 +362,7 @@ TEST_CASE("diff: missing, corrupt and mismatched files give a clear error and a 
 }
 
 TEST_CASE("config: a preset's every key, --set overrides, JSON keys, --list", "[cli][timing][config]") {
-  const Run r = run_rtusim("config --preset rdna2");
+  const Run r = run_rtusim("config --config rdna2");
   INFO(r.output);
   REQUIRE(r.status == 0);
   const std::vector<rtu::hw::TimingKey> keys = rtu::hw::timing_keys(rtu::hw::timing_preset("rdna2"));
@@ -376,7 +376,7 @@ TEST_CASE("config: a preset's every key, --set overrides, JSON keys, --list", "[
     CHECK(line.find("# " + k.description) != std::string::npos);
   }
 
-  const Run s = run_rtusim("config --preset intel --set ray_slots=64 --set box_latency=9");
+  const Run s = run_rtusim("config --config intel --set ray_slots=64 --set box_latency=9");
   INFO(s.output);
   REQUIRE(s.status == 0);
   CHECK(s.output.find("ray_slots") != std::string::npos);
@@ -386,7 +386,7 @@ TEST_CASE("config: a preset's every key, --set overrides, JSON keys, --list", "[
 
   const fs::path d = temp_dir();
   const std::string json = (d / "timing.json").string();
-  REQUIRE(run_rtusim("config --preset embedded --set clock_ghz=0.8 --json " + json).status == 0);
+  REQUIRE(run_rtusim("config --config embedded --set clock_ghz=0.8 --json " + json).status == 0);
   const nlohmann::ordered_json j = nlohmann::ordered_json::parse(std::ifstream(json));
   CHECK(j["preset"] == "embedded");
   std::vector<std::string> json_keys;
@@ -415,15 +415,15 @@ TEST_CASE("config: unknown preset or key, bad values, malformed --set: exit 2 na
     std::string args, words;
   };
   const Case cases[] = {
-      {"config --preset amd", "amd"},
-      {"config --preset rdna2 --set ray_slot=4", "ray_slot"},
-      {"config --preset rdna2 --set ray_slots=12x", "ray_slots"},
-      {"config --preset rdna2 --set ray_slots=0", "ray_slots"},
-      {"config --preset rdna2 --set ray_slots=", "ray_slots"},
-      {"config --preset rdna2 --set bvh_width=6", "bvh_width"},
-      {"config --preset rdna2 --set clock_ghz=fast", "clock_ghz"},
-      {"config --preset rdna2 --set format=nosuch", "nosuch"},
-      {"config --preset rdna2 --set ray_slots", "key=value"},
+      {"config --config amd", "amd"},
+      {"config --config rdna2 --set ray_slot=4", "ray_slot"},
+      {"config --config rdna2 --set ray_slots=12x", "ray_slots"},
+      {"config --config rdna2 --set ray_slots=0", "ray_slots"},
+      {"config --config rdna2 --set ray_slots=", "ray_slots"},
+      {"config --config rdna2 --set bvh_width=6", "bvh_width"},
+      {"config --config rdna2 --set clock_ghz=fast", "clock_ghz"},
+      {"config --config rdna2 --set format=nosuch", "nosuch"},
+      {"config --config rdna2 --set ray_slots", "key=value"},
   };
   for (const Case& c : cases) {
     const Run r = run_rtusim(c.args);
@@ -454,17 +454,17 @@ TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad 
   auto strip_time = [](std::string l) { return l.substr(0, l.rfind(',')); };
   const std::vector<std::string> w = read_lines(whole);
   REQUIRE(w.size() == 7);  // header + 3 formats x 2 widths
-  CHECK(w[0].rfind("scene,format,bvh_width,config,rays,hit_agreement", 0) == 0);
-  // The default format agrees with float on every ray of the seed scene.
-  CHECK(w[1].find("builtin:seed,default,4,rdna2,6000,1,") == 0);
+  CHECK(w[0].rfind("scene,format,bvh_width,config,rays,seed,image_width,hit_agreement", 0) == 0);
+  // The default format agrees with float on every ray of the seed scene (3000 + 3000 rays, seed 1, 48 wide).
+  CHECK(w[1].find("builtin:seed,default,4,rdna2,6000,1,48,1,") == 0);
   // At every width the fixed device traverses the float reference's tree of the same width: quantized boxes
   // only grow, so it visits a few percent more nodes, never far fewer (a reference of another width would).
   for (size_t i = 1; i < w.size(); ++i) {
     std::vector<std::string> f;
     std::stringstream ss(w[i]);
     for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
-    REQUIRE(f.size() == 22);
-    const double node_overhead = std::stod(f[11]);
+    REQUIRE(f.size() == 24);
+    const double node_overhead = std::stod(f[13]);
     INFO(w[i]);
     CHECK(node_overhead >= -0.01);
     CHECK(node_overhead <= 0.25);
@@ -842,7 +842,7 @@ TEST_CASE("report and pareto: bad input gives a clear error and exit 2", "[cli][
     std::ofstream(d / "short.csv") << rtu::host::sweep_csv_header() << "\nbuiltin:seed,default,4\n";
     std::ofstream(d / "nan.csv")
         << rtu::host::sweep_csv_header()
-        << "\nbuiltin:seed,default,4,rdna2,10,x,1,0,0,0,0,0,0,0,inf,5,0.5,100,100,-1,-1,0.1\n";
+        << "\nbuiltin:seed,default,4,rdna2,10,1,48,x,1,0,0,0,0,0,0,0,inf,5,0.5,100,100,-1,-1,0.1\n";
     std::ofstream(d / "empty_rows.csv") << rtu::host::sweep_csv_header() << "\n";
   }
   const std::string out = " --out " + (d / "o").string();
@@ -866,4 +866,265 @@ TEST_CASE("report and pareto: bad input gives a clear error and exit 2", "[cli][
     // Rejected before any long step.
     CHECK(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < 5.0);
   }
+}
+
+TEST_CASE("usage errors exit 2 with CLI11's message, --help and --version exit 0", "[cli]") {
+  const fs::path d = temp_dir();
+  struct Case {
+    std::string args, words;
+  };
+  const Case cases[] = {
+      {"info --scene builtin:seed --frobnicate", "--frobnicate"},  // an unknown option
+      {"stress --count 0", "--count"},                             // a value out of range
+      {"info --scene builtin:seed --bvh-width x", "--bvh-width"},  // a value that does not parse
+      {"rays --scene builtin:seed", "--out"},                      // a required option missing
+      {"frobnicate", "subcommand"},                                // an unknown subcommand
+      {"", "subcommand"},                                          // none
+  };
+  for (const Case& c : cases) {
+    const Run r = run_rtusim(c.args);
+    INFO(c.args << "\n" << r.output);
+    CHECK(r.status == 2);
+    CHECK(r.output.find(c.words) != std::string::npos);
+    CHECK(r.output.find("--help") != std::string::npos);  // "Run with --help for more information."
+  }
+  CHECK(run_rtusim("--version").status == 0);
+  CHECK(run_rtusim("trace --help").status == 0);
+}
+
+TEST_CASE("device options: a command lists only those it uses, and refuses those the device ignores", "[cli]") {
+  const fs::path d = temp_dir();
+  const std::string rays = (d / "dev_opts.rays").string(), hits = (d / "dev_opts.hits").string();
+  REQUIRE(run_rtusim("rays --scene builtin:seed --count 500 --out " + rays).status == 0);
+  auto help = [](const std::string& sub) {
+    const Run r = run_rtusim(sub + " --help");
+    REQUIRE(r.status == 0);
+    return r.output;
+  };
+  // An option is listed when a line of the help starts with it (descriptions may name other options).
+  auto lists = [](const std::string& text, const std::string& option) {
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) {
+      const size_t at = line.find_first_not_of(' ');
+      if (at == std::string::npos || line.compare(at, option.size(), option) != 0) continue;
+      const size_t end = at + option.size();
+      if (end == line.size() || line[end] == ' ' || line[end] == ',') return true;
+    }
+    return false;
+  };
+  // info and stress never run the timed device; stress builds no BVH of its own options either.
+  for (const char* sub : {"info", "stress"}) {
+    const std::string h = help(sub);
+    INFO(h);
+    for (const char* option : {"--config", "--set", "--sample", "--sample-unit", "--sample-warmup",
+                               "--sample-seed", "--watchdog-steps", "--device"})
+      CHECK_FALSE(lists(h, option));
+    CHECK(lists(h, "--format"));
+    CHECK(lists(h, "--coord-bits"));
+    CHECK(lists(h, "--bvh-width"));
+  }
+  CHECK(lists(help("info"), "--leaf-size"));
+  CHECK_FALSE(lists(help("stress"), "--leaf-size"));
+  CHECK_FALSE(lists(help("stress"), "--accel"));
+  // compare reports no cycles: the timing configuration (the timed device's format) but no sampling.
+  const std::string ch = help("compare");
+  CHECK(lists(ch, "--config"));
+  CHECK(lists(ch, "--watchdog-steps"));
+  CHECK_FALSE(lists(ch, "--sample"));
+  for (const char* sub : {"trace", "render"})
+    for (const char* option : {"--config", "--set", "--sample", "--sample-seed", "--watchdog-steps"})
+      CHECK(lists(help(sub), option));
+  CHECK(run_rtusim("info --scene builtin:seed --sample 0.1").status == 2);
+
+  // Given for a device that does not use them: a usage error naming the option and the device it applies to.
+  const std::string trace = "trace --scene builtin:seed --rays " + rays + " --out " + hits + " ";
+  struct Case {
+    std::string args, words;
+  };
+  const Case cases[] = {
+      {trace + "--device float --sample 0.1", "--sample applies to --device timed only"},
+      {trace + "--device fixed --sample-seed 3", "--sample-seed applies to --device timed only"},
+      {trace + "--device fixed --config intel", "--config applies to --device timed only"},
+      {trace + "--device fixed --set cache_kib=64", "--set applies to --device timed only"},
+      {trace + "--device fixed --pipeline-trace " + (d / "p.json").string(), "--pipeline-trace applies"},
+      {trace + "--device float --watchdog-steps 10", "--watchdog-steps applies to --device fixed or timed only"},
+      {trace + "--device float --coord-bits 16", "--coord-bits applies to --device fixed or timed only"},
+      {"compare --scene builtin:seed --rays primary:100 --device fixed --config intel", "--config applies"},
+      {"render --scene builtin:seed --width 8 --height 8 --out " + (d / "x.png").string() +
+           " --device float --sample 0.5",
+       "--sample applies"},
+  };
+  for (const Case& c : cases) {
+    const Run r = run_rtusim(c.args);
+    INFO(c.args << "\n" << r.output);
+    CHECK(r.status == 2);
+    CHECK(r.output.find(c.words) != std::string::npos);
+  }
+  // The same options where the device uses them, and defaults given on no device, are fine.
+  CHECK(run_rtusim(trace + "--device timed --config intel --sample 0.5 --sample-seed 3").status == 0);
+  CHECK(run_rtusim(trace + "--device fixed --watchdog-steps 100000 --coord-bits 16").status == 0);
+  CHECK(run_rtusim(trace + "--device float --bvh-width 8").status == 0);
+}
+
+TEST_CASE("rays: --count 0 refused, options of the other kind refused", "[cli]") {
+  const fs::path d = temp_dir();
+  const std::string out = (d / "r.rays").string();
+  fs::remove(out);
+  const Run zero = run_rtusim("rays --scene builtin:seed --count 0 --out " + out);
+  INFO(zero.output);
+  CHECK(zero.status == 2);
+  CHECK(zero.output.find("--count") != std::string::npos);
+  CHECK_FALSE(fs::exists(out));  // not the whole image
+  for (const auto& [args, words] : std::vector<std::pair<std::string, std::string>>{
+           {"--kind incoherent --count 10 --width 4", "--width applies to --kind primary only"},
+           {"--kind incoherent --count 10 --height 4", "--height applies to --kind primary only"},
+           {"--kind primary --seed 7", "--seed applies to --kind incoherent only"}}) {
+    const Run r = run_rtusim("rays --scene builtin:seed " + args + " --out " + out);
+    INFO(args << "\n" << r.output);
+    CHECK(r.status == 2);
+    CHECK(r.output.find(words) != std::string::npos);
+  }
+  const Run one = run_rtusim("rays --scene builtin:seed --count 1 --out " + out);
+  CHECK(one.status == 0);
+  CHECK(rtu::host::read_rays(out).size() == 1);
+}
+
+TEST_CASE("compare --rays: incoherent without a count, and a spec that is neither a kind nor a file", "[cli]") {
+  const fs::path d = temp_dir();
+  const std::string json = (d / "c_inc.json").string();
+  const Run r = run_rtusim("compare --scene builtin:cornell --rays incoherent --json " + json);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  const Run p = run_rtusim("compare --scene builtin:cornell --rays primary --json " + json + "_p");
+  REQUIRE(p.status == 0);
+  // As many as the camera's image has.
+  const nlohmann::json a = nlohmann::json::parse(std::ifstream(json)),
+                       b = nlohmann::json::parse(std::ifstream(json + "_p"));
+  CHECK(a["rays"] == b["rays"]);
+  CHECK(a["rays"].get<uint64_t>() > 0);
+  const Run bad = run_rtusim("compare --scene builtin:cornell --rays incoherrent:100");
+  INFO(bad.output);
+  CHECK(bad.status == 2);
+  CHECK(bad.output.find("no such ray file, and not a ray spec") != std::string::npos);
+  CHECK(bad.output.find("incoherent:N") != std::string::npos);
+  // --seed draws incoherent rays only.
+  const Run seed = run_rtusim("compare --scene builtin:cornell --rays primary:100 --seed 3");
+  CHECK(seed.status == 2);
+  CHECK(seed.output.find("--seed applies to --rays incoherent") != std::string::npos);
+}
+
+TEST_CASE("config --config as everywhere else (--preset still works), timing presets listed and checked",
+          "[cli][timing][config]") {
+  const Run a = run_rtusim("config --config intel"), b = run_rtusim("config --preset intel");
+  REQUIRE(a.status == 0);
+  REQUIRE(b.status == 0);
+  CHECK(a.output == b.output);
+  CHECK(a.output.find("preset intel") != std::string::npos);
+  const Run h = run_rtusim("config --help");
+  CHECK(h.output.find("--config") != std::string::npos);
+  CHECK(h.output.find("--preset") == std::string::npos);  // the old name, not listed
+  for (const char* args :
+       {"config --preset intel --config rdna2", "config --preset intel --list", "config --stats --json x.json",
+        "config --stats --config intel", "config --list --set ray_slots=4"}) {
+    const Run r = run_rtusim(args);
+    INFO(args << "\n" << r.output);
+    CHECK(r.status == 2);
+  }
+  // sweep and plan list the presets and refuse others, as the device options do.
+  for (const char* sub : {"sweep", "plan"}) {
+    const Run r = run_rtusim(std::string(sub) + " --help");
+    INFO(r.output);
+    CHECK(r.output.find("rdna2,intel,embedded") != std::string::npos);
+  }
+  const Run p = run_rtusim("plan --scene builtin:cornell --max-error 1e-3 --config amd");
+  CHECK(p.status == 2);
+  CHECK(p.output.find("amd not in") != std::string::npos);
+  const Run s = run_rtusim("sweep --scene builtin:cornell --config rdna2,amd --out " +
+                           (temp_dir() / "presets.csv").string());
+  CHECK(s.status == 2);
+  CHECK(s.output.find("amd not in") != std::string::npos);
+}
+
+TEST_CASE("options that would be ignored are refused: diff, info, report, sweep --merge, render", "[cli]") {
+  const fs::path d = temp_dir();
+  const std::string png = (d / "ign.png").string();
+  REQUIRE(run_rtusim("render --scene builtin:cornell --width 8 --height 8 --out " + png).status == 0);
+  for (const auto& [args, words] : std::vector<std::pair<std::string, std::string>>{
+           {"diff " + png + " " + png + " --scale 4", "--heatmap"},
+           {"info --formats --json " + (d / "f.json").string(), "--scene"},
+           {"report --sweep " + (d / "s.csv").string() + " --area " + (d / "a.csv").string() + " --out " +
+                (d / "rep").string(),
+            "--area"},
+           {"sweep --merge " + png + " --rays 64 --out " + (d / "m.csv").string(), "--rays"},
+           {"render --scene builtin:cornell --ao-distance 2 --out " + png, "--ao"},
+           {"render --scene builtin:cornell --ao --no-indirect --out " + png, "--no-indirect"}}) {
+    const Run r = run_rtusim(args);
+    INFO(args << "\n" << r.output);
+    CHECK(r.status == 2);
+    CHECK(r.output.find(words) != std::string::npos);
+  }
+}
+
+TEST_CASE("render: a progress line on a terminal, none otherwise", "[cli]") {
+  if (rtu::test::run_process("command -v script").status != 0) {
+    WARN("no `script` (util-linux) to give rtusim a terminal: the terminal half is not checked");
+    return;
+  }
+  const fs::path d = temp_dir();
+  const std::string args =
+      "render --scene builtin:cornell --width 32 --height 32 --spp 2 --out " + (d / "prog.png").string();
+  // script(1) runs the command on a pseudo-terminal: stderr is a terminal there.
+  const Run tty = rtu::test::run_process("script -qec '" + std::string(RTUSIM_EXE) + " " + args + "' /dev/null");
+  INFO(tty.output);
+  REQUIRE(tty.status == 0);
+  CHECK(tty.output.find("render: ") != std::string::npos);
+  CHECK(tty.output.find("(batch 1/1, bounce 0)") != std::string::npos);
+  CHECK(tty.output.find("\033[K") != std::string::npos);  // cleared before the summary
+  const Run pipe = run_rtusim(args);
+  INFO(pipe.output);
+  REQUIRE(pipe.status == 0);
+  CHECK(pipe.output.find("batch 1/") == std::string::npos);
+  CHECK(pipe.output.find('\r') == std::string::npos);
+}
+
+TEST_CASE("sweep: resume reruns points made with other --rays, --seed or --image-width, merge refuses a mix",
+          "[cli][sweep]") {
+  const fs::path d = temp_dir();
+  const std::string f = (d / "params.csv").string(), g = (d / "params_g.csv").string(),
+                    m = (d / "params_m.csv").string();
+  for (const std::string& x : {f, g, m}) fs::remove(x);
+  const std::string grid = "sweep --scene builtin:cornell --formats default,compact ";
+  Run r = run_rtusim(grid + "--rays 64 --image-width 0 --out " + f);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(r.output.find("2 run, 0 already") != std::string::npos);
+  r = run_rtusim(grid + "--rays 64 --image-width 0 --out " + f);  // the same parameters: nothing to do
+  CHECK(r.output.find("0 run, 2 already") != std::string::npos);
+  r = run_rtusim(grid + "--rays 128 --image-width 0 --out " + f);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(r.output.find("2 run, 0 already") != std::string::npos);
+  CHECK(r.output.find("other run parameters") != std::string::npos);
+  r = run_rtusim(grid + "--rays 128 --seed 2 --image-width 0 --out " + f);
+  CHECK(r.output.find("2 run, 0 already") != std::string::npos);
+  r = run_rtusim(grid + "--rays 128 --seed 2 --image-width 8 --out " + f);
+  CHECK(r.output.find("2 run, 0 already") != std::string::npos);
+  const std::vector<rtu::host::SweepRow> rows = rtu::host::read_sweep_csv(f);
+  REQUIRE(rows.size() == 8);
+  CHECK(rows[0].rays == 128);  // 64 camera + 64 incoherent rays
+  CHECK(rows[2].rays == 256);
+  CHECK(rows[4].seed == 2);
+  CHECK(rows[6].image_width == 8);
+  CHECK(rtu::host::sweep_run_params(rows[6]) == "--rays 128 --seed 2 --image-width 8");
+
+  REQUIRE(run_rtusim(grid + "--rays 128 --image-width 0 --out " + g).status == 0);
+  const Run mixed = run_rtusim("sweep --merge " + f + " --out " + m);
+  CHECK(mixed.status == 2);
+  CHECK(mixed.output.find("only rows made with the same run parameters merge") != std::string::npos);
+  REQUIRE(run_rtusim(grid + "--rays 64 --image-width 0 --out " + m).status == 0);
+  const Run two = run_rtusim("sweep --merge " + g + " " + m + " --out " + (d / "params_mm.csv").string());
+  INFO(two.output);
+  CHECK(two.status == 2);
+  CHECK(two.output.find("--rays 128 --seed 1 --image-width 0") != std::string::npos);
+  CHECK(two.output.find("--rays 64 --seed 1 --image-width 0") != std::string::npos);
 }

@@ -87,6 +87,8 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
   if (a.metric != "hit" && a.metric != "t") throw Error("--metric: hit or t, got '" + a.metric + "'");
   if (!(a.max_error >= 0.0) || !std::isfinite(a.max_error)) throw Error("--max-error: a finite number >= 0");
   if (!(a.confidence > 0.0 && a.confidence < 1.0)) throw Error("--confidence: a number in (0, 1)");
+  if (a.min_psnr > 0.0 && a.sweep.image_width <= 0)
+    throw Error("--min-psnr needs a render to measure: --image-width must be above 0");
   std::string base;
   try {
     base = hw::timing_preset(a.config).format;

@@ -211,6 +211,10 @@ TEST_CASE("plan: a bad metric or budget is refused before the scene is loaded", 
   o.max_error = -1.0;
   CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("--max-error"));
   o.max_error = 0.1;
+  o.min_psnr = 30.0;
+  o.sweep.image_width = 0;
+  CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("--min-psnr needs a render"));
+  o.min_psnr = 0.0;
   o.config = "no-such-preset";
   CHECK_THROWS_AS(rtu::host::plan_format(o), rtu::host::Error);
 }

@@ -30,7 +30,6 @@ TimingModel::Layout TimingModel::layout_of(const ImageHeader& h, uint64_t node_b
     l.node_offset = h.node_offset;
     l.record_offset = h.record_offset;
     l.plane_offset = h.plane_offset;
-    l.node_stride = node_bytes;
     l.total_bytes = h.total_bytes;
     return l;
   }
@@ -49,14 +48,14 @@ template <bool Reverse, class F>
 void TimingModel::for_each_line(const TraceEvent& e, F&& f) const {
   uint64_t addr, bytes;
   if (e.kind == TraceEvent::kNode) {
-    addr = m_layout.node_offset + uint64_t(e.index) * m_layout.node_stride;
     bytes = m_layout.node_bytes;
+    addr = m_layout.node_offset + uint64_t(e.index) * (m_layout.node_stride ? m_layout.node_stride : bytes);
   } else if (e.kind == TraceEvent::kPrim) {
-    addr = m_layout.record_offset + uint64_t(e.index) * m_layout.record_stride;
     bytes = kRecordBytes;
+    addr = m_layout.record_offset + uint64_t(e.index) * (m_layout.record_stride ? m_layout.record_stride : bytes);
   } else if (e.kind == TraceEvent::kPlane) {
-    addr = m_layout.plane_offset + uint64_t(e.index) * m_layout.plane_stride;
     bytes = sizeof(PlaneRecord);
+    addr = m_layout.plane_offset + uint64_t(e.index) * (m_layout.plane_stride ? m_layout.plane_stride : bytes);
   } else {
     return;
   }

@@ -74,7 +74,7 @@ class TimingModel {
   // touches the lines of [offset + index * stride, + the item's size).
   struct Layout {
     uint64_t node_offset = 0, node_bytes = 56, record_offset = 0, plane_offset = 0;
-    uint64_t node_stride = 56, record_stride = kRecordBytes, plane_stride = sizeof(PlaneRecord);
+    uint64_t node_stride = 0, record_stride = 0, plane_stride = 0;  // 0: the item's size (packed)
     uint64_t total_bytes = 0;  // the footprint of the sections so placed, from offset 0
   };
   // The image's own layout (packed), or with `align` > 0 every item padded to a multiple of it and every section

@@ -49,7 +49,7 @@ TimingConfig test_config() {
 TimingModel::Layout layout() {
   TimingModel::Layout l;
   l.node_offset = 0;
-  l.node_bytes = l.node_stride = 64;  // one line per node
+  l.node_bytes = 64;  // one line per node
   l.record_offset = 1 << 20;
   l.plane_offset = 2 << 20;
   return l;

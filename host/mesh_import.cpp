@@ -4,12 +4,15 @@
 // PreTransformVertices or SortByPType reorder meshes or faces and would break the documented order. The node
 // tree is walked here instead, accumulating node transforms (parent * child) into world space.
 //
-// Hardening (README "Hardening"): files beyond the memory budget are refused before reading; PLY headers are
+// Hardening (docs/guide/hardening.md): files beyond the memory budget are refused before reading; PLY headers are
 // checked first (Assimp 5.2 loops for ever on some); Assimp itself runs in a child process, so a file on which it
-// aborts, hangs (RTU_IMPORT_TIMEOUT) or leaks costs an Error, never rtusim.
+// aborts, hangs (RTU_IMPORT_TIMEOUT) or leaks costs an Error, never rtusim. In the child it runs on a stack of
+// known size, so that a file nested too deeply for Assimp's recursive parsers is named as such (import_on_stack).
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <poll.h>
+#include <pthread.h>
+#include <sys/mman.h>
 #include <sys/wait.h>
 #include <unistd.h>
 #include <assimp/Importer.hpp>
@@ -19,6 +22,7 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -206,6 +210,111 @@ bool write_all(int fd, const void* data, size_t n) {
   return true;
 }
 
+// Assimp's parsers and its scene recurse once per level of nesting: rapidjson under glTF (nested arrays), the
+// Collada, DirectX .x and AC3D node readers (nested <node> elements, Frames, kids), aiNode's destructor. Measured
+// on Assimp 5.2.5 with an 8 MiB stack (tests/host/test_nesting.cpp builds such files): a Collada node chain of
+// 10^4 levels overflows it (at least 800 bytes a level), glTF arrays 2 x 10^5 deep do (40-80 bytes a level; 10^5
+// do not). Each format nests in its own syntax, so rather than pre-scan each, the import runs on a stack rtu
+// allocates itself: kImportStackBytes, whatever `ulimit -s` says (an unlimited stack would let a deep file eat
+// memory until the machine runs out), 8 times the usual default (ample for real models, whose node trees nest
+// tens of levels), with kStackGuardBytes without access below it. A fault in the guard is a stack overflow: the
+// handler, on its own small stack, sends the child's error message ("nests too deeply") through the pipe and
+// exits, so the parent reports it as an Error like any other. Other faults die by the signal as before.
+constexpr size_t kImportStackBytes = size_t(64) << 20;
+// Larger than any frame Assimp pushes, so an overflowing call lands in the guard, not in a mapping beyond it.
+constexpr size_t kStackGuardBytes = size_t(16) << 20;
+
+// What the overflow handler needs, set before the import thread starts (the handler may not allocate).
+struct OverflowReport {
+  int fd = -1;
+  const char* message = nullptr;
+  size_t length = 0;
+  uintptr_t guard_lo = 0, guard_hi = 0;
+};
+OverflowReport g_overflow;
+
+extern "C" void on_import_fault(int sig, siginfo_t* info, void*) {
+  const auto addr = reinterpret_cast<uintptr_t>(info->si_addr);
+  if (addr >= g_overflow.guard_lo && addr < g_overflow.guard_hi) {
+    // write() and _exit() are async-signal-safe; write_all only loops over write().
+    const uint64_t head[2] = {1, g_overflow.length};
+    const bool ok = write_all(g_overflow.fd, head, sizeof head) &&
+                    write_all(g_overflow.fd, g_overflow.message, g_overflow.length);
+    ::_exit(ok ? 0 : 3);
+  }
+  // Not an overflow: back to the default action; the faulting instruction runs again and the child dies by `sig`.
+  ::signal(sig, SIG_DFL);
+}
+
+// The import's outcome, filled by the import thread.
+struct ImportJob {
+  std::string path;
+  std::vector<hw::Triangle> triangles;
+  std::string error;  // empty: success
+};
+
+void run_import(ImportJob& job) {
+  try {
+    job.triangles = import_with_assimp(job.path);
+  } catch (const std::exception& e) {
+    job.error = e.what();
+  }
+}
+
+extern "C" void* import_thread(void* arg) {
+  // The handler runs on this alternate stack: the thread's own stack is the one that overflowed.
+  static char alt_stack[1 << 16];
+  stack_t ss{}, previous{};
+  ss.ss_sp = alt_stack;
+  ss.ss_size = sizeof alt_stack;
+  const bool replaced = ::sigaltstack(&ss, &previous) == 0;
+  if (replaced) {
+    struct sigaction sa {};
+    sa.sa_sigaction = on_import_fault;
+    sa.sa_flags = SA_SIGINFO | SA_ONSTACK;
+    sigemptyset(&sa.sa_mask);
+    ::sigaction(SIGSEGV, &sa, nullptr);
+    ::sigaction(SIGBUS, &sa, nullptr);
+  }
+  run_import(*static_cast<ImportJob*>(arg));
+  // Put back the alternate stack the thread started with: AddressSanitizer gives every thread one and unmaps
+  // whatever is installed when the thread ends, which must not be this static buffer (found by the asan tests:
+  // every import that returned aborted the child).
+  if (replaced) ::sigaltstack(&previous, nullptr);
+  return nullptr;
+}
+
+// Runs the import (in the child) on a kImportStackBytes stack with an overflow guard, reporting an overflow on
+// `fd`. When the stack cannot be had (an address-space limit), the import runs on the calling thread instead.
+void import_on_stack(ImportJob& job, int fd) {
+  const size_t total = kStackGuardBytes + kImportStackBytes;
+  void* base = ::mmap(nullptr, total, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
+  if (base == MAP_FAILED) return run_import(job);
+  if (::mprotect(base, kStackGuardBytes, PROT_NONE) != 0) {
+    ::munmap(base, total);
+    return run_import(job);
+  }
+  static std::string message;  // outlives the thread: the handler reads it
+  message = job.path + ": the mesh importer (Assimp) ran out of its " + std::to_string(kImportStackBytes >> 20) +
+            " MiB stack: the file nests too deeply (nodes, elements or arrays inside each other) for Assimp's "
+            "recursive parsers";
+  g_overflow = {fd, message.data(), message.size(), reinterpret_cast<uintptr_t>(base),
+                reinterpret_cast<uintptr_t>(base) + kStackGuardBytes};
+  pthread_attr_t attr;
+  pthread_t thread;
+  bool started = ::pthread_attr_init(&attr) == 0;
+  started = started &&
+            ::pthread_attr_setstack(&attr, static_cast<char*>(base) + kStackGuardBytes, kImportStackBytes) == 0;
+  started = started && ::pthread_create(&thread, &attr, import_thread, &job) == 0;
+  ::pthread_attr_destroy(&attr);
+  if (started) {
+    ::pthread_join(thread, nullptr);
+  } else {
+    run_import(job);
+  }
+  ::munmap(base, total);
+}
+
 // Assimp runs in a child process: a file that makes it crash (its assertions abort, e.g. on a PLY body that
 // contradicts its header), hang or leak cannot take rtusim with it. The child sends {status, bytes} and then the
 // triangles (status 0) or the error message (status 1); the parent waits at most RTU_IMPORT_TIMEOUT seconds
@@ -227,19 +336,14 @@ std::vector<hw::Triangle> import_isolated(const std::string& path) {
     // Die by the signal if Assimp crashes: no handler inherited from the parent (a sanitizer's, a fuzzer's) may
     // report the child's crash as the parent's.
     for (int sig : {SIGABRT, SIGSEGV, SIGBUS, SIGFPE, SIGILL}) std::signal(sig, SIG_DFL);
-    uint64_t head[2] = {0, 0};
-    std::string message;
-    std::vector<hw::Triangle> tris;
-    try {
-      tris = import_with_assimp(path);
-      head[1] = tris.size() * sizeof(hw::Triangle);
-    } catch (const std::exception& e) {
-      message = e.what();
-      head[0] = 1;
-      head[1] = message.size();
-    }
-    const bool ok = write_all(fds[1], head, sizeof head) &&
-                    write_all(fds[1], head[0] ? static_cast<const void*>(message.data()) : tris.data(), head[1]);
+    ImportJob job{path, {}, {}};
+    import_on_stack(job, fds[1]);
+    const bool failed = !job.error.empty();
+    const uint64_t head[2] = {failed ? 1u : 0u,
+                              failed ? job.error.size() : job.triangles.size() * sizeof(hw::Triangle)};
+    const bool ok =
+        write_all(fds[1], head, sizeof head) &&
+        write_all(fds[1], failed ? static_cast<const void*>(job.error.data()) : job.triangles.data(), head[1]);
     ::_exit(ok ? 0 : 3);
   }
   ::close(fds[1]);

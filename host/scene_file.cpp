@@ -1,14 +1,12 @@
 // Scene description files (JSON). The schema is documented in scenes/README.md; keep the two in step.
 //
 // Strict by design: unknown or duplicate keys, wrong types or array lengths, non-finite numbers and unknown
-// names are errors that name the file and the key path (e.g. "meshes[2].transform.scale").
+// names are errors that name the file and the key path (e.g. "meshes[2].transform.scale"). The JSON itself is read
+// by host/json_io.h, which also refuses nesting deeper than kMaxJsonDepth levels.
 #include <cfloat>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <map>
-#include <set>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -17,6 +15,7 @@
 
 #include "host/error.h"
 #include "host/generators.h"
+#include "host/json_io.h"
 #include "host/scene.h"
 
 namespace rtu::host {
@@ -132,66 +131,6 @@ class Reader {
  private:
   std::string m_file;
 };
-
-// Parses `text`, rejecting duplicate keys (nlohmann would keep the last one silently).
-Json parse_document(const std::string& file, const std::string& text) {
-  struct Frame {
-    bool object;
-    std::string key;   // object: current key
-    size_t index = 0;  // array: current element
-    std::set<std::string> keys;
-  };
-  std::vector<Frame> frames;
-  auto element_done = [&] {
-    if (!frames.empty() && !frames.back().object) ++frames.back().index;
-  };
-  auto current_path = [&] {
-    std::string path;
-    for (const Frame& f : frames) path = f.object ? join(path, f.key) : join(path, f.index);
-    return path;
-  };
-  Json::parser_callback_t callback = [&](int, Json::parse_event_t event, Json& parsed) {
-    switch (event) {
-      case Json::parse_event_t::object_start:
-        frames.push_back({true, "", 0, {}});
-        break;
-      case Json::parse_event_t::array_start:
-        frames.push_back({false, "", 0, {}});
-        break;
-      case Json::parse_event_t::key: {
-        Frame& top = frames.back();
-        top.key = parsed.get<std::string>();
-        if (!top.keys.insert(top.key).second) throw Error(file + ": duplicate key '" + current_path() + "'");
-        break;
-      }
-      case Json::parse_event_t::object_end:
-      case Json::parse_event_t::array_end:
-        frames.pop_back();
-        element_done();
-        break;
-      case Json::parse_event_t::value:
-        element_done();
-        break;
-    }
-    return true;
-  };
-  try {
-    return Json::parse(text, callback, /*allow_exceptions=*/true, /*ignore_comments=*/true);
-  } catch (const Json::parse_error& e) {
-    // e.what() is "[json.exception.parse_error.101] parse error at line 3, column 5: ..."; drop the tag.
-    std::string what = e.what();
-    const size_t tag_end = what.find("] ");
-    if (tag_end != std::string::npos) what = what.substr(tag_end + 2);
-    if (what.rfind("parse error", 0) != 0) what = "parse error: " + what;
-    throw Error(file + ": " + what);
-  } catch (const Json::out_of_range& e) {
-    // A number beyond double range, e.g. 1e999: the frames still point at it.
-    std::string what = e.what();
-    const size_t tag_end = what.find("] ");
-    if (tag_end != std::string::npos) what = what.substr(tag_end + 2);
-    throw Error(file + ": " + current_path() + ": " + what + " (not a finite number: NaN/Inf)");
-  }
-}
 
 // Everything being built, with the per-kind material lists merged into prim_material at the end.
 struct Builder {
@@ -465,15 +404,8 @@ void read_lights(Builder& b, const Json& j) {
 }  // namespace
 
 Scene load_scene_file(const std::string& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw Error(path + ": file not found");
-  if (!std::filesystem::is_regular_file(path, ec)) throw Error(path + ": not a regular file");
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream text;
-  text << in.rdbuf();
-  if (!in) throw Error(path + ": cannot read the file");
-
-  const Json root = parse_document(path, text.str());
+  // Depth-bounded (json_io.h): the reads below copy values and name them in messages, both recursive.
+  const Json root = read_json_file(path);
   const Reader r(path);
   if (!root.is_object())
     r.fail("", std::string("expected a JSON object at the top level, got ") + root.type_name());

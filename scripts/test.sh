@@ -8,7 +8,8 @@
 #     identical bits and cycles, no leak;
 #  3. each libFuzzer target of tests/fuzz for RTU_FUZZ_SECONDS (default 20) from its seed corpus: a crash, leak,
 #     timeout (30 s) or an input needing over 2 GiB fails the run and leaves the reproducer in
-#     build/asan/fuzz-artifacts/. Executions per target: build/asan/fuzz-summary.txt.
+#     build/asan/fuzz-artifacts/. Executions per target: build/asan/fuzz-summary.txt. Each target's -max_len
+#     is in scripts/fuzz_targets.sh. Long runs (10^6 executions per target): scripts/fuzz_long.sh, outside CI.
 # RTU_SKIP_ASAN=1 skips the sanitizer stage. Usage: scripts/test.sh [ctest args]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -29,13 +30,14 @@ build/asan/rtusim soak --seconds "${RTU_SOAK_SECONDS:-20}" --json build/asan/soa
 
 mkdir -p build/asan/fuzz-artifacts
 : >build/asan/fuzz-summary.txt
-for target in scene_file mesh_import ray_file command_processor device_image config; do
+source scripts/fuzz_targets.sh
+for target in "${RTU_FUZZ_TARGETS[@]}"; do
   work=build/asan/fuzz-work/$target  # new inputs go here; the committed corpus is only read
   mkdir -p "$work"
   log=build/asan/fuzz-$target.log
   if ! build/asan/fuzz_$target -max_total_time="${RTU_FUZZ_SECONDS:-20}" -rss_limit_mb=2048 -timeout=30 \
-      -print_final_stats=1 -artifact_prefix=build/asan/fuzz-artifacts/$target- "$work" tests/fuzz/corpus/$target \
-      >"$log" 2>&1; then
+      -max_len="$(rtu_fuzz_max_len "$target")" -print_final_stats=1 -artifact_prefix=build/asan/fuzz-artifacts/$target- \
+      "$work" tests/fuzz/corpus/$target >"$log" 2>&1; then
     tail -n 60 "$log"
     echo "fuzz_$target: FAILED (reproducer in build/asan/fuzz-artifacts/, log $log)" >&2
     exit 1

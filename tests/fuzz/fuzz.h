@@ -19,7 +19,7 @@
 namespace rtu::fuzz {
 
 int scene_file(const uint8_t* data, size_t size);         // scene description files (JSON) and builtin: specs
-int mesh_import(const uint8_t* data, size_t size);        // mesh files through Assimp: OBJ, PLY, OFF, STL
+int mesh_import(const uint8_t* data, size_t size);        // mesh files through Assimp, flat and nested formats
 int ray_file(const uint8_t* data, size_t size);           // ray and hit files, binary and CSV, then traced
 int command_processor(const uint8_t* data, size_t size);  // packets and register writes on the model unit
 int device_image(const uint8_t* data, size_t size);       // scene images bound by BIND_SCENE (fixed and float)

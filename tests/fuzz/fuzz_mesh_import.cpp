@@ -1,5 +1,8 @@
 // Mesh files through the importer rtu owns (host/mesh_import.cpp over Assimp): the first byte picks the format
-// (OBJ, PLY, OFF, STL), the rest is the file. Accepted meshes give finite triangles; everything else an Error.
+// (byte % 8: OBJ, PLY, OFF, STL, glTF, Collada, DirectX .x, AC3D), the rest is the file. The flat formats first;
+// the last four nest (JSON arrays and node trees, XML elements, frames, kids) and reach Assimp's recursive
+// parsers, whose stack overflow on deep input mesh_import.cpp must report as an Error. Accepted meshes give finite
+// triangles; everything else an Error.
 #include <cmath>
 
 #include "host/error.h"
@@ -11,8 +14,8 @@ namespace rtu::fuzz {
 int mesh_import(const uint8_t* data, size_t size) {
   init();
   if (size < 1) return 0;
-  static const char* const kExt[] = {"obj", "ply", "off", "stl"};
-  const std::string path = scratch_file(std::string("mesh.") + kExt[data[0] % 4], data + 1, size - 1);
+  static const char* const kExt[] = {"obj", "ply", "off", "stl", "gltf", "dae", "x", "ac"};
+  const std::string path = scratch_file(std::string("mesh.") + kExt[data[0] % 8], data + 1, size - 1);
   std::vector<hw::Triangle> tris;
   try {
     tris = host::import_mesh(path);

@@ -45,7 +45,38 @@ void run_all(const rtu::fuzz::Target& t) {
   CHECK(t.run(zeros, sizeof zeros) == 0);
 }
 
+// n copies of s.
+std::string repeat(const std::string& s, size_t n) {
+  std::string out;
+  out.reserve(s.size() * n);
+  for (size_t i = 0; i < n; ++i) out += s;
+  return out;
+}
+
+int run_text(const rtu::fuzz::Target& t, const std::string& bytes) {
+  return t.run(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size());
+}
+
 }  // namespace
+
+// Deeply nested inputs, generated rather than committed (megabytes): the reproducers of issue 25, where a scene
+// file of 10^6 nested arrays overflowed the stack, and the nested mesh formats at a depth that overflows the
+// importer's stack. Each must be refused (the target returns 0), not crash the target.
+TEST_CASE("fuzz targets: deeply nested inputs", "[fuzz][corpus]") {
+  const std::string deep = repeat("[", 1000000) + repeat("]", 1000000);
+  CHECK(run_text(rtu::fuzz::kTargets[0], "{\"materials\": " + deep + "}") == 0);
+  CHECK(run_text(rtu::fuzz::kTargets[0], "{\"camera\": {\"width\": " + deep + "}}") == 0);
+  // mesh_import: byte 0 picks the format, 'm' % 8 = 5 Collada, 'o' % 8 = 7 AC3D; 10^5 levels each.
+  const size_t n = 100000;
+  CHECK(run_text(rtu::fuzz::kTargets[1],
+                 "m<?xml version=\"1.0\"?><COLLADA version=\"1.4.1\"><library_visual_scenes>"
+                 "<visual_scene id=\"s\">" +
+                     repeat("<node>", n) + repeat("</node>", n) +
+                     "</visual_scene></library_visual_scenes><scene>"
+                     "<instance_visual_scene url=\"#s\"/></scene></COLLADA>") == 0);
+  CHECK(run_text(rtu::fuzz::kTargets[1], "oAC3Db\nOBJECT world\nkids 1\n" + repeat("OBJECT group\nkids 1\n", n) +
+                                             "OBJECT group\nkids 0\n") == 0);
+}
 
 TEST_CASE("fuzz corpus: scene_file", "[fuzz][corpus]") {
   run_all(rtu::fuzz::kTargets[0]);

@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "host/image.h"
+#include "host/json_io.h"
 #include "host/ray_io.h"
 #include "host/sweep.h"
 #include "hwmodel/timing_config.h"
@@ -30,6 +31,12 @@ fs::path temp_dir() {
   fs::path d = fs::temp_directory_path() / ("rtu_test_cli_" + std::to_string(::getpid()));
   fs::create_directories(d);
   return d;
+}
+
+// rtusim's JSON read back through the depth-limited parser rtu reads JSON with (host/json_io.h): so every file
+// these tests read also shows that rtusim writes nothing deeper than host::kMaxJsonDepth.
+nlohmann::json read_json(const fs::path& p) {
+  return rtu::host::read_json_file(p.string());
 }
 
 }  // namespace
@@ -63,7 +70,7 @@ TEST_CASE("rays -> trace round trip on a built-in scene, CSV and binary give the
   REQUIRE(a.size() == 20000);
   REQUIRE(std::memcmp(a.data(), b.data(), a.size() * sizeof(a[0])) == 0);
 
-  const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+  const nlohmann::json j = read_json(stats);
   for (const char* key : {"rays", "hits", "trace_seconds", "rays_per_second", "nodes_visited", "box_tests",
                           "prim_tests", "invalid_rays"})
     CHECK(j.contains(key));
@@ -83,7 +90,7 @@ TEST_CASE("trace with NaN rays warns, counts them and writes misses", "[cli]") {
   CHECK(r.status == 0);
   CHECK(r.output.find("2 invalid rays") != std::string::npos);
   CHECK(r.output.find("ray 1 (nan_origin)") != std::string::npos);
-  const nlohmann::json j = nlohmann::json::parse(std::ifstream(d / "s.json"));
+  const nlohmann::json j = read_json(d / "s.json");
   CHECK(j["invalid_rays"] == 2);
   CHECK(j["invalid_by_reason"]["zero_direction"] == 1);
   const auto hits = rtu::host::read_hits((d / "h.csv").string());
@@ -134,7 +141,7 @@ TEST_CASE("demo writes an image, hits and a report", "[cli]") {
   INFO(r.output);
   REQUIRE(r.status == 0);
   CHECK(fs::file_size(d / "primary_float.png") > 1000);
-  const nlohmann::json j = nlohmann::json::parse(std::ifstream(d / "report.json"));
+  const nlohmann::json j = read_json(d / "report.json");
   CHECK(j["devices"]["float"]["hits"].get<uint64_t>() > 0);
   // The fixed device renders the same image up to quantization: the default format keeps hit agreement above
   // 99.99% on the seed scene (edges move by at most half a grid step of 2^-24 of the scene).
@@ -150,7 +157,7 @@ TEST_CASE("compare: the JSON report's keys, conservative boxes, agreement on the
                            " --disagreements " + replay);
   INFO(r.output);
   REQUIRE(r.status == 0);
-  const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
+  const nlohmann::json j = read_json(json);
   for (const char* key : {"rays", "hit_agreement", "prim_agreement", "false_misses", "false_hits", "invalid_rays",
                           "t_rel_error_max", "t_rel_error_mean", "box_false_negatives", "node_visit_overhead",
                           "prim_test_overhead", "disagreements", "format"})
@@ -177,7 +184,7 @@ TEST_CASE("compare: what it did not check it does not report", "[cli][fixed]") {
   REQUIRE(r.status == 0);
   CHECK(r.output.find("primitive agreement") == std::string::npos);
   CHECK(r.output.find("t error") == std::string::npos);
-  nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
+  nlohmann::json j = rtu::host::read_json_file(json);
   CHECK(j["prim_agreement"].is_null());
   CHECK(j["t_rel_error_max"].is_null());
   CHECK(j["box_checks"].get<uint64_t>() > 0);
@@ -187,7 +194,7 @@ TEST_CASE("compare: what it did not check it does not report", "[cli][fixed]") {
   REQUIRE(r.status == 0);
   CHECK(r.output.find("false negatives") == std::string::npos);
   CHECK(r.output.find("not checked on the timed device") != std::string::npos);
-  j = nlohmann::json::parse(std::ifstream(json));
+  j = rtu::host::read_json_file(json);
   CHECK(j["box_false_negatives"].is_null());
   // Closest hit: the distance error in grid steps beside the relative one, from the device's frame.
   REQUIRE(j["grid_step"].is_number());
@@ -211,7 +218,7 @@ TEST_CASE("a camera beyond the fixed-point frame: render says so, compare fails 
   CHECK(r.output.find("768 of 768 traced rays (100%) were invalid") != std::string::npos);
   CHECK(r.output.find("most rays were invalid") != std::string::npos);
   CHECK(r.output.find("out_of_frame 768") != std::string::npos);
-  const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+  const nlohmann::json j = rtu::host::read_json_file(stats);
   CHECK(j["unit"]["total"]["invalid_rays"] == 768);
   CHECK(j["warnings"].size() == 2);
   // The float device represents every ray: no warning.
@@ -236,7 +243,7 @@ TEST_CASE("trace on the fixed device: formats, out-of-frame origins rejected wit
   INFO(r.output);
   REQUIRE(r.status == 0);
   CHECK(r.output.find("ray 1 (out_of_frame)") != std::string::npos);
-  const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+  const nlohmann::json j = read_json(stats);
   CHECK(j["invalid_by_reason"]["out_of_frame"] == 1);
   CHECK(j["format"]["coord_bits"] == 16);
   const auto hits = rtu::host::read_hits((d / "h.csv").string());
@@ -257,7 +264,7 @@ TEST_CASE("info reports the fixed image: bytes per node and footprint per format
     const Run r = run_rtusim(std::string("info --scene builtin:seed --format ") + format + " --json " + json);
     INFO(r.output);
     REQUIRE(r.status == 0);
-    const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
+    const nlohmann::json j = read_json(json);
     CHECK(j["bvh"]["image"]["bytes_per_node"] == node_bytes);
     CHECK(j["bvh"]["image"]["total_bytes"].get<uint64_t>() > j["bvh"]["image"]["node_bytes"].get<uint64_t>());
   }
@@ -269,7 +276,7 @@ TEST_CASE("stress: every category runs, no promise breaks at the default format"
   const Run r = run_rtusim("stress --count 3000 --json " + json);
   INFO(r.output);
   CHECK(r.status == 0);
-  const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
+  const nlohmann::json j = read_json(json);
   CHECK(j["failures"] == 0);
   CHECK(j["categories"].size() == 11);
   for (const auto& c : j["categories"]) {
@@ -303,7 +310,7 @@ TEST_CASE("diff: identical and differing PNGs, JSON keys, heatmap", "[cli][image
   REQUIRE(same.status == 0);
   CHECK(same.output.find("8x4") != std::string::npos);
   CHECK(same.output.find("identical") != std::string::npos);
-  const nlohmann::json js = nlohmann::json::parse(std::ifstream(same_json));
+  const nlohmann::json js = read_json(same_json);
   CHECK(js["identical"] == true);
   CHECK(js["psnr_db"].is_null());
   CHECK(js["pixels_differing"] == 0);
@@ -313,7 +320,7 @@ TEST_CASE("diff: identical and differing PNGs, JSON keys, heatmap", "[cli][image
   INFO(r.output);
   REQUIRE(r.status == 0);
   CHECK(r.output.find("1 of 32 pixels differ") != std::string::npos);
-  const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
+  const nlohmann::json j = read_json(json);
   for (const char* key : {"a", "b", "width", "height", "identical", "mse", "psnr_db", "max_abs", "mean_abs",
                           "pixels_differing", "frac_pixels_differing", "heatmap", "heatmap_scale"})
     CHECK(j.contains(key));
@@ -387,7 +394,7 @@ TEST_CASE("config: a preset's every key, --set overrides, JSON keys, --list", "[
   const fs::path d = temp_dir();
   const std::string json = (d / "timing.json").string();
   REQUIRE(run_rtusim("config --config embedded --set clock_ghz=0.8 --json " + json).status == 0);
-  const nlohmann::ordered_json j = nlohmann::ordered_json::parse(std::ifstream(json));
+  const nlohmann::ordered_json j = rtu::host::read_json_file(json);
   CHECK(j["preset"] == "embedded");
   std::vector<std::string> json_keys;
   for (auto it = j.begin(); it != j.end(); ++it)
@@ -530,8 +537,7 @@ TEST_CASE("plan: the fewest coordinate bits within the budget, and the reason, a
       json);
   INFO(r.output);
   REQUIRE(r.status == 0);
-  std::ifstream in(json);
-  const nlohmann::json j = nlohmann::json::parse(in);
+  const nlohmann::json j = read_json(json);
   const auto& w = j["widths"][0];
   REQUIRE(w["feasible"] == true);
   const int b = w["coord_bits"];
@@ -573,7 +579,7 @@ TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the 
   INFO(r.output);
   REQUIRE(r.status == 0);
   CHECK(r.output.find("timed (intel):") != std::string::npos);
-  const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+  const nlohmann::json j = read_json(stats);
   const auto& t = j["timing"];
   const double cycles = t["cycles"].get<double>();
   CHECK(t["rays"] == 3000);
@@ -612,7 +618,7 @@ TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the 
   }
   CHECK(leaves.size() >= 30);
   // The pipeline trace: Chrome trace events, spans overlapping the window, every slot named.
-  const nlohmann::json p = nlohmann::json::parse(std::ifstream(pipe));
+  const nlohmann::json p = read_json(pipe);
   REQUIRE(p["traceEvents"].is_array());
   std::set<uint64_t> slots, named;
   size_t spans = 0;
@@ -653,7 +659,7 @@ TEST_CASE("trace --sample: --sample-seed draws the sample, the same seed, the sa
                    " --sample-warmup 16 --sample-seed " + std::to_string(seed) + " --stats " + stats);
     INFO(r.output);
     REQUIRE(r.status == 0);
-    const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+    const nlohmann::json j = read_json(stats);
     REQUIRE(j["timing"]["sample"]["units_measured"].get<uint64_t>() > 50);
     return j["timing"]["cycles"].get<uint64_t>();
   };
@@ -679,7 +685,7 @@ TEST_CASE("render --mode hybrid on the timed device: raster and trace cycles, ra
   REQUIRE(r.status == 0);
   CHECK(r.output.find("rasterizer:") != std::string::npos);
   CHECK(r.output.find("(4800 primary rays saved)") != std::string::npos);
-  const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+  const nlohmann::json j = read_json(stats);
   CHECK(j["render_mode"] == "hybrid");
   CHECK(j["rays"]["primary"] == 0);
   CHECK(j["rays_saved"]["primary"] == 80 * 60);
@@ -704,7 +710,7 @@ TEST_CASE("render --mode hybrid on the timed device: raster and trace cycles, ra
   const Run rt = run_rtusim("render --scene builtin:cornell --width 16 --height 16 --out " +
                             (d / "rt.png").string() + " --stats " + (d / "rt.json").string());
   REQUIRE(rt.status == 0);
-  CHECK(nlohmann::json::parse(std::ifstream(d / "rt.json"))["render_mode"] == "raytrace");
+  CHECK(read_json(d / "rt.json")["render_mode"] == "raytrace");
   CHECK(run_rtusim("render --scene builtin:cornell --mode raster --out " + (d / "x.png").string()).status != 0);
 }
 
@@ -744,7 +750,7 @@ TEST_CASE("report --quick: a static page, its images, consistent figures", "[cli
   CHECK(html.find("</html>") != std::string::npos);
   CHECK(html.find("<script") == std::string::npos);  // no JavaScript needed
   CHECK(html.find("href=\"report.json\"") != std::string::npos);
-  const nlohmann::json j = nlohmann::json::parse(slurp(d / "report.json"));
+  const nlohmann::json j = read_json(d / "report.json");
   // The page embeds exactly the images report.json lists; each is a relative path to a readable PNG.
   const std::vector<std::string> srcs = html_sources(html);
   std::vector<std::string> listed = j.at("images").get<std::vector<std::string>>();
@@ -818,7 +824,7 @@ TEST_CASE("report --quick: a static page, its images, consistent figures", "[cli
     CHECK(r2.status == 0);
     const std::string h2 = slurp(d2 / "index.html");
     CHECK(h2.find("gnuplot was not found") != std::string::npos);
-    const nlohmann::json j2 = nlohmann::json::parse(slurp(d2 / "report.json"));
+    const nlohmann::json j2 = read_json(d2 / "report.json");
     CHECK(j2.at("sweep").at("gnuplot").is_null());
     CHECK(j2.at("sweep").at("plots").empty());
     CHECK(j2.at("sweep").at("points") == 10);  // the given sweep's rows
@@ -998,8 +1004,8 @@ TEST_CASE("compare --rays: incoherent without a count, and a spec that is neithe
   const Run p = run_rtusim("compare --scene builtin:cornell --rays primary --json " + json + "_p");
   REQUIRE(p.status == 0);
   // As many as the camera's image has.
-  const nlohmann::json a = nlohmann::json::parse(std::ifstream(json)),
-                       b = nlohmann::json::parse(std::ifstream(json + "_p"));
+  const nlohmann::json a = rtu::host::read_json_file(json),
+                       b = rtu::host::read_json_file(json + "_p");
   CHECK(a["rays"] == b["rays"]);
   CHECK(a["rays"].get<uint64_t>() > 0);
   const Run bad = run_rtusim("compare --scene builtin:cornell --rays incoherrent:100");

@@ -18,6 +18,7 @@
 #include "host/error.h"
 #include "host/image.h"
 #include "host/image_diff.h"
+#include "host/json_io.h"
 #include "host/pipeline_trace.h"
 #include "host/plan.h"
 #include "host/ray_spec.h"
@@ -60,8 +61,7 @@ std::string small_scene(const fs::path& dir) {
 }
 
 Json read_json(const fs::path& p) {
-  std::ifstream in(p);
-  return Json::parse(in);
+  return rtu::host::read_json_file(p.string());  // depth-limited, as rtu reads JSON (host/json_io.h)
 }
 
 }  // namespace

@@ -1,0 +1,17 @@
+# The libFuzzer targets of tests/fuzz and the longest input each may be given (-max_len), sourced by
+# scripts/test.sh and scripts/fuzz_long.sh. Without -max_len libFuzzer takes the largest seed's length (a few KiB
+# here), so large and deeply nested inputs were never tried. The lengths, per input:
+#  - scene_file, mesh_import: 1 MiB. Enough for JSON nested far past host::kMaxJsonDepth (64) and for Collada or
+#    AC3D node chains deep enough (~4 * 10^4 levels under ASan) to overflow the importer's 64 MiB stack;
+#  - device_image: 256 KiB, a BVH of thousands of nodes, up to the traversal stack's depth bound;
+#  - ray_file, command_processor, config: 64 KiB, 2048 rays (each traced on three devices), programs of thousands
+#    of packets, lines of thousands of keys: larger only makes each run slower, the formats are flat.
+# shellcheck shell=bash
+RTU_FUZZ_TARGETS=(scene_file mesh_import ray_file command_processor device_image config)
+rtu_fuzz_max_len() {
+  case $1 in
+    scene_file | mesh_import) echo 1048576 ;;
+    device_image) echo 262144 ;;
+    *) echo 65536 ;;
+  esac
+}

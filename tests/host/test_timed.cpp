@@ -72,7 +72,7 @@ TEST_CASE("timed hits equal the fixed device's bit for bit, cycles repeat", "[ti
   for (const std::string& name : scenes) {
     const rtu::host::Scene s = rtu::host::load_scene(name);
     const std::vector<Ray> rays = test_rays(s, 20000);
-    for (const std::string preset : {"rdna2", "intel", "embedded"}) {
+    for (const std::string& preset : rtu::hw::timing_preset_names()) {
       CAPTURE(name, preset);
       const auto fixed = rtu::host::make_device(s.geometry, options("fixed", preset));
       const auto timed = rtu::host::make_device(s.geometry, options("timed", preset));

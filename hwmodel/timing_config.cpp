@@ -152,7 +152,9 @@ void TimingConfig::validate() const {
 // Where the presets' figures come from. Only the BVH width and the box and triangle tests per clock are published
 // by the vendors; the other figures are ours, chosen to be of the right order and stated as estimates. The model
 // has one cache level: "DRAM" stands for everything behind it (on a GPU: L1/L2, a last-level cache and VRAM), and
-// both GPU presets put it about 100 ns behind the unit.
+// both GPU presets put it about 100 ns behind the unit. The memory-bound presets (rdna2-mem, intel-mem, at the
+// end) take their memory from figures published for whole chips: VRAM bandwidth, unit count, clock and cache
+// sizes.
 //
 // rdna2 (the default-constructed TimingConfig): one Ray Accelerator of an RDNA2 compute unit.
 //   - BVH4 and 4 ray-box or 1 ray-triangle test per clock per CU: AMD's RDNA2 announcement and "RDNA 2"
@@ -202,8 +204,34 @@ void TimingConfig::validate() const {
 //     tests at 4x: estimate.
 //   - embedded: our choices for a small SoC GPU with one raster pipeline shared by two units: 8 cycles per
 //     primitive, 1 fragment and 4 coverage tests per clock, a 50-cycle pipeline.
+// The memory-bound presets, rdna2-mem and intel-mem: the datapath of rdna2 and intel (format, width, units,
+// rates, pipeline depths, slots, raster figures) with the memory a real GPU gives one ray-tracing unit: its small
+// first-level cache, the latency to VRAM, and its share of the chip's VRAM bandwidth, bandwidth / (units x clock).
+// The model has one cache level, so every miss pays the VRAM latency and uses the VRAM bandwidth: real misses of
+// the small cache often hit a larger cache first (an L1, an L2, AMD's Infinity Cache), so these presets are the
+// pessimistic end of the memory system as rdna2 and intel (a large cache, 64 bytes per clock) are the optimistic
+// end. Silicon is between; these are the presets on which bytes cost what they cost when they come from VRAM.
+//   - rdna2-mem, one Ray Accelerator of the Radeon RX 6900 XT (Navi 21): 80 CUs with one Ray Accelerator each,
+//     2015 MHz game clock (taken as 2.0 GHz, as rdna2), 16 GB GDDR6 on 256 bits = 512 GB/s (AMD, Radeon RX 6000
+//     series announcement, Oct. 2020; as reported e.g. by Wccftech, "AMD Radeon RX 6900 XT 'Big Navi' graphics
+//     card launches", Dec. 2020). Share: 512 GB/s / (80 x 2.0 GHz) = 3.2 bytes per clock. Cache: the CU's 16 KB
+//     L0 vector cache (AMD, "RDNA Architecture" whitepaper, 2019; 32 KB per two-CU WGP on RDNA2 per Wikipedia,
+//     "RDNA 2"), with rdna2's 4 ways and 64-byte lines (AMD's L0 lines are 128 bytes; ours stay 64 so that only
+//     the size, latency and bandwidth differ from rdna2). The 128 MB Infinity Cache's claimed effective bandwidth
+//     (1664 GB/s, 3.25x, in the same announcement) would give 10.4 bytes per clock: this preset is the VRAM miss.
+//   - intel-mem, one RTU of the Arc A770 16 GB (Xe-HPG, ACM-G10): 32 Xe cores with one RTU each, 2.1 GHz
+//     graphics clock, 560 GB/s on 256 bits (Intel, Arc A-series specifications, Sept. 2022; as reported e.g. by
+//     Svět hardware, "Intel zveřejnil oficiální specifikace grafických karet Arc", Sept. 2022). Share: 560 GB/s /
+//     (32 x 2.1 GHz) = 8.33 bytes per clock (8.333..., rounded down). Cache: the RTU's own BVH cache, 8 KB on
+//     Alchemist (Chips and Cheese, "Raytracing on Intel's Arc B580", 2025); its 4 ways are our estimate, lines
+//     64 bytes as on Intel GPUs.
+//   - VRAM latency, both: 300 ns from the unit, 600 cycles at 2.0 GHz and 630 at 2.1 GHz. An estimate of the
+//     order, not a published figure: Chips and Cheese's pointer-chasing measurements ("Measuring GPU Memory
+//     Latency", 2021, on an RX 6800 XT and an RTX 3090) put an L2 hit alone about 66 ns past RDNA2's L0 and over
+//     100 ns past Ampere's L1, and VRAM, about equally far on both, well beyond the last cache level: hundreds of
+//     ns, here three times the 100 ns that rdna2 and intel take for everything behind their cache.
 const std::vector<std::string>& timing_preset_names() {
-  static const std::vector<std::string> names = {"rdna2", "intel", "embedded"};
+  static const std::vector<std::string> names = {"rdna2", "intel", "embedded", "rdna2-mem", "intel-mem"};
   return names;
 }
 
@@ -298,6 +326,28 @@ TimingConfig timing_preset(const std::string& name) {
     c.raster_samples_per_clock = 4.0;
     c.raster_fragments_per_clock = 1.0;
     c.raster_latency = 50;
+  } else if (name == "rdna2-mem") {
+    // rdna2's datapath; only the memory below differs (sources above).
+    c = timing_preset("rdna2");
+    c.name = "rdna2-mem";
+    c.cache_kib = 16;
+    c.cache_ways = 4;
+    c.line_bytes = 64;
+    c.layout_align = 0;
+    c.cache_latency = 4;
+    c.dram_latency = 600;
+    c.dram_bytes_per_cycle = 3.2;
+  } else if (name == "intel-mem") {
+    // intel's datapath; only the memory below differs (sources above).
+    c = timing_preset("intel");
+    c.name = "intel-mem";
+    c.cache_kib = 8;
+    c.cache_ways = 4;
+    c.line_bytes = 64;
+    c.layout_align = 0;
+    c.cache_latency = 4;
+    c.dram_latency = 630;
+    c.dram_bytes_per_cycle = 8.33;
   } else {
     std::string names;
     for (const std::string& n : timing_preset_names()) names += (names.empty() ? "" : ", ") + n;
@@ -315,6 +365,12 @@ std::string timing_preset_description(const std::string& name) {
   if (name == "embedded")
     return "a small embedded unit: format compact (16-bit coordinates), BVH4, 2 box tests per clock, 16 KiB "
            "cache, 1.0 GHz";
+  if (name == "rdna2-mem")
+    return "rdna2's datapath with one RX 6900 XT Ray Accelerator's memory: 16 KiB cache, 300 ns and 3.2 bytes per "
+           "clock (512 GB/s over 80 units) to VRAM";
+  if (name == "intel-mem")
+    return "intel's datapath with one Arc A770 RTU's memory: 8 KiB BVH cache, 300 ns and 8.33 bytes per clock "
+           "(560 GB/s over 32 units) to VRAM";
   timing_preset(name);  // throws, listing the names
   return {};
 }

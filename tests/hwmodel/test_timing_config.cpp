@@ -2,8 +2,10 @@
 // prints and parses back, and bad keys and values are refused with the key named.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/timing_config.h"
@@ -33,7 +35,8 @@ std::string value_of(const TimingConfig& c, const std::string& key) {
 }  // namespace
 
 TEST_CASE("every timing preset validates and lists every key", "[timing][config]") {
-  REQUIRE(timing_preset_names() == std::vector<std::string>{"rdna2", "intel", "embedded"});
+  REQUIRE(timing_preset_names() ==
+          std::vector<std::string>{"rdna2", "intel", "embedded", "rdna2-mem", "intel-mem"});
   for (const std::string& name : timing_preset_names()) {
     INFO(name);
     const TimingConfig c = timing_preset(name);
@@ -74,6 +77,45 @@ TEST_CASE("timing presets differ where the hardware does", "[timing][config]") {
   CHECK(embedded.ray_slots < rdna2.ray_slots);
   // Every preset's format exists.
   for (const std::string& name : timing_preset_names()) CHECK_NOTHROW(format_preset(timing_preset(name).format));
+}
+
+TEST_CASE("memory-bound presets keep their base's datapath and take one unit's share of a real GPU's memory",
+          "[timing][config]") {
+  // The keys a memory-bound preset may change: the cache and what is behind it. Every other key is its base's, so
+  // that a difference in cycles between the two is the memory's alone.
+  const std::vector<std::string> memory = {"cache_kib",     "cache_ways",   "line_bytes",          "layout_align",
+                                           "cache_latency", "dram_latency", "dram_bytes_per_cycle"};
+  for (const auto& [mem, base] :
+       {std::pair<std::string, std::string>{"rdna2-mem", "rdna2"}, {"intel-mem", "intel"}}) {
+    INFO(mem << " against " << base);
+    const auto a = timing_keys(timing_preset(mem)), b = timing_keys(timing_preset(base));
+    REQUIRE(a.size() == b.size());
+    int differing = 0;
+    for (size_t i = 0; i < a.size(); ++i) {
+      INFO(a[i].key);
+      const bool is_memory = std::find(memory.begin(), memory.end(), a[i].key) != memory.end();
+      if (!is_memory) CHECK(a[i].value == b[i].value);
+      differing += a[i].value != b[i].value;
+    }
+    CHECK(differing >= 3);  // cache size, latency and bandwidth at least
+  }
+  // The figures follow from the chips' published ones (timing_config.cpp): bandwidth / (units x clock), a small
+  // first-level cache, 300 ns to VRAM at the unit's clock.
+  const TimingConfig r = timing_preset("rdna2-mem"), i = timing_preset("intel-mem");
+  CHECK(r.dram_bytes_per_cycle == Approx(512.0 / (80 * 2.0)));  // RX 6900 XT: 512 GB/s, 80 CUs, 2.0 GHz
+  CHECK(i.dram_bytes_per_cycle == Approx(560.0 / (32 * 2.1)).epsilon(0.001));  // A770: 560 GB/s, 32 Xe cores
+  CHECK(r.cache_kib == 16);                                                    // RDNA's L0 per CU
+  CHECK(i.cache_kib == 8);                                                     // Alchemist's BVH cache
+  CHECK(r.dram_latency == Approx(300 * r.clock_ghz));
+  CHECK(i.dram_latency == Approx(300 * i.clock_ghz));
+  // Memory-bound against their bases: a smaller cache, slower and narrower memory behind it.
+  for (const auto& [mem, base] :
+       {std::pair<std::string, std::string>{"rdna2-mem", "rdna2"}, {"intel-mem", "intel"}}) {
+    const TimingConfig m = timing_preset(mem), g = timing_preset(base);
+    CHECK(m.cache_kib < g.cache_kib);
+    CHECK(m.dram_latency > g.dram_latency);
+    CHECK(m.dram_bytes_per_cycle < g.dram_bytes_per_cycle / 4);
+  }
 }
 
 TEST_CASE("timing keys round-trip through their printed values", "[timing][config]") {

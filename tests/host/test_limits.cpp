@@ -166,7 +166,19 @@ TEST_CASE("a PLY header Assimp would loop on is refused first", "[limits]") {
   std::ofstream(dir / "badprop.ply") << head << "property flot x\n" << tail;
   CHECK(contains(error_of([&] { host::import_mesh((dir / "badprop.ply").string()); }),
                  "expected 'property TYPE NAME'"));
-  std::ofstream(dir / "ok.ply") << "ply\nformat ascii 1.0\ncomment fine\nelement vertex 3\nproperty float x\n"
+  // Found by scripts/fuzz_long.sh (regressions/mesh_import/assimp_ply_vertical_tab_after_end_header_hang): a
+  // vertical tab after end_header, where Assimp (waiting 10 s in the fuzzer, RTU_IMPORT_TIMEOUT) never returned.
+  std::ofstream(dir / "vt.ply")
+      << head << "property float x\n"
+      << "property float y\nproperty float z\nelement face 1\n"
+         "property list uchar int vertex_indices\nend_header\v0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+  CHECK(contains(error_of([&] { host::import_mesh((dir / "vt.ply").string()); }),
+                 "vt.ply: PLY header line 9: control character 11"));
+  std::ofstream(dir / "ff.ply") << "ply\f\n" << tail;
+  CHECK(contains(error_of([&] { host::import_mesh((dir / "ff.ply").string()); }),
+                 "ff.ply: PLY header line 1: control character 12"));
+  std::ofstream(dir / "ok.ply") << "ply\r\nformat ascii 1.0\r\ncomment fine\tand tabbed\nelement vertex 3\n"
+                                   "property float x\n"
                                 << tail;
   CHECK(host::import_mesh((dir / "ok.ply").string()).size() == 1);
 }

@@ -1004,8 +1004,7 @@ TEST_CASE("compare --rays: incoherent without a count, and a spec that is neithe
   const Run p = run_rtusim("compare --scene builtin:cornell --rays primary --json " + json + "_p");
   REQUIRE(p.status == 0);
   // As many as the camera's image has.
-  const nlohmann::json a = rtu::host::read_json_file(json),
-                       b = rtu::host::read_json_file(json + "_p");
+  const nlohmann::json a = rtu::host::read_json_file(json), b = rtu::host::read_json_file(json + "_p");
   CHECK(a["rays"] == b["rays"]);
   CHECK(a["rays"].get<uint64_t>() > 0);
   const Run bad = run_rtusim("compare --scene builtin:cornell --rays incoherrent:100");

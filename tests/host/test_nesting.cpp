@@ -74,6 +74,14 @@ std::string error_of_import(const std::string& path) {
 
 const std::string kDepthMessage = "nested deeper than 64 levels of arrays and objects";
 
+// A Collada scene whose visual scene is a chain of n nested empty <node> elements.
+std::string collada_chain(size_t n) {
+  return "<?xml version=\"1.0\"?><COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" "
+         "version=\"1.4.1\"><library_visual_scenes><visual_scene id=\"s\">" +
+         repeat("<node>", n) + repeat("</node>", n) +
+         "</visual_scene></library_visual_scenes><scene><instance_visual_scene url=\"#s\"/></scene></COLLADA>";
+}
+
 }  // namespace
 
 TEST_CASE("parse_json_limited: 64 levels are read, 65 refused while parsing", "[limits][scene]") {
@@ -142,12 +150,7 @@ TEST_CASE("mesh files nested too deeply for Assimp: a clear error, exit status 2
   const std::string overflow = "ran out of its 64 MiB stack: the file nests too deeply";
   // Collada: 10^5 nested <node> elements (1.3 MB; at least 800 bytes of stack a level, 80 MB or more in all).
   const size_t n = 100000;
-  const std::string dae = write(
-      d / "deep.dae",
-      "<?xml version=\"1.0\"?><COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" version=\"1.4.1\">"
-      "<library_visual_scenes><visual_scene id=\"s\">" +
-          repeat("<node>", n) + repeat("</node>", n) +
-          "</visual_scene></library_visual_scenes><scene><instance_visual_scene url=\"#s\"/></scene></COLLADA>");
+  const std::string dae = write(d / "deep.dae", collada_chain(n));
   const std::string e_dae = error_of_import(dae);
   CHECK(contains(e_dae, dae + ": the mesh importer (Assimp) " + overflow));
 
@@ -170,12 +173,7 @@ TEST_CASE("mesh files nested too deeply for Assimp: a clear error, exit status 2
 TEST_CASE("a node chain deeper than an 8 MiB stack allows still imports", "[scene]") {
   const fs::path d = temp_dir();
   const size_t n = 15000;  // 10^4 levels of Collada overflow 8 MiB (about 800 bytes a level); ASan frames fit 3x
-  const std::string dae = write(
-      d / "chain.dae",
-      "<?xml version=\"1.0\"?><COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" version=\"1.4.1\">"
-      "<library_visual_scenes><visual_scene id=\"s\">" +
-          repeat("<node>", n) + repeat("</node>", n) +
-          "</visual_scene></library_visual_scenes><scene><instance_visual_scene url=\"#s\"/></scene></COLLADA>");
+  const std::string dae = write(d / "chain.dae", collada_chain(n));
   const std::string e = error_of_import(dae);
   INFO(e);
   CHECK(!contains(e, "stack"));

@@ -11,6 +11,10 @@ namespace rtu::hw {
 
 TimingModel::TimingModel(const TimingConfig& c, const Layout& layout)
     : m_c((c.validate(), c)), m_layout(layout), m_cache(c), m_dram(c) {
+  // A stride of 0 is the item's size (packed): resolved once here, not per fetch.
+  if (m_layout.node_stride == 0) m_layout.node_stride = m_layout.node_bytes;
+  if (m_layout.record_stride == 0) m_layout.record_stride = kRecordBytes;
+  if (m_layout.plane_stride == 0) m_layout.plane_stride = sizeof(PlaneRecord);
   m_box_free.assign(size_t(c.box_units), 0);
   m_tri_free.assign(size_t(c.tri_units) * size_t(c.tri_rate), 0);  // a unit of rate r: r issue slots per clock
   m_slots.resize(size_t(c.ray_slots));
@@ -49,13 +53,13 @@ void TimingModel::for_each_line(const TraceEvent& e, F&& f) const {
   uint64_t addr, bytes;
   if (e.kind == TraceEvent::kNode) {
     bytes = m_layout.node_bytes;
-    addr = m_layout.node_offset + uint64_t(e.index) * (m_layout.node_stride ? m_layout.node_stride : bytes);
+    addr = m_layout.node_offset + uint64_t(e.index) * m_layout.node_stride;
   } else if (e.kind == TraceEvent::kPrim) {
     bytes = kRecordBytes;
-    addr = m_layout.record_offset + uint64_t(e.index) * (m_layout.record_stride ? m_layout.record_stride : bytes);
+    addr = m_layout.record_offset + uint64_t(e.index) * m_layout.record_stride;
   } else if (e.kind == TraceEvent::kPlane) {
     bytes = sizeof(PlaneRecord);
-    addr = m_layout.plane_offset + uint64_t(e.index) * (m_layout.plane_stride ? m_layout.plane_stride : bytes);
+    addr = m_layout.plane_offset + uint64_t(e.index) * m_layout.plane_stride;
   } else {
     return;
   }

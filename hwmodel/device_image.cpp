@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "hwmodel/packed_layout.h"
 #include "hwmodel/traverse.h"
 
 namespace rtu::hw {
@@ -23,6 +24,9 @@ FixedFormat DeviceImage::format() const {
   f.rcp_bits = h.rcp_bits;
   f.t_frac_bits = h.t_frac_bits;
   f.t_bits = h.t_bits;
+  f.node_layout = h.node_layout;
+  f.prim_layout = h.prim_layout;
+  f.node_align = h.node_align;
   return f;
 }
 
@@ -33,10 +37,6 @@ QuantFrame DeviceImage::frame() const {
   q.step_exp = h.step_exp;
   for (int a = 0; a < 3; ++a) q.origin[a] = h.frame_origin[a];
   return q;
-}
-
-size_t DeviceImage::node_bytes() const {
-  return qnode_bytes(header().width, header().q_bytes);
 }
 
 namespace {
@@ -223,6 +223,99 @@ size_t align8(size_t x) {
   return (x + 7) & ~size_t(7);
 }
 
+// A tree in a packed layout: the node and primitive sections, and what the image must decode them to.
+struct PackedTree {
+  std::vector<uint8_t> nodes, prims;
+  std::vector<uint8_t> qnodes, records;  // the expected decoding: QNodes, 40-byte records, in the new order
+  uint32_t root = kEmptyChild, node_count = 0;
+  uint64_t node_bytes = 0;
+  int base_bits = 0, prim_bits = 0, group_bits = 0;
+};
+
+// Numbers nodes breadth first, each node's inner children consecutive, and stores each node's leaf groups
+// consecutively (packed_layout.h): the QNodes' values are unchanged, their references follow the new order.
+template <int N, class Q>
+PackedTree pack_tree(const FixedFormat& f, std::vector<QNode<N, Q>>& nodes, const std::vector<uint8_t>& records,
+                     uint32_t root) {
+  PackedTree p;
+  const bool blocks = f.prim_layout == 1;
+  std::vector<uint32_t> order;  // new index -> old
+  if (root != kEmptyChild && !is_leaf(root)) order.push_back(root);
+  for (size_t k = 0; k < order.size(); ++k) {
+    const QNode<N, Q>& n = nodes[order[k]];
+    for (int i = 0; i < n.count; ++i)
+      if (!is_leaf(n.child[i])) order.push_back(n.child[i]);
+  }
+  uint64_t units = 0;  // primitive section so far: records, or granules of blocks
+  uint32_t next_record = 0;
+  // Appends leaf `ref`'s group; returns its size in units and the leaf's reference in the new record order.
+  auto group = [&](uint32_t ref, uint32_t& size) {
+    const uint8_t* rec = records.data() + size_t(leaf_first(ref)) * kRecordBytes;
+    const uint32_t count = leaf_count(ref);
+    if (blocks) {
+      size = encode_block(rec, int(count), f.coord_bits, p.prims);
+    } else {
+      p.prims.insert(p.prims.end(), rec, rec + size_t(count) * kRecordBytes);
+      size = count;
+    }
+    p.records.insert(p.records.end(), rec, rec + size_t(count) * kRecordBytes);
+    units += size;
+    const uint32_t r = make_leaf(next_record, count);
+    next_record += count;
+    return r;
+  };
+  std::vector<PackedNode> packed(order.size());
+  uint64_t max_base = 0, max_prim = 0, max_group = 0;
+  uint32_t next_node = 1;
+  for (size_t k = 0; k < order.size(); ++k) {
+    QNode<N, Q> n = nodes[order[k]];
+    PackedNode& pn = packed[k];
+    for (int a = 0; a < 3; ++a) {
+      pn.origin[a] = n.origin[a];
+      pn.exp[a] = n.exp[a];
+    }
+    pn.count = n.count;
+    pn.node_base = next_node;
+    pn.prim_base = units;
+    bool any_inner = false, any_leaf = false;
+    for (int i = 0; i < n.count; ++i) {
+      for (int r = 0; r < 6; ++r) pn.q[r][i] = n.q[r][i];
+      if (is_leaf(n.child[i])) {
+        pn.leaf[i] = true;
+        n.child[i] = group(n.child[i], pn.group[i]);
+        max_group = std::max<uint64_t>(max_group, pn.group[i] - 1);
+        any_leaf = true;
+      } else {
+        n.child[i] = next_node++;
+        any_inner = true;
+      }
+    }
+    if (!any_inner) pn.node_base = 0;  // unused: zero, so it costs no base bits
+    if (!any_leaf) pn.prim_base = 0;
+    max_base = std::max(max_base, pn.node_base);
+    max_prim = std::max(max_prim, pn.prim_base);
+    const auto* b = reinterpret_cast<const uint8_t*>(&n);
+    p.qnodes.insert(p.qnodes.end(), b, b + sizeof n);
+  }
+  if (root != kEmptyChild && is_leaf(root)) {
+    uint32_t size = 0;
+    p.root = group(root, size);
+  } else {
+    p.root = order.empty() ? kEmptyChild : 0;
+  }
+  if (next_record * kRecordBytes != records.size())
+    throw std::logic_error("encoder: packed layout did not place every record once");
+  p.base_bits = bits_for(max_base);
+  p.prim_bits = bits_for(max_prim);
+  p.group_bits = bits_for(max_group);
+  const NodeFields fields = node_fields(f, p.base_bits, p.prim_bits, p.group_bits);
+  p.node_bytes = fields.bytes(f.node_align);
+  if (p.node_bytes > 0xFFFF) throw std::invalid_argument("encode_scene: a packed node above 65535 bytes");
+  for (const PackedNode& pn : packed) pack_node(pn, fields, f.coord_bits, p.node_bytes, p.nodes);
+  p.node_count = uint32_t(order.size());
+  return p;
+}
+
 }  // namespace
 
 DeviceImage encode_scene(const Geometry& g, const FixedFormat& f, const Bvh* bvh) {
@@ -231,34 +324,48 @@ DeviceImage encode_scene(const Geometry& g, const FixedFormat& f, const Bvh* bvh
     throw std::invalid_argument("encode_scene: BVH width " + std::to_string(bvh->width()) +
                                 " differs from the format's width " + std::to_string(f.width));
   Encoder enc(g, f);
-  std::vector<uint8_t> node_bytes, records;
-  uint32_t root = kEmptyChild, node_count = 0, flags = 0;
+  PackedTree tree;  // the node and primitive sections (and, packed, their expected decoding)
+  uint32_t flags = 0;
   const int q_bytes = f.offset_bytes();
+  const bool packed = f.node_layout != 0;
   if (bvh) {
     bvh->visit([&](const auto& t) {
       constexpr int N = std::decay_t<decltype(t)>::kWidth;
       auto run = [&](auto q_tag) {
         using Q = decltype(q_tag);
         std::vector<QNode<N, Q>> nodes;
+        std::vector<uint8_t> records;
         enc.encode_tree(t, nodes, records);
-        node_bytes.resize(nodes.size() * sizeof(QNode<N, Q>));
-        if (!nodes.empty()) std::memcpy(node_bytes.data(), nodes.data(), node_bytes.size());
-        node_count = uint32_t(nodes.size());
+        if (packed) {
+          tree = pack_tree(f, nodes, records, t.root_ref);
+          return;
+        }
+        tree.nodes.resize(nodes.size() * sizeof(QNode<N, Q>));
+        if (!nodes.empty()) std::memcpy(tree.nodes.data(), nodes.data(), tree.nodes.size());
+        tree.prims = std::move(records);
+        tree.node_count = uint32_t(nodes.size());
+        tree.node_bytes = sizeof(QNode<N, Q>);
+        tree.root = t.root_ref;
       };
       if (q_bytes == 1)
         run(uint8_t{});
       else
         run(uint16_t{});
-      root = t.root_ref;
     });
   } else {
     flags |= kImageNoBvh;
     const uint32_t n = g.num_bounded();
-    records.assign(size_t(n) * kRecordBytes, 0);
+    tree.records.assign(size_t(n) * kRecordBytes, 0);
     for (uint32_t p = 0; p < n; ++p) {
       GridBox unused;
-      enc.make_record(p, records.data() + size_t(p) * kRecordBytes, unused);
+      enc.make_record(p, tree.records.data() + size_t(p) * kRecordBytes, unused);
     }
+    // Blocks of up to 16 records (the group size a block holds), in order.
+    for (uint32_t p = 0; p < n && f.prim_layout == 1; p += uint32_t(kMaxLeafSize))
+      encode_block(tree.records.data() + size_t(p) * kRecordBytes, int(std::min<uint32_t>(kMaxLeafSize, n - p)),
+                   f.coord_bits, tree.prims);
+    if (f.prim_layout == 0) tree.prims = tree.records;
+    tree.node_bytes = packed ? node_fields(f, 0, 0, 0).bytes(f.node_align) : qnode_bytes(f.width, q_bytes);
   }
   std::vector<PlaneRecord> planes;
   for (uint32_t i = 0; i < g.planes.size(); ++i) planes.push_back(enc.make_plane(i));
@@ -279,24 +386,42 @@ DeviceImage encode_scene(const Geometry& g, const FixedFormat& f, const Bvh* bvh
   h.step_exp = enc.frame().step_exp;
   h.flags = flags;
   for (int a = 0; a < 3; ++a) h.frame_origin[a] = enc.frame().origin[a];
-  h.root_ref = root;
-  h.node_count = node_count;
-  h.record_count = uint32_t(records.size() / kRecordBytes);
+  h.root_ref = tree.root;
+  h.node_count = tree.node_count;
+  h.record_count = g.num_bounded();
   h.plane_count = uint32_t(planes.size());
   h.num_triangles = uint32_t(g.triangles.size());
   h.num_spheres = uint32_t(g.spheres.size());
+  h.node_layout = uint8_t(f.node_layout);
+  h.prim_layout = uint8_t(f.prim_layout);
+  h.node_bytes = uint16_t(tree.node_bytes);
+  h.base_bits = uint8_t(f.node_layout == 1 ? tree.base_bits : 0);
+  h.prim_bits = uint8_t(f.node_layout == 1 ? tree.prim_bits : 0);
+  h.group_bits = uint8_t(f.node_layout == 1 ? tree.group_bits : 0);
+  h.node_align = uint8_t(f.node_align);
+  h.record_bytes = tree.prims.size();
   h.node_offset = align8(sizeof(ImageHeader));
-  h.record_offset = align8(h.node_offset + node_bytes.size());
-  h.plane_offset = align8(h.record_offset + records.size());
+  h.record_offset = align8(h.node_offset + tree.nodes.size());
+  h.plane_offset = align8(h.record_offset + tree.prims.size());
   h.total_bytes = align8(h.plane_offset + planes.size() * sizeof(PlaneRecord));
 
   DeviceImage img;
   img.m_words.assign(h.total_bytes / 8, 0);
   uint8_t* base = reinterpret_cast<uint8_t*>(img.m_words.data());
   std::memcpy(base, &h, sizeof h);
-  if (!node_bytes.empty()) std::memcpy(base + h.node_offset, node_bytes.data(), node_bytes.size());
-  if (!records.empty()) std::memcpy(base + h.record_offset, records.data(), records.size());
+  if (!tree.nodes.empty()) std::memcpy(base + h.node_offset, tree.nodes.data(), tree.nodes.size());
+  if (!tree.prims.empty()) std::memcpy(base + h.record_offset, tree.prims.data(), tree.prims.size());
   if (!planes.empty()) std::memcpy(base + h.plane_offset, planes.data(), planes.size() * sizeof(PlaneRecord));
+  if (packed || f.prim_layout != 0) {
+    // Decode as a bound image would, and hold the decoding to the values encoded.
+    img.check();
+    const auto* dn = reinterpret_cast<const uint8_t*>(img.m_nodes.data());
+    const bool nodes_ok = tree.qnodes.empty() || (img.m_nodes.size() * 8 >= tree.qnodes.size() &&
+                                                  std::memcmp(dn, tree.qnodes.data(), tree.qnodes.size()) == 0);
+    const uint8_t* dr = img.record(0);
+    const bool records_ok = tree.records.empty() || std::memcmp(dr, tree.records.data(), tree.records.size()) == 0;
+    if (!nodes_ok || !records_ok) throw std::logic_error("encoder: a packed layout does not decode to its values");
+  }
   return img;
 }
 
@@ -322,7 +447,7 @@ DeviceImage DeviceImage::from_bytes(const uint8_t* data, size_t bytes) {
   return img;
 }
 
-void DeviceImage::check() const {
+void DeviceImage::check() {
   const ImageHeader& h = header();
   const uint64_t bytes = uint64_t(m_words.size()) * 8;
   if (h.magic != kImageMagic) bad_image("bad magic");
@@ -341,8 +466,26 @@ void DeviceImage::check() const {
   for (int a = 0; a < 3; ++a)
     if (h.frame_origin[a] <= -(int64_t(1) << 52) || h.frame_origin[a] >= (int64_t(1) << 52))
       bad_image("frame origin out of range");
+  // Layouts: the node size the format and the field widths give, the primitive section the layout gives.
+  const bool packed = h.node_layout != 0, blocks = h.prim_layout != 0;
+  const size_t qbytes = qnode_bytes(h.width, h.q_bytes);
+  NodeFields fields;
+  if (packed) {
+    if (h.base_bits > 32 || h.prim_bits > 32 || h.group_bits > 7)
+      bad_image("node field widths out of range (base_bits, prim_bits <= 32, group_bits <= 7)");
+    if (h.node_layout == 2 && (h.base_bits | h.prim_bits | h.group_bits) != 0)
+      bad_image("node field widths given for compressed-wide nodes (their fields are bytes)");
+    fields = node_fields(f, h.base_bits, h.prim_bits, h.group_bits);
+    if (h.node_bytes != fields.bytes(f.node_align))
+      bad_image("node_bytes " + std::to_string(h.node_bytes) + " differs from the layout's " +
+                std::to_string(fields.bytes(f.node_align)));
+  } else if (h.node_bytes != qbytes || (h.base_bits | h.prim_bits | h.group_bits) != 0) {
+    bad_image("node_bytes or node field widths differ from the struct layout's");
+  }
+  if (!blocks && h.record_bytes != uint64_t(h.record_count) * kRecordBytes)
+    bad_image("record_bytes differs from record_count 40-byte records");
   // Sections inside the image, aligned, not overlapping the header or each other.
-  const uint64_t nb = uint64_t(h.node_count) * node_bytes(), rb = uint64_t(h.record_count) * kRecordBytes,
+  const uint64_t nb = uint64_t(h.node_count) * h.node_bytes, rb = h.record_bytes,
                  pb = uint64_t(h.plane_count) * sizeof(PlaneRecord);
   auto section = [&](uint64_t off, uint64_t size, uint64_t after, const char* what) {
     if (off % 8 != 0 || off < after || off > bytes || size > bytes - off)
@@ -355,6 +498,87 @@ void DeviceImage::check() const {
   if (num_bounded + h.plane_count >= kRecordPrimMask) bad_image("too many primitives");
   if (h.record_count != num_bounded) bad_image("record count differs from the primitive counts");
 
+  // Blocks: decoded one after another from the section's start; each block's granule -> its first record.
+  std::vector<std::pair<uint64_t, uint32_t>> block_at;  // (granule, first record), granules rising
+  m_records.clear();
+  m_spans.clear();
+  if (blocks) {
+    const uint8_t* sec = data() + h.record_offset;
+    uint64_t g = 0;
+    while (g * kGranuleBytes < rb) {
+      const uint32_t first = uint32_t(m_records.size() / kRecordBytes);
+      if (first >= h.record_count) bad_image("primitive section holds more records than record_count");
+      const std::string at = "block at byte " + std::to_string(g * kGranuleBytes) + " of the primitive section";
+      uint32_t size = 0;
+      try {
+        size = decode_block(sec + g * kGranuleBytes, rb - g * kGranuleBytes, f.coord_bits, m_records, at);
+      } catch (const std::invalid_argument& e) {
+        bad_image(e.what());
+      }
+      block_at.push_back({g, first});
+      m_spans.resize(m_records.size() / kRecordBytes, Span{0, 0});
+      m_spans[first] = Span{h.record_offset + g * kGranuleBytes, size * uint32_t(kGranuleBytes)};
+      g += size;
+    }
+    if (m_records.size() != size_t(h.record_count) * kRecordBytes)
+      bad_image("primitive section decodes to a record count other than record_count");
+  }
+  const uint64_t block_end = rb / kGranuleBytes;
+  // Packed nodes -> QNodes: the children's references from the node base, the primitive base and the meta.
+  auto decode_nodes = [&](const NodeFields& fl) {
+    const int W = h.width;
+    m_nodes.assign((size_t(h.node_count) * qbytes + 7) / 8, 0);
+    uint8_t* out = reinterpret_cast<uint8_t*>(m_nodes.data());
+    const uint8_t* in = data() + h.node_offset;
+    for (uint32_t n = 0; n < h.node_count; ++n) {
+      const std::string at = "node " + std::to_string(n);
+      PackedNode pn;
+      try {
+        pn = unpack_node(in + size_t(n) * h.node_bytes, h.node_bytes, fl, f.coord_bits, at);
+      } catch (const std::invalid_argument& e) {
+        bad_image(e.what());
+      }
+      uint8_t* q = out + size_t(n) * qbytes;
+      std::memcpy(q, pn.origin, 12);
+      for (int a = 0; a < 3; ++a) {
+        if (pn.exp[a] > 127) bad_image(at + ": scale out of range");
+        q[12 + a] = uint8_t(pn.exp[a]);
+      }
+      q[15] = uint8_t(pn.count);
+      for (int r = 0; r < 6; ++r)
+        for (int i = 0; i < W; ++i) {
+          const uint16_t v = uint16_t(pn.q[r][i]);  // a field of at most 16 bits
+          std::memcpy(q + 16 + size_t(r * W + i) * h.q_bytes, &v, h.q_bytes);
+        }
+      uint64_t inner = pn.node_base, unit = pn.prim_base;
+      for (int i = 0; i < W; ++i) {
+        uint32_t ref = kEmptyChild;
+        if (i < pn.count && !pn.leaf[i]) {
+          if (inner >= h.node_count) bad_image(at + ": child node out of range");
+          ref = uint32_t(inner++);
+        } else if (i < pn.count) {
+          uint64_t first = unit, count = pn.group[i];
+          if (blocks) {
+            const auto it = std::lower_bound(block_at.begin(), block_at.end(), std::make_pair(unit, uint32_t(0)));
+            if (it == block_at.end() || it->first != unit)
+              bad_image(at + ": leaf child " + std::to_string(i) + " does not point at the start of a block");
+            const bool last = it + 1 == block_at.end();
+            if ((last ? block_end : (it + 1)->first) - unit != pn.group[i])
+              bad_image(at + ": leaf child " + std::to_string(i) + "'s group size differs from its block's");
+            first = it->second;
+            count = (last ? h.record_count : (it + 1)->second) - it->second;
+          } else if (count > uint64_t(kMaxLeafSize)) {
+            bad_image(at + ": leaf child " + std::to_string(i) + " of more than 16 records");
+          }
+          if (first + count > h.record_count || first > kMaxLeafFirst)
+            bad_image(at + ": leaf outside the records");
+          ref = make_leaf(uint32_t(first), uint32_t(count));
+          unit += pn.group[i];
+        }
+        std::memcpy(q + 16 + size_t(6 * W) * h.q_bytes + 4 * size_t(i), &ref, 4);
+      }
+    }
+  };
   // Records: kind and index agree, coordinates inside the ranges validate() proves the datapath for.
   const int B = f.coord_bits, F = f.frac_bits;
   const int64_t grid_max = (int64_t(1) << B) - 1;
@@ -419,8 +643,9 @@ void DeviceImage::check() const {
   const int N = h.width;
   const int64_t qlim = int64_t(1) << f.child_bits;
   std::vector<uint32_t> depth(h.node_count, 0);
-  const uint8_t* nodes = data() + h.node_offset;
-  const size_t nbytes = node_bytes();
+  if (packed) decode_nodes(fields);
+  const uint8_t* nodes = reinterpret_cast<const uint8_t*>(this->nodes<uint8_t>());
+  const size_t nbytes = qbytes;
   for (uint32_t n = 0; n < h.node_count; ++n) {
     const uint8_t* nd = nodes + size_t(n) * nbytes;
     int32_t origin[3];

@@ -1,6 +1,9 @@
 // The device memory image of a scene: what BIND_SCENE points the unit at. One position-independent block:
-// a header (format and frame), then BVH nodes (hw_format.h QNode), primitive records (40 bytes each, leaf order)
-// and plane records. Offsets are bytes from the start of the image; every section is 8-byte aligned.
+// a header (format and frame), then BVH nodes, primitives and plane records. Offsets are bytes from the start of
+// the image; every section is 8-byte aligned. Nodes and primitives are stored in the format's layouts
+// (packed_layout.h): QNode structs and 40-byte records (leaf order), or bit-packed or compressed-wide nodes and
+// 40-byte records or triangle blocks. A bound image decodes packed layouts into QNodes and 40-byte records,
+// which is what nodes() and record() return: the values the unit's decoders hand to its tests.
 //
 // encode_scene() builds it from the scene and the float BVH (the same tree the float device traverses, so the
 // two devices differ only in numbers). Child boxes are the union of the float child box rounded outward to the
@@ -21,7 +24,7 @@
 namespace rtu::hw {
 
 inline constexpr uint32_t kImageMagic = 0x42555452u;  // "RTUB" little-endian
-inline constexpr uint16_t kImageVersion = 1;
+inline constexpr uint16_t kImageVersion = 2;
 inline constexpr uint32_t kImageNoBvh = 1u;  // flags: no BVH; test every primitive record (tiny scenes)
 
 struct ImageHeader {
@@ -50,8 +53,16 @@ struct ImageHeader {
   uint64_t record_offset;   //
   uint64_t plane_offset;    //
   uint64_t total_bytes;     // size of the image
+  uint8_t node_layout;      // FixedFormat::node_layout, prim_layout
+  uint8_t prim_layout;      //
+  uint16_t node_bytes;      // bytes of one node in the node section (padded)
+  uint8_t base_bits;        // bit-packed nodes: bits of the node base, primitive base, group size - 1
+  uint8_t prim_bits;        //   (packed_layout.h node_fields); 0 in other layouts
+  uint8_t group_bits;       //
+  uint8_t node_align;       // FixedFormat::node_align
+  uint64_t record_bytes;    // bytes of the primitive section
 };
-static_assert(sizeof(ImageHeader) == 104);
+static_assert(sizeof(ImageHeader) == 120);
 
 class DeviceImage {
  public:
@@ -61,19 +72,31 @@ class DeviceImage {
 
   FixedFormat format() const;
   QuantFrame frame() const;
-  size_t node_bytes() const;  // sizeof the node type
+  size_t node_bytes() const { return header().node_bytes; }  // one node in memory, in the image's layout
+  // The nodes as QNodes (decoded when the layout is packed); Node must be the image's QNode type.
   template <class Node>
   const Node* nodes() const {
-    return reinterpret_cast<const Node*>(data() + header().node_offset);
+    return reinterpret_cast<const Node*>(m_nodes.empty() ? data() + header().node_offset
+                                                         : reinterpret_cast<const uint8_t*>(m_nodes.data()));
   }
-  const uint8_t* record(uint32_t i) const { return data() + header().record_offset + size_t(i) * kRecordBytes; }
+  // Primitive record i (decoded when the primitives are blocks).
+  const uint8_t* record(uint32_t i) const {
+    return (m_records.empty() ? data() + header().record_offset : m_records.data()) + size_t(i) * kRecordBytes;
+  }
+  // Where the unit fetches record i: image offset and bytes. With blocks the first record of a block carries the
+  // whole block and the others nothing (the unit reads a leaf's block once); empty when records are 40 bytes.
+  struct Span {
+    uint64_t offset;
+    uint32_t bytes;
+  };
+  const std::vector<Span>& record_spans() const { return m_spans; }
   const PlaneRecord* planes() const {
     return reinterpret_cast<const PlaneRecord*>(data() + header().plane_offset);
   }
 
   // Section sizes in bytes.
   uint64_t nodes_size() const { return uint64_t(header().node_count) * node_bytes(); }
-  uint64_t records_size() const { return uint64_t(header().record_count) * kRecordBytes; }
+  uint64_t records_size() const { return header().record_bytes; }
   uint64_t planes_size() const { return uint64_t(header().plane_count) * sizeof(PlaneRecord); }
 
   // An image from bytes written by someone else (device memory): copied, then checked field by field so that
@@ -83,8 +106,11 @@ class DeviceImage {
 
  private:
   friend DeviceImage encode_scene(const Geometry&, const FixedFormat&, const Bvh*);
-  void check() const;
-  std::vector<uint64_t> m_words;  // 8-byte aligned storage
+  void check();                    // also decodes packed layouts
+  std::vector<uint64_t> m_words;   // 8-byte aligned storage
+  std::vector<uint64_t> m_nodes;   // decoded QNodes of a packed layout (8-byte aligned), else empty
+  std::vector<uint8_t> m_records;  // decoded records of blocks, else empty
+  std::vector<Span> m_spans;
 };
 
 // Encodes `g` in format `f` over `bvh` (its width must be f.width), or without a BVH when bvh is null (every

@@ -46,6 +46,11 @@ void FixedFormat::validate() const {
   if (width != 2 && width != 4 && width != 8) fail("width must be 2, 4 or 8");
   for (const FormatField& f : format_fields())
     if (f.member != &FixedFormat::width) range(f.key, this->*f.member, f.lo, f.hi);
+  if ((node_align & (node_align - 1)) != 0) fail("node_align must be a power of two");
+  if (node_layout == 0 && node_align != 1)
+    fail("node_align applies to packed nodes (node_layout 1 or 2); node_layout 0 stores whole structs");
+  if (prim_layout != 0 && node_layout == 0)
+    fail("prim_layout 1 (triangle blocks) needs packed nodes (node_layout 1 or 2), which address blocks");
   constexpr int kLimit = 126;  // magnitude bits of the 128-bit intermediates, one spare
   auto fits = [&](const char* what, int bits) {
     if (bits > kLimit) fail(std::string(what) + " needs " + std::to_string(bits) + " bits (> 126)");
@@ -74,6 +79,12 @@ std::string FixedFormat::describe() const {
   o << name << ": width " << width << ", coord " << coord_bits << ", child " << child_bits << ", guard "
     << guard_bits << ", frac " << frac_bits << ", dir " << dir_bits << ", rcp " << rcp_bits << ", t " << t_bits
     << "." << t_frac_bits;
+  static const char* const kNodes[] = {"structs", "bit-packed", "compressed-wide"};
+  if (node_layout != 0 || prim_layout != 0) {
+    o << ", nodes " << kNodes[node_layout < 0 || node_layout > 2 ? 0 : node_layout];
+    if (node_align > 1) o << " (" << node_align << "-byte aligned)";
+    o << ", " << (prim_layout ? "triangle blocks" : "40-byte records");
+  }
   return o.str();
 }
 
@@ -113,6 +124,10 @@ const std::vector<FixedFormat>& format_presets() {
        "coord_bits=16:child_bits=6:guard_bits=4:frac_bits=4:dir_bits=16:rcp_bits=16:t_frac_bits=8:t_bits=32"},
       {"precise",
        "coord_bits=28:child_bits=12:guard_bits=4:frac_bits=10:dir_bits=28:rcp_bits=28:t_frac_bits=16:t_bits=60"},
+      // 8-wide nodes of byte fields, 80 bytes at 8-bit offsets (after Ylitie et al., HPG 2017), with blocks.
+      {"cwbvh", "width=8:node_layout=2:prim_layout=1"},
+      // The default's bits, stored bit-packed: nodes and triangle blocks.
+      {"packed", "node_layout=1:prim_layout=1"},
   };
   static const std::vector<FixedFormat> presets = [] {
     std::vector<FixedFormat> v;
@@ -152,6 +167,9 @@ constexpr FormatField kFields[] = {
     {"rcp_bits", "R", &F::rcp_bits, 4, 40, "reciprocal bits: relative rounding error <= 2^-R"},
     {"t_frac_bits", "T", &F::t_frac_bits, 0, 32, "fraction bits of t (ray units)"},
     {"t_bits", "", &F::t_bits, 8, 62, "magnitude bits of the t register"},
+    {"node_layout", "", &F::node_layout, 0, 2, "node storage: 0 structs, 1 bit-packed, 2 compressed-wide bytes"},
+    {"node_align", "", &F::node_align, 1, 128, "packed node size rounded up to a multiple of this (bytes)"},
+    {"prim_layout", "", &F::prim_layout, 0, 1, "primitive storage: 0 40-byte records, 1 triangle blocks"},
 };
 
 }  // namespace

@@ -25,6 +25,10 @@ struct FixedFormat {
   int rcp_bits = 20;            // R: 1/direction, R + 1 significant bits: relative rounding error <= 2^-R
   int t_frac_bits = 16;         // T: fraction bits of t (ray units); the t register is t_bits wide
   int t_bits = 56;              // total magnitude bits of t: saturates at 2^t_bits - 1 raw (beyond every tmax)
+  // How the image stores what the fields above describe (packed_layout.h): the bytes the bits cost.
+  int node_layout = 0;  // 0 structs (whole-byte fields), 1 bit-packed, 2 compressed-wide (CWBVH-like bytes)
+  int node_align = 1;   // packed nodes padded to a multiple of this many bytes (power of two, 1..128)
+  int prim_layout = 0;  // 0 40-byte records, 1 compressed triangle blocks (needs node_layout 1 or 2)
 
   // Throws std::invalid_argument with the rule a format breaks.
   void validate() const;

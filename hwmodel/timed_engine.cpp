@@ -38,8 +38,7 @@ void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   auto tracer = std::make_unique<FixedTracer>(*image, to);  // throws when the box unit cannot take the format
   m_image = std::move(image);
   m_tracer = std::move(tracer);
-  const ImageHeader& h = m_image->header();
-  const TimingModel::Layout l = TimingModel::layout_of(h, m_image->node_bytes(), uint64_t(m_c.layout_align));
+  const TimingModel::Layout l = TimingModel::layout_of(*m_image, uint64_t(m_c.layout_align));
   m_model = std::make_unique<TimingModel>(m_c, l);
   m_model->set_trace(m_trace);
   m_slot_time.clear();  // another scene, other streams

@@ -27,9 +27,11 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout)
     m_box_issue[k] = std::max<uint64_t>(1, (k + uint64_t(c.box_rate) - 1) / uint64_t(c.box_rate));
 }
 
-TimingModel::Layout TimingModel::layout_of(const ImageHeader& h, uint64_t node_bytes, uint64_t align) {
+TimingModel::Layout TimingModel::layout_of(const DeviceImage& image, uint64_t align) {
+  const ImageHeader& h = image.header();
   Layout l;
-  l.node_bytes = node_bytes;
+  l.node_bytes = image.node_bytes();
+  l.record_spans = image.record_spans();
   if (align == 0) {
     l.node_offset = h.node_offset;
     l.record_offset = h.record_offset;
@@ -38,12 +40,22 @@ TimingModel::Layout TimingModel::layout_of(const ImageHeader& h, uint64_t node_b
     return l;
   }
   auto up = [align](uint64_t v) { return (v + align - 1) / align * align; };
-  l.node_stride = up(node_bytes);
+  l.node_stride = up(l.node_bytes);
   l.record_stride = up(kRecordBytes);
   l.plane_stride = up(sizeof(PlaneRecord));
   l.node_offset = up(h.node_offset);
   l.record_offset = up(l.node_offset + uint64_t(h.node_count) * l.node_stride);
-  l.plane_offset = up(l.record_offset + uint64_t(h.record_count) * l.record_stride);
+  uint64_t record_end = l.record_offset + uint64_t(h.record_count) * l.record_stride;
+  if (!l.record_spans.empty()) {  // each block starts on the alignment
+    uint64_t at = l.record_offset;
+    for (DeviceImage::Span& s : l.record_spans) {
+      if (s.bytes == 0) continue;
+      s.offset = at;
+      at = up(at + s.bytes);
+    }
+    record_end = at;
+  }
+  l.plane_offset = up(record_end);
   l.total_bytes = l.plane_offset + uint64_t(h.plane_count) * l.plane_stride;
   return l;
 }
@@ -54,6 +66,11 @@ void TimingModel::for_each_line(const TraceEvent& e, F&& f) const {
   if (e.kind == TraceEvent::kNode) {
     bytes = m_layout.node_bytes;
     addr = m_layout.node_offset + uint64_t(e.index) * m_layout.node_stride;
+  } else if (e.kind == TraceEvent::kPrim && !m_layout.record_spans.empty()) {
+    const DeviceImage::Span& s = m_layout.record_spans[e.index];
+    if (s.bytes == 0) return;  // in the block its leaf's first record fetched
+    bytes = s.bytes;
+    addr = s.offset;
   } else if (e.kind == TraceEvent::kPrim) {
     bytes = kRecordBytes;
     addr = m_layout.record_offset + uint64_t(e.index) * m_layout.record_stride;

@@ -76,10 +76,13 @@ class TimingModel {
     uint64_t node_offset = 0, node_bytes = 56, record_offset = 0, plane_offset = 0;
     uint64_t node_stride = 0, record_stride = 0, plane_stride = 0;  // 0: the item's size (packed)
     uint64_t total_bytes = 0;  // the footprint of the sections so placed, from offset 0
+    // Primitive blocks (DeviceImage::record_spans): record i is fetched as the bytes of its span, which are the
+    // whole block for a block's first record and none for the others. Empty: 40-byte records at the stride.
+    std::vector<DeviceImage::Span> record_spans;
   };
   // The image's own layout (packed), or with `align` > 0 every item padded to a multiple of it and every section
   // start aligned to it (TimingConfig::layout_align).
-  static Layout layout_of(const ImageHeader& h, uint64_t node_bytes, uint64_t align);
+  static Layout layout_of(const DeviceImage& image, uint64_t align);
   TimingModel(const TimingConfig& c, const Layout& layout);
 
   // One TRACE packet of n rays: begin, then feed the rays' events in order (any number at a time; an empty list

@@ -331,7 +331,7 @@ TEST_CASE("from_bytes refuses a BVH deeper than the traversal stack", "[watchdog
     using Node = QNode<2, uint8_t>;
     ImageHeader h = h0;
     h.node_count = levels;
-    h.node_offset = 104;
+    h.node_offset = sizeof(ImageHeader);
     h.record_offset = (h.node_offset + uint64_t(levels) * sizeof(Node) + 7) / 8 * 8;
     h.plane_offset = h.record_offset + base.records_size();
     h.total_bytes = h.plane_offset + base.planes_size();

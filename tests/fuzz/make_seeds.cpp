@@ -64,6 +64,9 @@ int main(int argc, char** argv) {
   }
   const hw::DeviceImage brute = hw::encode_scene(g, hw::FixedFormat{}, nullptr);
   put(dir / "device_image" / "fixed_brute.img", brute.data(), brute.size(), 0);
+  // No BVH, primitives in triangle blocks (the packed layouts' other path through the checker).
+  const hw::DeviceImage brute_blocks = hw::encode_scene(g, hw::format_preset("packed"), nullptr);
+  put(dir / "device_image" / "fixed_brute_blocks.img", brute_blocks.data(), brute_blocks.size(), 0);
   const std::vector<uint64_t> fimg = hw::encode_float_scene(g);
   put(dir / "device_image" / "float.img", fimg.data(), fimg.size() * 8, 1);
 

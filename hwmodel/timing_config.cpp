@@ -22,14 +22,14 @@ struct KeyInfo {
 };
 
 constexpr int kMaxLatency = 100000;
-constexpr double kNoRange = -1e300;  // lo of a key whose rule is not a range (bvh_width: 2, 4 or 8)
+constexpr double kNoRange = -1e300;  // lo of a key whose rule is not a range (bvh_width: 2, 4, 6 or 8)
 
 const std::vector<KeyInfo>& key_table() {
   using C = TimingConfig;
   static const std::vector<KeyInfo> table = {
       {"format", &C::format, 0, 0, "fixed-point format preset of the datapath (rtusim info --formats)"},
       {"bvh_width", &C::bvh_width, kNoRange, -kNoRange,
-       "children per BVH node: 2, 4 or 8 (overrides the format's width)"},
+       "children per BVH node: 2, 4, 6 or 8 (overrides the format's width)"},
       {"clock_ghz", &C::clock_ghz, 0.001, 1000, "clock in GHz, for reporting seconds and GB/s only"},
       {"packet_latency", &C::packet_latency, 0, kMaxLatency,
        "cycles from doorbell (or the previous packet) to a decoded packet"},
@@ -132,8 +132,8 @@ void TimingConfig::validate() const {
     } else if (key == "box_unit") {
       if (box_unit != "cpp" && box_unit != "rtl") fail("box_unit = '" + box_unit + "' must be cpp or rtl");
     } else if (key == "bvh_width") {
-      if (bvh_width != 2 && bvh_width != 4 && bvh_width != 8)
-        fail("bvh_width = " + std::to_string(bvh_width) + " must be 2, 4 or 8");
+      if (bvh_width != 2 && bvh_width != 4 && bvh_width != 6 && bvh_width != 8)
+        fail("bvh_width = " + std::to_string(bvh_width) + " must be 2, 4, 6 or 8");
     } else if (key == "layout_align") {
       if (layout_align != 0 && (layout_align < 8 || (layout_align & (layout_align - 1)) != 0))
         fail("layout_align = " + std::to_string(layout_align) + " must be 0 or a power of two in [8, 4096]");

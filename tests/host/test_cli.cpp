@@ -427,7 +427,7 @@ TEST_CASE("config: unknown preset or key, bad values, malformed --set: exit 2 na
       {"config --config rdna2 --set ray_slots=12x", "ray_slots"},
       {"config --config rdna2 --set ray_slots=0", "ray_slots"},
       {"config --config rdna2 --set ray_slots=", "ray_slots"},
-      {"config --config rdna2 --set bvh_width=6", "bvh_width"},
+      {"config --config rdna2 --set bvh_width=5", "bvh_width"},
       {"config --config rdna2 --set clock_ghz=fast", "clock_ghz"},
       {"config --config rdna2 --set format=nosuch", "nosuch"},
       {"config --config rdna2 --set ray_slots", "key=value"},

@@ -510,7 +510,7 @@ TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad 
                                                         {"--formats default:bits=3", "format key"},
                                                         {"--shard 3/2", "--shard"},
                                                         {"--shard x", "--shard"},
-                                                        {"--bvh-width 3", "2, 4 or 8"},
+                                                        {"--bvh-width 3", "2, 4, 6 or 8"},
                                                         {"--config nosuch", "nosuch"}}) {
     const Run e =
         run_rtusim("sweep --scene builtin:seed " + args + " --rays 10 --out " + (d / "bad.csv").string());
@@ -970,6 +970,7 @@ TEST_CASE("device options: a command lists only those it uses, and refuses those
   CHECK(run_rtusim(trace + "--device timed --config intel --sample 0.5 --sample-seed 3").status == 0);
   CHECK(run_rtusim(trace + "--device fixed --watchdog-steps 100000 --coord-bits 16").status == 0);
   CHECK(run_rtusim(trace + "--device float --bvh-width 8").status == 0);
+  CHECK(run_rtusim(trace + "--device fixed --bvh-width 6").status == 0);
 }
 
 TEST_CASE("rays: --count 0 refused, options of the other kind refused", "[cli]") {

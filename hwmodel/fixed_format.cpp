@@ -107,6 +107,7 @@ const std::vector<FixedFormat>& format_presets() {
   // Each preset: the header's defaults with these changes.
   static const std::pair<const char*, const char*> kPresets[] = {
       {"default", ""},
+      {"wide6", "width=6"},
       {"wide8", "width=8"},
       {"binary", "width=2"},
       {"compact",

@@ -85,7 +85,7 @@ struct TimingConfig {
 };
 
 // The presets: "rdna2" (resembling AMD RDNA2's ray accelerator: BVH4, 4 box tests or 1 triangle test per clock),
-// "intel" (resembling Intel's RTU: 8-wide nodes, 12 box tests and 1 triangle test per clock), "embedded" (a small
+// "intel" (resembling Intel's RTU: 6-wide nodes, 12 box tests and 1 triangle test per clock), "embedded" (a small
 // unit: BVH4, 16-bit coordinates (format compact), one box unit, a small cache), and the memory-bound
 // "rdna2-mem" and "intel-mem" (rdna2's and intel's datapath with one unit's share of a real GPU's memory: its
 // small first-level cache, VRAM latency and bandwidth / units). timing_config.cpp says where each figure comes

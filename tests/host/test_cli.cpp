@@ -256,10 +256,11 @@ TEST_CASE("info reports the fixed image: bytes per node and footprint per format
   const fs::path d = temp_dir();
   const Run list = run_rtusim("info --formats");
   REQUIRE(list.status == 0);
-  for (const char* p : {"default", "wide8", "binary", "compact", "precise"})
+  for (const char* p : {"default", "wide6", "wide8", "binary", "compact", "precise"})
     CHECK(list.output.find(p) != std::string::npos);
   for (const auto& [format, node_bytes] :
-       {std::pair{"default", 56}, std::pair{"wide8", 96}, std::pair{"binary", 36}, std::pair{"precise", 80}}) {
+       {std::pair{"default", 56}, std::pair{"wide6", 76}, std::pair{"wide8", 96}, std::pair{"binary", 36},
+        std::pair{"precise", 80}}) {
     const std::string json = (d / (std::string(format) + ".json")).string();
     const Run r = run_rtusim(std::string("info --scene builtin:seed --format ") + format + " --json " + json);
     INFO(r.output);
@@ -285,9 +286,9 @@ TEST_CASE("stress: every category runs, no promise breaks at the default format"
     CHECK(c["failure_rule"].get<std::string>().size() > 10);
   }
   // The promises hold at every width, not only the default: the narrowest preset, the 128-bit box path,
-  // binary and 8-wide nodes, and a 12-bit grid.
-  for (const char* f : {"--format compact", "--format precise", "--format binary", "--format wide8",
-                        "--coord-bits 12 --child-bits 4"}) {
+  // binary, 6- and 8-wide nodes, and a 12-bit grid.
+  for (const char* f : {"--format compact", "--format precise", "--format binary", "--format wide6",
+                        "--format wide8", "--coord-bits 12 --child-bits 4"}) {
     const Run s = run_rtusim(std::string("stress --count 1500 ") + f);
     INFO(f << "\n" << s.output);
     CHECK(s.status == 0);

@@ -67,5 +67,6 @@ rdna2,k=4 rdna2 child_bits=4 --child-bits 4 --bvh-width 4
 rdna2,lanes=2 rdna2:box_rate=2 - --format default --bvh-width 4
 rdna2,lanes=1 rdna2:box_rate=1 - --format default --bvh-width 4
 embedded embedded - --format compact --bvh-width 4
-intel intel - --format wide8 --bvh-width 8
+intel intel - --format wide6 --bvh-width 6
+intel,N=8 intel:format=wide8:bvh_width=8 - --format wide8 --bvh-width 8
 ROWS

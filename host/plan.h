@@ -28,9 +28,9 @@ struct PlanOptions {
   double max_error = 1e-4;     // the budget of `metric`
   double min_psnr = 0.0;       // also require the render's PSNR against float (dB; 0: no)
   double confidence = 0.95;    // of the error's upper bound, in (0, 1)
-  std::string config = "rdna2";      // timing preset whose cycles are the cost
-  std::string area;                  // RTL area table for the rtl_cells figures (empty: none)
-  std::vector<int> widths{2, 4, 8};  // BVH widths to consider
+  std::string config = "rdna2";         // timing preset whose cycles are the cost
+  std::string area;                     // RTL area table for the rtl_cells figures (empty: none)
+  std::vector<int> widths{2, 4, 6, 8};  // BVH widths to consider
   std::vector<int> coord_bits{8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28};  // tried fewest first
   std::vector<int> child_bits{4, 6, 8, 12};                                // child-offset bits to try
   SweepOptions sweep;                                                      // rays, render and threads

@@ -84,7 +84,8 @@ SoakResult soak(const SoakOptions& o) {
     DeviceOptions fixed;
     fixed.kind = hw::DeviceKind::kFixed;
     fixed.format = formats[rng.next_u32() % formats.size()];
-    fixed.format.width = 2 << (rng.next_u32() % 3);
+    static constexpr int kWidths[] = {2, 4, 6, 8};
+    fixed.format.width = kWidths[rng.next_u32() % 4];
     fixed.tracer.bvh.width = fixed.format.width;
     fixed.tracer.bvh.max_leaf_size = 1 + int(rng.next_u32() % 8);
     DeviceOptions timed = fixed;

@@ -37,7 +37,8 @@ bool node_simd_available() {
 
 namespace {
 
-// One row of N offsets, zero-extended to eight 64-bit lanes (lanes >= N are 0).
+// One row of N offsets, zero-extended to eight 64-bit lanes (lanes >= N are 0). Exactly the row's N * sizeof(Q)
+// bytes are read: for N = 6 (6 or 12 bytes, not a power of two) as 4 + 2 or 8 + 4 bytes, the upper lanes zero.
 template <int N, class Q>
 inline __m512i load_row(const Q* row) {
   constexpr int kBytes = N * int(sizeof(Q));
@@ -50,8 +51,18 @@ inline __m512i load_row(const Q* row) {
     uint32_t x;
     std::memcpy(&x, row, 4);
     v = _mm_cvtsi32_si128(int(x));
+  } else if constexpr (kBytes == 6) {
+    uint64_t x = 0;
+    std::memcpy(&x, row, 6);
+    v = _mm_cvtsi64_si128(int64_t(x));
   } else if constexpr (kBytes == 8) {
     v = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(row));
+  } else if constexpr (kBytes == 12) {
+    uint64_t lo;
+    uint32_t hi;
+    std::memcpy(&lo, row, 8);
+    std::memcpy(&hi, reinterpret_cast<const unsigned char*>(row) + 8, 4);
+    v = _mm_insert_epi32(_mm_cvtsi64_si128(int64_t(lo)), int(hi), 2);
   } else {
     static_assert(kBytes == 16);
     v = _mm_loadu_si128(reinterpret_cast<const __m128i*>(row));
@@ -86,7 +97,9 @@ int box_node_simd(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin, int64_t
     t0 = _mm512_max_epi64(t0, _mm512_sra_epi64(pn, sh));
     t1 = _mm512_min_epi64(t1, _mm512_sra_epi64(_mm512_add_epi64(pf, _mm512_set1_epi64(nr.rnd[a])), sh));
   }
-  unsigned hit = unsigned(_mm512_cmple_epi64_mask(t0, t1)) & ((1u << n.count) - 1u);
+  // Lanes >= N hold no child (their offsets were loaded as 0) and slots >= count are empty: both masked off.
+  constexpr unsigned kLanes = (1u << N) - 1u;
+  unsigned hit = unsigned(_mm512_cmple_epi64_mask(t0, t1)) & ((1u << n.count) - 1u) & kLanes;
   alignas(64) int64_t tv[8];
   _mm512_store_si512(tv, t0);
   int k = 0;
@@ -114,9 +127,11 @@ int box_node_simd(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin, int64_t
   template int box_node_simd<N, Q>(const NodeRay&, const QNode<N, Q>&, int64_t, int64_t, uint32_t[N], int64_t[N]);
 RTU_BOX_NODE_SIMD(2, uint8_t)
 RTU_BOX_NODE_SIMD(4, uint8_t)
+RTU_BOX_NODE_SIMD(6, uint8_t)
 RTU_BOX_NODE_SIMD(8, uint8_t)
 RTU_BOX_NODE_SIMD(2, uint16_t)
 RTU_BOX_NODE_SIMD(4, uint16_t)
+RTU_BOX_NODE_SIMD(6, uint16_t)
 RTU_BOX_NODE_SIMD(8, uint16_t)
 #undef RTU_BOX_NODE_SIMD
 

@@ -116,7 +116,8 @@ inline int box_node_scalar(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin
   return k;
 }
 
-// The AVX-512 kernel (nr.simd must be set); explicitly instantiated for the six node types.
+// The AVX-512 kernel (nr.simd must be set); explicitly instantiated for the eight node types (widths 2, 4, 6, 8;
+// 8- and 16-bit offsets).
 template <int N, class Q>
 int box_node_simd(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin, int64_t tlim, uint32_t refs[N],
                   int64_t dists[N]);

@@ -1,4 +1,4 @@
-// The float BVH: a binned-SAH binary tree collapsed to 2, 4 or 8 children per node. Built on the host side of
+// The float BVH: a binned-SAH binary tree collapsed to 2, 4, 6 or 8 children per node. Built on the host side of
 // the flow but defined here because the float reference traverses it and the fixed-point encoder reads it.
 //
 // Node layout (WideNode<N>): child boxes structure-of-arrays, one 32-bit child reference per slot.
@@ -38,7 +38,7 @@ constexpr uint32_t make_leaf(uint32_t first, uint32_t count) {
 }
 
 struct BvhBuildParams {
-  int width = 4;           // children per node: 2, 4 or 8
+  int width = 4;           // children per node: 2, 4, 6 or 8
   int max_leaf_size = 8;   // primitives per leaf, 1..16
   int bins = 32;           // SAH bins per axis, 2..256
   float node_cost = 1.0f;  // SAH cost of visiting one node (all its child boxes) relative to one primitive test
@@ -58,7 +58,8 @@ struct WideNode {
     return Aabb{Vec3(bounds[0][i], bounds[2][i], bounds[4][i]), Vec3(bounds[1][i], bounds[3][i], bounds[5][i])};
   }
 };
-static_assert(sizeof(WideNode<2>) == 56 && sizeof(WideNode<4>) == 112 && sizeof(WideNode<8>) == 224);
+static_assert(sizeof(WideNode<2>) == 56 && sizeof(WideNode<4>) == 112 && sizeof(WideNode<6>) == 168 &&
+              sizeof(WideNode<8>) == 224);
 
 template <int N>
 struct WideBvh {
@@ -100,7 +101,7 @@ class Bvh {
 
  private:
   BvhBuildParams m_params;
-  std::variant<WideBvh<2>, WideBvh<4>, WideBvh<8>> m_tree;
+  std::variant<WideBvh<2>, WideBvh<4>, WideBvh<6>, WideBvh<8>> m_tree;
 };
 
 }  // namespace rtu::hw

@@ -1,6 +1,7 @@
 // Binned SAH builder (Wald, "On fast construction of SAH-based bounding volume hierarchies", 2007) followed by
-// a collapse of the binary tree into 2-, 4- or 8-wide nodes: a node's children are expanded, largest surface
-// area first, until the node is full (as in the wide BVHs of Embree).
+// a collapse of the binary tree into 2-, 4-, 6- or 8-wide nodes: a node's children are expanded, largest surface
+// area first, until the node is full (as in the wide BVHs of Embree). One expansion adds one child, so any width
+// N >= 2 fills, a power of two or not.
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -10,7 +11,8 @@
 namespace rtu::hw {
 
 void validate(const BvhBuildParams& p) {
-  if (p.width != 2 && p.width != 4 && p.width != 8) throw std::invalid_argument("bvh width must be 2, 4 or 8");
+  if (p.width != 2 && p.width != 4 && p.width != 6 && p.width != 8)
+    throw std::invalid_argument("bvh width must be 2, 4, 6 or 8");
   if (p.max_leaf_size < 1 || p.max_leaf_size > kMaxLeafSize)
     throw std::invalid_argument("bvh max_leaf_size must be in [1, 16]");
   if (p.bins < 2 || p.bins > 256) throw std::invalid_argument("bvh bins must be in [2, 256]");
@@ -309,6 +311,9 @@ Bvh Bvh::build(const Geometry& g, const BvhBuildParams& params) {
       break;
     case 4:
       b.m_tree = build_wide<4>(g, params);
+      break;
+    case 6:
+      b.m_tree = build_wide<6>(g, params);
       break;
     default:
       b.m_tree = build_wide<8>(g, params);

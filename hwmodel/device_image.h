@@ -30,7 +30,7 @@ inline constexpr uint32_t kImageNoBvh = 1u;  // flags: no BVH; test every primit
 struct ImageHeader {
   uint32_t magic;           // kImageMagic
   uint16_t version;         // kImageVersion
-  uint8_t width;            // node width 2, 4 or 8
+  uint8_t width;            // node width 2, 4, 6 or 8
   uint8_t q_bytes;          // bytes per child offset: 1 (child_bits <= 8) or 2
   uint8_t coord_bits;       // FixedFormat fields, as encoded
   uint8_t child_bits;       //

@@ -43,7 +43,7 @@ void FixedFormat::validate() const {
       fail(std::string(key) + " = " + std::to_string(v) + " outside [" + std::to_string(lo) + ", " +
            std::to_string(hi) + "]");
   };
-  if (width != 2 && width != 4 && width != 8) fail("width must be 2, 4 or 8");
+  if (width != 2 && width != 4 && width != 6 && width != 8) fail("width must be 2, 4, 6 or 8");
   for (const FormatField& f : format_fields())
     if (f.member != &FixedFormat::width) range(f.key, this->*f.member, f.lo, f.hi);
   if ((node_align & (node_align - 1)) != 0) fail("node_align must be a power of two");
@@ -118,6 +118,7 @@ const std::vector<FixedFormat>& format_presets() {
   // Each preset: the header's defaults with these changes.
   static const std::pair<const char*, const char*> kPresets[] = {
       {"default", ""},
+      {"wide6", "width=6"},
       {"wide8", "width=8"},
       {"binary", "width=2"},
       {"compact",
@@ -156,7 +157,7 @@ namespace {
 
 using F = FixedFormat;
 constexpr FormatField kFields[] = {
-    {"width", "", &F::width, 2, 8, "BVH node width: 2, 4 or 8 children"},
+    {"width", "", &F::width, 2, 8, "BVH node width: 2, 4, 6 or 8 children"},
     // Node origins and vertices are stored as int32.
     {"coord_bits", "B", &F::coord_bits, 2, 30, "grid bits of vertices and boxes"},
     {"child_bits", "k", &F::child_bits, 1, 16, "bits of a child box offset relative to its parent"},

@@ -16,7 +16,7 @@ namespace rtu::hw {
 
 struct FixedFormat {
   std::string name = "custom";  // preset name, or "custom"
-  int width = 4;                // BVH node width: 2, 4 or 8 children
+  int width = 4;                // BVH node width: 2, 4, 6 or 8 children
   int coord_bits = 24;          // B: vertices and boxes are grid integers in [0, 2^B - 1]; 2..30
   int child_bits = 8;           // k: child box offsets relative to the parent, 1..16 (stored in 8 or 16 bits)
   int guard_bits = 6;           // G: ray origins must lie in (-2^(B+G), 2^(B+G)) grid units (else out of frame)
@@ -52,7 +52,7 @@ struct FormatField {
   const char* key;     // "coord_bits" (the CLI option is "--coord-bits")
   const char* symbol;  // "B" (fixed_format.h's letters; "" for width)
   int FixedFormat::*member;
-  int lo, hi;  // the field's own range (validate() also checks rules across fields; width: 2, 4 or 8)
+  int lo, hi;  // the field's own range (validate() also checks rules across fields; width: 2, 4, 6 or 8)
   const char* description;
 };
 // Every integer field, in the order of the struct.

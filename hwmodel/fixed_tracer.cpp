@@ -359,6 +359,9 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
         case 4:
           q8 ? run(QNode<4, uint8_t>{}) : run(QNode<4, uint16_t>{});
           break;
+        case 6:
+          q8 ? run(QNode<6, uint8_t>{}) : run(QNode<6, uint16_t>{});
+          break;
         default:
           q8 ? run(QNode<8, uint8_t>{}) : run(QNode<8, uint16_t>{});
           break;

@@ -31,14 +31,19 @@ constexpr size_t qnode_bytes(int width, int q_bytes) {
   return 16 + size_t(width) * (6 * size_t(q_bytes) + 4);
 }
 static_assert(sizeof(QNode<2, uint8_t>) == qnode_bytes(2, 1) && sizeof(QNode<4, uint8_t>) == qnode_bytes(4, 1) &&
-              sizeof(QNode<8, uint8_t>) == qnode_bytes(8, 1) && sizeof(QNode<8, uint16_t>) == qnode_bytes(8, 2) &&
-              sizeof(QNode<4, uint16_t>) == qnode_bytes(4, 2) && sizeof(QNode<2, uint16_t>) == qnode_bytes(2, 2));
+              sizeof(QNode<6, uint8_t>) == qnode_bytes(6, 1) && sizeof(QNode<8, uint8_t>) == qnode_bytes(8, 1) &&
+              sizeof(QNode<2, uint16_t>) == qnode_bytes(2, 2) && sizeof(QNode<4, uint16_t>) == qnode_bytes(4, 2) &&
+              sizeof(QNode<6, uint16_t>) == qnode_bytes(6, 2) && sizeof(QNode<8, uint16_t>) == qnode_bytes(8, 2));
 static_assert(sizeof(QNode<2, uint8_t>) == 36 && sizeof(QNode<4, uint8_t>) == 56 &&
-              sizeof(QNode<8, uint8_t>) == 96);
+              sizeof(QNode<6, uint8_t>) == 76 && sizeof(QNode<8, uint8_t>) == 96);
 static_assert(sizeof(QNode<2, uint16_t>) == 48 && sizeof(QNode<4, uint16_t>) == 80 &&
-              sizeof(QNode<8, uint16_t>) == 144);
+              sizeof(QNode<6, uint16_t>) == 112 && sizeof(QNode<8, uint16_t>) == 144);
 using QNode4x8 = QNode<4, uint8_t>;
 static_assert(offsetof(QNode4x8, q) == 16 && offsetof(QNode4x8, child) == 40);
+// Width 6: the child references follow 36 (or 72) offset bytes, still 4-byte aligned, no padding.
+using QNode6x8 = QNode<6, uint8_t>;
+using QNode6x16 = QNode<6, uint16_t>;
+static_assert(offsetof(QNode6x8, q) == 16 && offsetof(QNode6x8, child) == 52 && offsetof(QNode6x16, child) == 88);
 
 // The kind of a primitive record, in bits 30..31 of its `prim` word.
 enum class RecordKind : uint32_t { kTriangle = 0, kSphere = 1 };

@@ -22,14 +22,14 @@ struct KeyInfo {
 };
 
 constexpr int kMaxLatency = 100000;
-constexpr double kNoRange = -1e300;  // lo of a key whose rule is not a range (bvh_width: 2, 4 or 8)
+constexpr double kNoRange = -1e300;  // lo of a key whose rule is not a range (bvh_width: 2, 4, 6 or 8)
 
 const std::vector<KeyInfo>& key_table() {
   using C = TimingConfig;
   static const std::vector<KeyInfo> table = {
       {"format", &C::format, 0, 0, "fixed-point format preset of the datapath (rtusim info --formats)"},
       {"bvh_width", &C::bvh_width, kNoRange, -kNoRange,
-       "children per BVH node: 2, 4 or 8 (overrides the format's width)"},
+       "children per BVH node: 2, 4, 6 or 8 (overrides the format's width)"},
       {"clock_ghz", &C::clock_ghz, 0.001, 1000, "clock in GHz, for reporting seconds and GB/s only"},
       {"packet_latency", &C::packet_latency, 0, kMaxLatency,
        "cycles from doorbell (or the previous packet) to a decoded packet"},
@@ -132,8 +132,8 @@ void TimingConfig::validate() const {
     } else if (key == "box_unit") {
       if (box_unit != "cpp" && box_unit != "rtl") fail("box_unit = '" + box_unit + "' must be cpp or rtl");
     } else if (key == "bvh_width") {
-      if (bvh_width != 2 && bvh_width != 4 && bvh_width != 8)
-        fail("bvh_width = " + std::to_string(bvh_width) + " must be 2, 4 or 8");
+      if (bvh_width != 2 && bvh_width != 4 && bvh_width != 6 && bvh_width != 8)
+        fail("bvh_width = " + std::to_string(bvh_width) + " must be 2, 4, 6 or 8");
     } else if (key == "layout_align") {
       if (layout_align != 0 && (layout_align < 8 || (layout_align & (layout_align - 1)) != 0))
         fail("layout_align = " + std::to_string(layout_align) + " must be 0 or a power of two in [8, 4096]");
@@ -175,9 +175,9 @@ void TimingConfig::validate() const {
 //   - 12 box tests and 1 triangle test per clock per RTU, in two traversal pipelines, with a dedicated BVH cache:
 //     Intel's Arc ray-tracing architecture disclosure (Aug./Sep. 2022, "Intel Arc Graphics: ray tracing"; as
 //     reported e.g. by TechPowerUp, "Intel Details its Ray Tracing Architecture", 2022-09-01). Modelled as one box
-//     unit of rate 12, so an 8-wide node issues in one clock.
-//   - BVH8: Intel's hardware BVH is 6-wide; the model supports 2, 4 or 8 and takes the next width up (format
-//     wide8).
+//     unit of rate 12, so a 6-wide node issues in one clock.
+//   - BVH6: Intel's hardware BVH is 6-wide (format wide6: the default format's widths at 6 children per node;
+//     the node is the model's QNode layout, 76 bytes, not Intel's 64-byte one).
 //   - 2.1 GHz: the Arc A770's graphics clock (Intel, 2022).
 //   - 64 ray slots: traversal runs in the RTU asynchronously from the shaders (Intel's "asynchronous ray
 //     tracing"), so more rays are in flight than one SIMD thread's (estimate).
@@ -280,8 +280,8 @@ TimingConfig timing_preset(const std::string& name) {
   } else if (name == "intel") {
     c = timing_preset("rdna2");
     c.name = "intel";
-    c.format = "wide8";
-    c.bvh_width = 8;
+    c.format = "wide6";
+    c.bvh_width = 6;
     c.clock_ghz = 2.1;
     c.ray_slots = 64;
     c.box_units = 1;
@@ -360,7 +360,7 @@ std::string timing_preset_description(const std::string& name) {
   if (name == "rdna2")
     return "resembles one AMD RDNA2 Ray Accelerator: BVH4, 4 box tests or 1 triangle test per clock, 2.0 GHz";
   if (name == "intel")
-    return "resembles one Intel Xe-HPG (Arc A-series) RTU: BVH8, 12 box tests and 1 triangle test per clock, "
+    return "resembles one Intel Xe-HPG (Arc A-series) RTU: BVH6, 12 box tests and 1 triangle test per clock, "
            "2.1 GHz";
   if (name == "embedded")
     return "a small embedded unit: format compact (16-bit coordinates), BVH4, 2 box tests per clock, 16 KiB "

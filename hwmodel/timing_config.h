@@ -7,7 +7,7 @@
 // number of sets: cache_kib * 1024 divisible by cache_ways * line_bytes); cache_ways 1..64; line_bytes a power
 // of two in 16..4096; clock_ghz 0.001..1000; dram_bytes_per_cycle 0.001..65536 (finite); raster_setup_cycles
 // 0..100000; raster_samples_per_clock and raster_fragments_per_clock 0.001..4096; raster_latency 0..100000;
-// raster_prim_bytes 0..4096, raster_depth_bytes 1..64, raster_gbuffer_bytes 0..4096; bvh_width 2, 4 or 8;
+// raster_prim_bytes 0..4096, raster_depth_bytes 1..64, raster_gbuffer_bytes 0..4096; bvh_width 2, 4, 6 or 8;
 // format the name of a fixed-point format preset; box_unit cpp or rtl; watchdog_cycles 0..2^31-1 (0: off). The
 // default-constructed configuration is the "rdna2" preset.
 #pragma once
@@ -21,7 +21,7 @@ namespace rtu::hw {
 struct TimingConfig {
   std::string name = "rdna2";      // preset it came from
   std::string format = "default";  // fixed-point format preset of the datapath (fixed_format.h), e.g. compact
-  int bvh_width = 4;               // children per node: 2, 4 or 8 (overrides the format's width)
+  int bvh_width = 4;               // children per node: 2, 4, 6 or 8 (overrides the format's width)
   double clock_ghz = 2.0;          // for reporting time and bandwidth in seconds and GB/s only
 
   // Command processor: packet fetch, ray fetch, hit write-back, fences.
@@ -85,7 +85,7 @@ struct TimingConfig {
 };
 
 // The presets: "rdna2" (resembling AMD RDNA2's ray accelerator: BVH4, 4 box tests or 1 triangle test per clock),
-// "intel" (resembling Intel's RTU: 8-wide nodes, 12 box tests and 1 triangle test per clock), "embedded" (a small
+// "intel" (resembling Intel's RTU: 6-wide nodes, 12 box tests and 1 triangle test per clock), "embedded" (a small
 // unit: BVH4, 16-bit coordinates (format compact), one box unit, a small cache), and the memory-bound
 // "rdna2-mem" and "intel-mem" (rdna2's and intel's datapath with one unit's share of a real GPU's memory: its
 // small first-level cache, VRAM latency and bandwidth / units). timing_config.cpp says where each figure comes

@@ -115,7 +115,7 @@ void add_plan(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--bvh-width", a->o.widths, "BVH widths to consider, comma-separated")
       ->delimiter(',')
-      ->check(CLI::IsMember({2, 4, 8}))
+      ->check(CLI::IsMember({2, 4, 6, 8}))
       ->capture_default_str();
   sub->add_option("--coord-bits", a->o.coord_bits, "coordinate bits to try, fewest first, comma-separated")
       ->delimiter(',')

@@ -86,7 +86,8 @@ void run_sweep(const SweepArgs& a) {
     }
   }
   for (int w : a.widths)
-    if (w != 2 && w != 4 && w != 8) throw Error("--bvh-width: " + std::to_string(w) + " is not 2, 4 or 8");
+    if (w != 2 && w != 4 && w != 6 && w != 8)
+      throw Error("--bvh-width: " + std::to_string(w) + " is not 2, 4, 6 or 8");
   const AreaTable area = a.area.empty() ? AreaTable{} : AreaTable::load(a.area);
 
   // Resume: the points already in --out with this sweep's run parameters are done; rows made with others stay in
@@ -171,7 +172,7 @@ void add_sweep(CLI::App& app) {
                   "default:coord_bits=16:child_bits=6")
       ->delimiter(',')
       ->capture_default_str();
-  sub->add_option("--bvh-width", a->widths, "BVH widths, comma-separated (2, 4, 8)")
+  sub->add_option("--bvh-width", a->widths, "BVH widths, comma-separated (2, 4, 6, 8)")
       ->delimiter(',')
       ->capture_default_str();
   sub->add_option("--config", a->configs, "timing presets, comma-separated")

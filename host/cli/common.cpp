@@ -93,7 +93,7 @@ void add_format_args(CLI::App& app, DeviceArgs& o) {
         ->group("Fixed-point format (overrides)");
   }
   app.add_option("--bvh-width", o.bvh_width, "BVH children per node (default: the format's width, 4)")
-      ->check(CLI::IsMember({2, 4, 8}));
+      ->check(CLI::IsMember({2, 4, 6, 8}));
 }
 
 void check_device_args(const CLI::App& app, const DeviceArgs& o) {

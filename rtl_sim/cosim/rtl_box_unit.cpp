@@ -4,8 +4,8 @@
 
 #include "Vbox_unit_embedded.h"
 #include "Vbox_unit_intel.h"
-#include "Vbox_unit_intel_lanes3.h"
 #include "Vbox_unit_rdna2.h"
+#include "Vbox_unit_wide8_lanes3.h"
 #include "rtl_models.h"
 #include "rtl_sim/cosim/box_ports.h"
 #include "rtl_sim/cosim/sim.h"
@@ -103,7 +103,7 @@ const std::vector<Built>& built() {
       {{"rdna2", RTU_RTL_SPEC_rdna2, RTU_RTL_ARGS_rdna2}, make<Vbox_unit_rdna2>},
       {{"intel", RTU_RTL_SPEC_intel, RTU_RTL_ARGS_intel}, make<Vbox_unit_intel>},
       {{"embedded", RTU_RTL_SPEC_embedded, RTU_RTL_ARGS_embedded}, make<Vbox_unit_embedded>},
-      {{"intel_lanes3", RTU_RTL_SPEC_intel_lanes3, RTU_RTL_ARGS_intel_lanes3}, make<Vbox_unit_intel_lanes3>},
+      {{"wide8_lanes3", RTU_RTL_SPEC_wide8_lanes3, RTU_RTL_ARGS_wide8_lanes3}, make<Vbox_unit_wide8_lanes3>},
   };
   return units;
 }

@@ -13,7 +13,7 @@ namespace rtu::rtl {
 
 // The unit verilated for the configuration's box unit: its format, BVH width, box rate and box latency must be
 // those of one of the Verilated parameter sets (rtl_units(): the timing presets rdna2, intel and embedded, and
-// intel with box_rate 3; rtl_sim/CMakeLists.txt).
+// wide8_lanes3, intel with 8-wide nodes and box_rate 3; rtl_sim/CMakeLists.txt).
 // Throws std::invalid_argument naming the parameters and the sets built otherwise. Each node is driven through
 // the valid/ready handshake on its own; a node that does not come out within 4096 clocks is an error
 // (std::runtime_error), as is an input outside the unit's port ranges (std::invalid_argument).

@@ -3,7 +3,7 @@
 //   configure
 //                                  time by try_run). A bare preset name is its own NAME and SPEC ("rdna2");
 //                                  SPEC is a preset with timing keys changed, as unit_config() reads it
-//                                  ("intel_lanes3=intel:box_rate=3").
+//                                  ("wide8_lanes3=intel:format=wide8:bvh_width=8:box_rate=3").
 //   rtu_rtl_params --chparam SPEC [FORMAT_KEY=VALUE...]
 //                                  yosys `chparam -set` arguments for the unit of SPEC with its format's widths
 //                                  changed (coord_bits, child_bits, guard_bits, frac_bits, dir_bits, rcp_bits,

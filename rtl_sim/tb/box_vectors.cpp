@@ -619,6 +619,9 @@ void copy_node(const hw::DeviceImage& img, uint32_t index, BoxCase& c) {
     case 4:
       q8 ? copy_node<4, uint8_t>(img, index, c) : copy_node<4, uint16_t>(img, index, c);
       break;
+    case 6:
+      q8 ? copy_node<6, uint8_t>(img, index, c) : copy_node<6, uint16_t>(img, index, c);
+      break;
     default:
       q8 ? copy_node<8, uint8_t>(img, index, c) : copy_node<8, uint16_t>(img, index, c);
       break;

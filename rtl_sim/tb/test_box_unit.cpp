@@ -1,5 +1,6 @@
 // The RTL box unit (rtl/box_unit.sv) under Verilator against the C++ model, for the box units of the timing
-// presets rdna2 (default format, N = 4), intel (wide8 format, N = 8) and embedded (compact format, N = 4): every
+// presets rdna2 (default format, N = 4), intel (wide6 format, N = 6) and embedded (compact format, N = 4), and
+// wide8_lanes3 (intel with 8-wide nodes over 3 lanes: N = 8, the sequencer with a partial last chunk): every
 // result bit-exact with hw::box_test_delta<int64_t>, conservative against hw::box_test_exact, over directed,
 // seeded random and traversal-captured vectors; the valid/ready protocol under back-pressure; latency and
 // throughput against the presets' box_latency and box_rate. Tags: [rtl] plus [params] [directed] [random]
@@ -13,8 +14,8 @@
 
 #include "Vbox_unit_embedded.h"
 #include "Vbox_unit_intel.h"
-#include "Vbox_unit_intel_lanes3.h"
 #include "Vbox_unit_rdna2.h"
+#include "Vbox_unit_wide8_lanes3.h"
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/timing_config.h"
 #include "rtl_models.h"
@@ -28,7 +29,7 @@ using namespace rtu::rtl;
 
 constexpr const char* kIfc = "/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc";
 
-// The configuration of a Verilated unit (a preset, or intel_lanes3: intel with box_rate 3).
+// The configuration of a Verilated unit (a preset, or wide8_lanes3: intel with 8-wide nodes and box_rate 3).
 hw::TimingConfig config_of(const std::string& unit) {
   for (const RtlUnitInfo& u : rtl_units())
     if (u.name == unit) return unit_config(u.spec);
@@ -88,7 +89,8 @@ TEST_CASE("box unit: the Verilated models carry the widths and latency the C++ p
     CAPTURE(u.name, u.spec);
     CHECK(u.args == verilator_args(box_unit_params(unit_config(u.spec))));
   }
-  CHECK(box_unit_params(config_of("intel_lanes3")).lanes == 3);
+  CHECK(box_unit_params(config_of("wide8_lanes3")).lanes == 3);
+  CHECK(box_unit_params(config_of("wide8_lanes3")).n == 8);
   // The default format is the rdna2 unit's, with the 64-bit path.
   const BoxUnitParams p = box_unit_params(hw::timing_preset("rdna2"));
   CHECK(p.n == 4);
@@ -98,7 +100,8 @@ TEST_CASE("box unit: the Verilated models carry the widths and latency the C++ p
   CHECK(p.latency == hw::timing_preset("rdna2").box_latency);
   CHECK(p.lanes == 4);
   CHECK(box_unit_params(hw::timing_preset("embedded")).lanes == hw::timing_preset("embedded").box_rate);
-  CHECK(box_unit_params(hw::timing_preset("intel")).lanes == 8);  // box_rate 12 > N: one node per clock
+  CHECK(box_unit_params(hw::timing_preset("intel")).n == 6);      // Intel's 6-wide BVH
+  CHECK(box_unit_params(hw::timing_preset("intel")).lanes == 6);  // box_rate 12 > N: one node per clock
   // A wide format has no 64-bit path: refused, not silently mis-built.
   CHECK_THROWS_AS(box_unit_params(hw::format_preset("precise"), 4, 4, 6), std::invalid_argument);
 }
@@ -117,7 +120,7 @@ TEST_CASE("box unit: directed corner cases are bit-exact and conservative", "[rt
   CHECK(st.false_positives > 0);  // the fixed test is conservative, not exact: some boxes only it accepts
   check<Vbox_unit_intel>("intel", directed_cases(preset_format("intel")));
   check<Vbox_unit_embedded>("embedded", directed_cases(preset_format("embedded")));
-  check<Vbox_unit_intel_lanes3>("intel_lanes3", directed_cases(preset_format("intel_lanes3")));
+  check<Vbox_unit_wide8_lanes3>("wide8_lanes3", directed_cases(preset_format("wide8_lanes3")));
 }
 
 TEST_CASE("box unit: seeded random vectors are bit-exact and conservative", "[rtl][random]") {
@@ -130,7 +133,7 @@ TEST_CASE("box unit: seeded random vectors are bit-exact and conservative", "[rt
   CHECK(st.hits > 50000);
   check<Vbox_unit_intel>("intel", random_cases(preset_format("intel"), seed + 1, 20000));
   check<Vbox_unit_embedded>("embedded", random_cases(preset_format("embedded"), seed + 2, 30000));
-  check<Vbox_unit_intel_lanes3>("intel_lanes3", random_cases(preset_format("intel_lanes3"), seed + 3, 20000));
+  check<Vbox_unit_wide8_lanes3>("wide8_lanes3", random_cases(preset_format("wide8_lanes3"), seed + 3, 20000));
 }
 
 TEST_CASE("box unit: vectors captured from traversals of real meshes are bit-exact and conservative",
@@ -175,7 +178,7 @@ TEST_CASE("box unit: back-pressure holds every result, none lost, duplicated or 
   }
   check<Vbox_unit_intel>("intel", random_cases(preset_format("intel"), seed, 5000), Flow{60, 40, seed});
   check<Vbox_unit_embedded>("embedded", random_cases(preset_format("embedded"), seed, 5000), Flow{60, 40, seed});
-  check<Vbox_unit_intel_lanes3>("intel_lanes3", random_cases(preset_format("intel_lanes3"), seed, 5000),
+  check<Vbox_unit_wide8_lanes3>("wide8_lanes3", random_cases(preset_format("wide8_lanes3"), seed, 5000),
                                 Flow{60, 40, seed});
 
   // With the output stalled the unit takes exactly LATENCY nodes (one per stage), then drops in_ready; they all
@@ -280,7 +283,7 @@ TEST_CASE("box unit: issue and latency per node equal the timing preset's box_ra
   check_rate<Vbox_unit_rdna2>("rdna2");
   check_rate<Vbox_unit_intel>("intel");
   check_rate<Vbox_unit_embedded>("embedded");
-  check_rate<Vbox_unit_intel_lanes3>("intel_lanes3");
+  check_rate<Vbox_unit_wide8_lanes3>("wide8_lanes3");
 }
 
 TEST_CASE("testbench helpers: a wait that never ends fails after its cycle budget", "[rtl][harness]") {

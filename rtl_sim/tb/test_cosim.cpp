@@ -154,13 +154,13 @@ TEST_CASE("co-simulation: a configuration without a Verilated unit is a clear er
   CHECK_THROWS_WITH(rtu::host::make_device(s.geometry, o), Catch::Contains("no Verilated box unit") &&
                                                                Catch::Contains("LATENCY=9") &&
                                                                Catch::Contains("rdna2 (rdna2): "));
-  // An image the unit cannot take: the configuration (bvh_width 4 picks the rdna2 unit) and the image (width 8)
-  // disagree; the unit refuses it at bind instead of testing half of each node.
+  // An image the unit cannot take: the configuration (bvh_width 4 picks the rdna2 unit) and the image (width 6)
+  // disagree; the unit refuses it at bind instead of testing part of each node.
   DeviceOptions w = options("intel", "rtl");
   rtu::hw::set_timing_key(w.timing, "bvh_width", "4");
-  CHECK(w.format.width == 8);
+  CHECK(w.format.width == 6);
   CHECK_THROWS_WITH(rtu::host::make_device(s.geometry, w),
-                    Catch::Contains("cannot test nodes") && Catch::Contains("width 8"));
+                    Catch::Contains("cannot test nodes") && Catch::Contains("width 6"));
   // Without box_unit = rtl the engine refuses a unit, and with it requires one.
   CHECK_THROWS_WITH(rtu::hw::TimedEngine(rtu::hw::EngineOptions{}, options("rdna2", "rtl").timing, nullptr),
                     Catch::Contains("no RTL box unit is attached"));

@@ -256,10 +256,11 @@ TEST_CASE("info reports the fixed image: bytes per node and footprint per format
   const fs::path d = temp_dir();
   const Run list = run_rtusim("info --formats");
   REQUIRE(list.status == 0);
-  for (const char* p : {"default", "wide8", "binary", "compact", "precise"})
+  for (const char* p : {"default", "wide6", "wide8", "binary", "compact", "precise"})
     CHECK(list.output.find(p) != std::string::npos);
   for (const auto& [format, node_bytes] :
-       {std::pair{"default", 56}, std::pair{"wide8", 96}, std::pair{"binary", 36}, std::pair{"precise", 80}}) {
+       {std::pair{"default", 56}, std::pair{"wide6", 76}, std::pair{"wide8", 96}, std::pair{"binary", 36},
+        std::pair{"precise", 80}}) {
     const std::string json = (d / (std::string(format) + ".json")).string();
     const Run r = run_rtusim(std::string("info --scene builtin:seed --format ") + format + " --json " + json);
     INFO(r.output);
@@ -285,9 +286,9 @@ TEST_CASE("stress: every category runs, no promise breaks at the default format"
     CHECK(c["failure_rule"].get<std::string>().size() > 10);
   }
   // The promises hold at every width, not only the default: the narrowest preset, the 128-bit box path,
-  // binary and 8-wide nodes, and a 12-bit grid.
-  for (const char* f : {"--format compact", "--format precise", "--format binary", "--format wide8",
-                        "--coord-bits 12 --child-bits 4"}) {
+  // binary, 6- and 8-wide nodes, and a 12-bit grid.
+  for (const char* f : {"--format compact", "--format precise", "--format binary", "--format wide6",
+                        "--format wide8", "--coord-bits 12 --child-bits 4"}) {
     const Run s = run_rtusim(std::string("stress --count 1500 ") + f);
     INFO(f << "\n" << s.output);
     CHECK(s.status == 0);
@@ -427,7 +428,7 @@ TEST_CASE("config: unknown preset or key, bad values, malformed --set: exit 2 na
       {"config --config rdna2 --set ray_slots=12x", "ray_slots"},
       {"config --config rdna2 --set ray_slots=0", "ray_slots"},
       {"config --config rdna2 --set ray_slots=", "ray_slots"},
-      {"config --config rdna2 --set bvh_width=6", "bvh_width"},
+      {"config --config rdna2 --set bvh_width=5", "bvh_width"},
       {"config --config rdna2 --set clock_ghz=fast", "clock_ghz"},
       {"config --config rdna2 --set format=nosuch", "nosuch"},
       {"config --config rdna2 --set ray_slots", "key=value"},
@@ -510,7 +511,7 @@ TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad 
                                                         {"--formats default:bits=3", "format key"},
                                                         {"--shard 3/2", "--shard"},
                                                         {"--shard x", "--shard"},
-                                                        {"--bvh-width 3", "2, 4 or 8"},
+                                                        {"--bvh-width 3", "2, 4, 6 or 8"},
                                                         {"--config nosuch", "nosuch"}}) {
     const Run e =
         run_rtusim("sweep --scene builtin:seed " + args + " --rays 10 --out " + (d / "bad.csv").string());
@@ -970,6 +971,7 @@ TEST_CASE("device options: a command lists only those it uses, and refuses those
   CHECK(run_rtusim(trace + "--device timed --config intel --sample 0.5 --sample-seed 3").status == 0);
   CHECK(run_rtusim(trace + "--device fixed --watchdog-steps 100000 --coord-bits 16").status == 0);
   CHECK(run_rtusim(trace + "--device float --bvh-width 8").status == 0);
+  CHECK(run_rtusim(trace + "--device fixed --bvh-width 6").status == 0);
 }
 
 TEST_CASE("rays: --count 0 refused, options of the other kind refused", "[cli]") {

@@ -103,21 +103,55 @@ TEST_CASE("timed hits equal the fixed device's bit for bit, cycles repeat", "[ti
   }
 }
 
+TEST_CASE("timed hits equal the fixed device's at every BVH width, 6 included", "[timed]") {
+  // The presets cover widths 4 (rdna2, embedded) and 6 (intel); here every width on one configuration.
+  for (const std::string name : {"builtin:cornell", "/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc"}) {
+    const rtu::host::Scene s = rtu::host::load_scene(name);
+    const std::vector<Ray> rays = test_rays(s, 5000);
+    for (int width : {2, 4, 6, 8}) {
+      CAPTURE(name, width);
+      DeviceOptions of = options("fixed", "rdna2"), ot = options("timed", "rdna2");
+      for (DeviceOptions* o : {&of, &ot}) {
+        o->timing.bvh_width = width;
+        o->format.width = width;
+        o->tracer.bvh.width = width;
+        o->tracer.accel = rtu::hw::AccelMode::kBvh;
+      }
+      const auto fixed = rtu::host::make_device(s.geometry, of);
+      const auto timed = rtu::host::make_device(s.geometry, ot);
+      REQUIRE(timed->image() != nullptr);
+      REQUIRE(int(timed->image()->header().width) == width);
+      for (bool any_hit : {false, true}) {
+        std::vector<Hit> hf(rays.size()), ht(rays.size());
+        rtu::hw::TraversalStats sf, st;
+        fixed->trace_batch(rays.data(), hf.data(), rays.size(), any_hit, 2, sf);
+        timed->trace_batch(rays.data(), ht.data(), rays.size(), any_hit, 2, st);
+        CHECK(std::memcmp(hf.data(), ht.data(), hf.size() * sizeof(Hit)) == 0);
+        CHECK(st.nodes_visited == sf.nodes_visited);
+        CHECK(st.box_tests == sf.box_tests);
+        CHECK(st.prim_tests == sf.prim_tests);
+        CHECK(sf.hits > 0);
+      }
+      CHECK(timed->timed()->timing().cycles > 0);
+    }
+  }
+}
+
 TEST_CASE("memory-bound presets: incoherent rays on a real mesh are limited by DRAM, the base presets' are not",
           "[timed][memory]") {
   // Why DRAM must be the bound (the lower bound's largest term) on these presets. A packed fetch touches about 1.7
-  // 64-byte lines (56-byte nodes and 40-byte records straddle lines: docs/timing-model.md), and costs one box or
-  // triangle clock (a BVH4 node at 4 tests per clock on rdna2-mem, a BVH8 node at 12 on intel-mem, one triangle
-  // per clock). A missed line costs 64 / dram_bytes_per_cycle channel clocks: 20 on rdna2-mem, 7.7 on intel-mem.
-  // So DRAM outweighs the units once more than 1 / (1.7 x 20) = 3% (rdna2-mem) or 1 / (1.7 x 7.7) = 8% (intel-mem)
-  // of line accesses miss. A 16 or 8 KiB cache holds 256 or 128 lines, a small part of a real mesh's nodes and
-  // records, and incoherent rays reuse little beyond the top of the tree: misses far above those shares. The base
-  // presets (same datapath, 64 bytes per clock) need a miss rate above 1 / 1.7 = 59% per line for DRAM to be the
-  // bound, which their 64 and 192 KiB caches keep them well below.
-  // And the channel is busy most of the time: each ray slot has one request outstanding, so rdna2-mem's 32 slots
-  // offer 32 x 20 = 640 channel clocks of misses per round trip of about 600 + 20 cycles (intel-mem: 64 x 8 = 512
-  // per 630 + 8), enough to keep it busy if most requests miss; the hits in between and the packet's fill and
-  // drain take some of that away, so the test asks for more than half, not all.
+  // 64-byte lines (56-byte nodes and 40-byte records straddle lines: docs/timing-model.md; intel-mem's 76-byte
+  // BVH6 nodes touch two or three, so 1.7 understates its lines), and costs one box or triangle clock (a BVH4 node
+  // at 4 tests per clock on rdna2-mem, a BVH6 node at 12 on intel-mem, one triangle per clock). A missed line
+  // costs 64 / dram_bytes_per_cycle channel clocks: 20 on rdna2-mem, 7.7 on intel-mem. So DRAM outweighs the units
+  // once more than 1 / (1.7 x 20) = 3% (rdna2-mem) or 1 / (1.7 x 7.7) = 8% (intel-mem) of line accesses miss. A 16
+  // or 8 KiB cache holds 256 or 128 lines, a small part of a real mesh's nodes and records, and incoherent rays
+  // reuse little beyond the top of the tree: misses far above those shares. The base presets (same datapath, 64
+  // bytes per clock) need a miss rate above 1 / 1.7 = 59% per line for DRAM to be the bound, which their 64 and
+  // 192 KiB caches keep them well below. And the channel is busy most of the time: each ray slot has one request
+  // outstanding, so rdna2-mem's 32 slots offer 32 x 20 = 640 channel clocks of misses per round trip of about 600
+  // + 20 cycles (intel-mem: 64 x 8 = 512 per 630 + 8), enough to keep it busy if most requests miss; the hits in
+  // between and the packet's fill and drain take some of that away, so the test asks for more than half, not all.
   const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
   const std::vector<Ray> rays = rtu::host::incoherent_rays(s.geometry.bounds(), 4096, 7);
   struct Run {

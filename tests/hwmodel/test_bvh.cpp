@@ -72,9 +72,9 @@ void check_invariants(const WideBvh<N>& t, const Geometry& g, const BvhBuildPara
 
 }  // namespace
 
-TEST_CASE("BVH: every primitive in exactly one leaf, boxes nest, widths 2/4/8", "[bvh]") {
+TEST_CASE("BVH: every primitive in exactly one leaf, boxes nest, widths 2/4/6/8", "[bvh]") {
   const Geometry g = random_soup(7, 3000, 200);
-  for (int width : {2, 4, 8}) {
+  for (int width : {2, 4, 6, 8}) {
     for (int leaf : {1, 4, 16}) {
       BvhBuildParams p;
       p.width = width;
@@ -88,6 +88,45 @@ TEST_CASE("BVH: every primitive in exactly one leaf, boxes nest, widths 2/4/8", 
       CHECK(f.sah_cost > 0.0);
       CHECK(f.sah_cost < double(g.num_bounded()));  // far cheaper than testing everything
     }
+  }
+}
+
+TEST_CASE("BVH: the collapse fills nodes of every width, 6 (not a power of two) too", "[bvh]") {
+  // A node is full, or every child it holds is a leaf (nothing was left to expand); occupied slots come first.
+  const Geometry g = random_soup(13, 4000, 100);
+  uint64_t prev_nodes = 0;
+  for (int width : {8, 6, 4}) {
+    BvhBuildParams p;
+    p.width = width;
+    p.max_leaf_size = 4;
+    const Bvh b = Bvh::build(g, p);
+    REQUIRE(b.width() == width);
+    uint64_t full = 0, partial = 0;
+    b.visit([&](const auto& t) {
+      constexpr int N = std::decay_t<decltype(t)>::kWidth;
+      for (const WideNode<N>& n : t.nodes) {
+        int used = 0;
+        bool all_leaves = true;
+        for (int i = 0; i < N; ++i) {
+          if (n.child[i] == kEmptyChild) continue;
+          REQUIRE(used == i);  // no gap before an occupied slot
+          ++used;
+          all_leaves = all_leaves && is_leaf(n.child[i]);
+        }
+        if (used == N) {
+          ++full;
+        } else {
+          ++partial;
+          REQUIRE(all_leaves);
+        }
+      }
+    });
+    INFO("width " << width << ": " << full << " full and " << partial << " partial nodes");
+    CHECK(full > 0);
+    // Wider nodes absorb more binary nodes: fewer of them.
+    const BvhFigures f = b.figures();
+    CHECK(f.inner_nodes > prev_nodes);
+    prev_nodes = f.inner_nodes;
   }
 }
 
@@ -116,7 +155,7 @@ TEST_CASE("BVH depth stays bounded on degenerate input", "[bvh]") {
     const float x = std::ldexp(1.0f, -i / 2);
     g.triangles.push_back({{x, 0, 0}, {x * 1.0001f, 0, 0}, {x, x * 1e-3f, 0}});
   }
-  for (int width : {2, 8}) {
+  for (int width : {2, 6, 8}) {
     BvhBuildParams p;
     p.width = width;
     const Bvh b = Bvh::build(g, p);
@@ -138,7 +177,7 @@ TEST_CASE("BVH traversal equals brute force, closest and any hit, every width", 
   TraversalStats bs;
   brute.trace_batch(rays.data(), want.data(), rays.size(), false, 1, bs);
   CHECK(bs.prim_tests == uint64_t(rays.size()) * g.num_bounded());
-  for (int width : {2, 4, 8}) {
+  for (int width : {2, 4, 6, 8}) {
     TracerOptions opt;
     opt.accel = AccelMode::kBvh;
     opt.bvh.width = width;

@@ -522,9 +522,11 @@ TEST_CASE("node kernels: scalar and AVX-512 equal box_test child by child (rando
     for (int i = 0; i < 50000; ++i) {
       check_node_kernels<2, uint8_t>(f, rng, nodes, declined, accepted, simd_nodes);
       check_node_kernels<4, uint8_t>(f, rng, nodes, declined, accepted, simd_nodes);
+      check_node_kernels<6, uint8_t>(f, rng, nodes, declined, accepted, simd_nodes);
       check_node_kernels<8, uint8_t>(f, rng, nodes, declined, accepted, simd_nodes);
       check_node_kernels<2, uint16_t>(f, rng, nodes, declined, accepted, simd_nodes);
       check_node_kernels<4, uint16_t>(f, rng, nodes, declined, accepted, simd_nodes);
+      check_node_kernels<6, uint16_t>(f, rng, nodes, declined, accepted, simd_nodes);
       check_node_kernels<8, uint16_t>(f, rng, nodes, declined, accepted, simd_nodes);
     }
   }

@@ -30,9 +30,16 @@ TEST_CASE("fixed formats: every preset validates, bad widths are rejected with t
   FixedFormat f;
   f.coord_bits = 31;  // vertices and node origins are stored as int32
   rejects(f, "coord_bits");
-  f = FixedFormat{};
-  f.width = 3;
-  rejects(f, "width");
+  for (int w : {2, 4, 6, 8}) {
+    f = FixedFormat{};
+    f.width = w;
+    CHECK_NOTHROW(f.validate());
+  }
+  for (int w : {0, 1, 3, 5, 7, 16}) {
+    f = FixedFormat{};
+    f.width = w;
+    rejects(f, "width must be 2, 4, 6 or 8");
+  }
   // B = 30, G = 16, F = 14: translated values need a = 61 bits, the edge function 2a + D + 3 = 149 > 126. With the
   // default t bits this combination also breaks the t-range rule (t_bits >= B + G + T + 3), which validate()
   // checks first; T = 8 and t_bits = 62 leave the edge function as the only rule broken.

@@ -52,7 +52,7 @@ void check_closed(const std::string& spec, uint64_t n_rays, uint64_t seed) {
   const hw::Geometry& g = scene.geometry;
   REQUIRE(g.triangles.size() >= 1280);
   const std::vector<hw::Ray> rays = rays_at_edges(g, n_rays / 3, seed);
-  for (int width : {2, 4, 8}) {
+  for (int width : {2, 4, 6, 8}) {
     hw::TracerOptions opt;
     opt.accel = hw::AccelMode::kBvh;
     opt.bvh.width = width;
@@ -77,7 +77,7 @@ void check_closed_fixed(const std::string& spec, uint64_t n_world, uint64_t n_gr
   const hw::Geometry& g = scene.geometry;
   REQUIRE(g.triangles.size() >= 1280);
   const std::vector<hw::Ray> rays = rays_at_edges(g, n_world / 3, seed);
-  for (int width : {2, 4, 8}) {
+  for (int width : {2, 4, 6, 8}) {
     hw::FixedFormat f = hw::format_from_spec(format);
     f.width = width;
     hw::BvhBuildParams bp;

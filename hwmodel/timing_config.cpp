@@ -176,8 +176,9 @@ void TimingConfig::validate() const {
 //     Intel's Arc ray-tracing architecture disclosure (Aug./Sep. 2022, "Intel Arc Graphics: ray tracing"; as
 //     reported e.g. by TechPowerUp, "Intel Details its Ray Tracing Architecture", 2022-09-01). Modelled as one box
 //     unit of rate 12, so a 6-wide node issues in one clock.
-//   - BVH6: Intel's hardware BVH is 6-wide (format wide6: the default format's widths at 6 children per node;
-//     the node is the model's QNode layout, 76 bytes, not Intel's 64-byte one).
+//   - BVH6 of 64-byte nodes: Intel's hardware BVH is 6-wide with 64-byte internal nodes (Embree's GPU BVH
+//     layout, as Intel's ray-tracing disclosures describe it); format xe6: the default format's widths in
+//     bit-packed 6-wide nodes padded to 64 bytes, primitives in 40-byte records.
 //   - 2.1 GHz: the Arc A770's graphics clock (Intel, 2022).
 //   - 64 ray slots: traversal runs in the RTU asynchronously from the shaders (Intel's "asynchronous ray
 //     tracing"), so more rays are in flight than one SIMD thread's (estimate).
@@ -280,7 +281,7 @@ TimingConfig timing_preset(const std::string& name) {
   } else if (name == "intel") {
     c = timing_preset("rdna2");
     c.name = "intel";
-    c.format = "wide6";
+    c.format = "xe6";
     c.bvh_width = 6;
     c.clock_ghz = 2.1;
     c.ray_slots = 64;

@@ -58,19 +58,21 @@ for mesh in "${meshes[@]}"; do
     --threads 1 --stats "$tmp/b2.json" >/dev/null
   base=$(stat "$tmp/b2.json" "j['bvh']['image']['float_node_bytes'] + j['bvh']['image']['float_index_bytes'] + 36 * j['bvh']['image']['records']")
   prims=$(stat "$tmp/b2.json" "j['bvh']['image']['records']")
+  hier=$(stat "$tmp/b2.json" "j['bvh']['image']['float_node_bytes'] + j['bvh']['image']['float_index_bytes']")
   echo
   echo "### $name: $prims primitives, $rays incoherent rays"
   echo
-  echo "Float BVH2 + triangles: $base bytes ($(python3 -c "print(f'{$base / $prims:.1f}')") bytes per primitive)."
+  echo "Float BVH2: $hier bytes of nodes and leaf index; with its triangles $base bytes ($(python3 -c "print(f'{$base / $prims:.1f}')") bytes per primitive)."
   echo
-  echo "| format | node bytes | bytes/node | primitive bytes | bytes/prim | of float BVH2 | rdna2-mem cycles | DRAM B/ray | intel-mem cycles | DRAM B/ray |"
-  echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+  echo "| format | node bytes | bytes/node | nodes of float BVH2 nodes | primitive bytes | bytes/prim | all of float BVH2 + triangles | rdna2-mem cycles | DRAM B/ray | intel-mem cycles | DRAM B/ray |"
+  echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
   for entry in "${formats[@]}"; do
     label=${entry%%|*}
     read -r -a opts <<<"${entry#*|}"
     "$rtusim" trace --scene "$mesh" --rays "$tmp/inc.bin" --out "$tmp/h.bin" --device fixed "${opts[@]}" \
       --threads 1 --stats "$tmp/f.json" >/dev/null
     row="| $label | $(stat "$tmp/f.json" "j['bvh']['image']['node_bytes']") | $(stat "$tmp/f.json" "j['bvh']['image']['bytes_per_node']")"
+    row+=" | $(stat "$tmp/f.json" "f\"{100 * j['bvh']['image']['node_bytes'] / $hier:.0f}%\"")"
     row+=" | $(stat "$tmp/f.json" "j['bvh']['image']['record_bytes']")"
     row+=" | $(stat "$tmp/f.json" "f\"{(j['bvh']['image']['node_bytes'] + j['bvh']['image']['record_bytes']) / j['bvh']['image']['records']:.1f}\"")"
     row+=" | $(stat "$tmp/f.json" "f\"{100 * (j['bvh']['image']['node_bytes'] + j['bvh']['image']['record_bytes']) / $base:.0f}%\"")"

@@ -9,6 +9,7 @@
 #   bench/rtl_area.sh [BUILD] [RAYS] [MESH]
 #     BUILD  default build/default (needs rtusim and rtl_sim/rtu_rtl_params);  RAYS  incoherent rays, 300000
 #     MESH   default the IFC house of assimp-testmodels
+#   ONLY=LABEL runs that row alone (e.g. ONLY=intel).
 #   RTL_AREA_CSV=FILE also writes FILE with params,cells,flip_flops,transistors per unit (the Verilator -G
 #   options as key), the table `rtusim sweep --area` reads (bench/data/rtl_area.csv is this script's output).
 # Takes minutes per row (yosys's abc on the multipliers); not part of the test suite.
@@ -32,6 +33,7 @@ printf '| unit | format | N | lanes | cells | flip-flops | transistors (est.) | 
 printf '|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n'
 while read -r label spec fmtkeys cmpopts; do
   [ -z "$label" ] && continue
+  [ -n "${ONLY:-}" ] && [ "$label" != "$ONLY" ] && continue
   keys=${fmtkeys//,/ }
   [ "$keys" = "-" ] && keys=""
   # shellcheck disable=SC2086
@@ -67,6 +69,6 @@ rdna2,k=4 rdna2 child_bits=4 --child-bits 4 --bvh-width 4
 rdna2,lanes=2 rdna2:box_rate=2 - --format default --bvh-width 4
 rdna2,lanes=1 rdna2:box_rate=1 - --format default --bvh-width 4
 embedded embedded - --format compact --bvh-width 4
-intel intel - --format wide6 --bvh-width 6
+intel intel - --format xe6 --bvh-width 6
 intel,N=8 intel:format=wide8:bvh_width=8 - --format wide8 --bvh-width 8
 ROWS

@@ -171,8 +171,12 @@ std::string refusal(const std::vector<uint8_t>& b) {
 
 TEST_CASE("packed node sizes are the layouts' formulas", "[fixed][image]") {
   static_assert(compressed_wide_node_bytes(8, 1) == 80 && compressed_wide_node_bytes(4, 1) == 52 &&
-                compressed_wide_node_bytes(8, 2) == 128);
-  for (int width : {2, 4, 8}) {
+                compressed_wide_node_bytes(6, 1) == 66 && compressed_wide_node_bytes(8, 2) == 128);
+  // xe6: 6-wide bit-packed nodes of the default format fit Intel's 64 bytes at up to 2^24 nodes and primitive
+  // units (bases of 24 bits, groups of 128 granules).
+  CHECK(node_fields(format_preset("xe6"), 24, 24, 7).bytes(1) <= 64);
+  CHECK(node_fields(format_preset("xe6"), 24, 24, 7).bytes(64) == 64);
+  for (int width : {2, 4, 6, 8}) {
     for (int k : {4, 8, 12}) {
       FixedFormat f = format_preset("default");
       f.width = width;
@@ -205,7 +209,7 @@ TEST_CASE("packed nodes round-trip: every field at its ends and at random", "[fi
   INFO("seed " << seed);
   Pcg32 rng(seed);
   for (int layout : {1, 2})
-    for (int width : {2, 4, 8})
+    for (int width : {2, 4, 6, 8})
       for (int B : {2, 16, 30}) {
         FixedFormat f = format_preset("default");
         f.width = width;
@@ -284,7 +288,7 @@ TEST_CASE("triangle blocks: bytes follow the bits the block needs", "[fixed][ima
 TEST_CASE("every layout traces to the struct layout's hits, and timed to fixed", "[fixed][image][timed]") {
   const Geometry g = soup(77, 3000, 40);
   const std::vector<Ray> rs = rays(78, 4000);
-  for (int width : {2, 4, 8}) {
+  for (int width : {2, 4, 6, 8}) {
     FixedFormat base = format_preset("default");
     base.width = width;
     const DeviceImage ref = encode(g, base);

@@ -61,6 +61,26 @@ inline int64_t rand_int(Pcg32& g, int64_t lo, int64_t hi) {
 inline float rand_float(Pcg32& g, float lo, float hi) {
   return lo + (hi - lo) * g.next_float();
 }
+
+// A random soup: triangles about 1 unit across in [-10, 10]^3, a few spheres, and a ground plane below them.
+inline Geometry random_scene(uint64_t seed, int tris, int spheres) {
+  Pcg32 rng(seed);
+  Geometry g;
+  for (int i = 0; i < tris; ++i) {
+    Vec3 c, v[3];
+    for (int a = 0; a < 3; ++a) c[a] = rand_float(rng, -10.0f, 10.0f);
+    for (Vec3& p : v)
+      for (int a = 0; a < 3; ++a) p[a] = c[a] + rand_float(rng, -0.6f, 0.6f);
+    g.triangles.push_back({v[0], v[1], v[2]});
+  }
+  for (int i = 0; i < spheres; ++i) {
+    Vec3 c;
+    for (int a = 0; a < 3; ++a) c[a] = rand_float(rng, -9.0f, 9.0f);
+    g.spheres.push_back({c, rand_float(rng, 0.2f, 1.5f)});
+  }
+  g.planes.push_back({Vec3(0.05f, 1.0f, -0.1f), -11.0f});
+  return g;
+}
 inline bool one_in(Pcg32& g, uint32_t n) {
   return g.next_u32() % n == 0;
 }

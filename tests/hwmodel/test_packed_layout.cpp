@@ -112,24 +112,6 @@ std::vector<uint8_t> triangle_records(Pcg32& rng, int count, int B, int spread) 
   return out;
 }
 
-Geometry soup(uint64_t seed, int tris, int spheres) {
-  Pcg32 rng(seed);
-  Geometry g;
-  for (int i = 0; i < tris; ++i) {
-    Vec3 c, v[3];
-    for (int a = 0; a < 3; ++a) c[a] = rand_float(rng, -10.0f, 10.0f);
-    for (Vec3& p : v)
-      for (int a = 0; a < 3; ++a) p[a] = c[a] + rand_float(rng, -0.7f, 0.7f);
-    g.triangles.push_back({v[0], v[1], v[2]});
-  }
-  for (int i = 0; i < spheres; ++i) {
-    Vec3 c;
-    for (int a = 0; a < 3; ++a) c[a] = rand_float(rng, -9.0f, 9.0f);
-    g.spheres.push_back({c, rand_float(rng, 0.2f, 1.0f)});
-  }
-  return g;
-}
-
 std::vector<Ray> rays(uint64_t seed, int n) {
   Pcg32 rng(seed);
   std::vector<Ray> out;
@@ -286,7 +268,7 @@ TEST_CASE("triangle blocks: bytes follow the bits the block needs", "[fixed][ima
 }
 
 TEST_CASE("every layout traces to the struct layout's hits, and timed to fixed", "[fixed][image][timed]") {
-  const Geometry g = soup(77, 3000, 40);
+  const Geometry g = random_scene(77, 3000, 40);
   const std::vector<Ray> rs = rays(78, 4000);
   for (int width : {2, 4, 6, 8}) {
     FixedFormat base = format_preset("default");
@@ -342,7 +324,7 @@ TEST_CASE("every layout traces to the struct layout's hits, and timed to fixed",
 }
 
 TEST_CASE("the timed device fetches the packed bytes", "[timing][image]") {
-  const Geometry g = soup(91, 4000, 0);
+  const Geometry g = random_scene(91, 4000, 0);
   const std::vector<Ray> rs = rays(92, 3000);
   auto dram = [&](const std::string& spec) {
     const FixedFormat f = format_from_spec(spec);
@@ -368,7 +350,7 @@ TEST_CASE("the timed device fetches the packed bytes", "[timing][image]") {
 }
 
 TEST_CASE("from_bytes refuses malformed packed nodes and blocks, naming the field", "[fixed][image][limits]") {
-  const Geometry g = soup(55, 400, 5);
+  const Geometry g = random_scene(55, 400, 5);
   FixedFormat f = format_from_spec("packed");
   const DeviceImage img = encode(g, f, 4);
   const ImageHeader& h = img.header();

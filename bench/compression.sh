@@ -20,17 +20,12 @@ if [ ${#meshes[@]} -eq 0 ]; then
   m=/usr/share/assimp/models
   meshes=("$m/IFC/AC14-FZK-Haus.ifc" "$m/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb")
 fi
-if ! [ -x "$rtusim" ]; then
-  echo "compression.sh: $rtusim is not an executable (build the rtusim target, or pass its path)" >&2
-  exit 2
-fi
-if ! [[ $rays =~ ^[1-9][0-9]*$ ]]; then
-  echo "compression.sh: RAYS must be a positive integer, not '$rays'" >&2
-  exit 2
-fi
-command -v python3 >/dev/null || { echo "compression.sh: needs python3 to read the stats JSON" >&2; exit 2; }
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+name=compression.sh
+source "$(dirname "$0")/lib.sh"
+bench_need_rtusim "$rtusim"
+bench_need_count RAYS "$rays"
+bench_need_python
+bench_tmpdir
 
 # name|options: the formats of tables 1 and 2. The width is given on every row: on the timed device the timing
 # preset's bvh_width applies otherwise (intel-mem's 8, rdna2-mem's 4).

@@ -32,14 +32,10 @@ threads=${THREADS:-1}
 presets=(rdna2 intel embedded)
 builtins=(builtin:seed builtin:cornell)
 
-if ! [ -x "$rtusim" ]; then
-  echo "cycles_table.sh: $rtusim is not an executable (build the rtusim target, or pass its path)" >&2
-  exit 2
-fi
-if ! [[ $rays =~ ^[1-9][0-9]*$ ]]; then
-  echo "cycles_table.sh: RAYS must be a positive integer, not '$rays'" >&2
-  exit 2
-fi
+name=cycles_table.sh
+source "$(dirname "$0")/lib.sh"
+bench_need_rtusim "$rtusim"
+bench_need_count RAYS "$rays"
 for mesh in "${meshes[@]}"; do
   [ -r "$mesh" ] || { echo "cycles_table.sh: cannot read $mesh" >&2; exit 2; }
 done
@@ -52,8 +48,7 @@ else
   exit 2
 fi
 
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+bench_tmpdir
 
 # fields FILE PATH...: the values at the dotted paths, tab-separated, '-' where a path is missing or null.
 fields() {

@@ -13,8 +13,11 @@ if [ ${#meshes[@]} -eq 0 ]; then
   m=/usr/share/assimp/models
   meshes=("$m/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb" "$m/BLEND/SuzanneSubdiv_252.blend")
 fi
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+name=format_sweep.sh
+source "$(dirname "$0")/lib.sh"
+bench_need_rtusim "$rtusim"
+bench_need_count RAYS "$rays"
+bench_tmpdir
 
 get() {  # get KEY FILE: a top-level number of the compare JSON (one key per line)
   sed -n "s/^  \"$1\": \([-0-9.e+]*\),*$/\1/p" "$2" | head -1

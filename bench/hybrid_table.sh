@@ -20,14 +20,11 @@ presets=("$@")
 threads=${THREADS:-2}
 suzanne=/usr/share/assimp/models/BLEND/SuzanneSubdiv_252.blend
 
-if ! [ -x "$rtusim" ]; then
-  echo "hybrid_table.sh: $rtusim is not an executable (build the rtusim target, or pass its path)" >&2
-  exit 2
-fi
-command -v python3 >/dev/null || { echo "hybrid_table.sh: needs python3 to read the stats JSON" >&2; exit 2; }
-
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+name=hybrid_table.sh
+source "$(dirname "$0")/lib.sh"
+bench_need_rtusim "$rtusim"
+bench_need_python
+bench_tmpdir
 
 # scene | width | height | spp | depth | extra render options
 cases=(

@@ -16,8 +16,12 @@ if [ ${#meshes[@]} -eq 0 ]; then
   m=/usr/share/assimp/models
   meshes=("$m/IFC/AC14-FZK-Haus.ifc" "$m/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb")
 fi
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+name=layout_align.sh
+source "$(dirname "$0")/lib.sh"
+bench_need_rtusim "$rtusim"
+bench_need_count RAYS "$rays"
+bench_need_python
+bench_tmpdir
 echo "| mesh | rays | layout_align | cycles | lines per fetch | DRAM bytes | cache hit rate | cycles vs packed |"
 echo "|---|---|---|---|---|---|---|---|"
 for mesh in "${meshes[@]}"; do

@@ -20,17 +20,12 @@ if [ ${#meshes[@]} -eq 0 ]; then
   meshes=("$m/IFC/AC14-FZK-Haus.ifc" "$m/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb")
 fi
 read -r -a presets <<<"${PRESETS:-rdna2 rdna2-mem intel intel-mem embedded}"
-if ! [ -x "$rtusim" ]; then
-  echo "memory_bound.sh: $rtusim is not an executable (build the rtusim target, or pass its path)" >&2
-  exit 2
-fi
-if ! [[ $rays =~ ^[1-9][0-9]*$ ]]; then
-  echo "memory_bound.sh: RAYS must be a positive integer, not '$rays'" >&2
-  exit 2
-fi
-command -v python3 >/dev/null || { echo "memory_bound.sh: needs python3 to read the stats JSON" >&2; exit 2; }
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+name=memory_bound.sh
+source "$(dirname "$0")/lib.sh"
+bench_need_rtusim "$rtusim"
+bench_need_count RAYS "$rays"
+bench_need_python
+bench_tmpdir
 echo "| mesh | rays | preset | cycles | cycles/ray | limited by | cycles / bound | DRAM bytes/ray | DRAM utilization | cache hit rate |"
 echo "|---|---|---|---:|---:|---|---:|---:|---:|---:|"
 for mesh in "${meshes[@]}"; do

@@ -119,7 +119,7 @@ const char* cost_axis(ParetoCost c) {
     case ParetoCost::kCycles:
       return "simulated cycles (timed device, the sweep's rays)";
     case ParetoCost::kBvhBytes:
-      return "memory: encoded BVH bytes (nodes + records)";
+      return "memory: encoded image bytes (nodes, primitives in the format's layouts)";
     case ParetoCost::kRtlCells:
       return "area: RTL box unit cells (yosys)";
     case ParetoCost::kDramBytesPerRay:

@@ -119,9 +119,11 @@ const char* cost_axis(ParetoCost c) {
     case ParetoCost::kCycles:
       return "simulated cycles (timed device, the sweep's rays)";
     case ParetoCost::kBvhBytes:
-      return "memory: encoded BVH bytes (nodes + records)";
+      return "memory: encoded image bytes (nodes, primitives in the format's layouts)";
     case ParetoCost::kRtlCells:
       return "area: RTL box unit cells (yosys)";
+    case ParetoCost::kDramBytesPerRay:
+      return "memory traffic: DRAM bytes per ray (timed device)";
   }
   return "";
 }
@@ -144,6 +146,8 @@ const char* pareto_cost_name(ParetoCost c) {
       return "bvh_bytes";
     case ParetoCost::kRtlCells:
       return "rtl_cells";
+    case ParetoCost::kDramBytesPerRay:
+      return "dram_bytes_per_ray";
   }
   return "";
 }
@@ -164,6 +168,8 @@ double pareto_cost(const SweepRow& r, ParetoCost c) {
       return double(r.bvh_bytes);
     case ParetoCost::kRtlCells:
       return r.rtl_cells >= 0 ? double(r.rtl_cells) : -1.0;
+    case ParetoCost::kDramBytesPerRay:
+      return r.dram_bytes_per_ray > 0.0 ? r.dram_bytes_per_ray : -1.0;
   }
   return -1.0;
 }
@@ -254,23 +260,30 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
     const std::string data = base + ".dat";
     {
       std::ofstream f(dir + "/" + data);
+      // The first columns are the costs in ParetoCost order (a panel plots column cost + 1).
       f << "# " << scene
-        << ": cycles bvh_bytes rtl_cells hit_disagreement t_rel_error_mean label number (? = unknown)\n";
+        << ": cycles bvh_bytes rtl_cells dram_bytes_per_ray hit_disagreement t_rel_error_mean label number "
+           "bytes_per_prim (? = unknown)\n";
       for (size_t k = 0; k < idx.size(); ++k) {
         const SweepRow& r = rows[idx[k]];
         f << r.cycles << ' ' << r.bvh_bytes << ' ' << (r.rtl_cells >= 0 ? std::to_string(r.rtl_cells) : "?") << ' '
+          << (r.dram_bytes_per_ray > 0.0 ? g(r.dram_bytes_per_ray) : "?") << ' '
           << g(pareto_error(r, ParetoError::kHitDisagreement)) << ' '
           << g(pareto_error(r, ParetoError::kTRelErrorMean)) << ' ' << label_field(pareto_label(r.p)) << ' '
-          << k + 1 << '\n';
+          << k + 1 << ' ' << g(r.bytes_per_prim) << '\n';
       }
       if (!f.flush()) throw Error("cannot write " + dir + "/" + data);
     }
     uint64_t rays = 0;
     for (size_t i : idx) rays = std::max(rays, rows[i].rays);
-    // The panels drawn: area only when some row of the scene has one.
+    // The panels drawn: DRAM bytes and area only when some row of the scene has them.
     std::vector<ParetoCost> costs = {ParetoCost::kCycles, ParetoCost::kBvhBytes};
-    const bool area_panel = std::any_of(idx.begin(), idx.end(),
-                                        [&](size_t i) { return pareto_cost(rows[i], ParetoCost::kRtlCells) > 0; });
+    const auto any_known = [&](ParetoCost c) {
+      return std::any_of(idx.begin(), idx.end(), [&](size_t i) { return pareto_cost(rows[i], c) > 0; });
+    };
+    const bool dram_panel = any_known(ParetoCost::kDramBytesPerRay);
+    const bool area_panel = any_known(ParetoCost::kRtlCells);
+    if (dram_panel) costs.push_back(ParetoCost::kDramBytesPerRay);
     if (area_panel) costs.push_back(ParetoCost::kRtlCells);
     const int panel_rows = int(costs.size() + 1) / 2;
     const double width = kParetoPlotWidth, height = kParetoTitleHeight + panel_rows * kParetoPanelHeight;
@@ -283,6 +296,7 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
       plot.points = idx.size();
       plot.rows = idx;
       plot.area_panel = area_panel;
+      plot.dram_panel = dram_panel;
       const std::string ename = e == ParetoError::kHitDisagreement ? "hit" : "terr";
       plot.png = base + "_" + ename + ".png";
       const std::string script = base + "_" + ename + ".gp";
@@ -312,7 +326,7 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
       Range yr;
       for (size_t i : idx) yr.add(pareto_error(rows[i], e));
       const double ylo = yr.lo / 3, yhi = yr.hi * 3;
-      const int ycol = e == ParetoError::kHitDisagreement ? 4 : 5;
+      const int ycol = e == ParetoError::kHitDisagreement ? 5 : 6;
       for (size_t c = 0; c < costs.size(); ++c) {
         const ParetoCost cost = costs[c];
         const int ci = int(cost);  // index into plot.front and the data file's columns

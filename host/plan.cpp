@@ -78,6 +78,12 @@ double plan_error_bound(const SweepRow& r, const PlanOptions& o) {
   return proportion_upper_bound(r.false_misses + r.false_hits, r.compared_rays, o.confidence);
 }
 
+bool plan_cheaper(const SweepRow& a, const SweepRow& b, const PlanOptions& o) {
+  if (o.minimise == "bytes")
+    return a.bvh_bytes < b.bvh_bytes || (a.bvh_bytes == b.bvh_bytes && a.cycles < b.cycles);
+  return a.cycles < b.cycles || (a.cycles == b.cycles && a.bvh_bytes < b.bvh_bytes);
+}
+
 bool plan_meets(const SweepRow& r, const PlanOptions& o) {
   return plan_error_bound(r, o) <= o.max_error && r.box_false_negatives == 0 &&
          (o.min_psnr <= 0.0 || r.psnr_db >= o.min_psnr);
@@ -89,11 +95,20 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
   if (!(a.confidence > 0.0 && a.confidence < 1.0)) throw Error("--confidence: a number in (0, 1)");
   if (a.min_psnr > 0.0 && a.sweep.image_width <= 0)
     throw Error("--min-psnr needs a render to measure: --image-width must be above 0");
+  if (a.minimise != "cycles" && a.minimise != "bytes")
+    throw Error("--minimise: cycles or bytes, got '" + a.minimise + "'");
   std::string base;
   try {
     base = hw::timing_preset(a.config).format;
   } catch (const std::invalid_argument& e) {
     throw Error(std::string("--config: ") + e.what());
+  }
+  if (!a.format.empty()) base = a.format;
+  int base_child_bits = 0;
+  try {
+    base_child_bits = hw::format_from_spec(base).child_bits;
+  } catch (const std::invalid_argument& e) {
+    throw Error(std::string("--format: ") + e.what());
   }
   // Zero disagreements on every ray is the best a candidate can show; below that bound no format can meet the
   // budget, however good.
@@ -132,10 +147,11 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
   j["min_psnr"] = a.min_psnr;
   j["config"] = a.config;
   j["base_format"] = base;
-  j["cost"] = "cycles on " + a.config + ", then BVH bytes";
+  j["minimise"] = a.minimise;
+  j["cost"] = a.minimise == "bytes" ? "image bytes (bvh_bytes), then cycles on " + a.config
+                                    : "cycles on " + a.config + ", then image bytes (bvh_bytes)";
   Json per_width = Json::array();
   std::unique_ptr<SweepRow> best;
-  const int base_child_bits = hw::format_preset(base).child_bits;
   for (int w : a.widths) {
     report(PlanStage::kCoordBits, w);
     // The fewest coordinate bits that meet the budget (error falls with bits; the first that meets is taken).
@@ -157,7 +173,7 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
       continue;
     }
     const int b = hw::format_from_spec(first_ok->p.format).coord_bits;
-    // Child-offset bits: the fewest cycles among those that still meet the budget.
+    // Child-offset bits: the cheapest among those that still meet the budget.
     report(PlanStage::kChildBits, w, b);
     SweepRow chosen = *first_ok;
     Json ks = Json::array();
@@ -168,9 +184,10 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
                     {"error_bound", plan_error_bound(r, a)},
                     {"cycles", r.cycles},
                     {"bytes", r.bvh_bytes},
+                    {"bytes_per_prim", r.bytes_per_prim},
+                    {"dram_bytes_per_ray", r.dram_bytes_per_ray},
                     {"meets", meets(r)}});
-      if (meets(r) && (r.cycles < chosen.cycles || (r.cycles == chosen.cycles && r.bvh_bytes < chosen.bvh_bytes)))
-        chosen = r;
+      if (meets(r) && plan_cheaper(r, chosen, a)) chosen = r;
     }
     jw["feasible"] = true;
     jw["coord_bits"] = b;
@@ -185,17 +202,17 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
     jw["chosen"] = {{"format", chosen.p.format},
                     {"cycles", chosen.cycles},
                     {"bytes", chosen.bvh_bytes},
+                    {"bytes_per_prim", chosen.bytes_per_prim},
+                    {"dram_bytes_per_ray", chosen.dram_bytes_per_ray},
                     {"error", plan_error(chosen, a.metric)},
                     {"error_bound", plan_error_bound(chosen, a)},
                     {"psnr_db", chosen.psnr_db},
                     {"rtl_cells", chosen.rtl_cells}};
     per_width.push_back(jw);
-    if (!best || chosen.cycles < best->cycles ||
-        (chosen.cycles == best->cycles && chosen.bvh_bytes < best->bvh_bytes))
-      best = std::make_unique<SweepRow>(chosen);
+    if (!best || plan_cheaper(chosen, *best, a)) best = std::make_unique<SweepRow>(chosen);
   }
   j["widths"] = per_width;
-  // The configuration's own format at the chosen width, for comparison.
+  // The base format at the chosen width, for comparison.
   if (!best) {
     j["plan"] = nullptr;
     return res;
@@ -209,6 +226,8 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
                {"child_bits", f.child_bits},
                {"cycles", best->cycles},
                {"bytes", best->bvh_bytes},
+               {"bytes_per_prim", best->bytes_per_prim},
+               {"dram_bytes_per_ray", best->dram_bytes_per_ray},
                {"error", plan_error(*best, a.metric)},
                {"error_bound", plan_error_bound(*best, a)},
                {"psnr_db", best->psnr_db},
@@ -216,6 +235,8 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
   j["default"] = {{"format", base},
                   {"cycles", def.cycles},
                   {"bytes", def.bvh_bytes},
+                  {"bytes_per_prim", def.bytes_per_prim},
+                  {"dram_bytes_per_ray", def.dram_bytes_per_ray},
                   {"error", plan_error(def, a.metric)},
                   {"error_bound", plan_error_bound(def, a)},
                   {"rtl_cells", def.rtl_cells}};

@@ -1,10 +1,11 @@
-// The cheapest format for a scene within an error budget (rtusim plan). "Cheapest" is the fewest cycles of the
-// rays on the timing preset (`config`), then the fewest BVH bytes; RTL area is reported, not minimised. Skips the
-// bits a scene does not need: per BVH width, the fewest coordinate bits whose error meets the budget, then the
-// child-offset bits with the fewest cycles, then the width with the fewest cycles (bytes break ties). Candidates
-// vary the configuration's own format (its `format` key): coordinate and child-offset bits, every other field as
-// the preset has it. Every candidate is a sweep point (sweep.h): the same error, cycles and bytes as `rtusim
-// sweep`.
+// The cheapest format for a scene within an error budget (rtusim plan). "Cheapest" is, by `minimise`, the fewest
+// cycles of the rays on the timing preset (`config`), then the fewest image bytes (bvh_bytes); or the fewest image
+// bytes, then the fewest cycles. RTL area is reported, not minimised. Skips the bits a scene does not need: per
+// BVH width, the fewest coordinate bits whose error meets the budget, then the cheapest child-offset bits, then
+// the cheapest width. Candidates vary a base format (`format`, by default the configuration's own: its `format`
+// key): coordinate and child-offset bits, every other field (storage layouts too) as the base has it, so a packed
+// base gives packed candidates, whose bytes follow their bits. Every candidate is a sweep point (sweep.h): the
+// same error, cycles and bytes as `rtusim sweep`.
 //
 // The error is measured on a sample of rays (the camera's and as many incoherent rays, `sweep.seed`), so a
 // candidate meets the budget only when a one-sided upper confidence bound on its error does: for the hit metric
@@ -28,9 +29,11 @@ struct PlanOptions {
   double max_error = 1e-4;     // the budget of `metric`
   double min_psnr = 0.0;       // also require the render's PSNR against float (dB; 0: no)
   double confidence = 0.95;    // of the error's upper bound, in (0, 1)
-  std::string config = "rdna2";         // timing preset whose cycles are the cost
-  std::string area;                     // RTL area table for the rtl_cells figures (empty: none)
-  std::vector<int> widths{2, 4, 6, 8};  // BVH widths to consider
+  std::string config = "rdna2";     // timing preset whose cycles are the cost
+  std::string format;               // base format spec (hw::format_from_spec); empty: the config's `format` key
+  std::string minimise = "cycles";  // cycles: fewest cycles, then bytes; bytes: fewest image bytes, then cycles
+  std::string area;                 // RTL area table for the rtl_cells figures (empty: none)
+  std::vector<int> widths{2, 4, 6, 8};                                     // BVH widths to consider
   std::vector<int> coord_bits{8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28};  // tried fewest first
   std::vector<int> child_bits{4, 6, 8, 12};                                // child-offset bits to try
   SweepOptions sweep;                                                      // rays, render and threads
@@ -42,7 +45,7 @@ enum class PlanStage {
   kCandidate,   // measured `row` (a sweep point), which `meets` the budget or not
   kInfeasible,  // no coordinate width meets the budget at `width`
   kChildBits,   // `width` needs `coord_bits` coordinate bits: now the child-offset bits
-  kDefault,     // measures the configuration's own format at `width` (the plan's), for comparison
+  kDefault,     // measures the base format at `width` (the plan's), for comparison
 };
 struct PlanStep {
   PlanStage stage = PlanStage::kCoordBits;
@@ -57,9 +60,9 @@ struct PlanResult {
   bool found = false;      // a format meets the budget at some width; the rest is set only then
   SweepRow best;           // the plan: its format, BVH width and figures
   hw::FixedFormat format;  // best's format
-  SweepRow reference;      // the configuration's own format at the plan's width
-  // {scene, metric, max_error, confidence, seed, rays, min_psnr, config, base_format, cost, widths: [every
-  // width's candidates], plan, default} (plan: null when nothing meets the budget)
+  SweepRow reference;      // the base format (the configuration's own unless `format`) at the plan's width
+  // {scene, metric, max_error, confidence, seed, rays, min_psnr, config, base_format, minimise, cost, widths:
+  // [every width's candidates], plan, default} (plan: null when nothing meets the budget)
   Json json;
 };
 
@@ -67,6 +70,8 @@ struct PlanResult {
 double plan_error(const SweepRow& r, const std::string& metric);
 // The upper confidence bound of that error at o.confidence (o.metric); +inf when the row has no sample for it.
 double plan_error_bound(const SweepRow& r, const PlanOptions& o);
+// True when a costs less than b by o.minimise (cycles then bytes, or bytes then cycles).
+bool plan_cheaper(const SweepRow& a, const SweepRow& b, const PlanOptions& o);
 // True when r meets the options' budget: the error's upper bound, no box false negatives, and the PSNR when one
 // is required.
 bool plan_meets(const SweepRow& r, const PlanOptions& o);
@@ -78,9 +83,9 @@ double proportion_upper_bound(uint64_t k, uint64_t n, double confidence);
 // approximation): mean + z sd / sqrt(n), z the standard normal's `confidence` quantile. +inf when n < 2.
 double mean_upper_bound(double mean, double sd, uint64_t n, double confidence);
 
-// Plans a format. Checks the metric, the budget, the confidence and the preset before loading the scene (Error
-// naming the option; also when the budget is below what zero disagreements on the rays can show);
-// `progress`, when given, sees every step.
+// Plans a format. Checks the metric, the budget, the confidence, the preset, the base format and `minimise`
+// before loading the scene (Error naming the option; also when the budget is below what zero disagreements on the
+// rays can show); `progress`, when given, sees every step.
 PlanResult plan_format(const PlanOptions& o, const std::function<void(const PlanStep&)>& progress = {});
 
 }  // namespace rtu::host

@@ -339,7 +339,8 @@ Json section_pareto(const std::vector<SweepRow>& rows, const std::string& source
   j["points"] = rows.size();
   h.s << "<h2>Run time against error: Pareto fronts</h2>\n<p>Sweep: " << esc(source) << ", " << rows.size()
       << " points (<a href=\"sweep.csv\">sweep.csv</a>); RTL areas: " << esc(area_source)
-      << ". Error against cycles, memory and area per scene; the red staircase is the Pareto front (points no "
+      << ". Error against cycles, memory (image bytes), DRAM traffic (bytes per ray, where the sweep has it) and "
+         "area per scene; the red staircase is the Pareto front (points no "
          "other point beats in both error and cost). The numbers on the plots are the points of the table under "
          "them; points at the same place share one number list (\"3-5\").</p>\n";
   const std::string gnuplot = find_gnuplot();
@@ -375,9 +376,16 @@ Json section_pareto(const std::vector<SweepRow>& rows, const std::string& source
     h.s << "<h3>" << esc(scene) << "</h3>\n";
     for (const ParetoPlot& p : ps) {
       if (p.scene != scene) continue;
-      Json pj = {{"scene", p.scene},   {"error", pareto_error_name(p.error)}, {"image", p.png},
-                 {"points", p.points}, {"area_panel", p.area_panel},          {"unlabelled", p.unlabelled}};
-      for (int c = 0; c < 3; ++c) {
+      Json pj = {{"scene", p.scene},          {"error", pareto_error_name(p.error)}, {"image", p.png},
+                 {"points", p.points},        {"area_panel", p.area_panel},          {"dram_panel", p.dram_panel},
+                 {"unlabelled", p.unlabelled}};
+      // A cost's panel is drawn when some point has it: cycles and bytes always, DRAM and area where known.
+      const auto drawn = [&](int c) {
+        return (c != int(ParetoCost::kRtlCells) || p.area_panel) &&
+               (c != int(ParetoCost::kDramBytesPerRay) || p.dram_panel);
+      };
+      for (int c = 0; c < kParetoCostCount; ++c) {
+        if (!drawn(c)) continue;
         Json f = Json::array();
         for (size_t i : p.front[c]) f.push_back(pareto_label(rows[i].p));
         pj["front"][pareto_cost_name(ParetoCost(c))] = f;
@@ -386,8 +394,8 @@ Json section_pareto(const std::vector<SweepRow>& rows, const std::string& source
           << "</h4>\n<p>";
       h.img(p.png, p.scene + " Pareto plot", 0, 0, "plot");
       h.s << "</p>\n<p>On the front against";
-      for (int c = 0; c < 3; ++c) {
-        if (c == int(ParetoCost::kRtlCells) && !p.area_panel) continue;
+      for (int c = 0; c < kParetoCostCount; ++c) {
+        if (!drawn(c)) continue;
         h.s << (c ? "; " : " ") << pareto_cost_name(ParetoCost(c)) << ": ";
         const Json& f = pj["front"][pareto_cost_name(ParetoCost(c))];
         if (f.empty()) h.s << "(no points)";
@@ -403,14 +411,16 @@ Json section_pareto(const std::vector<SweepRow>& rows, const std::string& source
     area_note(rows, idx, area_source, h);
     // The scene's points, numbered as on the plots.
     h.s << "<table>\n<tr><th>#</th><th>format/width/config</th><th>hit agreement</th><th>t error mean</th>"
-           "<th>PSNR dB</th><th>cycles</th><th>cycles/ray</th><th>BVH bytes</th><th>RTL cells</th></tr>\n";
+           "<th>PSNR dB</th><th>cycles</th><th>cycles/ray</th><th>DRAM bytes/ray</th><th>BVH bytes</th>"
+           "<th>bytes/prim</th><th>RTL cells</th></tr>\n";
     for (size_t k = 0; k < idx.size(); ++k) {
       const SweepRow& r = rows[idx[k]];
       h.s << "<tr><td class=\"n\">" << k + 1 << "</td><td>" << esc(pareto_label(r.p)) << "</td><td class=\"n\">"
           << fmt("%.4f%%", 100.0 * r.hit_agreement) << "</td><td class=\"n\">" << fmt("%.2g", r.t_rel_error_mean)
           << "</td><td class=\"n\">" << (std::isinf(r.psnr_db) ? std::string("inf") : fmt("%.1f", r.psnr_db))
           << "</td><td class=\"n\">" << r.cycles << "</td><td class=\"n\">" << fmt("%.2f", r.cycles_per_ray)
-          << "</td><td class=\"n\">" << r.bvh_bytes << "</td><td class=\"n\">"
+          << "</td><td class=\"n\">" << fmt("%.1f", r.dram_bytes_per_ray) << "</td><td class=\"n\">" << r.bvh_bytes
+          << "</td><td class=\"n\">" << fmt("%.1f", r.bytes_per_prim) << "</td><td class=\"n\">"
           << (r.rtl_cells >= 0 ? std::to_string(r.rtl_cells) : std::string("-")) << "</td></tr>\n";
     }
     h.s << "</table>\n";

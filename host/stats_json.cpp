@@ -45,9 +45,27 @@ Json format_json(const hw::FixedFormat& f) {
   return j;
 }
 
+const char* node_layout_name(int layout) {
+  static const char* const kNames[] = {"structs", "bit-packed", "compressed-wide"};
+  return layout >= 0 && layout < 3 ? kNames[layout] : "unknown";
+}
+
+const char* prim_layout_name(int layout) {
+  static const char* const kNames[] = {"records", "blocks"};
+  return layout >= 0 && layout < 2 ? kNames[layout] : "unknown";
+}
+
+double image_bytes_per_prim(const hw::DeviceImage& img) {
+  const uint64_t prims = uint64_t(img.header().num_triangles) + img.header().num_spheres;
+  return prims ? double(img.nodes_size() + img.records_size()) / double(prims) : 0.0;
+}
+
 Json image_json(const hw::DeviceImage& img, const hw::Bvh* bvh) {
   const hw::ImageHeader& h = img.header();
   Json j;
+  j["node_layout"] = node_layout_name(h.node_layout);
+  j["node_align"] = h.node_align;
+  j["prim_layout"] = prim_layout_name(h.prim_layout);
   j["bytes_per_node"] = img.node_bytes();
   j["nodes"] = h.node_count;
   j["node_bytes"] = img.nodes_size();
@@ -55,6 +73,7 @@ Json image_json(const hw::DeviceImage& img, const hw::Bvh* bvh) {
   j["record_bytes"] = img.records_size();
   j["plane_bytes"] = img.planes_size();
   j["total_bytes"] = img.size();
+  j["bytes_per_prim"] = image_bytes_per_prim(img);
   j["frame"] = {{"coord_bits", h.coord_bits},
                 {"step_exp", h.step_exp},
                 {"origin", {h.frame_origin[0], h.frame_origin[1], h.frame_origin[2]}}};

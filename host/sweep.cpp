@@ -16,6 +16,7 @@
 #include "host/image_diff.h"
 #include "host/ray_gen.h"
 #include "host/render.h"
+#include "host/stats_json.h"
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/timing_config.h"
 #include "rtl_sim/params/rtl_params.h"
@@ -44,12 +45,21 @@ const char* const kColumns[] = {"scene",
                                 "psnr_db",
                                 "cycles",
                                 "cycles_per_ray",
+                                "dram_bytes_per_ray",
                                 "bvh_bytes",
                                 "float_bvh_bytes",
+                                "bytes_per_prim",
                                 "rtl_cells",
                                 "rtl_transistors",
                                 "seconds"};
 constexpr size_t kColumnCount = sizeof(kColumns) / sizeof(kColumns[0]);
+
+// The header of the previous version (before dram_bytes_per_ray and bytes_per_prim), refused with a message that
+// says what is missing: its rows measured no DRAM traffic, so they cannot stand beside this version's.
+constexpr const char* kHeaderBeforeBytes =
+    "scene,format,bvh_width,config,rays,seed,image_width,hit_agreement,prim_agreement,false_misses,false_hits,"
+    "t_rel_error_mean,t_rel_error_max,node_visit_overhead,prim_test_overhead,box_false_negatives,psnr_db,cycles,"
+    "cycles_per_ray,bvh_bytes,float_bvh_bytes,rtl_cells,rtl_transistors,seconds";
 
 std::string num(double v) {
   if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
@@ -269,7 +279,10 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   row.node_visit_overhead = ratio_minus_one(fs.nodes_visited, refr.stats.nodes_visited);
   row.prim_test_overhead = ratio_minus_one(fs.prim_tests, refr.stats.prim_tests);
   row.box_false_negatives = fs.box_false_negatives;
-  row.bvh_bytes = fixed->image() ? fixed->image()->size() : 0;
+  if (const hw::DeviceImage* img = fixed->image()) {
+    row.bvh_bytes = img->size();
+    row.bytes_per_prim = image_bytes_per_prim(*img);
+  }
 
   if (o.image_width > 0) {
     RenderOptions ro;
@@ -291,6 +304,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   timed->trace_batch(rays.data(), hits.data(), n, false, threads, ts);
   row.cycles = timed->timed()->timing().cycles;
   row.cycles_per_ray = n ? double(row.cycles) / double(n) : 0.0;
+  row.dram_bytes_per_ray = n ? double(timed->timed()->timing().dram_bytes) / double(n) : 0.0;
 
   try {
     const std::string params =
@@ -334,8 +348,8 @@ std::string sweep_csv_line(const SweepRow& r) {
     << num(r.prim_agreement) << ',' << r.false_misses << ',' << r.false_hits << ',' << num(r.t_rel_error_mean)
     << ',' << num(r.t_rel_error_max) << ',' << num(r.node_visit_overhead) << ',' << num(r.prim_test_overhead)
     << ',' << r.box_false_negatives << ',' << num(r.psnr_db) << ',' << r.cycles << ',' << num(r.cycles_per_ray)
-    << ',' << r.bvh_bytes << ',' << r.float_bvh_bytes << ',' << r.rtl_cells << ',' << r.rtl_transistors << ','
-    << num(r.seconds);
+    << ',' << num(r.dram_bytes_per_ray) << ',' << r.bvh_bytes << ',' << r.float_bvh_bytes << ','
+    << num(r.bytes_per_prim) << ',' << r.rtl_cells << ',' << r.rtl_transistors << ',' << num(r.seconds);
   return o.str();
 }
 
@@ -349,6 +363,11 @@ std::vector<SweepRow> read_sweep_csv(const std::string& path) {
     ++n;
     const std::string where = path + ":" + std::to_string(n);
     if (n == 1) {
+      if (line == kHeaderBeforeBytes)
+        throw Error(where +
+                    ": not a sweep file of this version: an earlier rtusim wrote it, without the columns "
+                    "dram_bytes_per_ray and bytes_per_prim (its points measured no DRAM traffic); run the "
+                    "sweep again into a new file");
       if (line != sweep_csv_header())
         throw Error(where + ": not a sweep file of this version (expected the header " + sweep_csv_header() + ")");
       continue;
@@ -379,8 +398,10 @@ std::vector<SweepRow> read_sweep_csv(const std::string& path) {
     r.psnr_db = parse_double(f[k++], where);
     r.cycles = parse_int<uint64_t>(f[k++], where);
     r.cycles_per_ray = parse_double(f[k++], where);
+    r.dram_bytes_per_ray = parse_double(f[k++], where);
     r.bvh_bytes = parse_int<uint64_t>(f[k++], where);
     r.float_bvh_bytes = parse_int<uint64_t>(f[k++], where);
+    r.bytes_per_prim = parse_double(f[k++], where);
     r.rtl_cells = parse_int<int64_t>(f[k++], where);
     r.rtl_transistors = parse_int<int64_t>(f[k++], where);
     r.seconds = parse_double(f[k++], where);

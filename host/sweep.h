@@ -1,9 +1,10 @@
 // Run time against error: one point of a design sweep is a scene, a fixed-point format, a BVH width and a timing
 // preset. For each point the sweep measures accuracy against the float reference (the `compare` figures on
 // identical primary and incoherent rays, and the PSNR of a small firmware render), the simulated cycles of the
-// same rays on the timed device, the encoded BVH's bytes, the RTL box unit's area where a synthesis table knows
-// its parameters, and the simulator's own wall time. Rows go to a CSV that `rtusim sweep` resumes, shards and
-// merges and that `rtusim plan` and the plots read.
+// same rays on the timed device and the DRAM bytes they fetched, the encoded BVH's bytes (in the format's storage
+// layouts, so a sweep over layouts is a sweep over formats: "packed:coord_bits=16"), the RTL box unit's area where
+// a synthesis table knows its parameters, and the simulator's own wall time. Rows go to a CSV that `rtusim sweep`
+// resumes, shards and merges and that `rtusim plan` and the plots read.
 #pragma once
 
 #include <cstdint>
@@ -18,7 +19,7 @@ namespace rtu::host {
 
 struct SweepPoint {
   std::string scene;   // load_scene spec
-  std::string format;  // hw::format_from_spec spec, e.g. "default" or "default:coord_bits=16"
+  std::string format;  // hw::format_from_spec spec, e.g. "default", "default:coord_bits=16", "packed:child_bits=4"
   int bvh_width = 4;
   std::string config;       // timing preset
   std::string key() const;  // scene|format|width|config: identifies a row
@@ -43,7 +44,10 @@ struct SweepRow {
   double psnr_db = 0.0;  // fixed render against float render (inf when identical)
   uint64_t cycles = 0;   // the rays on the timed device (closest hit)
   double cycles_per_ray = 0.0;
-  uint64_t bvh_bytes = 0, float_bvh_bytes = 0;   // encoded nodes + records; the float BVH's nodes + indices
+  double dram_bytes_per_ray = 0.0;  // the timed run's DRAM bytes (its cache's line fills: TimingStats) / rays
+  // The encoded image (header, nodes, primitives, planes); the float BVH's nodes + indices.
+  uint64_t bvh_bytes = 0, float_bvh_bytes = 0;
+  double bytes_per_prim = 0.0;  // the image's node and primitive bytes / its bounded primitives (0: none)
   int64_t rtl_cells = -1, rtl_transistors = -1;  // -1: no synthesis result for this unit
   double seconds = 0.0;                          // wall time of the point
 

@@ -100,7 +100,12 @@ void run_info(const InfoOptions& o) {
   std::printf("format       %s\n", dopt.format.describe().c_str());
   std::printf("frame        2^%d grid steps of 2^%d world units per axis\n", dopt.format.coord_bits,
               img.header().step_exp);
-  std::printf("fixed image  %zu bytes per node: nodes %llu + records %llu + planes %llu = %llu bytes\n",
+  std::printf(
+      "layout       nodes %s, %zu bytes per node; primitives %s; %.1f bytes per primitive (nodes + "
+      "primitives)\n",
+      node_layout_name(img.header().node_layout), img.node_bytes(), prim_layout_name(img.header().prim_layout),
+      image_bytes_per_prim(img));
+  std::printf("fixed image  %zu bytes per node: nodes %llu + primitives %llu + planes %llu = %llu bytes\n",
               img.node_bytes(), (unsigned long long)img.nodes_size(), (unsigned long long)img.records_size(),
               (unsigned long long)img.planes_size(), (unsigned long long)img.size());
   if (const hw::Bvh* bvh = device->bvh()) {

@@ -27,10 +27,11 @@ void print_step(const PlanStep& s, const PlanOptions& a) {
       const SweepRow& r = *s.row;
       char psnr[48] = "";  // no render, no PSNR
       if (a.sweep.image_width > 0) std::snprintf(psnr, sizeof psnr, ", PSNR %.1f dB", r.psnr_db);
-      std::printf("  %-40s w%d: %s %.3g (%g%% bound %.3g)%s, %llu cycles, %llu bytes%s\n", r.p.format.c_str(),
-                  s.width, a.metric == "t" ? "t error" : "hit disagreement", plan_error(r, a.metric),
-                  100.0 * a.confidence, plan_error_bound(r, a), psnr, (unsigned long long)r.cycles,
-                  (unsigned long long)r.bvh_bytes, s.meets ? "" : "  (over budget)");
+      std::printf("  %-40s w%d: %s %.3g (%g%% bound %.3g)%s, %llu cycles, %llu bytes (%.1f per primitive)%s\n",
+                  r.p.format.c_str(), s.width, a.metric == "t" ? "t error" : "hit disagreement",
+                  plan_error(r, a.metric), 100.0 * a.confidence, plan_error_bound(r, a), psnr,
+                  (unsigned long long)r.cycles, (unsigned long long)r.bvh_bytes, r.bytes_per_prim,
+                  s.meets ? "" : "  (over budget)");
       std::fflush(stdout);
       break;
     }
@@ -41,7 +42,7 @@ void print_step(const PlanStep& s, const PlanOptions& a) {
       std::printf("width %d, %d coordinate bits: child-offset bits\n", s.width, s.coord_bits);
       break;
     case PlanStage::kDefault:
-      std::printf("the configuration's format at width %d, for comparison\n", s.width);
+      std::printf("the base format at width %d, for comparison\n", s.width);
       break;
   }
 }
@@ -62,25 +63,26 @@ void run_plan(const PlanArgs& args) {
   const char* metric = a.metric == "t" ? "t error" : "hit disagreement";
   std::printf(
       "plan for %s (%s <= %g at %g%% confidence%s; seed %llu, %llu rays): %s at BVH width %d: %d coordinate bits, "
-      "%d child-offset bits; %llu cycles, %llu bytes, %s %.3g (bound %.3g)\n",
+      "%d child-offset bits; %llu cycles, %llu bytes (%.1f per primitive, %.1f DRAM bytes per ray), %s %.3g "
+      "(bound %.3g)\n",
       res.scene.c_str(), metric, a.max_error, 100.0 * a.confidence,
       a.min_psnr > 0 ? (", PSNR >= " + std::to_string(a.min_psnr)).c_str() : "", (unsigned long long)a.sweep.seed,
       (unsigned long long)(2 * a.sweep.rays), best->p.format.c_str(), best->p.bvh_width, f.coord_bits,
-      f.child_bits, (unsigned long long)best->cycles, (unsigned long long)best->bvh_bytes, metric,
-      plan_error(*best, a.metric), plan_error_bound(*best, a));
-  std::printf("  cheapest: fewest cycles on %s, then fewest BVH bytes%s\n", a.config.c_str(),
+      f.child_bits, (unsigned long long)best->cycles, (unsigned long long)best->bvh_bytes, best->bytes_per_prim,
+      best->dram_bytes_per_ray, metric, plan_error(*best, a.metric), plan_error_bound(*best, a));
+  std::printf("  cheapest: %s%s\n", j["cost"].get<std::string>().c_str(),
               a.area.empty() ? "" : " (RTL cells are reported, not minimised)");
   for (const Json& jw : j["widths"])
     if (jw["bvh_width"] == best->p.bvh_width && jw.contains("fewer_coord_bits"))
       std::printf("  why %d coordinate bits: %d give %s %.3g (bound %.3g) > %g\n", jw["coord_bits"].get<int>(),
                   jw["fewer_coord_bits"].get<int>(), metric, jw["error_at_fewer_coord_bits"].get<double>(),
                   jw["error_bound_at_fewer_coord_bits"].get<double>(), a.max_error);
-  std::printf("  against %s's own format (%s: %d coordinate bits, %d child bits): %+.1f%% cycles, %+.1f%% bytes\n",
-              a.config.c_str(), def.p.format.c_str(), base.coord_bits, base.child_bits,
+  std::printf("  against the base format (%s: %d coordinate bits, %d child bits): %+.1f%% cycles, %+.1f%% bytes\n",
+              def.p.format.c_str(), base.coord_bits, base.child_bits,
               100.0 * (double(best->cycles) / double(std::max<uint64_t>(def.cycles, 1)) - 1.0),
               100.0 * (double(best->bvh_bytes) / double(std::max<uint64_t>(def.bvh_bytes, 1)) - 1.0));
   if (best->rtl_cells >= 0 && def.rtl_cells >= 0)
-    std::printf("  RTL box unit: %lld cells against %lld for the configuration's format (%+.1f%%)\n",
+    std::printf("  RTL box unit: %lld cells against %lld for the base format (%+.1f%%)\n",
                 (long long)best->rtl_cells, (long long)def.rtl_cells,
                 100.0 * (double(best->rtl_cells) / double(def.rtl_cells) - 1.0));
   if (!args.json.empty()) write_json(args.json, j);
@@ -92,8 +94,8 @@ void add_plan(CLI::App& app) {
   auto a = std::make_shared<PlanArgs>();
   CLI::App* sub = app.add_subcommand(
       "plan",
-      "The cheapest format (fewest cycles on --config, then bytes: coordinate bits, offset bits, BVH width) whose "
-      "error's upper confidence bound meets a budget on a scene");
+      "The cheapest format (by --minimise: fewest cycles on --config, or fewest image bytes; coordinate bits, "
+      "offset bits, BVH width) whose error's upper confidence bound meets a budget on a scene");
   sub->add_option("--scene", a->o.scene, "scene file, mesh file or builtin:NAME")->required();
   sub->add_option("--max-error", a->o.max_error, "error budget of --metric")->required();
   sub->add_option("--metric", a->o.metric,
@@ -110,8 +112,17 @@ void add_plan(CLI::App& app) {
   sub->add_option("--seed", a->o.sweep.seed, "seed of the incoherent rays (another seed, another sample)")
       ->capture_default_str();
   sub->add_option("--config", a->o.config,
-                  "timing preset whose cycles are the cost; its format is the one whose bits the plan varies")
+                  "timing preset whose cycles are the cost; its format is the one whose bits the plan varies "
+                  "(unless --format)")
       ->check(CLI::IsMember(hw::timing_preset_names()))
+      ->capture_default_str();
+  sub->add_option("--format", a->o.format,
+                  "base format spec whose coordinate and child bits the plan varies, every other field (storage "
+                  "layouts too) kept, e.g. packed or cwbvh (default: the --config's format)");
+  sub->add_option("--minimise,--minimize", a->o.minimise,
+                  "the cost: cycles (fewest cycles on --config, then fewest image bytes) or bytes (fewest image "
+                  "bytes, bvh_bytes, then fewest cycles)")
+      ->check(CLI::IsMember({"cycles", "bytes"}))
       ->capture_default_str();
   sub->add_option("--bvh-width", a->o.widths, "BVH widths to consider, comma-separated")
       ->delimiter(',')

@@ -149,9 +149,11 @@ void run_sweep(const SweepArgs& a) {
           if (!out) throw Error("cannot write " + a.out);
           ++ran;
           std::printf(
-              "%s %s w%d %s: hit agreement %.5f%%, t err %.2g, PSNR %.1f dB, %llu cycles, %llu bytes, %.1f s\n",
+              "%s %s w%d %s: hit agreement %.5f%%, t err %.2g, PSNR %.1f dB, %llu cycles, %.1f DRAM bytes/ray, "
+              "%llu bytes (%.1f per primitive), %.1f s\n",
               scene->name.c_str(), f.c_str(), w, c.c_str(), 100.0 * r.hit_agreement, r.t_rel_error_mean, r.psnr_db,
-              (unsigned long long)r.cycles, (unsigned long long)r.bvh_bytes, r.seconds);
+              (unsigned long long)r.cycles, r.dram_bytes_per_ray, (unsigned long long)r.bvh_bytes,
+              r.bytes_per_prim, r.seconds);
           std::fflush(stdout);
         }
   }
@@ -169,7 +171,8 @@ void add_sweep(CLI::App& app) {
   sub->add_option("--scene", a->scenes, "scene file, mesh file or builtin:NAME (repeatable)");
   sub->add_option("--formats", a->formats,
                   "format specs, comma-separated: a preset, or a preset with changes, e.g. "
-                  "default:coord_bits=16:child_bits=6")
+                  "default:coord_bits=16:child_bits=6; storage layouts are presets (packed, cwbvh) or keys "
+                  "(node_layout, node_align, prim_layout), e.g. packed:coord_bits=16 (rtusim info --formats)")
       ->delimiter(',')
       ->capture_default_str();
   sub->add_option("--bvh-width", a->widths, "BVH widths, comma-separated (2, 4, 6, 8)")

@@ -172,13 +172,26 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
       report(PlanStage::kInfeasible, w);
       continue;
     }
-    const int b = hw::format_from_spec(first_ok->p.format).coord_bits;
+    // Fewer coordinate bits are fewer bytes, but not always fewer cycles: they cost node visits (looser boxes)
+    // where they save bytes, so on a compute-bound unit more bits can be faster. Minimising cycles, the bits
+    // above go on while they are faster and meet the budget (cycles against bits fall, then rise).
+    SweepRow at_b = *first_ok;
+    if (a.minimise == "cycles") {
+      const int b0 = hw::format_from_spec(first_ok->p.format).coord_bits;
+      for (int more : a.coord_bits) {
+        if (more <= b0) continue;
+        SweepRow r = point(spec(base, more, base_child_bits), w);
+        if (!meets(r) || !plan_cheaper(r, at_b, a)) break;
+        at_b = r;
+      }
+    }
+    const int b = hw::format_from_spec(at_b.p.format).coord_bits;
     // Child-offset bits: the cheapest among those that still meet the budget.
     report(PlanStage::kChildBits, w, b);
-    SweepRow chosen = *first_ok;
+    SweepRow chosen = at_b;
     Json ks = Json::array();
     for (int k : a.child_bits) {
-      SweepRow r = k == base_child_bits ? *first_ok : point(spec(base, b, k), w);
+      SweepRow r = k == base_child_bits ? at_b : point(spec(base, b, k), w);
       ks.push_back({{"child_bits", k},
                     {"error", plan_error(r, a.metric)},
                     {"error_bound", plan_error_bound(r, a)},
@@ -190,7 +203,8 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
       if (meets(r) && plan_cheaper(r, chosen, a)) chosen = r;
     }
     jw["feasible"] = true;
-    jw["coord_bits"] = b;
+    jw["coord_bits"] = hw::format_from_spec(first_ok->p.format).coord_bits;
+    jw["chosen_coord_bits"] = b;
     jw["error_at_coord_bits"] = plan_error(*first_ok, a.metric);
     jw["error_bound_at_coord_bits"] = plan_error_bound(*first_ok, a);
     if (last_bad) {

@@ -1,11 +1,12 @@
 // The cheapest format for a scene within an error budget (rtusim plan). "Cheapest" is, by `minimise`, the fewest
 // cycles of the rays on the timing preset (`config`), then the fewest image bytes (bvh_bytes); or the fewest image
 // bytes, then the fewest cycles. RTL area is reported, not minimised. Skips the bits a scene does not need: per
-// BVH width, the fewest coordinate bits whose error meets the budget, then the cheapest child-offset bits, then
-// the cheapest width. Candidates vary a base format (`format`, by default the configuration's own: its `format`
-// key): coordinate and child-offset bits, every other field (storage layouts too) as the base has it, so a packed
-// base gives packed candidates, whose bytes follow their bits. Every candidate is a sweep point (sweep.h): the
-// same error, cycles and bytes as `rtusim sweep`.
+// BVH width, the fewest coordinate bits whose error meets the budget (minimising cycles, then more bits while
+// they are faster: cycles against bits fall while looser boxes cost node visits, then rise with the bytes), then
+// the cheapest child-offset bits, then the cheapest width. Candidates vary a base format (`format`, by default the
+// configuration's own: its `format` key): coordinate and child-offset bits, every other field (storage layouts
+// too) as the base has it, so a packed base gives packed candidates, whose bytes follow their bits. Every
+// candidate is a sweep point (sweep.h): the same error, cycles and bytes as `rtusim sweep`.
 //
 // The error is measured on a sample of rays (the camera's and as many incoherent rays, `sweep.seed`), so a
 // candidate meets the budget only when a one-sided upper confidence bound on its error does: for the hit metric

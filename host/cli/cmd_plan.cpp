@@ -72,11 +72,17 @@ void run_plan(const PlanArgs& args) {
       best->dram_bytes_per_ray, metric, plan_error(*best, a.metric), plan_error_bound(*best, a));
   std::printf("  cheapest: %s%s\n", j["cost"].get<std::string>().c_str(),
               a.area.empty() ? "" : " (RTL cells are reported, not minimised)");
-  for (const Json& jw : j["widths"])
-    if (jw["bvh_width"] == best->p.bvh_width && jw.contains("fewer_coord_bits"))
-      std::printf("  why %d coordinate bits: %d give %s %.3g (bound %.3g) > %g\n", jw["coord_bits"].get<int>(),
-                  jw["fewer_coord_bits"].get<int>(), metric, jw["error_at_fewer_coord_bits"].get<double>(),
+  for (const Json& jw : j["widths"]) {
+    if (jw["bvh_width"] != best->p.bvh_width) continue;
+    if (jw.contains("fewer_coord_bits"))
+      std::printf("  why %d coordinate bits at least: %d give %s %.3g (bound %.3g) > %g\n",
+                  jw["coord_bits"].get<int>(), jw["fewer_coord_bits"].get<int>(), metric,
+                  jw["error_at_fewer_coord_bits"].get<double>(),
                   jw["error_bound_at_fewer_coord_bits"].get<double>(), a.max_error);
+    if (jw["chosen_coord_bits"] != jw["coord_bits"])
+      std::printf("  why %d coordinate bits, not %d: more bits were faster on %s (fewer node visits)\n",
+                  jw["chosen_coord_bits"].get<int>(), jw["coord_bits"].get<int>(), a.config.c_str());
+  }
   std::printf("  against the base format (%s: %d coordinate bits, %d child bits): %+.1f%% cycles, %+.1f%% bytes\n",
               def.p.format.c_str(), base.coord_bits, base.child_bits,
               100.0 * (double(best->cycles) / double(std::max<uint64_t>(def.cycles, 1)) - 1.0),

@@ -202,6 +202,8 @@ TEST_CASE("set_timing_key sets what it parses and refuses the rest, naming the k
       {"format", "", "format preset"},
       {"box_unit", "verilog", "cpp or rtl"},
       {"box_unit", "", "cpp or rtl"},
+      {"tri_unit", "verilog", "cpp or rtl"},
+      {"tri_unit", "RTL", "cpp or rtl"},
       {"clock_ghz", "0", "clock_ghz"},
       {"clock_ghz", "-1", "clock_ghz"},
       {"clock_ghz", "inf", "finite"},

@@ -8,7 +8,8 @@ namespace rtu::host {
 
 namespace {
 
-BoxUnitFactory g_make_rtl = nullptr;  // constant-initialized: set before main by rtl_box_unit.cpp
+BoxUnitFactory g_make_rtl = nullptr;      // constant-initialized: set before main by rtl_box_unit.cpp
+TriUnitFactory g_make_rtl_tri = nullptr;  // likewise, by rtl_tri_unit.cpp
 
 }  // namespace
 
@@ -28,6 +29,27 @@ std::unique_ptr<hw::BoxUnit> make_box_unit(const hw::TimingConfig& c) {
         "then configure and build again)");
   try {
     return g_make_rtl(c);
+  } catch (const std::invalid_argument& e) {
+    throw Error(e.what());
+  }
+}
+
+void register_rtl_tri_unit(TriUnitFactory make) {
+  g_make_rtl_tri = make;
+}
+
+bool have_rtl_tri_unit() {
+  return g_make_rtl_tri != nullptr;
+}
+
+std::unique_ptr<hw::TriUnit> make_tri_unit(const hw::TimingConfig& c) {
+  if (c.tri_unit != "rtl") return nullptr;
+  if (!g_make_rtl_tri)
+    throw Error(
+        "tri_unit = rtl: this build has no RTL triangle unit (rtl_sim/ needs Verilator: run scripts/setup.sh, "
+        "then configure and build again)");
+  try {
+    return g_make_rtl_tri(c);
   } catch (const std::invalid_argument& e) {
     throw Error(e.what());
   }

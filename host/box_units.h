@@ -1,12 +1,14 @@
-// Which box unit a timing configuration asks for (its key box_unit): null for the C++ box test, the Verilated
-// RTL unit of rtl_sim/ for "rtl" (co-simulation). rtu_host depends only on hwmodel's box-unit seam: the RTL unit's
-// maker is registered here by the executables that have it (rtl_box_unit.cpp, linked as rtu_host_rtl).
+// Which box unit and which triangle unit a timing configuration asks for (its keys box_unit and tri_unit): null
+// for the C++ tests, the Verilated RTL units of rtl_sim/ for "rtl" (co-simulation). rtu_host depends only on
+// hwmodel's seams (box_unit.h, tri_unit.h): the RTL units' makers are registered here by the executables that
+// have them (rtl_box_unit.cpp and rtl_tri_unit.cpp, linked as rtu_host_rtl).
 #pragma once
 
 #include <memory>
 
 #include "hwmodel/box_unit.h"
 #include "hwmodel/timing_config.h"
+#include "hwmodel/tri_unit.h"
 
 namespace rtu::host {
 
@@ -20,5 +22,11 @@ std::unique_ptr<hw::BoxUnit> make_box_unit(const hw::TimingConfig& c);
 
 // True when this executable has the RTL unit (rtl_sim/ built with Verilator, and rtu_host_rtl linked).
 bool have_rtl_box_unit();
+
+// The same for the triangle unit (key tri_unit).
+using TriUnitFactory = std::unique_ptr<hw::TriUnit> (*)(const hw::TimingConfig& c);
+void register_rtl_tri_unit(TriUnitFactory make);
+std::unique_ptr<hw::TriUnit> make_tri_unit(const hw::TimingConfig& c);
+bool have_rtl_tri_unit();
 
 }  // namespace rtu::host

@@ -75,7 +75,8 @@ class TimedDevice final : public ImageDevice {
 
  public:
   TimedDevice(const hw::Geometry& g, const DeviceOptions& o)
-      : ImageDevice(g, o), m_engine(engine_options(o), o.timing, make_box_unit(o.timing)) {
+      : ImageDevice(g, o),
+        m_engine(engine_options(o), o.timing, make_box_unit(o.timing), make_tri_unit(o.timing)) {
     m_engine.set_sampling(o.sample);
     m_engine.bind(m_image.data(), m_image.size());
   }

@@ -19,8 +19,8 @@ namespace rtu::host {
 
 class FirmwareDevice final : public fw::Hal {
  public:
-  // The engine of `kind` (hw::make_engine; `timing` configures the timed one, and its box_unit key chooses the box
-  // unit: make_box_unit) over memory_bytes of device memory.
+  // The engine of `kind` (hw::make_engine; `timing` configures the timed one, and its box_unit and tri_unit keys
+  // choose the box and triangle units: make_box_unit, make_tri_unit) over memory_bytes of device memory.
   FirmwareDevice(hw::DeviceKind kind, uint64_t memory_bytes, const hw::EngineOptions& opt = {},
                  const hw::TimingConfig& timing = {});
 

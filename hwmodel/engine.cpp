@@ -167,10 +167,12 @@ class FixedEngine final : public TraceEngine {
 }  // namespace
 
 std::unique_ptr<TraceEngine> make_engine(DeviceKind kind, const EngineOptions& o, const TimingConfig& c,
-                                         std::unique_ptr<BoxUnit> unit) {
-  if (kind == DeviceKind::kTimed) return make_timed_engine(o, c, std::move(unit));
+                                         std::unique_ptr<BoxUnit> unit, std::unique_ptr<TriUnit> tri) {
+  if (kind == DeviceKind::kTimed) return make_timed_engine(o, c, std::move(unit), std::move(tri));
   if (unit)
     throw std::invalid_argument(std::string("the ") + device_kind_name(kind) + " engine takes no box unit");
+  if (tri)
+    throw std::invalid_argument(std::string("the ") + device_kind_name(kind) + " engine takes no triangle unit");
   return kind == DeviceKind::kFloat ? make_float_engine(o) : make_fixed_engine(o);
 }
 

@@ -24,6 +24,7 @@
 #include "hwmodel/geometry.h"
 #include "hwmodel/ray.h"
 #include "hwmodel/stats.h"
+#include "hwmodel/tri_unit.h"
 
 namespace rtu::hw {
 
@@ -107,10 +108,12 @@ class TraceEngine {
 
 struct TimingConfig;
 
-// The engine of a device kind. `c` configures the timed engine, and `unit` answers its box tests when c.box_unit
-// is "rtl" (TimedEngine); the float and fixed engines take no box unit (std::invalid_argument when one is given).
+// The engine of a device kind. `c` configures the timed engine, `unit` answers its box tests when c.box_unit is
+// "rtl" and `tri` its triangle tests when c.tri_unit is "rtl" (TimedEngine); the float and fixed engines take no
+// unit (std::invalid_argument when one is given).
 std::unique_ptr<TraceEngine> make_engine(DeviceKind kind, const EngineOptions& o, const TimingConfig& c,
-                                         std::unique_ptr<BoxUnit> unit = nullptr);
+                                         std::unique_ptr<BoxUnit> unit = nullptr,
+                                         std::unique_ptr<TriUnit> tri = nullptr);
 std::unique_ptr<TraceEngine> make_float_engine(const EngineOptions& o);
 std::unique_ptr<TraceEngine> make_fixed_engine(const EngineOptions& o);
 

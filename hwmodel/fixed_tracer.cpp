@@ -24,16 +24,40 @@ struct Closest {
   const uint8_t* record = nullptr;  // the hit's primitive record (null for a plane)
 };
 
-// Tests one primitive record; on a closer (or equally near) hit updates c.
-inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool short_edges) {
+// A triangle through the triangle-unit seam: hit and t as the unit answers, u and v formed from its e1, e2 and det
+// as triangle_test forms them, and its clocks (checked: the trace event holds them in 8 bits).
+inline bool unit_triangle(TriUnit& unit, const FixedRay& r, const int32_t v[3][3], int64_t tmin, int64_t tlim,
+                          FixedPrimHit& h, uint8_t& issue, uint8_t& result) {
+  TriUnitResult out;
+  unit.test(r, v, tmin, tlim, out);
+  if (out.issue < 1 || out.issue > 255 || out.result < out.issue || out.result > 255)
+    throw std::logic_error(std::string("triangle unit ") + unit.name() + ": clocks (issue " +
+                           std::to_string(out.issue) + ", result " + std::to_string(out.result) +
+                           ") outside 1 <= issue <= result <= 255");
+  issue = uint8_t(out.issue);
+  result = uint8_t(out.result);
+  if (!out.hit) return false;
+  h.t = out.t;
+  const double dd = double(out.det);
+  h.u = float(double(out.e1) / dd);
+  h.v = float(double(out.e2) / dd);
+  return true;
+}
+
+// Tests one primitive record; on a closer (or equally near) hit updates c. A triangle goes to `unit` when one is
+// attached (its clocks in issue and result; 0 otherwise).
+inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool short_edges, TriUnit* unit,
+                        uint8_t& issue, uint8_t& result) {
   uint32_t word;
   FixedPrimHit h;
   bool hit;
+  issue = result = 0;
   if (record_kind(rec) == RecordKind::kTriangle) {
     TriangleRecord t;
     std::memcpy(&t, rec, sizeof t);
     word = t.prim;
-    hit = triangle_test(r, t.v, r.tmin, c.t, h, short_edges);
+    hit = unit ? unit_triangle(*unit, r, t.v, r.tmin, c.t, h, issue, result)
+               : triangle_test(r, t.v, r.tmin, c.t, h, short_edges);
   } else {
     SphereRecord s;
     std::memcpy(&s, rec, sizeof s);
@@ -64,6 +88,7 @@ struct FixedPolicy {
   TraversalStats& s;
   std::vector<TraceEvent>* rec;  // the timing model's recorder, or null
   BoxUnit* unit;                 // box tests by this unit instead of box_test_delta, or null
+  TriUnit* tri_unit;             // triangle tests by this unit instead of triangle_test, or null
   FixedTracer::WatchState& watch;
   uint64_t step_limit;
 
@@ -86,7 +111,8 @@ struct FixedPolicy {
   // (rep stos, a stall once per ray).
   FixedPolicy(const QNode<N, Q>* nodes_, const DeviceImage& image_, const FixedRay& r_, bool any_hit_, bool check_,
               Closest& closest_, TraversalStats& s_, std::vector<TraceEvent>* rec_, BoxUnit* unit_,
-              FixedTracer::WatchState& watch_, uint64_t step_limit_, const FixedFormat& f, int short_stack_)
+              TriUnit* tri_unit_, FixedTracer::WatchState& watch_, uint64_t step_limit_, const FixedFormat& f,
+              int short_stack_)
       : nodes(nodes_),
         image(image_),
         r(r_),
@@ -96,6 +122,7 @@ struct FixedPolicy {
         s(s_),
         rec(rec_),
         unit(unit_),
+        tri_unit(tri_unit_),
         watch(watch_),
         step_limit(step_limit_),
         nr(make_node_ray(r_, f, int(sizeof(Q)))),
@@ -211,10 +238,11 @@ struct FixedPolicy {
     s.prim_tests += count;
     bool found = false;
     for (uint32_t i = 0; i < count; ++i) {
+      const uint8_t* record = image.record(first + i);
+      uint8_t issue, result;
+      found |= test_record(record, r, closest, short_edges, tri_unit, issue, result);
       if (rec)
-        rec->push_back(
-            TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(image.record(first + i))), 0, 0, first + i});
-      found |= test_record(image.record(first + i), r, closest, short_edges);
+        rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(record)), issue, result, first + i});
       if (found && any_hit) return true;
     }
     return found;
@@ -252,6 +280,7 @@ FixedTracer::FixedTracer(const DeviceImage& image, const FixedTraceOptions& opt)
     : m_image(image), m_format(image.format()), m_frame(image.frame()), m_setup(m_frame, m_format), m_opt(opt) {
   if (m_opt.box_unit && !(image.header().flags & kImageNoBvh))
     m_opt.box_unit->check_format(m_format, int(image.header().width));
+  if (m_opt.tri_unit) m_opt.tri_unit->check_format(m_format);
   m_step_limit =
       opt.max_steps > 0 ? opt.max_steps : uint64_t(image.header().node_count) * image.header().width + 1;
 }
@@ -339,8 +368,11 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
       const bool short_brute = short_edges_known(fr, m_format.coord_bits);
       s.prim_tests += hd.record_count;
       for (uint32_t i = 0; i < hd.record_count; ++i) {
-        if (rec) rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(m_image.record(i))), 0, 0, i});
-        if (test_record(m_image.record(i), fr, c, short_brute) && any_hit) break;
+        const uint8_t* record = m_image.record(i);
+        uint8_t issue, result;
+        const bool hit = test_record(record, fr, c, short_brute, m_opt.tri_unit, issue, result);
+        if (rec) rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(record)), issue, result, i});
+        if (hit && any_hit) break;
       }
     } else {
       auto run = [&](auto node_tag) {
@@ -348,7 +380,8 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
         constexpr int N = sizeof(Node::child) / sizeof(uint32_t);
         using Q = std::remove_cv_t<std::remove_reference_t<decltype(Node::q[0][0])>>;
         FixedPolicy<N, Q> p(m_image.nodes<Node>(), m_image, fr, any_hit, m_opt.check_boxes, c, s, rec,
-                            m_opt.box_unit, watch, m_step_limit, m_format, m_opt.record_short_stack);
+                            m_opt.box_unit, m_opt.tri_unit, watch, m_step_limit, m_format,
+                            m_opt.record_short_stack);
         traverse(p, hd.root_ref, any_hit, s);
       };
       const bool q8 = hd.q_bytes == 1;
@@ -385,7 +418,7 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
 
 void FixedTracer::trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads,
                               TraversalStats& s) const {
-  if (m_opt.box_unit) threads = 1;  // the unit is not thread-safe
+  if (m_opt.box_unit || m_opt.tri_unit) threads = 1;  // a unit is not thread-safe
   run_batch(n, threads, s, [&](size_t i, TraversalStats& local) { hits[i] = trace(rays[i], any_hit, local); });
 }
 

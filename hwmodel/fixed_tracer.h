@@ -12,6 +12,7 @@
 #include "hwmodel/intersect_fixed.h"
 #include "hwmodel/ray.h"
 #include "hwmodel/stats.h"
+#include "hwmodel/tri_unit.h"
 
 namespace rtu::hw {
 
@@ -25,8 +26,9 @@ struct TraceEvent {
   uint8_t kind;
   uint8_t count;  // kNode: child boxes tested; kPrim: RecordKind; kPush: entries pushed; kSpill: entries spilled
                   // (pushed beyond the short stack); else 0
-  // kNode tested by a BoxUnit (box_unit.h): the clocks it reported (issue, result); 0, 0 for the C++ box test,
-  // whose clocks the timing model takes from its configuration.
+  // kNode tested by a BoxUnit (box_unit.h), or a triangle kPrim tested by a TriUnit (tri_unit.h): the clocks the
+  // unit reported (issue, result); 0, 0 for the C++ tests, whose clocks the timing model takes from its
+  // configuration.
   uint8_t unit_issue, unit_result;
   uint32_t index;  // kNode: node index; kPrim: record index; kPlane: plane index; else 0
 };
@@ -44,6 +46,9 @@ struct FixedTraceOptions {
   // Box tests by this unit instead of the C++ box test (co-simulation); not owned, must outlive the tracer's
   // use. A tracer with a unit traces on one thread (trace_batch ignores its thread count).
   BoxUnit* box_unit = nullptr;
+  // Triangle tests by this unit instead of triangle_test (co-simulation; spheres and planes stay C++); not owned,
+  // as box_unit. A tracer with a unit traces on one thread.
+  TriUnit* tri_unit = nullptr;
   // Recording (trace_recorded): -1 records every push and pop (kPush, kPop); N >= 0 records the stack as a short
   // stack of N entries sees it: pushes and pops within it are left out, entries pushed beyond it are kSpill
   // events, entries popped from beyond it kRefill events (the timing engine sets its stack_entries here).

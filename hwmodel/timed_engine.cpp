@@ -12,14 +12,21 @@
 
 namespace rtu::hw {
 
-TimedEngine::TimedEngine(const EngineOptions& o, const TimingConfig& c, std::unique_ptr<BoxUnit> unit)
-    : m_opt(o), m_c(c), m_box_unit(std::move(unit)) {
+TimedEngine::TimedEngine(const EngineOptions& o, const TimingConfig& c, std::unique_ptr<BoxUnit> unit,
+                         std::unique_ptr<TriUnit> tri)
+    : m_opt(o), m_c(c), m_box_unit(std::move(unit)), m_tri_unit(std::move(tri)) {
   m_c.validate();
   if (m_c.box_unit == "rtl" && !m_box_unit)
     throw std::invalid_argument("timing config " + m_c.name + ": box_unit = rtl, but no RTL box unit is attached");
   if (m_c.box_unit != "rtl" && m_box_unit)
     throw std::invalid_argument("timing config " + m_c.name +
                                 ": a box unit is attached, but box_unit = " + m_c.box_unit);
+  if (m_c.tri_unit == "rtl" && !m_tri_unit)
+    throw std::invalid_argument("timing config " + m_c.name +
+                                ": tri_unit = rtl, but no RTL triangle unit is attached");
+  if (m_c.tri_unit != "rtl" && m_tri_unit)
+    throw std::invalid_argument("timing config " + m_c.name +
+                                ": a triangle unit is attached, but tri_unit = " + m_c.tri_unit);
 }
 
 uint32_t TimedEngine::caps() const {
@@ -35,7 +42,8 @@ void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   to.max_steps = m_opt.max_steps;
   to.record_short_stack = m_c.stack_entries;  // the model charges only for entries beyond it
   to.box_unit = m_box_unit.get();
-  auto tracer = std::make_unique<FixedTracer>(*image, to);  // throws when the box unit cannot take the format
+  to.tri_unit = m_tri_unit.get();
+  auto tracer = std::make_unique<FixedTracer>(*image, to);  // throws when a unit cannot take the format
   m_image = std::move(image);
   m_tracer = std::move(tracer);
   const TimingModel::Layout l = TimingModel::layout_of(*m_image, uint64_t(m_c.layout_align));
@@ -66,7 +74,7 @@ uint64_t TimedEngine::packet_cycles(uint8_t opcode) const {
 void TimedEngine::record(const Ray* rays, Hit* hits, size_t first, size_t count, bool any_hit, TraversalStats& s,
                          std::vector<std::vector<TraceEvent>>& events, size_t at) const {
   TraversalStats local;
-  const int threads = m_box_unit ? 1 : m_opt.threads;  // a box unit is not thread-safe (box_unit.h)
+  const int threads = has_units() ? 1 : m_opt.threads;  // a unit is not thread-safe (box_unit.h, tri_unit.h)
   run_batch(count, threads, local, [&](size_t i, TraversalStats& st) {
     std::vector<TraceEvent>& ev = events[at + i];
     ev.clear();
@@ -167,7 +175,7 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   const size_t probes = probed.size();
   std::vector<uint32_t> box(probes), prim(probes);
   TraversalStats probe_stats;
-  run_batch(probes, m_box_unit ? 1 : m_opt.threads, m_sample.need_hits ? s : probe_stats,
+  run_batch(probes, has_units() ? 1 : m_opt.threads, m_sample.need_hits ? s : probe_stats,
             [&](size_t q, TraversalStats& st) {
               const size_t i = probed[q];
               // The hardware prefetcher follows a constant stride, not these: fetch a few rays ahead.
@@ -325,8 +333,8 @@ bool TimedEngine::uses_bvh() const {
 }
 
 std::unique_ptr<TraceEngine> make_timed_engine(const EngineOptions& o, const TimingConfig& c,
-                                               std::unique_ptr<BoxUnit> unit) {
-  return std::make_unique<TimedEngine>(o, c, std::move(unit));
+                                               std::unique_ptr<BoxUnit> unit, std::unique_ptr<TriUnit> tri) {
+  return std::make_unique<TimedEngine>(o, c, std::move(unit), std::move(tri));
 }
 
 }  // namespace rtu::hw

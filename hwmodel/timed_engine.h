@@ -24,14 +24,16 @@
 #include "hwmodel/timing_config.h"
 #include "hwmodel/timing_model.h"
 #include "hwmodel/timing_stats.h"
+#include "hwmodel/tri_unit.h"
 
 namespace rtu::hw {
 
 class TimedEngine final : public TraceEngine {
  public:
   // `unit` answers the box tests when c.box_unit is "rtl" (required then: std::invalid_argument without one);
-  // with "cpp" it must be null.
-  TimedEngine(const EngineOptions& o, const TimingConfig& c, std::unique_ptr<BoxUnit> unit = nullptr);
+  // with "cpp" it must be null. `tri` answers the triangle tests likewise when c.tri_unit is "rtl".
+  TimedEngine(const EngineOptions& o, const TimingConfig& c, std::unique_ptr<BoxUnit> unit = nullptr,
+              std::unique_ptr<TriUnit> tri = nullptr);
   const char* name() const override { return "timed"; }
   uint32_t caps() const override;
   void bind(const uint8_t* data, size_t bytes) override;
@@ -65,6 +67,7 @@ class TimedEngine final : public TraceEngine {
   EngineOptions m_opt;
   TimingConfig m_c;
   std::unique_ptr<BoxUnit> m_box_unit;  // null: the C++ box test
+  std::unique_ptr<TriUnit> m_tri_unit;  // null: the C++ triangle test
   std::unique_ptr<DeviceImage> m_image;
   std::unique_ptr<FixedTracer> m_tracer;
   std::unique_ptr<TimingModel> m_model;
@@ -82,6 +85,8 @@ class TimedEngine final : public TraceEngine {
   // nowhere when null).
   void record(const Ray* rays, Hit* hits, size_t first, size_t count, bool any_hit, TraversalStats& s,
               std::vector<std::vector<TraceEvent>>& events, size_t at = 0) const;
+  // True when a unit other than the C++ datapath is attached (the engine then traces on one thread).
+  bool has_units() const { return m_box_unit || m_tri_unit; }
   SampleOptions m_sample;
   SampleStats m_sample_stats;
   TimingStats m_total;
@@ -90,6 +95,7 @@ class TimedEngine final : public TraceEngine {
 };
 
 std::unique_ptr<TraceEngine> make_timed_engine(const EngineOptions& o, const TimingConfig& c,
-                                               std::unique_ptr<BoxUnit> unit = nullptr);
+                                               std::unique_ptr<BoxUnit> unit = nullptr,
+                                               std::unique_ptr<TriUnit> tri = nullptr);
 
 }  // namespace rtu::hw

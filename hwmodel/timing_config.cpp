@@ -52,6 +52,8 @@ const std::vector<KeyInfo>& key_table() {
       {"tri_units", &C::tri_units, 1, 64, "triangle units (spheres and planes use them too)"},
       {"tri_rate", &C::tri_rate, 1, 64, "triangle tests per clock per unit"},
       {"tri_latency", &C::tri_latency, 1, kMaxLatency, "triangle test pipeline depth"},
+      {"tri_unit", &C::tri_unit, 0, 0,
+       "triangle tests by cpp (the C++ datapath) or rtl (the Verilated RTL unit: co-simulation, its clocks)"},
       {"sphere_latency", &C::sphere_latency, 1, kMaxLatency, "sphere test pipeline depth (triangle unit slot)"},
       {"plane_latency", &C::plane_latency, 1, kMaxLatency, "plane test pipeline depth (triangle unit slot)"},
       {"queue_depth", &C::queue_depth, 1, 4096,
@@ -131,6 +133,8 @@ void TimingConfig::validate() const {
       if (!known) fail("format = '" + format + "' is not a fixed-point format preset (known: " + names + ")");
     } else if (key == "box_unit") {
       if (box_unit != "cpp" && box_unit != "rtl") fail("box_unit = '" + box_unit + "' must be cpp or rtl");
+    } else if (key == "tri_unit") {
+      if (tri_unit != "cpp" && tri_unit != "rtl") fail("tri_unit = '" + tri_unit + "' must be cpp or rtl");
     } else if (key == "bvh_width") {
       if (bvh_width != 2 && bvh_width != 4 && bvh_width != 6 && bvh_width != 8)
         fail("bvh_width = " + std::to_string(bvh_width) + " must be 2, 4, 6 or 8");

@@ -8,8 +8,8 @@
 // of two in 16..4096; clock_ghz 0.001..1000; dram_bytes_per_cycle 0.001..65536 (finite); raster_setup_cycles
 // 0..100000; raster_samples_per_clock and raster_fragments_per_clock 0.001..4096; raster_latency 0..100000;
 // raster_prim_bytes 0..4096, raster_depth_bytes 1..64, raster_gbuffer_bytes 0..4096; bvh_width 2, 4, 6 or 8;
-// format the name of a fixed-point format preset; box_unit cpp or rtl; watchdog_cycles 0..2^31-1 (0: off). The
-// default-constructed configuration is the "rdna2" preset.
+// format the name of a fixed-point format preset; box_unit and tri_unit cpp or rtl; watchdog_cycles 0..2^31-1 (0:
+// off). The default-constructed configuration is the "rdna2" preset.
 #pragma once
 
 #include <cstdint>
@@ -48,6 +48,10 @@ struct TimingConfig {
   int tri_units = 1;
   int tri_rate = 1;  // triangle tests per clock per unit
   int tri_latency = 12;
+  // Which triangle unit answers the triangle tests: "cpp" (the C++ datapath, one issue clock and tri_latency) or
+  // "rtl" (the Verilated RTL of rtl_sim/, co-simulation: its clocks per triangle replace them; hits stay the C++
+  // unit's, bit for bit). Spheres and planes stay C++. The host attaches the RTL unit (hwmodel never sees it).
+  std::string tri_unit = "cpp";
   int sphere_latency = 16;  // spheres and planes share the triangle units' issue slots (one test per clock)
   int plane_latency = 8;
   // Rays the ray prefetch queue holds ahead of the slots, and clocks a unit request may wait for a free unit

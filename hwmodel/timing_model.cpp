@@ -200,22 +200,28 @@ uint64_t TimingModel::unit_request(const TraceEvent& e, uint32_t k, uint64_t t) 
     m_s->box_issue_cycles += issue;
     return done;
   }
-  uint64_t lat = uint64_t(m_c.plane_latency);
+  uint64_t lat = uint64_t(m_c.plane_latency), issue = 1;
+  const char* what = "plane";
   if (e.kind == TraceEvent::kPrim && e.count == uint8_t(RecordKind::kTriangle)) {
-    lat = uint64_t(m_c.tri_latency);
+    // One clock and tri_latency, or the clocks the triangle unit that tested it reported (tri_unit.h).
+    if (e.unit_issue) {
+      issue = e.unit_issue;
+      lat = uint64_t(e.unit_result) - issue + 1;
+    } else {
+      lat = uint64_t(m_c.tri_latency);
+    }
+    what = "triangle";
     ++m_s->tri_tests;
   } else if (e.kind == TraceEvent::kPrim) {
     lat = uint64_t(m_c.sphere_latency);
+    what = "sphere";
     ++m_s->sphere_tests;
   } else {
     ++m_s->plane_tests;
   }
-  done = unit(m_tri_free, 1, lat, t);
-  if (m_trace)
-    m_trace->add(
-        k, e.kind == TraceEvent::kPlane ? "plane" : (lat == uint64_t(m_c.tri_latency) ? "triangle" : "sphere"), t,
-        done);
-  ++m_s->tri_issue_cycles;
+  done = unit(m_tri_free, issue, lat, t);
+  if (m_trace) m_trace->add(k, what, t, done);
+  m_s->tri_issue_cycles += issue;
   return done;
 }
 

@@ -20,6 +20,12 @@ struct NoBoxUnit final : rtu::hw::BoxUnit {
             rtu::hw::BoxUnitResult&) override {}
 };
 
+struct NoTriUnit final : rtu::hw::TriUnit {
+  const char* name() const override { return "none"; }
+  void check_format(const rtu::hw::FixedFormat&) const override {}
+  void test(const rtu::hw::FixedRay&, const int32_t[3][3], int64_t, int64_t, rtu::hw::TriUnitResult&) override {}
+};
+
 }  // namespace
 
 TEST_CASE("device kinds: names round-trip, and an unknown name says which are known", "[device]") {
@@ -32,7 +38,7 @@ TEST_CASE("device kinds: names round-trip, and an unknown name says which are kn
   CHECK_THROWS_AS(rtu::hw::parse_device_kind(""), std::invalid_argument);
 }
 
-TEST_CASE("make_engine: the engine of each kind, and a box unit for the timed one only", "[device]") {
+TEST_CASE("make_engine: the engine of each kind, and box and triangle units for the timed one only", "[device]") {
   const rtu::hw::TimingConfig c = rtu::hw::timing_preset("rdna2");
   for (const DeviceKind k : {DeviceKind::kFloat, DeviceKind::kFixed, DeviceKind::kTimed}) {
     const std::unique_ptr<rtu::hw::TraceEngine> e = rtu::hw::make_engine(k, {}, c);
@@ -44,4 +50,14 @@ TEST_CASE("make_engine: the engine of each kind, and a box unit for the timed on
                   std::invalid_argument);
   CHECK_THROWS_AS(rtu::hw::make_engine(DeviceKind::kFloat, {}, c, std::make_unique<NoBoxUnit>()),
                   std::invalid_argument);
+  // A triangle unit likewise: the timed engine only, and only with tri_unit = rtl (which requires one).
+  CHECK_THROWS_WITH(rtu::hw::make_engine(DeviceKind::kFixed, {}, c, nullptr, std::make_unique<NoTriUnit>()),
+                    Catch::Contains("takes no triangle unit"));
+  CHECK_THROWS_WITH(rtu::hw::make_engine(DeviceKind::kTimed, {}, c, nullptr, std::make_unique<NoTriUnit>()),
+                    Catch::Contains("tri_unit = cpp"));
+  rtu::hw::TimingConfig rtl = c;
+  rtl.tri_unit = "rtl";
+  CHECK_THROWS_WITH(rtu::hw::make_engine(DeviceKind::kTimed, {}, rtl),
+                    Catch::Contains("no RTL triangle unit is attached"));
+  CHECK(rtu::hw::make_engine(DeviceKind::kTimed, {}, rtl, nullptr, std::make_unique<NoTriUnit>()));
 }

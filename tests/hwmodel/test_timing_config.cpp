@@ -44,7 +44,7 @@ TEST_CASE("every timing preset validates and lists every key", "[timing][config]
     CHECK_NOTHROW(c.validate());
     CHECK_FALSE(timing_preset_description(name).empty());
     const auto keys = timing_keys(c);
-    CHECK(keys.size() == 37);  // every field of TimingConfig but `name`
+    CHECK(keys.size() == 38);  // every field of TimingConfig but `name`
     for (const TimingKey& k : keys) {
       CHECK_FALSE(k.key.empty());
       CHECK_FALSE(k.value.empty());
@@ -202,6 +202,8 @@ TEST_CASE("set_timing_key sets what it parses and refuses the rest, naming the k
       {"format", "", "format preset"},
       {"box_unit", "verilog", "cpp or rtl"},
       {"box_unit", "", "cpp or rtl"},
+      {"tri_unit", "verilog", "cpp or rtl"},
+      {"tri_unit", "RTL", "cpp or rtl"},
       {"clock_ghz", "0", "clock_ghz"},
       {"clock_ghz", "-1", "clock_ghz"},
       {"clock_ghz", "inf", "finite"},

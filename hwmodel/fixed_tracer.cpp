@@ -38,9 +38,7 @@ inline bool unit_triangle(TriUnit& unit, const FixedRay& r, const int32_t v[3][3
   result = uint8_t(out.result);
   if (!out.hit) return false;
   h.t = out.t;
-  const double dd = double(out.det);
-  h.u = float(double(out.e1) / dd);
-  h.v = float(double(out.e2) / dd);
+  triangle_barycentrics(out.e1, out.e2, out.det, h.u, h.v);
   return true;
 }
 

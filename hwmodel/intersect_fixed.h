@@ -186,6 +186,14 @@ struct FixedPrimHit {
   float u, v;
 };
 
+// The barycentrics of a triangle hit from its edge functions: u = e1 / det, v = e2 / det, each the double quotient
+// rounded to float. The one definition, for triangle_test and for a triangle unit's integers (tri_unit.h).
+inline void triangle_barycentrics(Wide e1, Wide e2, Wide det, float& u, float& v) {
+  const double dd = double(det);
+  u = float(double(e1) / dd);
+  v = float(double(e2) / dd);
+}
+
 // Watertight triangle test on grid vertices. The edge functions e_i = d . (A_j x A_k) of the translated
 // vertices A = v - o are exact integers, so a shared edge gives exactly opposite values on its two triangles and
 // a ray through it hits at least one of them (both when it passes exactly through the edge). A hit needs all
@@ -259,9 +267,7 @@ inline bool triangle_test(const FixedRay& r, const int32_t v[3][3], int64_t tmin
   const int64_t t = div_shift(num, den, r.t_shift, Round::kNearestEven, r.t_limit);
   if (t < tmin || t > tlim || !in_register(t, r)) return false;
   out.t = t;
-  const double dd = double(det);
-  out.u = float(double(e1) / dd);
-  out.v = float(double(e2) / dd);
+  triangle_barycentrics(e1, e2, det, out.u, out.v);
   return true;
 }
 

@@ -148,8 +148,8 @@ inline std::string compare_tri(const TriSet& s, const TriCase& c, const TriOut& 
   if (e.hit) {
     if (o.t != e.t) err << "t " << o.t << ", triangle_test says " << e.t << "; ";
     // u, v as triangle_test forms them, from the unit's integers.
-    const double dd = double(o.det);
-    const float u = float(double(o.e1) / dd), v = float(double(o.e2) / dd);
+    float u, v;
+    hw::triangle_barycentrics(o.e1, o.e2, o.det, u, v);
     ++st.uv_checked;
     if (u != e.u || v != e.v)
       err << "u, v " << u << ", " << v << ", triangle_test says " << e.u << ", " << e.v << "; ";

@@ -248,7 +248,8 @@ TEST_CASE("command processor errors: malformed packets", "[ring]") {
         // scenes the engine cannot use
         {"bind of 0 bytes at the end of memory", cmd::bind_scene(M, 0), ErrorCode::kBadScene},
         {"bind of the truncated image", cmd::bind_scene(r.image, r.image_bytes - 8), ErrorCode::kBadScene},
-        {"bind of the image's header only", cmd::bind_scene(r.image, sizeof(hw::ImageHeader)), ErrorCode::kBadScene},
+        {"bind of the image's header only", cmd::bind_scene(r.image, sizeof(hw::ImageHeader)),
+         ErrorCode::kBadScene},
         {"bind of the image with 8 bytes more", cmd::bind_scene(r.image, r.image_bytes + 8), ErrorCode::kBadScene},
         {"bind of ray bytes", cmd::bind_scene(rays, 64 * 32), ErrorCode::kBadScene},
     };

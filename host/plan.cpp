@@ -6,7 +6,9 @@
 #include <memory>
 #include <stdexcept>
 
+#include "host/cost_model.h"
 #include "host/error.h"
+#include "hwmodel/energy_model.h"
 #include "hwmodel/timing_config.h"
 
 namespace rtu::host {
@@ -79,6 +81,8 @@ double plan_error_bound(const SweepRow& r, const PlanOptions& o) {
 }
 
 bool plan_cheaper(const SweepRow& a, const SweepRow& b, const PlanOptions& o) {
+  if (o.minimise == "energy")
+    return a.pj_per_ray < b.pj_per_ray || (a.pj_per_ray == b.pj_per_ray && a.cycles < b.cycles);
   if (o.minimise == "bytes")
     return a.bvh_bytes < b.bvh_bytes || (a.bvh_bytes == b.bvh_bytes && a.cycles < b.cycles);
   return a.cycles < b.cycles || (a.cycles == b.cycles && a.bvh_bytes < b.bvh_bytes);
@@ -86,7 +90,7 @@ bool plan_cheaper(const SweepRow& a, const SweepRow& b, const PlanOptions& o) {
 
 bool plan_meets(const SweepRow& r, const PlanOptions& o) {
   return plan_error_bound(r, o) <= o.max_error && r.box_false_negatives == 0 &&
-         (o.min_psnr <= 0.0 || r.psnr_db >= o.min_psnr);
+         (o.min_psnr <= 0.0 || r.psnr_db >= o.min_psnr) && (o.area_budget <= 0.0 || r.area_mm2 <= o.area_budget);
 }
 
 PlanResult plan_format(const PlanOptions& a, const std::function<void(const PlanStep&)>& progress) {
@@ -95,8 +99,10 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
   if (!(a.confidence > 0.0 && a.confidence < 1.0)) throw Error("--confidence: a number in (0, 1)");
   if (a.min_psnr > 0.0 && a.sweep.image_width <= 0)
     throw Error("--min-psnr needs a render to measure: --image-width must be above 0");
-  if (a.minimise != "cycles" && a.minimise != "bytes")
-    throw Error("--minimise: cycles or bytes, got '" + a.minimise + "'");
+  if (a.minimise != "cycles" && a.minimise != "bytes" && a.minimise != "energy")
+    throw Error("--minimise: cycles, bytes or energy, got '" + a.minimise + "'");
+  if (!(a.area_budget >= 0.0) || !std::isfinite(a.area_budget))
+    throw Error("--area-budget: a finite number of mm^2 >= 0 (0: none)");
   std::string base;
   try {
     base = hw::timing_preset(a.config).format;
@@ -122,15 +128,46 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
                 std::to_string(need / 2) + " or more");
   }
   const Scene scene = load_scene(a.scene);
-  const AreaTable area = a.area.empty() ? AreaTable{} : AreaTable::load(a.area);
+  const AreaTable area = a.area.empty() ? AreaTable::shipped() : AreaTable::load(a.area);
+  const ActivityTable activity = ActivityTable::shipped();
   auto cache = make_sweep_cache();
   auto report = [&](PlanStage stage, int width, int coord_bits = 0, const SweepRow* row = nullptr,
                     bool meets = false) {
     if (progress) progress(PlanStep{stage, width, coord_bits, row, meets});
   };
   auto meets = [&](const SweepRow& r) { return plan_meets(r, a); };
+  // The area of a format at a width with a configuration spec, without running it.
+  auto area_of = [&](const std::string& format, int width, const std::string& config) {
+    hw::FixedFormat f = hw::format_from_spec(format);
+    f.width = width;
+    hw::TimingConfig c = sweep_config(config);
+    hw::set_timing_key(c, "bvh_width", std::to_string(width));
+    return hw::area_report(c, cost_inputs(f, c, area, activity)).total_mm2;
+  };
+  // Iso-area: one more box or triangle unit at a time, the cheaper of the two that fit, while it is cheaper.
+  auto afford = [&](SweepRow cur) {
+    const hw::TimingConfig preset = hw::timing_preset(a.config);
+    int box = preset.box_units, tri = preset.tri_units;
+    while (cur.area_mm2 <= a.area_budget) {
+      std::unique_ptr<SweepRow> next;
+      for (const auto& [nb, nt] : {std::pair{box + 1, tri}, std::pair{box, tri + 1}}) {
+        if (nb > 64 || nt > 64) continue;
+        const std::string config =
+            a.config + ":box_units=" + std::to_string(nb) + ":tri_units=" + std::to_string(nt);
+        if (area_of(cur.p.format, cur.p.bvh_width, config) > a.area_budget) continue;
+        SweepRow r = retime_sweep_point(scene, cur, config, a.sweep, area, *cache);
+        if (!next || plan_cheaper(r, *next, a)) next = std::make_unique<SweepRow>(r);
+      }
+      if (!next || !plan_cheaper(*next, cur, a)) break;
+      cur = *next;
+      const hw::TimingConfig c = sweep_config(cur.p.config);
+      box = c.box_units, tri = c.tri_units;
+    }
+    return cur;
+  };
   auto point = [&](const std::string& format, int width) {
-    const SweepRow r = run_sweep_point(scene, SweepPoint{a.scene, format, width, a.config}, a.sweep, area, *cache);
+    SweepRow r = run_sweep_point(scene, SweepPoint{a.scene, format, width, a.config}, a.sweep, area, *cache);
+    if (a.area_budget > 0.0) r = afford(r);
     report(PlanStage::kCandidate, width, 0, &r, meets(r));
     return r;
   };
@@ -148,8 +185,10 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
   j["config"] = a.config;
   j["base_format"] = base;
   j["minimise"] = a.minimise;
-  j["cost"] = a.minimise == "bytes" ? "image bytes (bvh_bytes), then cycles on " + a.config
-                                    : "cycles on " + a.config + ", then image bytes (bvh_bytes)";
+  j["cost"] = a.minimise == "bytes"    ? "image bytes (bvh_bytes), then cycles on " + a.config
+              : a.minimise == "energy" ? "energy per ray on " + a.config + ", then cycles"
+                                       : "cycles on " + a.config + ", then image bytes (bvh_bytes)";
+  if (a.area_budget > 0.0) j["area_budget_mm2"] = a.area_budget;
   Json per_width = Json::array();
   std::unique_ptr<SweepRow> best;
   for (int w : a.widths) {
@@ -172,11 +211,12 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
       report(PlanStage::kInfeasible, w);
       continue;
     }
-    // Fewer coordinate bits are fewer bytes, but not always fewer cycles: they cost node visits (looser boxes)
-    // where they save bytes, so on a compute-bound unit more bits can be faster. Minimising cycles, the bits
-    // above go on while they are faster and meet the budget (cycles against bits fall, then rise).
+    // Fewer coordinate bits are fewer bytes, but not always fewer cycles or less energy: they cost node visits
+    // (looser boxes) where they save bytes, so on a compute-bound unit more bits can be faster. Minimising cycles
+    // or energy, the bits above go on while they are cheaper and meet the budget (cost against bits falls, then
+    // rises).
     SweepRow at_b = *first_ok;
-    if (a.minimise == "cycles") {
+    if (a.minimise != "bytes") {
       const int b0 = hw::format_from_spec(first_ok->p.format).coord_bits;
       for (int more : a.coord_bits) {
         if (more <= b0) continue;
@@ -199,6 +239,9 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
                     {"bytes", r.bvh_bytes},
                     {"bytes_per_prim", r.bytes_per_prim},
                     {"dram_bytes_per_ray", r.dram_bytes_per_ray},
+                    {"config", r.p.config},
+                    {"area_mm2", r.area_mm2},
+                    {"pj_per_ray", r.pj_per_ray},
                     {"meets", meets(r)}});
       if (meets(r) && plan_cheaper(r, chosen, a)) chosen = r;
     }
@@ -221,7 +264,10 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
                     {"error", plan_error(chosen, a.metric)},
                     {"error_bound", plan_error_bound(chosen, a)},
                     {"psnr_db", chosen.psnr_db},
-                    {"rtl_cells", chosen.rtl_cells}};
+                    {"rtl_cells", chosen.rtl_cells},
+                    {"config", chosen.p.config},
+                    {"area_mm2", chosen.area_mm2},
+                    {"pj_per_ray", chosen.pj_per_ray}};
     per_width.push_back(jw);
     if (!best || plan_cheaper(chosen, *best, a)) best = std::make_unique<SweepRow>(chosen);
   }
@@ -245,7 +291,12 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
                {"error", plan_error(*best, a.metric)},
                {"error_bound", plan_error_bound(*best, a)},
                {"psnr_db", best->psnr_db},
-               {"rtl_cells", best->rtl_cells}};
+               {"rtl_cells", best->rtl_cells},
+               {"config", best->p.config},
+               {"box_units", sweep_config(best->p.config).box_units},
+               {"tri_units", sweep_config(best->p.config).tri_units},
+               {"area_mm2", best->area_mm2},
+               {"pj_per_ray", best->pj_per_ray}};
   j["default"] = {{"format", base},
                   {"cycles", def.cycles},
                   {"bytes", def.bvh_bytes},
@@ -253,7 +304,10 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
                   {"dram_bytes_per_ray", def.dram_bytes_per_ray},
                   {"error", plan_error(def, a.metric)},
                   {"error_bound", plan_error_bound(def, a)},
-                  {"rtl_cells", def.rtl_cells}};
+                  {"rtl_cells", def.rtl_cells},
+                  {"config", def.p.config},
+                  {"area_mm2", def.area_mm2},
+                  {"pj_per_ray", def.pj_per_ray}};
   res.found = true;
   res.best = *best;
   res.format = f;

@@ -1,12 +1,13 @@
 // The cheapest format for a scene within an error budget (rtusim plan). "Cheapest" is, by `minimise`, the fewest
 // cycles of the rays on the timing preset (`config`), then the fewest image bytes (bvh_bytes); or the fewest image
-// bytes, then the fewest cycles. RTL area is reported, not minimised. Skips the bits a scene does not need: per
-// BVH width, the fewest coordinate bits whose error meets the budget (minimising cycles, then more bits while
-// they are faster: cycles against bits fall while looser boxes cost node visits, then rise with the bytes), then
-// the cheapest child-offset bits, then the cheapest width. Candidates vary a base format (`format`, by default the
-// configuration's own: its `format` key): coordinate and child-offset bits, every other field (storage layouts
-// too) as the base has it, so a packed base gives packed candidates, whose bytes follow their bits. Every
-// candidate is a sweep point (sweep.h): the same error, cycles and bytes as `rtusim sweep`.
+// bytes, then the fewest cycles; or the least energy per ray, then the fewest cycles. With an area budget each
+// candidate is costed with the units it affords (iso-area, PlanOptions::area_budget). Skips the bits a scene does
+// not need: per BVH width, the fewest coordinate bits whose error meets the budget (minimising cycles, then more
+// bits while they are faster: cycles against bits fall while looser boxes cost node visits, then rise with the
+// bytes), then the cheapest child-offset bits, then the cheapest width. Candidates vary a base format (`format`,
+// by default the configuration's own: its `format` key): coordinate and child-offset bits, every other field
+// (storage layouts too) as the base has it, so a packed base gives packed candidates, whose bytes follow their
+// bits. Every candidate is a sweep point (sweep.h): the same error, cycles and bytes as `rtusim sweep`.
 //
 // The error is measured on a sample of rays (the camera's and as many incoherent rays, `sweep.seed`), so a
 // candidate meets the budget only when a one-sided upper confidence bound on its error does: for the hit metric
@@ -30,10 +31,17 @@ struct PlanOptions {
   double max_error = 1e-4;     // the budget of `metric`
   double min_psnr = 0.0;       // also require the render's PSNR against float (dB; 0: no)
   double confidence = 0.95;    // of the error's upper bound, in (0, 1)
-  std::string config = "rdna2";     // timing preset whose cycles are the cost
-  std::string format;               // base format spec (hw::format_from_spec); empty: the config's `format` key
-  std::string minimise = "cycles";  // cycles: fewest cycles, then bytes; bytes: fewest image bytes, then cycles
-  std::string area;                 // RTL area table for the rtl_cells figures (empty: none)
+  std::string config = "rdna2";  // timing preset whose cycles are the cost
+  std::string format;            // base format spec (hw::format_from_spec); empty: the config's `format` key
+  // cycles: fewest cycles, then bytes; bytes: fewest image bytes, then cycles; energy: fewest pJ per ray (the
+  // estimate of hwmodel/energy_model.h), then cycles
+  std::string minimise = "cycles";
+  std::string area;  // RTL area table for the rtl_cells and area figures (empty: the shipped one)
+  // Iso-area design: the unit's area budget in mm^2 (0: none). Each candidate format then gets the box and
+  // triangle units it affords: from the preset's units, one more of the kind that makes it cheaper (by
+  // `minimise`) while the area stays within the budget, so that a narrower format can buy more units. A candidate
+  // whose preset units already exceed the budget does not meet it.
+  double area_budget = 0.0;
   std::vector<int> widths{2, 4, 6, 8};                                     // BVH widths to consider
   std::vector<int> coord_bits{8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28};  // tried fewest first
   std::vector<int> child_bits{4, 6, 8, 12};                                // child-offset bits to try
@@ -73,8 +81,8 @@ double plan_error(const SweepRow& r, const std::string& metric);
 double plan_error_bound(const SweepRow& r, const PlanOptions& o);
 // True when a costs less than b by o.minimise (cycles then bytes, or bytes then cycles).
 bool plan_cheaper(const SweepRow& a, const SweepRow& b, const PlanOptions& o);
-// True when r meets the options' budget: the error's upper bound, no box false negatives, and the PSNR when one
-// is required.
+// True when r meets the options' budget: the error's upper bound, no box false negatives, the PSNR when one is
+// required, and the area when there is an area budget.
 bool plan_meets(const SweepRow& r, const PlanOptions& o);
 
 // One-sided upper confidence bound on a binomial proportion from k successes in n trials (Clopper-Pearson): the

@@ -7,6 +7,7 @@
 #include <map>
 #include <variant>
 
+#include "host/cost_model.h"
 #include "host/error.h"
 
 namespace rtu::host {
@@ -151,6 +152,8 @@ Json timing_stats_json(const hw::TimingStats& s, const hw::TimingConfig& c) {
     Json& slot = dot == std::string::npos ? j[key] : j[key.substr(0, dot)][key.substr(dot + 1)];
     std::visit([&](const auto& x) { slot = x; }, v.value);
   }
+  const hw::CostInputs in = cost_inputs(c);
+  j["energy"] = energy_json(hw::energy_report(s, c, in), c, in);
   return j;
 }
 

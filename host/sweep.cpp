@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "host/compare.h"
+#include "host/cost_model.h"
 #include "host/direct_device.h"
 #include "host/error.h"
 #include "host/image_diff.h"
@@ -51,6 +52,8 @@ const char* const kColumns[] = {"scene",
                                 "bytes_per_prim",
                                 "rtl_cells",
                                 "rtl_transistors",
+                                "area_mm2",
+                                "pj_per_ray",
                                 "seconds"};
 constexpr size_t kColumnCount = sizeof(kColumns) / sizeof(kColumns[0]);
 
@@ -60,6 +63,11 @@ constexpr const char* kHeaderBeforeBytes =
     "scene,format,bvh_width,config,rays,seed,image_width,hit_agreement,prim_agreement,false_misses,false_hits,"
     "t_rel_error_mean,t_rel_error_max,node_visit_overhead,prim_test_overhead,box_false_negatives,psnr_db,cycles,"
     "cycles_per_ray,bvh_bytes,float_bvh_bytes,rtl_cells,rtl_transistors,seconds";
+// The header before area_mm2 and pj_per_ray: its rows have no area or energy estimate.
+constexpr const char* kHeaderBeforeEnergy =
+    "scene,format,bvh_width,config,rays,seed,image_width,hit_agreement,prim_agreement,false_misses,false_hits,"
+    "t_rel_error_mean,t_rel_error_max,node_visit_overhead,prim_test_overhead,box_false_negatives,psnr_db,cycles,"
+    "cycles_per_ray,dram_bytes_per_ray,bvh_bytes,float_bvh_bytes,bytes_per_prim,rtl_cells,rtl_transistors,seconds";
 
 std::string num(double v) {
   if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
@@ -197,6 +205,108 @@ AreaTable AreaTable::parse(const std::string& text, const std::string& name) {
   return t;
 }
 
+ActivityTable ActivityTable::parse(const std::string& text, const std::string& name) {
+  ActivityTable t;
+  std::istringstream in(text);
+  std::string line;
+  size_t n = 0;
+  bool header = false;
+  while (std::getline(in, line)) {
+    ++n;
+    if (line.empty()) continue;
+    const std::vector<std::string> f = split_csv(line);
+    const std::string where = name + ":" + std::to_string(n);
+    if (!header) {
+      if (line != "params,unit,tests,signal_bits,toggles_per_test")
+        throw Error(where + ": expected the header params,unit,tests,signal_bits,toggles_per_test");
+      header = true;
+      continue;
+    }
+    if (f.size() != 5) throw Error(where + ": " + std::to_string(f.size()) + " fields, expected 5");
+    Entry e{f[1], parse_int<uint64_t>(f[2], where), parse_double(f[3], where), parse_double(f[4], where)};
+    if (!(e.signal_bits > 0) || !(e.toggles_per_test >= 0) || !std::isfinite(e.toggles_per_test) || e.tests == 0)
+      throw Error(where + ": signal_bits and tests must be positive, toggles_per_test finite and >= 0");
+    t.by_params[f[0]] = e;
+  }
+  return t;
+}
+
+ActivityTable ActivityTable::shipped() {
+  return parse(shipped_activity_csv(), std::string(kShippedActivityTable) + " (compiled in)");
+}
+
+namespace {
+
+// The point's timed run on `rays` with `timing` (its cycles and DRAM bytes), the RTL unit's synthesis figures
+// where the table has them, and the area and energy estimate.
+void time_point(const Scene& scene, const hw::FixedFormat& format, const hw::TimingConfig& timing,
+                const std::vector<hw::Ray>& rays, int threads, const AreaTable& area, SweepRow& row) {
+  DeviceOptions timed_opt;
+  timed_opt.kind = hw::DeviceKind::kTimed;
+  timed_opt.format = format;
+  timed_opt.tracer.bvh.width = format.width;
+  timed_opt.check_boxes = false;
+  timed_opt.timing = timing;
+  const auto timed = make_device(scene.geometry, timed_opt);
+  const size_t n = rays.size();
+  std::vector<hw::Hit> hits(n);
+  hw::TraversalStats ts;
+  timed->trace_batch(rays.data(), hits.data(), n, false, threads, ts);
+  const hw::TimingStats& stats = timed->timed()->timing();
+  row.cycles = stats.cycles;
+  row.cycles_per_ray = n ? double(row.cycles) / double(n) : 0.0;
+  row.dram_bytes_per_ray = n ? double(stats.dram_bytes) / double(n) : 0.0;
+  row.rtl_cells = row.rtl_transistors = -1;
+  try {
+    const std::string params =
+        rtl::verilator_args(rtl::box_unit_params(format, format.width, timing.box_rate, timing.box_latency));
+    const auto a = area.by_params.find(params);
+    if (a != area.by_params.end()) {
+      row.rtl_cells = a->second.cells;
+      row.rtl_transistors = a->second.transistors;
+    }
+  } catch (const std::invalid_argument&) {
+    // A wide format: the RTL unit has no such datapath (no area).
+  }
+  const hw::CostInputs cost = cost_inputs(format, timing, area, ActivityTable::shipped());
+  const hw::EnergyReport energy = hw::energy_report(stats, timing, cost);
+  row.area_mm2 = energy.area.total_mm2;
+  row.pj_per_ray = energy.pj_per_ray;
+}
+
+}  // namespace
+
+hw::TimingConfig sweep_config(const std::string& spec) {
+  try {
+    return rtl::unit_config(spec);
+  } catch (const std::invalid_argument& e) {
+    throw Error("timing configuration " + spec + ": " + e.what());
+  }
+}
+
+SweepRow retime_sweep_point(const Scene& scene, const SweepRow& measured, const std::string& config,
+                            const SweepOptions& o, const AreaTable& area, SweepCache& cache) {
+  if (cache.rays.size() != measured.rays)
+    throw Error("retime_sweep_point: the cache holds other rays than the row was measured on");
+  const auto t0 = std::chrono::steady_clock::now();
+  SweepRow row = measured;
+  row.p.config = config;
+  hw::FixedFormat format;
+  hw::TimingConfig timing;
+  try {
+    format = hw::format_from_spec(row.p.format);
+    format.width = row.p.bvh_width;
+    format.validate();
+    timing = rtl::unit_config(config);
+    hw::set_timing_key(timing, "bvh_width", std::to_string(row.p.bvh_width));
+  } catch (const std::invalid_argument& e) {
+    throw Error(std::string("sweep point ") + row.p.key() + ": " + e.what());
+  }
+  time_point(scene, format, timing, cache.rays, o.threads, area, row);
+  row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return row;
+}
+
 SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOptions& o, const AreaTable& area,
                          SweepCache& cache) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -208,7 +318,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
     format = hw::format_from_spec(p.format);
     format.width = p.bvh_width;
     format.validate();
-    timing = hw::timing_preset(p.config);
+    timing = rtl::unit_config(p.config);
     hw::set_timing_key(timing, "bvh_width", std::to_string(p.bvh_width));
   } catch (const std::invalid_argument& e) {
     throw Error(std::string("sweep point ") + p.key() + ": " + e.what());
@@ -295,28 +405,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
     row.psnr_db = diff_images(refr.render, to_image(render(scene, ro))).psnr_db;
   }
 
-  DeviceOptions timed_opt = fixed_opt;
-  timed_opt.kind = hw::DeviceKind::kTimed;
-  timed_opt.check_boxes = false;
-  timed_opt.timing = timing;
-  const auto timed = make_device(scene.geometry, timed_opt);
-  hw::TraversalStats ts;
-  timed->trace_batch(rays.data(), hits.data(), n, false, threads, ts);
-  row.cycles = timed->timed()->timing().cycles;
-  row.cycles_per_ray = n ? double(row.cycles) / double(n) : 0.0;
-  row.dram_bytes_per_ray = n ? double(timed->timed()->timing().dram_bytes) / double(n) : 0.0;
-
-  try {
-    const std::string params =
-        rtl::verilator_args(rtl::box_unit_params(format, p.bvh_width, timing.box_rate, timing.box_latency));
-    const auto a = area.by_params.find(params);
-    if (a != area.by_params.end()) {
-      row.rtl_cells = a->second.cells;
-      row.rtl_transistors = a->second.transistors;
-    }
-  } catch (const std::invalid_argument&) {
-    // A wide format: the RTL unit has no such datapath (no area).
-  }
+  time_point(scene, format, timing, rays, threads, area, row);
   row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return row;
 }
@@ -349,7 +438,8 @@ std::string sweep_csv_line(const SweepRow& r) {
     << ',' << num(r.t_rel_error_max) << ',' << num(r.node_visit_overhead) << ',' << num(r.prim_test_overhead)
     << ',' << r.box_false_negatives << ',' << num(r.psnr_db) << ',' << r.cycles << ',' << num(r.cycles_per_ray)
     << ',' << num(r.dram_bytes_per_ray) << ',' << r.bvh_bytes << ',' << r.float_bvh_bytes << ','
-    << num(r.bytes_per_prim) << ',' << r.rtl_cells << ',' << r.rtl_transistors << ',' << num(r.seconds);
+    << num(r.bytes_per_prim) << ',' << r.rtl_cells << ',' << r.rtl_transistors << ',' << num(r.area_mm2) << ','
+    << num(r.pj_per_ray) << ',' << num(r.seconds);
   return o.str();
 }
 
@@ -368,6 +458,11 @@ std::vector<SweepRow> read_sweep_csv(const std::string& path) {
                     ": not a sweep file of this version: an earlier rtusim wrote it, without the columns "
                     "dram_bytes_per_ray and bytes_per_prim (its points measured no DRAM traffic); run the "
                     "sweep again into a new file");
+      if (line == kHeaderBeforeEnergy)
+        throw Error(where +
+                    ": not a sweep file of this version: an earlier rtusim wrote it, without the columns area_mm2 "
+                    "and pj_per_ray (its points have no area or energy estimate); run the sweep again into a new "
+                    "file");
       if (line != sweep_csv_header())
         throw Error(where + ": not a sweep file of this version (expected the header " + sweep_csv_header() + ")");
       continue;
@@ -404,6 +499,8 @@ std::vector<SweepRow> read_sweep_csv(const std::string& path) {
     r.bytes_per_prim = parse_double(f[k++], where);
     r.rtl_cells = parse_int<int64_t>(f[k++], where);
     r.rtl_transistors = parse_int<int64_t>(f[k++], where);
+    r.area_mm2 = parse_double(f[k++], where);
+    r.pj_per_ray = parse_double(f[k++], where);
     r.seconds = parse_double(f[k++], where);
     rows.push_back(r);
   }

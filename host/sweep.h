@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "host/scene.h"
+#include "hwmodel/timing_config.h"
 
 namespace rtu::host {
 
@@ -21,7 +22,7 @@ struct SweepPoint {
   std::string scene;   // load_scene spec
   std::string format;  // hw::format_from_spec spec, e.g. "default", "default:coord_bits=16", "packed:child_bits=4"
   int bvh_width = 4;
-  std::string config;       // timing preset
+  std::string config;       // timing preset, or a preset with keys changed ("rdna2:box_units=2:tri_units=3")
   std::string key() const;  // scene|format|width|config: identifies a row
 };
 
@@ -49,7 +50,10 @@ struct SweepRow {
   uint64_t bvh_bytes = 0, float_bvh_bytes = 0;
   double bytes_per_prim = 0.0;  // the image's node and primitive bytes / its bounded primitives (0: none)
   int64_t rtl_cells = -1, rtl_transistors = -1;  // -1: no synthesis result for this unit
-  double seconds = 0.0;                          // wall time of the point
+  // The estimate of hwmodel/energy_model.h for the point's units (host/cost_model.h: synthesized or fitted size,
+  // measured activity): the unit's area, and the timed run's energy over its rays.
+  double area_mm2 = 0.0, pj_per_ray = 0.0;
+  double seconds = 0.0;  // wall time of the point
 
   double hit_disagreement() const { return 1.0 - hit_agreement; }
 };
@@ -80,11 +84,35 @@ inline constexpr const char* kShippedAreaTable = "bench/data/rtl_area.csv";
 // The text of the shipped table (generated from kShippedAreaTable at configure time).
 const char* shipped_area_csv();
 
+// Switching activity of the RTL units by their Verilator parameters, measured in Verilator on tests captured from
+// real traversals (bench/rtl_activity.sh writes it): the CSV columns params,unit,tests,signal_bits,
+// toggles_per_test (bit transitions of the RTL's signals per test).
+struct ActivityTable {
+  struct Entry {
+    std::string unit;
+    uint64_t tests = 0;
+    double signal_bits = 0.0, toggles_per_test = 0.0;
+  };
+  std::map<std::string, Entry> by_params;
+  static ActivityTable parse(const std::string& text, const std::string& name);  // throws Error when malformed
+  static ActivityTable shipped();  // bench/data/rtl_activity.csv, compiled in (empty when the file is absent)
+};
+inline constexpr const char* kShippedActivityTable = "bench/data/rtl_activity.csv";
+const char* shipped_activity_csv();
+
 // Measures one point. `scene` must be the loaded p.scene. Caches the float reference per scene and width in
 // `cache` (opaque; keep one per scene).
 struct SweepCache;
 SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOptions& o, const AreaTable& area,
                          SweepCache& cache);
+
+// The same point's timing on another configuration (`config`: a preset or a preset with keys changed, e.g. more
+// units): `measured`'s error figures (they do not depend on the timing), its cycles, DRAM bytes, area and energy
+// measured again on the rays `cache` holds, which must be those `measured` was made with (Error otherwise).
+SweepRow retime_sweep_point(const Scene& scene, const SweepRow& measured, const std::string& config,
+                            const SweepOptions& o, const AreaTable& area, SweepCache& cache);
+// A sweep point's configuration from its spec (a preset, or "preset:key=value:..."); Error naming the spec.
+hw::TimingConfig sweep_config(const std::string& spec);
 
 struct SweepCacheDeleter {
   void operator()(SweepCache* c) const;

@@ -66,6 +66,7 @@ const std::vector<KeyInfo>& key_table() {
       {"cache_latency", &C::cache_latency, 0, kMaxLatency, "cache hit latency in cycles"},
       {"dram_latency", &C::dram_latency, 0, kMaxLatency, "cycles from a miss to the first byte"},
       {"dram_bytes_per_cycle", &C::dram_bytes_per_cycle, 0.001, 65536, "DRAM bandwidth in bytes per cycle"},
+      {"memory_type", &C::memory_type, 0, 0, "DRAM type, for its energy per bit: gddr6, hbm2 or lpddr5"},
       {"raster_setup_cycles", &C::raster_setup_cycles, 0, kMaxLatency,
        "hybrid rasterizer: cycles per primitive set up (triangle, sphere square, plane pass)"},
       {"raster_samples_per_clock", &C::raster_samples_per_clock, 0.001, 4096,
@@ -135,6 +136,9 @@ void TimingConfig::validate() const {
       if (box_unit != "cpp" && box_unit != "rtl") fail("box_unit = '" + box_unit + "' must be cpp or rtl");
     } else if (key == "tri_unit") {
       if (tri_unit != "cpp" && tri_unit != "rtl") fail("tri_unit = '" + tri_unit + "' must be cpp or rtl");
+    } else if (key == "memory_type") {
+      if (memory_type != "gddr6" && memory_type != "hbm2" && memory_type != "lpddr5")
+        fail("memory_type = '" + memory_type + "' must be gddr6, hbm2 or lpddr5");
     } else if (key == "bvh_width") {
       if (bvh_width != 2 && bvh_width != 4 && bvh_width != 6 && bvh_width != 8)
         fail("bvh_width = " + std::to_string(bvh_width) + " must be 2, 4, 6 or 8");
@@ -273,6 +277,7 @@ TimingConfig timing_preset(const std::string& name) {
     c.cache_latency = 4;
     c.dram_latency = 200;
     c.dram_bytes_per_cycle = 64.0;
+    c.memory_type = "gddr6";  // the RX 6900 XT's VRAM
     c.raster_setup_cycles = 20.0;
     c.raster_samples_per_clock = 6.4;
     c.raster_fragments_per_clock = 1.6;
@@ -327,6 +332,7 @@ TimingConfig timing_preset(const std::string& name) {
     c.cache_latency = 2;
     c.dram_latency = 100;
     c.dram_bytes_per_cycle = 16.0;
+    c.memory_type = "lpddr5";  // a mobile SoC's
     c.raster_setup_cycles = 8.0;
     c.raster_samples_per_clock = 4.0;
     c.raster_fragments_per_clock = 1.0;

@@ -8,7 +8,8 @@
 // of two in 16..4096; clock_ghz 0.001..1000; dram_bytes_per_cycle 0.001..65536 (finite); raster_setup_cycles
 // 0..100000; raster_samples_per_clock and raster_fragments_per_clock 0.001..4096; raster_latency 0..100000;
 // raster_prim_bytes 0..4096, raster_depth_bytes 1..64, raster_gbuffer_bytes 0..4096; bvh_width 2, 4, 6 or 8;
-// format the name of a fixed-point format preset; box_unit and tri_unit cpp or rtl; watchdog_cycles 0..2^31-1 (0:
+// format the name of a fixed-point format preset; box_unit and tri_unit cpp or rtl; memory_type gddr6, hbm2
+// or lpddr5; watchdog_cycles 0..2^31-1 (0:
 // off). The default-constructed configuration is the "rdna2" preset.
 #pragma once
 
@@ -71,6 +72,9 @@ struct TimingConfig {
   int cache_latency = 4;               // hit latency
   int dram_latency = 200;              // cycles from request to the first byte
   double dram_bytes_per_cycle = 64.0;  // bandwidth
+  // What the memory behind the cache is, for its energy per bit (energy_model.h memory_types()): gddr6, hbm2 or
+  // lpddr5. Timing does not depend on it.
+  std::string memory_type = "gddr6";
 
   // Rasterizer of hybrid mode (raster_timing.h): a raster pipeline beside the unit, sharing its DRAM channel.
   double raster_setup_cycles = 20.0;        // cycles per primitive set up

@@ -5,6 +5,7 @@
 #include <memory>
 
 #include "host/cli/common.h"
+#include "host/cost_model.h"
 #include "host/error.h"
 
 namespace rtu::host::cli {
@@ -22,6 +23,8 @@ void print_stats() {
   std::printf("# the stats JSON's timing object (also per ray type and per bounce), in its order\n");
   for (const hw::TimingStatValue& v : hw::timing_report_keys())
     std::printf("%-30s %-12s %s\n", v.key, v.unit, v.description);
+  for (const EnergyKey& k : energy_json_keys())
+    std::printf("%-30s %-12s %s\n", k.key.c_str(), k.unit.c_str(), k.description.c_str());
   std::printf(
       "\n# the counters the timing model keeps (sampled timing: per-ray counters are scaled to the packet)\n");
   for (const hw::TimingCounter& c : hw::timing_counters())

@@ -7,7 +7,9 @@
 #include "host/cli/common.h"
 #include "host/error.h"
 #include "host/plan.h"
+#include "hwmodel/energy_model.h"
 #include "hwmodel/fixed_format.h"
+#include "hwmodel/timing_config.h"
 
 namespace rtu::host::cli {
 
@@ -27,11 +29,18 @@ void print_step(const PlanStep& s, const PlanOptions& a) {
       const SweepRow& r = *s.row;
       char psnr[48] = "";  // no render, no PSNR
       if (a.sweep.image_width > 0) std::snprintf(psnr, sizeof psnr, ", PSNR %.1f dB", r.psnr_db);
-      std::printf("  %-40s w%d: %s %.3g (%g%% bound %.3g)%s, %llu cycles, %llu bytes (%.1f per primitive)%s\n",
-                  r.p.format.c_str(), s.width, a.metric == "t" ? "t error" : "hit disagreement",
-                  plan_error(r, a.metric), 100.0 * a.confidence, plan_error_bound(r, a), psnr,
-                  (unsigned long long)r.cycles, (unsigned long long)r.bvh_bytes, r.bytes_per_prim,
-                  s.meets ? "" : "  (over budget)");
+      char units[96] = "";  // with an area budget: the units the candidate affords
+      if (a.area_budget > 0) {
+        const hw::TimingConfig c = sweep_config(r.p.config);
+        std::snprintf(units, sizeof units, ", %d box + %d tri units", c.box_units, c.tri_units);
+      }
+      std::printf(
+          "  %-40s w%d: %s %.3g (%g%% bound %.3g)%s, %llu cycles, %llu bytes (%.1f per primitive), %.3f mm^2%s, "
+          "%.0f pJ/ray%s\n",
+          r.p.format.c_str(), s.width, a.metric == "t" ? "t error" : "hit disagreement", plan_error(r, a.metric),
+          100.0 * a.confidence, plan_error_bound(r, a), psnr, (unsigned long long)r.cycles,
+          (unsigned long long)r.bvh_bytes, r.bytes_per_prim, r.area_mm2, units, r.pj_per_ray,
+          s.meets ? "" : "  (over budget)");
       std::fflush(stdout);
       break;
     }
@@ -71,7 +80,10 @@ void run_plan(const PlanArgs& args) {
       f.child_bits, (unsigned long long)best->cycles, (unsigned long long)best->bvh_bytes, best->bytes_per_prim,
       best->dram_bytes_per_ray, metric, plan_error(*best, a.metric), plan_error_bound(*best, a));
   std::printf("  cheapest: %s%s\n", j["cost"].get<std::string>().c_str(),
-              a.area.empty() ? "" : " (RTL cells are reported, not minimised)");
+              a.area_budget > 0 ? (" within " + std::to_string(a.area_budget) + " mm^2").c_str() : "");
+  std::printf("  units: %d box, %d triangle (%s); %.3f mm^2, %.0f pJ per ray (%s)\n",
+              j["plan"]["box_units"].get<int>(), j["plan"]["tri_units"].get<int>(), best->p.config.c_str(),
+              best->area_mm2, best->pj_per_ray, hw::nangate45().name);
   for (const Json& jw : j["widths"]) {
     if (jw["bvh_width"] != best->p.bvh_width) continue;
     if (jw.contains("fewer_coord_bits"))
@@ -80,13 +92,17 @@ void run_plan(const PlanArgs& args) {
                   jw["error_at_fewer_coord_bits"].get<double>(),
                   jw["error_bound_at_fewer_coord_bits"].get<double>(), a.max_error);
     if (jw["chosen_coord_bits"] != jw["coord_bits"])
-      std::printf("  why %d coordinate bits, not %d: more bits were faster on %s (fewer node visits)\n",
+      std::printf("  why %d coordinate bits, not %d: more bits were cheaper on %s (fewer node visits)\n",
                   jw["chosen_coord_bits"].get<int>(), jw["coord_bits"].get<int>(), a.config.c_str());
   }
-  std::printf("  against the base format (%s: %d coordinate bits, %d child bits): %+.1f%% cycles, %+.1f%% bytes\n",
-              def.p.format.c_str(), base.coord_bits, base.child_bits,
-              100.0 * (double(best->cycles) / double(std::max<uint64_t>(def.cycles, 1)) - 1.0),
-              100.0 * (double(best->bvh_bytes) / double(std::max<uint64_t>(def.bvh_bytes, 1)) - 1.0));
+  std::printf(
+      "  against the base format (%s: %d coordinate bits, %d child bits%s): %+.1f%% cycles, %+.1f%% bytes, "
+      "%+.1f%% energy per ray\n",
+      def.p.format.c_str(), base.coord_bits, base.child_bits,
+      a.area_budget > 0 ? (", " + def.p.config + " in the same area").c_str() : "",
+      100.0 * (double(best->cycles) / double(std::max<uint64_t>(def.cycles, 1)) - 1.0),
+      100.0 * (double(best->bvh_bytes) / double(std::max<uint64_t>(def.bvh_bytes, 1)) - 1.0),
+      100.0 * (best->pj_per_ray / std::max(def.pj_per_ray, 1e-30) - 1.0));
   if (best->rtl_cells >= 0 && def.rtl_cells >= 0)
     std::printf("  RTL box unit: %lld cells against %lld for the base format (%+.1f%%)\n",
                 (long long)best->rtl_cells, (long long)def.rtl_cells,
@@ -100,8 +116,9 @@ void add_plan(CLI::App& app) {
   auto a = std::make_shared<PlanArgs>();
   CLI::App* sub = app.add_subcommand(
       "plan",
-      "The cheapest format (by --minimise: fewest cycles on --config, or fewest image bytes; coordinate bits, "
-      "offset bits, BVH width) whose error's upper confidence bound meets a budget on a scene");
+      "The cheapest format (by --minimise: fewest cycles on --config, fewest image bytes or least energy; "
+      "coordinate bits, offset bits, BVH width; with --area-budget the units it affords) whose error's upper "
+      "confidence bound meets a budget on a scene");
   sub->add_option("--scene", a->o.scene, "scene file, mesh file or builtin:NAME")->required();
   sub->add_option("--max-error", a->o.max_error, "error budget of --metric")->required();
   sub->add_option("--metric", a->o.metric,
@@ -126,9 +143,16 @@ void add_plan(CLI::App& app) {
                   "base format spec whose coordinate and child bits the plan varies, every other field (storage "
                   "layouts too) kept, e.g. packed or cwbvh (default: the --config's format)");
   sub->add_option("--minimise,--minimize", a->o.minimise,
-                  "the cost: cycles (fewest cycles on --config, then fewest image bytes) or bytes (fewest image "
-                  "bytes, bvh_bytes, then fewest cycles)")
-      ->check(CLI::IsMember({"cycles", "bytes"}))
+                  "the cost: cycles (fewest cycles on --config, then fewest image bytes), bytes (fewest image "
+                  "bytes, bvh_bytes, then fewest cycles) or energy (fewest pJ per ray, then fewest cycles)")
+      ->check(CLI::IsMember({"cycles", "bytes", "energy"}))
+      ->capture_default_str();
+  sub->add_flag_callback(
+      "--energy", [a] { a->o.minimise = "energy"; }, "the same as --minimise energy");
+  sub->add_option("--area-budget", a->o.area_budget,
+                  "iso-area design: the unit's area budget in mm^2 (45 nm estimate); each candidate gets the box "
+                  "and triangle units it affords, so a narrower format can buy more units (0: none)")
+      ->check(CLI::Range(0.0, 1e6))
       ->capture_default_str();
   sub->add_option("--bvh-width", a->o.widths, "BVH widths to consider, comma-separated")
       ->delimiter(',')
@@ -150,7 +174,9 @@ void add_plan(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--threads", a->o.sweep.threads, "worker threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
-  sub->add_option("--area", a->o.area, "RTL area table for the rtl_cells figures (bench/data/rtl_area.csv)")
+  sub->add_option(
+         "--area", a->o.area,
+         "RTL area table for the rtl_cells and area figures (default: the shipped bench/data/rtl_area.csv)")
       ->check(CLI::ExistingFile);
   sub->add_option("--json", a->json, "write the plan and every candidate's figures as JSON");
   sub->callback([a] { run_plan(*a); });

@@ -471,7 +471,7 @@ TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad 
     std::vector<std::string> f;
     std::stringstream ss(w[i]);
     for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
-    REQUIRE(f.size() == 26);
+    REQUIRE(f.size() == 28);
     const double node_overhead = std::stod(f[13]);
     INFO(w[i]);
     CHECK(node_overhead >= -0.01);
@@ -852,7 +852,7 @@ TEST_CASE("report and pareto: bad input gives a clear error and exit 2", "[cli][
     std::ofstream(d / "short.csv") << rtu::host::sweep_csv_header() << "\nbuiltin:seed,default,4\n";
     std::ofstream(d / "nan.csv")
         << rtu::host::sweep_csv_header()
-        << "\nbuiltin:seed,default,4,rdna2,10,1,48,x,1,0,0,0,0,0,0,0,inf,5,0.5,64,100,100,2.5,-1,-1,0.1\n";
+        << "\nbuiltin:seed,default,4,rdna2,10,1,48,x,1,0,0,0,0,0,0,0,inf,5,0.5,64,100,100,2.5,-1,-1,0.5,900,0.1\n";
     std::ofstream(d / "empty_rows.csv") << rtu::host::sweep_csv_header() << "\n";
   }
   const std::string out = " --out " + (d / "o").string();

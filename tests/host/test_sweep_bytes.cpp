@@ -137,6 +137,20 @@ TEST_CASE("sweep: bytes per primitive and DRAM bytes per ray in the CSV, through
     CHECK(e.output.find("dram_bytes_per_ray") != std::string::npos);
   }
   CHECK(read_lines(old).size() == 2);  // left as it was
+
+  // And one of the version before the area and energy columns.
+  const fs::path pre_energy = t.path / "pre_energy.csv";
+  {
+    std::ofstream f(pre_energy);
+    f << "scene,format,bvh_width,config,rays,seed,image_width,hit_agreement,prim_agreement,false_misses,"
+         "false_hits,t_rel_error_mean,t_rel_error_max,node_visit_overhead,prim_test_overhead,box_false_negatives,"
+         "psnr_db,cycles,cycles_per_ray,dram_bytes_per_ray,bvh_bytes,float_bvh_bytes,bytes_per_prim,rtl_cells,"
+         "rtl_transistors,seconds\n";
+  }
+  const Run e = run_rtusim("sweep --merge " + pre_energy.string() + " --out " + (t.path / "m3.csv").string());
+  INFO(e.output);
+  CHECK(e.status == 2);
+  CHECK(e.output.find("without the columns area_mm2 and pj_per_ray") != std::string::npos);
 }
 
 TEST_CASE("plan --minimise bytes: no more bytes than the cycles plan, within the budget", "[jobs][plan]") {

@@ -1,0 +1,201 @@
+#include "host/cost_model.h"
+
+#include <algorithm>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include "rtl_sim/params/rtl_params.h"
+#include "rtl_sim/params/tri_params.h"
+
+namespace rtu::host {
+
+namespace {
+
+// "-GN=4 -GLANES=4 ..." as a map; empty when a token is not -GNAME=VALUE.
+std::map<std::string, double> params_of(const std::string& key) {
+  std::map<std::string, double> m;
+  std::istringstream in(key);
+  std::string tok;
+  while (in >> tok) {
+    const size_t eq = tok.find('=');
+    if (tok.rfind("-G", 0) != 0 || eq == std::string::npos) return {};
+    try {
+      m[tok.substr(2, eq - 2)] = std::stod(tok.substr(eq + 1));
+    } catch (const std::exception&) {
+      return {};
+    }
+  }
+  return m;
+}
+
+enum class Kind { kBox, kTri, kOther };
+Kind kind_of(const std::map<std::string, double>& p) {
+  if (p.count("N") && p.count("LANES") && p.count("A") && p.count("M")) return Kind::kBox;
+  if (p.count("B") && p.count("A") && p.count("D") && !p.count("N")) return Kind::kTri;
+  return Kind::kOther;
+}
+
+// The size of a unit's multipliers, the regressor of the fit.
+double box_feature(double lanes, double a, double m) {
+  return lanes * (a + 1) * (m + 2);
+}
+double tri_feature(double a, double d) {
+  return (a + 1) * (a + d + 2);
+}
+double feature(Kind k, const std::map<std::string, double>& p) {
+  return k == Kind::kBox ? box_feature(p.at("LANES"), p.at("A"), p.at("M")) : tri_feature(p.at("A"), p.at("D"));
+}
+// Issue clocks per test the activity table counts: a box test is a node (ceil(N / LANES) clocks), a triangle
+// test one clock.
+double clocks_per_test(Kind k, const std::map<std::string, double>& p) {
+  if (k != Kind::kBox) return 1.0;
+  const int n = int(p.at("N")), lanes = int(p.at("LANES"));
+  return double((n + lanes - 1) / lanes);
+}
+
+struct Fit {
+  double a = 0, b = 0;  // nand2_eq = a + b x
+  int points = 0;
+  double activity = 0;  // mean transitions per issue clock per NAND2 equivalent
+  int measured = 0;
+};
+
+Fit fit_kind(Kind kind, const AreaTable& area, const ActivityTable& activity) {
+  Fit f;
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (const auto& [key, e] : area.by_params) {
+    const auto p = params_of(key);
+    if (kind_of(p) != kind || e.transistors <= 0) continue;
+    const double x = feature(kind, p), y = double(e.transistors) / 4.0;
+    sx += x, sy += y, sxx += x * x, sxy += x * y, ++f.points;
+  }
+  if (f.points >= 2 && f.points * sxx - sx * sx > 0) {
+    f.b = (f.points * sxy - sx * sy) / (f.points * sxx - sx * sx);
+    f.a = (sy - f.b * sx) / f.points;
+  } else if (f.points == 1) {
+    f.b = sy / sx;  // proportional through the one point
+  }
+  for (const auto& [key, e] : activity.by_params) {
+    const auto p = params_of(key);
+    if (kind_of(p) != kind) continue;
+    f.activity += e.toggles_per_test / clocks_per_test(kind, p) / e.signal_bits;
+    ++f.measured;
+  }
+  if (f.measured > 0) f.activity /= f.measured;
+  return f;
+}
+
+hw::UnitCost unit_cost(Kind kind, const std::string& key, double x, const AreaTable& area,
+                       const ActivityTable& activity) {
+  hw::UnitCost u;
+  const auto a = area.by_params.find(key);
+  const auto act = activity.by_params.find(key);
+  const Fit fit = fit_kind(kind, area, activity);
+  std::string size_source, act_source;
+  if (a != area.by_params.end() && a->second.transistors > 0) {
+    u.nand2_eq = double(a->second.transistors) / 4.0;
+    size_source = "synthesized";
+  } else if (fit.points > 0) {
+    u.nand2_eq = std::max(0.0, fit.a + fit.b * x);
+    size_source = "fit of " + std::to_string(fit.points) + " synthesized units";
+  } else {
+    size_source = "none";
+  }
+  double per_ge = 0;
+  if (act != activity.by_params.end()) {
+    const auto p = params_of(key);
+    per_ge = act->second.toggles_per_test / clocks_per_test(kind, p) / act->second.signal_bits;
+    act_source = "measured";
+  } else if (fit.measured > 0) {
+    per_ge = fit.activity;
+    act_source = "mean of " + std::to_string(fit.measured) + " measured units";
+  } else {
+    act_source = "none";
+  }
+  u.toggles_per_issue = per_ge * u.nand2_eq;
+  u.source = "size " + size_source + ", activity " + act_source;
+  return u;
+}
+
+}  // namespace
+
+hw::CostInputs cost_inputs(const hw::FixedFormat& f, const hw::TimingConfig& c, const AreaTable& area,
+                           const ActivityTable& activity) {
+  hw::CostInputs in;
+  const double a = f.translated_bits();
+  const int lanes = std::min(c.box_rate, c.bvh_width);
+  std::string box_key, tri_key;
+  try {
+    box_key = rtl::verilator_args(rtl::box_unit_params(f, c.bvh_width, c.box_rate, c.box_latency));
+  } catch (const std::invalid_argument&) {
+    // A wide format: no RTL unit has its datapath; the fit estimates it.
+  }
+  try {
+    tri_key = rtl::verilator_args(rtl::tri_unit_params(f, c.tri_latency));
+  } catch (const std::invalid_argument&) {
+  }
+  in.box = unit_cost(Kind::kBox, box_key, box_feature(lanes, a, f.rcp_bits + 1), area, activity);
+  in.tri = unit_cost(Kind::kTri, tri_key, tri_feature(a, f.dir_bits), area, activity);
+  return in;
+}
+
+hw::CostInputs cost_inputs(const hw::TimingConfig& c) {
+  static const AreaTable area = AreaTable::shipped();
+  static const ActivityTable activity = ActivityTable::shipped();
+  hw::FixedFormat f = hw::format_preset(c.format);
+  f.width = c.bvh_width;
+  return cost_inputs(f, c, area, activity);
+}
+
+Json energy_json(const hw::EnergyReport& e, const hw::TimingConfig& c, const hw::CostInputs& in) {
+  Json j;
+  j["technology"] = hw::nangate45().name;
+  j["memory_type"] = c.memory_type;
+  j["area"] = {{"total_mm2", e.area.total_mm2},
+               {"box_units_mm2", e.area.box_mm2},
+               {"tri_units_mm2", e.area.tri_mm2},
+               {"cache_mm2", e.area.cache_mm2},
+               {"slots_mm2", e.area.slots_mm2},
+               {"logic_nand2_eq", e.area.logic_nand2_eq},
+               {"sram_bits", e.area.sram_bits},
+               {"box_unit", {{"nand2_eq", in.box.nand2_eq}, {"source", in.box.source}}},
+               {"tri_unit", {{"nand2_eq", in.tri.nand2_eq}, {"source", in.tri.source}}}};
+  Json events = Json::object();
+  for (const hw::EnergyEvent& ev : e.events)
+    events[ev.key] = {{"count", ev.count}, {"unit", ev.unit}, {"pj_each", ev.pj_each}, {"pj", ev.pj()}};
+  j["events"] = events;
+  j["total_pj"] = e.total_pj;
+  j["pj_per_ray"] = e.pj_per_ray;
+  j["rays_per_joule"] = e.rays_per_joule;
+  j["watts"] = e.watts;
+  return j;
+}
+
+std::vector<EnergyKey> energy_json_keys() {
+  std::vector<EnergyKey> k = {
+      {"energy.technology", "-", "technology of the estimate (docs/energy-model.md)"},
+      {"energy.memory_type", "-", "DRAM type whose energy per bit is used (memory_type key)"},
+      {"energy.area", "-", "area estimate of the unit"},
+      {"energy.area.total_mm2", "mm^2", "units, cache and slot SRAM"},
+      {"energy.area.box_units_mm2", "mm^2", "box units (NAND2 equivalents x NAND2 area / utilization)"},
+      {"energy.area.tri_units_mm2", "mm^2", "triangle units"},
+      {"energy.area.cache_mm2", "mm^2", "cache data and tag SRAM"},
+      {"energy.area.slots_mm2", "mm^2", "ray slot state, short stacks and ray queue SRAM"},
+      {"energy.area.logic_nand2_eq", "NAND2", "NAND2 equivalents of all units"},
+      {"energy.area.sram_bits", "bits", "SRAM bits of cache and slots"},
+      {"energy.area.box_unit", "-", "one box unit: nand2_eq and where its size and activity come from"},
+      {"energy.area.tri_unit", "-", "one triangle unit: nand2_eq and where its size and activity come from"},
+      {"energy.events", "-", "each event: count, unit, pj_each, pj (count x pj_each)"},
+      {"energy.total_pj", "pJ", "sum of the events' pj"},
+      {"energy.pj_per_ray", "pJ/ray", "total_pj / rays"},
+      {"energy.rays_per_joule", "rays/J", "rays / total energy"},
+      {"energy.watts", "W", "total energy / run time at clock_ghz"},
+  };
+  const hw::EnergyReport e = hw::energy_report(hw::TimingStats{}, hw::timing_preset("rdna2"), hw::CostInputs{});
+  for (const hw::EnergyEvent& ev : e.events)
+    k.push_back({std::string("energy.events.") + ev.key, ev.unit, ev.description});
+  return k;
+}
+
+}  // namespace rtu::host

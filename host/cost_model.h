@@ -1,0 +1,39 @@
+// The inputs of the area and energy estimate (hwmodel/energy_model.h) for a format and a timing configuration: the
+// box and triangle units' size from the RTL synthesis table (AreaTable) and their switching activity from the
+// Verilator activity table (ActivityTable), looked up by the units' Verilator parameters.
+//
+// A unit the tables do not hold (a format no synthesis ran for) is estimated and says so (source "fit"): its size
+// from a least-squares line through the synthesized units of its kind against the size of its multipliers (box
+// unit: lanes x (A+1) x (M+2); triangle unit: (A+1) x (A+D+2), the edge functions' products), its activity the
+// mean of its kind's measured units.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "host/stats_json.h"
+#include "host/sweep.h"
+#include "hwmodel/energy_model.h"
+#include "hwmodel/fixed_format.h"
+#include "hwmodel/timing_config.h"
+#include "hwmodel/timing_stats.h"
+
+namespace rtu::host {
+
+// `f` is the datapath's format (the configuration's `format` preset, or a sweep point's spec), at c.bvh_width.
+hw::CostInputs cost_inputs(const hw::FixedFormat& f, const hw::TimingConfig& c, const AreaTable& area,
+                           const ActivityTable& activity);
+// With the shipped tables and the configuration's own format.
+hw::CostInputs cost_inputs(const hw::TimingConfig& c);
+
+// {technology, memory_type, area: {...mm^2, units: {box, tri}}, events: [{key, count, pj_each, pj}], total_pj,
+// pj_per_ray, rays_per_joule, watts}
+Json energy_json(const hw::EnergyReport& e, const hw::TimingConfig& c, const hw::CostInputs& in);
+
+// The keys of energy_json ("energy.x" and "energy.x.y"), with unit and meaning, for `rtusim config --stats`.
+struct EnergyKey {
+  std::string key, unit, description;
+};
+std::vector<EnergyKey> energy_json_keys();
+
+}  // namespace rtu::host

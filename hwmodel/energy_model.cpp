@@ -1,0 +1,118 @@
+#include "hwmodel/energy_model.h"
+
+#include <array>
+#include <cmath>
+#include <stdexcept>
+
+namespace rtu::hw {
+
+const Technology& nangate45() {
+  static const Technology t;
+  return t;
+}
+
+namespace {
+
+// Per bit moved at the device (core and I/O). GDDR6 and HBM2E: the vendors' average device power in pJ/bit as
+// tabulated for GDDR6 / GDDR6X / HBM2E systems (7.5 / 7.25 / 6.0); HBM2: O'Connor et al., "Fine-Grained DRAM",
+// MICRO 2017 (3.9 pJ/bit). LPDDR5: no primary figure was found; 4.0 is our assumption between HBM2 and GDDR6 (its
+// 0.5 V I/O), stated as such in docs/energy-model.md.
+constexpr std::array<MemoryType, 3> kMemoryTypes = {{
+    {"gddr6", 7.5, "GDDR6 average device power, vendor table (GDDR6 7.5, GDDR6X 7.25, HBM2E 6.0 pJ/bit)"},
+    {"hbm2", 3.9, "O'Connor et al., Fine-Grained DRAM, MICRO 2017: HBM2 3.9 pJ/bit"},
+    {"lpddr5", 4.0, "assumption (no primary source found): between HBM2 3.9 and GDDR6 7.5 pJ/bit"},
+}};
+
+}  // namespace
+
+std::span<const MemoryType> memory_types() {
+  return kMemoryTypes;
+}
+
+const MemoryType& memory_type(const std::string& name) {
+  for (const MemoryType& m : kMemoryTypes)
+    if (name == m.name) return m;
+  throw std::invalid_argument("unknown memory type '" + name + "' (known: gddr6, hbm2, lpddr5)");
+}
+
+double sram_read64_pj(double bytes, const Technology& t) {
+  // log E = log E_i + slope * (log bytes - log bytes_i) on the segment of Horowitz's points nearest to `bytes`.
+  const double k8 = 8.0 * 1024, k32 = 32.0 * 1024, m1 = 1024.0 * 1024;
+  const double b = bytes > 1.0 ? bytes : 1.0;
+  if (b <= k32) {
+    const double slope = std::log(t.sram_pj_32k / t.sram_pj_8k) / std::log(k32 / k8);
+    return t.sram_pj_8k * std::pow(b / k8, slope);
+  }
+  const double slope = std::log(t.sram_pj_1m / t.sram_pj_32k) / std::log(m1 / k32);
+  return t.sram_pj_32k * std::pow(b / k32, slope);
+}
+
+double sram_access_pj(double bytes, int access_bytes, const Technology& t) {
+  return sram_read64_pj(bytes, t) * std::ceil(double(access_bytes) / 8.0);
+}
+
+double sram_area_mm2(double bits, const Technology& t) {
+  return bits * t.sram_bit_um2 / t.sram_efficiency * 1e-6;
+}
+
+double logic_area_mm2(double nand2_eq, const Technology& t) {
+  return nand2_eq * t.nand2_um2 / t.utilization * 1e-6;
+}
+
+double cache_sram_bits(const TimingConfig& c) {
+  if (c.cache_kib <= 0) return 0.0;
+  const double lines = double(c.cache_kib) * 1024.0 / double(c.line_bytes);
+  return lines * (double(c.line_bytes) * 8.0 + 33.0);
+}
+
+double slot_sram_bits(const TimingConfig& c) {
+  return 8.0 * (double(c.ray_slots) * (kSlotStateBytes + 8.0 * c.stack_entries) +
+                double(c.queue_depth) * kQueueRayBytes);
+}
+
+AreaReport area_report(const TimingConfig& c, const CostInputs& in, const Technology& t) {
+  AreaReport a;
+  a.logic_nand2_eq = c.box_units * in.box.nand2_eq + c.tri_units * in.tri.nand2_eq;
+  a.box_mm2 = logic_area_mm2(c.box_units * in.box.nand2_eq, t);
+  a.tri_mm2 = logic_area_mm2(c.tri_units * in.tri.nand2_eq, t);
+  const double cache_bits = cache_sram_bits(c), slot_bits = slot_sram_bits(c);
+  a.sram_bits = cache_bits + slot_bits;
+  a.cache_mm2 = sram_area_mm2(cache_bits, t);
+  a.slots_mm2 = sram_area_mm2(slot_bits, t);
+  a.total_mm2 = a.box_mm2 + a.tri_mm2 + a.cache_mm2 + a.slots_mm2;
+  return a;
+}
+
+EnergyReport energy_report(const TimingStats& s, const TimingConfig& c, const CostInputs& in,
+                           const Technology& t) {
+  EnergyReport r;
+  r.area = area_report(c, in, t);
+  const double e_gate = t.pj_per_transition();
+  const double line = c.cache_kib > 0 ? sram_access_pj(double(c.cache_kib) * 1024.0, c.line_bytes, t) : 0.0;
+  const double stack_bytes = double(c.ray_slots) * c.stack_entries * 8.0;
+  const double dram_pj_per_byte = 8.0 * memory_type(c.memory_type).pj_per_bit;
+  // Leakage power (W) = area (um^2) x density (nW/um^2) x 1e-9; per cycle (pJ) = W / (clock_ghz x 1e9) x 1e12.
+  const double leak_w = r.area.total_mm2 * 1e6 * t.leakage_nw_per_um2 * 1e-9;
+  const double leak_pj_per_cycle = leak_w * 1e3 / c.clock_ghz;
+  r.events = {
+      {"box_issue", "unit clocks", "box unit issue clocks x switching energy per clock", s.box_issue_cycles,
+       in.box.toggles_per_issue * e_gate},
+      {"tri_issue", "unit clocks", "triangle unit issue slots x switching energy per slot", s.tri_issue_cycles,
+       in.tri.toggles_per_issue * e_gate},
+      {"cache_read", "lines", "cache line reads (hits and misses)", s.cache_hits + s.cache_misses,
+       c.cache_kib > 0 ? line : 0.0},
+      {"cache_fill", "lines", "cache line writes on a miss", c.cache_kib > 0 ? s.cache_misses : 0, line},
+      {"stack", "accesses", "slot stack SRAM accesses (one per node fetch)", s.node_fetches,
+       sram_access_pj(stack_bytes, 8, t)},
+      {"dram", "bytes", "DRAM bytes (line fills, stack spills, refills)", s.dram_bytes, dram_pj_per_byte},
+      {"stream", "bytes", "ray and hit buffer bytes (in DRAM)", s.stream_bytes, dram_pj_per_byte},
+      {"leakage", "cycles", "leakage of the unit's area over the run's cycles", s.cycles, leak_pj_per_cycle},
+  };
+  for (const EnergyEvent& e : r.events) r.total_pj += e.pj();
+  if (s.rays > 0) r.pj_per_ray = r.total_pj / double(s.rays);
+  if (r.total_pj > 0) r.rays_per_joule = double(s.rays) / (r.total_pj * 1e-12);
+  if (s.cycles > 0) r.watts = r.total_pj * 1e-12 / (double(s.cycles) / (c.clock_ghz * 1e9));
+  return r;
+}
+
+}  // namespace rtu::hw

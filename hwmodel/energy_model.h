@@ -1,0 +1,106 @@
+// Area and energy of a unit: an estimate in a named technology from the unit's own RTL (its synthesized size and
+// the switching activity measured in Verilator, both supplied by the caller as UnitCost) and documented tables for
+// what the RTL does not cover (SRAM, DRAM, leakage). docs/energy-model.md gives every constant's source.
+//
+// Energy is a sum of events, each a counter of the timed run (TimingStats) times an energy per event, leakage
+// included as one event per cycle, so the report adds up by construction and a test checks that it does:
+//   box_issue      box unit issue clocks x (toggles per issue clock x energy per gate transition)
+//   tri_issue      triangle unit issue slots (triangles, spheres, planes) x the same for the triangle unit
+//   cache_read     cache line accesses x one line read of an SRAM of the cache's size
+//   cache_fill     cache misses x one line write (as a read)
+//   stack          node fetches x one 8-byte access of the slots' stack SRAM (a push or a pop per node visit)
+//   dram           DRAM bytes (line fills, stack spills and refills) x 8 x the memory type's energy per bit
+//   stream         ray and hit buffer bytes x 8 x the same (they live in DRAM)
+//   leakage        cycles x the unit's leakage power over the clock
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "hwmodel/timing_config.h"
+#include "hwmodel/timing_stats.h"
+
+namespace rtu::hw {
+
+// The technology of the estimates: the NanGate FreePDK45 Open Cell Library (45 nm) for logic area and leakage,
+// 45 nm SRAM, and switching energy at Horowitz's 0.9 V so that his per-operation figures compare directly.
+struct Technology {
+  const char* name = "nangate45";
+  double nand2_um2 = 0.798;          // NAND2_X1 area (NanGate 45 nm Open Cell Library)
+  double vdd = 0.9;                  // volts of the switching energy (Horowitz, ISSCC 2014: 45 nm at 0.9 V)
+  double cap_per_ge_ff = 4.0;        // switched capacitance per gate output: 2 NAND2_X1 inputs (1.6 fF) + wire
+  double utilization = 0.7;          // standard-cell placement density: logic area = cells / utilization
+  double leakage_nw_per_um2 = 27.0;  // INV_X1 14.35 nW over its 0.532 um^2 (NanGate typical corner)
+  double sram_bit_um2 = 0.346;       // 45 nm 6T SRAM cell (Intel, Mistry et al., IEDM 2007)
+  double sram_efficiency = 0.5;      // bit cells / array area (decoders, sense amplifiers, I/O)
+  // Energy of one 64-bit SRAM read by capacity (Horowitz, ISSCC 2014, 45 nm): 8 KB 10 pJ, 32 KB 20 pJ, 1 MB 100
+  // pJ.
+  double sram_pj_8k = 10.0, sram_pj_32k = 20.0, sram_pj_1m = 100.0;
+
+  double pj_per_transition() const { return 0.5 * cap_per_ge_ff * 1e-3 * vdd * vdd; }  // 1/2 C V^2
+};
+const Technology& nangate45();
+
+// DRAM energy per bit moved, by memory type (TimingConfig::memory_type).
+struct MemoryType {
+  const char* name;
+  double pj_per_bit;
+  const char* source;
+};
+std::span<const MemoryType> memory_types();
+// Throws std::invalid_argument for an unknown name.
+const MemoryType& memory_type(const std::string& name);
+
+// One 64-bit read of an SRAM of `bytes` bytes (pJ): Horowitz's three points, interpolated log-log and extrapolated
+// with the nearest segment's slope.
+double sram_read64_pj(double bytes, const Technology& t = nangate45());
+// An access of `access_bytes` (a cache line): as many 64-bit reads (an upper estimate: a wide row shares decode).
+double sram_access_pj(double bytes, int access_bytes, const Technology& t = nangate45());
+double sram_area_mm2(double bits, const Technology& t = nangate45());
+double logic_area_mm2(double nand2_eq, const Technology& t = nangate45());
+
+// What the area and energy need beyond the configuration: each unit's size and switching activity.
+struct UnitCost {
+  double nand2_eq = 0.0;           // NAND2 equivalents (yosys CMOS transistors / 4)
+  double toggles_per_issue = 0.0;  // gate output transitions per issue clock (activity x nand2_eq)
+  std::string source = "none";     // where the figures come from ("synthesized", "fit", "none")
+};
+struct CostInputs {
+  UnitCost box, tri;  // one box unit, one triangle unit
+};
+
+// The unit's SRAM: cache data and tags, ray slot state (kSlotStateBytes per slot), short stacks, ray queue.
+inline constexpr int kSlotStateBytes = 64;  // a slot's ray, hit and traversal registers (fixed ray + hit record)
+inline constexpr int kQueueRayBytes = 32;   // a queued ray (origin, direction, t range as floats)
+struct AreaReport {
+  double box_mm2 = 0, tri_mm2 = 0;  // all units of the kind
+  double cache_mm2 = 0, slots_mm2 = 0;
+  double total_mm2 = 0;
+  double logic_nand2_eq = 0, sram_bits = 0;
+};
+AreaReport area_report(const TimingConfig& c, const CostInputs& in, const Technology& t = nangate45());
+double cache_sram_bits(const TimingConfig& c);  // data + tags (a 32-bit tag and a valid bit per line)
+double slot_sram_bits(const TimingConfig& c);   // slot state, stacks, queue
+
+struct EnergyEvent {
+  const char* key;
+  const char* unit;  // of count
+  const char* description;
+  uint64_t count = 0;
+  double pj_each = 0.0;
+  double pj() const { return double(count) * pj_each; }
+};
+struct EnergyReport {
+  std::vector<EnergyEvent> events;  // in the order of the list at the top of this file
+  double total_pj = 0.0;            // the events' sum
+  double pj_per_ray = 0.0;
+  double rays_per_joule = 0.0;
+  double watts = 0.0;  // total over the run's time at clock_ghz
+  AreaReport area;
+};
+EnergyReport energy_report(const TimingStats& s, const TimingConfig& c, const CostInputs& in,
+                           const Technology& t = nangate45());
+
+}  // namespace rtu::hw

@@ -1,0 +1,255 @@
+// Area and energy (hwmodel/energy_model.h, host/cost_model.h): the accounting adds up on real timed runs, each
+// event counts what the timing model counted, the tables' sources are where the code says they are, and the
+// estimates respond to the keys that should move them and to nothing else.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "host/cost_model.h"
+#include "host/direct_device.h"
+#include "host/plan.h"
+#include "host/ray_gen.h"
+#include "host/scene.h"
+#include "host/stats_json.h"
+#include "hwmodel/energy_model.h"
+#include "hwmodel/timing_config.h"
+
+namespace {
+
+using rtu::hw::TimingConfig;
+using rtu::hw::TimingStats;
+
+// A timed run of camera and incoherent rays on a scene (2 threads; cycles do not depend on them).
+TimingStats timed_run(const std::string& scene, const TimingConfig& c, size_t n = 2000) {
+  const rtu::host::Scene s = rtu::host::load_scene(scene);
+  rtu::host::DeviceOptions o;
+  o.kind = rtu::hw::DeviceKind::kTimed;
+  o.timing = c;
+  o.format = rtu::hw::format_preset(c.format);
+  o.format.width = c.bvh_width;
+  o.tracer.bvh.width = c.bvh_width;
+  std::vector<rtu::hw::Ray> rays = rtu::host::primary_rays(s.camera, n);
+  const std::vector<rtu::hw::Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), n, 3);
+  rays.insert(rays.end(), inc.begin(), inc.end());
+  std::vector<rtu::hw::Hit> hits(rays.size());
+  const auto dev = rtu::host::make_device(s.geometry, o);
+  rtu::hw::TraversalStats ts;
+  dev->trace_batch(rays.data(), hits.data(), rays.size(), false, 2, ts);
+  return dev->timed()->timing();
+}
+
+// Sums in double of up to ~10 terms of magnitude <= 1e12 pJ: relative rounding below 1e-15 per term; 1e-12
+// leaves room and still fails on any term left out or counted twice.
+constexpr double kSumTolerance = 1e-12;
+
+}  // namespace
+
+TEST_CASE("energy: the events times their energies are the total, and each counts the run's counter", "[energy]") {
+  for (const std::string preset : {"rdna2", "embedded", "intel-mem"}) {
+    CAPTURE(preset);
+    const TimingConfig c = rtu::hw::timing_preset(preset);
+    const TimingStats s = timed_run("builtin:cornell", c);
+    REQUIRE(s.rays > 0);
+    REQUIRE(s.cycles > 0);
+    const rtu::hw::CostInputs in = rtu::host::cost_inputs(c);
+    const rtu::hw::EnergyReport e = rtu::hw::energy_report(s, c, in);
+    double sum = 0;
+    for (const auto& ev : e.events) {
+      CAPTURE(ev.key);
+      CHECK(ev.pj_each >= 0);
+      CHECK(std::isfinite(ev.pj_each));
+      sum += double(ev.count) * ev.pj_each;
+    }
+    CHECK(std::abs(sum - e.total_pj) <= kSumTolerance * e.total_pj);
+    CHECK(std::abs(e.pj_per_ray * double(s.rays) - e.total_pj) <= kSumTolerance * e.total_pj);
+    const double seconds = double(s.cycles) / (c.clock_ghz * 1e9);
+    CHECK(std::abs(e.watts * seconds - e.total_pj * 1e-12) <= kSumTolerance * e.total_pj * 1e-12);
+    CHECK(std::abs(e.rays_per_joule * e.total_pj * 1e-12 - double(s.rays)) <= kSumTolerance * double(s.rays));
+
+    auto event = [&](const std::string& key) -> const rtu::hw::EnergyEvent& {
+      for (const auto& ev : e.events)
+        if (ev.key == key) return ev;
+      FAIL("no event " << key);
+      return e.events.front();
+    };
+    CHECK(event("box_issue").count == s.box_issue_cycles);
+    CHECK(event("tri_issue").count == s.tri_issue_cycles);
+    CHECK(event("cache_read").count == s.cache_hits + s.cache_misses);
+    CHECK(event("cache_fill").count == s.cache_misses);
+    CHECK(event("stack").count == s.node_fetches);
+    CHECK(event("dram").count == s.dram_bytes);
+    CHECK(event("stream").count == s.stream_bytes);
+    CHECK(event("leakage").count == s.cycles);
+    const double dram_pj_per_byte = 8.0 * rtu::hw::memory_type(c.memory_type).pj_per_bit;
+    CHECK(event("dram").pj_each == dram_pj_per_byte);
+
+    // The stats JSON carries the same figures: its events add up to its total.
+    const rtu::host::Json j = rtu::host::timing_stats_json(s, c)["energy"];
+    double jsum = 0;
+    for (const auto& [key, ev] : j["events"].items()) {
+      CAPTURE(key);
+      CHECK(ev["pj"].get<double>() == Approx(double(ev["count"].get<uint64_t>()) * ev["pj_each"].get<double>()));
+      jsum += ev["pj"].get<double>();
+    }
+    CHECK(std::abs(jsum - j["total_pj"].get<double>()) <= kSumTolerance * jsum);
+    CHECK(j["total_pj"].get<double>() == e.total_pj);
+    CHECK(j["area"]["total_mm2"].get<double>() == e.area.total_mm2);
+  }
+}
+
+TEST_CASE("energy: the memory type moves the DRAM and stream events by its energy per bit, nothing else",
+          "[energy]") {
+  TimingConfig g = rtu::hw::timing_preset("rdna2");
+  const TimingStats s = timed_run("builtin:cornell", g, 500);
+  TimingConfig h = g;
+  rtu::hw::set_timing_key(h, "memory_type", "hbm2");
+  const rtu::hw::CostInputs in = rtu::host::cost_inputs(g);
+  const auto eg = rtu::hw::energy_report(s, g, in), eh = rtu::hw::energy_report(s, h, in);
+  REQUIRE(eg.events.size() == eh.events.size());
+  for (size_t i = 0; i < eg.events.size(); ++i) {
+    const std::string key = eg.events[i].key;
+    CAPTURE(key);
+    if (key == "dram" || key == "stream")
+      CHECK(eh.events[i].pj_each == Approx(eg.events[i].pj_each * 3.9 / 7.5).epsilon(1e-12));
+    else
+      CHECK(eh.events[i].pj_each == eg.events[i].pj_each);
+  }
+  CHECK_THROWS_WITH(rtu::hw::set_timing_key(h, "memory_type", "ddr9"), Catch::Contains("memory_type"));
+  CHECK_THROWS_AS(rtu::hw::memory_type("ddr9"), std::invalid_argument);
+}
+
+TEST_CASE("energy: SRAM energies pass through Horowitz's points and grow with capacity", "[energy]") {
+  CHECK(rtu::hw::sram_read64_pj(8 * 1024.0) == Approx(10.0).epsilon(1e-12));
+  CHECK(rtu::hw::sram_read64_pj(32 * 1024.0) == Approx(20.0).epsilon(1e-12));
+  CHECK(rtu::hw::sram_read64_pj(1024 * 1024.0) == Approx(100.0).epsilon(1e-12));
+  double last = 0;
+  for (double kib = 0.25; kib <= 4096; kib *= 2) {
+    const double e = rtu::hw::sram_read64_pj(kib * 1024);
+    CHECK(e > last);
+    last = e;
+  }
+  // A 64-byte line is eight 64-bit reads.
+  CHECK(rtu::hw::sram_access_pj(65536, 64) == Approx(8 * rtu::hw::sram_read64_pj(65536)).epsilon(1e-12));
+}
+
+TEST_CASE(
+    "area: units add their synthesized size and a format no synthesis ran for is a fit between its neighbours",
+    "[energy]") {
+  TimingConfig c = rtu::hw::timing_preset("rdna2");
+  const rtu::hw::CostInputs in = rtu::host::cost_inputs(c);
+  const rtu::host::AreaTable table = rtu::host::AreaTable::shipped();
+  // The rdna2 box unit is in the shipped table: 4 transistors per NAND2 equivalent.
+  CHECK(in.box.source.rfind("size synthesized", 0) == 0);
+  CHECK(in.box.nand2_eq == Approx(1399866 / 4.0));
+  const auto a1 = rtu::hw::area_report(c, in);
+  rtu::hw::set_timing_key(c, "box_units", "3");
+  const auto a3 = rtu::hw::area_report(c, in);
+  CHECK(a3.total_mm2 - a1.total_mm2 == Approx(2 * a1.box_mm2).epsilon(1e-12));
+  CHECK(a3.box_mm2 == Approx(3 * a1.box_mm2).epsilon(1e-12));
+  CHECK(a1.box_mm2 == Approx(in.box.nand2_eq * 0.798e-6 / 0.7).epsilon(1e-12));
+
+  // 14 coordinate bits: synthesized at 12 and 16, not 14.
+  auto box_ge = [&](int bits) {
+    rtu::hw::FixedFormat f = rtu::hw::format_from_spec("default:coord_bits=" + std::to_string(bits));
+    f.width = 4;
+    return rtu::host::cost_inputs(f, rtu::hw::timing_preset("rdna2"), table, rtu::host::ActivityTable{}).box;
+  };
+  const auto b12 = box_ge(12), b14 = box_ge(14), b16 = box_ge(16);
+  CHECK(b12.source.rfind("size synthesized", 0) == 0);
+  CHECK(b14.source.rfind("size fit", 0) == 0);
+  CHECK(b14.nand2_eq > b12.nand2_eq);
+  CHECK(b14.nand2_eq < b16.nand2_eq);
+  // Without activity figures no switching energy is claimed.
+  CHECK(b14.toggles_per_issue == 0);
+  CHECK(b14.source.find("activity none") != std::string::npos);
+}
+
+TEST_CASE("energy: malformed activity tables are refused naming the line", "[energy]") {
+  using rtu::host::ActivityTable;
+  CHECK_THROWS_WITH(ActivityTable::parse("params,cells\n", "t.csv"), Catch::Contains("t.csv:1"));
+  CHECK_THROWS_WITH(ActivityTable::parse("params,unit,tests,signal_bits,toggles_per_test\nk,u,1,0,3\n", "t.csv"),
+                    Catch::Contains("t.csv:2"));
+  CHECK_THROWS_WITH(ActivityTable::parse("params,unit,tests,signal_bits,toggles_per_test\nk,u,1,2\n", "t.csv"),
+                    Catch::Contains("t.csv:2"));
+  const auto t = ActivityTable::parse(
+      "params,unit,tests,signal_bits,toggles_per_test\n\"-GN=4 -GA=1\",x,10,100,25\n", "t.csv");
+  REQUIRE(t.by_params.count("-GN=4 -GA=1") == 1);
+  CHECK(t.by_params.at("-GN=4 -GA=1").toggles_per_test == 25);
+}
+
+namespace {
+
+rtu::host::PlanOptions small_plan(double area_budget, const std::string& minimise) {
+  rtu::host::PlanOptions o;
+  o.scene = "/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc";
+  o.max_error = 0.01;
+  o.widths = {4};
+  o.coord_bits = {10, 12, 16};
+  o.child_bits = {8};
+  o.sweep.rays = 1500;
+  o.sweep.image_width = 0;
+  o.area_budget = area_budget;
+  o.minimise = minimise;
+  return o;
+}
+
+}  // namespace
+
+TEST_CASE(
+    "plan --area-budget: the chosen units fit, running the chosen configuration gives the plan's figures, "
+    "and one more unit of either kind would not fit or not be faster",
+    "[energy][plan]") {
+  const double budget = 1.5;  // mm^2: the rdna2 unit with one box and one triangle unit is below it
+  const rtu::host::PlanOptions o = small_plan(budget, "cycles");
+  std::vector<rtu::host::SweepRow> candidates;
+  const rtu::host::PlanResult res = rtu::host::plan_format(o, [&](const rtu::host::PlanStep& s) {
+    if (s.stage == rtu::host::PlanStage::kCandidate) candidates.push_back(*s.row);
+  });
+  REQUIRE(res.found);
+  const rtu::host::SweepRow& best = res.best;
+  CHECK(best.area_mm2 <= budget);
+  CHECK(res.reference.area_mm2 <= budget);  // the base format is costed in the same area
+  for (const auto& r : candidates) CHECK(r.area_mm2 <= budget);
+
+  // Run the chosen configuration as a sweep point of its own: the same cycles, area and energy.
+  const rtu::host::Scene scene = rtu::host::load_scene(o.scene);
+  const rtu::host::AreaTable area = rtu::host::AreaTable::shipped();
+  auto cache = rtu::host::make_sweep_cache();
+  const rtu::host::SweepRow again = rtu::host::run_sweep_point(
+      scene, rtu::host::SweepPoint{o.scene, best.p.format, best.p.bvh_width, best.p.config}, o.sweep, area,
+      *cache);
+  CHECK(again.cycles == best.cycles);
+  CHECK(again.area_mm2 == best.area_mm2);
+  CHECK(again.pj_per_ray == best.pj_per_ray);
+  CHECK(again.hit_agreement == best.hit_agreement);
+
+  // One more box or triangle unit: over the budget, or not fewer cycles.
+  const TimingConfig c = rtu::host::sweep_config(best.p.config);
+  for (const auto& [nb, nt] : {std::pair{c.box_units + 1, c.tri_units}, std::pair{c.box_units, c.tri_units + 1}}) {
+    const std::string more = "rdna2:box_units=" + std::to_string(nb) + ":tri_units=" + std::to_string(nt);
+    CAPTURE(more);
+    const rtu::host::SweepRow r = rtu::host::retime_sweep_point(scene, again, more, o.sweep, area, *cache);
+    CHECK((r.area_mm2 > budget || r.cycles >= best.cycles));
+  }
+}
+
+TEST_CASE("plan --minimise energy: no candidate that meets the budget uses less energy per ray than the plan",
+          "[energy][plan]") {
+  const rtu::host::PlanOptions o = small_plan(0.0, "energy");
+  std::vector<rtu::host::SweepRow> candidates;
+  bool comparison = false;  // after kDefault: the base format, measured for comparison, is no candidate
+  const rtu::host::PlanResult res = rtu::host::plan_format(o, [&](const rtu::host::PlanStep& s) {
+    comparison = comparison || s.stage == rtu::host::PlanStage::kDefault;
+    if (s.stage == rtu::host::PlanStage::kCandidate && s.meets && !comparison) candidates.push_back(*s.row);
+  });
+  REQUIRE(res.found);
+  REQUIRE(!candidates.empty());
+  for (const auto& r : candidates) {
+    CAPTURE(r.p.format);
+    CHECK(res.best.pj_per_ray <= r.pj_per_ray);
+  }
+  CHECK(res.best.pj_per_ray > 0);
+  CHECK(res.json["plan"]["pj_per_ray"].get<double>() == res.best.pj_per_ray);
+}

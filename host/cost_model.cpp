@@ -172,6 +172,22 @@ Json energy_json(const hw::EnergyReport& e, const hw::TimingConfig& c, const hw:
   return j;
 }
 
+std::vector<ReferenceOp> reference_ops(const AreaTable& area, const ActivityTable& activity) {
+  const hw::Technology& t = hw::nangate45();
+  std::vector<ReferenceOp> ops = {{"ref:add32", "32-bit integer add", false, 0, 0, 0, 0.1, 137.0},
+                                  {"ref:mul32", "32-bit integer multiply", false, 0, 0, 0, 3.1, 3495.0}};
+  for (ReferenceOp& op : ops) {
+    const auto a = area.by_params.find(op.key);
+    const auto act = activity.by_params.find(op.key);
+    if (a == area.by_params.end() || act == activity.by_params.end() || a->second.transistors <= 0) continue;
+    op.measured = true;
+    op.nand2_eq = double(a->second.transistors) / 4.0;
+    op.area_um2 = op.nand2_eq * t.nand2_um2;  // cell area, as Horowitz's figures (no placement utilization)
+    op.pj = act->second.toggles_per_test / act->second.signal_bits * op.nand2_eq * t.pj_per_transition();
+  }
+  return ops;
+}
+
 std::vector<EnergyKey> energy_json_keys() {
   std::vector<EnergyKey> k = {
       {"energy.technology", "-", "technology of the estimate (docs/energy-model.md)"},

@@ -30,6 +30,18 @@ hw::CostInputs cost_inputs(const hw::TimingConfig& c);
 // pj_per_ray, rays_per_joule, watts}
 Json energy_json(const hw::EnergyReport& e, const hw::TimingConfig& c, const hw::CostInputs& in);
 
+// The reference operators of the calibration (rtl_sim/rtl/ref_ops.sv, keys "ref:add32" and "ref:mul32"): their
+// energy per operation and area by this model from their synthesis and measured activity, beside Horowitz's
+// 45 nm figures (ISSCC 2014: 32-bit add 0.1 pJ and 137 um^2, 32-bit multiply 3.1 pJ and 3495 um^2). `measured`
+// is false when the tables lack the operator (then only Horowitz's figures are set).
+struct ReferenceOp {
+  std::string key, name;
+  bool measured = false;
+  double nand2_eq = 0.0, area_um2 = 0.0, pj = 0.0;
+  double horowitz_pj = 0.0, horowitz_um2 = 0.0;
+};
+std::vector<ReferenceOp> reference_ops(const AreaTable& area, const ActivityTable& activity);
+
 // The keys of energy_json ("energy.x" and "energy.x.y"), with unit and meaning, for `rtusim config --stats`.
 struct EnergyKey {
   std::string key, unit, description;

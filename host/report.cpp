@@ -265,9 +265,12 @@ Json section_cycles(const std::vector<std::unique_ptr<Scene>>& scenes, const std
       << " primary rays of each scene's camera, traced as one TRACE packet (closest hit) on the timed device, "
          "per timing preset (its format and BVH width). <i>limited by</i>: the largest throughput bound (box "
          "tests / box rate, triangle tests / triangle rate, DRAM bytes / bandwidth); <i>cycles / bound</i>: how "
-         "far above it.</p>\n<table>\n<tr><th>preset</th><th>scene</th><th>rays</th><th>cycles</th>"
+         "far above it. Area, energy per ray and power: the 45 nm estimate of docs/energy-model.md (units from "
+         "their synthesized RTL, SRAM and DRAM from published "
+         "tables).</p>\n<table>\n<tr><th>preset</th><th>scene</th><th>rays</th><th>cycles</th>"
          "<th>cycles/ray</th><th>rays/clock</th><th>limited by</th><th>cycles / bound</th>"
-         "<th>cache hit rate</th><th>wall s (build + trace)</th></tr>\n";
+         "<th>cache hit rate</th><th>mm&sup2; (45 nm)</th><th>pJ/ray</th><th>W</th><th>wall s (build + "
+         "trace)</th></tr>\n";
   for (const std::string& preset : hw::timing_preset_names()) {
     DeviceSettings da;
     da.config = preset;
@@ -290,6 +293,9 @@ Json section_cycles(const std::vector<std::unique_ptr<Scene>>& scenes, const std
                 {"limited_by", t["lower_bound"]["limited_by"]},
                 {"cycles_over_bound", t["lower_bound"]["cycles_over_bound"]},
                 {"cache_hit_rate", t["cache"]["hit_rate"]},
+                {"area_mm2", t["energy"]["area"]["total_mm2"]},
+                {"pj_per_ray", t["energy"]["pj_per_ray"]},
+                {"watts", t["energy"]["watts"]},
                 {"hits", ts.hits},
                 {"seconds", secs}};
       h.s << "<tr><td>" << esc(preset) << "</td><td>" << esc(specs[i]) << "</td><td class=\"n\">" << rays.size()
@@ -298,7 +304,10 @@ Json section_cycles(const std::vector<std::unique_ptr<Scene>>& scenes, const std
           << fmt("%.3f", t["rays_per_clock"].get<double>()) << "</td><td>"
           << esc(t["lower_bound"]["limited_by"].get<std::string>()) << "</td><td class=\"n\">"
           << fmt("%.2f", t["lower_bound"]["cycles_over_bound"].get<double>()) << "</td><td class=\"n\">"
-          << fmt("%.3f", t["cache"]["hit_rate"].get<double>()) << "</td><td class=\"n\">" << fmt("%.3f", secs)
+          << fmt("%.3f", t["cache"]["hit_rate"].get<double>()) << "</td><td class=\"n\">"
+          << fmt("%.2f", t["energy"]["area"]["total_mm2"].get<double>()) << "</td><td class=\"n\">"
+          << fmt("%.0f", t["energy"]["pj_per_ray"].get<double>()) << "</td><td class=\"n\">"
+          << fmt("%.2f", t["energy"]["watts"].get<double>()) << "</td><td class=\"n\">" << fmt("%.3f", secs)
           << "</td></tr>\n";
       rows.push_back(r);
     }
@@ -412,7 +421,7 @@ Json section_pareto(const std::vector<SweepRow>& rows, const std::string& source
     // The scene's points, numbered as on the plots.
     h.s << "<table>\n<tr><th>#</th><th>format/width/config</th><th>hit agreement</th><th>t error mean</th>"
            "<th>PSNR dB</th><th>cycles</th><th>cycles/ray</th><th>DRAM bytes/ray</th><th>BVH bytes</th>"
-           "<th>bytes/prim</th><th>RTL cells</th></tr>\n";
+           "<th>bytes/prim</th><th>RTL cells</th><th>mm&sup2; (45 nm)</th><th>pJ/ray</th></tr>\n";
     for (size_t k = 0; k < idx.size(); ++k) {
       const SweepRow& r = rows[idx[k]];
       h.s << "<tr><td class=\"n\">" << k + 1 << "</td><td>" << esc(pareto_label(r.p)) << "</td><td class=\"n\">"
@@ -421,7 +430,8 @@ Json section_pareto(const std::vector<SweepRow>& rows, const std::string& source
           << "</td><td class=\"n\">" << r.cycles << "</td><td class=\"n\">" << fmt("%.2f", r.cycles_per_ray)
           << "</td><td class=\"n\">" << fmt("%.1f", r.dram_bytes_per_ray) << "</td><td class=\"n\">" << r.bvh_bytes
           << "</td><td class=\"n\">" << fmt("%.1f", r.bytes_per_prim) << "</td><td class=\"n\">"
-          << (r.rtl_cells >= 0 ? std::to_string(r.rtl_cells) : std::string("-")) << "</td></tr>\n";
+          << (r.rtl_cells >= 0 ? std::to_string(r.rtl_cells) : std::string("-")) << "</td><td class=\"n\">"
+          << fmt("%.2f", r.area_mm2) << "</td><td class=\"n\">" << fmt("%.0f", r.pj_per_ray) << "</td></tr>\n";
     }
     h.s << "</table>\n";
   }

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cstdio>
 #include <memory>
+#include <tuple>
 
 #include "host/cli/common.h"
 #include "host/cost_model.h"
 #include "host/error.h"
+#include "hwmodel/energy_model.h"
 
 namespace rtu::host::cli {
 
@@ -15,8 +17,41 @@ namespace {
 struct ConfigOptions {
   std::string preset = "rdna2", json;  // --config (or its old name --preset)
   std::vector<std::string> sets;
-  bool list = false, stats = false;
+  bool list = false, stats = false, energy = false;
 };
+
+// The energy model's figures for a configuration: technology, each unit's size and energy per issue with their
+// sources, the energy of every other event, and the calibration against Horowitz.
+void print_energy(const hw::TimingConfig& c) {
+  const hw::Technology& t = hw::nangate45();
+  const hw::CostInputs in = cost_inputs(c);
+  const hw::EnergyReport e = hw::energy_report(hw::TimingStats{}, c, in);
+  std::printf(
+      "\n# energy and area estimate (docs/energy-model.md): %s, switching at %.2f V, %.3g pJ per gate "
+      "transition, NAND2 %.3f um^2, utilization %.2f\n",
+      t.name, t.vdd, t.pj_per_transition(), t.nand2_um2, t.utilization);
+  for (const auto& [name, u, n, mm2] : {std::tuple{"box unit", in.box, c.box_units, e.area.box_mm2},
+                                        std::tuple{"tri unit", in.tri, c.tri_units, e.area.tri_mm2}})
+    std::printf("%-10s x%d: %.0f NAND2 eq each, %.3f mm^2 in all, %.2f pJ per issue clock (%s)\n", name, n,
+                u.nand2_eq, mm2, u.toggles_per_issue * t.pj_per_transition(), u.source.c_str());
+  std::printf("SRAM: cache %.3f mm^2, slots/stacks/queue %.3f mm^2; total area %.3f mm^2\n", e.area.cache_mm2,
+              e.area.slots_mm2, e.area.total_mm2);
+  for (const hw::EnergyEvent& ev : e.events)
+    std::printf("%-12s %10.3f pJ each, counted in %-11s %s\n", ev.key, ev.pj_each, ev.unit, ev.description);
+  const hw::MemoryType& m = hw::memory_type(c.memory_type);
+  std::printf("memory %s: %.2f pJ/bit (%s)\n", m.name, m.pj_per_bit, m.source);
+  std::printf("\n# calibration: reference operators by this model against Horowitz (ISSCC 2014, 45 nm)\n");
+  for (const ReferenceOp& op : reference_ops(AreaTable::shipped(), ActivityTable::shipped())) {
+    if (!op.measured) {
+      std::printf("%-24s not in the shipped tables (bench/rtl_activity.sh); Horowitz %.2f pJ, %.0f um^2\n",
+                  op.name.c_str(), op.horowitz_pj, op.horowitz_um2);
+      continue;
+    }
+    std::printf("%-24s %.3f pJ (Horowitz %.2f, x%.2f), %.0f um^2 (Horowitz %.0f, x%.2f)\n", op.name.c_str(), op.pj,
+                op.horowitz_pj, op.pj / op.horowitz_pj, op.area_um2, op.horowitz_um2,
+                op.area_um2 / op.horowitz_um2);
+  }
+}
 
 // The timed device's statistics: the report (the stats JSON's `timing` object) and the counters behind it.
 void print_stats() {
@@ -56,6 +91,7 @@ void run_config(const ConfigOptions& o) {
   std::printf("# timing configuration: preset %s%s\n", c.name.c_str(), overrides.c_str());
   for (const hw::TimingKey& k : keys)
     std::printf("%-*s = %-*s   # %s\n", int(kw), k.key.c_str(), int(vw), k.value.c_str(), k.description.c_str());
+  if (o.energy) print_energy(c);
   if (!o.json.empty()) write_json(o.json, timing_json(c));
 }
 
@@ -83,8 +119,12 @@ void add_config(CLI::App& app) {
                                      "override one key: key=value (repeatable; applied in order, each checked)");
   CLI::Option* json =
       sub->add_option("--json", o->json, "also write the configuration as JSON: {\"preset\": P, key: value, ...}");
+  CLI::Option* energy = sub->add_flag(
+      "--energy", o->energy,
+      "also print the area and energy estimate of the configuration: each unit's size and energy per issue, "
+      "SRAM, DRAM and leakage energies, and the calibration against Horowitz's 45 nm figures");
   // --list and --stats print no configuration: the options of one are refused with them.
-  for (CLI::Option* opt : {config, set, json}) opt->excludes(list)->excludes(stats);
+  for (CLI::Option* opt : {config, set, json, energy}) opt->excludes(list)->excludes(stats);
   sub->callback([o, sub] {
     if (sub->count("--preset") > 0 && sub->count("--config") + sub->count("--list") + sub->count("--stats") > 0)
       throw CLI::ValidationError("--preset (the old name of --config) excludes --config, --list and --stats");

@@ -120,7 +120,7 @@ void check_device_args(const CLI::App& app, const DeviceArgs& o) {
 
 namespace rtu::host::cli {
 
-void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, bool sampled) {
+void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, bool sampled, const char* indent) {
   const Json j = timing_stats_json(s, c);
   std::printf(
       "timed (%s): %s%llu cycles, %.1f cycles per ray, %.3f rays per clock; cache hit rate %.3f, DRAM %.1f "
@@ -130,6 +130,13 @@ void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, b
       j["dram_bytes_per_cycle"].get<double>(), sampled ? "~" : "", j["lower_bound"]["cycles"].get<double>(),
       j["lower_bound"]["limited_by"].get<std::string>().c_str(), sampled ? ", estimated from the sample" : "",
       j["lower_bound"]["cycles_over_bound"].get<double>());
+  const Json& e = j["energy"];
+  std::printf(
+      "%senergy (%s estimate, docs/energy-model.md): %.0f pJ per ray, %.3g rays per joule, %.2f W at %g "
+      "GHz; area %.2f mm^2\n",
+      indent, e["technology"].get<std::string>().c_str(), e["pj_per_ray"].get<double>(),
+      e["rays_per_joule"].get<double>(), e["watts"].get<double>(), c.clock_ghz,
+      e["area"]["total_mm2"].get<double>());
 }
 
 }  // namespace rtu::host::cli

@@ -52,7 +52,9 @@ inline constexpr const char* kRaySpecHelp =
 void print_render_summary(const RenderResult& r, const RenderOptions& o);
 // One line: cycles, cycles per ray, rays per clock, the lower bound and what limits it. `sampled`: the counters
 // are estimates from sampled timing, and the line says the bound is too.
-void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, bool sampled = false);
+// Two lines: cycles and the lower bound; energy and area (the second line prefixed by `indent`).
+void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, bool sampled = false,
+                          const char* indent = "");
 // --pipeline-trace F.json and --trace-window FROM:TO (cycles) of the timed device's commands.
 struct PipelineTraceArgs {
   std::string path, window = "0:100000";

@@ -88,7 +88,7 @@ void run_sweep(const SweepArgs& a) {
   for (int w : a.widths)
     if (w != 2 && w != 4 && w != 6 && w != 8)
       throw Error("--bvh-width: " + std::to_string(w) + " is not 2, 4, 6 or 8");
-  const AreaTable area = a.area.empty() ? AreaTable{} : AreaTable::load(a.area);
+  const AreaTable area = a.area.empty() ? AreaTable::shipped() : AreaTable::load(a.area);
 
   // Resume: the points already in --out with this sweep's run parameters are done; rows made with others stay in
   // the file, beside the new ones. A last line without its newline is a row an interrupted sweep did not finish
@@ -193,7 +193,8 @@ void add_sweep(CLI::App& app) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   sub->add_option("--area", a->area,
-                  "RTL area table (CSV params,cells,flip_flops,transistors; bench/rtl_area.sh writes it)")
+                  "RTL area table (CSV params,cells,flip_flops,transistors; bench/rtl_area.sh writes it; default: "
+                  "the shipped bench/data/rtl_area.csv)")
       ->check(CLI::ExistingFile);
   sub->add_option("--shard", a->shard, "run every N-th point, starting at the k-th: k/N")->capture_default_str();
   CLI::Option* merge =

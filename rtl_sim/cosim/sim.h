@@ -116,6 +116,8 @@ class Sim {
   Sim& operator=(const Sim&) = delete;
 
   Model& dut() { return *m_model; }
+  // The model's context (its coverage counters: rtl_sim/activity/toggle_count.h).
+  VerilatedContext& context() { return *m_ctx; }
   // Settles the combinational logic after inputs changed (outputs such as a ready that depend on inputs).
   void eval() { m_model->eval(); }
   // One clock: rising edge, then falling edge.

@@ -47,7 +47,7 @@ mrays = t["rays"] / t["seconds_at_clock"] / 1e6
 units = a["box_units_mm2"] + a["tri_units_mm2"]
 sram = a["cache_mm2"] + a["slots_mm2"]
 print(f"| {preset} | {kind} | {mrays:.0f} | {a['total_mm2']:.2f} ({units:.2f} + {sram:.2f}) | {e['pj_per_ray']:.0f} | "
-      f"{share('box_issue', 'tri_issue')} | {share('cache_read', 'cache_fill')} | {share('dram', 'stream')} | "
+      f"{share('box_test', 'tri_test')} | {share('cache_read', 'cache_fill')} | {share('dram', 'stream')} | "
       f"{share('stack')} | {share('leakage')} | {e['watts']:.2f} | {mrays / a['total_mm2']:.0f} | "
       f"{e['rays_per_joule'] / 1e6:.0f} |")
 PY

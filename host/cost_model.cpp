@@ -46,18 +46,11 @@ double tri_feature(double a, double d) {
 double feature(Kind k, const std::map<std::string, double>& p) {
   return k == Kind::kBox ? box_feature(p.at("LANES"), p.at("A"), p.at("M")) : tri_feature(p.at("A"), p.at("D"));
 }
-// Issue clocks per test the activity table counts: a box test is a node (ceil(N / LANES) clocks), a triangle
-// test one clock.
-double clocks_per_test(Kind k, const std::map<std::string, double>& p) {
-  if (k != Kind::kBox) return 1.0;
-  const int n = int(p.at("N")), lanes = int(p.at("LANES"));
-  return double((n + lanes - 1) / lanes);
-}
 
 struct Fit {
   double a = 0, b = 0;  // nand2_eq = a + b x
   int points = 0;
-  double activity = 0;  // mean transitions per issue clock per NAND2 equivalent
+  double activity = 0;  // mean transitions per test per signal bit
   int measured = 0;
 };
 
@@ -79,7 +72,7 @@ Fit fit_kind(Kind kind, const AreaTable& area, const ActivityTable& activity) {
   for (const auto& [key, e] : activity.by_params) {
     const auto p = params_of(key);
     if (kind_of(p) != kind) continue;
-    f.activity += e.toggles_per_test / clocks_per_test(kind, p) / e.signal_bits;
+    f.activity += e.toggles_per_test / e.signal_bits;
     ++f.measured;
   }
   if (f.measured > 0) f.activity /= f.measured;
@@ -104,8 +97,7 @@ hw::UnitCost unit_cost(Kind kind, const std::string& key, double x, const AreaTa
   }
   double per_ge = 0;
   if (act != activity.by_params.end()) {
-    const auto p = params_of(key);
-    per_ge = act->second.toggles_per_test / clocks_per_test(kind, p) / act->second.signal_bits;
+    per_ge = act->second.toggles_per_test / act->second.signal_bits;
     act_source = "measured";
   } else if (fit.measured > 0) {
     per_ge = fit.activity;
@@ -113,7 +105,7 @@ hw::UnitCost unit_cost(Kind kind, const std::string& key, double x, const AreaTa
   } else {
     act_source = "none";
   }
-  u.toggles_per_issue = per_ge * u.nand2_eq;
+  u.toggles_per_test = per_ge * u.nand2_eq;
   u.source = "size " + size_source + ", activity " + act_source;
   return u;
 }

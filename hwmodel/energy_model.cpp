@@ -95,10 +95,10 @@ EnergyReport energy_report(const TimingStats& s, const TimingConfig& c, const Co
   const double leak_w = r.area.total_mm2 * 1e6 * t.leakage_nw_per_um2 * 1e-9;
   const double leak_pj_per_cycle = leak_w * 1e3 / c.clock_ghz;
   r.events = {
-      {"box_issue", "unit clocks", "box unit issue clocks x switching energy per clock", s.box_issue_cycles,
-       in.box.toggles_per_issue * e_gate},
-      {"tri_issue", "unit clocks", "triangle unit issue slots x switching energy per slot", s.tri_issue_cycles,
-       in.tri.toggles_per_issue * e_gate},
+      {"box_test", "tests", "box tests x the box unit's switching energy per test", s.box_tests,
+       in.box.toggles_per_test * e_gate},
+      {"tri_test", "tests", "triangle unit tests (triangles, spheres, planes) x its switching energy per test",
+       s.tri_issue_cycles, in.tri.toggles_per_test * e_gate},
       {"cache_read", "lines", "cache line reads (hits and misses)", s.cache_hits + s.cache_misses,
        c.cache_kib > 0 ? line : 0.0},
       {"cache_fill", "lines", "cache line writes on a miss", c.cache_kib > 0 ? s.cache_misses : 0, line},

@@ -32,8 +32,8 @@ void print_energy(const hw::TimingConfig& c) {
       t.name, t.vdd, t.pj_per_transition(), t.nand2_um2, t.utilization);
   for (const auto& [name, u, n, mm2] : {std::tuple{"box unit", in.box, c.box_units, e.area.box_mm2},
                                         std::tuple{"tri unit", in.tri, c.tri_units, e.area.tri_mm2}})
-    std::printf("%-10s x%d: %.0f NAND2 eq each, %.3f mm^2 in all, %.2f pJ per issue clock (%s)\n", name, n,
-                u.nand2_eq, mm2, u.toggles_per_issue * t.pj_per_transition(), u.source.c_str());
+    std::printf("%-10s x%d: %.0f NAND2 eq each, %.3f mm^2 in all, %.2f pJ per test (%s)\n", name, n, u.nand2_eq,
+                mm2, u.toggles_per_test * t.pj_per_transition(), u.source.c_str());
   std::printf("SRAM: cache %.3f mm^2, slots/stacks/queue %.3f mm^2; total area %.3f mm^2\n", e.area.cache_mm2,
               e.area.slots_mm2, e.area.total_mm2);
   for (const hw::EnergyEvent& ev : e.events)

@@ -74,8 +74,8 @@ TEST_CASE("energy: the events times their energies are the total, and each count
       FAIL("no event " << key);
       return e.events.front();
     };
-    CHECK(event("box_issue").count == s.box_issue_cycles);
-    CHECK(event("tri_issue").count == s.tri_issue_cycles);
+    CHECK(event("box_test").count == s.box_tests);
+    CHECK(event("tri_test").count == s.tri_issue_cycles);
     CHECK(event("cache_read").count == s.cache_hits + s.cache_misses);
     CHECK(event("cache_fill").count == s.cache_misses);
     CHECK(event("stack").count == s.node_fetches);
@@ -162,8 +162,26 @@ TEST_CASE(
   CHECK(b14.nand2_eq > b12.nand2_eq);
   CHECK(b14.nand2_eq < b16.nand2_eq);
   // Without activity figures no switching energy is claimed.
-  CHECK(b14.toggles_per_issue == 0);
+  CHECK(b14.toggles_per_test == 0);
   CHECK(b14.source.find("activity none") != std::string::npos);
+}
+
+TEST_CASE("energy: the model's reference operators against Horowitz: the adder calibrates, the multiplier checks",
+          "[energy]") {
+  const auto ops = rtu::host::reference_ops(rtu::host::AreaTable::shipped(), rtu::host::ActivityTable::shipped());
+  REQUIRE(ops.size() == 2);
+  for (const auto& op : ops) {
+    CAPTURE(op.key);
+    REQUIRE(op.measured);
+    // The adder sets the switched capacitance (Technology::cap_per_ge_ff, 1.23 fF given to 3 digits: 0.4%).
+    if (op.key == "ref:add32") CHECK(op.pj == Approx(op.horowitz_pj).epsilon(0.005));
+    // The multiplier is the independent check. Horowitz gives 3.1 pJ to two digits (+-1.6%) for a multiplier he
+    // does not specify further (ours: 32 x 32 -> 64 bits, one register): 5% is the agreement claimed.
+    if (op.key == "ref:mul32") CHECK(op.pj == Approx(op.horowitz_pj).epsilon(0.05));
+    // Areas: yosys's generic cells, so the same order as his, not his figure (bench/results/area-energy.md).
+    CHECK(op.area_um2 > 0.3 * op.horowitz_um2);
+    CHECK(op.area_um2 < 3.0 * op.horowitz_um2);
+  }
 }
 
 TEST_CASE("energy: malformed activity tables are refused naming the line", "[energy]") {
@@ -201,7 +219,7 @@ TEST_CASE(
     "plan --area-budget: the chosen units fit, running the chosen configuration gives the plan's figures, "
     "and one more unit of either kind would not fit or not be faster",
     "[energy][plan]") {
-  const double budget = 1.5;  // mm^2: the rdna2 unit with one box and one triangle unit is below it
+  const double budget = 2.5;  // mm^2: the rdna2 unit with one box and one triangle unit is 1.6
   const rtu::host::PlanOptions o = small_plan(budget, "cycles");
   std::vector<rtu::host::SweepRow> candidates;
   const rtu::host::PlanResult res = rtu::host::plan_format(o, [&](const rtu::host::PlanStep& s) {

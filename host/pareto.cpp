@@ -124,6 +124,8 @@ const char* cost_axis(ParetoCost c) {
       return "area: RTL box unit cells (yosys)";
     case ParetoCost::kDramBytesPerRay:
       return "memory traffic: DRAM bytes per ray (timed device)";
+    case ParetoCost::kPjPerRay:
+      return "energy: pJ per ray (45 nm estimate, timed device)";
   }
   return "";
 }
@@ -148,6 +150,8 @@ const char* pareto_cost_name(ParetoCost c) {
       return "rtl_cells";
     case ParetoCost::kDramBytesPerRay:
       return "dram_bytes_per_ray";
+    case ParetoCost::kPjPerRay:
+      return "pj_per_ray";
   }
   return "";
 }
@@ -170,6 +174,8 @@ double pareto_cost(const SweepRow& r, ParetoCost c) {
       return r.rtl_cells >= 0 ? double(r.rtl_cells) : -1.0;
     case ParetoCost::kDramBytesPerRay:
       return r.dram_bytes_per_ray > 0.0 ? r.dram_bytes_per_ray : -1.0;
+    case ParetoCost::kPjPerRay:
+      return r.pj_per_ray > 0.0 ? r.pj_per_ray : -1.0;
   }
   return -1.0;
 }
@@ -262,12 +268,14 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
       std::ofstream f(dir + "/" + data);
       // The first columns are the costs in ParetoCost order (a panel plots column cost + 1).
       f << "# " << scene
-        << ": cycles bvh_bytes rtl_cells dram_bytes_per_ray hit_disagreement t_rel_error_mean label number "
+        << ": cycles bvh_bytes rtl_cells dram_bytes_per_ray pj_per_ray hit_disagreement t_rel_error_mean label "
+           "number "
            "bytes_per_prim (? = unknown)\n";
       for (size_t k = 0; k < idx.size(); ++k) {
         const SweepRow& r = rows[idx[k]];
         f << r.cycles << ' ' << r.bvh_bytes << ' ' << (r.rtl_cells >= 0 ? std::to_string(r.rtl_cells) : "?") << ' '
           << (r.dram_bytes_per_ray > 0.0 ? g(r.dram_bytes_per_ray) : "?") << ' '
+          << (r.pj_per_ray > 0.0 ? g(r.pj_per_ray) : "?") << ' '
           << g(pareto_error(r, ParetoError::kHitDisagreement)) << ' '
           << g(pareto_error(r, ParetoError::kTRelErrorMean)) << ' ' << label_field(pareto_label(r.p)) << ' '
           << k + 1 << ' ' << g(r.bytes_per_prim) << '\n';
@@ -283,8 +291,10 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
     };
     const bool dram_panel = any_known(ParetoCost::kDramBytesPerRay);
     const bool area_panel = any_known(ParetoCost::kRtlCells);
+    const bool energy_panel = any_known(ParetoCost::kPjPerRay);
     if (dram_panel) costs.push_back(ParetoCost::kDramBytesPerRay);
     if (area_panel) costs.push_back(ParetoCost::kRtlCells);
+    if (energy_panel) costs.push_back(ParetoCost::kPjPerRay);
     const int panel_rows = int(costs.size() + 1) / 2;
     const double width = kParetoPlotWidth, height = kParetoTitleHeight + panel_rows * kParetoPanelHeight;
     const auto sx = [&](double px) { return g(px / width); };
@@ -297,6 +307,7 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
       plot.rows = idx;
       plot.area_panel = area_panel;
       plot.dram_panel = dram_panel;
+      plot.energy_panel = energy_panel;
       const std::string ename = e == ParetoError::kHitDisagreement ? "hit" : "terr";
       plot.png = base + "_" + ename + ".png";
       const std::string script = base + "_" + ename + ".gp";
@@ -326,7 +337,7 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
       Range yr;
       for (size_t i : idx) yr.add(pareto_error(rows[i], e));
       const double ylo = yr.lo / 3, yhi = yr.hi * 3;
-      const int ycol = e == ParetoError::kHitDisagreement ? 5 : 6;
+      const int ycol = e == ParetoError::kHitDisagreement ? 6 : 7;
       for (size_t c = 0; c < costs.size(); ++c) {
         const ParetoCost cost = costs[c];
         const int ci = int(cost);  // index into plot.front and the data file's columns

@@ -20,17 +20,18 @@
 namespace rtu::host {
 
 enum class ParetoError { kHitDisagreement, kTRelErrorMean };
-enum class ParetoCost { kCycles, kBvhBytes, kRtlCells, kDramBytesPerRay };
-inline constexpr int kParetoCostCount = 4;
+enum class ParetoCost { kCycles, kBvhBytes, kRtlCells, kDramBytesPerRay, kPjPerRay };
+inline constexpr int kParetoCostCount = 5;
 
 inline constexpr double kZeroTError = 1e-10;  // where a t error of exactly 0 is drawn on the log axis
 
 const char* pareto_error_name(ParetoError e);  // "hit_disagreement" | "t_rel_error_mean"
-const char* pareto_cost_name(ParetoCost c);    // "cycles" | "bvh_bytes" | "rtl_cells" | "dram_bytes_per_ray"
+// "cycles" | "bvh_bytes" | "rtl_cells" | "dram_bytes_per_ray" | "pj_per_ray"
+const char* pareto_cost_name(ParetoCost c);
 
 // The row's error as drawn: > 0 (floored as above).
 double pareto_error(const SweepRow& r, ParetoError e);
-// The row's cost; < 0 when unknown (rtl_cells = -1, dram_bytes_per_ray = 0).
+// The row's cost; < 0 when unknown (rtl_cells = -1, dram_bytes_per_ray = 0, pj_per_ray = 0).
 double pareto_cost(const SweepRow& r, ParetoCost c);
 
 // Indices of the points (cost, error) on the Pareto front (both minimized), by cost ascending. Of points equal
@@ -79,17 +80,19 @@ struct ParetoPlot {
   size_t points = 0;
   // The scene's rows, as indices into the rows given: point number k + 1 on the plot is rows[k].
   std::vector<size_t> rows;
-  // Per cost (ParetoCost: cycles, bytes, area, DRAM bytes per ray): the front, as row indices into the rows given.
+  // Per cost (ParetoCost: cycles, bytes, area, DRAM bytes per ray, energy per ray): the front, as row indices into
+  // the rows given.
   std::vector<size_t> front[kParetoCostCount];
-  bool area_panel = false;  // false: no row of the scene has an area, the panel is left out
-  bool dram_panel = false;  // false: no row of the scene has DRAM bytes, the panel is left out
-  size_t unlabelled = 0;    // places (over all panels) whose number found no free spot
+  bool area_panel = false;    // false: no row of the scene has an area, the panel is left out
+  bool dram_panel = false;    // false: no row of the scene has DRAM bytes, the panel is left out
+  bool energy_panel = false;  // false: no row of the scene has an energy estimate, the panel is left out
+  size_t unlabelled = 0;      // places (over all panels) whose number found no free spot
 };
 
-// Writes, per scene of `rows`, the data, the gnuplot script and two PNGs (one per error measure, two to four
-// panels each: cycles, bytes, then DRAM bytes per ray and area where the scene has them) into `dir` (which must
-// exist), running `gnuplot`. Beside each panel's data, a `.labels` file lists every numbered place with its box in
-// pixels. Throws Error when there are no rows or gnuplot fails (naming its log file).
+// Writes, per scene of `rows`, the data, the gnuplot script and two PNGs (one per error measure, two to five
+// panels each: cycles, bytes, then DRAM bytes per ray, area and energy per ray where the scene has them) into
+// `dir` (which must exist), running `gnuplot`. Beside each panel's data, a `.labels` file lists every numbered
+// place with its box in pixels. Throws Error when there are no rows or gnuplot fails (naming its log file).
 std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, const std::string& dir,
                                            const std::string& gnuplot);
 

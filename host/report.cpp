@@ -385,13 +385,19 @@ Json section_pareto(const std::vector<SweepRow>& rows, const std::string& source
     h.s << "<h3>" << esc(scene) << "</h3>\n";
     for (const ParetoPlot& p : ps) {
       if (p.scene != scene) continue;
-      Json pj = {{"scene", p.scene},          {"error", pareto_error_name(p.error)}, {"image", p.png},
-                 {"points", p.points},        {"area_panel", p.area_panel},          {"dram_panel", p.dram_panel},
+      Json pj = {{"scene", p.scene},
+                 {"error", pareto_error_name(p.error)},
+                 {"image", p.png},
+                 {"points", p.points},
+                 {"area_panel", p.area_panel},
+                 {"dram_panel", p.dram_panel},
+                 {"energy_panel", p.energy_panel},
                  {"unlabelled", p.unlabelled}};
       // A cost's panel is drawn when some point has it: cycles and bytes always, DRAM and area where known.
       const auto drawn = [&](int c) {
         return (c != int(ParetoCost::kRtlCells) || p.area_panel) &&
-               (c != int(ParetoCost::kDramBytesPerRay) || p.dram_panel);
+               (c != int(ParetoCost::kDramBytesPerRay) || p.dram_panel) &&
+               (c != int(ParetoCost::kPjPerRay) || p.energy_panel);
       };
       for (int c = 0; c < kParetoCostCount; ++c) {
         if (!drawn(c)) continue;

@@ -64,6 +64,10 @@ TEST_CASE("pareto: errors floored for the log axis, unknown area, labels", "[par
   r.dram_bytes_per_ray = 12.5;
   CHECK(pareto_cost(r, ParetoCost::kDramBytesPerRay) == 12.5);
   CHECK(std::string(pareto_cost_name(ParetoCost::kDramBytesPerRay)) == "dram_bytes_per_ray");
+  CHECK(pareto_cost(r, ParetoCost::kPjPerRay) < 0);  // a row without an energy estimate
+  r.pj_per_ray = 8000;
+  CHECK(pareto_cost(r, ParetoCost::kPjPerRay) == 8000);
+  CHECK(std::string(pareto_cost_name(ParetoCost::kPjPerRay)) == "pj_per_ray");
   CHECK(pareto_label(r.p) == "default:coord_bits=16/8/intel");
 }
 
@@ -200,7 +204,8 @@ TEST_CASE("pareto plots: gnuplot writes one PNG per scene and error measure", "[
     r.bvh_bytes = 5000 + 1000 * uint64_t(i);
     r.rtl_cells = i == 0 ? 50000 : -1;  // one point with area, then none
     r.dram_bytes_per_ray =
-        i < 3 ? 100.0 - 10.0 * i : 0.0;  // the seed scene's points have DRAM bytes, the mesh's not
+        i < 3 ? 100.0 - 10.0 * i : 0.0;               // the seed scene's points have DRAM bytes, the mesh's not
+    r.pj_per_ray = i < 3 ? 9000.0 + 500.0 * i : 0.0;  // and energy: the first point is the front's alone
     rows.push_back(r);
   }
   // A crowded scene: 24 points whose costs and errors differ by little, so that their numbers compete for room.
@@ -220,17 +225,19 @@ TEST_CASE("pareto plots: gnuplot writes one PNG per scene and error measure", "[
   for (const ParetoPlot& p : plots) {
     INFO(p.png);
     const Image img = read_png((d / p.png).string());
-    // Fits a 1280 px window; two panels per row: DRAM bytes and area (a second row) only where a row has them.
+    // Fits a 1280 px window; two panels per row: DRAM bytes, area and energy only where a row has them.
     CHECK(img.width == kParetoPlotWidth);
     CHECK(img.width <= 1200);
-    CHECK(img.height == kParetoTitleHeight + (p.area_panel || p.dram_panel ? 2 : 1) * kParetoPanelHeight);
+    const int panels = 2 + int(p.area_panel) + int(p.dram_panel) + int(p.energy_panel);
+    CHECK(img.height == kParetoTitleHeight + (panels + 1) / 2 * kParetoPanelHeight);
     // Every panel's numbers: no two boxes overlap, each inside the image; crowding may leave a few out.
-    for (const char* cost : {"cycles", "bvh_bytes", "rtl_cells", "dram_bytes_per_ray"}) {
+    for (const char* cost : {"cycles", "bvh_bytes", "rtl_cells", "dram_bytes_per_ray", "pj_per_ray"}) {
       const std::string stem = p.png.substr(0, p.png.size() - 4);
       const fs::path f = d / (stem + "_" + cost + ".labels");
       INFO(f);
       if ((std::string(cost) == "rtl_cells" && !p.area_panel) ||
-          (std::string(cost) == "dram_bytes_per_ray" && !p.dram_panel)) {
+          (std::string(cost) == "dram_bytes_per_ray" && !p.dram_panel) ||
+          (std::string(cost) == "pj_per_ray" && !p.energy_panel)) {
         CHECK_FALSE(fs::exists(f));
         continue;
       }
@@ -251,6 +258,11 @@ TEST_CASE("pareto plots: gnuplot writes one PNG per scene and error measure", "[
   CHECK(plots[0].dram_panel);
   CHECK_FALSE(plots[2].dram_panel);  // nor DRAM bytes
   CHECK_FALSE(plots[4].dram_panel);
+  CHECK(plots[0].energy_panel);
+  CHECK_FALSE(plots[2].energy_panel);
+  CHECK_FALSE(plots[4].energy_panel);
+  // Energy rises with each point while the error falls: every point is on the front against energy.
+  CHECK(plots[0].front[int(ParetoCost::kPjPerRay)] == std::vector<size_t>{0, 1, 2});
   // Less DRAM traffic with each point, and less error: the last point alone is the front against DRAM bytes.
   CHECK(plots[0].front[int(ParetoCost::kDramBytesPerRay)] == std::vector<size_t>{2});
   CHECK(plots[4].points == 24);

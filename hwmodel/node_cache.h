@@ -1,8 +1,9 @@
-// The timed device's node cache: node, primitive record and plane fetches go through it into the DRAM channel.
+// The timed device's node cache: node, primitive record and plane fetches go through it into the memory behind it
+// (memory_system.h: the DRAM channel, or an L2 and banked DRAM).
 //
 // Models: cache_kib of line_bytes lines, cache_ways-way set associative, LRU replacement; a hit's data is there
 // cache_latency cycles after the access (or when the line arrives, for a line still in flight: it is waited for,
-// not fetched twice); a miss asks the DRAM channel for the line cache_latency cycles after the access. The set
+// not fetched twice); a miss asks the memory for the line cache_latency cycles after the access. The set
 // is the line number modulo the number of sets. cache_kib = 0: no cache, every access goes to DRAM.
 // Any number of accesses per cycle (no port or bank conflicts); no MSHR limit.
 // Left out: write-allocate of stack spills (they bypass the cache), prefetching, replacement other than LRU.
@@ -15,7 +16,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "hwmodel/dram_channel.h"
+#include "hwmodel/memory_system.h"
 #include "hwmodel/timing_config.h"
 #include "hwmodel/timing_stats.h"
 
@@ -28,10 +29,10 @@ class NodeCache {
   uint64_t latency() const { return m_latency; }
 
   // An access to `line` at cycle t: returns the cycle its data is there. Counts a hit or a miss.
-  uint64_t access(uint64_t line, uint64_t t, DramChannel& dram, TimingStats& s) {
+  uint64_t access(uint64_t line, uint64_t t, MemorySystem& mem, TimingStats& s) {
     if (m_lines.empty()) {
       ++s.cache_misses;
-      return dram.transfer(m_line_bytes, t, s);
+      return mem.read_line(line, t, s);
     }
     Line* ways = set_ways(line);
     const int w = find_way(ways, line);
@@ -45,7 +46,7 @@ class NodeCache {
     ++s.cache_misses;
     victim->tag = line;
     victim->stamp = ++m_stamp;
-    victim->ready = dram.transfer(m_line_bytes, t + m_latency, s);
+    victim->ready = mem.read_line(line, t + m_latency, s);
     return victim->ready;
   }
 

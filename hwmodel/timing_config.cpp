@@ -66,6 +66,17 @@ const std::vector<KeyInfo>& key_table() {
       {"cache_latency", &C::cache_latency, 0, kMaxLatency, "cache hit latency in cycles"},
       {"dram_latency", &C::dram_latency, 0, kMaxLatency, "cycles from a miss to the first byte"},
       {"dram_bytes_per_cycle", &C::dram_bytes_per_cycle, 0.001, 65536, "DRAM bandwidth in bytes per cycle"},
+      {"l2_kib", &C::l2_kib, 0, 1048576, "L2 behind the node cache in KiB (0: none; memory_system.h)"},
+      {"l2_slices", &C::l2_slices, 1, 256, "L2 slices (a line's slice: line number mod slices)"},
+      {"l2_ways", &C::l2_ways, 1, 64, "L2 associativity"},
+      {"l2_latency", &C::l2_latency, 0, kMaxLatency, "L2 latency in cycles (tag check to data)"},
+      {"l2_bytes_per_cycle", &C::l2_bytes_per_cycle, 0, 65536,
+       "bytes per clock of each L2 slice's port (0: unlimited)"},
+      {"dram_channels", &C::dram_channels, 1, 64, "DRAM channels sharing dram_bytes_per_cycle (with dram_banks)"},
+      {"dram_banks", &C::dram_banks, 0, 64, "open-page banks per DRAM channel (0: no bank model, one channel)"},
+      {"dram_row_bytes", &C::dram_row_bytes, 16, 65536, "DRAM row (page) bytes: a power of two >= line_bytes"},
+      {"dram_activate_cycles", &C::dram_activate_cycles, 0, kMaxLatency, "cycles to open a DRAM row (tRCD)"},
+      {"dram_precharge_cycles", &C::dram_precharge_cycles, 0, kMaxLatency, "cycles to close a DRAM row (tRP)"},
       {"memory_type", &C::memory_type, 0, 0, "DRAM type, for its energy per bit: gddr6, hbm2 or lpddr5"},
       {"raster_setup_cycles", &C::raster_setup_cycles, 0, kMaxLatency,
        "hybrid rasterizer: cycles per primitive set up (triangle, sphere square, plane pass)"},
@@ -136,6 +147,16 @@ void TimingConfig::validate() const {
       if (box_unit != "cpp" && box_unit != "rtl") fail("box_unit = '" + box_unit + "' must be cpp or rtl");
     } else if (key == "tri_unit") {
       if (tri_unit != "cpp" && tri_unit != "rtl") fail("tri_unit = '" + tri_unit + "' must be cpp or rtl");
+    } else if (key == "l2_kib") {
+      const long long set_bytes = static_cast<long long>(l2_slices) * l2_ways * line_bytes;
+      if (l2_kib > 0 && set_bytes > 0 && (static_cast<long long>(l2_kib) * 1024) % set_bytes != 0)
+        fail("l2_kib = " + std::to_string(l2_kib) + ": not a whole number of sets in each of " +
+             std::to_string(l2_slices) + " slices of l2_ways * line_bytes = " +
+             std::to_string(static_cast<long long>(l2_ways) * line_bytes) + " bytes");
+    } else if (key == "dram_row_bytes") {
+      if ((dram_row_bytes & (dram_row_bytes - 1)) != 0 || dram_row_bytes < line_bytes)
+        fail("dram_row_bytes = " + std::to_string(dram_row_bytes) + " must be a power of two >= line_bytes (" +
+             std::to_string(line_bytes) + ")");
     } else if (key == "memory_type") {
       if (memory_type != "gddr6" && memory_type != "hbm2" && memory_type != "lpddr5")
         fail("memory_type = '" + memory_type + "' must be gddr6, hbm2 or lpddr5");
@@ -278,6 +299,17 @@ TimingConfig timing_preset(const std::string& name) {
     c.dram_latency = 200;
     c.dram_bytes_per_cycle = 64.0;
     c.memory_type = "gddr6";  // the RX 6900 XT's VRAM
+    // One unit's memory is one channel behind its cache (no L2, no banks): the chip presets add them.
+    c.l2_kib = 0;
+    c.l2_slices = 4;
+    c.l2_ways = 16;
+    c.l2_latency = 100;
+    c.l2_bytes_per_cycle = 64.0;
+    c.dram_channels = 1;
+    c.dram_banks = 0;
+    c.dram_row_bytes = 2048;
+    c.dram_activate_cycles = 0;
+    c.dram_precharge_cycles = 0;
     c.raster_setup_cycles = 20.0;
     c.raster_samples_per_clock = 6.4;
     c.raster_fragments_per_clock = 1.6;

@@ -72,6 +72,21 @@ struct TimingConfig {
   int cache_latency = 4;               // hit latency
   int dram_latency = 200;              // cycles from request to the first byte
   double dram_bytes_per_cycle = 64.0;  // bandwidth
+  // The memory behind the node cache (memory_system.h). Without an L2 and without banks (the defaults) it is the
+  // one DRAM channel above. An L2: l2_kib KiB in l2_slices slices (a line's slice: its line number modulo the
+  // slices), l2_ways-way LRU, l2_latency cycles, l2_bytes_per_cycle per slice port (0: unlimited). DRAM banks:
+  // dram_channels channels sharing dram_bytes_per_cycle, dram_banks open-page banks each with dram_row_bytes
+  // rows, dram_activate_cycles to open a row and dram_precharge_cycles to close one.
+  int l2_kib = 0;  // 0: no L2
+  int l2_slices = 4;
+  int l2_ways = 16;
+  int l2_latency = 100;
+  double l2_bytes_per_cycle = 64.0;
+  int dram_channels = 1;
+  int dram_banks = 0;  // 0: no bank model (one channel, no rows)
+  int dram_row_bytes = 2048;
+  int dram_activate_cycles = 0;
+  int dram_precharge_cycles = 0;
   // What the memory behind the cache is, for its energy per bit (energy_model.h memory_types()): gddr6, hbm2 or
   // lpddr5. Timing does not depend on it.
   std::string memory_type = "gddr6";

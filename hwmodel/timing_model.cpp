@@ -10,7 +10,7 @@
 namespace rtu::hw {
 
 TimingModel::TimingModel(const TimingConfig& c, const Layout& layout)
-    : m_c((c.validate(), c)), m_layout(layout), m_cache(c), m_dram(c) {
+    : m_c((c.validate(), c)), m_layout(layout), m_cache(c), m_mem(c) {
   // A stride of 0 is the item's size (packed): resolved once here, not per fetch.
   if (m_layout.node_stride == 0) m_layout.node_stride = m_layout.node_bytes;
   if (m_layout.record_stride == 0) m_layout.record_stride = kRecordBytes;
@@ -20,7 +20,8 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout)
   m_slots.resize(size_t(c.ray_slots));
   m_recent.assign(size_t(c.queue_depth), 0);
   while ((uint64_t(1) << m_line_shift) < uint64_t(c.line_bytes)) ++m_line_shift;
-  m_min_fetch = m_cache.enabled() ? m_cache.latency() : m_dram.line_cycles() + m_dram.latency();
+  m_min_fetch = m_cache.enabled() ? m_cache.latency() : m_mem.min_line_cycles();
+  m_stack_base = (layout.total_bytes + kStackRegion - 1) / kStackRegion * kStackRegion;
   m_waiting.reserve(size_t(c.ray_slots));
   // A node takes at least one issue clock, even one without children (the RTL unit's sequencer does the same).
   for (uint64_t k = 0; k < m_box_issue.size(); ++k)
@@ -174,16 +175,16 @@ void TimingModel::admit(uint32_t k, uint64_t free_at) {
   __builtin_prefetch(sl.ev.data());
 }
 
-void TimingModel::spill(Slot& sl, uint64_t t) {
+void TimingModel::spill(Slot& sl, uint32_t k, uint64_t t) {
+  m_mem.write_word(stack_addr(k, sl.spilled), t, *m_s);  // bandwidth only: the write leaves the slot
   ++sl.spilled;
   ++m_s->stack_spills;
-  m_dram.transfer(8, t, *m_s);  // bandwidth only: the write leaves the slot
 }
 
 uint64_t TimingModel::refill(Slot& sl, uint32_t k, uint64_t t) {
   --sl.spilled;
   ++m_s->stack_refills;
-  const uint64_t ready = m_dram.transfer(8, t, *m_s);
+  const uint64_t ready = m_mem.read_word(stack_addr(k, sl.spilled), t, *m_s);
   if (m_trace) m_trace->add(k, "stack refill", t, ready);
   return ready;
 }
@@ -290,7 +291,7 @@ void TimingModel::simulate() {
       switch (e.kind) {
         case TraceEvent::kPush:
           for (int j = 0; j < e.count; ++j)
-            if (uint64_t(++sl.depth) > SE) spill(sl, t);
+            if (uint64_t(++sl.depth) > SE) spill(sl, k, t);
           ++sl.pos;
           continue;
         case TraceEvent::kPop:
@@ -301,7 +302,7 @@ void TimingModel::simulate() {
           }
           continue;
         case TraceEvent::kSpill:  // the recorder left out the stack traffic within the short stack
-          for (int j = 0; j < e.count; ++j) spill(sl, t);
+          for (int j = 0; j < e.count; ++j) spill(sl, k, t);
           ++sl.pos;
           continue;
         case TraceEvent::kRefill:
@@ -316,7 +317,7 @@ void TimingModel::simulate() {
         ++(e.kind == TraceEvent::kNode ? m_s->node_fetches : m_s->prim_fetches);
         next_t = t;
         for_each_line<false>(
-            e, [&](uint64_t line) { next_t = std::max(next_t, m_cache.access(line, t, m_dram, *m_s)); });
+            e, [&](uint64_t line) { next_t = std::max(next_t, m_cache.access(line, t, m_mem, *m_s)); });
         if (m_trace) m_trace->add(k, e.kind == TraceEvent::kNode ? "node fetch" : "record fetch", t, next_t);
         // The unit request at next_t. Requests reach the units in the order of (cycle, slot), and only they
         // touch the units' state, so a request may be served before its cycle if no request can come before it.
@@ -414,7 +415,7 @@ void TimingModel::fire(uint32_t k, uint64_t cycle) {
   }
   d += "  box units: " + u(backlog(m_box_free)) +
        " cycles of queued work; triangle units: " + u(backlog(m_tri_free)) + " cycles; DRAM channel busy for " +
-       u(m_dram.free_at() > cycle ? m_dram.free_at() - cycle : 0) + " more cycles; write-back free at " +
+       u(m_mem.free_at() > cycle ? m_mem.free_at() - cycle : 0) + " more cycles; write-back free at " +
        u(m_wb_free) + "\n";
   d += "  this TRACE so far: cache hits " + u(m_s->cache_hits) + ", misses " + u(m_s->cache_misses) +
        ", DRAM bytes " + u(m_s->dram_bytes) + ", stack spills " + u(m_s->stack_spills) + ", queue stall cycles " +

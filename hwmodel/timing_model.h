@@ -39,8 +39,8 @@
 #include <vector>
 
 #include "hwmodel/device_image.h"
-#include "hwmodel/dram_channel.h"
 #include "hwmodel/fixed_tracer.h"
+#include "hwmodel/memory_system.h"
 #include "hwmodel/node_cache.h"
 #include "hwmodel/slot_queue.h"
 #include "hwmodel/timing_config.h"
@@ -149,10 +149,14 @@ class TimingModel {
   void simulate();  // until done or until a free slot needs a ray not fed yet
   // The unit request of event e of slot k at cycle t: when its result is there.
   uint64_t unit_request(const TraceEvent& e, uint32_t k, uint64_t t);
-  void serve_waiting();              // serves the earliest waiting request now (its slot wakes after the result)
-  uint64_t pop_waiting();            // removes and returns the earliest waiting request's key
-  void spill(Slot& sl, uint64_t t);  // one stack entry written to memory at t
+  void serve_waiting();    // serves the earliest waiting request now (its slot wakes after the result)
+  uint64_t pop_waiting();  // removes and returns the earliest waiting request's key
+  void spill(Slot& sl, uint32_t k, uint64_t t);       // one stack entry written to memory at t
   uint64_t refill(Slot& sl, uint32_t k, uint64_t t);  // one read back from t: when it is there
+  // The byte address of slot k's spilled entry number i (the stack region wraps: only banks see addresses).
+  uint64_t stack_addr(uint32_t k, int i) const {
+    return m_stack_base + uint64_t(k) * kStackRegion + (uint64_t(i) % (kStackRegion / 8)) * 8;
+  }
   uint64_t unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t);
   // Calls f(line) for every cache line the fetch of event e touches (none for stack events).
   template <bool Reverse, class F>
@@ -161,7 +165,9 @@ class TimingModel {
   TimingConfig m_c;
   Layout m_layout;
   NodeCache m_cache;
-  DramChannel m_dram;
+  MemorySystem m_mem;
+  uint64_t m_stack_base = 0;  // where slots spill their stacks: after the image, each slot kStackRegion bytes
+  static constexpr uint64_t kStackRegion = 4096;
   int m_line_shift = 0;                     // log2(line_bytes)
   std::array<uint64_t, 256> m_box_issue{};  // ceil(children / box_rate)
   std::vector<uint64_t> m_box_free, m_tri_free;

@@ -12,7 +12,7 @@ using S = TimingStats;
 constexpr SampleScale kPacket = SampleScale::kPacket, kPerRay = SampleScale::kPerRay;
 
 // The counters, in the order of the struct.
-constexpr std::array<TimingCounter, 20> kCounters = {{
+constexpr std::array<TimingCounter, 24> kCounters = {{
     {"packets", &S::packets, "packets", "TRACE packets simulated", kPacket},
     {"cycles", &S::cycles, "cycles", "cycles of those packets, from decode to the last hit written", kPacket},
     {"rays", &S::rays, "rays", "rays through the ray slots (rays rejected at setup included)", kPacket},
@@ -29,9 +29,15 @@ constexpr std::array<TimingCounter, 20> kCounters = {{
     {"cache_hits", &S::cache_hits, "lines", "cache line accesses that hit (a line in flight counts as a hit)",
      kPerRay},
     {"cache_misses", &S::cache_misses, "lines", "cache line accesses that missed and went to DRAM", kPerRay},
+    {"l2_hits", &S::l2_hits, "lines", "node cache fills found in the L2 (with l2_kib > 0)", kPerRay},
+    {"l2_misses", &S::l2_misses, "lines", "node cache fills the L2 missed (read from DRAM)", kPerRay},
     {"dram_bytes", &S::dram_bytes, "bytes",
      "bytes moved over the DRAM channel (line fills, stack spills and refills)", kPerRay},
     {"dram_busy_cycles", &S::dram_busy_cycles, "cycles", "cycles the DRAM channel spent transferring", kPerRay},
+    {"dram_row_hits", &S::dram_row_hits, "accesses", "DRAM accesses to the bank's open row (with dram_banks > 0)",
+     kPerRay},
+    {"dram_row_misses", &S::dram_row_misses, "accesses",
+     "DRAM accesses that opened a row (empty bank or another row open; with dram_banks > 0)", kPerRay},
     {"stream_bytes", &S::stream_bytes, "bytes", "ray buffer reads and hit buffer writes (their own port)",
      kPerRay},
     {"stack_spills", &S::stack_spills, "entries", "stack entries beyond the short stack written to memory",
@@ -105,9 +111,10 @@ const std::vector<ReportEntry>& report_table() {
                return s.cycles > 0 ? double(s.tri_issue_cycles) / (double(s.cycles) * c.tri_units * c.tri_rate)
                                    : 0.0;
              }),
-      figure("utilization.dram", "1", "DRAM channel busy cycles / cycles",
-             [](const S& s, const C&, const LowerBound&) -> Value {
-               return ratio(double(s.dram_busy_cycles), double(s.cycles));
+      figure("utilization.dram", "1", "DRAM channel busy cycles / (cycles x channels)",
+             [](const S& s, const C& c, const LowerBound&) -> Value {
+               const int channels = c.dram_banks > 0 ? c.dram_channels : 1;
+               return ratio(double(s.dram_busy_cycles), double(s.cycles) * channels);
              }),
       figure("utilization.ray_slots", "1", "slot busy cycles / (cycles x ray_slots)",
              [](const S& s, const C& c, const LowerBound&) -> Value {
@@ -121,6 +128,12 @@ const std::vector<ReportEntry>& report_table() {
              [](const S& s, const C&, const LowerBound&) -> Value {
                return ratio(double(s.cache_hits), double(s.cache_hits + s.cache_misses));
              }),
+      count("l2.hits", &S::l2_hits),
+      count("l2.misses", &S::l2_misses),
+      figure("l2.hit_rate", "1", "L2 hits / (hits + misses); 0 without an L2",
+             [](const S& s, const C&, const LowerBound&) -> Value {
+               return ratio(double(s.l2_hits), double(s.l2_hits + s.l2_misses));
+             }),
       count("node_fetches", &S::node_fetches),
       count("prim_fetches", &S::prim_fetches),
       count("dram_bytes", &S::dram_bytes),
@@ -131,6 +144,12 @@ const std::vector<ReportEntry>& report_table() {
       figure("dram_gb_per_s", "GB/s", "DRAM bytes / cycles at clock_ghz",
              [](const S& s, const C& c, const LowerBound&) -> Value {
                return s.cycles > 0 ? double(s.dram_bytes) / double(s.cycles) * c.clock_ghz : 0.0;
+             }),
+      count("dram_rows.hits", &S::dram_row_hits),
+      count("dram_rows.misses", &S::dram_row_misses),
+      figure("dram_rows.hit_rate", "1", "DRAM row hits / accesses; 0 without banks",
+             [](const S& s, const C&, const LowerBound&) -> Value {
+               return ratio(double(s.dram_row_hits), double(s.dram_row_hits + s.dram_row_misses));
              }),
       count("stream_bytes", &S::stream_bytes),
       count("stack_spills", &S::stack_spills),

@@ -494,3 +494,57 @@ TEST_CASE("sampled timing: an image whose rows hold a whole number of units is n
   INFO("mean error over " << kSeeds << " seeds: " << 100.0 * mean_error << "%");
   CHECK(std::abs(mean_error) < 0.03);
 }
+
+namespace {
+
+// The timing of incoherent and camera rays of a scene on preset `preset` with `sets` applied (key, value).
+rtu::hw::TimingStats timed_stats(const rtu::host::Scene& s, const std::string& preset,
+                                 const std::vector<std::pair<std::string, std::string>>& sets, size_t n) {
+  DeviceOptions o = options("timed", preset);
+  for (const auto& [k, v] : sets) rtu::hw::set_timing_key(o.timing, k, v);
+  std::vector<Ray> rays = rtu::host::primary_rays(s.camera, n);
+  const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), n, 5);
+  rays.insert(rays.end(), inc.begin(), inc.end());
+  const auto dev = rtu::host::make_device(s.geometry, o);
+  std::vector<Hit> h(rays.size());
+  rtu::hw::TraversalStats ts;
+  dev->trace_batch(rays.data(), h.data(), rays.size(), false, 2, ts);
+  return dev->timed()->timing();
+}
+
+}  // namespace
+
+TEST_CASE("memory behind the cache: banks without row costs are the single channel, an L2 only helps",
+          "[timed][memory]") {
+  const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
+  for (const std::string preset : {"rdna2-mem", "embedded"}) {
+    CAPTURE(preset);
+    // A small stack, so that spills and refills (by address, on the banks) take part.
+    const std::vector<std::pair<std::string, std::string>> base = {{"stack_entries", "2"}};
+    const rtu::hw::TimingStats plain = timed_stats(s, preset, base, 3000);
+    REQUIRE(plain.stack_spills > 0);
+    // One channel of 8 banks with no activate or precharge cost: every transfer as on the single channel.
+    auto banks = base;
+    banks.insert(banks.end(), {{"dram_banks", "8"}, {"dram_row_bytes", "1024"}});
+    const rtu::hw::TimingStats b = timed_stats(s, preset, banks, 3000);
+    CHECK(b.cycles == plain.cycles);
+    CHECK(b.dram_bytes == plain.dram_bytes);
+    CHECK(b.dram_row_hits + b.dram_row_misses == plain.cache_misses + plain.stack_spills + plain.stack_refills);
+    // With row costs every row miss waits 30-60 cycles more. The slots then interleave differently, which moves
+    // the cache's hits by a fraction of a percent, but thousands of misses waiting longer cost cycles.
+    auto costly = banks;
+    costly.insert(costly.end(), {{"dram_activate_cycles", "30"}, {"dram_precharge_cycles", "30"}});
+    const rtu::hw::TimingStats c = timed_stats(s, preset, costly, 3000);
+    CHECK(c.dram_row_hits + c.dram_row_misses == c.cache_misses + c.stack_spills + c.stack_refills);
+    CHECK(c.cycles > plain.cycles);
+    CHECK(c.dram_row_hits > 0);
+    // An L2 of no latency and unlimited bandwidth in front of the same DRAM: what it holds costs nothing.
+    auto l2 = base;
+    l2.insert(l2.end(), {{"l2_kib", "1024"}, {"l2_latency", "0"}, {"l2_bytes_per_cycle", "0"}});
+    const rtu::hw::TimingStats z = timed_stats(s, preset, l2, 3000);
+    CHECK(z.l2_hits + z.l2_misses == z.cache_misses);  // every node cache fill goes through the L2
+    CHECK(z.l2_hits > 0);
+    CHECK(z.dram_bytes < plain.dram_bytes);
+    CHECK(z.cycles < plain.cycles);
+  }
+}

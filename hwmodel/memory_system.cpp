@@ -1,0 +1,108 @@
+#include "hwmodel/memory_system.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace rtu::hw {
+
+namespace {
+
+uint64_t cycles_for(uint64_t bytes, double bytes_per_cycle) {
+  return bytes_per_cycle > 0 ? uint64_t(std::ceil(double(bytes) / bytes_per_cycle)) : 0;
+}
+
+}  // namespace
+
+BankedDram::BankedDram(const TimingConfig& c)
+    : m_latency(uint64_t(c.dram_latency)),
+      m_activate(uint64_t(c.dram_activate_cycles)),
+      m_precharge(uint64_t(c.dram_precharge_cycles)),
+      m_bytes_per_cycle(c.dram_bytes_per_cycle / std::max(1, c.dram_channels)),
+      m_line_bytes(uint64_t(c.line_bytes)),
+      m_line_cycles(cycles_for(m_line_bytes, m_bytes_per_cycle)),
+      m_lines_per_row(std::max<uint64_t>(1, uint64_t(c.dram_row_bytes) / uint64_t(c.line_bytes))),
+      m_channels(uint32_t(std::max(1, c.dram_channels))),
+      m_banks(uint32_t(std::max(1, c.dram_banks))),
+      m_bank(size_t(m_channels) * m_banks),
+      m_bus_free(m_channels, 0) {}
+
+BankedDram::Place BankedDram::place(uint64_t addr) const {
+  const uint64_t line = addr / m_line_bytes;
+  const uint64_t local = line / m_channels;  // the line's index within its channel
+  const uint64_t row_index = local / m_lines_per_row;
+  return Place{uint32_t(line % m_channels), uint32_t(row_index % m_banks), row_index / m_banks};
+}
+
+uint64_t BankedDram::transfer(uint64_t addr, uint64_t bytes, uint64_t t, TimingStats& s) {
+  const Place p = place(addr);
+  Bank& b = m_bank[size_t(p.channel) * m_banks + p.bank];
+  uint64_t cmd = std::max(t, b.ready);
+  if (b.open_row == p.row) {
+    ++s.dram_row_hits;
+  } else {
+    ++s.dram_row_misses;
+    cmd += (b.open_row == ~uint64_t(0) ? 0 : m_precharge) + m_activate;
+    b.open_row = p.row;
+  }
+  const uint64_t xfer = bytes == m_line_bytes ? m_line_cycles : cycles_for(bytes, m_bytes_per_cycle);
+  uint64_t& bus = m_bus_free[p.channel];
+  const uint64_t start = std::max(cmd, bus);
+  bus = start + xfer;
+  b.ready = start;
+  s.dram_bytes += bytes;
+  s.dram_busy_cycles += xfer;
+  return start + xfer + m_latency;
+}
+
+uint64_t BankedDram::free_at() const {
+  return *std::max_element(m_bus_free.begin(), m_bus_free.end());
+}
+
+L2Cache::L2Cache(const TimingConfig& c)
+    : m_latency(uint64_t(c.l2_latency)),
+      m_xfer(cycles_for(uint64_t(c.line_bytes), c.l2_bytes_per_cycle)),
+      m_slices(uint32_t(std::max(1, c.l2_slices))),
+      m_sets(0),
+      m_ways(uint32_t(std::max(1, c.l2_ways))) {
+  if (c.l2_kib <= 0) return;
+  const uint64_t lines = uint64_t(c.l2_kib) * 1024 / uint64_t(c.line_bytes);
+  m_sets = uint32_t(lines / (uint64_t(m_slices) * m_ways));  // validate(): a whole number of sets per slice
+  m_lines.assign(size_t(m_slices) * m_sets * m_ways, Line{});
+  m_port_free.assign(m_slices, 0);
+}
+
+MemorySystem::MemorySystem(const TimingConfig& c)
+    : m_line_bytes(uint64_t(c.line_bytes)), m_banked(c.dram_banks > 0), m_channel(c), m_dram(c), m_l2(c) {}
+
+uint64_t MemorySystem::dram_line(uint64_t line, uint64_t t, TimingStats& s) {
+  return m_banked ? m_dram.transfer(line * m_line_bytes, m_line_bytes, t, s)
+                  : m_channel.transfer(m_line_bytes, t, s);
+}
+
+uint64_t MemorySystem::read_line(uint64_t line, uint64_t t, TimingStats& s) {
+  if (!m_l2.enabled()) return dram_line(line, t, s);
+  return m_l2.access(
+      line, t, [&](uint64_t l, uint64_t at) { return dram_line(l, at, s); }, s);
+}
+
+void MemorySystem::write_word(uint64_t addr, uint64_t t, TimingStats& s) {
+  if (m_banked)
+    m_dram.transfer(addr, 8, t, s);
+  else
+    m_channel.transfer(8, t, s);
+}
+
+uint64_t MemorySystem::read_word(uint64_t addr, uint64_t t, TimingStats& s) {
+  return m_banked ? m_dram.transfer(addr, 8, t, s) : m_channel.transfer(8, t, s);
+}
+
+uint64_t MemorySystem::min_line_cycles() const {
+  const uint64_t dram = m_banked ? m_dram.min_line_cycles() : m_channel.line_cycles() + m_channel.latency();
+  return m_l2.enabled() ? m_l2.min_cycles(dram) : dram;
+}
+
+uint64_t MemorySystem::free_at() const {
+  return m_banked ? m_dram.free_at() : m_channel.free_at();
+}
+
+}  // namespace rtu::hw

@@ -1,0 +1,155 @@
+// The memory behind a unit's node cache (memory_system.h): exact cycles of the L2 and the banked DRAM on small
+// hand-worked configurations, and the equivalences that tie the new models to the single channel.
+#include <catch2/catch.hpp>
+#include <cstdint>
+#include <stdexcept>
+#include <vector>
+
+#include "hwmodel/dram_channel.h"
+#include "hwmodel/memory_system.h"
+#include "hwmodel/timing_config.h"
+#include "hwmodel/timing_stats.h"
+
+using rtu::hw::BankedDram;
+using rtu::hw::DramChannel;
+using rtu::hw::L2Cache;
+using rtu::hw::MemorySystem;
+using rtu::hw::TimingConfig;
+using rtu::hw::TimingStats;
+
+namespace {
+
+// DRAM of `channels` channels with 2 banks each, 256-byte rows (4 lines of 64 bytes), latency 100, activate 20,
+// precharge 15, 64 bytes per clock in all.
+TimingConfig banked(int channels) {
+  TimingConfig c;
+  c.line_bytes = 64;
+  c.dram_latency = 100;
+  c.dram_bytes_per_cycle = 64;
+  c.dram_channels = channels;
+  c.dram_banks = 2;
+  c.dram_row_bytes = 256;
+  c.dram_activate_cycles = 20;
+  c.dram_precharge_cycles = 15;
+  c.validate();
+  return c;
+}
+
+}  // namespace
+
+TEST_CASE("banked DRAM: row hits, empty banks and row conflicts cost what the open-page model says", "[memory]") {
+  const TimingConfig c = banked(1);
+  BankedDram d(c);
+  TimingStats s;
+  // Line 0: bank 0 row 0, no row open: activate (20), then one clock of transfer, then the latency (100).
+  CHECK(d.place(0).bank == 0);
+  CHECK(d.transfer(0 * 64, 64, 0, s) == 20 + 1 + 100);
+  // Line 1, the same row: a row hit; the bank's command at 20, the bus free at 21.
+  CHECK(d.transfer(1 * 64, 64, 0, s) == 21 + 1 + 100);
+  // Line 4: the next row, bank 1 (rows rotate over the banks), empty: activate from 0, the bus free at 22.
+  CHECK(d.place(4 * 64).bank == 1);
+  CHECK(d.place(4 * 64).row == 0);
+  CHECK(d.transfer(4 * 64, 64, 0, s) == 22 + 1 + 100);
+  // Line 8: bank 0 again, row 1, while row 0 is open: precharge and activate after the bank's last command (21).
+  CHECK(d.place(8 * 64).bank == 0);
+  CHECK(d.place(8 * 64).row == 1);
+  CHECK(d.transfer(8 * 64, 64, 0, s) == 21 + 15 + 20 + 1 + 100);
+  CHECK(s.dram_row_hits == 1);
+  CHECK(s.dram_row_misses == 3);
+  CHECK(s.dram_bytes == 4 * 64);
+  CHECK(s.dram_busy_cycles == 4);
+}
+
+TEST_CASE("banked DRAM: two channels move lines in parallel at half the bandwidth each", "[memory]") {
+  BankedDram two(banked(2));
+  BankedDram one(banked(1));
+  TimingStats s2, s1;
+  // Lines 0 and 1 on two channels: both activate at 0 and transfer for 2 clocks (32 bytes per clock each).
+  CHECK(two.place(0).channel == 0);
+  CHECK(two.place(64).channel == 1);
+  CHECK(two.transfer(0, 64, 0, s2) == 20 + 2 + 100);
+  CHECK(two.transfer(64, 64, 0, s2) == 20 + 2 + 100);
+  // On one channel the second line waits for the bus: one clock each, one after the other.
+  CHECK(one.transfer(0, 64, 0, s1) == 20 + 1 + 100);
+  CHECK(one.transfer(64, 64, 0, s1) == 21 + 1 + 100);
+}
+
+TEST_CASE("banked DRAM without row costs on one channel is the single channel, transfer for transfer",
+          "[memory]") {
+  TimingConfig c = banked(1);
+  c.dram_activate_cycles = c.dram_precharge_cycles = 0;
+  BankedDram b(c);
+  DramChannel ch(c);
+  TimingStats sb, sc;
+  // Requests in cycle order, as a unit makes them: lines scattered over rows and banks, 8-byte words between.
+  uint64_t t = 0;
+  for (uint64_t i = 0; i < 2000; ++i) {
+    t += (i * 7919) % 5;
+    const uint64_t addr = ((i * 104729) % 4096) * 64;
+    const uint64_t bytes = i % 3 == 0 ? 8 : 64;
+    CAPTURE(i);
+    REQUIRE(b.transfer(addr, bytes, t, sb) == ch.transfer(bytes, t, sc));
+  }
+  CHECK(sb.dram_bytes == sc.dram_bytes);
+  CHECK(sb.dram_busy_cycles == sc.dram_busy_cycles);
+}
+
+TEST_CASE("L2: a miss goes to DRAM after the tag check, a hit costs its port and latency, in-flight lines wait",
+          "[memory]") {
+  TimingConfig c;
+  c.line_bytes = 64;
+  c.dram_latency = 100;
+  c.dram_bytes_per_cycle = 64;
+  c.l2_kib = 1;  // 16 lines: 2 slices of 4 sets of 2 ways
+  c.l2_slices = 2;
+  c.l2_ways = 2;
+  c.l2_latency = 10;
+  c.l2_bytes_per_cycle = 32;  // 2 clocks per line
+  c.validate();
+  MemorySystem m(c);
+  TimingStats s;
+  // Miss: the port from 0 (2 clocks), the tag check ends at 10, DRAM from 10: 1 clock and 100.
+  CHECK(m.read_line(0, 0, s) == 10 + 1 + 100);
+  // The same line at 50, still in flight: the hit's own time (50 + 2 + 10) is earlier than the line: wait for it.
+  CHECK(m.read_line(0, 50, s) == 111);
+  // At 200: a hit, port and latency.
+  CHECK(m.read_line(0, 200, s) == 200 + 2 + 10);
+  // Two hits on one slice in the same clock: the second waits for the port.
+  CHECK(m.read_line(0, 300, s) == 300 + 2 + 10);
+  CHECK(m.read_line(0, 300, s) == 302 + 2 + 10);
+  // Line 1 is on the other slice: its port is free.
+  CHECK(m.read_line(1, 300, s) == 300 + 10 + 1 + 100);
+  CHECK(s.l2_hits == 4);
+  CHECK(s.l2_misses == 2);
+  CHECK(s.dram_bytes == 2 * 64);
+  // LRU within a set: lines 0, 8, 16 share slice 0's set 0 (2 ways); after 8 and 16, 0 is gone.
+  CHECK(m.read_line(8, 1000, s) > 1000 + 100);
+  CHECK(m.read_line(16, 1000, s) > 1000 + 100);
+  const uint64_t misses = s.l2_misses;
+  m.read_line(0, 2000, s);
+  CHECK(s.l2_misses == misses + 1);
+  // Unlimited bandwidth (0) and no latency: a hit is there at once.
+  TimingConfig z = c;
+  z.l2_latency = 0;
+  z.l2_bytes_per_cycle = 0;
+  MemorySystem mz(z);
+  TimingStats sz;
+  CHECK(mz.read_line(5, 0, sz) == 0 + 1 + 100);
+  CHECK(mz.read_line(5, 500, sz) == 500);
+  CHECK(mz.min_line_cycles() == 0);
+}
+
+TEST_CASE("memory keys: ranges and rules are checked, naming the key", "[memory][config]") {
+  auto bad = [](const char* key, const char* value) {
+    TimingConfig c;
+    return rtu::hw::set_timing_key(c, key, value);
+  };
+  CHECK_THROWS_WITH(bad("l2_kib", "3"), Catch::Contains("l2_kib"));  // not a whole number of sets per slice
+  CHECK_THROWS_WITH(bad("dram_channels", "0"), Catch::Contains("dram_channels"));
+  CHECK_THROWS_WITH(bad("dram_row_bytes", "100"), Catch::Contains("dram_row_bytes"));
+  CHECK_THROWS_WITH(bad("l2_bytes_per_cycle", "-1"), Catch::Contains("l2_bytes_per_cycle"));
+  CHECK_THROWS_WITH(bad("dram_banks", "65"), Catch::Contains("dram_banks"));
+  TimingConfig c;
+  CHECK_NOTHROW(rtu::hw::set_timing_key(c, "l2_kib", "4096"));
+  CHECK_NOTHROW(rtu::hw::set_timing_key(c, "dram_banks", "16"));
+}

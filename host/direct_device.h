@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "hwmodel/device_image.h"
@@ -47,6 +48,7 @@ class DirectDevice {
   virtual const hw::DeviceImage* image() const { return nullptr; }
   // The timed device's engine: cycles and timing statistics of what it traced (null for the others).
   virtual const hw::TimedEngine* timed() const { return nullptr; }
+  hw::TimedEngine* timed() { return const_cast<hw::TimedEngine*>(std::as_const(*this).timed()); }
   // Timed device: record pipeline spans into `trace` (see hw::PipelineTrace); no effect on the others.
   virtual void set_pipeline_trace(hw::PipelineTrace* trace) { (void)trace; }
   // Bytes the float device keeps beside its BVH (leaf-ordered primitive copies).

@@ -70,16 +70,25 @@ double slot_sram_bits(const TimingConfig& c) {
                 double(c.queue_depth) * kQueueRayBytes);
 }
 
+double l2_sram_bits(const TimingConfig& c) {
+  if (c.l2_kib <= 0) return 0.0;
+  const double lines = double(c.l2_kib) * 1024.0 / double(c.line_bytes);
+  return lines * (double(c.line_bytes) * 8.0 + 33.0);
+}
+
 AreaReport area_report(const TimingConfig& c, const CostInputs& in, const Technology& t) {
   AreaReport a;
-  a.logic_nand2_eq = c.box_units * in.box.nand2_eq + c.tri_units * in.tri.nand2_eq;
-  a.box_mm2 = logic_area_mm2(c.box_units * in.box.nand2_eq, t);
-  a.tri_mm2 = logic_area_mm2(c.tri_units * in.tri.nand2_eq, t);
-  const double cache_bits = cache_sram_bits(c), slot_bits = slot_sram_bits(c);
-  a.sram_bits = cache_bits + slot_bits;
+  const double units = double(c.units);  // a chip: every unit has its own units, cache and slots
+  a.logic_nand2_eq = units * (c.box_units * in.box.nand2_eq + c.tri_units * in.tri.nand2_eq);
+  a.box_mm2 = logic_area_mm2(units * c.box_units * in.box.nand2_eq, t);
+  a.tri_mm2 = logic_area_mm2(units * c.tri_units * in.tri.nand2_eq, t);
+  const double cache_bits = units * cache_sram_bits(c), slot_bits = units * slot_sram_bits(c);
+  const double l2_bits = l2_sram_bits(c);
+  a.sram_bits = cache_bits + slot_bits + l2_bits;
   a.cache_mm2 = sram_area_mm2(cache_bits, t);
   a.slots_mm2 = sram_area_mm2(slot_bits, t);
-  a.total_mm2 = a.box_mm2 + a.tri_mm2 + a.cache_mm2 + a.slots_mm2;
+  a.l2_mm2 = sram_area_mm2(l2_bits, t);
+  a.total_mm2 = a.box_mm2 + a.tri_mm2 + a.cache_mm2 + a.slots_mm2 + a.l2_mm2;
   return a;
 }
 
@@ -90,6 +99,9 @@ EnergyReport energy_report(const TimingStats& s, const TimingConfig& c, const Co
   const double e_gate = t.pj_per_transition();
   const double line = c.cache_kib > 0 ? sram_access_pj(double(c.cache_kib) * 1024.0, c.line_bytes, t) : 0.0;
   const double stack_bytes = double(c.ray_slots) * c.stack_entries * 8.0;
+  // An L2 line is read from its slice: an SRAM of l2_kib / l2_slices.
+  const double l2_line =
+      c.l2_kib > 0 ? sram_access_pj(double(c.l2_kib) * 1024.0 / c.l2_slices, c.line_bytes, t) : 0.0;
   const double dram_pj_per_byte = 8.0 * memory_type(c.memory_type).pj_per_bit;
   // Leakage power (W) = area (um^2) x density (nW/um^2) x 1e-9; per cycle (pJ) = W / (clock_ghz x 1e9) x 1e12.
   const double leak_w = r.area.total_mm2 * 1e6 * t.leakage_nw_per_um2 * 1e-9;
@@ -102,6 +114,8 @@ EnergyReport energy_report(const TimingStats& s, const TimingConfig& c, const Co
       {"cache_read", "lines", "cache line reads (hits and misses)", s.cache_hits + s.cache_misses,
        c.cache_kib > 0 ? line : 0.0},
       {"cache_fill", "lines", "cache line writes on a miss", c.cache_kib > 0 ? s.cache_misses : 0, line},
+      {"l2_read", "lines", "L2 line reads (node cache fills, hits and misses)", s.l2_hits + s.l2_misses, l2_line},
+      {"l2_fill", "lines", "L2 line writes on a miss", s.l2_misses, l2_line},
       {"stack", "accesses", "slot stack SRAM accesses (one per node fetch)", s.node_fetches,
        sram_access_pj(stack_bytes, 8, t)},
       {"dram", "bytes", "DRAM bytes (line fills, stack spills, refills)", s.dram_bytes, dram_pj_per_byte},

@@ -8,6 +8,7 @@
 //   tri_test       triangle unit issue slots (triangles, spheres, planes) x the same for the triangle unit
 //   cache_read     cache line accesses x one line read of an SRAM of the cache's size
 //   cache_fill     cache misses x one line write (as a read)
+//   l2_read        L2 line reads x one line read of an L2 slice's SRAM; l2_fill: L2 misses x one line write
 //   stack          node fetches x one 8-byte access of the slots' stack SRAM (a push or a pop per node visit)
 //   dram           DRAM bytes (line fills, stack spills and refills) x 8 x the memory type's energy per bit
 //   stream         ray and hit buffer bytes x 8 x the same (they live in DRAM)
@@ -79,14 +80,16 @@ struct CostInputs {
 inline constexpr int kSlotStateBytes = 64;  // a slot's ray, hit and traversal registers (fixed ray + hit record)
 inline constexpr int kQueueRayBytes = 32;   // a queued ray (origin, direction, t range as floats)
 struct AreaReport {
-  double box_mm2 = 0, tri_mm2 = 0;  // all units of the kind
-  double cache_mm2 = 0, slots_mm2 = 0;
+  double box_mm2 = 0, tri_mm2 = 0;      // all units of the kind
+  double cache_mm2 = 0, slots_mm2 = 0;  // all units'
+  double l2_mm2 = 0;                    // the chip's L2
   double total_mm2 = 0;
   double logic_nand2_eq = 0, sram_bits = 0;
 };
 AreaReport area_report(const TimingConfig& c, const CostInputs& in, const Technology& t = nangate45());
 double cache_sram_bits(const TimingConfig& c);  // data + tags (a 32-bit tag and a valid bit per line)
 double slot_sram_bits(const TimingConfig& c);   // slot state, stacks, queue
+double l2_sram_bits(const TimingConfig& c);     // the L2's data + tags (0 without one)
 
 struct EnergyEvent {
   const char* key;

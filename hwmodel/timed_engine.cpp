@@ -46,14 +46,31 @@ void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   auto tracer = std::make_unique<FixedTracer>(*image, to);  // throws when a unit cannot take the format
   m_image = std::move(image);
   m_tracer = std::move(tracer);
-  const TimingModel::Layout l = TimingModel::layout_of(*m_image, uint64_t(m_c.layout_align));
-  m_model = std::make_unique<TimingModel>(m_c, l);
-  m_model->set_trace(m_trace);
+  make_models();
   m_slot_time.clear();  // another scene, other streams
+}
+
+void TimedEngine::make_models() {
+  const TimingModel::Layout l = TimingModel::layout_of(*m_image, uint64_t(m_c.layout_align));
+  m_model.reset();
+  m_chip_units.clear();
+  m_chip_memory.reset();
+  m_unit_stats.clear();
+  if (!chip()) {
+    m_model = std::make_unique<TimingModel>(m_c, l);
+    m_model->set_trace(m_trace);
+    return;
+  }
+  m_chip_memory = std::make_unique<MemorySystem>(m_c);
+  for (uint32_t u = 0; u < uint32_t(m_c.units); ++u)
+    m_chip_units.push_back(std::make_unique<TimingModel>(m_c, l, m_chip_memory.get(), u));
+  m_unit_stats.assign(size_t(m_c.units), TimingStats{});
 }
 
 void TimedEngine::unbind() {
   m_model.reset();
+  m_chip_units.clear();
+  m_chip_memory.reset();
   m_tracer.reset();
   m_image.reset();
 }
@@ -98,13 +115,16 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
   const size_t per_unit = warmup_rays(stream, size_t(m_c.ray_slots), m_sample.warmup_rays) + m_sample.unit_rays +
                           2 * size_t(m_c.ray_slots);
   const size_t k = packet_step(n, m_sample.unit_rays, sample_step(m_sample.fraction), per_unit);
+  if (chip() && k >= 2)
+    throw std::invalid_argument("sampled timing is not available on a chip of several units (units = " +
+                                std::to_string(m_c.units) + "): trace without --sample");
   try {
-    cycles = k >= 2 ? trace_cycles_sampled(rays, hits, n, any_hit, s, ts, k, stream)
-                    : trace_cycles_full(rays, hits, n, any_hit, s, ts);
+    cycles = chip()   ? trace_cycles_chip(rays, hits, n, any_hit, s, ts)
+             : k >= 2 ? trace_cycles_sampled(rays, hits, n, any_hit, s, ts, k, stream)
+                      : trace_cycles_full(rays, hits, n, any_hit, s, ts);
   } catch (const WatchdogError&) {
-    // The packet never finished: a fresh model (empty cache, clock at 0) for whatever comes after a reset.
-    m_model = std::make_unique<TimingModel>(m_c, TimingModel::Layout(m_model->layout()));
-    m_model->set_trace(m_trace);
+    // The packet never finished: fresh models (empty caches, clock at 0) for whatever comes after a reset.
+    make_models();
     throw;
   }
   m_total.add(ts);
@@ -152,6 +172,60 @@ uint64_t TimedEngine::trace_cycles_full(const Ray* rays, Hit* hits, size_t n, bo
   const uint64_t cycles = m_model->finish();
   m_sample_stats.rays_simulated += n;
   return cycles;
+}
+
+uint64_t TimedEngine::trace_cycles_chip(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
+                                        TimingStats& ts) {
+  const size_t U = m_chip_units.size();
+  // The rays of each unit, in the order the unit takes them.
+  std::vector<std::vector<uint32_t>> mine(U);
+  for (size_t i = 0; i < n; ++i) {
+    const size_t u = m_c.ray_policy == "blocks" ? i * U / n : i % U;
+    mine[u].push_back(uint32_t(i));
+  }
+  // Each unit records its rays a chunk at a time when it needs the next one (it has taken every ray given).
+  const size_t chunk = std::max<size_t>(256, 2 * size_t(m_c.ray_slots));
+  std::vector<std::vector<std::vector<TraceEvent>>> events(U);
+  std::vector<size_t> next(U, 0);
+  std::vector<TimingStats> packet(U);
+  std::vector<Ray> batch;
+  std::vector<Hit> batch_hits;
+  auto give = [&](size_t u) {
+    const size_t m = std::min(chunk, mine[u].size() - next[u]);
+    batch.resize(m);
+    batch_hits.resize(m);
+    for (size_t j = 0; j < m; ++j) batch[j] = rays[mine[u][next[u] + j]];
+    events[u].resize(std::max(events[u].size(), m));
+    TraversalStats local;
+    record(batch.data(), batch_hits.data(), 0, m, any_hit, local, events[u]);
+    if (local.first_invalid != UINT64_MAX) local.first_invalid = mine[u][next[u] + local.first_invalid];
+    s.add(local);
+    if (hits)
+      for (size_t j = 0; j < m; ++j) hits[mine[u][next[u] + j]] = batch_hits[j];
+    next[u] += m;
+    m_chip_units[u]->add_rays(events[u].data(), m);
+  };
+  // Every unit starts the packet at the chip's clock; they act in the order of (cycle, unit).
+  uint64_t base = 0;
+  std::vector<TimingModel*> units;
+  for (const auto& unit : m_chip_units) {
+    base = std::max(base, unit->clock());
+    units.push_back(unit.get());
+  }
+  for (size_t u = 0; u < U; ++u) {
+    m_chip_units[u]->advance_to(base);
+    m_chip_units[u]->begin(mine[u].size(), packet[u]);
+  }
+  const uint64_t end = run_units_in_step(units, base, give);
+  for (size_t u = 0; u < U; ++u) {
+    packet[u].cycles = end - base;
+    ts.add(packet[u]);
+    m_unit_stats[u].add(packet[u]);
+  }
+  ts.packets = 1;
+  ts.cycles = end - base;
+  m_sample_stats.rays_simulated += n;
+  return end - base;
 }
 
 void TimedEngine::set_sampling(const SampleOptions& o) {

@@ -62,6 +62,13 @@ class TimedEngine final : public TraceEngine {
   const TimingStats& timing() const { return m_total; }
   const std::array<TimingStats, cmd::kRayTypeCount>& timing_by_type() const { return m_by_type; }
   const std::map<int, TimingStats>& timing_by_bounce() const { return m_by_bounce; }
+  // Per unit of a chip (units > 1): every TRACE since bind; empty for one unit.
+  const std::vector<TimingStats>& timing_by_unit() const { return m_unit_stats; }
+  // Tests: run one unit through the chip's code path (the same cycles as the single unit's, a test checks).
+  void set_force_chip(bool on) {
+    m_force_chip = on;
+    if (m_image) make_models();
+  }
 
  private:
   EngineOptions m_opt;
@@ -71,10 +78,20 @@ class TimedEngine final : public TraceEngine {
   std::unique_ptr<DeviceImage> m_image;
   std::unique_ptr<FixedTracer> m_tracer;
   std::unique_ptr<TimingModel> m_model;
+  // A chip (units > 1): the memory the units share and the units (m_model is then null).
+  std::unique_ptr<MemorySystem> m_chip_memory;
+  std::vector<std::unique_ptr<TimingModel>> m_chip_units;
+  std::vector<TimingStats> m_unit_stats;  // per unit, every TRACE since bind
+  void make_models();
   PipelineTrace* m_trace = nullptr;
   // What sampled packets' measured units showed of the time their rays hold slots, per stream (ray type << 8 |
   // bounce): the detailed warm-up's length (sampler.h, warmup_rays).
   std::map<uint32_t, SlotTimeAccount> m_slot_time;
+  // One TRACE packet on a chip of c.units units sharing one memory (units > 1, or `force_chip`): every ray
+  // simulated, the units in step (timing_model.h, add_rays and run_until), each action in the order of its cycle
+  // (ties: lower unit first), so the cycles do not depend on the host's threads.
+  uint64_t trace_cycles_chip(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
+                             TimingStats& ts);
   // One TRACE packet through the timing model, every ray simulated.
   uint64_t trace_cycles_full(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
                              TimingStats& ts);
@@ -87,6 +104,8 @@ class TimedEngine final : public TraceEngine {
               std::vector<std::vector<TraceEvent>>& events, size_t at = 0) const;
   // True when a unit other than the C++ datapath is attached (the engine then traces on one thread).
   bool has_units() const { return m_box_unit || m_tri_unit; }
+  bool m_force_chip = false;
+  bool chip() const { return m_c.units > 1 || m_force_chip; }
   SampleOptions m_sample;
   SampleStats m_sample_stats;
   TimingStats m_total;

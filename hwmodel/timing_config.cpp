@@ -66,6 +66,9 @@ const std::vector<KeyInfo>& key_table() {
       {"cache_latency", &C::cache_latency, 0, kMaxLatency, "cache hit latency in cycles"},
       {"dram_latency", &C::dram_latency, 0, kMaxLatency, "cycles from a miss to the first byte"},
       {"dram_bytes_per_cycle", &C::dram_bytes_per_cycle, 0.001, 65536, "DRAM bandwidth in bytes per cycle"},
+      {"units", &C::units, 1, 256, "ray-tracing units on the chip, sharing the L2 and DRAM (1: one unit)"},
+      {"ray_policy", &C::ray_policy, 0, 0,
+       "how a packet's rays go to the units: round_robin (ray i to unit i mod units) or blocks (consecutive)"},
       {"l2_kib", &C::l2_kib, 0, 1048576, "L2 behind the node cache in KiB (0: none; memory_system.h)"},
       {"l2_slices", &C::l2_slices, 1, 256, "L2 slices (a line's slice: line number mod slices)"},
       {"l2_ways", &C::l2_ways, 1, 64, "L2 associativity"},
@@ -147,6 +150,9 @@ void TimingConfig::validate() const {
       if (box_unit != "cpp" && box_unit != "rtl") fail("box_unit = '" + box_unit + "' must be cpp or rtl");
     } else if (key == "tri_unit") {
       if (tri_unit != "cpp" && tri_unit != "rtl") fail("tri_unit = '" + tri_unit + "' must be cpp or rtl");
+    } else if (key == "ray_policy") {
+      if (ray_policy != "round_robin" && ray_policy != "blocks")
+        fail("ray_policy = '" + ray_policy + "' must be round_robin or blocks");
     } else if (key == "l2_kib") {
       const long long set_bytes = static_cast<long long>(l2_slices) * l2_ways * line_bytes;
       if (l2_kib > 0 && set_bytes > 0 && (static_cast<long long>(l2_kib) * 1024) % set_bytes != 0)
@@ -300,6 +306,8 @@ TimingConfig timing_preset(const std::string& name) {
     c.dram_bytes_per_cycle = 64.0;
     c.memory_type = "gddr6";  // the RX 6900 XT's VRAM
     // One unit's memory is one channel behind its cache (no L2, no banks): the chip presets add them.
+    c.units = 1;
+    c.ray_policy = "round_robin";
     c.l2_kib = 0;
     c.l2_slices = 4;
     c.l2_ways = 16;

@@ -9,8 +9,12 @@
 
 namespace rtu::hw {
 
-TimingModel::TimingModel(const TimingConfig& c, const Layout& layout)
-    : m_c((c.validate(), c)), m_layout(layout), m_cache(c), m_mem(c) {
+TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySystem* shared, uint32_t unit)
+    : m_c((c.validate(), c)),
+      m_layout(layout),
+      m_cache(c),
+      m_own(shared ? nullptr : std::make_unique<MemorySystem>(c)),
+      m_mem(shared ? shared : m_own.get()) {
   // A stride of 0 is the item's size (packed): resolved once here, not per fetch.
   if (m_layout.node_stride == 0) m_layout.node_stride = m_layout.node_bytes;
   if (m_layout.record_stride == 0) m_layout.record_stride = kRecordBytes;
@@ -20,8 +24,9 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout)
   m_slots.resize(size_t(c.ray_slots));
   m_recent.assign(size_t(c.queue_depth), 0);
   while ((uint64_t(1) << m_line_shift) < uint64_t(c.line_bytes)) ++m_line_shift;
-  m_min_fetch = m_cache.enabled() ? m_cache.latency() : m_mem.min_line_cycles();
-  m_stack_base = (layout.total_bytes + kStackRegion - 1) / kStackRegion * kStackRegion;
+  m_min_fetch = m_cache.enabled() ? m_cache.latency() : m_mem->min_line_cycles();
+  m_stack_base = (layout.total_bytes + kStackRegion - 1) / kStackRegion * kStackRegion +
+                 uint64_t(unit) * uint64_t(c.ray_slots) * kStackRegion;
   m_waiting.reserve(size_t(c.ray_slots));
   // A node takes at least one issue clock, even one without children (the RTL unit's sequencer does the same).
   for (uint64_t k = 0; k < m_box_issue.size(); ++k)
@@ -131,6 +136,8 @@ void TimingModel::begin(size_t n, TimingStats& s) {
   m_s = &s;
   m_n = n;
   m_next = 0;
+  m_feed = nullptr;  // no ray given yet (feed or add_rays)
+  m_feed_first = m_feed_count = 0;
   m_queue.reset(uint32_t(m_c.ray_slots));
   m_waiting.clear();
   m_t0 = m_base + uint64_t(m_c.packet_latency);
@@ -176,7 +183,7 @@ void TimingModel::admit(uint32_t k, uint64_t free_at) {
 }
 
 void TimingModel::spill(Slot& sl, uint32_t k, uint64_t t) {
-  m_mem.write_word(stack_addr(k, sl.spilled), t, *m_s);  // bandwidth only: the write leaves the slot
+  m_mem->write_word(stack_addr(k, sl.spilled), t, *m_s);  // bandwidth only: the write leaves the slot
   ++sl.spilled;
   ++m_s->stack_spills;
 }
@@ -184,7 +191,7 @@ void TimingModel::spill(Slot& sl, uint32_t k, uint64_t t) {
 uint64_t TimingModel::refill(Slot& sl, uint32_t k, uint64_t t) {
   --sl.spilled;
   ++m_s->stack_refills;
-  const uint64_t ready = m_mem.read_word(stack_addr(k, sl.spilled), t, *m_s);
+  const uint64_t ready = m_mem->read_word(stack_addr(k, sl.spilled), t, *m_s);
   if (m_trace) m_trace->add(k, "stack refill", t, ready);
   return ready;
 }
@@ -243,14 +250,15 @@ void TimingModel::serve_waiting() {
   m_queue.requeue(w, done + uint64_t(m_c.traversal_latency));
 }
 
-void TimingModel::simulate() {
+void TimingModel::simulate(uint64_t limit) {
   const uint64_t SE = uint64_t(m_c.stack_entries);
   for (;;) {
     // Free slots take the next rays, earliest free first (ties: lowest slot).
     while (!m_free_slots.empty() && m_next < m_n) {
       const auto [free_at, k] = m_free_slots.front();
       if (!m_queue.empty() && m_queue.top_cycle() < free_at) break;  // a busy slot acts first
-      if (m_next >= m_feed_first + m_feed_count) return;             // its ray is not fed yet
+      if (free_at > limit) return;
+      if (m_next >= m_feed_first + m_feed_count) return;  // its ray is not fed yet
       std::pop_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
       m_free_slots.pop_back();
       admit(k, free_at);
@@ -258,6 +266,7 @@ void TimingModel::simulate() {
     if (m_queue.empty()) return;
     // The earliest slot acts, until it knows its next cycle (replace_top: it waits again) or leaves (pop).
     const uint64_t t = m_queue.top_cycle();
+    if (t > limit) return;
     const uint32_t k = m_queue.top_slot();
     if (t > m_watch_deadline) watchdog(t);
     Slot& sl = m_slots[k];
@@ -317,7 +326,7 @@ void TimingModel::simulate() {
         ++(e.kind == TraceEvent::kNode ? m_s->node_fetches : m_s->prim_fetches);
         next_t = t;
         for_each_line<false>(
-            e, [&](uint64_t line) { next_t = std::max(next_t, m_cache.access(line, t, m_mem, *m_s)); });
+            e, [&](uint64_t line) { next_t = std::max(next_t, m_cache.access(line, t, *m_mem, *m_s)); });
         if (m_trace) m_trace->add(k, e.kind == TraceEvent::kNode ? "node fetch" : "record fetch", t, next_t);
         // The unit request at next_t. Requests reach the units in the order of (cycle, slot), and only they
         // touch the units' state, so a request may be served before its cycle if no request can come before it.
@@ -415,7 +424,7 @@ void TimingModel::fire(uint32_t k, uint64_t cycle) {
   }
   d += "  box units: " + u(backlog(m_box_free)) +
        " cycles of queued work; triangle units: " + u(backlog(m_tri_free)) + " cycles; DRAM channel busy for " +
-       u(m_mem.free_at() > cycle ? m_mem.free_at() - cycle : 0) + " more cycles; write-back free at " +
+       u(m_mem->free_at() > cycle ? m_mem->free_at() - cycle : 0) + " more cycles; write-back free at " +
        u(m_wb_free) + "\n";
   d += "  this TRACE so far: cache hits " + u(m_s->cache_hits) + ", misses " + u(m_s->cache_misses) +
        ", DRAM bytes " + u(m_s->dram_bytes) + ", stack spills " + u(m_s->stack_spills) + ", queue stall cycles " +
@@ -429,6 +438,51 @@ void TimingModel::feed(std::vector<TraceEvent>* events, size_t m) {
   m_feed_count = m;
   simulate();
   m_feed = nullptr;
+}
+
+uint64_t run_units_in_step(const std::vector<TimingModel*>& units, uint64_t start,
+                           const std::function<void(size_t)>& give) {
+  using Next = std::pair<uint64_t, uint32_t>;  // (next action's cycle, unit): a min-heap
+  std::vector<Next> heap;
+  for (size_t u = 0; u < units.size(); ++u) heap.push_back({units[u]->next_cycle(), uint32_t(u)});
+  std::make_heap(heap.begin(), heap.end(), std::greater<>());
+  while (!heap.empty() && heap.front().first != TimingModel::kNever) {
+    std::pop_heap(heap.begin(), heap.end(), std::greater<>());
+    const auto [t, u] = heap.back();
+    TimingModel& unit = *units[u];
+    if (unit.starved())
+      give(u);  // its next action takes a ray: give it more, then let it act
+    else
+      unit.run_until(t);
+    heap.back() = {unit.next_cycle(), u};
+    std::push_heap(heap.begin(), heap.end(), std::greater<>());
+  }
+  uint64_t end = start;
+  for (const TimingModel* unit : units) end = std::max(end, unit->end_cycle());
+  for (TimingModel* unit : units) unit->end_packet(end);
+  return end;
+}
+
+void TimingModel::add_rays(std::vector<TraceEvent>* events, size_t m) {
+  m_feed = events;
+  m_feed_first = m_next;
+  m_feed_count = m;
+}
+
+uint64_t TimingModel::next_cycle() const {
+  uint64_t t = m_queue.empty() ? kNever : m_queue.top_cycle();
+  if (!m_free_slots.empty() && m_next < m_n) t = std::min(t, m_free_slots.front().first);
+  return t;
+}
+
+bool TimingModel::starved() const {
+  if (m_free_slots.empty() || m_next >= m_n || m_next < m_feed_first + m_feed_count) return false;
+  return m_queue.empty() || m_queue.top_cycle() >= m_free_slots.front().first;
+}
+
+void TimingModel::end_packet(uint64_t end) {
+  m_feed = nullptr;
+  m_base = std::max(m_base, end);
 }
 
 uint64_t TimingModel::finish() {

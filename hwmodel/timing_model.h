@@ -35,6 +35,8 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <functional>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -83,7 +85,9 @@ class TimingModel {
   // The image's own layout (packed), or with `align` > 0 every item padded to a multiple of it and every section
   // start aligned to it (TimingConfig::layout_align).
   static Layout layout_of(const DeviceImage& image, uint64_t align);
-  TimingModel(const TimingConfig& c, const Layout& layout);
+  // `shared`: the memory behind the node cache when several units share it (a chip, chip_engine.h); null: the
+  // unit's own. `unit`: the unit's index on the chip (where its slots' stacks spill).
+  TimingModel(const TimingConfig& c, const Layout& layout, MemorySystem* shared = nullptr, uint32_t unit = 0);
 
   // One TRACE packet of n rays: begin, then feed the rays' events in order (any number at a time; an empty list
   // is a ray rejected at setup), then finish, which returns the packet's cycles from its decode to the last hit
@@ -95,6 +99,17 @@ class TimingModel {
   void set_trace(PipelineTrace* trace) { m_trace = trace; }
   void feed(std::vector<TraceEvent>* events, size_t m);
   uint64_t finish();
+  // A chip's units run in step (chip_engine.h): begin() as above; add_rays() gives the unit rays like feed() but
+  // does not simulate; run_until(t) does every action at a cycle <= t; next_cycle() is the cycle of the next
+  // action (kNever when the packet's rays are all done), and starved() says that action takes a ray not added yet
+  // (add rays first). end_packet(end) closes the packet at the chip's last cycle `end`.
+  static constexpr uint64_t kNever = ~uint64_t(0);
+  void add_rays(std::vector<TraceEvent>* events, size_t m);
+  void run_until(uint64_t limit) { simulate(limit); }
+  uint64_t next_cycle() const;
+  bool starved() const;
+  uint64_t end_cycle() const { return m_end; }
+  void end_packet(uint64_t end);
   // Functional warming: the cache takes the lines these rays' fetches touch, in order, with LRU updates, but no
   // time passes and nothing is counted. Sampled timing warms through the walk below (walk_install leaves the same
   // cache, in less time); this is the definition the tests hold walk_install to.
@@ -146,7 +161,8 @@ class TimingModel {
   void watchdog(uint64_t t);
   [[noreturn]] void fire(uint32_t k, uint64_t cycle);
   void admit(uint32_t k, uint64_t free_at);
-  void simulate();  // until done or until a free slot needs a ray not fed yet
+  // Until done, until a free slot needs a ray not fed yet, or until the next action is after `limit`.
+  void simulate(uint64_t limit = kNever);
   // The unit request of event e of slot k at cycle t: when its result is there.
   uint64_t unit_request(const TraceEvent& e, uint32_t k, uint64_t t);
   void serve_waiting();    // serves the earliest waiting request now (its slot wakes after the result)
@@ -165,7 +181,8 @@ class TimingModel {
   TimingConfig m_c;
   Layout m_layout;
   NodeCache m_cache;
-  MemorySystem m_mem;
+  std::unique_ptr<MemorySystem> m_own;  // the unit's own memory (null on a chip)
+  MemorySystem* m_mem;                  // what the node cache fills from
   uint64_t m_stack_base = 0;  // where slots spill their stacks: after the image, each slot kStackRegion bytes
   static constexpr uint64_t kStackRegion = 4096;
   int m_line_shift = 0;                     // log2(line_bytes)
@@ -199,5 +216,12 @@ class TimingModel {
   static constexpr uint64_t kNoDeadline = ~uint64_t(0);
   uint64_t m_watch_deadline = kNoDeadline;
 };
+
+// Runs one packet on a chip's units in step: every unit has begun (begin) and the units act in the order of
+// (cycle, unit index). `give(u)` is called when unit u's next action takes a ray it has not been given: it must
+// call add_rays on that unit with at least one more ray. Returns the cycle of the last action (the latest
+// end_cycle), at least `start`; then closes the packet on every unit (end_packet).
+uint64_t run_units_in_step(const std::vector<TimingModel*>& units, uint64_t start,
+                           const std::function<void(size_t)>& give);
 
 }  // namespace rtu::hw

@@ -102,23 +102,25 @@ const std::vector<ReportEntry>& report_table() {
       count("triangle_tests", &S::tri_tests),
       count("sphere_tests", &S::sphere_tests),
       count("plane_tests", &S::plane_tests),
-      figure("utilization.box_units", "1", "box unit issue clocks used / (cycles x box_units)",
+      figure("utilization.box_units", "1", "box unit issue clocks used / (cycles x box_units x units)",
              [](const S& s, const C& c, const LowerBound&) -> Value {
-               return s.cycles > 0 ? double(s.box_issue_cycles) / (double(s.cycles) * c.box_units) : 0.0;
+               return s.cycles > 0 ? double(s.box_issue_cycles) / (double(s.cycles) * c.box_units * c.units) : 0.0;
              }),
-      figure("utilization.triangle_units", "1", "triangle unit issue slots used / (cycles x tri_units x tri_rate)",
+      figure("utilization.triangle_units", "1",
+             "triangle unit issue slots used / (cycles x tri_units x tri_rate x units)",
              [](const S& s, const C& c, const LowerBound&) -> Value {
-               return s.cycles > 0 ? double(s.tri_issue_cycles) / (double(s.cycles) * c.tri_units * c.tri_rate)
-                                   : 0.0;
+               return s.cycles > 0
+                          ? double(s.tri_issue_cycles) / (double(s.cycles) * c.tri_units * c.tri_rate * c.units)
+                          : 0.0;
              }),
       figure("utilization.dram", "1", "DRAM channel busy cycles / (cycles x channels)",
              [](const S& s, const C& c, const LowerBound&) -> Value {
                const int channels = c.dram_banks > 0 ? c.dram_channels : 1;
                return ratio(double(s.dram_busy_cycles), double(s.cycles) * channels);
              }),
-      figure("utilization.ray_slots", "1", "slot busy cycles / (cycles x ray_slots)",
+      figure("utilization.ray_slots", "1", "slot busy cycles / (cycles x ray_slots x units)",
              [](const S& s, const C& c, const LowerBound&) -> Value {
-               return s.cycles > 0 ? double(s.slot_busy_cycles) / (double(s.cycles) * c.ray_slots) : 0.0;
+               return s.cycles > 0 ? double(s.slot_busy_cycles) / (double(s.cycles) * c.ray_slots * c.units) : 0.0;
              }),
       figure("cache.line_accesses", "lines", "cache line accesses (hits + misses)",
              [](const S& s, const C&, const LowerBound&) -> Value { return s.cache_hits + s.cache_misses; }),
@@ -157,11 +159,12 @@ const std::vector<ReportEntry>& report_table() {
       count("queue_stall_cycles", &S::queue_stall_cycles),
       figure("lower_bound.cycles", "cycles", "the largest of the ray fetch, box, triangle and DRAM bounds",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.cycles; }),
-      figure("lower_bound.fetch", "cycles", "rays / 1 per clock (ray fetch and ray setup issue one ray a clock)",
+      figure("lower_bound.fetch", "cycles",
+             "rays / (1 per clock x units) (each unit's ray fetch and setup issue one ray a clock)",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.fetch; }),
-      figure("lower_bound.box", "cycles", "box unit issue clocks / box_units",
+      figure("lower_bound.box", "cycles", "box unit issue clocks / (box_units x units)",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.box; }),
-      figure("lower_bound.triangle", "cycles", "triangle, sphere and plane tests / (tri_rate x tri_units)",
+      figure("lower_bound.triangle", "cycles", "triangle, sphere and plane tests / (tri_rate x tri_units x units)",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.triangle; }),
       figure("lower_bound.dram", "cycles", "DRAM bytes / dram_bytes_per_cycle",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.dram; }),
@@ -190,9 +193,11 @@ void scale_sampled(TimingStats& s, double factor) {
 
 LowerBound lower_bound(const TimingStats& s, const TimingConfig& c) {
   LowerBound b;
-  b.fetch = double(s.rays);
-  b.box = double(s.box_issue_cycles) / double(c.box_units);
-  b.triangle = double(s.tri_tests + s.sphere_tests + s.plane_tests) / double(c.tri_rate * c.tri_units);
+  // On a chip every unit has its own ray fetch, box and triangle units (units = 1: the single unit).
+  const double units = double(c.units);
+  b.fetch = double(s.rays) / units;
+  b.box = double(s.box_issue_cycles) / (double(c.box_units) * units);
+  b.triangle = double(s.tri_tests + s.sphere_tests + s.plane_tests) / (double(c.tri_rate * c.tri_units) * units);
   b.dram = double(s.dram_bytes) / c.dram_bytes_per_cycle;
   b.cycles = std::max({b.fetch, b.box, b.triangle, b.dram});
   b.limited_by = b.cycles == b.box        ? "box"

@@ -548,3 +548,73 @@ TEST_CASE("memory behind the cache: banks without row costs are the single chann
     CHECK(z.cycles < plain.cycles);
   }
 }
+
+TEST_CASE("chip: one unit through the chip's code path runs the single unit's cycles, counter for counter",
+          "[timed][chip]") {
+  const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
+  std::vector<Ray> rays = rtu::host::primary_rays(s.camera, 2000);
+  const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), 2000, 9);
+  rays.insert(rays.end(), inc.begin(), inc.end());
+  for (const std::string preset : {"rdna2", "embedded", "intel-mem"}) {
+    CAPTURE(preset);
+    DeviceOptions o = options("timed", preset);
+    rtu::hw::set_timing_key(o.timing, "stack_entries", "2");  // spills too
+    const auto single = rtu::host::make_device(s.geometry, o);
+    const auto chip = rtu::host::make_device(s.geometry, o);
+    chip->timed()->set_force_chip(true);
+    std::vector<Hit> h1(rays.size()), h2(rays.size());
+    rtu::hw::TraversalStats t1, t2;
+    // Two packets: the second starts where the first ended and finds the cache as the first left it.
+    for (int packet = 0; packet < 2; ++packet) {
+      single->trace_batch(rays.data(), h1.data(), rays.size(), packet == 1, 2, t1);
+      chip->trace_batch(rays.data(), h2.data(), rays.size(), packet == 1, 2, t2);
+      CHECK(std::memcmp(h1.data(), h2.data(), h1.size() * sizeof(Hit)) == 0);
+    }
+    check_same_timing(single->timed()->timing(), chip->timed()->timing());
+  }
+}
+
+TEST_CASE("chip: several units give the fixed device's hits, and the same cycles on any number of threads",
+          "[timed][chip]") {
+  const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
+  std::vector<Ray> rays = rtu::host::primary_rays(s.camera, 3000);
+  const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), 3000, 4);
+  rays.insert(rays.end(), inc.begin(), inc.end());
+  const auto fixed = rtu::host::make_device(s.geometry, options("fixed", "rdna2"));
+  std::vector<Hit> hf(rays.size());
+  rtu::hw::TraversalStats sf;
+  fixed->trace_batch(rays.data(), hf.data(), rays.size(), false, 2, sf);
+  for (const std::string policy : {"round_robin", "blocks"}) {
+    CAPTURE(policy);
+    DeviceOptions o = options("timed", "rdna2");
+    rtu::hw::set_timing_key(o.timing, "units", "4");
+    rtu::hw::set_timing_key(o.timing, "ray_policy", policy);
+    rtu::hw::set_timing_key(o.timing, "l2_kib", "256");
+    rtu::hw::set_timing_key(o.timing, "dram_banks", "8");
+    rtu::hw::set_timing_key(o.timing, "dram_channels", "2");
+    rtu::hw::set_timing_key(o.timing, "dram_activate_cycles", "20");
+    rtu::hw::set_timing_key(o.timing, "dram_precharge_cycles", "20");
+    std::vector<rtu::hw::TimingStats> runs;
+    for (int threads : {1, 2}) {
+      const auto chip = rtu::host::make_device(s.geometry, o);
+      std::vector<Hit> h(rays.size());
+      rtu::hw::TraversalStats st;
+      chip->trace_batch(rays.data(), h.data(), rays.size(), false, threads, st);
+      CHECK(std::memcmp(h.data(), hf.data(), h.size() * sizeof(Hit)) == 0);
+      CHECK(st.box_tests == sf.box_tests);
+      runs.push_back(chip->timed()->timing());
+      const auto& per_unit = chip->timed()->timing_by_unit();
+      REQUIRE(per_unit.size() == 4);
+      uint64_t unit_rays = 0;
+      for (const auto& u : per_unit) {
+        CHECK(u.rays == rays.size() / 4);  // both policies split 6000 rays evenly
+        CHECK(u.cycles == runs.back().cycles);
+        unit_rays += u.rays;
+      }
+      CHECK(unit_rays == rays.size());
+    }
+    check_same_timing(runs[0], runs[1]);
+    CHECK(runs[0].l2_hits > 0);
+    CHECK(runs[0].dram_row_hits > 0);
+  }
+}

@@ -8,6 +8,7 @@
 #include "hwmodel/dram_channel.h"
 #include "hwmodel/memory_system.h"
 #include "hwmodel/timing_config.h"
+#include "hwmodel/timing_model.h"
 #include "hwmodel/timing_stats.h"
 
 using rtu::hw::BankedDram;
@@ -152,4 +153,105 @@ TEST_CASE("memory keys: ranges and rules are checked, naming the key", "[memory]
   TimingConfig c;
   CHECK_NOTHROW(rtu::hw::set_timing_key(c, "l2_kib", "4096"));
   CHECK_NOTHROW(rtu::hw::set_timing_key(c, "dram_banks", "16"));
+}
+
+namespace {
+
+// A unit reduced to its memory path: no cache, one slot, no pipeline latencies but a 1-clock box unit; 64-byte
+// nodes, one line each; DRAM 100 cycles behind an 8-byte-per-clock channel (8 clocks per line).
+TimingConfig bare() {
+  TimingConfig c = rtu::hw::timing_preset("rdna2");
+  c.cache_kib = 0;
+  c.ray_slots = 1;
+  c.queue_depth = 1;
+  c.packet_latency = c.ray_fetch_latency = c.setup_latency = c.traversal_latency = c.writeback_latency = 0;
+  c.box_latency = 1;
+  c.dram_latency = 100;
+  c.dram_bytes_per_cycle = 8;
+  c.validate();
+  return c;
+}
+
+rtu::hw::TimingModel::Layout node_layout() {
+  rtu::hw::TimingModel::Layout l;
+  l.node_bytes = 64;
+  l.total_bytes = 64 * 16;
+  return l;
+}
+
+// One ray that fetches node `node` and tests its 4 children.
+std::vector<rtu::hw::TraceEvent> one_node(uint32_t node) {
+  return {rtu::hw::TraceEvent{rtu::hw::TraceEvent::kNode, 4, 0, 0, node}};
+}
+
+}  // namespace
+
+TEST_CASE("chip: two units contending for one DRAM channel, cycle by cycle", "[memory][chip]") {
+  using rtu::hw::TimingModel;
+  const TimingConfig c = bare();
+  // Alone: the line from 0 (8 clocks, then 100), the box test at 108 (1 clock), its hit written at 109.
+  {
+    TimingModel u(c, node_layout());
+    TimingStats s;
+    std::vector<std::vector<rtu::hw::TraceEvent>> ev = {one_node(0)};
+    u.begin(1, s);
+    u.feed(ev.data(), 1);
+    CHECK(u.finish() == 109);
+  }
+  // Two units on one memory, each fetching a line in the same clock: unit 0 first (ties go to the lower unit), so
+  // unit 1's line waits 8 clocks for the channel: 117 for the chip. The same two units on their own memories: 109.
+  for (bool shared : {true, false}) {
+    CAPTURE(shared);
+    MemorySystem mem(c);
+    TimingModel u0(c, node_layout(), shared ? &mem : nullptr, 0), u1(c, node_layout(), shared ? &mem : nullptr, 1);
+    std::vector<std::vector<rtu::hw::TraceEvent>> e0 = {one_node(0)}, e1 = {one_node(5)};
+    TimingStats s0, s1;
+    u0.begin(1, s0);
+    u1.begin(1, s1);
+    std::vector<TimingModel*> units = {&u0, &u1};
+    int gave = 0;
+    const uint64_t end = rtu::hw::run_units_in_step(units, 0, [&](size_t u) {
+      ++gave;
+      (u == 0 ? u0 : u1).add_rays(u == 0 ? e0.data() : e1.data(), 1);
+    });
+    CHECK(gave == 2);
+    CHECK(end == (shared ? 117u : 109u));
+    CHECK(u0.end_cycle() == 109);
+    CHECK(u1.end_cycle() == (shared ? 117u : 109u));
+    CHECK(s0.dram_bytes + s1.dram_bytes == 128);
+  }
+}
+
+TEST_CASE("chip: an L2 hit against a miss, cycle by cycle", "[memory][chip]") {
+  using rtu::hw::TimingModel;
+  TimingConfig c = bare();
+  // Two rays fetching the same node, one after the other (one slot).
+  std::vector<std::vector<rtu::hw::TraceEvent>> ev = {one_node(3), one_node(3)};
+  {
+    // Without an L2 both go to DRAM: ray 0 as above (its hit written at 109, the slot free at 110); ray 1 enters
+    // at 110, its line arrives at 110 + 108 = 218, the test takes a clock, its hit is written at 219.
+    TimingModel u(c, node_layout());
+    TimingStats s;
+    auto copy = ev;
+    u.begin(2, s);
+    u.feed(copy.data(), 2);
+    CHECK(u.finish() == 219);
+    CHECK(s.l2_hits + s.l2_misses == 0);
+  }
+  c.l2_kib = 1;  // 16 lines: one slice, one set of 16 ways
+  c.l2_slices = 1;
+  c.l2_ways = 16;
+  c.l2_latency = 20;
+  c.l2_bytes_per_cycle = 64;  // 1 clock per line
+  c.validate();
+  TimingModel u(c, node_layout());
+  TimingStats s;
+  auto copy = ev;
+  u.begin(2, s);
+  u.feed(copy.data(), 2);
+  // Ray 0 misses: the tag check until 20, DRAM from 20 (8 + 100): 128, the test, the hit at 129, the slot free at
+  // 130. Ray 1 enters at 130 and hits: 1 clock of port and 20 of latency: 151, the test, the hit at 152.
+  CHECK(u.finish() == 152);
+  CHECK(s.l2_misses == 1);
+  CHECK(s.l2_hits == 1);
 }

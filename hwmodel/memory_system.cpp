@@ -28,9 +28,12 @@ BankedDram::BankedDram(const TimingConfig& c)
 
 BankedDram::Place BankedDram::place(uint64_t addr) const {
   const uint64_t line = addr / m_line_bytes;
+  // The channel: the line number folded with two higher fields of its bits (XOR), as memory controllers hash
+  // addresses, so that strided streams (slots' stacks 4 KiB apart, rows of nodes) spread over the channels.
+  const uint64_t channel = (line ^ (line >> 6) ^ (line >> 12)) % m_channels;
   const uint64_t local = line / m_channels;  // the line's index within its channel
   const uint64_t row_index = local / m_lines_per_row;
-  return Place{uint32_t(line % m_channels), uint32_t(row_index % m_banks), row_index / m_banks};
+  return Place{uint32_t(channel), uint32_t(row_index % m_banks), row_index / m_banks};
 }
 
 uint64_t BankedDram::transfer(uint64_t addr, uint64_t bytes, uint64_t t, TimingStats& s) {

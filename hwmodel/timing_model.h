@@ -11,8 +11,8 @@
 // - ray slots: ray_slots rays in flight; a free slot takes the next ray (in order; lowest free slot first). Each
 //   slot has a stack of stack_entries; deeper pushes spill 8 bytes to DRAM (bandwidth only) and pops of spilled
 //   entries wait for a DRAM read (latency and bandwidth).
-// - memory: node, record and plane fetches go through the node cache (node_cache.h) into the DRAM channel
-//   (dram_channel.h). The image is taken to start at a line boundary. Ray and hit buffers stream through their
+// - memory: node, record and plane fetches go through the node cache (node_cache.h) into the memory behind it
+//   (memory_system.h: the DRAM channel of dram_channel.h, or an L2 and banked DRAM, shared by a chip's units). The image is taken to start at a line boundary. Ray and hit buffers stream through their
 //   own port: counted (stream_bytes), not in the DRAM channel.
 // - units: box_units box units, box_rate box tests per clock each: a node of c children issues for
 //   ceil(c / box_rate) clocks (at least one), its result comes box_latency after the first; or, with an RTL box
@@ -28,8 +28,7 @@
 //   figures.
 // Every request is served in the order of its cycle (ties by slot number), so the result does not depend on the
 // order in which the code evaluates components, and time jumps from event to event (idle cycles are skipped).
-// Left out: overlap of consecutive TRACE packets, DRAM banks and refresh, write-allocate of spills into the
-// cache, the area and energy of each unit.
+// Left out: overlap of consecutive TRACE packets, DRAM refresh, write-allocate of spills into the cache.
 #pragma once
 
 #include <array>

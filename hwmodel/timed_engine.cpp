@@ -118,6 +118,9 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
   if (chip() && k >= 2)
     throw std::invalid_argument("sampled timing is not available on a chip of several units (units = " +
                                 std::to_string(m_c.units) + "): trace without --sample");
+  if (chip() && m_trace)
+    throw std::invalid_argument("the pipeline trace is not available on a chip of several units (units = " +
+                                std::to_string(m_c.units) + ")");
   try {
     cycles = chip()   ? trace_cycles_chip(rays, hits, n, any_hit, s, ts)
              : k >= 2 ? trace_cycles_sampled(rays, hits, n, any_hit, s, ts, k, stream)

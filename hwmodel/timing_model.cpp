@@ -450,10 +450,16 @@ uint64_t run_units_in_step(const std::vector<TimingModel*>& units, uint64_t star
     std::pop_heap(heap.begin(), heap.end(), std::greater<>());
     const auto [t, u] = heap.back();
     TimingModel& unit = *units[u];
-    if (unit.starved())
+    if (unit.starved()) {
       give(u);  // its next action takes a ray: give it more, then let it act
-    else
-      unit.run_until(t);
+    } else {
+      // The unit acts until the next other unit's action: every cycle before it, and that cycle too when the
+      // other unit comes after it (ties go to the lower unit). The popped (t, u) is below the heap's front, so
+      // the limit is at least t.
+      uint64_t limit = TimingModel::kNever - 1;
+      if (heap.size() > 1) limit = heap.front().second < u ? heap.front().first - 1 : heap.front().first;
+      unit.run_until(limit);
+    }
     heap.back() = {unit.next_cycle(), u};
     std::push_heap(heap.begin(), heap.end(), std::greater<>());
   }

@@ -32,8 +32,8 @@ bench_need_count RAYS "$rays"
 bench_need_python
 bench_tmpdir
 chip=(--config rdna2 --set cache_kib=16 --set l2_kib=4096 --set l2_slices=16 --set l2_ways=16
-      --set l2_latency=100 --set l2_bytes_per_cycle=64 --set dram_bytes_per_cycle="$bw" --set dram_channels=16
-      --set dram_banks=16 --set dram_row_bytes=2048 --set dram_activate_cycles="${ROW_CYCLES:-28}" --set dram_precharge_cycles="${ROW_CYCLES:-28}"
+      --set l2_latency=100 --set l2_bytes_per_cycle=64 --set dram_bytes_per_cycle="$bw" --set dram_banks=16
+      --set dram_channels=16 --set dram_row_bytes=2048 --set dram_activate_cycles="${ROW_CYCLES:-28}" --set dram_precharge_cycles="${ROW_CYCLES:-28}"
       --set dram_latency=600 --set ray_policy="$policy")
 echo "| mesh | rays | units | cycles | rays/clock | speed-up | DRAM bytes/ray | L2 hit rate | row hit rate | DRAM utilization | limited by | knee (units) | sim rays/s vs 1 unit |"
 echo "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|"

@@ -268,7 +268,8 @@ void time_point(const Scene& scene, const hw::FixedFormat& format, const hw::Tim
   } catch (const std::invalid_argument&) {
     // A wide format: the RTL unit has no such datapath (no area).
   }
-  const hw::CostInputs cost = cost_inputs(format, timing, area, ActivityTable::shipped());
+  static const ActivityTable activity = ActivityTable::shipped();
+  const hw::CostInputs cost = cost_inputs(format, timing, area, activity);
   const hw::EnergyReport energy = hw::energy_report(stats, timing, cost);
   row.area_mm2 = energy.area.total_mm2;
   row.pj_per_ray = energy.pj_per_ray;

@@ -159,6 +159,10 @@ void TimingConfig::validate() const {
         fail("l2_kib = " + std::to_string(l2_kib) + ": not a whole number of sets in each of " +
              std::to_string(l2_slices) + " slices of l2_ways * line_bytes = " +
              std::to_string(static_cast<long long>(l2_ways) * line_bytes) + " bytes");
+    } else if (key == "dram_banks") {
+      // Channels are a property of the banked model: without banks the memory is the one channel.
+      if (dram_banks == 0 && dram_channels > 1)
+        fail("dram_channels = " + std::to_string(dram_channels) + " needs dram_banks > 0 (the banked DRAM model)");
     } else if (key == "dram_row_bytes") {
       if ((dram_row_bytes & (dram_row_bytes - 1)) != 0 || dram_row_bytes < line_bytes)
         fail("dram_row_bytes = " + std::to_string(dram_row_bytes) + " must be a power of two >= line_bytes (" +

@@ -88,8 +88,8 @@ struct TimingConfig {
   int l2_ways = 16;
   int l2_latency = 100;
   double l2_bytes_per_cycle = 64.0;
-  int dram_channels = 1;
-  int dram_banks = 0;  // 0: no bank model (one channel, no rows)
+  int dram_channels = 1;  // more than 1 needs dram_banks > 0
+  int dram_banks = 0;     // 0: no bank model (one channel, no rows)
   int dram_row_bytes = 2048;
   int dram_activate_cycles = 0;
   int dram_precharge_cycles = 0;

@@ -12,8 +12,9 @@
 //   slot has a stack of stack_entries; deeper pushes spill 8 bytes to DRAM (bandwidth only) and pops of spilled
 //   entries wait for a DRAM read (latency and bandwidth).
 // - memory: node, record and plane fetches go through the node cache (node_cache.h) into the memory behind it
-//   (memory_system.h: the DRAM channel of dram_channel.h, or an L2 and banked DRAM, shared by a chip's units). The image is taken to start at a line boundary. Ray and hit buffers stream through their
-//   own port: counted (stream_bytes), not in the DRAM channel.
+//   (memory_system.h: the DRAM channel of dram_channel.h, or an L2 and banked DRAM, shared by a chip's units). The
+//   image is taken to start at a line boundary. Ray and hit buffers stream through their own port: counted
+//   (stream_bytes), not in the DRAM channel.
 // - units: box_units box units, box_rate box tests per clock each: a node of c children issues for
 //   ceil(c / box_rate) clocks (at least one), its result comes box_latency after the first; or, with an RTL box
 //   unit attached, the clocks that unit reported for the node (box_unit.h). tri_units triangle units of tri_rate

@@ -115,8 +115,7 @@ const std::vector<ReportEntry>& report_table() {
              }),
       figure("utilization.dram", "1", "DRAM channel busy cycles / (cycles x channels)",
              [](const S& s, const C& c, const LowerBound&) -> Value {
-               const int channels = c.dram_banks > 0 ? c.dram_channels : 1;
-               return ratio(double(s.dram_busy_cycles), double(s.cycles) * channels);
+               return ratio(double(s.dram_busy_cycles), double(s.cycles) * c.dram_channels);
              }),
       figure("utilization.ray_slots", "1", "slot busy cycles / (cycles x ray_slots x units)",
              [](const S& s, const C& c, const LowerBound&) -> Value {

@@ -590,7 +590,7 @@ TEST_CASE("chip: several units give the fixed device's hits, and the same cycles
     rtu::hw::set_timing_key(o.timing, "units", "4");
     rtu::hw::set_timing_key(o.timing, "ray_policy", policy);
     rtu::hw::set_timing_key(o.timing, "l2_kib", "256");
-    rtu::hw::set_timing_key(o.timing, "dram_banks", "8");
+    rtu::hw::set_timing_key(o.timing, "dram_banks", "8");  // before the channels: they need banks
     rtu::hw::set_timing_key(o.timing, "dram_channels", "2");
     rtu::hw::set_timing_key(o.timing, "dram_activate_cycles", "20");
     rtu::hw::set_timing_key(o.timing, "dram_precharge_cycles", "20");

@@ -147,6 +147,7 @@ TEST_CASE("memory keys: ranges and rules are checked, naming the key", "[memory]
   };
   CHECK_THROWS_WITH(bad("l2_kib", "3"), Catch::Contains("l2_kib"));  // not a whole number of sets per slice
   CHECK_THROWS_WITH(bad("dram_channels", "0"), Catch::Contains("dram_channels"));
+  CHECK_THROWS_WITH(bad("dram_channels", "4"), Catch::Contains("needs dram_banks"));  // channels need banks
   CHECK_THROWS_WITH(bad("dram_row_bytes", "100"), Catch::Contains("dram_row_bytes"));
   CHECK_THROWS_WITH(bad("l2_bytes_per_cycle", "-1"), Catch::Contains("l2_bytes_per_cycle"));
   CHECK_THROWS_WITH(bad("dram_banks", "65"), Catch::Contains("dram_banks"));

@@ -23,6 +23,7 @@ BankedDram::BankedDram(const TimingConfig& c)
       m_lines_per_row(std::max<uint64_t>(1, uint64_t(c.dram_row_bytes) / uint64_t(c.line_bytes))),
       m_channels(uint32_t(std::max(1, c.dram_channels))),
       m_banks(uint32_t(std::max(1, c.dram_banks))),
+      m_rows(c.dram_banks > 0),
       m_bank(size_t(m_channels) * m_banks),
       m_bus_free(m_channels, 0) {}
 
@@ -40,7 +41,9 @@ uint64_t BankedDram::transfer(uint64_t addr, uint64_t bytes, uint64_t t, TimingS
   const Place p = place(addr);
   Bank& b = m_bank[size_t(p.channel) * m_banks + p.bank];
   uint64_t cmd = std::max(t, b.ready);
-  if (b.open_row == p.row) {
+  if (!m_rows) {
+    cmd = t;  // no rows: the bank is never the wait
+  } else if (b.open_row == p.row) {
     ++s.dram_row_hits;
   } else {
     ++s.dram_row_misses;
@@ -75,7 +78,11 @@ L2Cache::L2Cache(const TimingConfig& c)
 }
 
 MemorySystem::MemorySystem(const TimingConfig& c)
-    : m_line_bytes(uint64_t(c.line_bytes)), m_banked(c.dram_banks > 0), m_channel(c), m_dram(c), m_l2(c) {}
+    : m_line_bytes(uint64_t(c.line_bytes)),
+      m_banked(c.dram_banks > 0 || c.dram_channels > 1),
+      m_channel(c),
+      m_dram(c),
+      m_l2(c) {}
 
 uint64_t MemorySystem::dram_line(uint64_t line, uint64_t t, TimingStats& s) {
   return m_banked ? m_dram.transfer(line * m_line_bytes, m_line_bytes, t, s)

@@ -8,15 +8,16 @@
 //   max(request, port free). A hit's data is there l2_latency after its transfer ends (or when the line arrives,
 //   for a line still in flight); a miss asks DRAM for the line l2_latency after the access starts (the tag
 //   check) and the data is there when DRAM delivers it. Line fills only: stack spills and refills bypass the L2.
-// - DRAM with banks (dram_banks > 0): dram_channels channels, each with dram_banks banks and an open-page row
-//   buffer of dram_row_bytes. Lines are interleaved over the channels (channel = line XOR line >> 6 XOR line >>
-//   12, mod channels: consecutive lines alternate, strided streams spread); within a channel consecutive lines
-//   fill a row, and rows rotate over the banks. The channels share dram_bytes_per_cycle equally. An access to a
-//   bank whose open row is the line's is a row hit; to a bank with no open row it first activates the row
-//   (dram_activate_cycles); to a bank with another row open it precharges and activates (dram_precharge_cycles +
-//   dram_activate_cycles). The transfer then takes the channel's data bus for ceil(bytes / channel bandwidth)
-//   clocks from max(the bank's command, bus free), and the data is there dram_latency after the transfer ends, as
-//   on the single channel. A bank takes its next command when the previous one's transfer has started.
+// - DRAM with channels or banks (dram_channels > 1 or dram_banks > 0): dram_channels channels, each with
+//   dram_banks banks and an open-page row buffer of dram_row_bytes (dram_banks = 0: no rows, no activates). Lines
+//   are interleaved over the channels (channel = line XOR line >> 6 XOR line >> 12, mod channels: consecutive
+//   lines alternate, strided streams spread); within a channel consecutive lines fill a row, and rows rotate over
+//   the banks. The channels share dram_bytes_per_cycle equally. An access to a bank whose open row is the line's
+//   is a row hit; to a bank with no open row it first activates the row (dram_activate_cycles); to a bank with
+//   another row open it precharges and activates (dram_precharge_cycles + dram_activate_cycles). The transfer then
+//   takes the channel's data bus for ceil(bytes / channel bandwidth) clocks from max(the bank's command, bus
+//   free), and the data is there dram_latency after the transfer ends, as on the single channel. A bank takes its
+//   next command when the previous one's transfer has started.
 // Every request is served at its own cycle in the order the unit makes them (the unit's requests come in
 // cycle order), so the result is deterministic.
 // Left out: refresh, read/write turnaround, request reordering (FR-FCFS), bank groups, the L2's own MSHR limit.
@@ -32,7 +33,7 @@
 
 namespace rtu::hw {
 
-// DRAM with channels and open-page banks (dram_banks > 0).
+// DRAM with channels and open-page banks (dram_channels > 1 or dram_banks > 0; no rows without banks).
 class BankedDram {
  public:
   explicit BankedDram(const TimingConfig& c);
@@ -58,6 +59,7 @@ class BankedDram {
   double m_bytes_per_cycle;  // per channel
   uint64_t m_line_bytes, m_line_cycles, m_lines_per_row;
   uint32_t m_channels, m_banks;
+  bool m_rows;                       // dram_banks > 0: open-page rows
   std::vector<Bank> m_bank;          // channel * banks + bank
   std::vector<uint64_t> m_bus_free;  // per channel
 };
@@ -129,7 +131,7 @@ class MemorySystem {
   uint64_t m_line_bytes;
   bool m_banked;
   DramChannel m_channel;  // dram_banks = 0
-  BankedDram m_dram;      // dram_banks > 0
+  BankedDram m_dram;      // dram_channels > 1 or dram_banks > 0
   L2Cache m_l2;
 };
 

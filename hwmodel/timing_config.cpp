@@ -75,8 +75,9 @@ const std::vector<KeyInfo>& key_table() {
       {"l2_latency", &C::l2_latency, 0, kMaxLatency, "L2 latency in cycles (tag check to data)"},
       {"l2_bytes_per_cycle", &C::l2_bytes_per_cycle, 0, 65536,
        "bytes per clock of each L2 slice's port (0: unlimited)"},
-      {"dram_channels", &C::dram_channels, 1, 64, "DRAM channels sharing dram_bytes_per_cycle (with dram_banks)"},
-      {"dram_banks", &C::dram_banks, 0, 64, "open-page banks per DRAM channel (0: no bank model, one channel)"},
+      {"dram_channels", &C::dram_channels, 1, 64,
+       "DRAM channels sharing dram_bytes_per_cycle (lines interleaved)"},
+      {"dram_banks", &C::dram_banks, 0, 64, "open-page banks per DRAM channel (0: no row model)"},
       {"dram_row_bytes", &C::dram_row_bytes, 16, 65536, "DRAM row (page) bytes: a power of two >= line_bytes"},
       {"dram_activate_cycles", &C::dram_activate_cycles, 0, kMaxLatency, "cycles to open a DRAM row (tRCD)"},
       {"dram_precharge_cycles", &C::dram_precharge_cycles, 0, kMaxLatency, "cycles to close a DRAM row (tRP)"},
@@ -159,10 +160,6 @@ void TimingConfig::validate() const {
         fail("l2_kib = " + std::to_string(l2_kib) + ": not a whole number of sets in each of " +
              std::to_string(l2_slices) + " slices of l2_ways * line_bytes = " +
              std::to_string(static_cast<long long>(l2_ways) * line_bytes) + " bytes");
-    } else if (key == "dram_banks") {
-      // Channels are a property of the banked model: without banks the memory is the one channel.
-      if (dram_banks == 0 && dram_channels > 1)
-        fail("dram_channels = " + std::to_string(dram_channels) + " needs dram_banks > 0 (the banked DRAM model)");
     } else if (key == "dram_row_bytes") {
       if ((dram_row_bytes & (dram_row_bytes - 1)) != 0 || dram_row_bytes < line_bytes)
         fail("dram_row_bytes = " + std::to_string(dram_row_bytes) + " must be a power of two >= line_bytes (" +
@@ -213,8 +210,10 @@ void TimingConfig::validate() const {
 // intel: one RTU of an Xe core of Intel's Arc A-series (Xe-HPG, "Alchemist").
 //   - 12 box tests and 1 triangle test per clock per RTU, in two traversal pipelines, with a dedicated BVH cache:
 //     Intel's Arc ray-tracing architecture disclosure (Aug./Sep. 2022, "Intel Arc Graphics: ray tracing"; as
-//     reported e.g. by TechPowerUp, "Intel Details its Ray Tracing Architecture", 2022-09-01). Modelled as one box
-//     unit of rate 12, so a 6-wide node issues in one clock.
+//     reported e.g. by TechPowerUp, "Intel Details its Ray Tracing Architecture", 2022-09-01). Modelled as two box
+//     units of rate 6, one per traversal pipeline: each takes a 6-wide node a clock, so two rays' nodes give the
+//     12 tests of a clock (one unit of rate 12 would reach 12 only with 12-wide nodes, which Intel's BVH6 has
+//     not).
 //   - BVH6 of 64-byte nodes: Intel's hardware BVH is 6-wide with 64-byte internal nodes (Embree's GPU BVH
 //     layout, as Intel's ray-tracing disclosures describe it); format xe6: the default format's widths in
 //     bit-packed 6-wide nodes padded to 64 bytes, primitives in 40-byte records.
@@ -270,8 +269,34 @@ void TimingConfig::validate() const {
 //     Latency", 2021, on an RX 6800 XT and an RTX 3090) put an L2 hit alone about 66 ns past RDNA2's L0 and over
 //     100 ns past Ampere's L1, and VRAM, about equally far on both, well beyond the last cache level: hundreds of
 //     ns, here three times the 100 ns that rdna2 and intel take for everything behind their cache.
+// The chip presets, rdna2-chip, intel-chip and embedded-chip: the whole chip's units sharing its L2 and DRAM
+// (memory_system.h). Each unit is its -mem preset's (the datapath and the unit's small first-level cache); behind
+// the units, the chip's L2 and its DRAM channels with banks. A miss that also misses the L2 and opens a row costs
+// about the -mem preset's 300 ns: l2_latency + activate + transfer + dram_latency.
+//   - rdna2-chip, the RX 6900 XT (Navi 21): 80 units (above). L2: 4 MB in 16 channels of 64 bytes per clock each
+//     (AMD, "RDNA Architecture" whitepaper, 2019, for Navi 10's L2; Navi 21 keeps 4 MB, AMD RDNA2 specifications
+//     2020), 16 ways (whitepaper). L2 latency 130 cycles: about 66 ns past the L0 (Chips and Cheese, "Measuring
+//     GPU Memory Latency", 2021, RX 6800 XT). DRAM: 256-bit GDDR6 is 8 devices of 2 x16 channels = 16 channels,
+//     16 banks and 2 KB pages each (Micron MT61K256M32 8 Gb GDDR6 brief, 2018-2019), 512 GB/s = 256 bytes per
+//     clock at 2.0 GHz; tRCD = tRP = 26 clocks of 0.57 ns = 14.8 ns (Ramulator 2.0's GDDR6 timing preset, CMU
+//     SAFARI), 30 cycles at 2 GHz; dram_latency 440 = 600 - 130 - 30 (rounded). Not modelled: the 128 MB Infinity
+//     Cache, which by the same measurements adds about 20 ns to an L2 miss and holds any BVH here: with it, what
+//     this preset charges to DRAM would mostly be Infinity Cache hits (about 1.99 TB/s peak, AMD), so this preset
+//     is the chip without it, the bandwidth-bound end. `--set l2_kib=131072 --set l2_latency=170` approximates
+//     the Infinity Cache as the L2 instead.
+//   - intel-chip, the Arc A770 (ACM-G10): 32 units (above). L2: 16 MB (Intel, Arc A-series specifications,
+//     2022); its slices (16), ways (16), port width (64 bytes per clock) and latency (136 cycles, 65 ns at 2.1
+//     GHz, rdna2-chip's in ns) are our estimates, no figure being published. DRAM: 256-bit GDDR6 at 560 GB/s
+//     (above) = 266.67 bytes per clock at 2.1 GHz, 16 channels of 16 banks with 2 KB pages, tRCD = tRP = 14.8 ns =
+//     31 cycles (as rdna2-chip); dram_latency 460 = 630 - 136 - 31 (rounded).
+//   - embedded-chip: 4 embedded units, our choice for a small SoC GPU. DRAM: LPDDR5-6400 on 64 bits, 4 x16
+//     channels of 16 banks with 2 KB pages (JEDEC LPDDR5 organization as Ramulator 2.0's LPDDR5_8Gb_x16 preset
+//     has it), 51.2 GB/s = 51.2 bytes per clock at 1 GHz; tRCD = tRP = 15 clocks of 1.25 ns = 18.75 ns (Ramulator
+//     2.0's LPDDR5_6400 preset), 19 cycles. L2: 1 MiB in 4 slices of 32 bytes per clock, 16 ways, 30 cycles: our
+//     choices; dram_latency 70, so that a miss is the embedded unit's 100 ns plus the row.
 const std::vector<std::string>& timing_preset_names() {
-  static const std::vector<std::string> names = {"rdna2", "intel", "embedded", "rdna2-mem", "intel-mem"};
+  static const std::vector<std::string> names = {"rdna2",     "intel",      "embedded",   "rdna2-mem",
+                                                 "intel-mem", "rdna2-chip", "intel-chip", "embedded-chip"};
   return names;
 }
 
@@ -338,8 +363,8 @@ TimingConfig timing_preset(const std::string& name) {
     c.bvh_width = 6;
     c.clock_ghz = 2.1;
     c.ray_slots = 64;
-    c.box_units = 1;
-    c.box_rate = 12;
+    c.box_units = 2;
+    c.box_rate = 6;
     c.tri_units = 1;
     c.tri_rate = 1;
     c.cache_kib = 192;
@@ -403,6 +428,42 @@ TimingConfig timing_preset(const std::string& name) {
     c.cache_latency = 4;
     c.dram_latency = 630;
     c.dram_bytes_per_cycle = 8.33;
+  } else if (name == "rdna2-chip" || name == "intel-chip") {
+    // The unit of rdna2-mem or intel-mem; the chip's L2 and DRAM behind it (sources above).
+    const bool amd = name == "rdna2-chip";
+    c = timing_preset(amd ? "rdna2-mem" : "intel-mem");
+    c.name = name;
+    c.units = amd ? 80 : 32;
+    c.ray_policy = "round_robin";
+    c.l2_kib = amd ? 4096 : 16384;
+    c.l2_slices = 16;
+    c.l2_ways = 16;
+    c.l2_latency = amd ? 130 : 136;
+    c.l2_bytes_per_cycle = 64.0;
+    c.dram_channels = 16;
+    c.dram_banks = 16;
+    c.dram_row_bytes = 2048;
+    c.dram_activate_cycles = amd ? 30 : 31;
+    c.dram_precharge_cycles = amd ? 30 : 31;
+    c.dram_bytes_per_cycle = amd ? 256.0 : 266.67;
+    c.dram_latency = amd ? 440 : 460;
+  } else if (name == "embedded-chip") {
+    c = timing_preset("embedded");
+    c.name = name;
+    c.units = 4;
+    c.ray_policy = "round_robin";
+    c.l2_kib = 1024;
+    c.l2_slices = 4;
+    c.l2_ways = 16;
+    c.l2_latency = 30;
+    c.l2_bytes_per_cycle = 32.0;
+    c.dram_channels = 4;
+    c.dram_banks = 16;
+    c.dram_row_bytes = 2048;
+    c.dram_activate_cycles = 19;
+    c.dram_precharge_cycles = 19;
+    c.dram_bytes_per_cycle = 51.2;
+    c.dram_latency = 70;
   } else {
     std::string names;
     for (const std::string& n : timing_preset_names()) names += (names.empty() ? "" : ", ") + n;
@@ -426,6 +487,15 @@ std::string timing_preset_description(const std::string& name) {
   if (name == "intel-mem")
     return "intel's datapath with one Arc A770 RTU's memory: 8 KiB BVH cache, 300 ns and 8.33 bytes per clock "
            "(560 GB/s over 32 units) to VRAM";
+  if (name == "rdna2-chip")
+    return "an RX 6900 XT-class chip: 80 rdna2-mem units, a 4 MB L2 in 16 slices, 16 GDDR6 channels of 16 banks, "
+           "512 GB/s (no Infinity Cache)";
+  if (name == "intel-chip")
+    return "an Arc A770-class chip: 32 intel-mem units, a 16 MB L2 in 16 slices, 16 GDDR6 channels of 16 banks, "
+           "560 GB/s";
+  if (name == "embedded-chip")
+    return "a small SoC GPU: 4 embedded units, a 1 MiB L2, LPDDR5-6400 on 64 bits (4 channels of 16 banks), "
+           "51.2 GB/s";
   timing_preset(name);  // throws, listing the names
   return {};
 }

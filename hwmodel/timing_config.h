@@ -88,8 +88,8 @@ struct TimingConfig {
   int l2_ways = 16;
   int l2_latency = 100;
   double l2_bytes_per_cycle = 64.0;
-  int dram_channels = 1;  // more than 1 needs dram_banks > 0
-  int dram_banks = 0;     // 0: no bank model (one channel, no rows)
+  int dram_channels = 1;
+  int dram_banks = 0;  // 0: no bank model (no rows: every access as a row hit)
   int dram_row_bytes = 2048;
   int dram_activate_cycles = 0;
   int dram_precharge_cycles = 0;
@@ -114,11 +114,13 @@ struct TimingConfig {
 };
 
 // The presets: "rdna2" (resembling AMD RDNA2's ray accelerator: BVH4, 4 box tests or 1 triangle test per clock),
-// "intel" (resembling Intel's RTU: 6-wide nodes, 12 box tests and 1 triangle test per clock), "embedded" (a small
-// unit: BVH4, 16-bit coordinates (format compact), one box unit, a small cache), and the memory-bound
+// "intel" (resembling Intel's RTU: 6-wide nodes, 12 box tests (two units of 6) and 1 triangle test per
+// clock), "embedded" (a small unit: BVH4, 16-bit coordinates (format compact), one box unit, a small cache),
+// and the memory-bound
 // "rdna2-mem" and "intel-mem" (rdna2's and intel's datapath with one unit's share of a real GPU's memory: its
-// small first-level cache, VRAM latency and bandwidth / units). timing_config.cpp says where each figure comes
-// from.
+// small first-level cache, VRAM latency and bandwidth / units), and the chips "rdna2-chip" (80 rdna2-mem units,
+// a 4 MB L2, 16 GDDR6 channels), "intel-chip" (32 intel-mem units, a 16 MB L2, 16 GDDR6 channels) and
+// "embedded-chip" (4 embedded units, a 1 MiB L2, LPDDR5). timing_config.cpp says where each figure comes from.
 const std::vector<std::string>& timing_preset_names();
 // Throws std::invalid_argument for an unknown name (listing the known ones).
 TimingConfig timing_preset(const std::string& name);

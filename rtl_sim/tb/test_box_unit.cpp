@@ -101,7 +101,7 @@ TEST_CASE("box unit: the Verilated models carry the widths and latency the C++ p
   CHECK(p.lanes == 4);
   CHECK(box_unit_params(hw::timing_preset("embedded")).lanes == hw::timing_preset("embedded").box_rate);
   CHECK(box_unit_params(hw::timing_preset("intel")).n == 6);      // Intel's 6-wide BVH
-  CHECK(box_unit_params(hw::timing_preset("intel")).lanes == 6);  // box_rate 12 > N: one node per clock
+  CHECK(box_unit_params(hw::timing_preset("intel")).lanes == 6);  // box_rate 6 = N: one node per clock per unit
   // A wide format has no 64-bit path: refused, not silently mis-built.
   CHECK_THROWS_AS(box_unit_params(hw::format_preset("precise"), 4, 4, 6), std::invalid_argument);
 }

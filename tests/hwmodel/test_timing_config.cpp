@@ -35,8 +35,8 @@ std::string value_of(const TimingConfig& c, const std::string& key) {
 }  // namespace
 
 TEST_CASE("every timing preset validates and lists every key", "[timing][config]") {
-  REQUIRE(timing_preset_names() ==
-          std::vector<std::string>{"rdna2", "intel", "embedded", "rdna2-mem", "intel-mem"});
+  REQUIRE(timing_preset_names() == std::vector<std::string>{"rdna2", "intel", "embedded", "rdna2-mem", "intel-mem",
+                                                            "rdna2-chip", "intel-chip", "embedded-chip"});
   for (const std::string& name : timing_preset_names()) {
     INFO(name);
     const TimingConfig c = timing_preset(name);
@@ -70,7 +70,8 @@ TEST_CASE("timing presets differ where the hardware does", "[timing][config]") {
   CHECK(intel.bvh_width == 6);
   CHECK(intel.format == "xe6");  // 6-wide nodes of 64 bytes, as Intel's
   CHECK(format_preset(intel.format).width == intel.bvh_width);
-  CHECK(intel.box_rate == 12);
+  CHECK(intel.box_units * intel.box_rate == 12);  // Intel's 12 box tests per clock
+  CHECK(intel.box_rate == intel.bvh_width);       // each unit a 6-wide node per clock
   CHECK(intel.tri_rate == 1);
   CHECK(embedded.format == "compact");
   CHECK(embedded.bvh_width == 4);
@@ -119,6 +120,51 @@ TEST_CASE("memory-bound presets keep their base's datapath and take one unit's s
     CHECK(m.dram_latency > g.dram_latency);
     CHECK(m.dram_bytes_per_cycle < g.dram_bytes_per_cycle / 4);
   }
+}
+
+TEST_CASE("chip presets keep their unit's preset and take the chip's published memory", "[timing][config][chip]") {
+  // What a chip preset may change from its unit's: the chip keys and the DRAM latency behind the L2.
+  const std::vector<std::string> chip = {"units",
+                                         "ray_policy",
+                                         "l2_kib",
+                                         "l2_slices",
+                                         "l2_ways",
+                                         "l2_latency",
+                                         "l2_bytes_per_cycle",
+                                         "dram_channels",
+                                         "dram_banks",
+                                         "dram_row_bytes",
+                                         "dram_activate_cycles",
+                                         "dram_precharge_cycles",
+                                         "dram_bytes_per_cycle",
+                                         "dram_latency"};
+  for (const auto& [name, unit] : {std::pair<std::string, std::string>{"rdna2-chip", "rdna2-mem"},
+                                   {"intel-chip", "intel-mem"},
+                                   {"embedded-chip", "embedded"}}) {
+    INFO(name << " against " << unit);
+    const auto a = timing_keys(timing_preset(name)), b = timing_keys(timing_preset(unit));
+    REQUIRE(a.size() == b.size());
+    for (size_t i = 0; i < a.size(); ++i) {
+      INFO(a[i].key);
+      if (std::find(chip.begin(), chip.end(), a[i].key) == chip.end()) CHECK(a[i].value == b[i].value);
+    }
+  }
+  const TimingConfig r = timing_preset("rdna2-chip"), i = timing_preset("intel-chip"),
+                     e = timing_preset("embedded-chip");
+  CHECK(r.units == 80);  // Navi 21: 80 CUs, one Ray Accelerator each
+  CHECK(i.units == 32);  // ACM-G10: 32 Xe cores, one RTU each
+  CHECK(r.l2_kib == 4096);
+  CHECK(i.l2_kib == 16384);
+  CHECK(r.dram_bytes_per_cycle * r.clock_ghz == Approx(512.0));                  // GB/s
+  CHECK(i.dram_bytes_per_cycle * i.clock_ghz == Approx(560.0).epsilon(0.0001));  // 266.67 x 2.1
+  CHECK(e.dram_bytes_per_cycle * e.clock_ghz == Approx(51.2));                   // LPDDR5-6400 x64
+  // A miss through the L2 that opens a row costs about the -mem presets' 300 ns (the unit alone).
+  for (const TimingConfig* c : {&r, &i}) {
+    const double ns = (c->l2_latency + c->dram_activate_cycles + c->dram_latency) / c->clock_ghz;
+    CHECK(ns == Approx(300.0).epsilon(0.02));
+  }
+  // The shared DRAM over the units is the -mem preset's share (rdna2-mem: 3.2 bytes per clock per unit).
+  CHECK(r.dram_bytes_per_cycle / r.units == Approx(timing_preset("rdna2-mem").dram_bytes_per_cycle));
 }
 
 TEST_CASE("timing keys round-trip through their printed values", "[timing][config]") {

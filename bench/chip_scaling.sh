@@ -5,7 +5,7 @@
 #
 #   bench/chip_scaling.sh [RTUSIM] [RAYS] [MESH...]
 #     RTUSIM  default build/default/rtusim;  RAYS  rays per kind, default 40000;  MESH  default two
-#     assimp-testmodels meshes;  UNITS (environment) default "1 2 4 8 16 32 64 80";  POLICY default round_robin;
+#     assimp-testmodels meshes;  UNITS (environment) default "1 2 4 8 16 32 64 80";  POLICY default waves;
 #     BANDWIDTH, the chip's DRAM bytes per clock, default 256.
 # The chip: rdna2's unit with rdna2-mem's 16 KiB node cache; a 4 MiB L2 in 16 slices of 64 bytes per clock,
 # 100 cycles; DRAM of 16 channels sharing 256 bytes per clock (512 GB/s at 2 GHz, the RX 6900 XT's), 16 banks
@@ -23,7 +23,7 @@ if [ ${#meshes[@]} -eq 0 ]; then
   meshes=("$m/IFC/AC14-FZK-Haus.ifc" "$m/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb")
 fi
 read -r -a units <<<"${UNITS:-1 2 4 8 16 32 64 80}"
-policy=${POLICY:-round_robin}
+policy=${POLICY:-waves}
 bw=${BANDWIDTH:-256}  # DRAM bytes per clock of the chip
 name=chip_scaling.sh
 source "$(dirname "$0")/lib.sh"

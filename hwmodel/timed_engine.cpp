@@ -183,7 +183,9 @@ uint64_t TimedEngine::trace_cycles_chip(const Ray* rays, Hit* hits, size_t n, bo
   // The rays of each unit, in the order the unit takes them.
   std::vector<std::vector<uint32_t>> mine(U);
   for (size_t i = 0; i < n; ++i) {
-    const size_t u = m_c.ray_policy == "blocks" ? i * U / n : i % U;
+    const size_t u = m_c.ray_policy == "blocks"  ? i * U / n
+                     : m_c.ray_policy == "waves" ? (i / size_t(m_c.ray_slots)) % U
+                                                 : i % U;
     mine[u].push_back(uint32_t(i));
   }
   // Each unit records its rays a chunk at a time when it needs the next one (it has taken every ray given).

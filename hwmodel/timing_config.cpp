@@ -68,7 +68,8 @@ const std::vector<KeyInfo>& key_table() {
       {"dram_bytes_per_cycle", &C::dram_bytes_per_cycle, 0.001, 65536, "DRAM bandwidth in bytes per cycle"},
       {"units", &C::units, 1, 256, "ray-tracing units on the chip, sharing the L2 and DRAM (1: one unit)"},
       {"ray_policy", &C::ray_policy, 0, 0,
-       "how a packet's rays go to the units: round_robin (ray i to unit i mod units) or blocks (consecutive)"},
+       "how a packet's rays go to the units: waves (ray_slots consecutive rays to each unit in turn), round_robin "
+       "(ray i to unit i mod units) or blocks (the packet in units consecutive blocks)"},
       {"l2_kib", &C::l2_kib, 0, 1048576, "L2 behind the node cache in KiB (0: none; memory_system.h)"},
       {"l2_slices", &C::l2_slices, 1, 256, "L2 slices (a line's slice: line number mod slices)"},
       {"l2_ways", &C::l2_ways, 1, 64, "L2 associativity"},
@@ -152,8 +153,8 @@ void TimingConfig::validate() const {
     } else if (key == "tri_unit") {
       if (tri_unit != "cpp" && tri_unit != "rtl") fail("tri_unit = '" + tri_unit + "' must be cpp or rtl");
     } else if (key == "ray_policy") {
-      if (ray_policy != "round_robin" && ray_policy != "blocks")
-        fail("ray_policy = '" + ray_policy + "' must be round_robin or blocks");
+      if (ray_policy != "waves" && ray_policy != "round_robin" && ray_policy != "blocks")
+        fail("ray_policy = '" + ray_policy + "' must be waves, round_robin or blocks");
     } else if (key == "l2_kib") {
       const long long set_bytes = static_cast<long long>(l2_slices) * l2_ways * line_bytes;
       if (l2_kib > 0 && set_bytes > 0 && (static_cast<long long>(l2_kib) * 1024) % set_bytes != 0)
@@ -336,7 +337,7 @@ TimingConfig timing_preset(const std::string& name) {
     c.memory_type = "gddr6";  // the RX 6900 XT's VRAM
     // One unit's memory is one channel behind its cache (no L2, no banks): the chip presets add them.
     c.units = 1;
-    c.ray_policy = "round_robin";
+    c.ray_policy = "waves";
     c.l2_kib = 0;
     c.l2_slices = 4;
     c.l2_ways = 16;
@@ -434,7 +435,7 @@ TimingConfig timing_preset(const std::string& name) {
     c = timing_preset(amd ? "rdna2-mem" : "intel-mem");
     c.name = name;
     c.units = amd ? 80 : 32;
-    c.ray_policy = "round_robin";
+    c.ray_policy = "waves";
     c.l2_kib = amd ? 4096 : 16384;
     c.l2_slices = 16;
     c.l2_ways = 16;
@@ -451,7 +452,7 @@ TimingConfig timing_preset(const std::string& name) {
     c = timing_preset("embedded");
     c.name = name;
     c.units = 4;
-    c.ray_policy = "round_robin";
+    c.ray_policy = "waves";
     c.l2_kib = 1024;
     c.l2_slices = 4;
     c.l2_ways = 16;

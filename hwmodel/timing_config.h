@@ -73,11 +73,12 @@ struct TimingConfig {
   int dram_latency = 200;              // cycles from request to the first byte
   double dram_bytes_per_cycle = 64.0;  // bandwidth
   // A chip: `units` ray-tracing units, each with everything above (ray slots, box and triangle units, node cache),
-  // sharing the memory below (L2 and DRAM). A packet's rays go to the units by ray_policy: "round_robin" (ray i to
-  // unit i mod units) or "blocks" (the packet cut into `units` consecutive blocks, as screen bands for camera
-  // rays). units = 1 is the single unit.
+  // sharing the memory below (L2 and DRAM). A packet's rays go to the units by ray_policy: "waves" (ray_slots
+  // consecutive rays, a wave, to each unit in turn, as a GPU dispatches waves to its compute units), "round_robin"
+  // (ray i to unit i mod units) or "blocks" (the packet cut into `units` consecutive blocks, as screen bands for
+  // camera rays). units = 1 is the single unit.
   int units = 1;
-  std::string ray_policy = "round_robin";
+  std::string ray_policy = "waves";
   // The memory behind the node cache (memory_system.h). Without an L2 and without banks (the defaults) it is the
   // one DRAM channel above. An L2: l2_kib KiB in l2_slices slices (a line's slice: its line number modulo the
   // slices), l2_ways-way LRU, l2_latency cycles, l2_bytes_per_cycle per slice port (0: unlimited). DRAM banks:

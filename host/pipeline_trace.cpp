@@ -1,6 +1,8 @@
 #include "host/pipeline_trace.h"
 
 #include <charconv>
+#include <set>
+#include <utility>
 
 #include "host/error.h"
 #include "host/stats_json.h"
@@ -23,23 +25,53 @@ hw::PipelineTrace pipeline_trace_window(const std::string& window) {
   return trace;
 }
 
-void write_pipeline_trace(const std::string& path, const hw::PipelineTrace& trace) {
+void write_pipeline_trace(const std::string& path, const hw::PipelineTrace& trace,
+                          const hw::MemoryTimeline* timeline) {
+  // A process per unit (a track group in Perfetto), a thread per ray slot.
   Json events = Json::array();
   for (const hw::PipelineTrace::Span& s : trace.spans)
-    events.push_back(
-        {{"name", s.what}, {"ph", "X"}, {"ts", s.start}, {"dur", s.end - s.start}, {"pid", 0}, {"tid", s.slot}});
-  std::vector<bool> used;  // slots with a span, named once each
-  for (const hw::PipelineTrace::Span& s : trace.spans) {
-    if (s.slot >= used.size()) used.resize(size_t(s.slot) + 1, false);
-    used[s.slot] = true;
-  }
-  for (uint32_t k = 0; k < used.size(); ++k) {
-    if (!used[k]) continue;
+    events.push_back({{"name", s.what},
+                      {"ph", "X"},
+                      {"ts", s.start},
+                      {"dur", s.end - s.start},
+                      {"pid", s.unit},
+                      {"tid", s.slot}});
+  std::set<std::pair<uint32_t, uint32_t>> used;  // (unit, slot) with a span, named once each
+  for (const hw::PipelineTrace::Span& s : trace.spans) used.insert({s.unit, s.slot});
+  uint32_t last_unit = ~0u;
+  for (const auto& [unit, slot] : used) {
+    if (unit != last_unit)
+      events.push_back({{"name", "process_name"},
+                        {"ph", "M"},
+                        {"pid", unit},
+                        {"args", {{"name", "unit " + std::to_string(unit)}}}});
+    last_unit = unit;
     events.push_back({{"name", "thread_name"},
                       {"ph", "M"},
-                      {"pid", 0},
-                      {"tid", k},
-                      {"args", {{"name", "ray slot " + std::to_string(k)}}}});
+                      {"pid", unit},
+                      {"tid", slot},
+                      {"args", {{"name", "ray slot " + std::to_string(slot)}}}});
+  }
+  // The memory's bandwidth as counter tracks (bytes per cycle over each bin inside the window), in a process of
+  // its own after the units'.
+  if (timeline) {
+    const uint32_t pid = used.empty() ? 0 : used.rbegin()->first + 1;
+    events.push_back(
+        {{"name", "process_name"}, {"ph", "M"}, {"pid", pid}, {"args", {{"name", "memory (shared)"}}}});
+    const double bin = double(timeline->bin_cycles);
+    for (const auto& [name, series] :
+         {std::pair<const char*, const std::vector<uint64_t>*>{"DRAM bytes per cycle", &timeline->dram_bytes},
+          {"L2 bytes per cycle", &timeline->l2_bytes}}) {
+      for (size_t i = 0; i < series->size(); ++i) {
+        const uint64_t t = uint64_t(i) * timeline->bin_cycles;
+        if (t + timeline->bin_cycles <= trace.from || t >= trace.to) continue;
+        events.push_back({{"name", name},
+                          {"ph", "C"},
+                          {"ts", t},
+                          {"pid", pid},
+                          {"args", {{"bytes_per_cycle", double((*series)[i]) / bin}}}});
+      }
+    }
   }
   Json j;
   j["traceEvents"] = events;

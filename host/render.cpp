@@ -285,6 +285,8 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
     res.timing_by_type = te->timing_by_type();
     res.timing_by_bounce = te->timing_by_bounce();
     res.sampling = te->sampling();
+    res.timing_by_unit = te->timing_by_unit();
+    if (te->timeline()) res.timeline = *te->timeline();
     res.raster_cycles = hw::raster_cycles(raster_work(res.fw.raster), te->config());
     res.frame_cycles = res.raster_cycles.cycles + res.device_clock;
   }

@@ -56,6 +56,8 @@ struct RenderResult {
   std::array<hw::TimingStats, hw::cmd::kRayTypeCount> timing_by_type{};
   std::map<int, hw::TimingStats> timing_by_bounce;
   hw::SampleStats sampling;  // sampled timing (RenderOptions::device.sample): what was simulated
+  std::vector<hw::TimingStats> timing_by_unit;  // a chip's units (TimedEngine::timing_by_unit); empty for one unit
+  hw::MemoryTimeline timeline;                  // the memory's bytes over time (TimedEngine::timeline)
   // Hybrid mode on the timed device: the rasterizer's cycles from its cost model (raster_timing.h); the frame's
   // cycles are raster_cycles.cycles + device_clock (the raster passes and the unit's packets do not overlap).
   hw::RasterCycles raster_cycles;

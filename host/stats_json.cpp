@@ -5,6 +5,7 @@
 #include <charconv>
 #include <fstream>
 #include <map>
+#include <set>
 #include <variant>
 
 #include "host/cost_model.h"
@@ -175,10 +176,48 @@ Json timing_breakdown_json(const hw::TimingStats& total,
   return j;
 }
 
+// Per unit of a chip: what each unit did over the chip's cycles (its utilizations are of its own resources).
+Json units_json(const std::vector<hw::TimingStats>& by_unit, const hw::TimingConfig& c) {
+  static const std::set<std::string> keep = {"rays",
+                                             "box_tests",
+                                             "triangle_tests",
+                                             "utilization.box_units",
+                                             "utilization.triangle_units",
+                                             "utilization.ray_slots",
+                                             "cache.hit_rate",
+                                             "l2.hit_rate",
+                                             "dram_bytes",
+                                             "stack_spills"};
+  hw::TimingConfig one = c;
+  one.units = 1;
+  Json units = Json::array();
+  for (const hw::TimingStats& s : by_unit) {
+    Json u;
+    for (const hw::TimingStatValue& v : hw::timing_report(s, one)) {
+      const std::string key = v.key;
+      if (keep.count(key) == 0) continue;
+      const size_t dot = key.find('.');
+      Json& slot = dot == std::string::npos ? u[key] : u[key.substr(0, dot)][key.substr(dot + 1)];
+      std::visit([&](const auto& x) { slot = x; }, v.value);
+    }
+    units.push_back(u);
+  }
+  return units;
+}
+
+// The memory's bytes over time (memory_system.h); left out when a packet was sampled (the series would hold the
+// simulated rays' traffic at their simulated cycles, not the run's).
+void add_timeline(Json& j, const hw::MemoryTimeline* tl, const hw::SampleStats& sampling) {
+  if (!tl || sampling.packets_sampled > 0) return;
+  j["timeline"] = {{"bin_cycles", tl->bin_cycles}, {"dram_bytes", tl->dram_bytes}, {"l2_bytes", tl->l2_bytes}};
+}
+
 }  // namespace
 
 Json timed_json(const hw::TimedEngine& e) {
   Json j = timing_breakdown_json(e.timing(), e.timing_by_type(), e.timing_by_bounce(), e.config());
+  if (!e.timing_by_unit().empty()) j["units"] = units_json(e.timing_by_unit(), e.config());
+  add_timeline(j, e.timeline(), e.sampling());
   j["config"] = timing_json(e.config());
   j["sample"] = sample_json(e.sampling());
   return j;
@@ -288,6 +327,8 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
     t["fence_irqs"] = r.device.fence_irqs;
     t["last_irq_cycle"] = r.device.last_irq_cycle;
     t["sample"] = sample_json(r.sampling);
+    if (!r.timing_by_unit.empty()) t["units"] = units_json(r.timing_by_unit, o.device.timing);
+    add_timeline(t, &r.timeline, r.sampling);
     // The frame: the rasterizer's cycles (hybrid) and the unit's (every packet), which do not overlap.
     const hw::RasterCycles& rc = r.raster_cycles;
     t["raster"] = {{"cycles", rc.cycles},

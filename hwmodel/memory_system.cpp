@@ -77,33 +77,52 @@ L2Cache::L2Cache(const TimingConfig& c)
   m_port_free.assign(m_slices, 0);
 }
 
+void MemoryTimeline::add(std::vector<uint64_t>& series, uint64_t cycle, uint64_t bytes) {
+  uint64_t bin = cycle / bin_cycles;
+  while (bin >= kTimelineBins) {
+    // Coarsen both series together, so that their bins stay the same.
+    for (std::vector<uint64_t>* v : {&dram_bytes, &l2_bytes}) {
+      for (size_t i = 0; i < v->size(); ++i) (*v)[i / 2] = (i % 2 ? (*v)[i / 2] : 0) + (*v)[i];
+      v->resize((v->size() + 1) / 2);
+    }
+    bin_cycles *= 2;
+    bin = cycle / bin_cycles;
+  }
+  if (series.size() <= bin) series.resize(size_t(bin) + 1, 0);
+  series[size_t(bin)] += bytes;
+}
+
 MemorySystem::MemorySystem(const TimingConfig& c)
     : m_line_bytes(uint64_t(c.line_bytes)),
       m_banked(c.dram_banks > 0 || c.dram_channels > 1),
       m_channel(c),
       m_dram(c),
-      m_l2(c) {}
+      m_l2(c),
+      m_latency(uint64_t(c.dram_latency)) {}
+
+uint64_t MemorySystem::dram(uint64_t addr, uint64_t bytes, uint64_t t, TimingStats& s) {
+  const uint64_t ready = m_banked ? m_dram.transfer(addr, bytes, t, s) : m_channel.transfer(bytes, t, s);
+  m_timeline.add(m_timeline.dram_bytes, ready - m_latency, bytes);
+  return ready;
+}
 
 uint64_t MemorySystem::dram_line(uint64_t line, uint64_t t, TimingStats& s) {
-  return m_banked ? m_dram.transfer(line * m_line_bytes, m_line_bytes, t, s)
-                  : m_channel.transfer(m_line_bytes, t, s);
+  return dram(line * m_line_bytes, m_line_bytes, t, s);
 }
 
 uint64_t MemorySystem::read_line(uint64_t line, uint64_t t, TimingStats& s) {
   if (!m_l2.enabled()) return dram_line(line, t, s);
+  m_timeline.add(m_timeline.l2_bytes, t, m_line_bytes);
   return m_l2.access(
       line, t, [&](uint64_t l, uint64_t at) { return dram_line(l, at, s); }, s);
 }
 
 void MemorySystem::write_word(uint64_t addr, uint64_t t, TimingStats& s) {
-  if (m_banked)
-    m_dram.transfer(addr, 8, t, s);
-  else
-    m_channel.transfer(8, t, s);
+  dram(addr, 8, t, s);
 }
 
 uint64_t MemorySystem::read_word(uint64_t addr, uint64_t t, TimingStats& s) {
-  return m_banked ? m_dram.transfer(addr, 8, t, s) : m_channel.transfer(8, t, s);
+  return dram(addr, 8, t, s);
 }
 
 uint64_t MemorySystem::min_line_cycles() const {

@@ -112,6 +112,18 @@ uint64_t L2Cache::access(uint64_t line, uint64_t t, Dram&& dram, TimingStats& s)
   return victim->ready;
 }
 
+// Bytes moved over time: DRAM bytes by the cycle their transfer ends, L2 line accesses (hits and misses, a line
+// each) by the cycle they are asked for, in bins of bin_cycles from cycle 0 (the device's cycles since bind). The
+// bins start kTimelineBin wide and double (pairs merged) whenever a cycle falls beyond kTimelineBins bins, so the
+// series stays at most that long however long the run.
+struct MemoryTimeline {
+  static constexpr uint64_t kTimelineBin = 256;
+  static constexpr size_t kTimelineBins = 4096;
+  uint64_t bin_cycles = kTimelineBin;
+  std::vector<uint64_t> dram_bytes, l2_bytes;
+  void add(std::vector<uint64_t>& series, uint64_t cycle, uint64_t bytes);
+};
+
 // The memory behind one unit's node cache.
 class MemorySystem {
  public:
@@ -125,6 +137,7 @@ class MemorySystem {
   uint64_t min_line_cycles() const;
   uint64_t free_at() const;  // the cycle the DRAM is free for the next transfer (the watchdog's dump)
   bool simple() const { return !m_banked && !m_l2.enabled(); }
+  const MemoryTimeline& timeline() const { return m_timeline; }
 
  private:
   uint64_t dram_line(uint64_t line, uint64_t t, TimingStats& s);
@@ -133,6 +146,9 @@ class MemorySystem {
   DramChannel m_channel;  // dram_banks = 0
   BankedDram m_dram;      // dram_channels > 1 or dram_banks > 0
   L2Cache m_l2;
+  uint64_t m_latency;  // dram_latency: a transfer ends this long before its data is there
+  MemoryTimeline m_timeline;
+  uint64_t dram(uint64_t addr, uint64_t bytes, uint64_t t, TimingStats& s);  // one transfer, on the timeline
 };
 
 }  // namespace rtu::hw

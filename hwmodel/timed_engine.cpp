@@ -62,8 +62,10 @@ void TimedEngine::make_models() {
     return;
   }
   m_chip_memory = std::make_unique<MemorySystem>(m_c);
-  for (uint32_t u = 0; u < uint32_t(m_c.units); ++u)
+  for (uint32_t u = 0; u < uint32_t(m_c.units); ++u) {
     m_chip_units.push_back(std::make_unique<TimingModel>(m_c, l, m_chip_memory.get(), u));
+    m_chip_units.back()->set_trace(m_trace);
+  }
   m_unit_stats.assign(size_t(m_c.units), TimingStats{});
 }
 
@@ -118,9 +120,6 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
   if (chip() && k >= 2)
     throw std::invalid_argument("sampled timing is not available on a chip of several units (units = " +
                                 std::to_string(m_c.units) + "): trace without --sample");
-  if (chip() && m_trace)
-    throw std::invalid_argument("the pipeline trace is not available on a chip of several units (units = " +
-                                std::to_string(m_c.units) + ")");
   try {
     cycles = chip()   ? trace_cycles_chip(rays, hits, n, any_hit, s, ts)
              : k >= 2 ? trace_cycles_sampled(rays, hits, n, any_hit, s, ts, k, stream)

@@ -54,9 +54,16 @@ class TimedEngine final : public TraceEngine {
   void set_sampling(const SampleOptions& o);
   const SampleStats& sampling() const { return m_sample_stats; }
   // Record pipeline spans of cycles [from, to) (cycles since bind); the trace must outlive the engine's use.
+  // On a chip every unit records into it, each span naming its unit.
   void set_trace(PipelineTrace* trace) {
     m_trace = trace;
     if (m_model) m_model->set_trace(trace);
+    for (const auto& u : m_chip_units) u->set_trace(trace);
+  }
+  // The memory's bytes over time since bind (memory_system.h; null before bind). Under sampled timing it holds
+  // the simulated rays' traffic only, at their simulated cycles.
+  const MemoryTimeline* timeline() const {
+    return m_chip_memory ? &m_chip_memory->timeline() : m_model ? &m_model->memory().timeline() : nullptr;
   }
   // Timing statistics of every TRACE since bind, in total, by ray type and by bounce.
   const TimingStats& timing() const { return m_total; }

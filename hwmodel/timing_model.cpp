@@ -14,7 +14,8 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
       m_layout(layout),
       m_cache(c),
       m_own(shared ? nullptr : std::make_unique<MemorySystem>(c)),
-      m_mem(shared ? shared : m_own.get()) {
+      m_mem(shared ? shared : m_own.get()),
+      m_unit(unit) {
   // A stride of 0 is the item's size (packed): resolved once here, not per fetch.
   if (m_layout.node_stride == 0) m_layout.node_stride = m_layout.node_bytes;
   if (m_layout.record_stride == 0) m_layout.record_stride = kRecordBytes;
@@ -177,7 +178,7 @@ void TimingModel::admit(uint32_t k, uint64_t free_at) {
     if (m_watch_deadline == kNoDeadline) m_watch_deadline = enter + uint64_t(m_c.watchdog_cycles);
     m_age.push_back({enter, k});
   }
-  if (m_trace) m_trace->add(k, "setup", enter, enter + uint64_t(m_c.setup_latency));
+  if (m_trace) m_trace->add(m_unit, k, "setup", enter, enter + uint64_t(m_c.setup_latency));
   m_queue.push(enter + uint64_t(m_c.setup_latency), k);
   __builtin_prefetch(sl.ev.data());
 }
@@ -192,7 +193,7 @@ uint64_t TimingModel::refill(Slot& sl, uint32_t k, uint64_t t) {
   --sl.spilled;
   ++m_s->stack_refills;
   const uint64_t ready = m_mem->read_word(stack_addr(k, sl.spilled), t, *m_s);
-  if (m_trace) m_trace->add(k, "stack refill", t, ready);
+  if (m_trace) m_trace->add(m_unit, k, "stack refill", t, ready);
   return ready;
 }
 
@@ -203,7 +204,7 @@ uint64_t TimingModel::unit_request(const TraceEvent& e, uint32_t k, uint64_t t) 
     const uint64_t issue = e.unit_issue ? e.unit_issue : m_box_issue[e.count];
     const uint64_t latency = e.unit_issue ? uint64_t(e.unit_result) - issue + 1 : uint64_t(m_c.box_latency);
     done = unit(m_box_free, issue, latency, t);
-    if (m_trace) m_trace->add(k, "box", t, done);
+    if (m_trace) m_trace->add(m_unit, k, "box", t, done);
     m_s->box_tests += e.count;
     m_s->box_issue_cycles += issue;
     return done;
@@ -228,7 +229,7 @@ uint64_t TimingModel::unit_request(const TraceEvent& e, uint32_t k, uint64_t t) 
     ++m_s->plane_tests;
   }
   done = unit(m_tri_free, issue, lat, t);
-  if (m_trace) m_trace->add(k, what, t, done);
+  if (m_trace) m_trace->add(m_unit, k, what, t, done);
   m_s->tri_issue_cycles += issue;
   return done;
 }
@@ -288,7 +289,8 @@ void TimingModel::simulate(uint64_t limit) {
           m_done->push_back(st + uint64_t(m_c.writeback_latency));
           if (m_entered) m_entered->push_back(sl.entered);
         }
-        if (m_trace) m_trace->add(k, "write-back", st, st + 1);  // the slot hands its hit to the write-back pipe
+        if (m_trace)
+          m_trace->add(m_unit, k, "write-back", st, st + 1);  // the slot hands its hit to the write-back pipe
         m_s->stream_bytes += kHitBytesStream;
         m_s->slot_busy_cycles += st + 1 - sl.entered;
         m_free_slots.push_back({st + 1, k});
@@ -327,7 +329,8 @@ void TimingModel::simulate(uint64_t limit) {
         next_t = t;
         for_each_line<false>(
             e, [&](uint64_t line) { next_t = std::max(next_t, m_cache.access(line, t, *m_mem, *m_s)); });
-        if (m_trace) m_trace->add(k, e.kind == TraceEvent::kNode ? "node fetch" : "record fetch", t, next_t);
+        if (m_trace)
+          m_trace->add(m_unit, k, e.kind == TraceEvent::kNode ? "node fetch" : "record fetch", t, next_t);
         // The unit request at next_t. Requests reach the units in the order of (cycle, slot), and only they
         // touch the units' state, so a request may be served before its cycle if no request can come before it.
         // A fetch from now on is at t or later and takes at least m_min_fetch, so where this one took that long,

@@ -56,6 +56,7 @@ inline constexpr uint64_t kHitBytesStream = 16;  // a hit written to the hit buf
 // Spans of pipeline activity in a window of cycles, for a Chrome/Perfetto trace (one track per ray slot).
 struct PipelineTrace {
   struct Span {
+    uint32_t unit;  // the unit's index on a chip (0 for one unit)
     uint32_t slot;
     const char* what;  // "setup", "node fetch", "box", "record fetch", "triangle", "sphere", "plane",
                        // "stack refill", "write-back"
@@ -64,8 +65,8 @@ struct PipelineTrace {
   uint64_t from = 0, to = 0;  // window [from, to) in device cycles since bind
   size_t max_spans = 1000000;
   std::vector<Span> spans;
-  void add(uint32_t slot, const char* what, uint64_t start, uint64_t end) {
-    if (end > from && start < to && spans.size() < max_spans) spans.push_back(Span{slot, what, start, end});
+  void add(uint32_t unit, uint32_t slot, const char* what, uint64_t start, uint64_t end) {
+    if (end > from && start < to && spans.size() < max_spans) spans.push_back(Span{unit, slot, what, start, end});
   }
 };
 
@@ -142,6 +143,7 @@ class TimingModel {
   uint64_t clock() const { return m_base; }
   void advance_to(uint64_t cycle) { m_base = cycle > m_base ? cycle : m_base; }
   const Layout& layout() const { return m_layout; }
+  const MemorySystem& memory() const { return *m_mem; }  // the unit's own, or the chip's it shares
   // Off: every unit request waits for a wake-up of its slot at its own cycle, none is served at its fetch
   // (simulate()); the same cycles, slower. For tests.
   void set_early_requests(bool on) { m_early = on; }
@@ -183,6 +185,7 @@ class TimingModel {
   NodeCache m_cache;
   std::unique_ptr<MemorySystem> m_own;  // the unit's own memory (null on a chip)
   MemorySystem* m_mem;                  // what the node cache fills from
+  uint32_t m_unit = 0;                  // index on the chip (pipeline trace spans, stack addresses)
   uint64_t m_stack_base = 0;  // where slots spill their stacks: after the image, each slot kStackRegion bytes
   static constexpr uint64_t kStackRegion = 4096;
   int m_line_shift = 0;                     // log2(line_bytes)

@@ -61,6 +61,17 @@ void print_stats() {
   for (const EnergyKey& k : energy_json_keys())
     std::printf("%-30s %-12s %s\n", k.key.c_str(), k.unit.c_str(), k.description.c_str());
   std::printf(
+      "%-30s %-12s %s\n", "units", "-",
+      "a chip (units > 1), total only: per unit rays, box_tests, triangle_tests, utilization (box_units, "
+      "triangle_units, ray_slots: of the unit's own), cache.hit_rate, l2.hit_rate, dram_bytes, stack_spills");
+  std::printf("%-30s %-12s %s\n", "timeline.bin_cycles", "cycles",
+              "total only, not under sampled timing: the width of the memory timeline's bins (from cycle 0 since "
+              "bind; doubles to keep at most 4096 bins)");
+  std::printf("%-30s %-12s %s\n", "timeline.dram_bytes", "bytes",
+              "DRAM bytes per bin, by the cycle each transfer ends");
+  std::printf("%-30s %-12s %s\n", "timeline.l2_bytes", "bytes",
+              "L2 line accesses x line bytes per bin, by request cycle");
+  std::printf(
       "\n# the counters the timing model keeps (sampled timing: per-ray counters are scaled to the packet)\n");
   for (const hw::TimingCounter& c : hw::timing_counters())
     std::printf("%-30s %-12s %s%s\n", c.name, c.unit, c.description,

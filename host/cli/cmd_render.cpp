@@ -47,7 +47,7 @@ void run_render(const RenderArgs& a) {
   PipelineTraceArgs pt = a.pipeline;
   o.pipeline_trace = pt.make();
   const RenderResult r = render(scene, o);
-  if (r.timed) pt.write();
+  if (r.timed) pt.write(&r.timeline);
   write_png(a.out, to_image(r));
   print_render_summary(r, o);
   for (const std::string& w : render_warnings(r)) std::fprintf(stderr, "rtusim: warning: %s\n", w.c_str());

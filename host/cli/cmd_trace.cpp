@@ -60,7 +60,7 @@ void run_trace(const TraceOptions& o) {
                   (unsigned long long)ss.packets_sampled, (unsigned long long)ss.packets,
                   100.0 * double(ss.rays_simulated) / double(ss.rays), ss.ci95());
   }
-  if (device->timed()) pt.write();
+  if (device->timed()) pt.write(device->timed()->timeline());
 
   if (!o.stats.empty()) {
     Json j;

@@ -149,14 +149,16 @@ hw::PipelineTrace* PipelineTraceArgs::make() {
   return &trace;
 }
 
-void PipelineTraceArgs::write() const {
+void PipelineTraceArgs::write(const hw::MemoryTimeline* timeline) const {
   if (path.empty()) return;
-  write_pipeline_trace(path, trace);
+  write_pipeline_trace(path, trace, timeline);
 }
 
 void add_pipeline_trace_args(CLI::App& app, PipelineTraceArgs& a) {
-  app.add_option("--pipeline-trace", a.path,
-                 "timed device: write a Chrome/Perfetto trace (one track per ray slot) of --trace-window");
+  app.add_option(
+      "--pipeline-trace", a.path,
+      "timed device: write a Chrome/Perfetto trace (a track per ray slot, a group per unit, the memory's "
+      "bandwidth) of --trace-window");
   app.add_option("--trace-window", a.window,
                  "cycles FROM:TO of the pipeline trace (the timing model's cycles: TRACE packets back to back "
                  "since the scene was bound)")

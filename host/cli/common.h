@@ -60,7 +60,8 @@ struct PipelineTraceArgs {
   std::string path, window = "0:100000";
   // The trace to pass to the device (null when no path was given); throws Error on a malformed window.
   hw::PipelineTrace* make();
-  void write() const;  // Chrome/Perfetto JSON ("ts" and "dur" in cycles, shown as microseconds)
+  // Chrome/Perfetto JSON ("ts" and "dur" in cycles, shown as microseconds), with the memory's counter tracks.
+  void write(const hw::MemoryTimeline* timeline) const;
   hw::PipelineTrace trace;
 };
 void add_pipeline_trace_args(CLI::App& app, PipelineTraceArgs& a);

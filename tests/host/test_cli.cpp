@@ -571,6 +571,53 @@ TEST_CASE(
   CHECK(run_rtusim("plan --scene builtin:cornell --max-error 1e-3 --metric psnr").status != 0);
 }
 
+namespace {
+
+// What a pipeline trace file holds: spans (checked to overlap [from, to) and to be of a known kind), the units
+// (processes) and (unit, slot) tracks with spans, those named by metadata, and counter samples.
+struct PipelineFile {
+  size_t spans = 0, counters = 0;
+  std::set<uint64_t> units, named_units;
+  std::set<std::pair<uint64_t, uint64_t>> slots, named_slots;
+};
+
+PipelineFile read_pipeline(const std::string& path, uint64_t from, uint64_t to) {
+  const nlohmann::json p = read_json(path);
+  REQUIRE(p["traceEvents"].is_array());
+  PipelineFile f;
+  const std::set<std::string> kinds = {"setup",  "node fetch", "box",          "record fetch", "triangle",
+                                       "sphere", "plane",      "stack refill", "write-back"};
+  for (const auto& e : p["traceEvents"]) {
+    const uint64_t pid = e["pid"];
+    if (e["ph"] == "M") {
+      if (e["name"] == "process_name") {
+        f.named_units.insert(pid);
+      } else {
+        CHECK(e["name"] == "thread_name");
+        f.named_slots.insert({pid, e["tid"].get<uint64_t>()});
+      }
+      continue;
+    }
+    if (e["ph"] == "C") {
+      ++f.counters;
+      CHECK(e["args"]["bytes_per_cycle"].get<double>() >= 0.0);
+      continue;
+    }
+    REQUIRE(e["ph"] == "X");
+    ++f.spans;
+    const uint64_t ts = e["ts"], dur = e["dur"];
+    CHECK(ts < to);
+    CHECK(ts + dur > from);
+    CHECK(kinds.count(e["name"].get<std::string>()) == 1);
+    f.units.insert(pid);
+    f.slots.insert({pid, e["tid"].get<uint64_t>()});
+  }
+  CHECK(p["otherData"]["spans"] == f.spans);
+  return f;
+}
+
+}  // namespace
+
 TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the pipeline trace file",
           "[cli][timing]") {
   const fs::path d = temp_dir();
@@ -622,35 +669,63 @@ TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the 
     CHECK(list.output.find("\n" + leaf + " ") != std::string::npos);
   }
   CHECK(leaves.size() >= 30);
+  // The memory timeline: the DRAM bytes over time add up to the total.
+  uint64_t timeline_bytes = 0;
+  for (const auto& b : t["timeline"]["dram_bytes"]) timeline_bytes += b.get<uint64_t>();
+  CHECK(timeline_bytes == t["dram_bytes"].get<uint64_t>());
+  CHECK(t.count("units") == 0);  // one unit: no per-unit list
   // The pipeline trace: Chrome trace events, spans overlapping the window, every slot named.
-  const nlohmann::json p = read_json(pipe);
-  REQUIRE(p["traceEvents"].is_array());
-  std::set<uint64_t> slots, named;
-  size_t spans = 0;
-  const std::set<std::string> kinds = {"setup",  "node fetch", "box",          "record fetch", "triangle",
-                                       "sphere", "plane",      "stack refill", "write-back"};
-  for (const auto& e : p["traceEvents"]) {
-    if (e["ph"] == "M") {
-      CHECK(e["name"] == "thread_name");
-      named.insert(e["tid"].get<uint64_t>());
-      continue;
-    }
-    REQUIRE(e["ph"] == "X");
-    ++spans;
-    const uint64_t ts = e["ts"], dur = e["dur"];
-    CHECK(ts < 1100);
-    CHECK(ts + dur > 100);
-    CHECK(kinds.count(e["name"].get<std::string>()) == 1);
-    CHECK(e["tid"].get<uint64_t>() < 64);  // intel: 64 ray slots
-    slots.insert(e["tid"].get<uint64_t>());
-  }
-  CHECK(spans > 100);
-  CHECK(p["otherData"]["spans"] == spans);
-  CHECK(named == slots);
+  const PipelineFile p = read_pipeline(pipe, 100, 1100);
+  CHECK(p.spans > 100);
+  CHECK(p.units == std::set<uint64_t>{0});
+  CHECK(p.slots.rbegin()->second < 64);  // intel: 64 ray slots
+  CHECK(p.named_slots == p.slots);
+  CHECK(p.counters > 0);  // the memory's bandwidth tracks
   // A window that is not FROM < TO is refused.
   CHECK(run_rtusim("trace --scene builtin:seed --rays " + rays + " --out " + (d / "t.hits").string() +
                    " --device timed --pipeline-trace " + pipe + " --trace-window 9:9")
             .status == 2);
+}
+
+TEST_CASE("trace on a chip: per-unit statistics, the memory timeline, a pipeline track group per unit",
+          "[cli][timing][chip]") {
+  const fs::path d = temp_dir();
+  const std::string rays = (d / "c.rays").string(), stats = (d / "c.json").string(),
+                    pipe = (d / "c-pipe.json").string();
+  REQUIRE(run_rtusim("rays --scene builtin:seed --kind primary --count 3000 --out " + rays).status == 0);
+  const Run r = run_rtusim("trace --scene builtin:seed --rays " + rays + " --out " + (d / "c.hits").string() +
+                           " --device timed --config embedded-chip --stats " + stats + " --pipeline-trace " + pipe +
+                           " --trace-window 0:2000");
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  const nlohmann::json j = read_json(stats);
+  const auto& t = j["timing"];
+  // embedded-chip: 4 units; waves of 16 rays (the embedded unit's slots) in turn: 3000 rays are 187.5 waves.
+  REQUIRE(t["units"].size() == 4);
+  uint64_t rays_sum = 0, box_sum = 0;
+  for (const auto& u : t["units"]) {
+    rays_sum += u["rays"].get<uint64_t>();
+    box_sum += u["box_tests"].get<uint64_t>();
+    CHECK(u["utilization"]["box_units"].get<double>() > 0.0);
+    CHECK(u["utilization"]["box_units"].get<double>() <= 1.0);
+    CHECK(u["cache"]["hit_rate"].get<double>() > 0.0);
+  }
+  CHECK(rays_sum == 3000);
+  CHECK(box_sum == t["box_tests"].get<uint64_t>());
+  CHECK(t["units"][0]["rays"] == 47 * 16);
+  CHECK(t["units"][3]["rays"] == 46 * 16 + 8);
+  // The timeline: DRAM bytes and L2 line accesses add up to the totals.
+  uint64_t dram = 0, l2 = 0;
+  for (const auto& b : t["timeline"]["dram_bytes"]) dram += b.get<uint64_t>();
+  for (const auto& b : t["timeline"]["l2_bytes"]) l2 += b.get<uint64_t>();
+  CHECK(dram == t["dram_bytes"].get<uint64_t>());
+  CHECK(l2 == 64 * (t["l2"]["hits"].get<uint64_t>() + t["l2"]["misses"].get<uint64_t>()));
+  // The pipeline trace: a process per unit, each named, each with its slots' tracks; the memory's counters.
+  const PipelineFile p = read_pipeline(pipe, 0, 2000);
+  CHECK(p.units == std::set<uint64_t>{0, 1, 2, 3});
+  CHECK(p.named_units.size() == 5);  // four units and the memory
+  CHECK(p.named_slots == p.slots);
+  CHECK(p.counters > 0);
 }
 
 TEST_CASE("trace --sample: --sample-seed draws the sample, the same seed, the same estimate", "[cli][timing]") {

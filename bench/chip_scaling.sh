@@ -1,21 +1,22 @@
 #!/usr/bin/env bash
 # Cycles and rays per clock against the number of units of a chip (docs/timing-model.md, "A chip of units"):
-# per mesh and ray kind, a chip of 1 to 80 rdna2 units with a memory of RDNA2-class size shared by all, and the
-# knee where first principles put it: units at which DRAM bytes per ray x rays per clock reach the bandwidth.
+# per mesh and ray kind, a chip preset with 1 to all of its units, and the knee where first principles put it:
+# the units at which one unit's rays per clock x DRAM bytes per ray x units reach the DRAM bandwidth.
 #
 #   bench/chip_scaling.sh [RTUSIM] [RAYS] [MESH...]
-#     RTUSIM  default build/default/rtusim;  RAYS  rays per kind, default 40000;  MESH  default two
-#     assimp-testmodels meshes;  UNITS (environment) default "1 2 4 8 16 32 64 80";  POLICY default waves;
-#     BANDWIDTH, the chip's DRAM bytes per clock, default 256.
-# The chip: rdna2's unit with rdna2-mem's 16 KiB node cache; a 4 MiB L2 in 16 slices of 64 bytes per clock,
-# 100 cycles; DRAM of 16 channels sharing 256 bytes per clock (512 GB/s at 2 GHz, the RX 6900 XT's), 16 banks
-# of 2 KiB rows each, 28 cycles to activate and 28 to precharge a row, 600 cycles of latency (rdna2-mem's).
-# The L2 and row figures are estimates of the right order, not a vendor's. Each run: `rtusim trace --device timed
-# --threads 1`, one TRACE packet; also the simulator's speed (simulated rays per second on one host thread)
-# against the single unit's in the same run. Prints Markdown; reads the stats JSON with python3.
+#     RTUSIM  default build/default/rtusim;  RAYS  rays per kind, default 200000;  MESH  default two
+#     assimp-testmodels meshes.
+#   Environment: CHIP the chip preset (default rdna2-chip); UNITS default "1 2 4 8 16 32 64 80"; and overrides of
+#   the preset's keys: POLICY (ray_policy), BANDWIDTH (dram_bytes_per_cycle), ROW_CYCLES (activate and
+#   precharge cycles), SLOTS (ray_slots); PLOTS a directory for the plots (gnuplot, PNG): scaling.png (rays per
+#   clock against units, the knee marked), timeline.png (DRAM and L2 bytes per clock over the run at the largest
+#   unit count) and units.png (each unit's box utilization and cache hit rate there).
+# Each run: `rtusim trace --device timed --threads 1`, one TRACE packet; also the simulator's speed (simulated
+# rays per second on one host thread) against the single unit's in the same run. Prints Markdown; reads the stats
+# JSON with python3.
 set -euo pipefail
 rtusim=${1:-build/default/rtusim}
-rays=${2:-40000}
+rays=${2:-200000}
 shift $(( $# > 2 ? 2 : $# ))
 meshes=("$@")
 if [ ${#meshes[@]} -eq 0 ]; then
@@ -23,18 +24,24 @@ if [ ${#meshes[@]} -eq 0 ]; then
   meshes=("$m/IFC/AC14-FZK-Haus.ifc" "$m/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb")
 fi
 read -r -a units <<<"${UNITS:-1 2 4 8 16 32 64 80}"
-policy=${POLICY:-waves}
-bw=${BANDWIDTH:-256}  # DRAM bytes per clock of the chip
 name=chip_scaling.sh
 source "$(dirname "$0")/lib.sh"
 bench_need_rtusim "$rtusim"
 bench_need_count RAYS "$rays"
 bench_need_python
 bench_tmpdir
-chip=(--config rdna2 --set cache_kib=16 --set l2_kib=4096 --set l2_slices=16 --set l2_ways=16
-      --set l2_latency=100 --set l2_bytes_per_cycle=64 --set dram_bytes_per_cycle="$bw" --set dram_banks=16
-      --set dram_channels=16 --set dram_row_bytes=2048 --set dram_activate_cycles="${ROW_CYCLES:-28}" --set dram_precharge_cycles="${ROW_CYCLES:-28}"
-      --set dram_latency=600 --set ray_policy="$policy")
+plots=${PLOTS:-}
+if [ -n "$plots" ]; then
+  command -v gnuplot >/dev/null || { echo "$name: PLOTS needs gnuplot (apt-get install gnuplot-nox)" >&2; exit 2; }
+  mkdir -p "$plots"
+fi
+chip=(--config "${CHIP:-rdna2-chip}")
+[ -n "${POLICY:-}" ] && chip+=(--set ray_policy="$POLICY")
+[ -n "${BANDWIDTH:-}" ] && chip+=(--set dram_bytes_per_cycle="$BANDWIDTH")
+[ -n "${ROW_CYCLES:-}" ] && chip+=(--set dram_activate_cycles="$ROW_CYCLES" --set dram_precharge_cycles="$ROW_CYCLES")
+[ -n "${SLOTS:-}" ] && chip+=(--set ray_slots="$SLOTS")
+echo "chip: ${chip[*]}"
+echo
 echo "| mesh | rays | units | cycles | rays/clock | speed-up | DRAM bytes/ray | L2 hit rate | row hit rate | DRAM utilization | limited by | knee (units) | sim rays/s vs 1 unit |"
 echo "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|"
 for mesh in "${meshes[@]}"; do
@@ -45,15 +52,17 @@ for mesh in "${meshes[@]}"; do
       "$rtusim" trace --scene "$mesh" --rays "$tmp/$kind.bin" --out "$tmp/hits.bin" --device timed --threads 1 \
         "${chip[@]}" --set units="$u" --stats "$tmp/stats_$u.json" >/dev/null
     done
-    python3 - "$mesh" "$kind" "$tmp" "$bw" "${units[@]}" <<'PY'
+    python3 - "$mesh" "$kind" "$tmp" "$plots" "${units[@]}" <<'PY'
 import json, os, sys
-mesh, kind, tmp = sys.argv[1:4]
-bandwidth = float(sys.argv[4])  # bytes per clock, the chip's DRAM
+mesh, kind, tmp, plots = sys.argv[1:5]
 units = sys.argv[5:]
 first = None
+tag = f"{os.path.splitext(os.path.basename(mesh))[0]}-{kind}"
+curve = []
 for u in units:
     j = json.load(open(f"{tmp}/stats_{u}.json"))
     t = j["timing"]
+    bandwidth = t["config"]["dram_bytes_per_cycle"]
     rpc = t["rays_per_clock"]
     bpr = t["dram_bytes"] / t["rays"]
     speed = t["rays"] / j["trace_seconds"]
@@ -61,10 +70,68 @@ for u in units:
         first = (rpc, bpr, speed)
     # First principles: one unit's rays per clock times units, each ray moving its DRAM bytes, meets the bandwidth.
     knee = bandwidth / (first[0] * first[1]) if first[1] > 0 else float("inf")
+    curve.append((int(u), rpc, first[0] * int(u), bandwidth / bpr if bpr > 0 else float("inf")))
     print(f"| {os.path.basename(mesh)} | {kind} | {u} | {t['cycles']} | {rpc:.3f} | {rpc / first[0]:.1f}x | "
           f"{bpr:.0f} | {t['l2']['hit_rate']:.3f} | {t['dram_rows']['hit_rate']:.3f} | "
           f"{t['utilization']['dram']:.2f} | {t['lower_bound']['limited_by']} | {knee:.0f} | "
           f"{speed / first[2]:.2f} |")
+if plots:
+    # Data for the plots: the curve with its two first-principles lines, the largest run's timeline and units.
+    with open(f"{plots}/{tag}.scaling.dat", "w") as f:
+        f.write("# units rays_per_clock linear_from_one_unit bandwidth_over_bytes_per_ray\n")
+        for row in curve:
+            f.write(" ".join(str(x) for x in row) + "\n")
+    tl = t.get("timeline", {})
+    with open(f"{plots}/{tag}.timeline.dat", "w") as f:
+        f.write("# cycle dram_bytes_per_clock l2_bytes_per_clock\n")
+        b = tl.get("bin_cycles", 1)
+        d, l2 = tl.get("dram_bytes", []), tl.get("l2_bytes", [])
+        for i in range(max(len(d), len(l2))):
+            f.write(f"{i * b} {(d[i] if i < len(d) else 0) / b} {(l2[i] if i < len(l2) else 0) / b}\n")
+    with open(f"{plots}/{tag}.units.dat", "w") as f:
+        f.write("# unit box_utilization cache_hit_rate\n")
+        for i, un in enumerate(t.get("units", [])):
+            f.write(f"{i} {un['utilization']['box_units']} {un['cache']['hit_rate']}\n")
 PY
   done
 done
+if [ -n "$plots" ]; then
+  tags=()
+  for mesh in "${meshes[@]}"; do
+    b=$(basename "$mesh"); b=${b%.*}
+    tags+=("$b-primary" "$b-incoherent")
+  done
+  rows=${#meshes[@]}
+  {
+    echo "set terminal pngcairo size 1280,$((rows * 420)) font ',10'"
+    echo "set output '$plots/scaling.png'"
+    echo "set multiplot layout $rows,2 title 'rays per clock against units (${chip[*]})'"
+    echo "set logscale xy 2; set grid; set key top left; set xlabel 'units'; set ylabel 'rays per clock'"
+    for t in "${tags[@]}"; do
+      echo "set title '$t'"
+      echo "plot '$plots/$t.scaling.dat' u 1:2 w lp pt 7 t 'simulated', '' u 1:3 w l dt 2 t 'one unit x units', '' u 1:4 w l dt 3 t 'DRAM bandwidth / bytes per ray'"
+    done
+    echo "unset multiplot"
+    echo "unset logscale"
+    echo "set output '$plots/timeline.png'"
+    echo "set multiplot layout $rows,2 title 'memory bandwidth over the run, ${units[-1]} units'"
+    echo "set xlabel 'cycle'; set ylabel 'bytes per clock'"
+    for t in "${tags[@]}"; do
+      echo "set title '$t'"
+      echo "plot '$plots/$t.timeline.dat' u 1:2 w steps t 'DRAM', '' u 1:3 w steps t 'L2'"
+    done
+    echo "unset multiplot"
+    echo "set output '$plots/units.png'"
+    echo "set multiplot layout $rows,2 title 'per unit, ${units[-1]} units'"
+    echo "set xlabel 'unit'; set ylabel 'fraction'; set yrange [0:1]"
+    for t in "${tags[@]}"; do
+      echo "set title '$t'"
+      echo "plot '$plots/$t.units.dat' u 1:2 w p pt 7 t 'box unit utilization', '' u 1:3 w p pt 5 t 'cache hit rate'"
+    done
+    echo "unset multiplot"
+  } >"$tmp/plot.gp"
+  gnuplot "$tmp/plot.gp" 2>"$tmp/gnuplot.log" || { cat "$tmp/gnuplot.log" >&2; exit 1; }
+  rm -f "$plots"/*.dat
+  echo
+  echo "plots: $plots/scaling.png, $plots/timeline.png, $plots/units.png"
+fi

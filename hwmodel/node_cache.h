@@ -50,6 +50,12 @@ class NodeCache {
     return victim->ready;
   }
 
+  // Whether the line is in the cache (or on its way): an access to it now would hit. Changes nothing.
+  bool holds(uint64_t line) const {
+    if (m_lines.empty()) return false;
+    return find_way(&m_lines[set_of(line) * m_ways], line) >= 0;
+  }
+
   // Functional warming: the line is made the most recent of its set (brought in, ready at once, if absent).
   void warm(uint64_t line);
 

@@ -65,6 +65,7 @@ void TimedEngine::make_models() {
   for (uint32_t u = 0; u < uint32_t(m_c.units); ++u) {
     m_chip_units.push_back(std::make_unique<TimingModel>(m_c, l, m_chip_memory.get(), u));
     m_chip_units.back()->set_trace(m_trace);
+    m_chip_units.back()->set_run_ahead(m_run_ahead);
   }
   m_unit_stats.assign(size_t(m_c.units), TimingStats{});
 }

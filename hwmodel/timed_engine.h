@@ -71,6 +71,12 @@ class TimedEngine final : public TraceEngine {
   const std::map<int, TimingStats>& timing_by_bounce() const { return m_by_bounce; }
   // Per unit of a chip (units > 1): every TRACE since bind; empty for one unit.
   const std::vector<TimingStats>& timing_by_unit() const { return m_unit_stats; }
+  // Tests: a chip's units strictly in step, without running ahead of the next unit's action (TimingModel::
+  // run_until; the same cycles, a test checks).
+  void set_run_ahead(bool on) {
+    m_run_ahead = on;
+    for (const auto& u : m_chip_units) u->set_run_ahead(on);
+  }
   // Tests: run one unit through the chip's code path (the same cycles as the single unit's, a test checks).
   void set_force_chip(bool on) {
     m_force_chip = on;
@@ -112,6 +118,7 @@ class TimedEngine final : public TraceEngine {
   // True when a unit other than the C++ datapath is attached (the engine then traces on one thread).
   bool has_units() const { return m_box_unit || m_tri_unit; }
   bool m_force_chip = false;
+  bool m_run_ahead = true;
   bool chip() const { return m_c.units > 1 || m_force_chip; }
   SampleOptions m_sample;
   SampleStats m_sample_stats;

@@ -251,14 +251,37 @@ void TimingModel::serve_waiting() {
   m_queue.requeue(w, done + uint64_t(m_c.traversal_latency));
 }
 
-void TimingModel::simulate(uint64_t limit) {
+bool TimingModel::touches_memory(const Slot& sl) const {
+  if (sl.pos == sl.ev.size()) return false;  // the write-back
+  const TraceEvent& e = sl.ev[sl.pos];
+  const int SE = m_c.stack_entries;
+  switch (e.kind) {
+    case TraceEvent::kPush:
+      return sl.depth + int(e.count) > SE;
+    case TraceEvent::kPop:
+      return sl.depth > SE;
+    case TraceEvent::kSpill:
+      return e.count > 0;
+    case TraceEvent::kRefill:
+      return true;
+    default:
+      break;
+  }
+  if (sl.unit_phase) return false;  // the unit test: the data is there
+  bool miss = false;
+  for_each_line<false>(e, [&](uint64_t line) { miss |= !m_cache.holds(line); });
+  return miss;
+}
+
+void TimingModel::simulate(uint64_t limit, bool ahead) {
   const uint64_t SE = uint64_t(m_c.stack_entries);
   for (;;) {
-    // Free slots take the next rays, earliest free first (ties: lowest slot).
+    // Free slots take the next rays, earliest free first (ties: lowest slot). Taking a ray stays inside the unit
+    // (its ray fetch has its own port).
     while (!m_free_slots.empty() && m_next < m_n) {
       const auto [free_at, k] = m_free_slots.front();
       if (!m_queue.empty() && m_queue.top_cycle() < free_at) break;  // a busy slot acts first
-      if (free_at > limit) return;
+      if (free_at > limit && !ahead) return;
       if (m_next >= m_feed_first + m_feed_count) return;  // its ray is not fed yet
       std::pop_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
       m_free_slots.pop_back();
@@ -267,13 +290,15 @@ void TimingModel::simulate(uint64_t limit) {
     if (m_queue.empty()) return;
     // The earliest slot acts, until it knows its next cycle (replace_top: it waits again) or leaves (pop).
     const uint64_t t = m_queue.top_cycle();
-    if (t > limit) return;
+    if (t > limit && !ahead) return;
     const uint32_t k = m_queue.top_slot();
     if (t > m_watch_deadline) watchdog(t);
     Slot& sl = m_slots[k];
     uint64_t next_t = 0;
     bool waiting = false;
     while (!waiting) {
+      // Ahead of the limit, the slot stops (still first in the queue, at t) before an event that reaches memory.
+      if (t > limit && touches_memory(sl)) return;
       if (sl.pos == sl.ev.size()) {  // hit write-back; the slot is free the clock after
         const uint64_t st = std::max(t, m_wb_free);
         if (m_c.watchdog_cycles > 0 && st + 1 - sl.entered > uint64_t(m_c.watchdog_cycles))

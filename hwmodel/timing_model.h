@@ -106,7 +106,12 @@ class TimingModel {
   // (add rays first). end_packet(end) closes the packet at the chip's last cycle `end`.
   static constexpr uint64_t kNever = ~uint64_t(0);
   void add_rays(std::vector<TraceEvent>* events, size_t m);
-  void run_until(uint64_t limit) { simulate(limit); }
+  // run_until also takes actions past `limit` that stay inside the unit (cache hits, unit tests, write-backs),
+  // stopping before the first that reaches the shared memory (a miss, a stack spill or refill): the units'
+  // requests still reach the memory in the order of (cycle, unit), and the unit's own state is what it would be
+  // acting in step, so the cycles are the same; the units only change places less often.
+  void run_until(uint64_t limit) { simulate(limit, m_ahead); }
+  void set_run_ahead(bool on) { m_ahead = on; }  // off: strictly in step (the same cycles, slower; for tests)
   uint64_t next_cycle() const;
   bool starved() const;
   uint64_t end_cycle() const { return m_end; }
@@ -163,8 +168,12 @@ class TimingModel {
   void watchdog(uint64_t t);
   [[noreturn]] void fire(uint32_t k, uint64_t cycle);
   void admit(uint32_t k, uint64_t free_at);
-  // Until done, until a free slot needs a ray not fed yet, or until the next action is after `limit`.
-  void simulate(uint64_t limit = kNever);
+  // Until done, until a free slot needs a ray not fed yet, or until the next action is after `limit` (`ahead`:
+  // the next action after `limit` that touches the shared memory).
+  void simulate(uint64_t limit = kNever, bool ahead = false);
+  // Whether slot sl's next event reaches the memory behind the node cache (a line the cache does not hold, a
+  // stack entry beyond the short stack).
+  bool touches_memory(const Slot& sl) const;
   // The unit request of event e of slot k at cycle t: when its result is there.
   uint64_t unit_request(const TraceEvent& e, uint32_t k, uint64_t t);
   void serve_waiting();    // serves the earliest waiting request now (its slot wakes after the result)
@@ -197,6 +206,7 @@ class TimingModel {
   std::vector<uint64_t> m_waiting;
   uint64_t m_min_fetch = 0;
   bool m_early = true;
+  bool m_ahead = true;
   uint64_t m_base = 0;  // cycle the current packet started (resources carry absolute cycles)
 
   PipelineTrace* m_trace = nullptr;

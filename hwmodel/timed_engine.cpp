@@ -2,10 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <condition_variable>
+#include <deque>
 #include <functional>
 #include <future>
+#include <mutex>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 #include "hwmodel/batch.h"
 #include "hwmodel/regs.h"
@@ -188,27 +192,108 @@ uint64_t TimedEngine::trace_cycles_chip(const Ray* rays, Hit* hits, size_t n, bo
                                                  : i % U;
     mine[u].push_back(uint32_t(i));
   }
-  // Each unit records its rays a chunk at a time when it needs the next one (it has taken every ray given).
+  // Each unit takes its rays a chunk at a time when it needs the next one (it has taken every ray given). A chunk
+  // is recorded (traced by the datapath) into a unit's spare buffer: on a worker thread, in the order the units
+  // will ask, while the model runs (with more than one host thread and no attached RTL unit), or when asked.
+  // Either way each ray's events, hits and statistics are the same, and so is every cycle.
   const size_t chunk = std::max<size_t>(256, 2 * size_t(m_c.ray_slots));
-  std::vector<std::vector<std::vector<TraceEvent>>> events(U);
-  std::vector<size_t> next(U, 0);
+  struct Chunk {
+    std::vector<std::vector<TraceEvent>> events;
+    std::vector<Ray> rays;
+    std::vector<Hit> hits;
+    TraversalStats stats;
+    size_t first = 0, count = 0;  // its rays: mine[u][first, first + count)
+    std::exception_ptr error;
+  };
+  std::vector<Chunk> given(U), spare(U);
+  std::vector<size_t> next(U, 0);  // the first ray of unit u not yet in a chunk
   std::vector<TimingStats> packet(U);
-  std::vector<Ray> batch;
-  std::vector<Hit> batch_hits;
+  auto fill = [&](size_t u, Chunk& c) {  // the next chunk of unit u's rays, recorded into c
+    c.first = next[u];
+    c.count = std::min(chunk, mine[u].size() - next[u]);
+    next[u] += c.count;
+    c.rays.resize(c.count);
+    c.hits.resize(c.count);
+    for (size_t j = 0; j < c.count; ++j) c.rays[j] = rays[mine[u][c.first + j]];
+    c.events.resize(std::max(c.events.size(), c.count));
+    c.stats = TraversalStats{};
+    c.error = nullptr;
+    try {
+      TimedEngine::record(c.rays.data(), c.hits.data(), 0, c.count, any_hit, c.stats, c.events);
+    } catch (...) {
+      c.error = std::current_exception();
+    }
+  };
+  // The worker: fills spare[u] for the units in `jobs`, in order; done[u] once spare[u] holds the chunk.
+  const bool background = m_opt.threads != 1 && !has_units() && U > 0;
+  std::mutex mutex;
+  std::condition_variable cv;
+  std::deque<size_t> jobs;
+  std::vector<uint8_t> done(U, 0);
+  bool stop = false;
+  std::thread worker;
+  auto enqueue = [&](size_t u) {
+    if (next[u] >= mine[u].size()) return;  // no rays left for it
+    {
+      const std::lock_guard<std::mutex> lock(mutex);
+      done[u] = 0;
+      jobs.push_back(u);
+    }
+    cv.notify_all();
+  };
+  struct Joiner {  // stops and joins the worker however this function ends (it uses this frame's buffers)
+    std::mutex& m;
+    std::condition_variable& cv;
+    bool& stop;
+    std::thread& t;
+    ~Joiner() {
+      {
+        const std::lock_guard<std::mutex> lock(m);
+        stop = true;
+      }
+      cv.notify_all();
+      if (t.joinable()) t.join();
+    }
+  } joiner{mutex, cv, stop, worker};
+  if (background) {
+    worker = std::thread([&] {
+      for (;;) {
+        size_t u;
+        {
+          std::unique_lock<std::mutex> lock(mutex);
+          cv.wait(lock, [&] { return stop || !jobs.empty(); });
+          if (stop) return;
+          u = jobs.front();
+          jobs.pop_front();
+        }
+        fill(u, spare[u]);
+        {
+          const std::lock_guard<std::mutex> lock(mutex);
+          done[u] = 1;
+        }
+        cv.notify_all();
+      }
+    });
+    for (size_t u = 0; u < U; ++u) enqueue(u);
+  }
   auto give = [&](size_t u) {
-    const size_t m = std::min(chunk, mine[u].size() - next[u]);
-    batch.resize(m);
-    batch_hits.resize(m);
-    for (size_t j = 0; j < m; ++j) batch[j] = rays[mine[u][next[u] + j]];
-    events[u].resize(std::max(events[u].size(), m));
-    TraversalStats local;
-    record(batch.data(), batch_hits.data(), 0, m, any_hit, local, events[u]);
-    if (local.first_invalid != UINT64_MAX) local.first_invalid = mine[u][next[u] + local.first_invalid];
-    s.add(local);
+    Chunk& c = given[u];
+    if (background) {
+      {
+        std::unique_lock<std::mutex> lock(mutex);
+        cv.wait(lock, [&] { return done[u] != 0; });
+      }
+      std::swap(c, spare[u]);
+      enqueue(u);  // the chunk after it, while the model runs this one
+    } else {
+      fill(u, c);
+    }
+    if (c.error) std::rethrow_exception(c.error);
+    if (c.stats.first_invalid != UINT64_MAX) c.stats.first_invalid = mine[u][c.first + c.stats.first_invalid];
+    s.add(c.stats);
     if (hits)
-      for (size_t j = 0; j < m; ++j) hits[mine[u][next[u] + j]] = batch_hits[j];
-    next[u] += m;
-    m_chip_units[u]->add_rays(events[u].data(), m);
+      for (size_t j = 0; j < c.count; ++j) hits[mine[u][c.first + j]] = c.hits[j];
+    m_chip_units[u]->add_rays(c.events.data(), c.count);
   };
   // Every unit starts the packet at the chip's clock; they act in the order of (cycle, unit).
   uint64_t base = 0;

@@ -104,6 +104,7 @@ if [ -n "$plots" ]; then
   rows=${#meshes[@]}
   {
     echo "set terminal pngcairo size 1280,$((rows * 420)) font ',10'"
+    echo "set termoption noenhanced"
     echo "set output '$plots/scaling.png'"
     echo "set multiplot layout $rows,2 title 'rays per clock against units (${chip[*]})'"
     echo "set logscale xy 2; set grid; set key top left; set xlabel 'units'; set ylabel 'rays per clock'"

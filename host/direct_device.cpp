@@ -26,6 +26,25 @@ class FloatDevice final : public DirectDevice {
   hw::FloatTracer m_tracer;
 };
 
+// The float reference over two levels.
+class InstancedFloatDevice final : public DirectDevice {
+ public:
+  InstancedFloatDevice(const hw::Geometry& g, const DeviceOptions& o) : m_tracer(*o.instances, g, o.tracer) {}
+  hw::DeviceKind kind() const override { return hw::DeviceKind::kFloat; }
+  void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
+                   hw::TraversalStats& s) const override {
+    m_tracer.trace_batch(rays, hits, n, any_hit, threads, s);
+  }
+  hw::RayStatus ray_status(const hw::Ray& r) const override { return hw::validate_ray(r); }
+  const hw::Bvh* bvh() const override { return &m_tracer.top(); }
+  double bvh_cost() const override { return m_tracer.top().figures().sah_cost; }
+  double brute_cost() const override { return 0.0; }
+  uint64_t prim_bytes() const override { return m_tracer.bytes() - m_tracer.top().figures().node_bytes; }
+
+ private:
+  hw::InstancedFloatTracer m_tracer;
+};
+
 // What the fixed and timed devices share: the float BVH (for figures; the datapath reads only the image), the
 // encoded image, and a fixed tracer over it.
 class ImageDevice : public DirectDevice {
@@ -100,6 +119,7 @@ std::unique_ptr<DirectDevice> make_device(const hw::Geometry& g, const DeviceOpt
   opt.tracer.bvh.width = o.format.width;
   switch (o.kind) {
     case hw::DeviceKind::kFloat:
+      if (o.instances && !o.instances->instances.empty()) return std::make_unique<InstancedFloatDevice>(g, opt);
       return std::make_unique<FloatDevice>(g, opt);
     case hw::DeviceKind::kFixed:
       o.format.validate();

@@ -16,6 +16,7 @@
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
+#include "hwmodel/instancing.h"
 #include "hwmodel/timed_engine.h"
 #include "hwmodel/timing_config.h"
 
@@ -29,6 +30,9 @@ struct DeviceOptions {
   hw::TimingConfig timing;   // timed: the unit's configuration (its format and width are in `format`)
   hw::SampleOptions sample;  // timed: sampled timing (fraction 0: every ray simulated)
   uint64_t max_steps = 0;    // fixed, timed: traversal watchdog, node and leaf visits per ray (0: automatic)
+  // The scene's two levels (Scene::instances), or null. The float device traces them (the geometry passed to
+  // make_device must then be their flattened form); fixed and timed trace the flattened geometry.
+  const hw::InstanceSet* instances = nullptr;
 };
 
 class DirectDevice {

@@ -5,13 +5,12 @@
 
 namespace rtu::oracle {
 
-EmbreeScene::EmbreeScene(const hw::Geometry& g, const char* config, RTCMemoryMonitorFunction monitor) : m_geom(g) {
-  m_device = rtcNewDevice(config);
-  if (!m_device) throw std::runtime_error("embree: rtcNewDevice failed");
-  if (monitor) rtcSetDeviceMemoryMonitorFunction(m_device, monitor, nullptr);
-  m_scene = rtcNewScene(m_device);
+namespace {
+
+// Attaches g's triangles and spheres to `scene`; their geometry ids in tri_geom and sphere_geom.
+void attach(RTCDevice device, RTCScene scene, const hw::Geometry& g, unsigned& tri_geom, unsigned& sphere_geom) {
   if (!g.triangles.empty()) {
-    RTCGeometry geom = rtcNewGeometry(m_device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
     const size_t n = g.triangles.size();
     auto* v = static_cast<float*>(
         rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3 * n));
@@ -26,11 +25,11 @@ EmbreeScene::EmbreeScene(const hw::Geometry& g, const char* config, RTCMemoryMon
       }
     }
     rtcCommitGeometry(geom);
-    m_tri_geom = rtcAttachGeometry(m_scene, geom);
+    tri_geom = rtcAttachGeometry(scene, geom);
     rtcReleaseGeometry(geom);
   }
   if (!g.spheres.empty()) {
-    RTCGeometry geom = rtcNewGeometry(m_device, RTC_GEOMETRY_TYPE_SPHERE_POINT);
+    RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_SPHERE_POINT);
     auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4,
                                                           4 * sizeof(float), g.spheres.size()));
     for (size_t i = 0; i < g.spheres.size(); ++i) {
@@ -40,7 +39,43 @@ EmbreeScene::EmbreeScene(const hw::Geometry& g, const char* config, RTCMemoryMon
       v[4 * i + 3] = g.spheres[i].radius;
     }
     rtcCommitGeometry(geom);
-    m_sphere_geom = rtcAttachGeometry(m_scene, geom);
+    sphere_geom = rtcAttachGeometry(scene, geom);
+    rtcReleaseGeometry(geom);
+  }
+}
+
+}  // namespace
+
+EmbreeScene::EmbreeScene(const hw::Geometry& g, const char* config, RTCMemoryMonitorFunction monitor) : m_geom(g) {
+  m_device = rtcNewDevice(config);
+  if (!m_device) throw std::runtime_error("embree: rtcNewDevice failed");
+  if (monitor) rtcSetDeviceMemoryMonitorFunction(m_device, monitor, nullptr);
+  m_scene = rtcNewScene(m_device);
+  attach(m_device, m_scene, g, m_tri_geom, m_sphere_geom);
+  rtcCommitScene(m_scene);
+  if (rtcGetDeviceError(m_device) != RTC_ERROR_NONE) throw std::runtime_error("embree: scene build failed");
+}
+
+EmbreeScene::EmbreeScene(const hw::InstanceSet& set, const hw::Geometry& flat, const char* config)
+    : m_geom(flat), m_set(&set) {
+  m_device = rtcNewDevice(config);
+  if (!m_device) throw std::runtime_error("embree: rtcNewDevice failed");
+  m_scene = rtcNewScene(m_device);
+  for (const hw::Geometry& g : set.meshes) {
+    Mesh m;
+    m.scene = rtcNewScene(m_device);
+    attach(m_device, m.scene, g, m.tri_geom, m.sphere_geom);
+    rtcCommitScene(m.scene);
+    m_meshes.push_back(m);
+  }
+  for (size_t i = 0; i < set.instances.size(); ++i) {
+    const hw::Instance& in = set.instances[i];
+    if (set.meshes[in.mesh].num_bounded() == 0) continue;
+    RTCGeometry geom = rtcNewGeometry(m_device, RTC_GEOMETRY_TYPE_INSTANCE);
+    rtcSetGeometryInstancedScene(geom, m_meshes[in.mesh].scene);
+    rtcSetGeometryTransform(geom, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, &in.to_world.m[0][0]);
+    rtcCommitGeometry(geom);
+    rtcAttachGeometryByID(m_scene, geom, unsigned(i));  // the instance id is the instance index
     rtcReleaseGeometry(geom);
   }
   rtcCommitScene(m_scene);
@@ -49,6 +84,7 @@ EmbreeScene::EmbreeScene(const hw::Geometry& g, const char* config, RTCMemoryMon
 
 EmbreeScene::~EmbreeScene() {
   rtcReleaseScene(m_scene);
+  for (const Mesh& m : m_meshes) rtcReleaseScene(m.scene);
   rtcReleaseDevice(m_device);
 }
 
@@ -88,6 +124,14 @@ hw::Hit EmbreeScene::intersect(const hw::Ray& r) const {
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(m_scene, &ctx, &rh);
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return h;
+  if (m_set) {
+    const uint32_t inst = rh.hit.instID[0];
+    const Mesh& m = m_meshes[m_set->instances[inst].mesh];
+    const uint32_t ntri = uint32_t(m_set->meshes[m_set->instances[inst].mesh].triangles.size());
+    const uint32_t local = rh.hit.geomID == m.tri_geom ? rh.hit.primID : ntri + rh.hit.primID;
+    const bool tri = rh.hit.geomID == m.tri_geom;
+    return hw::Hit{rh.ray.tfar, m_set->global_prim(inst, local), tri ? rh.hit.u : 0.0f, tri ? rh.hit.v : 0.0f};
+  }
   if (rh.hit.geomID == m_tri_geom) return hw::Hit{rh.ray.tfar, rh.hit.primID, rh.hit.u, rh.hit.v};
   return hw::Hit{rh.ray.tfar, m_geom.sphere_prim(rh.hit.primID), 0.0f, 0.0f};
 }

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "hwmodel/geometry.h"
+#include "hwmodel/instancing.h"
 #include "hwmodel/ray.h"
 
 namespace rtu::oracle {
@@ -17,6 +18,9 @@ class EmbreeScene {
   // `config` is Embree's device configuration, e.g. "threads=1"; `monitor`, if given, sees every allocation.
   explicit EmbreeScene(const hw::Geometry& g, const char* config = "threads=1",
                        RTCMemoryMonitorFunction monitor = nullptr);
+  // Two levels: one Embree scene per mesh, an Embree instance per instance (its transform as given), planes of
+  // `flat` beside them; hits in the flattened numbering (hw::InstanceSet::global_prim). Keeps references to both.
+  EmbreeScene(const hw::InstanceSet& set, const hw::Geometry& flat, const char* config = "threads=1");
   ~EmbreeScene();
   EmbreeScene(const EmbreeScene&) = delete;
   EmbreeScene& operator=(const EmbreeScene&) = delete;
@@ -27,7 +31,13 @@ class EmbreeScene {
  private:
   bool plane_hit(const hw::Ray& r, float tmax, hw::Hit& h) const;
 
+  struct Mesh {
+    RTCScene scene = nullptr;
+    unsigned tri_geom = RTC_INVALID_GEOMETRY_ID, sphere_geom = RTC_INVALID_GEOMETRY_ID;
+  };
   const hw::Geometry& m_geom;
+  const hw::InstanceSet* m_set = nullptr;
+  std::vector<Mesh> m_meshes;
   RTCDevice m_device = nullptr;
   RTCScene m_scene = nullptr;
   unsigned m_tri_geom = RTC_INVALID_GEOMETRY_ID, m_sphere_geom = RTC_INVALID_GEOMETRY_ID;

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <numbers>
+#include <stdexcept>
 #include <string>
 
 #include "host/error.h"
@@ -86,6 +87,15 @@ void validate_scene(const Scene& scene) {
   const hw::Geometry& g = scene.geometry;
   if (g.num_prims() == 0) fail("empty scene (no triangles, spheres or planes)");
   check_scene_size(scene.name, g.num_prims());
+  if (scene.instanced()) {
+    try {
+      scene.instances.validate();
+    } catch (const std::invalid_argument& e) {
+      fail(e.what());
+    }
+    if (scene.instances.num_triangles() != g.triangles.size() || scene.instances.num_spheres() != g.spheres.size())
+      fail("the instances and the flattened geometry differ in their primitive counts");
+  }
 
   for (size_t i = 0; i < g.triangles.size(); ++i) {
     const hw::Triangle& t = g.triangles[i];

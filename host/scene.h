@@ -4,6 +4,7 @@
 //   1. each mesh entry of the scene description, in file order; inside one mesh file, Assimp's node tree
 //      depth-first (a node's meshes in order, then its children in order), each mesh's faces in order;
 //   2. the two triangles of each area light, in file order;
+//   3. the triangles of each instance, in the order the instances expand (scenes/README.md);
 // then spheres in file order, then planes in file order. A bare mesh file is a scene with one mesh entry.
 #pragma once
 
@@ -13,6 +14,7 @@
 #include <vector>
 
 #include "hwmodel/geometry.h"
+#include "hwmodel/instancing.h"
 #include "hwmodel/ray.h"
 #include "hwmodel/vec.h"
 
@@ -58,6 +60,10 @@ struct Scene {
   std::vector<Light> lights;
   Camera camera;
   bool has_camera = false;  // false: the camera was framed automatically around the bounds
+  // Two levels, when the scene places instances (empty otherwise): `geometry` is then its flattened form
+  // (hw::InstanceSet::flatten), which numbers the primitives and which devices without instancing trace.
+  hw::InstanceSet instances;
+  bool instanced() const { return !instances.instances.empty(); }
 };
 
 // Loads a scene from `spec`: a scene description file (.json), any mesh file Assimp reads, or builtin:NAME

@@ -138,6 +138,18 @@ struct Builder {
   Scene scene;
   std::map<std::string, uint32_t> material_index;
   std::vector<uint32_t> tri_material, sphere_material, plane_material;
+  // Instancing: prototypes by name (their meshes are InstanceSet meshes 1.., mesh 0 is the loose geometry), the
+  // per-triangle materials of every mesh, and the materials of instance triangles in instance order.
+  struct Prototype {
+    const Json* json = nullptr;
+    std::string path;
+    uint32_t mesh = UINT32_MAX;  // none when it has no meshes of its own
+    bool visiting = false;       // on the current expansion path (a loop when met again)
+  };
+  std::map<std::string, Prototype> prototypes;
+  std::vector<std::vector<uint32_t>> mesh_tri_material;
+  std::vector<uint32_t> instance_tri_material;
+  uint64_t instance_prims = 0;
 
   uint32_t material(const Json& parent, const std::string& path) const {
     if (!parent.contains("material")) return material_index.at("default");
@@ -215,8 +227,23 @@ void read_materials(Builder& b, const Json& j) {
 
 Transform read_transform(const Reader& r, const Json& j, const std::string& path) {
   r.object(j, path);
-  r.check_keys(j, path, {"scale", "rotate", "translate"});
+  r.check_keys(j, path, {"scale", "rotate", "translate", "matrix"});
   Transform t;
+  if (j.contains("matrix")) {
+    // Three rows (L | t) of an affine map, as Embree's FLOAT3X4_ROW_MAJOR; no other key beside it.
+    const std::string key = join(path, "matrix");
+    if (j.size() != 1) r.fail(path, "'matrix' excludes scale, rotate and translate");
+    const Json& rows = r.array(j["matrix"], key);
+    if (rows.size() != 3) r.fail(key, "expected 3 rows of 4 numbers");
+    for (int row = 0; row < 3; ++row) {
+      const std::vector<float> v = r.numbers(rows[size_t(row)], join(key, size_t(row)), 4);
+      for (int c = 0; c < 3; ++c) t.linear[c][row] = v[size_t(c)];
+      t.translate[row] = v[3];
+    }
+    if (glm::determinant(t.linear) == 0.0) r.fail(key, "singular (its 3x3 part has determinant 0)");
+    t.identity = t.linear == glm::dmat3(1.0) && t.translate == DVec3(0.0);
+    return t;
+  }
   glm::dmat3 scale(1.0), rotate(1.0);
   if (j.contains("scale")) {
     const std::string key = join(path, "scale");
@@ -272,17 +299,18 @@ IndexedMesh generate(const Reader& r, const Json& j, const std::string& path, st
   return mesh;
 }
 
-void read_meshes(Builder& b, const Json& j, const std::filesystem::path& base_dir) {
+// Mesh entries at `where` into tris, with their materials in tri_material.
+void read_mesh_entries(Builder& b, const Json& j, const std::string& where, const std::filesystem::path& base_dir,
+                       std::vector<hw::Triangle>& tris, std::vector<uint32_t>& tri_material) {
   const Reader& r = b.reader;
-  r.array(j, "meshes");
+  r.array(j, where);
   for (size_t i = 0; i < j.size(); ++i) {
-    const std::string path = join("meshes", i);
+    const std::string path = join(where, i);
     const Json& m = r.object(j[i], path);
     const bool has_file = m.contains("file"), has_generate = m.contains("generate");
     if (has_file == has_generate) r.fail(path, "needs exactly one of 'file' and 'generate'");
     const uint32_t material = b.material(m, path);
     const std::vector<std::string> common = {has_file ? "file" : "generate", "material", "transform"};
-    std::vector<hw::Triangle>& tris = b.scene.geometry.triangles;
     const size_t first = tris.size();
 
     if (has_file) {
@@ -313,8 +341,101 @@ void read_meshes(Builder& b, const Json& j, const std::filesystem::path& base_di
       }
       append_triangles(mesh, tris);
     }
-    b.tri_material.insert(b.tri_material.end(), tris.size() - first, material);
+    tri_material.insert(tri_material.end(), tris.size() - first, material);
   }
+}
+
+void read_meshes(Builder& b, const Json& j, const std::filesystem::path& base_dir) {
+  read_mesh_entries(b, j, "meshes", base_dir, b.scene.geometry.triangles, b.tri_material);
+}
+
+// Instancing (scenes/README.md, "prototypes" and "instances"). A transform as an affine map in double.
+struct Xform {
+  glm::dmat3 linear{1.0};
+  DVec3 translate{0.0};
+  Xform then(const Transform& t) const {  // this map applied after t: x -> this(t(x))
+    return Xform{linear * t.linear, linear * t.translate + translate};
+  }
+};
+
+constexpr size_t kMaxInstances = size_t(1) << 20;
+
+void read_prototypes(Builder& b, const Json& j, const std::filesystem::path& base_dir) {
+  const Reader& r = b.reader;
+  r.object(j, "prototypes");
+  for (const auto& item : j.items()) {
+    const std::string path = join("prototypes", item.key());
+    const Json& p = r.object(item.value(), path);
+    if (item.key().empty()) r.fail(path, "prototype names must not be empty");
+    r.check_keys(p, path, {"meshes", "instances"});
+    if (!p.contains("meshes") && !p.contains("instances")) r.fail(path, "needs 'meshes' or 'instances'");
+    Builder::Prototype proto;
+    proto.json = &item.value();
+    proto.path = path;
+    if (p.contains("meshes")) {
+      hw::Geometry g;
+      std::vector<uint32_t> mats;
+      read_mesh_entries(b, p["meshes"], join(path, "meshes"), base_dir, g.triangles, mats);
+      proto.mesh = uint32_t(b.scene.instances.meshes.size());
+      b.scene.instances.meshes.push_back(std::move(g));
+      b.mesh_tri_material.push_back(std::move(mats));
+    }
+    if (p.contains("instances")) r.array(p["instances"], join(path, "instances"));
+    b.prototypes[item.key()] = proto;
+  }
+}
+
+// One instance entry at `path` under the transform `parent`, at nesting depth `depth` (1 at the top level).
+void expand_instance(Builder& b, const Json& e, const std::string& path, const Xform& parent, int depth) {
+  const Reader& r = b.reader;
+  r.object(e, path);
+  r.check_keys(e, path, {"prototype", "transform"});
+  if (!e.contains("prototype")) r.fail(path, "missing key 'prototype'");
+  const std::string name = r.string(e["prototype"], join(path, "prototype"));
+  auto it = b.prototypes.find(name);
+  if (it == b.prototypes.end()) {
+    std::string known;
+    for (const auto& [n, p] : b.prototypes) known += (known.empty() ? "" : ", ") + n;
+    r.fail(join(path, "prototype"),
+           "unknown prototype '" + name + "' (known: " + (known.empty() ? "none" : known) + ")");
+  }
+  Builder::Prototype& proto = it->second;
+  if (proto.visiting) r.fail(join(path, "prototype"), "instance loop: '" + name + "' contains itself");
+  if (depth > hw::kMaxInstanceNesting)
+    r.fail(path, "instances nested deeper than " + std::to_string(hw::kMaxInstanceNesting) + " levels");
+  const Xform x =
+      e.contains("transform") ? parent.then(read_transform(r, e["transform"], join(path, "transform"))) : parent;
+  if (proto.mesh != UINT32_MAX) {
+    hw::InstanceSet& set = b.scene.instances;
+    if (set.instances.size() >= kMaxInstances)
+      r.fail(path, "more than " + std::to_string(kMaxInstances) + " instances");
+    hw::Instance in;
+    in.mesh = proto.mesh;
+    for (int row = 0; row < 3; ++row) {
+      for (int c = 0; c < 3; ++c) in.to_world.m[row][c] = float(x.linear[c][row]);
+      in.to_world.m[row][3] = float(x.translate[row]);
+    }
+    hw::AffineD inv;
+    if (!hw::invert(in.to_world, inv))
+      r.fail(path, "the composed transform is not finite or is singular (in float)");
+    b.instance_prims += set.meshes[proto.mesh].triangles.size();
+    if (b.instance_prims >= hw::kMaxBvhPrims) r.fail(path, "instances hold more than 2^27 - 1 triangles in all");
+    set.instances.push_back(in);
+    const std::vector<uint32_t>& mats = b.mesh_tri_material[proto.mesh];
+    b.instance_tri_material.insert(b.instance_tri_material.end(), mats.begin(), mats.end());
+  }
+  if (proto.json->contains("instances")) {
+    const Json& subs = (*proto.json)["instances"];
+    proto.visiting = true;
+    for (size_t i = 0; i < subs.size(); ++i)
+      expand_instance(b, subs[i], join(join(proto.path, "instances"), i), x, depth + 1);
+    proto.visiting = false;
+  }
+}
+
+void read_instances(Builder& b, const Json& j) {
+  b.reader.array(j, "instances");
+  for (size_t i = 0; i < j.size(); ++i) expand_instance(b, j[i], join("instances", i), Xform{}, 1);
 }
 
 void read_spheres(Builder& b, const Json& j) {
@@ -409,9 +530,11 @@ Scene load_scene_file(const std::string& path) {
   const Reader r(path);
   if (!root.is_object())
     r.fail("", std::string("expected a JSON object at the top level, got ") + root.type_name());
-  r.check_keys(root, "", {"description", "camera", "materials", "meshes", "spheres", "planes", "lights"});
+  r.check_keys(
+      root, "",
+      {"description", "camera", "materials", "meshes", "spheres", "planes", "lights", "prototypes", "instances"});
 
-  Builder b{r, {}, {}, {}, {}, {}};
+  Builder b{r, {}, {}, {}, {}, {}, {}, std::vector<std::vector<uint32_t>>(1), {}, 0};
   b.scene.name = path;
   try {
     if (root.contains("description")) r.string(root["description"], "description");
@@ -421,6 +544,10 @@ Scene load_scene_file(const std::string& path) {
     if (root.contains("lights")) read_lights(b, root["lights"]);
     if (root.contains("spheres")) read_spheres(b, root["spheres"]);
     if (root.contains("planes")) read_planes(b, root["planes"]);
+    const std::filesystem::path base_dir = std::filesystem::path(path).parent_path();
+    b.scene.instances.meshes.emplace_back();  // mesh 0: the loose geometry, if instances follow
+    if (root.contains("prototypes")) read_prototypes(b, root["prototypes"], base_dir);
+    if (root.contains("instances")) read_instances(b, root["instances"]);
     if (root.contains("camera")) {
       read_camera(r, root["camera"], b.scene.camera);
       b.scene.has_camera = true;
@@ -430,6 +557,21 @@ Scene load_scene_file(const std::string& path) {
   }
 
   Scene& scene = b.scene;
+  if (scene.instances.instances.empty()) {
+    if (root.contains("instances") && !root["instances"].empty())
+      r.fail("instances", "no instance has triangles (its prototypes have no meshes)");
+    scene.instances = {};
+  } else {
+    // Two levels: the loose triangles and spheres become mesh 0 under the identity, instance 0; the geometry is
+    // the flattened scene (loose triangles, instance triangles, spheres, planes).
+    hw::InstanceSet& set = scene.instances;
+    set.meshes[0].triangles = std::move(scene.geometry.triangles);
+    set.meshes[0].spheres = std::move(scene.geometry.spheres);
+    set.instances.insert(set.instances.begin(), hw::Instance{});
+    set.finish();
+    scene.geometry = set.flatten(scene.geometry.planes);
+    b.tri_material.insert(b.tri_material.end(), b.instance_tri_material.begin(), b.instance_tri_material.end());
+  }
   scene.prim_material = b.tri_material;
   scene.prim_material.insert(scene.prim_material.end(), b.sphere_material.begin(), b.sphere_material.end());
   scene.prim_material.insert(scene.prim_material.end(), b.plane_material.begin(), b.plane_material.end());

@@ -89,6 +89,9 @@ class Bvh {
  public:
   // Builds over the bounded primitives (triangles, spheres) of `g`. Deterministic: same input, same tree.
   static Bvh build(const Geometry& g, const BvhBuildParams& params = {});
+  // Builds over boxes (e.g. the world bounds of instances): leaf index i is boxes[i]. Throws
+  // std::invalid_argument for an empty box or more than 2^27 boxes.
+  static Bvh build(const std::vector<Aabb>& boxes, const BvhBuildParams& params = {});
 
   int width() const;
   const BvhBuildParams& params() const { return m_params; }
@@ -100,6 +103,8 @@ class Bvh {
   }
 
  private:
+  template <class BoundsOf>
+  static Bvh build_over(uint32_t n, BoundsOf bounds_of, const BvhBuildParams& params);
   BvhBuildParams m_params;
   std::variant<WideBvh<2>, WideBvh<4>, WideBvh<6>, WideBvh<8>> m_tree;
 };

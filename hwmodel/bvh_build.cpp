@@ -235,16 +235,16 @@ class Collapser {
   WideBvh<N>& m_out;
 };
 
-template <int N>
-WideBvh<N> build_wide(const Geometry& g, const BvhBuildParams& p) {
+// Builds over n boxes, box i = bounds_of(i).
+template <int N, class BoundsOf>
+WideBvh<N> build_wide(uint32_t n, BoundsOf bounds_of, const BvhBuildParams& p) {
   WideBvh<N> out;
-  const uint32_t n = g.num_bounded();
   if (n == 0) return out;
   if (n > kMaxBvhPrims) throw std::invalid_argument("too many primitives for the BVH (limit 2^27)");
   std::vector<BinNode> bin;
   {
     std::vector<PrimRef> refs(n);
-    for (uint32_t i = 0; i < n; ++i) refs[i] = PrimRef{g.prim_bounds(i), i};
+    for (uint32_t i = 0; i < n; ++i) refs[i] = PrimRef{bounds_of(i), i};
     bin = BinaryBuilder(refs, p).run();
     out.prim_ids.resize(n);
     for (uint32_t i = 0; i < n; ++i) out.prim_ids[i] = refs[i].prim;
@@ -301,25 +301,39 @@ void add_figures(const WideBvh<N>& t, const BvhBuildParams& p, BvhFigures& f) {
 
 }  // namespace
 
-Bvh Bvh::build(const Geometry& g, const BvhBuildParams& params) {
+template <class BoundsOf>
+Bvh Bvh::build_over(uint32_t n, BoundsOf bounds_of, const BvhBuildParams& params) {
   validate(params);
   Bvh b;
   b.m_params = params;
   switch (params.width) {
     case 2:
-      b.m_tree = build_wide<2>(g, params);
+      b.m_tree = build_wide<2>(n, bounds_of, params);
       break;
     case 4:
-      b.m_tree = build_wide<4>(g, params);
+      b.m_tree = build_wide<4>(n, bounds_of, params);
       break;
     case 6:
-      b.m_tree = build_wide<6>(g, params);
+      b.m_tree = build_wide<6>(n, bounds_of, params);
       break;
     default:
-      b.m_tree = build_wide<8>(g, params);
+      b.m_tree = build_wide<8>(n, bounds_of, params);
       break;
   }
   return b;
+}
+
+Bvh Bvh::build(const Geometry& g, const BvhBuildParams& params) {
+  return build_over(
+      g.num_bounded(), [&](uint32_t i) { return g.prim_bounds(i); }, params);
+}
+
+Bvh Bvh::build(const std::vector<Aabb>& boxes, const BvhBuildParams& params) {
+  for (const Aabb& b : boxes)
+    if (b.empty()) throw std::invalid_argument("a BVH over boxes needs non-empty boxes");
+  return build_over(
+      uint32_t(std::min<size_t>(boxes.size(), size_t(kMaxBvhPrims) + 1)), [&](uint32_t i) { return boxes[i]; },
+      params);
 }
 
 int Bvh::width() const {

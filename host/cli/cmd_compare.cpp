@@ -32,7 +32,11 @@ double ratio_minus_one(uint64_t a, uint64_t b) {
 void run_compare(const CompareOptions& o) {
   const Scene scene = load_scene(o.scene);
   const std::vector<hw::Ray> rays = rays_from_spec(o.rays, scene, o.seed);
-  const DeviceOptions ref_opt = o.dev.options(hw::DeviceKind::kFloat);
+  const DeviceOptions ref_opt = [&] {
+    DeviceOptions d = o.dev.options(hw::DeviceKind::kFloat);
+    d.instances = &scene.instances;  // the reference traces two levels; fixed and timed the flattened scene
+    return d;
+  }();
   const DeviceOptions dut_opt = [&] {
     DeviceOptions d = o.dev.options(o.dev.kind());
     d.check_boxes = true;

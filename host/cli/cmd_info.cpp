@@ -62,6 +62,19 @@ void run_info(const InfoOptions& o) {
   j["planes"] = g.planes.size();
   j["materials"] = scene.materials.size();
   j["lights"] = scene.lights.size();
+  if (scene.instanced()) {
+    // Two levels (the float reference's): what instancing saves against the flattened scene above.
+    hw::TracerOptions topt = dopt.tracer;
+    topt.bvh.width = dopt.format.width;
+    const hw::InstancedFloatTracer two(scene.instances, g, topt);
+    uint64_t mesh_tris = 0;
+    for (const hw::Geometry& m : scene.instances.meshes) mesh_tris += m.triangles.size();
+    j["instancing"] = {{"instances", scene.instances.instances.size()},
+                       {"meshes", scene.instances.meshes.size()},
+                       {"mesh_triangles", mesh_tris},
+                       {"top_nodes_bytes", two.top().figures().node_bytes},
+                       {"float_bytes", two.bytes()}};
+  }
   j["bounds_lo"] = {b.lo.x, b.lo.y, b.lo.z};
   j["bounds_hi"] = {b.hi.x, b.hi.y, b.hi.z};
   j["camera"] = {{"position", {scene.camera.position.x, scene.camera.position.y, scene.camera.position.z}},
@@ -79,6 +92,16 @@ void run_info(const InfoOptions& o) {
   std::printf("primitives   %zu triangles, %zu spheres, %zu planes\n", g.triangles.size(), g.spheres.size(),
               g.planes.size());
   std::printf("materials    %zu, lights %zu\n", scene.materials.size(), scene.lights.size());
+  if (scene.instanced()) {
+    const Json& in = j["instancing"];
+    std::printf(
+        "instances    %llu of %llu meshes (%llu triangles in the meshes); two levels (float): top nodes "
+        "%llu bytes, all %llu bytes\n",
+        (unsigned long long)in["instances"].get<uint64_t>(), (unsigned long long)in["meshes"].get<uint64_t>(),
+        (unsigned long long)in["mesh_triangles"].get<uint64_t>(),
+        (unsigned long long)in["top_nodes_bytes"].get<uint64_t>(),
+        (unsigned long long)in["float_bytes"].get<uint64_t>());
+  }
   std::printf("bounds       (%g, %g, %g) .. (%g, %g, %g)\n", b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
   std::printf("load         %.3f s, accel build %.3f s\n", load_s, build_s);
   if (const hw::Bvh* bvh = device->bvh()) {

@@ -32,6 +32,7 @@ void run_trace(const TraceOptions& o) {
   Stopwatch build_timer;
   DeviceOptions dopt = o.dev.options(kind);
   dopt.sample.need_hits = !cycles_only;
+  dopt.instances = &scene.instances;
   const std::unique_ptr<DirectDevice> device = make_device(scene.geometry, dopt);
   PipelineTraceArgs pt = o.pipeline;
   device->set_pipeline_trace(pt.make());

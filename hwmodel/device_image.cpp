@@ -84,7 +84,7 @@ class Encoder {
           box.hi[a] = std::max(box.hi[a], g);
         }
       }
-      rec.prim = (uint32_t(RecordKind::kTriangle) << 30) | p;
+      rec.prim = (uint32_t(RecordKind::kTriangle) << 30) | (m_g.opaque(p) ? 0u : kRecordNonOpaque) | p;
       std::memcpy(out, &rec, sizeof rec);
     } else {
       const Sphere& s = m_g.spheres[p - m_g.triangles.size()];
@@ -589,6 +589,8 @@ void DeviceImage::check() {
     std::memcpy(&word, rec + 36, 4);
     const uint32_t p = word & kRecordPrimMask;
     const uint32_t kind = word >> 30;
+    if ((word & kRecordNonOpaque) && kind != uint32_t(RecordKind::kTriangle))
+      bad_image("record " + std::to_string(i) + ": a sphere marked non-opaque");
     if (kind == uint32_t(RecordKind::kTriangle)) {
       if (p >= h.num_triangles) bad_image("record " + std::to_string(i) + ": triangle index out of range");
       TriangleRecord t;

@@ -18,8 +18,9 @@ constexpr uint64_t align8(uint64_t x) {
   return (x + 7) & ~uint64_t(7);
 }
 
-uint64_t float_scene_bytes(uint64_t nt, uint64_t ns, uint64_t np) {
-  return align8(sizeof(FloatSceneHeader) + nt * sizeof(Triangle) + ns * sizeof(Sphere) + np * sizeof(Plane));
+uint64_t float_scene_bytes(uint64_t nt, uint64_t ns, uint64_t np, bool flags) {
+  return align8(sizeof(FloatSceneHeader) + nt * sizeof(Triangle) + ns * sizeof(Sphere) + np * sizeof(Plane) +
+                (flags ? nt : 0));
 }
 
 [[noreturn]] void bad_scene(const std::string& why) {
@@ -40,7 +41,11 @@ std::vector<uint64_t> encode_float_scene(const Geometry& g) {
   h.num_triangles = uint32_t(g.triangles.size());
   h.num_spheres = uint32_t(g.spheres.size());
   h.num_planes = uint32_t(g.planes.size());
-  h.total_bytes = float_scene_bytes(h.num_triangles, h.num_spheres, h.num_planes);
+  const bool flags = !g.non_opaque.empty();
+  if (flags && g.non_opaque.size() != g.triangles.size())
+    throw std::invalid_argument("float scene: non_opaque has not one flag per triangle");
+  h.flags = flags ? kFloatSceneNonOpaque : 0;
+  h.total_bytes = float_scene_bytes(h.num_triangles, h.num_spheres, h.num_planes, flags);
   std::vector<uint64_t> words(h.total_bytes / 8, 0);
   auto* p = reinterpret_cast<uint8_t*>(words.data());
   std::memcpy(p, &h, sizeof h);
@@ -53,6 +58,7 @@ std::vector<uint64_t> encode_float_scene(const Geometry& g) {
   put(g.triangles);
   put(g.spheres);
   put(g.planes);
+  if (flags) put(g.non_opaque);
   return words;
 }
 
@@ -62,9 +68,11 @@ Geometry decode_float_scene(const uint8_t* data, size_t bytes) {
   std::memcpy(&h, data, sizeof h);
   if (h.magic != kFloatSceneMagic) bad_scene("bad magic");
   if (h.version != kFloatSceneVersion) bad_scene("unsupported version " + std::to_string(h.version));
-  if (h.reserved != 0 || h.reserved2 != 0) bad_scene("reserved fields not zero");
+  if (h.reserved != 0) bad_scene("reserved fields not zero");
+  if (h.flags & ~kFloatSceneNonOpaque) bad_scene("unknown flags");
+  const bool flags = h.flags & kFloatSceneNonOpaque;
   if (uint64_t(h.num_triangles) + h.num_spheres + h.num_planes >= kMaxBvhPrims) bad_scene("too many primitives");
-  if (h.total_bytes != bytes || float_scene_bytes(h.num_triangles, h.num_spheres, h.num_planes) != bytes)
+  if (h.total_bytes != bytes || float_scene_bytes(h.num_triangles, h.num_spheres, h.num_planes, flags) != bytes)
     bad_scene("size does not match the primitive counts");
   Geometry g;
   g.triangles.resize(h.num_triangles);
@@ -79,6 +87,12 @@ Geometry decode_float_scene(const uint8_t* data, size_t bytes) {
   get(g.triangles);
   get(g.spheres);
   get(g.planes);
+  if (flags) {
+    g.non_opaque.resize(h.num_triangles);
+    get(g.non_opaque);
+    for (size_t i = 0; i < g.non_opaque.size(); ++i)
+      if (g.non_opaque[i] > 1) bad_scene("triangle " + std::to_string(i) + ": opacity flag neither 0 nor 1");
+  }
   for (size_t i = 0; i < g.triangles.size(); ++i)
     if (!finite3(g.triangles[i].v0) || !finite3(g.triangles[i].v1) || !finite3(g.triangles[i].v2))
       bad_scene("triangle " + std::to_string(i) + " is not finite or beyond 2^62");
@@ -108,6 +122,11 @@ class FloatEngine final : public TraceEngine {
     Geometry g = decode_float_scene(data, bytes);  // throws before anything changes
     m_geom = std::make_unique<Geometry>(std::move(g));
     m_tracer = std::make_unique<FloatTracer>(*m_geom, m_opt.tracer);
+    m_tracer->set_any_hit(m_any_hit);
+  }
+  void set_any_hit(const AnyHitStage* stage) override {
+    m_any_hit = stage;
+    if (m_tracer) m_tracer->set_any_hit(stage);
   }
   bool bound() const override { return m_tracer != nullptr; }
   void unbind() override {
@@ -124,6 +143,7 @@ class FloatEngine final : public TraceEngine {
   EngineOptions m_opt;
   std::unique_ptr<Geometry> m_geom;
   std::unique_ptr<FloatTracer> m_tracer;
+  const AnyHitStage* m_any_hit = nullptr;
 };
 
 class FixedEngine final : public TraceEngine {
@@ -137,7 +157,13 @@ class FixedEngine final : public TraceEngine {
     unbind();
     DeviceImage img = DeviceImage::from_bytes(data, bytes);  // throws before anything changes
     m_image = std::make_unique<DeviceImage>(std::move(img));
-    m_tracer = std::make_unique<FixedTracer>(*m_image, FixedTraceOptions{m_opt.check_boxes, m_opt.max_steps});
+    FixedTraceOptions to{m_opt.check_boxes, m_opt.max_steps};
+    to.any_hit = m_any_hit;
+    m_tracer = std::make_unique<FixedTracer>(*m_image, to);
+  }
+  void set_any_hit(const AnyHitStage* stage) override {
+    m_any_hit = stage;
+    if (m_tracer) m_tracer->set_any_hit(stage);
   }
   bool bound() const override { return m_tracer != nullptr; }
   void unbind() override {
@@ -162,6 +188,7 @@ class FixedEngine final : public TraceEngine {
   EngineOptions m_opt;
   std::unique_ptr<DeviceImage> m_image;
   std::unique_ptr<FixedTracer> m_tracer;
+  const AnyHitStage* m_any_hit = nullptr;
 };
 
 }  // namespace

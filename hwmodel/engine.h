@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "hwmodel/any_hit.h"
 #include "hwmodel/box_unit.h"
 #include "hwmodel/device_kind.h"
 #include "hwmodel/fixed_tracer.h"
@@ -38,9 +39,11 @@ struct FloatSceneHeader {
   uint32_t num_triangles;  // Triangle records (36 B) follow the header
   uint32_t num_spheres;    // then Sphere records (16 B)
   uint32_t num_planes;     // then Plane records (16 B)
-  uint32_t reserved2;      // 0
-  uint64_t total_bytes;    // header + records, rounded up to a multiple of 8
+  uint32_t flags;          // kFloatScene* (other bits 0)
+  uint64_t total_bytes;    // header + records (+ flags), rounded up to a multiple of 8
 };
+// After the planes, one byte per triangle: 1 = non-opaque (Geometry::non_opaque), else 0.
+inline constexpr uint32_t kFloatSceneNonOpaque = 1u << 0;
 static_assert(sizeof(FloatSceneHeader) == 32);
 static_assert(sizeof(Triangle) == 36 && sizeof(Sphere) == 16 && sizeof(Plane) == 16);
 
@@ -83,6 +86,9 @@ class TraceEngine {
   virtual void bind(const uint8_t* data, size_t bytes) = 0;
   virtual bool bound() const = 0;
   virtual void unbind() = 0;
+  // Attaches the any-hit stage that answers candidate hits on non-opaque triangles (any_hit.h), or with null
+  // detaches it (they are then opaque); kept across bind and unbind. Not owned: must outlive its use.
+  virtual void set_any_hit(const AnyHitStage* stage) = 0;
   // Traces n rays of the bound scene (rays and hits do not overlap).
   virtual void trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const = 0;
   // Timing. Functional engines count one clock per packet; the timed engine returns simulated cycles.

@@ -44,8 +44,11 @@ inline bool unit_triangle(TriUnit& unit, const FixedRay& r, const int32_t v[3][3
 
 // Tests one primitive record; on a closer (or equally near) hit updates c. A triangle goes to `unit` when one is
 // attached (its clocks in issue and result; 0 otherwise).
+// A hit on a non-opaque triangle goes to the any-hit stage when one is attached (`asked`), and counts only when it
+// accepts (any_hit.h).
 inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool short_edges, TriUnit* unit,
-                        uint8_t& issue, uint8_t& result) {
+                        uint8_t& issue, uint8_t& result, const AnyHitStage* stage, TraversalStats& s,
+                        bool& asked) {
   uint32_t word;
   FixedPrimHit h;
   bool hit;
@@ -57,10 +60,18 @@ inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool 
     hit = unit ? unit_triangle(*unit, r, t.v, r.tmin, c.t, h, issue, result)
                : triangle_test(r, t.v, r.tmin, c.t, h, short_edges);
   } else {
-    SphereRecord s;
-    std::memcpy(&s, rec, sizeof s);
-    word = s.prim;
-    hit = sphere_test(r, s, r.tmin, c.t, h);
+    SphereRecord sr;
+    std::memcpy(&sr, rec, sizeof sr);
+    word = sr.prim;
+    hit = sphere_test(r, sr, r.tmin, c.t, h);
+  }
+  asked = hit && (word & kRecordNonOpaque) && stage;
+  if (asked) {
+    ++s.any_hit_calls;
+    if (!stage->accept(word & kRecordPrimMask, h.u, h.v)) {
+      ++s.any_hit_ignored;
+      hit = false;
+    }
   }
   if (hit) {
     c.t = h.t;
@@ -87,6 +98,7 @@ struct FixedPolicy {
   std::vector<TraceEvent>* rec;  // the timing model's recorder, or null
   BoxUnit* unit;                 // box tests by this unit instead of box_test_delta, or null
   TriUnit* tri_unit;             // triangle tests by this unit instead of triangle_test, or null
+  const AnyHitStage* stage;      // the any-hit stage of non-opaque triangles, or null
   FixedTracer::WatchState& watch;
   uint64_t step_limit;
 
@@ -109,8 +121,8 @@ struct FixedPolicy {
   // (rep stos, a stall once per ray).
   FixedPolicy(const QNode<N, Q>* nodes_, const DeviceImage& image_, const FixedRay& r_, bool any_hit_, bool check_,
               Closest& closest_, TraversalStats& s_, std::vector<TraceEvent>* rec_, BoxUnit* unit_,
-              TriUnit* tri_unit_, FixedTracer::WatchState& watch_, uint64_t step_limit_, const FixedFormat& f,
-              int short_stack_)
+              TriUnit* tri_unit_, const AnyHitStage* stage_, FixedTracer::WatchState& watch_, uint64_t step_limit_,
+              const FixedFormat& f, int short_stack_)
       : nodes(nodes_),
         image(image_),
         r(r_),
@@ -121,6 +133,7 @@ struct FixedPolicy {
         rec(rec_),
         unit(unit_),
         tri_unit(tri_unit_),
+        stage(stage_),
         watch(watch_),
         step_limit(step_limit_),
         nr(make_node_ray(r_, f, int(sizeof(Q)))),
@@ -238,9 +251,12 @@ struct FixedPolicy {
     for (uint32_t i = 0; i < count; ++i) {
       const uint8_t* record = image.record(first + i);
       uint8_t issue, result;
-      found |= test_record(record, r, closest, short_edges, tri_unit, issue, result);
-      if (rec)
+      bool asked;
+      found |= test_record(record, r, closest, short_edges, tri_unit, issue, result, stage, s, asked);
+      if (rec) {
         rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(record)), issue, result, first + i});
+        if (asked) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, first + i});
+      }
       if (found && any_hit) return true;
     }
     return found;
@@ -368,8 +384,13 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
       for (uint32_t i = 0; i < hd.record_count; ++i) {
         const uint8_t* record = m_image.record(i);
         uint8_t issue, result;
-        const bool hit = test_record(record, fr, c, short_brute, m_opt.tri_unit, issue, result);
-        if (rec) rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(record)), issue, result, i});
+        bool asked;
+        const bool hit =
+            test_record(record, fr, c, short_brute, m_opt.tri_unit, issue, result, m_opt.any_hit, s, asked);
+        if (rec) {
+          rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(record)), issue, result, i});
+          if (asked) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, i});
+        }
         if (hit && any_hit) break;
       }
     } else {
@@ -378,7 +399,7 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
         constexpr int N = sizeof(Node::child) / sizeof(uint32_t);
         using Q = std::remove_cv_t<std::remove_reference_t<decltype(Node::q[0][0])>>;
         FixedPolicy<N, Q> p(m_image.nodes<Node>(), m_image, fr, any_hit, m_opt.check_boxes, c, s, rec,
-                            m_opt.box_unit, m_opt.tri_unit, watch, m_step_limit, m_format,
+                            m_opt.box_unit, m_opt.tri_unit, m_opt.any_hit, watch, m_step_limit, m_format,
                             m_opt.record_short_stack);
         traverse(p, hd.root_ref, any_hit, s);
       };

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "hwmodel/any_hit.h"
 #include "hwmodel/box_unit.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/intersect_fixed.h"
@@ -22,7 +23,18 @@ namespace rtu::hw {
 // kPop), or only what passes a short stack of a given size (kSpill: entries pushed beyond it, kRefill: one entry
 // popped from beyond it), which is all the timing model charges for, in fewer events.
 struct TraceEvent {
-  enum Kind : uint8_t { kNode = 0, kPrim = 1, kPlane = 2, kPush = 3, kPop = 4, kSpill = 5, kRefill = 6 };
+  // kAnyHit follows the kPrim of a non-opaque triangle whose hit went to the any-hit stage (any_hit.h): the ray
+  // waits in its slot for the firmware's answer.
+  enum Kind : uint8_t {
+    kNode = 0,
+    kPrim = 1,
+    kPlane = 2,
+    kPush = 3,
+    kPop = 4,
+    kSpill = 5,
+    kRefill = 6,
+    kAnyHit = 7
+  };
   uint8_t kind;
   uint8_t count;  // kNode: child boxes tested; kPrim: RecordKind; kPush: entries pushed; kSpill: entries spilled
                   // (pushed beyond the short stack); else 0
@@ -30,7 +42,7 @@ struct TraceEvent {
   // unit reported (issue, result); 0, 0 for the C++ tests, whose clocks the timing model takes from its
   // configuration.
   uint8_t unit_issue, unit_result;
-  uint32_t index;  // kNode: node index; kPrim: record index; kPlane: plane index; else 0
+  uint32_t index;  // kNode: node index; kPrim, kAnyHit: record index; kPlane: plane index; else 0
 };
 static_assert(sizeof(TraceEvent) == 8);
 
@@ -53,6 +65,9 @@ struct FixedTraceOptions {
   // stack of N entries sees it: pushes and pops within it are left out, entries pushed beyond it are kSpill
   // events, entries popped from beyond it kRefill events (the timing engine sets its stack_entries here).
   int record_short_stack = -1;
+  // The any-hit stage of non-opaque triangles (records with kRecordNonOpaque), or null: they are opaque. Not
+  // owned; must outlive the tracer's use.
+  const AnyHitStage* any_hit = nullptr;
 };
 
 class FixedTracer {
@@ -83,6 +98,9 @@ class FixedTracer {
   // After a batch in which the watchdog stopped rays: which ray was first and where it stood (node, stack
   // depth, steps), for the WatchdogError the engines throw.
   std::string watchdog_report(const Ray* rays, size_t n, bool any_hit, uint64_t stopped) const;
+
+  // Attaches (or with null detaches) the any-hit stage (FixedTraceOptions::any_hit).
+  void set_any_hit(const AnyHitStage* stage) { m_opt.any_hit = stage; }
 
   const DeviceImage& image() const { return m_image; }
   const FixedFormat& format() const { return m_format; }

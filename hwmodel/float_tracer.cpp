@@ -15,17 +15,26 @@ struct Closest {
   float u = 0.0f, v = 0.0f;
 };
 
-inline bool test_leaf_prim(const LeafPrim& lp, uint32_t num_tris, const RayPrecomp& rp, float tmin, Closest& c) {
+// A candidate hit on a non-opaque triangle counts only when the any-hit stage accepts it (any_hit.h).
+inline bool test_leaf_prim(const LeafPrim& lp, uint32_t num_tris, const RayPrecomp& rp, float tmin, Closest& c,
+                           const AnyHitStage* stage, TraversalStats& s) {
   PrimHit h;
-  const bool hit = lp.prim < num_tris ? intersect_triangle(lp.a, lp.b, lp.c, rp, tmin, c.tmax, h)
-                                      : intersect_sphere(lp.a, lp.b.x, rp, tmin, c.tmax, h);
-  if (hit) {
-    c.tmax = h.t;
-    c.prim = lp.prim;
-    c.u = h.u;
-    c.v = h.v;
+  const uint32_t prim = lp.prim & ~kLeafNonOpaque;
+  const bool hit = prim < num_tris ? intersect_triangle(lp.a, lp.b, lp.c, rp, tmin, c.tmax, h)
+                                   : intersect_sphere(lp.a, lp.b.x, rp, tmin, c.tmax, h);
+  if (!hit) return false;
+  if ((lp.prim & kLeafNonOpaque) && stage) {
+    ++s.any_hit_calls;
+    if (!stage->accept(prim, h.u, h.v)) {
+      ++s.any_hit_ignored;
+      return false;
+    }
   }
-  return hit;
+  c.tmax = h.t;
+  c.prim = prim;
+  c.u = h.u;
+  c.v = h.v;
+  return true;
 }
 
 template <int N>
@@ -41,6 +50,7 @@ struct FloatPolicy {
   bool any_hit;
   Closest& closest;
   TraversalStats& s;
+  const AnyHitStage* stage;
 
   int expand(uint32_t node, uint32_t refs[N], float dists[N], int& tested) const {
     const WideNode<N>& n = nodes[node];
@@ -65,7 +75,7 @@ struct FloatPolicy {
     s.prim_tests += count;
     bool found = false;
     for (uint32_t i = 0; i < count; ++i) {
-      found |= test_leaf_prim(prims[first + i], num_tris, rp, tmin, closest);
+      found |= test_leaf_prim(prims[first + i], num_tris, rp, tmin, closest, stage, s);
       if (found && any_hit) return true;
     }
     return found;
@@ -103,7 +113,7 @@ FloatTracer::FloatTracer(const Geometry& g, const TracerOptions& opt) : m_geom(g
 
   auto record = [&](uint32_t p) {
     LeafPrim lp{};
-    lp.prim = p;
+    lp.prim = p | (g.opaque(p) ? 0u : kLeafNonOpaque);
     if (p < g.triangles.size()) {
       const Triangle& t = g.triangles[p];
       lp.a = t.v0;
@@ -128,15 +138,15 @@ FloatTracer::FloatTracer(const Geometry& g, const TracerOptions& opt) : m_geom(g
 
 template <int N>
 void FloatTracer::trace_bvh(const WideBvh<N>& t, const RayPrecomp& rp, float tmin, bool any_hit, Hit& h,
-                            TraversalStats& s) const {
+                            TraversalStats& s, const AnyHitStage* stage) const {
   Closest c{h.t, h.prim, h.u, h.v};
   FloatPolicy<N> policy{
-      t.nodes.data(), m_leaf_prims.data(), uint32_t(m_geom.triangles.size()), rp, tmin, any_hit, c, s};
+      t.nodes.data(), m_leaf_prims.data(), uint32_t(m_geom.triangles.size()), rp, tmin, any_hit, c, s, stage};
   traverse(policy, t.root_ref, any_hit, s);
   h = Hit{c.tmax, c.prim, c.u, c.v};
 }
 
-Hit FloatTracer::trace(const Ray& r, bool any_hit, TraversalStats& s) const {
+Hit FloatTracer::trace(const Ray& r, bool any_hit, TraversalStats& s, const AnyHitStage* stage) const {
   Hit h;
   const RayStatus status = validate_ray(r);
   if (status != RayStatus::kOk) {
@@ -158,13 +168,13 @@ Hit FloatTracer::trace(const Ray& r, bool any_hit, TraversalStats& s) const {
   }
   if (!(any_hit && h.hit()) && !m_leaf_prims.empty()) {
     if (m_bvh) {
-      m_bvh->visit([&](const auto& t) { trace_bvh(t, rp, r.tmin, any_hit, h, s); });
+      m_bvh->visit([&](const auto& t) { trace_bvh(t, rp, r.tmin, any_hit, h, s, stage); });
     } else {
       Closest c{h.t, h.prim, h.u, h.v};
       const uint32_t num_tris = uint32_t(m_geom.triangles.size());
       s.prim_tests += m_leaf_prims.size();
       for (const LeafPrim& lp : m_leaf_prims) {
-        if (test_leaf_prim(lp, num_tris, rp, r.tmin, c) && any_hit) break;
+        if (test_leaf_prim(lp, num_tris, rp, r.tmin, c, stage, s) && any_hit) break;
       }
       h = Hit{c.tmax, c.prim, c.u, c.v};
     }

@@ -9,6 +9,7 @@
 #include <optional>
 #include <vector>
 
+#include "hwmodel/any_hit.h"
 #include "hwmodel/bvh.h"
 #include "hwmodel/geometry.h"
 #include "hwmodel/ray.h"
@@ -34,8 +35,9 @@ std::optional<Bvh> choose_accel(const Geometry& g, const TracerOptions& opt, dou
 // A leaf-ordered copy of a bounded primitive, so a leaf's primitives are contiguous in memory.
 struct LeafPrim {
   Vec3 a, b, c;   // triangle vertices; a sphere has its center in a and its radius in b.x
-  uint32_t prim;  // scene primitive index
+  uint32_t prim;  // scene primitive index, with kLeafNonOpaque for a non-opaque triangle
 };
+inline constexpr uint32_t kLeafNonOpaque = 1u << 31;
 static_assert(sizeof(LeafPrim) == 40);
 
 class FloatTracer {
@@ -44,10 +46,16 @@ class FloatTracer {
   FloatTracer(const Geometry& g, const TracerOptions& opt = {});
 
   // Traces one ray. Invalid rays (validate_ray) miss and are counted in s.invalid_rays.
-  Hit trace(const Ray& r, bool any_hit, TraversalStats& s) const;
+  Hit trace(const Ray& r, bool any_hit, TraversalStats& s) const { return trace(r, any_hit, s, m_any_hit); }
+  // trace() with this any-hit stage instead of the tracer's own (null: every triangle opaque).
+  Hit trace(const Ray& r, bool any_hit, TraversalStats& s, const AnyHitStage* stage) const;
   // Traces rays[0, n) into hits with `threads` threads (0 = all cores). Results and summed statistics do not
   // depend on the thread count.
   void trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads, TraversalStats& s) const;
+
+  // The any-hit stage for non-opaque triangles (Geometry::non_opaque), or null: they are opaque. Not owned.
+  void set_any_hit(const AnyHitStage* stage) { m_any_hit = stage; }
+  const AnyHitStage* any_hit_stage() const { return m_any_hit; }
 
   bool uses_bvh() const { return m_bvh.has_value(); }
   const Bvh* bvh() const { return m_bvh ? &*m_bvh : nullptr; }
@@ -58,14 +66,15 @@ class FloatTracer {
 
  private:
   template <int N>
-  void trace_bvh(const WideBvh<N>& t, const RayPrecomp& rp, float tmin, bool any_hit, Hit& h,
-                 TraversalStats& s) const;
+  void trace_bvh(const WideBvh<N>& t, const RayPrecomp& rp, float tmin, bool any_hit, Hit& h, TraversalStats& s,
+                 const AnyHitStage* stage) const;
 
   const Geometry& m_geom;
   std::optional<Bvh> m_bvh;            // present exactly when the tracer uses it
   std::vector<LeafPrim> m_leaf_prims;  // leaf order (BVH) or scene order (brute force)
   double m_bvh_cost = 0.0;
   double m_brute_cost = 0.0;
+  const AnyHitStage* m_any_hit = nullptr;
 };
 
 }  // namespace rtu::hw

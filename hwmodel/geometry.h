@@ -48,6 +48,9 @@ struct Geometry {
   std::vector<Triangle> triangles;
   std::vector<Sphere> spheres;
   std::vector<Plane> planes;
+  // Per triangle, 1 where the triangle is not opaque (alpha-tested: its candidate hits go to the any-hit stage,
+  // any_hit.h); empty when every triangle is opaque.
+  std::vector<uint8_t> non_opaque;
 
   Counts counts() const { return {uint32_t(triangles.size()), uint32_t(spheres.size()), uint32_t(planes.size())}; }
   uint32_t num_prims() const { return uint32_t(triangles.size() + spheres.size() + planes.size()); }
@@ -57,6 +60,7 @@ struct Geometry {
     if (prim < triangles.size()) return PrimKind::kTriangle;
     return prim < num_bounded() ? PrimKind::kSphere : PrimKind::kPlane;
   }
+  bool opaque(uint32_t prim) const { return prim >= non_opaque.size() || !non_opaque[prim]; }
   uint32_t sphere_prim(uint32_t i) const { return uint32_t(triangles.size()) + i; }
   uint32_t plane_prim(uint32_t i) const { return num_bounded() + i; }
   Aabb prim_bounds(uint32_t prim) const {

@@ -47,18 +47,21 @@ static_assert(offsetof(QNode6x8, q) == 16 && offsetof(QNode6x8, child) == 52 && 
 
 // The kind of a primitive record, in bits 30..31 of its `prim` word.
 enum class RecordKind : uint32_t { kTriangle = 0, kSphere = 1 };
-inline constexpr uint32_t kRecordPrimMask = (1u << 30) - 1;
+// Bit 29 of a triangle's `prim` word: the triangle is not opaque, its candidate hits go to the any-hit stage
+// (any_hit.h). Never set on a sphere.
+inline constexpr uint32_t kRecordNonOpaque = 1u << 29;
+inline constexpr uint32_t kRecordPrimMask = (1u << 29) - 1;
 
 // A primitive record: 40 bytes, triangle or sphere, told apart by the kind bits of its last word.
 struct TriangleRecord {
   int32_t v[3][3];  // vertices v0, v1, v2 on the grid (integers in [0, 2^B - 1]), rounded to nearest
-  uint32_t prim;    // kind (bits 30..31) and scene primitive index (bits 0..29)
+  uint32_t prim;    // kind (bits 30..31), kRecordNonOpaque (bit 29), scene primitive index (bits 0..28)
 };
 struct SphereRecord {
   int64_t center[3];  // grid coordinates with F fraction bits, rounded to nearest
   int64_t radius;     // grid units with F fraction bits, rounded up (> 0)
   uint32_t reserved;  // 0
-  uint32_t prim;      // kind (bits 30..31) and scene primitive index (bits 0..29)
+  uint32_t prim;      // kind (bits 30..31) and scene primitive index (bits 0..28)
 };
 static_assert(sizeof(TriangleRecord) == 40 && sizeof(SphereRecord) == 40);
 // The prim word is the last 4 bytes of every record, so its kind bits are in byte 39.

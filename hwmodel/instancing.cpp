@@ -1,6 +1,7 @@
 #include "hwmodel/instancing.h"
 
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -162,6 +163,15 @@ Geometry InstanceSet::flatten(const std::vector<Plane>& planes) const {
     for (const Triangle& t : meshes[in.mesh].triangles)
       g.triangles.push_back(id ? t : Triangle{x.point(t.v0), x.point(t.v1), x.point(t.v2)});
   }
+  bool any_non_opaque = false;
+  for (const Geometry& m : meshes) any_non_opaque |= !m.non_opaque.empty();
+  if (any_non_opaque) {
+    g.non_opaque.reserve(g.triangles.size());
+    for (const Instance& in : instances) {
+      const Geometry& m = meshes[in.mesh];
+      for (uint32_t j = 0; j < m.triangles.size(); ++j) g.non_opaque.push_back(m.opaque(j) ? 0 : 1);
+    }
+  }
   for (const Instance& in : instances)
     for (const Sphere& s : meshes[in.mesh].spheres) g.spheres.push_back(s);  // identity transforms only
   g.planes = planes;
@@ -186,7 +196,25 @@ void add_work(TraversalStats& s, const TraversalStats& inner) {
   s.leaves_visited += inner.leaves_visited;
   s.box_tests += inner.box_tests;
   s.prim_tests += inner.prim_tests;
+  s.any_hit_calls += inner.any_hit_calls;
+  s.any_hit_ignored += inner.any_hit_ignored;
 }
+
+// The any-hit stage as a mesh tracer sees it: its triangle indices are the mesh's, the stage's the flattened
+// scene's.
+class InstanceStage final : public AnyHitStage {
+ public:
+  InstanceStage(const AnyHitStage& stage, const InstanceSet& set, uint32_t inst)
+      : m_stage(stage), m_set(set), m_inst(inst) {}
+  bool accept(uint32_t prim, float u, float v) const override {
+    return m_stage.accept(m_set.global_prim(m_inst, prim), u, v);
+  }
+
+ private:
+  const AnyHitStage& m_stage;
+  const InstanceSet& m_set;
+  uint32_t m_inst;
+};
 
 template <int N>
 struct TopPolicy {
@@ -203,6 +231,7 @@ struct TopPolicy {
   bool any_hit;
   Hit& closest;
   TraversalStats& s;
+  const AnyHitStage* stage;
 
   int expand(uint32_t node, uint32_t refs[N], float dists[N], int& tested) const {
     const WideNode<N>& n = top.nodes[node];
@@ -229,7 +258,9 @@ struct TopPolicy {
       Ray o = object_ray(to_object[inst], ray);
       o.tmax = closest.t;
       TraversalStats inner;
-      const Hit h = tracers[set.instances[inst].mesh]->trace(o, any_hit, inner);
+      std::optional<InstanceStage> local;
+      if (stage) local.emplace(*stage, set, inst);
+      const Hit h = tracers[set.instances[inst].mesh]->trace(o, any_hit, inner, local ? &*local : nullptr);
       add_work(s, inner);
       if (h.hit() && h.t <= closest.t) {
         closest = Hit{h.t, set.global_prim(inst, h.prim), h.u, h.v};
@@ -290,7 +321,7 @@ void InstancedFloatTracer::trace_top(const WideBvh<N>& t, const Ray& r, bool any
                                      TraversalStats& s) const {
   if (t.root_ref == kEmptyChild) return;
   const RayPrecomp rp(r);
-  TopPolicy<N> policy{t, m_top_ids, m_set, m_mesh_tracers, m_to_object, r, rp, any_hit, h, s};
+  TopPolicy<N> policy{t, m_top_ids, m_set, m_mesh_tracers, m_to_object, r, rp, any_hit, h, s, m_any_hit};
   traverse(policy, t.root_ref, any_hit, s);
 }
 

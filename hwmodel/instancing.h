@@ -98,6 +98,10 @@ class InstancedFloatTracer {
   Hit trace(const Ray& r, bool any_hit, TraversalStats& s) const;
   void trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads, TraversalStats& s) const;
 
+  // The any-hit stage for non-opaque triangles (the meshes' Geometry::non_opaque; the stage sees flattened
+  // primitive indices), or null: they are opaque. Not owned.
+  void set_any_hit(const AnyHitStage* stage) { m_any_hit = stage; }
+
   const Bvh& top() const { return m_top; }
   const FloatTracer& mesh_tracer(uint32_t mesh) const { return *m_mesh_tracers[mesh]; }
   // Bytes of the two levels: the top BVH's nodes, every mesh's BVH nodes and leaf primitives.
@@ -115,6 +119,7 @@ class InstancedFloatTracer {
   std::vector<AffineD> m_to_object;  // per instance
   Bvh m_top;                         // over the instances with bounded primitives
   std::vector<uint32_t> m_top_ids;   // the top level's leaf index -> instance
+  const AnyHitStage* m_any_hit = nullptr;
 };
 
 }  // namespace rtu::hw

@@ -130,8 +130,13 @@ uint32_t encode_block(const uint8_t* records, int count, int B, std::vector<uint
   if (count < 1 || count > (1 << kCountBits)) throw std::logic_error("encode_block: group size out of range");
   const uint32_t raw = 1 + uint32_t(count) * uint32_t(kRecordBytes / kGranuleBytes);
   bool triangles = true;
-  for (int i = 0; i < count; ++i)
-    triangles = triangles && record_kind(records + i * kRecordBytes) == RecordKind::kTriangle;
+  // Compressed blocks hold opaque triangles only; a block with a sphere or a non-opaque triangle stays raw.
+  for (int i = 0; i < count; ++i) {
+    uint32_t word;
+    std::memcpy(&word, records + i * kRecordBytes + 36, 4);
+    triangles = triangles && record_kind(records + i * kRecordBytes) == RecordKind::kTriangle &&
+                !(word & kRecordNonOpaque);
+  }
   std::vector<std::array<int32_t, 3>> verts;
   std::vector<std::array<uint32_t, 3>> idx(static_cast<size_t>(count));
   std::vector<uint32_t> prims(static_cast<size_t>(count));
@@ -217,7 +222,7 @@ uint32_t decode_block(const uint8_t* data, uint64_t bytes, int B, std::vector<ui
   std::vector<uint64_t> prims(static_cast<size_t>(count));
   for (uint64_t& p : prims) {
     p = pbase + r.get(pbits);
-    if (p > kRecordPrimMask) throw std::invalid_argument(at + ": primitive index beyond 30 bits");
+    if (p > kRecordPrimMask) throw std::invalid_argument(at + ": primitive index beyond 29 bits");
   }
   std::vector<std::array<int64_t, 3>> verts(static_cast<size_t>(nv));
   for (auto& v : verts)

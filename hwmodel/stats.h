@@ -17,7 +17,9 @@ struct TraversalStats {
   uint64_t prim_tests = 0;                      // triangle, sphere and plane tests
   uint64_t invalid_rays = 0;                    // rays rejected at ray setup (reported as misses)
   std::array<uint64_t, 8> invalid_by_reason{};  // indexed by RayStatus
-  uint64_t first_invalid = UINT64_MAX;          // index of the first invalid ray of a batch (run_batch)
+  uint64_t any_hit_calls = 0;    // candidate hits on non-opaque triangles handed to the any-hit stage (any_hit.h)
+  uint64_t any_hit_ignored = 0;  // of those, the ones the stage ignored
+  uint64_t first_invalid = UINT64_MAX;  // index of the first invalid ray of a batch (run_batch)
   RayStatus first_invalid_reason = RayStatus::kOk;
   // Fixed-point devices only (0 on the float device):
   uint64_t saturations = 0;          // values clamped to their format (fixed.h saturation_count) while tracing
@@ -35,6 +37,8 @@ struct TraversalStats {
     prim_tests += o.prim_tests;
     invalid_rays += o.invalid_rays;
     for (size_t i = 0; i < invalid_by_reason.size(); ++i) invalid_by_reason[i] += o.invalid_by_reason[i];
+    any_hit_calls += o.any_hit_calls;
+    any_hit_ignored += o.any_hit_ignored;
     if (o.first_invalid < first_invalid) {
       first_invalid = o.first_invalid;
       first_invalid_reason = o.first_invalid_reason;

@@ -47,6 +47,7 @@ void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   to.record_short_stack = m_c.stack_entries;  // the model charges only for entries beyond it
   to.box_unit = m_box_unit.get();
   to.tri_unit = m_tri_unit.get();
+  to.any_hit = m_any_hit;
   auto tracer = std::make_unique<FixedTracer>(*image, to);  // throws when a unit cannot take the format
   m_image = std::move(image);
   m_tracer = std::move(tracer);

@@ -40,6 +40,10 @@ class TimedEngine final : public TraceEngine {
   bool bound() const override { return m_tracer != nullptr; }
   void unbind() override;
   void trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const override;
+  void set_any_hit(const AnyHitStage* stage) override {
+    m_any_hit = stage;
+    if (m_tracer) m_tracer->set_any_hit(stage);
+  }
   uint64_t packet_cycles(uint8_t opcode) const override;
   uint64_t irq_latency() const override { return uint64_t(m_c.irq_latency); }
   uint64_t trace_cycles(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s, uint8_t ray_type,
@@ -90,6 +94,7 @@ class TimedEngine final : public TraceEngine {
   std::unique_ptr<TriUnit> m_tri_unit;  // null: the C++ triangle test
   std::unique_ptr<DeviceImage> m_image;
   std::unique_ptr<FixedTracer> m_tracer;
+  const AnyHitStage* m_any_hit = nullptr;  // set_any_hit
   std::unique_ptr<TimingModel> m_model;
   // A chip (units > 1): the memory the units share and the units (m_model is then null).
   std::unique_ptr<MemorySystem> m_chip_memory;

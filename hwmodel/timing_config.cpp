@@ -44,6 +44,8 @@ const std::vector<KeyInfo>& key_table() {
       {"stack_entries", &C::stack_entries, 1, 64, "short stack per slot; deeper entries spill (8 bytes each)"},
       {"traversal_latency", &C::traversal_latency, 0, kMaxLatency,
        "scheduler: cycles from a unit result to the slot's next request"},
+      {"any_hit_latency", &C::any_hit_latency, 0, kMaxLatency,
+       "cycles a ray waits for the any-hit stage's answer on a non-opaque triangle's candidate hit"},
       {"box_units", &C::box_units, 1, 64, "box test units"},
       {"box_rate", &C::box_rate, 1, 64, "box tests per clock per unit (a node of width <= rate: one clock)"},
       {"box_latency", &C::box_latency, 1, kMaxLatency, "box unit pipeline depth (issue to result)"},
@@ -208,6 +210,10 @@ void TimingConfig::validate() const {
 //   - irq_latency 100 cycles (50 ns at 2 GHz): the fence's memory write, the interrupt controller and the message
 //     to the host's interrupt controller (an MSI write over the host bus); an estimate of the right order, and
 //     kept for every preset (the embedded unit's 1 GHz makes it 100 ns).
+//   - any_hit_latency 400 cycles, every preset: the unit's any-hit request reaching the firmware (of the order of
+//     irq_latency), the stage's mask lookup (one texel read from memory, of the order of dram_latency) and the
+//     answer's way back (irq_latency again); an estimate. DXR and Vulkan leave the cost to the implementation;
+//     what is known is that an any-hit shader takes the ray out of the fixed-function unit and back.
 // intel: one RTU of an Xe core of Intel's Arc A-series (Xe-HPG, "Alchemist").
 //   - 12 box tests and 1 triangle test per clock per RTU, in two traversal pipelines, with a dedicated BVH cache:
 //     Intel's Arc ray-tracing architecture disclosure (Aug./Sep. 2022, "Intel Arc Graphics: ray tracing"; as

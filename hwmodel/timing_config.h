@@ -37,6 +37,9 @@ struct TimingConfig {
   int ray_slots = 32;         // rays in flight, each with its own traversal state
   int stack_entries = 8;      // short stack per slot; deeper entries spill to memory (8 bytes each)
   int traversal_latency = 2;  // scheduler: cycles from a unit result to the slot's next request
+  // Cycles a ray waits in its slot for the any-hit stage's answer on a candidate hit of a non-opaque triangle
+  // (any_hit.h): the request to the firmware, its mask lookup (a texture read from memory) and the answer.
+  int any_hit_latency = 400;
 
   // Units: count, tests per clock per unit, pipeline depth (cycles from issue to result).
   int box_units = 1;

@@ -264,6 +264,8 @@ bool TimingModel::touches_memory(const Slot& sl) const {
       return e.count > 0;
     case TraceEvent::kRefill:
       return true;
+    case TraceEvent::kAnyHit:
+      return false;
     default:
       break;
   }
@@ -346,6 +348,13 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
           next_t = refill(sl, k, t);
           waiting = true;
           continue;
+        case TraceEvent::kAnyHit:  // the ray waits for the firmware's answer; the units serve other slots
+          ++sl.pos;
+          ++m_s->any_hit_requests;
+          next_t = t + uint64_t(m_c.any_hit_latency);
+          if (m_trace) m_trace->add(m_unit, k, "any-hit", t, next_t);
+          waiting = true;
+          continue;
         default:
           break;
       }
@@ -414,10 +423,11 @@ void TimingModel::fire(uint32_t k, uint64_t cycle) {
   auto event_name = [](const Slot& sl) -> std::string {
     if (sl.pos >= sl.ev.size()) return "hit write-back";
     const TraceEvent& e = sl.ev[sl.pos];
-    const std::string what = e.kind == TraceEvent::kNode    ? "node "
-                             : e.kind == TraceEvent::kPrim  ? "record "
-                             : e.kind == TraceEvent::kPlane ? "plane "
-                                                            : "stack entry ";
+    const std::string what = e.kind == TraceEvent::kNode     ? "node "
+                             : e.kind == TraceEvent::kPrim   ? "record "
+                             : e.kind == TraceEvent::kPlane  ? "plane "
+                             : e.kind == TraceEvent::kAnyHit ? "any-hit answer for record "
+                                                             : "stack entry ";
     // unit_phase: its fetch is under way and the unit's test comes next; else the previous step is finishing.
     return (sl.unit_phase ? "waiting for the data of " : "next: ") + what + std::to_string(e.index);
   };

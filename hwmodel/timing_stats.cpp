@@ -12,7 +12,7 @@ using S = TimingStats;
 constexpr SampleScale kPacket = SampleScale::kPacket, kPerRay = SampleScale::kPerRay;
 
 // The counters, in the order of the struct.
-constexpr std::array<TimingCounter, 24> kCounters = {{
+constexpr std::array<TimingCounter, 25> kCounters = {{
     {"packets", &S::packets, "packets", "TRACE packets simulated", kPacket},
     {"cycles", &S::cycles, "cycles", "cycles of those packets, from decode to the last hit written", kPacket},
     {"rays", &S::rays, "rays", "rays through the ray slots (rays rejected at setup included)", kPacket},
@@ -47,6 +47,8 @@ constexpr std::array<TimingCounter, 24> kCounters = {{
      "cycles unit requests waited beyond queue_depth for a free unit", kPerRay},
     {"slot_busy_cycles", &S::slot_busy_cycles, "cycles",
      "sum over rays of the cycles from entering a ray slot to leaving it", kPerRay},
+    {"any_hit_requests", &S::any_hit_requests, "requests",
+     "candidate hits on non-opaque triangles sent to the any-hit stage (each waits any_hit_latency)", kPerRay},
 }};
 static_assert(sizeof(TimingStats) == kCounters.size() * sizeof(uint64_t), "a counter is missing from the table");
 
@@ -156,6 +158,7 @@ const std::vector<ReportEntry>& report_table() {
       count("stack_spills", &S::stack_spills),
       count("stack_refills", &S::stack_refills),
       count("queue_stall_cycles", &S::queue_stall_cycles),
+      count("any_hit_requests", &S::any_hit_requests),
       figure("lower_bound.cycles", "cycles", "the largest of the ray fetch, box, triangle and DRAM bounds",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.cycles; }),
       figure("lower_bound.fetch", "cycles",

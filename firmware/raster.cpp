@@ -60,8 +60,8 @@ constexpr int kMaxPolygon = 3 + kClipPlanes;
 class Raster {
  public:
   Raster(const RenderJob& job, const SampleOffset* offsets, uint64_t first, uint32_t n, hw::Hit* gbuf,
-         RasterStats& st)
-      : m_job(job), m_offsets(offsets), m_first(first), m_n(n), m_gbuf(gbuf), m_st(st) {
+         const hw::AnyHitStage* stage, RasterStats& st)
+      : m_job(job), m_offsets(offsets), m_first(first), m_n(n), m_gbuf(gbuf), m_stage(stage), m_st(st) {
     const uint32_t spp = job.spp ? job.spp : 1;
     m_spp = spp;
     m_p0 = first / spp;
@@ -135,7 +135,8 @@ class Raster {
   void depth_test(uint32_t i, float t, uint32_t prim, float u, float v) {
     ++m_st.fragments;
     hw::Hit& g = m_gbuf[i];
-    if (t < g.t) {
+    // Alpha-tested surfaces: a fragment the any-hit stage ignores is not drawn (as a ray would pass it).
+    if (t < g.t && (!m_stage || m_stage->accept(prim, u, v))) {
       g = hw::Hit{t, prim, u, v};
       ++m_st.depth_writes;
     }
@@ -152,6 +153,7 @@ class Raster {
   uint64_t m_first;
   uint32_t m_n;
   hw::Hit* m_gbuf;
+  const hw::AnyHitStage* m_stage;
   RasterStats& m_st;
   uint32_t m_spp = 1;
   uint64_t m_p0 = 0, m_p1 = 0;  // pixels of the pass [p0, p1)
@@ -404,11 +406,11 @@ void Raster::plane(const SurfaceRecord& s, uint32_t prim) {
 }  // namespace
 
 void rasterize(const RenderJob& job, const SurfaceRecord* surfaces, const SampleOffset* offsets, uint64_t first,
-               uint32_t n, hw::Hit* gbuf, RasterStats& stats) {
+               uint32_t n, hw::Hit* gbuf, RasterStats& stats, const hw::AnyHitStage* stage) {
   if (n == 0 || job.width == 0 || job.height == 0 || job.width > kMaxRasterSide || job.height > kMaxRasterSide)
     return;
   ++stats.passes;
-  Raster r(job, offsets, first, n, gbuf, stats);
+  Raster r(job, offsets, first, n, gbuf, stage, stats);
   r.clear();
   for (uint32_t p = 0; p < job.num_prims; ++p) {
     const SurfaceRecord& s = surfaces[p];

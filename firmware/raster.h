@@ -26,6 +26,7 @@
 
 #include "firmware/render_scene.h"
 #include "firmware/sampling.h"
+#include "hwmodel/any_hit.h"
 #include "hwmodel/ray.h"
 
 namespace rtu::fw {
@@ -59,8 +60,9 @@ struct RasterStats {
 // for spheres and planes, whose normal follows from the hit point), or a miss (t = +inf, prim = kMissPrim).
 // offsets[k - first] is the sample's offset in its pixel (null at 1 spp: pixel centers). Draws nothing on an
 // image wider or taller than kMaxRasterSide; primitives with NaN or infinite coordinates (records the host
-// does not write) draw nothing.
+// does not write) draw nothing. With an any-hit stage (alpha-tested materials), fragments it ignores are not
+// drawn.
 void rasterize(const RenderJob& job, const SurfaceRecord* surfaces, const SampleOffset* offsets, uint64_t first,
-               uint32_t n, hw::Hit* gbuf, RasterStats& stats);
+               uint32_t n, hw::Hit* gbuf, RasterStats& stats, const hw::AnyHitStage* stage = nullptr);
 
 }  // namespace rtu::fw

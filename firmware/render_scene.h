@@ -15,13 +15,36 @@ static_assert(sizeof(F3) == 12);
 
 enum class MaterialKind : uint32_t { kDiffuse = 0, kMirror = 1, kGlass = 2, kEmissive = 3 };
 
+// How a material's alpha is used (glTF's alphaMode; blending is not modelled).
+enum class AlphaMode : uint32_t { kOpaque = 0, kMask = 1 };
+
 struct MaterialRecord {
-  uint32_t kind;  // MaterialKind
-  F3 color;       // diffuse albedo, or the tint of a mirror or glass
-  float ior;      // glass: index of refraction (> 0)
-  F3 emission;    // emissive: radiance
+  uint32_t kind;        // MaterialKind
+  F3 color;             // diffuse albedo, or the tint of a mirror or glass (times the texture's colour)
+  float ior;            // glass: index of refraction (> 0)
+  F3 emission;          // emissive: radiance
+  uint32_t texture;     // base colour texture: index into the texture table + 1; 0: none
+  uint32_t alpha_mode;  // AlphaMode
+  float alpha;          // alpha factor (times the texture's alpha)
+  float alpha_cutoff;   // kMask: the surface is there where alpha >= alpha_cutoff, else rays pass through it
 };
-static_assert(sizeof(MaterialRecord) == 32);
+static_assert(sizeof(MaterialRecord) == 48);
+
+// A texture: width x height RGBA8 texels, row 0 at the top, colour in sRGB, alpha linear. Texture coordinates
+// (s, t) put texel (x, y) over [x, x + 1) / width by [y, y + 1) / height (t grows downward, as in glTF) and
+// wrap (repeat).
+struct TextureRecord {
+  uint32_t width, height;  // in [1, kMaxTextureSide]
+  uint64_t texels;         // device address of width * height * 4 bytes
+};
+static_assert(sizeof(TextureRecord) == 16);
+inline constexpr uint32_t kMaxTextureSide = 16384;
+
+// Texture coordinates of one triangle's vertices v0, v1, v2 (one record per triangle, in primitive order).
+struct UvRecord {
+  float s[3], t[3];
+};
+static_assert(sizeof(UvRecord) == 24);
 
 enum class SurfaceKind : uint32_t { kTriangle = 0, kSphere = 1, kPlane = 2 };
 
@@ -78,7 +101,10 @@ struct RenderJob {
   uint64_t framebuffer;   // float[width * height * 3], linear RGB, written by the renderer (row 0 on top)
   uint64_t primary_hits;  // 0, or hw::Hit[width * height * spp]: each camera sample's primary hit (the G-buffer
                           // texel in hybrid mode, the traced hit otherwise), in path order
+  uint64_t uvs;           // 0, or UvRecord[num_uvs]: texture coordinates of triangles 0 .. num_uvs - 1
+  uint64_t textures;      // TextureRecord[num_textures]
+  uint32_t num_uvs, num_textures;
 };
-static_assert(sizeof(RenderJob) == 168);
+static_assert(sizeof(RenderJob) == 192);
 
 }  // namespace rtu::fw

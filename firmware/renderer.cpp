@@ -4,6 +4,7 @@
 
 #include "firmware/raster.h"
 #include "firmware/sampling.h"
+#include "firmware/surface.h"
 #include "hwmodel/ray.h"
 
 namespace rtu::fw {
@@ -60,8 +61,9 @@ constexpr int kNumBounceTypes = 3;
 
 class Renderer {
  public:
-  Renderer(Hal& hal, Ring& ring, const RenderJob& job, RenderStats& st)
-      : m_hal(hal), m_ring(ring), m_job(job), m_st(st) {}
+  Renderer(Hal& hal, Ring& ring, const RenderJob& job, const ShadingTables& tables, const hw::AnyHitStage* stage,
+           RenderStats& st)
+      : m_hal(hal), m_ring(ring), m_job(job), m_tables(tables), m_stage(stage), m_st(st) {}
 
   Status run(Arena& arena);
 
@@ -96,6 +98,8 @@ class Renderer {
   Hal& m_hal;
   Ring& m_ring;
   const RenderJob& m_job;
+  const ShadingTables& m_tables;
+  const hw::AnyHitStage* m_stage;  // the any-hit stage (the rasterizer's alpha test too), or null
   RenderStats& m_st;
   float m_inv_spp = 1.0f;
   uint32_t m_shadow_slots = 0;  // shadow/occlusion rays per path vertex at most
@@ -126,6 +130,13 @@ int Renderer::shade(const hw::Ray& ray, const hw::Hit& hit, Path& path, uint32_t
   if (hit.prim >= m_job.num_prims) return -1;  // the unit returned an index outside the scene: end the path
   const SurfaceRecord& s = m_surf[hit.prim];
   const MaterialRecord& m = m_mat[s.material < m_job.num_materials ? s.material : 0];
+  // The base colour: the material's, times its texture's at the hit (triangles with texture coordinates).
+  V color = vec(m.color);
+  if (m.texture != 0 && s.kind == uint32_t(SurfaceKind::kTriangle)) {
+    float texel[4];
+    surface_texel(m_tables, hit.prim, hit.u, hit.v, texel);
+    color *= V(texel[0], texel[1], texel[2]);
+  }
   const V d = glm::normalize(ray.dir);
   const V p = ray.origin + hit.t * ray.dir;
   V n;
@@ -151,7 +162,7 @@ int Renderer::shade(const hw::Ray& ray, const hw::Hit& hit, Path& path, uint32_t
       return -1;
     case MaterialKind::kMirror:
       if (!can_bounce) return -1;
-      path.throughput *= vec(m.color);
+      path.throughput *= color;
       path.count_emission = 1;
       next = hw::Ray{above, 0.0f, glm::reflect(d, nf), kInf};
       return 0;
@@ -161,7 +172,7 @@ int Renderer::shade(const hw::Ray& ray, const hw::Hit& hit, Path& path, uint32_t
       const float n1 = front ? 1.0f : ior, n2 = front ? ior : 1.0f, eta = n1 / n2;
       const float cos_i = glm::min(1.0f, -glm::dot(d, nf));
       const float sin2_t = eta * eta * glm::max(0.0f, 1.0f - cos_i * cos_i);
-      path.throughput *= vec(m.color);
+      path.throughput *= color;
       path.count_emission = 1;
       float fresnel = 1.0f;  // total internal reflection
       float cos_t = 0.0f;
@@ -184,7 +195,7 @@ int Renderer::shade(const hw::Ray& ray, const hw::Hit& hit, Path& path, uint32_t
   }
 
   // Diffuse: light from every light through a shadow ray, then indirect light or occlusion.
-  const V brdf = vec(m.color) * kInvPi;
+  const V brdf = color * kInvPi;
   for (uint32_t l = 0; l < m_job.num_lights; ++l) {
     const LightRecord& L = m_light[l];
     V q = vec(L.position), power = vec(L.power);
@@ -215,10 +226,10 @@ int Renderer::shade(const hw::Ray& ray, const hw::Hit& hit, Path& path, uint32_t
     // radiance) arrives when it escapes: albedo / pi * (pi * ambient) per unoccluded sample.
     const uint32_t slot = m_occlusion_base + m_num_occlusion++;
     m_srays[slot] = hw::Ray{above, 0.0f, cosine_direction(nf, rng), m_job.ao_distance};
-    m_spend[slot] = Pending{path.throughput * vec(m.color) * vec(m_job.background), path.pixel};
+    m_spend[slot] = Pending{path.throughput * color * vec(m_job.background), path.pixel};
   }
   if ((m_job.flags & kRenderIndirect) && !(m_job.flags & kRenderAo) && can_bounce) {
-    path.throughput *= vec(m.color);
+    path.throughput *= color;
     path.count_emission = 0;
     next = hw::Ray{above, 0.0f, cosine_direction(nf, rng), kInf};
     return 2;
@@ -312,7 +323,7 @@ Status Renderer::run(Arena& arena) {
       SampleOffset* offsets = jitter_table ? at<SampleOffset>(m_hal, a_offsets) : nullptr;
       if (offsets)
         for (uint32_t i = 0; i < n; ++i) offsets[i] = sample_offset(j, paths[i].pixel, paths[i].sample);
-      rasterize(j, m_surf, offsets, first, n, at<hw::Hit>(m_hal, a_hits), m_st.raster);
+      rasterize(j, m_surf, offsets, first, n, at<hw::Hit>(m_hal, a_hits), m_st.raster, m_stage);
       m_st.primary_rasterized += n;
     }
     // Segments of the current ray buffer by type: [seg_begin[t], seg_begin[t] + seg_count[t]).
@@ -386,8 +397,38 @@ Status render(Hal& hal, Ring& ring, Arena& arena, uint64_t job_addr, RenderStats
   stats = RenderStats{};
   const RenderJob& job = *at<const RenderJob>(hal, job_addr);
   if (job.width == 0 || job.height == 0 || job.num_materials == 0) return Status::kBadArgument;
-  Renderer r(hal, ring, job, stats);
-  return r.run(arena);
+  // The shading records the any-hit stage and the shading read; the texture and coordinate tables must lie in
+  // device memory (texels are checked per lookup: ShadingTables::texture_of).
+  const uint64_t mem = hal.mem_size();
+  auto inside = [mem](uint64_t addr, uint64_t count, uint64_t size) {
+    return count == 0 || (addr <= mem && count <= (mem - addr) / size);
+  };
+  if (!inside(job.surfaces, job.num_prims, sizeof(SurfaceRecord)) ||
+      !inside(job.materials, job.num_materials, sizeof(MaterialRecord)) ||
+      !inside(job.uvs, job.num_uvs, sizeof(UvRecord)) ||
+      !inside(job.textures, job.num_textures, sizeof(TextureRecord)))
+    return Status::kBadArgument;
+  ShadingTables tables;
+  tables.surfaces = at<const SurfaceRecord>(hal, job.surfaces);
+  tables.num_prims = job.num_prims;
+  tables.materials = at<const MaterialRecord>(hal, job.materials);
+  tables.num_materials = job.num_materials;
+  tables.uvs = job.num_uvs ? at<const UvRecord>(hal, job.uvs) : nullptr;
+  tables.num_uvs = job.num_uvs;
+  tables.textures = job.num_textures ? at<const TextureRecord>(hal, job.textures) : nullptr;
+  tables.num_textures = job.num_textures;
+  tables.mem = hal.mem();
+  tables.mem_size = mem;
+  // The any-hit stage answers the unit while the job runs, when a material is alpha-masked.
+  bool masked = false;
+  for (uint32_t i = 0; i < job.num_materials; ++i)
+    masked |= tables.materials[i].alpha_mode == uint32_t(AlphaMode::kMask);
+  const AlphaStage stage(tables);
+  if (masked) hal.set_any_hit(&stage);
+  Renderer r(hal, ring, job, tables, masked ? &stage : nullptr, stats);
+  const Status st = r.run(arena);
+  if (masked) hal.set_any_hit(nullptr);
+  return st;
 }
 
 }  // namespace rtu::fw

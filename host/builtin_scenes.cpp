@@ -122,6 +122,7 @@ IndexedMesh make_quad(float size_x, float size_z) {
   IndexedMesh mesh;
   mesh.vertices = {{-hx, 0.0f, -hz}, {-hx, 0.0f, hz}, {hx, 0.0f, hz}, {hx, 0.0f, -hz}};
   mesh.faces = {{0, 1, 2}, {0, 2, 3}};  // counter-clockwise seen from +y
+  mesh.uvs = {{0.0f, 0.0f}, {0.0f, 1.0f}, {1.0f, 1.0f}, {1.0f, 0.0f}};
   return mesh;
 }
 
@@ -144,14 +145,18 @@ uint32_t add_material(Scene& scene, Material m) {
 }
 
 Material diffuse(const std::string& name, Vec3 color) {
-  return {name, MaterialType::kDiffuse, color, 1.5f, {}};
+  return {.name = name, .type = MaterialType::kDiffuse, .color = color, .ior = 1.5f, .emission = {}};
 }
 
 // Appends a parallelogram light's two triangles (corner, +u, +u+v) and (corner, +u+v, +v) with its own emissive
 // material, and its Light record. Call after all mesh triangles: they must follow them (scene.h).
 void add_area_light(Scene& scene, std::vector<uint32_t>& tri_material, Vec3 corner, Vec3 edge_u, Vec3 edge_v,
                     Vec3 emission, const std::string& material_name) {
-  const uint32_t m = add_material(scene, {material_name, MaterialType::kEmissive, Vec3(1.0f), 1.5f, emission});
+  const uint32_t m = add_material(scene, {.name = material_name,
+                                          .type = MaterialType::kEmissive,
+                                          .color = Vec3(1.0f),
+                                          .ior = 1.5f,
+                                          .emission = emission});
   Light light;
   light.type = LightType::kArea;
   light.position = corner;

@@ -10,7 +10,9 @@ namespace {
 
 class FloatDevice final : public DirectDevice {
  public:
-  FloatDevice(const hw::Geometry& g, const DeviceOptions& o) : m_tracer(g, o.tracer) {}
+  FloatDevice(const hw::Geometry& g, const DeviceOptions& o) : m_tracer(g, o.tracer) {
+    m_tracer.set_any_hit(o.any_hit);
+  }
   hw::DeviceKind kind() const override { return hw::DeviceKind::kFloat; }
   void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
                    hw::TraversalStats& s) const override {
@@ -29,7 +31,9 @@ class FloatDevice final : public DirectDevice {
 // The float reference over two levels.
 class InstancedFloatDevice final : public DirectDevice {
  public:
-  InstancedFloatDevice(const hw::Geometry& g, const DeviceOptions& o) : m_tracer(*o.instances, g, o.tracer) {}
+  InstancedFloatDevice(const hw::Geometry& g, const DeviceOptions& o) : m_tracer(*o.instances, g, o.tracer) {
+    m_tracer.set_any_hit(o.any_hit);
+  }
   hw::DeviceKind kind() const override { return hw::DeviceKind::kFloat; }
   void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
                    hw::TraversalStats& s) const override {
@@ -52,7 +56,9 @@ class ImageDevice : public DirectDevice {
   ImageDevice(const hw::Geometry& g, const DeviceOptions& o)
       : m_bvh(hw::choose_accel(g, o.tracer, &m_bvh_cost, &m_brute_cost)),
         m_image(hw::encode_scene(g, o.format, m_bvh ? &*m_bvh : nullptr)),
-        m_tracer(m_image, hw::FixedTraceOptions{o.check_boxes, o.max_steps}) {}
+        m_tracer(m_image, hw::FixedTraceOptions{o.check_boxes, o.max_steps}) {
+    m_tracer.set_any_hit(o.any_hit);
+  }
   hw::RayStatus ray_status(const hw::Ray& r) const override {
     hw::FixedRay fr;
     return hw::setup_ray(r, m_tracer.frame(), m_tracer.format(), fr);
@@ -97,6 +103,7 @@ class TimedDevice final : public ImageDevice {
       : ImageDevice(g, o),
         m_engine(engine_options(o), o.timing, make_box_unit(o.timing), make_tri_unit(o.timing)) {
     m_engine.set_sampling(o.sample);
+    m_engine.set_any_hit(o.any_hit);
     m_engine.bind(m_image.data(), m_image.size());
   }
   hw::DeviceKind kind() const override { return hw::DeviceKind::kTimed; }

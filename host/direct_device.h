@@ -33,6 +33,9 @@ struct DeviceOptions {
   // The scene's two levels (Scene::instances), or null. The float device traces them (the geometry passed to
   // make_device must then be their flattened form); fixed and timed trace the flattened geometry.
   const hw::InstanceSet* instances = nullptr;
+  // The any-hit stage for the geometry's non-opaque triangles (alpha-tested materials: host/shading.h), or null:
+  // they are then opaque. Not owned: must outlive the device.
+  const hw::AnyHitStage* any_hit = nullptr;
 };
 
 class DirectDevice {

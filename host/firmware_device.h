@@ -29,6 +29,7 @@ class FirmwareDevice final : public fw::Hal {
   void barrier() override { std::atomic_thread_fence(std::memory_order_seq_cst); }
   uint8_t* mem() override { return m_mem.data(); }
   uint64_t mem_size() override { return m_mem.size(); }
+  void set_any_hit(const hw::AnyHitStage* stage) override { m_engine->set_any_hit(stage); }
 
   hw::DeviceKind kind() const { return m_kind; }
   hw::DeviceMemory& memory() { return m_mem; }

@@ -19,6 +19,7 @@ namespace rtu::host {
 struct IndexedMesh {
   std::vector<hw::Vec3> vertices;              // each computed once
   std::vector<std::array<uint32_t, 3>> faces;  // indices into vertices
+  std::vector<std::array<float, 2>> uvs;       // texture coordinates per vertex, or empty (none)
 };
 
 inline constexpr int kMaxIcosphereSubdiv = 8;  // 20 * 4^8 = 1,310,720 triangles
@@ -37,7 +38,8 @@ IndexedMesh make_torus(float major_radius, float minor_radius, int major_segment
 // Axis-aligned box centered at the origin with edge lengths `size` (> 0): 8 vertices, 12 triangles. Closed.
 IndexedMesh make_box(hw::Vec3 size);
 
-// Rectangle in the y = 0 plane centered at the origin, size_x by size_z (> 0), facing +y: 2 triangles.
+// Rectangle in the y = 0 plane centered at the origin, size_x by size_z (> 0), facing +y: 2 triangles. Texture
+// coordinates s = x / size_x + 1/2, t = z / size_z + 1/2: the texture covers it once.
 IndexedMesh make_quad(float size_x, float size_z);
 
 // Appends the faces of `mesh` to `out` as triangles, in face order.

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <memory>
 
+#include "firmware/render_scene.h"
 #include "host/error.h"
 
 #define STB_IMAGE_WRITE_IMPLEMENTATION
@@ -22,6 +23,7 @@
 
 #define STB_IMAGE_IMPLEMENTATION
 #define STBI_ONLY_PNG
+#define STBI_ONLY_JPEG  // textures: glTF's two image formats
 #if defined(__GNUC__)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmissing-field-initializers"
@@ -54,6 +56,50 @@ Image read_png(const std::string& path) {
   Image img{w, h, {}};
   img.rgb.assign(data.get(), data.get() + size_t(w) * size_t(h) * 3);
   return img;
+}
+
+namespace {
+
+Texture texture_from(stbi_uc* data, int w, int h, const std::string& name) {
+  const std::unique_ptr<stbi_uc, void (*)(void*)> own(data, &stbi_image_free);
+  if (!data) {
+    const char* why = stbi_failure_reason();
+    throw Error(name + ": cannot read texture (" + (why ? why : "unknown reason") + ")");
+  }
+  Texture t{name, uint32_t(w), uint32_t(h), {}};
+  t.rgba.assign(data, data + size_t(w) * size_t(h) * 4);
+  return t;
+}
+
+void check_texture_size(int w, int h, const std::string& name) {
+  if (w < 1 || h < 1 || w > int(fw::kMaxTextureSide) || h > int(fw::kMaxTextureSide))
+    throw Error(name + ": texture of " + std::to_string(w) + " x " + std::to_string(h) +
+                " texels (each side must be in [1, " + std::to_string(fw::kMaxTextureSide) + "])");
+}
+
+}  // namespace
+
+Texture read_texture(const std::string& path) {
+  const std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+  if (!f) throw Error(path + ": cannot open (" + std::strerror(errno) + ")");
+  int w = 0, h = 0, channels = 0;
+  if (!stbi_info_from_file(f.get(), &w, &h, &channels)) {
+    const char* why = stbi_failure_reason();
+    throw Error(path + ": cannot read texture (" + (why ? why : "unknown format") + ")");
+  }
+  check_texture_size(w, h, path);
+  return texture_from(stbi_load_from_file(f.get(), &w, &h, &channels, 4), w, h, path);
+}
+
+Texture read_texture_memory(const uint8_t* data, size_t bytes, const std::string& name) {
+  if (bytes == 0 || bytes > size_t(INT32_MAX)) throw Error(name + ": cannot read texture (empty or over 2 GiB)");
+  int w = 0, h = 0, channels = 0;
+  if (!stbi_info_from_memory(data, int(bytes), &w, &h, &channels)) {
+    const char* why = stbi_failure_reason();
+    throw Error(name + ": cannot read texture (" + (why ? why : "unknown format") + ")");
+  }
+  check_texture_size(w, h, name);
+  return texture_from(stbi_load_from_memory(data, int(bytes), &w, &h, &channels, 4), w, h, name);
 }
 
 hw::Vec3 hit_normal(const hw::Geometry& g, const hw::Ray& ray, const hw::Hit& hit) {

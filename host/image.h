@@ -21,6 +21,12 @@ void write_png(const std::string& path, const Image& img);
 // corrupt file.
 Image read_png(const std::string& path);
 
+// Reads a texture (PNG or JPEG, the image formats of glTF) as RGBA8, row 0 on top; grey and RGB
+// get alpha 255. Throws Error naming the path (or `name`) and the reason on a missing, corrupt or oversized
+// (beyond fw::kMaxTextureSide a side) file.
+Texture read_texture(const std::string& path);
+Texture read_texture_memory(const uint8_t* data, size_t bytes, const std::string& name);
+
 // A quick look at hits without a renderer: each pixel is the hit material's color times (0.15 + 0.85 |n.d|),
 // black on a miss. `hits` are of primary_rays(cam, width, height).
 Image shade_hits(const Scene& scene, const std::vector<hw::Ray>& rays, const std::vector<hw::Hit>& hits, int width,

@@ -11,6 +11,7 @@
 #include "host/error.h"
 #include "host/firmware_device.h"
 #include "host/limits.h"
+#include "host/shading.h"
 #include "host/trace_job.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/engine.h"
@@ -40,6 +41,7 @@ class ProgressHal final : public fw::Hal {
   void barrier() override { m_dev.barrier(); }
   uint8_t* mem() override { return m_dev.mem(); }
   uint64_t mem_size() override { return m_dev.mem_size(); }
+  void set_any_hit(const hw::AnyHitStage* stage) override { m_dev.set_any_hit(stage); }
 
  private:
   void update() {
@@ -129,48 +131,9 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
 
   // Device memory layout: scene image, renderer records, framebuffer, then the firmware's arena.
   const uint32_t nprims = g.num_prims();
-  std::vector<fw::SurfaceRecord> surfaces(nprims);
-  for (uint32_t p = 0; p < nprims; ++p) {
-    fw::SurfaceRecord& s = surfaces[p];
-    s.material = p < scene.prim_material.size() ? scene.prim_material[p] : 0;
-    switch (g.kind(p)) {
-      case hw::PrimKind::kTriangle: {
-        const hw::Triangle& t = g.triangles[p];
-        s.kind = uint32_t(fw::SurfaceKind::kTriangle);
-        s.a = f3(t.v0);
-        s.b = f3(t.v1);
-        s.c = f3(t.v2);
-        break;
-      }
-      case hw::PrimKind::kSphere: {
-        const hw::Sphere& sp = g.spheres[p - g.triangles.size()];
-        s.kind = uint32_t(fw::SurfaceKind::kSphere);
-        s.a = f3(sp.center);
-        s.b = fw::F3{sp.radius, 0.0f, 0.0f};
-        break;
-      }
-      case hw::PrimKind::kPlane: {
-        const hw::Plane& pl = g.planes[p - g.num_bounded()];
-        s.kind = uint32_t(fw::SurfaceKind::kPlane);
-        s.a = f3(pl.normal);
-        s.b = fw::F3{pl.offset, 0.0f, 0.0f};
-        break;
-      }
-    }
-  }
-  std::vector<fw::MaterialRecord> materials;
-  for (const Material& m : scene.materials) {
-    fw::MaterialRecord r{};
-    r.kind = uint32_t(m.type == MaterialType::kDiffuse  ? fw::MaterialKind::kDiffuse
-                      : m.type == MaterialType::kMirror ? fw::MaterialKind::kMirror
-                      : m.type == MaterialType::kGlass  ? fw::MaterialKind::kGlass
-                                                        : fw::MaterialKind::kEmissive);
-    r.color = f3(m.color);
-    r.ior = m.ior;
-    r.emission = f3(m.emission);
-    materials.push_back(r);
-  }
-  if (materials.empty()) materials.push_back(fw::MaterialRecord{0, {0.8f, 0.8f, 0.8f}, 1.5f, {0, 0, 0}});
+  ShadingRecords shading = shading_records(scene);
+  const std::vector<fw::SurfaceRecord>& surfaces = shading.surfaces;
+  const std::vector<fw::MaterialRecord>& materials = shading.materials;
   std::vector<fw::LightRecord> lights;
   for (const Light& l : scene.lights) {
     fw::LightRecord r{};
@@ -226,6 +189,12 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   job.surfaces = place(surfaces.size() * sizeof(fw::SurfaceRecord));
   job.materials = place(materials.size() * sizeof(fw::MaterialRecord));
   job.lights = place(lights.size() * sizeof(fw::LightRecord));
+  job.num_uvs = uint32_t(shading.uvs.size());
+  job.uvs = place(shading.uvs.size() * sizeof(fw::UvRecord));
+  job.num_textures = uint32_t(shading.textures.size());
+  job.textures = place(shading.textures.size() * sizeof(fw::TextureRecord));
+  const uint64_t texels = place(shading.texels.size());
+  for (fw::TextureRecord& t : shading.textures) t.texels += texels;
   job.framebuffer = place(uint64_t(res.width) * res.height * 3 * sizeof(float));
   const uint64_t paths = uint64_t(res.width) * res.height * uint64_t(o.spp);
   if (o.keep_primary) job.primary_hits = place(paths * sizeof(hw::Hit));
@@ -251,6 +220,11 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   mem.write(job.surfaces, surfaces.data(), surfaces.size() * sizeof(fw::SurfaceRecord));
   mem.write(job.materials, materials.data(), materials.size() * sizeof(fw::MaterialRecord));
   if (!lights.empty()) mem.write(job.lights, lights.data(), lights.size() * sizeof(fw::LightRecord));
+  if (!shading.uvs.empty()) mem.write(job.uvs, shading.uvs.data(), shading.uvs.size() * sizeof(fw::UvRecord));
+  if (!shading.textures.empty()) {
+    mem.write(job.textures, shading.textures.data(), shading.textures.size() * sizeof(fw::TextureRecord));
+    mem.write(texels, shading.texels.data(), shading.texels.size());
+  }
   mem.write(job_addr, &job, sizeof job);
 
   const auto t0 = std::chrono::steady_clock::now();

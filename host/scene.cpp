@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "firmware/render_scene.h"
 #include "host/error.h"
 #include "host/limits.h"
 #include "hwmodel/bvh.h"
@@ -42,7 +43,11 @@ Scene load_mesh_scene(const std::string& path) {
   Scene scene;
   scene.name = path;
   scene.geometry.triangles = import_mesh(path);
-  scene.materials.push_back({"default", MaterialType::kDiffuse, Vec3(0.8f), 1.5f, Vec3(0.0f)});
+  scene.materials.push_back({.name = "default",
+                             .type = MaterialType::kDiffuse,
+                             .color = Vec3(0.8f),
+                             .ior = 1.5f,
+                             .emission = Vec3(0.0f)});
   scene.prim_material.assign(scene.geometry.triangles.size(), 0);
   scene.camera = frame_camera(scene.geometry.bounds());
   // Intensity = squared distance to the target: irradiance about 1 there.
@@ -68,7 +73,31 @@ Scene load_scene(const std::string& spec) {
   }
   scene.name = spec;
   validate_scene(scene);
+  mark_non_opaque(scene);
   return scene;
+}
+
+void mark_non_opaque(Scene& scene) {
+  hw::Geometry& g = scene.geometry;
+  g.non_opaque.clear();
+  for (hw::Geometry& m : scene.instances.meshes) m.non_opaque.clear();
+  bool any = false;
+  for (const Material& m : scene.materials) any |= m.alpha_mode == AlphaMode::kMask;
+  if (!any) return;
+  g.non_opaque.assign(g.triangles.size(), 0);
+  for (size_t i = 0; i < g.triangles.size(); ++i)
+    g.non_opaque[i] = scene.materials[scene.prim_material[i]].alpha_mode == AlphaMode::kMask ? 1 : 0;
+  // Instance meshes: every placement of a mesh has its materials, so any placement gives its flags.
+  hw::InstanceSet& set = scene.instances;
+  std::vector<bool> done(set.meshes.size(), false);
+  for (uint32_t i = 0; i < set.instances.size(); ++i) {
+    const uint32_t mesh = set.instances[i].mesh;
+    if (done[mesh]) continue;
+    done[mesh] = true;
+    hw::Geometry& m = set.meshes[mesh];
+    m.non_opaque.resize(m.triangles.size());
+    for (uint32_t j = 0; j < m.triangles.size(); ++j) m.non_opaque[j] = g.non_opaque[set.global_prim(i, j)];
+  }
 }
 
 void check_scene_size(const std::string& name, uint64_t prims) {
@@ -146,7 +175,24 @@ void validate_scene(const Scene& scene) {
     if (!finite(m.color) || !finite(m.emission) || !std::isfinite(m.ior) || !(m.ior > 0.0f)) {
       fail("material '" + m.name + "': NaN/Inf or non-positive ior");
     }
+    if (!(m.alpha >= 0.0f && m.alpha <= 1.0f) || !(m.alpha_cutoff >= 0.0f && m.alpha_cutoff <= 1.0f))
+      fail("material '" + m.name + "': alpha and alpha_cutoff must be in [0, 1]");
+    if (m.texture < -1 || m.texture >= int(scene.textures.size()))
+      fail("material '" + m.name + "': texture index out of range");
   }
+  for (const Texture& t : scene.textures) {
+    if (t.width < 1 || t.height < 1 || t.width > fw::kMaxTextureSide || t.height > fw::kMaxTextureSide)
+      fail("texture '" + t.name + "': " + std::to_string(t.width) + " x " + std::to_string(t.height) +
+           " texels (each side must be in [1, " + std::to_string(fw::kMaxTextureSide) + "])");
+    if (t.rgba.size() != size_t(t.width) * t.height * 4) fail("texture '" + t.name + "': texel count mismatch");
+  }
+  if (!scene.triangle_uv.empty() && scene.triangle_uv.size() != g.triangles.size())
+    fail("triangle_uv has " + std::to_string(scene.triangle_uv.size()) + " entries for " +
+         std::to_string(g.triangles.size()) + " triangles");
+  for (size_t i = 0; i < scene.triangle_uv.size(); ++i)
+    for (int k = 0; k < 3; ++k)
+      if (!std::isfinite(scene.triangle_uv[i].s[k]) || !std::isfinite(scene.triangle_uv[i].t[k]))
+        fail("triangle " + std::to_string(i) + ": NaN/Inf texture coordinate");
 
   for (size_t i = 0; i < scene.lights.size(); ++i) {
     const Light& l = scene.lights[i];

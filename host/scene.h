@@ -24,12 +24,32 @@ using hw::Vec3;
 
 enum class MaterialType : uint8_t { kDiffuse, kMirror, kGlass, kEmissive };
 
+enum class AlphaMode : uint8_t { kOpaque, kMask };
+
 struct Material {
   std::string name;
   MaterialType type = MaterialType::kDiffuse;
   Vec3 color{0.8f};     // diffuse albedo, mirror/glass tint; unused for emissive
   float ior = 1.5f;     // glass: index of refraction (> 0)
   Vec3 emission{0.0f};  // emissive: radiance
+  int texture = -1;     // base colour texture (index into Scene::textures; its colour multiplies `color`), or -1
+  // Alpha testing (glTF alphaMode MASK): the surface is there where alpha (this factor times the texture's alpha)
+  // reaches alpha_cutoff; elsewhere rays pass through it (the any-hit stage, hwmodel/any_hit.h).
+  AlphaMode alpha_mode = AlphaMode::kOpaque;
+  float alpha = 1.0f;         // in [0, 1]
+  float alpha_cutoff = 0.5f;  // in [0, 1]
+};
+
+// A texture: RGBA8 texels, row 0 at the top, colour in sRGB (firmware/render_scene.h, TextureRecord).
+struct Texture {
+  std::string name;  // where it came from (a file, or the scene file's key)
+  uint32_t width = 0, height = 0;
+  std::vector<uint8_t> rgba;  // width * height * 4
+};
+
+// Texture coordinates (s, t) of a triangle's vertices v0, v1, v2.
+struct TriangleUv {
+  float s[3] = {0, 0, 0}, t[3] = {0, 0, 0};
 };
 
 enum class LightType : uint8_t { kPoint, kArea };
@@ -57,6 +77,8 @@ struct Scene {
   hw::Geometry geometry;  // triangles, spheres, planes in the documented order
   std::vector<Material> materials;
   std::vector<uint32_t> prim_material;  // per primitive index: index into materials
+  std::vector<Texture> textures;
+  std::vector<TriangleUv> triangle_uv;  // per triangle, or empty (no texture coordinates)
   std::vector<Light> lights;
   Camera camera;
   bool has_camera = false;  // false: the camera was framed automatically around the bounds
@@ -91,6 +113,10 @@ std::vector<std::pair<std::string, std::string>> builtin_scene_names();
 // Checks a loaded scene: finite coordinates, positive radii, non-zero plane normals, materials in range, at
 // least one primitive. Throws Error naming `scene.name` and the first problem.
 void validate_scene(const Scene& scene);
+
+// Marks the geometry's non-opaque triangles (hw::Geometry::non_opaque, and the instance meshes' for the
+// two-level float device): triangles whose material is alpha-masked. load_scene calls it.
+void mark_non_opaque(Scene& scene);
 
 // A camera that frames `bounds` from a diagonal direction (used when a scene has none).
 Camera frame_camera(const hw::Aabb& bounds);

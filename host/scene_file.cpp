@@ -15,6 +15,7 @@
 
 #include "host/error.h"
 #include "host/generators.h"
+#include "host/image.h"
 #include "host/json_io.h"
 #include "host/scene.h"
 
@@ -150,6 +151,11 @@ struct Builder {
   std::vector<std::vector<uint32_t>> mesh_tri_material;
   std::vector<uint32_t> instance_tri_material;
   uint64_t instance_prims = 0;
+  // Texture coordinates, as the materials: loose mesh triangles, per instance mesh, instance triangles.
+  std::vector<TriangleUv> tri_uv;
+  std::vector<std::vector<TriangleUv>> mesh_tri_uv;
+  std::vector<TriangleUv> instance_tri_uv;
+  std::map<std::string, int> texture_index;
 
   uint32_t material(const Json& parent, const std::string& path) const {
     if (!parent.contains("material")) return material_index.at("default");
@@ -184,18 +190,66 @@ void read_camera(const Reader& r, const Json& j, Camera& cam) {
   if (glm::cross(view, DVec3(cam.up)) == DVec3(0.0)) r.fail(join(path, "up"), "parallel to the view direction");
 }
 
+// Textures by name: an image file (PNG or JPEG; relative to the scene file) or inline texels.
+void read_textures(Builder& b, const Json& j, const std::filesystem::path& base_dir) {
+  const Reader& r = b.reader;
+  r.object(j, "textures");
+  for (const auto& item : j.items()) {
+    const std::string path = join("textures", item.key());
+    const Json& t = r.object(item.value(), path);
+    if (item.key().empty()) r.fail(path, "texture names must not be empty");
+    Texture tex;
+    if (t.contains("file")) {
+      r.check_keys(t, path, {"file"});
+      std::filesystem::path file(r.string(t["file"], join(path, "file")));
+      if (file.is_relative()) file = base_dir / file;
+      try {
+        tex = read_texture(file.string());
+      } catch (const Error& e) {
+        r.fail(join(path, "file"), e.what());
+      }
+    } else {
+      // Inline: "width", "height" and "texels", width * height [r, g, b, a] of integers 0..255, row 0 on top.
+      r.check_keys(t, path, {"width", "height", "texels"});
+      for (const char* key : {"width", "height", "texels"})
+        if (!t.contains(key))
+          r.fail(path, std::string("needs 'file', or 'width', 'height' and 'texels' (missing '") + key + "')");
+      tex.width = uint32_t(r.integer(t["width"], join(path, "width"), 1, 256));
+      tex.height = uint32_t(r.integer(t["height"], join(path, "height"), 1, 256));
+      const std::string key = join(path, "texels");
+      const Json& texels = r.array(t["texels"], key);
+      if (texels.size() != size_t(tex.width) * tex.height)
+        r.fail(key, "has " + std::to_string(texels.size()) + " texels for " + std::to_string(tex.width) + " x " +
+                        std::to_string(tex.height));
+      for (size_t i = 0; i < texels.size(); ++i) {
+        const Json& px = r.array(texels[i], join(key, i));
+        if (px.size() != 4) r.fail(join(key, i), "a texel is [r, g, b, a]");
+        for (size_t c = 0; c < 4; ++c)
+          tex.rgba.push_back(uint8_t(r.integer(px[c], join(join(key, i), c), 0, 255)));
+      }
+    }
+    tex.name = item.key();
+    b.texture_index[item.key()] = int(b.scene.textures.size());
+    b.scene.textures.push_back(std::move(tex));
+  }
+}
+
 void read_materials(Builder& b, const Json& j) {
   const Reader& r = b.reader;
   r.object(j, "materials");
   if (!j.contains("default")) {
-    b.scene.materials.push_back({"default", MaterialType::kDiffuse, Vec3(0.8f), 1.5f, Vec3(0.0f)});
+    b.scene.materials.push_back({.name = "default",
+                                 .type = MaterialType::kDiffuse,
+                                 .color = Vec3(0.8f),
+                                 .ior = 1.5f,
+                                 .emission = Vec3(0.0f)});
     b.material_index["default"] = 0;
   }
   for (const auto& item : j.items()) {
     const std::string path = join("materials", item.key());
     const Json& m = r.object(item.value(), path);
     if (item.key().empty()) r.fail(path, "material names must not be empty");
-    r.check_keys(m, path, {"type", "color", "ior", "emission"});
+    r.check_keys(m, path, {"type", "color", "ior", "emission", "texture", "alpha_mode", "alpha", "alpha_cutoff"});
     Material mat;
     mat.name = item.key();
     const std::string type = m.contains("type") ? r.string(m["type"], join(path, "type")) : "diffuse";
@@ -220,6 +274,32 @@ void read_materials(Builder& b, const Json& j) {
       if (mat.type != MaterialType::kGlass) r.fail(join(path, "ior"), "only glass materials have an ior");
       mat.ior = r.positive(m["ior"], join(path, "ior"));
     }
+    if (m.contains("texture")) {
+      const std::string key = join(path, "texture");
+      const std::string name = r.string(m["texture"], key);
+      auto it = b.texture_index.find(name);
+      if (it == b.texture_index.end()) {
+        std::string known;
+        for (const auto& [n, i] : b.texture_index) known += (known.empty() ? "" : ", ") + n;
+        r.fail(key, "unknown texture '" + name + "' (known: " + (known.empty() ? "none" : known) + ")");
+      }
+      mat.texture = it->second;
+    }
+    if (m.contains("alpha_mode")) {
+      const std::string key = join(path, "alpha_mode");
+      const std::string mode = r.string(m["alpha_mode"], key);
+      if (mode == "mask")
+        mat.alpha_mode = AlphaMode::kMask;
+      else if (mode != "opaque")
+        r.fail(key, "unknown alpha mode '" + mode + "' (valid: opaque, mask)");
+    }
+    auto unit = [&](const char* key) {
+      const float v = r.number(m[key], join(path, key));
+      if (!(v >= 0.0f && v <= 1.0f)) r.fail(join(path, key), "must be in [0, 1]");
+      return v;
+    };
+    if (m.contains("alpha")) mat.alpha = unit("alpha");
+    if (m.contains("alpha_cutoff")) mat.alpha_cutoff = unit("alpha_cutoff");
     b.material_index[mat.name] = uint32_t(b.scene.materials.size());
     b.scene.materials.push_back(mat);
   }
@@ -301,7 +381,8 @@ IndexedMesh generate(const Reader& r, const Json& j, const std::string& path, st
 
 // Mesh entries at `where` into tris, with their materials in tri_material.
 void read_mesh_entries(Builder& b, const Json& j, const std::string& where, const std::filesystem::path& base_dir,
-                       std::vector<hw::Triangle>& tris, std::vector<uint32_t>& tri_material) {
+                       std::vector<hw::Triangle>& tris, std::vector<uint32_t>& tri_material,
+                       std::vector<TriangleUv>& tri_uv) {
   const Reader& r = b.reader;
   r.array(j, where);
   for (size_t i = 0; i < j.size(); ++i) {
@@ -340,13 +421,24 @@ void read_mesh_entries(Builder& b, const Json& j, const std::string& where, cons
         for (Vec3& v : mesh.vertices) v = t.apply(v);  // once per vertex, before expanding
       }
       append_triangles(mesh, tris);
+      if (!mesh.uvs.empty()) {
+        tri_uv.resize(first);  // entries before without coordinates: 0
+        for (const auto& f : mesh.faces) {
+          TriangleUv uv;
+          for (int k = 0; k < 3; ++k) {
+            uv.s[k] = mesh.uvs[f[size_t(k)]][0];
+            uv.t[k] = mesh.uvs[f[size_t(k)]][1];
+          }
+          tri_uv.push_back(uv);
+        }
+      }
     }
     tri_material.insert(tri_material.end(), tris.size() - first, material);
   }
 }
 
 void read_meshes(Builder& b, const Json& j, const std::filesystem::path& base_dir) {
-  read_mesh_entries(b, j, "meshes", base_dir, b.scene.geometry.triangles, b.tri_material);
+  read_mesh_entries(b, j, "meshes", base_dir, b.scene.geometry.triangles, b.tri_material, b.tri_uv);
 }
 
 // Instancing (scenes/README.md, "prototypes" and "instances"). A transform as an affine map in double.
@@ -375,10 +467,13 @@ void read_prototypes(Builder& b, const Json& j, const std::filesystem::path& bas
     if (p.contains("meshes")) {
       hw::Geometry g;
       std::vector<uint32_t> mats;
-      read_mesh_entries(b, p["meshes"], join(path, "meshes"), base_dir, g.triangles, mats);
+      std::vector<TriangleUv> uvs;
+      read_mesh_entries(b, p["meshes"], join(path, "meshes"), base_dir, g.triangles, mats, uvs);
+      uvs.resize(g.triangles.size());
       proto.mesh = uint32_t(b.scene.instances.meshes.size());
       b.scene.instances.meshes.push_back(std::move(g));
       b.mesh_tri_material.push_back(std::move(mats));
+      b.mesh_tri_uv.push_back(std::move(uvs));
     }
     if (p.contains("instances")) r.array(p["instances"], join(path, "instances"));
     b.prototypes[item.key()] = proto;
@@ -423,6 +518,8 @@ void expand_instance(Builder& b, const Json& e, const std::string& path, const X
     set.instances.push_back(in);
     const std::vector<uint32_t>& mats = b.mesh_tri_material[proto.mesh];
     b.instance_tri_material.insert(b.instance_tri_material.end(), mats.begin(), mats.end());
+    const std::vector<TriangleUv>& uvs = b.mesh_tri_uv[proto.mesh];
+    b.instance_tri_uv.insert(b.instance_tri_uv.end(), uvs.begin(), uvs.end());
   }
   if (proto.json->contains("instances")) {
     const Json& subs = (*proto.json)["instances"];
@@ -508,7 +605,11 @@ void read_lights(Builder& b, const Json& j) {
 
       // Its own emissive material, then the triangles (corner, +u, +u+v) and (corner, +u+v, +v).
       const uint32_t m = uint32_t(b.scene.materials.size());
-      b.scene.materials.push_back({path, MaterialType::kEmissive, Vec3(1.0f), 1.5f, light.intensity});
+      b.scene.materials.push_back({.name = path,
+                                   .type = MaterialType::kEmissive,
+                                   .color = Vec3(1.0f),
+                                   .ior = 1.5f,
+                                   .emission = light.intensity});
       std::vector<hw::Triangle>& tris = b.scene.geometry.triangles;
       light.first_prim = uint32_t(tris.size());
       const Vec3 c = light.position, pu = c + light.edge_u, puv = pu + light.edge_v, pv = c + light.edge_v;
@@ -530,14 +631,16 @@ Scene load_scene_file(const std::string& path) {
   const Reader r(path);
   if (!root.is_object())
     r.fail("", std::string("expected a JSON object at the top level, got ") + root.type_name());
-  r.check_keys(
-      root, "",
-      {"description", "camera", "materials", "meshes", "spheres", "planes", "lights", "prototypes", "instances"});
+  r.check_keys(root, "",
+               {"description", "camera", "textures", "materials", "meshes", "spheres", "planes", "lights",
+                "prototypes", "instances"});
 
-  Builder b{r, {}, {}, {}, {}, {}, {}, std::vector<std::vector<uint32_t>>(1), {}, 0};
+  Builder b{r, {}, {}, {}, {}, {}, {}, std::vector<std::vector<uint32_t>>(1), {}, 0, {}, {}, {}, {}};
+  b.mesh_tri_uv.resize(1);
   b.scene.name = path;
   try {
     if (root.contains("description")) r.string(root["description"], "description");
+    if (root.contains("textures")) read_textures(b, root["textures"], std::filesystem::path(path).parent_path());
     read_materials(b, root.contains("materials") ? root["materials"] : Json::object());
     // Triangle order: meshes, then area lights (scene.h). Lights are read after the meshes for that reason.
     if (root.contains("meshes")) read_meshes(b, root["meshes"], std::filesystem::path(path).parent_path());
@@ -557,6 +660,7 @@ Scene load_scene_file(const std::string& path) {
   }
 
   Scene& scene = b.scene;
+  b.tri_uv.resize(scene.geometry.triangles.size());  // the loose triangles: meshes, then area lights (none)
   if (scene.instances.instances.empty()) {
     if (root.contains("instances") && !root["instances"].empty())
       r.fail("instances", "no instance has triangles (its prototypes have no meshes)");
@@ -571,7 +675,10 @@ Scene load_scene_file(const std::string& path) {
     set.finish();
     scene.geometry = set.flatten(scene.geometry.planes);
     b.tri_material.insert(b.tri_material.end(), b.instance_tri_material.begin(), b.instance_tri_material.end());
+    b.tri_uv.insert(b.tri_uv.end(), b.instance_tri_uv.begin(), b.instance_tri_uv.end());
   }
+  // Texture coordinates only matter to textured materials.
+  if (!scene.textures.empty()) scene.triangle_uv = std::move(b.tri_uv);
   scene.prim_material = b.tri_material;
   scene.prim_material.insert(scene.prim_material.end(), b.sphere_material.begin(), b.sphere_material.end());
   scene.prim_material.insert(scene.prim_material.end(), b.plane_material.begin(), b.plane_material.end());

@@ -33,10 +33,26 @@ Scene random_scene(hw::Pcg32& rng) {
   auto point = [&] { return offset + scale * hw::Vec3(uni(-1, 1), uni(-1, 1), uni(-1, 1)); };
   Scene s;
   s.name = "soak";
-  s.materials = {Material{"diffuse", MaterialType::kDiffuse, hw::Vec3(0.7f), 1.5f, hw::Vec3(0.0f)},
-                 Material{"mirror", MaterialType::kMirror, hw::Vec3(0.9f), 1.5f, hw::Vec3(0.0f)},
-                 Material{"glass", MaterialType::kGlass, hw::Vec3(1.0f), 1.45f, hw::Vec3(0.0f)},
-                 Material{"light", MaterialType::kEmissive, hw::Vec3(0.0f), 1.5f, hw::Vec3(4.0f)}};
+  s.materials = {Material{.name = "diffuse",
+                          .type = MaterialType::kDiffuse,
+                          .color = hw::Vec3(0.7f),
+                          .ior = 1.5f,
+                          .emission = hw::Vec3(0.0f)},
+                 Material{.name = "mirror",
+                          .type = MaterialType::kMirror,
+                          .color = hw::Vec3(0.9f),
+                          .ior = 1.5f,
+                          .emission = hw::Vec3(0.0f)},
+                 Material{.name = "glass",
+                          .type = MaterialType::kGlass,
+                          .color = hw::Vec3(1.0f),
+                          .ior = 1.45f,
+                          .emission = hw::Vec3(0.0f)},
+                 Material{.name = "light",
+                          .type = MaterialType::kEmissive,
+                          .color = hw::Vec3(0.0f),
+                          .ior = 1.5f,
+                          .emission = hw::Vec3(4.0f)}};
   hw::Geometry& g = s.geometry;
   const uint32_t nt = pick(301), ns = pick(9), np = pick(3);
   const float size = uni(0.01f, 0.5f);  // triangle size relative to the scene

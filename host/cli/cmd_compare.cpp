@@ -10,6 +10,7 @@
 #include "host/compare.h"
 #include "host/error.h"
 #include "host/ray_io.h"
+#include "host/shading.h"
 #include "host/trace_job.h"
 
 namespace rtu::host::cli {
@@ -32,14 +33,17 @@ double ratio_minus_one(uint64_t a, uint64_t b) {
 void run_compare(const CompareOptions& o) {
   const Scene scene = load_scene(o.scene);
   const std::vector<hw::Ray> rays = rays_from_spec(o.rays, scene, o.seed);
+  const SceneAnyHit alpha(scene);  // alpha-tested materials: both devices ask the same any-hit stage
   const DeviceOptions ref_opt = [&] {
     DeviceOptions d = o.dev.options(hw::DeviceKind::kFloat);
     d.instances = &scene.instances;  // the reference traces two levels; fixed and timed the flattened scene
+    d.any_hit = alpha.stage();
     return d;
   }();
   const DeviceOptions dut_opt = [&] {
     DeviceOptions d = o.dev.options(o.dev.kind());
     d.check_boxes = true;
+    d.any_hit = alpha.stage();
     return d;
   }();
   const std::unique_ptr<DirectDevice> ref = make_device(scene.geometry, ref_opt);

@@ -5,6 +5,7 @@
 #include "host/cli/common.h"
 #include "host/error.h"
 #include "host/ray_io.h"
+#include "host/shading.h"
 #include "host/trace_job.h"
 
 namespace rtu::host::cli {
@@ -33,6 +34,8 @@ void run_trace(const TraceOptions& o) {
   DeviceOptions dopt = o.dev.options(kind);
   dopt.sample.need_hits = !cycles_only;
   dopt.instances = &scene.instances;
+  const SceneAnyHit alpha(scene);  // alpha-tested materials: the firmware's any-hit stage over the scene's records
+  dopt.any_hit = alpha.stage();
   const std::unique_ptr<DirectDevice> device = make_device(scene.geometry, dopt);
   PipelineTraceArgs pt = o.pipeline;
   device->set_pipeline_trace(pt.make());
@@ -53,6 +56,9 @@ void run_trace(const TraceOptions& o) {
               stats.rays ? double(stats.nodes_visited) / double(stats.rays) : 0.0,
               stats.rays ? double(stats.box_tests) / double(stats.rays) : 0.0,
               stats.rays ? double(stats.prim_tests) / double(stats.rays) : 0.0);
+  if (stats.any_hit_calls > 0)
+    std::printf("any-hit: %llu candidate hits on alpha-tested triangles, %llu ignored\n",
+                (unsigned long long)stats.any_hit_calls, (unsigned long long)stats.any_hit_ignored);
   if (const hw::TimedEngine* te = device->timed()) {
     print_timing_summary(te->timing(), te->config(), te->sampling().packets_sampled > 0);
     const hw::SampleStats& ss = te->sampling();

@@ -122,8 +122,11 @@ class MockHal final : public fw::Hal {
   void barrier() override { m_log.push_back(barrier_event()); }
   uint8_t* mem() override { return m_mem.data(); }
   uint64_t mem_size() override { return m_mem.size(); }
+  void set_any_hit(const hw::AnyHitStage* stage) override { m_any_hit = stage; }
 
   // --- the device side, driven by the test
+  // The any-hit stage the firmware installed (null: none).
+  const hw::AnyHitStage* any_hit() const { return m_any_hit; }
   void set_id(uint32_t id) { m_id = id; }
   void set_policy(Policy p, uint32_t polls = 0) {
     m_policy = p;
@@ -175,6 +178,7 @@ class MockHal final : public fw::Hal {
 
  private:
   std::vector<uint8_t> m_mem;
+  const hw::AnyHitStage* m_any_hit = nullptr;
   std::vector<Event> m_log;
   std::vector<Doorbell> m_doorbells;
   Policy m_policy = Policy::kManual;

@@ -13,6 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include <nlohmann/json_fwd.hpp>
+
 #include "hwmodel/geometry.h"
 #include "hwmodel/instancing.h"
 #include "hwmodel/ray.h"
@@ -96,6 +98,10 @@ Scene load_scene(const std::string& spec);
 // The two loaders behind load_scene (which validates what they return; call load_scene unless you need one).
 // A scene description file, schema in scenes/README.md. Relative mesh paths are relative to the file's folder.
 Scene load_scene_file(const std::string& path);
+// A scene description already parsed (by parse_json_limited, which bounds its depth): `path` names it in messages
+// and becomes the scene's name, relative mesh paths are relative to `base_dir`. load_scene_file reads a file into
+// it; the Python module passes a dict through it. Not validated (validate_scene).
+Scene load_scene_json(const nlohmann::ordered_json& root, const std::string& path, const std::string& base_dir);
 // A built-in scene from its spec without the "builtin:" prefix, e.g. "icosphere?subdiv=5&radius=2".
 Scene load_builtin_scene(const std::string& spec);
 

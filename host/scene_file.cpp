@@ -627,7 +627,10 @@ void read_lights(Builder& b, const Json& j) {
 
 Scene load_scene_file(const std::string& path) {
   // Depth-bounded (json_io.h): the reads below copy values and name them in messages, both recursive.
-  const Json root = read_json_file(path);
+  return load_scene_json(read_json_file(path), path, std::filesystem::path(path).parent_path().string());
+}
+
+Scene load_scene_json(const nlohmann::ordered_json& root, const std::string& path, const std::string& base) {
   const Reader r(path);
   if (!root.is_object())
     r.fail("", std::string("expected a JSON object at the top level, got ") + root.type_name());
@@ -643,11 +646,11 @@ Scene load_scene_file(const std::string& path) {
     if (root.contains("textures")) read_textures(b, root["textures"], std::filesystem::path(path).parent_path());
     read_materials(b, root.contains("materials") ? root["materials"] : Json::object());
     // Triangle order: meshes, then area lights (scene.h). Lights are read after the meshes for that reason.
-    if (root.contains("meshes")) read_meshes(b, root["meshes"], std::filesystem::path(path).parent_path());
+    const std::filesystem::path base_dir(base);
+    if (root.contains("meshes")) read_meshes(b, root["meshes"], base_dir);
     if (root.contains("lights")) read_lights(b, root["lights"]);
     if (root.contains("spheres")) read_spheres(b, root["spheres"]);
     if (root.contains("planes")) read_planes(b, root["planes"]);
-    const std::filesystem::path base_dir = std::filesystem::path(path).parent_path();
     b.scene.instances.meshes.emplace_back();  // mesh 0: the loose geometry, if instances follow
     if (root.contains("prototypes")) read_prototypes(b, root["prototypes"], base_dir);
     if (root.contains("instances")) read_instances(b, root["instances"]);

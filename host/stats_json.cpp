@@ -106,6 +106,9 @@ Json traversal_json(const hw::TraversalStats& s) {
   j["box_tests"] = s.box_tests;
   j["prim_tests"] = s.prim_tests;
   j["saturations"] = s.saturations;
+  // Candidate hits on alpha-tested (non-opaque) triangles sent to the any-hit stage, and those it ignored.
+  j["any_hit_calls"] = s.any_hit_calls;
+  j["any_hit_ignored"] = s.any_hit_ignored;
   if (s.box_checks) {
     j["box_checks"] = s.box_checks;
     j["box_false_negatives"] = s.box_false_negatives;

@@ -285,6 +285,45 @@ hw::TimingConfig sweep_config(const std::string& spec) {
   }
 }
 
+void check_sweep_grid(const SweepGrid& g) {
+  for (const std::string& f : g.formats) {
+    try {
+      hw::format_from_spec(f);
+    } catch (const std::invalid_argument& e) {
+      throw Error(std::string("--formats: ") + e.what());
+    }
+  }
+  for (int w : g.widths)
+    if (w != 2 && w != 4 && w != 6 && w != 8)
+      throw Error("--bvh-width: " + std::to_string(w) + " is not 2, 4, 6 or 8");
+  for (const std::string& c : g.configs) {
+    try {
+      sweep_config(c);
+    } catch (const Error& e) {
+      throw Error(std::string("--config: ") + e.what());
+    }
+  }
+}
+
+void run_sweep_grid(const SweepGrid& g, const SweepOptions& o, const AreaTable& area,
+                    const std::function<bool(size_t, const SweepPoint&)>& want,
+                    const std::function<void(const Scene&, const SweepRow&)>& row) {
+  check_sweep_grid(g);
+  size_t index = 0;
+  for (const std::string& scene_spec : g.scenes) {
+    std::unique_ptr<Scene> scene;  // loaded when a point of it runs
+    auto cache = make_sweep_cache();
+    for (int w : g.widths)
+      for (const std::string& f : g.formats)
+        for (const std::string& c : g.configs) {
+          const SweepPoint p{scene_spec, f, w, c};
+          if (!want(index++, p)) continue;
+          if (!scene) scene = std::make_unique<Scene>(load_scene(scene_spec));
+          row(*scene, run_sweep_point(*scene, p, o, area, *cache));
+        }
+  }
+}
+
 SweepRow retime_sweep_point(const Scene& scene, const SweepRow& measured, const std::string& config,
                             const SweepOptions& o, const AreaTable& area, SweepCache& cache) {
   if (cache.rays.size() != measured.rays)

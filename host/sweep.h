@@ -7,7 +7,9 @@
 // resumes, shards and merges and that `rtusim plan` and the plots read.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -118,6 +120,22 @@ struct SweepCacheDeleter {
   void operator()(SweepCache* c) const;
 };
 std::unique_ptr<SweepCache, SweepCacheDeleter> make_sweep_cache();
+
+// A sweep's grid: every scene x BVH width x format x configuration, in this order (the order of the rows and of
+// the shards of `rtusim sweep`). Configurations are sweep_config specs: a preset or "preset:key=value:...".
+struct SweepGrid {
+  std::vector<std::string> scenes, formats{"default"}, configs{"rdna2"};
+  std::vector<int> widths{4};
+};
+// Checks every format spec, BVH width and configuration of the grid before the first point runs; throws Error
+// naming the option (--formats, --bvh-width, --config) and the problem.
+void check_sweep_grid(const SweepGrid& g);
+// Runs the grid's points in order (check_sweep_grid first): `want(index, point)` says whether point `index` runs
+// (a shard, a resumed sweep); a scene is loaded only when one of its points runs, with one SweepCache per scene.
+// `row(scene, row)` sees each row as soon as it is measured.
+void run_sweep_grid(const SweepGrid& g, const SweepOptions& o, const AreaTable& area,
+                    const std::function<bool(size_t, const SweepPoint&)>& want,
+                    const std::function<void(const Scene&, const SweepRow&)>& row);
 
 // The run parameters of a row, or of the rows a sweep with these options makes, as rtusim sweep's options spell
 // them: "--rays N --seed S --image-width W". Rows are interchangeable (resume, merge) only when these are equal.

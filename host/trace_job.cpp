@@ -33,8 +33,8 @@ int resolved_threads(int threads) {
   return threads > 0 ? threads : std::max(1, int(std::thread::hardware_concurrency()));
 }
 
-double trace_with_progress(const DirectDevice& device, const std::vector<hw::Ray>& rays,
-                           std::vector<hw::Hit>& hits, bool any_hit, int threads, hw::TraversalStats& stats) {
+double trace_with_progress(const DirectDevice& device, std::span<const hw::Ray> rays, std::vector<hw::Hit>& hits,
+                           bool any_hit, int threads, hw::TraversalStats& stats) {
   hits.resize(rays.size());
   constexpr size_t kChunk = size_t(1) << 18;
   Progress progress("trace", rays.size());
@@ -50,13 +50,52 @@ double trace_with_progress(const DirectDevice& device, const std::vector<hw::Ray
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+std::string invalid_rays_message(const hw::TraversalStats& stats) {
+  if (stats.invalid_rays == 0) return {};
+  return std::to_string(stats.invalid_rays) + " invalid rays reported as misses; the first is ray " +
+         std::to_string(stats.first_invalid) + " (" + hw::ray_status_name(stats.first_invalid_reason) +
+         "). Invalid: NaN or Inf origin or direction, zero direction, NaN interval, origin out of the frame "
+         "(fixed)";
+}
+
 void report_invalid_rays(const hw::TraversalStats& stats, std::FILE* out) {
   if (stats.invalid_rays == 0) return;
-  std::fprintf(out,
-               "rtusim: warning: %llu invalid rays reported as misses; the first is ray %llu (%s). Invalid: NaN "
-               "or Inf origin or direction, zero direction, NaN interval, origin out of the frame (fixed)\n",
-               (unsigned long long)stats.invalid_rays, (unsigned long long)stats.first_invalid,
-               hw::ray_status_name(stats.first_invalid_reason));
+  std::fprintf(out, "rtusim: warning: %s\n", invalid_rays_message(stats).c_str());
+}
+
+TraceRun run_trace(const TraceRequest& req) {
+  TraceRun run;
+  const auto build_start = std::chrono::steady_clock::now();
+  run.options = req.settings.options(req.kind);
+  run.options.sample.need_hits = req.need_hits;
+  run.options.instances = &req.scene->instances;
+  run.alpha = std::make_unique<SceneAnyHit>(*req.scene);
+  run.options.any_hit = run.alpha->stage();
+  run.device = make_device(req.scene->geometry, run.options);
+  run.device->set_pipeline_trace(req.pipeline);
+  run.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - build_start).count();
+  run.trace_seconds = trace_with_progress(*run.device, req.rays, run.hits, req.any_hit, req.threads, run.stats);
+  return run;
+}
+
+Json trace_stats_json(const TraceRequest& req, const TraceRun& run, const std::string& rays_name,
+                      const std::string& device_name, double load_seconds) {
+  const uint64_t n = req.rays.size();
+  Json j;
+  j["scene"] = req.scene->name;
+  j["rays_file"] = rays_name;
+  j["device"] = device_name;
+  if (req.kind != hw::DeviceKind::kFloat) j["format"] = format_json(run.options.format);
+  j["mode"] = req.any_hit ? "any_hit" : "closest_hit";
+  j["threads"] = resolved_threads(req.threads);
+  j.update(traversal_json(run.stats));
+  j["trace_seconds"] = run.trace_seconds;
+  j["rays_per_second"] = run.trace_seconds > 0 ? double(n) / run.trace_seconds : 0.0;
+  j["load_seconds"] = load_seconds;
+  j["build_seconds"] = run.build_seconds;
+  j["bvh"] = bvh_json(*run.device);
+  if (const hw::TimedEngine* te = run.device->timed()) j["timing"] = timed_json(*te);
+  return j;
 }
 
 }  // namespace rtu::host

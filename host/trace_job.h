@@ -3,10 +3,16 @@
 #pragma once
 
 #include <cstdio>
+#include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
+#include "host/device_settings.h"
 #include "host/direct_device.h"
+#include "host/scene.h"
+#include "host/shading.h"
+#include "host/stats_json.h"
 
 namespace rtu::host {
 
@@ -27,10 +33,42 @@ class Progress {
 int resolved_threads(int threads);
 
 // Traces rays into hits (same size); returns the wall-clock seconds of tracing alone.
-double trace_with_progress(const DirectDevice& device, const std::vector<hw::Ray>& rays,
-                           std::vector<hw::Hit>& hits, bool any_hit, int threads, hw::TraversalStats& stats);
+double trace_with_progress(const DirectDevice& device, std::span<const hw::Ray> rays, std::vector<hw::Hit>& hits,
+                           bool any_hit, int threads, hw::TraversalStats& stats);
 
-// Prints "N invalid rays ... the first is ray i (reason)" to `out` when the device rejected any ray.
+// "N invalid rays reported as misses; the first is ray i (reason). Invalid: ..." when the device rejected any ray;
+// empty otherwise.
+std::string invalid_rays_message(const hw::TraversalStats& stats);
+// Prints "rtusim: warning: " and that message to `out` when the device rejected any ray.
 void report_invalid_rays(const hw::TraversalStats& stats, std::FILE* out);
+
+// The job of `rtusim trace` (and of the Python module's trace): a device of `kind` made from `settings` over the
+// scene (two levels on the float device), the rays traced in packets with progress.
+struct TraceRequest {
+  const Scene* scene = nullptr;
+  std::span<const hw::Ray> rays;  // not copied: the Python module traces a numpy array in place
+  DeviceSettings settings;
+  hw::DeviceKind kind = hw::DeviceKind::kFloat;
+  bool any_hit = false;
+  int threads = 0;
+  bool need_hits = true;  // false: sampled timing traces only the sampled rays (cycles only; hits not meaningful)
+  hw::PipelineTrace* pipeline = nullptr;  // timed device: record pipeline spans here (or null)
+};
+struct TraceRun {
+  DeviceOptions options;
+  std::unique_ptr<SceneAnyHit> alpha;  // alpha-tested materials: the any-hit stage the device asks (outlives it)
+  std::unique_ptr<DirectDevice> device;
+  std::vector<hw::Hit> hits;
+  hw::TraversalStats stats;
+  double build_seconds = 0.0, trace_seconds = 0.0;
+};
+// Throws as make_device and DirectDevice::trace_batch do.
+TraceRun run_trace(const TraceRequest& req);
+
+// The statistics of a trace as `rtusim trace --stats` writes them: scene, rays, device, format, mode, threads,
+// traversal counters, seconds, the BVH and on the timed device its timing. `rays_name` names the ray set (the
+// ray file), `device_name` the device as the user spelled it.
+Json trace_stats_json(const TraceRequest& req, const TraceRun& run, const std::string& rays_name,
+                      const std::string& device_name, double load_seconds);
 
 }  // namespace rtu::host

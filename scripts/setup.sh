@@ -12,6 +12,8 @@ packages=(
   gnuplot-nox                                    # Pareto and scaling plots (rtusim pareto|report, bench/)
   chromium                                       # headless browser: the report page test (report_browser)
   clang libclang-rt-14-dev                       # libFuzzer targets with ASan + UBSan (preset fuzz, tests/fuzz/)
+  pybind11-dev python3-dev python3-numpy         # the Python module rtu (python/), built with pybind11
+  python3-pandas python3-matplotlib python3-pytest  # its DataFrames, examples/ plots and pytest tests
 )
 
 missing=()

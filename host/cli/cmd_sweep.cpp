@@ -20,8 +20,8 @@ namespace rtu::host::cli {
 namespace {
 
 struct SweepArgs {
-  std::vector<std::string> scenes, formats{"default"}, configs{"rdna2"}, merge;
-  std::vector<int> widths{4};
+  SweepGrid grid;
+  std::vector<std::string> merge;
   std::string out, shard = "1/1", area;
   SweepOptions opt;
 };
@@ -75,19 +75,10 @@ void run_merge(const SweepArgs& a) {
 
 void run_sweep(const SweepArgs& a) {
   if (!a.merge.empty()) return run_merge(a);
-  if (a.scenes.empty()) throw Error("sweep: --scene is required (or --merge FILES)");
+  if (a.grid.scenes.empty()) throw Error("sweep: --scene is required (or --merge FILES)");
   const auto [shard, shards] = parse_shard(a.shard);
   // Every point's format and configuration is checked before the first one runs.
-  for (const std::string& f : a.formats) {
-    try {
-      hw::format_from_spec(f);
-    } catch (const std::invalid_argument& e) {
-      throw Error(std::string("--formats: ") + e.what());
-    }
-  }
-  for (int w : a.widths)
-    if (w != 2 && w != 4 && w != 6 && w != 8)
-      throw Error("--bvh-width: " + std::to_string(w) + " is not 2, 4, 6 or 8");
+  check_sweep_grid(a.grid);
   const AreaTable area = a.area.empty() ? AreaTable::shipped() : AreaTable::load(a.area);
 
   // Resume: the points already in --out with this sweep's run parameters are done; rows made with others stay in
@@ -130,33 +121,27 @@ void run_sweep(const SweepArgs& a) {
   if (!out) throw Error("cannot write " + a.out);
   if (!exists) out << sweep_csv_header() << '\n' << std::flush;
 
-  size_t index = 0, ran = 0, skipped = 0;
-  for (const std::string& scene_spec : a.scenes) {
-    std::unique_ptr<Scene> scene;  // loaded when this shard has a point of it
-    auto cache = make_sweep_cache();
-    for (int w : a.widths)
-      for (const std::string& f : a.formats)
-        for (const std::string& c : a.configs) {
-          const SweepPoint p{scene_spec, f, w, c};
-          if (index++ % shards != shard - 1) continue;
-          if (done.count(p.key())) {
-            ++skipped;
-            continue;
-          }
-          if (!scene) scene = std::make_unique<Scene>(load_scene(scene_spec));
-          const SweepRow r = run_sweep_point(*scene, p, a.opt, area, *cache);
-          out << sweep_csv_line(r) << '\n' << std::flush;  // a row at a time: an interrupted sweep resumes
-          if (!out) throw Error("cannot write " + a.out);
-          ++ran;
-          std::printf(
-              "%s %s w%d %s: hit agreement %.5f%%, t err %.2g, PSNR %.1f dB, %llu cycles, %.1f DRAM bytes/ray, "
-              "%llu bytes (%.1f per primitive), %.1f s\n",
-              scene->name.c_str(), f.c_str(), w, c.c_str(), 100.0 * r.hit_agreement, r.t_rel_error_mean, r.psnr_db,
-              (unsigned long long)r.cycles, r.dram_bytes_per_ray, (unsigned long long)r.bvh_bytes,
-              r.bytes_per_prim, r.seconds);
-          std::fflush(stdout);
-        }
-  }
+  size_t ran = 0, skipped = 0;
+  const auto want = [&](size_t index, const SweepPoint& p) {
+    if (index % shards != shard - 1) return false;
+    if (done.count(p.key())) {
+      ++skipped;
+      return false;
+    }
+    return true;
+  };
+  run_sweep_grid(a.grid, a.opt, area, want, [&](const Scene& scene, const SweepRow& r) {
+    out << sweep_csv_line(r) << '\n' << std::flush;  // a row at a time: an interrupted sweep resumes
+    if (!out) throw Error("cannot write " + a.out);
+    ++ran;
+    std::printf(
+        "%s %s w%d %s: hit agreement %.5f%%, t err %.2g, PSNR %.1f dB, %llu cycles, %.1f DRAM bytes/ray, "
+        "%llu bytes (%.1f per primitive), %.1f s\n",
+        scene.name.c_str(), r.p.format.c_str(), r.p.bvh_width, r.p.config.c_str(), 100.0 * r.hit_agreement,
+        r.t_rel_error_mean, r.psnr_db, (unsigned long long)r.cycles, r.dram_bytes_per_ray,
+        (unsigned long long)r.bvh_bytes, r.bytes_per_prim, r.seconds);
+    std::fflush(stdout);
+  });
   std::printf("sweep: %zu points in this shard (%zu/%zu), %zu run, %zu already in %s\n", ran + skipped, shard,
               shards, ran, skipped, a.out.c_str());
 }
@@ -168,17 +153,17 @@ void add_sweep(CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
       "sweep",
       "Run time against error over scenes x formats x BVH widths x timing presets; one CSV row per point");
-  sub->add_option("--scene", a->scenes, "scene file, mesh file or builtin:NAME (repeatable)");
-  sub->add_option("--formats", a->formats,
+  sub->add_option("--scene", a->grid.scenes, "scene file, mesh file or builtin:NAME (repeatable)");
+  sub->add_option("--formats", a->grid.formats,
                   "format specs, comma-separated: a preset, or a preset with changes, e.g. "
                   "default:coord_bits=16:child_bits=6; storage layouts are presets (packed, cwbvh) or keys "
                   "(node_layout, node_align, prim_layout), e.g. packed:coord_bits=16 (rtusim info --formats)")
       ->delimiter(',')
       ->capture_default_str();
-  sub->add_option("--bvh-width", a->widths, "BVH widths, comma-separated (2, 4, 6, 8)")
+  sub->add_option("--bvh-width", a->grid.widths, "BVH widths, comma-separated (2, 4, 6, 8)")
       ->delimiter(',')
       ->capture_default_str();
-  sub->add_option("--config", a->configs, "timing presets, comma-separated")
+  sub->add_option("--config", a->grid.configs, "timing presets, comma-separated")
       ->delimiter(',')
       ->check(CLI::IsMember(hw::timing_preset_names()))  // each element
       ->capture_default_str();

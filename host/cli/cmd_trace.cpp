@@ -1,11 +1,11 @@
 // rtusim trace: ray file in, hit file out, on a device.
 #include <cstdio>
 #include <memory>
+#include <vector>
 
 #include "host/cli/common.h"
 #include "host/error.h"
 #include "host/ray_io.h"
-#include "host/shading.h"
 #include "host/trace_job.h"
 
 namespace rtu::host::cli {
@@ -30,21 +30,20 @@ void run_trace(const TraceOptions& o) {
   const bool cycles_only = o.out.empty();
   if (cycles_only && !(kind == hw::DeviceKind::kTimed && o.dev.sample > 0.0))
     throw Error("--out is required (it may be left out only with --device timed --sample F)");
-  Stopwatch build_timer;
-  DeviceOptions dopt = o.dev.options(kind);
-  dopt.sample.need_hits = !cycles_only;
-  dopt.instances = &scene.instances;
-  const SceneAnyHit alpha(scene);  // alpha-tested materials: the firmware's any-hit stage over the scene's records
-  dopt.any_hit = alpha.stage();
-  const std::unique_ptr<DirectDevice> device = make_device(scene.geometry, dopt);
   PipelineTraceArgs pt = o.pipeline;
-  device->set_pipeline_trace(pt.make());
-  const double build_s = build_timer.seconds();
-
-  std::vector<hw::Hit> hits(rays.size());
-  hw::TraversalStats stats;
-  const double trace_s = trace_with_progress(*device, rays, hits, o.any_hit, o.threads, stats);
-  if (!cycles_only) write_hits(o.out, hits);
+  TraceRequest req;
+  req.scene = &scene;
+  req.rays = rays;
+  req.settings = o.dev;
+  req.kind = kind;
+  req.any_hit = o.any_hit;
+  req.threads = o.threads;
+  req.need_hits = !cycles_only;
+  req.pipeline = pt.make();
+  const TraceRun run = host::run_trace(req);
+  const hw::TraversalStats& stats = run.stats;
+  const double trace_s = run.trace_seconds;
+  if (!cycles_only) write_hits(o.out, run.hits);
 
   report_invalid_rays(stats, stderr);
   const uint64_t n = rays.size();
@@ -59,33 +58,17 @@ void run_trace(const TraceOptions& o) {
   if (stats.any_hit_calls > 0)
     std::printf("any-hit: %llu candidate hits on alpha-tested triangles, %llu ignored\n",
                 (unsigned long long)stats.any_hit_calls, (unsigned long long)stats.any_hit_ignored);
-  if (const hw::TimedEngine* te = device->timed()) {
+  if (const hw::TimedEngine* te = run.device->timed()) {
     print_timing_summary(te->timing(), te->config(), te->sampling().packets_sampled > 0);
     const hw::SampleStats& ss = te->sampling();
     if (ss.packets_sampled > 0)
       std::printf("sampled: %llu of %llu packets estimated from %.1f%% of their rays; cycles +- %.0f (95%%)\n",
                   (unsigned long long)ss.packets_sampled, (unsigned long long)ss.packets,
                   100.0 * double(ss.rays_simulated) / double(ss.rays), ss.ci95());
+    pt.write(te->timeline());
   }
-  if (device->timed()) pt.write(device->timed()->timeline());
 
-  if (!o.stats.empty()) {
-    Json j;
-    j["scene"] = scene.name;
-    j["rays_file"] = o.rays;
-    j["device"] = o.dev.device;
-    if (kind != hw::DeviceKind::kFloat) j["format"] = format_json(dopt.format);
-    j["mode"] = o.any_hit ? "any_hit" : "closest_hit";
-    j["threads"] = resolved_threads(o.threads);
-    j.update(traversal_json(stats));
-    j["trace_seconds"] = trace_s;
-    j["rays_per_second"] = trace_s > 0 ? double(n) / trace_s : 0.0;
-    j["load_seconds"] = load_s;
-    j["build_seconds"] = build_s;
-    j["bvh"] = bvh_json(*device);
-    if (const hw::TimedEngine* te = device->timed()) j["timing"] = timed_json(*te);
-    write_json(o.stats, j);
-  }
+  if (!o.stats.empty()) write_json(o.stats, trace_stats_json(req, run, o.rays, o.dev.device, load_s));
 }
 
 }  // namespace

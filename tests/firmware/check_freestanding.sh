@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Checks that the firmware library is freestanding: the only symbols it may take from outside itself are the
 # memory primitives a freestanding compiler may emit calls to (memcpy, memset, memmove, memcmp) and, in a
-# sanitizer build, the sanitizer runtime (__asan_*, __ubsan_*, __sanitizer_*, clang's coverage __sancov_*). Anything else (malloc/free,
+# sanitizer build, the sanitizer runtime (__asan_*, __ubsan_*, __sanitizer_*, clang's coverage __sancov_*), and
+# under -fPIC the linker's _GLOBAL_OFFSET_TABLE_. Anything else (malloc/free,
 # operator new/delete, __cxa_* and _Unwind_* of exceptions, stdio, libm, the C++ library...) fails the check.
 #
 # usage: check_freestanding.sh LIBRARY.a [NM]
@@ -44,6 +45,9 @@ while IFS= read -r sym; do
     # clang's coverage instrumentation (the asan preset builds with -fsanitize=fuzzer-no-link): its counters and
     # the linker's section bounds; and the type_info vtable -fsanitize=function (clang's UBSan) compares with.
     __sancov_* | __start___sancov_* | __stop___sancov_* | _ZTVN10__cxxabiv120__function_type_infoE) ;;
+    # Position-independent code (the Python module links the firmware into a shared object) addresses its data
+    # through the GOT; the linker defines this symbol, no library does.
+    _GLOBAL_OFFSET_TABLE_) ;;
     *)
       demangled=$(c++filt "$sym" 2>/dev/null || echo "$sym")
       echo "not allowed in the firmware: $sym ($demangled)"

@@ -1,0 +1,284 @@
+"""rtu: a model of a fixed-function ray-tracing unit, from Python (python/README.md).
+
+The thin Python layer over the compiled core `_rtu`: keyword defaults, scene dicts, and DataFrames. Every job
+calls the host function `rtusim` calls, so hits, cycles and statistics equal the CLI's on the same inputs;
+statistics are the dicts of the CLI's JSON files. Errors are `rtu.Error` (a RuntimeError and a ValueError) with
+the CLI's message.
+
+    import rtu
+    scene = rtu.load_scene("builtin:seed")
+    rays = rtu.rays(scene, "primary:64x48")             # (N, 8) float32: ox oy oz tmin dx dy dz tmax
+    r = rtu.trace(scene, rays, device="timed", config={"preset": "intel", "cache_kib": 64})
+    r.hits["prim"], r.cycles, r.stats["timing"]["cycles_per_ray"]
+"""
+
+import json as _json
+import math as _math
+import os as _os
+import warnings as _warnings
+from dataclasses import dataclass as _dataclass, field as _field
+
+import numpy as _np
+
+from . import _rtu
+from ._rtu import Error, Scene, builtin_scenes, diff, formats, presets
+
+__all__ = [
+    "Error", "Scene", "InvalidRayWarning", "HIT_DTYPE", "RAY_FIELDS", "load_scene", "builtin_scenes", "rays",
+    "make_rays", "read_rays", "write_rays", "read_hits", "write_hits", "trace", "TraceResult", "compare",
+    "render", "RenderResult", "diff", "read_png", "write_png", "config", "presets", "formats", "format",
+    "sweep", "read_sweep", "plan", "pareto_front",
+]
+
+# The columns of a ray array (the ray file's record) and the dtype of a hit array (the hit file's record).
+RAY_FIELDS = ("ox", "oy", "oz", "tmin", "dx", "dy", "dz", "tmax")
+HIT_DTYPE = _rtu.hit_dtype()
+MISS = 0xFFFFFFFF  # hits["prim"] of a miss (t is +inf)
+
+
+class InvalidRayWarning(UserWarning):
+    """Rays the device rejected at ray setup were traced as misses (invalid="warn")."""
+
+
+def load_scene(scene, base_dir=None):
+    """A scene from a spec (a .json scene file, a mesh file, "builtin:NAME") or a dict in the scene-file format
+    (scenes/README.md; relative mesh paths are relative to base_dir, default the working directory). A Scene is
+    returned as it is."""
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, dict):
+        try:
+            text = _json.dumps(scene)
+        except (TypeError, ValueError) as e:
+            raise Error(f"scene dict: not JSON: {e}") from None
+        return _rtu.load_scene_text(text, "scene dict", str(base_dir or _os.getcwd()))
+    if isinstance(scene, _os.PathLike):
+        scene = _os.fspath(scene)
+    if not isinstance(scene, str):
+        raise Error(f"scene: expected a spec, a dict or an rtu.Scene, got {type(scene).__name__}")
+    return _rtu.load_scene(scene)
+
+
+def rays(scene, spec="primary", seed=1):
+    """Rays as an (N, 8) float32 array from rtusim's ray spec: "primary", "primary:N", "primary:WxH",
+    "incoherent", "incoherent:N" (seeded), or a ray file."""
+    return _rtu.rays(load_scene(scene), spec, seed)
+
+
+def make_rays(origin, direction, tmin=0.0, tmax=_math.inf):
+    """An (N, 8) float32 ray array from origins and directions ((N, 3) each) and tmin/tmax (scalars or (N,))."""
+    o = _np.asarray(origin, dtype=_np.float32)
+    d = _np.asarray(direction, dtype=_np.float32)
+    if o.ndim != 2 or o.shape[1] != 3 or d.shape != o.shape:
+        raise Error(f"make_rays: origin and direction must both be (N, 3), got {o.shape} and {d.shape}")
+    r = _np.empty((o.shape[0], 8), dtype=_np.float32)
+    r[:, 0:3] = o
+    r[:, 3] = tmin
+    r[:, 4:7] = d
+    r[:, 7] = tmax
+    return r
+
+
+def read_rays(path):
+    """A ray file (binary or .csv) as an (N, 8) float32 array."""
+    return _rtu.read_rays(_os.fspath(path))
+
+
+def write_rays(path, rays):
+    """Writes an (N, 8) ray array as a ray file (binary, or CSV when the name ends in .csv)."""
+    _rtu.write_rays(_os.fspath(path), rays)
+
+
+def read_hits(path):
+    """A hit file (binary or .csv) as a HIT_DTYPE array."""
+    return _rtu.read_hits(_os.fspath(path))
+
+
+def read_png(path):
+    """A PNG as a uint8 (height, width, 3) array (grey replicated, alpha dropped)."""
+    return _rtu.read_png(_os.fspath(path))
+
+
+def write_png(path, image):
+    """Writes a uint8 (height, width, 3) array as a PNG."""
+    _rtu.write_png(_os.fspath(path), image)
+
+
+def write_hits(path, hits):
+    """Writes a hit array (HIT_DTYPE) as a hit file (binary, or CSV when the name ends in .csv)."""
+    _rtu.write_hits(_os.fspath(path), hits)
+
+
+def _rays_arg(scene, rays, seed):
+    """Rays given as an array (traced in place when float32, C-contiguous) or as a spec string."""
+    if isinstance(rays, (str, _os.PathLike)):
+        spec = _os.fspath(rays)
+        return _rtu.rays(scene, spec, seed), spec
+    return rays, "array"
+
+
+@_dataclass
+class TraceResult:
+    hits: _np.ndarray  # HIT_DTYPE, one per ray (t, prim, u, v)
+    stats: dict  # rtusim trace --stats
+    invalid: str = ""  # the invalid-ray message ("" when every ray was valid)
+
+    @property
+    def cycles(self):
+        """The timed device's cycles (None on float and fixed)."""
+        timing = self.stats.get("timing")
+        return timing["cycles"] if timing else None
+
+
+def trace(scene, rays, device="float", *, any_hit=False, threads=0, hits=True, invalid="raise", seed=1, **device_options):
+    """Traces rays on a device, as `rtusim trace`.
+
+    device: "float", "fixed" or "timed". Device options (those of rtusim's tracing commands): config (a preset
+    name, or a dict {"preset": NAME, key: value}), set ({key: value} or ["key=value"]), format (a preset),
+    format_fields ({"coord_bits": 16, ...}), bvh_width, leaf_size, accel, sample, sample_unit, sample_warmup,
+    sample_seed, watchdog_steps. Options the device would ignore are refused, as the CLI refuses them.
+    hits=False: cycles only (timed with sample > 0). invalid: what to do when the device rejected rays (NaN/Inf,
+    zero direction, out of the frame): "raise" (rtu.Error), "warn" (InvalidRayWarning; the CLI's behaviour) or
+    "ignore"; the rejected rays are misses.
+    """
+    if invalid not in ("raise", "warn", "ignore"):
+        raise Error(f"invalid: '{invalid}' is not raise, warn or ignore")
+    scene = load_scene(scene)
+    rays, name = _rays_arg(scene, rays, seed)
+    h, stats, message = _rtu.trace(scene, rays, any_hit, threads, hits, name, device=device, **device_options)
+    if message:
+        if invalid == "raise":
+            raise Error(message)
+        if invalid == "warn":
+            _warnings.warn(message, InvalidRayWarning, stacklevel=2)
+    return TraceResult(h, stats, message)
+
+
+def compare(scene, rays="primary", device="fixed", *, any_hit=False, threads=0, max_list=1000, seed=1, **device_options):
+    """The float reference against a device on identical rays, as `rtusim compare`: its --json dict, with the
+    disagreements as a DataFrame (ray, kind, float_prim, float_t, <device>_prim, <device>_t) and the disagreeing
+    rays (an (N, 8) array) under "disagreement_rays"."""
+    import pandas as pd
+
+    scene = load_scene(scene)
+    rays, name = _rays_arg(scene, rays, seed)
+    result, replay = _rtu.compare(scene, rays, name, any_hit, threads, max_list, device=device, **device_options)
+    rows = []
+    for d in result["disagreements"]:
+        row = {"ray": d["ray"], "kind": d["kind"]}
+        for dev in ("float", result["device"]):
+            row[f"{dev}_prim"] = d[dev]["prim"]
+            row[f"{dev}_t"] = d[dev]["t"]
+        rows.append(row)
+    cols = ["ray", "kind", "float_prim", "float_t", f"{result['device']}_prim", f"{result['device']}_t"]
+    result["disagreements"] = pd.DataFrame(rows, columns=cols)
+    result["disagreement_rays"] = replay
+    return result
+
+
+@_dataclass
+class RenderResult:
+    image: _np.ndarray  # uint8 (height, width, 3), sRGB: what rtusim render writes as PNG
+    radiance: _np.ndarray  # float32 (height, width, 3), linear
+    stats: dict  # rtusim render --stats (without "image")
+    warnings: list = _field(default_factory=list)
+
+    @property
+    def cycles(self):
+        """The timed device's frame cycles (None on float and fixed)."""
+        timing = self.stats.get("timing")
+        return timing.get("frame_cycles") if timing else None
+
+
+def render(scene, device="float", *, mode="raytrace", width=0, height=0, spp=1, max_depth=4, seed=1, indirect=True,
+           ao=False, ao_distance=0.0, background=(0.0, 0.0, 0.0), threads=0, **device_options):
+    """Renders with the firmware renderer on a device, as `rtusim render` (width, height 0: the camera's)."""
+    scene = load_scene(scene)
+    img, rad, stats, warns = _rtu.render(scene, mode, width, height, spp, max_depth, seed, indirect, ao, ao_distance,
+                                         list(background), threads, device=device, **device_options)
+    for w in warns:
+        _warnings.warn(w, InvalidRayWarning, stacklevel=2)
+    return RenderResult(img, rad, stats, list(warns))
+
+
+def config(preset="rdna2", set=None):
+    """A timing configuration, every key (rtusim config --config P --set k=v): a dict."""
+    if isinstance(preset, dict):
+        d = dict(preset)
+        preset = d.pop("preset", "rdna2")
+        set = {**d, **(set or {})}
+    sets = [f"{k}={_value(v)}" for k, v in set.items()] if isinstance(set, dict) else list(set or [])
+    return _rtu.config(preset, sets)
+
+
+def _value(v):
+    return ("true" if v else "false") if isinstance(v, bool) else str(v)
+
+
+def format(spec="default"):  # noqa: A001 (the CLI's word)
+    """A fixed-point format from a spec ("default", "packed:coord_bits=16"): every field, as a dict."""
+    return _rtu.format(spec)
+
+
+def _list(x):
+    return [x] if isinstance(x, (str, int)) else list(x)
+
+
+def sweep(scenes, formats=("default",), bvh_widths=(4,), configs=("rdna2",), *, rays=20000, seed=1, image_width=128,
+          threads=0, area=None):
+    """A design sweep, as `rtusim sweep`: one row per scene x BVH width x format x configuration, with the CSV's
+    columns (error, cycles, bytes, area, energy). Configurations are presets or "preset:key=value:..."."""
+    import io
+
+    import pandas as pd
+
+    csv = _rtu.sweep(_list(scenes), _list(formats), _list(bvh_widths), _list(configs), rays, seed, image_width,
+                     threads, _os.fspath(area) if area else "")
+    return _sweep_frame(pd.read_csv(io.StringIO(csv)))
+
+
+def _sweep_frame(df):
+    """The derived column every plot uses: hit disagreement = 1 - hit agreement."""
+    df["hit_disagreement"] = 1.0 - df["hit_agreement"]
+    return df
+
+
+def read_sweep(path):
+    """A sweep CSV written by `rtusim sweep` as a DataFrame (the columns of rtu.sweep)."""
+    import pandas as pd
+
+    return _sweep_frame(pd.read_csv(_os.fspath(path)))
+
+
+def plan(scene, max_error, *, metric="hit", min_psnr=0.0, confidence=0.95, config="rdna2", format="",
+         minimise="cycles", area_budget=0.0, bvh_widths=(2, 4, 6, 8), coord_bits=tuple(range(8, 29, 2)),
+         child_bits=(4, 6, 8, 12), rays=20000, seed=1, image_width=128, threads=0, area=None):
+    """The cheapest format within an error budget, as `rtusim plan`: its --json dict ("plan" is None when no
+    format meets the budget) with every candidate measured as a DataFrame under "candidates" (the sweep's
+    columns and "meets")."""
+    import io
+
+    import pandas as pd
+
+    if isinstance(scene, Scene):
+        scene = scene.name
+    j, csv, meets = _rtu.plan(scene, max_error, metric, min_psnr, confidence, config, format, minimise, area_budget,
+                              list(bvh_widths), list(coord_bits), list(child_bits), rays, seed, image_width,
+                              threads, _os.fspath(area) if area else "")
+    df = _sweep_frame(pd.read_csv(io.StringIO(csv)))
+    df["meets"] = meets
+    j["candidates"] = df
+    return j
+
+
+def pareto_front(df, cost="cycles", error="hit_disagreement"):
+    """A boolean Series: the rows of df on the Pareto front of (cost, error), both minimised (host/pareto.h's
+    rule: no other row at most as costly and at most as wrong and better in one). Rows with a negative cost
+    (unknown, e.g. rtl_cells = -1) are never on it."""
+    import pandas as pd
+
+    known = df[df[cost] >= 0]
+    idx = _rtu.pareto_front(list(zip(known[cost].astype(float), known[error].astype(float))))
+    mask = pd.Series(False, index=df.index)
+    mask.loc[known.index[list(idx)]] = True
+    return mask

@@ -1,0 +1,634 @@
+// _rtu: the compiled part of the Python module rtu (python/README.md). Scenes, rays and hits as numpy arrays,
+// tracing on every device, compare, render, sweep and plan. Every job calls the host function rtusim calls
+// (host/trace_job.h, compare_job.h, render.h, sweep.h, plan.h) with the same settings (host::DeviceSettings), so
+// its hits, cycles and statistics are the CLI's bit for bit; statistics are the CLI's JSON as Python dicts. The
+// GIL is released while a job runs. Every error a job throws arrives as rtu.Error with the CLI's message.
+// python/rtu/__init__.py is the thin Python layer over it (keyword defaults, DataFrames).
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <cstring>
+#include <exception>
+#include <memory>
+#include <new>
+#include <string>
+#include <vector>
+
+#include "host/compare_job.h"
+#include "host/device_settings.h"
+#include "host/error.h"
+#include "host/image.h"
+#include "host/image_diff.h"
+#include "host/json_io.h"
+#include "host/pareto.h"
+#include "host/plan.h"
+#include "host/ray_io.h"
+#include "host/ray_spec.h"
+#include "host/render.h"
+#include "host/scene.h"
+#include "host/stats_json.h"
+#include "host/sweep.h"
+#include "host/trace_job.h"
+#include "hwmodel/bvh.h"
+#include "hwmodel/fixed_format.h"
+#include "hwmodel/timing_config.h"
+
+namespace py = pybind11;
+using namespace rtu;
+
+namespace {
+
+PyObject* g_error = nullptr;  // rtu.Error, derived from RuntimeError and ValueError
+
+[[noreturn]] void fail(const std::string& message) {
+  throw host::Error(message);
+}
+
+// JSON to Python through the json module: the dict equals json.loads of the file rtusim writes.
+py::object to_python(const host::Json& j) {
+  return py::module_::import("json").attr("loads")(j.dump());
+}
+
+// A loaded scene, shared by the jobs that use it (immutable once loaded).
+struct PyScene {
+  std::shared_ptr<const host::Scene> scene;
+};
+
+PyScene load_scene(const std::string& spec) {
+  py::gil_scoped_release nogil;  // mesh import and BVH-free loading can take seconds
+  return PyScene{std::make_shared<const host::Scene>(host::load_scene(spec))};
+}
+
+// A scene description as JSON text (the Python layer dumps a dict): parsed as a scene file is, depth-bounded and
+// strict, named `name` in messages; relative mesh paths are relative to `base_dir`.
+PyScene load_scene_text(const std::string& text, const std::string& name, const std::string& base_dir) {
+  py::gil_scoped_release nogil;
+  host::Scene s = host::load_scene_json(host::parse_json_limited(text, name), name, base_dir);
+  s.name = name;
+  host::validate_scene(s);
+  return PyScene{std::make_shared<const host::Scene>(std::move(s))};
+}
+
+py::tuple vec3(const hw::Vec3& v) {
+  return py::make_tuple(v.x, v.y, v.z);
+}
+
+// --- rays and hits as numpy arrays ---
+
+// A vector handed to numpy without a copy: the array owns it through a capsule.
+template <class T>
+py::array give(std::vector<T>&& v, const py::dtype& dt, std::vector<py::ssize_t> shape,
+               std::vector<py::ssize_t> strides) {
+  auto* owned = new std::vector<T>(std::move(v));
+  py::capsule owner(owned, [](void* p) { delete static_cast<std::vector<T>*>(p); });
+  return py::array(dt, std::move(shape), std::move(strides), owned->data(), owner);
+}
+
+// Rays as an (N, 8) float32 array: ox oy oz tmin dx dy dz tmax, the ray file's record.
+py::array rays_to_numpy(std::vector<hw::Ray>&& rays) {
+  const py::ssize_t n = py::ssize_t(rays.size());
+  return give(std::move(rays), py::dtype::of<float>(), {n, 8}, {py::ssize_t(sizeof(hw::Ray)), 4});
+}
+
+// Hits as a structured array of (t float32, prim uint32, u float32, v float32): the hit file's record.
+py::array hits_to_numpy(std::vector<hw::Hit>&& hits) {
+  const py::ssize_t n = py::ssize_t(hits.size());
+  return give(std::move(hits), py::dtype::of<hw::Hit>(), {n}, {py::ssize_t(sizeof(hw::Hit))});
+}
+
+// Rays given by the user: an (N, 8) array of floats. A C-contiguous float32 array is traced in place (no copy);
+// other float arrays are converted once. `keep` holds the array the span points into.
+struct RaysIn {
+  py::array keep;
+  std::span<const hw::Ray> rays;
+};
+
+RaysIn rays_from_numpy(const py::handle& obj) {
+  py::array a = py::array::ensure(obj);
+  if (!a)
+    fail("rays: expected a numpy array of shape (N, 8) (ox oy oz tmin dx dy dz tmax), got " +
+         std::string(py::str(py::type::of(obj).attr("__name__"))));
+  if (a.ndim() != 2 || a.shape(1) != 8) {
+    std::string shape;
+    for (py::ssize_t i = 0; i < a.ndim(); ++i) shape += (i ? ", " : "") + std::to_string(a.shape(i));
+    fail("rays: expected an array of shape (N, 8) (ox oy oz tmin dx dy dz tmax), got shape (" + shape + ")");
+  }
+  if (a.dtype().kind() != 'f')
+    fail("rays: expected a float array (float32 is traced without a copy), got dtype " +
+         std::string(py::str(a.dtype())));
+  using F32 = py::array_t<float, py::array::c_style | py::array::forcecast>;
+  RaysIn in;
+  in.keep = F32::ensure(a);  // the same array when it is float32 and C-contiguous
+  if (!in.keep) fail("rays: cannot convert the array to float32");
+  in.rays = {reinterpret_cast<const hw::Ray*>(in.keep.data()), size_t(in.keep.shape(0))};
+  return in;
+}
+
+std::vector<hw::Hit> hits_from_numpy(const py::handle& obj) {
+  py::array a = py::array::ensure(obj);
+  if (!a || a.ndim() != 1 || !a.dtype().equal(py::dtype::of<hw::Hit>()))
+    fail("hits: expected a 1-D structured array of dtype rtu.HIT_DTYPE (t, prim, u, v)");
+  py::array c = py::array::ensure(a, py::array::c_style);
+  std::vector<hw::Hit> hits(size_t(c.shape(0)));
+  if (!hits.empty()) std::memcpy(hits.data(), c.data(), hits.size() * sizeof(hw::Hit));
+  return hits;
+}
+
+// --- a device as the user names it: the options of rtusim's tracing commands ---
+
+std::string value_text(const py::handle& v) {
+  if (py::isinstance<py::bool_>(v)) return v.cast<bool>() ? "true" : "false";
+  if (py::isinstance<py::str>(v)) return v.cast<std::string>();
+  if (py::isinstance<py::int_>(v) || py::isinstance<py::float_>(v)) return std::string(py::str(v));
+  fail("timing key value " + std::string(py::repr(v)) + ": expected a number, a string or a bool");
+}
+
+// Settings of a device from the keyword arguments; refuses what the device would ignore, as rtusim does.
+struct DeviceArgs {
+  std::string device = "float";
+  py::object config, set, format, format_fields;
+  int bvh_width = 0, leaf_size = 8;
+  std::string accel = "auto";
+  double sample = 0.0;
+  uint32_t sample_unit = 256, sample_warmup = 0;
+  uint64_t sample_seed = 1, watchdog_steps = 0;
+
+  hw::DeviceKind kind() const { return hw::parse_device_kind(device); }
+
+  host::DeviceSettings settings(bool timing_allowed = true) const {
+    const hw::DeviceKind k = kind();
+    const bool timed = k == hw::DeviceKind::kTimed;
+    auto refuse = [&](bool given, const char* name, const char* which) {
+      if (given) fail(std::string(name) + " applies to device='" + which + "' only (not " + device + ")");
+    };
+    refuse(!timed && !config.is_none(), "config", "timed");
+    refuse(!timed && !set.is_none(), "set", "timed");
+    refuse(!timed && sample != 0.0, "sample", "timed");
+    refuse(!timed && (sample_unit != 256 || sample_warmup != 0 || sample_seed != 1), "sample_unit/warmup/seed",
+           "timed");
+    refuse(k == hw::DeviceKind::kFloat && watchdog_steps != 0, "watchdog_steps", "fixed' or 'timed");
+    refuse(k == hw::DeviceKind::kFloat && !format_fields.is_none(), "format_fields", "fixed' or 'timed");
+    if (!timing_allowed && sample != 0.0) fail("sample: this job reports no cycles");
+    host::DeviceSettings s;
+    if (bvh_width != 0 && bvh_width != 2 && bvh_width != 4 && bvh_width != 6 && bvh_width != 8)
+      fail("bvh_width: " + std::to_string(bvh_width) + " is not 2, 4, 6 or 8");
+    s.bvh_width = bvh_width;
+    if (leaf_size < 1 || leaf_size > hw::kMaxLeafSize)
+      fail("leaf_size: " + std::to_string(leaf_size) + " is not in 1.." + std::to_string(hw::kMaxLeafSize));
+    s.leaf_size = leaf_size;
+    if (accel != "auto" && accel != "bvh" && accel != "brute")
+      fail("accel: '" + accel + "' is not auto, bvh or brute");
+    s.accel = accel;
+    if (!format.is_none()) {
+      s.format = format.cast<std::string>();
+      hw::format_preset(s.format);  // an unknown preset is named now, as rtusim's option check does
+    }
+    if (!format_fields.is_none()) {
+      if (!py::isinstance<py::dict>(format_fields)) fail("format_fields: expected a dict of field: bits");
+      for (const auto& [key, value] : format_fields.cast<py::dict>()) {
+        const std::string k2 = py::str(key);
+        if (!py::isinstance<py::int_>(value) || value.cast<long long>() < 0 || value.cast<long long>() > 1 << 20)
+          fail("format_fields: " + k2 + " must be a non-negative int");
+        s.format_fields[k2] = value.cast<int>();
+      }
+    }
+    // config: a preset name, or a dict {"preset": NAME, key: value, ...}; set: {key: value} or ["key=value"].
+    if (py::isinstance<py::str>(config)) {
+      s.config = config.cast<std::string>();
+    } else if (py::isinstance<py::dict>(config)) {
+      for (const auto& [key, value] : config.cast<py::dict>()) {
+        const std::string k2 = py::str(key);
+        if (k2 == "preset")
+          s.config = value.cast<std::string>();
+        else
+          s.sets.push_back(k2 + "=" + value_text(value));
+      }
+    } else if (!config.is_none()) {
+      fail("config: expected a preset name or a dict {\"preset\": NAME, key: value}");
+    }
+    if (py::isinstance<py::dict>(set)) {
+      for (const auto& [key, value] : set.cast<py::dict>())
+        s.sets.push_back(std::string(py::str(key)) + "=" + value_text(value));
+    } else if (py::isinstance<py::list>(set) || py::isinstance<py::tuple>(set)) {
+      for (const auto& item : set) s.sets.push_back(item.cast<std::string>());
+    } else if (!set.is_none()) {
+      fail("set: expected a dict {key: value} or a list of \"key=value\"");
+    }
+    if (!(sample >= 0.0 && sample <= 1.0)) fail("sample: " + std::to_string(sample) + " is not in [0, 1]");
+    if (sample_unit < 1 || sample_unit > (1u << 20)) fail("sample_unit: not in 1..1048576");
+    if (sample_warmup > (1u << 20)) fail("sample_warmup: not in 0..1048576");
+    s.sample = sample;
+    s.sample_unit = sample_unit;
+    s.sample_warmup = sample_warmup;
+    s.sample_seed = sample_seed;
+    s.watchdog_steps = watchdog_steps;
+    // Resolve now (with the GIL held, before any work): bad keys, values and formats are reported here.
+    (void)s.options(k);
+    return s;
+  }
+};
+
+DeviceArgs device_args(const py::kwargs& kw) {
+  DeviceArgs d;
+  d.config = py::none();
+  d.set = py::none();
+  d.format = py::none();
+  d.format_fields = py::none();
+  for (const auto& [key, value] : kw) {
+    const std::string k = py::str(key);
+    if (k == "device")
+      d.device = value.cast<std::string>();
+    else if (k == "config")
+      d.config = py::reinterpret_borrow<py::object>(value);
+    else if (k == "set")
+      d.set = py::reinterpret_borrow<py::object>(value);
+    else if (k == "format")
+      d.format = py::reinterpret_borrow<py::object>(value);
+    else if (k == "format_fields")
+      d.format_fields = py::reinterpret_borrow<py::object>(value);
+    else if (k == "bvh_width")
+      d.bvh_width = value.cast<int>();
+    else if (k == "leaf_size")
+      d.leaf_size = value.cast<int>();
+    else if (k == "accel")
+      d.accel = value.cast<std::string>();
+    else if (k == "sample")
+      d.sample = value.cast<double>();
+    else if (k == "sample_unit")
+      d.sample_unit = value.cast<uint32_t>();
+    else if (k == "sample_warmup")
+      d.sample_warmup = value.cast<uint32_t>();
+    else if (k == "sample_seed")
+      d.sample_seed = value.cast<uint64_t>();
+    else if (k == "watchdog_steps")
+      d.watchdog_steps = value.cast<uint64_t>();
+    else
+      fail("unknown keyword argument '" + k +
+           "' (device options: device, config, set, format, format_fields, bvh_width, leaf_size, accel, sample, "
+           "sample_unit, sample_warmup, sample_seed, watchdog_steps)");
+  }
+  return d;
+}
+
+int check_threads(int threads) {
+  if (threads < 0) fail("threads: " + std::to_string(threads) + " is negative (0: all cores)");
+  return threads;
+}
+
+// --- the jobs ---
+
+// rtusim trace: (hits, stats dict, invalid-ray message or "").
+py::tuple trace(const PyScene& scene, const py::handle& rays_obj, bool any_hit, int threads, bool need_hits,
+                const std::string& rays_name, const py::kwargs& kw) {
+  const DeviceArgs d = device_args(kw);
+  host::TraceRequest req;
+  req.scene = scene.scene.get();
+  req.settings = d.settings();
+  req.kind = d.kind();
+  req.any_hit = any_hit;
+  req.threads = check_threads(threads);
+  req.need_hits = need_hits;
+  if (!need_hits && !(req.kind == hw::DeviceKind::kTimed && d.sample > 0.0))
+    fail("hits=False is allowed only with device='timed' and sample > 0 (cycles only)");
+  const RaysIn in = rays_from_numpy(rays_obj);
+  req.rays = in.rays;
+  host::Json stats;
+  std::vector<hw::Hit> hits;
+  std::string invalid;
+  {
+    py::gil_scoped_release nogil;
+    host::TraceRun run = host::run_trace(req);
+    stats = host::trace_stats_json(req, run, rays_name, d.device, 0.0);
+    invalid = host::invalid_rays_message(run.stats);
+    hits = std::move(run.hits);
+  }
+  return py::make_tuple(hits_to_numpy(std::move(hits)), to_python(stats), invalid);
+}
+
+// rtusim compare: the --json dict and the disagreeing rays.
+py::tuple compare(const PyScene& scene, const py::handle& rays_obj, const std::string& rays_name, bool any_hit,
+                  int threads, size_t max_list, const py::kwargs& kw) {
+  DeviceArgs d = device_args(kw);
+  if (!kw.contains("device")) d.device = "fixed";
+  host::CompareRequest req;
+  req.scene = scene.scene.get();
+  req.settings = d.settings(false);
+  req.kind = d.kind();
+  req.rays_name = rays_name;
+  req.any_hit = any_hit;
+  req.threads = check_threads(threads);
+  req.max_list = max_list;
+  const RaysIn in = rays_from_numpy(rays_obj);
+  const std::vector<hw::Ray> rays(in.rays.begin(), in.rays.end());
+  req.rays = &rays;
+  host::Json json;
+  std::vector<hw::Ray> replay;
+  {
+    py::gil_scoped_release nogil;
+    host::CompareRun run = host::compare_devices(req);
+    host::check_compared(run);
+    host::check_box_false_negatives(run);
+    json = std::move(run.json);
+    replay = std::move(run.replay);
+  }
+  return py::make_tuple(to_python(json), rays_to_numpy(std::move(replay)));
+}
+
+// An 8-bit RGB image (H, W, 3) from numpy, as host::Image.
+host::Image image_from_numpy(const py::handle& obj, const char* what) {
+  py::array a = py::array::ensure(obj);
+  if (!a || a.ndim() != 3 || a.shape(2) != 3 || a.dtype().kind() != 'u' || a.dtype().itemsize() != 1)
+    fail(std::string(what) + ": expected a uint8 array of shape (height, width, 3)");
+  py::array c = py::array::ensure(a, py::array::c_style);
+  host::Image img;
+  img.height = int(c.shape(0));
+  img.width = int(c.shape(1));
+  img.rgb.resize(size_t(c.nbytes()));
+  if (!img.rgb.empty()) std::memcpy(img.rgb.data(), c.data(), img.rgb.size());
+  return img;
+}
+
+py::array image_to_numpy(host::Image&& img) {
+  const py::ssize_t h = img.height, w = img.width;
+  return give(std::move(img.rgb), py::dtype::of<uint8_t>(), {h, w, 3}, {w * 3, 3, 1});
+}
+
+// rtusim render: (image uint8 (H, W, 3), radiance float32 (H, W, 3), stats dict, warnings).
+py::tuple render(const PyScene& scene, const std::string& mode, int width, int height, int spp, int max_depth,
+                 uint32_t seed, bool indirect, bool ao, float ao_distance, std::vector<float> background,
+                 int threads, const py::kwargs& kw) {
+  const DeviceArgs d = device_args(kw);
+  host::RenderOptions o;
+  o.device = d.settings().options(d.kind());
+  if (mode != "raytrace" && mode != "hybrid") fail("mode: '" + mode + "' is not raytrace or hybrid");
+  o.hybrid = mode == "hybrid";
+  if (width < 0 || width > 16384 || height < 0 || height > 16384)
+    fail("width, height: not in 1..16384 (0: the scene camera's)");
+  if (spp < 1 || spp > 65536) fail("spp: " + std::to_string(spp) + " is not in 1..65536");
+  if (max_depth < 0 || max_depth > 64) fail("max_depth: " + std::to_string(max_depth) + " is not in 0..64");
+  if (ao_distance != 0.0f && !ao) fail("ao_distance applies with ao=True only");
+  if (!(ao_distance >= 0.0f) || !std::isfinite(ao_distance)) fail("ao_distance: not a positive number");
+  if (ao && !indirect) fail("indirect=False applies without ao only (ambient occlusion has no indirect light)");
+  if (background.size() != 3) fail("background: expected 3 values (R, G, B)");
+  for (float b : background)
+    if (!(b >= 0.0f && b <= 1e6f)) fail("background: values must be in [0, 1e6]");
+  o.threads = check_threads(threads);
+  o.width = width;
+  o.height = height;
+  o.spp = spp;
+  o.max_depth = max_depth;
+  o.seed = seed;
+  o.ao = ao;
+  o.indirect = indirect;
+  o.ao_distance = ao_distance;
+  o.background = hw::Vec3(background[0], background[1], background[2]);
+  host::Json stats;
+  host::Image img;
+  std::vector<float> rgb;
+  std::vector<std::string> warnings;
+  int w = 0, h = 0;
+  {
+    py::gil_scoped_release nogil;
+    host::RenderResult r = host::render(*scene.scene, o);
+    stats = host::render_json(r, o);
+    stats["scene"] = scene.scene->name;
+    img = host::to_image(r);
+    warnings = host::render_warnings(r);
+    w = r.width;
+    h = r.height;
+    rgb = std::move(r.rgb);
+  }
+  py::array radiance = give(std::move(rgb), py::dtype::of<float>(), {h, w, 3}, {py::ssize_t(w) * 12, 12, 4});
+  return py::make_tuple(image_to_numpy(std::move(img)), radiance, to_python(stats), warnings);
+}
+
+// rtusim diff's figures of two images.
+py::dict diff(const py::handle& a, const py::handle& b) {
+  const host::ImageDiff d = host::diff_images(image_from_numpy(a, "a"), image_from_numpy(b, "b"));
+  py::dict j;
+  j["width"] = d.width;
+  j["height"] = d.height;
+  j["identical"] = d.identical();
+  j["mse"] = d.mse;
+  j["psnr_db"] = std::isfinite(d.psnr_db) ? py::object(py::float_(d.psnr_db)) : py::object(py::none());
+  j["max_abs"] = d.max_abs;
+  j["mean_abs"] = d.mean_abs;
+  j["pixels_differing"] = d.pixels_differing;
+  j["frac_pixels_differing"] = d.frac_pixels_differing;
+  return j;
+}
+
+host::SweepOptions sweep_options(uint64_t rays, uint64_t seed, int image_width, int threads) {
+  if (rays < 1 || rays > (uint64_t(1) << 26)) fail("rays: " + std::to_string(rays) + " is not in 1..67108864");
+  if (image_width < 0 || image_width > 4096) fail("image_width: not in 0..4096");
+  host::SweepOptions o;
+  o.rays = rays;
+  o.seed = seed;
+  o.image_width = image_width;
+  o.threads = check_threads(threads);
+  return o;
+}
+
+// rtusim sweep: the CSV text of every point (the Python layer reads it into a DataFrame).
+std::string sweep(const std::vector<std::string>& scenes, const std::vector<std::string>& formats,
+                  const std::vector<int>& widths, const std::vector<std::string>& configs, uint64_t rays,
+                  uint64_t seed, int image_width, int threads, const std::string& area_path) {
+  if (scenes.empty()) fail("sweep: no scene");
+  host::SweepGrid g{scenes, formats, configs, widths};
+  const host::SweepOptions o = sweep_options(rays, seed, image_width, threads);
+  host::check_sweep_grid(g);
+  py::gil_scoped_release nogil;
+  const host::AreaTable area = area_path.empty() ? host::AreaTable::shipped() : host::AreaTable::load(area_path);
+  std::string csv = host::sweep_csv_header() + "\n";
+  host::run_sweep_grid(
+      g, o, area, [](size_t, const host::SweepPoint&) { return true; },
+      [&](const host::Scene&, const host::SweepRow& r) { csv += host::sweep_csv_line(r) + "\n"; });
+  return csv;
+}
+
+// rtusim plan: (the --json dict, the CSV text of every candidate measured, whether each met the budget).
+py::tuple plan(const host::PlanOptions& o) {
+  std::string csv = host::sweep_csv_header() + "\n";
+  std::vector<bool> meets;
+  host::PlanResult res;
+  {
+    py::gil_scoped_release nogil;
+    res = host::plan_format(o, [&](const host::PlanStep& s) {
+      if (s.stage != host::PlanStage::kCandidate) return;
+      csv += host::sweep_csv_line(*s.row) + "\n";
+      meets.push_back(s.meets);
+    });
+  }
+  return py::make_tuple(to_python(res.json), csv, meets);
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_rtu, m) {
+  m.doc() = "rtu's compiled core (use the package rtu; python/README.md)";
+  PYBIND11_NUMPY_DTYPE(hw::Hit, t, prim, u, v);  // the hit file's record: t, prim, u, v (4 bytes each)
+
+  // rtu.Error: every error of a job, with rtusim's message. Both a RuntimeError and a ValueError, so that code
+  // catching either sees bad input.
+  py::tuple bases = py::make_tuple(py::handle(PyExc_RuntimeError), py::handle(PyExc_ValueError));
+  g_error = PyErr_NewExceptionWithDoc("rtu.Error", "An rtu error: bad input or a failed job (rtusim's message)",
+                                      bases.ptr(), nullptr);
+  m.attr("Error") = py::handle(g_error);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const py::error_already_set&) {
+      throw;  // a Python exception passing through
+    } catch (const py::builtin_exception&) {
+      throw;  // pybind11's own (type errors of arguments)
+    } catch (const std::bad_alloc&) {
+      throw;  // MemoryError
+    } catch (const std::exception& e) {
+      PyErr_SetString(g_error, e.what());
+    }
+  });
+
+  py::class_<PyScene>(m, "Scene", "A loaded scene (rtu.load_scene)")
+      .def_property_readonly("name", [](const PyScene& s) { return s.scene->name; })
+      .def_property_readonly("triangles", [](const PyScene& s) { return s.scene->geometry.triangles.size(); })
+      .def_property_readonly("spheres", [](const PyScene& s) { return s.scene->geometry.spheres.size(); })
+      .def_property_readonly("planes", [](const PyScene& s) { return s.scene->geometry.planes.size(); })
+      .def_property_readonly("primitives", [](const PyScene& s) { return s.scene->geometry.num_prims(); })
+      .def_property_readonly("lights", [](const PyScene& s) { return s.scene->lights.size(); })
+      .def_property_readonly("materials", [](const PyScene& s) { return s.scene->materials.size(); })
+      .def_property_readonly("instanced", [](const PyScene& s) { return s.scene->instanced(); })
+      .def_property_readonly("bounds",
+                             [](const PyScene& s) {
+                               const hw::Aabb b = s.scene->geometry.bounds();
+                               return py::make_tuple(vec3(b.lo), vec3(b.hi));
+                             })
+      .def_property_readonly("camera",
+                             [](const PyScene& s) {
+                               const host::Camera& c = s.scene->camera;
+                               py::dict d;
+                               d["position"] = vec3(c.position);
+                               d["look_at"] = vec3(c.look_at);
+                               d["up"] = vec3(c.up);
+                               d["fov_y_deg"] = c.fov_y_deg;
+                               d["width"] = c.width;
+                               d["height"] = c.height;
+                               d["framed"] = !s.scene->has_camera;
+                               return d;
+                             })
+      .def("__repr__", [](const PyScene& s) {
+        return "<rtu.Scene " + s.scene->name + ": " + std::to_string(s.scene->geometry.num_prims()) +
+               " primitives>";
+      });
+
+  m.def("load_scene", &load_scene, py::arg("spec"));
+  m.def("load_scene_text", &load_scene_text, py::arg("text"), py::arg("name"), py::arg("base_dir"));
+  m.def("builtin_scenes", &host::builtin_scene_names);
+  m.def("hit_dtype", [] { return py::dtype::of<hw::Hit>(); });
+
+  m.def(
+      "rays",
+      [](const PyScene& s, const std::string& spec, uint64_t seed) {
+        std::vector<hw::Ray> r;
+        {
+          py::gil_scoped_release nogil;
+          r = host::rays_from_spec(spec, *s.scene, seed);
+        }
+        return rays_to_numpy(std::move(r));
+      },
+      py::arg("scene"), py::arg("spec"), py::arg("seed"));
+  m.def(
+      "read_rays", [](const std::string& path) { return rays_to_numpy(host::read_rays(path)); }, py::arg("path"));
+  m.def(
+      "write_rays",
+      [](const std::string& path, const py::handle& rays) {
+        const RaysIn in = rays_from_numpy(rays);
+        host::write_rays(path, std::vector<hw::Ray>(in.rays.begin(), in.rays.end()));
+      },
+      py::arg("path"), py::arg("rays"));
+  m.def(
+      "read_hits", [](const std::string& path) { return hits_to_numpy(host::read_hits(path)); }, py::arg("path"));
+  m.def(
+      "write_hits",
+      [](const std::string& path, const py::handle& hits) { host::write_hits(path, hits_from_numpy(hits)); },
+      py::arg("path"), py::arg("hits"));
+
+  m.def("trace", &trace, py::arg("scene"), py::arg("rays"), py::arg("any_hit"), py::arg("threads"),
+        py::arg("need_hits"), py::arg("rays_name"));
+  m.def("compare", &compare, py::arg("scene"), py::arg("rays"), py::arg("rays_name"), py::arg("any_hit"),
+        py::arg("threads"), py::arg("max_list"));
+  m.def("render", &render, py::arg("scene"), py::arg("mode"), py::arg("width"), py::arg("height"), py::arg("spp"),
+        py::arg("max_depth"), py::arg("seed"), py::arg("indirect"), py::arg("ao"), py::arg("ao_distance"),
+        py::arg("background"), py::arg("threads"));
+  m.def("diff", &diff, py::arg("a"), py::arg("b"));
+  m.def(
+      "read_png", [](const std::string& path) { return image_to_numpy(host::read_png(path)); }, py::arg("path"));
+  m.def(
+      "write_png",
+      [](const std::string& path, const py::handle& img) {
+        host::write_png(path, image_from_numpy(img, "image"));
+      },
+      py::arg("path"), py::arg("image"));
+
+  m.def(
+      "config",
+      [](const std::string& preset, const std::vector<std::string>& sets) {
+        return to_python(host::timing_json(host::timing_config_from(preset, sets)));
+      },
+      py::arg("preset"), py::arg("sets"));
+  m.def("presets", &hw::timing_preset_names);
+  m.def("formats", [] {
+    std::vector<std::string> names;
+    for (const hw::FixedFormat& f : hw::format_presets()) names.push_back(f.name);
+    return names;
+  });
+  m.def(
+      "format", [](const std::string& spec) { return to_python(host::format_json(hw::format_from_spec(spec))); },
+      py::arg("spec"));
+
+  m.def("sweep", &sweep, py::arg("scenes"), py::arg("formats"), py::arg("bvh_widths"), py::arg("configs"),
+        py::arg("rays"), py::arg("seed"), py::arg("image_width"), py::arg("threads"), py::arg("area"));
+  m.def(
+      "plan",
+      [](const std::string& scene, double max_error, const std::string& metric, double min_psnr, double confidence,
+         const std::string& config, const std::string& format, const std::string& minimise, double area_budget,
+         const std::vector<int>& widths, const std::vector<int>& coord_bits, const std::vector<int>& child_bits,
+         uint64_t rays, uint64_t seed, int image_width, int threads, const std::string& area) {
+        host::PlanOptions o;
+        o.scene = scene;
+        o.max_error = max_error;
+        o.metric = metric;
+        o.min_psnr = min_psnr;
+        if (!(confidence >= 0.5 && confidence <= 0.999999)) fail("confidence: not in [0.5, 0.999999]");
+        o.confidence = confidence;
+        o.config = config;
+        o.format = format;
+        o.minimise = minimise;
+        if (!(area_budget >= 0.0 && area_budget <= 1e6)) fail("area_budget: not in [0, 1e6] mm^2");
+        o.area_budget = area_budget;
+        for (int w : widths)
+          if (w != 2 && w != 4 && w != 6 && w != 8)
+            fail("bvh_widths: " + std::to_string(w) + " is not 2, 4, 6 or 8");
+        for (int b : coord_bits)
+          if (b < 2 || b > 30) fail("coord_bits: " + std::to_string(b) + " is not in 2..30");
+        for (int b : child_bits)
+          if (b < 1 || b > 16) fail("child_bits: " + std::to_string(b) + " is not in 1..16");
+        if (widths.empty() || coord_bits.empty() || child_bits.empty())
+          fail("bvh_widths, coord_bits, child_bits: none may be empty");
+        o.widths = widths;
+        o.coord_bits = coord_bits;
+        o.child_bits = child_bits;
+        o.sweep = sweep_options(rays, seed, image_width, threads);
+        o.area = area;
+        return plan(o);
+      },
+      py::arg("scene"), py::arg("max_error"), py::arg("metric"), py::arg("min_psnr"), py::arg("confidence"),
+      py::arg("config"), py::arg("format"), py::arg("minimise"), py::arg("area_budget"), py::arg("bvh_widths"),
+      py::arg("coord_bits"), py::arg("child_bits"), py::arg("rays"), py::arg("seed"), py::arg("image_width"),
+      py::arg("threads"), py::arg("area"));
+  m.def(
+      "pareto_front",
+      [](const std::vector<std::pair<double, double>>& points) { return host::pareto_front(points); },
+      py::arg("points"), "Indices of the (cost, error) points on the Pareto front, by cost ascending");
+}

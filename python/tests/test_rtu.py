@@ -1,0 +1,287 @@
+"""The Python module rtu against rtusim on the same inputs: the same rays, hits, cycles, statistics, images, sweep
+rows and plans; and its bad input (rtu.Error with the CLI's message, never a crash). ctest runs it (label python)
+with PYTHONPATH at the build's python/ folder and RTUSIM naming the rtusim of the same build."""
+
+import json
+import os
+import subprocess
+import threading
+import time
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import rtu
+
+RTUSIM = os.environ.get("RTUSIM", os.path.join(os.path.dirname(__file__), "../../build/default/rtusim"))
+SCENES = os.path.join(os.path.dirname(__file__), "../../scenes")
+SEED = "builtin:seed"
+
+
+def cli(*args, ok=True):
+    """Runs rtusim; returns the completed process (asserting its exit status 0 when ok)."""
+    p = subprocess.run([RTUSIM, *map(str, args)], capture_output=True, text=True)
+    if ok:
+        assert p.returncode == 0, p.stderr
+    return p
+
+
+def cli_error(*args):
+    """rtusim's error message for bad input: exit status 2, "rtusim: error: MESSAGE"."""
+    p = cli(*args, ok=False)
+    assert p.returncode == 2, (p.returncode, p.stdout, p.stderr)
+    line = [x for x in p.stderr.splitlines() if x.startswith("rtusim: error: ")]
+    assert line, p.stderr
+    return line[-1][len("rtusim: error: "):]
+
+
+@pytest.fixture(scope="module")
+def seed():
+    return rtu.load_scene(SEED)
+
+
+@pytest.fixture(scope="module")
+def ray_file(tmp_path_factory, seed):
+    """Primary and incoherent rays of the seed scene in one ray file (written by the module, read by rtusim)."""
+    path = tmp_path_factory.mktemp("rays") / "r.rays"
+    rays = np.concatenate([rtu.rays(seed, "primary:80x60"), rtu.rays(seed, "incoherent:3000", seed=5)])
+    rtu.write_rays(path, rays)
+    return path, rays
+
+
+def test_rays_equal_the_cli(tmp_path, seed):
+    cli("rays", "--scene", SEED, "--width", 64, "--height", 48, "--out", tmp_path / "p.rays")
+    cli("rays", "--scene", SEED, "--kind", "incoherent", "--count", 1000, "--seed", 7, "--out", tmp_path / "i.rays")
+    p = rtu.rays(seed, "primary:64x48")
+    i = rtu.rays(seed, "incoherent:1000", seed=7)
+    assert p.shape == (64 * 48, 8) and p.dtype == np.float32
+    assert p.tobytes() == (tmp_path / "p.rays").read_bytes()
+    assert i.tobytes() == (tmp_path / "i.rays").read_bytes()
+    assert np.array_equal(rtu.read_rays(tmp_path / "i.rays"), i)
+
+
+@pytest.mark.parametrize("device", ["float", "fixed"])
+def test_trace_equals_the_cli(tmp_path, seed, ray_file, device):
+    path, rays = ray_file
+    cli("trace", "--scene", SEED, "--rays", path, "--device", device, "--out", tmp_path / "h.hits",
+        "--stats", tmp_path / "s.json", "--threads", 2)
+    r = rtu.trace(seed, rays, device, threads=2)
+    assert r.hits.dtype == rtu.HIT_DTYPE and len(r.hits) == len(rays)
+    assert r.hits.tobytes() == (tmp_path / "h.hits").read_bytes()  # the same hits, bit for bit
+    s = json.loads((tmp_path / "s.json").read_text())
+    for key in ("rays", "hits", "nodes_visited", "box_tests", "prim_tests", "invalid_rays"):
+        assert r.stats[key] == s[key], key
+    assert 0 < r.stats["hits"] < len(rays)
+    assert r.cycles is None
+    assert np.array_equal(rtu.read_hits(tmp_path / "h.hits"), r.hits)
+
+
+def test_timed_cycles_equal_the_cli(tmp_path, seed, ray_file):
+    path, rays = ray_file
+    cli("trace", "--scene", SEED, "--rays", path, "--device", "timed", "--config", "intel", "--set", "cache_kib=64",
+        "--set", "ray_slots=16", "--out", tmp_path / "h.hits", "--stats", tmp_path / "s.json")
+    s = json.loads((tmp_path / "s.json").read_text())
+    # Three spellings of one configuration: the same hits and cycles as the CLI's.
+    for kw in ({"config": {"preset": "intel", "cache_kib": 64, "ray_slots": 16}},
+               {"config": "intel", "set": {"cache_kib": 64, "ray_slots": 16}},
+               {"config": "intel", "set": ["cache_kib=64", "ray_slots=16"]}):
+        r = rtu.trace(seed, rays, "timed", **kw)
+        assert r.hits.tobytes() == (tmp_path / "h.hits").read_bytes()
+        assert r.cycles == s["timing"]["cycles"] > 0
+        assert r.stats["timing"]["config"] == s["timing"]["config"]
+    # Another configuration: other cycles, the same hits (timing does not change the datapath).
+    other = rtu.trace(seed, rays, "timed", config="intel", set={"cache_kib": 64, "ray_slots": 4})
+    assert other.cycles != r.cycles and np.array_equal(other.hits, r.hits)
+
+
+def test_sampled_cycles_equal_the_cli(tmp_path, seed, ray_file):
+    path, rays = ray_file
+    cli("trace", "--scene", SEED, "--rays", path, "--device", "timed", "--sample", 0.25, "--sample-unit", 64,
+        "--sample-seed", 3, "--stats", tmp_path / "s.json")
+    s = json.loads((tmp_path / "s.json").read_text())
+    r = rtu.trace(seed, rays, "timed", sample=0.25, sample_unit=64, sample_seed=3, hits=False)
+    assert r.cycles == s["timing"]["cycles"]
+    assert r.stats["timing"]["sample"] == s["timing"]["sample"]
+    assert s["timing"]["sample"]["packets_sampled"] > 0
+
+
+def test_rays_in_any_float_layout(seed, ray_file):
+    _, rays = ray_file
+    ref = rtu.trace(seed, rays, "fixed").hits
+    # float64 and a strided view are converted once; the hits are the float32 array's.
+    assert np.array_equal(rtu.trace(seed, rays.astype(np.float64), "fixed").hits, ref)
+    assert np.array_equal(rtu.trace(seed, rays[::3], "fixed").hits, ref[::3])
+    # make_rays builds the same array from its columns; hits arrays own their memory.
+    again = rtu.make_rays(rays[:, 0:3], rays[:, 4:7], rays[:, 3], rays[:, 7])
+    assert again.tobytes() == rays.tobytes()
+    assert ref.flags.writeable and ref.base is not None
+
+
+def test_scene_dict_equals_the_file(seed):
+    path = os.path.join(SCENES, "example.json")
+    with open(path) as f:
+        d = json.load(f)
+    a = rtu.load_scene(path)
+    b = rtu.load_scene(d, base_dir=SCENES)
+    assert (a.triangles, a.spheres, a.planes) == (b.triangles, b.spheres, b.planes) and a.primitives > 0
+    rays = rtu.rays(a, "incoherent:2000", seed=3)
+    assert np.array_equal(rtu.trace(a, rays, "fixed").hits, rtu.trace(b, rays, "fixed").hits)
+    assert b.name == "scene dict" and a.camera == b.camera
+
+
+def test_malformed_scene_dict_has_the_cli_message(tmp_path):
+    bad = {"spheres": [{"center": [0, 0, 0], "radius": -1.0}], "colour": 1}
+    f = tmp_path / "bad.json"
+    f.write_text(json.dumps(bad))
+    message = cli_error("info", "--scene", f)
+    with pytest.raises(rtu.Error) as e:
+        rtu.load_scene(bad)
+    assert str(e.value) == message.replace(str(f), "scene dict")
+    with pytest.raises(rtu.Error, match="not JSON"):
+        rtu.load_scene({"spheres": [{"center": [0, 0, object()]}]})
+
+
+def test_errors_have_the_cli_messages(seed, ray_file):
+    path, rays = ray_file
+    assert issubclass(rtu.Error, RuntimeError) and issubclass(rtu.Error, ValueError)
+    message = cli_error("trace", "--scene", SEED, "--rays", path, "--out", "/dev/null", "--device", "timed",
+                        "--set", "no_such_key=3")
+    with pytest.raises(rtu.Error) as e:
+        rtu.trace(seed, rays, "timed", set={"no_such_key": 3})
+    assert str(e.value) == message
+    message = cli_error("trace", "--scene", SEED, "--rays", path, "--out", "/dev/null", "--device", "timed",
+                        "--set", "ray_slots=0")
+    with pytest.raises(rtu.Error) as e:
+        rtu.trace(seed, rays, "timed", config={"ray_slots": 0})
+    assert str(e.value) == message
+    message = cli_error("trace", "--scene", "no/such/file.json", "--rays", path, "--out", "/dev/null")
+    with pytest.raises(rtu.Error) as e:
+        rtu.load_scene("no/such/file.json")
+    assert str(e.value) == message
+
+
+def test_bad_input_raises(seed, ray_file):
+    _, rays = ray_file
+    for bad, match in ((rays[:, :7], r"shape \(N, 8\).*\(7800, 7\)"), (np.zeros((4, 8), np.int32), "float array"),
+                       (rays[0], r"shape \(N, 8\)"), ("no such spec", "no such ray file"), ([1, 2], "shape")):
+        with pytest.raises(rtu.Error, match=match):
+            rtu.trace(seed, bad)
+    with pytest.raises(rtu.Error, match="config applies to device='timed' only"):
+        rtu.trace(seed, rays, "fixed", config="intel")
+    with pytest.raises(rtu.Error, match="unknown device"):
+        rtu.trace(seed, rays, "gpu")
+    with pytest.raises(rtu.Error, match="unknown keyword argument 'cache_kib'"):
+        rtu.trace(seed, rays, "timed", cache_kib=4)
+    with pytest.raises(rtu.Error, match="leaf_size"):
+        rtu.trace(seed, rays, leaf_size=0)
+    with pytest.raises(rtu.Error, match="unknown format field"):
+        rtu.trace(seed, rays, "fixed", format_fields={"no_bits": 3})
+    with pytest.raises(rtu.Error, match="HIT_DTYPE"):
+        rtu.write_hits("/dev/null", np.zeros(4, dtype=np.float32))
+
+
+def test_nan_rays(seed):
+    rays = rtu.rays(seed, "primary:8x8")
+    rays[5, 4] = np.nan
+    with pytest.raises(rtu.Error, match="1 invalid rays reported as misses; the first is ray 5"):
+        rtu.trace(seed, rays, "fixed")
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        r = rtu.trace(seed, rays, "fixed", invalid="warn")
+    assert any(issubclass(x.category, rtu.InvalidRayWarning) for x in w)
+    assert r.hits["prim"][5] == rtu.MISS and r.stats["invalid_rays"] == 1
+
+
+def test_compare_equals_the_cli(tmp_path, seed):
+    cli("compare", "--scene", SEED, "--rays", "incoherent:4000", "--seed", 9, "--coord-bits", 10,
+        "--json", tmp_path / "c.json")
+    s = json.loads((tmp_path / "c.json").read_text())
+    c = rtu.compare(seed, "incoherent:4000", seed=9, format_fields={"coord_bits": 10})
+    for key in ("rays", "compared_rays", "hit_agreement", "prim_agreement", "false_misses", "false_hits",
+                "t_rel_error_mean", "t_rel_error_max", "box_checks", "box_false_negatives", "node_visit_overhead",
+                "disagreements_total", "format", "bvh"):
+        assert c[key] == s[key], key
+    assert s["disagreements_total"] > 0  # 10 coordinate bits are wrong somewhere: the frame below is not empty
+    assert len(c["disagreements"]) == len(s["disagreements"]) == len(c["disagreement_rays"])
+    assert list(c["disagreements"]["ray"]) == [d["ray"] for d in s["disagreements"]]
+
+
+def test_render_equals_the_cli(tmp_path, seed):
+    cli("render", "--scene", SEED, "--device", "timed", "--width", 48, "--height", 36, "--spp", 2,
+        "--out", tmp_path / "t.png", "--stats", tmp_path / "t.json")
+    s = json.loads((tmp_path / "t.json").read_text())
+    with pytest.warns(rtu.InvalidRayWarning, match="out_of_frame"):  # the CLI's warning, as a Python warning
+        r = rtu.render(seed, "timed", width=48, height=36, spp=2)
+    assert r.warnings == s["warnings"]
+    assert r.image.shape == (36, 48, 3) and r.image.dtype == np.uint8
+    assert np.array_equal(r.image, rtu.read_png(tmp_path / "t.png"))
+    assert r.cycles == s["timing"]["frame_cycles"] > 0
+    assert r.stats["rays"] == s["rays"]
+    f = rtu.render(seed, "float", width=48, height=36, spp=2)
+    d = rtu.diff(f.image, r.image)
+    assert d["width"] == 48 and d["pixels_differing"] < 48 * 36 and d["mse"] >= 0
+    assert rtu.diff(f.image, f.image)["identical"] and rtu.diff(f.image, f.image)["psnr_db"] is None
+    with pytest.raises(rtu.Error, match="sizes|size"):
+        rtu.diff(f.image, f.image[:10])
+
+
+def test_sweep_equals_the_cli(tmp_path):
+    args = dict(formats=["default", "default:coord_bits=12"], bvh_widths=[4, 8], configs=["rdna2"], rays=1500,
+                image_width=0)
+    cli("sweep", "--scene", SEED, "--formats", ",".join(args["formats"]), "--bvh-width", "4,8", "--config", "rdna2",
+        "--rays", 1500, "--image-width", 0, "--out", tmp_path / "s.csv")
+    df = rtu.sweep(SEED, **args)
+    ref = rtu.read_sweep(tmp_path / "s.csv")
+    assert len(df) == 4 and list(df.columns) == list(ref.columns)
+    measured = [c for c in df.columns if c != "seconds"]
+    pd.testing.assert_frame_equal(df[measured], ref[measured])
+    assert df["cycles"].nunique() > 1
+    front = rtu.pareto_front(df, "cycles", "hit_disagreement")
+    assert front.any() and front.dtype == bool
+    with pytest.raises(rtu.Error, match="--bvh-width: 5 is not 2, 4, 6 or 8"):
+        rtu.sweep(SEED, bvh_widths=[5])
+
+
+def test_plan_equals_the_cli(tmp_path):
+    opts = ["--max-error", "1e-2", "--bvh-width", "4", "--coord-bits", "8,12,16", "--child-bits", "8",
+            "--rays", 800, "--image-width", 0, "--json", tmp_path / "p.json"]
+    cli("plan", "--scene", SEED, *opts)
+    s = json.loads((tmp_path / "p.json").read_text())
+    p = rtu.plan(SEED, 1e-2, bvh_widths=[4], coord_bits=[8, 12, 16], child_bits=[8], rays=800, image_width=0)
+    assert p["plan"] == s["plan"] and p["plan"] is not None
+    assert p["widths"] == s["widths"]
+    assert len(p["candidates"]) >= 1 and p["candidates"]["meets"].any()
+
+
+def test_config_and_presets():
+    assert "rdna2" in rtu.presets() and "default" in rtu.formats()
+    c = rtu.config("intel", {"cache_kib": 64})
+    assert c["preset"] == "intel" and c["cache_kib"] == 64
+    assert rtu.config({"preset": "intel", "cache_kib": 64}) == c
+    assert rtu.format("default:coord_bits=16")["coord_bits"] == 16
+
+
+def test_gil_released_while_tracing(seed):
+    rays = rtu.rays(seed, "incoherent:600000", seed=2)
+    done = threading.Event()
+    gaps = []
+
+    def work():
+        rtu.trace(seed, rays, "fixed", threads=1)
+        done.set()
+
+    t = threading.Thread(target=work)
+    start = time.perf_counter()
+    last = start
+    t.start()
+    while not done.is_set():
+        now = time.perf_counter()
+        gaps.append(now - last)
+        last = now
+        time.sleep(0.001)
+    t.join()
+    total = time.perf_counter() - start
+    # Were the GIL held while tracing, this thread would stall for the whole trace.
+    assert total > 0.05 and max(gaps) < 0.5 * total, (max(gaps), total)

@@ -17,6 +17,7 @@
 #include "host/pareto.h"
 #include "host/ray_gen.h"
 #include "host/render.h"
+#include "host/shading.h"
 #include "host/stopwatch.h"
 #include "host/stress.h"
 #include "host/sweep.h"
@@ -278,7 +279,10 @@ Json section_cycles(const std::vector<std::unique_ptr<Scene>>& scenes, const std
     for (size_t i = 0; i < scenes.size(); ++i) {
       const std::vector<hw::Ray> rays = primary_rays(scenes[i]->camera, z.cycle_rays);
       const Stopwatch sw;
-      const auto dev = make_device(scenes[i]->geometry, opt);
+      const SceneAnyHit alpha(*scenes[i]);
+      DeviceOptions sopt = opt;
+      sopt.any_hit = alpha.stage();
+      const auto dev = make_device(scenes[i]->geometry, sopt);
       std::vector<hw::Hit> hits(rays.size());
       hw::TraversalStats ts;
       dev->trace_batch(rays.data(), hits.data(), rays.size(), false, a.threads, ts);

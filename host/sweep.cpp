@@ -17,6 +17,7 @@
 #include "host/image_diff.h"
 #include "host/ray_gen.h"
 #include "host/render.h"
+#include "host/shading.h"
 #include "host/stats_json.h"
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/timing_config.h"
@@ -159,6 +160,8 @@ struct SweepCache {
   };
   std::vector<hw::Ray> rays;
   std::map<int, Reference> by_width;
+  // The scene's alpha-tested materials: the any-hit stage every device of the scene's points asks.
+  std::unique_ptr<SceneAnyHit> alpha;
 };
 
 void SweepCacheDeleter::operator()(SweepCache* c) const {
@@ -240,8 +243,10 @@ namespace {
 // The point's timed run on `rays` with `timing` (its cycles and DRAM bytes), the RTL unit's synthesis figures
 // where the table has them, and the area and energy estimate.
 void time_point(const Scene& scene, const hw::FixedFormat& format, const hw::TimingConfig& timing,
-                const std::vector<hw::Ray>& rays, int threads, const AreaTable& area, SweepRow& row) {
+                const std::vector<hw::Ray>& rays, int threads, const AreaTable& area,
+                const hw::AnyHitStage* any_hit, SweepRow& row) {
   DeviceOptions timed_opt;
+  timed_opt.any_hit = any_hit;
   timed_opt.kind = hw::DeviceKind::kTimed;
   timed_opt.format = format;
   timed_opt.tracer.bvh.width = format.width;
@@ -342,7 +347,8 @@ SweepRow retime_sweep_point(const Scene& scene, const SweepRow& measured, const 
   } catch (const std::invalid_argument& e) {
     throw Error(std::string("sweep point ") + row.p.key() + ": " + e.what());
   }
-  time_point(scene, format, timing, cache.rays, o.threads, area, row);
+  if (!cache.alpha) cache.alpha = std::make_unique<SceneAnyHit>(scene);
+  time_point(scene, format, timing, cache.rays, o.threads, area, cache.alpha->stage(), row);
   row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return row;
 }
@@ -367,6 +373,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
     cache.rays = primary_rays(scene.camera, o.rays);
     const std::vector<hw::Ray> inc = incoherent_rays(scene.geometry.bounds(), o.rays, o.seed);
     cache.rays.insert(cache.rays.end(), inc.begin(), inc.end());
+    cache.alpha = std::make_unique<SceneAnyHit>(scene);
   }
   const std::vector<hw::Ray>& rays = cache.rays;
   const size_t n = rays.size();
@@ -379,6 +386,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   ref_opt.kind = hw::DeviceKind::kFloat;
   ref_opt.format.width = p.bvh_width;  // make_device builds every device's BVH at the format's width
   ref_opt.tracer.bvh.width = p.bvh_width;
+  ref_opt.any_hit = cache.alpha->stage();
   auto it = cache.by_width.find(p.bvh_width);
   const auto ref = make_device(scene.geometry, ref_opt);
   if (it == cache.by_width.end()) {
@@ -409,6 +417,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   fixed_opt.format = format;
   fixed_opt.tracer.bvh.width = p.bvh_width;
   fixed_opt.check_boxes = true;
+  fixed_opt.any_hit = cache.alpha->stage();
   const auto fixed = make_device(scene.geometry, fixed_opt);
   std::vector<hw::Hit> hits(n);
   hw::TraversalStats fs;
@@ -445,7 +454,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
     row.psnr_db = diff_images(refr.render, to_image(render(scene, ro))).psnr_db;
   }
 
-  time_point(scene, format, timing, rays, threads, area, row);
+  time_point(scene, format, timing, rays, threads, area, cache.alpha->stage(), row);
   row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return row;
 }

@@ -8,6 +8,8 @@
 // checked first (Assimp 5.2 loops for ever on some); Assimp itself runs in a child process, so a file on which it
 // aborts, hangs (RTU_IMPORT_TIMEOUT) or leaks costs an Error, never rtusim. In the child it runs on a stack of
 // known size, so that a file nested too deeply for Assimp's recursive parsers is named as such (import_on_stack).
+#include <assimp/GltfMaterial.h>
+#include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <poll.h>
@@ -17,6 +19,7 @@
 #include <unistd.h>
 #include <assimp/Importer.hpp>
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <chrono>
@@ -28,12 +31,16 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "firmware/render_scene.h"
 #include "host/error.h"
+#include "host/image.h"
 #include "host/limits.h"
 #include "host/scene.h"
 
@@ -81,7 +88,8 @@ void walk_nodes(const aiScene& scene, Visit&& visit) {
 // with an unknown keyword (found by tests/fuzz/fuzz_mesh_import.cpp: "prortyep float x"). The grammar: "ply", then
 // lines of format / comment / obj_info / element NAME COUNT / property TYPE NAME / property list TYPE TYPE NAME,
 // then end_header; at most 64 KiB of header.
-std::vector<hw::Triangle> import_isolated(const std::string& path);
+std::string import_isolated(const std::string& path);
+ImportedModel decode_model(const std::string& blob, const std::string& path);
 
 void check_ply_header(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -145,7 +153,7 @@ void check_ply_header(const std::string& path) {
 
 }  // namespace
 
-std::vector<hw::Triangle> import_mesh(const std::string& path) {
+ImportedModel import_model(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw Error(path + ": file not found");
   if (!std::filesystem::is_regular_file(path, ec)) throw Error(path + ": not a regular file");
@@ -156,13 +164,124 @@ std::vector<hw::Triangle> import_mesh(const std::string& path) {
     check_memory(path + ": importing a " + std::to_string(file_bytes >> 20) + " MiB mesh file", 8 * file_bytes);
 
   check_ply_header(path);
-  return import_isolated(path);
+  return decode_model(import_isolated(path), path);
+}
+
+std::vector<hw::Triangle> import_mesh(const std::string& path) {
+  return import_model(path).triangles;
 }
 
 namespace {
 
+// The child's answer is one blob: the triangles, each triangle's material (the file's material index), texture
+// coordinates when a material is textured, the materials' raw properties and their textures (a file path, the
+// encoded bytes of an embedded image, or embedded texels). Decoding images and mapping materials happen in the
+// parent (decode_model), so the child runs nothing but Assimp.
+class BlobWriter {
+ public:
+  template <typename T>
+  void put(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    m_out.append(reinterpret_cast<const char*>(&v), sizeof v);
+  }
+  template <typename T>
+  void put_array(const std::vector<T>& v) {
+    put(uint64_t(v.size()));
+    m_out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+  }
+  void put_string(const std::string& str) {
+    put(uint64_t(str.size()));
+    m_out.append(str);
+  }
+  std::string take() { return std::move(m_out); }
+
+ private:
+  std::string m_out;
+};
+
+class BlobReader {
+ public:
+  BlobReader(const std::string& blob, const std::string& path) : m_blob(blob), m_path(path) {}
+  template <typename T>
+  T get() {
+    T v;
+    std::memcpy(&v, need(sizeof v), sizeof v);
+    return v;
+  }
+  template <typename T>
+  std::vector<T> get_array() {
+    const uint64_t n = get<uint64_t>();
+    if (n > (m_blob.size() - m_at) / sizeof(T)) truncated();
+    std::vector<T> v(n);
+    if (n) std::memcpy(v.data(), need(n * sizeof(T)), n * sizeof(T));
+    return v;
+  }
+  std::string get_string() {
+    const uint64_t n = get<uint64_t>();
+    if (n > m_blob.size() - m_at) truncated();
+    return std::string(need(n), n);
+  }
+  bool done() const { return m_at == m_blob.size(); }
+  [[noreturn]] void truncated() const {
+    throw Error(m_path + ": the mesh importer (Assimp) sent a truncated answer");
+  }
+
+ private:
+  const char* need(size_t n) {
+    if (n > m_blob.size() - m_at) truncated();
+    const char* p = m_blob.data() + m_at;
+    m_at += n;
+    return p;
+  }
+  const std::string& m_blob;
+  const std::string& m_path;
+  size_t m_at = 0;
+};
+
+// A material's properties as the file states them (glTF's metallic-roughness model; other formats' diffuse
+// colour and opacity stand in for the base colour and alpha).
+struct RawMaterial {
+  float base[4] = {0.8f, 0.8f, 0.8f, 1.0f};
+  float metallic = 0.0f, roughness = 1.0f;
+  float emission[3] = {0.0f, 0.0f, 0.0f};
+  float transmission = 0.0f, ior = 1.5f, alpha_cutoff = 0.5f;
+  uint8_t alpha_mode = 0;  // 0 opaque, 1 mask, 2 blend (glTF alphaMode)
+  int32_t texture = -1;    // index into the textures sent, or -1
+};
+
+enum TextureKind : uint8_t { kTextureFile = 0, kTextureEncoded = 1, kTextureTexels = 2 };
+
+RawMaterial raw_material(const aiMaterial& m) {
+  RawMaterial r;
+  aiColor4D c;
+  if (m.Get(AI_MATKEY_BASE_COLOR, c) == AI_SUCCESS) {
+    r.base[0] = c.r, r.base[1] = c.g, r.base[2] = c.b, r.base[3] = c.a;
+  } else if (m.Get(AI_MATKEY_COLOR_DIFFUSE, c) == AI_SUCCESS) {
+    r.base[0] = c.r, r.base[1] = c.g, r.base[2] = c.b;
+    float opacity = 1.0f;
+    if (m.Get(AI_MATKEY_OPACITY, opacity) == AI_SUCCESS) r.base[3] = opacity;
+  }
+  m.Get(AI_MATKEY_METALLIC_FACTOR, r.metallic);
+  m.Get(AI_MATKEY_ROUGHNESS_FACTOR, r.roughness);
+  aiColor3D e;
+  if (m.Get(AI_MATKEY_COLOR_EMISSIVE, e) == AI_SUCCESS) {
+    float strength = 1.0f;
+    m.Get(AI_MATKEY_EMISSIVE_INTENSITY, strength);
+    r.emission[0] = e.r * strength, r.emission[1] = e.g * strength, r.emission[2] = e.b * strength;
+  }
+  m.Get(AI_MATKEY_TRANSMISSION_FACTOR, r.transmission);
+  m.Get(AI_MATKEY_REFRACTI, r.ior);
+  aiString mode;
+  if (m.Get(AI_MATKEY_GLTF_ALPHAMODE, mode) == AI_SUCCESS) {
+    const std::string s = mode.C_Str();
+    r.alpha_mode = s == "MASK" ? 1 : s == "BLEND" ? 2 : 0;
+  }
+  m.Get(AI_MATKEY_GLTF_ALPHACUTOFF, r.alpha_cutoff);
+  return r;
+}
+
 // The import proper, in the child process of import_isolated().
-std::vector<hw::Triangle> import_with_assimp(const std::string& path) {
+std::string import_with_assimp(const std::string& path) {
   Assimp::Importer importer;
   const aiScene* scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_ValidateDataStructure);
   if (!scene && std::string(importer.GetErrorString()).find("contains no faces") != std::string::npos) {
@@ -172,25 +291,83 @@ std::vector<hw::Triangle> import_with_assimp(const std::string& path) {
   }
   if (!scene) throw Error(path + ": " + importer.GetErrorString());
 
+  // Materials and their base-colour textures (each texture once, by its path).
+  std::vector<RawMaterial> materials(scene->mNumMaterials);
+  std::vector<std::string> names(scene->mNumMaterials);
+  BlobWriter textures;
+  std::map<std::string, int32_t> texture_index;
+  for (unsigned i = 0; i < scene->mNumMaterials; ++i) {
+    const aiMaterial* m = scene->mMaterials[i];
+    if (!m) continue;
+    materials[i] = raw_material(*m);
+    aiString name;
+    if (m->Get(AI_MATKEY_NAME, name) == AI_SUCCESS) names[i] = name.C_Str();
+    aiString tex;
+    if (m->GetTexture(aiTextureType_BASE_COLOR, 0, &tex) != AI_SUCCESS &&
+        m->GetTexture(aiTextureType_DIFFUSE, 0, &tex) != AI_SUCCESS)
+      continue;
+    const std::string key = tex.C_Str();
+    if (key.empty()) continue;
+    auto it = texture_index.find(key);
+    if (it == texture_index.end()) {
+      it = texture_index.emplace(key, int32_t(texture_index.size())).first;
+      if (const aiTexture* t = scene->GetEmbeddedTexture(key.c_str())) {
+        const std::string label = path + " (embedded texture " + key + ")";
+        if (t->mHeight == 0) {  // compressed: mWidth bytes of a PNG, JPEG, ...
+          textures.put(kTextureEncoded);
+          textures.put_string(label);
+          textures.put_string(std::string(reinterpret_cast<const char*>(t->pcData), t->mWidth));
+        } else {  // mWidth x mHeight aiTexels (BGRA)
+          textures.put(kTextureTexels);
+          textures.put_string(label);
+          textures.put(uint32_t(t->mWidth));
+          textures.put(uint32_t(t->mHeight));
+          std::string rgba(size_t(t->mWidth) * t->mHeight * 4, '\0');
+          for (size_t k = 0; k < size_t(t->mWidth) * t->mHeight; ++k) {
+            const aiTexel& x = t->pcData[k];
+            rgba[4 * k] = char(x.r), rgba[4 * k + 1] = char(x.g), rgba[4 * k + 2] = char(x.b);
+            rgba[4 * k + 3] = char(x.a);
+          }
+          textures.put_string(rgba);
+        }
+      } else {
+        textures.put(kTextureFile);
+        textures.put_string(key);
+      }
+    }
+    materials[i].texture = it->second;
+  }
+
   // First pass: count triangles, so a large mesh is allocated once.
   size_t count = 0;
+  bool textured = false;
   walk_nodes(*scene, [&](unsigned mesh_index, const aiMatrix4x4&) {
     if (mesh_index >= scene->mNumMeshes)
       throw Error(path + ": node refers to missing mesh " + std::to_string(mesh_index));
     const aiMesh* mesh = scene->mMeshes[mesh_index];
     for (unsigned f = 0; f < mesh->mNumFaces; ++f) count += mesh->mFaces[f].mNumIndices == 3;
+    if (mesh->mMaterialIndex < materials.size() && materials[mesh->mMaterialIndex].texture >= 0 &&
+        mesh->HasTextureCoords(0))
+      textured = true;
   });
 
   std::vector<hw::Triangle> triangles;
+  std::vector<uint32_t> tri_material;
+  std::vector<TriangleUv> tri_uv;
   triangles.reserve(count);
+  tri_material.reserve(count);
+  if (textured) tri_uv.reserve(count);
   const aiMatrix4x4 identity;
   walk_nodes(*scene, [&](unsigned mesh_index, const aiMatrix4x4& world) {
     const aiMesh* mesh = scene->mMeshes[mesh_index];
     const bool transform = !(world == identity);  // exact: an identity node keeps the file's bits
+    const uint32_t material = mesh->mMaterialIndex < materials.size() ? mesh->mMaterialIndex : UINT32_MAX;
+    const bool uvs = mesh->HasTextureCoords(0);
     for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
       const aiFace& face = mesh->mFaces[f];
       if (face.mNumIndices != 3) continue;  // points and lines
       hw::Vec3 v[3];
+      TriangleUv uv;
       for (int k = 0; k < 3; ++k) {
         const unsigned index = face.mIndices[k];
         if (index >= mesh->mNumVertices) {
@@ -205,12 +382,33 @@ std::vector<hw::Triangle> import_with_assimp(const std::string& path) {
                       std::to_string(index) + ": NaN/Inf coordinate " + format_vec(p));
         }
         v[k] = hw::Vec3(p.x, p.y, p.z);
+        if (uvs) {
+          // Assimp's texture coordinates have their origin at the image's bottom left (it flips glTF's); rtu's
+          // textures have row 0 on top (scene.h), so t is flipped back.
+          uv.s[k] = mesh->mTextureCoords[0][index].x;
+          uv.t[k] = 1.0f - mesh->mTextureCoords[0][index].y;
+        }
       }
       triangles.push_back({v[0], v[1], v[2]});
+      tri_material.push_back(material);
+      if (textured) tri_uv.push_back(uv);
     }
   });
+
+  BlobWriter out;
+  out.put_array(triangles);
+  out.put_array(tri_material);
+  out.put_array(tri_uv);
+  out.put(uint64_t(materials.size()));
+  for (size_t i = 0; i < materials.size(); ++i) {
+    out.put_string(names[i]);
+    out.put(materials[i]);
+  }
+  out.put(uint64_t(texture_index.size()));
+  std::string blob = out.take();
+  blob += textures.take();
   importer.FreeScene();
-  return triangles;
+  return blob;
 }
 
 bool write_all(int fd, const void* data, size_t n) {
@@ -264,13 +462,13 @@ extern "C" void on_import_fault(int sig, siginfo_t* info, void*) {
 // The import's outcome, filled by the import thread.
 struct ImportJob {
   std::string path;
-  std::vector<hw::Triangle> triangles;
+  std::string blob;   // the answer (import_with_assimp)
   std::string error;  // empty: success
 };
 
 void run_import(ImportJob& job) {
   try {
-    job.triangles = import_with_assimp(job.path);
+    job.blob = import_with_assimp(job.path);
   } catch (const std::exception& e) {
     job.error = e.what();
   }
@@ -331,10 +529,11 @@ void import_on_stack(ImportJob& job, int fd) {
 }
 
 // Assimp runs in a child process: a file that makes it crash (its assertions abort, e.g. on a PLY body that
-// contradicts its header), hang or leak cannot take rtusim with it. The child sends {status, bytes} and then the
-// triangles (status 0) or the error message (status 1); the parent waits at most RTU_IMPORT_TIMEOUT seconds
-// (default 300). Found necessary by tests/fuzz/fuzz_mesh_import.cpp (README "Hardening").
-std::vector<hw::Triangle> import_isolated(const std::string& path) {
+// contradicts its header), hang or leak cannot take rtusim with it. The child sends {status, bytes} and then its
+// answer (status 0: the blob of import_with_assimp) or the error message (status 1); the parent waits at most
+// RTU_IMPORT_TIMEOUT seconds (default 300). Found necessary by tests/fuzz/fuzz_mesh_import.cpp (README
+// "Hardening").
+std::string import_isolated(const std::string& path) {
   int timeout_s = 300;
   if (const char* t = std::getenv("RTU_IMPORT_TIMEOUT"); t && std::atoi(t) > 0) timeout_s = std::atoi(t);
   int fds[2];
@@ -354,11 +553,9 @@ std::vector<hw::Triangle> import_isolated(const std::string& path) {
     ImportJob job{path, {}, {}};
     import_on_stack(job, fds[1]);
     const bool failed = !job.error.empty();
-    const uint64_t head[2] = {failed ? 1u : 0u,
-                              failed ? job.error.size() : job.triangles.size() * sizeof(hw::Triangle)};
-    const bool ok =
-        write_all(fds[1], head, sizeof head) &&
-        write_all(fds[1], failed ? static_cast<const void*>(job.error.data()) : job.triangles.data(), head[1]);
+    const std::string& answer = failed ? job.error : job.blob;
+    const uint64_t head[2] = {failed ? 1u : 0u, answer.size()};
+    const bool ok = write_all(fds[1], head, sizeof head) && write_all(fds[1], answer.data(), head[1]);
     ::_exit(ok ? 0 : 3);
   }
   ::close(fds[1]);
@@ -397,12 +594,126 @@ std::vector<hw::Triangle> import_isolated(const std::string& path) {
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || data.size() < sizeof head)
     throw Error(path + ": the mesh importer (Assimp) failed without a message");
   std::memcpy(head, data.data(), sizeof head);
-  if (data.size() != sizeof head + head[1] || (head[0] == 0 && head[1] % sizeof(hw::Triangle) != 0))
+  if (data.size() != sizeof head + head[1])
     throw Error(path + ": the mesh importer (Assimp) sent a truncated answer");
   if (head[0] != 0) throw Error(std::string(data.data() + sizeof head, head[1]));
-  std::vector<hw::Triangle> tris(head[1] / sizeof(hw::Triangle));
-  if (!tris.empty()) std::memcpy(tris.data(), data.data() + sizeof head, head[1]);
-  return tris;
+  return std::string(data.data() + sizeof head, head[1]);
+}
+
+// The renderer has four materials (diffuse, mirror, glass, emissive); a file's metallic-roughness material is
+// approximated by the nearest: emissive where it emits, glass where it transmits (KHR_materials_transmission at
+// least one half), a tinted mirror where it is metallic and smooth (metallic >= 0.5, roughness <= 0.25), diffuse
+// with the base colour otherwise (rough metals included). glTF's BLEND, which needs order-dependent blending, is
+// alpha-tested at its cutoff like MASK.
+Material approximate_material(const RawMaterial& r, const std::string& name) {
+  Material m;
+  m.name = name;
+  m.color = Vec3(r.base[0], r.base[1], r.base[2]);
+  const Vec3 e(r.emission[0], r.emission[1], r.emission[2]);
+  if (std::max({e.x, e.y, e.z}) > 0.0f) {
+    m.type = MaterialType::kEmissive;
+    m.emission = e;
+  } else if (r.transmission >= 0.5f) {
+    m.type = MaterialType::kGlass;
+    m.ior = r.ior >= 1.0f && r.ior <= 4.0f ? r.ior : 1.5f;
+  } else if (r.metallic >= 0.5f && r.roughness <= 0.25f) {
+    m.type = MaterialType::kMirror;
+  }
+  m.texture = r.texture;  // index into the file's textures (decode_model maps it to those read)
+  m.alpha = std::clamp(r.base[3], 0.0f, 1.0f);
+  if (r.alpha_mode != 0) {
+    m.alpha_mode = AlphaMode::kMask;
+    m.alpha_cutoff = std::clamp(r.alpha_cutoff, 0.0f, 1.0f);
+  }
+  return m;
+}
+
+ImportedModel decode_model(const std::string& blob, const std::string& path) {
+  BlobReader in(blob, path);
+  ImportedModel model;
+  model.triangles = in.get_array<hw::Triangle>();
+  std::vector<uint32_t> tri_material = in.get_array<uint32_t>();
+  model.tri_uv = in.get_array<TriangleUv>();
+  const uint64_t num_materials = in.get<uint64_t>();
+  if (tri_material.size() != model.triangles.size() ||
+      !(model.tri_uv.empty() || model.tri_uv.size() == model.triangles.size()) || num_materials > blob.size())
+    in.truncated();
+  std::vector<std::string> names(num_materials);
+  std::vector<RawMaterial> raw(num_materials);
+  for (uint64_t i = 0; i < num_materials; ++i) {
+    names[i] = in.get_string();
+    raw[i] = in.get<RawMaterial>();
+  }
+  const uint64_t num_textures = in.get<uint64_t>();
+  if (num_textures > blob.size()) in.truncated();
+  // A texture that cannot be read (missing, not an image, too large) leaves its materials untextured, with a
+  // warning naming both files: the geometry imports as before. -1: texture i was not read.
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  std::vector<int> texture_slot(num_textures, -1);
+  for (uint64_t i = 0; i < num_textures; ++i) {
+    const auto kind = in.get<uint8_t>();
+    std::optional<Texture> t;
+    try {
+      if (kind == kTextureFile) {
+        // Paths written on Windows (OBJ's map_Kd .\\tex.jpg) separate with backslashes.
+        std::string rel = in.get_string();
+        std::replace(rel.begin(), rel.end(), '\\', '/');
+        t = read_texture((dir / rel).string());
+      } else if (kind == kTextureEncoded) {
+        const std::string label = in.get_string(), bytes = in.get_string();
+        t = read_texture_memory(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size(), label);
+      } else if (kind == kTextureTexels) {
+        t.emplace();
+        t->name = in.get_string();
+        t->width = in.get<uint32_t>();
+        t->height = in.get<uint32_t>();
+        const std::string rgba = in.get_string();
+        if (rgba.size() != uint64_t(t->width) * t->height * 4) in.truncated();
+        t->rgba.assign(rgba.begin(), rgba.end());
+        if (t->width < 1 || t->height < 1 || t->width > fw::kMaxTextureSide || t->height > fw::kMaxTextureSide)
+          throw Error(t->name + ": texture of " + std::to_string(t->width) + " x " + std::to_string(t->height) +
+                      " texels (each side must be in [1, " + std::to_string(fw::kMaxTextureSide) + "])");
+      } else {
+        in.truncated();
+      }
+    } catch (const Error& e) {
+      if (std::string(e.what()).find("truncated answer") != std::string::npos) throw;
+      std::fprintf(stderr, "rtusim: warning: %s: texture not used: %s\n", path.c_str(), e.what());
+      t.reset();
+    }
+    if (t) {
+      texture_slot[i] = int(model.textures.size());
+      model.textures.push_back(std::move(*t));
+    }
+  }
+  if (!in.done()) in.truncated();
+
+  // The file's own materials, when it has any: Assimp names the material it makes up for formats without
+  // materials (PLY, OFF, OBJ without MTL) AI_DEFAULT_MATERIAL_NAME; with only that, the caller's material holds.
+  bool own = false;
+  for (const uint32_t m : tri_material) own = own || (m < num_materials && names[m] != AI_DEFAULT_MATERIAL_NAME);
+  if (!own) {
+    model.tri_uv.clear();
+    model.textures.clear();
+    return model;
+  }
+  // Only the materials the triangles use, in the order of their first use (a missing index: the default).
+  std::vector<int64_t> remap(num_materials + 1, -1);
+  model.tri_material.resize(tri_material.size());
+  for (size_t i = 0; i < tri_material.size(); ++i) {
+    const uint64_t m = tri_material[i] < num_materials ? tri_material[i] : num_materials;
+    if (remap[m] < 0) {
+      remap[m] = int64_t(model.materials.size());
+      Material mat = m < num_materials ? approximate_material(raw[m], names[m]) : Material{.name = "default"};
+      if (mat.texture >= 0) mat.texture = size_t(mat.texture) < num_textures ? texture_slot[mat.texture] : -1;
+      model.materials.push_back(std::move(mat));
+    }
+    model.tri_material[i] = uint32_t(remap[m]);
+  }
+  bool textured = false;
+  for (const Material& m : model.materials) textured = textured || m.texture >= 0;
+  if (!textured) model.tri_uv.clear();
+  return model;
 }
 
 }  // namespace

@@ -37,18 +37,26 @@ bool has_json_extension(const std::string& spec) {
   return ext == ".json";
 }
 
-// A bare mesh file: one mesh entry with the default material, an automatic camera, and a point light at the
-// camera so a render is not black.
+// A bare mesh file: one mesh entry with the file's materials (or the default material), an automatic camera, and a
+// point light at the camera so a render is not black.
 Scene load_mesh_scene(const std::string& path) {
   Scene scene;
   scene.name = path;
-  scene.geometry.triangles = import_mesh(path);
-  scene.materials.push_back({.name = "default",
-                             .type = MaterialType::kDiffuse,
-                             .color = Vec3(0.8f),
-                             .ior = 1.5f,
-                             .emission = Vec3(0.0f)});
-  scene.prim_material.assign(scene.geometry.triangles.size(), 0);
+  ImportedModel model = import_model(path);
+  scene.geometry.triangles = std::move(model.triangles);
+  if (!model.materials.empty()) {  // the file's own materials
+    scene.materials = std::move(model.materials);
+    scene.prim_material = std::move(model.tri_material);
+    scene.textures = std::move(model.textures);
+    if (!scene.textures.empty()) scene.triangle_uv = std::move(model.tri_uv);
+  } else {
+    scene.materials.push_back({.name = "default",
+                               .type = MaterialType::kDiffuse,
+                               .color = Vec3(0.8f),
+                               .ior = 1.5f,
+                               .emission = Vec3(0.0f)});
+    scene.prim_material.assign(scene.geometry.triangles.size(), 0);
+  }
   scene.camera = frame_camera(scene.geometry.bounds());
   // Intensity = squared distance to the target: irradiance about 1 there.
   const double d = glm::length(hw::DVec3(scene.camera.look_at) - hw::DVec3(scene.camera.position));

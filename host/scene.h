@@ -109,6 +109,19 @@ Scene load_builtin_scene(const std::string& spec);
 // Faces that are points or lines are dropped; polygons are triangulated. Throws Error on failure.
 std::vector<hw::Triangle> import_mesh(const std::string& path);
 
+// A mesh file with its materials: the triangles as import_mesh returns them, and when the file has materials of
+// its own (not only the one Assimp makes up for formats without), each triangle's material, the materials as the
+// renderer approximates them (docs/scenes.md), their base-colour textures and the triangles' texture coordinates
+// (when a material is textured). A texture that cannot be read is left out with a warning on stderr.
+struct ImportedModel {
+  std::vector<hw::Triangle> triangles;
+  std::vector<uint32_t> tri_material;  // per triangle, into `materials`; empty: the file has no materials
+  std::vector<Material> materials;     // `texture` indexes `textures`
+  std::vector<Texture> textures;
+  std::vector<TriangleUv> tri_uv;  // per triangle, or empty
+};
+ImportedModel import_model(const std::string& path);
+
 // Throws Error when a scene of `prims` primitives cannot be traced: more than the unit's primitive index holds
 // (hw::kMaxBvhPrims - 1), or more than the memory budget (host/limits.h) at 256 bytes per primitive.
 void check_scene_size(const std::string& name, uint64_t prims);

@@ -389,6 +389,7 @@ void read_mesh_entries(Builder& b, const Json& j, const std::string& where, cons
     const std::string path = join(where, i);
     const Json& m = r.object(j[i], path);
     const bool has_file = m.contains("file"), has_generate = m.contains("generate");
+    std::vector<uint32_t> file_materials;  // per triangle of a file entry: the file's own materials
     if (has_file == has_generate) r.fail(path, "needs exactly one of 'file' and 'generate'");
     const uint32_t material = b.material(m, path);
     const std::vector<std::string> common = {has_file ? "file" : "generate", "material", "transform"};
@@ -400,13 +401,31 @@ void read_mesh_entries(Builder& b, const Json& j, const std::string& where, cons
           m.contains("transform") ? read_transform(r, m["transform"], join(path, "transform")) : Transform{};
       std::filesystem::path file(r.string(m["file"], join(path, "file")));
       if (file.is_relative()) file = base_dir / file;
-      std::vector<hw::Triangle> imported;
+      ImportedModel model;
       try {
-        imported = import_mesh(file.string());
+        model = import_model(file.string());
       } catch (const Error& e) {
         r.fail(join(path, "file"), e.what());
       }
+      std::vector<hw::Triangle>& imported = model.triangles;
       if (imported.empty()) r.fail(join(path, "file"), file.string() + ": no triangles");
+      // Without a "material" key, the file's own materials (when it has any) join the scene's, named
+      // "FILE/NAME", with their textures and the triangles' texture coordinates.
+      if (!m.contains("material") && !model.materials.empty()) {
+        const uint32_t mat_base = uint32_t(b.scene.materials.size());
+        const int tex_base = int(b.scene.textures.size());
+        for (Material& mat : model.materials) {
+          mat.name = file.filename().string() + "/" + mat.name;
+          if (mat.texture >= 0) mat.texture += tex_base;
+          b.scene.materials.push_back(std::move(mat));
+        }
+        for (Texture& t : model.textures) b.scene.textures.push_back(std::move(t));
+        for (const uint32_t k : model.tri_material) file_materials.push_back(mat_base + k);
+        if (!model.tri_uv.empty()) {
+          tri_uv.resize(first);
+          tri_uv.insert(tri_uv.end(), model.tri_uv.begin(), model.tri_uv.end());
+        }
+      }
       // Per vertex, deterministic: shared vertices stay bit-identical.
       for (hw::Triangle& tri : imported) tri = {t.apply(tri.v0), t.apply(tri.v1), t.apply(tri.v2)};
       if (tris.empty()) {
@@ -433,7 +452,11 @@ void read_mesh_entries(Builder& b, const Json& j, const std::string& where, cons
         }
       }
     }
-    tri_material.insert(tri_material.end(), tris.size() - first, material);
+    if (!file_materials.empty()) {
+      tri_material.insert(tri_material.end(), file_materials.begin(), file_materials.end());
+    } else {
+      tri_material.insert(tri_material.end(), tris.size() - first, material);
+    }
   }
 }
 

@@ -18,6 +18,8 @@
 #include "hwmodel/timed_engine.h"
 #include "hwmodel/timing_config.h"
 
+#include <stb/stb_image_write.h>
+
 using namespace rtu;
 using Catch::Matchers::Contains;
 
@@ -333,4 +335,118 @@ TEST_CASE("bad textures and masks get clear errors", "[alpha][scene][errors]") {
       write_file("truncated.png", std::string("\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR\0\0\x10\0\0\0\x10\0\x08\x06", 24));
   CHECK_THAT(load_error(scene_with(R"({"t": {"file": ")" + truncated + R"("}})", "{}")),
              Contains("truncated.png"));
+}
+
+namespace {
+
+// A glTF 2.0 file of three unit quads in the z = 0 plane (x, y in [-1, 1]): a leaf at x = 0 with alphaMode MASK
+// and a 2 x 2 base-colour texture (a PNG beside it) whose top-left texel alone is there, a smooth metal at x = 5
+// and an emitter at x = 10. glTF's texture coordinates start at the image's top left: the quad's top-left corner
+// (-1, 1) has (0, 0).
+std::string write_gltf(const std::string& folder) {
+  const std::filesystem::path dir = test_dir() / folder;  // one per test case: ctest runs them in parallel
+  std::filesystem::create_directories(dir);
+  const uint8_t mask[16] = {255, 255, 255, 255, 255, 255, 255, 0, 255, 255, 255, 0, 255, 255, 255, 0};
+  REQUIRE(stbi_write_png((dir / "mask.png").string().c_str(), 2, 2, 4, mask, 8) != 0);
+  const float pos[12] = {-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0};
+  const float uv[8] = {0, 1, 1, 1, 1, 0, 0, 0};
+  const uint16_t idx[6] = {0, 1, 2, 0, 2, 3};
+  std::ofstream bin(dir / "quad.bin", std::ios::binary);
+  bin.write(reinterpret_cast<const char*>(pos), sizeof pos);
+  bin.write(reinterpret_cast<const char*>(uv), sizeof uv);
+  bin.write(reinterpret_cast<const char*>(idx), sizeof idx);
+  bin.close();
+  const std::string prim = R"("attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2)";
+  std::ofstream(dir / "leaf.gltf") << R"({
+    "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0, 1, 2]}],
+    "nodes": [{"mesh": 0}, {"mesh": 1, "translation": [5, 0, 0]}, {"mesh": 2, "translation": [10, 0, 0]}],
+    "meshes": [{"primitives": [{)" + prim +
+                                          R"(, "material": 0}]}, {"primitives": [{)" + prim +
+                                          R"(, "material": 1}]}, {"primitives": [{)" + prim +
+                                          R"(, "material": 2}]}],
+    "materials": [
+      {"name": "leaf", "alphaMode": "MASK", "alphaCutoff": 0.5,
+       "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0, "roughnessFactor": 1}},
+      {"name": "chrome", "pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.8, 0.7, 1], "metallicFactor": 1,
+                                                  "roughnessFactor": 0.1}},
+      {"name": "lamp", "emissiveFactor": [1, 0.5, 0.25]}
+    ],
+    "textures": [{"source": 0}], "images": [{"uri": "mask.png"}],
+    "buffers": [{"uri": "quad.bin", "byteLength": 92}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48}, {"buffer": 0, "byteOffset": 48, "byteLength": 32},
+                    {"buffer": 0, "byteOffset": 80, "byteLength": 12}],
+    "accessors": [
+      {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]},
+      {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
+      {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}
+    ]
+  })";
+  return (dir / "leaf.gltf").string();
+}
+
+}  // namespace
+
+TEST_CASE("glTF materials: base colour, metal, emission, and alpha masks with their texture", "[alpha][scene]") {
+  const std::string file = write_gltf("gltf");
+  const host::Scene s = host::load_scene(file);
+  REQUIRE(s.geometry.triangles.size() == 6);
+  REQUIRE(s.materials.size() == 3);
+  const host::Material& leaf = s.materials[s.prim_material[0]];
+  const host::Material& chrome = s.materials[s.prim_material[2]];
+  const host::Material& lamp = s.materials[s.prim_material[4]];
+  CHECK(leaf.name == "leaf");
+  CHECK(leaf.alpha_mode == host::AlphaMode::kMask);
+  CHECK(leaf.alpha_cutoff == 0.5f);
+  REQUIRE(leaf.texture == 0);
+  REQUIRE(s.textures.size() == 1);
+  CHECK(s.textures[0].width == 2);
+  CHECK(chrome.type == host::MaterialType::kMirror);
+  CHECK(chrome.color.x == Approx(0.9f));
+  CHECK(chrome.color.z == Approx(0.7f));
+  CHECK(lamp.type == host::MaterialType::kEmissive);
+  CHECK(lamp.emission.y == Approx(0.5f));
+  REQUIRE(s.geometry.non_opaque.size() == 6);
+  CHECK(s.geometry.non_opaque[0] == 1);
+  CHECK(s.geometry.non_opaque[2] == 0);
+  REQUIRE(s.triangle_uv.size() == 6);
+
+  // Rays along -z through the middle of each quarter of the leaf (offset off the quad's diagonal): only the
+  // top-left quarter is there. The offset of 0.05 (0.05 texel) keeps the texel's own bilinear weight >= 0.9.
+  std::vector<hw::Ray> rays;
+  std::vector<bool> there;
+  for (const float x : {-0.45f, 0.55f})
+    for (const float y : {-0.55f, 0.45f}) {
+      rays.push_back(hw::Ray{hw::Vec3(x, y, 2.0f), 0.0f, hw::Vec3(0.0f, 0.0f, -1.0f),
+                             std::numeric_limits<float>::infinity()});
+      there.push_back(x < 0.0f && y > 0.0f);
+    }
+  for (const hw::DeviceKind kind : kKinds) {
+    INFO(hw::device_kind_name(kind));
+    const Traced r = trace(s, kind, rays, false);
+    for (size_t i = 0; i < rays.size(); ++i) {
+      INFO("ray " << i);
+      CHECK(r.hits[i].hit() == there[i]);
+    }
+  }
+
+  // In a scene file, a file entry without "material" brings the file's materials (named FILE/NAME); with one,
+  // the entry's material replaces them.
+  const host::Scene own = host::load_scene(write_file(
+      "gltf_own.json", R"({"meshes": [{"file": ")" + file + R"("}, {"file": ")" + file + R"(", "material": "m"}],
+                           "materials": {"m": {"color": [0.5, 0.5, 0.5]}}})"));
+  REQUIRE(own.geometry.triangles.size() == 12);
+  CHECK(own.materials[own.prim_material[0]].name == "leaf.gltf/leaf");
+  CHECK(own.materials[own.prim_material[0]].alpha_mode == host::AlphaMode::kMask);
+  CHECK(own.materials[own.prim_material[6]].name == "m");
+  CHECK(own.geometry.non_opaque[0] == 1);
+  CHECK(own.geometry.non_opaque[6] == 0);
+}
+
+TEST_CASE("a mesh file's texture that cannot be read leaves its material untextured", "[alpha][scene][errors]") {
+  const std::string file = write_gltf("gltf_missing_texture");
+  std::filesystem::remove(std::filesystem::path(file).parent_path() / "mask.png");
+  const host::Scene s = host::load_scene(file);  // a warning on stderr, no error
+  REQUIRE(s.materials.size() == 3);
+  CHECK(s.materials[s.prim_material[0]].texture == -1);
+  CHECK(s.textures.empty());
 }

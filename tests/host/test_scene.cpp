@@ -395,7 +395,17 @@ TEST_CASE("import: a bare mesh file is a scene with an automatic camera and a li
   CHECK(s.name == file);
   CHECK(s.geometry.triangles.size() == 1368);
   check_consistent(s);
-  CHECK(s.materials.size() == 1);
+  // Its materials come from spider.mtl: the four its faces use, each with its JPEG texture (map_Kd, written
+  // with Windows separators), and texture coordinates for every triangle.
+  REQUIRE(s.materials.size() == 4);
+  for (const rtu::host::Material& m : s.materials) {
+    INFO(m.name);
+    CHECK(m.texture >= 0);
+    CHECK(m.alpha_mode == rtu::host::AlphaMode::kOpaque);
+  }
+  CHECK(s.materials[s.prim_material[0]].name == "HLeibTex");
+  CHECK(s.textures.size() >= 4);
+  CHECK(s.triangle_uv.size() == s.geometry.triangles.size());
   CHECK(!s.has_camera);
   CHECK(s.camera.look_at == s.geometry.bounds().center());
   REQUIRE(s.lights.size() == 1);

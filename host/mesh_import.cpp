@@ -43,6 +43,7 @@
 #include "host/image.h"
 #include "host/limits.h"
 #include "host/scene.h"
+#include "hwmodel/instancing.h"
 
 namespace rtu::host {
 namespace {
@@ -249,6 +250,13 @@ struct RawMaterial {
   int32_t texture = -1;    // index into the textures sent, or -1
 };
 
+// Where the node tree places a mesh: the object mesh (meshes in the order of their first placement) and the
+// node's world transform.
+struct Placement {
+  uint32_t mesh = 0;
+  hw::Affine to_world;
+};
+
 enum TextureKind : uint8_t { kTextureFile = 0, kTextureEncoded = 1, kTextureTexels = 2 };
 
 RawMaterial raw_material(const aiMaterial& m) {
@@ -338,12 +346,34 @@ std::string import_with_assimp(const std::string& path) {
     materials[i].texture = it->second;
   }
 
-  // First pass: count triangles, so a large mesh is allocated once.
+  // First pass: count triangles, so a large mesh is allocated once, and note where each mesh is placed.
   size_t count = 0;
   bool textured = false;
-  walk_nodes(*scene, [&](unsigned mesh_index, const aiMatrix4x4&) {
+  std::vector<uint32_t> placed(scene->mNumMeshes, 0);
+  std::vector<Placement> placements;
+  std::vector<uint32_t> object_mesh(scene->mNumMeshes, UINT32_MAX);  // Assimp mesh -> object mesh
+  std::vector<uint32_t> object_tris;                                 // per object mesh
+  bool invertible = true;
+  walk_nodes(*scene, [&](unsigned mesh_index, const aiMatrix4x4& world) {
     if (mesh_index >= scene->mNumMeshes)
       throw Error(path + ": node refers to missing mesh " + std::to_string(mesh_index));
+    if (object_mesh[mesh_index] == UINT32_MAX) {
+      object_mesh[mesh_index] = uint32_t(object_tris.size());
+      uint32_t n = 0;
+      for (unsigned f = 0; f < scene->mMeshes[mesh_index]->mNumFaces; ++f)
+        n += scene->mMeshes[mesh_index]->mFaces[f].mNumIndices == 3;
+      object_tris.push_back(n);
+    }
+    ++placed[mesh_index];
+    Placement pl{object_mesh[mesh_index], {}};
+    for (int c = 0; c < 4; ++c) {
+      pl.to_world.m[0][c] = world[0][c];
+      pl.to_world.m[1][c] = world[1][c];
+      pl.to_world.m[2][c] = world[2][c];
+    }
+    hw::AffineD inverse;
+    invertible = invertible && hw::invert(pl.to_world, inverse);
+    placements.push_back(pl);
     const aiMesh* mesh = scene->mMeshes[mesh_index];
     for (unsigned f = 0; f < mesh->mNumFaces; ++f) count += mesh->mFaces[f].mNumIndices == 3;
     if (mesh->mMaterialIndex < materials.size() && materials[mesh->mMaterialIndex].texture >= 0 &&
@@ -351,16 +381,36 @@ std::string import_with_assimp(const std::string& path) {
       textured = true;
   });
 
+  // A mesh placed by more than one node makes the file two-level: its meshes are sent once each in object space
+  // with every placement (instances), unless a transform cannot be inverted (a node scaled to zero): then, as
+  // for files that place each mesh once, every triangle is sent in world space.
+  bool instanced = false;
+  for (const uint32_t n : placed) instanced = instanced || n > 1;
+  instanced = instanced && invertible;
+  const size_t flat_count = count;
+  if (instanced) {
+    count = 0;
+    for (const uint32_t n : object_tris) count += n;
+  } else {
+    placements.clear();
+    object_tris.clear();
+  }
+  std::vector<bool> sent(scene->mNumMeshes, false);
+
   std::vector<hw::Triangle> triangles;
   std::vector<uint32_t> tri_material;
   std::vector<TriangleUv> tri_uv;
   triangles.reserve(count);
-  tri_material.reserve(count);
-  if (textured) tri_uv.reserve(count);
+  tri_material.reserve(flat_count);
+  if (textured) tri_uv.reserve(flat_count);
   const aiMatrix4x4 identity;
   walk_nodes(*scene, [&](unsigned mesh_index, const aiMatrix4x4& world) {
     const aiMesh* mesh = scene->mMeshes[mesh_index];
-    const bool transform = !(world == identity);  // exact: an identity node keeps the file's bits
+    // Two-level: object space, each mesh's triangles once. Otherwise world space; an identity node keeps the
+    // file's bits (the comparison is exact).
+    const bool transform = !instanced && !(world == identity);
+    const bool send = !instanced || !sent[mesh_index];
+    sent[mesh_index] = true;
     const uint32_t material = mesh->mMaterialIndex < materials.size() ? mesh->mMaterialIndex : UINT32_MAX;
     const bool uvs = mesh->HasTextureCoords(0);
     for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
@@ -389,7 +439,7 @@ std::string import_with_assimp(const std::string& path) {
           uv.t[k] = 1.0f - mesh->mTextureCoords[0][index].y;
         }
       }
-      triangles.push_back({v[0], v[1], v[2]});
+      if (send) triangles.push_back({v[0], v[1], v[2]});
       tri_material.push_back(material);
       if (textured) tri_uv.push_back(uv);
     }
@@ -399,6 +449,8 @@ std::string import_with_assimp(const std::string& path) {
   out.put_array(triangles);
   out.put_array(tri_material);
   out.put_array(tri_uv);
+  out.put_array(object_tris);
+  out.put_array(placements);
   out.put(uint64_t(materials.size()));
   for (size_t i = 0; i < materials.size(); ++i) {
     out.put_string(names[i]);
@@ -634,6 +686,32 @@ ImportedModel decode_model(const std::string& blob, const std::string& path) {
   model.triangles = in.get_array<hw::Triangle>();
   std::vector<uint32_t> tri_material = in.get_array<uint32_t>();
   model.tri_uv = in.get_array<TriangleUv>();
+  const std::vector<uint32_t> object_tris = in.get_array<uint32_t>();
+  const std::vector<Placement> placements = in.get_array<Placement>();
+  if (!placements.empty()) {
+    // Two levels: the object meshes, one instance per placement, and the flattened scene they number.
+    hw::InstanceSet& set = model.instances;
+    size_t at = 0;
+    for (const uint32_t n : object_tris) {
+      if (n > model.triangles.size() - at) in.truncated();
+      hw::Geometry g;
+      g.triangles.assign(model.triangles.begin() + ptrdiff_t(at), model.triangles.begin() + ptrdiff_t(at + n));
+      set.meshes.push_back(std::move(g));
+      at += n;
+    }
+    if (at != model.triangles.size()) in.truncated();
+    for (const Placement& pl : placements) {
+      if (pl.mesh >= set.meshes.size()) in.truncated();
+      set.instances.push_back(hw::Instance{pl.mesh, pl.to_world, 0, 0});
+    }
+    set.finish();
+    try {
+      set.validate();
+    } catch (const std::invalid_argument& e) {
+      throw Error(path + ": its node tree: " + e.what());
+    }
+    model.triangles = set.flatten({}).triangles;
+  }
   const uint64_t num_materials = in.get<uint64_t>();
   if (tri_material.size() != model.triangles.size() ||
       !(model.tri_uv.empty() || model.tri_uv.size() == model.triangles.size()) || num_materials > blob.size())

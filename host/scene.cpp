@@ -44,7 +44,8 @@ Scene load_mesh_scene(const std::string& path) {
   scene.name = path;
   ImportedModel model = import_model(path);
   scene.geometry.triangles = std::move(model.triangles);
-  if (!model.materials.empty()) {  // the file's own materials
+  scene.instances = std::move(model.instances);  // a node tree that places meshes more than once: two levels
+  if (!model.materials.empty()) {                // the file's own materials
     scene.materials = std::move(model.materials);
     scene.prim_material = std::move(model.tri_material);
     scene.textures = std::move(model.textures);

@@ -109,16 +109,20 @@ Scene load_builtin_scene(const std::string& spec);
 // Faces that are points or lines are dropped; polygons are triangulated. Throws Error on failure.
 std::vector<hw::Triangle> import_mesh(const std::string& path);
 
-// A mesh file with its materials: the triangles as import_mesh returns them, and when the file has materials of
-// its own (not only the one Assimp makes up for formats without), each triangle's material, the materials as the
-// renderer approximates them (docs/scenes.md), their base-colour textures and the triangles' texture coordinates
-// (when a material is textured). A texture that cannot be read is left out with a warning on stderr.
+// A mesh file with its materials and its instancing: the triangles as import_mesh returns them, and when the file
+// has materials of its own (not only the one Assimp makes up for formats without), each triangle's material, the
+// materials as the renderer approximates them (docs/scenes.md), their base-colour textures and the triangles'
+// texture coordinates (when a material is textured). A texture that cannot be read is left out with a warning on
+// stderr.
 struct ImportedModel {
   std::vector<hw::Triangle> triangles;
   std::vector<uint32_t> tri_material;  // per triangle, into `materials`; empty: the file has no materials
   std::vector<Material> materials;     // `texture` indexes `textures`
   std::vector<Texture> textures;
   std::vector<TriangleUv> tri_uv;  // per triangle, or empty
+  // When the node tree places a mesh more than once: its meshes in object space and an instance per placement
+  // (each node's transform composed from the root); `triangles` is then their flattened form. Empty otherwise.
+  hw::InstanceSet instances;
 };
 ImportedModel import_model(const std::string& path);
 

@@ -288,7 +288,9 @@ TEST_CASE("co-simulation: the triangle unit's measured latency and throughput ar
     CHECK(es->timing().tri_tests == same->tests);
     CHECK(es->timing().tri_issue_cycles == same->tests);
     const auto [el, hl] = run(1, &slow);
-    CHECK(el->timing().cycles > es->timing().cycles);
+    // Not necessarily more: on a memory-bound unit (embedded) a clock's shift reorders DRAM requests, and the
+    // row-buffer hits it gains or loses can outweigh the clock (seen: 27 fewer of 45900 on the IFC house).
+    CHECK(el->timing().cycles != es->timing().cycles);
     CHECK(std::memcmp(hs.data(), hl.data(), hs.size() * sizeof(Hit)) == 0);  // timing never changes a hit
   }
 }

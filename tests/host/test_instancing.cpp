@@ -281,3 +281,88 @@ TEST_CASE("the hwmodel refuses instance sets it cannot trace", "[instancing][lim
   CHECK(st.invalid_rays == 1);
   CHECK(st.rays == 0);
 }
+
+namespace {
+
+// A glTF file whose node tree places one mesh (a unit quad in the z = 0 plane, x, y in [-1, 1]) several times,
+// one placement nested under a parent that moves it; `parent_scale` scales that parent (0: singular).
+std::string write_placed_gltf(const std::string& name, double parent_scale) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "rtu_test_instancing" / name;
+  std::filesystem::create_directories(dir);
+  const float pos[12] = {-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0};
+  const uint16_t idx[6] = {0, 1, 2, 0, 2, 3};
+  std::ofstream bin(dir / "quad.bin", std::ios::binary);
+  bin.write(reinterpret_cast<const char*>(pos), sizeof pos);
+  bin.write(reinterpret_cast<const char*>(idx), sizeof idx);
+  bin.close();
+  std::ofstream(dir / "placed.gltf") << R"({
+    "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0, 1, 2]}],
+    "nodes": [
+      {"mesh": 0},
+      {"mesh": 0, "translation": [4, 0, 0], "rotation": [0, 0, 0.38268343, 0.92387953]},
+      {"translation": [0, 5, 0], "scale": [)"
+                                     << parent_scale << ", " << parent_scale << ", " << parent_scale << R"(],
+       "children": [3]},
+      {"mesh": 0, "translation": [2, 0, 0]}
+    ],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+    "buffers": [{"uri": "quad.bin", "byteLength": 60}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48}, {"buffer": 0, "byteOffset": 48, "byteLength": 12}],
+    "accessors": [
+      {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]},
+      {"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"}
+    ]
+  })";
+  return (dir / "placed.gltf").string();
+}
+
+}  // namespace
+
+TEST_CASE("a mesh file's node tree that places a mesh more than once becomes instances", "[scene][instancing]") {
+  const host::Scene s = host::load_scene(write_placed_gltf("placed", 2.0));
+  REQUIRE(s.instanced());
+  CHECK(s.instances.meshes.size() == 1);
+  REQUIRE(s.instances.instances.size() == 3);
+  REQUIRE(s.geometry.triangles.size() == 6);  // flattened: placement by placement, in node order
+  // The nested placement: the parent's scale 2 and move (0, 5, 0) after the child's move (2, 0, 0).
+  const hw::Instance& nested = s.instances.instances[2];
+  const hw::Vec3 corner = nested.to_world.point(hw::Vec3(1, 1, 0));
+  CHECK(corner.x == 6.0f);
+  CHECK(corner.y == 7.0f);
+  CHECK(s.geometry.triangles[4].v2 == corner);  // the flattened triangle is the placed one
+  // The rotated placement (45 degrees about z): its corner (1, 1) lands on the y axis, sqrt(2) up.
+  const hw::Vec3 r = s.instances.instances[1].to_world.point(hw::Vec3(1, 1, 0));
+  CHECK(r.x == Approx(4.0f).margin(1e-6));
+  CHECK(r.y == Approx(std::sqrt(2.0f)).margin(1e-6));
+  // Two levels and flattened agree: rays at each placement's quad, off its diagonal and edges.
+  std::vector<hw::Ray> rays;
+  for (const hw::Instance& in : s.instances.instances)
+    for (const float u : {-0.5f, 0.3f})
+      for (const float v : {-0.4f, 0.6f}) {
+        const hw::Vec3 target = in.to_world.point(hw::Vec3(u, v, 0.0f));
+        rays.push_back(hw::Ray{target + hw::Vec3(0.1f, -0.05f, 3.0f), 0.0f, hw::Vec3(-0.1f, 0.05f, -3.0f),
+                               std::numeric_limits<float>::infinity()});
+      }
+  const hw::InstancedFloatTracer two(s.instances, s.geometry);
+  const std::vector<hw::Hit> a = trace(two, rays, false);
+  host::DeviceOptions fo;
+  fo.kind = hw::DeviceKind::kFixed;
+  const auto fixed = host::make_device(s.geometry, fo);
+  std::vector<hw::Hit> b(rays.size());
+  hw::TraversalStats st;
+  fixed->trace_batch(rays.data(), b.data(), rays.size(), false, 1, st);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    INFO("ray " << i);
+    REQUIRE(a[i].hit());
+    CHECK(a[i].prim / 2 == i / 4);  // the placement aimed at
+    CHECK(b[i].prim == a[i].prim);
+  }
+}
+
+TEST_CASE("a node tree with a singular transform is flattened, as before", "[scene][instancing]") {
+  // The parent scaled to zero: its placement cannot be inverted, so the file is not made two-level; the
+  // placement's triangles collapse to a point (degenerate, never hit) and the others are traced as usual.
+  const host::Scene s = host::load_scene(write_placed_gltf("singular", 0.0));
+  CHECK(!s.instanced());
+  CHECK(s.geometry.triangles.size() == 6);
+}

@@ -1,5 +1,6 @@
 // The float reference against Embree on the built-in scenes and a real mesh: >= 1M primary and 1M incoherent
-// rays each. Hit/miss must agree on >= 99.999% of rays, and t within a bound argued from float precision.
+// rays each (the alpha-tested forest: 200k). Hit/miss must agree on >= 99.999% of rays, and t within a bound
+// argued from float precision.
 //
 // The t bound. Both tracers compute a hit as the intersection of the ray with a primitive whose vertices (or
 // center) are first taken relative to the ray origin. Each coordinate so used carries a rounding error of a few

@@ -11,6 +11,7 @@
 #include "host/error.h"
 #include "host/generators.h"
 #include "host/scene.h"
+#include "host/suite_scenes.h"
 
 namespace rtu::host {
 
@@ -307,6 +308,19 @@ constexpr BuiltinInfo kBuiltins[] = {
      "(default 1)&offset=X,Y,Z (default 0,0,0)",
      true},
     {"icosphere_far", "icosphere with offset=148376,1234,-223423 (far from the origin); same parameters", true},
+    // The benchmark suite's procedural scenes (suite_scenes.h, scenes/suite.json).
+    {"hairball", "hard: thin overlapping tubes; 512 curved tubes in a unit ball, 196,608 triangles", false},
+    {"atrium",
+     "hard: occlusion; a two-storey hall of columns and arches round an open court, lit inside, 19,422 triangles",
+     false},
+    {"city",
+     "hard: instancing; 4 building prototypes placed 256 times on a ground: 257 instances, 161,216 triangles "
+     "flattened from 2,308",
+     false},
+    {"forest",
+     "hard: alpha-tested foliage; 64 trees of 72 leaf cards (texture, alpha_mode mask) on trunks and a ground, "
+     "13,324 triangles",
+     false},
 };
 
 std::string valid_names() {
@@ -371,6 +385,14 @@ Scene load_builtin_scene(const std::string& spec) {
     scene = make_seed();
   } else if (name == "cornell") {
     scene = make_cornell();
+  } else if (name == "hairball") {
+    scene = make_hairball_scene();
+  } else if (name == "atrium") {
+    scene = make_atrium_scene();
+  } else if (name == "city") {
+    scene = make_city_scene();
+  } else if (name == "forest") {
+    scene = make_forest_scene();
   } else {
     int subdiv = 4;
     float radius = 1.0f;

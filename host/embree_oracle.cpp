@@ -7,6 +7,12 @@ namespace rtu::oracle {
 
 namespace {
 
+// The context of a traced ray, for the filter that asks the any-hit stage (EmbreeScene::set_any_hit).
+struct FilterContext {
+  RTCIntersectContext ctx;  // first: Embree passes &ctx to the filter
+  const EmbreeScene* scene;
+};
+
 // Attaches g's triangles and spheres to `scene`; their geometry ids in tri_geom and sphere_geom.
 void attach(RTCDevice device, RTCScene scene, const hw::Geometry& g, unsigned& tri_geom, unsigned& sphere_geom) {
   if (!g.triangles.empty()) {
@@ -51,6 +57,7 @@ EmbreeScene::EmbreeScene(const hw::Geometry& g, const char* config, RTCMemoryMon
   if (!m_device) throw std::runtime_error("embree: rtcNewDevice failed");
   if (monitor) rtcSetDeviceMemoryMonitorFunction(m_device, monitor, nullptr);
   m_scene = rtcNewScene(m_device);
+  if (!g.non_opaque.empty()) rtcSetSceneFlags(m_scene, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
   attach(m_device, m_scene, g, m_tri_geom, m_sphere_geom);
   rtcCommitScene(m_scene);
   if (rtcGetDeviceError(m_device) != RTC_ERROR_NONE) throw std::runtime_error("embree: scene build failed");
@@ -61,9 +68,14 @@ EmbreeScene::EmbreeScene(const hw::InstanceSet& set, const hw::Geometry& flat, c
   m_device = rtcNewDevice(config);
   if (!m_device) throw std::runtime_error("embree: rtcNewDevice failed");
   m_scene = rtcNewScene(m_device);
+  // The context filter of set_any_hit only where a triangle is non-opaque: elsewhere Embree runs as before.
+  const RTCSceneFlags flags =
+      flat.non_opaque.empty() ? RTC_SCENE_FLAG_NONE : RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION;
+  rtcSetSceneFlags(m_scene, flags);
   for (const hw::Geometry& g : set.meshes) {
     Mesh m;
     m.scene = rtcNewScene(m_device);
+    rtcSetSceneFlags(m.scene, flags);
     attach(m_device, m.scene, g, m.tri_geom, m.sphere_geom);
     rtcCommitScene(m.scene);
     m_meshes.push_back(m);
@@ -104,12 +116,40 @@ bool EmbreeScene::plane_hit(const hw::Ray& r, float tmax, hw::Hit& h) const {
   return any;
 }
 
+// The primitive index (flattened numbering) of an Embree hit; `triangle`: whether it is a triangle.
+uint32_t EmbreeScene::prim_of(unsigned geom, unsigned prim, unsigned inst, bool& triangle) const {
+  if (m_set) {
+    const Mesh& m = m_meshes[m_set->instances[inst].mesh];
+    const uint32_t ntri = uint32_t(m_set->meshes[m_set->instances[inst].mesh].triangles.size());
+    triangle = geom == m.tri_geom;
+    return m_set->global_prim(inst, triangle ? prim : ntri + prim);
+  }
+  triangle = geom == m_tri_geom;
+  return triangle ? prim : m_geom.sphere_prim(prim);
+}
+
+void EmbreeScene::filter(const RTCFilterFunctionNArguments* args) {
+  const EmbreeScene& self = *reinterpret_cast<const FilterContext*>(args->context)->scene;
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    bool triangle = false;
+    const uint32_t prim =
+        self.prim_of(RTCHitN_geomID(args->hit, args->N, i), RTCHitN_primID(args->hit, args->N, i),
+                     RTCHitN_instID(args->hit, args->N, i, 0), triangle);
+    if (triangle && !self.m_geom.opaque(prim) &&
+        !self.m_any_hit->accept(prim, RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i)))
+      args->valid[i] = 0;
+  }
+}
+
 hw::Hit EmbreeScene::intersect(const hw::Ray& r) const {
   hw::Hit h;
   float tmax = r.tmax;
   if (plane_hit(r, tmax, h)) tmax = h.t;
-  RTCIntersectContext ctx;
+  FilterContext fc{{}, this};
+  RTCIntersectContext& ctx = fc.ctx;
   rtcInitIntersectContext(&ctx);
+  if (m_any_hit) ctx.filter = &EmbreeScene::filter;
   RTCRayHit rh{};
   rh.ray.org_x = r.origin.x;
   rh.ray.org_y = r.origin.y;
@@ -124,23 +164,18 @@ hw::Hit EmbreeScene::intersect(const hw::Ray& r) const {
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(m_scene, &ctx, &rh);
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return h;
-  if (m_set) {
-    const uint32_t inst = rh.hit.instID[0];
-    const Mesh& m = m_meshes[m_set->instances[inst].mesh];
-    const uint32_t ntri = uint32_t(m_set->meshes[m_set->instances[inst].mesh].triangles.size());
-    const uint32_t local = rh.hit.geomID == m.tri_geom ? rh.hit.primID : ntri + rh.hit.primID;
-    const bool tri = rh.hit.geomID == m.tri_geom;
-    return hw::Hit{rh.ray.tfar, m_set->global_prim(inst, local), tri ? rh.hit.u : 0.0f, tri ? rh.hit.v : 0.0f};
-  }
-  if (rh.hit.geomID == m_tri_geom) return hw::Hit{rh.ray.tfar, rh.hit.primID, rh.hit.u, rh.hit.v};
-  return hw::Hit{rh.ray.tfar, m_geom.sphere_prim(rh.hit.primID), 0.0f, 0.0f};
+  bool tri = false;
+  const uint32_t prim = prim_of(rh.hit.geomID, rh.hit.primID, rh.hit.instID[0], tri);
+  return hw::Hit{rh.ray.tfar, prim, tri ? rh.hit.u : 0.0f, tri ? rh.hit.v : 0.0f};
 }
 
 bool EmbreeScene::occluded(const hw::Ray& r) const {
   hw::Hit h;
   if (plane_hit(r, r.tmax, h)) return true;
-  RTCIntersectContext ctx;
+  FilterContext fc{{}, this};
+  RTCIntersectContext& ctx = fc.ctx;
   rtcInitIntersectContext(&ctx);
+  if (m_any_hit) ctx.filter = &EmbreeScene::filter;
   RTCRay ray{};
   ray.org_x = r.origin.x;
   ray.org_y = r.origin.y;

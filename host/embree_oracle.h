@@ -7,6 +7,7 @@
 
 #include <vector>
 
+#include "hwmodel/any_hit.h"
 #include "hwmodel/geometry.h"
 #include "hwmodel/instancing.h"
 #include "hwmodel/ray.h"
@@ -28,8 +29,16 @@ class EmbreeScene {
   hw::Hit intersect(const hw::Ray& r) const;  // closest hit (rtcIntersect1)
   bool occluded(const hw::Ray& r) const;      // any hit (rtcOccluded1)
 
+  // The any-hit stage for the geometry's non-opaque triangles (hw::Geometry::non_opaque of the flattened
+  // scene), asked by an Embree context filter with the hit's primitive and barycentrics, as the project's tracers
+  // ask it; null (the default): every triangle opaque. Not owned. Mark the triangles (host::mark_non_opaque)
+  // before constructing: the filter is only enabled on a scene that has non-opaque triangles then.
+  void set_any_hit(const hw::AnyHitStage* stage) { m_any_hit = stage; }
+
  private:
   bool plane_hit(const hw::Ray& r, float tmax, hw::Hit& h) const;
+  uint32_t prim_of(unsigned geom, unsigned prim, unsigned inst, bool& triangle) const;
+  static void filter(const RTCFilterFunctionNArguments* args);
 
   struct Mesh {
     RTCScene scene = nullptr;
@@ -41,6 +50,7 @@ class EmbreeScene {
   RTCDevice m_device = nullptr;
   RTCScene m_scene = nullptr;
   unsigned m_tri_geom = RTC_INVALID_GEOMETRY_ID, m_sphere_geom = RTC_INVALID_GEOMETRY_ID;
+  const hw::AnyHitStage* m_any_hit = nullptr;
 };
 
 }  // namespace rtu::oracle

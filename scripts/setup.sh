@@ -8,6 +8,8 @@ packages=(
   libglm-dev libcli11-dev nlohmann-json3-dev libstb-dev libassimp-dev  # libraries of the tool
   catch2 libembree-dev                           # tests; Embree is the independent oracle and benchmark peer
   assimp-testmodels                              # the real meshes used by tests and benchmarks
+  libcgal-demo                                   # CGAL's demo meshes (bunny, armadillo, elephant in OFF) of the
+                                                 # benchmark suite; scripts/cgal_meshes.sh extracts them
   verilator yosys                                # the RTL box unit: simulation and tests (rtl_sim/), synthesis
   gnuplot-nox                                    # Pareto and scaling plots (rtusim pareto|report, bench/)
   chromium                                       # headless browser: the report page test (report_browser)

@@ -4,6 +4,7 @@
 
 #include "host/cli/common.h"
 #include "host/error.h"
+#include "host/suite.h"
 #include "hwmodel/hw_format.h"
 #include "hwmodel/packed_layout.h"
 
@@ -15,8 +16,36 @@ struct InfoOptions {
   std::string scene;
   DeviceArgs dev;
   std::string json;
+  std::string suite;
   bool formats = false;
 };
+
+// The suite's entries: available or skipped (with the reason), what makes each hard; --json lists them.
+void list_suite(const InfoOptions& o) {
+  const Suite suite = load_suite(o.suite);
+  const SuiteCheck check = check_suite(suite);
+  Json j;
+  j["suite"] = o.suite;
+  j["description"] = suite.description;
+  j["entries"] = Json::array();
+  std::printf("suite        %s: %zu scenes, %zu available, %zu skipped\n", o.suite.c_str(), suite.entries.size(),
+              check.available.size(), check.skipped.size());
+  for (const SuiteEntry& e : suite.entries) {
+    std::string reason;
+    for (const SuiteSkip& s : check.skipped)
+      if (s.entry.name == e.name) reason = s.reason;
+    std::printf("%-16s %s  %s\n%-16s hard because: %s\n", e.name.c_str(), reason.empty() ? "ok     " : "skipped",
+                e.scene.c_str(), "", e.hard_because.c_str());
+    if (!reason.empty()) std::printf("%-16s %s\n", "", reason.c_str());
+    j["entries"].push_back({{"name", e.name},
+                            {"scene", e.scene},
+                            {"hard_because", e.hard_because},
+                            {"source", e.source},
+                            {"available", reason.empty()},
+                            {"skipped_because", reason}});
+  }
+  if (!o.json.empty()) write_json(o.json, j);
+}
 
 void list_formats() {
   std::printf("%-9s %5s %5s %5s %5s %5s %5s %5s %7s  %-22s %s\n", "preset", "width", "coord", "child", "guard",
@@ -40,6 +69,8 @@ void list_formats() {
 }
 
 void run_info(const InfoOptions& o) {
+  if (!o.json.empty() && o.scene.empty() && o.suite.empty()) throw Error("info: --json needs --scene or --suite");
+  if (!o.suite.empty()) return list_suite(o);
   if (o.formats) {
     list_formats();
     if (o.scene.empty()) return;
@@ -148,7 +179,11 @@ void add_info(CLI::App& app) {
   CLI::Option* scene = sub->add_option("--scene", o->scene, "scene file, mesh file, or builtin:NAME");
   sub->add_flag("--formats", o->formats, "list the fixed-point format presets");
   add_device_args(*sub, o->dev, "");
-  sub->add_option("--json", o->json, "also write the scene's figures as JSON to this file")->needs(scene);
+  sub->add_option("--suite", o->suite,
+                  "list a benchmark suite manifest's scenes (scenes/suite.json): available or skipped, and why")
+      ->excludes(scene);
+  sub->add_option("--json", o->json,
+                  "also write the scene's figures (or the suite's entries) as JSON to this file");
   sub->callback([o] { run_info(*o); });
 }
 

@@ -8,13 +8,20 @@
 #include "host/error.h"
 #include "host/pareto.h"
 #include "host/report.h"
+#include "host/suite.h"
 #include "host/sweep.h"
 
 namespace rtu::host::cli {
 
 namespace {
 
-void run_report(ReportOptions a) {
+void run_report(ReportOptions a, const std::string& suite) {
+  if (!suite.empty()) {  // the suite's available scenes after --scene's; skipped ones named on stderr
+    for (const std::string& spec : suite_scenes(
+             suite, [](const std::string& line) { std::fprintf(stderr, "rtusim: warning: %s\n", line.c_str()); }))
+      a.scenes.push_back(spec);
+    if (a.scenes.empty()) throw Error("report: " + suite + ": no scene of the suite is available");
+  }
   const ReportResult r = write_report(a, [&](const ReportStep& s) {
     switch (s.stage) {
       case ReportStage::kStart:
@@ -76,6 +83,10 @@ void add_report(CLI::App& app) {
   sub->add_option("--scene", a->scenes,
                   "scenes (repeatable; default builtin:seed and builtin:cornell): the first is rendered, all are "
                   "in the cycles table and in the sweep run here");
+  auto suite = std::make_shared<std::string>();
+  sub->add_option("--suite", *suite,
+                  "benchmark suite manifest (scenes/suite.json): its scenes after --scene's (missing files are "
+                  "skipped with a warning)");
   sub->add_option("--area", a->area,
                   "RTL area table for the sweep run here (default: bench/data/rtl_area.csv, compiled in)")
       ->excludes(sweep);  // a given sweep CSV holds its area figures already
@@ -83,7 +94,7 @@ void add_report(CLI::App& app) {
   sub->add_option("--threads", a->threads, "worker threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  sub->callback([a] { run_report(*a); });
+  sub->callback([a, suite] { run_report(*a, *suite); });
 
   auto p = std::make_shared<ParetoArgs>();
   CLI::App* ps = app.add_subcommand(

@@ -11,6 +11,7 @@
 
 #include "host/cli/common.h"
 #include "host/error.h"
+#include "host/suite.h"
 #include "host/sweep.h"
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/timing_config.h"
@@ -22,7 +23,7 @@ namespace {
 struct SweepArgs {
   SweepGrid grid;
   std::vector<std::string> merge;
-  std::string out, shard = "1/1", area;
+  std::string out, shard = "1/1", area, suite;
   SweepOptions opt;
 };
 
@@ -73,9 +74,23 @@ void run_merge(const SweepArgs& a) {
               duplicates, a.out.c_str());
 }
 
+void run_sweep_points(const SweepArgs& a);
+
 void run_sweep(const SweepArgs& a) {
   if (!a.merge.empty()) return run_merge(a);
-  if (a.grid.scenes.empty()) throw Error("sweep: --scene is required (or --merge FILES)");
+  SweepArgs args = a;
+  if (!a.suite.empty()) {  // the suite's available scenes after --scene's; skipped ones named on stderr
+    for (const std::string& spec : suite_scenes(a.suite, [](const std::string& line) {
+           std::fprintf(stderr, "rtusim: warning: %s\n", line.c_str());
+         }))
+      args.grid.scenes.push_back(spec);
+    if (args.grid.scenes.empty()) throw Error("sweep: " + a.suite + ": no scene of the suite is available");
+  }
+  run_sweep_points(args);
+}
+
+void run_sweep_points(const SweepArgs& a) {
+  if (a.grid.scenes.empty()) throw Error("sweep: --scene or --suite is required (or --merge FILES)");
   const auto [shard, shards] = parse_shard(a.shard);
   // Every point's format and configuration is checked before the first one runs.
   check_sweep_grid(a.grid);
@@ -154,6 +169,10 @@ void add_sweep(CLI::App& app) {
       "sweep",
       "Run time against error over scenes x formats x BVH widths x timing presets; one CSV row per point");
   sub->add_option("--scene", a->grid.scenes, "scene file, mesh file or builtin:NAME (repeatable)");
+  sub->add_option(
+      "--suite", a->suite,
+      "benchmark suite manifest (scenes/suite.json): its scenes after --scene's; scenes whose files are "
+      "missing are skipped with a warning");
   sub->add_option("--formats", a->grid.formats,
                   "format specs, comma-separated: a preset, or a preset with changes, e.g. "
                   "default:coord_bits=16:child_bits=6; storage layouts are presets (packed, cwbvh) or keys "
@@ -188,8 +207,8 @@ void add_sweep(CLI::App& app) {
                       "--image-width)")
           ->check(CLI::ExistingFile);
   // Merging runs no point: the options of a run would be ignored, so they are refused with it.
-  for (const char* name : {"--scene", "--formats", "--bvh-width", "--config", "--rays", "--seed", "--image-width",
-                           "--threads", "--area", "--shard"})
+  for (const char* name : {"--scene", "--suite", "--formats", "--bvh-width", "--config", "--rays", "--seed",
+                           "--image-width", "--threads", "--area", "--shard"})
     merge->excludes(sub->get_option(name));
   sub->add_option("--out", a->out,
                   "CSV to write; points already in it made with the same --rays, --seed and --image-width are "

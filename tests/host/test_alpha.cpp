@@ -450,3 +450,27 @@ TEST_CASE("a mesh file's texture that cannot be read leaves its material untextu
   CHECK(s.materials[s.prim_material[0]].texture == -1);
   CHECK(s.textures.empty());
 }
+
+TEST_CASE("scenes/alpha.json: its fences and leaf let light through their masked texels", "[alpha][scene]") {
+  const host::Scene s = host::load_scene(RTU_SOURCE_DIR "/scenes/alpha.json");
+  REQUIRE(s.textures.size() == 2);
+  // Floor 2, three fences and the leaf 2 each, the ball 20 * 4^3.
+  REQUIRE(s.geometry.triangles.size() == 2 + 4 * 2 + 1280);
+  size_t non_opaque = 0;
+  for (const uint8_t b : s.geometry.non_opaque) non_opaque += b;
+  CHECK(non_opaque == 8);
+  // Straight down through the middle fence's holes and bars: the fence stands in the plane z = 0, x in [-1, 1],
+  // y in [0, 1.6]; rays along -z at heights in a hole (texel row 2 of 8) and on a bar (row 4).
+  auto ray_at = [](float x, float y) {
+    return hw::Ray{hw::Vec3(x, y, 1.0f), 0.0f, hw::Vec3(0.0f, 0.0f, -1.0f), 1.5f};  // stops before the ball
+  };
+  const float hole_y = 1.6f - 2.5f / 8.0f * 1.6f, bar_y = 1.6f - 4.5f / 8.0f * 1.6f;
+  const float hole_x = -1.0f + 2.5f / 8.0f * 2.0f;
+  const std::vector<hw::Ray> rays = {ray_at(hole_x, hole_y), ray_at(hole_x, bar_y)};
+  for (const hw::DeviceKind kind : kKinds) {
+    INFO(hw::device_kind_name(kind));
+    const Traced r = trace(s, kind, rays, true);
+    CHECK(!r.hits[0].hit());
+    CHECK(r.hits[1].hit());
+  }
+}

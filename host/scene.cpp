@@ -81,9 +81,13 @@ Scene load_scene(const std::string& spec) {
     scene = load_mesh_scene(spec);
   }
   scene.name = spec;
+  finish_scene(scene);
+  return scene;
+}
+
+void finish_scene(Scene& scene) {
   validate_scene(scene);
   mark_non_opaque(scene);
-  return scene;
 }
 
 void mark_non_opaque(Scene& scene) {

@@ -137,6 +137,10 @@ std::vector<std::pair<std::string, std::string>> builtin_scene_names();
 // least one primitive. Throws Error naming `scene.name` and the first problem.
 void validate_scene(const Scene& scene);
 
+// What load_scene does to every scene it loads: validate_scene, then mark_non_opaque. Callers that load through
+// load_scene_json or build a Scene themselves call it before tracing.
+void finish_scene(Scene& scene);
+
 // Marks the geometry's non-opaque triangles (hw::Geometry::non_opaque, and the instance meshes' for the
 // two-level float device): triangles whose material is alpha-masked. load_scene calls it.
 void mark_non_opaque(Scene& scene);

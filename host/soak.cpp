@@ -79,7 +79,7 @@ Scene random_scene(hw::Pcg32& rng) {
   s.camera = frame_camera(g.bounds());
   s.camera.width = 16;
   s.camera.height = 12;
-  validate_scene(s);
+  finish_scene(s);
   return s;
 }
 

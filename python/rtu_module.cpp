@@ -67,7 +67,7 @@ PyScene load_scene_text(const std::string& text, const std::string& name, const 
   py::gil_scoped_release nogil;
   host::Scene s = host::load_scene_json(host::parse_json_limited(text, name), name, base_dir);
   s.name = name;
-  host::validate_scene(s);
+  host::finish_scene(s);
   return PyScene{std::make_shared<const host::Scene>(std::move(s))};
 }
 

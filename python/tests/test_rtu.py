@@ -285,3 +285,24 @@ def test_gil_released_while_tracing(seed):
     total = time.perf_counter() - start
     # Were the GIL held while tracing, this thread would stall for the whole trace.
     assert total > 0.05 and max(gaps) < 0.5 * total, (max(gaps), total)
+
+
+def test_alpha_scene_dict_equals_the_cli(tmp_path):
+    """A scene dict with a texture and an alpha mask: the module asks the same any-hit stage as rtusim, so the
+    hits, the any-hit counts and the timed cycles are the CLI's."""
+    with open(os.path.join(SCENES, "alpha.json")) as f:
+        d = json.load(f)
+    s = rtu.load_scene(d, base_dir=SCENES)
+    rays = rtu.rays(s, "primary")
+    ray_path = tmp_path / "p.rays"
+    rtu.write_rays(ray_path, rays)
+    r = rtu.trace(s, rays, "timed")
+    cli("trace", "--scene", os.path.join(SCENES, "alpha.json"), "--rays", ray_path, "--out", tmp_path / "h.hits",
+        "--device", "timed", "--stats", tmp_path / "s.json")
+    with open(tmp_path / "s.json") as f:
+        stats = json.load(f)
+    assert np.array_equal(r.hits, rtu.read_hits(tmp_path / "h.hits"))
+    assert r.stats["any_hit_calls"] == stats["any_hit_calls"] > 0
+    assert 0 < r.stats["any_hit_ignored"] == stats["any_hit_ignored"] < stats["any_hit_calls"]
+    assert r.cycles == stats["timing"]["cycles"]
+    assert stats["timing"]["any_hit_requests"] == stats["any_hit_calls"]

@@ -9,6 +9,7 @@
 
 #include "firmware/render_scene.h"
 #include "host/error.h"
+#include "host/limits.h"
 
 #define STB_IMAGE_WRITE_IMPLEMENTATION
 #if defined(__GNUC__)
@@ -75,6 +76,10 @@ void check_texture_size(int w, int h, const std::string& name) {
   if (w < 1 || h < 1 || w > int(fw::kMaxTextureSide) || h > int(fw::kMaxTextureSide))
     throw Error(name + ": texture of " + std::to_string(w) + " x " + std::to_string(h) +
                 " texels (each side must be in [1, " + std::to_string(fw::kMaxTextureSide) + "])");
+  // A header is a few bytes and may claim a 1 GiB image: the decoder's buffer and the copy are refused before
+  // they are allocated when they do not fit the memory limit.
+  check_memory(name + ": decoding a " + std::to_string(w) + " x " + std::to_string(h) + " texture",
+               uint64_t(w) * uint64_t(h) * 8);
 }
 
 }  // namespace

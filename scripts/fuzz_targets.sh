@@ -4,10 +4,11 @@
 #  - scene_file, mesh_import: 1 MiB. Enough for JSON nested far past host::kMaxJsonDepth (64) and for Collada or
 #    AC3D node chains deep enough (~4 * 10^4 levels under ASan) to overflow the importer's 64 MiB stack;
 #  - device_image: 256 KiB, a BVH of thousands of nodes, up to the traversal stack's depth bound;
+#  - texture: 64 KiB, images of up to a few hundred texels a side (PNG compresses far more);
 #  - ray_file, command_processor, config: 64 KiB, 2048 rays (each traced on three devices), programs of thousands
 #    of packets, lines of thousands of keys: larger only makes each run slower, the formats are flat.
 # shellcheck shell=bash
-RTU_FUZZ_TARGETS=(scene_file mesh_import ray_file command_processor device_image config)
+RTU_FUZZ_TARGETS=(scene_file mesh_import ray_file command_processor device_image config texture)
 rtu_fuzz_max_len() {
   case $1 in
     scene_file | mesh_import) echo 1048576 ;;

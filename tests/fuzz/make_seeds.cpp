@@ -1,5 +1,6 @@
 // Writes the binary seed corpora of the fuzz targets into DIR (default tests/fuzz/corpus): ray and hit files,
-// scene images in every format preset (fixed) and the float image, and command programs for each engine. The
+// scene images in every format preset (fixed) and the float image, command programs for each engine, and
+// textures (PNG with and without alpha, JPEG). The
 // text seeds (scene files, meshes, configuration) are written by hand. Usage: fuzz_make_seeds [DIR]
 #include <filesystem>
 #include <fstream>
@@ -11,6 +12,8 @@
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/float_tracer.h"
 #include "tests/fuzz/fuzz.h"
+
+#include <stb/stb_image_write.h>
 
 using namespace rtu;
 namespace fs = std::filesystem;
@@ -95,5 +98,21 @@ int main(int argc, char** argv) {
   q.add<uint8_t>(1);  // read STATUS
   q.add<uint8_t>(0x10);
   put(dir / "command_processor" / "registers.prog", q.b.data(), q.b.size());
+  // Textures: a 4 x 4 RGBA checker of alpha 0 and 255, a 3 x 2 grey + alpha PNG, an 8 x 8 RGB JPEG, a 1 x 1 PNG.
+  const fs::path tex = dir / "texture";
+  fs::create_directories(tex);
+  std::vector<uint8_t> rgba(4 * 4 * 4);
+  for (int i = 0; i < 16; ++i) {
+    rgba[4 * i] = uint8_t(40 * i), rgba[4 * i + 1] = 160, rgba[4 * i + 2] = uint8_t(255 - 9 * i);
+    rgba[4 * i + 3] = ((i / 4 + i % 4) % 2) ? 0 : 255;
+  }
+  stbi_write_png((tex / "checker4.png").string().c_str(), 4, 4, 4, rgba.data(), 16);
+  const uint8_t ga[12] = {0, 255, 64, 128, 128, 0, 192, 255, 255, 64, 32, 200};
+  stbi_write_png((tex / "grey_alpha3x2.png").string().c_str(), 3, 2, 2, ga, 6);
+  std::vector<uint8_t> rgb(8 * 8 * 3);
+  for (size_t i = 0; i < rgb.size(); ++i) rgb[i] = uint8_t(i * 37);
+  stbi_write_jpg((tex / "noise8.jpg").string().c_str(), 8, 8, 3, rgb.data(), 90);
+  const uint8_t one[4] = {10, 20, 30, 255};
+  stbi_write_png((tex / "one.png").string().c_str(), 1, 1, 4, one, 4);
   return 0;
 }

@@ -96,3 +96,6 @@ TEST_CASE("fuzz corpus: device_image", "[fuzz][corpus]") {
 TEST_CASE("fuzz corpus: config", "[fuzz][corpus]") {
   run_all(rtu::fuzz::kTargets[5]);
 }
+TEST_CASE("fuzz corpus: texture", "[fuzz][corpus]") {
+  run_all(rtu::fuzz::kTargets[6]);
+}

@@ -91,7 +91,9 @@ void run_sweep(const SweepArgs& a) {
 
 void run_sweep_points(const SweepArgs& a) {
   if (a.grid.scenes.empty()) throw Error("sweep: --scene or --suite is required (or --merge FILES)");
-  const auto [shard, shards] = parse_shard(a.shard);
+  // Named variables, not a structured binding: the lambda below captures them (clang 14 cannot capture bindings).
+  const auto shard_of = parse_shard(a.shard);
+  const auto shard = shard_of.first, shards = shard_of.second;
   // Every point's format and configuration is checked before the first one runs.
   check_sweep_grid(a.grid);
   const AreaTable area = a.area.empty() ? AreaTable::shipped() : AreaTable::load(a.area);

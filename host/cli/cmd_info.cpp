@@ -93,6 +93,10 @@ void run_info(const InfoOptions& o) {
   j["planes"] = g.planes.size();
   j["materials"] = scene.materials.size();
   j["lights"] = scene.lights.size();
+  j["textures"] = scene.textures.size();
+  uint64_t non_opaque = 0;
+  for (const uint8_t f : g.non_opaque) non_opaque += f;
+  j["non_opaque_triangles"] = non_opaque;  // alpha-tested: their candidate hits go to the any-hit stage
   if (scene.instanced()) {
     // Two levels (the float reference's): what instancing saves against the flattened scene above.
     hw::TracerOptions topt = dopt.tracer;
@@ -122,7 +126,11 @@ void run_info(const InfoOptions& o) {
   std::printf("scene        %s\n", scene.name.c_str());
   std::printf("primitives   %zu triangles, %zu spheres, %zu planes\n", g.triangles.size(), g.spheres.size(),
               g.planes.size());
-  std::printf("materials    %zu, lights %zu\n", scene.materials.size(), scene.lights.size());
+  std::printf("materials    %zu, lights %zu, textures %zu\n", scene.materials.size(), scene.lights.size(),
+              scene.textures.size());
+  if (non_opaque > 0)
+    std::printf("alpha        %llu alpha-tested triangles (their candidate hits go to the any-hit stage)\n",
+                (unsigned long long)non_opaque);
   if (scene.instanced()) {
     const Json& in = j["instancing"];
     std::printf(

@@ -17,6 +17,7 @@
 #include "host/shading.h"
 #include "hwmodel/timed_engine.h"
 #include "hwmodel/timing_config.h"
+#include "tests/host/run_process.h"
 
 #include <stb/stb_image_write.h>
 
@@ -473,4 +474,9 @@ TEST_CASE("scenes/alpha.json: its fences and leaf let light through their masked
     CHECK(!r.hits[0].hit());
     CHECK(r.hits[1].hit());
   }
+  // rtusim info counts the same textures and alpha-tested triangles.
+  const rtu::test::Run info = rtu::test::run_rtusim("info --scene " RTU_SOURCE_DIR "/scenes/alpha.json");
+  REQUIRE(info.status == 0);
+  CHECK(info.output.find("textures 2") != std::string::npos);
+  CHECK(info.output.find("alpha        8 alpha-tested triangles") != std::string::npos);
 }

@@ -53,17 +53,16 @@ class TempDir {
   fs::path m_path;
 };
 
-// Bit-identical geometry, materials and texture coordinates.
+// Same length and same bytes; memcmp is never handed the null data() of an empty vector.
+template <typename T>
+bool same_bytes(const std::vector<T>& a, const std::vector<T>& b) {
+  return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+}
+
+// Bit-identical geometry, materials, texture coordinates and instances.
 bool same_scene(const Scene& a, const Scene& b) {
-  const auto& ta = a.geometry.triangles;
-  const auto& tb = b.geometry.triangles;
-  return ta.size() == tb.size() && std::memcmp(ta.data(), tb.data(), ta.size() * sizeof(ta[0])) == 0 &&
-         a.prim_material == b.prim_material && a.triangle_uv.size() == b.triangle_uv.size() &&
-         std::memcmp(a.triangle_uv.data(), b.triangle_uv.data(),
-                     a.triangle_uv.size() * sizeof(a.triangle_uv[0])) == 0 &&
-         a.instances.instances.size() == b.instances.instances.size() &&
-         std::memcmp(a.instances.instances.data(), b.instances.instances.data(),
-                     a.instances.instances.size() * sizeof(a.instances.instances[0])) == 0;
+  return same_bytes(a.geometry.triangles, b.geometry.triangles) && a.prim_material == b.prim_material &&
+         same_bytes(a.triangle_uv, b.triangle_uv) && same_bytes(a.instances.instances, b.instances.instances);
 }
 
 size_t material_count(const Scene& s, const std::string& name) {

@@ -18,8 +18,9 @@ CompareRun compare_devices(const CompareRequest& req) {
   const std::vector<hw::Ray>& rays = *req.rays;
   CompareRun run;
   DeviceOptions ref_opt = req.settings.options(hw::DeviceKind::kFloat);
-  ref_opt.instances = &scene.instances;  // the reference traces two levels; fixed and timed the flattened scene
+  ref_opt.instances = &scene.instances;  // float and fixed trace two levels; timed the flattened scene
   run.dut_options = req.settings.options(req.kind);
+  run.dut_options.instances = &scene.instances;
   run.dut_options.check_boxes = true;
   run.alpha = std::make_unique<SceneAnyHit>(scene);
   ref_opt.any_hit = run.dut_options.any_hit = run.alpha->stage();

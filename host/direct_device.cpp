@@ -76,18 +76,57 @@ class ImageDevice : public DirectDevice {
   hw::FixedTracer m_tracer;
 };
 
+// A fixed tracer's batch; a ray the watchdog stopped is an error, with the tracer's report.
+template <class Tracer>
+void trace_watched(const Tracer& t, const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
+                   hw::TraversalStats& s) {
+  hw::TraversalStats local;
+  t.trace_batch(rays, hits, n, any_hit, threads, local);
+  if (local.watchdog_rays > 0)
+    throw hw::WatchdogError(t.watchdog_report(rays, n, any_hit, local.watchdog_rays), 0);
+  s.add(local);
+}
+
 class FixedDevice final : public ImageDevice {
  public:
   using ImageDevice::ImageDevice;
   hw::DeviceKind kind() const override { return hw::DeviceKind::kFixed; }
   void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
                    hw::TraversalStats& s) const override {
-    hw::TraversalStats local;
-    m_tracer.trace_batch(rays, hits, n, any_hit, threads, local);
-    if (local.watchdog_rays > 0)
-      throw hw::WatchdogError(m_tracer.watchdog_report(rays, n, any_hit, local.watchdog_rays), 0);
-    s.add(local);
+    trace_watched(m_tracer, rays, hits, n, any_hit, threads, s);
   }
+};
+
+// The fixed datapath over two levels (instanced_fixed.h): a top-level image, a bottom-level image per mesh.
+class InstancedFixedDevice final : public DirectDevice {
+  static hw::FixedTraceOptions trace_options(const DeviceOptions& o) {
+    hw::FixedTraceOptions t{o.check_boxes, o.max_steps};
+    t.any_hit = o.any_hit;
+    return t;
+  }
+
+ public:
+  InstancedFixedDevice(const hw::Geometry& g, const DeviceOptions& o)
+      : m_tracer(*o.instances, g, o.format, o.tracer, trace_options(o)) {}
+  hw::DeviceKind kind() const override { return hw::DeviceKind::kFixed; }
+  void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
+                   hw::TraversalStats& s) const override {
+    trace_watched(m_tracer, rays, hits, n, any_hit, threads, s);
+  }
+  hw::RayStatus ray_status(const hw::Ray& r) const override {
+    hw::FixedRay fr;
+    return hw::setup_ray(r, m_tracer.top_tracer().frame(), m_tracer.top_tracer().format(), fr);
+  }
+  const hw::Bvh* bvh() const override { return &m_tracer.top_bvh(); }
+  double bvh_cost() const override { return m_tracer.top_bvh().figures().sah_cost; }
+  double brute_cost() const override { return 0.0; }
+  // The top level's image; bytes() of the tracer counts the bottom levels too.
+  const hw::DeviceImage* image() const override { return &m_tracer.top(); }
+  uint64_t prim_bytes() const override { return m_tracer.bytes() - m_tracer.top().nodes_size(); }
+  const hw::InstancedFixedTracer* instanced() const override { return &m_tracer; }
+
+ private:
+  hw::InstancedFixedTracer m_tracer;
 };
 
 // The fixed datapath with the timing model: the engine the command processor would run, called directly.
@@ -130,6 +169,7 @@ std::unique_ptr<DirectDevice> make_device(const hw::Geometry& g, const DeviceOpt
       return std::make_unique<FloatDevice>(g, opt);
     case hw::DeviceKind::kFixed:
       o.format.validate();
+      if (o.instances && !o.instances->instances.empty()) return std::make_unique<InstancedFixedDevice>(g, opt);
       return std::make_unique<FixedDevice>(g, opt);
     case hw::DeviceKind::kTimed:
       o.format.validate();

@@ -16,6 +16,7 @@
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
+#include "hwmodel/instanced_fixed.h"
 #include "hwmodel/instancing.h"
 #include "hwmodel/timed_engine.h"
 #include "hwmodel/timing_config.h"
@@ -30,8 +31,8 @@ struct DeviceOptions {
   hw::TimingConfig timing;   // timed: the unit's configuration (its format and width are in `format`)
   hw::SampleOptions sample;  // timed: sampled timing (fraction 0: every ray simulated)
   uint64_t max_steps = 0;    // fixed, timed: traversal watchdog, node and leaf visits per ray (0: automatic)
-  // The scene's two levels (Scene::instances), or null. The float device traces them (the geometry passed to
-  // make_device must then be their flattened form); fixed and timed trace the flattened geometry.
+  // The scene's two levels (Scene::instances), or null. The float and fixed devices trace them (the geometry
+  // passed to make_device must then be their flattened form); timed traces the flattened geometry.
   const hw::InstanceSet* instances = nullptr;
   // The any-hit stage for the geometry's non-opaque triangles (alpha-tested materials: host/shading.h), or null:
   // they are then opaque. Not owned: must outlive the device.
@@ -53,6 +54,8 @@ class DirectDevice {
   virtual double brute_cost() const = 0;
   // The fixed and timed devices' memory image (null for float).
   virtual const hw::DeviceImage* image() const { return nullptr; }
+  // The fixed device over two levels (null for the others; its image() is the top level).
+  virtual const hw::InstancedFixedTracer* instanced() const { return nullptr; }
   // The timed device's engine: cycles and timing statistics of what it traced (null for the others).
   virtual const hw::TimedEngine* timed() const { return nullptr; }
   hw::TimedEngine* timed() { return const_cast<hw::TimedEngine*>(std::as_const(*this).timed()); }

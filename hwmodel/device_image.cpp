@@ -67,12 +67,32 @@ class Encoder {
     if (b.empty()) b = Aabb{Vec3(-1.0f), Vec3(1.0f)};  // planes only: any frame will do
     m_frame = QuantFrame::fit(b, f.coord_bits);
   }
+  // A top level: record p is the instance ids[p] with world bounds boxes[p]; g gives the planes.
+  Encoder(const std::vector<Aabb>& boxes, const std::vector<uint32_t>& ids, const Geometry& g,
+          const FixedFormat& f)
+      : m_g(g), m_f(f), m_boxes(&boxes), m_ids(&ids) {
+    Aabb b;
+    for (const Aabb& x : boxes) b.extend(x);
+    if (b.empty()) b = Aabb{Vec3(-1.0f), Vec3(1.0f)};
+    m_frame = QuantFrame::fit(b, f.coord_bits);
+  }
 
   const QuantFrame& frame() const { return m_frame; }
+  uint32_t record_count() const { return m_boxes ? uint32_t(m_boxes->size()) : m_g.num_bounded(); }
 
   // The record of bounded primitive p and its grid bounds.
   void make_record(uint32_t p, uint8_t* out, GridBox& box) const {
-    if (p < m_g.triangles.size()) {
+    if (m_boxes) {
+      InstanceRecord rec{};
+      const GridBox g = outward((*m_boxes)[p]);
+      for (int a = 0; a < 3; ++a) {
+        rec.lo[a] = int32_t(g.lo[a]);
+        rec.hi[a] = int32_t(g.hi[a]);
+      }
+      box.extend(g);
+      rec.prim = (uint32_t(RecordKind::kInstance) << 30) | (*m_ids)[p];
+      std::memcpy(out, &rec, sizeof rec);
+    } else if (p < m_g.triangles.size()) {
       const Triangle& t = m_g.triangles[p];
       TriangleRecord rec{};
       const Vec3* v[3] = {&t.v0, &t.v1, &t.v2};
@@ -217,6 +237,8 @@ class Encoder {
   const FixedFormat& m_f;
   QuantFrame m_frame;
   std::vector<GridBox> m_record_boxes;
+  const std::vector<Aabb>* m_boxes = nullptr;  // top level: instance bounds, and their instance indices
+  const std::vector<uint32_t>* m_ids = nullptr;
 };
 
 size_t align8(size_t x) {
@@ -318,14 +340,39 @@ PackedTree pack_tree(const FixedFormat& f, std::vector<QNode<N, Q>>& nodes, cons
 
 }  // namespace
 
+// Writes an image: the encoder's records over the BVH (or every record), the planes of g, the counts of g.
+class ImageWriter {
+ public:
+  static DeviceImage write(Encoder& enc, const Geometry& g, const FixedFormat& f, const Bvh* bvh, uint32_t flags);
+};
+
 DeviceImage encode_scene(const Geometry& g, const FixedFormat& f, const Bvh* bvh) {
   f.validate();
   if (bvh && bvh->width() != f.width)
     throw std::invalid_argument("encode_scene: BVH width " + std::to_string(bvh->width()) +
                                 " differs from the format's width " + std::to_string(f.width));
   Encoder enc(g, f);
+  return ImageWriter::write(enc, g, f, bvh, 0);
+}
+
+DeviceImage encode_top_level(const std::vector<Aabb>& boxes, const std::vector<uint32_t>& ids,
+                             const Geometry& flat, const FixedFormat& format, const Bvh& bvh) {
+  format.validate();
+  if (bvh.width() != format.width)
+    throw std::invalid_argument("encode_top_level: BVH width " + std::to_string(bvh.width()) +
+                                " differs from the format's width " + std::to_string(format.width));
+  if (ids.size() != boxes.size()) throw std::invalid_argument("encode_top_level: one instance index per box");
+  for (const uint32_t id : ids)
+    if (id > kRecordPrimMask) throw std::invalid_argument("encode_top_level: instance index beyond 2^29 - 1");
+  FixedFormat f = format;
+  f.prim_layout = 0;
+  Encoder enc(boxes, ids, flat, f);
+  return ImageWriter::write(enc, flat, f, &bvh, kImageTopLevel);
+}
+
+DeviceImage ImageWriter::write(Encoder& enc, const Geometry& g, const FixedFormat& f, const Bvh* bvh,
+                               uint32_t flags) {
   PackedTree tree;  // the node and primitive sections (and, packed, their expected decoding)
-  uint32_t flags = 0;
   const int q_bytes = f.offset_bytes();
   const bool packed = f.node_layout != 0;
   if (bvh) {
@@ -354,7 +401,7 @@ DeviceImage encode_scene(const Geometry& g, const FixedFormat& f, const Bvh* bvh
     });
   } else {
     flags |= kImageNoBvh;
-    const uint32_t n = g.num_bounded();
+    const uint32_t n = enc.record_count();
     tree.records.assign(size_t(n) * kRecordBytes, 0);
     for (uint32_t p = 0; p < n; ++p) {
       GridBox unused;
@@ -388,7 +435,7 @@ DeviceImage encode_scene(const Geometry& g, const FixedFormat& f, const Bvh* bvh
   for (int a = 0; a < 3; ++a) h.frame_origin[a] = enc.frame().origin[a];
   h.root_ref = tree.root;
   h.node_count = tree.node_count;
-  h.record_count = g.num_bounded();
+  h.record_count = enc.record_count();
   h.plane_count = uint32_t(planes.size());
   h.num_triangles = uint32_t(g.triangles.size());
   h.num_spheres = uint32_t(g.spheres.size());
@@ -460,7 +507,9 @@ void DeviceImage::check() {
     bad_image(std::string("format: ") + e.what());
   }
   if (h.q_bytes != f.offset_bytes()) bad_image("offset bytes do not match child_bits");
-  if (h.flags & ~kImageNoBvh) bad_image("unknown flag bits");
+  if (h.flags & ~(kImageNoBvh | kImageTopLevel)) bad_image("unknown flag bits");
+  const bool top = h.flags & kImageTopLevel;
+  if (top && h.prim_layout != 0) bad_image("a top level in triangle blocks");
   // The frame: grid -> world must stay exact in double (quant_frame.h) and finite.
   if (h.step_exp < -1000 || h.step_exp > 1000) bad_image("frame step exponent out of range");
   for (int a = 0; a < 3; ++a)
@@ -496,7 +545,9 @@ void DeviceImage::check() {
   section(h.plane_offset, pb, h.record_offset + rb, "plane");
   const uint64_t num_bounded = uint64_t(h.num_triangles) + h.num_spheres;
   if (num_bounded + h.plane_count >= kRecordPrimMask) bad_image("too many primitives");
-  if (h.record_count != num_bounded) bad_image("record count differs from the primitive counts");
+  // A top level's records are its instances; its counts number the flattened scene's primitives.
+  if (top ? h.record_count > kRecordPrimMask : h.record_count != num_bounded)
+    bad_image("record count differs from the primitive counts");
 
   // Blocks: decoded one after another from the section's start; each block's granule -> its first record.
   std::vector<std::pair<uint64_t, uint32_t>> block_at;  // (granule, first record), granules rising
@@ -590,8 +641,19 @@ void DeviceImage::check() {
     const uint32_t p = word & kRecordPrimMask;
     const uint32_t kind = word >> 30;
     if ((word & kRecordNonOpaque) && kind != uint32_t(RecordKind::kTriangle))
-      bad_image("record " + std::to_string(i) + ": a sphere marked non-opaque");
-    if (kind == uint32_t(RecordKind::kTriangle)) {
+      bad_image("record " + std::to_string(i) + ": a sphere or instance marked non-opaque");
+    if (top != (kind == uint32_t(RecordKind::kInstance)))
+      bad_image("record " + std::to_string(i) +
+                (top ? ": a primitive in a top level" : ": an instance in a bottom level"));
+    if (top) {
+      InstanceRecord r;
+      std::memcpy(&r, rec, sizeof r);
+      for (int a = 0; a < 3; ++a)
+        if (r.lo[a] < 0 || r.hi[a] > grid_max || r.lo[a] > r.hi[a])
+          bad_image("record " + std::to_string(i) + ": instance bounds outside the grid");
+      if (r.reserved[0] != 0 || r.reserved[1] != 0 || r.reserved[2] != 0)
+        bad_image("record " + std::to_string(i) + ": reserved bits set");
+    } else if (kind == uint32_t(RecordKind::kTriangle)) {
       if (p >= h.num_triangles) bad_image("record " + std::to_string(i) + ": triangle index out of range");
       TriangleRecord t;
       std::memcpy(&t, rec, sizeof t);

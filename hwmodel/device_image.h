@@ -26,6 +26,9 @@ namespace rtu::hw {
 inline constexpr uint32_t kImageMagic = 0x42555452u;  // "RTUB" little-endian
 inline constexpr uint16_t kImageVersion = 2;
 inline constexpr uint32_t kImageNoBvh = 1u;  // flags: no BVH; test every primitive record (tiny scenes)
+// flags: a top level, whose records are instances (InstanceRecord); num_triangles and num_spheres count the
+// flattened scene's, so its planes keep their flattened indices.
+inline constexpr uint32_t kImageTopLevel = 2u;
 
 struct ImageHeader {
   uint32_t magic;           // kImageMagic
@@ -105,7 +108,7 @@ class DeviceImage {
   static DeviceImage from_bytes(const uint8_t* data, size_t bytes);
 
  private:
-  friend DeviceImage encode_scene(const Geometry&, const FixedFormat&, const Bvh*);
+  friend class ImageWriter;
   void check();                    // also decodes packed layouts
   std::vector<uint64_t> m_words;   // 8-byte aligned storage
   std::vector<uint64_t> m_nodes;   // decoded QNodes of a packed layout (8-byte aligned), else empty
@@ -117,5 +120,12 @@ class DeviceImage {
 // record tested). Throws std::invalid_argument for a bad format or a mismatched width, std::logic_error when a
 // quantized box fails to contain its exact box (a bug, never expected).
 DeviceImage encode_scene(const Geometry& g, const FixedFormat& f, const Bvh* bvh);
+
+// The top level of a two-level scene: one instance record per box (boxes[i] is the world bounds of instance
+// ids[i]), over `bvh` (built over `boxes`, of the format's width), and the planes of `flat`, the flattened scene,
+// whose primitive counts it records. Triangle blocks hold only triangles, so records stay 40 bytes whatever
+// f.prim_layout says. Throws as encode_scene.
+DeviceImage encode_top_level(const std::vector<Aabb>& boxes, const std::vector<uint32_t>& ids,
+                             const Geometry& flat, const FixedFormat& f, const Bvh& bvh);
 
 }  // namespace rtu::hw

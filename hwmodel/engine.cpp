@@ -156,6 +156,8 @@ class FixedEngine final : public TraceEngine {
   void bind(const uint8_t* data, size_t bytes) override {
     unbind();
     DeviceImage img = DeviceImage::from_bytes(data, bytes);  // throws before anything changes
+    if (img.header().flags & kImageTopLevel)                 // its bottom levels are not in the image
+      throw std::invalid_argument("scene image: a top level, whose bottom levels this engine does not hold");
     m_image = std::make_unique<DeviceImage>(std::move(img));
     FixedTraceOptions to{m_opt.check_boxes, m_opt.max_steps};
     to.any_hit = m_any_hit;

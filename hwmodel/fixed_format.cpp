@@ -85,6 +85,7 @@ std::string FixedFormat::describe() const {
     if (node_align > 1) o << " (" << node_align << "-byte aligned)";
     o << ", " << (prim_layout ? "triangle blocks" : "40-byte records");
   }
+  if (xform_bits != 24) o << ", transforms " << xform_bits << " bits";
   return o.str();
 }
 
@@ -174,6 +175,7 @@ constexpr FormatField kFields[] = {
     {"node_layout", "", &F::node_layout, 0, 2, "node storage: 0 structs, 1 bit-packed, 2 compressed-wide bytes"},
     {"node_align", "", &F::node_align, 1, 128, "packed node size rounded up to a multiple of this (bytes)"},
     {"prim_layout", "", &F::prim_layout, 0, 1, "primitive storage: 0 40-byte records, 1 triangle blocks"},
+    {"xform_bits", "X", &F::xform_bits, 8, 24, "significant bits of an instance transform's entries"},
 };
 
 }  // namespace

@@ -29,6 +29,9 @@ struct FixedFormat {
   int node_layout = 0;  // 0 structs (whole-byte fields), 1 bit-packed, 2 compressed-wide (CWBVH-like bytes)
   int node_align = 1;   // packed nodes padded to a multiple of this many bytes (power of two, 1..128)
   int prim_layout = 0;  // 0 40-byte records, 1 compressed triangle blocks (needs node_layout 1 or 2)
+  // Two-level scenes (instanced_fixed.h): significant bits of each entry of an instance's world -> object
+  // transform, 8..24 (24: the float32 matrices of DXR and Vulkan instances).
+  int xform_bits = 24;
 
   // Throws std::invalid_argument with the rule a format breaks.
   void validate() const;

@@ -22,7 +22,36 @@ struct Closest {
   uint32_t prim = kMissPrim;
   float u = 0.0f, v = 0.0f;
   const uint8_t* record = nullptr;  // the hit's primitive record (null for a plane)
+  float world_t = 0.0f;             // a hit in an instance: its world t, as the bottom level found it
 };
+
+// t raw of world t, rounded up (the top level culls with it, so it must not cut off the hit it stands for).
+int64_t t_raw_up(float t, const FixedRay& r) {
+  const double raw = std::ceil(std::ldexp(double(t), r.t_exp));
+  return raw >= double(r.t_limit) ? r.t_limit : std::max<int64_t>(0, int64_t(raw));
+}
+
+// An instance record: its bottom level traced over what is left of the interval; a hit at or before the closest
+// so far (as the float reference's rule) becomes the closest.
+inline bool test_instance(const uint8_t* rec, const FixedRay& r, const Ray* world, Closest& c,
+                          const BottomLevels* bottom, bool any_hit, TraversalStats& s) {
+  if (!bottom || !world) return false;
+  uint32_t word;
+  std::memcpy(&word, rec + 36, 4);
+  float limit = world->tmax;
+  if (c.prim != kMissPrim)
+    limit = c.record && record_kind(c.record) == RecordKind::kInstance ? c.world_t : t_to_world(c.t, r);
+  Hit h;
+  if (!bottom->trace_instance(word & kRecordPrimMask, *world, limit, any_hit, h, s) || !(h.t <= limit))
+    return false;
+  c.t = t_raw_up(h.t, r);
+  c.prim = h.prim;
+  c.u = h.u;
+  c.v = h.v;
+  c.record = rec;
+  c.world_t = h.t;
+  return true;
+}
 
 // A triangle through the triangle-unit seam: hit and t as the unit answers, u and v formed from its e1, e2 and det
 // as triangle_test forms them, and its clocks (checked: the trace event holds them in 8 bits).
@@ -46,13 +75,18 @@ inline bool unit_triangle(TriUnit& unit, const FixedRay& r, const int32_t v[3][3
 // attached (its clocks in issue and result; 0 otherwise).
 // A hit on a non-opaque triangle goes to the any-hit stage when one is attached (`asked`), and counts only when it
 // accepts (any_hit.h).
+// An instance record goes to the bottom levels (test_instance).
 inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool short_edges, TriUnit* unit,
-                        uint8_t& issue, uint8_t& result, const AnyHitStage* stage, TraversalStats& s,
-                        bool& asked) {
+                        uint8_t& issue, uint8_t& result, const AnyHitStage* stage, TraversalStats& s, bool& asked,
+                        const Ray* world, const BottomLevels* bottom, bool any_hit) {
   uint32_t word;
   FixedPrimHit h;
   bool hit;
   issue = result = 0;
+  if (record_kind(rec) == RecordKind::kInstance) {
+    asked = false;
+    return test_instance(rec, r, world, c, bottom, any_hit, s);
+  }
   if (record_kind(rec) == RecordKind::kTriangle) {
     TriangleRecord t;
     std::memcpy(&t, rec, sizeof t);
@@ -99,6 +133,8 @@ struct FixedPolicy {
   BoxUnit* unit;                 // box tests by this unit instead of box_test_delta, or null
   TriUnit* tri_unit;             // triangle tests by this unit instead of triangle_test, or null
   const AnyHitStage* stage;      // the any-hit stage of non-opaque triangles, or null
+  const Ray* world;              // the world ray (null when traced from a FixedRay)
+  const BottomLevels* bottom;    // a top level's instances, or null
   FixedTracer::WatchState& watch;
   uint64_t step_limit;
 
@@ -121,8 +157,8 @@ struct FixedPolicy {
   // (rep stos, a stall once per ray).
   FixedPolicy(const QNode<N, Q>* nodes_, const DeviceImage& image_, const FixedRay& r_, bool any_hit_, bool check_,
               Closest& closest_, TraversalStats& s_, std::vector<TraceEvent>* rec_, BoxUnit* unit_,
-              TriUnit* tri_unit_, const AnyHitStage* stage_, FixedTracer::WatchState& watch_, uint64_t step_limit_,
-              const FixedFormat& f, int short_stack_)
+              TriUnit* tri_unit_, const AnyHitStage* stage_, const Ray* world_, const BottomLevels* bottom_,
+              FixedTracer::WatchState& watch_, uint64_t step_limit_, const FixedFormat& f, int short_stack_)
       : nodes(nodes_),
         image(image_),
         r(r_),
@@ -134,6 +170,8 @@ struct FixedPolicy {
         unit(unit_),
         tri_unit(tri_unit_),
         stage(stage_),
+        world(world_),
+        bottom(bottom_),
         watch(watch_),
         step_limit(step_limit_),
         nr(make_node_ray(r_, f, int(sizeof(Q)))),
@@ -246,13 +284,14 @@ struct FixedPolicy {
   bool leaf(uint32_t ref) const {
     if (stopped(ref)) return false;
     const uint32_t first = leaf_first(ref), count = leaf_count(ref);
-    s.prim_tests += count;
+    if (!bottom) s.prim_tests += count;  // an instance record is not a test: its bottom level counts its own
     bool found = false;
     for (uint32_t i = 0; i < count; ++i) {
       const uint8_t* record = image.record(first + i);
       uint8_t issue, result;
       bool asked;
-      found |= test_record(record, r, closest, short_edges, tri_unit, issue, result, stage, s, asked);
+      found |= test_record(record, r, closest, short_edges, tri_unit, issue, result, stage, s, asked, world,
+                           bottom, any_hit);
       if (rec) {
         rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(record)), issue, result, first + i});
         if (asked) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, first + i});
@@ -380,13 +419,13 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
   if (!(any_hit && c.prim != kMissPrim) && hd.record_count > 0) {
     if (hd.flags & kImageNoBvh) {
       const bool short_brute = short_edges_known(fr, m_format.coord_bits);
-      s.prim_tests += hd.record_count;
+      if (!m_opt.bottom) s.prim_tests += hd.record_count;
       for (uint32_t i = 0; i < hd.record_count; ++i) {
         const uint8_t* record = m_image.record(i);
         uint8_t issue, result;
         bool asked;
-        const bool hit =
-            test_record(record, fr, c, short_brute, m_opt.tri_unit, issue, result, m_opt.any_hit, s, asked);
+        const bool hit = test_record(record, fr, c, short_brute, m_opt.tri_unit, issue, result, m_opt.any_hit, s,
+                                     asked, r, m_opt.bottom, any_hit);
         if (rec) {
           rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(record)), issue, result, i});
           if (asked) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, i});
@@ -399,8 +438,8 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
         constexpr int N = sizeof(Node::child) / sizeof(uint32_t);
         using Q = std::remove_cv_t<std::remove_reference_t<decltype(Node::q[0][0])>>;
         FixedPolicy<N, Q> p(m_image.nodes<Node>(), m_image, fr, any_hit, m_opt.check_boxes, c, s, rec,
-                            m_opt.box_unit, m_opt.tri_unit, m_opt.any_hit, watch, m_step_limit, m_format,
-                            m_opt.record_short_stack);
+                            m_opt.box_unit, m_opt.tri_unit, m_opt.any_hit, r, m_opt.bottom, watch, m_step_limit,
+                            m_format, m_opt.record_short_stack);
         traverse(p, hd.root_ref, any_hit, s);
       };
       const bool q8 = hd.q_bytes == 1;
@@ -423,6 +462,10 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
   if (c.prim == kMissPrim) return Hit{};
   ++s.hits;
   Hit h{t_to_world(c.t, fr), c.prim, c.u, c.v};
+  if (c.record && record_kind(c.record) == RecordKind::kInstance) {
+    h.t = c.world_t;  // the bottom level's t and u, v (of a sphere too)
+    return h;
+  }
   if (r && c.record && record_kind(c.record) == RecordKind::kSphere) {
     // u, v of a sphere hit from its world center (a shading output, not part of the datapath).
     SphereRecord sr;

@@ -46,6 +46,21 @@ struct TraceEvent {
 };
 static_assert(sizeof(TraceEvent) == 8);
 
+// What the unit does at an instance record of a top-level image (kImageTopLevel): transform the ray into the
+// instance's object space and trace its bottom level (instanced_fixed.h). Called from every thread a batch is
+// traced on, as AnyHitStage.
+class BottomLevels {
+ public:
+  // Traces world ray r through instance `inst` over [r.tmin, tmax] (tmax: the closest hit so far, or r.tmax).
+  // On a hit within that interval, fills h (world t, flattened primitive index, u, v) and returns true. Adds
+  // the work (not a ray) to s.
+  virtual bool trace_instance(uint32_t inst, const Ray& r, float tmax, bool any_hit, Hit& h,
+                              TraversalStats& s) const = 0;
+
+ protected:
+  ~BottomLevels() = default;
+};
+
 struct FixedTraceOptions {
   // Repeat every box test with the exact checker (box_test_exact) and count disagreements in the statistics
   // (box_false_negatives must stay 0). Slower; what `rtusim compare` and the tests use.
@@ -68,6 +83,8 @@ struct FixedTraceOptions {
   // The any-hit stage of non-opaque triangles (records with kRecordNonOpaque), or null: they are opaque. Not
   // owned; must outlive the tracer's use.
   const AnyHitStage* any_hit = nullptr;
+  // A top-level image's bottom levels; required by one (its instance records miss without it). Not owned.
+  const BottomLevels* bottom = nullptr;
 };
 
 class FixedTracer {

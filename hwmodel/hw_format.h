@@ -45,8 +45,10 @@ using QNode6x8 = QNode<6, uint8_t>;
 using QNode6x16 = QNode<6, uint16_t>;
 static_assert(offsetof(QNode6x8, q) == 16 && offsetof(QNode6x8, child) == 52 && offsetof(QNode6x16, child) == 88);
 
-// The kind of a primitive record, in bits 30..31 of its `prim` word.
-enum class RecordKind : uint32_t { kTriangle = 0, kSphere = 1 };
+// The kind of a primitive record, in bits 30..31 of its `prim` word. Instance records are found only in a
+// top-level image (kImageTopLevel, device_image.h): the unit hands the ray to the instance's bottom level
+// (instanced_fixed.h).
+enum class RecordKind : uint32_t { kTriangle = 0, kSphere = 1, kInstance = 2 };
 // Bit 29 of a triangle's `prim` word: the triangle is not opaque, its candidate hits go to the any-hit stage
 // (any_hit.h). Never set on a sphere.
 inline constexpr uint32_t kRecordNonOpaque = 1u << 29;
@@ -63,9 +65,17 @@ struct SphereRecord {
   uint32_t reserved;  // 0
   uint32_t prim;      // kind (bits 30..31) and scene primitive index (bits 0..28)
 };
-static_assert(sizeof(TriangleRecord) == 40 && sizeof(SphereRecord) == 40);
+// An instance of a top-level image: its world bounds on the grid (rounded outward) and its index in the scene's
+// instance list (bits 0..28). Its transform and bottom level are held beside the image (instanced_fixed.h).
+struct InstanceRecord {
+  int32_t lo[3], hi[3];  // grid bounds, in [0, 2^B - 1]
+  uint32_t reserved[3];  // 0
+  uint32_t prim;         // kind (bits 30..31) and instance index (bits 0..28)
+};
+static_assert(sizeof(TriangleRecord) == 40 && sizeof(SphereRecord) == 40 && sizeof(InstanceRecord) == 40);
 // The prim word is the last 4 bytes of every record, so its kind bits are in byte 39.
-static_assert(offsetof(TriangleRecord, prim) == 36 && offsetof(SphereRecord, prim) == 36);
+static_assert(offsetof(TriangleRecord, prim) == 36 && offsetof(SphereRecord, prim) == 36 &&
+              offsetof(InstanceRecord, prim) == 36);
 inline constexpr size_t kRecordBytes = 40;
 inline RecordKind record_kind(const uint8_t* rec) {
   return RecordKind(rec[39] >> 6);

@@ -189,33 +189,6 @@ Ray object_ray(const AffineD& x, const Ray& r) {
   return o;
 }
 
-// What the mesh tracers count inside the top level's traversal: work, not rays or hits (the instanced ray is one
-// ray, counted once).
-void add_work(TraversalStats& s, const TraversalStats& inner) {
-  s.nodes_visited += inner.nodes_visited;
-  s.leaves_visited += inner.leaves_visited;
-  s.box_tests += inner.box_tests;
-  s.prim_tests += inner.prim_tests;
-  s.any_hit_calls += inner.any_hit_calls;
-  s.any_hit_ignored += inner.any_hit_ignored;
-}
-
-// The any-hit stage as a mesh tracer sees it: its triangle indices are the mesh's, the stage's the flattened
-// scene's.
-class InstanceStage final : public AnyHitStage {
- public:
-  InstanceStage(const AnyHitStage& stage, const InstanceSet& set, uint32_t inst)
-      : m_stage(stage), m_set(set), m_inst(inst) {}
-  bool accept(uint32_t prim, float u, float v) const override {
-    return m_stage.accept(m_set.global_prim(m_inst, prim), u, v);
-  }
-
- private:
-  const AnyHitStage& m_stage;
-  const InstanceSet& m_set;
-  uint32_t m_inst;
-};
-
 template <int N>
 struct TopPolicy {
   using Dist = float;
@@ -258,10 +231,10 @@ struct TopPolicy {
       Ray o = object_ray(to_object[inst], ray);
       o.tmax = closest.t;
       TraversalStats inner;
-      std::optional<InstanceStage> local;
+      std::optional<InstanceAnyHit> local;
       if (stage) local.emplace(*stage, set, inst);
       const Hit h = tracers[set.instances[inst].mesh]->trace(o, any_hit, inner, local ? &*local : nullptr);
-      add_work(s, inner);
+      s.add_work(inner);
       if (h.hit() && h.t <= closest.t) {
         closest = Hit{h.t, set.global_prim(inst, h.prim), h.u, h.v};
         found = true;

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "hwmodel/aabb.h"
+#include "hwmodel/any_hit.h"
 #include "hwmodel/bvh.h"
 #include "hwmodel/float_tracer.h"
 #include "hwmodel/geometry.h"
@@ -80,6 +81,22 @@ struct InstanceSet {
   // The flattened scene: every instance's primitives in world space (Affine::point), in the order above, then
   // `planes`.
   Geometry flatten(const std::vector<Plane>& planes) const;
+};
+
+// The any-hit stage as a mesh's tracer sees it: its triangle indices are the mesh's, the stage's the flattened
+// scene's (instance `inst` of `set`).
+class InstanceAnyHit final : public AnyHitStage {
+ public:
+  InstanceAnyHit(const AnyHitStage& stage, const InstanceSet& set, uint32_t inst)
+      : m_stage(stage), m_set(set), m_inst(inst) {}
+  bool accept(uint32_t prim, float u, float v) const override {
+    return m_stage.accept(m_set.global_prim(m_inst, prim), u, v);
+  }
+
+ private:
+  const AnyHitStage& m_stage;
+  const InstanceSet& m_set;
+  uint32_t m_inst;
 };
 
 // The float reference over an instance set: the top level (a BVH over the instances' world bounds) traversed as

@@ -49,6 +49,21 @@ struct TraversalStats {
     box_false_positives += o.box_false_positives;
     watchdog_rays += o.watchdog_rays;
   }
+  // What a bottom level's trace counts inside a top level's (instancing): work, not rays, hits or rejected rays
+  // (the instanced ray is one ray, counted once by the top level).
+  void add_work(const TraversalStats& o) {
+    nodes_visited += o.nodes_visited;
+    leaves_visited += o.leaves_visited;
+    box_tests += o.box_tests;
+    prim_tests += o.prim_tests;
+    any_hit_calls += o.any_hit_calls;
+    any_hit_ignored += o.any_hit_ignored;
+    saturations += o.saturations;
+    box_checks += o.box_checks;
+    box_false_negatives += o.box_false_negatives;
+    box_false_positives += o.box_false_positives;
+    watchdog_rays += o.watchdog_rays;
+  }
 };
 
 }  // namespace rtu::hw

@@ -41,6 +41,8 @@ uint32_t TimedEngine::caps() const {
 void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   unbind();
   DeviceImage img = DeviceImage::from_bytes(data, bytes);
+  if (img.header().flags & kImageTopLevel)  // its bottom levels are not in the image
+    throw std::invalid_argument("scene image: a top level, whose bottom levels this engine does not hold");
   auto image = std::make_unique<DeviceImage>(std::move(img));
   FixedTraceOptions to;
   to.max_steps = m_opt.max_steps;

@@ -55,6 +55,7 @@ DeviceOptions DeviceSettings::options(hw::DeviceKind kind) const {
   d.tracer.bvh.width = d.format.width;
   d.tracer.bvh.max_leaf_size = leaf_size;
   d.max_steps = watchdog_steps;
+  d.flatten = flatten;
   d.tracer.accel =
       accel == "bvh" ? hw::AccelMode::kBvh : (accel == "brute" ? hw::AccelMode::kBrute : hw::AccelMode::kAuto);
   return d;

@@ -37,6 +37,7 @@ struct DeviceSettings {
   uint32_t sample_unit = 256, sample_warmup = 0;
   uint64_t sample_seed = 1;
   uint64_t watchdog_steps = 0;  // fixed, timed: node and leaf visits per ray before the watchdog (0: automatic)
+  bool flatten = false;         // fixed, timed: trace an instanced scene flattened, in one image
 
   hw::FixedFormat fixed_format() const;  // preset + overrides + width; validated (std::invalid_argument)
   // The options of a device of `kind`; throws as timing_config_from and fixed_format do.

@@ -158,6 +158,52 @@ class TimedDevice final : public ImageDevice {
   mutable hw::TimedEngine m_engine;  // simulation state changes as it traces
 };
 
+// The timed device over two levels: the engine binds the instance set (TimedEngine::bind_instanced).
+class InstancedTimedDevice final : public DirectDevice {
+  static hw::EngineOptions engine_options(const DeviceOptions& o) {
+    hw::EngineOptions e;
+    e.max_steps = o.max_steps;
+    return e;
+  }
+
+ public:
+  InstancedTimedDevice(const hw::Geometry& g, const DeviceOptions& o) : m_engine(engine_options(o), o.timing) {
+    m_engine.set_sampling(o.sample);
+    m_engine.set_any_hit(o.any_hit);
+    m_engine.bind_instanced(*o.instances, g, o.format, o.tracer);
+  }
+  hw::DeviceKind kind() const override { return hw::DeviceKind::kTimed; }
+  void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
+                   hw::TraversalStats& s) const override {
+    m_engine.set_threads(threads);
+    if (n > 0) m_engine.trace_cycles(rays, hits, n, any_hit, s, uint8_t(hw::cmd::RayType::kOther), 0);
+  }
+  hw::RayStatus ray_status(const hw::Ray& r) const override {
+    const hw::FixedTracer& t = m_engine.instanced()->top_tracer();
+    hw::FixedRay fr;
+    return hw::setup_ray(r, t.frame(), t.format(), fr);
+  }
+  const hw::Bvh* bvh() const override { return &m_engine.instanced()->top_bvh(); }
+  double bvh_cost() const override { return bvh()->figures().sah_cost; }
+  double brute_cost() const override { return 0.0; }
+  const hw::DeviceImage* image() const override { return &m_engine.instanced()->top(); }
+  uint64_t prim_bytes() const override { return m_engine.instanced()->bytes() - image()->nodes_size(); }
+  const hw::InstancedFixedTracer* instanced() const override { return m_engine.instanced(); }
+  const hw::TimedEngine* timed() const override { return &m_engine; }
+  void set_pipeline_trace(hw::PipelineTrace* trace) override { m_engine.set_trace(trace); }
+
+ private:
+  mutable hw::TimedEngine m_engine;
+};
+
+// Two levels on the timed device: the C++ datapath only (co-simulated units trace the flattened image).
+bool two_level(const DeviceOptions& o) {
+  return o.instances && !o.instances->instances.empty() && !o.flatten;
+}
+bool timed_two_level(const DeviceOptions& o) {
+  return two_level(o) && o.timing.box_unit == "cpp" && o.timing.tri_unit == "cpp";
+}
+
 }  // namespace
 
 std::unique_ptr<DirectDevice> make_device(const hw::Geometry& g, const DeviceOptions& o) {
@@ -169,11 +215,12 @@ std::unique_ptr<DirectDevice> make_device(const hw::Geometry& g, const DeviceOpt
       return std::make_unique<FloatDevice>(g, opt);
     case hw::DeviceKind::kFixed:
       o.format.validate();
-      if (o.instances && !o.instances->instances.empty()) return std::make_unique<InstancedFixedDevice>(g, opt);
+      if (two_level(o)) return std::make_unique<InstancedFixedDevice>(g, opt);
       return std::make_unique<FixedDevice>(g, opt);
     case hw::DeviceKind::kTimed:
       o.format.validate();
       o.timing.validate();
+      if (timed_two_level(o)) return std::make_unique<InstancedTimedDevice>(g, opt);
       return std::make_unique<TimedDevice>(g, opt);
   }
   throw std::invalid_argument("make_device: not a device kind");

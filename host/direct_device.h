@@ -31,9 +31,11 @@ struct DeviceOptions {
   hw::TimingConfig timing;   // timed: the unit's configuration (its format and width are in `format`)
   hw::SampleOptions sample;  // timed: sampled timing (fraction 0: every ray simulated)
   uint64_t max_steps = 0;    // fixed, timed: traversal watchdog, node and leaf visits per ray (0: automatic)
-  // The scene's two levels (Scene::instances), or null. The float and fixed devices trace them (the geometry
-  // passed to make_device must then be their flattened form); timed traces the flattened geometry.
+  // The scene's two levels (Scene::instances), or null. Every device traces them (the geometry passed to
+  // make_device must then be their flattened form), except a timed device with a co-simulated (rtl) unit, which
+  // traces the flattened geometry.
   const hw::InstanceSet* instances = nullptr;
+  bool flatten = false;  // fixed, timed: ignore `instances` (trace the flattened geometry in one image)
   // The any-hit stage for the geometry's non-opaque triangles (alpha-tested materials: host/shading.h), or null:
   // they are then opaque. Not owned: must outlive the device.
   const hw::AnyHitStage* any_hit = nullptr;

@@ -35,6 +35,35 @@ Json bvh_json(const DirectDevice& d) {
   }
   j["prim_bytes"] = d.prim_bytes();
   if (const hw::DeviceImage* img = d.image()) j["image"] = image_json(*img, d.bvh());
+  if (const hw::InstancedFixedTracer* t = d.instanced()) j["image"]["two_level"] = two_level_json(*t);
+  return j;
+}
+
+ImageBytes device_image_bytes(const DirectDevice& d) {
+  ImageBytes b;
+  if (const hw::InstancedFixedTracer* t = d.instanced()) {
+    const hw::ImageHeader& h = t->top().header();
+    const uint64_t prims = uint64_t(h.num_triangles) + h.num_spheres;
+    b.total = t->bytes();
+    b.per_prim = prims ? double(b.total - t->top().planes_size()) / double(prims) : 0.0;
+  } else if (const hw::DeviceImage* img = d.image()) {
+    b.total = img->size();
+    b.per_prim = image_bytes_per_prim(*img);
+  }
+  return b;
+}
+
+Json two_level_json(const hw::InstancedFixedTracer& t) {
+  Json j;
+  uint64_t bottoms = 0;
+  size_t meshes = 0;
+  for (; meshes < t.bottom_count(); ++meshes) bottoms += t.bottom(uint32_t(meshes)).size();
+  j["top_bytes"] = t.top().size();
+  j["bottom_bytes"] = bottoms;
+  j["meshes"] = meshes;
+  j["transform_bytes"] = t.transform_bytes();
+  j["total_bytes"] = t.bytes();
+  j["rebased_visits"] = t.rebased();
   return j;
 }
 

@@ -29,6 +29,17 @@ const char* node_layout_name(int layout);
 const char* prim_layout_name(int layout);
 // The image's node and primitive bytes over its bounded primitives (triangles and spheres); 0 when it has none.
 double image_bytes_per_prim(const hw::DeviceImage& img);
+// The fixed device's memory: total bytes and bytes per bounded primitive of the scene it traces. On the two-level
+// device both levels and the stored transforms over the flattened scene's primitives (instancing's saving shows
+// as fewer bytes per primitive). {0, 0} for the float device.
+struct ImageBytes {
+  uint64_t total = 0;
+  double per_prim = 0.0;
+};
+ImageBytes device_image_bytes(const DirectDevice& d);
+// The two levels' bytes: top image, bottom images, stored transforms, and the instance visits that moved their
+// origin.
+Json two_level_json(const hw::InstancedFixedTracer& t);
 Json traversal_json(const hw::TraversalStats& s);
 // Writes j indented by 2; throws Error when the file cannot be written.
 void write_json(const std::string& path, const Json& j);

@@ -387,6 +387,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   ref_opt.format.width = p.bvh_width;  // make_device builds every device's BVH at the format's width
   ref_opt.tracer.bvh.width = p.bvh_width;
   ref_opt.any_hit = cache.alpha->stage();
+  ref_opt.instances = &scene.instances;  // float and fixed trace an instanced scene's two levels
   auto it = cache.by_width.find(p.bvh_width);
   const auto ref = make_device(scene.geometry, ref_opt);
   if (it == cache.by_width.end()) {
@@ -418,6 +419,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   fixed_opt.tracer.bvh.width = p.bvh_width;
   fixed_opt.check_boxes = true;
   fixed_opt.any_hit = cache.alpha->stage();
+  fixed_opt.instances = &scene.instances;
   const auto fixed = make_device(scene.geometry, fixed_opt);
   std::vector<hw::Hit> hits(n);
   hw::TraversalStats fs;
@@ -438,10 +440,9 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   row.node_visit_overhead = ratio_minus_one(fs.nodes_visited, refr.stats.nodes_visited);
   row.prim_test_overhead = ratio_minus_one(fs.prim_tests, refr.stats.prim_tests);
   row.box_false_negatives = fs.box_false_negatives;
-  if (const hw::DeviceImage* img = fixed->image()) {
-    row.bvh_bytes = img->size();
-    row.bytes_per_prim = image_bytes_per_prim(*img);
-  }
+  const ImageBytes bytes = device_image_bytes(*fixed);
+  row.bvh_bytes = bytes.total;
+  row.bytes_per_prim = bytes.per_prim;
 
   if (o.image_width > 0) {
     RenderOptions ro;

@@ -34,7 +34,8 @@ int64_t t_raw_up(float t, const FixedRay& r) {
 // An instance record: its bottom level traced over what is left of the interval; a hit at or before the closest
 // so far (as the float reference's rule) becomes the closest.
 inline bool test_instance(const uint8_t* rec, const FixedRay& r, const Ray* world, Closest& c,
-                          const BottomLevels* bottom, bool any_hit, TraversalStats& s) {
+                          const BottomLevels* bottom, bool any_hit, TraversalStats& s,
+                          std::vector<TraceEvent>* events) {
   if (!bottom || !world) return false;
   uint32_t word;
   std::memcpy(&word, rec + 36, 4);
@@ -42,7 +43,7 @@ inline bool test_instance(const uint8_t* rec, const FixedRay& r, const Ray* worl
   if (c.prim != kMissPrim)
     limit = c.record && record_kind(c.record) == RecordKind::kInstance ? c.world_t : t_to_world(c.t, r);
   Hit h;
-  if (!bottom->trace_instance(word & kRecordPrimMask, *world, limit, any_hit, h, s) || !(h.t <= limit))
+  if (!bottom->trace_instance(word & kRecordPrimMask, *world, limit, any_hit, h, s, events) || !(h.t <= limit))
     return false;
   c.t = t_raw_up(h.t, r);
   c.prim = h.prim;
@@ -78,14 +79,15 @@ inline bool unit_triangle(TriUnit& unit, const FixedRay& r, const int32_t v[3][3
 // An instance record goes to the bottom levels (test_instance).
 inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool short_edges, TriUnit* unit,
                         uint8_t& issue, uint8_t& result, const AnyHitStage* stage, TraversalStats& s, bool& asked,
-                        const Ray* world, const BottomLevels* bottom, bool any_hit) {
+                        const Ray* world, const BottomLevels* bottom, bool any_hit,
+                        std::vector<TraceEvent>* events) {
   uint32_t word;
   FixedPrimHit h;
   bool hit;
   issue = result = 0;
   if (record_kind(rec) == RecordKind::kInstance) {
     asked = false;
-    return test_instance(rec, r, world, c, bottom, any_hit, s);
+    return test_instance(rec, r, world, c, bottom, any_hit, s, events);
   }
   if (record_kind(rec) == RecordKind::kTriangle) {
     TriangleRecord t;
@@ -113,6 +115,24 @@ inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool 
     c.u = h.u;
     c.v = h.v;
     c.record = rec;
+  }
+  return hit;
+}
+
+// Tests record `index` and appends its events to rec (when not null): kPrim, and kAnyHit when the stage was
+// asked; an instance's kPrim comes before its bottom level's events.
+inline bool test_recorded(const uint8_t* record, uint32_t index, const FixedRay& r, Closest& c, bool short_edges,
+                          TriUnit* unit, const AnyHitStage* stage, TraversalStats& s, const Ray* world,
+                          const BottomLevels* bottom, bool any_hit, std::vector<TraceEvent>* rec) {
+  uint8_t issue, result;
+  bool asked;
+  const bool instance = record_kind(record) == RecordKind::kInstance;
+  if (rec && instance) rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(RecordKind::kInstance), 0, 0, index});
+  const bool hit =
+      test_record(record, r, c, short_edges, unit, issue, result, stage, s, asked, world, bottom, any_hit, rec);
+  if (rec && !instance) {
+    rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(record)), issue, result, index});
+    if (asked) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, index});
   }
   return hit;
 }
@@ -287,15 +307,8 @@ struct FixedPolicy {
     if (!bottom) s.prim_tests += count;  // an instance record is not a test: its bottom level counts its own
     bool found = false;
     for (uint32_t i = 0; i < count; ++i) {
-      const uint8_t* record = image.record(first + i);
-      uint8_t issue, result;
-      bool asked;
-      found |= test_record(record, r, closest, short_edges, tri_unit, issue, result, stage, s, asked, world,
-                           bottom, any_hit);
-      if (rec) {
-        rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(record)), issue, result, first + i});
-        if (asked) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, first + i});
-      }
+      found |= test_recorded(image.record(first + i), first + i, r, closest, short_edges, tri_unit, stage, s,
+                             world, bottom, any_hit, rec);
       if (found && any_hit) return true;
     }
     return found;
@@ -421,15 +434,8 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
       const bool short_brute = short_edges_known(fr, m_format.coord_bits);
       if (!m_opt.bottom) s.prim_tests += hd.record_count;
       for (uint32_t i = 0; i < hd.record_count; ++i) {
-        const uint8_t* record = m_image.record(i);
-        uint8_t issue, result;
-        bool asked;
-        const bool hit = test_record(record, fr, c, short_brute, m_opt.tri_unit, issue, result, m_opt.any_hit, s,
-                                     asked, r, m_opt.bottom, any_hit);
-        if (rec) {
-          rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(record)), issue, result, i});
-          if (asked) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, i});
-        }
+        const bool hit = test_recorded(m_image.record(i), i, fr, c, short_brute, m_opt.tri_unit, m_opt.any_hit, s,
+                                       r, m_opt.bottom, any_hit, rec);
         if (hit && any_hit) break;
       }
     } else {

@@ -25,6 +25,9 @@ namespace rtu::hw {
 struct TraceEvent {
   // kAnyHit follows the kPrim of a non-opaque triangle whose hit went to the any-hit stage (any_hit.h): the ray
   // waits in its slot for the firmware's answer.
+  // Two levels (instanced_fixed.h): the kPrim of an instance record (count kInstance: the record, its stored
+  // transform and the transform) is followed by kEnter (index: the mesh whose bottom level the ray enters), the
+  // bottom level's events (their indices are that image's), and kLeave (index: the same mesh).
   enum Kind : uint8_t {
     kNode = 0,
     kPrim = 1,
@@ -33,7 +36,9 @@ struct TraceEvent {
     kPop = 4,
     kSpill = 5,
     kRefill = 6,
-    kAnyHit = 7
+    kAnyHit = 7,
+    kEnter = 8,
+    kLeave = 9
   };
   uint8_t kind;
   uint8_t count;  // kNode: child boxes tested; kPrim: RecordKind; kPush: entries pushed; kSpill: entries spilled
@@ -53,9 +58,9 @@ class BottomLevels {
  public:
   // Traces world ray r through instance `inst` over [r.tmin, tmax] (tmax: the closest hit so far, or r.tmax).
   // On a hit within that interval, fills h (world t, flattened primitive index, u, v) and returns true. Adds
-  // the work (not a ray) to s.
-  virtual bool trace_instance(uint32_t inst, const Ray& r, float tmax, bool any_hit, Hit& h,
-                              TraversalStats& s) const = 0;
+  // the work (not a ray) to s, and when `rec` is not null the bottom level's events (kEnter ... kLeave).
+  virtual bool trace_instance(uint32_t inst, const Ray& r, float tmax, bool any_hit, Hit& h, TraversalStats& s,
+                              std::vector<TraceEvent>* rec) const = 0;
 
  protected:
   ~BottomLevels() = default;

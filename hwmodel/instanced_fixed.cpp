@@ -89,11 +89,17 @@ InstancedFixedTracer::InstancedFixedTracer(const InstanceSet& set, const Geometr
     bo.bottom = nullptr;
     bo.box_unit = nullptr;
     bo.tri_unit = nullptr;
-    if (trace_opt.any_hit) {
-      m_stages.push_back(std::make_unique<InstanceAnyHit>(*trace_opt.any_hit, set, i));
-      bo.any_hit = m_stages.back().get();
-    }
+    bo.any_hit = nullptr;
     m_tracers.push_back(std::make_unique<FixedTracer>(*m_bottoms[set.instances[i].mesh], bo));
+  }
+  set_any_hit(trace_opt.any_hit);
+}
+
+void InstancedFixedTracer::set_any_hit(const AnyHitStage* stage) {
+  m_stages.clear();
+  for (uint32_t i = 0; i < m_tracers.size(); ++i) {
+    if (stage) m_stages.push_back(std::make_unique<InstanceAnyHit>(*stage, m_set, i));
+    m_tracers[i]->set_any_hit(stage ? m_stages.back().get() : nullptr);
   }
 }
 
@@ -114,13 +120,22 @@ uint64_t InstancedFixedTracer::rebased() const {
 }
 
 bool InstancedFixedTracer::trace_instance(uint32_t inst, const Ray& r, float tmax, bool any_hit, Hit& h,
-                                          TraversalStats& s) const {
+                                          TraversalStats& s, std::vector<TraceEvent>* rec) const {
   if (inst >= m_xforms.size()) return false;  // cannot come from an image this tracer encoded
   Ray o = m_xforms[inst].apply(r);
   o.tmax = tmax;
   const FixedTracer& tracer = *m_tracers[inst];
+  const uint32_t mesh = m_set.instances[inst].mesh;
+  // The bottom level's events between kEnter and kLeave; a ray its setup rejects records none.
+  auto trace = [&](const Ray& ray, TraversalStats& st) {
+    if (!rec) return tracer.trace(ray, any_hit, st);
+    rec->push_back(TraceEvent{TraceEvent::kEnter, 0, 0, 0, mesh});
+    const Hit hit = tracer.trace_recorded(ray, any_hit, st, *rec);
+    rec->push_back(TraceEvent{TraceEvent::kLeave, 0, 0, 0, mesh});
+    return hit;
+  };
   TraversalStats inner;
-  h = tracer.trace(o, any_hit, inner);
+  h = trace(o, inner);
   const bool far = inner.invalid_by_reason[size_t(RayStatus::kOutOfFrame)] > 0;
   s.add_work(inner);
   if (!far) {
@@ -128,7 +143,7 @@ bool InstancedFixedTracer::trace_instance(uint32_t inst, const Ray& r, float tma
     return h.hit();
   }
   // The origin is beyond the mesh frame's guard range: start the ray where it enters the mesh's bounds.
-  const Aabb& b = m_mesh_bounds[m_set.instances[inst].mesh];
+  const Aabb& b = m_mesh_bounds[mesh];
   double t_in = double(o.tmin), t_out = double(tmax);
   for (int a = 0; a < 3; ++a) {
     const double d = double(o.dir[a]);
@@ -149,7 +164,7 @@ bool InstancedFixedTracer::trace_instance(uint32_t inst, const Ray& r, float tma
   m.tmin = std::max(0.0f, float(double(o.tmin) - double(t0)));
   m.tmax = float(double(tmax) - double(t0));
   TraversalStats again;
-  h = tracer.trace(m, any_hit, again);
+  h = trace(m, again);
   s.add_work(again);
   if (!h.hit()) return false;
   h.t = float(double(t0) + double(h.t));

@@ -63,6 +63,15 @@ class InstancedFixedTracer final : public BottomLevels {
   InstancedFixedTracer& operator=(const InstancedFixedTracer&) = delete;
 
   Hit trace(const Ray& r, bool any_hit, TraversalStats& s) const { return m_top_tracer->trace(r, any_hit, s); }
+  // trace() with the datapath events of both levels (TraceEvent: kEnter and kLeave around a bottom level's).
+  Hit trace_recorded(const Ray& r, bool any_hit, TraversalStats& s, std::vector<TraceEvent>& events) const {
+    return m_top_tracer->trace_recorded(r, any_hit, s, events);
+  }
+  // Attaches (or with null detaches) the any-hit stage (FixedTraceOptions::any_hit) to every bottom level.
+  void set_any_hit(const AnyHitStage* stage);
+  // The mesh instance `inst` places.
+  uint32_t mesh_of(uint32_t inst) const { return m_set.instances[inst].mesh; }
+  size_t instance_count() const { return m_xforms.size(); }
   // As FixedTracer::trace_batch.
   void trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads, TraversalStats& s) const {
     m_top_tracer->trace_batch(rays, hits, n, any_hit, threads, s);
@@ -75,6 +84,7 @@ class InstancedFixedTracer final : public BottomLevels {
   const FixedTracer& top_tracer() const { return *m_top_tracer; }
   const Bvh& top_bvh() const { return m_top_bvh; }
   const DeviceImage& bottom(uint32_t mesh) const { return *m_bottoms[mesh]; }
+  size_t bottom_count() const { return m_bottoms.size(); }
   const StoredXform& xform(uint32_t inst) const { return m_xforms[inst]; }
   // Bytes of the two levels: the top image, every bottom image, and a stored transform and bottom-level address
   // (8 bytes) per instance.
@@ -84,8 +94,8 @@ class InstancedFixedTracer final : public BottomLevels {
   // threads, so only meaningful after a batch.
   uint64_t rebased() const;
 
-  bool trace_instance(uint32_t inst, const Ray& r, float tmax, bool any_hit, Hit& h,
-                      TraversalStats& s) const override;
+  bool trace_instance(uint32_t inst, const Ray& r, float tmax, bool any_hit, Hit& h, TraversalStats& s,
+                      std::vector<TraceEvent>* rec) const override;
 
  private:
   const InstanceSet& m_set;

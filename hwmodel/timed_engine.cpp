@@ -57,8 +57,23 @@ void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   m_slot_time.clear();  // another scene, other streams
 }
 
+void TimedEngine::bind_instanced(const InstanceSet& set, const Geometry& flat, const FixedFormat& f,
+                                 const TracerOptions& opt) {
+  unbind();
+  if (has_units())
+    throw std::invalid_argument("two-level scenes are traced by the C++ datapath (box_unit and tri_unit cpp)");
+  FixedTraceOptions to;
+  to.max_steps = m_opt.max_steps;
+  to.record_short_stack = m_c.stack_entries;
+  to.any_hit = m_any_hit;
+  m_two = std::make_unique<InstancedFixedTracer>(set, flat, f, opt, to);
+  make_models();
+  m_slot_time.clear();
+}
+
 void TimedEngine::make_models() {
-  const TimingModel::Layout l = TimingModel::layout_of(*m_image, uint64_t(m_c.layout_align));
+  const TimingModel::Layout l = m_two ? TimingModel::layout_of(*m_two, uint64_t(m_c.layout_align))
+                                      : TimingModel::layout_of(*m_image, uint64_t(m_c.layout_align));
   m_model.reset();
   m_chip_units.clear();
   m_chip_memory.reset();
@@ -83,13 +98,14 @@ void TimedEngine::unbind() {
   m_chip_memory.reset();
   m_tracer.reset();
   m_image.reset();
+  m_two.reset();
 }
 
 void TimedEngine::trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const {
   TraversalStats local;
-  m_tracer->trace_batch(rays, hits, n, any_hit, m_opt.threads, local);
+  tracer().trace_batch(rays, hits, n, any_hit, m_opt.threads, local);
   if (local.watchdog_rays > 0)
-    throw WatchdogError(m_tracer->watchdog_report(rays, n, any_hit, local.watchdog_rays), 0);
+    throw WatchdogError(tracer().watchdog_report(rays, n, any_hit, local.watchdog_rays), 0);
   s.add(local);
 }
 
@@ -105,11 +121,11 @@ void TimedEngine::record(const Ray* rays, Hit* hits, size_t first, size_t count,
   run_batch(count, threads, local, [&](size_t i, TraversalStats& st) {
     std::vector<TraceEvent>& ev = events[at + i];
     ev.clear();
-    const Hit h = m_tracer->trace_recorded(rays[first + i], any_hit, st, ev);
+    const Hit h = tracer().trace_recorded(rays[first + i], any_hit, st, ev);
     if (hits) hits[first + i] = h;
   });
   if (local.watchdog_rays > 0)
-    throw WatchdogError(m_tracer->watchdog_report(rays + first, count, any_hit, local.watchdog_rays), 0);
+    throw WatchdogError(tracer().watchdog_report(rays + first, count, any_hit, local.watchdog_rays), 0);
   if (local.first_invalid != UINT64_MAX) local.first_invalid += first;
   s.add(local);
 }
@@ -348,13 +364,13 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
               // The hardware prefetcher follows a constant stride, not these: fetch a few rays ahead.
               if (q + 8 < probes) __builtin_prefetch(&rays[probed[q + 8]]);
               const uint64_t b0 = st.box_tests, p0 = st.prim_tests;
-              const Hit h = m_tracer->trace(rays[i], any_hit, st);
+              const Hit h = tracer().trace(rays[i], any_hit, st);
               if (m_sample.need_hits) hits[i] = h;
               box[q] = uint32_t(st.box_tests - b0);
               prim[q] = uint32_t(st.prim_tests - p0);
             });
   const uint64_t stuck = m_sample.need_hits ? s.watchdog_rays : probe_stats.watchdog_rays;
-  if (stuck > 0) throw WatchdogError(m_tracer->watchdog_report(rays, n, any_hit, stuck), 0);
+  if (stuck > 0) throw WatchdogError(tracer().watchdog_report(rays, n, any_hit, stuck), 0);
   const double box_rate = double(m_c.box_rate) * m_c.box_units, tri_rate = double(m_c.tri_rate) * m_c.tri_units;
   std::vector<double> unit_box(units), unit_prim(units), unit_probes(units);
   for (size_t q = 0; q < probes; ++q) {
@@ -490,13 +506,13 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
 }
 
 Geometry::Counts TimedEngine::counts() const {
-  if (!m_image) return {};
-  const ImageHeader& h = m_image->header();
+  if (!bound()) return {};
+  const ImageHeader& h = tracer().image().header();
   return {h.num_triangles, h.num_spheres, h.plane_count};
 }
 
 bool TimedEngine::uses_bvh() const {
-  return m_image && !(m_image->header().flags & kImageNoBvh);
+  return bound() && !(tracer().image().header().flags & kImageNoBvh);
 }
 
 std::unique_ptr<TraceEngine> make_timed_engine(const EngineOptions& o, const TimingConfig& c,

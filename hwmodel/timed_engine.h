@@ -20,6 +20,7 @@
 #include "hwmodel/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_tracer.h"
+#include "hwmodel/instanced_fixed.h"
 #include "hwmodel/sampler.h"
 #include "hwmodel/timing_config.h"
 #include "hwmodel/timing_model.h"
@@ -37,12 +38,21 @@ class TimedEngine final : public TraceEngine {
   const char* name() const override { return "timed"; }
   uint32_t caps() const override;
   void bind(const uint8_t* data, size_t bytes) override;
-  bool bound() const override { return m_tracer != nullptr; }
+  // A two-level scene (instanced_fixed.h), built from the instance set: the host's model of a device memory that
+  // holds a top level, its stored transforms and a bottom level per mesh (the command processor's BIND_SCENE
+  // names one image). Throws std::invalid_argument as InstancedFixedTracer does, and when a co-simulated unit is
+  // attached (two-level traces run on the C++ datapath).
+  void bind_instanced(const InstanceSet& set, const Geometry& flat, const FixedFormat& f,
+                      const TracerOptions& opt);
+  bool bound() const override { return m_tracer != nullptr || m_two != nullptr; }
+  // The two levels when bind_instanced bound them, else null.
+  const InstancedFixedTracer* instanced() const { return m_two.get(); }
   void unbind() override;
   void trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const override;
   void set_any_hit(const AnyHitStage* stage) override {
     m_any_hit = stage;
     if (m_tracer) m_tracer->set_any_hit(stage);
+    if (m_two) m_two->set_any_hit(stage);
   }
   uint64_t packet_cycles(uint8_t opcode) const override;
   uint64_t irq_latency() const override { return uint64_t(m_c.irq_latency); }
@@ -84,7 +94,7 @@ class TimedEngine final : public TraceEngine {
   // Tests: run one unit through the chip's code path (the same cycles as the single unit's, a test checks).
   void set_force_chip(bool on) {
     m_force_chip = on;
-    if (m_image) make_models();
+    if (bound()) make_models();
   }
 
  private:
@@ -94,6 +104,8 @@ class TimedEngine final : public TraceEngine {
   std::unique_ptr<TriUnit> m_tri_unit;  // null: the C++ triangle test
   std::unique_ptr<DeviceImage> m_image;
   std::unique_ptr<FixedTracer> m_tracer;
+  std::unique_ptr<InstancedFixedTracer> m_two;  // bind_instanced: two levels (m_image and m_tracer are then null)
+  const FixedTracer& tracer() const { return m_two ? m_two->top_tracer() : *m_tracer; }
   const AnyHitStage* m_any_hit = nullptr;  // set_any_hit
   std::unique_ptr<TimingModel> m_model;
   // A chip (units > 1): the memory the units share and the units (m_model is then null).

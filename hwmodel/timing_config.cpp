@@ -46,6 +46,8 @@ const std::vector<KeyInfo>& key_table() {
        "scheduler: cycles from a unit result to the slot's next request"},
       {"any_hit_latency", &C::any_hit_latency, 0, kMaxLatency,
        "cycles a ray waits for the any-hit stage's answer on a non-opaque triangle's candidate hit"},
+      {"xform_latency", &C::xform_latency, 0, kMaxLatency,
+       "two-level scenes: cycles of the instance transform (an instance record to the object-space ray)"},
       {"box_units", &C::box_units, 1, 64, "box test units"},
       {"box_rate", &C::box_rate, 1, 64, "box tests per clock per unit (a node of width <= rate: one clock)"},
       {"box_latency", &C::box_latency, 1, kMaxLatency, "box unit pipeline depth (issue to result)"},
@@ -214,6 +216,9 @@ void TimingConfig::validate() const {
 //     irq_latency), the stage's mask lookup (one texel read from memory, of the order of dram_latency) and the
 //     answer's way back (irq_latency again); an estimate. DXR and Vulkan leave the cost to the implementation;
 //     what is known is that an any-hit shader takes the ray out of the fixed-function unit and back.
+//   - xform_latency 12 cycles, every preset: the transform of a two-level scene's ray is three dependent
+//     float32 multiply-adds per output component (x' = m0 x + m1 y + m2 z + m3), 4 clocks each in a GPU's FMA
+//     pipeline; an estimate, pipelined (no unit is modelled to contend for). Vendors do not publish it.
 // intel: one RTU of an Xe core of Intel's Arc A-series (Xe-HPG, "Alchemist").
 //   - 12 box tests and 1 triangle test per clock per RTU, in two traversal pipelines, with a dedicated BVH cache:
 //     Intel's Arc ray-tracing architecture disclosure (Aug./Sep. 2022, "Intel Arc Graphics: ray tracing"; as

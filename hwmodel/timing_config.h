@@ -40,6 +40,9 @@ struct TimingConfig {
   // Cycles a ray waits in its slot for the any-hit stage's answer on a candidate hit of a non-opaque triangle
   // (any_hit.h): the request to the firmware, its mask lookup (a texture read from memory) and the answer.
   int any_hit_latency = 400;
+  // Two-level scenes (instanced_fixed.h): cycles from an instance record's arrival to the ray's object-space
+  // origin and direction (the transform unit, pipelined: one ray per clock).
+  int xform_latency = 12;
 
   // Units: count, tests per clock per unit, pipeline depth (cycles from issue to result).
   int box_units = 1;

@@ -17,9 +17,13 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
       m_mem(shared ? shared : m_own.get()),
       m_unit(unit) {
   // A stride of 0 is the item's size (packed): resolved once here, not per fetch.
-  if (m_layout.node_stride == 0) m_layout.node_stride = m_layout.node_bytes;
-  if (m_layout.record_stride == 0) m_layout.record_stride = kRecordBytes;
-  if (m_layout.plane_stride == 0) m_layout.plane_stride = sizeof(PlaneRecord);
+  auto resolve = [](Layout& l) {
+    if (l.node_stride == 0) l.node_stride = l.node_bytes;
+    if (l.record_stride == 0) l.record_stride = kRecordBytes;
+    if (l.plane_stride == 0) l.plane_stride = sizeof(PlaneRecord);
+  };
+  resolve(m_layout);
+  for (Layout& b : m_layout.bottoms) resolve(b);
   m_box_free.assign(size_t(c.box_units), 0);
   m_tri_free.assign(size_t(c.tri_units) * size_t(c.tri_rate), 0);  // a unit of rate r: r issue slots per clock
   m_slots.resize(size_t(c.ray_slots));
@@ -67,23 +71,72 @@ TimingModel::Layout TimingModel::layout_of(const DeviceImage& image, uint64_t al
   return l;
 }
 
+TimingModel::Layout TimingModel::layout_of(const InstancedFixedTracer& t, uint64_t align) {
+  const uint64_t a = std::max<uint64_t>(64, align);
+  auto up = [](uint64_t v, uint64_t to) { return (v + to - 1) / to * to; };
+  Layout top = layout_of(t.top(), align);
+  const ImageHeader& h = t.top().header();
+  // The instance records grow by the stored transform and the bottom level's address; the planes move after.
+  top.instance_bytes = kRecordBytes + t.transform_bytes() / std::max<size_t>(1, t.instance_count());
+  top.record_stride = align ? up(top.instance_bytes, align) : top.instance_bytes;
+  const uint64_t planes = top.plane_stride ? top.plane_stride : sizeof(PlaneRecord);
+  top.plane_offset = up(top.record_offset + uint64_t(h.record_count) * top.record_stride, align ? align : 8);
+  uint64_t end = top.plane_offset + uint64_t(h.plane_count) * planes;
+  for (size_t m = 0; m < t.bottom_count(); ++m) {
+    Layout b = layout_of(t.bottom(uint32_t(m)), align);
+    const uint64_t base = up(end, a);
+    b.node_offset += base;
+    b.record_offset += base;
+    b.plane_offset += base;
+    for (DeviceImage::Span& sp : b.record_spans) sp.offset += base;
+    end = base + b.total_bytes;
+    b.total_bytes = end;
+    top.bottoms.push_back(std::move(b));
+  }
+  top.total_bytes = end;
+  return top;
+}
+
+const TimingModel::Layout& TimingModel::bottom(uint32_t mesh) const {
+  if (mesh >= m_layout.bottoms.size())
+    throw std::logic_error("timing model: a bottom level (mesh " + std::to_string(mesh) + ") the layout lacks");
+  return m_layout.bottoms[mesh];
+}
+
 template <bool Reverse, class F>
-void TimingModel::for_each_line(const TraceEvent& e, F&& f) const {
+void TimingModel::for_each_fetch(const std::vector<TraceEvent>& ev, F&& f) const {
+  const Layout* cur = &m_layout;
+  for (size_t j = 0; j < ev.size(); ++j) {
+    const TraceEvent& e = ev[Reverse ? ev.size() - 1 - j : j];
+    if (e.kind == (Reverse ? TraceEvent::kLeave : TraceEvent::kEnter))
+      cur = &bottom(e.index);
+    else if (e.kind == (Reverse ? TraceEvent::kEnter : TraceEvent::kLeave))
+      cur = &m_layout;
+    else
+      f(*cur, e);
+  }
+}
+
+template <bool Reverse, class F>
+void TimingModel::for_each_line(const Layout& l, const TraceEvent& e, F&& f) const {
   uint64_t addr, bytes;
   if (e.kind == TraceEvent::kNode) {
-    bytes = m_layout.node_bytes;
-    addr = m_layout.node_offset + uint64_t(e.index) * m_layout.node_stride;
-  } else if (e.kind == TraceEvent::kPrim && !m_layout.record_spans.empty()) {
-    const DeviceImage::Span& s = m_layout.record_spans[e.index];
+    bytes = l.node_bytes;
+    addr = l.node_offset + uint64_t(e.index) * l.node_stride;
+  } else if (e.kind == TraceEvent::kPrim && e.count == uint8_t(RecordKind::kInstance)) {
+    bytes = l.instance_bytes;
+    addr = l.record_offset + uint64_t(e.index) * l.record_stride;
+  } else if (e.kind == TraceEvent::kPrim && !l.record_spans.empty()) {
+    const DeviceImage::Span& s = l.record_spans[e.index];
     if (s.bytes == 0) return;  // in the block its leaf's first record fetched
     bytes = s.bytes;
     addr = s.offset;
   } else if (e.kind == TraceEvent::kPrim) {
     bytes = kRecordBytes;
-    addr = m_layout.record_offset + uint64_t(e.index) * m_layout.record_stride;
+    addr = l.record_offset + uint64_t(e.index) * l.record_stride;
   } else if (e.kind == TraceEvent::kPlane) {
     bytes = sizeof(PlaneRecord);
-    addr = m_layout.plane_offset + uint64_t(e.index) * m_layout.plane_stride;
+    addr = l.plane_offset + uint64_t(e.index) * l.plane_stride;
   } else {
     return;
   }
@@ -98,14 +151,18 @@ void TimingModel::for_each_line(const TraceEvent& e, F&& f) const {
 void TimingModel::warm(const std::vector<TraceEvent>* events, size_t m) {
   if (!m_cache.enabled()) return;
   for (size_t i = 0; i < m; ++i)
-    for (const TraceEvent& e : events[i]) for_each_line<false>(e, [&](uint64_t line) { m_cache.warm(line); });
+    for_each_fetch<false>(events[i], [&](const Layout& l, const TraceEvent& e) {
+      for_each_line<false>(l, e, [&](uint64_t line) { m_cache.warm(line); });
+    });
 }
 
 void TimingModel::walk_begin(const std::vector<TraceEvent>* events, size_t m) {
   m_cache.walk_reset();
   if (!m_cache.enabled()) return;  // nothing to warm
   for (size_t i = 0; i < m; ++i)
-    for (const TraceEvent& e : events[i]) for_each_line<false>(e, [&](uint64_t line) { m_cache.walk_need(line); });
+    for_each_fetch<false>(events[i], [&](const Layout& l, const TraceEvent& e) {
+      for_each_line<false>(l, e, [&](uint64_t line) { m_cache.walk_need(line); });
+    });
   m_cache.walk_start();
 }
 
@@ -114,9 +171,9 @@ size_t TimingModel::walk_add(const std::vector<TraceEvent>* events, size_t m, si
   // Backwards, ray by ray and fetch by fetch from the last, each fetch's lines last first: the order opposite to
   // the one in which warming forward would touch them.
   for (size_t i = m; i-- > 0;) {
-    const std::vector<TraceEvent>& ev = events[i];
-    for (size_t j = ev.size(); j-- > 0;)
-      for_each_line<true>(ev[j], [&](uint64_t line) { m_cache.walk_see(line); });
+    for_each_fetch<true>(events[i], [&](const Layout& l, const TraceEvent& e) {
+      for_each_line<true>(l, e, [&](uint64_t line) { m_cache.walk_see(line); });
+    });
     if (m_cache.walk_open() <= enough) return m - i;
   }
   return m;
@@ -168,6 +225,7 @@ void TimingModel::admit(uint32_t k, uint64_t free_at) {
   Slot& sl = m_slots[k];
   sl.ev.swap(m_feed[i - m_feed_first]);
   sl.pos = 0;
+  sl.layout = &m_layout;
   sl.depth = 0;
   sl.spilled = 0;
   sl.unit_phase = false;
@@ -207,6 +265,13 @@ uint64_t TimingModel::unit_request(const TraceEvent& e, uint32_t k, uint64_t t) 
     if (m_trace) m_trace->add(m_unit, k, "box", t, done);
     m_s->box_tests += e.count;
     m_s->box_issue_cycles += issue;
+    return done;
+  }
+  if (e.kind == TraceEvent::kPrim && e.count == uint8_t(RecordKind::kInstance)) {
+    // The transform unit, pipelined: no unit to wait for.
+    done = t + uint64_t(m_c.xform_latency);
+    if (m_trace) m_trace->add(m_unit, k, "transform", t, done);
+    ++m_s->instance_transforms;
     return done;
   }
   uint64_t lat = uint64_t(m_c.plane_latency), issue = 1;
@@ -265,13 +330,15 @@ bool TimingModel::touches_memory(const Slot& sl) const {
     case TraceEvent::kRefill:
       return true;
     case TraceEvent::kAnyHit:
+    case TraceEvent::kEnter:
+    case TraceEvent::kLeave:
       return false;
     default:
       break;
   }
   if (sl.unit_phase) return false;  // the unit test: the data is there
   bool miss = false;
-  for_each_line<false>(e, [&](uint64_t line) { miss |= !m_cache.holds(line); });
+  for_each_line<false>(*sl.layout, e, [&](uint64_t line) { miss |= !m_cache.holds(line); });
   return miss;
 }
 
@@ -355,14 +422,23 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
           if (m_trace) m_trace->add(m_unit, k, "any-hit", t, next_t);
           waiting = true;
           continue;
+        case TraceEvent::kEnter:  // the following events address the mesh's bottom level
+          sl.layout = &bottom(e.index);
+          ++sl.pos;
+          continue;
+        case TraceEvent::kLeave:
+          sl.layout = &m_layout;
+          ++sl.pos;
+          continue;
         default:
           break;
       }
       if (!sl.unit_phase) {  // fetch the data the unit needs: ready when its last line is
         ++(e.kind == TraceEvent::kNode ? m_s->node_fetches : m_s->prim_fetches);
         next_t = t;
-        for_each_line<false>(
-            e, [&](uint64_t line) { next_t = std::max(next_t, m_cache.access(line, t, *m_mem, *m_s)); });
+        for_each_line<false>(*sl.layout, e, [&](uint64_t line) {
+          next_t = std::max(next_t, m_cache.access(line, t, *m_mem, *m_s));
+        });
         if (m_trace)
           m_trace->add(m_unit, k, e.kind == TraceEvent::kNode ? "node fetch" : "record fetch", t, next_t);
         // The unit request at next_t. Requests reach the units in the order of (cycle, slot), and only they

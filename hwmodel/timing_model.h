@@ -42,6 +42,7 @@
 
 #include "hwmodel/device_image.h"
 #include "hwmodel/fixed_tracer.h"
+#include "hwmodel/instanced_fixed.h"
 #include "hwmodel/memory_system.h"
 #include "hwmodel/node_cache.h"
 #include "hwmodel/slot_queue.h"
@@ -82,10 +83,18 @@ class TimingModel {
     // Primitive blocks (DeviceImage::record_spans): record i is fetched as the bytes of its span, which are the
     // whole block for a block's first record and none for the others. Empty: 40-byte records at the stride.
     std::vector<DeviceImage::Span> record_spans;
+    // Two levels (instanced_fixed.h), in the top level: an instance record is fetched with its stored transform
+    // and bottom-level address, instance_bytes at record_offset + index * record_stride; bottoms[m] places mesh
+    // m's image after the top level's sections (total_bytes then covers them all). Empty: one level.
+    uint64_t instance_bytes = 0;
+    std::vector<Layout> bottoms;
   };
   // The image's own layout (packed), or with `align` > 0 every item padded to a multiple of it and every section
   // start aligned to it (TimingConfig::layout_align).
   static Layout layout_of(const DeviceImage& image, uint64_t align);
+  // Both levels of a two-level scene: the top image, its instance records widened by their stored transforms,
+  // then each mesh's image, every image starting on a 64-byte boundary (or `align`, when larger).
+  static Layout layout_of(const InstancedFixedTracer& t, uint64_t align);
   // `shared`: the memory behind the node cache when several units share it (a chip, chip_engine.h); null: the
   // unit's own. `unit`: the unit's index on the chip (where its slots' stacks spill).
   TimingModel(const TimingConfig& c, const Layout& layout, MemorySystem* shared = nullptr, uint32_t unit = 0);
@@ -157,9 +166,10 @@ class TimingModel {
   struct Slot {
     std::vector<TraceEvent> ev;
     size_t pos = 0;
-    int depth = 0;            // stack entries (kPush, kPop events)
-    int spilled = 0;          // stack entries beyond the short stack, in memory
-    bool unit_phase = false;  // the current event's data has arrived; its unit request is next
+    const Layout* layout = nullptr;  // the image its events address: the top level, or a bottom level
+    int depth = 0;                   // stack entries (kPush, kPop events)
+    int spilled = 0;                 // stack entries beyond the short stack, in memory
+    bool unit_phase = false;         // the current event's data has arrived; its unit request is next
     uint64_t entered = 0;
     size_t ray = 0;  // index in the packet
     bool busy = false;
@@ -187,7 +197,13 @@ class TimingModel {
   uint64_t unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t);
   // Calls f(line) for every cache line the fetch of event e touches (none for stack events).
   template <bool Reverse, class F>
-  void for_each_line(const TraceEvent& e, F&& f) const;  // Reverse: the event's lines last first
+  void for_each_line(const Layout& l, const TraceEvent& e, F&& f) const;
+  // The layout a kEnter or kLeave event's mesh index names (std::logic_error for one the layout lacks).
+  const Layout& bottom(uint32_t mesh) const;
+  // Calls f(layout, event) for every event that fetches, with the layout it addresses (kEnter, kLeave followed);
+  // Reverse: last event first.
+  template <bool Reverse, class F>
+  void for_each_fetch(const std::vector<TraceEvent>& ev, F&& f) const;  // Reverse: the event's lines last first
 
   TimingConfig m_c;
   Layout m_layout;

@@ -12,7 +12,7 @@ using S = TimingStats;
 constexpr SampleScale kPacket = SampleScale::kPacket, kPerRay = SampleScale::kPerRay;
 
 // The counters, in the order of the struct.
-constexpr std::array<TimingCounter, 25> kCounters = {{
+constexpr std::array<TimingCounter, 26> kCounters = {{
     {"packets", &S::packets, "packets", "TRACE packets simulated", kPacket},
     {"cycles", &S::cycles, "cycles", "cycles of those packets, from decode to the last hit written", kPacket},
     {"rays", &S::rays, "rays", "rays through the ray slots (rays rejected at setup included)", kPacket},
@@ -49,6 +49,8 @@ constexpr std::array<TimingCounter, 25> kCounters = {{
      "sum over rays of the cycles from entering a ray slot to leaving it", kPerRay},
     {"any_hit_requests", &S::any_hit_requests, "requests",
      "candidate hits on non-opaque triangles sent to the any-hit stage (each waits any_hit_latency)", kPerRay},
+    {"instance_transforms", &S::instance_transforms, "rays",
+     "two-level scenes: rays transformed into an instance's bottom level (each waits xform_latency)", kPerRay},
 }};
 static_assert(sizeof(TimingStats) == kCounters.size() * sizeof(uint64_t), "a counter is missing from the table");
 
@@ -159,6 +161,7 @@ const std::vector<ReportEntry>& report_table() {
       count("stack_refills", &S::stack_refills),
       count("queue_stall_cycles", &S::queue_stall_cycles),
       count("any_hit_requests", &S::any_hit_requests),
+      count("instance_transforms", &S::instance_transforms),
       figure("lower_bound.cycles", "cycles", "the largest of the ray fetch, box, triangle and DRAM bounds",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.cycles; }),
       figure("lower_bound.fetch", "cycles",

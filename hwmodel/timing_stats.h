@@ -32,8 +32,9 @@ struct TimingStats {
   uint64_t stream_bytes = 0;                        // ray and hit buffers
   uint64_t stack_spills = 0, stack_refills = 0;
   uint64_t queue_stall_cycles = 0;
-  uint64_t slot_busy_cycles = 0;  // sum over rays of the cycles from entering a slot to leaving it
-  uint64_t any_hit_requests = 0;  // candidate hits on non-opaque triangles sent to the firmware's any-hit stage
+  uint64_t slot_busy_cycles = 0;     // sum over rays of the cycles from entering a slot to leaving it
+  uint64_t any_hit_requests = 0;     // candidate hits on non-opaque triangles sent to the firmware's any-hit stage
+  uint64_t instance_transforms = 0;  // two-level scenes: rays transformed into an instance's bottom level
 
   void add(const TimingStats& o);  // every counter summed (runs, packets, ray types merge this way)
 };

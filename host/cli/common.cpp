@@ -70,6 +70,10 @@ void add_watchdog_args(CLI::App& app, DeviceArgs& o) {
                  "fixed and timed devices: node and leaf visits one ray may make before the watchdog stops the "
                  "trace with an error (0: the image's own bound, which a valid BVH never reaches)")
       ->capture_default_str();
+  app.add_flag(
+      "--flatten", o.flatten,
+      "fixed and timed devices: trace an instanced scene's flattened geometry in one image instead of its "
+      "two levels (the float reference keeps them)");
 }
 
 void add_format_args(CLI::App& app, DeviceArgs& o) {

@@ -282,6 +282,7 @@ Json section_cycles(const std::vector<std::unique_ptr<Scene>>& scenes, const std
       const SceneAnyHit alpha(*scenes[i]);
       DeviceOptions sopt = opt;
       sopt.any_hit = alpha.stage();
+      sopt.instances = &scenes[i]->instances;
       const auto dev = make_device(scenes[i]->geometry, sopt);
       std::vector<hw::Hit> hits(rays.size());
       hw::TraversalStats ts;

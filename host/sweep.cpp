@@ -252,6 +252,7 @@ void time_point(const Scene& scene, const hw::FixedFormat& format, const hw::Tim
   timed_opt.tracer.bvh.width = format.width;
   timed_opt.check_boxes = false;
   timed_opt.timing = timing;
+  timed_opt.instances = &scene.instances;
   const auto timed = make_device(scene.geometry, timed_opt);
   const size_t n = rays.size();
   std::vector<hw::Hit> hits(n);

@@ -104,11 +104,13 @@ void run_info(const InfoOptions& o) {
     const hw::InstancedFloatTracer two(scene.instances, g, topt);
     uint64_t mesh_tris = 0;
     for (const hw::Geometry& m : scene.instances.meshes) mesh_tris += m.triangles.size();
+    const hw::InstancedFixedTracer fixed_two(scene.instances, g, dopt.format, topt);
     j["instancing"] = {{"instances", scene.instances.instances.size()},
                        {"meshes", scene.instances.meshes.size()},
                        {"mesh_triangles", mesh_tris},
                        {"top_nodes_bytes", two.top().figures().node_bytes},
-                       {"float_bytes", two.bytes()}};
+                       {"float_bytes", two.bytes()},
+                       {"fixed", two_level_json(fixed_two)}};
   }
   j["bounds_lo"] = {b.lo.x, b.lo.y, b.lo.z};
   j["bounds_hi"] = {b.hi.x, b.hi.y, b.hi.z};
@@ -140,6 +142,14 @@ void run_info(const InfoOptions& o) {
         (unsigned long long)in["mesh_triangles"].get<uint64_t>(),
         (unsigned long long)in["top_nodes_bytes"].get<uint64_t>(),
         (unsigned long long)in["float_bytes"].get<uint64_t>());
+    const Json& fx = in["fixed"];
+    std::printf(
+        "two levels   fixed: top %llu + bottoms %llu + transforms %llu = %llu bytes (the image below is the "
+        "flattened scene's, as --flatten traces it)\n",
+        (unsigned long long)fx["top_bytes"].get<uint64_t>(),
+        (unsigned long long)fx["bottom_bytes"].get<uint64_t>(),
+        (unsigned long long)fx["transform_bytes"].get<uint64_t>(),
+        (unsigned long long)fx["total_bytes"].get<uint64_t>());
   }
   std::printf("bounds       (%g, %g, %g) .. (%g, %g, %g)\n", b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
   std::printf("load         %.3f s, accel build %.3f s\n", load_s, build_s);

@@ -71,6 +71,19 @@ int device_image(const uint8_t* data, size_t size) {
   for (const hw::Hit& x : hits) RTU_FUZZ_CHECK(x.prim == hw::kMissPrim || x.prim < nprims);
 
   hw::TimedEngine e(hw::EngineOptions{}, hw::TimingConfig{});
+  if (h.flags & hw::kImageTopLevel) {
+    // Without its bottom levels a top level's instance records find nothing, and no engine binds it.
+    for (const hw::Hit& x : hits)
+      RTU_FUZZ_CHECK(x.prim == hw::kMissPrim || x.prim >= h.num_triangles + h.num_spheres);
+    bool refused = false;
+    try {
+      e.bind(data, size);
+    } catch (const std::invalid_argument&) {
+      refused = true;
+    }
+    RTU_FUZZ_CHECK(refused);
+    return 0;
+  }
   e.bind(data, size);
   hw::TraversalStats st;
   e.trace_cycles(rays.data(), timed.data(), rays.size(), false, st, 0, 0);

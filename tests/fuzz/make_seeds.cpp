@@ -70,6 +70,22 @@ int main(int argc, char** argv) {
   // No BVH, primitives in triangle blocks (the packed layouts' other path through the checker).
   const hw::DeviceImage brute_blocks = hw::encode_scene(g, hw::format_preset("packed"), nullptr);
   put(dir / "device_image" / "fixed_brute_blocks.img", brute_blocks.data(), brute_blocks.size(), 0);
+  // A two-level scene's top level: instance records over the tiny geometry's triangles' boxes.
+  std::vector<hw::Aabb> boxes;
+  std::vector<uint32_t> ids;
+  for (uint32_t i = 0; i < g.triangles.size() && i < 6; ++i) {
+    hw::Aabb b;
+    b.extend(g.triangles[i].v0);
+    b.extend(g.triangles[i].v1);
+    b.extend(g.triangles[i].v2);
+    boxes.push_back(b);
+    ids.push_back(i);
+  }
+  hw::BvhBuildParams top;
+  top.max_leaf_size = 1;
+  const hw::DeviceImage top_img =
+      hw::encode_top_level(boxes, ids, g, hw::FixedFormat{}, hw::Bvh::build(boxes, top));
+  put(dir / "device_image" / "fixed_top_level.img", top_img.data(), top_img.size(), 0);
   const std::vector<uint64_t> fimg = hw::encode_float_scene(g);
   put(dir / "device_image" / "float.img", fimg.data(), fimg.size() * 8, 1);
 

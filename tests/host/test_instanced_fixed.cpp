@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "host/direct_device.h"
+#include "host/json_io.h"
 #include "host/ray_gen.h"
 #include "host/scene.h"
 #include "host/shading.h"
@@ -20,6 +21,7 @@
 #include "hwmodel/instanced_fixed.h"
 #include "hwmodel/rng.h"
 #include "hwmodel/timing_config.h"
+#include "tests/host/run_process.h"
 
 using namespace rtu;
 
@@ -345,4 +347,34 @@ TEST_CASE("a city of instances fits the node cache where its flattened image doe
                     << flat.timing.cycles << ", " << flat.timing.dram_bytes);
   CHECK(two.timing.dram_bytes * 2 < flat.timing.dram_bytes);
   CHECK(two.timing.cycles < flat.timing.cycles);
+}
+
+TEST_CASE("rtusim: two levels by default on instanced scenes, --flatten for one", "[cli][instancing]") {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "rtu_test_two_level_cli";
+  std::filesystem::create_directories(dir);
+  const std::string two = (dir / "two.json").string(), one = (dir / "one.json").string();
+  REQUIRE(rtu::test::run_rtusim("compare --scene builtin:city --rays primary:2000 --json " + two).status == 0);
+  REQUIRE(
+      rtu::test::run_rtusim("compare --scene builtin:city --rays primary:2000 --flatten --json " + one).status ==
+      0);
+  const auto a = host::read_json_file(two), b = host::read_json_file(one);
+  CHECK(a["bvh"]["image"]["two_level"]["total_bytes"].get<uint64_t>() * 20 <
+        b["bvh"]["image"]["total_bytes"].get<uint64_t>());
+  CHECK_FALSE(b["bvh"]["image"].contains("two_level"));
+  CHECK(a["hit_agreement"].get<double>() == 1.0);
+  CHECK(b["hit_agreement"].get<double>() == 1.0);
+  // The timed device counts a transform per instance visit, and none flattened.
+  const std::string rays = (dir / "p.rays").string();
+  REQUIRE(rtu::test::run_rtusim("rays --scene builtin:city --count 500 --out " + rays).status == 0);
+  for (const bool flatten : {false, true}) {
+    const std::string stats = (dir / "s.json").string();
+    REQUIRE(rtu::test::run_rtusim("trace --scene builtin:city --device timed --rays " + rays + " --out " +
+                                  (dir / "h.bin").string() + " --stats " + stats + (flatten ? " --flatten" : ""))
+                .status == 0);
+    const uint64_t transforms = host::read_json_file(stats)["timing"]["instance_transforms"].get<uint64_t>();
+    CHECK((transforms == 0) == flatten);
+  }
+  const rtu::test::Run info = rtu::test::run_rtusim("info --scene builtin:city");
+  REQUIRE(info.status == 0);
+  CHECK(info.output.find("two levels   fixed: top ") != std::string::npos);
 }

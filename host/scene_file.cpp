@@ -156,6 +156,16 @@ struct Builder {
   std::vector<std::vector<TriangleUv>> mesh_tri_uv;
   std::vector<TriangleUv> instance_tri_uv;
   std::map<std::string, int> texture_index;
+  // Mesh files of the top-level "meshes" whose node tree places a mesh more than once: added as instances (their
+  // meshes after mesh 0) once the loose geometry is read, with the entry's transform and per-mesh materials.
+  struct InstancedFile {
+    std::string path;  // the entry's key path, for messages
+    hw::InstanceSet set;
+    Transform transform;
+    std::vector<std::vector<uint32_t>> mesh_material;  // per mesh, per triangle
+    std::vector<std::vector<TriangleUv>> mesh_uv;      // per mesh, per triangle (empty: none)
+  };
+  std::vector<InstancedFile> instanced_files;
 
   uint32_t material(const Json& parent, const std::string& path) const {
     if (!parent.contains("material")) return material_index.at("default");
@@ -380,9 +390,48 @@ IndexedMesh generate(const Reader& r, const Json& j, const std::string& path, st
 }
 
 // Mesh entries at `where` into tris, with their materials in tri_material.
+// A mesh file entry kept two-level: its meshes' materials (the entry's "material", or the file's own, joining the
+// scene's as read_mesh_entries names them) and texture coordinates per mesh, from the first instance placing each.
+void keep_file_instances(Builder& b, const Json& m, const std::string& path, const std::filesystem::path& file,
+                         const Transform& t, uint32_t material, ImportedModel& model) {
+  Builder::InstancedFile f;
+  f.path = path;
+  f.transform = t;
+  std::vector<uint32_t> tri_material(model.triangles.size(), material);
+  if (!m.contains("material") && !model.materials.empty()) {
+    const uint32_t mat_base = uint32_t(b.scene.materials.size());
+    const int tex_base = int(b.scene.textures.size());
+    for (Material& mat : model.materials) {
+      mat.name = file.filename().string() + "/" + mat.name;
+      if (mat.texture >= 0) mat.texture += tex_base;
+      b.scene.materials.push_back(std::move(mat));
+    }
+    for (Texture& tex : model.textures) b.scene.textures.push_back(std::move(tex));
+    for (size_t i = 0; i < tri_material.size(); ++i) tri_material[i] = mat_base + model.tri_material[i];
+  } else {
+    model.tri_uv.clear();  // one material for all: the file's coordinates are not needed
+  }
+  hw::InstanceSet& set = model.instances;
+  f.mesh_material.resize(set.meshes.size());
+  f.mesh_uv.resize(set.meshes.size());
+  std::vector<bool> seen(set.meshes.size(), false);
+  for (const hw::Instance& in : set.instances) {
+    if (seen[in.mesh]) continue;
+    seen[in.mesh] = true;
+    const size_t n = set.meshes[in.mesh].triangles.size();
+    f.mesh_material[in.mesh].assign(tri_material.begin() + in.tri_base, tri_material.begin() + in.tri_base + n);
+    if (!model.tri_uv.empty())
+      f.mesh_uv[in.mesh].assign(model.tri_uv.begin() + in.tri_base, model.tri_uv.begin() + in.tri_base + n);
+  }
+  f.set = std::move(set);
+  b.instanced_files.push_back(std::move(f));
+}
+
+// With `keep_instances` (the scene's own "meshes"), a mesh file whose node tree places a mesh more than once is
+// kept two-level (Builder::instanced_files) instead of flattened into tris.
 void read_mesh_entries(Builder& b, const Json& j, const std::string& where, const std::filesystem::path& base_dir,
                        std::vector<hw::Triangle>& tris, std::vector<uint32_t>& tri_material,
-                       std::vector<TriangleUv>& tri_uv) {
+                       std::vector<TriangleUv>& tri_uv, bool keep_instances = false) {
   const Reader& r = b.reader;
   r.array(j, where);
   for (size_t i = 0; i < j.size(); ++i) {
@@ -409,6 +458,10 @@ void read_mesh_entries(Builder& b, const Json& j, const std::string& where, cons
       }
       std::vector<hw::Triangle>& imported = model.triangles;
       if (imported.empty()) r.fail(join(path, "file"), file.string() + ": no triangles");
+      if (keep_instances && !model.instances.instances.empty()) {
+        keep_file_instances(b, m, path, file, t, material, model);
+        continue;
+      }
       // Without a "material" key, the file's own materials (when it has any) join the scene's, named
       // "FILE/NAME", with their textures and the triangles' texture coordinates.
       if (!m.contains("material") && !model.materials.empty()) {
@@ -461,7 +514,7 @@ void read_mesh_entries(Builder& b, const Json& j, const std::string& where, cons
 }
 
 void read_meshes(Builder& b, const Json& j, const std::filesystem::path& base_dir) {
-  read_mesh_entries(b, j, "meshes", base_dir, b.scene.geometry.triangles, b.tri_material, b.tri_uv);
+  read_mesh_entries(b, j, "meshes", base_dir, b.scene.geometry.triangles, b.tri_material, b.tri_uv, true);
 }
 
 // Instancing (scenes/README.md, "prototypes" and "instances"). A transform as an affine map in double.
@@ -503,6 +556,55 @@ void read_prototypes(Builder& b, const Json& j, const std::filesystem::path& bas
   }
 }
 
+// An instance of mesh `mesh` placed by x, with its mesh's materials and texture coordinates.
+void add_instance(Builder& b, uint32_t mesh, const Xform& x, const std::string& path) {
+  const Reader& r = b.reader;
+  hw::InstanceSet& set = b.scene.instances;
+  if (set.instances.size() >= kMaxInstances)
+    r.fail(path, "more than " + std::to_string(kMaxInstances) + " instances");
+  hw::Instance in;
+  in.mesh = mesh;
+  for (int row = 0; row < 3; ++row) {
+    for (int c = 0; c < 3; ++c) in.to_world.m[row][c] = float(x.linear[c][row]);
+    in.to_world.m[row][3] = float(x.translate[row]);
+  }
+  hw::AffineD inv;
+  if (!hw::invert(in.to_world, inv))
+    r.fail(path, "the composed transform is not finite or is singular (in float)");
+  b.instance_prims += set.meshes[mesh].triangles.size();
+  if (b.instance_prims >= hw::kMaxBvhPrims) r.fail(path, "instances hold more than 2^27 - 1 triangles in all");
+  set.instances.push_back(in);
+  const std::vector<uint32_t>& mats = b.mesh_tri_material[mesh];
+  b.instance_tri_material.insert(b.instance_tri_material.end(), mats.begin(), mats.end());
+  const std::vector<TriangleUv>& uvs = b.mesh_tri_uv[mesh];
+  b.instance_tri_uv.insert(b.instance_tri_uv.end(), uvs.begin(), uvs.end());
+}
+
+// The mesh files kept two-level (Builder::instanced_files): their meshes after mesh 0, an instance per placement,
+// its node transform composed after the entry's.
+void add_file_instances(Builder& b) {
+  for (Builder::InstancedFile& f : b.instanced_files) {
+    const uint32_t base = uint32_t(b.scene.instances.meshes.size());
+    for (size_t m = 0; m < f.set.meshes.size(); ++m) {
+      b.mesh_tri_uv.push_back(std::move(f.mesh_uv[m]));
+      b.mesh_tri_uv.back().resize(f.set.meshes[m].triangles.size());
+      b.mesh_tri_material.push_back(std::move(f.mesh_material[m]));
+      b.scene.instances.meshes.push_back(std::move(f.set.meshes[m]));
+    }
+    const Xform entry{f.transform.linear, f.transform.translate};
+    for (const hw::Instance& in : f.set.instances) {
+      Transform node;
+      node.identity = false;
+      for (int row = 0; row < 3; ++row) {
+        for (int c = 0; c < 3; ++c) node.linear[c][row] = double(in.to_world.m[row][c]);
+        node.translate[row] = double(in.to_world.m[row][3]);
+      }
+      add_instance(b, base + in.mesh, entry.then(node), f.path);
+    }
+  }
+  b.instanced_files.clear();
+}
+
 // One instance entry at `path` under the transform `parent`, at nesting depth `depth` (1 at the top level).
 void expand_instance(Builder& b, const Json& e, const std::string& path, const Xform& parent, int depth) {
   const Reader& r = b.reader;
@@ -523,27 +625,7 @@ void expand_instance(Builder& b, const Json& e, const std::string& path, const X
     r.fail(path, "instances nested deeper than " + std::to_string(hw::kMaxInstanceNesting) + " levels");
   const Xform x =
       e.contains("transform") ? parent.then(read_transform(r, e["transform"], join(path, "transform"))) : parent;
-  if (proto.mesh != UINT32_MAX) {
-    hw::InstanceSet& set = b.scene.instances;
-    if (set.instances.size() >= kMaxInstances)
-      r.fail(path, "more than " + std::to_string(kMaxInstances) + " instances");
-    hw::Instance in;
-    in.mesh = proto.mesh;
-    for (int row = 0; row < 3; ++row) {
-      for (int c = 0; c < 3; ++c) in.to_world.m[row][c] = float(x.linear[c][row]);
-      in.to_world.m[row][3] = float(x.translate[row]);
-    }
-    hw::AffineD inv;
-    if (!hw::invert(in.to_world, inv))
-      r.fail(path, "the composed transform is not finite or is singular (in float)");
-    b.instance_prims += set.meshes[proto.mesh].triangles.size();
-    if (b.instance_prims >= hw::kMaxBvhPrims) r.fail(path, "instances hold more than 2^27 - 1 triangles in all");
-    set.instances.push_back(in);
-    const std::vector<uint32_t>& mats = b.mesh_tri_material[proto.mesh];
-    b.instance_tri_material.insert(b.instance_tri_material.end(), mats.begin(), mats.end());
-    const std::vector<TriangleUv>& uvs = b.mesh_tri_uv[proto.mesh];
-    b.instance_tri_uv.insert(b.instance_tri_uv.end(), uvs.begin(), uvs.end());
-  }
+  if (proto.mesh != UINT32_MAX) add_instance(b, proto.mesh, x, path);
   if (proto.json->contains("instances")) {
     const Json& subs = (*proto.json)["instances"];
     proto.visiting = true;
@@ -661,7 +743,7 @@ Scene load_scene_json(const nlohmann::ordered_json& root, const std::string& pat
                {"description", "camera", "textures", "materials", "meshes", "spheres", "planes", "lights",
                 "prototypes", "instances"});
 
-  Builder b{r, {}, {}, {}, {}, {}, {}, std::vector<std::vector<uint32_t>>(1), {}, 0, {}, {}, {}, {}};
+  Builder b{r, {}, {}, {}, {}, {}, {}, std::vector<std::vector<uint32_t>>(1), {}, 0, {}, {}, {}, {}, {}};
   b.mesh_tri_uv.resize(1);
   b.scene.name = path;
   try {
@@ -675,6 +757,7 @@ Scene load_scene_json(const nlohmann::ordered_json& root, const std::string& pat
     if (root.contains("spheres")) read_spheres(b, root["spheres"]);
     if (root.contains("planes")) read_planes(b, root["planes"]);
     b.scene.instances.meshes.emplace_back();  // mesh 0: the loose geometry, if instances follow
+    add_file_instances(b);
     if (root.contains("prototypes")) read_prototypes(b, root["prototypes"], base_dir);
     if (root.contains("instances")) read_instances(b, root["instances"]);
     if (root.contains("camera")) {

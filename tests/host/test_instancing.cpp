@@ -374,3 +374,42 @@ TEST_CASE("a node tree with a singular transform is flattened, as before", "[sce
   CHECK(!s.instanced());
   CHECK(s.geometry.triangles.size() == 6);
 }
+
+TEST_CASE("a scene file's mesh entry keeps the file's placements as instances, under the entry's transform",
+          "[scene][instancing]") {
+  const std::string gltf = write_placed_gltf("placed_in_scene", 2.0);
+  const host::Scene bare = host::load_scene(gltf);
+  const host::Scene s = host::load_scene(write_scene("file_instances", R"({
+    "materials": {"floor": {"color": [0.5, 0.5, 0.5]}},
+    "meshes": [{"generate": "quad", "size": [40, 40], "material": "floor"},
+               {"file": ")" + gltf + R"(", "transform": {"translate": [10, 0, 0]}}]})"));
+  REQUIRE(s.instanced());
+  CHECK(s.instances.meshes.size() == 2);     // the loose quad, the file's mesh
+  REQUIRE(s.instances.instances.size() == 4);  // the loose geometry and the file's three placements
+  REQUIRE(s.geometry.triangles.size() == 2 + bare.geometry.triangles.size());
+  for (size_t k = 0; k < bare.geometry.triangles.size(); ++k) {
+    const hw::Triangle& a = bare.geometry.triangles[k];
+    const hw::Triangle& b = s.geometry.triangles[2 + k];
+    // The composed transform is rounded to float once, the bare file's node transform once: within an ulp of 10.
+    CHECK(b.v0.x == Approx(a.v0.x + 10.0f).margin(2e-6));
+    CHECK(b.v2.y == Approx(a.v2.y).margin(2e-6));
+  }
+  CHECK(s.materials[s.prim_material[0]].name == "floor");
+  // Two levels and flattened find the same triangles.
+  std::vector<hw::Ray> rays;
+  for (uint32_t i = 1; i < s.instances.instances.size(); ++i) {
+    const hw::Vec3 target = s.instances.instances[i].to_world.point(hw::Vec3(0.3f, -0.4f, 0.0f));
+    rays.push_back(hw::Ray{target + hw::Vec3(0.0f, 0.0f, 3.0f), 0.0f, hw::Vec3(0.0f, 0.0f, -1.0f),
+                           std::numeric_limits<float>::infinity()});
+  }
+  const hw::InstancedFloatTracer two(s.instances, s.geometry);
+  const hw::FloatTracer flat(s.geometry);
+  const std::vector<hw::Hit> a = trace(two, rays, false);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    hw::TraversalStats st;
+    const hw::Hit b = flat.trace(rays[i], false, st);
+    REQUIRE(a[i].hit());
+    CHECK(a[i].prim == b.prim);
+    CHECK(a[i].prim >= 2);
+  }
+}

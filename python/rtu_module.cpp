@@ -154,6 +154,7 @@ struct DeviceArgs {
   double sample = 0.0;
   uint32_t sample_unit = 256, sample_warmup = 0;
   uint64_t sample_seed = 1, watchdog_steps = 0;
+  bool flatten = false;  // fixed, timed: an instanced scene in one image
 
   hw::DeviceKind kind() const { return hw::parse_device_kind(device); }
 
@@ -169,6 +170,7 @@ struct DeviceArgs {
     refuse(!timed && (sample_unit != 256 || sample_warmup != 0 || sample_seed != 1), "sample_unit/warmup/seed",
            "timed");
     refuse(k == hw::DeviceKind::kFloat && watchdog_steps != 0, "watchdog_steps", "fixed' or 'timed");
+    refuse(k == hw::DeviceKind::kFloat && flatten, "flatten", "fixed' or 'timed");
     refuse(k == hw::DeviceKind::kFloat && !format_fields.is_none(), "format_fields", "fixed' or 'timed");
     if (!timing_allowed && sample != 0.0) fail("sample: this job reports no cycles");
     host::DeviceSettings s;
@@ -224,6 +226,7 @@ struct DeviceArgs {
     s.sample_warmup = sample_warmup;
     s.sample_seed = sample_seed;
     s.watchdog_steps = watchdog_steps;
+    s.flatten = flatten;
     // Resolve now (with the GIL held, before any work): bad keys, values and formats are reported here.
     (void)s.options(k);
     return s;
@@ -264,10 +267,12 @@ DeviceArgs device_args(const py::kwargs& kw) {
       d.sample_seed = value.cast<uint64_t>();
     else if (k == "watchdog_steps")
       d.watchdog_steps = value.cast<uint64_t>();
+    else if (k == "flatten")
+      d.flatten = value.cast<bool>();
     else
       fail("unknown keyword argument '" + k +
            "' (device options: device, config, set, format, format_fields, bvh_width, leaf_size, accel, sample, "
-           "sample_unit, sample_warmup, sample_seed, watchdog_steps)");
+           "sample_unit, sample_warmup, sample_seed, watchdog_steps, flatten)");
   }
   return d;
 }

@@ -306,3 +306,20 @@ def test_alpha_scene_dict_equals_the_cli(tmp_path):
     assert 0 < r.stats["any_hit_ignored"] == stats["any_hit_ignored"] < stats["any_hit_calls"]
     assert r.cycles == stats["timing"]["cycles"]
     assert stats["timing"]["any_hit_requests"] == stats["any_hit_calls"]
+
+
+def test_instanced_scene_two_levels_and_flatten_equal_the_cli(tmp_path):
+    city = rtu.load_scene("builtin:city")
+    cli("rays", "--scene", "builtin:city", "--count", "2000", "--out", tmp_path / "p.rays")
+    rays = rtu.read_rays(tmp_path / "p.rays")
+    for flatten in (False, True):
+        extra = ["--flatten"] if flatten else []
+        cli("trace", "--scene", "builtin:city", "--rays", tmp_path / "p.rays", "--device", "timed", *extra,
+            "--out", tmp_path / "h.hits", "--stats", tmp_path / "s.json")
+        s = json.loads((tmp_path / "s.json").read_text())
+        r = rtu.trace(city, rays, "timed", flatten=flatten)
+        assert r.hits.tobytes() == (tmp_path / "h.hits").read_bytes()
+        assert r.cycles == s["timing"]["cycles"]
+        assert (r.stats["timing"]["instance_transforms"] == 0) == flatten
+    with pytest.raises(rtu.Error, match="flatten"):
+        rtu.trace(city, rays, "float", flatten=True)

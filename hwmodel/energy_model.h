@@ -12,6 +12,8 @@
 //   stack          node fetches x one 8-byte access of the slots' stack SRAM (a push or a pop per node visit)
 //   dram           DRAM bytes (line fills, stack spills and refills) x 8 x the memory type's energy per bit
 //   stream         ray and hit buffer bytes x 8 x the same (they live in DRAM)
+//   transform      instance transforms (two-level scenes) x 18 float32 multiplies and 15 adds (the origin's three
+//                  rows of 3 products and 3 sums, the direction's of 3 products and 2 sums)
 //   leakage        cycles x the unit's leakage power over the clock
 #pragma once
 
@@ -43,6 +45,8 @@ struct Technology {
   // Energy of one 64-bit SRAM read by capacity (Horowitz, ISSCC 2014, 45 nm): 8 KB 10 pJ, 32 KB 20 pJ, 1 MB 100
   // pJ.
   double sram_pj_8k = 10.0, sram_pj_32k = 20.0, sram_pj_1m = 100.0;
+  // float32 add and multiply (Horowitz, ISSCC 2014, 45 nm): the instance transform's operators.
+  double fp32_add_pj = 0.9, fp32_mul_pj = 3.7;
 
   double pj_per_transition() const { return 0.5 * cap_per_ge_ff * 1e-3 * vdd * vdd; }  // 1/2 C V^2
 };

@@ -82,6 +82,8 @@ TEST_CASE("energy: the events times their energies are the total, and each count
     CHECK(event("dram").count == s.dram_bytes);
     CHECK(event("stream").count == s.stream_bytes);
     CHECK(event("leakage").count == s.cycles);
+    CHECK(event("transform").count == s.instance_transforms);
+    CHECK(event("transform").pj_each == Approx(18 * 3.7 + 15 * 0.9));  // Horowitz's float32 operators
     const double dram_pj_per_byte = 8.0 * rtu::hw::memory_type(c.memory_type).pj_per_bit;
     CHECK(event("dram").pj_each == dram_pj_per_byte);
 

@@ -15,6 +15,7 @@
 #include "host/trace_job.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/engine.h"
+#include "hwmodel/instanced_fixed.h"
 
 namespace rtu::host {
 
@@ -115,7 +116,18 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   res.offset_rel = std::ldexp(1.0f, -19);
   res.offset_abs = std::ldexp(extent, -20);
   hw::TracerOptions tracer = o.device.tracer;
-  if (o.device.kind != hw::DeviceKind::kFloat) {
+  // An instanced scene binds its two levels (hwmodel/instanced_fixed.h) on the fixed-point devices, unless
+  // flattened or co-simulated (the RTL units trace one image).
+  const bool two_level = scene.instanced() && !o.device.flatten && o.device.kind != hw::DeviceKind::kFloat &&
+                         (o.device.kind == hw::DeviceKind::kFixed ||
+                          (o.device.timing.box_unit == "cpp" && o.device.timing.tri_unit == "cpp"));
+  if (two_level) {
+    tracer.bvh.width = o.device.format.width;
+    const hw::InstancedFixedTracer two(scene.instances, g, o.device.format, tracer);
+    image_words = two.encode();
+    // As below, in the top level's frame: the coarsest of the two levels' (a mesh's own frame is finer).
+    res.offset_abs = std::max(res.offset_abs, float(std::ldexp(4.0, two.top().frame().step_exp)));
+  } else if (o.device.kind != hw::DeviceKind::kFloat) {
     tracer.bvh.width = o.device.format.width;
     const std::optional<hw::Bvh> bvh = hw::choose_accel(g, tracer);
     const hw::DeviceImage img = hw::encode_scene(g, o.device.format, bvh ? &*bvh : nullptr);

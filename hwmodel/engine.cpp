@@ -7,6 +7,7 @@
 #include <string>
 #include <utility>
 
+#include "hwmodel/instanced_fixed.h"
 #include "hwmodel/regs.h"
 #include "hwmodel/timed_engine.h"
 
@@ -155,41 +156,49 @@ class FixedEngine final : public TraceEngine {
   }
   void bind(const uint8_t* data, size_t bytes) override {
     unbind();
+    FixedTraceOptions to{m_opt.check_boxes, m_opt.max_steps};
+    to.any_hit = m_any_hit;
+    if (is_two_level(data, bytes)) {  // an instanced scene's two levels (instanced_fixed.h)
+      m_two = InstancedFixedTracer::from_bytes(data, bytes, to);
+      return;
+    }
     DeviceImage img = DeviceImage::from_bytes(data, bytes);  // throws before anything changes
     if (img.header().flags & kImageTopLevel)                 // its bottom levels are not in the image
       throw std::invalid_argument("scene image: a top level, whose bottom levels this engine does not hold");
     m_image = std::make_unique<DeviceImage>(std::move(img));
-    FixedTraceOptions to{m_opt.check_boxes, m_opt.max_steps};
-    to.any_hit = m_any_hit;
     m_tracer = std::make_unique<FixedTracer>(*m_image, to);
   }
   void set_any_hit(const AnyHitStage* stage) override {
     m_any_hit = stage;
     if (m_tracer) m_tracer->set_any_hit(stage);
+    if (m_two) m_two->set_any_hit(stage);
   }
-  bool bound() const override { return m_tracer != nullptr; }
+  bool bound() const override { return m_tracer != nullptr || m_two != nullptr; }
   void unbind() override {
     m_tracer.reset();
     m_image.reset();
+    m_two.reset();
   }
   void trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const override {
     TraversalStats local;
-    m_tracer->trace_batch(rays, hits, n, any_hit, m_opt.threads, local);
-    if (local.watchdog_rays > 0)
-      throw WatchdogError(m_tracer->watchdog_report(rays, n, any_hit, local.watchdog_rays), 0);
+    const FixedTracer& t = m_two ? m_two->top_tracer() : *m_tracer;
+    t.trace_batch(rays, hits, n, any_hit, m_opt.threads, local);
+    if (local.watchdog_rays > 0) throw WatchdogError(t.watchdog_report(rays, n, any_hit, local.watchdog_rays), 0);
     s.add(local);
   }
   Geometry::Counts counts() const override {
-    if (!m_image) return {};
-    const ImageHeader& h = m_image->header();
+    if (!bound()) return {};
+    const ImageHeader& h = image().header();
     return {h.num_triangles, h.num_spheres, h.plane_count};
   }
-  bool uses_bvh() const override { return m_image && !(m_image->header().flags & kImageNoBvh); }
+  bool uses_bvh() const override { return bound() && !(image().header().flags & kImageNoBvh); }
 
  private:
+  const DeviceImage& image() const { return m_two ? m_two->top() : *m_image; }
   EngineOptions m_opt;
   std::unique_ptr<DeviceImage> m_image;
   std::unique_ptr<FixedTracer> m_tracer;
+  std::unique_ptr<InstancedFixedTracer> m_two;
   const AnyHitStage* m_any_hit = nullptr;
 };
 

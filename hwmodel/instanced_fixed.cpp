@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 
@@ -49,9 +50,25 @@ uint32_t StoredXform::bytes(int xform_bits) {
   return (12 * uint32_t(1 + 8 + xform_bits - 1) + 7) / 8;
 }
 
+// The any-hit stage as a bottom level sees it: its triangle indices are the mesh's, the stage's the flattened
+// scene's.
+class InstancedFixedTracer::Stage final : public AnyHitStage {
+ public:
+  Stage(const AnyHitStage& stage, const InstancedFixedTracer& t, uint32_t inst)
+      : m_stage(stage), m_t(t), m_inst(inst) {}
+  bool accept(uint32_t prim, float u, float v) const override {
+    return m_stage.accept(m_t.global_prim(m_inst, prim), u, v);
+  }
+
+ private:
+  const AnyHitStage& m_stage;
+  const InstancedFixedTracer& m_t;
+  uint32_t m_inst;
+};
+
 InstancedFixedTracer::InstancedFixedTracer(const InstanceSet& set, const Geometry& flat, const FixedFormat& f,
                                            const TracerOptions& opt, const FixedTraceOptions& trace_opt)
-    : m_set(set), m_format(f), m_rebased(std::make_unique<std::atomic<uint64_t>>(0)) {
+    : m_format(f) {
   f.validate();
   set.validate();
   if (opt.bvh.width != f.width)
@@ -60,15 +77,16 @@ InstancedFixedTracer::InstancedFixedTracer(const InstanceSet& set, const Geometr
   for (const Geometry& g : set.meshes) {
     const std::optional<Bvh> bvh = choose_accel(g, opt);
     m_bottoms.push_back(std::make_unique<DeviceImage>(encode_scene(g, f, bvh ? &*bvh : nullptr)));
-    m_mesh_bounds.push_back(g.bounds());
   }
   // The top level as the float reference builds it (instancing.cpp): one instance per leaf, empty ones left out.
   std::vector<Aabb> kept;
   std::vector<uint32_t> ids;
   for (uint32_t i = 0; i < set.instances.size(); ++i) {
+    const Instance& in = set.instances[i];
     AffineD inv;
-    invert(set.instances[i].to_world, inv);  // validate() has proven it invertible
+    invert(in.to_world, inv);  // validate() has proven it invertible
     m_xforms.push_back(StoredXform::from_inverse(inv, f.xform_bits));
+    m_info.push_back(Info{in.mesh, in.tri_base, in.sphere_base});
     const Aabb b = set.world_bounds(i);
     if (b.empty()) continue;
     kept.push_back(b);
@@ -79,18 +97,32 @@ InstancedFixedTracer::InstancedFixedTracer(const InstanceSet& set, const Geometr
   top.prim_cost = 1.0f;
   m_top_bvh = Bvh::build(kept, top);
   m_top = std::make_unique<DeviceImage>(encode_top_level(kept, ids, flat, f, m_top_bvh));
+  make_tracers(trace_opt);
+}
+
+void InstancedFixedTracer::make_tracers(const FixedTraceOptions& trace_opt) {
+  // A far origin moves to its mesh frame's grid box (inside the frame, so its setup succeeds).
+  for (const auto& img : m_bottoms) {
+    const QuantFrame q = img->frame();
+    Aabb b;
+    for (int a = 0; a < 3; ++a) {
+      b.lo[a] = float(q.to_world(0, a));
+      b.hi[a] = float(q.to_world(q.grid_max(), a));
+    }
+    m_mesh_bounds.push_back(b);
+  }
   FixedTraceOptions to = trace_opt;
   to.bottom = this;
   to.box_unit = nullptr;  // co-simulated units are for flat images (one thread, one image)
   to.tri_unit = nullptr;
   m_top_tracer = std::make_unique<FixedTracer>(*m_top, to);
-  for (uint32_t i = 0; i < set.instances.size(); ++i) {
+  for (const Info& in : m_info) {
     FixedTraceOptions bo = trace_opt;
     bo.bottom = nullptr;
     bo.box_unit = nullptr;
     bo.tri_unit = nullptr;
     bo.any_hit = nullptr;
-    m_tracers.push_back(std::make_unique<FixedTracer>(*m_bottoms[set.instances[i].mesh], bo));
+    m_tracers.push_back(std::make_unique<FixedTracer>(*m_bottoms[in.mesh], bo));
   }
   set_any_hit(trace_opt.any_hit);
 }
@@ -98,9 +130,132 @@ InstancedFixedTracer::InstancedFixedTracer(const InstanceSet& set, const Geometr
 void InstancedFixedTracer::set_any_hit(const AnyHitStage* stage) {
   m_stages.clear();
   for (uint32_t i = 0; i < m_tracers.size(); ++i) {
-    if (stage) m_stages.push_back(std::make_unique<InstanceAnyHit>(*stage, m_set, i));
+    if (stage) m_stages.push_back(std::make_unique<Stage>(*stage, *this, i));
     m_tracers[i]->set_any_hit(stage ? m_stages.back().get() : nullptr);
   }
+}
+
+namespace {
+
+uint64_t align8(uint64_t x) {
+  return (x + 7) / 8 * 8;
+}
+
+[[noreturn]] void bad_block(const std::string& why) {
+  throw std::invalid_argument("two-level scene image: " + why);
+}
+
+}  // namespace
+
+std::vector<uint64_t> InstancedFixedTracer::encode() const {
+  TwoLevelHeader h{};
+  h.magic = kTwoLevelMagic;
+  h.version = kTwoLevelVersion;
+  h.xform_bits = uint8_t(m_format.xform_bits);
+  h.instance_count = uint32_t(m_xforms.size());
+  h.mesh_count = uint32_t(m_bottoms.size());
+  h.num_triangles = m_top->header().num_triangles;
+  h.num_spheres = m_top->header().num_spheres;
+  h.instance_offset = align8(sizeof h);
+  h.mesh_offset = h.instance_offset + uint64_t(h.instance_count) * sizeof(InstanceEntry);
+  h.top_offset = align8(h.mesh_offset + uint64_t(h.mesh_count) * sizeof(MeshEntry));
+  h.top_bytes = m_top->size();
+  std::vector<MeshEntry> meshes;
+  uint64_t at = align8(h.top_offset + h.top_bytes);
+  for (const auto& img : m_bottoms) {
+    meshes.push_back(MeshEntry{at, img->size()});
+    at = align8(at + img->size());
+  }
+  h.total_bytes = at;
+  std::vector<uint64_t> words(h.total_bytes / 8, 0);
+  uint8_t* base = reinterpret_cast<uint8_t*>(words.data());
+  std::memcpy(base, &h, sizeof h);
+  for (size_t i = 0; i < m_xforms.size(); ++i) {
+    InstanceEntry e{};
+    std::memcpy(e.m, m_xforms[i].m, sizeof e.m);
+    e.mesh = m_info[i].mesh;
+    e.tri_base = m_info[i].tri_base;
+    e.sphere_base = m_info[i].sphere_base;
+    std::memcpy(base + h.instance_offset + i * sizeof e, &e, sizeof e);
+  }
+  if (!meshes.empty()) std::memcpy(base + h.mesh_offset, meshes.data(), meshes.size() * sizeof(MeshEntry));
+  std::memcpy(base + h.top_offset, m_top->data(), m_top->size());
+  for (size_t m = 0; m < m_bottoms.size(); ++m)
+    std::memcpy(base + meshes[m].offset, m_bottoms[m]->data(), m_bottoms[m]->size());
+  return words;
+}
+
+std::unique_ptr<InstancedFixedTracer> InstancedFixedTracer::from_bytes(const uint8_t* data, size_t bytes,
+                                                                       const FixedTraceOptions& trace_opt) {
+  TwoLevelHeader h;
+  if (bytes < sizeof h || bytes % 8 != 0) bad_block("size below the header or not a multiple of 8");
+  std::memcpy(&h, data, sizeof h);
+  if (h.magic != kTwoLevelMagic) bad_block("bad magic");
+  if (h.version != kTwoLevelVersion) bad_block("unsupported version " + std::to_string(h.version));
+  if (h.total_bytes != bytes) bad_block("total_bytes differs from the bound size");
+  if (h.reserved != 0) bad_block("reserved bits set");
+  if (h.xform_bits < 8 || h.xform_bits > 24) bad_block("xform_bits outside 8..24");
+  if (h.instance_count == 0 || h.instance_count > (1u << 20)) bad_block("instance count outside 1..2^20");
+  if (h.mesh_count == 0 || h.mesh_count > (1u << 20)) bad_block("mesh count outside 1..2^20");
+  auto section = [&](uint64_t off, uint64_t size, const char* what) {
+    if (off % 8 != 0 || off < sizeof h || off > bytes || size > bytes - off)
+      bad_block(std::string(what) + " outside the block or misaligned");
+  };
+  section(h.instance_offset, uint64_t(h.instance_count) * sizeof(InstanceEntry), "instance table");
+  section(h.mesh_offset, uint64_t(h.mesh_count) * sizeof(MeshEntry), "mesh table");
+  section(h.top_offset, h.top_bytes, "top image");
+  std::unique_ptr<InstancedFixedTracer> t(new InstancedFixedTracer());
+  auto image = [&](uint64_t off, uint64_t size, const std::string& what) {
+    try {
+      return std::make_unique<DeviceImage>(DeviceImage::from_bytes(data + off, size_t(size)));
+    } catch (const std::invalid_argument& e) {
+      bad_block(what + ": " + e.what());
+    }
+  };
+  t->m_top = image(h.top_offset, h.top_bytes, "top image");
+  const ImageHeader& th = t->m_top->header();
+  if (!(th.flags & kImageTopLevel)) bad_block("the top image is not a top level");
+  if (th.num_triangles != h.num_triangles || th.num_spheres != h.num_spheres)
+    bad_block("the top image's primitive counts differ from the header's");
+  for (uint32_t m = 0; m < h.mesh_count; ++m) {
+    MeshEntry e;
+    std::memcpy(&e, data + h.mesh_offset + uint64_t(m) * sizeof e, sizeof e);
+    const std::string what = "mesh " + std::to_string(m);
+    section(e.offset, e.bytes, what.c_str());
+    t->m_bottoms.push_back(image(e.offset, e.bytes, what));
+    const ImageHeader& bh = t->m_bottoms.back()->header();
+    if ((bh.flags & kImageTopLevel) || bh.plane_count != 0) bad_block(what + ": a top level, or planes");
+  }
+  const uint64_t num_bounded = uint64_t(h.num_triangles) + h.num_spheres;
+  for (uint32_t i = 0; i < h.instance_count; ++i) {
+    InstanceEntry e;
+    std::memcpy(&e, data + h.instance_offset + uint64_t(i) * sizeof e, sizeof e);
+    const std::string what = "instance " + std::to_string(i);
+    if (e.mesh >= h.mesh_count || e.reserved != 0) bad_block(what + ": mesh out of range or reserved bits set");
+    const ImageHeader& bh = t->m_bottoms[e.mesh]->header();
+    // Its triangles and spheres inside the flattened scene's: every hit it reports is numbered in range.
+    if (uint64_t(e.tri_base) + bh.num_triangles > h.num_triangles || e.sphere_base < h.num_triangles ||
+        uint64_t(e.sphere_base) + bh.num_spheres > num_bounded)
+      bad_block(what + ": its primitives fall outside the flattened scene's");
+    StoredXform x;
+    std::memcpy(x.m, e.m, sizeof x.m);
+    for (const auto& row : x.m)
+      for (const float v : row)
+        if (!std::isfinite(v) || round_significant(v, h.xform_bits) != v)
+          bad_block(what + ": a transform entry not finite or wider than xform_bits");
+    t->m_xforms.push_back(x);
+    t->m_info.push_back(Info{e.mesh, e.tri_base, e.sphere_base});
+  }
+  // The top level's instance records name instances of the table.
+  for (uint32_t r = 0; r < th.record_count; ++r) {
+    uint32_t word;
+    std::memcpy(&word, t->m_top->record(r) + 36, 4);
+    if ((word & kRecordPrimMask) >= h.instance_count) bad_block("a top-level record names no instance");
+  }
+  t->m_format = t->m_top->format();
+  t->m_format.xform_bits = h.xform_bits;
+  t->make_tracers(trace_opt);
+  return t;
 }
 
 InstancedFixedTracer::~InstancedFixedTracer() = default;
@@ -125,7 +280,7 @@ bool InstancedFixedTracer::trace_instance(uint32_t inst, const Ray& r, float tma
   Ray o = m_xforms[inst].apply(r);
   o.tmax = tmax;
   const FixedTracer& tracer = *m_tracers[inst];
-  const uint32_t mesh = m_set.instances[inst].mesh;
+  const uint32_t mesh = m_info[inst].mesh;
   // The bottom level's events between kEnter and kLeave; a ray its setup rejects records none.
   auto trace = [&](const Ray& ray, TraversalStats& st) {
     if (!rec) return tracer.trace(ray, any_hit, st);
@@ -139,7 +294,7 @@ bool InstancedFixedTracer::trace_instance(uint32_t inst, const Ray& r, float tma
   const bool far = inner.invalid_by_reason[size_t(RayStatus::kOutOfFrame)] > 0;
   s.add_work(inner);
   if (!far) {
-    if (h.hit()) h.prim = m_set.global_prim(inst, h.prim);
+    if (h.hit()) h.prim = global_prim(inst, h.prim);
     return h.hit();
   }
   // The origin is beyond the mesh frame's guard range: start the ray where it enters the mesh's bounds.
@@ -168,7 +323,7 @@ bool InstancedFixedTracer::trace_instance(uint32_t inst, const Ray& r, float tma
   s.add_work(again);
   if (!h.hit()) return false;
   h.t = float(double(t0) + double(h.t));
-  h.prim = m_set.global_prim(inst, h.prim);
+  h.prim = global_prim(inst, h.prim);
   return true;
 }
 

@@ -13,10 +13,16 @@
 // t. Both roundings are part of the model and of the error compare measures.
 //
 // Primitive indices are the flattened scene's (instancing.h), so hits compare with every other device's.
+//
+// In device memory the two levels are one position-independent block (encode(), from_bytes()), which is what
+// BIND_SCENE names for an instanced scene: a TwoLevelHeader, the instance table (stored transform, mesh, the
+// instance's first flattened triangle and sphere), the mesh table (where each bottom image lies), the top image,
+// then the bottom images. Every image inside is an ordinary DeviceImage (device_image.h), checked as one.
 #pragma once
 
 #include <atomic>
 #include <cstdint>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <vector>
@@ -50,6 +56,46 @@ struct StoredXform {
   static uint32_t bytes(int xform_bits);
 };
 
+inline constexpr uint32_t kTwoLevelMagic = 0x32555452u;  // "RTU2" little-endian
+inline constexpr uint16_t kTwoLevelVersion = 1;
+
+struct TwoLevelHeader {
+  uint32_t magic;            // kTwoLevelMagic
+  uint16_t version;          // kTwoLevelVersion
+  uint8_t xform_bits;        // significant bits of the stored transforms' entries (FixedFormat::xform_bits)
+  uint8_t reserved;          // 0
+  uint32_t instance_count;   // entries of the instance table
+  uint32_t mesh_count;       // entries of the mesh table
+  uint32_t num_triangles;    // the flattened scene's primitive counts (the hits' index space), as the top image's
+  uint32_t num_spheres;      //
+  uint64_t instance_offset;  // byte offsets from the block's start, 8-byte aligned
+  uint64_t mesh_offset;      //
+  uint64_t top_offset;       // the top image: top_bytes at top_offset
+  uint64_t top_bytes;        //
+  uint64_t total_bytes;      // size of the block
+};
+static_assert(sizeof(TwoLevelHeader) == 64);
+
+struct InstanceEntry {
+  float m[3][4];         // world -> object (StoredXform)
+  uint32_t mesh;         // index into the mesh table
+  uint32_t tri_base;     // flattened index of the instance's first triangle
+  uint32_t sphere_base;  // flattened index of its first sphere
+  uint32_t reserved;     // 0
+};
+static_assert(sizeof(InstanceEntry) == 64);
+
+struct MeshEntry {
+  uint64_t offset, bytes;  // the mesh's bottom image
+};
+
+// Whether a scene image is a two-level block (by its magic): what the engines' bind looks at first.
+inline bool is_two_level(const uint8_t* data, size_t bytes) {
+  uint32_t magic = 0;
+  if (bytes >= 4) std::memcpy(&magic, data, 4);
+  return magic == kTwoLevelMagic;
+}
+
 class InstancedFixedTracer final : public BottomLevels {
  public:
   // Keeps references to set and flat (the flattened scene: its planes are traced, its counts number the hits);
@@ -59,6 +105,13 @@ class InstancedFixedTracer final : public BottomLevels {
   InstancedFixedTracer(const InstanceSet& set, const Geometry& flat, const FixedFormat& f,
                        const TracerOptions& opt, const FixedTraceOptions& trace_opt = {});
   ~InstancedFixedTracer();
+  // The two levels from device memory (encode()'s block, written by someone else): copied and checked so that
+  // tracing them cannot read outside them or number a hit outside the flattened scene. Throws
+  // std::invalid_argument naming the first problem.
+  static std::unique_ptr<InstancedFixedTracer> from_bytes(const uint8_t* data, size_t bytes,
+                                                          const FixedTraceOptions& trace_opt = {});
+  // The block from_bytes reads (8-byte words).
+  std::vector<uint64_t> encode() const;
   InstancedFixedTracer(const InstancedFixedTracer&) = delete;
   InstancedFixedTracer& operator=(const InstancedFixedTracer&) = delete;
 
@@ -70,7 +123,7 @@ class InstancedFixedTracer final : public BottomLevels {
   // Attaches (or with null detaches) the any-hit stage (FixedTraceOptions::any_hit) to every bottom level.
   void set_any_hit(const AnyHitStage* stage);
   // The mesh instance `inst` places.
-  uint32_t mesh_of(uint32_t inst) const { return m_set.instances[inst].mesh; }
+  uint32_t mesh_of(uint32_t inst) const { return m_info[inst].mesh; }
   size_t instance_count() const { return m_xforms.size(); }
   // As FixedTracer::trace_batch.
   void trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads, TraversalStats& s) const {
@@ -98,17 +151,30 @@ class InstancedFixedTracer final : public BottomLevels {
                       std::vector<TraceEvent>* rec) const override;
 
  private:
-  const InstanceSet& m_set;
+  InstancedFixedTracer() = default;
+  // The tracers over the images (after m_top, m_bottoms, m_xforms and m_info are set).
+  void make_tracers(const FixedTraceOptions& trace_opt);
+  // Flattened index of instance inst's primitive `local` (its mesh's: triangles, then spheres).
+  uint32_t global_prim(uint32_t inst, uint32_t local) const {
+    const Info& in = m_info[inst];
+    const uint32_t nt = m_bottoms[in.mesh]->header().num_triangles;
+    return local < nt ? in.tri_base + local : in.sphere_base + (local - nt);
+  }
+  class Stage;
+  struct Info {
+    uint32_t mesh, tri_base, sphere_base;
+  };
   FixedFormat m_format;
   Bvh m_top_bvh;
   std::unique_ptr<DeviceImage> m_top;
   std::unique_ptr<FixedTracer> m_top_tracer;
-  std::vector<std::unique_ptr<DeviceImage>> m_bottoms;    // per mesh
-  std::vector<Aabb> m_mesh_bounds;                        // per mesh, object space
-  std::vector<StoredXform> m_xforms;                      // per instance
-  std::vector<std::unique_ptr<InstanceAnyHit>> m_stages;  // per instance, when an any-hit stage is attached
-  std::vector<std::unique_ptr<FixedTracer>> m_tracers;    // per instance, over its mesh's image
-  mutable std::unique_ptr<std::atomic<uint64_t>> m_rebased;
+  std::vector<std::unique_ptr<DeviceImage>> m_bottoms;  // per mesh
+  std::vector<Aabb> m_mesh_bounds;                      // per mesh: its frame's grid box, object space
+  std::vector<StoredXform> m_xforms;                    // per instance
+  std::vector<Info> m_info;                             // per instance
+  std::vector<std::unique_ptr<Stage>> m_stages;         // per instance, when an any-hit stage is attached
+  std::vector<std::unique_ptr<FixedTracer>> m_tracers;  // per instance, over its mesh's image
+  mutable std::unique_ptr<std::atomic<uint64_t>> m_rebased = std::make_unique<std::atomic<uint64_t>>(0);
 };
 
 }  // namespace rtu::hw

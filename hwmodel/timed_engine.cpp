@@ -40,6 +40,14 @@ uint32_t TimedEngine::caps() const {
 
 void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   unbind();
+  if (is_two_level(data, bytes)) {  // an instanced scene's two levels (instanced_fixed.h)
+    if (has_units())
+      throw std::invalid_argument("two-level scenes are traced by the C++ datapath (box_unit and tri_unit cpp)");
+    m_two = InstancedFixedTracer::from_bytes(data, bytes, two_level_options());
+    make_models();
+    m_slot_time.clear();
+    return;
+  }
   DeviceImage img = DeviceImage::from_bytes(data, bytes);
   if (img.header().flags & kImageTopLevel)  // its bottom levels are not in the image
     throw std::invalid_argument("scene image: a top level, whose bottom levels this engine does not hold");
@@ -57,16 +65,20 @@ void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   m_slot_time.clear();  // another scene, other streams
 }
 
+FixedTraceOptions TimedEngine::two_level_options() const {
+  FixedTraceOptions to;
+  to.max_steps = m_opt.max_steps;
+  to.record_short_stack = m_c.stack_entries;  // the model charges only for entries beyond it
+  to.any_hit = m_any_hit;
+  return to;
+}
+
 void TimedEngine::bind_instanced(const InstanceSet& set, const Geometry& flat, const FixedFormat& f,
                                  const TracerOptions& opt) {
   unbind();
   if (has_units())
     throw std::invalid_argument("two-level scenes are traced by the C++ datapath (box_unit and tri_unit cpp)");
-  FixedTraceOptions to;
-  to.max_steps = m_opt.max_steps;
-  to.record_short_stack = m_c.stack_entries;
-  to.any_hit = m_any_hit;
-  m_two = std::make_unique<InstancedFixedTracer>(set, flat, f, opt, to);
+  m_two = std::make_unique<InstancedFixedTracer>(set, flat, f, opt, two_level_options());
   make_models();
   m_slot_time.clear();
 }

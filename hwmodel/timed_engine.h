@@ -106,7 +106,8 @@ class TimedEngine final : public TraceEngine {
   std::unique_ptr<FixedTracer> m_tracer;
   std::unique_ptr<InstancedFixedTracer> m_two;  // bind_instanced: two levels (m_image and m_tracer are then null)
   const FixedTracer& tracer() const { return m_two ? m_two->top_tracer() : *m_tracer; }
-  const AnyHitStage* m_any_hit = nullptr;  // set_any_hit
+  FixedTraceOptions two_level_options() const;  // the options two levels are traced with
+  const AnyHitStage* m_any_hit = nullptr;       // set_any_hit
   std::unique_ptr<TimingModel> m_model;
   // A chip (units > 1): the memory the units share and the units (m_model is then null).
   std::unique_ptr<MemorySystem> m_chip_memory;

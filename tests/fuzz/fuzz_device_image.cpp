@@ -9,6 +9,7 @@
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
+#include "hwmodel/instanced_fixed.h"
 #include "hwmodel/timed_engine.h"
 #include "tests/fuzz/fuzz.h"
 
@@ -51,6 +52,28 @@ int device_image(const uint8_t* data, size_t size) {
     hw::TraversalStats s;
     t.trace_batch(rays.data(), hits.data(), rays.size(), false, 1, s);
     for (const hw::Hit& h : hits) RTU_FUZZ_CHECK(h.prim == hw::kMissPrim || h.prim < g.num_prims());
+    return 0;
+  }
+  if (hw::is_two_level(data, size)) {  // an instanced scene's two levels: traced as the engines trace them
+    std::unique_ptr<hw::InstancedFixedTracer> two;
+    try {
+      two = hw::InstancedFixedTracer::from_bytes(data, size);
+    } catch (const std::invalid_argument&) {
+      return 0;
+    }
+    const hw::ImageHeader& th = two->top().header();
+    const uint64_t nprims = uint64_t(th.num_triangles) + th.num_spheres + th.plane_count;
+    const std::vector<hw::Ray> rays = rays_in_frame(two->top(), 16);
+    std::vector<hw::Hit> hits(rays.size()), timed(rays.size());
+    hw::TraversalStats s;
+    two->trace_batch(rays.data(), hits.data(), rays.size(), false, 1, s);
+    RTU_FUZZ_CHECK(s.watchdog_rays == 0);  // every level a tree
+    for (const hw::Hit& x : hits) RTU_FUZZ_CHECK(x.prim == hw::kMissPrim || x.prim < nprims);
+    hw::TimedEngine e(hw::EngineOptions{}, hw::TimingConfig{});
+    e.bind(data, size);
+    hw::TraversalStats st;
+    e.trace_cycles(rays.data(), timed.data(), rays.size(), false, st, 0, 0);
+    RTU_FUZZ_CHECK(std::memcmp(hits.data(), timed.data(), hits.size() * sizeof(hw::Hit)) == 0);
     return 0;
   }
   hw::DeviceImage img;

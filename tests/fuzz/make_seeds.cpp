@@ -11,6 +11,7 @@
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/float_tracer.h"
+#include "hwmodel/instanced_fixed.h"
 #include "tests/fuzz/fuzz.h"
 
 #include <stb/stb_image_write.h>
@@ -86,6 +87,21 @@ int main(int argc, char** argv) {
   const hw::DeviceImage top_img =
       hw::encode_top_level(boxes, ids, g, hw::FixedFormat{}, hw::Bvh::build(boxes, top));
   put(dir / "device_image" / "fixed_top_level.img", top_img.data(), top_img.size(), 0);
+  // Two levels as one block: the tiny geometry's triangles placed three times.
+  hw::InstanceSet set;
+  set.meshes.emplace_back();
+  set.meshes[0].triangles = g.triangles;
+  for (int i = 0; i < 3; ++i) {
+    hw::Instance in;
+    in.to_world.m[0][3] = 3.0f * float(i);
+    in.to_world.m[1][1] = 1.0f + 0.5f * float(i);
+    set.instances.push_back(in);
+  }
+  set.finish();
+  const hw::Geometry flat = set.flatten({});
+  hw::TracerOptions two_opt;
+  const std::vector<uint64_t> block = hw::InstancedFixedTracer(set, flat, hw::FixedFormat{}, two_opt).encode();
+  put(dir / "device_image" / "fixed_two_level.img", block.data(), block.size() * 8, 0);
   const std::vector<uint64_t> fimg = hw::encode_float_scene(g);
   put(dir / "device_image" / "float.img", fimg.data(), fimg.size() * 8, 1);
 

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -14,12 +15,14 @@
 #include "host/direct_device.h"
 #include "host/json_io.h"
 #include "host/ray_gen.h"
+#include "host/render.h"
 #include "host/scene.h"
 #include "host/shading.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/instanced_fixed.h"
 #include "hwmodel/rng.h"
+#include "hwmodel/timed_engine.h"
 #include "hwmodel/timing_config.h"
 #include "tests/host/run_process.h"
 
@@ -377,4 +380,97 @@ TEST_CASE("rtusim: two levels by default on instanced scenes, --flatten for one"
   const rtu::test::Run info = rtu::test::run_rtusim("info --scene builtin:city");
   REQUIRE(info.status == 0);
   CHECK(info.output.find("two levels   fixed: top ") != std::string::npos);
+}
+
+TEST_CASE("two levels as one block of device memory: encoded, bound by the engines, checked at bind",
+          "[fixed][timed][instancing][errors]") {
+  const host::Scene s = host::load_scene("builtin:city");
+  hw::TracerOptions topt;
+  const hw::InstancedFixedTracer two(s.instances, s.geometry, hw::FixedFormat{}, topt);
+  const std::vector<uint64_t> words = two.encode();
+  const auto* data = reinterpret_cast<const uint8_t*>(words.data());
+  const size_t bytes = words.size() * 8;
+  REQUIRE(hw::is_two_level(data, bytes));
+  const std::vector<hw::Ray> rays = host::incoherent_rays(s.geometry.bounds(), 5000, 8);
+  std::vector<hw::Hit> want(rays.size()), got(rays.size()), timed(rays.size());
+  hw::TraversalStats sw, sg, st;
+  two.trace_batch(rays.data(), want.data(), rays.size(), false, 1, sw);
+  // Decoded: the same hits and work; bound by the fixed and timed engines: the same hits.
+  const auto back = hw::InstancedFixedTracer::from_bytes(data, bytes);
+  back->trace_batch(rays.data(), got.data(), rays.size(), false, 1, sg);
+  CHECK(std::memcmp(want.data(), got.data(), rays.size() * sizeof(hw::Hit)) == 0);
+  CHECK(sg.box_tests == sw.box_tests);
+  CHECK(back->encode() == words);
+  const auto fixed = hw::make_engine(hw::DeviceKind::kFixed, hw::EngineOptions{}, hw::TimingConfig{});
+  fixed->bind(data, bytes);
+  fixed->trace(rays.data(), got.data(), rays.size(), false, sg);
+  CHECK(std::memcmp(want.data(), got.data(), rays.size() * sizeof(hw::Hit)) == 0);
+  CHECK(fixed->counts().triangles == s.geometry.triangles.size());
+  hw::TimedEngine te(hw::EngineOptions{}, hw::timing_preset("rdna2"));
+  te.bind(data, bytes);
+  te.trace_cycles(rays.data(), timed.data(), rays.size(), false, st, 0, 0);
+  CHECK(std::memcmp(want.data(), timed.data(), rays.size() * sizeof(hw::Hit)) == 0);
+  CHECK(te.timing().instance_transforms > 0);
+
+  // Corruptions, each refused with its reason.
+  auto refused = [&](const std::function<void(std::vector<uint64_t>&)>& edit, const std::string& why) {
+    std::vector<uint64_t> w = words;
+    edit(w);
+    INFO(why);
+    CHECK_THROWS_WITH(
+        hw::InstancedFixedTracer::from_bytes(reinterpret_cast<const uint8_t*>(w.data()), w.size() * 8),
+        Catch::Contains(why));
+  };
+  hw::TwoLevelHeader h;
+  std::memcpy(&h, data, sizeof h);
+  auto header = [&](std::vector<uint64_t>& w) { return reinterpret_cast<hw::TwoLevelHeader*>(w.data()); };
+  auto entry = [&](std::vector<uint64_t>& w, uint32_t i) {
+    return reinterpret_cast<hw::InstanceEntry*>(reinterpret_cast<uint8_t*>(w.data()) + h.instance_offset) + i;
+  };
+  refused([&](auto& w) { header(w)->version = 7; }, "unsupported version");
+  refused([&](auto& w) { header(w)->total_bytes += 8; }, "total_bytes");
+  refused([&](auto& w) { header(w)->xform_bits = 30; }, "xform_bits");
+  refused([&](auto& w) { header(w)->top_offset = bytes; }, "top image outside");
+  refused([&](auto& w) { header(w)->num_triangles -= 1; }, "primitive counts");
+  refused([&](auto& w) { entry(w, 3)->mesh = 99; }, "instance 3: mesh out of range");
+  refused([&](auto& w) { entry(w, 5)->tri_base = h.num_triangles; }, "instance 5: its primitives fall outside");
+  refused([&](auto& w) { entry(w, 2)->m[0][0] = std::numeric_limits<float>::quiet_NaN(); }, "not finite");
+  refused([&](auto& w) { header(w)->xform_bits = 8; }, "wider than xform_bits");
+  refused([&](auto& w) { header(w)->instance_count = 100; }, "names no instance");
+  refused(
+      [&](auto& w) {
+        hw::MeshEntry m;
+        std::memcpy(&m, reinterpret_cast<uint8_t*>(w.data()) + h.mesh_offset, sizeof m);
+        m.offset = h.top_offset;  // the top level where a mesh should be
+        m.bytes = h.top_bytes;
+        std::memcpy(reinterpret_cast<uint8_t*>(w.data()) + h.mesh_offset, &m, sizeof m);
+      },
+      "mesh 0: a top level");
+  // The engines refuse a corrupted block before anything changes.
+  std::vector<uint64_t> w = words;
+  header(w)->version = 7;
+  CHECK_THROWS_AS(fixed->bind(reinterpret_cast<const uint8_t*>(w.data()), w.size() * 8), std::invalid_argument);
+}
+
+TEST_CASE("renders of an instanced scene bind its two levels on the fixed and timed devices",
+          "[render][instancing]") {
+  const host::Scene s = host::load_scene("builtin:city");
+  auto render = [&](hw::DeviceKind kind, bool flatten) {
+    host::RenderOptions ro;
+    ro.device.kind = kind;
+    ro.device.flatten = flatten;
+    ro.device.format = hw::format_preset(kind == hw::DeviceKind::kTimed ? ro.device.timing.format : "default");
+    ro.width = 96;
+    ro.height = 64;
+    ro.max_depth = 2;
+    return host::render(s, ro);
+  };
+  const host::RenderResult fixed = render(hw::DeviceKind::kFixed, false);
+  const host::RenderResult timed = render(hw::DeviceKind::kTimed, false);
+  const host::RenderResult flat = render(hw::DeviceKind::kTimed, true);
+  // The timed device's image is the fixed device's; its memory holds the two levels, far smaller than flattened.
+  CHECK(fixed.rgb == timed.rgb);
+  CHECK(timed.scene_image_bytes * 20 < flat.scene_image_bytes);
+  CHECK(timed.timing.instance_transforms > 0);
+  CHECK(flat.timing.instance_transforms == 0);
 }

@@ -11,7 +11,8 @@
 # Per scene:
 # - triangles (the flattened scene's: what the fixed and timed devices trace), instances (two levels: what the
 #   float device and Embree trace), BVH bytes = the fixed device's image in the default format (nodes + primitive
-#   records + planes; `rtusim info`, bvh.image.total_bytes) and per triangle;
+#   records + planes; `rtusim info`, bvh.image.total_bytes; for an instanced scene both levels and the stored
+#   transforms, instancing.fixed.total_bytes) and per flattened triangle;
 # - RAYS primary and RAYS incoherent rays (`rtusim rays`), each kind traced as one TRACE packet on the timed
 #   device with the rdna2 preset (`rtusim trace --device timed --config rdna2`): cycles per ray, any-hit requests
 #   per ray (alpha-tested triangles only);
@@ -70,7 +71,7 @@ for entry in "${entries[@]}"; do
   "$rtusim" info --scene "$spec" --json "$tmp/info.json" >/dev/null
   tris=$(json "$tmp/info.json" "d['triangles']")
   inst=$(json "$tmp/info.json" "d['instancing']['instances'] if 'instancing' in d else '-'")
-  bytes=$(json "$tmp/info.json" "d['bvh']['image']['total_bytes']")
+  bytes=$(json "$tmp/info.json" "d['instancing']['fixed']['total_bytes'] if 'instancing' in d else d['bvh']['image']['total_bytes']")
   for kind in primary incoherent; do
     "$rtusim" rays --scene "$spec" --kind "$kind" --count "$rays" --out "$tmp/$kind.rays" >/dev/null
     "$rtusim" trace --scene "$spec" --rays "$tmp/$kind.rays" --out "$tmp/hits" --device timed --config rdna2 \
@@ -115,7 +116,8 @@ os=$( (. /etc/os-release && echo "$PRETTY_NAME") 2>/dev/null || uname -s)
   printf 'do not depend on the machine.\n\n'
   cat "$table"
   printf '\n- BVH bytes: the fixed device'"'"'s image in the default format (BVH4 nodes of 56 bytes, 40-byte triangle\n'
-  printf '  records); for instanced scenes it holds the flattened scene, as the fixed and timed devices trace it.\n'
+  printf '  records); for instanced scenes both levels and the stored transforms, as the fixed and timed devices trace\n'
+  printf '  them (`two-level.md` compares them with the flattened image).\n'
   printf -- '- Cycles per ray: the timed device, `rdna2` preset, each kind of ray as one TRACE packet.\n'
   printf -- '- any-hit req./ray: candidate hits on alpha-tested triangles sent to the any-hit stage, per ray.\n'
   printf -- '- Embree: the float device (two levels for instanced scenes, the scene'"'"'s any-hit stage) against Embree 3\n'

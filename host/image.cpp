@@ -4,8 +4,12 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <iterator>
 #include <memory>
+#include <vector>
 
 #include "firmware/render_scene.h"
 #include "host/error.h"
@@ -25,6 +29,11 @@
 #define STB_IMAGE_IMPLEMENTATION
 #define STBI_ONLY_PNG
 #define STBI_ONLY_JPEG  // textures: glTF's two image formats
+// Zeroed allocations: a corrupt JPEG can leave texels the decoder never writes, which must not take whatever the
+// heap held (the same bytes must give the same texture; a fuzz target holds file and memory reads to it).
+#define STBI_MALLOC(sz) std::calloc(1, (sz) > 0 ? size_t(sz) : 1)
+#define STBI_REALLOC(p, newsz) std::realloc(p, newsz)
+#define STBI_FREE(p) std::free(p)
 #if defined(__GNUC__)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmissing-field-initializers"
@@ -84,20 +93,84 @@ void check_texture_size(int w, int h, const std::string& name) {
 
 }  // namespace
 
-Texture read_texture(const std::string& path) {
-  const std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
-  if (!f) throw Error(path + ": cannot open (" + std::strerror(errno) + ")");
-  int w = 0, h = 0, channels = 0;
-  if (!stbi_info_from_file(f.get(), &w, &h, &channels)) {
-    const char* why = stbi_failure_reason();
-    throw Error(path + ": cannot read texture (" + (why ? why : "unknown format") + ")");
+// Debian 12's stb_image builds a JPEG Huffman table of the DHT segment's code counts without checking that
+// they sum to at most 256, the size of its table: a corrupt file writes past it. The segments are checked here
+// first (JPEG, ITU T.81 B.2.4.2: per table a class/id byte, 16 counts, then that many symbols).
+static void check_jpeg_tables(const uint8_t* data, size_t bytes, const std::string& name) {
+  // stb takes a JPEG's start-of-image marker after any number of 0xFF fill bytes.
+  size_t at = 0;
+  while (at < bytes && data[at] == 0xFF) ++at;
+  if (at == 0 || at >= bytes || data[at] != 0xD8) return;  // not a JPEG
+  ++at;
+  while (at + 1 < bytes) {
+    if (data[at] != 0xFF) {  // padding between segments: stb scans on for the next marker, and so does this
+      ++at;
+      continue;
+    }
+    const uint8_t marker = data[at + 1];
+    if (marker == 0xFF) {  // fill byte
+      ++at;
+      continue;
+    }
+    if (marker == 0xD8 || (marker >= 0xD0 && marker <= 0xD7) || marker == 0x01) {
+      at += 2;
+      continue;
+    }
+    if (marker == 0xD9) return;  // end of image
+    if (at + 4 > bytes) return;
+    const size_t len = size_t(data[at + 2]) << 8 | data[at + 3];
+    if (marker == 0xC4) {
+      // As stb reads it: tables while the segment's length lasts, bytes past the end of the data as 0.
+      auto byte = [&](size_t i) { return i < bytes ? data[i] : uint8_t(0); };
+      for (size_t p = at + 4, end = at + 2 + len; p < end;) {
+        size_t codes = 0;
+        for (size_t i = 1; i <= 16; ++i) codes += byte(p + i);
+        if (codes > 256) throw Error(name + ": cannot read texture (a JPEG Huffman table of more than 256 codes)");
+        p += 17 + codes;
+      }
+    }
+    if (len < 2 || at + 2 + len > bytes) return;
+    if (marker == 0xDA) {  // a scan: its coded data runs to the next marker (progressive files have tables after)
+      at += 2 + len;
+      while (at + 1 < bytes &&
+             !(data[at] == 0xFF && data[at + 1] != 0x00 && !(data[at + 1] >= 0xD0 && data[at + 1] <= 0xD7)))
+        ++at;
+      continue;
+    }
+    at += 2 + len;
   }
-  check_texture_size(w, h, path);
-  return texture_from(stbi_load_from_file(f.get(), &w, &h, &channels, 4), w, h, path);
+}
+
+// Debian 12's stb_image copies a PNG's first IDAT chunk to a buffer it has not allocated yet when the chunk is
+// empty (memcpy from a null pointer, undefined even for 0 bytes): such a file is refused here first.
+static void check_png_chunks(const uint8_t* data, size_t bytes, const std::string& name) {
+  static const uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  if (bytes < 8 || std::memcmp(data, kSignature, 8) != 0) return;
+  for (size_t at = 8; at + 8 <= bytes;) {
+    const uint32_t len = uint32_t(data[at]) << 24 | uint32_t(data[at + 1]) << 16 | uint32_t(data[at + 2]) << 8 |
+                         uint32_t(data[at + 3]);
+    if (std::memcmp(data + at + 4, "IDAT", 4) == 0) {
+      if (len == 0) throw Error(name + ": cannot read texture (a PNG whose first IDAT chunk is empty)");
+      return;  // stb has its buffer from here on
+    }
+    if (uint64_t(len) + 12 > bytes - at) return;
+    at += size_t(len) + 12;
+  }
+}
+
+Texture read_texture(const std::string& path) {
+  // Read whole (textures are bounded by the memory limit at decoding), so that file and memory take one path.
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path + ": cannot open (" + std::strerror(errno) + ")");
+  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw Error(path + ": cannot read");
+  return read_texture_memory(bytes.data(), bytes.size(), path);
 }
 
 Texture read_texture_memory(const uint8_t* data, size_t bytes, const std::string& name) {
   if (bytes == 0 || bytes > size_t(INT32_MAX)) throw Error(name + ": cannot read texture (empty or over 2 GiB)");
+  check_jpeg_tables(data, bytes, name);
+  check_png_chunks(data, bytes, name);
   int w = 0, h = 0, channels = 0;
   if (!stbi_info_from_memory(data, int(bytes), &w, &h, &channels)) {
     const char* why = stbi_failure_reason();

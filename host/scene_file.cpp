@@ -392,6 +392,23 @@ IndexedMesh generate(const Reader& r, const Json& j, const std::string& path, st
 // Mesh entries at `where` into tris, with their materials in tri_material.
 // A mesh file entry kept two-level: its meshes' materials (the entry's "material", or the file's own, joining the
 // scene's as read_mesh_entries names them) and texture coordinates per mesh, from the first instance placing each.
+// A mesh file's own materials and textures join the scene's, named "FILE/NAME"; returns the scene's material of
+// each of the file's triangles.
+std::vector<uint32_t> join_file_materials(Builder& b, const std::filesystem::path& file, ImportedModel& model) {
+  const uint32_t mat_base = uint32_t(b.scene.materials.size());
+  const int tex_base = int(b.scene.textures.size());
+  for (Material& mat : model.materials) {
+    mat.name = file.filename().string() + "/" + mat.name;
+    if (mat.texture >= 0) mat.texture += tex_base;
+    b.scene.materials.push_back(std::move(mat));
+  }
+  for (Texture& t : model.textures) b.scene.textures.push_back(std::move(t));
+  std::vector<uint32_t> out;
+  out.reserve(model.tri_material.size());
+  for (const uint32_t k : model.tri_material) out.push_back(mat_base + k);
+  return out;
+}
+
 void keep_file_instances(Builder& b, const Json& m, const std::string& path, const std::filesystem::path& file,
                          const Transform& t, uint32_t material, ImportedModel& model) {
   Builder::InstancedFile f;
@@ -399,15 +416,7 @@ void keep_file_instances(Builder& b, const Json& m, const std::string& path, con
   f.transform = t;
   std::vector<uint32_t> tri_material(model.triangles.size(), material);
   if (!m.contains("material") && !model.materials.empty()) {
-    const uint32_t mat_base = uint32_t(b.scene.materials.size());
-    const int tex_base = int(b.scene.textures.size());
-    for (Material& mat : model.materials) {
-      mat.name = file.filename().string() + "/" + mat.name;
-      if (mat.texture >= 0) mat.texture += tex_base;
-      b.scene.materials.push_back(std::move(mat));
-    }
-    for (Texture& tex : model.textures) b.scene.textures.push_back(std::move(tex));
-    for (size_t i = 0; i < tri_material.size(); ++i) tri_material[i] = mat_base + model.tri_material[i];
+    tri_material = join_file_materials(b, file, model);
   } else {
     model.tri_uv.clear();  // one material for all: the file's coordinates are not needed
   }
@@ -465,15 +474,7 @@ void read_mesh_entries(Builder& b, const Json& j, const std::string& where, cons
       // Without a "material" key, the file's own materials (when it has any) join the scene's, named
       // "FILE/NAME", with their textures and the triangles' texture coordinates.
       if (!m.contains("material") && !model.materials.empty()) {
-        const uint32_t mat_base = uint32_t(b.scene.materials.size());
-        const int tex_base = int(b.scene.textures.size());
-        for (Material& mat : model.materials) {
-          mat.name = file.filename().string() + "/" + mat.name;
-          if (mat.texture >= 0) mat.texture += tex_base;
-          b.scene.materials.push_back(std::move(mat));
-        }
-        for (Texture& t : model.textures) b.scene.textures.push_back(std::move(t));
-        for (const uint32_t k : model.tri_material) file_materials.push_back(mat_base + k);
+        file_materials = join_file_materials(b, file, model);
         if (!model.tri_uv.empty()) {
           tri_uv.resize(first);
           tri_uv.insert(tri_uv.end(), model.tri_uv.begin(), model.tri_uv.end());

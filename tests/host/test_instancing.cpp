@@ -384,7 +384,7 @@ TEST_CASE("a scene file's mesh entry keeps the file's placements as instances, u
     "meshes": [{"generate": "quad", "size": [40, 40], "material": "floor"},
                {"file": ")" + gltf + R"(", "transform": {"translate": [10, 0, 0]}}]})"));
   REQUIRE(s.instanced());
-  CHECK(s.instances.meshes.size() == 2);     // the loose quad, the file's mesh
+  CHECK(s.instances.meshes.size() == 2);       // the loose quad, the file's mesh
   REQUIRE(s.instances.instances.size() == 4);  // the loose geometry and the file's three placements
   REQUIRE(s.geometry.triangles.size() == 2 + bare.geometry.triangles.size());
   for (size_t k = 0; k < bare.geometry.triangles.size(); ++k) {

@@ -141,19 +141,26 @@ static void check_jpeg_tables(const uint8_t* data, size_t bytes, const std::stri
   }
 }
 
-// Debian 12's stb_image copies a PNG's first IDAT chunk to a buffer it has not allocated yet when the chunk is
-// empty (memcpy from a null pointer, undefined even for 0 bytes): such a file is refused here first.
+// Debian 12's stb_image trusts a PNG's chunk lengths: it grows its compressed-data buffer to an IDAT chunk's
+// declared length before reading it (a 262-byte file declaring a 2 GiB chunk makes it allocate 2 GiB), and it
+// copies the first IDAT chunk to a buffer it has not allocated yet when that chunk is empty (memcpy from a null
+// pointer, undefined even for 0 bytes). Every chunk up to IEND is checked here first: its data and CRC must be
+// in the file, so stb's buffer never exceeds twice the file's size (it doubles to fit).
 static void check_png_chunks(const uint8_t* data, size_t bytes, const std::string& name) {
   static const uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
   if (bytes < 8 || std::memcmp(data, kSignature, 8) != 0) return;
+  bool idat_seen = false;
   for (size_t at = 8; at + 8 <= bytes;) {
     const uint32_t len = uint32_t(data[at]) << 24 | uint32_t(data[at + 1]) << 16 | uint32_t(data[at + 2]) << 8 |
                          uint32_t(data[at + 3]);
+    if (uint64_t(len) + 12 > bytes - at)
+      throw Error(name + ": cannot read texture (a PNG chunk declares " + std::to_string(len) + " bytes at offset " +
+                  std::to_string(at) + ", past the file's end at " + std::to_string(bytes) + ")");
     if (std::memcmp(data + at + 4, "IDAT", 4) == 0) {
-      if (len == 0) throw Error(name + ": cannot read texture (a PNG whose first IDAT chunk is empty)");
-      return;  // stb has its buffer from here on
+      if (len == 0 && !idat_seen) throw Error(name + ": cannot read texture (a PNG whose first IDAT chunk is empty)");
+      idat_seen = true;
     }
-    if (uint64_t(len) + 12 > bytes - at) return;
+    if (std::memcmp(data + at + 4, "IEND", 4) == 0) return;
     at += size_t(len) + 12;
   }
 }

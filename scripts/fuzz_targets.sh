@@ -7,12 +7,25 @@
 #  - texture: 64 KiB, images of up to a few hundred texels a side (PNG compresses far more);
 #  - ray_file, command_processor, config: 64 KiB, 2048 rays (each traced on three devices), programs of thousands
 #    of packets, lines of thousands of keys: larger only makes each run slower, the formats are flat.
+# CI (scripts/test.sh) runs each target for a fixed number of inputs from a fixed seed, RTU_FUZZ_SEED, so that a
+# commit's verdict does not depend on luck; the counts give each target about 10-20 s under ASan on one core of the
+# CI machine (2 cores), measured from build/asan/fuzz-summary.txt. RTU_FUZZ_RUNS overrides every count.
 # shellcheck shell=bash
+RTU_FUZZ_SEED=${RTU_FUZZ_SEED:-20261204}
 RTU_FUZZ_TARGETS=(scene_file mesh_import ray_file command_processor device_image config texture)
 rtu_fuzz_max_len() {
   case $1 in
     scene_file | mesh_import) echo 1048576 ;;
     device_image) echo 262144 ;;
     *) echo 65536 ;;
+  esac
+}
+rtu_fuzz_runs() {
+  if [[ -n ${RTU_FUZZ_RUNS:-} ]]; then
+    echo "$RTU_FUZZ_RUNS"
+    return
+  fi
+  case $1 in
+    *) echo 10000 ;;
   esac
 }

@@ -6,10 +6,11 @@
 #     stage) and the RTL (Verilator models): the preset builds neither;
 #  2. `rtusim soak` for RTU_SOAK_SECONDS (default 20): random scenes and formats traced and rendered twice,
 #     identical bits and cycles, no leak;
-#  3. each libFuzzer target of tests/fuzz for RTU_FUZZ_SECONDS (default 20) from its seed corpus: a crash, leak,
-#     timeout (30 s) or an input needing over 2 GiB fails the run and leaves the reproducer in
-#     build/asan/fuzz-artifacts/. Executions per target: build/asan/fuzz-summary.txt. Each target's -max_len
-#     is in scripts/fuzz_targets.sh. Long runs (10^6 executions per target): scripts/fuzz_long.sh, outside CI.
+#  3. each libFuzzer target of tests/fuzz for a fixed number of inputs from a fixed seed (RTU_FUZZ_SEED) over its
+#     committed corpus, so that the same commit gets the same verdict on every run: a crash, leak, timeout (30 s)
+#     or an input needing over 2 GiB fails the run and leaves the reproducer in build/asan/fuzz-artifacts/.
+#     Executions per target: build/asan/fuzz-summary.txt. Each target's input count and -max_len are in
+#     scripts/fuzz_targets.sh. Open-ended runs: scripts/fuzz_long.sh, outside CI; what it finds becomes a seed.
 # RTU_SKIP_ASAN=1 skips the sanitizer stage. Usage: scripts/test.sh [ctest args]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -32,17 +33,21 @@ mkdir -p build/asan/fuzz-artifacts
 : >build/asan/fuzz-summary.txt
 source scripts/fuzz_targets.sh
 for target in "${RTU_FUZZ_TARGETS[@]}"; do
-  work=build/asan/fuzz-work/$target  # new inputs go here; the committed corpus is only read
+  # A fixed number of inputs from a fixed seed over the committed corpus, into an emptied work folder: libFuzzer
+  # then makes the same inputs in the same order on every run of a commit, so the verdict is the commit's.
+  work=build/asan/fuzz-work/$target
+  rm -rf "$work"
   mkdir -p "$work"
   log=build/asan/fuzz-$target.log
-  if ! build/asan/fuzz_$target -max_total_time="${RTU_FUZZ_SECONDS:-20}" -rss_limit_mb=2048 -timeout=30 \
-      -max_len="$(rtu_fuzz_max_len "$target")" -print_final_stats=1 -artifact_prefix=build/asan/fuzz-artifacts/$target- \
-      "$work" tests/fuzz/corpus/$target >"$log" 2>&1; then
+  runs=$(rtu_fuzz_runs "$target")
+  if ! build/asan/fuzz_$target -runs="$runs" -seed="$RTU_FUZZ_SEED" -rss_limit_mb=2048 -malloc_limit_mb=2048 \
+      -timeout=30 -max_len="$(rtu_fuzz_max_len "$target")" -print_final_stats=1 \
+      -artifact_prefix=build/asan/fuzz-artifacts/$target- "$work" tests/fuzz/corpus/$target >"$log" 2>&1; then
     tail -n 60 "$log"
     echo "fuzz_$target: FAILED (reproducer in build/asan/fuzz-artifacts/, log $log)" >&2
     exit 1
   fi
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log")
   cov=$(grep -o 'cov: [0-9]*' "$log" | tail -n 1)
-  echo "fuzz_$target: $execs executions in ${RTU_FUZZ_SECONDS:-20} s, $cov, no crash" | tee -a build/asan/fuzz-summary.txt
+  echo "fuzz_$target: $execs executions (seed $RTU_FUZZ_SEED), $cov, no crash" | tee -a build/asan/fuzz-summary.txt
 done

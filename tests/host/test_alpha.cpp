@@ -12,6 +12,7 @@
 
 #include "host/direct_device.h"
 #include "host/error.h"
+#include "host/image.h"
 #include "host/render.h"
 #include "host/scene.h"
 #include "host/shading.h"
@@ -45,6 +46,16 @@ std::string load_error(const std::string& text) {
     return e.what();
   }
   return "(loaded)";
+}
+
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const host::Error& e) {
+    return e.what();
+  }
+  return "(no error)";
 }
 
 // The mask: 4 x 4 texels, bit (row * 4 + col) of kMask set where the leaf is there (alpha 255), clear where rays
@@ -336,6 +347,17 @@ TEST_CASE("bad textures and masks get clear errors", "[alpha][scene][errors]") {
       write_file("truncated.png", std::string("\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR\0\0\x10\0\0\0\x10\0\x08\x06", 24));
   CHECK_THAT(load_error(scene_with(R"({"t": {"file": ")" + truncated + R"("}})", "{}")),
              Contains("truncated.png"));
+  // A chunk whose declared length runs past the file's end (the fuzzer's 262-byte PNG declared a 2 GiB IDAT, and
+  // stb allocated that much before reading): refused before stb sees it, whichever chunk it is.
+  const std::string ihdr("\0\0\0\x0dIHDR\0\0\0\x04\0\0\0\x04\x08\x06\0\0\0\0\0\0\0", 25);
+  for (const char* type : {"IDAT", "tEXt"}) {
+    std::string png = std::string("\x89PNG\r\n\x1a\n", 8) + ihdr + std::string("\x7f\xff\xff\xf0", 4) + type;
+    png.resize(262, '\0');
+    const std::string e = error_of([&] {
+      host::read_texture_memory(reinterpret_cast<const uint8_t*>(png.data()), png.size(), "long_chunk.png");
+    });
+    CHECK_THAT(e, Contains("long_chunk.png") && Contains("2147483632 bytes at offset 33, past the file's end at 262"));
+  }
 }
 
 namespace {

@@ -35,6 +35,7 @@ class DramChannel {
         bytes == m_line_bytes ? m_line_cycles : (bytes == 8 ? m_word_cycles : transfer_cycles(bytes));
     const uint64_t start = std::max(t, m_free);
     m_free = start + xfer;
+    s.mem_wait_cycles += start - t;
     s.dram_bytes += bytes;
     s.dram_busy_cycles += xfer;
     return start + xfer + m_latency;

@@ -40,20 +40,23 @@ BankedDram::Place BankedDram::place(uint64_t addr) const {
 uint64_t BankedDram::transfer(uint64_t addr, uint64_t bytes, uint64_t t, TimingStats& s) {
   const Place p = place(addr);
   Bank& b = m_bank[size_t(p.channel) * m_banks + p.bank];
-  uint64_t cmd = std::max(t, b.ready);
-  if (!m_rows) {
-    cmd = t;  // no rows: the bank is never the wait
-  } else if (b.open_row == p.row) {
-    ++s.dram_row_hits;
-  } else {
-    ++s.dram_row_misses;
-    cmd += (b.open_row == ~uint64_t(0) ? 0 : m_precharge) + m_activate;
-    b.open_row = p.row;
+  uint64_t cmd = t;  // no rows: the bank is never the wait
+  if (m_rows) {
+    cmd = std::max(t, b.ready);
+    s.mem_wait_cycles += cmd - t;  // the bank busy with an earlier command
+    if (b.open_row == p.row) {
+      ++s.dram_row_hits;
+    } else {
+      ++s.dram_row_misses;
+      cmd += (b.open_row == ~uint64_t(0) ? 0 : m_precharge) + m_activate;
+      b.open_row = p.row;
+    }
   }
   const uint64_t xfer = bytes == m_line_bytes ? m_line_cycles : cycles_for(bytes, m_bytes_per_cycle);
   uint64_t& bus = m_bus_free[p.channel];
   const uint64_t start = std::max(cmd, bus);
   bus = start + xfer;
+  s.mem_wait_cycles += start - cmd;  // the channel busy with an earlier transfer
   b.ready = start;
   s.dram_bytes += bytes;
   s.dram_busy_cycles += xfer;
@@ -118,7 +121,10 @@ uint64_t MemorySystem::read_line(uint64_t line, uint64_t t, TimingStats& s) {
 }
 
 void MemorySystem::write_word(uint64_t addr, uint64_t t, TimingStats& s) {
+  // A write leaves the slot at once: its wait for the channel is not the ray's (mem_wait_cycles counts reads).
+  const uint64_t waited = s.mem_wait_cycles;
   dram(addr, 8, t, s);
+  s.mem_wait_cycles = waited;
 }
 
 uint64_t MemorySystem::read_word(uint64_t addr, uint64_t t, TimingStats& s) {

@@ -95,6 +95,7 @@ uint64_t L2Cache::access(uint64_t line, uint64_t t, Dram&& dram, TimingStats& s)
   Line* ways = &m_lines[(uint64_t(slice) * m_sets + in_slice % m_sets) * m_ways];
   const uint64_t start = t > m_port_free[slice] ? t : m_port_free[slice];
   m_port_free[slice] = start + m_xfer;
+  s.mem_wait_cycles += start - t;
   Line* victim = ways;
   for (uint32_t w = 0; w < m_ways; ++w) {
     if (ways[w].tag == line) {

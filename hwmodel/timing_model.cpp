@@ -186,6 +186,7 @@ uint64_t TimingModel::unit(std::vector<uint64_t>& next_free, uint64_t issue, uin
   const uint64_t start = std::max(t, next_free[best]);
   next_free[best] = start + issue;
   const uint64_t wait = start - t;
+  m_s->unit_wait_cycles += wait;
   if (wait > uint64_t(m_c.queue_depth)) m_s->queue_stall_cycles += wait - uint64_t(m_c.queue_depth);
   return start + latency + issue - 1;
 }

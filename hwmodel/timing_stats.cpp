@@ -12,7 +12,7 @@ using S = TimingStats;
 constexpr SampleScale kPacket = SampleScale::kPacket, kPerRay = SampleScale::kPerRay;
 
 // The counters, in the order of the struct.
-constexpr std::array<TimingCounter, 26> kCounters = {{
+constexpr std::array<TimingCounter, 28> kCounters = {{
     {"packets", &S::packets, "packets", "TRACE packets simulated", kPacket},
     {"cycles", &S::cycles, "cycles", "cycles of those packets, from decode to the last hit written", kPacket},
     {"rays", &S::rays, "rays", "rays through the ray slots (rays rejected at setup included)", kPacket},
@@ -51,6 +51,12 @@ constexpr std::array<TimingCounter, 26> kCounters = {{
      "candidate hits on non-opaque triangles sent to the any-hit stage (each waits any_hit_latency)", kPerRay},
     {"instance_transforms", &S::instance_transforms, "rays",
      "two-level scenes: rays transformed into an instance's bottom level (each waits xform_latency)", kPerRay},
+    {"unit_wait_cycles", &S::unit_wait_cycles, "cycles",
+     "cycles box, triangle, sphere and plane requests waited for a free unit", kPerRay},
+    {"mem_wait_cycles", &S::mem_wait_cycles, "cycles",
+     "cycles line and stack reads waited for a busy L2 slice port, DRAM bank or channel (not rows opening, not "
+     "the latency itself)",
+     kPerRay},
 }};
 static_assert(sizeof(TimingStats) == kCounters.size() * sizeof(uint64_t), "a counter is missing from the table");
 
@@ -162,7 +168,9 @@ const std::vector<ReportEntry>& report_table() {
       count("queue_stall_cycles", &S::queue_stall_cycles),
       count("any_hit_requests", &S::any_hit_requests),
       count("instance_transforms", &S::instance_transforms),
-      figure("lower_bound.cycles", "cycles", "the largest of the ray fetch, box, triangle and DRAM bounds",
+      count("unit_wait_cycles", &S::unit_wait_cycles),
+      count("mem_wait_cycles", &S::mem_wait_cycles),
+      figure("lower_bound.cycles", "cycles", "the largest of the ray fetch, box, triangle, DRAM and latency bounds",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.cycles; }),
       figure("lower_bound.fetch", "cycles",
              "rays / (1 per clock x units) (each unit's ray fetch and setup issue one ray a clock)",
@@ -173,7 +181,11 @@ const std::vector<ReportEntry>& report_table() {
              [](const S&, const C&, const LowerBound& b) -> Value { return b.triangle; }),
       figure("lower_bound.dram", "cycles", "DRAM bytes / dram_bytes_per_cycle",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.dram; }),
-      figure("lower_bound.limited_by", "", "which bound is the largest: fetch, box, triangle or dram",
+      figure("lower_bound.latency", "cycles",
+             "(slot busy cycles - unit and memory waits) / (ray_slots x units): rays x mean lifetime / rays in "
+             "flight (Little's law)",
+             [](const S&, const C&, const LowerBound& b) -> Value { return b.latency; }),
+      figure("lower_bound.limited_by", "", "which bound is the largest: fetch, box, triangle, dram or latency",
              [](const S&, const C&, const LowerBound& b) -> Value { return std::string(b.limited_by); }),
       figure("lower_bound.cycles_over_bound", "1", "simulated cycles / lower bound",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.cycles_over_bound; }),
@@ -204,11 +216,14 @@ LowerBound lower_bound(const TimingStats& s, const TimingConfig& c) {
   b.box = double(s.box_issue_cycles) / (double(c.box_units) * units);
   b.triangle = double(s.tri_tests + s.sphere_tests + s.plane_tests) / (double(c.tri_rate * c.tri_units) * units);
   b.dram = double(s.dram_bytes) / c.dram_bytes_per_cycle;
-  b.cycles = std::max({b.fetch, b.box, b.triangle, b.dram});
+  const uint64_t waits = s.unit_wait_cycles + s.mem_wait_cycles;
+  b.latency = double(s.slot_busy_cycles > waits ? s.slot_busy_cycles - waits : 0) / (double(c.ray_slots) * units);
+  b.cycles = std::max({b.fetch, b.box, b.triangle, b.dram, b.latency});
   b.limited_by = b.cycles == b.box        ? "box"
                  : b.cycles == b.triangle ? "triangle"
                  : b.cycles == b.dram     ? "dram"
-                                          : "fetch";
+                 : b.cycles == b.fetch    ? "fetch"
+                                          : "latency";
   b.cycles_over_bound = b.cycles > 0 ? double(s.cycles) / b.cycles : 0.0;
   return b;
 }

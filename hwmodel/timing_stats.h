@@ -35,6 +35,9 @@ struct TimingStats {
   uint64_t slot_busy_cycles = 0;     // sum over rays of the cycles from entering a slot to leaving it
   uint64_t any_hit_requests = 0;     // candidate hits on non-opaque triangles sent to the firmware's any-hit stage
   uint64_t instance_transforms = 0;  // two-level scenes: rays transformed into an instance's bottom level
+  // Waits that are throughput, not latency: requests queued for a busy box or triangle unit, and line and stack
+  // reads queued for a busy L2 slice port, DRAM bank or channel (the latency bound takes them out of a ray's life).
+  uint64_t unit_wait_cycles = 0, mem_wait_cycles = 0;
 
   void add(const TimingStats& o);  // every counter summed (runs, packets, ray types merge this way)
 };
@@ -60,12 +63,15 @@ void scale_sampled(TimingStats& s, double factor);
 
 // The unit cannot be faster than its busiest resource: box tests count in whole issue clocks per node (a node of c
 // children issues for ceil(c / box_rate) clocks) over the box units; triangle, sphere and plane tests one per
-// issue slot of the triangle units; DRAM bytes over its bandwidth.
+// issue slot of the triangle units; DRAM bytes over its bandwidth. Nor faster than its ray slots let it be
+// (Little's law: rays in flight = throughput x lifetime, and at most ray_slots x units are in flight): the latency
+// bound is rays x their mean lifetime / (ray_slots x units), the lifetime without the waits the throughput bounds
+// already account for (unit_wait_cycles, mem_wait_cycles), so it binds when rays wait on latency, not on a queue.
 struct LowerBound {
   // fetch: rays / 1 per clock (the ray buffer streams and ray setup issues one ray per clock)
-  double fetch = 0.0, box = 0.0, triangle = 0.0, dram = 0.0;
-  double cycles = 0.0;             // the largest of the four
-  const char* limited_by = "box";  // "fetch", "box", "triangle" or "dram"
+  double fetch = 0.0, box = 0.0, triangle = 0.0, dram = 0.0, latency = 0.0;
+  double cycles = 0.0;             // the largest of the five
+  const char* limited_by = "box";  // "fetch", "box", "triangle", "dram" or "latency"
   double cycles_over_bound = 0.0;  // simulated cycles / cycles (0 without a bound)
 };
 LowerBound lower_bound(const TimingStats& s, const TimingConfig& c);

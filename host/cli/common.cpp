@@ -126,14 +126,26 @@ namespace rtu::host::cli {
 
 void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, bool sampled, const char* indent) {
   const Json j = timing_stats_json(s, c);
+  std::string limit = j["lower_bound"]["limited_by"].get<std::string>();
+  if (limit == "latency") {
+    // Little's law: what the slots hold and how long each ray holds one, so the cure (more slots, less latency)
+    // is in the line.
+    char why[160];
+    std::snprintf(why, sizeof why, ": %d ray slots%s, a ray's mean lifetime %.0f cycles without queueing",
+                  c.ray_slots * c.units, c.units > 1 ? " over the units" : "",
+                  s.rays > 0 ? double(s.slot_busy_cycles - std::min(s.slot_busy_cycles,
+                                                                  s.unit_wait_cycles + s.mem_wait_cycles)) /
+                                   double(s.rays)
+                             : 0.0);
+    limit += why;
+  }
   std::printf(
       "timed (%s): %s%llu cycles, %.1f cycles per ray, %.3f rays per clock; cache hit rate %.3f, DRAM %.1f "
       "B/clock; lower bound %s%.0f cycles (%s%s), cycles / bound %.2f\n",
       c.name.c_str(), sampled ? "~" : "", (unsigned long long)s.cycles, j["cycles_per_ray"].get<double>(),
       j["rays_per_clock"].get<double>(), j["cache"]["hit_rate"].get<double>(),
       j["dram_bytes_per_cycle"].get<double>(), sampled ? "~" : "", j["lower_bound"]["cycles"].get<double>(),
-      j["lower_bound"]["limited_by"].get<std::string>().c_str(), sampled ? ", estimated from the sample" : "",
-      j["lower_bound"]["cycles_over_bound"].get<double>());
+      limit.c_str(), sampled ? ", estimated from the sample" : "", j["lower_bound"]["cycles_over_bound"].get<double>());
   const Json& e = j["energy"];
   std::printf(
       "%senergy (%s estimate, docs/energy-model.md): %.0f pJ per ray, %.3g rays per joule, %.2f W at %g "

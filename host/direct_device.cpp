@@ -206,6 +206,18 @@ bool timed_two_level(const DeviceOptions& o) {
 
 }  // namespace
 
+GridCheck device_grid_check(const hw::Geometry& g, const DeviceOptions& o) {
+  switch (o.kind) {
+    case hw::DeviceKind::kFloat:
+      return GridCheck{};
+    case hw::DeviceKind::kFixed:
+      return check_grid(g, o.instances, !two_level(o), o.format);
+    case hw::DeviceKind::kTimed:
+      return check_grid(g, o.instances, !timed_two_level(o), o.format);
+  }
+  return GridCheck{};
+}
+
 std::unique_ptr<DirectDevice> make_device(const hw::Geometry& g, const DeviceOptions& o) {
   DeviceOptions opt = o;
   opt.tracer.bvh.width = o.format.width;
@@ -215,11 +227,13 @@ std::unique_ptr<DirectDevice> make_device(const hw::Geometry& g, const DeviceOpt
       return std::make_unique<FloatDevice>(g, opt);
     case hw::DeviceKind::kFixed:
       o.format.validate();
+      device_grid_check(g, o);  // refuses a frame below the smallest normal float
       if (two_level(o)) return std::make_unique<InstancedFixedDevice>(g, opt);
       return std::make_unique<FixedDevice>(g, opt);
     case hw::DeviceKind::kTimed:
       o.format.validate();
       o.timing.validate();
+      device_grid_check(g, o);
       if (timed_two_level(o)) return std::make_unique<InstancedTimedDevice>(g, opt);
       return std::make_unique<TimedDevice>(g, opt);
   }

@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "host/grid_check.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/device_kind.h"
 #include "hwmodel/fixed_format.h"
@@ -71,5 +72,10 @@ class DirectDevice {
 // trace_batch throws hw::WatchdogError (with the unit's state) when the watchdog stops a ray (fixed: step bound;
 // timed: that or the timing config's watchdog_cycles).
 std::unique_ptr<DirectDevice> make_device(const hw::Geometry& g, const DeviceOptions& o);
+
+// The fixed and timed devices' quantization frames for make_device(g, o) (grid_check.h: one frame, or one per
+// mesh over two levels) and the primitives below their grid step; the float device has none (an empty check).
+// Throws Error for a frame below the smallest normal float, as make_device does.
+GridCheck device_grid_check(const hw::Geometry& g, const DeviceOptions& o);
 
 }  // namespace rtu::host

@@ -9,6 +9,7 @@
 
 #include "firmware/render_scene.h"
 #include "host/error.h"
+#include "host/grid_check.h"
 #include "host/firmware_device.h"
 #include "host/limits.h"
 #include "host/shading.h"
@@ -121,6 +122,18 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   const bool two_level = scene.instanced() && !o.device.flatten && o.device.kind != hw::DeviceKind::kFloat &&
                          (o.device.kind == hw::DeviceKind::kFixed ||
                           (o.device.timing.box_unit == "cpp" && o.device.timing.tri_unit == "cpp"));
+  if (o.device.kind != hw::DeviceKind::kFloat) {  // refuses a frame below the smallest normal float
+    const std::string w = grid_warning(check_grid(g, &scene.instances, !two_level, o.device.format));
+    if (!w.empty()) res.warnings.push_back(w);
+  }
+  // Light comes from lights, emitters, and the background (which is also ambient occlusion's ambient light).
+  bool lit = !scene.lights.empty() || o.background != Vec3(0.0f);
+  for (const Material& m : scene.materials)
+    lit = lit || (m.type == MaterialType::kEmissive && m.emission != Vec3(0.0f));
+  if (!lit)
+    res.warnings.push_back(
+        "the scene has no light, no emissive material and the background is black: the image is black (give "
+        "the scene a light, or --background R G B)");
   if (two_level) {
     tracer.bvh.width = o.device.format.width;
     const hw::InstancedFixedTracer two(scene.instances, g, o.device.format, tracer);
@@ -300,7 +313,7 @@ Image to_image(const RenderResult& r) {
 }
 
 std::vector<std::string> render_warnings(const RenderResult& r) {
-  std::vector<std::string> out;
+  std::vector<std::string> out = r.warnings;
   const hw::TraversalStats all = r.device.total();
   if (all.invalid_rays == 0) return out;
   const uint64_t traced = all.rays + all.invalid_rays;

@@ -62,6 +62,9 @@ struct RenderResult {
   // cycles are raster_cycles.cycles + device_clock (the raster passes and the unit's packets do not overlap).
   hw::RasterCycles raster_cycles;
   uint64_t frame_cycles = 0;  // timed: raster + device clock (raytrace mode: the device clock)
+  // What the job saw before it rendered (render_warnings adds the device's): primitives below the fixed-point
+  // grid step (grid_check.h), nothing to light the scene.
+  std::vector<std::string> warnings;
 };
 
 // Throws Error when the device reports an error or the arena cannot hold one path.

@@ -71,6 +71,7 @@ TraceRun run_trace(const TraceRequest& req) {
   run.options.instances = &req.scene->instances;
   run.alpha = std::make_unique<SceneAnyHit>(*req.scene);
   run.options.any_hit = run.alpha->stage();
+  run.grid_warning = grid_warning(device_grid_check(req.scene->geometry, run.options));
   run.device = make_device(req.scene->geometry, run.options);
   run.device->set_pipeline_trace(req.pipeline);
   run.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - build_start).count();

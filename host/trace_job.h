@@ -61,6 +61,7 @@ struct TraceRun {
   std::vector<hw::Hit> hits;
   hw::TraversalStats stats;
   double build_seconds = 0.0, trace_seconds = 0.0;
+  std::string grid_warning;  // primitives below the fixed-point grid step (grid_check.h), or ""
 };
 // Throws as make_device and DirectDevice::trace_batch do.
 TraceRun run_trace(const TraceRequest& req);

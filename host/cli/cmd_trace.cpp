@@ -6,6 +6,7 @@
 #include "host/cli/common.h"
 #include "host/error.h"
 #include "host/ray_io.h"
+#include "host/ray_spec.h"
 #include "host/trace_job.h"
 
 namespace rtu::host::cli {
@@ -14,6 +15,7 @@ namespace {
 
 struct TraceOptions {
   std::string scene, rays, out, stats;
+  uint64_t seed = 1;
   bool any_hit = false;
   int threads = 0;
   DeviceArgs dev;
@@ -24,12 +26,11 @@ void run_trace(const TraceOptions& o) {
   Stopwatch load_timer;
   const Scene scene = load_scene(o.scene);
   const double load_s = load_timer.seconds();
-  const std::vector<hw::Ray> rays = read_rays(o.rays);
+  const std::vector<hw::Ray> rays = rays_from_spec(o.rays, scene, o.seed);
 
   const hw::DeviceKind kind = o.dev.kind();
-  const bool cycles_only = o.out.empty();
-  if (cycles_only && !(kind == hw::DeviceKind::kTimed && o.dev.sample > 0.0))
-    throw Error("--out is required (it may be left out only with --device timed --sample F)");
+  // Without --out the statistics alone; sampled timing then traces only the sampled rays.
+  const bool cycles_only = o.out.empty() && kind == hw::DeviceKind::kTimed && o.dev.sample > 0.0;
   PipelineTraceArgs pt = o.pipeline;
   TraceRequest req;
   req.scene = &scene;
@@ -41,9 +42,10 @@ void run_trace(const TraceOptions& o) {
   req.need_hits = !cycles_only;
   req.pipeline = pt.make();
   const TraceRun run = host::run_trace(req);
+  if (!run.grid_warning.empty()) std::fprintf(stderr, "rtusim: warning: %s\n", run.grid_warning.c_str());
   const hw::TraversalStats& stats = run.stats;
   const double trace_s = run.trace_seconds;
-  if (!cycles_only) write_hits(o.out, run.hits);
+  if (!o.out.empty()) write_hits(o.out, run.hits);
 
   report_invalid_rays(stats, stderr);
   const uint64_t n = rays.size();
@@ -77,12 +79,11 @@ void add_trace(CLI::App& app) {
   auto o = std::make_shared<TraceOptions>();
   CLI::App* sub = app.add_subcommand("trace", "Trace a ray file on a device and write the hit file");
   sub->add_option("--scene", o->scene, "scene file, mesh file, or builtin:NAME")->required();
-  sub->add_option("--rays", o->rays, "ray file (32-byte binary records, or .csv)")
-      ->required()
-      ->check(CLI::ExistingFile);
+  sub->add_option("--rays", o->rays, kRaySpecHelp)->required();
+  sub->add_option("--seed", o->seed, "seed of generated incoherent rays")->capture_default_str();
   sub->add_option("--out", o->out,
-                  "hit file to write (16-byte binary records, or .csv); required unless --sample on the timed "
-                  "device, which without --out estimates cycles only and traces only the sampled rays");
+                  "hit file to write (16-byte binary records, or .csv); without it only the statistics (with "
+                  "--sample on the timed device, only the sampled rays are traced)");
   sub->add_flag("--any-hit", o->any_hit, "any-hit queries (stop at the first hit, as shadow rays do)");
   sub->add_option("--threads", o->threads, "worker threads (0 = all cores); results do not depend on it")
       ->check(CLI::NonNegativeNumber)
@@ -97,6 +98,8 @@ void add_trace(CLI::App& app) {
   add_watchdog_args(*sub, o->dev);
   sub->callback([o, sub] {
     check_device_args(*sub, o->dev);
+    if (sub->count("--seed") > 0 && o->rays.rfind("incoherent", 0) != 0)
+      throw CLI::ValidationError("--seed applies to --rays incoherent[:N] only");
     run_trace(*o);
   });
 }

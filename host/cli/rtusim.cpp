@@ -1,9 +1,33 @@
 // rtusim: the command line of the rtu toolkit. One subcommand per job; `rtusim SUBCOMMAND --help` for each.
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
+#include <string>
 
 #include "host/cli/common.h"
 #include "host/error.h"
+
+namespace {
+
+// Every floating-point option of every subcommand refuses NaN, naming the option: CLI11's range checks compare,
+// and NaN passes every comparison (--background nan rendered garbage, --scale nan meant "the default").
+void refuse_nan(CLI::App& app) {
+  for (CLI::Option* opt : app.get_options())
+    if (opt->get_type_name().find("FLOAT") != std::string::npos) {
+      const std::string name = opt->get_name();
+      opt->check(CLI::Validator(
+          [name](std::string& v) {
+            char* end = nullptr;
+            const double x = std::strtod(v.c_str(), &end);
+            return std::isnan(x) ? std::string("NaN is not a value") : std::string();
+          },
+          "", "not NaN"));
+    }
+  for (CLI::App* sub : app.get_subcommands({})) refuse_nan(*sub);
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"rtusim: a model of a fixed-function ray-tracing unit (float reference, scenes, rays, hits)"};
@@ -22,6 +46,7 @@ int main(int argc, char** argv) {
   rtu::host::cli::add_plan(app);
   rtu::host::cli::add_report(app);
   rtu::host::cli::add_soak(app);
+  refuse_nan(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

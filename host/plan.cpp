@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <memory>
 #include <stdexcept>
@@ -38,6 +39,19 @@ double binomial_cdf_upper_tail_side(uint64_t k, uint64_t n, double p) {
     sum += term;
   }
   return sum;
+}
+
+// A number as the messages print it (%g: 1e-20, not 0.000000).
+std::string g(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+
+// The relative saving of `more` over `fewer` in the cost o.minimise names first (cycles or energy per ray).
+double relative_saving(const SweepRow& more, const SweepRow& fewer, const PlanOptions& o) {
+  if (o.minimise == "energy") return fewer.pj_per_ray > 0.0 ? 1.0 - more.pj_per_ray / fewer.pj_per_ray : 0.0;
+  return fewer.cycles > 0 ? 1.0 - double(more.cycles) / double(fewer.cycles) : 0.0;
 }
 
 // The standard normal's quantile by bisection of erfc (the bound needs a few digits, not speed).
@@ -88,21 +102,71 @@ bool plan_cheaper(const SweepRow& a, const SweepRow& b, const PlanOptions& o) {
   return a.cycles < b.cycles || (a.cycles == b.cycles && a.bvh_bytes < b.bvh_bytes);
 }
 
+bool plan_more_bits_pay(const SweepRow& more, const SweepRow& fewer, const PlanOptions& o) {
+  if (!plan_cheaper(more, fewer, o)) return false;
+  if (o.minimise == "bytes") return true;  // exact: no placement noise
+  // Both overheads are over the same float reference (one scene, one width): a smaller one is fewer visits.
+  const bool less_work =
+      more.node_visit_overhead < fewer.node_visit_overhead || more.prim_test_overhead < fewer.prim_test_overhead;
+  return less_work || relative_saving(more, fewer, o) > kPlacementNoise;
+}
+
+std::string plan_more_bits_cause(const SweepRow& more, const SweepRow& fewer, const PlanOptions& o) {
+  const std::string cost = o.minimise == "energy" ? "energy per ray" : o.minimise == "bytes" ? "bytes" : "cycles";
+  const std::string saving = g(100.0 * relative_saving(more, fewer, o)) + "% fewer " + cost;
+  std::vector<std::string> causes;
+  // Node visits and primitive tests relative to the float reference's: (1 + overhead) compares them.
+  auto work = [&](double m, double f, const char* what) {
+    if (m < f)
+      causes.push_back(std::string("fewer ") + what + " (" + g(100.0 * (1.0 + m)) +
+                       "% of the float reference's, "
+                       "against " +
+                       g(100.0 * (1.0 + f)) + "%)");
+  };
+  work(more.node_visit_overhead, fewer.node_visit_overhead, "node visits");
+  work(more.prim_test_overhead, fewer.prim_test_overhead, "primitive tests");
+  const bool less_work = !causes.empty();
+  if (more.dram_bytes_per_ray < fewer.dram_bytes_per_ray)
+    causes.push_back("fewer DRAM bytes per ray (" + g(more.dram_bytes_per_ray) + " against " +
+                     g(fewer.dram_bytes_per_ray) + ")" +
+                     (less_work ? std::string()
+                                : ", with no less traversal work: where the nodes fall on cache lines, which is "
+                                  "not monotonic in the bits"));
+  std::string why;
+  for (size_t i = 0; i < causes.size(); ++i) why += (i ? "; " : "") + causes[i];
+  if (why.empty()) why = "no measured cause in node visits, primitive tests or DRAM bytes";
+  if (!plan_more_bits_pay(more, fewer, o))
+    return saving + ", within the " + g(100.0 * kPlacementNoise) + "% placement noise (" + why +
+           "): a tie, the fewer bits kept";
+  return saving + ": " + why;
+}
+
 bool plan_meets(const SweepRow& r, const PlanOptions& o) {
   return plan_error_bound(r, o) <= o.max_error && r.box_false_negatives == 0 &&
-         (o.min_psnr <= 0.0 || r.psnr_db >= o.min_psnr) && (o.area_budget <= 0.0 || r.area_mm2 <= o.area_budget);
+         (o.min_psnr <= 0.0 || (r.psnr_measured() && r.psnr_db >= o.min_psnr)) &&
+         (o.area_budget <= 0.0 || r.area_mm2 <= o.area_budget);
+}
+
+double plan_smallest_hit_budget(uint64_t rays_per_kind, double confidence) {
+  return proportion_upper_bound(0, 2 * rays_per_kind, confidence);
 }
 
 PlanResult plan_format(const PlanOptions& a, const std::function<void(const PlanStep&)>& progress) {
   if (a.metric != "hit" && a.metric != "t") throw Error("--metric: hit or t, got '" + a.metric + "'");
-  if (!(a.max_error >= 0.0) || !std::isfinite(a.max_error)) throw Error("--max-error: a finite number >= 0");
-  if (!(a.confidence > 0.0 && a.confidence < 1.0)) throw Error("--confidence: a number in (0, 1)");
+  if (!(a.max_error >= 0.0) || !std::isfinite(a.max_error))
+    throw Error("--max-error: a finite number >= 0, got " + g(a.max_error));
+  if (!(a.confidence > 0.0 && a.confidence < 1.0))
+    throw Error("--confidence: a number in (0, 1), got " + g(a.confidence));
+  if (!(a.min_psnr >= 0.0) || !std::isfinite(a.min_psnr))
+    throw Error("--min-psnr: a finite number of dB >= 0 (0: none), got " + g(a.min_psnr));
   if (a.min_psnr > 0.0 && a.sweep.image_width <= 0)
     throw Error("--min-psnr needs a render to measure: --image-width must be above 0");
   if (a.minimise != "cycles" && a.minimise != "bytes" && a.minimise != "energy")
     throw Error("--minimise: cycles, bytes or energy, got '" + a.minimise + "'");
   if (!(a.area_budget >= 0.0) || !std::isfinite(a.area_budget))
-    throw Error("--area-budget: a finite number of mm^2 >= 0 (0: none)");
+    throw Error("--area-budget: a finite number of mm^2 >= 0 (0: none), got " + g(a.area_budget));
+  if (a.sweep.rays < 1 || a.sweep.rays > kMaxPlanRays)
+    throw Error("--rays: " + std::to_string(a.sweep.rays) + " is not in 1.." + std::to_string(kMaxPlanRays));
   std::string base;
   try {
     base = hw::timing_preset(a.config).format;
@@ -117,16 +181,28 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
     throw Error(std::string("--format: ") + e.what());
   }
   // Zero disagreements on every ray is the best a candidate can show; below that bound no format can meet the
-  // budget, however good.
+  // budget, however good. Below the bound on the most rays --rays allows no run can: refused as such (a budget of
+  // 0 would need infinitely many rays). Else the rays that can show it, (1 - p)^n = 1 - confidence solved for n.
   const uint64_t sample = 2 * a.sweep.rays;
-  if (a.metric == "hit" && proportion_upper_bound(0, sample, a.confidence) > a.max_error) {
-    uint64_t need = sample;
-    while (proportion_upper_bound(0, need, a.confidence) > a.max_error) need *= 2;
-    throw Error("--max-error " + std::to_string(a.max_error) + " cannot be shown on " + std::to_string(sample) +
-                " rays: with no disagreement at all the " + std::to_string(a.confidence) + " upper bound is " +
-                std::to_string(proportion_upper_bound(0, sample, a.confidence)) + "; use --rays " +
-                std::to_string(need / 2) + " or more");
+  if (a.metric == "hit") {
+    const double smallest = plan_smallest_hit_budget(kMaxPlanRays, a.confidence);
+    if (a.max_error < smallest)
+      throw Error("--max-error " + g(a.max_error) + " is below the smallest hit disagreement a plan can show, " +
+                  g(smallest) + " (the " + g(100.0 * a.confidence) +
+                  "% upper bound with no disagreement at all on " + std::to_string(2 * kMaxPlanRays) +
+                  " rays, the most --rays " + std::to_string(kMaxPlanRays) + " gives): give --max-error " +
+                  g(smallest) + " or more, or --metric t");
+    const double here = plan_smallest_hit_budget(a.sweep.rays, a.confidence);
+    if (here > a.max_error) {
+      const double n = std::log(1.0 - a.confidence) / std::log1p(-a.max_error);  // sample size, both kinds
+      uint64_t need = std::min<uint64_t>(kMaxPlanRays, uint64_t(std::ceil(n / 2.0)));
+      while (need < kMaxPlanRays && plan_smallest_hit_budget(need, a.confidence) > a.max_error) ++need;
+      throw Error("--max-error " + g(a.max_error) + " cannot be shown on " + std::to_string(sample) +
+                  " rays: with no disagreement at all the " + g(100.0 * a.confidence) + "% upper bound is " +
+                  g(here) + "; use --rays " + std::to_string(need) + " or more");
+    }
   }
+  check_sweep_rays("plan", a.sweep.rays);
   const Scene scene = load_scene(a.scene);
   const AreaTable area = a.area.empty() ? AreaTable::shipped() : AreaTable::load(a.area);
   const ActivityTable activity = ActivityTable::shipped();
@@ -166,6 +242,7 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
     return cur;
   };
   auto point = [&](const std::string& format, int width) {
+    if (a.sweep.poll) a.sweep.poll();
     SweepRow r = run_sweep_point(scene, SweepPoint{a.scene, format, width, a.config}, a.sweep, area, *cache);
     if (a.area_budget > 0.0) r = afford(r);
     report(PlanStage::kCandidate, width, 0, &r, meets(r));
@@ -182,6 +259,7 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
   j["seed"] = a.sweep.seed;
   j["rays"] = sample;
   j["min_psnr"] = a.min_psnr;
+  j["flatten"] = a.sweep.flatten;
   j["config"] = a.config;
   j["base_format"] = base;
   j["minimise"] = a.minimise;
@@ -215,13 +293,26 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
     // (looser boxes) where they save bytes, so on a compute-bound unit more bits can be faster. Minimising cycles
     // or energy, the bits above go on while they are cheaper and meet the budget (cost against bits falls, then
     // rises).
+    // A step up is taken only when it pays beyond the placement noise (plan_more_bits_pay, kPlacementNoise);
+    // the measured cause of each step taken, or of the tie that ended the walk, goes to the JSON.
     SweepRow at_b = *first_ok;
+    Json steps = Json::array();
     if (a.minimise != "bytes") {
       const int b0 = hw::format_from_spec(first_ok->p.format).coord_bits;
       for (int more : a.coord_bits) {
         if (more <= b0) continue;
         SweepRow r = point(spec(base, more, base_child_bits), w);
         if (!meets(r) || !plan_cheaper(r, at_b, a)) break;
+        const bool pays = plan_more_bits_pay(r, at_b, a);
+        steps.push_back({{"from_coord_bits", hw::format_from_spec(at_b.p.format).coord_bits},
+                         {"to_coord_bits", more},
+                         {"taken", pays},
+                         {"cause", plan_more_bits_cause(r, at_b, a)},
+                         {"node_visit_overhead", {at_b.node_visit_overhead, r.node_visit_overhead}},
+                         {"prim_test_overhead", {at_b.prim_test_overhead, r.prim_test_overhead}},
+                         {"dram_bytes_per_ray", {at_b.dram_bytes_per_ray, r.dram_bytes_per_ray}},
+                         {"cycles", {at_b.cycles, r.cycles}}});
+        if (!pays) break;
         at_b = r;
       }
     }
@@ -248,6 +339,7 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
     jw["feasible"] = true;
     jw["coord_bits"] = hw::format_from_spec(first_ok->p.format).coord_bits;
     jw["chosen_coord_bits"] = b;
+    jw["more_coord_bits"] = steps;
     jw["error_at_coord_bits"] = plan_error(*first_ok, a.metric);
     jw["error_bound_at_coord_bits"] = plan_error_bound(*first_ok, a);
     if (last_bad) {
@@ -263,7 +355,7 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
                     {"dram_bytes_per_ray", chosen.dram_bytes_per_ray},
                     {"error", plan_error(chosen, a.metric)},
                     {"error_bound", plan_error_bound(chosen, a)},
-                    {"psnr_db", chosen.psnr_db},
+                    {"psnr_db", chosen.psnr_measured() ? Json(chosen.psnr_db) : Json(nullptr)},
                     {"rtl_cells", chosen.rtl_cells},
                     {"config", chosen.p.config},
                     {"area_mm2", chosen.area_mm2},
@@ -290,7 +382,7 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
                {"dram_bytes_per_ray", best->dram_bytes_per_ray},
                {"error", plan_error(*best, a.metric)},
                {"error_bound", plan_error_bound(*best, a)},
-               {"psnr_db", best->psnr_db},
+               {"psnr_db", best->psnr_measured() ? Json(best->psnr_db) : Json(nullptr)},
                {"rtl_cells", best->rtl_cells},
                {"config", best->p.config},
                {"box_units", sweep_config(best->p.config).box_units},

@@ -70,8 +70,9 @@ struct PlanResult {
   SweepRow best;           // the plan: its format, BVH width and figures
   hw::FixedFormat format;  // best's format
   SweepRow reference;      // the base format (the configuration's own unless `format`) at the plan's width
-  // {scene, metric, max_error, confidence, seed, rays, min_psnr, config, base_format, minimise, cost, widths:
-  // [every width's candidates], plan, default} (plan: null when nothing meets the budget)
+  // {scene, metric, max_error, confidence, seed, rays, min_psnr, flatten, config, base_format, minimise, cost,
+  // widths: [every width's candidates], plan, default} (plan: null when nothing meets the budget; psnr_db null
+  // when no render measured it)
   Json json;
 };
 
@@ -81,6 +82,22 @@ double plan_error(const SweepRow& r, const std::string& metric);
 double plan_error_bound(const SweepRow& r, const PlanOptions& o);
 // True when a costs less than b by o.minimise (cycles then bytes, or bytes then cycles).
 bool plan_cheaper(const SweepRow& a, const SweepRow& b, const PlanOptions& o);
+
+// Cycles and energy (whose DRAM part follows the DRAM bytes) against coordinate bits are not smooth in a packed
+// layout: a node's bytes grow with the bits but not in whole cache lines, so where nodes fall on the 64-byte
+// lines, and with it the DRAM bytes per ray, jumps from one width to the next with no trend (the IFC house, packed
+// on rdna2-mem: 164 DRAM bytes per ray at 16 bits, 186 at 20, 175 at 24, node visits equal). That spread, +-6.3%
+// around its mean, is what placement alone does to a memory-bound unit's cycles; kPlacementNoise (8%) is it with
+// a margin. More coordinate bits that do no less traversal work (node visits and primitive tests, which are
+// counts, exact) and save less than that fraction of the cost are a tie, and a tie keeps the fewer bits (fewer
+// bytes). Minimising bytes needs no margin: image bytes are exact.
+inline constexpr double kPlacementNoise = 0.08;
+// True when `more` (more coordinate bits, the same width, child bits and base) is worth its bits over `fewer`:
+// cheaper by o.minimise, and either with less traversal work or cheaper by more than kPlacementNoise.
+bool plan_more_bits_pay(const SweepRow& more, const SweepRow& fewer, const PlanOptions& o);
+// What measurably makes `more` cheaper than `fewer`, or a tie: node visits, primitive tests, DRAM bytes per ray
+// (with placement on cache lines named when the traversal work is equal), as the plan prints it.
+std::string plan_more_bits_cause(const SweepRow& more, const SweepRow& fewer, const PlanOptions& o);
 // True when r meets the options' budget: the error's upper bound, no box false negatives, the PSNR when one is
 // required, and the area when there is an area budget.
 bool plan_meets(const SweepRow& r, const PlanOptions& o);
@@ -92,9 +109,16 @@ double proportion_upper_bound(uint64_t k, uint64_t n, double confidence);
 // approximation): mean + z sd / sqrt(n), z the standard normal's `confidence` quantile. +inf when n < 2.
 double mean_upper_bound(double mean, double sd, uint64_t n, double confidence);
 
-// Plans a format. Checks the metric, the budget, the confidence, the preset, the base format and `minimise`
-// before loading the scene (Error naming the option; also when the budget is below what zero disagreements on the
-// rays can show); `progress`, when given, sees every step.
+// The smallest hit-disagreement budget a plan can show on `rays_per_kind` camera and as many incoherent rays: the
+// upper bound at `confidence` with no disagreement at all.
+double plan_smallest_hit_budget(uint64_t rays_per_kind, double confidence);
+// The most camera rays (and as many incoherent ones) a plan or sweep takes: --rays' limit.
+inline constexpr uint64_t kMaxPlanRays = uint64_t(1) << 26;
+
+// Plans a format. Checks the metric, the budget, the confidence, the PSNR, the area budget (each finite), the
+// preset, the base format and `minimise` before loading the scene (Error naming the option; also when the budget
+// is below what zero disagreements on the rays can show, naming the rays that could, or below what the most rays
+// can show); `progress`, when given, sees every step. o.sweep.poll is called between steps.
 PlanResult plan_format(const PlanOptions& o, const std::function<void(const PlanStep&)>& progress = {});
 
 }  // namespace rtu::host

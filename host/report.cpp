@@ -98,6 +98,18 @@ std::string esc(const std::string& s) {
   return o;
 }
 
+// A path or a point's label for a table cell: escaped, with a line-break opportunity after every '/' and ':', so
+// that a long mesh path wraps between its parts (the cell's class "path" lets a part longer than the column break
+// too).
+std::string esc_path(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    o += esc(std::string(1, c));
+    if (c == '/' || c == ':') o += "<wbr>";
+  }
+  return o;
+}
+
 std::string fmt(const char* f, double v) {
   char buf[64];
   std::snprintf(buf, sizeof buf, f, v);
@@ -188,6 +200,7 @@ Json section_renders(const Scene& scene, const std::string& spec, const ReportOp
                                    {"fixed", hw::DeviceKind::kTimed}}) {
     DeviceSettings da;
     da.config = "rdna2";
+    da.flatten = a.flatten && kind != hw::DeviceKind::kFloat;  // the float device has one form
     RenderOptions ro;
     ro.device = da.options(kind);
     ro.threads = a.threads;
@@ -275,6 +288,7 @@ Json section_cycles(const std::vector<std::unique_ptr<Scene>>& scenes, const std
   for (const std::string& preset : hw::timing_preset_names()) {
     DeviceSettings da;
     da.config = preset;
+    da.flatten = a.flatten;
     const DeviceOptions opt = da.options(hw::DeviceKind::kTimed);
     for (size_t i = 0; i < scenes.size(); ++i) {
       const std::vector<hw::Ray> rays = primary_rays(scenes[i]->camera, z.cycle_rays);
@@ -303,9 +317,9 @@ Json section_cycles(const std::vector<std::unique_ptr<Scene>>& scenes, const std
                 {"watts", t["energy"]["watts"]},
                 {"hits", ts.hits},
                 {"seconds", secs}};
-      h.s << "<tr><td>" << esc(preset) << "</td><td>" << esc(specs[i]) << "</td><td class=\"n\">" << rays.size()
-          << "</td><td class=\"n\">" << t["cycles"].get<uint64_t>() << "</td><td class=\"n\">"
-          << fmt("%.2f", t["cycles_per_ray"].get<double>()) << "</td><td class=\"n\">"
+      h.s << "<tr><td>" << esc(preset) << "</td><td class=\"path\">" << esc_path(specs[i])
+          << "</td><td class=\"n\">" << rays.size() << "</td><td class=\"n\">" << t["cycles"].get<uint64_t>()
+          << "</td><td class=\"n\">" << fmt("%.2f", t["cycles_per_ray"].get<double>()) << "</td><td class=\"n\">"
           << fmt("%.3f", t["rays_per_clock"].get<double>()) << "</td><td>"
           << esc(t["lower_bound"]["limited_by"].get<std::string>()) << "</td><td class=\"n\">"
           << fmt("%.2f", t["lower_bound"]["cycles_over_bound"].get<double>()) << "</td><td class=\"n\">"
@@ -435,9 +449,12 @@ Json section_pareto(const std::vector<SweepRow>& rows, const std::string& source
            "<th>bytes/prim</th><th>RTL cells</th><th>mm&sup2; (45 nm)</th><th>pJ/ray</th></tr>\n";
     for (size_t k = 0; k < idx.size(); ++k) {
       const SweepRow& r = rows[idx[k]];
-      h.s << "<tr><td class=\"n\">" << k + 1 << "</td><td>" << esc(pareto_label(r.p)) << "</td><td class=\"n\">"
-          << fmt("%.4f%%", 100.0 * r.hit_agreement) << "</td><td class=\"n\">" << fmt("%.2g", r.t_rel_error_mean)
-          << "</td><td class=\"n\">" << (std::isinf(r.psnr_db) ? std::string("inf") : fmt("%.1f", r.psnr_db))
+      h.s << "<tr><td class=\"n\">" << k + 1 << "</td><td class=\"path\">" << esc_path(pareto_label(r.p))
+          << "</td><td class=\"n\">" << fmt("%.4f%%", 100.0 * r.hit_agreement) << "</td><td class=\"n\">"
+          << fmt("%.2g", r.t_rel_error_mean) << "</td><td class=\"n\">"
+          << (!r.psnr_measured()      ? std::string("-")
+              : std::isinf(r.psnr_db) ? std::string("inf")
+                                      : fmt("%.1f", r.psnr_db))
           << "</td><td class=\"n\">" << r.cycles << "</td><td class=\"n\">" << fmt("%.2f", r.cycles_per_ray)
           << "</td><td class=\"n\">" << fmt("%.1f", r.dram_bytes_per_ray) << "</td><td class=\"n\">" << r.bvh_bytes
           << "</td><td class=\"n\">" << fmt("%.1f", r.bytes_per_prim) << "</td><td class=\"n\">"
@@ -508,6 +525,7 @@ ReportResult write_report(ReportOptions a, const Progress& progress) {
   Json& j = res.json;
   j["generated_by"] = "rtusim report";
   j["quick"] = a.quick;
+  j["flatten"] = a.flatten;
   j["scenes"] = a.scenes;
   j["renders"] = section_renders(*scenes[0], a.scenes[0], a, z, h, progress);
   j["cycles"] = section_cycles(scenes, a.scenes, a, z, h);
@@ -522,6 +540,7 @@ ReportResult write_report(ReportOptions a, const Progress& progress) {
     source = src.str();
     SweepOptions so = z.sweep;
     so.threads = a.threads;
+    so.flatten = a.flatten;
     for (size_t i = 0; i < scenes.size(); ++i) {
       auto cache = make_sweep_cache();
       for (int w : z.widths)
@@ -550,12 +569,14 @@ ReportResult write_report(ReportOptions a, const Progress& progress) {
   std::ostringstream page;
   page << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>rtu report</title>\n"
           // Nothing may be wider than the window: images shrink to the page (max-width), the renders wrap to the
-          // next line when three do not fit, and long words in table cells may break.
+          // next line when three do not fit, and paths and labels in table cells wrap (after '/' and ':', or
+          // anywhere in a part too long for the column); numbers never break (nowrap), so the path takes the
+          // breaks.
           "<style>\nbody { font-family: sans-serif; margin: 1.5em; max-width: 1400px; }\n"
           "img { max-width: 100%; height: auto; }\nimg.render { image-rendering: pixelated; }\n"
           "table { border-collapse: collapse; margin: 0.5em 0; }\n"
-          "td, th { border: 1px solid #bbb; padding: 0.2em 0.5em; overflow-wrap: anywhere; }\n"
-          "td.n { text-align: right; }\n"
+          "td, th { border: 1px solid #bbb; padding: 0.2em 0.5em; }\n"
+          "td.n { text-align: right; white-space: nowrap; }\ntd.path { overflow-wrap: anywhere; }\n"
           "div.imgs { display: flex; flex-wrap: wrap; gap: 1em; align-items: flex-start; }\n"
           "div.imgs figure { margin: 0; max-width: 100%; text-align: center; }\n"
           ".colorbar { max-width: 100%; margin: 0.4em auto 0 auto; font-size: 0.85em; }\n"

@@ -28,6 +28,9 @@ struct ReportOptions {
   std::vector<std::string> scenes;  // empty: builtin:seed and builtin:cornell; the first is rendered
   bool quick = false;               // small sizes (renders 192 wide, few rays, small sweep)
   int threads = 0;                  // 0: all cores
+  // Fixed and timed devices trace instanced scenes flattened, in one image (rtusim --flatten): the fixed render,
+  // the cycles table and the sweep run here. In report.json's "flatten".
+  bool flatten = false;
 };
 
 // What the report is doing, as it goes.

@@ -15,6 +15,7 @@
 #include "host/direct_device.h"
 #include "host/error.h"
 #include "host/image_diff.h"
+#include "host/limits.h"
 #include "host/ray_gen.h"
 #include "host/render.h"
 #include "host/shading.h"
@@ -35,6 +36,7 @@ const char* const kColumns[] = {"scene",
                                 "rays",
                                 "seed",
                                 "image_width",
+                                "flatten",
                                 "hit_agreement",
                                 "prim_agreement",
                                 "false_misses",
@@ -69,9 +71,18 @@ constexpr const char* kHeaderBeforeEnergy =
     "scene,format,bvh_width,config,rays,seed,image_width,hit_agreement,prim_agreement,false_misses,false_hits,"
     "t_rel_error_mean,t_rel_error_max,node_visit_overhead,prim_test_overhead,box_false_negatives,psnr_db,cycles,"
     "cycles_per_ray,dram_bytes_per_ray,bvh_bytes,float_bvh_bytes,bytes_per_prim,rtl_cells,rtl_transistors,seconds";
+// The header before flatten: that version traced instanced scenes over two levels only, so its rows read as
+// flatten 0 (its columns are this version's but for flatten).
+constexpr const char* kHeaderBeforeFlatten =
+    "scene,format,bvh_width,config,rays,seed,image_width,hit_agreement,prim_agreement,false_misses,false_hits,"
+    "t_rel_error_mean,t_rel_error_max,node_visit_overhead,prim_test_overhead,box_false_negatives,psnr_db,cycles,"
+    "cycles_per_ray,dram_bytes_per_ray,bvh_bytes,float_bvh_bytes,bytes_per_prim,rtl_cells,rtl_transistors,area_"
+    "mm2,"
+    "pj_per_ray,seconds";
 
 std::string num(double v) {
   if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  if (std::isnan(v)) return "";  // not measured (a PSNR without a render)
   char buf[64];
   const auto r = std::to_chars(buf, buf + sizeof buf, v);
   return std::string(buf, r.ptr);
@@ -131,6 +142,10 @@ Int parse_int(const std::string& s, const std::string& where) {
   if (r.ec != std::errc() || r.ptr != s.data() + s.size() || s.empty())
     throw Error(where + ": '" + s + "' is not an integer");
   return v;
+}
+
+void poll(const SweepOptions& o) {
+  if (o.poll) o.poll();
 }
 
 double ratio_minus_one(uint64_t a, uint64_t b) {
@@ -243,7 +258,7 @@ namespace {
 // The point's timed run on `rays` with `timing` (its cycles and DRAM bytes), the RTL unit's synthesis figures
 // where the table has them, and the area and energy estimate.
 void time_point(const Scene& scene, const hw::FixedFormat& format, const hw::TimingConfig& timing,
-                const std::vector<hw::Ray>& rays, int threads, const AreaTable& area,
+                const std::vector<hw::Ray>& rays, int threads, bool flatten, const AreaTable& area,
                 const hw::AnyHitStage* any_hit, SweepRow& row) {
   DeviceOptions timed_opt;
   timed_opt.any_hit = any_hit;
@@ -253,6 +268,7 @@ void time_point(const Scene& scene, const hw::FixedFormat& format, const hw::Tim
   timed_opt.check_boxes = false;
   timed_opt.timing = timing;
   timed_opt.instances = &scene.instances;
+  timed_opt.flatten = flatten;
   const auto timed = make_device(scene.geometry, timed_opt);
   const size_t n = rays.size();
   std::vector<hw::Hit> hits(n);
@@ -315,6 +331,7 @@ void run_sweep_grid(const SweepGrid& g, const SweepOptions& o, const AreaTable& 
                     const std::function<bool(size_t, const SweepPoint&)>& want,
                     const std::function<void(const Scene&, const SweepRow&)>& row) {
   check_sweep_grid(g);
+  check_sweep_rays("sweep", o.rays);
   size_t index = 0;
   for (const std::string& scene_spec : g.scenes) {
     std::unique_ptr<Scene> scene;  // loaded when a point of it runs
@@ -324,6 +341,7 @@ void run_sweep_grid(const SweepGrid& g, const SweepOptions& o, const AreaTable& 
         for (const std::string& c : g.configs) {
           const SweepPoint p{scene_spec, f, w, c};
           if (!want(index++, p)) continue;
+          poll(o);
           if (!scene) scene = std::make_unique<Scene>(load_scene(scene_spec));
           row(*scene, run_sweep_point(*scene, p, o, area, *cache));
         }
@@ -348,8 +366,11 @@ SweepRow retime_sweep_point(const Scene& scene, const SweepRow& measured, const 
   } catch (const std::invalid_argument& e) {
     throw Error(std::string("sweep point ") + row.p.key() + ": " + e.what());
   }
+  if (row.flatten != o.flatten)
+    throw Error("retime_sweep_point: the row was measured with another --flatten than the options give");
+  poll(o);
   if (!cache.alpha) cache.alpha = std::make_unique<SceneAnyHit>(scene);
-  time_point(scene, format, timing, cache.rays, o.threads, area, cache.alpha->stage(), row);
+  time_point(scene, format, timing, cache.rays, o.threads, o.flatten, area, cache.alpha->stage(), row);
   row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return row;
 }
@@ -370,6 +391,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   } catch (const std::invalid_argument& e) {
     throw Error(std::string("sweep point ") + p.key() + ": " + e.what());
   }
+  poll(o);
   if (cache.rays.empty()) {
     cache.rays = primary_rays(scene.camera, o.rays);
     const std::vector<hw::Ray> inc = incoherent_rays(scene.geometry.bounds(), o.rays, o.seed);
@@ -381,6 +403,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   row.rays = n;
   row.seed = o.seed;
   row.image_width = o.image_width;
+  row.flatten = o.flatten;
   const int threads = o.threads;
 
   DeviceOptions ref_opt;
@@ -413,6 +436,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   }
   const SweepCache::Reference& refr = it->second;
   row.float_bvh_bytes = refr.bvh_bytes;
+  poll(o);
 
   DeviceOptions fixed_opt;
   fixed_opt.kind = hw::DeviceKind::kFixed;
@@ -421,6 +445,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   fixed_opt.check_boxes = true;
   fixed_opt.any_hit = cache.alpha->stage();
   fixed_opt.instances = &scene.instances;
+  fixed_opt.flatten = o.flatten;
   const auto fixed = make_device(scene.geometry, fixed_opt);
   std::vector<hw::Hit> hits(n);
   hw::TraversalStats fs;
@@ -446,6 +471,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   row.bytes_per_prim = bytes.per_prim;
 
   if (o.image_width > 0) {
+    poll(o);
     RenderOptions ro;
     ro.device = fixed_opt;
     ro.device.check_boxes = false;
@@ -456,7 +482,8 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
     row.psnr_db = diff_images(refr.render, to_image(render(scene, ro))).psnr_db;
   }
 
-  time_point(scene, format, timing, rays, threads, area, cache.alpha->stage(), row);
+  poll(o);
+  time_point(scene, format, timing, rays, threads, o.flatten, area, cache.alpha->stage(), row);
   row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return row;
 }
@@ -464,12 +491,12 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
 std::string sweep_run_params(const SweepRow& r) {
   // `rays` counts both kinds: --rays N made N camera and N incoherent rays.
   return "--rays " + std::to_string(r.rays / 2) + " --seed " + std::to_string(r.seed) + " --image-width " +
-         std::to_string(r.image_width);
+         std::to_string(r.image_width) + (r.flatten ? " --flatten" : "");
 }
 
 std::string sweep_run_params(const SweepOptions& o) {
   return "--rays " + std::to_string(o.rays) + " --seed " + std::to_string(o.seed) + " --image-width " +
-         std::to_string(o.image_width);
+         std::to_string(o.image_width) + (o.flatten ? " --flatten" : "");
 }
 
 std::string sweep_csv_header() {
@@ -484,25 +511,29 @@ std::string sweep_csv_header() {
 std::string sweep_csv_line(const SweepRow& r) {
   std::ostringstream o;
   o << text(r.p.scene) << ',' << text(r.p.format) << ',' << r.p.bvh_width << ',' << text(r.p.config) << ','
-    << r.rays << ',' << r.seed << ',' << r.image_width << ',' << num(r.hit_agreement) << ','
-    << num(r.prim_agreement) << ',' << r.false_misses << ',' << r.false_hits << ',' << num(r.t_rel_error_mean)
-    << ',' << num(r.t_rel_error_max) << ',' << num(r.node_visit_overhead) << ',' << num(r.prim_test_overhead)
-    << ',' << r.box_false_negatives << ',' << num(r.psnr_db) << ',' << r.cycles << ',' << num(r.cycles_per_ray)
-    << ',' << num(r.dram_bytes_per_ray) << ',' << r.bvh_bytes << ',' << r.float_bvh_bytes << ','
-    << num(r.bytes_per_prim) << ',' << r.rtl_cells << ',' << r.rtl_transistors << ',' << num(r.area_mm2) << ','
-    << num(r.pj_per_ray) << ',' << num(r.seconds);
+    << r.rays << ',' << r.seed << ',' << r.image_width << ',' << int(r.flatten) << ',' << num(r.hit_agreement)
+    << ',' << num(r.prim_agreement) << ',' << r.false_misses << ',' << r.false_hits << ','
+    << num(r.t_rel_error_mean) << ',' << num(r.t_rel_error_max) << ',' << num(r.node_visit_overhead) << ','
+    << num(r.prim_test_overhead) << ',' << r.box_false_negatives << ',' << num(r.psnr_db) << ',' << r.cycles << ','
+    << num(r.cycles_per_ray) << ',' << num(r.dram_bytes_per_ray) << ',' << r.bvh_bytes << ',' << r.float_bvh_bytes
+    << ',' << num(r.bytes_per_prim) << ',' << r.rtl_cells << ',' << r.rtl_transistors << ',' << num(r.area_mm2)
+    << ',' << num(r.pj_per_ray) << ',' << num(r.seconds);
   return o.str();
 }
 
-std::vector<SweepRow> read_sweep_csv(const std::string& path) {
-  std::ifstream in(path);
+std::vector<SweepRow> read_sweep_csv(const std::string& path, bool* header_is_current) {
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw Error("cannot read the sweep file " + path);
   std::vector<SweepRow> rows;
   std::string line;
   size_t n = 0;
+  bool has_flatten = true;
   while (std::getline(in, line)) {
     ++n;
     const std::string where = path + ":" + std::to_string(n);
+    // Spreadsheets and Windows editors save CRLF line ends and a UTF-8 byte order mark: both are read as LF, none.
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (n == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
     if (n == 1) {
       if (line == kHeaderBeforeBytes)
         throw Error(where +
@@ -514,14 +545,17 @@ std::vector<SweepRow> read_sweep_csv(const std::string& path) {
                     ": not a sweep file of this version: an earlier rtusim wrote it, without the columns area_mm2 "
                     "and pj_per_ray (its points have no area or energy estimate); run the sweep again into a new "
                     "file");
-      if (line != sweep_csv_header())
+      has_flatten = line != kHeaderBeforeFlatten;
+      if (has_flatten && line != sweep_csv_header())
         throw Error(where + ": not a sweep file of this version (expected the header " + sweep_csv_header() + ")");
+      if (header_is_current) *header_is_current = has_flatten;
       continue;
     }
     if (line.empty()) continue;
     const std::vector<std::string> f = split_csv(line);
-    if (f.size() != kColumnCount)
-      throw Error(where + ": " + std::to_string(f.size()) + " fields, expected " + std::to_string(kColumnCount) +
+    const size_t columns = kColumnCount - (has_flatten ? 0 : 1);
+    if (f.size() != columns)
+      throw Error(where + ": " + std::to_string(f.size()) + " fields, expected " + std::to_string(columns) +
                   " (a row cut short? re-run the sweep to redo it)");
     SweepRow r;
     size_t k = 0;
@@ -532,6 +566,11 @@ std::vector<SweepRow> read_sweep_csv(const std::string& path) {
     r.rays = parse_int<uint64_t>(f[k++], where);
     r.seed = parse_int<uint64_t>(f[k++], where);
     r.image_width = parse_int<int>(f[k++], where);
+    if (has_flatten) {
+      const int flat = parse_int<int>(f[k++], where);
+      if (flat != 0 && flat != 1) throw Error(where + ": flatten must be 0 or 1, got '" + f[k - 1] + "'");
+      r.flatten = flat == 1;
+    }
     r.hit_agreement = parse_double(f[k++], where);
     r.prim_agreement = parse_double(f[k++], where);
     r.false_misses = parse_int<uint64_t>(f[k++], where);
@@ -541,7 +580,10 @@ std::vector<SweepRow> read_sweep_csv(const std::string& path) {
     r.node_visit_overhead = parse_double(f[k++], where);
     r.prim_test_overhead = parse_double(f[k++], where);
     r.box_false_negatives = parse_int<uint64_t>(f[k++], where);
-    r.psnr_db = parse_double(f[k++], where);
+    // Empty: not measured (no render); a file of the version before wrote 0 for it when image_width was 0.
+    r.psnr_db =
+        f[k].empty() || r.image_width == 0 ? std::numeric_limits<double>::quiet_NaN() : parse_double(f[k], where);
+    ++k;
     r.cycles = parse_int<uint64_t>(f[k++], where);
     r.cycles_per_ray = parse_double(f[k++], where);
     r.dram_bytes_per_ray = parse_double(f[k++], where);
@@ -557,6 +599,33 @@ std::vector<SweepRow> read_sweep_csv(const std::string& path) {
   }
   if (n == 0) throw Error(path + ": empty (no header)");
   return rows;
+}
+
+std::string sweep_results_difference(const SweepRow& a, const SweepRow& b) {
+  // The CSV's fields compare every result as written (NaN, the PSNR not measured, as an empty cell equal to
+  // itself); the wall time is the one column that differs between two runs of one point.
+  SweepRow a0 = a, b0 = b;
+  a0.seconds = b0.seconds = 0.0;
+  const std::vector<std::string> fa = split_csv(sweep_csv_line(a0)), fb = split_csv(sweep_csv_line(b0));
+  for (size_t i = 0; i < kColumnCount && i < fa.size() && i < fb.size(); ++i)
+    if (fa[i] != fb[i])
+      return std::string(kColumns[i]) + " " + (fa[i].empty() ? "(empty)" : fa[i]) + " against " +
+             (fb[i].empty() ? "(empty)" : fb[i]);
+  return "";
+}
+
+bool same_sweep_results(const SweepRow& a, const SweepRow& b) {
+  return sweep_results_difference(a, b).empty();
+}
+
+void check_sweep_rays(const std::string& job, uint64_t rays) {
+  // Per point: 2N rays, the float reference's hits (kept per BVH width), the fixed device's and the timed
+  // device's; 160 bytes per N, as measured (sweep --rays 400000 peaks 55 MiB above --rays 50000).
+  const uint64_t per = 2 * (sizeof(hw::Ray) + 3 * sizeof(hw::Hit));
+  check_memory(job + " --rays " + std::to_string(rays) + ": " + std::to_string(rays) +
+                   " camera and as many "
+                   "incoherent rays with their hits",
+               rays > UINT64_MAX / per ? UINT64_MAX : rays * per);
 }
 
 }  // namespace rtu::host

@@ -7,9 +7,11 @@
 // resumes, shards and merges and that `rtusim plan` and the plots read.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
@@ -35,6 +37,7 @@ struct SweepRow {
   // other rays or another render, so resume and merge tell them apart (sweep_run_params).
   uint64_t seed = 1;
   int image_width = 0;
+  bool flatten = false;  // the fixed and timed devices traced an instanced scene flattened (SweepOptions)
   double hit_agreement = 1.0, prim_agreement = 1.0;
   uint64_t false_misses = 0, false_hits = 0;
   double t_rel_error_mean = 0.0, t_rel_error_max = 0.0;
@@ -44,8 +47,11 @@ struct SweepRow {
   double t_rel_error_sd = 0.0;
   double node_visit_overhead = 0.0, prim_test_overhead = 0.0;
   uint64_t box_false_negatives = 0;
-  double psnr_db = 0.0;  // fixed render against float render (inf when identical)
-  uint64_t cycles = 0;   // the rays on the timed device (closest hit)
+  // Fixed render against float render (inf when identical); NaN when not measured (image_width 0), which the CSV
+  // writes as an empty cell.
+  double psnr_db = std::numeric_limits<double>::quiet_NaN();
+  bool psnr_measured() const { return !std::isnan(psnr_db); }
+  uint64_t cycles = 0;  // the rays on the timed device (closest hit)
   double cycles_per_ray = 0.0;
   double dram_bytes_per_ray = 0.0;  // the timed run's DRAM bytes (its cache's line fills: TimingStats) / rays
   // The encoded image (header, nodes, primitives, planes); the float BVH's nodes + indices.
@@ -65,6 +71,12 @@ struct SweepOptions {
   uint64_t seed = 1;
   int image_width = 128;  // the PSNR render (1 sample per pixel, two bounces); 0: no render
   int threads = 0;
+  // Fixed and timed devices trace an instanced scene's flattened geometry in one image instead of its two levels
+  // (rtusim --flatten; the float reference keeps them). A run parameter: rows made with it measure other bytes.
+  bool flatten = false;
+  // Called between points and between the stages of a point (never from a worker thread); it may throw to stop
+  // the job, e.g. the Python module's check for Ctrl-C. Empty: never called.
+  std::function<void()> poll;
 };
 
 // Synthesis results of the RTL box unit by its Verilator parameters (rtl_sim/params/rtl_params.h verilator_args),
@@ -130,6 +142,9 @@ struct SweepGrid {
 // Checks every format spec, BVH width and configuration of the grid before the first point runs; throws Error
 // naming the option (--formats, --bvh-width, --config) and the problem.
 void check_sweep_grid(const SweepGrid& g);
+// The rays of a sweep or plan job (--rays N camera rays and N incoherent) and their hits on the float, fixed and
+// timed devices, held at once, against the memory limit: throws the budget's Error naming `job` and N.
+void check_sweep_rays(const std::string& job, uint64_t rays);
 // Runs the grid's points in order (check_sweep_grid first): `want(index, point)` says whether point `index` runs
 // (a shard, a resumed sweep); a scene is loaded only when one of its points runs, with one SweepCache per scene.
 // `row(scene, row)` sees each row as soon as it is measured.
@@ -138,14 +153,24 @@ void run_sweep_grid(const SweepGrid& g, const SweepOptions& o, const AreaTable& 
                     const std::function<void(const Scene&, const SweepRow&)>& row);
 
 // The run parameters of a row, or of the rows a sweep with these options makes, as rtusim sweep's options spell
-// them: "--rays N --seed S --image-width W". Rows are interchangeable (resume, merge) only when these are equal.
+// them: "--rays N --seed S --image-width W" (and " --flatten" when set). Rows are interchangeable (resume, merge)
+// only when these are equal.
 std::string sweep_run_params(const SweepRow& r);
 std::string sweep_run_params(const SweepOptions& o);
 
-// CSV: one header line, one row per point, in a fixed column order; numbers round-trip.
+// CSV: one header line, one row per point, in a fixed column order; numbers round-trip; a PSNR not measured is an
+// empty cell.
 std::string sweep_csv_header();
 std::string sweep_csv_line(const SweepRow& r);
-// Reads a sweep CSV (throws Error naming the line for a wrong header or a malformed row).
-std::vector<SweepRow> read_sweep_csv(const std::string& path);
+// Reads a sweep CSV (throws Error naming the line for a wrong header or a malformed row). LF or CRLF line ends,
+// with or without a UTF-8 byte order mark. A file of the version before the `flatten` column is read as rows
+// that traced two levels (flatten 0), as that version did; `header_is_current`, when given, says whether the file
+// has this version's header (a resumed sweep rewrites an older one before appending).
+std::vector<SweepRow> read_sweep_csv(const std::string& path, bool* header_is_current = nullptr);
+// True when two rows of one point give the same results: every column but the wall time (`seconds`).
+bool same_sweep_results(const SweepRow& a, const SweepRow& b);
+// The first column whose value differs between two rows of one point, as "name a against b" (empty: none but
+// the wall time).
+std::string sweep_results_difference(const SweepRow& a, const SweepRow& b);
 
 }  // namespace rtu::host

@@ -1,6 +1,7 @@
 // rtusim plan: the cheapest format for a scene within an error budget (host/plan.h); prints each candidate as it
 // is measured and the plan with why it was chosen.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 
@@ -15,6 +16,16 @@ namespace rtu::host::cli {
 
 namespace {
 
+// Refuses NaN and infinities, which CLI::Range lets through (NaN compares false with both ends), naming the
+// option in CLI11's message.
+const CLI::Validator kFinite(
+    [](std::string& s) {
+      double v = 0.0;
+      return CLI::detail::lexical_cast(s, v) && std::isfinite(v) ? std::string()
+                                                                 : "'" + s + "' is not a finite number";
+    },
+    "FINITE");
+
 struct PlanArgs {
   PlanOptions o;
   std::string json;
@@ -28,7 +39,7 @@ void print_step(const PlanStep& s, const PlanOptions& a) {
     case PlanStage::kCandidate: {
       const SweepRow& r = *s.row;
       char psnr[48] = "";  // no render, no PSNR
-      if (a.sweep.image_width > 0) std::snprintf(psnr, sizeof psnr, ", PSNR %.1f dB", r.psnr_db);
+      if (r.psnr_measured()) std::snprintf(psnr, sizeof psnr, ", PSNR %.1f dB", r.psnr_db);
       char units[96] = "";  // with an area budget: the units the candidate affords
       if (a.area_budget > 0) {
         const hw::TimingConfig c = sweep_config(r.p.config);
@@ -71,14 +82,16 @@ void run_plan(const PlanArgs& args) {
   const hw::FixedFormat base = hw::format_from_spec(def.p.format);
   const char* metric = a.metric == "t" ? "t error" : "hit disagreement";
   std::printf(
-      "plan for %s (%s <= %g at %g%% confidence%s; seed %llu, %llu rays): %s at BVH width %d: %d coordinate bits, "
+      "plan for %s (%s <= %g at %g%% confidence%s; seed %llu, %llu rays%s): %s at BVH width %d: %d coordinate "
+      "bits, "
       "%d child-offset bits; %llu cycles, %llu bytes (%.1f per primitive, %.1f DRAM bytes per ray), %s %.3g "
       "(bound %.3g)\n",
       res.scene.c_str(), metric, a.max_error, 100.0 * a.confidence,
       a.min_psnr > 0 ? (", PSNR >= " + std::to_string(a.min_psnr)).c_str() : "", (unsigned long long)a.sweep.seed,
-      (unsigned long long)(2 * a.sweep.rays), best->p.format.c_str(), best->p.bvh_width, f.coord_bits,
-      f.child_bits, (unsigned long long)best->cycles, (unsigned long long)best->bvh_bytes, best->bytes_per_prim,
-      best->dram_bytes_per_ray, metric, plan_error(*best, a.metric), plan_error_bound(*best, a));
+      (unsigned long long)(2 * a.sweep.rays), a.sweep.flatten ? ", instanced scene flattened" : "",
+      best->p.format.c_str(), best->p.bvh_width, f.coord_bits, f.child_bits, (unsigned long long)best->cycles,
+      (unsigned long long)best->bvh_bytes, best->bytes_per_prim, best->dram_bytes_per_ray, metric,
+      plan_error(*best, a.metric), plan_error_bound(*best, a));
   std::printf("  cheapest: %s%s\n", j["cost"].get<std::string>().c_str(),
               a.area_budget > 0 ? (" within " + std::to_string(a.area_budget) + " mm^2").c_str() : "");
   std::printf("  units: %d box, %d triangle (%s); %.3f mm^2, %.0f pJ per ray (%s)\n",
@@ -91,9 +104,12 @@ void run_plan(const PlanArgs& args) {
                   jw["coord_bits"].get<int>(), jw["fewer_coord_bits"].get<int>(), metric,
                   jw["error_at_fewer_coord_bits"].get<double>(),
                   jw["error_bound_at_fewer_coord_bits"].get<double>(), a.max_error);
-    if (jw["chosen_coord_bits"] != jw["coord_bits"])
-      std::printf("  why %d coordinate bits, not %d: more bits were cheaper on %s (fewer node visits)\n",
-                  jw["chosen_coord_bits"].get<int>(), jw["coord_bits"].get<int>(), a.config.c_str());
+    // Each step up the coordinate bits the plan weighed, with its measured cause (plan_more_bits_cause).
+    for (const Json& m : jw["more_coord_bits"])
+      std::printf("  %s %d coordinate bits over %d on %s: %s\n", m["taken"].get<bool>() ? "took" : "kept",
+                  m["taken"].get<bool>() ? m["to_coord_bits"].get<int>() : m["from_coord_bits"].get<int>(),
+                  m["taken"].get<bool>() ? m["from_coord_bits"].get<int>() : m["to_coord_bits"].get<int>(),
+                  a.config.c_str(), m["cause"].get<std::string>().c_str());
   }
   std::printf(
       "  against the base format (%s: %d coordinate bits, %d child bits%s): %+.1f%% cycles, %+.1f%% bytes, "
@@ -120,17 +136,18 @@ void add_plan(CLI::App& app) {
       "coordinate bits, offset bits, BVH width; with --area-budget the units it affords) whose error's upper "
       "confidence bound meets a budget on a scene");
   sub->add_option("--scene", a->o.scene, "scene file, mesh file or builtin:NAME")->required();
-  sub->add_option("--max-error", a->o.max_error, "error budget of --metric")->required();
+  sub->add_option("--max-error", a->o.max_error, "error budget of --metric")->required()->check(kFinite);
   sub->add_option("--metric", a->o.metric,
                   "hit: fraction of rays whose hit/miss differs from float; t: mean relative t error")
       ->check(CLI::IsMember({"hit", "t"}))
       ->capture_default_str();
   sub->add_option("--min-psnr", a->o.min_psnr, "also require the render's PSNR against float (dB; 0: no)")
+      ->check(kFinite)
       ->capture_default_str();
   sub->add_option("--confidence", a->o.confidence,
                   "confidence of the error's upper bound that must meet the budget (hit: Clopper-Pearson; t: "
                   "normal approximation of the mean)")
-      ->check(CLI::Range(0.5, 0.999999))
+      ->check(kFinite & CLI::Range(0.5, 0.999999))
       ->capture_default_str();
   sub->add_option("--seed", a->o.sweep.seed, "seed of the incoherent rays (another seed, another sample)")
       ->capture_default_str();
@@ -152,7 +169,7 @@ void add_plan(CLI::App& app) {
   sub->add_option("--area-budget", a->o.area_budget,
                   "iso-area design: the unit's area budget in mm^2 (45 nm estimate); each candidate gets the box "
                   "and triangle units it affords, so a narrower format can buy more units (0: none)")
-      ->check(CLI::Range(0.0, 1e6))
+      ->check(kFinite & CLI::Range(0.0, 1e6))
       ->capture_default_str();
   sub->add_option("--bvh-width", a->o.widths, "BVH widths to consider, comma-separated")
       ->delimiter(',')
@@ -174,6 +191,9 @@ void add_plan(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--threads", a->o.sweep.threads, "worker threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
+  sub->add_flag("--flatten", a->o.sweep.flatten,
+                "fixed and timed devices: trace an instanced scene's flattened geometry in one image instead of "
+                "its two levels (the float reference keeps them); in the JSON's flatten");
   sub->add_option(
          "--area", a->o.area,
          "RTL area table for the rtl_cells and area figures (default: the shipped bench/data/rtl_area.csv)")

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <memory>
 #include <set>
 
@@ -50,8 +51,8 @@ void write_rows(const std::string& path, const std::vector<SweepRow>& rows) {
 
 void run_merge(const SweepArgs& a) {
   std::vector<SweepRow> all;
-  std::set<std::string> keys;
-  size_t duplicates = 0;
+  std::map<std::string, std::pair<size_t, std::string>> first;  // point key: its row in `all`, and its file
+  size_t duplicates = 0, conflicts = 0;
   std::string params, params_file;  // the run parameters of the first row, and its file
   for (const std::string& f : a.merge)
     for (const SweepRow& r : read_sweep_csv(f)) {
@@ -64,14 +65,28 @@ void run_merge(const SweepArgs& a) {
         throw Error("--merge: rows made with different run parameters, " + params + " (in " + params_file +
                     ") and " + p + " (in " + f + "): only rows made with the same run parameters merge");
       }
-      if (keys.insert(r.p.key()).second)
+      const auto it = first.find(r.p.key());
+      if (it == first.end()) {
+        first.emplace(r.p.key(), std::make_pair(all.size(), f));
         all.push_back(r);
-      else
-        ++duplicates;
+        continue;
+      }
+      ++duplicates;
+      // The same point measured twice with the same run parameters gives the same results (the model is
+      // deterministic); other results mean another rtusim made one of them: the first is kept, and the user told.
+      const std::string diff = sweep_results_difference(all[it->second.first], r);
+      if (!diff.empty()) {
+        ++conflicts;
+        std::fprintf(stderr,
+                     "rtusim: warning: --merge: point %s: %s gives other results than %s (%s); keeping the row of "
+                     "%s\n",
+                     r.p.key().c_str(), f.c_str(), it->second.second.c_str(), diff.c_str(),
+                     it->second.second.c_str());
+      }
     }
   write_rows(a.out, all);
-  std::printf("merged %zu files: %zu points (%zu duplicates dropped) -> %s\n", a.merge.size(), all.size(),
-              duplicates, a.out.c_str());
+  std::printf("merged %zu files: %zu points (%zu duplicates dropped, %zu of them with other results) -> %s\n",
+              a.merge.size(), all.size(), duplicates, conflicts, a.out.c_str());
 }
 
 void run_sweep_points(const SweepArgs& a);
@@ -120,7 +135,18 @@ void run_sweep_points(const SweepArgs& a) {
   if (exists) {
     size_t others = 0;
     std::string other;
-    for (const SweepRow& r : read_sweep_csv(a.out)) {
+    bool current = true;
+    const std::vector<SweepRow> old = read_sweep_csv(a.out, &current);
+    if (!current) {
+      // A file of the version before the flatten column: rewritten in this version (its rows kept, flatten 0)
+      // so that the rows appended below match its header.
+      write_rows(a.out, old);
+      std::fprintf(stderr,
+                   "rtusim: warning: %s was written by an earlier rtusim (no flatten column); rewritten "
+                   "in this version, its rows kept\n",
+                   a.out.c_str());
+    }
+    for (const SweepRow& r : old) {
       if (sweep_run_params(r) == params) {
         done.insert(r.p.key());
       } else {
@@ -151,11 +177,13 @@ void run_sweep_points(const SweepArgs& a) {
     out << sweep_csv_line(r) << '\n' << std::flush;  // a row at a time: an interrupted sweep resumes
     if (!out) throw Error("cannot write " + a.out);
     ++ran;
+    char psnr[32] = "no render";
+    if (r.psnr_measured()) std::snprintf(psnr, sizeof psnr, "PSNR %.1f dB", r.psnr_db);
     std::printf(
-        "%s %s w%d %s: hit agreement %.5f%%, t err %.2g, PSNR %.1f dB, %llu cycles, %.1f DRAM bytes/ray, "
+        "%s %s w%d %s%s: hit agreement %.5f%%, t err %.2g, %s, %llu cycles, %.1f DRAM bytes/ray, "
         "%llu bytes (%.1f per primitive), %.1f s\n",
-        scene.name.c_str(), r.p.format.c_str(), r.p.bvh_width, r.p.config.c_str(), 100.0 * r.hit_agreement,
-        r.t_rel_error_mean, r.psnr_db, (unsigned long long)r.cycles, r.dram_bytes_per_ray,
+        scene.name.c_str(), r.p.format.c_str(), r.p.bvh_width, r.p.config.c_str(), r.flatten ? " flattened" : "",
+        100.0 * r.hit_agreement, r.t_rel_error_mean, psnr, (unsigned long long)r.cycles, r.dram_bytes_per_ray,
         (unsigned long long)r.bvh_bytes, r.bytes_per_prim, r.seconds);
     std::fflush(stdout);
   });
@@ -198,6 +226,9 @@ void add_sweep(CLI::App& app) {
   sub->add_option("--threads", a->opt.threads, "worker threads (0 = all cores); results do not depend on it")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  sub->add_flag("--flatten", a->opt.flatten,
+                "fixed and timed devices: trace an instanced scene's flattened geometry in one image instead of "
+                "its two levels (the float reference keeps them); a run parameter, in the CSV's flatten column");
   sub->add_option("--area", a->area,
                   "RTL area table (CSV params,cells,flip_flops,transistors; bench/rtl_area.sh writes it; default: "
                   "the shipped bench/data/rtl_area.csv)")
@@ -210,7 +241,7 @@ void add_sweep(CLI::App& app) {
           ->check(CLI::ExistingFile);
   // Merging runs no point: the options of a run would be ignored, so they are refused with it.
   for (const char* name : {"--scene", "--suite", "--formats", "--bvh-width", "--config", "--rays", "--seed",
-                           "--image-width", "--threads", "--area", "--shard"})
+                           "--image-width", "--threads", "--area", "--shard", "--flatten"})
     merge->excludes(sub->get_option(name));
   sub->add_option("--out", a->out,
                   "CSV to write; points already in it made with the same --rays, --seed and --image-width are "

@@ -462,17 +462,17 @@ TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad 
   auto strip_time = [](std::string l) { return l.substr(0, l.rfind(',')); };
   const std::vector<std::string> w = read_lines(whole);
   REQUIRE(w.size() == 7);  // header + 3 formats x 2 widths
-  CHECK(w[0].rfind("scene,format,bvh_width,config,rays,seed,image_width,hit_agreement", 0) == 0);
+  CHECK(w[0].rfind("scene,format,bvh_width,config,rays,seed,image_width,flatten,hit_agreement", 0) == 0);
   // The default format agrees with float on every ray of the seed scene (3000 + 3000 rays, seed 1, 48 wide).
-  CHECK(w[1].find("builtin:seed,default,4,rdna2,6000,1,48,1,") == 0);
+  CHECK(w[1].find("builtin:seed,default,4,rdna2,6000,1,48,0,1,") == 0);
   // At every width the fixed device traverses the float reference's tree of the same width: quantized boxes
   // only grow, so it visits a few percent more nodes, never far fewer (a reference of another width would).
   for (size_t i = 1; i < w.size(); ++i) {
     std::vector<std::string> f;
     std::stringstream ss(w[i]);
     for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
-    REQUIRE(f.size() == 28);
-    const double node_overhead = std::stod(f[13]);
+    REQUIRE(f.size() == 29);
+    const double node_overhead = std::stod(f[14]);
     INFO(w[i]);
     CHECK(node_overhead >= -0.01);
     CHECK(node_overhead <= 0.25);
@@ -928,7 +928,7 @@ TEST_CASE("report and pareto: bad input gives a clear error and exit 2", "[cli][
     std::ofstream(d / "short.csv") << rtu::host::sweep_csv_header() << "\nbuiltin:seed,default,4\n";
     std::ofstream(d / "nan.csv")
         << rtu::host::sweep_csv_header()
-        << "\nbuiltin:seed,default,4,rdna2,10,1,48,x,1,0,0,0,0,0,0,0,inf,5,0.5,64,100,100,2.5,-1,-1,0.5,900,0.1\n";
+        << "\nbuiltin:seed,default,4,rdna2,10,1,48,0,x,1,0,0,0,0,0,0,0,inf,5,0.5,64,100,100,2.5,-1,-1,0.5,900,0.1\n";
     std::ofstream(d / "empty_rows.csv") << rtu::host::sweep_csv_header() << "\n";
   }
   const std::string out = " --out " + (d / "o").string();
@@ -1213,4 +1213,163 @@ TEST_CASE("sweep: resume reruns points made with other --rays, --seed or --image
   CHECK(two.status == 2);
   CHECK(two.output.find("--rays 128 --seed 1 --image-width 0") != std::string::npos);
   CHECK(two.output.find("--rays 64 --seed 1 --image-width 0") != std::string::npos);
+}
+
+TEST_CASE(
+    "sweep: a PSNR not measured is an empty cell; merge warns of conflicting duplicates; CRLF and a BOM read",
+    "[cli][sweep]") {
+  const fs::path d = temp_dir() / "sweep_cells";
+  fs::remove_all(d);
+  fs::create_directories(d);
+  const std::string a = (d / "a.csv").string(), b = (d / "b.csv").string();
+  const Run r =
+      run_rtusim("sweep --scene builtin:cornell --formats default,compact --rays 64 --image-width 0 --out " + a);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(r.output.find("no render") != std::string::npos);
+  std::vector<std::string> lines;
+  {
+    std::ifstream in(a);
+    for (std::string l; std::getline(in, l);) lines.push_back(l);
+  }
+  REQUIRE(lines.size() == 3);
+  // psnr_db (the 18th column) is empty, not 0: no render measured it.
+  for (size_t i = 1; i < lines.size(); ++i) {
+    std::vector<std::string> f;
+    std::stringstream ss(lines[i]);
+    for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+    REQUIRE(f.size() == 29);
+    CHECK(f[17].empty());
+    CHECK(lines[i].find("nan") == std::string::npos);
+  }
+  const std::vector<rtu::host::SweepRow> rows = rtu::host::read_sweep_csv(a);
+  REQUIRE(rows.size() == 2);
+  CHECK_FALSE(rows[0].psnr_measured());
+
+  // The same rows with CRLF line ends and a UTF-8 byte order mark (as a spreadsheet saves them) read the same.
+  const std::string crlf = (d / "crlf.csv").string();
+  {
+    std::ofstream f(crlf, std::ios::binary);
+    f << "\xEF\xBB\xBF";
+    for (const std::string& l : lines) f << l << "\r\n";
+  }
+  const std::vector<rtu::host::SweepRow> again = rtu::host::read_sweep_csv(crlf);
+  REQUIRE(again.size() == 2);
+  CHECK(again[1].p.key() == rows[1].p.key());
+  CHECK(rtu::host::same_sweep_results(again[1], rows[1]));
+
+  // Identical duplicates merge silently; a duplicate point with other results is kept out with a warning that
+  // names the point and the column.
+  const std::string m1 = (d / "m1.csv").string();
+  Run mr = run_rtusim("sweep --merge " + a + " " + crlf + " --out " + m1);
+  INFO(mr.output);
+  REQUIRE(mr.status == 0);
+  CHECK(mr.output.find("warning") == std::string::npos);
+  CHECK(mr.output.find("2 duplicates dropped, 0 of them with other results") != std::string::npos);
+  CHECK(rtu::host::read_sweep_csv(m1).size() == 2);
+  {
+    std::ofstream f(b);
+    f << lines[0] << '\n';
+    rtu::host::SweepRow row = rows[1];  // compact, its cycles changed
+    row.cycles += 1;
+    f << rtu::host::sweep_csv_line(row) << '\n';
+  }
+  mr = run_rtusim("sweep --merge " + a + " " + b + " --out " + (d / "m2.csv").string());
+  INFO(mr.output);
+  REQUIRE(mr.status == 0);
+  CHECK(mr.output.find("warning: --merge: point " + rows[1].p.key()) != std::string::npos);
+  // The kept row's value first.
+  CHECK(mr.output.find("(cycles " + std::to_string(rows[1].cycles) + " against " +
+                       std::to_string(rows[1].cycles + 1) + ")") != std::string::npos);
+  CHECK(mr.output.find("1 of them with other results") != std::string::npos);
+  const std::vector<rtu::host::SweepRow> kept = rtu::host::read_sweep_csv((d / "m2.csv").string());
+  REQUIRE(kept.size() == 2);
+  CHECK(kept[1].cycles == rows[1].cycles);  // the first file's row
+
+  // A file of the version before the flatten column reads as two-level rows, and a resumed sweep rewrites it in
+  // this version before it appends.
+  const std::string old = (d / "old.csv").string();
+  {
+    std::string header = lines[0];
+    header.replace(header.find(",flatten"), 8, "");
+    std::string row = lines[1];
+    size_t comma = 0;
+    for (int i = 0; i < 7; ++i) comma = row.find(',', comma) + 1;  // after image_width
+    row.erase(comma, 2);                                           // "0,"
+    std::ofstream f(old);
+    f << header << '\n' << row << '\n';
+  }
+  const std::vector<rtu::host::SweepRow> old_rows = rtu::host::read_sweep_csv(old);
+  REQUIRE(old_rows.size() == 1);
+  CHECK_FALSE(old_rows[0].flatten);
+  CHECK(rtu::host::same_sweep_results(old_rows[0], rows[0]));
+  const Run resumed =
+      run_rtusim("sweep --scene builtin:cornell --formats default,compact --rays 64 --image-width 0 --out " + old);
+  INFO(resumed.output);
+  REQUIRE(resumed.status == 0);
+  CHECK(resumed.output.find("1 run, 1 already") != std::string::npos);
+  CHECK(rtu::host::read_sweep_csv(old).size() == 2);
+}
+
+TEST_CASE("sweep, plan and report --flatten: one image for an instanced scene, recorded in the CSV and JSON",
+          "[cli][sweep]") {
+  const fs::path d = temp_dir() / "flatten";
+  fs::remove_all(d);
+  fs::create_directories(d);
+  const std::string csv = (d / "city.csv").string();
+  const std::string grid = "sweep --scene builtin:city --rays 64 --image-width 0 --threads 2 --out " + csv;
+  REQUIRE(run_rtusim(grid).status == 0);
+  const Run r = run_rtusim(grid + " --flatten");
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(r.output.find("flattened") != std::string::npos);
+  CHECK(r.output.find("1 run, 0 already") != std::string::npos);  // another run parameter: not resumed
+  const std::vector<rtu::host::SweepRow> rows = rtu::host::read_sweep_csv(csv);
+  REQUIRE(rows.size() == 2);
+  CHECK_FALSE(rows[0].flatten);
+  CHECK(rows[1].flatten);
+  CHECK(rtu::host::sweep_run_params(rows[1]) == "--rays 64 --seed 1 --image-width 0 --flatten");
+  // The city places a few meshes many times: flattened, the image and the DRAM traffic are larger.
+  CHECK(rows[1].bvh_bytes > 10 * rows[0].bvh_bytes);
+  CHECK(rows[1].dram_bytes_per_ray != rows[0].dram_bytes_per_ray);
+  // --merge refuses the mix (other run parameters).
+  CHECK(run_rtusim("sweep --merge " + csv + " --out " + (d / "m.csv").string()).status == 2);
+  CHECK(run_rtusim("sweep --merge " + csv + " --flatten --out " + (d / "m.csv").string()).status != 0);
+
+  const std::string plan =
+      "plan --scene builtin:city --max-error 0.05 --bvh-width 4 --coord-bits 16 "
+      "--child-bits 8 --rays 64 --image-width 0 --threads 2 --json ";
+  const std::string one = (d / "one.json").string(), two = (d / "two.json").string();
+  const Run p1 = run_rtusim(plan + one + " --flatten");
+  INFO(p1.output);
+  REQUIRE(p1.status == 0);
+  CHECK(p1.output.find("instanced scene flattened") != std::string::npos);
+  REQUIRE(run_rtusim(plan + two).status == 0);
+  const nlohmann::json j1 = read_json(one), j2 = read_json(two);
+  CHECK(j1["flatten"] == true);
+  CHECK(j2["flatten"] == false);
+  CHECK(j1["plan"]["bytes"].get<uint64_t>() > 10 * j2["plan"]["bytes"].get<uint64_t>());
+  CHECK(j1["plan"]["psnr_db"].is_null());  // no render: not measured
+}
+
+TEST_CASE("plan: budgets no sample can show and NaN options are refused up front, naming the option",
+          "[cli][sweep]") {
+  for (const char* m : {"0", "1e-20", "4.9e-324", "1e-12"}) {
+    const Run r = run_rtusim(std::string("plan --scene builtin:cornell --max-error ") + m);
+    INFO(r.output);
+    CHECK(r.status == 2);
+    CHECK(r.output.find("below the smallest hit disagreement a plan can show") != std::string::npos);
+  }
+  // Reachable with more rays: the message names how many.
+  const Run more = run_rtusim("plan --scene builtin:cornell --max-error 1e-6");
+  CHECK(more.status == 2);
+  CHECK(more.output.find("use --rays 1497866 or more") != std::string::npos);
+  for (const char* opt : {"--max-error", "--min-psnr", "--confidence", "--area-budget"}) {
+    const std::string args = std::string("plan --scene builtin:cornell ") +
+                             (std::string(opt) == "--max-error" ? "" : "--max-error 0.01 ") + opt + " nan";
+    const Run r = run_rtusim(args);
+    INFO(args << ": " << r.output);
+    CHECK(r.status == 2);
+    CHECK(r.output.find(std::string(opt) + ": 'nan' is not a finite number") != std::string::npos);
+  }
 }

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -226,6 +227,122 @@ TEST_CASE("plan: a bad metric or budget is refused before the scene is loaded", 
   o.min_psnr = 0.0;
   o.config = "no-such-preset";
   CHECK_THROWS_AS(rtu::host::plan_format(o), rtu::host::Error);
+}
+
+TEST_CASE("plan: budgets below the smallest showable bound and NaN options are refused at once", "[jobs][plan]") {
+  rtu::host::PlanOptions o;
+  o.scene = "no/such/scene.obj";  // refused before the scene is loaded
+  for (double m : {0.0, 1e-20, 4.9e-324, 1e-12, 2e-8}) {
+    o.max_error = m;
+    CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("below the smallest hit disagreement"));
+  }
+  // The smallest showable budget is the bound of zero disagreements on the most rays; just above it, the message
+  // names rays that do show it, and they do.
+  const double smallest = rtu::host::plan_smallest_hit_budget(rtu::host::kMaxPlanRays, o.confidence);
+  CHECK(smallest > 2e-8);
+  CHECK(smallest < 3e-8);
+  o.max_error = 1e-5;
+  o.sweep.rays = 1000;
+  try {
+    rtu::host::plan_format(o);
+    FAIL("no error");
+  } catch (const rtu::host::Error& e) {
+    const std::string msg = e.what();
+    INFO(msg);
+    const size_t at = msg.find("use --rays ");
+    REQUIRE(at != std::string::npos);
+    const uint64_t need = std::stoull(msg.substr(at + 11));
+    CHECK(rtu::host::plan_smallest_hit_budget(need, o.confidence) <= 1e-5);
+    CHECK(rtu::host::plan_smallest_hit_budget(need - 1, o.confidence) > 1e-5);
+  }
+  o.max_error = 0.1;
+  o.min_psnr = std::nan("");
+  CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("--min-psnr"));
+  o.min_psnr = 0.0;
+  o.confidence = std::nan("");
+  CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("--confidence"));
+  o.confidence = 0.95;
+  o.area_budget = std::nan("");
+  CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("--area-budget"));
+  o.area_budget = 0.0;
+  o.max_error = std::nan("");
+  CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("--max-error"));
+}
+
+TEST_CASE("plan: more coordinate bits pay only for less traversal work or beyond the placement noise",
+          "[jobs][plan]") {
+  rtu::host::PlanOptions o;
+  rtu::host::SweepRow fewer, more;
+  fewer.p.format = "packed:coord_bits=14:child_bits=8";
+  more.p.format = "packed:coord_bits=16:child_bits=8";
+  fewer.node_visit_overhead = more.node_visit_overhead = 0.05;
+  fewer.prim_test_overhead = more.prim_test_overhead = 0.02;
+  // The IFC house's case: node visits equal, DRAM bytes per ray lower at more bits by where nodes fall on cache
+  // lines, cycles 5% lower: a tie, and the message says so, with the measured bytes.
+  fewer.cycles = 1000000;
+  more.cycles = 950000;
+  fewer.dram_bytes_per_ray = 186.0;
+  more.dram_bytes_per_ray = 164.0;
+  CHECK(rtu::host::plan_cheaper(more, fewer, o));
+  CHECK_FALSE(rtu::host::plan_more_bits_pay(more, fewer, o));
+  std::string why = rtu::host::plan_more_bits_cause(more, fewer, o);
+  INFO(why);
+  CHECK(why.find("fewer DRAM bytes per ray (164 against 186)") != std::string::npos);
+  CHECK(why.find("cache lines") != std::string::npos);
+  CHECK(why.find("a tie") != std::string::npos);
+  CHECK(why.find("node visits") == std::string::npos);
+  // The same bytes and 10% fewer cycles: beyond the noise, taken, the cause still the bytes.
+  more.cycles = 900000;
+  CHECK(rtu::host::plan_more_bits_pay(more, fewer, o));
+  why = rtu::host::plan_more_bits_cause(more, fewer, o);
+  CHECK(why.find("a tie") == std::string::npos);
+  CHECK(why.find("DRAM bytes") != std::string::npos);
+  // Fewer node visits: taken at any saving, and named as the cause (not cache lines).
+  more.cycles = 990000;
+  more.node_visit_overhead = 0.01;
+  more.dram_bytes_per_ray = 190.0;
+  CHECK(rtu::host::plan_more_bits_pay(more, fewer, o));
+  why = rtu::host::plan_more_bits_cause(more, fewer, o);
+  CHECK(why.find("fewer node visits (101% of the float reference's, against 105%)") != std::string::npos);
+  CHECK(why.find("DRAM") == std::string::npos);
+  // Not cheaper: never taken.
+  more.cycles = 1000001;
+  CHECK_FALSE(rtu::host::plan_more_bits_pay(more, fewer, o));
+  // Minimising bytes: exact figures, no noise margin.
+  o.minimise = "bytes";
+  fewer.bvh_bytes = 1000;
+  more.bvh_bytes = 999;
+  CHECK(rtu::host::plan_more_bits_pay(more, fewer, o));
+}
+
+TEST_CASE("plan and sweep: the poll hook is called between steps and stops the job when it throws",
+          "[jobs][plan]") {
+  rtu::host::PlanOptions o;
+  o.scene = "builtin:icosphere?subdiv=1";
+  o.max_error = 0.05;
+  o.widths = {4};
+  o.coord_bits = {10, 16};
+  o.child_bits = {8};
+  o.sweep.rays = 64;
+  o.sweep.image_width = 0;
+  o.sweep.threads = 1;
+  int polls = 0;
+  o.sweep.poll = [&] {
+    if (++polls == 3) throw std::runtime_error("interrupted");
+  };
+  size_t candidates = 0;
+  CHECK_THROWS_WITH(rtu::host::plan_format(o,
+                                           [&](const rtu::host::PlanStep& s) {
+                                             if (s.stage == rtu::host::PlanStage::kCandidate) ++candidates;
+                                           }),
+                    "interrupted");
+  CHECK(polls == 3);
+  CHECK(candidates == 0);  // stopped inside the first candidate, between its stages
+  polls = 0;
+  o.sweep.poll = [&] { ++polls; };
+  const rtu::host::PlanResult r = rtu::host::plan_format(o);
+  CHECK(r.found);
+  CHECK(polls > 4);  // several stages per candidate
 }
 
 TEST_CASE("demo: writes every file it lists, and its figures agree with the files", "[jobs][demo]") {

@@ -158,8 +158,8 @@ const char* pareto_cost_name(ParetoCost c) {
 
 double pareto_error(const SweepRow& r, ParetoError e) {
   if (e == ParetoError::kHitDisagreement) {
-    const double floor = r.rays ? 1.0 / double(r.rays) : 1e-9;
-    return std::max(r.hit_disagreement(), floor);
+    const double one_ray = r.rays ? 1.0 / double(r.rays) : 1e-9;
+    return r.hit_disagreement() > 0.0 ? std::max(r.hit_disagreement(), one_ray) : one_ray / kHitZeroBelow;
   }
   return r.t_rel_error_mean > 0.0 ? r.t_rel_error_mean : kZeroTError;
 }
@@ -264,6 +264,16 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
     const std::vector<size_t>& idx = by_scene[scene];
     const std::string base = "pareto_" + tag;
     const std::string data = base + ".dat";
+    uint64_t rays = 0;
+    for (size_t i : idx) rays = std::max(rays, rows[i].rays);
+    // Hit disagreements of 0 are drawn at one place for the scene, a decade under one wrong ray of its largest
+    // sample (rows of one scene made with other --rays would otherwise put their zeros at other heights).
+    const double one_ray = rays ? 1.0 / double(rays) : 1e-9, hit_zero = one_ray / kHitZeroBelow;
+    const bool hit_zeros =
+        std::any_of(idx.begin(), idx.end(), [&](size_t i) { return rows[i].hit_disagreement() <= 0.0; });
+    const auto drawn_error = [&](const SweepRow& r, ParetoError e) {
+      return e == ParetoError::kHitDisagreement && r.hit_disagreement() <= 0.0 ? hit_zero : pareto_error(r, e);
+    };
     {
       std::ofstream f(dir + "/" + data);
       // The first columns are the costs in ParetoCost order (a panel plots column cost + 1).
@@ -276,14 +286,12 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
         f << r.cycles << ' ' << r.bvh_bytes << ' ' << (r.rtl_cells >= 0 ? std::to_string(r.rtl_cells) : "?") << ' '
           << (r.dram_bytes_per_ray > 0.0 ? g(r.dram_bytes_per_ray) : "?") << ' '
           << (r.pj_per_ray > 0.0 ? g(r.pj_per_ray) : "?") << ' '
-          << g(pareto_error(r, ParetoError::kHitDisagreement)) << ' '
-          << g(pareto_error(r, ParetoError::kTRelErrorMean)) << ' ' << label_field(pareto_label(r.p)) << ' '
+          << g(drawn_error(r, ParetoError::kHitDisagreement)) << ' '
+          << g(drawn_error(r, ParetoError::kTRelErrorMean)) << ' ' << label_field(pareto_label(r.p)) << ' '
           << k + 1 << ' ' << g(r.bytes_per_prim) << '\n';
       }
       if (!f.flush()) throw Error("cannot write " + dir + "/" + data);
     }
-    uint64_t rays = 0;
-    for (size_t i : idx) rays = std::max(rays, rows[i].rays);
     // The panels drawn: DRAM bytes and area only when some row of the scene has them.
     std::vector<ParetoCost> costs = {ParetoCost::kCycles, ParetoCost::kBvhBytes};
     const auto any_known = [&](ParetoCost c) {
@@ -322,8 +330,9 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
          << "set ylabel " << gp_quote(error_axis(e)) << "\n";
       std::string title =
           scene + ": " + error_axis(e) + " against cost, " + std::to_string(idx.size()) + " points";
-      title += e == ParetoError::kHitDisagreement ? " (0 is drawn at 1/rays = " + g(rays ? 1.0 / double(rays) : 0)
-                                                  : " (0 is drawn at " + g(kZeroTError);
+      title += e == ParetoError::kHitDisagreement
+                   ? " (one wrong ray is 1/rays = " + g(one_ray) + "; 0 is drawn apart, under the dashed line"
+                   : " (0 is drawn at " + g(kZeroTError);
       title += ")";
       const std::string legend =
           "numbers: the points (the scene's rows, format/width/config, in the table under the plots); blue: "
@@ -335,8 +344,19 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
                                        " at screen 0.5," + sy(30) + " center\n";
       gp << "set multiplot\n";
       Range yr;
-      for (size_t i : idx) yr.add(pareto_error(rows[i], e));
+      for (size_t i : idx) yr.add(drawn_error(rows[i], e));
       const double ylo = yr.lo / 3, yhi = yr.hi * 3;
+      // With zeros on the hit axis: a dashed break between the zeros and one wrong ray (halfway on the log
+      // axis), a "0" tick at the zeros and decade ticks only above the break, where errors are measured.
+      std::string zero_axis;
+      if (e == ParetoError::kHitDisagreement && hit_zeros) {
+        const double brk = std::sqrt(hit_zero * one_ray);
+        zero_axis = "set ytics (\"0\" " + g(hit_zero);
+        for (double dec = std::pow(10.0, std::ceil(std::log10(brk))); dec <= yhi; dec *= 10.0)
+          zero_axis += ", " + g(dec);
+        zero_axis += ")\nset arrow 900 from graph 0, first " + g(brk) + " to graph 1, first " + g(brk) +
+                     " nohead dt 2 lw 1.5 lc rgb '#606060' back\n";
+      }
       const int ycol = e == ParetoError::kHitDisagreement ? 6 : 7;
       for (size_t c = 0; c < costs.size(); ++c) {
         const ParetoCost cost = costs[c];
@@ -347,7 +367,7 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
         for (size_t k = 0; k < idx.size(); ++k) {
           const double x = pareto_cost(rows[idx[k]], cost);
           if (x <= 0.0) continue;
-          pts.emplace_back(x, pareto_error(rows[idx[k]], e));
+          pts.emplace_back(x, drawn_error(rows[idx[k]], e));
           which.push_back(k);
           xr.add(x);
         }
@@ -475,7 +495,7 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
           const int decimals = std::clamp(int(std::ceil(-std::log10((xhi - xlo) / unit / 5.0))), 0, 3);
           gp << "unset logscale x\nset xtics autofreq\nset format x '%." << decimals << "s%c'\n";
         }
-        gp << labels_gp.str();
+        gp << labels_gp.str() << zero_axis;
         gp << "plot " << gp_quote(data) << " using " << ci + 1 << ":" << ycol
            << " with points pt 7 ps 1.2 lc rgb '#3060c0', \\\n"
            << "  " << gp_quote(front_file) << " using 1:2 with steps lw 2 lc rgb '#d03020', \\\n"

@@ -5,8 +5,9 @@
 // has one, the panel is left out). Points are numbered per scene (1 = the scene's first row);
 // the numbers are placed beside the points so that no two overlap (place_labels), and the page or the data
 // files say which point a number is.
-// Two error measures: hit disagreement (1 - hit agreement, a zero drawn at 1 / rays: "fewer than one ray in
-// the sample") and the mean relative t error (a zero drawn at kZeroTError). A point is on the front when no
+// Two error measures: hit disagreement (1 - hit agreement; one wrong ray is 1 / rays, the smallest error a
+// sample shows, so a zero is drawn apart, kHitZeroBelow times lower, under a dashed break with its own "0" tick)
+// and the mean relative t error (a zero drawn at kZeroTError). A point is on the front when no
 // other point of the scene is at most as costly and at most as wrong and better in one of the two.
 #pragma once
 
@@ -24,12 +25,15 @@ enum class ParetoCost { kCycles, kBvhBytes, kRtlCells, kDramBytesPerRay, kPjPerR
 inline constexpr int kParetoCostCount = 5;
 
 inline constexpr double kZeroTError = 1e-10;  // where a t error of exactly 0 is drawn on the log axis
+// A hit disagreement of exactly 0 is drawn at 1 / (kHitZeroBelow rays): a decade under one wrong ray, so that a
+// zero and one wrong ray are two places on the plot.
+inline constexpr double kHitZeroBelow = 10.0;
 
 const char* pareto_error_name(ParetoError e);  // "hit_disagreement" | "t_rel_error_mean"
 // "cycles" | "bvh_bytes" | "rtl_cells" | "dram_bytes_per_ray" | "pj_per_ray"
 const char* pareto_cost_name(ParetoCost c);
 
-// The row's error as drawn: > 0 (floored as above).
+// The row's error as drawn: > 0 (a zero drawn as above).
 double pareto_error(const SweepRow& r, ParetoError e);
 // The row's cost; < 0 when unknown (rtl_cells = -1, dram_bytes_per_ray = 0, pj_per_ray = 0).
 double pareto_cost(const SweepRow& r, ParetoCost c);

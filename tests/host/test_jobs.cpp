@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -20,6 +21,7 @@
 #include "host/image.h"
 #include "host/image_diff.h"
 #include "host/json_io.h"
+#include "host/pareto.h"
 #include "host/pipeline_trace.h"
 #include "host/plan.h"
 #include "host/ray_spec.h"
@@ -343,6 +345,48 @@ TEST_CASE("plan and sweep: the poll hook is called between steps and stops the j
   const rtu::host::PlanResult r = rtu::host::plan_format(o);
   CHECK(r.found);
   CHECK(polls > 4);  // several stages per candidate
+}
+
+TEST_CASE("report plots: a hit disagreement of 0 is drawn apart from one wrong ray, with its own tick",
+          "[jobs][report][pareto]") {
+  using rtu::host::ParetoError;
+  std::vector<rtu::host::SweepRow> rows(3);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    rows[i].p =
+        rtu::host::SweepPoint{"builtin:seed", "default:coord_bits=" + std::to_string(12 + 4 * i), 4, "rdna2"};
+    rows[i].rays = 2000;
+    rows[i].cycles = 1000 + 100 * i;
+    rows[i].bvh_bytes = 5000 - 1000 * i;
+  }
+  rows[0].hit_agreement = 1.0 - 10.0 / 2000;
+  rows[1].hit_agreement = 1.0 - 1.0 / 2000;  // one wrong ray
+  rows[2].hit_agreement = 1.0;               // none
+  const double one = rtu::host::pareto_error(rows[1], ParetoError::kHitDisagreement);
+  const double zero = rtu::host::pareto_error(rows[2], ParetoError::kHitDisagreement);
+  CHECK(one == Approx(1.0 / 2000));
+  CHECK(zero == Approx(one / rtu::host::kHitZeroBelow));
+  const std::string gnuplot = rtu::host::find_gnuplot();
+  if (gnuplot.empty()) {
+    WARN("gnuplot not installed: the plot's script is not checked");
+    return;
+  }
+  TempDir dir("zero_plot");
+  const auto plots = rtu::host::write_pareto_plots(rows, dir.path.string(), gnuplot);
+  REQUIRE(plots.size() == 2);
+  REQUIRE(plots[0].error == ParetoError::kHitDisagreement);
+  const std::string stem = plots[0].png.substr(0, plots[0].png.size() - 4);
+  std::ifstream in(dir.path / (stem + ".gp"));
+  const std::string gp((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // The "0" tick at the zeros, decade ticks from above the break, and the dashed break between 0 and one ray.
+  CHECK(gp.find("set ytics (\"0\" 5e-05, 0.001, 0.01)") != std::string::npos);
+  CHECK(gp.find("set arrow 900 from graph 0, first 0.000158") != std::string::npos);
+  CHECK(gp.find("one wrong ray is 1/rays = 0.0005") != std::string::npos);
+  CHECK(fs::exists(dir.path / plots[0].png));
+  // The t error's plot has no zero on its axis: no break there.
+  const std::string tstem = plots[1].png.substr(0, plots[1].png.size() - 4);
+  std::ifstream tin(dir.path / (tstem + ".gp"));
+  const std::string tgp((std::istreambuf_iterator<char>(tin)), std::istreambuf_iterator<char>());
+  CHECK(tgp.find("set arrow 900") == std::string::npos);
 }
 
 TEST_CASE("demo: writes every file it lists, and its figures agree with the files", "[jobs][demo]") {

@@ -51,7 +51,7 @@ TEST_CASE("pareto: errors floored for the log axis, unknown area, labels", "[par
   r.rays = 4000;
   r.hit_agreement = 1.0;
   r.t_rel_error_mean = 0.0;
-  CHECK(pareto_error(r, ParetoError::kHitDisagreement) == Approx(1.0 / 4000));
+  CHECK(pareto_error(r, ParetoError::kHitDisagreement) == Approx(1.0 / 4000 / kHitZeroBelow));
   CHECK(pareto_error(r, ParetoError::kTRelErrorMean) == kZeroTError);
   r.hit_agreement = 0.99;
   r.t_rel_error_mean = 3e-6;

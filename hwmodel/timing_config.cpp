@@ -48,6 +48,9 @@ const std::vector<KeyInfo>& key_table() {
        "cycles a ray waits for the any-hit stage's answer on a non-opaque triangle's candidate hit"},
       {"xform_latency", &C::xform_latency, 0, kMaxLatency,
        "two-level scenes: cycles of the instance transform (an instance record to the object-space ray)"},
+      {"instance_bytes", &C::instance_bytes, 0, 4096,
+       "two-level scenes: bytes an instance visit fetches, at that stride (0: the record and its stored transform, "
+       "96 at 24 bits; 64: a one-line instance leaf)"},
       {"box_units", &C::box_units, 1, 64, "box test units"},
       {"box_rate", &C::box_rate, 1, 64, "box tests per clock per unit (a node of width <= rate: one clock)"},
       {"box_latency", &C::box_latency, 1, kMaxLatency, "box unit pipeline depth (issue to result)"},

@@ -43,6 +43,10 @@ struct TimingConfig {
   // Two-level scenes (instanced_fixed.h): cycles from an instance record's arrival to the ray's object-space
   // origin and direction (the transform unit, pipelined: one ray per clock).
   int xform_latency = 12;
+  // Two-level scenes: the bytes an instance visit fetches, at a stride of as many bytes. 0: the image's instance
+  // record and its stored transform and bottom-level address (40 + 56 = 96 bytes at 24 transform bits); 64 models
+  // a one-line instance leaf such as the 64-byte half of Intel's 128-byte InstanceLeaf that traversal reads.
+  int instance_bytes = 0;
 
   // Units: count, tests per clock per unit, pipeline depth (cycles from issue to result).
   int box_units = 1;

@@ -92,9 +92,10 @@ class TimingModel {
   // The image's own layout (packed), or with `align` > 0 every item padded to a multiple of it and every section
   // start aligned to it (TimingConfig::layout_align).
   static Layout layout_of(const DeviceImage& image, uint64_t align);
-  // Both levels of a two-level scene: the top image, its instance records widened by their stored transforms,
-  // then each mesh's image, every image starting on a 64-byte boundary (or `align`, when larger).
-  static Layout layout_of(const InstancedFixedTracer& t, uint64_t align);
+  // Both levels of a two-level scene: the top image, its instance records widened by their stored transforms
+  // (or `instance_bytes` each, when > 0: TimingConfig::instance_bytes), then each mesh's image, every image
+  // starting on a 64-byte boundary (or `align`, when larger).
+  static Layout layout_of(const InstancedFixedTracer& t, uint64_t align, uint64_t instance_bytes = 0);
   // `shared`: the memory behind the node cache when several units share it (a chip, chip_engine.h); null: the
   // unit's own. `unit`: the unit's index on the chip (where its slots' stacks spill).
   TimingModel(const TimingConfig& c, const Layout& layout, MemorySystem* shared = nullptr, uint32_t unit = 0);

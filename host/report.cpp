@@ -248,7 +248,7 @@ Json section_renders(const Scene& scene, const std::string& spec, const ReportOp
   j["pixels_differing"] = d.pixels_differing;
   j["frac_pixels_differing"] = d.frac_pixels_differing;
 
-  h.s << "<h2>Renders: float reference, fixed datapath, difference</h2>\n<p>" << esc(spec) << ", " << w << "x"
+  h.s << "<h2>Renders: float reference, fixed datapath, difference</h2>\n<p>" << esc_path(spec) << ", " << w << "x"
       << ht << ", " << z.spp << " spp, depth " << z.max_depth << ", rendered by the firmware"
       << (z.render_zoom > 1 ? ", shown " + std::to_string(z.render_zoom) + " times their size" : std::string())
       << ". The fixed render runs on the timed device (rdna2 preset: its format and BVH width), whose hits equal "
@@ -401,7 +401,7 @@ Json section_pareto(const std::vector<SweepRow>& rows, const std::string& source
     it->second.push_back(i);
   }
   for (const auto& [scene, idx] : scenes) {
-    h.s << "<h3>" << esc(scene) << "</h3>\n";
+    h.s << "<h3>" << esc_path(scene) << "</h3>\n";
     for (const ParetoPlot& p : ps) {
       if (p.scene != scene) continue;
       Json pj = {{"scene", p.scene},

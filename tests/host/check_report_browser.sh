@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The report page in a real browser: `rtusim report --quick` writes the page, headless Chromium loads it in a
-# 1280x900 window, and the test fails when the page scrolls sideways (document scrollWidth > window width) or an
-# <img> did not load (complete && naturalWidth > 0). The page itself has no script: a copy of it gets one that
+# 1280x900 window, and the test fails when the page scrolls sideways (document scrollWidth > window width), an
+# <img> did not load (complete && naturalWidth > 0) or a number in a table wraps onto a second line. A scene
+# with a long file path (a copy of scenes/generated.json deep in folders) is in the tables, as a user's mesh
+# path would be: the path must take the line breaks, never a number. The page itself has no script: a copy of it gets one that
 # writes its verdict into the DOM on load, and Chromium's --dump-dom prints that DOM.
 # Usage: check_report_browser.sh RTUSIM [CHROMIUM]  (CHROMIUM: found at configure time; else `chromium` on PATH)
 set -uo pipefail
@@ -17,7 +19,11 @@ trap 'rm -rf "$tmp"' EXIT
 width=1280
 height=900
 
-"$rtusim" report --quick --threads 2 --out "$tmp/report" >"$tmp/report.log" 2>&1 || {
+long="$tmp/a-project-that-keeps-its-meshes/in-folders-named-at-length/by-department/and-by-year-2026/of-scene-files"
+mkdir -p "$long"
+cp "$(dirname "$0")/../../scenes/generated.json" "$long/a-generated-scene-with-a-rather-long-file-name.json"
+"$rtusim" report --quick --threads 2 --scene builtin:seed --scene builtin:cornell \
+  --scene "$long/a-generated-scene-with-a-rather-long-file-name.json" --out "$tmp/report" >"$tmp/report.log" 2>&1 || {
   cat "$tmp/report.log" >&2
   echo "FAILED: rtusim report --quick" >&2
   exit 1
@@ -35,6 +41,13 @@ window.addEventListener("load", () => {
   lines.push("images " + imgs.length);
   for (const i of imgs)
     if (!(i.complete && i.naturalWidth > 0)) lines.push("broken " + i.getAttribute("src"));
+  // A number cell whose text lies on more than one line box was broken inside the number.
+  for (const td of document.querySelectorAll("td.n")) {
+    const r = document.createRange();
+    r.selectNodeContents(td);
+    const tops = new Set(Array.from(r.getClientRects()).map((q) => Math.round(q.top)));
+    if (tops.size > 1) lines.push("wrapped " + td.textContent);
+  }
   for (const e of document.body.querySelectorAll("*"))
     if (e.getBoundingClientRect().right > window.innerWidth + 0.5)
       lines.push("wide <" + e.tagName.toLowerCase() + (e.getAttribute("src") ? " src=" + e.getAttribute("src") : "") +
@@ -78,6 +91,10 @@ fi
 expected=$(grep -o '<img ' "$page" | wc -l)
 if [ "$expected" -lt 5 ] || [ "$seen" != "$expected" ]; then
   echo "FAILED: the browser saw $seen images, the page has $expected (at least 5: renders and plots)" >&2
+  fail=1
+fi
+if grep -q '^wrapped ' <<<"$verdict"; then
+  echo "FAILED: numbers broken across lines in table cells: $(sed -n 's/^wrapped //p' <<<"$verdict" | tr '\n' ' ')" >&2
   fail=1
 fi
 if grep -q '^broken ' <<<"$verdict"; then

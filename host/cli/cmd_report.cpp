@@ -25,7 +25,8 @@ void run_report(ReportOptions a, const std::string& suite) {
   const ReportResult r = write_report(a, [&](const ReportStep& s) {
     switch (s.stage) {
       case ReportStage::kStart:
-        std::printf("rtusim report%s: %zu scenes -> %s\n", a.quick ? " (quick)" : "", s.count, a.out.c_str());
+        std::printf("rtusim report%s%s: %zu scenes -> %s\n", a.quick ? " (quick)" : "",
+                    a.flatten ? " (instanced scenes flattened)" : "", s.count, a.out.c_str());
         break;
       case ReportStage::kRender:
         std::printf("  render %s on %s: %.2f s\n", s.scene.c_str(), s.device.c_str(), s.seconds);
@@ -91,6 +92,10 @@ void add_report(CLI::App& app) {
                   "RTL area table for the sweep run here (default: bench/data/rtl_area.csv, compiled in)")
       ->excludes(sweep);  // a given sweep CSV holds its area figures already
   sub->add_flag("--quick", a->quick, "small sizes (renders 192 wide, few rays, small sweep): well under 30 s");
+  sub->add_flag("--flatten", a->flatten,
+                "fixed and timed devices: trace instanced scenes flattened, in one image instead of two levels "
+                "(the fixed render, the cycles table and the sweep run here, not a --sweep CSV's rows, which say "
+                "in their flatten column; the float reference keeps two levels)");
   sub->add_option("--threads", a->threads, "worker threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();

@@ -1350,6 +1350,25 @@ TEST_CASE("sweep, plan and report --flatten: one image for an instanced scene, r
   CHECK(j2["flatten"] == false);
   CHECK(j1["plan"]["bytes"].get<uint64_t>() > 10 * j2["plan"]["bytes"].get<uint64_t>());
   CHECK(j1["plan"]["psnr_db"].is_null());  // no render: not measured
+
+  // The report: its cycles table and the sweep it runs trace the city flattened, and report.json says so.
+  const fs::path r1 = d / "report1", r2 = d / "report2";
+  REQUIRE(run_rtusim("report --quick --threads 2 --scene builtin:city --out " + r1.string()).status == 0);
+  const Run rf = run_rtusim("report --quick --threads 2 --flatten --scene builtin:city --out " + r2.string());
+  INFO(rf.output);
+  REQUIRE(rf.status == 0);
+  const nlohmann::json k1 = read_json(r1 / "report.json"), k2 = read_json(r2 / "report.json");
+  CHECK(k1["flatten"] == false);
+  CHECK(k2["flatten"] == true);
+  REQUIRE(k1["cycles"].size() == k2["cycles"].size());
+  CHECK(k1["cycles"][0]["cycles"] != k2["cycles"][0]["cycles"]);
+  const auto s1 = rtu::host::read_sweep_csv((r1 / "sweep.csv").string());
+  const auto s2 = rtu::host::read_sweep_csv((r2 / "sweep.csv").string());
+  REQUIRE(!s1.empty());
+  REQUIRE(s1.size() == s2.size());
+  CHECK_FALSE(s1[0].flatten);
+  CHECK(s2[0].flatten);
+  CHECK(s2[0].bvh_bytes > 10 * s1[0].bvh_bytes);
 }
 
 TEST_CASE("plan: budgets no sample can show and NaN options are refused up front, naming the option",

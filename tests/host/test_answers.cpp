@@ -70,7 +70,7 @@ TEST_CASE("primitives below the grid step: counted with the step, and instancing
   CHECK(rtu::host::check_grid(inst.geometry, &inst.instances, true, g).below_step == 24);  // flattened
 }
 
-TEST_CASE("trace and render warn of primitives below the grid step; compare shows what they cost", "[answers]") {
+TEST_CASE("trace and render warn of primitives below the grid step and compare shows what they cost", "[answers]") {
   const std::string flat = write_scene("far_boxes_cli.json", kFarBoxes);
   const std::string inst = write_scene("far_instances_cli.json", kFarInstances);
   for (const char* device : {"fixed", "timed"}) {
@@ -153,7 +153,7 @@ TEST_CASE("trace takes ray specs and needs no --out for its statistics", "[answe
   CHECK_THAT(run_rtusim("trace --scene builtin:seed --rays nosuchfile.rays").output, Contains("not a ray spec"));
 }
 
-TEST_CASE("a render with nothing to light it warns; the instancing example is lit", "[answers]") {
+TEST_CASE("a render with nothing to light it warns and the instancing example is lit", "[answers]") {
   const std::string dark = write_scene("dark.json", R"({"meshes": [{"generate": "box", "size": [1, 1, 1]}]})");
   const std::string png = (temp_dir() / "dark.png").string();
   const Run r = run_rtusim("render --scene " + dark + " --width 16 --height 12 --out " + png);

@@ -225,4 +225,76 @@ Image shade_hits(const Scene& scene, const std::vector<hw::Ray>& rays, const std
   return img;
 }
 
+namespace {
+
+// The width and height a PNG or JPEG declares, as stb_image reads them (PNG: the IHDR chunk that must come first;
+// JPEG: the first frame header, SOF0..SOF2, after the start of image and any fill bytes), from `read(offset, n,
+// out)`, which returns the bytes it could read. {0, 0}: the header declares none, or not in a way stb takes.
+template <class Read>
+std::pair<uint64_t, uint64_t> declared_size(Read&& read) {
+  uint8_t b[24];
+  auto be = [&](int at, int n) {
+    uint64_t v = 0;
+    for (int i = 0; i < n; ++i) v = v << 8 | b[at + i];
+    return v;
+  };
+  static const uint8_t kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  if (read(0, 24, b) == 24 && std::memcmp(b, kPng, 8) == 0 && std::memcmp(b + 12, "IHDR", 4) == 0)
+    return {be(16, 4), be(20, 4)};
+  uint64_t at = 0;  // stb takes any number of fill bytes before the start of image
+  auto byte = [&](uint64_t i) { return read(i, 1, b) == 1 ? int(b[0]) : -1; };
+  while (byte(at) == 0xFF) ++at;
+  if (at == 0 || byte(at) != 0xD8) return {0, 0};
+  ++at;
+  for (;;) {
+    // stb looks for the next marker: 0xFF, fill bytes, then the marker's code.
+    int c = byte(at);
+    for (int skipped = 0; c >= 0 && c != 0xFF; ++skipped) {
+      if (skipped == 65536) return {0, 0};  // not a JPEG stb reads: no need to scan on
+      c = byte(++at);
+    }
+    while (c == 0xFF) c = byte(++at);
+    if (c < 0) return {0, 0};
+    ++at;
+    if (c >= 0xC0 && c <= 0xC2) {  // a frame header: length, precision, height, width
+      if (read(at, 7, b) != 7) return {0, 0};
+      return {be(5, 2), be(3, 2)};
+    }
+    // Before its frame header stb takes tables (DQT, DHT), a restart interval (DRI), application segments and
+    // comments; any other marker fails the file.
+    if (c != 0xDB && c != 0xC4 && c != 0xDD && !(c >= 0xE0 && c <= 0xEF) && c != 0xFE) return {0, 0};
+    if (read(at, 2, b) != 2) return {0, 0};
+    at += be(0, 2);
+  }
+}
+
+// RGBA8 bytes of a declared size; 0 for none, and for sides read_texture refuses anyway (with its own message).
+uint64_t rgba_bytes(std::pair<uint64_t, uint64_t> size) {
+  const auto [w, h] = size;
+  if (w < 1 || h < 1 || w > fw::kMaxTextureSide || h > fw::kMaxTextureSide) return 0;
+  return w * h * 4;
+}
+
+}  // namespace
+
+uint64_t texture_header_bytes(const uint8_t* data, size_t bytes) {
+  return rgba_bytes(declared_size([&](uint64_t at, size_t n, uint8_t* out) -> size_t {
+    if (at >= bytes) return 0;
+    n = size_t(std::min<uint64_t>(n, bytes - at));
+    std::memcpy(out, data + at, n);
+    return n;
+  }));
+}
+
+uint64_t texture_header_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return 0;
+  return rgba_bytes(declared_size([&](uint64_t at, size_t n, uint8_t* out) -> size_t {
+    in.clear();
+    in.seekg(std::streamoff(at));
+    in.read(reinterpret_cast<char*>(out), std::streamsize(n));
+    return size_t(in.gcount());
+  }));
+}
+
 }  // namespace rtu::host

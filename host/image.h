@@ -35,4 +35,10 @@ Image shade_hits(const Scene& scene, const std::vector<hw::Ray>& rays, const std
 // Geometric normal (unit length, not flipped) of primitive `hit.prim` at the hit point.
 hw::Vec3 hit_normal(const hw::Geometry& g, const hw::Ray& ray, const hw::Hit& hit);
 
+// The bytes of RGBA8 texels the PNG or JPEG header of a texture file (or of its bytes in memory) declares, read
+// without decoding (a few header bytes; no stb); 0 when it declares no size. For a scene's running total of
+// texture memory, checked before each texture is decoded (decoding one briefly takes twice its texels' bytes).
+uint64_t texture_header_bytes(const std::string& path);
+uint64_t texture_header_bytes(const uint8_t* data, size_t bytes);
+
 }  // namespace rtu::host

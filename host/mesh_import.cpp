@@ -88,9 +88,37 @@ void walk_nodes(const aiScene& scene, Visit&& visit) {
 // PLY headers are checked here before Assimp sees them: Assimp 5.2's PLY parser loops for ever on a header line
 // with an unknown keyword (found by tests/fuzz/fuzz_mesh_import.cpp: "prortyep float x"). The grammar: "ply", then
 // lines of format / comment / obj_info / element NAME COUNT / property TYPE NAME / property list TYPE TYPE NAME,
-// then end_header; at most 64 KiB of header.
+// then end_header; at most 64 KiB of header. The elements' counts are held to the bytes after the header (each
+// element takes at least a byte per binary scalar, two per ASCII value) and to the memory limit: Assimp allocates
+// by a count before reading a byte of data, so a count past either is refused, named, not left to
+// std::bad_alloc.
 std::string import_isolated(const std::string& path);
 ImportedModel decode_model(const std::string& blob, const std::string& path);
+
+constexpr uint64_t kPlyElementBytes = 64, kPlyValueBytes = 64;
+
+// The PLY elements' declared counts against the bytes after the header and the memory limit (check_ply_header).
+template <class Element>
+void check_ply_counts(const std::string& path, const std::vector<Element>& elements, uint64_t header_bytes) {
+  std::error_code ec;
+  const uint64_t file_bytes = std::filesystem::file_size(path, ec);
+  if (ec) return;  // Assimp reports the unreadable file
+  const uint64_t data_bytes = file_bytes > header_bytes ? file_bytes - header_bytes : 0;
+  uint64_t need = 0;
+  for (const Element& e : elements) {
+    const std::string named = path + ": PLY header line " + std::to_string(e.line) + ": element " + e.name + " " +
+                              (e.count == UINT64_MAX ? std::string("of 20 digits or more")
+                                                     : std::to_string(e.count));
+    if (e.min_bytes > 0 && e.count > data_bytes / e.min_bytes)
+      throw Error(named + ": more than the file's " + std::to_string(data_bytes) +
+                  " bytes of data can hold (at least " + std::to_string(e.min_bytes) + " bytes each)");
+    // Assimp's PLY reader keeps every element apart, each value in a vector of its own: kPlyElementBytes and
+    // kPlyValueBytes (measured), the triangles copied out after. Saturating: the sum is only compared.
+    const uint64_t each = kPlyElementBytes + kPlyValueBytes * e.properties;
+    need = e.count > (UINT64_MAX - need) / each ? UINT64_MAX : need + e.count * each;
+  }
+  check_memory(path + ": the PLY header's element counts", need);
+}
 
 void check_ply_header(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -120,6 +148,18 @@ void check_ply_header(const std::string& path) {
                                               "float", "double", "int8",    "uint8",  "int16", "uint16",
                                               "int32", "uint32", "float32", "float64"};
   size_t bytes = line.size() + 1;
+  bool ascii = false;
+  struct Element {
+    std::string name;
+    uint64_t count = 0, min_bytes = 0;  // declared count; the fewest bytes one takes in the file
+    int line = 0;
+    uint64_t properties = 0;
+  };
+  std::vector<Element> elements;
+  static const std::map<std::string, uint64_t> type_bytes = {
+      {"char", 1},  {"uchar", 1},  {"int8", 1},  {"uint8", 1},   {"short", 2},   {"ushort", 2},
+      {"int16", 2}, {"uint16", 2}, {"int", 4},   {"uint", 4},    {"int32", 4},   {"uint32", 4},
+      {"float", 4}, {"float32", 4}, {"double", 8}, {"float64", 8}};
   for (int n = 2; std::getline(in, line); ++n) {
     bytes += line.size() + 1;
     if (bytes > 65536) throw Error(path + ": PLY header longer than 64 KiB");
@@ -133,18 +173,26 @@ void check_ply_header(const std::string& path) {
     };
     if (w.empty()) bad("empty line");
     const std::string& k = w[0];
-    if (k == "end_header") return;
+    if (k == "end_header") return check_ply_counts(path, elements, bytes);
     if (k == "comment" || k == "obj_info") continue;
     if (k == "format") {
       if (w.size() != 3 || (w[1] != "ascii" && w[1] != "binary_little_endian" && w[1] != "binary_big_endian"))
         bad("expected 'format ascii|binary_little_endian|binary_big_endian VERSION'");
+      ascii = w[1] == "ascii";
     } else if (k == "element") {
       if (w.size() != 3 || w[2].find_first_not_of("0123456789") != std::string::npos)
         bad("expected 'element NAME COUNT'");
+      // Twenty digits may not fit 64 bits: such a count is past any file anyway.
+      elements.push_back({w[1], w[2].size() > 19 ? UINT64_MAX : std::stoull(w[2]), 0, n, 0});
     } else if (k == "property") {
       const bool list = w.size() == 5 && w[1] == "list" && types.count(w[2]) && types.count(w[3]);
       if (!list && !(w.size() == 3 && types.count(w[1])))
         bad("expected 'property TYPE NAME' or 'property list TYPE TYPE NAME'");
+      // A list takes at least its length (0 entries); a scalar its bytes. ASCII: a digit and a separator.
+      if (!elements.empty()) {
+        elements.back().min_bytes += ascii ? 2 : type_bytes.at(w[list ? 2 : 1]);
+        ++elements.back().properties;
+      }
     } else {
       bad("unknown keyword '" + k + "'");
     }
@@ -153,6 +201,49 @@ void check_ply_header(const std::string& path) {
 }
 
 }  // namespace
+
+// OFF: "[ST][C][N][4][n]OFF", with nOFF a dimension, then the vertex, face and edge counts (the keyword is optional
+// and the counts may share its line), as Assimp reads them. Assimp allocates by the counts before reading the
+// data: counts the file cannot hold (a vertex takes at least two bytes per coordinate, a face two) or the memory
+// limit cannot are refused, named.
+static void check_off_header(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".off") return;
+  std::ifstream in(path, std::ios::binary);
+  std::string head(4096, '\0');
+  in.read(head.data(), std::streamsize(head.size()));
+  head.resize(size_t(in.gcount()));
+  std::istringstream words(head);
+  std::string w;
+  if (!(words >> w)) return;
+  size_t at = 0;
+  for (const char* prefix : {"ST", "C", "N", "4"})
+    if (w.compare(at, std::strlen(prefix), prefix) == 0) at += std::strlen(prefix);
+  const bool dimension = at < w.size() && w[at] == 'n';
+  uint64_t dims = 3, vertices = 0, faces = 0;
+  if (w.compare(at + dimension, std::string::npos, "OFF") == 0) {
+    if (dimension && !(words >> dims)) return;
+  } else {
+    words.clear();
+    words.seekg(0);  // no keyword: the counts come first
+  }
+  std::string v, f;
+  if (!(words >> v >> f) || v.find_first_not_of("0123456789") != std::string::npos ||
+      f.find_first_not_of("0123456789") != std::string::npos)
+    return;  // Assimp reports a malformed header
+  vertices = v.size() > 19 ? UINT64_MAX : std::stoull(v);
+  faces = f.size() > 19 ? UINT64_MAX : std::stoull(f);
+  std::error_code ec;
+  const uint64_t bytes = std::filesystem::file_size(path, ec);
+  if (ec || dims == 0 || dims > 3) return;
+  const std::string named =
+      path + ": OFF header: " + v + " vertices and " + f + " faces";
+  if (vertices > bytes / (2 * dims) || faces > bytes / 2 || vertices * 2 * dims + faces * 2 > bytes)
+    throw Error(named + ": more than the file's " + std::to_string(bytes) + " bytes can hold");
+  // Assimp's vertices (12 bytes), faces (16 bytes and their indices) and the triangles copied out after.
+  check_memory(named, vertices * 12 + faces * (16 + 12 + sizeof(hw::Triangle)));
+}
 
 ImportedModel import_model(const std::string& path) {
   std::error_code ec;
@@ -165,6 +256,7 @@ ImportedModel import_model(const std::string& path) {
     check_memory(path + ": importing a " + std::to_string(file_bytes >> 20) + " MiB mesh file", 8 * file_bytes);
 
   check_ply_header(path);
+  check_off_header(path);
   return decode_model(import_isolated(path), path);
 }
 
@@ -388,6 +480,10 @@ std::string import_with_assimp(const std::string& path) {
   for (const uint32_t n : placed) instanced = instanced || n > 1;
   instanced = instanced && invertible;
   const size_t flat_count = count;
+  // A node tree may place a mesh many times: the triangles it places, as the flattened scene will hold them, are
+  // held to the scene's budget before anything per placed triangle is reserved (here, and where the parent
+  // flattens two levels).
+  check_scene_size(path, flat_count);
   if (instanced) {
     count = 0;
     for (const uint32_t n : object_tris) count += n;
@@ -728,6 +824,12 @@ ImportedModel decode_model(const std::string& blob, const std::string& path) {
   // warning naming both files: the geometry imports as before. -1: texture i was not read.
   const std::filesystem::path dir = std::filesystem::path(path).parent_path();
   std::vector<int> texture_slot(num_textures, -1);
+  // Each texture is held to the budget when decoded; their sum here, from the size each header declares, before
+  // decoding it: the texels read so far, and this texture's twice while it decodes.
+  uint64_t held = 0;
+  auto fits = [&](uint64_t next) {
+    check_memory(path + ": " + std::to_string(model.textures.size() + 1) + " textures so far", held + 2 * next);
+  };
   for (uint64_t i = 0; i < num_textures; ++i) {
     const auto kind = in.get<uint8_t>();
     std::optional<Texture> t;
@@ -736,10 +838,13 @@ ImportedModel decode_model(const std::string& blob, const std::string& path) {
         // Paths written on Windows (OBJ's map_Kd .\\tex.jpg) separate with backslashes.
         std::string rel = in.get_string();
         std::replace(rel.begin(), rel.end(), '\\', '/');
+        fits(texture_header_bytes((dir / rel).string()));
         t = read_texture((dir / rel).string());
       } else if (kind == kTextureEncoded) {
         const std::string label = in.get_string(), bytes = in.get_string();
-        t = read_texture_memory(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size(), label);
+        const auto* data = reinterpret_cast<const uint8_t*>(bytes.data());
+        fits(texture_header_bytes(data, bytes.size()));
+        t = read_texture_memory(data, bytes.size(), label);
       } else if (kind == kTextureTexels) {
         t.emplace();
         t->name = in.get_string();
@@ -760,6 +865,7 @@ ImportedModel decode_model(const std::string& blob, const std::string& path) {
       t.reset();
     }
     if (t) {
+      held += t->rgba.size();
       texture_slot[i] = int(model.textures.size());
       model.textures.push_back(std::move(*t));
     }

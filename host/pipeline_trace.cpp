@@ -1,6 +1,7 @@
 #include "host/pipeline_trace.h"
 
 #include <charconv>
+#include <fstream>
 #include <set>
 #include <utility>
 
@@ -27,37 +28,40 @@ hw::PipelineTrace pipeline_trace_window(const std::string& window) {
 
 void write_pipeline_trace(const std::string& path, const hw::PipelineTrace& trace,
                           const hw::MemoryTimeline* timeline) {
+  // Streamed, an event at a time: a JSON document of every span would take about a kilobyte per span (1.5 GB for
+  // a million), where the spans themselves take 32 bytes (at most max_spans of them).
+  std::ofstream out(path);
+  if (!out) throw Error(path + ": cannot open for writing");
+  out << "{\n  \"traceEvents\": [";
+  bool first = true;
+  auto emit = [&](const Json& e) {
+    out << (first ? "\n    " : ",\n    ") << e.dump();
+    first = false;
+  };
   // A process per unit (a track group in Perfetto), a thread per ray slot.
-  Json events = Json::array();
   for (const hw::PipelineTrace::Span& s : trace.spans)
-    events.push_back({{"name", s.what},
-                      {"ph", "X"},
-                      {"ts", s.start},
-                      {"dur", s.end - s.start},
-                      {"pid", s.unit},
-                      {"tid", s.slot}});
+    emit({{"name", s.what}, {"ph", "X"}, {"ts", s.start}, {"dur", s.end - s.start}, {"pid", s.unit}, {"tid", s.slot}});
   std::set<std::pair<uint32_t, uint32_t>> used;  // (unit, slot) with a span, named once each
   for (const hw::PipelineTrace::Span& s : trace.spans) used.insert({s.unit, s.slot});
   uint32_t last_unit = ~0u;
   for (const auto& [unit, slot] : used) {
     if (unit != last_unit)
-      events.push_back({{"name", "process_name"},
-                        {"ph", "M"},
-                        {"pid", unit},
-                        {"args", {{"name", "unit " + std::to_string(unit)}}}});
+      emit({{"name", "process_name"},
+            {"ph", "M"},
+            {"pid", unit},
+            {"args", {{"name", "unit " + std::to_string(unit)}}}});
     last_unit = unit;
-    events.push_back({{"name", "thread_name"},
-                      {"ph", "M"},
-                      {"pid", unit},
-                      {"tid", slot},
-                      {"args", {{"name", "ray slot " + std::to_string(slot)}}}});
+    emit({{"name", "thread_name"},
+          {"ph", "M"},
+          {"pid", unit},
+          {"tid", slot},
+          {"args", {{"name", "ray slot " + std::to_string(slot)}}}});
   }
   // The memory's bandwidth as counter tracks (bytes per cycle over each bin inside the window), in a process of
   // its own after the units'.
   if (timeline) {
     const uint32_t pid = used.empty() ? 0 : used.rbegin()->first + 1;
-    events.push_back(
-        {{"name", "process_name"}, {"ph", "M"}, {"pid", pid}, {"args", {{"name", "memory (shared)"}}}});
+    emit({{"name", "process_name"}, {"ph", "M"}, {"pid", pid}, {"args", {{"name", "memory (shared)"}}}});
     const double bin = double(timeline->bin_cycles);
     for (const auto& [name, series] :
          {std::pair<const char*, const std::vector<uint64_t>*>{"DRAM bytes per cycle", &timeline->dram_bytes},
@@ -65,21 +69,19 @@ void write_pipeline_trace(const std::string& path, const hw::PipelineTrace& trac
       for (size_t i = 0; i < series->size(); ++i) {
         const uint64_t t = uint64_t(i) * timeline->bin_cycles;
         if (t + timeline->bin_cycles <= trace.from || t >= trace.to) continue;
-        events.push_back({{"name", name},
-                          {"ph", "C"},
-                          {"ts", t},
-                          {"pid", pid},
-                          {"args", {{"bytes_per_cycle", double((*series)[i]) / bin}}}});
+        emit({{"name", name},
+              {"ph", "C"},
+              {"ts", t},
+              {"pid", pid},
+              {"args", {{"bytes_per_cycle", double((*series)[i]) / bin}}}});
       }
     }
   }
-  Json j;
-  j["traceEvents"] = events;
-  j["displayTimeUnit"] = "ns";
-  j["otherData"] = {{"time_unit", "1 us in the viewer = 1 cycle"},
-                    {"window", {trace.from, trace.to}},
-                    {"spans", trace.spans.size()}};
-  write_json(path, j);
+  const Json other = {{"time_unit", "1 us in the viewer = 1 cycle"},
+                      {"window", {trace.from, trace.to}},
+                      {"spans", trace.spans.size()}};
+  out << "\n  ],\n  \"displayTimeUnit\": \"ns\",\n  \"otherData\": " << other.dump() << "\n}\n";
+  if (!out.flush()) throw Error(path + ": write error");
 }
 
 }  // namespace rtu::host

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "host/error.h"
+#include "host/limits.h"
 #include "hwmodel/rng.h"
 
 namespace rtu::host {
@@ -34,10 +35,16 @@ hw::Ray pixel_ray(const CameraBasis& b, double px, double py, int width, int hei
   return hw::Ray{hw::Vec3(b.origin), 0.0f, hw::Vec3(d), std::numeric_limits<float>::infinity()};
 }
 
+// The rays' own memory against the budget, before it is reserved (callers that trace them check their hits too).
+void check_rays(uint64_t count, const char* kind) {
+  check_memory(std::to_string(count) + " " + kind + " rays", count * sizeof(hw::Ray));
+}
+
 }  // namespace
 
 std::vector<hw::Ray> primary_rays(const Camera& cam, int width, int height) {
   if (width <= 0 || height <= 0) throw Error("primary rays: width and height must be positive");
+  check_rays(uint64_t(width) * uint64_t(height), "primary");
   const CameraBasis b = basis(cam, width, height);
   std::vector<hw::Ray> rays;
   rays.reserve(size_t(width) * size_t(height));
@@ -53,6 +60,7 @@ std::vector<hw::Ray> primary_rays(const Camera& cam, uint64_t count) {
   const uint64_t w = (count + h - 1) / h;
   if (w > uint64_t(std::numeric_limits<int>::max()) || h > uint64_t(std::numeric_limits<int>::max()))
     throw Error("primary rays: count too large");
+  check_rays(count, "primary");
   const CameraBasis b = basis(cam, int(w), int(h));
   std::vector<hw::Ray> rays;
   rays.reserve(count);
@@ -63,6 +71,7 @@ std::vector<hw::Ray> primary_rays(const Camera& cam, uint64_t count) {
 
 std::vector<hw::Ray> incoherent_rays(const hw::Aabb& bounds, uint64_t count, uint64_t seed) {
   if (bounds.empty()) throw Error("incoherent rays: the scene has no bounded primitives");
+  check_rays(count, "incoherent");
   hw::Pcg32 rng(seed);
   std::vector<hw::Ray> rays;
   rays.reserve(count);

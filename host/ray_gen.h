@@ -1,5 +1,6 @@
 // Ray sets for files and tests: the scene camera's primary rays, and incoherent rays (random origins inside the
-// bounds, random directions). Deterministic for a given seed on every platform.
+// bounds, random directions). Deterministic for a given seed on every platform. Each generator refuses, with
+// the budget's Error (limits.h), a count whose rays would not fit the memory limit, before reserving them.
 #pragma once
 
 #include <cstdint>

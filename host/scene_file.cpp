@@ -17,6 +17,7 @@
 #include "host/generators.h"
 #include "host/image.h"
 #include "host/json_io.h"
+#include "host/limits.h"
 #include "host/scene.h"
 
 namespace rtu::host {
@@ -204,6 +205,7 @@ void read_camera(const Reader& r, const Json& j, Camera& cam) {
 void read_textures(Builder& b, const Json& j, const std::filesystem::path& base_dir) {
   const Reader& r = b.reader;
   r.object(j, "textures");
+  uint64_t held = 0;  // texel bytes of the textures read so far
   for (const auto& item : j.items()) {
     const std::string path = join("textures", item.key());
     const Json& t = r.object(item.value(), path);
@@ -214,6 +216,10 @@ void read_textures(Builder& b, const Json& j, const std::filesystem::path& base_
       std::filesystem::path file(r.string(t["file"], join(path, "file")));
       if (file.is_relative()) file = base_dir / file;
       try {
+        // Each texture is held to the budget when decoded (read_texture); their sum is held here, from the
+        // size the header declares, before decoding: those read so far, and this one twice while it decodes.
+        const uint64_t next = texture_header_bytes(file.string());
+        check_memory(std::to_string(b.scene.textures.size() + 1) + " textures so far", held + 2 * next);
         tex = read_texture(file.string());
       } catch (const Error& e) {
         r.fail(join(path, "file"), e.what());
@@ -239,6 +245,7 @@ void read_textures(Builder& b, const Json& j, const std::filesystem::path& base_
       }
     }
     tex.name = item.key();
+    held += tex.rgba.size();
     b.texture_index[item.key()] = int(b.scene.textures.size());
     b.scene.textures.push_back(std::move(tex));
   }
@@ -572,8 +579,19 @@ void add_instance(Builder& b, uint32_t mesh, const Xform& x, const std::string& 
   hw::AffineD inv;
   if (!hw::invert(in.to_world, inv))
     r.fail(path, "the composed transform is not finite or is singular (in float)");
+  const uint64_t before = b.instance_prims;
   b.instance_prims += set.meshes[mesh].triangles.size();
   if (b.instance_prims >= hw::kMaxBvhPrims) r.fail(path, "instances hold more than 2^27 - 1 triangles in all");
+  // Each instance triangle takes its material and texture coordinates here and its world-space copy when the
+  // scene is flattened: the flattened scene's budget (check_scene_size) is applied as the count grows, each time
+  // it passes a multiple of 2^16 triangles (reading the limit is a file read), before that memory is taken.
+  if ((before >> 16) != (b.instance_prims >> 16)) {
+    try {
+      check_scene_size("the instances so far", b.instance_prims);
+    } catch (const Error& e) {
+      r.fail(path, e.what());
+    }
+  }
   set.instances.push_back(in);
   const std::vector<uint32_t>& mats = b.mesh_tri_material[mesh];
   b.instance_tri_material.insert(b.instance_tri_material.end(), mats.begin(), mats.end());

@@ -1,6 +1,7 @@
 #include "hwmodel/timed_engine.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <condition_variable>
 #include <deque>
@@ -143,6 +144,34 @@ void TimedEngine::record(const Ray* rays, Hit* hits, size_t first, size_t count,
   s.add(local);
 }
 
+bool TimedEngine::record_within(const Ray* rays, Hit* hits, size_t first, size_t count, bool any_hit,
+                                TraversalStats& s, std::vector<std::vector<TraceEvent>>& events, uint64_t cap,
+                                uint64_t& bytes) const {
+  TraversalStats local;
+  std::atomic<uint64_t> total{0};
+  std::atomic<bool> over{false};
+  const int threads = has_units() ? 1 : m_opt.threads;  // a unit is not thread-safe (box_unit.h, tri_unit.h)
+  run_batch(count, threads, local, [&](size_t i, TraversalStats& st) {
+    std::vector<TraceEvent>& ev = events[i];
+    ev.clear();
+    if (over.load(std::memory_order_relaxed)) return;  // this attempt is lost anyway
+    const Hit h = tracer().trace_recorded(rays[first + i], any_hit, st, ev);
+    if (hits) hits[first + i] = h;
+    // A list keeps the capacity of the longest ray it held (lists are swapped with the model's slots): trimmed,
+    // so that what the lists hold stays near what the chunk recorded.
+    if (ev.capacity() > 2 * ev.size() + 256) ev.shrink_to_fit();
+    const uint64_t b = uint64_t(ev.size()) * sizeof(TraceEvent);
+    if (total.fetch_add(b, std::memory_order_relaxed) + b > cap) over.store(true, std::memory_order_relaxed);
+  });
+  bytes = total.load();
+  if (over.load()) return false;  // partial sums only grow: over iff all the rays' events pass cap
+  if (local.watchdog_rays > 0)
+    throw WatchdogError(tracer().watchdog_report(rays + first, count, any_hit, local.watchdog_rays), 0);
+  if (local.first_invalid != UINT64_MAX) local.first_invalid += first;
+  s.add(local);
+  return true;
+}
+
 uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
                                    uint8_t ray_type, uint8_t bounce) {
   TimingStats ts;
@@ -178,35 +207,54 @@ uint64_t TimedEngine::trace_cycles_full(const Ray* rays, Hit* hits, size_t n, bo
   // more than one thread the next chunk is recorded while the model replays this one (two event buffers): the
   // datapath and the model are independent work, so both cores run. The order in which the model sees the events,
   // and so every cycle, is the same either way.
+  //
+  // A chunk is at most kChunk rays and, unless it is one ray, at most m_chunk_event_bytes of events (a ray through
+  // many overlapping instances records megabytes): a chunk whose events pass that is recorded again with half
+  // its rays, and the next chunk tries as many rays as would fill it at this chunk's bytes per ray (at most twice
+  // this chunk's). The chunks depend on the rays alone, and the model takes events any number of rays at a time,
+  // so the cycles are the same for any bound and any thread count.
   constexpr size_t kChunk = 4096;
   const size_t buffers = m_opt.threads == 1 || n <= kChunk ? 1 : 2;
   std::vector<std::vector<TraceEvent>> events[2];
   for (size_t b = 0; b < buffers; ++b) events[b].resize(std::min(n, kChunk));
   TraversalStats next_stats;  // the chunk being recorded in the background
+  const uint64_t cap = m_chunk_event_bytes;
+  size_t want = kChunk;  // rays the next chunk tries; read and set by one recording at a time
   auto record_chunk = [&](size_t first, std::vector<std::vector<TraceEvent>>& ev, TraversalStats& st) {
-    record(rays, hits, first, std::min(kChunk, n - first), any_hit, st, ev);
+    size_t count = std::min(want, n - first);
+    uint64_t bytes = 0;
+    while (!record_within(rays, hits, first, count, any_hit, st, ev, count == 1 ? UINT64_MAX : cap, bytes)) {
+      for (size_t i = count / 2; i < count; ++i) std::vector<TraceEvent>().swap(ev[i]);  // not in the retry
+      count /= 2;
+    }
+    const uint64_t fill = bytes > 0 ? uint64_t(count) * cap / bytes : kChunk;
+    want = size_t(std::max<uint64_t>(1, std::min<uint64_t>({kChunk, 2 * uint64_t(count), fill})));
+    return count;
   };
   m_model->begin(n, ts);
-  record_chunk(0, events[0], s);
-  for (size_t first = 0, b = 0; first < n; first += kChunk, b = (b + 1) % buffers) {
-    const size_t after = first + kChunk;
-    std::future<void> next;  // the next chunk, recorded into the other buffer meanwhile
+  size_t count = record_chunk(0, events[0], s);
+  for (size_t first = 0, b = 0; first < n; b = (b + 1) % buffers) {
+    const size_t after = first + count;
+    std::future<size_t> next;  // the next chunk, recorded into the other buffer meanwhile
     if (after < n && buffers == 2)
       next = std::async(std::launch::async, record_chunk, after, std::ref(events[b ^ 1]), std::ref(next_stats));
     try {
-      m_model->feed(events[b].data(), std::min(kChunk, n - first));
+      m_model->feed(events[b].data(), count);
     } catch (...) {
       if (next.valid()) next.wait();  // the recording thread uses this frame's buffers
       throw;
     }
+    size_t next_count = 0;
     if (next.valid()) {
-      next.get();  // rethrows a watchdog error of the datapath
+      next_count = next.get();  // rethrows a watchdog error of the datapath
       s.add(next_stats);
       next_stats = TraversalStats{};
     } else if (after < n) {
       // One buffer: the model is done with it (feed swapped out what it keeps).
-      record_chunk(after, events[b], s);
+      next_count = record_chunk(after, events[b], s);
     }
+    first = after;
+    count = next_count;
   }
   const uint64_t cycles = m_model->finish();
   m_sample_stats.rays_simulated += n;

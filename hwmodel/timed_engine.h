@@ -91,6 +91,11 @@ class TimedEngine final : public TraceEngine {
     m_run_ahead = on;
     for (const auto& u : m_chip_units) u->set_run_ahead(on);
   }
+  // The events one chunk of rays may record before the model replays them (trace_cycles_full): a chunk is at
+  // most 4096 rays and, unless it is one ray, at most this many bytes of events. Set smaller by tests (the
+  // cycles do not depend on it: the model takes the rays' events any number at a time).
+  static constexpr uint64_t kChunkEventBytes = uint64_t(32) << 20;
+  void set_chunk_event_bytes(uint64_t bytes) { m_chunk_event_bytes = bytes; }
   // Tests: run one unit through the chip's code path (the same cycles as the single unit's, a test checks).
   void set_force_chip(bool on) {
     m_force_chip = on;
@@ -133,6 +138,12 @@ class TimedEngine final : public TraceEngine {
   // nowhere when null).
   void record(const Ray* rays, Hit* hits, size_t first, size_t count, bool any_hit, TraversalStats& s,
               std::vector<std::vector<TraceEvent>>& events, size_t at = 0) const;
+  // As record() with at = 0, unless the rays' events pass `cap` bytes in all: then it stops early and returns
+  // false, leaving statistics alone (the hits it wrote are the rays' own; the events are to be recorded again).
+  // Whether it returns true depends on the rays alone, not on the threads. `bytes`: the events' bytes.
+  bool record_within(const Ray* rays, Hit* hits, size_t first, size_t count, bool any_hit, TraversalStats& s,
+                     std::vector<std::vector<TraceEvent>>& events, uint64_t cap, uint64_t& bytes) const;
+  uint64_t m_chunk_event_bytes = kChunkEventBytes;
   // True when a unit other than the C++ datapath is attached (the engine then traces on one thread).
   bool has_units() const { return m_box_unit || m_tri_unit; }
   bool m_force_chip = false;

@@ -3,8 +3,11 @@
 #include <catch2/catch.hpp>
 
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 
 namespace rtu::test {
 
@@ -21,6 +24,26 @@ Run run_process(const std::string& command) {
   const int st = pclose(p);
   r.exited = WIFEXITED(st);
   r.status = r.exited ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+  return r;
+}
+
+Run run_measured(const std::string& command) {
+  // GNU time reports the peak of the process it runs, a shell small since its exec, and of the processes that
+  // shell waited for: not of this test process, whose own peak a child forked from it would inherit.
+  REQUIRE(std::filesystem::exists("/usr/bin/time"));
+  const std::string out = (std::filesystem::temp_directory_path() /
+                           ("rtu_peak_" + std::to_string(::getpid()) + ".txt")).string();
+  std::string quoted = "'";
+  for (const char c : command) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  quoted += "'";
+  Run r = run_process("/usr/bin/time -f %M -o " + out + " sh -c " + quoted);
+  std::ifstream in(out);
+  std::string line, last;
+  while (std::getline(in, line))
+    if (!line.empty()) last = line;  // after "Command exited with non-zero status N", if so
+  std::filesystem::remove(out);
+  REQUIRE(!last.empty());
+  r.peak_kib = std::stoull(last);
   return r;
 }
 

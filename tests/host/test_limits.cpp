@@ -8,18 +8,25 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <iterator>
 #include <string>
 
+#include <nlohmann/json.hpp>
+#include <stb/stb_image_write.h>
+
+#include "host/direct_device.h"
 #include "host/error.h"
+#include "host/image.h"
 #include "host/limits.h"
 #include "host/ray_gen.h"
 #include "host/ray_io.h"
 #include "host/scene.h"
 #include "hwmodel/bvh.h"
+#include "hwmodel/timed_engine.h"
 #include "tests/host/run_process.h"
 
 using namespace rtu;
@@ -233,4 +240,256 @@ TEST_CASE("watchdogs from the command line: exit status 2 with the unit's state"
   // The defaults never fire on real work.
   r = run_rtusim("trace --scene builtin:seed --rays " + rays + " --out " + hits + " --device timed");
   CHECK(r.status == 0);
+}
+
+// Memory the input justifies (issue 40): each path below is refused against RTU_MEMORY_LIMIT before its memory is
+// taken, or streams; the command's peak resident size (run_measured) stays within the limit plus what rtusim
+// takes for itself on a small job (its code, libraries and a small scene).
+namespace {
+
+uint64_t mib(uint64_t kib) {
+  return kib >> 10;
+}
+
+// rtusim's own resident size on a small job, in KiB.
+uint64_t baseline_kib() {
+  static const uint64_t kib = rtu::test::run_measured(std::string(RTUSIM_EXE) + " info --scene builtin:seed").peak_kib;
+  return kib;
+}
+
+rtu::test::Run measured_rtusim(const std::string& env, const std::string& args) {
+  return rtu::test::run_measured(env + " " + std::string(RTUSIM_EXE) + " " + args);
+}
+
+// A scene of `count` instances of one quad, all in the same place (nested prototypes of ten, so the file stays
+// small), seen from above: every camera ray passes through every instance.
+void write_coinciding_scene(const fs::path& path, int levels) {
+  std::string protos = R"("q": {"meshes": [{"generate": "quad", "size": 2, "material": "m"}]})";
+  std::string prev = "q";
+  auto ten = [](const std::string& p) {
+    std::string s = "[";
+    for (int i = 0; i < 10; ++i) {
+      if (i) s += ", ";
+      s += R"({"prototype": ")";
+      s += p;
+      s += R"("})";
+    }
+    return s + "]";
+  };
+  for (int l = 1; l < levels; ++l) {
+    std::string name = "p";
+    name += std::to_string(l);
+    protos += ", \"";
+    protos += name;
+    protos += "\": {\"instances\": ";
+    protos += ten(prev);
+    protos += "}";
+    prev = name;
+  }
+  std::ofstream(path) << R"({"materials": {"m": {}},
+    "camera": {"position": [0.3, 1, 0.2], "look_at": [0, 0, 0], "fov_y": 40, "width": 64, "height": 48},
+    "prototypes": {)" << protos
+                      << "}, \"instances\": " << ten(prev) << "}";
+}
+
+}  // namespace
+
+TEST_CASE("memory limit: rays --count is refused before the rays are made", "[limits][memory]") {
+  const fs::path dir = temp_dir();
+  for (const char* kind : {"primary", "incoherent"}) {
+    const rtu::test::Run r = measured_rtusim("RTU_MEMORY_LIMIT=64M", std::string("rays --scene builtin:seed --kind ") +
+                                                                         kind + " --count 4000000 --out " +
+                                                                         (dir / "r.bin").string());
+    INFO(r.output);
+    CHECK(r.status == 2);
+    CHECK(contains(r.output, std::string("4000000 ") + kind + " rays needs about 123 MiB of memory, above the limit"));
+    CHECK(mib(r.peak_kib) < 64);
+  }
+  // The generators themselves, whoever calls them.
+  MemoryLimit m("1M");
+  host::Camera cam;
+  CHECK(contains(error_of([&] { host::primary_rays(cam, 1024, 1024); }), "1048576 primary rays needs about 32 MiB"));
+  CHECK(host::primary_rays(cam, uint64_t(1000)).size() == 1000);
+}
+
+TEST_CASE("memory limit: sweep --rays and plan --rays are refused before the rays are made", "[limits][memory]") {
+  const fs::path dir = temp_dir();
+  for (const std::string& job : {"sweep --out " + (dir / "s.csv").string(), std::string("plan --max-error 0.01")}) {
+    const rtu::test::Run r =
+        measured_rtusim("RTU_MEMORY_LIMIT=64M", job + " --scene builtin:seed --rays 1000000 --image-width 0");
+    INFO(r.output);
+    CHECK(r.status == 2);
+    CHECK(contains(r.output, job.substr(0, job.find(' ')) +
+                                 " --rays 1000000: 1000000 camera and as many incoherent rays with their hits "
+                                 "needs about 153 MiB of memory, above the limit of 64 MiB"));
+    CHECK(mib(r.peak_kib) < 64);
+  }
+}
+
+TEST_CASE("memory limit: a scene's textures are held to the budget in sum", "[limits][memory]") {
+  // Six 4096 x 4096 JPEGs (a few hundred KB each; 64 MiB of texels decoded, 128 MiB while decoding): each fits
+  // a 300 MiB budget, the fourth does not beside the three before it.
+  const fs::path dir = temp_dir();
+  {
+    std::vector<uint8_t> rgb(size_t(4096) * 4096 * 3, 128);
+    REQUIRE(stbi_write_jpg((dir / "t.jpg").string().c_str(), 4096, 4096, 3, rgb.data(), 50) != 0);
+  }
+  REQUIRE(host::texture_header_bytes((dir / "t.jpg").string()) == uint64_t(64) << 20);
+  std::string textures;
+  for (int i = 0; i < 6; ++i) {
+    if (i) textures += ", ";
+    textures += "\"t";
+    textures += std::to_string(i);
+    textures += "\": {\"file\": \"t.jpg\"}";
+  }
+  std::ofstream(dir / "tex.json") << R"({"textures": {)" << textures << R"(},
+    "materials": {"m": {"texture": "t5"}}, "spheres": [{"center": [0, 0, 0], "radius": 1, "material": "m"}]})";
+  const rtu::test::Run r = measured_rtusim("RTU_MEMORY_LIMIT=300M", "info --scene " + (dir / "tex.json").string());
+  INFO(r.output);
+  CHECK(r.status == 2);
+  CHECK(contains(r.output, "tex.json: textures.t3.file: 4 textures so far needs about 320 MiB of memory, above the "
+                           "limit of 300 MiB"));
+  CHECK(mib(r.peak_kib) < 300 + mib(baseline_kib()));
+  // The header's size without decoding, in memory too (a PNG's IHDR; anything else: 0).
+  const uint8_t png[24] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n', 0, 0, 0, 13, 'I', 'H', 'D', 'R',
+                           0,    0,   0x3E, 0x80, 0, 0, 0x3E, 0x80};
+  CHECK(host::texture_header_bytes(png, sizeof png) == uint64_t(16000) * 16000 * 4);
+  CHECK(host::texture_header_bytes(png, 20) == 0);
+}
+
+TEST_CASE("memory limit: instances are held to the budget as they are expanded", "[limits][memory]") {
+  // 4 x 16 x 16 x 16 placements of a 5120-triangle sphere: 84 million triangles from a 3 KB file.
+  const fs::path dir = temp_dir();
+  auto placements = [](const std::string& p, int n) {
+    std::string s = "[";
+    for (int i = 0; i < n; ++i) {
+      if (i) s += ", ";
+      s += R"({"prototype": ")";
+      s += p;
+      s += R"(", "transform": {"translate": [)";
+      s += std::to_string(3 * i);
+      s += ", 0, 0]}}";
+    }
+    return s + "]";
+  };
+  std::ofstream(dir / "inst.json") << R"({"materials": {"m": {}}, "prototypes": {
+    "ball": {"meshes": [{"generate": "icosphere", "subdiv": 4, "radius": 1, "material": "m"}]},
+    "p1": {"instances": )" << placements("ball", 16)
+                                   << R"(}, "p2": {"instances": )" << placements("p1", 16)
+                                   << R"(}, "p3": {"instances": )" << placements("p2", 16) << R"(}},
+    "instances": )" << placements("p3", 4) << "}";
+  const rtu::test::Run r = measured_rtusim("RTU_MEMORY_LIMIT=64M", "info --scene " + (dir / "inst.json").string());
+  INFO(r.output);
+  CHECK(r.status == 2);
+  CHECK(contains(r.output, "inst.json: prototypes.p1.instances[3]: the instances so far: 266240 primitives needs "
+                           "about 65 MiB of memory, above the limit of 64 MiB"));
+  CHECK(mib(r.peak_kib) < 64);
+}
+
+TEST_CASE("timed device: events are recorded in bounded chunks, with the same hits and cycles", "[limits][memory]") {
+  const fs::path dir = temp_dir();
+  write_coinciding_scene(dir / "coin.json", 3);  // 1000 instances in one place
+  const host::Scene scene = host::load_scene((dir / "coin.json").string());
+  const std::vector<hw::Ray> rays = host::primary_rays(scene.camera, uint64_t(300));
+  auto run = [&](uint64_t chunk_bytes, int threads, uint64_t& cycles) {
+    host::DeviceOptions o;
+    o.kind = hw::DeviceKind::kTimed;
+    o.instances = &scene.instances;
+    const auto dev = host::make_device(scene.geometry, o);
+    if (chunk_bytes) dev->timed()->set_chunk_event_bytes(chunk_bytes);
+    std::vector<hw::Hit> hits(rays.size());
+    hw::TraversalStats s;
+    dev->trace_batch(rays.data(), hits.data(), rays.size(), false, threads, s);
+    cycles = dev->timed()->timing().cycles;
+    return hits;
+  };
+  uint64_t c0 = 0, c1 = 0, c2 = 0, c3 = 0;
+  const std::vector<hw::Hit> h0 = run(0, 1, c0);
+  const std::vector<hw::Hit> h1 = run(64 << 10, 1, c1);  // a few rays per chunk
+  const std::vector<hw::Hit> h2 = run(64 << 10, 2, c2);
+  const std::vector<hw::Hit> h3 = run(1, 2, c3);  // every ray a chunk of its own
+  REQUIRE(h0.size() == rays.size());
+  size_t hit = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    hit += h0[i].hit();
+    CHECK((std::memcmp(&h0[i], &h1[i], sizeof(hw::Hit)) == 0 && std::memcmp(&h0[i], &h2[i], sizeof(hw::Hit)) == 0 &&
+           std::memcmp(&h0[i], &h3[i], sizeof(hw::Hit)) == 0));
+  }
+  CHECK(hit == rays.size());
+  CHECK(c0 > 0);
+  CHECK(c1 == c0);
+  CHECK(c2 == c0);
+  CHECK(c3 == c0);
+
+  // From the command line, 10000 instances: the timed device holds a chunk's events and its ray slots' (32 rays
+  // in flight), not every ray's. Recording them all took about 110 MiB more for these 1024 rays.
+  write_coinciding_scene(dir / "coin4.json", 4);
+  const std::string rays_file = (dir / "c.bin").string();
+  REQUIRE(run_rtusim("rays --scene " + (dir / "coin4.json").string() + " --count 1024 --out " + rays_file).status == 0);
+  const std::string trace = "trace --scene " + (dir / "coin4.json").string() + " --rays " + rays_file + " --out " +
+                            (dir / "h.bin").string() + " --threads 2 --device ";
+  const rtu::test::Run f = measured_rtusim("", trace + "float");
+  const rtu::test::Run t = measured_rtusim("", trace + "timed");
+  INFO(t.output);
+  REQUIRE(f.status == 0);
+  REQUIRE(t.status == 0);
+  CHECK(mib(t.peak_kib) < mib(f.peak_kib) + 80);
+}
+
+TEST_CASE("the pipeline trace is streamed to its file", "[limits][memory]") {
+  const fs::path dir = temp_dir();
+  const std::string rays = (dir / "p.rays").string();
+  REQUIRE(run_rtusim("rays --scene builtin:seed --kind incoherent --count 100000 --out " + rays).status == 0);
+  const std::string trace = "trace --scene builtin:seed --rays " + rays + " --out " + (dir / "h.bin").string() +
+                            " --device timed --threads 1";
+  const rtu::test::Run plain = measured_rtusim("", trace);
+  const rtu::test::Run piped =
+      measured_rtusim("", trace + " --pipeline-trace " + (dir / "p.json").string() + " --trace-window 0:1000000000");
+  INFO(piped.output);
+  REQUIRE(plain.status == 0);
+  REQUIRE(piped.status == 0);
+  std::ifstream in(dir / "p.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  const uint64_t spans = j["otherData"]["spans"].get<uint64_t>();
+  CHECK(spans == 1000000);  // max_spans: the window holds more
+  size_t xs = 0;
+  for (const auto& e : j["traceEvents"]) xs += e["ph"] == "X";
+  CHECK(xs == spans);
+  // The spans (32 bytes each) and no document of them: kept as one, it took about 1.4 GiB.
+  CHECK(mib(piped.peak_kib) < mib(plain.peak_kib) + 32 + 64);
+}
+
+TEST_CASE("PLY and OFF files whose counts the file or the budget cannot hold are refused, named", "[limits][memory]") {
+  const fs::path dir = temp_dir();
+  std::ofstream(dir / "huge.ply") << "ply\nformat ascii 1.0\nelement vertex 4000000000\nproperty float x\n"
+                                     "property float y\nproperty float z\nelement face 1\n"
+                                     "property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+  CHECK(contains(error_of([&] { host::import_mesh((dir / "huge.ply").string()); }),
+                 "huge.ply: PLY header line 3: element vertex 4000000000: more than the file's 26 bytes of data can "
+                 "hold (at least 6 bytes each)"));
+  std::ofstream(dir / "digits.ply") << "ply\nformat binary_little_endian 1.0\nelement face 123456789012345678901\n"
+                                       "property list uchar int vertex_indices\nend_header\n";
+  CHECK(contains(error_of([&] { host::import_mesh((dir / "digits.ply").string()); }),
+                 "element face of 20 digits or more: more than the file's"));
+  // A binary PLY whose data is present (64 bytes per element and per value in Assimp) against a small budget.
+  {
+    std::ofstream out(dir / "many.ply", std::ios::binary);
+    out << "ply\nformat binary_little_endian 1.0\nelement vertex 100000\nproperty float x\nproperty float y\n"
+           "property float z\nend_header\n"
+        << std::string(1200000, '\0');
+  }
+  {
+    MemoryLimit m("16M");
+    CHECK(contains(error_of([&] { host::import_mesh((dir / "many.ply").string()); }),
+                   "many.ply: the PLY header's element counts needs about 25 MiB of memory, above the limit of 16 MiB"));
+  }
+  std::ofstream(dir / "huge.off") << "OFF\n4000000000 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+  CHECK(contains(error_of([&] { host::import_mesh((dir / "huge.off").string()); }),
+                 "huge.off: OFF header: 4000000000 vertices and 1 faces: more than the file's 45 bytes can hold"));
+  std::ofstream(dir / "ok.off") << "OFF 3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+  CHECK(host::import_mesh((dir / "ok.off").string()).size() == 1);
+  const rtu::test::Run r = measured_rtusim("", "info --scene " + (dir / "huge.off").string());
+  CHECK(r.status == 2);
+  CHECK(contains(r.output, "4000000000 vertices"));
+  CHECK(mib(r.peak_kib) < 64);
 }

@@ -4,8 +4,8 @@
 # coverage instrumentation so that the same build holds the fuzz targets):
 #  1. the test suite but the Embree oracle (10^6-ray comparisons per scene, minutes under ASan; run by the default
 #     stage) and the RTL (Verilator models): the preset builds neither;
-#  2. `rtusim soak` for RTU_SOAK_SECONDS (default 20): random scenes and formats traced and rendered twice,
-#     identical bits and cycles, no leak;
+#  2. `rtusim soak` for RTU_SOAK_ITERATIONS (default 300) iterations from seed 1: random scenes and formats
+#     traced and rendered twice, identical bits and cycles, no leak;
 #  3. each libFuzzer target of tests/fuzz for a fixed number of inputs from a fixed seed (RTU_FUZZ_SEED) over its
 #     committed corpus, so that the same commit gets the same verdict on every run: a crash, leak, timeout (30 s)
 #     or an input needing over 2 GiB fails the run and leaves the reproducer in build/asan/fuzz-artifacts/.
@@ -27,7 +27,8 @@ export LSAN_OPTIONS=suppressions=$PWD/tests/fuzz/lsan.supp:print_suppressions=0 
 cmake --preset asan >/dev/null
 cmake --build --preset asan -j "$(nproc)"
 ctest --preset asan
-build/asan/rtusim soak --seconds "${RTU_SOAK_SECONDS:-20}" --json build/asan/soak.json
+# A fixed set of iterations (seeds 1..N), not a time budget: the same scenes on every run, however fast the machine.
+build/asan/rtusim soak --seconds 1e6 --iterations "${RTU_SOAK_ITERATIONS:-300}" --seed 1 --json build/asan/soak.json
 
 mkdir -p build/asan/fuzz-artifacts
 : >build/asan/fuzz-summary.txt

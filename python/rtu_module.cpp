@@ -2,7 +2,9 @@
 // tracing on every device, compare, render, sweep and plan. Every job calls the host function rtusim calls
 // (host/trace_job.h, compare_job.h, render.h, sweep.h, plan.h) with the same settings (host::DeviceSettings), so
 // its hits, cycles and statistics are the CLI's bit for bit; statistics are the CLI's JSON as Python dicts. The
-// GIL is released while a job runs. Every error a job throws arrives as rtu.Error with the CLI's message.
+// GIL is released while a job runs; sweep and plan check for Ctrl-C between their steps (check_signals) and stop
+// with KeyboardInterrupt. Every error a job throws arrives as rtu.Error with the CLI's message; an argument of
+// the wrong type is a TypeError naming the parameter.
 // python/rtu/__init__.py is the thin Python layer over it (keyword defaults, DataFrames).
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -14,6 +16,8 @@
 #include <memory>
 #include <new>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "host/compare_job.h"
@@ -44,6 +48,33 @@ PyObject* g_error = nullptr;  // rtu.Error, derived from RuntimeError and ValueE
 
 [[noreturn]] void fail(const std::string& message) {
   throw host::Error(message);
+}
+
+// Ctrl-C during a long job: the host job calls this between its steps (SweepOptions::poll), on the calling thread
+// with the GIL released. A pending signal runs its Python handler (SIGINT's raises KeyboardInterrupt), whose
+// exception then unwinds the job and reaches the caller.
+void check_signals() {
+  py::gil_scoped_acquire gil;
+  if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+}
+
+// A keyword argument cast to T, or a TypeError naming the parameter and what it takes (pybind11's own cast error
+// names neither).
+template <class T>
+T arg(const py::handle& v, const std::string& name, const char* expected) {
+  try {
+    if constexpr (std::is_same_v<T, std::string>) {
+      if (!py::isinstance<py::str>(v)) throw py::cast_error();
+    } else if constexpr (std::is_same_v<T, bool>) {
+      if (!py::isinstance<py::bool_>(v)) throw py::cast_error();
+    } else if constexpr (std::is_integral_v<T>) {
+      if (py::isinstance<py::bool_>(v) || !py::isinstance<py::int_>(v)) throw py::cast_error();
+    }
+    return v.cast<T>();
+  } catch (const py::cast_error&) {
+    throw py::type_error(name + ": expected " + expected + ", got " +
+                         (v.is_none() ? std::string("None") : std::string(py::repr(v))));
+  }
 }
 
 // JSON to Python through the json module: the dict equals json.loads of the file rtusim writes.
@@ -241,8 +272,11 @@ DeviceArgs device_args(const py::kwargs& kw) {
   d.format_fields = py::none();
   for (const auto& [key, value] : kw) {
     const std::string k = py::str(key);
-    if (k == "device")
-      d.device = value.cast<std::string>();
+    if (k == "device") {
+      d.device = arg<std::string>(value, "device", "'float', 'fixed' or 'timed'");
+      if (d.device != "float" && d.device != "fixed" && d.device != "timed")
+        fail("device: '" + d.device + "' is not 'float', 'fixed' or 'timed'");
+    }
     else if (k == "config")
       d.config = py::reinterpret_borrow<py::object>(value);
     else if (k == "set")
@@ -252,23 +286,23 @@ DeviceArgs device_args(const py::kwargs& kw) {
     else if (k == "format_fields")
       d.format_fields = py::reinterpret_borrow<py::object>(value);
     else if (k == "bvh_width")
-      d.bvh_width = value.cast<int>();
+      d.bvh_width = arg<int>(value, k, "an int: 2, 4, 6 or 8 (0: the device's)");
     else if (k == "leaf_size")
-      d.leaf_size = value.cast<int>();
+      d.leaf_size = arg<int>(value, k, "an int");
     else if (k == "accel")
-      d.accel = value.cast<std::string>();
+      d.accel = arg<std::string>(value, k, "'auto', 'bvh' or 'brute'");
     else if (k == "sample")
-      d.sample = value.cast<double>();
+      d.sample = arg<double>(value, k, "a number in [0, 1]");
     else if (k == "sample_unit")
-      d.sample_unit = value.cast<uint32_t>();
+      d.sample_unit = arg<uint32_t>(value, k, "a positive int");
     else if (k == "sample_warmup")
-      d.sample_warmup = value.cast<uint32_t>();
+      d.sample_warmup = arg<uint32_t>(value, k, "a non-negative int");
     else if (k == "sample_seed")
-      d.sample_seed = value.cast<uint64_t>();
+      d.sample_seed = arg<uint64_t>(value, k, "a non-negative int");
     else if (k == "watchdog_steps")
-      d.watchdog_steps = value.cast<uint64_t>();
+      d.watchdog_steps = arg<uint64_t>(value, k, "a non-negative int");
     else if (k == "flatten")
-      d.flatten = value.cast<bool>();
+      d.flatten = arg<bool>(value, k, "True or False");
     else
       fail("unknown keyword argument '" + k +
            "' (device options: device, config, set, format, format_fields, bvh_width, leaf_size, accel, sample, "
@@ -326,6 +360,7 @@ py::tuple compare(const PyScene& scene, const py::handle& rays_obj, const std::s
   req.threads = check_threads(threads);
   req.max_list = max_list;
   const RaysIn in = rays_from_numpy(rays_obj);
+  if (in.rays.empty()) fail("rays: no rays given (an empty array): nothing to compare");
   const std::vector<hw::Ray> rays(in.rays.begin(), in.rays.end());
   req.rays = &rays;
   host::Json json;
@@ -425,7 +460,7 @@ py::dict diff(const py::handle& a, const py::handle& b) {
   return j;
 }
 
-host::SweepOptions sweep_options(uint64_t rays, uint64_t seed, int image_width, int threads) {
+host::SweepOptions sweep_options(uint64_t rays, uint64_t seed, int image_width, int threads, bool flatten) {
   if (rays < 1 || rays > (uint64_t(1) << 26)) fail("rays: " + std::to_string(rays) + " is not in 1..67108864");
   if (image_width < 0 || image_width > 4096) fail("image_width: not in 0..4096");
   host::SweepOptions o;
@@ -433,16 +468,22 @@ host::SweepOptions sweep_options(uint64_t rays, uint64_t seed, int image_width, 
   o.seed = seed;
   o.image_width = image_width;
   o.threads = check_threads(threads);
+  o.flatten = flatten;
+  o.poll = check_signals;  // Ctrl-C between points and their stages
   return o;
 }
 
 // rtusim sweep: the CSV text of every point (the Python layer reads it into a DataFrame).
 std::string sweep(const std::vector<std::string>& scenes, const std::vector<std::string>& formats,
                   const std::vector<int>& widths, const std::vector<std::string>& configs, uint64_t rays,
-                  uint64_t seed, int image_width, int threads, const std::string& area_path) {
-  if (scenes.empty()) fail("sweep: no scene");
+                  uint64_t seed, int image_width, int threads, const std::string& area_path, bool flatten) {
+  // An empty list would make an empty grid: no row, and no word of why.
+  if (scenes.empty()) fail("scenes: empty (give at least one scene)");
+  if (formats.empty()) fail("formats: empty (give at least one format spec)");
+  if (widths.empty()) fail("bvh_widths: empty (give at least one of 2, 4, 6, 8)");
+  if (configs.empty()) fail("configs: empty (give at least one timing preset)");
   host::SweepGrid g{scenes, formats, configs, widths};
-  const host::SweepOptions o = sweep_options(rays, seed, image_width, threads);
+  const host::SweepOptions o = sweep_options(rays, seed, image_width, threads, flatten);
   host::check_sweep_grid(g);
   py::gil_scoped_release nogil;
   const host::AreaTable area = area_path.empty() ? host::AreaTable::shipped() : host::AreaTable::load(area_path);
@@ -593,13 +634,20 @@ PYBIND11_MODULE(_rtu, m) {
       py::arg("spec"));
 
   m.def("sweep", &sweep, py::arg("scenes"), py::arg("formats"), py::arg("bvh_widths"), py::arg("configs"),
-        py::arg("rays"), py::arg("seed"), py::arg("image_width"), py::arg("threads"), py::arg("area"));
+        py::arg("rays"), py::arg("seed"), py::arg("image_width"), py::arg("threads"), py::arg("area"),
+        py::arg("flatten"));
   m.def(
       "plan",
       [](const std::string& scene, double max_error, const std::string& metric, double min_psnr, double confidence,
          const std::string& config, const std::string& format, const std::string& minimise, double area_budget,
          const std::vector<int>& widths, const std::vector<int>& coord_bits, const std::vector<int>& child_bits,
-         uint64_t rays, uint64_t seed, int image_width, int threads, const std::string& area) {
+         uint64_t rays, uint64_t seed, int image_width, int threads, const std::string& area, bool flatten) {
+        // NaN would pass the range checks below (every comparison with it is false): refused by name first.
+        for (const auto& [name, v] : {std::pair<const char*, double>{"max_error", max_error},
+                                      {"min_psnr", min_psnr},
+                                      {"confidence", confidence},
+                                      {"area_budget", area_budget}})
+          if (!std::isfinite(v)) fail(std::string(name) + ": " + std::to_string(v) + " is not a finite number");
         host::PlanOptions o;
         o.scene = scene;
         o.max_error = max_error;
@@ -619,19 +667,20 @@ PYBIND11_MODULE(_rtu, m) {
           if (b < 2 || b > 30) fail("coord_bits: " + std::to_string(b) + " is not in 2..30");
         for (int b : child_bits)
           if (b < 1 || b > 16) fail("child_bits: " + std::to_string(b) + " is not in 1..16");
-        if (widths.empty() || coord_bits.empty() || child_bits.empty())
-          fail("bvh_widths, coord_bits, child_bits: none may be empty");
+        if (widths.empty()) fail("bvh_widths: empty (give at least one of 2, 4, 6, 8)");
+        if (coord_bits.empty()) fail("coord_bits: empty (give at least one width in 2..30)");
+        if (child_bits.empty()) fail("child_bits: empty (give at least one width in 1..16)");
         o.widths = widths;
         o.coord_bits = coord_bits;
         o.child_bits = child_bits;
-        o.sweep = sweep_options(rays, seed, image_width, threads);
+        o.sweep = sweep_options(rays, seed, image_width, threads, flatten);
         o.area = area;
         return plan(o);
       },
       py::arg("scene"), py::arg("max_error"), py::arg("metric"), py::arg("min_psnr"), py::arg("confidence"),
       py::arg("config"), py::arg("format"), py::arg("minimise"), py::arg("area_budget"), py::arg("bvh_widths"),
       py::arg("coord_bits"), py::arg("child_bits"), py::arg("rays"), py::arg("seed"), py::arg("image_width"),
-      py::arg("threads"), py::arg("area"));
+      py::arg("threads"), py::arg("area"), py::arg("flatten"));
   m.def(
       "pareto_front",
       [](const std::vector<std::pair<double, double>>& points) { return host::pareto_front(points); },

@@ -40,15 +40,32 @@ class InvalidRayWarning(UserWarning):
     """Rays the device rejected at ray setup were traced as misses (invalid="warn")."""
 
 
+def _plain(value, path):
+    """A scene dict's value as JSON takes it: numpy arrays as lists, numpy scalars as numbers, tuples as lists;
+    a NaN or an infinity is refused naming its key path (spheres[0].radius), which the JSON text could not."""
+    if isinstance(value, dict):
+        return {k: _plain(v, f"{path}.{k}" if path else str(k)) for k, v in value.items()}
+    if isinstance(value, _np.ndarray):
+        value = value.tolist()
+    if isinstance(value, (list, tuple)):
+        return [_plain(v, f"{path}[{i}]") for i, v in enumerate(value)]
+    if isinstance(value, _np.generic):
+        value = value.item()
+    if isinstance(value, float) and not _math.isfinite(value):
+        raise Error(f"scene dict: {path}: {value} is not a finite number")
+    return value
+
+
 def load_scene(scene, base_dir=None):
     """A scene from a spec (a .json scene file, a mesh file, "builtin:NAME") or a dict in the scene-file format
     (scenes/README.md; relative mesh paths are relative to base_dir, default the working directory). A Scene is
-    returned as it is."""
+    returned as it is. In a dict, numpy arrays and scalars may stand for lists and numbers."""
     if isinstance(scene, Scene):
         return scene
     if isinstance(scene, dict):
+        plain = _plain(scene, "")  # rtu.Error naming the key path of a NaN
         try:
-            text = _json.dumps(scene)
+            text = _json.dumps(plain, allow_nan=False)
         except (TypeError, ValueError) as e:
             raise Error(f"scene dict: not JSON: {e}") from None
         return _rtu.load_scene_text(text, "scene dict", str(base_dir or _os.getcwd()))
@@ -220,25 +237,51 @@ def format(spec="default"):  # noqa: A001 (the CLI's word)
     return _rtu.format(spec)
 
 
-def _list(x):
-    return [x] if isinstance(x, (str, int)) else list(x)
+def _list(x, name):
+    """A list argument (a single str or int stands for a list of one); an empty one is refused naming it."""
+    items = [x] if isinstance(x, (str, int, _np.integer)) else list(x)
+    if not items:
+        raise Error(f"{name}: empty (give at least one)")
+    return [int(i) if isinstance(i, _np.integer) else i for i in items]
+
+
+def _int(value, name):
+    """An integer argument (numpy integers too); a TypeError naming it otherwise (e.g. a NaN for a count)."""
+    if isinstance(value, bool) or not isinstance(value, (int, _np.integer)):
+        raise TypeError(f"{name}: expected an int, got {value!r}")
+    return int(value)
+
+
+def _number(value, name):
+    """A finite number argument; NaN and infinities are refused naming it (a NaN would pass range checks)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, _np.integer, _np.floating)):
+        raise TypeError(f"{name}: expected a number, got {value!r}")
+    if not _math.isfinite(float(value)):
+        raise Error(f"{name}: {value} is not a finite number")
+    return float(value)
 
 
 def sweep(scenes, formats=("default",), bvh_widths=(4,), configs=("rdna2",), *, rays=20000, seed=1, image_width=128,
-          threads=0, area=None):
+          threads=0, area=None, flatten=False):
     """A design sweep, as `rtusim sweep`: one row per scene x BVH width x format x configuration, with the CSV's
-    columns (error, cycles, bytes, area, energy). Configurations are presets or "preset:key=value:..."."""
+    columns (error, cycles, bytes, area, energy). Configurations are presets or "preset:key=value:...".
+    flatten: trace instanced scenes in one image on the fixed and timed devices (rtusim sweep --flatten)."""
     import io
 
     import pandas as pd
 
-    csv = _rtu.sweep(_list(scenes), _list(formats), _list(bvh_widths), _list(configs), rays, seed, image_width,
-                     threads, _os.fspath(area) if area else "")
+    csv = _rtu.sweep(_list(scenes, "scenes"), _list(formats, "formats"), _list(bvh_widths, "bvh_widths"),
+                     _list(configs, "configs"), _int(rays, "rays"), _int(seed, "seed"),
+                     _int(image_width, "image_width"), _int(threads, "threads"), _os.fspath(area) if area else "",
+                     bool(flatten))
     return _sweep_frame(pd.read_csv(io.StringIO(csv)))
 
 
 def _sweep_frame(df):
-    """The derived column every plot uses: hit disagreement = 1 - hit agreement."""
+    """The derived column every plot uses: hit disagreement = 1 - hit agreement. A PSNR not measured (no render,
+    an empty CSV cell) is NaN; flatten is a bool."""
+    df["psnr_db"] = df["psnr_db"].astype(float)
+    df["flatten"] = df["flatten"].astype(bool)
     df["hit_disagreement"] = 1.0 - df["hit_agreement"]
     return df
 
@@ -247,24 +290,28 @@ def read_sweep(path):
     """A sweep CSV written by `rtusim sweep` as a DataFrame (the columns of rtu.sweep)."""
     import pandas as pd
 
-    return _sweep_frame(pd.read_csv(_os.fspath(path)))
+    # utf-8-sig: a byte order mark (a spreadsheet's) is not part of the first column's name.
+    return _sweep_frame(pd.read_csv(_os.fspath(path), encoding="utf-8-sig"))
 
 
 def plan(scene, max_error, *, metric="hit", min_psnr=0.0, confidence=0.95, config="rdna2", format="",
          minimise="cycles", area_budget=0.0, bvh_widths=(2, 4, 6, 8), coord_bits=tuple(range(8, 29, 2)),
-         child_bits=(4, 6, 8, 12), rays=20000, seed=1, image_width=128, threads=0, area=None):
+         child_bits=(4, 6, 8, 12), rays=20000, seed=1, image_width=128, threads=0, area=None, flatten=False):
     """The cheapest format within an error budget, as `rtusim plan`: its --json dict ("plan" is None when no
     format meets the budget) with every candidate measured as a DataFrame under "candidates" (the sweep's
-    columns and "meets")."""
+    columns and "meets"). flatten: instanced scenes in one image (rtusim plan --flatten)."""
     import io
 
     import pandas as pd
 
     if isinstance(scene, Scene):
         scene = scene.name
-    j, csv, meets = _rtu.plan(scene, max_error, metric, min_psnr, confidence, config, format, minimise, area_budget,
-                              list(bvh_widths), list(coord_bits), list(child_bits), rays, seed, image_width,
-                              threads, _os.fspath(area) if area else "")
+    j, csv, meets = _rtu.plan(scene, _number(max_error, "max_error"), metric, _number(min_psnr, "min_psnr"),
+                              _number(confidence, "confidence"), config, format, minimise,
+                              _number(area_budget, "area_budget"), _list(bvh_widths, "bvh_widths"),
+                              _list(coord_bits, "coord_bits"), _list(child_bits, "child_bits"), _int(rays, "rays"),
+                              _int(seed, "seed"), _int(image_width, "image_width"), _int(threads, "threads"),
+                              _os.fspath(area) if area else "", bool(flatten))
     df = _sweep_frame(pd.read_csv(io.StringIO(csv)))
     df["meets"] = meets
     j["candidates"] = df

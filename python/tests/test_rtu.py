@@ -3,8 +3,11 @@ rows and plans; and its bad input (rtu.Error with the CLI's message, never a cra
 with PYTHONPATH at the build's python/ folder and RTUSIM naming the rtusim of the same build."""
 
 import json
+import math
 import os
+import signal
 import subprocess
+import sys
 import threading
 import time
 import warnings
@@ -170,7 +173,7 @@ def test_bad_input_raises(seed, ray_file):
             rtu.trace(seed, bad)
     with pytest.raises(rtu.Error, match="config applies to device='timed' only"):
         rtu.trace(seed, rays, "fixed", config="intel")
-    with pytest.raises(rtu.Error, match="unknown device"):
+    with pytest.raises(rtu.Error, match="device: 'gpu' is not 'float', 'fixed' or 'timed'"):
         rtu.trace(seed, rays, "gpu")
     with pytest.raises(rtu.Error, match="unknown keyword argument 'cache_kib'"):
         rtu.trace(seed, rays, "timed", cache_kib=4)
@@ -323,3 +326,121 @@ def test_instanced_scene_two_levels_and_flatten_equal_the_cli(tmp_path):
         assert (r.stats["timing"]["instance_transforms"] == 0) == flatten
     with pytest.raises(rtu.Error, match="flatten"):
         rtu.trace(city, rays, "float", flatten=True)
+
+
+def test_sweep_flatten_and_unmeasured_psnr_equal_the_cli(tmp_path):
+    """--flatten on an instanced scene: other bytes, recorded in the flatten column; a PSNR without a render is an
+    empty cell, NaN in the frame, as rtusim writes it."""
+    cli("sweep", "--scene", "builtin:city", "--rays", 64, "--image-width", 0, "--flatten", "--out", tmp_path / "f.csv")
+    ref = rtu.read_sweep(tmp_path / "f.csv")
+    flat = rtu.sweep("builtin:city", rays=64, image_width=0, flatten=True)
+    two = rtu.sweep("builtin:city", rays=64, image_width=0)
+    measured = [c for c in flat.columns if c != "seconds"]
+    pd.testing.assert_frame_equal(flat[measured], ref[measured])
+    assert bool(flat["flatten"][0]) and not bool(two["flatten"][0])
+    assert flat["bvh_bytes"][0] > 10 * two["bvh_bytes"][0]
+    assert math.isnan(flat["psnr_db"][0]) and math.isnan(ref["psnr_db"][0])
+    p = rtu.plan("builtin:city", 0.05, bvh_widths=[4], coord_bits=[16], child_bits=[8], rays=64, image_width=0,
+                 flatten=True)
+    assert p["flatten"] is True and p["plan"]["psnr_db"] is None
+    assert p["plan"]["bytes"] == flat["bvh_bytes"][0]
+
+
+def test_read_sweep_takes_crlf_and_a_bom(tmp_path):
+    cli("sweep", "--scene", SEED, "--rays", 64, "--image-width", 0, "--out", tmp_path / "s.csv")
+    text = (tmp_path / "s.csv").read_text()
+    (tmp_path / "w.csv").write_bytes(b"\xef\xbb\xbf" + text.replace("\n", "\r\n").encode())
+    a, b = rtu.read_sweep(tmp_path / "s.csv"), rtu.read_sweep(tmp_path / "w.csv")
+    assert list(b.columns)[0] == "scene"
+    pd.testing.assert_frame_equal(a, b)
+    cli("sweep", "--merge", tmp_path / "w.csv", "--out", tmp_path / "m.csv")  # and rtusim reads it
+
+
+def test_unshowable_budgets_and_nan_options_are_refused():
+    message = cli_error("plan", "--scene", SEED, "--max-error", 0)
+    for budget in (0.0, 1e-20, 4.9e-324):
+        with pytest.raises(rtu.Error, match="below the smallest hit disagreement a plan can show"):
+            rtu.plan(SEED, budget)
+    with pytest.raises(rtu.Error) as e:
+        rtu.plan(SEED, 0.0)
+    assert str(e.value) == message
+    for name in ("min_psnr", "confidence", "area_budget"):
+        with pytest.raises(rtu.Error, match=f"{name}: nan is not a finite number"):
+            rtu.plan(SEED, 1e-2, **{name: float("nan")})
+    with pytest.raises(rtu.Error, match="max_error: nan is not a finite number"):
+        rtu.plan(SEED, float("nan"))
+    with pytest.raises(TypeError, match="rays: expected an int"):
+        rtu.sweep(SEED, rays=float("nan"))
+
+
+def test_argument_errors_name_the_parameter(seed):
+    with pytest.raises(TypeError, match="device: expected 'float', 'fixed' or 'timed', got None"):
+        rtu.trace(seed, "primary:4x4", device=None)
+    with pytest.raises(TypeError, match="bvh_width: expected an int"):
+        rtu.trace(seed, "primary:4x4", "fixed", bvh_width="4")
+    with pytest.raises(rtu.Error, match="rays: no rays given"):
+        rtu.compare(seed, np.zeros((0, 8), np.float32))
+    for name in ("scenes", "formats", "bvh_widths", "configs"):
+        with pytest.raises(ValueError, match=f"{name}: empty"):
+            rtu.sweep([] if name == "scenes" else SEED, **({} if name == "scenes" else {name: []}))
+    for name in ("bvh_widths", "coord_bits", "child_bits"):
+        with pytest.raises(ValueError, match=f"{name}: empty"):
+            rtu.plan(SEED, 1e-2, **{name: []})
+
+
+def test_scene_dict_with_numpy_values_and_nan_key_path():
+    plain = {"spheres": [{"center": [0.0, 1.0, 0.0], "radius": 0.5}], "planes": [{"normal": [0, 1, 0], "offset": 0}]}
+    arrays = {"spheres": [{"center": np.array([0.0, 1.0, 0.0]), "radius": np.float32(0.5)}],
+              "planes": [{"normal": np.array([0, 1, 0]), "offset": np.int64(0)}]}
+    a, b = rtu.load_scene(plain), rtu.load_scene(arrays)
+    assert a.bounds == b.bounds and a.primitives == b.primitives == 2
+    rays = rtu.rays(a, "primary:16x16")
+    assert np.array_equal(rtu.trace(a, rays).hits, rtu.trace(b, rays).hits)
+    bad = {"spheres": [{"center": [0, 0, 0], "radius": 1.0}, {"center": [0, 0, 0], "radius": float("nan")}]}
+    with pytest.raises(rtu.Error, match=r"scene dict: spheres\[1\]\.radius: nan is not a finite number"):
+        rtu.load_scene(bad)
+    with pytest.raises(rtu.Error, match=r"spheres\[0\]\.center\[2\]: inf"):
+        rtu.load_scene({"spheres": [{"center": np.array([0, 0, np.inf]), "radius": 1.0}]})
+
+
+def test_long_calls_stop_on_ctrl_c():
+    """Ctrl-C (SIGINT) during a sweep or a plan stops it with KeyboardInterrupt between its steps. The signal is
+    sent only once the call has released the GIL (the switch interval is made longer than the test, so the sender
+    thread runs only when the main thread gives the GIL up: inside the job), and the jobs would run for minutes
+    without the check."""
+    main = threading.get_ident()
+    jobs = (lambda: rtu.sweep(SEED, formats=[f"default:coord_bits={b}" for b in range(8, 28)], rays=1 << 20,
+                              image_width=0, threads=1),
+            lambda: rtu.plan(SEED, 1e-3, rays=1 << 20, image_width=0, threads=1))
+    for job in jobs:
+        raised = []
+
+        def handler(signum, frame):
+            if not raised:
+                raised.append(signum)
+                raise KeyboardInterrupt
+
+        done = threading.Event()
+
+        def sender():
+            while not done.is_set():
+                time.sleep(0.05)
+                if not done.is_set():
+                    signal.pthread_kill(main, signal.SIGINT)
+
+        old_handler = signal.signal(signal.SIGINT, handler)
+        old_interval = sys.getswitchinterval()
+        t = threading.Thread(target=sender)
+        try:
+            sys.setswitchinterval(1000.0)
+            t.start()
+            with pytest.raises(KeyboardInterrupt):
+                job()
+        finally:
+            done.set()
+            sys.setswitchinterval(old_interval)
+            t.join()
+            for _ in range(3):  # any signal still pending reaches the handler installed above, which ignores it
+                time.sleep(0.01)
+            signal.signal(signal.SIGINT, old_handler)
+        assert raised == [signal.SIGINT]

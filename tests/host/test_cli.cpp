@@ -639,10 +639,15 @@ TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the 
   // The bound is the largest of its parts, named, and below the simulated cycles.
   const auto& b = t["lower_bound"];
   const double box = b["box"].get<double>(), tri = b["triangle"].get<double>(), dram = b["dram"].get<double>();
+  const double latency = b["latency"].get<double>();
   CHECK(b["fetch"].get<double>() == 3000.0);  // one ray per clock
-  CHECK(b["cycles"].get<double>() == std::max({box, tri, dram, 3000.0}));
+  CHECK(b["cycles"].get<double>() == std::max({box, tri, dram, 3000.0, latency}));
+  // Little's law: the slots' busy cycles less the waits for units and memory, over the slots.
+  const double slot_busy = t["utilization"]["ray_slots"].get<double>() * cycles * 64.0;  // intel: 64 slots
+  CHECK(latency == Approx((slot_busy - t["unit_wait_cycles"].get<double>() - t["mem_wait_cycles"].get<double>()) /
+                          64.0));
   const std::string lim = b["limited_by"];
-  REQUIRE((lim == "box" || lim == "triangle" || lim == "dram" || lim == "fetch"));
+  REQUIRE((lim == "box" || lim == "triangle" || lim == "dram" || lim == "fetch" || lim == "latency"));
   CHECK(b[lim].get<double>() == b["cycles"].get<double>());
   CHECK(b["cycles"].get<double>() <= cycles);
   CHECK(b["cycles_over_bound"].get<double>() == Approx(cycles / b["cycles"].get<double>()));

@@ -115,13 +115,12 @@ std::string plan_more_bits_cause(const SweepRow& more, const SweepRow& fewer, co
   const std::string cost = o.minimise == "energy" ? "energy per ray" : o.minimise == "bytes" ? "bytes" : "cycles";
   const std::string saving = g(100.0 * relative_saving(more, fewer, o)) + "% fewer " + cost;
   std::vector<std::string> causes;
-  // Node visits and primitive tests relative to the float reference's: (1 + overhead) compares them.
+  // Node visits and primitive tests as overheads over the float reference's (one reference for both rows).
+  auto pct = [](double overhead) { return (overhead >= 0.0 ? "+" : "") + g(100.0 * overhead) + "%"; };
   auto work = [&](double m, double f, const char* what) {
     if (m < f)
-      causes.push_back(std::string("fewer ") + what + " (" + g(100.0 * (1.0 + m)) +
-                       "% of the float reference's, "
-                       "against " +
-                       g(100.0 * (1.0 + f)) + "%)");
+      causes.push_back(std::string("fewer ") + what + " (" + pct(m) + " over the float reference's, against " +
+                       pct(f) + ")");
   };
   work(more.node_visit_overhead, fewer.node_visit_overhead, "node visits");
   work(more.prim_test_overhead, fewer.prim_test_overhead, "primitive tests");

@@ -553,6 +553,20 @@ TEST_CASE(
   }
   // Minimising cycles, the plan may take more bits than the fewest within the budget, never fewer.
   CHECK(w["chosen_coord_bits"].get<int>() >= b);
+  // Every step up it weighed is printed with its measured cause; the steps taken lead to the chosen bits, and
+  // only the last may be a tie that was not taken.
+  int reached = b;
+  for (size_t i = 0; i < w["more_coord_bits"].size(); ++i) {
+    const auto& m = w["more_coord_bits"][i];
+    CHECK(m["from_coord_bits"] == reached);
+    CHECK(r.output.find(m["cause"].get<std::string>()) != std::string::npos);
+    if (m["taken"] == true)
+      reached = m["to_coord_bits"];
+    else
+      CHECK(i + 1 == w["more_coord_bits"].size());
+  }
+  CHECK(reached == w["chosen_coord_bits"].get<int>());
+  CHECK(r.output.find("(fewer node visits)") == std::string::npos);  // no cause claimed unmeasured
   CHECK(j["plan"]["coord_bits"] == w["chosen_coord_bits"]);
   CHECK(j["plan"]["error_bound"].get<double>() <= 2e-3);
   CHECK(j["plan"]["cycles"].get<uint64_t>() > 0);

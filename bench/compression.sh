@@ -9,8 +9,13 @@
 #   bench/compression.sh [RTUSIM] [RAYS] [MESH...]
 #     RTUSIM  default build/default/rtusim;  RAYS  incoherent rays per mesh, default 50000;  MESH  default two
 #     assimp-testmodels meshes
+#     FLATTEN (environment) 1: trace instanced meshes flattened, in one image (`--flatten`), for the one-level
+#     cycles; default 0: over two levels, as rtusim does by default
 # Every run is `rtusim trace --threads 1` on the same ray file per mesh; bytes come from the fixed device's stats
-# JSON (image section), cycles and DRAM bytes from the timed device's. Prints Markdown tables; needs python3.
+# JSON (image section), cycles and DRAM bytes from the timed device's. The byte columns are always those of the
+# flattened image (one BVH over the mesh's triangles, the quantity the papers compare); for an instanced mesh
+# the two-level memory's bytes (top and bottom images and transforms) are a column of their own. Prints Markdown
+# tables; needs python3.
 set -euo pipefail
 rtusim=${1:-build/default/rtusim}
 rays=${2:-50000}
@@ -26,6 +31,8 @@ bench_need_rtusim "$rtusim"
 bench_need_count RAYS "$rays"
 bench_need_python
 bench_tmpdir
+flat=()
+[ "${FLATTEN:-0}" = 1 ] && flat=(--flatten)
 
 # name|options: the formats of tables 1 and 2. The width is given on every row: on the timed device the timing
 # preset's bvh_width applies otherwise (intel-mem's 8, rdna2-mem's 4).
@@ -50,30 +57,35 @@ for mesh in "${meshes[@]}"; do
   name=$(basename "$mesh")
   # The baseline: the float BVH2 (its nodes and leaf index) and the float triangles (9 floats each).
   "$rtusim" trace --scene "$mesh" --rays "$tmp/inc.bin" --out "$tmp/h.bin" --device fixed --bvh-width 2 \
-    --threads 1 --stats "$tmp/b2.json" >/dev/null
+    --flatten --threads 1 --stats "$tmp/b2.json" >/dev/null
   base=$(stat "$tmp/b2.json" "j['bvh']['image']['float_node_bytes'] + j['bvh']['image']['float_index_bytes'] + 36 * j['bvh']['image']['records']")
   prims=$(stat "$tmp/b2.json" "j['bvh']['image']['records']")
   hier=$(stat "$tmp/b2.json" "j['bvh']['image']['float_node_bytes'] + j['bvh']['image']['float_index_bytes']")
   echo
-  echo "### $name: $prims primitives, $rays incoherent rays"
+  levels="over two levels where the mesh is instanced"
+  [ ${#flat[@]} -gt 0 ] && levels="flattened (--flatten)"
+  echo "### $name: $prims primitives, $rays incoherent rays, cycles $levels"
   echo
   echo "Float BVH2: $hier bytes of nodes and leaf index; with its triangles $base bytes ($(python3 -c "print(f'{$base / $prims:.1f}')") bytes per primitive)."
   echo
-  echo "| format | node bytes | bytes/node | nodes of float BVH2 nodes | primitive bytes | bytes/prim | all of float BVH2 + triangles | rdna2-mem cycles | DRAM B/ray | intel-mem cycles | DRAM B/ray |"
-  echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+  echo "| format | node bytes | bytes/node | nodes of float BVH2 nodes | primitive bytes | bytes/prim | all of float BVH2 + triangles | two-level bytes | rdna2-mem cycles | DRAM B/ray | intel-mem cycles | DRAM B/ray |"
+  echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
   for entry in "${formats[@]}"; do
     label=${entry%%|*}
     read -r -a opts <<<"${entry#*|}"
     "$rtusim" trace --scene "$mesh" --rays "$tmp/inc.bin" --out "$tmp/h.bin" --device fixed "${opts[@]}" \
-      --threads 1 --stats "$tmp/f.json" >/dev/null
+      --flatten --threads 1 --stats "$tmp/f.json" >/dev/null
+    "$rtusim" trace --scene "$mesh" --rays "$tmp/inc.bin" --out "$tmp/h.bin" --device fixed "${opts[@]}" \
+      --threads 1 --stats "$tmp/f2.json" >/dev/null
     row="| $label | $(stat "$tmp/f.json" "j['bvh']['image']['node_bytes']") | $(stat "$tmp/f.json" "j['bvh']['image']['bytes_per_node']")"
     row+=" | $(stat "$tmp/f.json" "f\"{100 * j['bvh']['image']['node_bytes'] / $hier:.0f}%\"")"
     row+=" | $(stat "$tmp/f.json" "j['bvh']['image']['record_bytes']")"
     row+=" | $(stat "$tmp/f.json" "f\"{(j['bvh']['image']['node_bytes'] + j['bvh']['image']['record_bytes']) / j['bvh']['image']['records']:.1f}\"")"
     row+=" | $(stat "$tmp/f.json" "f\"{100 * (j['bvh']['image']['node_bytes'] + j['bvh']['image']['record_bytes']) / $base:.0f}%\"")"
+    row+=" | $(stat "$tmp/f2.json" "j['bvh']['image'].get('two_level', {}).get('total_bytes', '-')")"
     for preset in rdna2-mem intel-mem; do
       "$rtusim" trace --scene "$mesh" --rays "$tmp/inc.bin" --out "$tmp/h.bin" --device timed --config "$preset" \
-        "${opts[@]}" --threads 1 --stats "$tmp/t.json" >/dev/null
+        "${opts[@]}" "${flat[@]}" --threads 1 --stats "$tmp/t.json" >/dev/null
       row+=" | $(stat "$tmp/t.json" "j['timing']['cycles']") | $(stat "$tmp/t.json" "f\"{j['timing']['dram_bytes'] / j['timing']['rays']:.0f}\"")"
     done
     echo "$row |"
@@ -85,7 +97,7 @@ for mesh in "${meshes[@]}"; do
   echo "|---:|---:|---:|---:|---:|---:|"
   for entries in 64 8 5 2; do
     "$rtusim" trace --scene "$mesh" --rays "$tmp/inc.bin" --out "$tmp/h.bin" --device timed --config rdna2-mem \
-      --format packed --set "stack_entries=$entries" --threads 1 --stats "$tmp/s.json" >/dev/null
+      --format packed --set "stack_entries=$entries" "${flat[@]}" --threads 1 --stats "$tmp/s.json" >/dev/null
     echo "| $entries | $(stat "$tmp/s.json" "j['timing']['cycles']") | $(stat "$tmp/s.json" "j['timing']['stack_spills']") | $(stat "$tmp/s.json" "j['timing']['stack_refills']") | $(stat "$tmp/s.json" "f\"{j['timing']['dram_bytes'] / j['timing']['rays']:.0f}\"") | $(stat "$tmp/s.json" "j['nodes_visited']") |"
   done
 done

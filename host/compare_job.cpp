@@ -29,8 +29,10 @@ CompareRun compare_devices(const CompareRequest& req) {
   const DirectDevice& ref = *run.ref;
   const DirectDevice& dut = *run.dut;
 
-  run.ref_seconds = trace_with_progress(ref, rays, run.ref_hits, req.any_hit, req.threads, run.ref_stats);
-  run.dut_seconds = trace_with_progress(dut, rays, run.dut_hits, req.any_hit, req.threads, run.dut_stats);
+  run.ref_seconds =
+      trace_with_progress(ref, rays, run.ref_hits, req.any_hit, req.threads, run.ref_stats, req.poll);
+  run.dut_seconds =
+      trace_with_progress(dut, rays, run.dut_hits, req.any_hit, req.threads, run.dut_stats, req.poll);
 
   // Rays either device rejected are not compared (counted as invalid_rays).
   std::vector<bool> valid(rays.size());
@@ -64,6 +66,8 @@ CompareRun compare_devices(const CompareRequest& req) {
 
   Json& j = run.json;
   j["scene"] = scene.name;
+  const std::string grid = grid_warning(device_grid_check(scene.geometry, run.dut_options));
+  j["warnings"] = grid.empty() ? Json::array() : Json::array({grid});
   j["rays_spec"] = req.rays_name;
   j["reference"] = "float";
   j["device"] = dut.name();

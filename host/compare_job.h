@@ -3,6 +3,7 @@
 // the JSON `rtusim compare --json` writes.
 #pragma once
 
+#include <functional>
 #include <cstddef>
 #include <memory>
 #include <string>
@@ -26,6 +27,7 @@ struct CompareRequest {
   bool any_hit = false;
   int threads = 0;
   size_t max_list = 1000;  // disagreeing rays listed in the JSON
+  std::function<void()> poll;  // as TraceRequest::poll
 };
 
 struct CompareRun {

@@ -5,12 +5,15 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <exception>
+#include <functional>
 #include <optional>
+#include <utility>
 
 #include "firmware/render_scene.h"
 #include "host/error.h"
-#include "host/grid_check.h"
 #include "host/firmware_device.h"
+#include "host/grid_check.h"
 #include "host/limits.h"
 #include "host/shading.h"
 #include "host/trace_job.h"
@@ -30,16 +33,37 @@ fw::F3 f3(const Vec3& v) {
 // the ring's tail) redraws the line from the firmware's own counters (fw::RenderStats: the batch of camera paths
 // and the bounce it is at), so the firmware needs no hook. Progress is counted in bounces of batches, at most
 // max_depth + 1 per batch; a batch whose first bounce submits nothing counts its first doorbell as bounce 0.
+// Every doorbell also calls the poll (RenderOptions::poll): when it throws, the doorbell is not rung and the unit
+// reads as stopped on an error from then on, so the firmware (which has no exceptions) returns; the exception is
+// kept for render() to rethrow.
 class ProgressHal final : public fw::Hal {
  public:
-  ProgressHal(FirmwareDevice& dev, const fw::RenderStats& stats, int max_depth)
-      : m_dev(dev), m_stats(stats), m_steps(uint64_t(max_depth) + 1) {}
+  ProgressHal(FirmwareDevice& dev, const fw::RenderStats& stats, int max_depth, bool progress,
+              std::function<void()> poll)
+      : m_dev(dev), m_stats(stats), m_steps(uint64_t(max_depth) + 1), m_show(progress), m_poll(std::move(poll)) {}
 
-  uint32_t read32(uint32_t offset) override { return m_dev.read32(offset); }
+  uint32_t read32(uint32_t offset) override {
+    const uint32_t v = m_dev.read32(offset);
+    return m_stopped && offset == hw::reg::kStatus ? v | hw::reg::kStatusError : v;
+  }
   void write32(uint32_t offset, uint32_t value) override {
-    if (offset == hw::reg::kRingTail) update();
+    if (offset == hw::reg::kRingTail) {
+      if (m_stopped) return;
+      if (m_poll) {
+        try {
+          m_poll();
+        } catch (...) {
+          m_stop = std::current_exception();
+          m_stopped = true;
+          return;
+        }
+      }
+      if (m_show) update();
+    }
     m_dev.write32(offset, value);
   }
+  // What the poll threw, or null.
+  std::exception_ptr stopped() const { return m_stop; }
   void barrier() override { m_dev.barrier(); }
   uint8_t* mem() override { return m_dev.mem(); }
   uint64_t mem_size() override { return m_dev.mem_size(); }
@@ -65,8 +89,12 @@ class ProgressHal final : public fw::Hal {
   FirmwareDevice& m_dev;
   const fw::RenderStats& m_stats;
   const uint64_t m_steps;
+  const bool m_show;
+  const std::function<void()> m_poll;
   uint64_t m_batch = 0, m_first_bounce = 0, m_shown = 0;
   std::optional<Progress> m_progress;  // made at the first batch, when the firmware has chosen the batch size
+  bool m_stopped = false;
+  std::exception_ptr m_stop;
 };
 
 }  // namespace
@@ -256,11 +284,13 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   fw::Arena arena(arena_base, arena_bytes);
   fw::Ring ring;
   std::optional<ProgressHal> watched;
-  if (o.progress) watched.emplace(dev, res.fw, o.max_depth);
+  if (o.progress || o.poll) watched.emplace(dev, res.fw, o.max_depth, o.progress, o.poll);
   fw::Hal& hal = watched ? static_cast<fw::Hal&>(*watched) : dev;
   fw::Status st = ring.init(hal, arena, 256);
   if (st == fw::Status::kOk) st = fw::render(hal, ring, arena, job_addr, res.fw);
+  const std::exception_ptr stopped = watched ? watched->stopped() : nullptr;
   watched.reset();  // the progress line cleared before anything else is printed
+  if (stopped) std::rethrow_exception(stopped);
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (st != fw::Status::kOk) {
     std::string why = std::string("render on the ") + hw::device_kind_name(o.device.kind) +

@@ -3,6 +3,7 @@
 // it through the ring, and reads the framebuffer back.
 #pragma once
 
+#include <functional>
 #include <array>
 #include <map>
 #include <string>
@@ -34,6 +35,9 @@ struct RenderOptions {
   bool keep_primary = false;  // return every camera sample's primary hit (RenderResult::primary)
   hw::PipelineTrace* pipeline_trace = nullptr;  // timed device: pipeline spans of a cycle window (or null)
   bool progress = false;  // a progress line on stderr while rendering, when stderr is a terminal (host::Progress)
+  // Called at every doorbell the firmware rings; an exception it throws stops the render (the unit reports an
+  // error to the firmware, which returns) and render() rethrows it (Python: Ctrl-C).
+  std::function<void()> poll;
 };
 
 struct RenderResult {

@@ -34,13 +34,15 @@ int resolved_threads(int threads) {
 }
 
 double trace_with_progress(const DirectDevice& device, std::span<const hw::Ray> rays, std::vector<hw::Hit>& hits,
-                           bool any_hit, int threads, hw::TraversalStats& stats) {
+                           bool any_hit, int threads, hw::TraversalStats& stats,
+                           const std::function<void()>& poll) {
   hits.resize(rays.size());
   constexpr size_t kChunk = size_t(1) << 18;
   Progress progress("trace", rays.size());
   const auto start = std::chrono::steady_clock::now();
   for (size_t begin = 0; begin < rays.size(); begin += kChunk) {
     const size_t n = std::min(kChunk, rays.size() - begin);
+    if (poll) poll();
     hw::TraversalStats chunk;
     device.trace_batch(rays.data() + begin, hits.data() + begin, n, any_hit, resolved_threads(threads), chunk);
     if (chunk.first_invalid != UINT64_MAX) chunk.first_invalid += begin;
@@ -75,7 +77,8 @@ TraceRun run_trace(const TraceRequest& req) {
   run.device = make_device(req.scene->geometry, run.options);
   run.device->set_pipeline_trace(req.pipeline);
   run.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - build_start).count();
-  run.trace_seconds = trace_with_progress(*run.device, req.rays, run.hits, req.any_hit, req.threads, run.stats);
+  run.trace_seconds =
+      trace_with_progress(*run.device, req.rays, run.hits, req.any_hit, req.threads, run.stats, req.poll);
   return run;
 }
 
@@ -93,6 +96,7 @@ Json trace_stats_json(const TraceRequest& req, const TraceRun& run, const std::s
   j["trace_seconds"] = run.trace_seconds;
   j["rays_per_second"] = run.trace_seconds > 0 ? double(n) / run.trace_seconds : 0.0;
   j["load_seconds"] = load_seconds;
+  j["warnings"] = run.grid_warning.empty() ? Json::array() : Json::array({run.grid_warning});
   j["build_seconds"] = run.build_seconds;
   j["bvh"] = bvh_json(*run.device);
   if (const hw::TimedEngine* te = run.device->timed()) j["timing"] = timed_json(*te);

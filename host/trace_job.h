@@ -2,6 +2,7 @@
 // rays the unit rejected.
 #pragma once
 
+#include <functional>
 #include <cstdio>
 #include <memory>
 #include <span>
@@ -32,9 +33,11 @@ class Progress {
 
 int resolved_threads(int threads);
 
-// Traces rays into hits (same size); returns the wall-clock seconds of tracing alone.
+// Traces rays into hits (same size), in chunks of 2^18 rays; returns the wall-clock seconds of tracing alone.
+// `poll`, when set, is called before each chunk: an exception it throws stops the job.
 double trace_with_progress(const DirectDevice& device, std::span<const hw::Ray> rays, std::vector<hw::Hit>& hits,
-                           bool any_hit, int threads, hw::TraversalStats& stats);
+                           bool any_hit, int threads, hw::TraversalStats& stats,
+                           const std::function<void()>& poll = nullptr);
 
 // "N invalid rays reported as misses; the first is ray i (reason). Invalid: ..." when the device rejected any ray;
 // empty otherwise.
@@ -53,6 +56,8 @@ struct TraceRequest {
   int threads = 0;
   bool need_hits = true;  // false: sampled timing traces only the sampled rays (cycles only; hits not meaningful)
   hw::PipelineTrace* pipeline = nullptr;  // timed device: record pipeline spans here (or null)
+  // Called between chunks of rays (trace_with_progress); an exception it throws stops the job (Python: Ctrl-C).
+  std::function<void()> poll;
 };
 struct TraceRun {
   DeviceOptions options;

@@ -336,6 +336,7 @@ py::tuple trace(const PyScene& scene, const py::handle& rays_obj, bool any_hit, 
   host::Json stats;
   std::vector<hw::Hit> hits;
   std::string invalid;
+  req.poll = check_signals;  // Ctrl-C between chunks of rays
   {
     py::gil_scoped_release nogil;
     host::TraceRun run = host::run_trace(req);
@@ -365,6 +366,7 @@ py::tuple compare(const PyScene& scene, const py::handle& rays_obj, const std::s
   req.rays = &rays;
   host::Json json;
   std::vector<hw::Ray> replay;
+  req.poll = check_signals;
   {
     py::gil_scoped_release nogil;
     host::CompareRun run = host::compare_devices(req);
@@ -429,6 +431,7 @@ py::tuple render(const PyScene& scene, const std::string& mode, int width, int h
   std::vector<float> rgb;
   std::vector<std::string> warnings;
   int w = 0, h = 0;
+  o.poll = check_signals;  // Ctrl-C at the firmware's doorbells
   {
     py::gil_scoped_release nogil;
     host::RenderResult r = host::render(*scene.scene, o);

@@ -37,8 +37,7 @@ void run_compare(const CompareOptions& o) {
   req.threads = o.threads;
   req.max_list = o.max_list;
   const CompareRun run = compare_devices(req);
-  const std::string grid = grid_warning(device_grid_check(scene.geometry, run.dut_options));
-  if (!grid.empty()) std::fprintf(stderr, "rtusim: warning: %s\n", grid.c_str());
+  for (const auto& w : run.json["warnings"]) std::fprintf(stderr, "rtusim: warning: %s\n", w.get<std::string>().c_str());
   const HitComparison& t = run.t;
   const DirectDevice* dut = run.dut.get();
   const hw::TraversalStats& ref_stats = run.ref_stats;

@@ -24,7 +24,7 @@ from . import _rtu
 from ._rtu import Error, Scene, builtin_scenes, diff, formats, presets
 
 __all__ = [
-    "Error", "Scene", "InvalidRayWarning", "HIT_DTYPE", "RAY_FIELDS", "load_scene", "builtin_scenes", "rays",
+    "Error", "Scene", "InvalidRayWarning", "AccuracyWarning", "HIT_DTYPE", "RAY_FIELDS", "load_scene", "builtin_scenes", "rays",
     "make_rays", "read_rays", "write_rays", "read_hits", "write_hits", "trace", "TraceResult", "compare",
     "render", "RenderResult", "diff", "read_png", "write_png", "config", "presets", "formats", "format",
     "sweep", "read_sweep", "plan", "pareto_front",
@@ -38,6 +38,19 @@ MISS = 0xFFFFFFFF  # hits["prim"] of a miss (t is +inf)
 
 class InvalidRayWarning(UserWarning):
     """Rays the device rejected at ray setup were traced as misses (invalid="warn")."""
+
+
+class AccuracyWarning(UserWarning):
+    """Primitives below the fixed-point grid step: the fixed and timed devices may lose or invent their hits
+    (the CLI's warning; compare counts them, instancing or more coordinate bits cure them)."""
+
+
+def _render_warning_kind(text):
+    if "grid step" in text:
+        return AccuracyWarning
+    if "ray" in text and "invalid" in text:
+        return InvalidRayWarning
+    return UserWarning
 
 
 def _plain(value, path):
@@ -163,6 +176,8 @@ def trace(scene, rays, device="float", *, any_hit=False, threads=0, hits=True, i
     scene = load_scene(scene)
     rays, name = _rays_arg(scene, rays, seed)
     h, stats, message = _rtu.trace(scene, rays, any_hit, threads, hits, name, device=device, **device_options)
+    for w in stats.get("warnings", []):
+        _warnings.warn(w, AccuracyWarning, stacklevel=2)
     if message:
         if invalid == "raise":
             raise Error(message)
@@ -180,6 +195,8 @@ def compare(scene, rays="primary", device="fixed", *, any_hit=False, threads=0, 
     scene = load_scene(scene)
     rays, name = _rays_arg(scene, rays, seed)
     result, replay = _rtu.compare(scene, rays, name, any_hit, threads, max_list, device=device, **device_options)
+    for w in result.get("warnings", []):
+        _warnings.warn(w, AccuracyWarning, stacklevel=2)
     rows = []
     for d in result["disagreements"]:
         row = {"ray": d["ray"], "kind": d["kind"]}
@@ -214,7 +231,7 @@ def render(scene, device="float", *, mode="raytrace", width=0, height=0, spp=1, 
     img, rad, stats, warns = _rtu.render(scene, mode, width, height, spp, max_depth, seed, indirect, ao, ao_distance,
                                          list(background), threads, device=device, **device_options)
     for w in warns:
-        _warnings.warn(w, InvalidRayWarning, stacklevel=2)
+        _warnings.warn(w, _render_warning_kind(w), stacklevel=2)
     return RenderResult(img, rad, stats, list(warns))
 
 

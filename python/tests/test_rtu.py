@@ -404,14 +404,18 @@ def test_scene_dict_with_numpy_values_and_nan_key_path():
 
 
 def test_long_calls_stop_on_ctrl_c():
-    """Ctrl-C (SIGINT) during a sweep or a plan stops it with KeyboardInterrupt between its steps. The signal is
-    sent only once the call has released the GIL (the switch interval is made longer than the test, so the sender
-    thread runs only when the main thread gives the GIL up: inside the job), and the jobs would run for minutes
-    without the check."""
+    """Ctrl-C (SIGINT) during a sweep, a plan, a trace, a compare or a render stops it with KeyboardInterrupt
+    between its steps (points, chunks of 2^18 rays, the firmware's doorbells). The signal is sent only once the
+    call has released the GIL (the switch interval is made longer than the test, so the sender thread runs only
+    when the main thread gives the GIL up: inside the job), and the jobs would run for minutes without the
+    check."""
     main = threading.get_ident()
     jobs = (lambda: rtu.sweep(SEED, formats=[f"default:coord_bits={b}" for b in range(8, 28)], rays=1 << 20,
                               image_width=0, threads=1),
-            lambda: rtu.plan(SEED, 1e-3, rays=1 << 20, image_width=0, threads=1))
+            lambda: rtu.plan(SEED, 1e-3, rays=1 << 20, image_width=0, threads=1),
+            lambda: rtu.trace(SEED, "incoherent:4000000", "timed", threads=1),
+            lambda: rtu.compare(SEED, "incoherent:4000000", "timed", threads=1),
+            lambda: rtu.render(SEED, "timed", width=1280, height=960, spp=16, threads=1))
     for job in jobs:
         raised = []
 
@@ -444,3 +448,23 @@ def test_long_calls_stop_on_ctrl_c():
                 time.sleep(0.01)
             signal.signal(signal.SIGINT, old_handler)
         assert raised == [signal.SIGINT]
+
+
+def test_primitives_below_the_grid_step_warn():
+    """Two unit boxes 10^12 apart: on the fixed and timed devices their 24 triangles are below the grid step, which
+    trace, compare and render say as an AccuracyWarning; the float device and the same boxes as instances do
+    not."""
+    box = {"generate": "box", "size": [1, 1, 1]}
+    cam = {"position": [0, 0, 5], "look_at": [0, 0, 0], "width": 32, "height": 24}
+    flat = rtu.load_scene({"camera": cam, "meshes": [box, dict(box, transform={"translate": [1e12, 0, 0]})]})
+    for job in (lambda: rtu.trace(flat, "primary", "fixed"), lambda: rtu.compare(flat, "primary", "timed"),
+                lambda: rtu.render(flat, "fixed", width=16, height=12)):
+        with pytest.warns(rtu.AccuracyWarning, match="24 of 24 primitives are smaller than the grid step"):
+            job()
+    inst = rtu.load_scene({"camera": cam, "prototypes": {"cube": {"meshes": [box]}},
+                           "instances": [{"prototype": "cube"},
+                                         {"prototype": "cube", "transform": {"translate": [1e12, 0, 0]}}]})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", rtu.AccuracyWarning)
+        rtu.trace(flat, "primary", "float")
+        assert rtu.compare(inst, "primary", "fixed")["hit_agreement"] == 1.0

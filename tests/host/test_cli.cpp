@@ -1235,7 +1235,7 @@ TEST_CASE("sweep: resume reruns points made with other --rays, --seed or --image
 }
 
 TEST_CASE(
-    "sweep: a PSNR not measured is an empty cell; merge warns of conflicting duplicates; CRLF and a BOM read",
+    "sweep: a PSNR not measured is an empty cell, merge warns of conflicting duplicates, CRLF and a BOM read",
     "[cli][sweep]") {
   const fs::path d = temp_dir() / "sweep_cells";
   fs::remove_all(d);

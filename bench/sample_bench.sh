@@ -15,7 +15,8 @@
 #   simulation (the full one records the next chunk of rays while the model replays this one when it has two
 #   threads; the sampled one runs its short segments on one), so that both get the same cores, and the number
 #   of samples (--sample-seed 1 .. SEEDS) whose errors are summarized: one sample's error says little about an
-#   estimator, the spread over many does (mean and largest |error|, how many lay inside their 95% interval)
+#   estimator, the spread over many does (mean error, root mean square error, mean and largest |error|, how
+#   many lay beyond 2% and how many inside their 95% interval)
 set -euo pipefail
 rtusim=${1:-build/default/rtusim}
 rays=${2:-1000000}
@@ -46,8 +47,8 @@ run() {  # run STATS ARGS...: one rtusim run; prints its trace_seconds
 least() { awk -v a="$1" -v b="$2" 'BEGIN{print (a == "" || b < a) ? b : a}'; }
 
 if [ "$seeds" -gt 1 ]; then
-  printf '| mesh | rays | mode | sample | cycles (full) | estimate | error | 95%% interval | rays simulated | trace s (full / sampled) | speed-up | seeds | mean / max abs error | in interval |\n'
-  printf '|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n'
+  printf '| mesh | rays | mode | sample | cycles (full) | estimate | error | 95%% interval | rays simulated | trace s (full / sampled) | speed-up | seeds | mean error | rms error | mean / max abs error | beyond 2%% | in interval |\n'
+  printf '|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n'
 else
   printf '| mesh | rays | mode | sample | cycles (full) | estimate | error | 95%% interval | rays simulated | trace s (full / sampled) | speed-up |\n'
   printf '|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n'
@@ -93,12 +94,13 @@ for mesh in "${meshes[@]}"; do
           printf "| %s | %s | %s | %g | %d | %d | %+.2f%% | +-%.1f%% | %.1f%% | %.2f / %.2f | %.1fx |",
             b, k, m, f, full, est, 100*(est-full)/full, 100*ci/full, 100*simf, fs, ss, fs/ss
           if (seeds > 1) {
-            n = split(errs, e, " "); sum = 0; mx = 0; inside = 0
+            n = split(errs, e, " "); sum = 0; sgn = 0; sq = 0; mx = 0; inside = 0; beyond = 0
             for (i = 1; i <= n; i++) {
-              split(e[i], p, ":"); a = p[1] - full; if (a < 0) a = -a
-              sum += a; if (a > mx) mx = a; if (a <= p[2]) inside++
+              split(e[i], p, ":"); a = p[1] - full; sgn += a; sq += a * a; if (a < 0) a = -a
+              sum += a; if (a > mx) mx = a; if (a <= p[2]) inside++; if (a > 0.02 * full) beyond++
             }
-            printf " %d | %.2f%% / %.2f%% | %d of %d |", n, 100*sum/n/full, 100*mx/full, inside, n
+            printf " %d | %+.2f%% | %.2f%% | %.2f%% / %.2f%% | %d | %d of %d |", n, 100*sgn/n/full,
+              100*sqrt(sq/n)/full, 100*sum/n/full, 100*mx/full, beyond, inside, n
           }
           printf "\n" }'
     done

@@ -147,6 +147,7 @@ struct Builder {
     std::string path;
     uint32_t mesh = UINT32_MAX;  // none when it has no meshes of its own
     bool visiting = false;       // on the current expansion path (a loop when met again)
+    bool empty = false;          // expanded once and placed nothing: later entries naming it are not walked
   };
   std::map<std::string, Prototype> prototypes;
   std::vector<std::vector<uint32_t>> mesh_tri_material;
@@ -651,6 +652,8 @@ void expand_instance(Builder& b, const Json& e, const std::string& path, const X
     r.fail(path, "instances nested deeper than " + std::to_string(hw::kMaxInstanceNesting) + " levels");
   const Xform x =
       e.contains("transform") ? parent.then(read_transform(r, e["transform"], join(path, "transform"))) : parent;
+  if (proto.empty) return;  // its one full walk checked its entries and placed nothing
+  const size_t placed = b.scene.instances.instances.size();
   if (proto.mesh != UINT32_MAX) add_instance(b, proto.mesh, x, path);
   if (proto.json->contains("instances")) {
     const Json& subs = (*proto.json)["instances"];
@@ -659,6 +662,7 @@ void expand_instance(Builder& b, const Json& e, const std::string& path, const X
       expand_instance(b, subs[i], join(join(proto.path, "instances"), i), x, depth + 1);
     proto.visiting = false;
   }
+  proto.empty = b.scene.instances.instances.size() == placed;
 }
 
 void read_instances(Builder& b, const Json& j) {

@@ -247,6 +247,21 @@ TEST_CASE("watchdogs from the command line: exit status 2 with the unit's state"
 // takes for itself on a small job (its code, libraries and a small scene).
 namespace {
 
+// Under AddressSanitizer a process's resident size says little of what it allocated: shadow memory and the
+// quarantine of freed blocks multiply it. Peaks that follow real allocations are compared in the default build
+// only; the refusals (a few MiB before anything large is taken) are compared in both.
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kSanitized = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kSanitized = true;
+#else
+constexpr bool kSanitized = false;
+#endif
+#else
+constexpr bool kSanitized = false;
+#endif
+
 uint64_t mib(uint64_t kib) {
   return kib >> 10;
 }
@@ -349,7 +364,7 @@ TEST_CASE("memory limit: a scene's textures are held to the budget in sum", "[li
   CHECK(r.status == 2);
   CHECK(contains(r.output, "tex.json: textures.t3.file: 4 textures so far needs about 320 MiB of memory, above the "
                            "limit of 300 MiB"));
-  CHECK(mib(r.peak_kib) < 300 + mib(baseline_kib()));
+  if (!kSanitized) CHECK(mib(r.peak_kib) < 300 + mib(baseline_kib()));
   // The header's size without decoding, in memory too (a PNG's IHDR; anything else: 0).
   const uint8_t png[24] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n', 0, 0, 0, 13, 'I', 'H', 'D', 'R',
                            0,    0,   0x3E, 0x80, 0, 0, 0x3E, 0x80};
@@ -433,7 +448,7 @@ TEST_CASE("timed device: events are recorded in bounded chunks, with the same hi
   INFO(t.output);
   REQUIRE(f.status == 0);
   REQUIRE(t.status == 0);
-  CHECK(mib(t.peak_kib) < mib(f.peak_kib) + 80);
+  if (!kSanitized) CHECK(mib(t.peak_kib) < mib(f.peak_kib) + 80);
 }
 
 TEST_CASE("the pipeline trace is streamed to its file", "[limits][memory]") {
@@ -461,7 +476,7 @@ TEST_CASE("the pipeline trace is streamed to its file", "[limits][memory]") {
   CHECK(spans == 1000000);  // max_spans: the window holds more
   CHECK(xs == spans);
   // The spans (32 bytes each) and no document of them: kept as one, it took about 1.4 GiB.
-  CHECK(mib(piped.peak_kib) < mib(plain.peak_kib) + 32 + 64);
+  if (!kSanitized) CHECK(mib(piped.peak_kib) < mib(plain.peak_kib) + 32 + 64);
 }
 
 TEST_CASE("PLY and OFF files whose counts the file or the budget cannot hold are refused, named", "[limits][memory]") {

@@ -658,8 +658,8 @@ TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the 
   CHECK(b["cycles"].get<double>() == std::max({box, tri, dram, 3000.0, latency}));
   // Little's law: the slots' busy cycles less the waits for units and memory, over the slots.
   const double slot_busy = t["utilization"]["ray_slots"].get<double>() * cycles * 64.0;  // intel: 64 slots
-  CHECK(latency == Approx((slot_busy - t["unit_wait_cycles"].get<double>() - t["mem_wait_cycles"].get<double>()) /
-                          64.0));
+  CHECK(latency ==
+        Approx((slot_busy - t["unit_wait_cycles"].get<double>() - t["mem_wait_cycles"].get<double>()) / 64.0));
   const std::string lim = b["limited_by"];
   REQUIRE((lim == "box" || lim == "triangle" || lim == "dram" || lim == "fetch" || lim == "latency"));
   CHECK(b[lim].get<double>() == b["cycles"].get<double>());
@@ -713,8 +713,8 @@ TEST_CASE("trace on a chip: per-unit statistics, the memory timeline, a pipeline
                     pipe = (d / "c-pipe.json").string();
   REQUIRE(run_rtusim("rays --scene builtin:seed --kind primary --count 3000 --out " + rays).status == 0);
   const Run r = run_rtusim("trace --scene builtin:seed --rays " + rays + " --out " + (d / "c.hits").string() +
-                           " --device timed --config embedded-chip --stats " + stats + " --pipeline-trace " + pipe +
-                           " --trace-window 0:2000");
+                           " --device timed --config embedded-chip --stats " + stats + " --pipeline-trace " +
+                           pipe + " --trace-window 0:2000");
   INFO(r.output);
   REQUIRE(r.status == 0);
   const nlohmann::json j = read_json(stats);
@@ -945,9 +945,9 @@ TEST_CASE("report and pareto: bad input gives a clear error and exit 2", "[cli][
     std::ofstream(d / "file.txt") << "x\n";
     std::ofstream(d / "foreign.csv") << "a,b,c\n1,2,3\n";
     std::ofstream(d / "short.csv") << rtu::host::sweep_csv_header() << "\nbuiltin:seed,default,4\n";
-    std::ofstream(d / "nan.csv")
-        << rtu::host::sweep_csv_header()
-        << "\nbuiltin:seed,default,4,rdna2,10,1,48,0,x,1,0,0,0,0,0,0,0,inf,5,0.5,64,100,100,2.5,-1,-1,0.5,900,0.1\n";
+    std::ofstream(d / "nan.csv") << rtu::host::sweep_csv_header()
+                                 << "\nbuiltin:seed,default,4,rdna2,10,1,48,0,x,1,0,0,0,0,0,0,0,inf,5,0.5,64,100,"
+                                    "100,2.5,-1,-1,0.5,900,0.1\n";
     std::ofstream(d / "empty_rows.csv") << rtu::host::sweep_csv_header() << "\n";
   }
   const std::string out = " --out " + (d / "o").string();
@@ -1336,7 +1336,8 @@ TEST_CASE("sweep, plan and report --flatten: one image for an instanced scene, r
   fs::remove_all(d);
   fs::create_directories(d);
   const std::string csv = (d / "city.csv").string();
-  const std::string grid = "sweep --scene builtin:city --rays 64 --image-width 0 --threads 2 --out " + csv;
+  const std::string grid =
+      "sweep --scene " RTU_SOURCE_DIR "/scenes/instances.json --rays 64 --image-width 0 --threads 2 --out " + csv;
   REQUIRE(run_rtusim(grid).status == 0);
   const Run r = run_rtusim(grid + " --flatten");
   INFO(r.output);
@@ -1348,16 +1349,17 @@ TEST_CASE("sweep, plan and report --flatten: one image for an instanced scene, r
   CHECK_FALSE(rows[0].flatten);
   CHECK(rows[1].flatten);
   CHECK(rtu::host::sweep_run_params(rows[1]) == "--rays 64 --seed 1 --image-width 0 --flatten");
-  // The city places a few meshes many times: flattened, the image and the DRAM traffic are larger.
-  CHECK(rows[1].bvh_bytes > 10 * rows[0].bvh_bytes);
+  // The example places three meshes 40 times: flattened, the image (9.4x: 882 against 94 kB) and the DRAM
+  // traffic are larger. (builtin:city, 51x, takes minutes here under ASan.)
+  CHECK(rows[1].bvh_bytes > 5 * rows[0].bvh_bytes);
   CHECK(rows[1].dram_bytes_per_ray != rows[0].dram_bytes_per_ray);
   // --merge refuses the mix (other run parameters).
   CHECK(run_rtusim("sweep --merge " + csv + " --out " + (d / "m.csv").string()).status == 2);
   CHECK(run_rtusim("sweep --merge " + csv + " --flatten --out " + (d / "m.csv").string()).status != 0);
 
-  const std::string plan =
-      "plan --scene builtin:city --max-error 0.05 --bvh-width 4 --coord-bits 16 "
-      "--child-bits 8 --rays 64 --image-width 0 --threads 2 --json ";
+  const std::string plan = "plan --scene " RTU_SOURCE_DIR
+                           "/scenes/instances.json --max-error 0.05 --bvh-width 4 --coord-bits 16 "
+                           "--child-bits 8 --rays 64 --image-width 0 --threads 2 --json ";
   const std::string one = (d / "one.json").string(), two = (d / "two.json").string();
   const Run p1 = run_rtusim(plan + one + " --flatten");
   INFO(p1.output);
@@ -1367,13 +1369,17 @@ TEST_CASE("sweep, plan and report --flatten: one image for an instanced scene, r
   const nlohmann::json j1 = read_json(one), j2 = read_json(two);
   CHECK(j1["flatten"] == true);
   CHECK(j2["flatten"] == false);
-  CHECK(j1["plan"]["bytes"].get<uint64_t>() > 10 * j2["plan"]["bytes"].get<uint64_t>());
+  CHECK(j1["plan"]["bytes"].get<uint64_t>() > 5 * j2["plan"]["bytes"].get<uint64_t>());
   CHECK(j1["plan"]["psnr_db"].is_null());  // no render: not measured
 
-  // The report: its cycles table and the sweep it runs trace the city flattened, and report.json says so.
+  // The report: its cycles table and the sweep it runs trace the example flattened, and report.json says so.
   const fs::path r1 = d / "report1", r2 = d / "report2";
-  REQUIRE(run_rtusim("report --quick --threads 2 --scene builtin:city --out " + r1.string()).status == 0);
-  const Run rf = run_rtusim("report --quick --threads 2 --flatten --scene builtin:city --out " + r2.string());
+  REQUIRE(run_rtusim("report --quick --threads 2 --scene " RTU_SOURCE_DIR "/scenes/instances.json --out " +
+                     r1.string())
+              .status == 0);
+  const Run rf =
+      run_rtusim("report --quick --threads 2 --flatten --scene " RTU_SOURCE_DIR "/scenes/instances.json --out " +
+                 r2.string());
   INFO(rf.output);
   REQUIRE(rf.status == 0);
   const nlohmann::json k1 = read_json(r1 / "report.json"), k2 = read_json(r2 / "report.json");
@@ -1387,7 +1393,7 @@ TEST_CASE("sweep, plan and report --flatten: one image for an instanced scene, r
   REQUIRE(s1.size() == s2.size());
   CHECK_FALSE(s1[0].flatten);
   CHECK(s2[0].flatten);
-  CHECK(s2[0].bvh_bytes > 10 * s1[0].bvh_bytes);
+  CHECK(s2[0].bvh_bytes > 5 * s1[0].bvh_bytes);
 }
 
 TEST_CASE("plan: budgets no sample can show and NaN options are refused up front, naming the option",

@@ -436,8 +436,8 @@ TEST_CASE("timed device: events are recorded in bounded chunks, with the same hi
   CHECK(c2 == c0);
   CHECK(c3 == c0);
 
-  // From the command line, 10000 instances: the timed device holds a chunk's events and its ray slots' (32 rays
-  // in flight), not every ray's. Recording them all took about 110 MiB more for these 1024 rays.
+  // From the command line, 10000 instances: the timed device holds a chunk's events (at most 32 MiB) and its ray
+  // slots' (32 rays in flight), not every ray's (8 bytes an event, tens of thousands of events per ray here).
   write_coinciding_scene(dir / "coin4.json", 4);
   const std::string rays_file = (dir / "c.bin").string();
   REQUIRE(run_rtusim("rays --scene " + (dir / "coin4.json").string() + " --count 1024 --out " + rays_file).status == 0);

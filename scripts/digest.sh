@@ -4,11 +4,17 @@
 #  - the float, fixed and timed devices on three real meshes, primary and incoherent rays, closest hit;
 #  - the timed device under each timing preset (rdna2, intel, embedded), and one sampled run per mesh;
 #  - firmware renders of the built-in scenes on the float and timed devices (image bytes and render statistics),
-#    ray traced and hybrid.
+#    ray traced and hybrid;
+#  - the memory-bound presets (rdna2-mem, intel-mem) and the chips (rdna2-chip, intel-chip, embedded-chip: units
+#    sharing an L2 and banked DRAM, each ray policy), on incoherent rays;
+#  - the packed layouts (bit-packed nodes with triangle blocks, compressed-wide, xe6) on fixed and timed;
+#  - two-level scenes (builtin:city, the IFC house's instances) over two levels and flattened, and alpha-tested
+#    geometry (builtin:forest) traced and rendered on the timed device;
+#  - the co-simulated RTL box and triangle units on the timed device, when the build has them.
 # Wall-clock fields (seconds, rays per second) and file names are dropped from the JSON; everything else is kept.
 # Prints one line per run and a final digest over all of them; two builds that print the same final line computed
 # the same results on these inputs.
-# Usage: scripts/digest.sh [RTUSIM] [RAYS]     (RAYS per kind and mesh, default 20000; about two minutes)
+# Usage: scripts/digest.sh [RTUSIM] [RAYS]     (RAYS per kind and mesh, default 20000; a few minutes)
 set -euo pipefail
 rtusim=${1:-build/default/rtusim}
 rays=${2:-20000}
@@ -102,5 +108,65 @@ for scene in seed cornell; do
     done
   done
 done
+
+# Memory-bound presets and chips, incoherent rays on the house (two levels, as the CLI traces it).
+mesh=${meshes[0]}
+"$rtusim" rays --scene "$mesh" --kind incoherent --count "$rays" --seed 11 --out "$work/r.bin" >/dev/null
+for cfg in rdna2-mem intel-mem rdna2-chip intel-chip embedded-chip; do
+  "$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device timed --config $cfg --threads 2 \
+    --out "$work/h.bin" --stats "$work/s.json" >/dev/null 2>&1
+  line "memory/$cfg" "$work/h.bin" "$work/s.json"
+done
+for policy in round_robin blocks; do
+  "$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device timed --config rdna2-chip --set ray_policy=$policy \
+    --threads 2 --out "$work/h.bin" --stats "$work/s.json" >/dev/null 2>&1
+  line "memory/rdna2-chip-$policy" "$work/h.bin" "$work/s.json"
+done
+
+# Packed layouts on fixed and timed (rdna2-mem: the bytes are what the rays wait for), both levels and flattened.
+for fmt in packed cwbvh xe6 "packed --coord-bits 16 --child-bits 6"; do
+  for dev in fixed timed; do
+    for flat in "" --flatten; do
+      # shellcheck disable=SC2086
+      "$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device $dev --format $fmt $flat \
+        $([[ $dev == timed ]] && echo "--config rdna2-mem") --threads 2 --out "$work/h.bin" \
+        --stats "$work/s.json" >/dev/null 2>&1
+      line "layout/${fmt// /_}/$dev${flat:+/flat}" "$work/h.bin" "$work/s.json"
+    done
+  done
+done
+
+# Two levels (the city) and alpha-tested geometry (the forest): traced both ways and rendered on the timed device.
+for scene in city forest; do
+  "$rtusim" rays --scene builtin:$scene --kind incoherent --count "$rays" --seed 13 --out "$work/r.bin" >/dev/null
+  for dev in float fixed timed; do
+    for flat in "" --flatten; do
+      [[ $dev == float && -n $flat ]] && continue
+      # shellcheck disable=SC2086
+      "$rtusim" trace --scene builtin:$scene --rays "$work/r.bin" --device $dev $flat --threads 2 \
+        --out "$work/h.bin" --stats "$work/s.json" >/dev/null 2>&1
+      line "$scene/$dev${flat:+/flat}" "$work/h.bin" "$work/s.json"
+    done
+  done
+  "$rtusim" render --scene builtin:$scene --device timed --width 64 --height 48 --spp 1 --max-depth 2 --threads 2 \
+    --out "$work/i.png" --stats "$work/s.json" >/dev/null 2>&1
+  line "render/$scene/timed" "$work/i.png" "$work/s.json"
+done
+
+# Co-simulated RTL units (builds without RTL refuse box_unit=rtl: those lines are left out, and say so).
+"$rtusim" rays --scene builtin:cornell --kind primary --width 64 --height 48 --out "$work/r.bin" >/dev/null
+for unit in "box_unit=rtl" "tri_unit=rtl" "box_unit=rtl --set tri_unit=rtl"; do
+  # shellcheck disable=SC2086
+  if "$rtusim" trace --scene builtin:cornell --rays "$work/r.bin" --device timed --set $unit --threads 2 \
+      --out "$work/h.bin" --stats "$work/s.json" >/dev/null 2>&1; then
+    line "rtl/${unit// --set /+}" "$work/h.bin" "$work/s.json"
+  else
+    echo "rtl/${unit// --set /+} (not in this build)" | tee -a "$work/all"
+  fi
+done
+if "$rtusim" render --scene builtin:cornell --device timed --set box_unit=rtl --set tri_unit=rtl --width 48 \
+    --height 36 --spp 1 --max-depth 2 --threads 2 --out "$work/i.png" --stats "$work/s.json" >/dev/null 2>&1; then
+  line "render/cornell/timed-rtl" "$work/i.png" "$work/s.json"
+fi
 
 echo "digest $(sha256sum <"$work/all" | cut -c1-16)"

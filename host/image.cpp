@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <climits>
 #include <cmath>
+#include <csetjmp>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -10,6 +12,8 @@
 #include <iterator>
 #include <memory>
 #include <vector>
+
+#include <jpeglib.h>
 
 #include "firmware/render_scene.h"
 #include "host/error.h"
@@ -27,9 +31,8 @@
 #endif
 
 #define STB_IMAGE_IMPLEMENTATION
-#define STBI_ONLY_PNG
-#define STBI_ONLY_JPEG  // textures: glTF's two image formats
-// Zeroed allocations: a corrupt JPEG can leave texels the decoder never writes, which must not take whatever the
+#define STBI_ONLY_PNG  // PNG by stb; JPEG (glTF's other image format) by libjpeg-turbo, below
+// Zeroed allocations: a corrupt image can leave texels the decoder never writes, which must not take whatever the
 // heap held (the same bytes must give the same texture; a fuzz target holds file and memory reads to it).
 #define STBI_MALLOC(sz) std::calloc(1, (sz) > 0 ? size_t(sz) : 1)
 #define STBI_REALLOC(p, newsz) std::realloc(p, newsz)
@@ -93,54 +96,6 @@ void check_texture_size(int w, int h, const std::string& name) {
 
 }  // namespace
 
-// Debian 12's stb_image builds a JPEG Huffman table of the DHT segment's code counts without checking that
-// they sum to at most 256, the size of its table: a corrupt file writes past it. The segments are checked here
-// first (JPEG, ITU T.81 B.2.4.2: per table a class/id byte, 16 counts, then that many symbols).
-static void check_jpeg_tables(const uint8_t* data, size_t bytes, const std::string& name) {
-  // stb takes a JPEG's start-of-image marker after any number of 0xFF fill bytes.
-  size_t at = 0;
-  while (at < bytes && data[at] == 0xFF) ++at;
-  if (at == 0 || at >= bytes || data[at] != 0xD8) return;  // not a JPEG
-  ++at;
-  while (at + 1 < bytes) {
-    if (data[at] != 0xFF) {  // padding between segments: stb scans on for the next marker, and so does this
-      ++at;
-      continue;
-    }
-    const uint8_t marker = data[at + 1];
-    if (marker == 0xFF) {  // fill byte
-      ++at;
-      continue;
-    }
-    if (marker == 0xD8 || (marker >= 0xD0 && marker <= 0xD7) || marker == 0x01) {
-      at += 2;
-      continue;
-    }
-    if (marker == 0xD9) return;  // end of image
-    if (at + 4 > bytes) return;
-    const size_t len = size_t(data[at + 2]) << 8 | data[at + 3];
-    if (marker == 0xC4) {
-      // As stb reads it: tables while the segment's length lasts, bytes past the end of the data as 0.
-      auto byte = [&](size_t i) { return i < bytes ? data[i] : uint8_t(0); };
-      for (size_t p = at + 4, end = at + 2 + len; p < end;) {
-        size_t codes = 0;
-        for (size_t i = 1; i <= 16; ++i) codes += byte(p + i);
-        if (codes > 256) throw Error(name + ": cannot read texture (a JPEG Huffman table of more than 256 codes)");
-        p += 17 + codes;
-      }
-    }
-    if (len < 2 || at + 2 + len > bytes) return;
-    if (marker == 0xDA) {  // a scan: its coded data runs to the next marker (progressive files have tables after)
-      at += 2 + len;
-      while (at + 1 < bytes &&
-             !(data[at] == 0xFF && data[at + 1] != 0x00 && !(data[at + 1] >= 0xD0 && data[at + 1] <= 0xD7)))
-        ++at;
-      continue;
-    }
-    at += 2 + len;
-  }
-}
-
 // Debian 12's stb_image trusts a PNG's chunk lengths: it grows its compressed-data buffer to an IDAT chunk's
 // declared length before reading it (a 262-byte file declaring a 2 GiB chunk makes it allocate 2 GiB), and it
 // copies the first IDAT chunk to a buffer it has not allocated yet when that chunk is empty (memcpy from a null
@@ -174,9 +129,84 @@ Texture read_texture(const std::string& path) {
   return read_texture_memory(bytes.data(), bytes.size(), path);
 }
 
+namespace {
+
+// JPEG by libjpeg-turbo: Debian 12's stb_image decodes corrupt JPEG entropy data with undefined shifts (its bit
+// buffer's count goes negative after a marker ends the data early; the fuzzer found it) and writes past its
+// Huffman table for a DHT segment of more than 256 codes. libjpeg reports errors through error_exit, which must
+// not return: it jumps back to the setjmp of the call that failed. Between the setjmp and a libjpeg call, only
+// the decoder's heap state changes (no automatic object that a jump would leave inconsistent).
+struct JpegDecoder {
+  jpeg_decompress_struct cinfo{};
+  struct Error {
+    jpeg_error_mgr mgr;
+    std::jmp_buf jump;
+    char message[JMSG_LENGTH_MAX];
+  } err{};
+  bool created = false;
+  ~JpegDecoder() {
+    if (created) jpeg_destroy_decompress(&cinfo);
+  }
+};
+
+extern "C" void jpeg_fail(j_common_ptr c) {
+  JpegDecoder::Error* e = reinterpret_cast<JpegDecoder::Error*>(c->err);
+  (*c->err->format_message)(c, e->message);
+  std::longjmp(e->jump, 1);
+}
+// Warnings (corrupt data the decoder goes on past) are not printed: the texture is what it decoded.
+extern "C" void jpeg_quiet(j_common_ptr, int) {}
+
+bool jpeg_header(JpegDecoder& d, const uint8_t* data, size_t bytes, uint64_t budget) {
+  d.cinfo.err = jpeg_std_error(&d.err.mgr);
+  d.err.mgr.error_exit = jpeg_fail;
+  d.err.mgr.emit_message = jpeg_quiet;
+  if (setjmp(d.err.jump)) return false;
+  jpeg_create_decompress(&d.cinfo);
+  d.created = true;
+  // The decoder's own buffers (a progressive file's coefficients: the whole image) within the budget; without a
+  // backing store, libjpeg-turbo fails with an error rather than take more.
+  d.cinfo.mem->max_memory_to_use = long(std::min<uint64_t>(budget, uint64_t(LONG_MAX)));
+  jpeg_mem_src(&d.cinfo, data, static_cast<unsigned long>(bytes));
+  jpeg_read_header(&d.cinfo, TRUE);
+  return true;
+}
+
+// Decodes into rgba (output_width x output_height x 4 bytes, allocated by the caller after jpeg_header).
+bool jpeg_pixels(JpegDecoder& d, uint8_t* rgba) {
+  if (setjmp(d.err.jump)) return false;
+  d.cinfo.out_color_space = JCS_EXT_RGBA;  // libjpeg-turbo: grey and YCbCr to RGBA, alpha 255
+  jpeg_start_decompress(&d.cinfo);
+  while (d.cinfo.output_scanline < d.cinfo.output_height) {
+    JSAMPROW row = rgba + size_t(d.cinfo.output_scanline) * size_t(d.cinfo.output_width) * 4;
+    jpeg_read_scanlines(&d.cinfo, &row, 1);
+  }
+  jpeg_finish_decompress(&d.cinfo);
+  return true;
+}
+
+bool is_jpeg(const uint8_t* data, size_t bytes) {
+  return bytes >= 3 && data[0] == 0xFF && data[1] == 0xD8 && data[2] == 0xFF;
+}
+
+Texture read_jpeg(const uint8_t* data, size_t bytes, const std::string& name) {
+  auto d = std::make_unique<JpegDecoder>();
+  if (!jpeg_header(*d, data, bytes, memory_limit()))
+    throw Error(name + ": cannot read texture (JPEG: " + d->err.message + ")");
+  const JDIMENSION w = d->cinfo.image_width, h = d->cinfo.image_height;
+  check_texture_size(int(std::min<JDIMENSION>(w, INT_MAX)), int(std::min<JDIMENSION>(h, INT_MAX)), name);
+  Texture t{name, uint32_t(w), uint32_t(h), std::vector<uint8_t>(size_t(w) * size_t(h) * 4, 0)};
+  if (!jpeg_pixels(*d, t.rgba.data())) throw Error(name + ": cannot read texture (JPEG: " + d->err.message + ")");
+  if (d->cinfo.output_width != w || d->cinfo.output_height != h)
+    throw Error(name + ": cannot read texture (JPEG: decoded size differs from the header's)");
+  return t;
+}
+
+}  // namespace
+
 Texture read_texture_memory(const uint8_t* data, size_t bytes, const std::string& name) {
   if (bytes == 0 || bytes > size_t(INT32_MAX)) throw Error(name + ": cannot read texture (empty or over 2 GiB)");
-  check_jpeg_tables(data, bytes, name);
+  if (is_jpeg(data, bytes)) return read_jpeg(data, bytes, name);
   check_png_chunks(data, bytes, name);
   int w = 0, h = 0, channels = 0;
   if (!stbi_info_from_memory(data, int(bytes), &w, &h, &channels)) {

@@ -7,6 +7,7 @@ packages=(
   build-essential cmake ninja-build pkg-config   # toolchain
   ccache                                         # compiler cache: rebuilds of unchanged sources (CI's two builds)
   libglm-dev libcli11-dev nlohmann-json3-dev libstb-dev libassimp-dev  # libraries of the tool
+  libjpeg62-turbo-dev                            # JPEG textures (libjpeg-turbo; stb decodes PNG)
   catch2 libembree-dev                           # tests; Embree is the independent oracle and benchmark peer
   assimp-testmodels                              # the real meshes used by tests and benchmarks
   libcgal-demo                                   # CGAL's demo meshes (bunny, armadillo, elephant in OFF) of the

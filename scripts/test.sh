@@ -38,15 +38,18 @@ mkdir -p build/asan/fuzz-artifacts
 source scripts/fuzz_targets.sh
 for target in "${RTU_FUZZ_TARGETS[@]}"; do
   # A fixed number of inputs from a fixed seed over the committed corpus, into an emptied work folder, with the
-  # corpus reloaded never and address-space randomisation off (setarch -R): coverage then does not depend on where
-  # the heap lands (pointer-keyed containers take other branches), so libFuzzer keeps the same inputs and makes the
-  # same ones next, on every run of a commit: the verdict is the commit's.
+  # corpus reloaded never, address-space randomisation off (setarch -R) and the same environment and relative
+  # arguments on every run (env -i): where the heap and the stack land then does not change, nor with it the
+  # branches pointer-keyed containers take, so libFuzzer keeps the same inputs and makes the same ones next, on
+  # every run of a commit from the same place: the verdict is the commit's.
   work=build/asan/fuzz-work/$target
   rm -rf "$work"
   mkdir -p "$work"
   log=build/asan/fuzz-$target.log
   runs=$(rtu_fuzz_runs "$target")
-  if ! setarch "$(uname -m)" -R build/asan/fuzz_$target -runs="$runs" -seed="$RTU_FUZZ_SEED" -reload=0 \
+  if ! env -i PATH=/usr/bin:/bin ASAN_OPTIONS="$ASAN_OPTIONS" UBSAN_OPTIONS="$UBSAN_OPTIONS" \
+      LSAN_OPTIONS=suppressions=tests/fuzz/lsan.supp:print_suppressions=0 \
+      setarch "$(uname -m)" -R build/asan/fuzz_$target -runs="$runs" -seed="$RTU_FUZZ_SEED" -reload=0 \
       -rss_limit_mb=2048 -malloc_limit_mb=2048 \
       -timeout=30 -max_len="$(rtu_fuzz_max_len "$target")" -print_final_stats=1 \
       -artifact_prefix=build/asan/fuzz-artifacts/$target- "$work" tests/fuzz/corpus/$target >"$log" 2>&1; then

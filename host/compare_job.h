@@ -3,8 +3,8 @@
 // the JSON `rtusim compare --json` writes.
 #pragma once
 
-#include <functional>
 #include <cstddef>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -26,7 +26,7 @@ struct CompareRequest {
   hw::DeviceKind kind = hw::DeviceKind::kFixed;  // the device compared with the float reference
   bool any_hit = false;
   int threads = 0;
-  size_t max_list = 1000;  // disagreeing rays listed in the JSON
+  size_t max_list = 1000;      // disagreeing rays listed in the JSON
   std::function<void()> poll;  // as TraceRequest::poll
 };
 

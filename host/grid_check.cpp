@@ -72,13 +72,14 @@ GridCheck check_grid(const hw::Geometry& g, const hw::InstanceSet* instances, bo
 std::string grid_warning(const GridCheck& c) {
   if (c.below_step == 0) return "";
   char msg[640];
-  std::snprintf(msg, sizeof msg,
-                "%llu of %llu primitives are smaller than the grid step %.3g (an extent of %.3g over %d "
-                "coordinate bits%s): the fixed and timed devices may lose or invent their hits (`compare` counts "
-                "them). Cure: give each small mesh its own frame by instancing it (scene files: \"instances\"), or "
-                "raise --coord-bits",
-                (unsigned long long)c.below_step, (unsigned long long)c.prims, c.step, c.extent, c.coord_bits,
-                c.two_level ? ", in a mesh's own frame" : "");
+  std::snprintf(
+      msg, sizeof msg,
+      "%llu of %llu primitives are smaller than the grid step %.3g (an extent of %.3g over %d "
+      "coordinate bits%s): the fixed and timed devices may lose or invent their hits (`compare` counts "
+      "them). Cure: give each small mesh its own frame by instancing it (scene files: \"instances\"), or "
+      "raise --coord-bits",
+      (unsigned long long)c.below_step, (unsigned long long)c.prims, c.step, c.extent, c.coord_bits,
+      c.two_level ? ", in a mesh's own frame" : "");
   return msg;
 }
 

@@ -109,10 +109,12 @@ static void check_png_chunks(const uint8_t* data, size_t bytes, const std::strin
     const uint32_t len = uint32_t(data[at]) << 24 | uint32_t(data[at + 1]) << 16 | uint32_t(data[at + 2]) << 8 |
                          uint32_t(data[at + 3]);
     if (uint64_t(len) + 12 > bytes - at)
-      throw Error(name + ": cannot read texture (a PNG chunk declares " + std::to_string(len) + " bytes at offset " +
-                  std::to_string(at) + ", past the file's end at " + std::to_string(bytes) + ")");
+      throw Error(name + ": cannot read texture (a PNG chunk declares " + std::to_string(len) +
+                  " bytes at offset " + std::to_string(at) + ", past the file's end at " + std::to_string(bytes) +
+                  ")");
     if (std::memcmp(data + at + 4, "IDAT", 4) == 0) {
-      if (len == 0 && !idat_seen) throw Error(name + ": cannot read texture (a PNG whose first IDAT chunk is empty)");
+      if (len == 0 && !idat_seen)
+        throw Error(name + ": cannot read texture (a PNG whose first IDAT chunk is empty)");
       idat_seen = true;
     }
     if (std::memcmp(data + at + 4, "IEND", 4) == 0) return;

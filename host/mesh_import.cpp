@@ -106,9 +106,9 @@ void check_ply_counts(const std::string& path, const std::vector<Element>& eleme
   const uint64_t data_bytes = file_bytes > header_bytes ? file_bytes - header_bytes : 0;
   uint64_t need = 0;
   for (const Element& e : elements) {
-    const std::string named = path + ": PLY header line " + std::to_string(e.line) + ": element " + e.name + " " +
-                              (e.count == UINT64_MAX ? std::string("of 20 digits or more")
-                                                     : std::to_string(e.count));
+    const std::string named =
+        path + ": PLY header line " + std::to_string(e.line) + ": element " + e.name + " " +
+        (e.count == UINT64_MAX ? std::string("of 20 digits or more") : std::to_string(e.count));
     if (e.min_bytes > 0 && e.count > data_bytes / e.min_bytes)
       throw Error(named + ": more than the file's " + std::to_string(data_bytes) +
                   " bytes of data can hold (at least " + std::to_string(e.min_bytes) + " bytes each)");
@@ -157,8 +157,8 @@ void check_ply_header(const std::string& path) {
   };
   std::vector<Element> elements;
   static const std::map<std::string, uint64_t> type_bytes = {
-      {"char", 1},  {"uchar", 1},  {"int8", 1},  {"uint8", 1},   {"short", 2},   {"ushort", 2},
-      {"int16", 2}, {"uint16", 2}, {"int", 4},   {"uint", 4},    {"int32", 4},   {"uint32", 4},
+      {"char", 1},  {"uchar", 1},   {"int8", 1},   {"uint8", 1},  {"short", 2}, {"ushort", 2},
+      {"int16", 2}, {"uint16", 2},  {"int", 4},    {"uint", 4},   {"int32", 4}, {"uint32", 4},
       {"float", 4}, {"float32", 4}, {"double", 8}, {"float64", 8}};
   for (int n = 2; std::getline(in, line); ++n) {
     bytes += line.size() + 1;
@@ -202,10 +202,10 @@ void check_ply_header(const std::string& path) {
 
 }  // namespace
 
-// OFF: "[ST][C][N][4][n]OFF", with nOFF a dimension, then the vertex, face and edge counts (the keyword is optional
-// and the counts may share its line), as Assimp reads them. Assimp allocates by the counts before reading the
-// data: counts the file cannot hold (a vertex takes at least two bytes per coordinate, a face two) or the memory
-// limit cannot are refused, named.
+// OFF: "[ST][C][N][4][n]OFF", with nOFF a dimension, then the vertex, face and edge counts (the keyword is
+// optional and the counts may share its line), as Assimp reads them. Assimp allocates by the counts before reading
+// the data: counts the file cannot hold (a vertex takes at least two bytes per coordinate, a face two) or the
+// memory limit cannot are refused, named.
 static void check_off_header(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
@@ -237,8 +237,7 @@ static void check_off_header(const std::string& path) {
   std::error_code ec;
   const uint64_t bytes = std::filesystem::file_size(path, ec);
   if (ec || dims == 0 || dims > 3) return;
-  const std::string named =
-      path + ": OFF header: " + v + " vertices and " + f + " faces";
+  const std::string named = path + ": OFF header: " + v + " vertices and " + f + " faces";
   if (vertices > bytes / (2 * dims) || faces > bytes / 2 || vertices * 2 * dims + faces * 2 > bytes)
     throw Error(named + ": more than the file's " + std::to_string(bytes) + " bytes can hold");
   // Assimp's vertices (12 bytes), faces (16 bytes and their indices) and the triangles copied out after.

@@ -40,7 +40,12 @@ void write_pipeline_trace(const std::string& path, const hw::PipelineTrace& trac
   };
   // A process per unit (a track group in Perfetto), a thread per ray slot.
   for (const hw::PipelineTrace::Span& s : trace.spans)
-    emit({{"name", s.what}, {"ph", "X"}, {"ts", s.start}, {"dur", s.end - s.start}, {"pid", s.unit}, {"tid", s.slot}});
+    emit({{"name", s.what},
+          {"ph", "X"},
+          {"ts", s.start},
+          {"dur", s.end - s.start},
+          {"pid", s.unit},
+          {"tid", s.slot}});
   std::set<std::pair<uint32_t, uint32_t>> used;  // (unit, slot) with a span, named once each
   for (const hw::PipelineTrace::Span& s : trace.spans) used.insert({s.unit, s.slot});
   uint32_t last_unit = ~0u;

@@ -3,8 +3,8 @@
 // it through the ring, and reads the framebuffer back.
 #pragma once
 
-#include <functional>
 #include <array>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>

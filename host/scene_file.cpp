@@ -168,9 +168,6 @@ struct Builder {
     std::vector<std::vector<TriangleUv>> mesh_uv;      // per mesh, per triangle (empty: none)
   };
   std::vector<InstancedFile> instanced_files;
-  // Instance entries expanded so far: prototypes without meshes add no instance, so nested ones could otherwise
-  // expand exponentially (2 entries a level over 32 levels) with nothing to refuse.
-  size_t expansions = 0;
 
   uint32_t material(const Json& parent, const std::string& path) const {
     if (!parent.contains("material")) return material_index.at("default");
@@ -644,10 +641,6 @@ void expand_instance(Builder& b, const Json& e, const std::string& path, const X
   }
   Builder::Prototype& proto = it->second;
   if (proto.visiting) r.fail(join(path, "prototype"), "instance loop: '" + name + "' contains itself");
-  // Each instance may take a few entries of prototypes above it; beyond that the tree is mostly empty nesting.
-  if (++b.expansions > 4 * kMaxInstances)
-    r.fail(path, "the instance entries expand to more than " + std::to_string(4 * kMaxInstances) +
-                     " (nested prototypes that place each other many times)");
   if (depth > hw::kMaxInstanceNesting)
     r.fail(path, "instances nested deeper than " + std::to_string(hw::kMaxInstanceNesting) + " levels");
   const Xform x =

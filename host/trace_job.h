@@ -2,8 +2,8 @@
 // rays the unit rejected.
 #pragma once
 
-#include <functional>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>

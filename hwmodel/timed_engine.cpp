@@ -85,9 +85,9 @@ void TimedEngine::bind_instanced(const InstanceSet& set, const Geometry& flat, c
 }
 
 void TimedEngine::make_models() {
-  const TimingModel::Layout l = m_two ? TimingModel::layout_of(*m_two, uint64_t(m_c.layout_align),
-                                                               uint64_t(m_c.instance_bytes))
-                                      : TimingModel::layout_of(*m_image, uint64_t(m_c.layout_align));
+  const TimingModel::Layout l =
+      m_two ? TimingModel::layout_of(*m_two, uint64_t(m_c.layout_align), uint64_t(m_c.instance_bytes))
+            : TimingModel::layout_of(*m_image, uint64_t(m_c.layout_align));
   m_model.reset();
   m_chip_units.clear();
   m_chip_memory.reset();

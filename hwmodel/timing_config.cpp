@@ -49,7 +49,8 @@ const std::vector<KeyInfo>& key_table() {
       {"xform_latency", &C::xform_latency, 0, kMaxLatency,
        "two-level scenes: cycles of the instance transform (an instance record to the object-space ray)"},
       {"instance_bytes", &C::instance_bytes, 0, 4096,
-       "two-level scenes: bytes an instance visit fetches, at that stride (0: the record and its stored transform, "
+       "two-level scenes: bytes an instance visit fetches, at that stride (0: the record and its stored "
+       "transform, "
        "96 at 24 bits; 64: a one-line instance leaf)"},
       {"box_units", &C::box_units, 1, 64, "box test units"},
       {"box_rate", &C::box_rate, 1, 64, "box tests per clock per unit (a node of width <= rate: one clock)"},

@@ -71,14 +71,16 @@ TimingModel::Layout TimingModel::layout_of(const DeviceImage& image, uint64_t al
   return l;
 }
 
-TimingModel::Layout TimingModel::layout_of(const InstancedFixedTracer& t, uint64_t align, uint64_t instance_bytes) {
+TimingModel::Layout TimingModel::layout_of(const InstancedFixedTracer& t, uint64_t align,
+                                           uint64_t instance_bytes) {
   const uint64_t a = std::max<uint64_t>(64, align);
   auto up = [](uint64_t v, uint64_t to) { return (v + to - 1) / to * to; };
   Layout top = layout_of(t.top(), align);
   const ImageHeader& h = t.top().header();
   // The instance records grow by the stored transform and the bottom level's address; the planes move after.
-  top.instance_bytes = instance_bytes > 0 ? instance_bytes
-                                          : kRecordBytes + t.transform_bytes() / std::max<size_t>(1, t.instance_count());
+  top.instance_bytes = instance_bytes > 0
+                           ? instance_bytes
+                           : kRecordBytes + t.transform_bytes() / std::max<size_t>(1, t.instance_count());
   top.record_stride = align ? up(top.instance_bytes, align) : top.instance_bytes;
   const uint64_t planes = top.plane_stride ? top.plane_stride : sizeof(PlaneRecord);
   top.plane_offset = up(top.record_offset + uint64_t(h.record_count) * top.record_stride, align ? align : 8);

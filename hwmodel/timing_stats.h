@@ -36,7 +36,8 @@ struct TimingStats {
   uint64_t any_hit_requests = 0;     // candidate hits on non-opaque triangles sent to the firmware's any-hit stage
   uint64_t instance_transforms = 0;  // two-level scenes: rays transformed into an instance's bottom level
   // Waits that are throughput, not latency: requests queued for a busy box or triangle unit, and line and stack
-  // reads queued for a busy L2 slice port, DRAM bank or channel (the latency bound takes them out of a ray's life).
+  // reads queued for a busy L2 slice port, DRAM bank or channel (the latency bound takes them out of a ray's
+  // life).
   uint64_t unit_wait_cycles = 0, mem_wait_cycles = 0;
 
   void add(const TimingStats& o);  // every counter summed (runs, packets, ray types merge this way)

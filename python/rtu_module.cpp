@@ -276,8 +276,7 @@ DeviceArgs device_args(const py::kwargs& kw) {
       d.device = arg<std::string>(value, "device", "'float', 'fixed' or 'timed'");
       if (d.device != "float" && d.device != "fixed" && d.device != "timed")
         fail("device: '" + d.device + "' is not 'float', 'fixed' or 'timed'");
-    }
-    else if (k == "config")
+    } else if (k == "config")
       d.config = py::reinterpret_borrow<py::object>(value);
     else if (k == "set")
       d.set = py::reinterpret_borrow<py::object>(value);

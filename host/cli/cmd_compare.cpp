@@ -37,7 +37,8 @@ void run_compare(const CompareOptions& o) {
   req.threads = o.threads;
   req.max_list = o.max_list;
   const CompareRun run = compare_devices(req);
-  for (const auto& w : run.json["warnings"]) std::fprintf(stderr, "rtusim: warning: %s\n", w.get<std::string>().c_str());
+  for (const auto& w : run.json["warnings"])
+    std::fprintf(stderr, "rtusim: warning: %s\n", w.get<std::string>().c_str());
   const HitComparison& t = run.t;
   const DirectDevice* dut = run.dut.get();
   const hw::TraversalStats& ref_stats = run.ref_stats;

@@ -131,12 +131,10 @@ void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, b
     // Little's law: what the slots hold and how long each ray holds one, so the cure (more slots, less latency)
     // is in the line.
     char why[160];
-    std::snprintf(why, sizeof why, ": %d ray slots%s, a ray's mean lifetime %.0f cycles without queueing",
-                  c.ray_slots * c.units, c.units > 1 ? " over the units" : "",
-                  s.rays > 0 ? double(s.slot_busy_cycles - std::min(s.slot_busy_cycles,
-                                                                  s.unit_wait_cycles + s.mem_wait_cycles)) /
-                                   double(s.rays)
-                             : 0.0);
+    std::snprintf(
+        why, sizeof why, ": %d ray slots%s, a ray's mean lifetime %.0f cycles without queueing",
+        c.ray_slots * c.units, c.units > 1 ? " over the units" : "",
+        s.rays > 0 ? j["lower_bound"]["latency"].get<double>() * c.ray_slots * c.units / double(s.rays) : 0.0);
     limit += why;
   }
   std::printf(
@@ -145,7 +143,8 @@ void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, b
       c.name.c_str(), sampled ? "~" : "", (unsigned long long)s.cycles, j["cycles_per_ray"].get<double>(),
       j["rays_per_clock"].get<double>(), j["cache"]["hit_rate"].get<double>(),
       j["dram_bytes_per_cycle"].get<double>(), sampled ? "~" : "", j["lower_bound"]["cycles"].get<double>(),
-      limit.c_str(), sampled ? ", estimated from the sample" : "", j["lower_bound"]["cycles_over_bound"].get<double>());
+      limit.c_str(), sampled ? ", estimated from the sample" : "",
+      j["lower_bound"]["cycles_over_bound"].get<double>());
   const Json& e = j["energy"];
   std::printf(
       "%senergy (%s estimate, docs/energy-model.md): %.0f pJ per ray, %.3g rays per joule, %.2f W at %g "

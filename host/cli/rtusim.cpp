@@ -18,8 +18,7 @@ void refuse_nan(CLI::App& app) {
       const std::string name = opt->get_name();
       opt->check(CLI::Validator(
           [name](std::string& v) {
-            char* end = nullptr;
-            const double x = std::strtod(v.c_str(), &end);
+            const double x = std::strtod(v.c_str(), nullptr);
             return std::isnan(x) ? std::string("NaN is not a value") : std::string();
           },
           "", "not NaN"));

@@ -9,9 +9,9 @@
 namespace rtu::test {
 
 struct Run {
-  bool exited = false;  // ended by exit(), not by a signal
-  int status = 0;       // the exit status, or 128 + the signal's number when a signal ended it
-  std::string output;   // stdout and stderr
+  bool exited = false;    // ended by exit(), not by a signal
+  int status = 0;         // the exit status, or 128 + the signal's number when a signal ended it
+  std::string output;     // stdout and stderr
   uint64_t peak_kib = 0;  // run_measured: the largest resident size of the command's processes, in KiB
 };
 

@@ -356,7 +356,8 @@ TEST_CASE("bad textures and masks get clear errors", "[alpha][scene][errors]") {
     const std::string e = error_of([&] {
       host::read_texture_memory(reinterpret_cast<const uint8_t*>(png.data()), png.size(), "long_chunk.png");
     });
-    CHECK_THAT(e, Contains("long_chunk.png") && Contains("2147483632 bytes at offset 33, past the file's end at 262"));
+    CHECK_THAT(
+        e, Contains("long_chunk.png") && Contains("2147483632 bytes at offset 33, past the file's end at 262"));
   }
 }
 

@@ -70,7 +70,8 @@ TEST_CASE("primitives below the grid step: counted with the step, and instancing
   CHECK(rtu::host::check_grid(inst.geometry, &inst.instances, true, g).below_step == 24);  // flattened
 }
 
-TEST_CASE("trace and render warn of primitives below the grid step and compare shows what they cost", "[answers]") {
+TEST_CASE("trace and render warn of primitives below the grid step and compare shows what they cost",
+          "[answers]") {
   const std::string flat = write_scene("far_boxes_cli.json", kFarBoxes);
   const std::string inst = write_scene("far_instances_cli.json", kFarInstances);
   for (const char* device : {"fixed", "timed"}) {
@@ -80,14 +81,16 @@ TEST_CASE("trace and render warn of primitives below the grid step and compare s
     CHECK_THAT(t.output, Contains("warning: 24 of 24 primitives are smaller than the grid step"));
   }
   const fs::path png = temp_dir() / "far.png";
-  const Run r = run_rtusim("render --scene " + flat + " --device fixed --width 32 --height 24 --out " + png.string());
+  const Run r =
+      run_rtusim("render --scene " + flat + " --device fixed --width 32 --height 24 --out " + png.string());
   INFO(r.output);
   CHECK(r.status == 0);
   CHECK_THAT(r.output, Contains("primitives are smaller than the grid step"));
   // The float reference has no grid; the instanced scene has a frame per mesh: no warning.
   CHECK_THAT(run_rtusim("trace --scene " + flat + " --rays primary --device float").output,
              !Contains("grid step"));
-  CHECK_THAT(run_rtusim("trace --scene " + inst + " --rays primary --device fixed").output, !Contains("grid step"));
+  CHECK_THAT(run_rtusim("trace --scene " + inst + " --rays primary --device fixed").output,
+             !Contains("grid step"));
   // What the warning is about: compare finds the hits the flat scene loses and the instanced one keeps.
   const Run cf = run_rtusim("compare --scene " + flat + " --rays primary --device fixed");
   const Run ci = run_rtusim("compare --scene " + inst + " --rays primary --device fixed");
@@ -134,7 +137,8 @@ TEST_CASE("NaN is refused by every floating-point option, naming it", "[answers]
       {"diff --scale NaN --heatmap ", "--scale"},
   };
   for (const auto& c : cases) {
-    const Run r = run_rtusim(std::string(c.args) + png + (std::string(c.args).rfind("diff", 0) == 0 ? " a b" : ""));
+    const Run r =
+        run_rtusim(std::string(c.args) + png + (std::string(c.args).rfind("diff", 0) == 0 ? " a b" : ""));
     INFO(c.args << "\n" << r.output);
     CHECK(r.status == 2);
     CHECK_THAT(r.output, Contains(c.option) && Contains("NaN"));
@@ -163,8 +167,9 @@ TEST_CASE("a render with nothing to light it warns and the instancing example is
   CHECK_THAT(run_rtusim("render --scene " + dark + " --width 16 --height 12 --background 0.5 0.5 0.5 --out " + png)
                  .output,
              !Contains("no light"));
-  const Run ex = run_rtusim("render --scene " RTU_SOURCE_DIR "/scenes/instances.json --width 64 --height 48 --out " +
-                            png + " --stats " + (temp_dir() / "ex.json").string());
+  const Run ex =
+      run_rtusim("render --scene " RTU_SOURCE_DIR "/scenes/instances.json --width 64 --height 48 --out " + png +
+                 " --stats " + (temp_dir() / "ex.json").string());
   INFO(ex.output);
   CHECK(ex.status == 0);
   CHECK_THAT(ex.output, !Contains("no light"));

@@ -15,8 +15,8 @@
 #include <iterator>
 #include <string>
 
-#include <nlohmann/json.hpp>
 #include <stb/stb_image_write.h>
+#include <nlohmann/json.hpp>
 
 #include "host/direct_device.h"
 #include "host/error.h"
@@ -268,7 +268,8 @@ uint64_t mib(uint64_t kib) {
 
 // rtusim's own resident size on a small job, in KiB.
 uint64_t baseline_kib() {
-  static const uint64_t kib = rtu::test::run_measured(std::string(RTUSIM_EXE) + " info --scene builtin:seed").peak_kib;
+  static const uint64_t kib =
+      rtu::test::run_measured(std::string(RTUSIM_EXE) + " info --scene builtin:seed").peak_kib;
   return kib;
 }
 
@@ -312,24 +313,27 @@ void write_coinciding_scene(const fs::path& path, int levels) {
 TEST_CASE("memory limit: rays --count is refused before the rays are made", "[limits][memory]") {
   const fs::path dir = temp_dir();
   for (const char* kind : {"primary", "incoherent"}) {
-    const rtu::test::Run r = measured_rtusim("RTU_MEMORY_LIMIT=64M", std::string("rays --scene builtin:seed --kind ") +
-                                                                         kind + " --count 4000000 --out " +
-                                                                         (dir / "r.bin").string());
+    const rtu::test::Run r =
+        measured_rtusim("RTU_MEMORY_LIMIT=64M", std::string("rays --scene builtin:seed --kind ") + kind +
+                                                    " --count 4000000 --out " + (dir / "r.bin").string());
     INFO(r.output);
     CHECK(r.status == 2);
-    CHECK(contains(r.output, std::string("4000000 ") + kind + " rays needs about 123 MiB of memory, above the limit"));
+    CHECK(contains(r.output,
+                   std::string("4000000 ") + kind + " rays needs about 123 MiB of memory, above the limit"));
     CHECK(mib(r.peak_kib) < 64);
   }
   // The generators themselves, whoever calls them.
   MemoryLimit m("1M");
   host::Camera cam;
-  CHECK(contains(error_of([&] { host::primary_rays(cam, 1024, 1024); }), "1048576 primary rays needs about 32 MiB"));
+  CHECK(
+      contains(error_of([&] { host::primary_rays(cam, 1024, 1024); }), "1048576 primary rays needs about 32 MiB"));
   CHECK(host::primary_rays(cam, uint64_t(1000)).size() == 1000);
 }
 
 TEST_CASE("memory limit: sweep --rays and plan --rays are refused before the rays are made", "[limits][memory]") {
   const fs::path dir = temp_dir();
-  for (const std::string& job : {"sweep --out " + (dir / "s.csv").string(), std::string("plan --max-error 0.01")}) {
+  for (const std::string& job :
+       {"sweep --out " + (dir / "s.csv").string(), std::string("plan --max-error 0.01")}) {
     const rtu::test::Run r =
         measured_rtusim("RTU_MEMORY_LIMIT=64M", job + " --scene builtin:seed --rays 1000000 --image-width 0");
     INFO(r.output);
@@ -362,12 +366,13 @@ TEST_CASE("memory limit: a scene's textures are held to the budget in sum", "[li
   const rtu::test::Run r = measured_rtusim("RTU_MEMORY_LIMIT=300M", "info --scene " + (dir / "tex.json").string());
   INFO(r.output);
   CHECK(r.status == 2);
-  CHECK(contains(r.output, "tex.json: textures.t3.file: 4 textures so far needs about 320 MiB of memory, above the "
-                           "limit of 300 MiB"));
+  CHECK(contains(r.output,
+                 "tex.json: textures.t3.file: 4 textures so far needs about 320 MiB of memory, above the "
+                 "limit of 300 MiB"));
   if (!kSanitized) CHECK(mib(r.peak_kib) < 300 + mib(baseline_kib()));
   // The header's size without decoding, in memory too (a PNG's IHDR; anything else: 0).
-  const uint8_t png[24] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n', 0, 0, 0, 13, 'I', 'H', 'D', 'R',
-                           0,    0,   0x3E, 0x80, 0, 0, 0x3E, 0x80};
+  const uint8_t png[24] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n', 0, 0, 0,    13,
+                           'I',  'H', 'D', 'R', 0,    0,    0x3E, 0x80, 0, 0, 0x3E, 0x80};
   CHECK(host::texture_header_bytes(png, sizeof png) == uint64_t(16000) * 16000 * 4);
   CHECK(host::texture_header_bytes(png, 20) == 0);
 }
@@ -392,16 +397,19 @@ TEST_CASE("memory limit: instances are held to the budget as they are expanded",
     "p1": {"instances": )" << placements("ball", 16)
                                    << R"(}, "p2": {"instances": )" << placements("p1", 16)
                                    << R"(}, "p3": {"instances": )" << placements("p2", 16) << R"(}},
-    "instances": )" << placements("p3", 4) << "}";
+    "instances": )" << placements("p3", 4)
+                                   << "}";
   const rtu::test::Run r = measured_rtusim("RTU_MEMORY_LIMIT=64M", "info --scene " + (dir / "inst.json").string());
   INFO(r.output);
   CHECK(r.status == 2);
-  CHECK(contains(r.output, "inst.json: prototypes.p1.instances[3]: the instances so far: 266240 primitives needs "
-                           "about 65 MiB of memory, above the limit of 64 MiB"));
+  CHECK(contains(r.output,
+                 "inst.json: prototypes.p1.instances[3]: the instances so far: 266240 primitives needs "
+                 "about 65 MiB of memory, above the limit of 64 MiB"));
   CHECK(mib(r.peak_kib) < 64);
 }
 
-TEST_CASE("timed device: events are recorded in bounded chunks, with the same hits and cycles", "[limits][memory]") {
+TEST_CASE("timed device: events are recorded in bounded chunks, with the same hits and cycles",
+          "[limits][memory]") {
   const fs::path dir = temp_dir();
   write_coinciding_scene(dir / "coin.json", 3);  // 1000 instances in one place
   const host::Scene scene = host::load_scene((dir / "coin.json").string());
@@ -427,7 +435,8 @@ TEST_CASE("timed device: events are recorded in bounded chunks, with the same hi
   size_t hit = 0;
   for (size_t i = 0; i < rays.size(); ++i) {
     hit += h0[i].hit();
-    CHECK((std::memcmp(&h0[i], &h1[i], sizeof(hw::Hit)) == 0 && std::memcmp(&h0[i], &h2[i], sizeof(hw::Hit)) == 0 &&
+    CHECK((std::memcmp(&h0[i], &h1[i], sizeof(hw::Hit)) == 0 &&
+           std::memcmp(&h0[i], &h2[i], sizeof(hw::Hit)) == 0 &&
            std::memcmp(&h0[i], &h3[i], sizeof(hw::Hit)) == 0));
   }
   CHECK(hit == rays.size());
@@ -440,7 +449,9 @@ TEST_CASE("timed device: events are recorded in bounded chunks, with the same hi
   // slots' (32 rays in flight), not every ray's (8 bytes an event, tens of thousands of events per ray here).
   write_coinciding_scene(dir / "coin4.json", 4);
   const std::string rays_file = (dir / "c.bin").string();
-  REQUIRE(run_rtusim("rays --scene " + (dir / "coin4.json").string() + " --count 1024 --out " + rays_file).status == 0);
+  REQUIRE(
+      run_rtusim("rays --scene " + (dir / "coin4.json").string() + " --count 1024 --out " + rays_file).status ==
+      0);
   const std::string trace = "trace --scene " + (dir / "coin4.json").string() + " --rays " + rays_file + " --out " +
                             (dir / "h.bin").string() + " --threads 2 --device ";
   const rtu::test::Run f = measured_rtusim("", trace + "float");
@@ -458,8 +469,8 @@ TEST_CASE("the pipeline trace is streamed to its file", "[limits][memory]") {
   const std::string trace = "trace --scene builtin:seed --rays " + rays + " --out " + (dir / "h.bin").string() +
                             " --device timed --threads 1";
   const rtu::test::Run plain = measured_rtusim("", trace);
-  const rtu::test::Run piped =
-      measured_rtusim("", trace + " --pipeline-trace " + (dir / "p.json").string() + " --trace-window 0:1000000000");
+  const rtu::test::Run piped = measured_rtusim(
+      "", trace + " --pipeline-trace " + (dir / "p.json").string() + " --trace-window 0:1000000000");
   INFO(piped.output);
   REQUIRE(plain.status == 0);
   REQUIRE(piped.status == 0);
@@ -479,14 +490,17 @@ TEST_CASE("the pipeline trace is streamed to its file", "[limits][memory]") {
   if (!kSanitized) CHECK(mib(piped.peak_kib) < mib(plain.peak_kib) + 32 + 64);
 }
 
-TEST_CASE("PLY and OFF files whose counts the file or the budget cannot hold are refused, named", "[limits][memory]") {
+TEST_CASE("PLY and OFF files whose counts the file or the budget cannot hold are refused, named",
+          "[limits][memory]") {
   const fs::path dir = temp_dir();
-  std::ofstream(dir / "huge.ply") << "ply\nformat ascii 1.0\nelement vertex 4000000000\nproperty float x\n"
-                                     "property float y\nproperty float z\nelement face 1\n"
-                                     "property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
-  CHECK(contains(error_of([&] { host::import_mesh((dir / "huge.ply").string()); }),
-                 "huge.ply: PLY header line 3: element vertex 4000000000: more than the file's 26 bytes of data can "
-                 "hold (at least 6 bytes each)"));
+  std::ofstream(dir / "huge.ply")
+      << "ply\nformat ascii 1.0\nelement vertex 4000000000\nproperty float x\n"
+         "property float y\nproperty float z\nelement face 1\n"
+         "property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+  CHECK(
+      contains(error_of([&] { host::import_mesh((dir / "huge.ply").string()); }),
+               "huge.ply: PLY header line 3: element vertex 4000000000: more than the file's 26 bytes of data can "
+               "hold (at least 6 bytes each)"));
   std::ofstream(dir / "digits.ply") << "ply\nformat binary_little_endian 1.0\nelement face 123456789012345678901\n"
                                        "property list uchar int vertex_indices\nend_header\n";
   CHECK(contains(error_of([&] { host::import_mesh((dir / "digits.ply").string()); }),
@@ -500,8 +514,9 @@ TEST_CASE("PLY and OFF files whose counts the file or the budget cannot hold are
   }
   {
     MemoryLimit m("16M");
-    CHECK(contains(error_of([&] { host::import_mesh((dir / "many.ply").string()); }),
-                   "many.ply: the PLY header's element counts needs about 25 MiB of memory, above the limit of 16 MiB"));
+    CHECK(contains(
+        error_of([&] { host::import_mesh((dir / "many.ply").string()); }),
+        "many.ply: the PLY header's element counts needs about 25 MiB of memory, above the limit of 16 MiB"));
   }
   std::ofstream(dir / "huge.off") << "OFF\n4000000000 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
   CHECK(contains(error_of([&] { host::import_mesh((dir / "huge.off").string()); }),

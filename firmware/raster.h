@@ -26,8 +26,8 @@
 
 #include "firmware/render_scene.h"
 #include "firmware/sampling.h"
-#include "hwmodel/any_hit.h"
-#include "hwmodel/ray.h"
+#include "hwmodel/interface/any_hit.h"
+#include "hwmodel/interface/ray.h"
 
 namespace rtu::fw {
 

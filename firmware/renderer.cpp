@@ -5,7 +5,7 @@
 #include "firmware/raster.h"
 #include "firmware/sampling.h"
 #include "firmware/surface.h"
-#include "hwmodel/ray.h"
+#include "hwmodel/interface/ray.h"
 
 namespace rtu::fw {
 

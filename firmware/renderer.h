@@ -13,7 +13,7 @@
 #include "firmware/raster.h"
 #include "firmware/render_scene.h"
 #include "firmware/ring.h"
-#include "hwmodel/commands.h"
+#include "hwmodel/interface/commands.h"
 
 namespace rtu::fw {
 

@@ -7,8 +7,8 @@
 #include <cstdint>
 
 #include "firmware/hal.h"
-#include "hwmodel/commands.h"
-#include "hwmodel/regs.h"
+#include "hwmodel/interface/commands.h"
+#include "hwmodel/interface/regs.h"
 
 namespace rtu::fw {
 

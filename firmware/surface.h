@@ -1,5 +1,5 @@
 // What the firmware reads of a surface at a hit besides its geometry: texture coordinates, the base colour
-// texture, alpha, and the any-hit stage that alpha-tests candidate hits for the unit (hwmodel/any_hit.h).
+// texture, alpha, and the any-hit stage that alpha-tests candidate hits for the unit (hwmodel/interface/any_hit.h).
 // The same code serves the host's direct devices, over the same records in host memory (host/shading.h), so
 // every device alpha-tests the same way. Freestanding: no heap, no libm.
 #pragma once
@@ -7,7 +7,7 @@
 #include <cstdint>
 
 #include "firmware/render_scene.h"
-#include "hwmodel/any_hit.h"
+#include "hwmodel/interface/any_hit.h"
 
 namespace rtu::fw {
 

@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "hwmodel/ray.h"
+#include "hwmodel/interface/ray.h"
 
 namespace rtu::host {
 

@@ -7,10 +7,10 @@
 
 #include <vector>
 
-#include "hwmodel/any_hit.h"
+#include "hwmodel/interface/any_hit.h"
 #include "hwmodel/geometry.h"
 #include "hwmodel/instancing.h"
-#include "hwmodel/ray.h"
+#include "hwmodel/interface/ray.h"
 
 namespace rtu::oracle {
 

@@ -10,7 +10,7 @@
 #include "firmware/hal.h"
 #include "hwmodel/command_processor.h"
 #include "hwmodel/device_kind.h"
-#include "hwmodel/device_memory.h"
+#include "hwmodel/interface/device_memory.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/timed_engine.h"

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "hwmodel/geometry.h"
-#include "hwmodel/vec.h"
+#include "hwmodel/interface/vec.h"
 
 namespace rtu::host {
 

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "host/scene.h"
-#include "hwmodel/ray.h"
+#include "hwmodel/interface/ray.h"
 
 namespace rtu::host {
 

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/ray.h"
+#include "hwmodel/interface/ray.h"
 
 namespace rtu::host {
 

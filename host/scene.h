@@ -17,8 +17,8 @@
 
 #include "hwmodel/geometry.h"
 #include "hwmodel/instancing.h"
-#include "hwmodel/ray.h"
-#include "hwmodel/vec.h"
+#include "hwmodel/interface/ray.h"
+#include "hwmodel/interface/vec.h"
 
 namespace rtu::host {
 
@@ -36,7 +36,7 @@ struct Material {
   Vec3 emission{0.0f};  // emissive: radiance
   int texture = -1;     // base colour texture (index into Scene::textures; its colour multiplies `color`), or -1
   // Alpha testing (glTF alphaMode MASK): the surface is there where alpha (this factor times the texture's alpha)
-  // reaches alpha_cutoff; elsewhere rays pass through it (the any-hit stage, hwmodel/any_hit.h).
+  // reaches alpha_cutoff; elsewhere rays pass through it (the any-hit stage, hwmodel/interface/any_hit.h).
   AlphaMode alpha_mode = AlphaMode::kOpaque;
   float alpha = 1.0f;         // in [0, 1]
   float alpha_cutoff = 0.5f;  // in [0, 1]

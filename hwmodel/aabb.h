@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <limits>
 
-#include "hwmodel/vec.h"
+#include "hwmodel/interface/vec.h"
 
 namespace rtu::hw {
 

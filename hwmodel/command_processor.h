@@ -14,10 +14,10 @@
 #include <cstdint>
 #include <string>
 
-#include "hwmodel/commands.h"
-#include "hwmodel/device_memory.h"
+#include "hwmodel/interface/commands.h"
+#include "hwmodel/interface/device_memory.h"
 #include "hwmodel/engine.h"
-#include "hwmodel/regs.h"
+#include "hwmodel/interface/regs.h"
 #include "hwmodel/stats.h"
 
 namespace rtu::hw {

@@ -8,7 +8,7 @@
 #include <utility>
 
 #include "hwmodel/instanced_fixed.h"
-#include "hwmodel/regs.h"
+#include "hwmodel/interface/regs.h"
 #include "hwmodel/timed_engine.h"
 
 namespace rtu::hw {

@@ -17,13 +17,13 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/any_hit.h"
+#include "hwmodel/interface/any_hit.h"
 #include "hwmodel/box_unit.h"
 #include "hwmodel/device_kind.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
 #include "hwmodel/geometry.h"
-#include "hwmodel/ray.h"
+#include "hwmodel/interface/ray.h"
 #include "hwmodel/stats.h"
 #include "hwmodel/tri_unit.h"
 

@@ -7,11 +7,11 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/any_hit.h"
+#include "hwmodel/interface/any_hit.h"
 #include "hwmodel/box_unit.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/intersect_fixed.h"
-#include "hwmodel/ray.h"
+#include "hwmodel/interface/ray.h"
 #include "hwmodel/stats.h"
 #include "hwmodel/tri_unit.h"
 

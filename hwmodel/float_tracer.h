@@ -9,10 +9,10 @@
 #include <optional>
 #include <vector>
 
-#include "hwmodel/any_hit.h"
+#include "hwmodel/interface/any_hit.h"
 #include "hwmodel/bvh.h"
 #include "hwmodel/geometry.h"
-#include "hwmodel/ray.h"
+#include "hwmodel/interface/ray.h"
 #include "hwmodel/stats.h"
 
 namespace rtu::hw {

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "hwmodel/aabb.h"
-#include "hwmodel/vec.h"
+#include "hwmodel/interface/vec.h"
 
 namespace rtu::hw {
 

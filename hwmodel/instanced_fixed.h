@@ -27,14 +27,14 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/any_hit.h"
+#include "hwmodel/interface/any_hit.h"
 #include "hwmodel/bvh.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
 #include "hwmodel/instancing.h"
-#include "hwmodel/ray.h"
+#include "hwmodel/interface/ray.h"
 #include "hwmodel/stats.h"
 
 namespace rtu::hw {

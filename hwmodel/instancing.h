@@ -15,11 +15,11 @@
 #include <vector>
 
 #include "hwmodel/aabb.h"
-#include "hwmodel/any_hit.h"
+#include "hwmodel/interface/any_hit.h"
 #include "hwmodel/bvh.h"
 #include "hwmodel/float_tracer.h"
 #include "hwmodel/geometry.h"
-#include "hwmodel/ray.h"
+#include "hwmodel/interface/ray.h"
 #include "hwmodel/stats.h"
 
 namespace rtu::hw {

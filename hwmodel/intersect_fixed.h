@@ -14,7 +14,7 @@
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/hw_format.h"
 #include "hwmodel/quant_frame.h"
-#include "hwmodel/ray.h"
+#include "hwmodel/interface/ray.h"
 
 namespace rtu::hw {
 

@@ -18,7 +18,7 @@
 #include <limits>
 
 #include "hwmodel/geometry.h"
-#include "hwmodel/ray.h"
+#include "hwmodel/interface/ray.h"
 
 namespace rtu::hw {
 

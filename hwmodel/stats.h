@@ -4,7 +4,7 @@
 #include <array>
 #include <cstdint>
 
-#include "hwmodel/ray.h"
+#include "hwmodel/interface/ray.h"
 
 namespace rtu::hw {
 

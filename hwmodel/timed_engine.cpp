@@ -13,7 +13,7 @@
 #include <thread>
 
 #include "hwmodel/batch.h"
-#include "hwmodel/regs.h"
+#include "hwmodel/interface/regs.h"
 
 namespace rtu::hw {
 

@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "hwmodel/box_unit.h"
-#include "hwmodel/commands.h"
+#include "hwmodel/interface/commands.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_tracer.h"

@@ -16,8 +16,8 @@
 #include <vector>
 
 #include "firmware/hal.h"
-#include "hwmodel/commands.h"
-#include "hwmodel/regs.h"
+#include "hwmodel/interface/commands.h"
+#include "hwmodel/interface/regs.h"
 
 namespace rtu::test {
 

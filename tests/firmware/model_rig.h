@@ -18,13 +18,13 @@
 #include "host/firmware_device.h"
 #include "host/scene.h"
 #include "hwmodel/bvh.h"
-#include "hwmodel/commands.h"
+#include "hwmodel/interface/commands.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/device_kind.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
-#include "hwmodel/regs.h"
+#include "hwmodel/interface/regs.h"
 
 namespace rtu::test {
 

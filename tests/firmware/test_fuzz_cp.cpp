@@ -32,13 +32,13 @@
 #include "host/scene.h"
 #include "hwmodel/bvh.h"
 #include "hwmodel/command_processor.h"
-#include "hwmodel/commands.h"
+#include "hwmodel/interface/commands.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
-#include "hwmodel/regs.h"
+#include "hwmodel/interface/regs.h"
 
 using namespace rtu;
 namespace cmd = hw::cmd;

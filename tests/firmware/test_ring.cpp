@@ -17,8 +17,8 @@
 
 #include "firmware/hal.h"
 #include "firmware/ring.h"
-#include "hwmodel/commands.h"
-#include "hwmodel/regs.h"
+#include "hwmodel/interface/commands.h"
+#include "hwmodel/interface/regs.h"
 #include "hwmodel/rng.h"
 #include "tests/firmware/model_rig.h"
 

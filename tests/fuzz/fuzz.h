@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "hwmodel/geometry.h"
-#include "hwmodel/ray.h"
+#include "hwmodel/interface/ray.h"
 
 namespace rtu::fuzz {
 

@@ -6,12 +6,12 @@
 #include <memory>
 
 #include "host/firmware_device.h"
-#include "hwmodel/commands.h"
+#include "hwmodel/interface/commands.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_format.h"
 #include "hwmodel/float_tracer.h"
-#include "hwmodel/regs.h"
+#include "hwmodel/interface/regs.h"
 #include "tests/fuzz/fuzz.h"
 
 namespace rtu::fuzz {

@@ -6,7 +6,7 @@
 #include <fstream>
 
 #include "host/ray_io.h"
-#include "hwmodel/commands.h"
+#include "hwmodel/interface/commands.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_format.h"

@@ -1,4 +1,4 @@
-#include "hwmodel/ray.h"
+#include "hwmodel/interface/ray.h"
 
 namespace rtu::hw {
 

@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <limits>
 
-#include "hwmodel/vec.h"
+#include "hwmodel/interface/vec.h"
 
 namespace rtu::hw {
 

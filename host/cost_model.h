@@ -14,7 +14,7 @@
 #include "host/stats_json.h"
 #include "host/sweep.h"
 #include "hwmodel/energy_model.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing_config.h"
 #include "hwmodel/timing_stats.h"
 

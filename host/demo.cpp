@@ -11,7 +11,7 @@
 #include "host/ray_io.h"
 #include "host/stopwatch.h"
 #include "host/trace_job.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing_config.h"
 
 namespace rtu::host {

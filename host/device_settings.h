@@ -10,7 +10,7 @@
 
 #include "host/direct_device.h"
 #include "hwmodel/device_kind.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing_config.h"
 
 namespace rtu::host {

@@ -14,7 +14,7 @@
 #include "host/grid_check.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/device_kind.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
 #include "hwmodel/instanced_fixed.h"

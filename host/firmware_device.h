@@ -12,7 +12,7 @@
 #include "hwmodel/device_kind.h"
 #include "hwmodel/interface/device_memory.h"
 #include "hwmodel/engine.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timed_engine.h"
 
 namespace rtu::host {

@@ -7,7 +7,7 @@
 #include <stdexcept>
 
 #include "host/error.h"
-#include "hwmodel/quant_frame.h"
+#include "hwmodel/numeric/quant_frame.h"
 
 namespace rtu::host {
 

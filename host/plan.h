@@ -21,7 +21,7 @@
 
 #include "host/stats_json.h"
 #include "host/sweep.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 
 namespace rtu::host {
 

@@ -6,7 +6,7 @@
 
 #include "host/error.h"
 #include "host/limits.h"
-#include "hwmodel/rng.h"
+#include "hwmodel/numeric/rng.h"
 
 namespace rtu::host {
 

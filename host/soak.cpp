@@ -10,7 +10,7 @@
 #include "host/ray_gen.h"
 #include "host/render.h"
 #include "host/scene.h"
-#include "hwmodel/rng.h"
+#include "hwmodel/numeric/rng.h"
 #include "hwmodel/timing_config.h"
 
 namespace rtu::host {

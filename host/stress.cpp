@@ -13,7 +13,7 @@
 #include "hwmodel/device_image.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
-#include "hwmodel/rng.h"
+#include "hwmodel/numeric/rng.h"
 
 namespace rtu::host {
 

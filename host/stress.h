@@ -12,7 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 
 namespace rtu::host {
 

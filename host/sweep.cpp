@@ -20,7 +20,7 @@
 #include "host/render.h"
 #include "host/shading.h"
 #include "host/stats_json.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing_config.h"
 #include "rtl_sim/params/rtl_params.h"
 

@@ -17,7 +17,7 @@
 
 #include <cstdint>
 
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/hw_format.h"
 #include "hwmodel/intersect_fixed.h"
 

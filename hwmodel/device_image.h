@@ -16,10 +16,10 @@
 #include <vector>
 
 #include "hwmodel/bvh.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/geometry.h"
 #include "hwmodel/hw_format.h"
-#include "hwmodel/quant_frame.h"
+#include "hwmodel/numeric/quant_frame.h"
 
 namespace rtu::hw {
 

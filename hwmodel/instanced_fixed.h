@@ -30,7 +30,7 @@
 #include "hwmodel/interface/any_hit.h"
 #include "hwmodel/bvh.h"
 #include "hwmodel/device_image.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
 #include "hwmodel/instancing.h"

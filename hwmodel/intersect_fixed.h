@@ -10,10 +10,10 @@
 
 #include <cstdint>
 
-#include "hwmodel/fixed.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/hw_format.h"
-#include "hwmodel/quant_frame.h"
+#include "hwmodel/numeric/quant_frame.h"
 #include "hwmodel/interface/ray.h"
 
 namespace rtu::hw {

@@ -43,7 +43,7 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 
 namespace rtu::hw {
 

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "hwmodel/rng.h"
+#include "hwmodel/numeric/rng.h"
 
 namespace rtu::hw {
 

@@ -6,7 +6,7 @@
 #include <system_error>
 #include <variant>
 
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 
 namespace rtu::hw {
 

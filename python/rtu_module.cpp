@@ -36,7 +36,7 @@
 #include "host/sweep.h"
 #include "host/trace_job.h"
 #include "hwmodel/bvh.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing_config.h"
 
 namespace py = pybind11;

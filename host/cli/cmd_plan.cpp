@@ -9,7 +9,7 @@
 #include "host/error.h"
 #include "host/plan.h"
 #include "hwmodel/energy_model.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing_config.h"
 
 namespace rtu::host::cli {

@@ -14,7 +14,7 @@
 #include "host/error.h"
 #include "host/suite.h"
 #include "host/sweep.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing_config.h"
 
 namespace rtu::host::cli {

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/rng.h"
+#include "hwmodel/numeric/rng.h"
 #include "rtl_sim/activity/toggle_count.h"
 #include "rtl_sim/cosim/sim.h"
 

@@ -1,5 +1,5 @@
 // The parameters of rtl/box_unit.sv for a fixed-point format, a node width and a pipeline depth: the one place
-// where the RTL's widths are derived from the C++ model's formats (hwmodel/fixed_format.h) and its latency from
+// where the RTL's widths are derived from the C++ model's formats (hwmodel/numeric/fixed_format.h) and its latency from
 // the timing presets (hwmodel/timing_config.h). CMake runs rtl_params_main.cpp at configure time to verilate the
 // unit with these values; the testbench derives them again and checks that the Verilated models match.
 #pragma once
@@ -10,7 +10,7 @@
 #include <utility>
 #include <vector>
 
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing_config.h"
 
 namespace rtu::rtl {

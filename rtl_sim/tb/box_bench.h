@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/rng.h"
+#include "hwmodel/numeric/rng.h"
 #include "rtl_sim/cosim/box_ports.h"
 #include "rtl_sim/cosim/sim.h"
 #include "rtl_sim/params/rtl_params.h"

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/intersect_fixed.h"
 #include "rtl_sim/cosim/box_ports.h"
 

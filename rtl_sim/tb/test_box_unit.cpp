@@ -16,7 +16,7 @@
 #include "Vbox_unit_intel.h"
 #include "Vbox_unit_rdna2.h"
 #include "Vbox_unit_wide8_lanes3.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing_config.h"
 #include "rtl_models.h"
 #include "rtl_sim/cosim/rtl_box_unit.h"

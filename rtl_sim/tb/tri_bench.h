@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/rng.h"
+#include "hwmodel/numeric/rng.h"
 #include "rtl_sim/cosim/sim.h"
 #include "rtl_sim/cosim/tri_ports.h"
 #include "rtl_sim/params/tri_params.h"

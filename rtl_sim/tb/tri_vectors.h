@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/fixed.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/intersect_fixed.h"
 
 namespace rtu::rtl {

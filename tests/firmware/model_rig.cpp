@@ -4,7 +4,7 @@
 #include <limits>
 
 #include "host/ray_gen.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 
 namespace rtu::test {
 

@@ -25,7 +25,7 @@
 #include "firmware/ring.h"
 #include "hwmodel/interface/commands.h"
 #include "hwmodel/interface/regs.h"
-#include "hwmodel/rng.h"
+#include "hwmodel/numeric/rng.h"
 #include "tests/firmware/model_rig.h"
 
 using namespace rtu;

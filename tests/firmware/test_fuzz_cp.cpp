@@ -35,7 +35,7 @@
 #include "hwmodel/interface/commands.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/engine.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
 #include "hwmodel/interface/regs.h"

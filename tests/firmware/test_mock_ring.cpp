@@ -12,7 +12,7 @@
 #include "firmware/ring.h"
 #include "hwmodel/interface/commands.h"
 #include "hwmodel/interface/regs.h"
-#include "hwmodel/rng.h"
+#include "hwmodel/numeric/rng.h"
 #include "tests/firmware/mock_hal.h"
 
 using rtu::fw::Arena;

@@ -11,7 +11,7 @@
 #include "host/error.h"
 #include "host/limits.h"
 #include "hwmodel/device_image.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
 #include "hwmodel/timed_engine.h"

@@ -21,7 +21,7 @@
 #include "hwmodel/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/instanced_fixed.h"
-#include "hwmodel/rng.h"
+#include "hwmodel/numeric/rng.h"
 #include "hwmodel/timed_engine.h"
 #include "hwmodel/timing_config.h"
 #include "tests/host/run_process.h"

@@ -12,7 +12,7 @@
 #include "host/ray_gen.h"
 #include "host/scene.h"
 #include "hwmodel/instancing.h"
-#include "hwmodel/rng.h"
+#include "hwmodel/numeric/rng.h"
 
 using namespace rtu;
 

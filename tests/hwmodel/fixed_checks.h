@@ -21,11 +21,11 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/geometry.h"
 #include "hwmodel/intersect_fixed.h"
-#include "hwmodel/quant_frame.h"
-#include "hwmodel/rng.h"
+#include "hwmodel/numeric/quant_frame.h"
+#include "hwmodel/numeric/rng.h"
 
 // REQUIRE that builds its context message only on failure: the hot loops run millions of cases, and formatting a
 // message for every passing one would dominate the run time.

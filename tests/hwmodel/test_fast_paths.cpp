@@ -19,9 +19,9 @@
 #include <vector>
 
 #include "hwmodel/box_node.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/intersect_fixed.h"
-#include "hwmodel/quant_frame.h"
+#include "hwmodel/numeric/quant_frame.h"
 
 using namespace rtu::hw;
 

@@ -7,7 +7,7 @@
 #include <random>
 #include <type_traits>
 
-#include "hwmodel/fixed.h"
+#include "hwmodel/numeric/fixed.h"
 
 using namespace rtu::hw;
 

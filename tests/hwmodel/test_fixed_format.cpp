@@ -5,7 +5,7 @@
 #include <stdexcept>
 
 #include "fixed_checks.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 
 using namespace rtu::hw;
 using namespace rtu::hw::fixed_checks;

@@ -12,13 +12,13 @@
 
 #include "fixed_checks.h"
 #include "hwmodel/device_image.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
 #include "hwmodel/geometry.h"
 #include "hwmodel/intersect_fixed.h"
-#include "hwmodel/quant_frame.h"
-#include "hwmodel/rng.h"
+#include "hwmodel/numeric/quant_frame.h"
+#include "hwmodel/numeric/rng.h"
 
 using namespace rtu::hw;
 using namespace rtu::hw::fixed_checks;

@@ -13,10 +13,10 @@
 #include <vector>
 
 #include "fixed_checks.h"
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/intersect_fixed.h"
-#include "hwmodel/quant_frame.h"
-#include "hwmodel/rng.h"
+#include "hwmodel/numeric/quant_frame.h"
+#include "hwmodel/numeric/rng.h"
 
 using namespace rtu::hw;
 using namespace rtu::hw::fixed_checks;

@@ -9,7 +9,7 @@
 #include <utility>
 #include <vector>
 
-#include "hwmodel/rng.h"
+#include "hwmodel/numeric/rng.h"
 #include "hwmodel/slot_queue.h"
 
 using rtu::hw::SlotQueue;

@@ -7,7 +7,7 @@
 #include <string>
 #include <utility>
 
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing_config.h"
 
 using namespace rtu::hw;

@@ -1,4 +1,4 @@
-#include "hwmodel/fixed.h"
+#include "hwmodel/numeric/fixed.h"
 
 namespace rtu::hw {
 

@@ -1,4 +1,4 @@
-#include "hwmodel/fixed_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 
 #include <charconv>
 #include <sstream>

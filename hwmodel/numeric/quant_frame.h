@@ -9,7 +9,7 @@
 #include <cstdint>
 
 #include "hwmodel/aabb.h"
-#include "hwmodel/fixed.h"
+#include "hwmodel/numeric/fixed.h"
 
 namespace rtu::hw {
 

@@ -18,7 +18,7 @@
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
 #include "hwmodel/instanced_fixed.h"
-#include "hwmodel/instancing.h"
+#include "hwmodel/scene/instancing.h"
 #include "hwmodel/timed_engine.h"
 #include "hwmodel/timing_config.h"
 

@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "hwmodel/interface/any_hit.h"
-#include "hwmodel/geometry.h"
-#include "hwmodel/instancing.h"
+#include "hwmodel/scene/geometry.h"
+#include "hwmodel/scene/instancing.h"
 #include "hwmodel/interface/ray.h"
 
 namespace rtu::oracle {

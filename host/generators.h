@@ -11,7 +11,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "hwmodel/geometry.h"
+#include "hwmodel/scene/geometry.h"
 #include "hwmodel/interface/vec.h"
 
 namespace rtu::host {

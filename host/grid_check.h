@@ -11,8 +11,8 @@
 #include <string>
 
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/geometry.h"
-#include "hwmodel/instancing.h"
+#include "hwmodel/scene/geometry.h"
+#include "hwmodel/scene/instancing.h"
 
 namespace rtu::host {
 

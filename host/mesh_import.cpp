@@ -43,7 +43,7 @@
 #include "host/image.h"
 #include "host/limits.h"
 #include "host/scene.h"
-#include "hwmodel/instancing.h"
+#include "hwmodel/scene/instancing.h"
 
 namespace rtu::host {
 namespace {

@@ -14,7 +14,7 @@
 #include "firmware/render_scene.h"
 #include "host/error.h"
 #include "host/limits.h"
-#include "hwmodel/bvh.h"
+#include "hwmodel/scene/bvh.h"
 
 namespace rtu::host {
 namespace {

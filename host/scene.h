@@ -15,8 +15,8 @@
 
 #include <nlohmann/json_fwd.hpp>
 
-#include "hwmodel/geometry.h"
-#include "hwmodel/instancing.h"
+#include "hwmodel/scene/geometry.h"
+#include "hwmodel/scene/instancing.h"
 #include "hwmodel/interface/ray.h"
 #include "hwmodel/interface/vec.h"
 

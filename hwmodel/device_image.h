@@ -15,9 +15,9 @@
 #include <cstdint>
 #include <vector>
 
-#include "hwmodel/bvh.h"
+#include "hwmodel/scene/bvh.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/geometry.h"
+#include "hwmodel/scene/geometry.h"
 #include "hwmodel/hw_format.h"
 #include "hwmodel/numeric/quant_frame.h"
 

@@ -22,7 +22,7 @@
 #include "hwmodel/device_kind.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
-#include "hwmodel/geometry.h"
+#include "hwmodel/scene/geometry.h"
 #include "hwmodel/interface/ray.h"
 #include "hwmodel/stats.h"
 #include "hwmodel/tri_unit.h"

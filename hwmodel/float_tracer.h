@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "hwmodel/interface/any_hit.h"
-#include "hwmodel/bvh.h"
-#include "hwmodel/geometry.h"
+#include "hwmodel/scene/bvh.h"
+#include "hwmodel/scene/geometry.h"
 #include "hwmodel/interface/ray.h"
 #include "hwmodel/stats.h"
 

@@ -28,12 +28,12 @@
 #include <vector>
 
 #include "hwmodel/interface/any_hit.h"
-#include "hwmodel/bvh.h"
+#include "hwmodel/scene/bvh.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
-#include "hwmodel/instancing.h"
+#include "hwmodel/scene/instancing.h"
 #include "hwmodel/interface/ray.h"
 #include "hwmodel/stats.h"
 

@@ -17,7 +17,7 @@
 #include <cstdint>
 #include <limits>
 
-#include "hwmodel/geometry.h"
+#include "hwmodel/scene/geometry.h"
 #include "hwmodel/interface/ray.h"
 
 namespace rtu::hw {

@@ -12,7 +12,7 @@
 
 #include <cstdint>
 
-#include "hwmodel/bvh.h"
+#include "hwmodel/scene/bvh.h"
 #include "hwmodel/stats.h"
 
 namespace rtu::hw {

@@ -35,7 +35,7 @@
 #include "host/stats_json.h"
 #include "host/sweep.h"
 #include "host/trace_job.h"
-#include "hwmodel/bvh.h"
+#include "hwmodel/scene/bvh.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing_config.h"
 

@@ -8,7 +8,7 @@
 
 #include <cstdint>
 
-#include "hwmodel/aabb.h"
+#include "hwmodel/scene/aabb.h"
 #include "hwmodel/numeric/fixed.h"
 
 namespace rtu::hw {

@@ -17,7 +17,7 @@
 #include "firmware/ring.h"
 #include "host/firmware_device.h"
 #include "host/scene.h"
-#include "hwmodel/bvh.h"
+#include "hwmodel/scene/bvh.h"
 #include "hwmodel/interface/commands.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/device_kind.h"

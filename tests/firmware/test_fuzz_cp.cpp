@@ -30,7 +30,7 @@
 #include "host/firmware_device.h"
 #include "host/ray_gen.h"
 #include "host/scene.h"
-#include "hwmodel/bvh.h"
+#include "hwmodel/scene/bvh.h"
 #include "hwmodel/command_processor.h"
 #include "hwmodel/interface/commands.h"
 #include "hwmodel/device_image.h"

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/geometry.h"
+#include "hwmodel/scene/geometry.h"
 #include "hwmodel/interface/ray.h"
 
 namespace rtu::fuzz {

@@ -11,7 +11,7 @@
 #include "host/error.h"
 #include "host/ray_gen.h"
 #include "host/scene.h"
-#include "hwmodel/instancing.h"
+#include "hwmodel/scene/instancing.h"
 #include "hwmodel/numeric/rng.h"
 
 using namespace rtu;

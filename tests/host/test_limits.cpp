@@ -25,7 +25,7 @@
 #include "host/ray_gen.h"
 #include "host/ray_io.h"
 #include "host/scene.h"
-#include "hwmodel/bvh.h"
+#include "hwmodel/scene/bvh.h"
 #include "hwmodel/timed_engine.h"
 #include "tests/host/run_process.h"
 

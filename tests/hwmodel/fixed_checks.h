@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/geometry.h"
+#include "hwmodel/scene/geometry.h"
 #include "hwmodel/intersect_fixed.h"
 #include "hwmodel/numeric/quant_frame.h"
 #include "hwmodel/numeric/rng.h"

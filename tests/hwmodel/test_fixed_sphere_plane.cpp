@@ -15,7 +15,7 @@
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
-#include "hwmodel/geometry.h"
+#include "hwmodel/scene/geometry.h"
 #include "hwmodel/intersect_fixed.h"
 #include "hwmodel/numeric/quant_frame.h"
 #include "hwmodel/numeric/rng.h"

@@ -13,12 +13,12 @@
 #include <vector>
 
 #include "fixed_checks.h"
-#include "hwmodel/bvh.h"
+#include "hwmodel/scene/bvh.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
-#include "hwmodel/geometry.h"
+#include "hwmodel/scene/geometry.h"
 #include "hwmodel/intersect_fixed.h"
 #include "hwmodel/numeric/rng.h"
 #include "hwmodel/timed_engine.h"

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/bvh.h"
+#include "hwmodel/scene/bvh.h"
 #include "hwmodel/command_processor.h"
 #include "hwmodel/device_image.h"
 #include "hwmodel/engine.h"

@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "hwmodel/aabb.h"
+#include "hwmodel/scene/aabb.h"
 #include "hwmodel/interface/vec.h"
 
 namespace rtu::hw {

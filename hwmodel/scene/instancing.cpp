@@ -1,4 +1,4 @@
-#include "hwmodel/instancing.h"
+#include "hwmodel/scene/instancing.h"
 
 #include <cmath>
 #include <optional>

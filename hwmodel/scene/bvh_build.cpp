@@ -6,7 +6,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "hwmodel/bvh.h"
+#include "hwmodel/scene/bvh.h"
 
 namespace rtu::hw {
 

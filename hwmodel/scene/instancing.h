@@ -14,11 +14,11 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/aabb.h"
+#include "hwmodel/scene/aabb.h"
 #include "hwmodel/interface/any_hit.h"
-#include "hwmodel/bvh.h"
+#include "hwmodel/scene/bvh.h"
 #include "hwmodel/float_tracer.h"
-#include "hwmodel/geometry.h"
+#include "hwmodel/scene/geometry.h"
 #include "hwmodel/interface/ray.h"
 #include "hwmodel/stats.h"
 

@@ -13,8 +13,8 @@
 #include <variant>
 #include <vector>
 
-#include "hwmodel/aabb.h"
-#include "hwmodel/geometry.h"
+#include "hwmodel/scene/aabb.h"
+#include "hwmodel/scene/geometry.h"
 
 namespace rtu::hw {
 

@@ -20,7 +20,7 @@
 #include "host/ray_gen.h"
 #include "host/scene.h"
 #include "hwmodel/scene/bvh.h"
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/intersect_fixed.h"
 

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "host/grid_check.h"
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/device_kind.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"

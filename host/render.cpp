@@ -17,7 +17,7 @@
 #include "host/limits.h"
 #include "host/shading.h"
 #include "host/trace_job.h"
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/instanced_fixed.h"
 

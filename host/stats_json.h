@@ -8,7 +8,7 @@
 
 #include "host/direct_device.h"
 #include "host/render.h"
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/stats.h"
 #include "hwmodel/timed_engine.h"

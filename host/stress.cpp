@@ -10,7 +10,7 @@
 
 #include "host/error.h"
 #include "host/generators.h"
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
 #include "hwmodel/numeric/rng.h"

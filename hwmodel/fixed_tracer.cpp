@@ -9,7 +9,7 @@
 #include <string>
 
 #include "hwmodel/batch.h"
-#include "hwmodel/box_node.h"
+#include "hwmodel/format/box_node.h"
 #include "hwmodel/intersect_float.h"
 #include "hwmodel/traverse.h"
 

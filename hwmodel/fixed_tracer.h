@@ -9,7 +9,7 @@
 
 #include "hwmodel/interface/any_hit.h"
 #include "hwmodel/box_unit.h"
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/intersect_fixed.h"
 #include "hwmodel/interface/ray.h"
 #include "hwmodel/stats.h"

@@ -29,7 +29,7 @@
 
 #include "hwmodel/interface/any_hit.h"
 #include "hwmodel/scene/bvh.h"
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"

@@ -12,7 +12,7 @@
 
 #include "hwmodel/numeric/fixed.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/hw_format.h"
+#include "hwmodel/format/hw_format.h"
 #include "hwmodel/numeric/quant_frame.h"
 #include "hwmodel/interface/ray.h"
 

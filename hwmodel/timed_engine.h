@@ -17,7 +17,7 @@
 
 #include "hwmodel/box_unit.h"
 #include "hwmodel/interface/commands.h"
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/instanced_fixed.h"

@@ -40,7 +40,7 @@
 #include <utility>
 #include <vector>
 
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/instanced_fixed.h"
 #include "hwmodel/memory_system.h"

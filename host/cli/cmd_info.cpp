@@ -5,8 +5,8 @@
 #include "host/cli/common.h"
 #include "host/error.h"
 #include "host/suite.h"
-#include "hwmodel/hw_format.h"
-#include "hwmodel/packed_layout.h"
+#include "hwmodel/format/hw_format.h"
+#include "hwmodel/format/packed_layout.h"
 
 namespace rtu::host::cli {
 

@@ -12,7 +12,7 @@
 
 #include "host/ray_gen.h"
 #include "host/scene.h"
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
 #include "hwmodel/numeric/rng.h"

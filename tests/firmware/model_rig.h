@@ -19,7 +19,7 @@
 #include "host/scene.h"
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/interface/commands.h"
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/device_kind.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_tracer.h"

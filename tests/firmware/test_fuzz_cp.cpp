@@ -33,7 +33,7 @@
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/command_processor.h"
 #include "hwmodel/interface/commands.h"
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"

@@ -10,7 +10,7 @@
 #include "host/device_settings.h"
 #include "host/error.h"
 #include "host/limits.h"
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"

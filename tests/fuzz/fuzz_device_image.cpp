@@ -5,7 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"

@@ -7,7 +7,7 @@
 
 #include "host/ray_io.h"
 #include "hwmodel/interface/commands.h"
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/float_tracer.h"

@@ -18,7 +18,7 @@
 #include "host/render.h"
 #include "host/scene.h"
 #include "host/shading.h"
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/instanced_fixed.h"
 #include "hwmodel/numeric/rng.h"

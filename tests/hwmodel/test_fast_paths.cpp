@@ -18,7 +18,7 @@
 #include <random>
 #include <vector>
 
-#include "hwmodel/box_node.h"
+#include "hwmodel/format/box_node.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/intersect_fixed.h"
 #include "hwmodel/numeric/quant_frame.h"

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "hwmodel/scene/bvh.h"
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"
 #include "hwmodel/timed_engine.h"

@@ -16,7 +16,7 @@
 
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/command_processor.h"
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/fixed_tracer.h"
 #include "hwmodel/float_tracer.h"

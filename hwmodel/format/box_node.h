@@ -18,7 +18,7 @@
 #include <cstdint>
 
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/hw_format.h"
+#include "hwmodel/format/hw_format.h"
 #include "hwmodel/intersect_fixed.h"
 
 namespace rtu::hw {

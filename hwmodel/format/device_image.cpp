@@ -1,4 +1,4 @@
-#include "hwmodel/device_image.h"
+#include "hwmodel/format/device_image.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "hwmodel/packed_layout.h"
+#include "hwmodel/format/packed_layout.h"
 #include "hwmodel/traverse.h"
 
 namespace rtu::hw {

@@ -18,7 +18,7 @@
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/scene/geometry.h"
-#include "hwmodel/hw_format.h"
+#include "hwmodel/format/hw_format.h"
 #include "hwmodel/numeric/quant_frame.h"
 
 namespace rtu::hw {

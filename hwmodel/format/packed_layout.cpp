@@ -1,11 +1,11 @@
-#include "hwmodel/packed_layout.h"
+#include "hwmodel/format/packed_layout.h"
 
 #include <algorithm>
 #include <array>
 #include <cstring>
 #include <stdexcept>
 
-#include "hwmodel/hw_format.h"
+#include "hwmodel/format/hw_format.h"
 
 namespace rtu::hw {
 

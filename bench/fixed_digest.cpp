@@ -21,8 +21,8 @@
 #include "host/scene.h"
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/format/device_image.h"
-#include "hwmodel/fixed_tracer.h"
-#include "hwmodel/intersect_fixed.h"
+#include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/datapath/intersect_fixed.h"
 
 using namespace rtu;
 

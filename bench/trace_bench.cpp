@@ -26,8 +26,8 @@
 #include "host/ray_gen.h"
 #include "host/scene.h"
 #include "hwmodel/format/device_image.h"
-#include "hwmodel/fixed_tracer.h"
-#include "hwmodel/float_tracer.h"
+#include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/timing_config.h"
 
 using namespace rtu;

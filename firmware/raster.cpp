@@ -363,7 +363,7 @@ void Raster::sphere(const SurfaceRecord& s, uint32_t prim) {
   const V f = eye - center;
   const float ff = glm::dot(f, f) - radius * radius;
   scan(x0, x1, y0, y1, [&](uint32_t x, uint32_t y, uint32_t i, SampleOffset o) {
-    // The camera ray against the sphere as the float reference computes it (hwmodel/intersect_float.h):
+    // The camera ray against the sphere as the float reference computes it (hwmodel/datapath/intersect_float.h):
     // the distance from the center to the line without the cancellation of b^2 - a c.
     const V d = glm::normalize(direction(x, y, o));
     const float a = glm::dot(d, d);

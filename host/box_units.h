@@ -6,9 +6,9 @@
 
 #include <memory>
 
-#include "hwmodel/box_unit.h"
+#include "hwmodel/datapath/box_unit.h"
 #include "hwmodel/timing_config.h"
-#include "hwmodel/tri_unit.h"
+#include "hwmodel/datapath/tri_unit.h"
 
 namespace rtu::host {
 

@@ -15,7 +15,7 @@
 #include "host/render.h"
 #include "host/stats_json.h"
 #include "hwmodel/device_kind.h"
-#include "hwmodel/stats.h"
+#include "hwmodel/datapath/stats.h"
 
 namespace rtu::host {
 

@@ -19,7 +19,7 @@
 #include "host/trace_job.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/engine.h"
-#include "hwmodel/instanced_fixed.h"
+#include "hwmodel/datapath/instanced_fixed.h"
 
 namespace rtu::host {
 
@@ -145,7 +145,7 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   res.offset_rel = std::ldexp(1.0f, -19);
   res.offset_abs = std::ldexp(extent, -20);
   hw::TracerOptions tracer = o.device.tracer;
-  // An instanced scene binds its two levels (hwmodel/instanced_fixed.h) on the fixed-point devices, unless
+  // An instanced scene binds its two levels (hwmodel/datapath/instanced_fixed.h) on the fixed-point devices, unless
   // flattened or co-simulated (the RTL units trace one image).
   const bool two_level = scene.instanced() && !o.device.flatten && o.device.kind != hw::DeviceKind::kFloat &&
                          (o.device.kind == hw::DeviceKind::kFixed ||

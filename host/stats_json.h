@@ -10,7 +10,7 @@
 #include "host/render.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/stats.h"
+#include "hwmodel/datapath/stats.h"
 #include "hwmodel/timed_engine.h"
 #include "hwmodel/timing_config.h"
 

@@ -11,8 +11,8 @@
 #include "host/error.h"
 #include "host/generators.h"
 #include "hwmodel/format/device_image.h"
-#include "hwmodel/fixed_tracer.h"
-#include "hwmodel/float_tracer.h"
+#include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/numeric/rng.h"
 
 namespace rtu::host {

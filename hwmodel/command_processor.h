@@ -18,7 +18,7 @@
 #include "hwmodel/interface/device_memory.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/interface/regs.h"
-#include "hwmodel/stats.h"
+#include "hwmodel/datapath/stats.h"
 
 namespace rtu::hw {
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <utility>
 
-#include "hwmodel/instanced_fixed.h"
+#include "hwmodel/datapath/instanced_fixed.h"
 #include "hwmodel/interface/regs.h"
 #include "hwmodel/timed_engine.h"
 

@@ -18,14 +18,14 @@
 #include <vector>
 
 #include "hwmodel/interface/any_hit.h"
-#include "hwmodel/box_unit.h"
+#include "hwmodel/datapath/box_unit.h"
 #include "hwmodel/device_kind.h"
-#include "hwmodel/fixed_tracer.h"
-#include "hwmodel/float_tracer.h"
+#include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/scene/geometry.h"
 #include "hwmodel/interface/ray.h"
-#include "hwmodel/stats.h"
-#include "hwmodel/tri_unit.h"
+#include "hwmodel/datapath/stats.h"
+#include "hwmodel/datapath/tri_unit.h"
 
 namespace rtu::hw {
 

@@ -12,7 +12,7 @@
 #include <string>
 #include <thread>
 
-#include "hwmodel/batch.h"
+#include "hwmodel/datapath/batch.h"
 #include "hwmodel/interface/regs.h"
 
 namespace rtu::hw {

@@ -15,17 +15,17 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/box_unit.h"
+#include "hwmodel/datapath/box_unit.h"
 #include "hwmodel/interface/commands.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/engine.h"
-#include "hwmodel/fixed_tracer.h"
-#include "hwmodel/instanced_fixed.h"
+#include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/datapath/instanced_fixed.h"
 #include "hwmodel/sampler.h"
 #include "hwmodel/timing_config.h"
 #include "hwmodel/timing_model.h"
 #include "hwmodel/timing_stats.h"
-#include "hwmodel/tri_unit.h"
+#include "hwmodel/datapath/tri_unit.h"
 
 namespace rtu::hw {
 

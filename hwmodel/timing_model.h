@@ -41,8 +41,8 @@
 #include <vector>
 
 #include "hwmodel/format/device_image.h"
-#include "hwmodel/fixed_tracer.h"
-#include "hwmodel/instanced_fixed.h"
+#include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/datapath/instanced_fixed.h"
 #include "hwmodel/memory_system.h"
 #include "hwmodel/node_cache.h"
 #include "hwmodel/slot_queue.h"

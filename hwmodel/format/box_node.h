@@ -19,7 +19,7 @@
 
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/format/hw_format.h"
-#include "hwmodel/intersect_fixed.h"
+#include "hwmodel/datapath/intersect_fixed.h"
 
 namespace rtu::hw {
 

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "hwmodel/format/packed_layout.h"
-#include "hwmodel/traverse.h"
+#include "hwmodel/datapath/traverse.h"
 
 namespace rtu::hw {
 

@@ -5,9 +5,9 @@
 #include <stdexcept>
 #include <string>
 
-#include "hwmodel/batch.h"
-#include "hwmodel/intersect_float.h"
-#include "hwmodel/traverse.h"
+#include "hwmodel/datapath/batch.h"
+#include "hwmodel/datapath/intersect_float.h"
+#include "hwmodel/datapath/traverse.h"
 
 namespace rtu::hw {
 

@@ -17,10 +17,10 @@
 #include "hwmodel/scene/aabb.h"
 #include "hwmodel/interface/any_hit.h"
 #include "hwmodel/scene/bvh.h"
-#include "hwmodel/float_tracer.h"
+#include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/scene/geometry.h"
 #include "hwmodel/interface/ray.h"
-#include "hwmodel/stats.h"
+#include "hwmodel/datapath/stats.h"
 
 namespace rtu::hw {
 

@@ -8,8 +8,8 @@
 #include <sstream>
 #include <string>
 
-#include "hwmodel/box_unit.h"
-#include "hwmodel/intersect_fixed.h"
+#include "hwmodel/datapath/box_unit.h"
+#include "hwmodel/datapath/intersect_fixed.h"
 #include "rtl_sim/cosim/sim.h"
 #include "rtl_sim/params/rtl_params.h"
 

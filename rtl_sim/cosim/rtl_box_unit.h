@@ -1,4 +1,4 @@
-// The co-simulation adapter: hw::BoxUnit (hwmodel/box_unit.h) answered by a Verilated model of rtl/box_unit.sv,
+// The co-simulation adapter: hw::BoxUnit (hwmodel/datapath/box_unit.h) answered by a Verilated model of rtl/box_unit.sv,
 // so that the timed device (`--set box_unit=rtl`) takes its box tests, and the clocks of each, from the RTL.
 #pragma once
 
@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/box_unit.h"
+#include "hwmodel/datapath/box_unit.h"
 #include "hwmodel/timing_config.h"
 
 namespace rtu::rtl {

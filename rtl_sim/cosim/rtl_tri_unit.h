@@ -1,4 +1,4 @@
-// The co-simulation adapter of the triangle unit: hw::TriUnit (hwmodel/tri_unit.h) answered by a Verilated model
+// The co-simulation adapter of the triangle unit: hw::TriUnit (hwmodel/datapath/tri_unit.h) answered by a Verilated model
 // of rtl/tri_core.sv, so that the timed device (`--set tri_unit=rtl`) takes its triangle tests, and the clocks of
 // each, from the RTL.
 #pragma once
@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "hwmodel/timing_config.h"
-#include "hwmodel/tri_unit.h"
+#include "hwmodel/datapath/tri_unit.h"
 
 namespace rtu::rtl {
 

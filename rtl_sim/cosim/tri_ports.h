@@ -9,7 +9,7 @@
 #include <sstream>
 #include <string>
 
-#include "hwmodel/intersect_fixed.h"
+#include "hwmodel/datapath/intersect_fixed.h"
 #include "rtl_sim/cosim/sim.h"
 #include "rtl_sim/params/tri_params.h"
 

@@ -1,7 +1,7 @@
 // box_core: the ray-box test datapath of the fixed-point device, fully pipelined, N child boxes per clock (box_unit.sv
-// instantiates it with N = its LANES and feeds it a node's children LANES at a time). It computes exactly hw::box_test_delta<int64_t> (hwmodel/intersect_fixed.h, the 64-bit path of a
+// instantiates it with N = its LANES and feeds it a node's children LANES at a time). It computes exactly hw::box_test_delta<int64_t> (hwmodel/datapath/intersect_fixed.h, the 64-bit path of a
 // "narrow" format such as the default one) for every child, with the node decoded as the fixed tracer decodes it
-// (hwmodel/fixed_tracer.cpp, FixedPolicy::expand_impl):
+// (hwmodel/datapath/fixed_tracer.cpp, FixedPolicy::expand_impl):
 //   dl[a] = base[a] + (q[2a][i] << sh[a]),  dh[a] = base[a] + (q[2a+1][i] << sh[a])       (grid.F)
 //   base[a] = (node origin[a] << F) - ray origin[a],  sh[a] = node exp[a] + F
 // then per axis a with d[a] != 0 (dn/df = near/far plane by the direction's sign):

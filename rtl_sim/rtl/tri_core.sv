@@ -1,5 +1,5 @@
 // tri_core: the ray-triangle test unit of the fixed-point device, fully pipelined, one triangle per clock. It
-// computes exactly hw::triangle_test (hwmodel/intersect_fixed.h) on grid vertices v0, v1, v2 and a FixedRay's
+// computes exactly hw::triangle_test (hwmodel/datapath/intersect_fixed.h) on grid vertices v0, v1, v2 and a FixedRay's
 // origin o (grid.F) and direction d (D fraction bits), with t = hw::div_shift(num, den, S, kNearestEven,
 // 2^TB - 1) and hw::in_register, and hands out the three integers the caller needs for u and v:
 //   A_i = (v_i << F) - o                                     (translated vertices, grid.F)

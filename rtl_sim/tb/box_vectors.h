@@ -1,6 +1,6 @@
 // Test vectors for the RTL box unit and the C++ model's answers for them. A vector is one BVH node (origin,
 // scale, child offsets, count) against one fixed-point ray (hw::FixedRay) over an interval [tmin, tlim]: exactly
-// what the fixed tracer hands to its box test (hwmodel/fixed_tracer.cpp, FixedPolicy::expand_impl). Sources:
+// what the fixed tracer hands to its box test (hwmodel/datapath/fixed_tracer.cpp, FixedPolicy::expand_impl). Sources:
 //   directed   corner cases built by hand (signed zero direction components, rays exactly through faces, edges
 //              and corners, flat/point/inverted boxes, tiny direction components (rcp_sh < 0), the largest
 //              magnitudes of every input, empty and reversed intervals, count < N)
@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/intersect_fixed.h"
+#include "hwmodel/datapath/intersect_fixed.h"
 #include "rtl_sim/cosim/box_ports.h"
 
 namespace rtu::rtl {

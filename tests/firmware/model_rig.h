@@ -22,8 +22,8 @@
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/device_kind.h"
 #include "hwmodel/engine.h"
-#include "hwmodel/fixed_tracer.h"
-#include "hwmodel/float_tracer.h"
+#include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/interface/regs.h"
 
 namespace rtu::test {

@@ -36,8 +36,8 @@
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/fixed_tracer.h"
-#include "hwmodel/float_tracer.h"
+#include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/interface/regs.h"
 
 using namespace rtu;

@@ -10,7 +10,7 @@
 
 #include "firmware/raster.h"
 #include "firmware/sampling.h"
-#include "hwmodel/intersect_float.h"
+#include "hwmodel/datapath/intersect_float.h"
 
 using rtu::fw::RasterStats;
 using rtu::fw::RenderJob;

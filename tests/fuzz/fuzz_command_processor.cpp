@@ -10,7 +10,7 @@
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/float_tracer.h"
+#include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/interface/regs.h"
 #include "tests/fuzz/fuzz.h"
 

@@ -12,8 +12,8 @@
 #include "host/limits.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/fixed_tracer.h"
-#include "hwmodel/float_tracer.h"
+#include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/timed_engine.h"
 #include "tests/fuzz/fuzz.h"
 

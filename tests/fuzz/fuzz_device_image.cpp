@@ -7,9 +7,9 @@
 
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/engine.h"
-#include "hwmodel/fixed_tracer.h"
-#include "hwmodel/float_tracer.h"
-#include "hwmodel/instanced_fixed.h"
+#include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/datapath/float_tracer.h"
+#include "hwmodel/datapath/instanced_fixed.h"
 #include "hwmodel/timed_engine.h"
 #include "tests/fuzz/fuzz.h"
 

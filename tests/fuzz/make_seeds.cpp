@@ -10,8 +10,8 @@
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/engine.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/float_tracer.h"
-#include "hwmodel/instanced_fixed.h"
+#include "hwmodel/datapath/float_tracer.h"
+#include "hwmodel/datapath/instanced_fixed.h"
 #include "tests/fuzz/fuzz.h"
 
 #include <stb/stb_image_write.h>

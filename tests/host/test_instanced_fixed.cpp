@@ -1,4 +1,4 @@
-// The fixed device over two levels (hwmodel/instanced_fixed.h): agreement with the two-level float reference,
+// The fixed device over two levels (hwmodel/datapath/instanced_fixed.h): agreement with the two-level float reference,
 // statistics, bytes, the transform's widths, origins moved to a far mesh's bounds, and the images it refuses.
 #include <catch2/catch.hpp>
 
@@ -20,7 +20,7 @@
 #include "host/shading.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/engine.h"
-#include "hwmodel/instanced_fixed.h"
+#include "hwmodel/datapath/instanced_fixed.h"
 #include "hwmodel/numeric/rng.h"
 #include "hwmodel/timed_engine.h"
 #include "hwmodel/timing_config.h"

@@ -16,7 +16,7 @@
 #include "host/shading.h"
 #include "host/suite.h"
 #include "host/suite_scenes.h"
-#include "hwmodel/float_tracer.h"
+#include "hwmodel/datapath/float_tracer.h"
 #include "tests/host/run_process.h"
 
 namespace fs = std::filesystem;

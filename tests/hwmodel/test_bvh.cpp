@@ -4,9 +4,9 @@
 #include <cstring>
 #include <random>
 
-#include "hwmodel/float_tracer.h"
-#include "hwmodel/intersect_float.h"
-#include "hwmodel/traverse.h"
+#include "hwmodel/datapath/float_tracer.h"
+#include "hwmodel/datapath/intersect_float.h"
+#include "hwmodel/datapath/traverse.h"
 
 using namespace rtu::hw;
 

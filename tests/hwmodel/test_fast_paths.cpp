@@ -20,7 +20,7 @@
 
 #include "hwmodel/format/box_node.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/intersect_fixed.h"
+#include "hwmodel/datapath/intersect_fixed.h"
 #include "hwmodel/numeric/quant_frame.h"
 
 using namespace rtu::hw;

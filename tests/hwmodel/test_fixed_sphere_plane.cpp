@@ -13,10 +13,10 @@
 #include "fixed_checks.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/fixed_tracer.h"
-#include "hwmodel/float_tracer.h"
+#include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/scene/geometry.h"
-#include "hwmodel/intersect_fixed.h"
+#include "hwmodel/datapath/intersect_fixed.h"
 #include "hwmodel/numeric/quant_frame.h"
 #include "hwmodel/numeric/rng.h"
 

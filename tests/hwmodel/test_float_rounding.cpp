@@ -8,7 +8,7 @@
 #include <cstring>
 #include <random>
 
-#include "hwmodel/intersect_float.h"
+#include "hwmodel/datapath/intersect_float.h"
 
 using namespace rtu::hw;
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "hwmodel/intersect_float.h"
+#include "hwmodel/datapath/intersect_float.h"
 
 using namespace rtu::hw;
 

@@ -13,7 +13,7 @@
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/fixed_tracer.h"
+#include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/format/hw_format.h"
 #include "hwmodel/format/packed_layout.h"
 #include "hwmodel/numeric/rng.h"

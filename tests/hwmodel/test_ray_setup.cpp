@@ -12,7 +12,7 @@
 #include "fixed_checks.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/scene/geometry.h"
-#include "hwmodel/intersect_fixed.h"
+#include "hwmodel/datapath/intersect_fixed.h"
 #include "hwmodel/numeric/quant_frame.h"
 #include "hwmodel/numeric/rng.h"
 

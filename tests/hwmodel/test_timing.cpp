@@ -7,8 +7,8 @@
 
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/format/device_image.h"
-#include "hwmodel/fixed_tracer.h"
-#include "hwmodel/float_tracer.h"
+#include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/timed_engine.h"
 #include "timing_checks.h"
 

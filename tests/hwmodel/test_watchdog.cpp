@@ -18,11 +18,11 @@
 #include "hwmodel/command_processor.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/engine.h"
-#include "hwmodel/fixed_tracer.h"
-#include "hwmodel/float_tracer.h"
+#include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/timed_engine.h"
 #include "hwmodel/timing_config.h"
-#include "hwmodel/traverse.h"
+#include "hwmodel/datapath/traverse.h"
 
 using namespace rtu;
 using namespace rtu::hw;

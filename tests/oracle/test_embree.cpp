@@ -27,7 +27,7 @@
 #include "host/ray_gen.h"
 #include "host/scene.h"
 #include "host/shading.h"
-#include "hwmodel/float_tracer.h"
+#include "hwmodel/datapath/float_tracer.h"
 
 using namespace rtu;
 

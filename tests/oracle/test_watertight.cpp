@@ -9,8 +9,8 @@
 
 #include "host/scene.h"
 #include "hwmodel/format/device_image.h"
-#include "hwmodel/fixed_tracer.h"
-#include "hwmodel/float_tracer.h"
+#include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/numeric/rng.h"
 
 using namespace rtu;

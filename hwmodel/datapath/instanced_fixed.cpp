@@ -1,4 +1,4 @@
-#include "hwmodel/instanced_fixed.h"
+#include "hwmodel/datapath/instanced_fixed.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "hwmodel/intersect_fixed.h"
+#include "hwmodel/datapath/intersect_fixed.h"
 
 namespace rtu::hw {
 

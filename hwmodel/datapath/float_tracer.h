@@ -13,7 +13,7 @@
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/scene/geometry.h"
 #include "hwmodel/interface/ray.h"
-#include "hwmodel/stats.h"
+#include "hwmodel/datapath/stats.h"
 
 namespace rtu::hw {
 

@@ -31,11 +31,11 @@
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/fixed_tracer.h"
-#include "hwmodel/float_tracer.h"
+#include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/scene/instancing.h"
 #include "hwmodel/interface/ray.h"
-#include "hwmodel/stats.h"
+#include "hwmodel/datapath/stats.h"
 
 namespace rtu::hw {
 

@@ -10,7 +10,7 @@
 #include <thread>
 #include <vector>
 
-#include "hwmodel/stats.h"
+#include "hwmodel/datapath/stats.h"
 
 namespace rtu::hw {
 

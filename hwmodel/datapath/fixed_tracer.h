@@ -8,12 +8,12 @@
 #include <vector>
 
 #include "hwmodel/interface/any_hit.h"
-#include "hwmodel/box_unit.h"
+#include "hwmodel/datapath/box_unit.h"
 #include "hwmodel/format/device_image.h"
-#include "hwmodel/intersect_fixed.h"
+#include "hwmodel/datapath/intersect_fixed.h"
 #include "hwmodel/interface/ray.h"
-#include "hwmodel/stats.h"
-#include "hwmodel/tri_unit.h"
+#include "hwmodel/datapath/stats.h"
+#include "hwmodel/datapath/tri_unit.h"
 
 namespace rtu::hw {
 

@@ -13,7 +13,7 @@
 #include <cstdint>
 
 #include "hwmodel/scene/bvh.h"
-#include "hwmodel/stats.h"
+#include "hwmodel/datapath/stats.h"
 
 namespace rtu::hw {
 

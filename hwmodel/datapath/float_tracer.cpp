@@ -1,8 +1,8 @@
-#include "hwmodel/float_tracer.h"
+#include "hwmodel/datapath/float_tracer.h"
 
-#include "hwmodel/batch.h"
-#include "hwmodel/intersect_float.h"
-#include "hwmodel/traverse.h"
+#include "hwmodel/datapath/batch.h"
+#include "hwmodel/datapath/intersect_float.h"
+#include "hwmodel/datapath/traverse.h"
 
 namespace rtu::hw {
 

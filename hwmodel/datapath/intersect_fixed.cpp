@@ -1,4 +1,4 @@
-#include "hwmodel/intersect_fixed.h"
+#include "hwmodel/datapath/intersect_fixed.h"
 
 #include <algorithm>
 #include <bit>

@@ -1,4 +1,4 @@
-#include "hwmodel/fixed_tracer.h"
+#include "hwmodel/datapath/fixed_tracer.h"
 
 #include <algorithm>
 #include <cinttypes>
@@ -8,10 +8,10 @@
 #include <stdexcept>
 #include <string>
 
-#include "hwmodel/batch.h"
+#include "hwmodel/datapath/batch.h"
 #include "hwmodel/format/box_node.h"
-#include "hwmodel/intersect_float.h"
-#include "hwmodel/traverse.h"
+#include "hwmodel/datapath/intersect_float.h"
+#include "hwmodel/datapath/traverse.h"
 
 namespace rtu::hw {
 

@@ -14,7 +14,7 @@
 #include "host/image_diff.h"
 #include "host/render.h"
 #include "host/stats_json.h"
-#include "hwmodel/device_kind.h"
+#include "hwmodel/device/device_kind.h"
 #include "hwmodel/datapath/stats.h"
 
 namespace rtu::host {

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "host/direct_device.h"
-#include "hwmodel/device_kind.h"
+#include "hwmodel/device/device_kind.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing_config.h"
 

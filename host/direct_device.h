@@ -13,13 +13,13 @@
 
 #include "host/grid_check.h"
 #include "hwmodel/format/device_image.h"
-#include "hwmodel/device_kind.h"
+#include "hwmodel/device/device_kind.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/datapath/instanced_fixed.h"
 #include "hwmodel/scene/instancing.h"
-#include "hwmodel/timed_engine.h"
+#include "hwmodel/device/timed_engine.h"
 #include "hwmodel/timing_config.h"
 
 namespace rtu::host {

@@ -8,12 +8,12 @@
 #include <memory>
 
 #include "firmware/hal.h"
-#include "hwmodel/command_processor.h"
-#include "hwmodel/device_kind.h"
+#include "hwmodel/device/command_processor.h"
+#include "hwmodel/device/device_kind.h"
 #include "hwmodel/interface/device_memory.h"
-#include "hwmodel/engine.h"
+#include "hwmodel/device/engine.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/timed_engine.h"
+#include "hwmodel/device/timed_engine.h"
 
 namespace rtu::host {
 

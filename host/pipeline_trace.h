@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "hwmodel/timed_engine.h"
+#include "hwmodel/device/timed_engine.h"
 
 namespace rtu::host {
 

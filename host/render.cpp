@@ -18,7 +18,7 @@
 #include "host/shading.h"
 #include "host/trace_job.h"
 #include "hwmodel/format/device_image.h"
-#include "hwmodel/engine.h"
+#include "hwmodel/device/engine.h"
 #include "hwmodel/datapath/instanced_fixed.h"
 
 namespace rtu::host {

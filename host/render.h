@@ -14,9 +14,9 @@
 #include "host/direct_device.h"
 #include "host/image.h"
 #include "host/scene.h"
-#include "hwmodel/command_processor.h"
+#include "hwmodel/device/command_processor.h"
 #include "hwmodel/raster_timing.h"
-#include "hwmodel/timed_engine.h"
+#include "hwmodel/device/timed_engine.h"
 
 namespace rtu::host {
 

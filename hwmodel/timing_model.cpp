@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "hwmodel/engine.h"
+#include "hwmodel/device/engine.h"
 
 namespace rtu::hw {
 

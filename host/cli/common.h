@@ -13,7 +13,7 @@
 #include "host/scene.h"
 #include "host/stats_json.h"
 #include "host/stopwatch.h"
-#include "hwmodel/device_kind.h"
+#include "hwmodel/device/device_kind.h"
 #include "hwmodel/timing_config.h"
 
 namespace rtu::host::cli {

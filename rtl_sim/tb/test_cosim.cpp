@@ -17,7 +17,7 @@
 #include "host/ray_gen.h"
 #include "host/render.h"
 #include "host/scene.h"
-#include "hwmodel/timed_engine.h"
+#include "hwmodel/device/timed_engine.h"
 #include "hwmodel/timing_config.h"
 #include "rtl_sim/cosim/rtl_box_unit.h"
 #include "rtl_sim/cosim/rtl_tri_unit.h"

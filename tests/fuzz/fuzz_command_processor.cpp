@@ -1,4 +1,4 @@
-// The command processor (hwmodel/command_processor.cpp) on an in-process unit: the input is a program of register
+// The command processor (hwmodel/device/command_processor.cpp) on an in-process unit: the input is a program of register
 // writes and reads, raw 32-byte packets and well-formed packets rung through the ring, resets and memory pokes.
 // The first byte picks the engine: float, fixed, timed, or timed with a 64-cycle watchdog. Checked after every
 // step: the error code is a defined one and shows in STATUS, an enabled ring's head and tail lie inside it, and
@@ -8,7 +8,7 @@
 #include "host/firmware_device.h"
 #include "hwmodel/interface/commands.h"
 #include "hwmodel/format/device_image.h"
-#include "hwmodel/engine.h"
+#include "hwmodel/device/engine.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/interface/regs.h"

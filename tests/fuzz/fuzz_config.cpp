@@ -14,7 +14,7 @@
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
-#include "hwmodel/timed_engine.h"
+#include "hwmodel/device/timed_engine.h"
 #include "tests/fuzz/fuzz.h"
 
 namespace rtu::fuzz {

@@ -6,11 +6,11 @@
 #include <stdexcept>
 
 #include "hwmodel/format/device_image.h"
-#include "hwmodel/engine.h"
+#include "hwmodel/device/engine.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/datapath/instanced_fixed.h"
-#include "hwmodel/timed_engine.h"
+#include "hwmodel/device/timed_engine.h"
 #include "tests/fuzz/fuzz.h"
 
 namespace rtu::fuzz {

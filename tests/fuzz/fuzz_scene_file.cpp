@@ -12,7 +12,7 @@
 #include "host/ray_gen.h"
 #include "host/render.h"
 #include "host/scene.h"
-#include "hwmodel/engine.h"
+#include "hwmodel/device/engine.h"
 #include "tests/fuzz/fuzz.h"
 
 namespace rtu::fuzz {

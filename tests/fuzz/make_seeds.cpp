@@ -8,7 +8,7 @@
 #include "host/ray_io.h"
 #include "hwmodel/interface/commands.h"
 #include "hwmodel/format/device_image.h"
-#include "hwmodel/engine.h"
+#include "hwmodel/device/engine.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/datapath/instanced_fixed.h"

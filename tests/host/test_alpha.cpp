@@ -16,7 +16,7 @@
 #include "host/render.h"
 #include "host/scene.h"
 #include "host/shading.h"
-#include "hwmodel/timed_engine.h"
+#include "hwmodel/device/timed_engine.h"
 #include "hwmodel/timing_config.h"
 #include "tests/host/run_process.h"
 

@@ -19,10 +19,10 @@
 #include "host/scene.h"
 #include "host/shading.h"
 #include "hwmodel/format/device_image.h"
-#include "hwmodel/engine.h"
+#include "hwmodel/device/engine.h"
 #include "hwmodel/datapath/instanced_fixed.h"
 #include "hwmodel/numeric/rng.h"
-#include "hwmodel/timed_engine.h"
+#include "hwmodel/device/timed_engine.h"
 #include "hwmodel/timing_config.h"
 #include "tests/host/run_process.h"
 

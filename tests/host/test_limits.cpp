@@ -26,7 +26,7 @@
 #include "host/ray_io.h"
 #include "host/scene.h"
 #include "hwmodel/scene/bvh.h"
-#include "hwmodel/timed_engine.h"
+#include "hwmodel/device/timed_engine.h"
 #include "tests/host/run_process.h"
 
 using namespace rtu;

@@ -5,8 +5,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "hwmodel/device_kind.h"
-#include "hwmodel/engine.h"
+#include "hwmodel/device/device_kind.h"
+#include "hwmodel/device/engine.h"
 #include "hwmodel/timing_config.h"
 
 using rtu::hw::DeviceKind;

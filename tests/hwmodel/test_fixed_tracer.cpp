@@ -21,7 +21,7 @@
 #include "hwmodel/scene/geometry.h"
 #include "hwmodel/datapath/intersect_fixed.h"
 #include "hwmodel/numeric/rng.h"
-#include "hwmodel/timed_engine.h"
+#include "hwmodel/device/timed_engine.h"
 #include "timing_checks.h"
 
 using namespace rtu::hw;

@@ -17,7 +17,7 @@
 #include "hwmodel/format/hw_format.h"
 #include "hwmodel/format/packed_layout.h"
 #include "hwmodel/numeric/rng.h"
-#include "hwmodel/timed_engine.h"
+#include "hwmodel/device/timed_engine.h"
 #include "hwmodel/timing_config.h"
 #include "timing_checks.h"
 

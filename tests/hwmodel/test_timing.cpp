@@ -1,4 +1,4 @@
-// The timing model (hwmodel/timed_engine.h): exact cycles of microbenchmarks built from synthetic datapath
+// The timing model (hwmodel/device/timed_engine.h): exact cycles of microbenchmarks built from synthetic datapath
 // events, feeding in chunks changes nothing, and the timed engine's hits are the fixed device's bit for bit.
 #include <algorithm>
 #include <catch2/catch.hpp>
@@ -9,7 +9,7 @@
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
-#include "hwmodel/timed_engine.h"
+#include "hwmodel/device/timed_engine.h"
 #include "timing_checks.h"
 
 using rtu::hw::TimingConfig;

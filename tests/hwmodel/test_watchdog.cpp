@@ -15,12 +15,12 @@
 #include <vector>
 
 #include "hwmodel/scene/bvh.h"
-#include "hwmodel/command_processor.h"
+#include "hwmodel/device/command_processor.h"
 #include "hwmodel/format/device_image.h"
-#include "hwmodel/engine.h"
+#include "hwmodel/device/engine.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
-#include "hwmodel/timed_engine.h"
+#include "hwmodel/device/timed_engine.h"
 #include "hwmodel/timing_config.h"
 #include "hwmodel/datapath/traverse.h"
 

@@ -1,4 +1,4 @@
-#include "hwmodel/device_kind.h"
+#include "hwmodel/device/device_kind.h"
 
 #include <stdexcept>
 #include <utility>

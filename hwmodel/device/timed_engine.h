@@ -18,7 +18,7 @@
 #include "hwmodel/datapath/box_unit.h"
 #include "hwmodel/interface/commands.h"
 #include "hwmodel/format/device_image.h"
-#include "hwmodel/engine.h"
+#include "hwmodel/device/engine.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/instanced_fixed.h"
 #include "hwmodel/sampler.h"

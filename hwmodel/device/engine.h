@@ -19,7 +19,7 @@
 
 #include "hwmodel/interface/any_hit.h"
 #include "hwmodel/datapath/box_unit.h"
-#include "hwmodel/device_kind.h"
+#include "hwmodel/device/device_kind.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/scene/geometry.h"

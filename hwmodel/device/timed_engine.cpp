@@ -1,4 +1,4 @@
-#include "hwmodel/timed_engine.h"
+#include "hwmodel/device/timed_engine.h"
 
 #include <algorithm>
 #include <atomic>

@@ -1,4 +1,4 @@
-#include "hwmodel/command_processor.h"
+#include "hwmodel/device/command_processor.h"
 
 #include <exception>
 #include <vector>

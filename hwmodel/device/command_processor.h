@@ -16,7 +16,7 @@
 
 #include "hwmodel/interface/commands.h"
 #include "hwmodel/interface/device_memory.h"
-#include "hwmodel/engine.h"
+#include "hwmodel/device/engine.h"
 #include "hwmodel/interface/regs.h"
 #include "hwmodel/datapath/stats.h"
 

@@ -1,4 +1,4 @@
-#include "hwmodel/engine.h"
+#include "hwmodel/device/engine.h"
 
 #include <cmath>
 #include <cstring>
@@ -9,7 +9,7 @@
 
 #include "hwmodel/datapath/instanced_fixed.h"
 #include "hwmodel/interface/regs.h"
-#include "hwmodel/timed_engine.h"
+#include "hwmodel/device/timed_engine.h"
 
 namespace rtu::hw {
 

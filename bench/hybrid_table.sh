@@ -9,7 +9,7 @@
 # Each row is one `rtusim render --device timed --config PRESET --mode hybrid --compare-modes`: the scene in
 # both modes on the same unit. Columns: rays traced by each mode (hybrid saves the primary rays), the raytrace
 # frame's cycles (every packet: the device clock), the hybrid frame's raster cycles (the cost model of
-# hwmodel/raster_timing.h, with the stage that limits it) and trace cycles, hybrid's speedup (raytrace cycles /
+# hwmodel/timing/raster_timing.h, with the stage that limits it) and trace cycles, hybrid's speedup (raytrace cycles /
 # hybrid cycles), and the PSNR of the hybrid image against the raytrace image (inf: identical).
 # Needs python3 to read the stats JSON.
 set -euo pipefail

@@ -2,7 +2,7 @@
 # The memory-bound presets beside the presets they take their datapath from: per mesh and ray kind, the cycles,
 # what the lower bound is limited by, DRAM bytes per ray, DRAM utilization and cache hit rate on the timed device.
 # rdna2-mem and intel-mem keep rdna2's and intel's datapath and give the unit one ray-tracing unit's share of a
-# real GPU's memory (hwmodel/timing_config.cpp), so a difference between a pair is the memory's alone.
+# real GPU's memory (hwmodel/timing/timing_config.cpp), so a difference between a pair is the memory's alone.
 #
 #   bench/memory_bound.sh [RTUSIM] [RAYS] [MESH...]
 #     RTUSIM  default build/default/rtusim;  RAYS  rays per kind, default 50000;  MESH  default two

@@ -16,7 +16,7 @@
 # linear growth, and the same log2 fit of the BVH nodes visited per ray, the traversal's work without memory) and OUTDIR/scaling.png (gnuplot, when installed; the script is OUTDIR/scaling.gp).
 # Raster cycles: the same mesh rendered in hybrid mode (`rtusim render --mode hybrid --device timed`, the scene's
 # own camera, which also sees the sphere at the same coverage whatever n; a square image of the same side,
-# 1 spp, direct light only) gives the rasterizer's cycles from its cost model (hwmodel/raster_timing.h) and what
+# 1 spp, direct light only) gives the rasterizer's cycles from its cost model (hwmodel/timing/raster_timing.h) and what
 # limits it; fitted like the ray tracing cycles. Reads the stats JSON with jq, or python3 when jq is missing.
 set -euo pipefail
 rtusim=${1:-build/default/rtusim}

@@ -28,7 +28,7 @@
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 using namespace rtu;
 

@@ -40,7 +40,7 @@ inline constexpr double kGuardPixels = 4096.0;  // guard band around the image (
 // edge coefficients are below 2^28, each product below 2^55 and an edge function (three terms) below 2^57.
 inline constexpr uint32_t kMaxRasterSide = 16384;
 
-// What the rasterizer did, the inputs of its cost model (hwmodel/raster_timing.h).
+// What the rasterizer did, the inputs of its cost model (hwmodel/timing/raster_timing.h).
 struct RasterStats {
   uint64_t passes = 0;                // raster passes (one per batch of samples)
   uint64_t prims_read = 0;            // primitive records read (each primitive once per pass)

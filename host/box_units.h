@@ -7,7 +7,7 @@
 #include <memory>
 
 #include "hwmodel/datapath/box_unit.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 #include "hwmodel/datapath/tri_unit.h"
 
 namespace rtu::host {

@@ -15,8 +15,8 @@
 #include "host/sweep.h"
 #include "hwmodel/energy_model.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/timing_config.h"
-#include "hwmodel/timing_stats.h"
+#include "hwmodel/timing/timing_config.h"
+#include "hwmodel/timing/timing_stats.h"
 
 namespace rtu::host {
 

@@ -12,7 +12,7 @@
 #include "host/stopwatch.h"
 #include "host/trace_job.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host {
 

@@ -11,7 +11,7 @@
 #include "host/direct_device.h"
 #include "hwmodel/device/device_kind.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host {
 

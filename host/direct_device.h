@@ -20,7 +20,7 @@
 #include "hwmodel/datapath/instanced_fixed.h"
 #include "hwmodel/scene/instancing.h"
 #include "hwmodel/device/timed_engine.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host {
 

@@ -10,7 +10,7 @@
 #include "host/cost_model.h"
 #include "host/error.h"
 #include "hwmodel/energy_model.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host {
 

@@ -15,7 +15,7 @@
 #include "host/image.h"
 #include "host/scene.h"
 #include "hwmodel/device/command_processor.h"
-#include "hwmodel/raster_timing.h"
+#include "hwmodel/timing/raster_timing.h"
 #include "hwmodel/device/timed_engine.h"
 
 namespace rtu::host {

@@ -21,7 +21,7 @@
 #include "host/stopwatch.h"
 #include "host/stress.h"
 #include "host/sweep.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host {
 

@@ -11,7 +11,7 @@
 #include "host/render.h"
 #include "host/scene.h"
 #include "hwmodel/numeric/rng.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host {
 

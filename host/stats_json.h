@@ -12,7 +12,7 @@
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/stats.h"
 #include "hwmodel/device/timed_engine.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host {
 

@@ -21,7 +21,7 @@
 #include "host/shading.h"
 #include "host/stats_json.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 #include "rtl_sim/params/rtl_params.h"
 
 namespace rtu::host {

@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "host/scene.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host {
 

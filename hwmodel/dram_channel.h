@@ -10,8 +10,8 @@
 #include <cmath>
 #include <cstdint>
 
-#include "hwmodel/timing_config.h"
-#include "hwmodel/timing_stats.h"
+#include "hwmodel/timing/timing_config.h"
+#include "hwmodel/timing/timing_stats.h"
 
 namespace rtu::hw {
 

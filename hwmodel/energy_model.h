@@ -22,8 +22,8 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/timing_config.h"
-#include "hwmodel/timing_stats.h"
+#include "hwmodel/timing/timing_config.h"
+#include "hwmodel/timing/timing_stats.h"
 
 namespace rtu::hw {
 

@@ -28,8 +28,8 @@
 #include <vector>
 
 #include "hwmodel/dram_channel.h"
-#include "hwmodel/timing_config.h"
-#include "hwmodel/timing_stats.h"
+#include "hwmodel/timing/timing_config.h"
+#include "hwmodel/timing/timing_stats.h"
 
 namespace rtu::hw {
 

@@ -17,8 +17,8 @@
 #include <vector>
 
 #include "hwmodel/memory_system.h"
-#include "hwmodel/timing_config.h"
-#include "hwmodel/timing_stats.h"
+#include "hwmodel/timing/timing_config.h"
+#include "hwmodel/timing/timing_stats.h"
 
 namespace rtu::hw {
 

@@ -37,7 +37,7 @@
 #include "host/trace_job.h"
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace py = pybind11;
 using namespace rtu;

@@ -10,7 +10,7 @@
 #include "host/plan.h"
 #include "hwmodel/energy_model.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host::cli {
 

@@ -15,7 +15,7 @@
 #include "host/suite.h"
 #include "host/sweep.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host::cli {
 

@@ -14,7 +14,7 @@
 #include "host/stats_json.h"
 #include "host/stopwatch.h"
 #include "hwmodel/device/device_kind.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host::cli {
 

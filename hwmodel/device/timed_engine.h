@@ -21,10 +21,10 @@
 #include "hwmodel/device/engine.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/instanced_fixed.h"
-#include "hwmodel/sampler.h"
-#include "hwmodel/timing_config.h"
-#include "hwmodel/timing_model.h"
-#include "hwmodel/timing_stats.h"
+#include "hwmodel/timing/sampler.h"
+#include "hwmodel/timing/timing_config.h"
+#include "hwmodel/timing/timing_model.h"
+#include "hwmodel/timing/timing_stats.h"
 #include "hwmodel/datapath/tri_unit.h"
 
 namespace rtu::hw {

@@ -32,7 +32,7 @@
 #include "Vtri_core_cov_rdna2.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/numeric/rng.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 #include "rtl_cov_models.h"
 #include "rtl_sim/activity/activity.h"
 #include "rtl_sim/cosim/box_ports.h"

@@ -23,7 +23,7 @@
 #include "Vbox_unit_cov_rdna2.h"
 #include "Vtri_core_cov_embedded.h"
 #include "Vtri_core_cov_rdna2.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 #include "rtl_sim/cosim/box_ports.h"
 #include "rtl_sim/cosim/tri_ports.h"
 #include "rtl_sim/params/rtl_params.h"

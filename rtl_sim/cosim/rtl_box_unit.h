@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "hwmodel/datapath/box_unit.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace rtu::rtl {
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 #include "hwmodel/datapath/tri_unit.h"
 
 namespace rtu::rtl {

@@ -49,7 +49,7 @@
 // out_valid rises after edge c + LATENCY - 1). With out_ready high, in_ready stays high: one node (N box tests)
 // per clock, and M back-to-back nodes taken from edge 0 on leave at edges LATENCY .. M - 1 + LATENCY, i.e.
 // M + LATENCY - 1 edges from the first taken to the last leaving. This is the timing model's box unit with
-// box_rate >= N and box_latency = LATENCY (hwmodel/timing_config.h: a node issues in one clock, its result
+// box_rate >= N and box_latency = LATENCY (hwmodel/timing/timing_config.h: a node issues in one clock, its result
 // comes box_latency later).
 module box_core #(
     parameter int N       = 4,   // child boxes per node (BVH width)

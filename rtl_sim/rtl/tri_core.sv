@@ -57,7 +57,7 @@
 //
 // Latency and throughput: a triangle taken at edge c leaves at edge c + LATENCY when out_ready is high; with
 // out_ready high in_ready stays high, one triangle test per clock. This is the timing model's triangle unit
-// with tri_rate = 1 and tri_latency = LATENCY (hwmodel/timing_config.h).
+// with tri_rate = 1 and tri_latency = LATENCY (hwmodel/timing/timing_config.h).
 module tri_core #(
     parameter int B       = 24,  // grid bits of a vertex coordinate (coord_bits)
     parameter int A       = 39,  // translated magnitude bits B+G+F+1 (the origin port is A bits signed)

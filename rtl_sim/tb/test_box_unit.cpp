@@ -17,7 +17,7 @@
 #include "Vbox_unit_rdna2.h"
 #include "Vbox_unit_wide8_lanes3.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 #include "rtl_models.h"
 #include "rtl_sim/cosim/rtl_box_unit.h"
 #include "rtl_sim/tb/box_bench.h"

@@ -18,7 +18,7 @@
 #include "host/render.h"
 #include "host/scene.h"
 #include "hwmodel/device/timed_engine.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 #include "rtl_sim/cosim/rtl_box_unit.h"
 #include "rtl_sim/cosim/rtl_tri_unit.h"
 #include "rtl_sim/params/rtl_params.h"

@@ -16,7 +16,7 @@
 #include "Vtri_core_embedded.h"
 #include "Vtri_core_rdna2.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 #include "rtl_sim/tb/tri_bench.h"
 #include "rtl_tri_models.h"
 

@@ -17,7 +17,7 @@
 #include "host/scene.h"
 #include "host/shading.h"
 #include "hwmodel/device/timed_engine.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 #include "tests/host/run_process.h"
 
 #include <stb/stb_image_write.h>

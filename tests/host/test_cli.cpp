@@ -18,7 +18,7 @@
 #include "host/json_io.h"
 #include "host/ray_io.h"
 #include "host/sweep.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 #include "tests/host/run_process.h"
 
 namespace fs = std::filesystem;

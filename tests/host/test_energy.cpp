@@ -14,7 +14,7 @@
 #include "host/scene.h"
 #include "host/stats_json.h"
 #include "hwmodel/energy_model.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace {
 

@@ -12,7 +12,7 @@
 #include "host/image_diff.h"
 #include "host/render.h"
 #include "host/scene.h"
-#include "hwmodel/raster_timing.h"
+#include "hwmodel/timing/raster_timing.h"
 
 using rtu::host::RenderOptions;
 using rtu::host::RenderResult;

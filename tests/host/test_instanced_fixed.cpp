@@ -23,7 +23,7 @@
 #include "hwmodel/datapath/instanced_fixed.h"
 #include "hwmodel/numeric/rng.h"
 #include "hwmodel/device/timed_engine.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 #include "tests/host/run_process.h"
 
 using namespace rtu;

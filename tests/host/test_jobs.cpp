@@ -28,7 +28,7 @@
 #include "host/report.h"
 #include "host/scene.h"
 #include "host/sweep.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace fs = std::filesystem;
 using rtu::host::Json;

@@ -17,7 +17,7 @@
 #include "host/plan.h"
 #include "host/scene.h"
 #include "host/sweep.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 #include "tests/host/run_process.h"
 
 namespace fs = std::filesystem;

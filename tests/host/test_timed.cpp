@@ -12,8 +12,8 @@
 #include "host/ray_gen.h"
 #include "host/render.h"
 #include "host/scene.h"
-#include "hwmodel/timing_config.h"
-#include "hwmodel/timing_stats.h"
+#include "hwmodel/timing/timing_config.h"
+#include "hwmodel/timing/timing_stats.h"
 #include "tests/hwmodel/timing_checks.h"
 
 using rtu::host::DeviceOptions;

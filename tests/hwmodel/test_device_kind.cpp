@@ -7,7 +7,7 @@
 
 #include "hwmodel/device/device_kind.h"
 #include "hwmodel/device/engine.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 using rtu::hw::DeviceKind;
 

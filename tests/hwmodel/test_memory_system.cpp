@@ -7,9 +7,9 @@
 
 #include "hwmodel/dram_channel.h"
 #include "hwmodel/memory_system.h"
-#include "hwmodel/timing_config.h"
-#include "hwmodel/timing_model.h"
-#include "hwmodel/timing_stats.h"
+#include "hwmodel/timing/timing_config.h"
+#include "hwmodel/timing/timing_model.h"
+#include "hwmodel/timing/timing_stats.h"
 
 using rtu::hw::BankedDram;
 using rtu::hw::DramChannel;

@@ -18,7 +18,7 @@
 #include "hwmodel/format/packed_layout.h"
 #include "hwmodel/numeric/rng.h"
 #include "hwmodel/device/timed_engine.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 #include "timing_checks.h"
 
 using namespace rtu::hw;

@@ -1,5 +1,5 @@
-// Sampled timing's estimator (hwmodel/sampler.h) as pure functions: steps, probes, strata, the ratio estimate and
-// its jackknife variance, the detailed warm-up's length; and the statistics table (hwmodel/timing_stats.h).
+// Sampled timing's estimator (hwmodel/timing/sampler.h) as pure functions: steps, probes, strata, the ratio estimate and
+// its jackknife variance, the detailed warm-up's length; and the statistics table (hwmodel/timing/timing_stats.h).
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/sampler.h"
-#include "hwmodel/timing_stats.h"
+#include "hwmodel/timing/sampler.h"
+#include "hwmodel/timing/timing_stats.h"
 
 using namespace rtu::hw;
 

@@ -1,4 +1,4 @@
-// The timing model's event queue (hwmodel/slot_queue.h) against the order it must serve: a std::set of
+// The timing model's event queue (hwmodel/timing/slot_queue.h) against the order it must serve: a std::set of
 // (cycle, slot) pairs. Random schedules that mix waits of a few cycles with long ones, ties between slots, slots
 // that leave and come back, the served slot re-queued by replace_top or by pop and push, slot counts from 1 to
 // 4,096 (powers of two and between), and the contract's errors.
@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "hwmodel/numeric/rng.h"
-#include "hwmodel/slot_queue.h"
+#include "hwmodel/timing/slot_queue.h"
 
 using rtu::hw::SlotQueue;
 

@@ -8,7 +8,7 @@
 #include <utility>
 
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 using namespace rtu::hw;
 

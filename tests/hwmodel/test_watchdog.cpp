@@ -21,7 +21,7 @@
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/device/timed_engine.h"
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 #include "hwmodel/datapath/traverse.h"
 
 using namespace rtu;

@@ -4,7 +4,7 @@
 
 #include <catch2/catch.hpp>
 
-#include "hwmodel/timing_stats.h"
+#include "hwmodel/timing/timing_stats.h"
 
 inline void check_same_timing(const rtu::hw::TimingStats& a, const rtu::hw::TimingStats& b) {
   for (const rtu::hw::TimingCounter& c : rtu::hw::timing_counters()) {

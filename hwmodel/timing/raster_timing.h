@@ -20,7 +20,7 @@
 
 #include <cstdint>
 
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace rtu::hw {
 

@@ -1,4 +1,4 @@
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 #include <charconv>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "hwmodel/timing_model.h"
+#include "hwmodel/timing/timing_model.h"
 
 #include <algorithm>
 #include <functional>

@@ -1,4 +1,4 @@
-#include "hwmodel/raster_timing.h"
+#include "hwmodel/timing/raster_timing.h"
 
 #include <cmath>
 

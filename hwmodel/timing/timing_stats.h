@@ -14,7 +14,7 @@
 #include <variant>
 #include <vector>
 
-#include "hwmodel/timing_config.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace rtu::hw {
 

@@ -1,4 +1,4 @@
-#include "hwmodel/sampler.h"
+#include "hwmodel/timing/sampler.h"
 
 #include <algorithm>
 #include <cmath>

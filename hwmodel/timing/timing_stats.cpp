@@ -1,4 +1,4 @@
-#include "hwmodel/timing_stats.h"
+#include "hwmodel/timing/timing_stats.h"
 
 #include <algorithm>
 #include <array>

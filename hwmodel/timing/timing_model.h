@@ -45,9 +45,9 @@
 #include "hwmodel/datapath/instanced_fixed.h"
 #include "hwmodel/memory_system.h"
 #include "hwmodel/node_cache.h"
-#include "hwmodel/slot_queue.h"
-#include "hwmodel/timing_config.h"
-#include "hwmodel/timing_stats.h"
+#include "hwmodel/timing/slot_queue.h"
+#include "hwmodel/timing/timing_config.h"
+#include "hwmodel/timing/timing_stats.h"
 
 namespace rtu::hw {
 

@@ -5,8 +5,8 @@
 #include <stdexcept>
 #include <vector>
 
-#include "hwmodel/dram_channel.h"
-#include "hwmodel/memory_system.h"
+#include "hwmodel/timing/memory/dram_channel.h"
+#include "hwmodel/timing/memory/memory_system.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_model.h"
 #include "hwmodel/timing/timing_stats.h"

@@ -16,7 +16,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "hwmodel/memory_system.h"
+#include "hwmodel/timing/memory/memory_system.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_stats.h"
 

@@ -1,4 +1,4 @@
-#include "hwmodel/node_cache.h"
+#include "hwmodel/timing/memory/node_cache.h"
 
 #include <algorithm>
 

@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/dram_channel.h"
+#include "hwmodel/timing/memory/dram_channel.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_stats.h"
 

@@ -1,4 +1,4 @@
-#include "hwmodel/memory_system.h"
+#include "hwmodel/timing/memory/memory_system.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-// The inputs of the area and energy estimate (hwmodel/energy_model.h) for a format and a timing configuration: the
+// The inputs of the area and energy estimate (hwmodel/cost/energy_model.h) for a format and a timing configuration: the
 // box and triangle units' size from the RTL synthesis table (AreaTable) and their switching activity from the
 // Verilator activity table (ActivityTable), looked up by the units' Verilator parameters.
 //
@@ -13,7 +13,7 @@
 
 #include "host/stats_json.h"
 #include "host/sweep.h"
-#include "hwmodel/energy_model.h"
+#include "hwmodel/cost/energy_model.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_stats.h"

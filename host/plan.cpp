@@ -9,7 +9,7 @@
 
 #include "host/cost_model.h"
 #include "host/error.h"
-#include "hwmodel/energy_model.h"
+#include "hwmodel/cost/energy_model.h"
 #include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host {

@@ -34,7 +34,7 @@ struct PlanOptions {
   std::string config = "rdna2";  // timing preset whose cycles are the cost
   std::string format;            // base format spec (hw::format_from_spec); empty: the config's `format` key
   // cycles: fewest cycles, then bytes; bytes: fewest image bytes, then cycles; energy: fewest pJ per ray (the
-  // estimate of hwmodel/energy_model.h), then cycles
+  // estimate of hwmodel/cost/energy_model.h), then cycles
   std::string minimise = "cycles";
   std::string area;  // RTL area table for the rtl_cells and area figures (empty: the shipped one)
   // Iso-area design: the unit's area budget in mm^2 (0: none). Each candidate format then gets the box and

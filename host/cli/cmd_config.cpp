@@ -8,7 +8,7 @@
 #include "host/cli/common.h"
 #include "host/cost_model.h"
 #include "host/error.h"
-#include "hwmodel/energy_model.h"
+#include "hwmodel/cost/energy_model.h"
 
 namespace rtu::host::cli {
 

@@ -8,7 +8,7 @@
 #include "host/cli/common.h"
 #include "host/error.h"
 #include "host/plan.h"
-#include "hwmodel/energy_model.h"
+#include "hwmodel/cost/energy_model.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/timing_config.h"
 

@@ -1,4 +1,4 @@
-// Area and energy (hwmodel/energy_model.h, host/cost_model.h): the accounting adds up on real timed runs, each
+// Area and energy (hwmodel/cost/energy_model.h, host/cost_model.h): the accounting adds up on real timed runs, each
 // event counts what the timing model counted, the tables' sources are where the code says they are, and the
 // estimates respond to the keys that should move them and to nothing else.
 #include <catch2/catch.hpp>
@@ -13,7 +13,7 @@
 #include "host/ray_gen.h"
 #include "host/scene.h"
 #include "host/stats_json.h"
-#include "hwmodel/energy_model.h"
+#include "hwmodel/cost/energy_model.h"
 #include "hwmodel/timing/timing_config.h"
 
 namespace {

@@ -1,4 +1,4 @@
-#include "hwmodel/energy_model.h"
+#include "hwmodel/cost/energy_model.h"
 
 #include <array>
 #include <cmath>

@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "host/ray_gen.h"
-#include "host/scene.h"
+#include "host/scene/ray_gen.h"
+#include "host/scene/scene.h"
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/datapath/fixed_tracer.h"

@@ -19,8 +19,8 @@
 
 #include "host/embree_oracle.h"
 #include "host/ray_io.h"
-#include "host/scene.h"
-#include "host/shading.h"
+#include "host/scene/scene.h"
+#include "host/scene/shading.h"
 #include "host/trace_job.h"
 
 using namespace rtu;

@@ -23,8 +23,8 @@
 
 #include "host/direct_device.h"
 #include "host/embree_oracle.h"
-#include "host/ray_gen.h"
-#include "host/scene.h"
+#include "host/scene/ray_gen.h"
+#include "host/scene/scene.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"

@@ -7,7 +7,7 @@
 #include "host/direct_device.h"
 #include "host/error.h"
 #include "host/image.h"
-#include "host/ray_gen.h"
+#include "host/scene/ray_gen.h"
 #include "host/ray_io.h"
 #include "host/stopwatch.h"
 #include "host/trace_job.h"

@@ -37,7 +37,7 @@ struct DeviceOptions {
   // traces the flattened geometry.
   const hw::InstanceSet* instances = nullptr;
   bool flatten = false;  // fixed, timed: ignore `instances` (trace the flattened geometry in one image)
-  // The any-hit stage for the geometry's non-opaque triangles (alpha-tested materials: host/shading.h), or null:
+  // The any-hit stage for the geometry's non-opaque triangles (alpha-tested materials: host/scene/shading.h), or null:
   // they are then opaque. Not owned: must outlive the device.
   const hw::AnyHitStage* any_hit = nullptr;
 };

@@ -15,7 +15,7 @@
 #include "host/firmware_device.h"
 #include "host/grid_check.h"
 #include "host/limits.h"
-#include "host/shading.h"
+#include "host/scene/shading.h"
 #include "host/trace_job.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/device/engine.h"

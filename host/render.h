@@ -13,7 +13,7 @@
 #include "firmware/ring.h"
 #include "host/direct_device.h"
 #include "host/image.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "hwmodel/device/command_processor.h"
 #include "hwmodel/timing/raster_timing.h"
 #include "hwmodel/device/timed_engine.h"

@@ -7,9 +7,9 @@
 
 #include "host/direct_device.h"
 #include "host/error.h"
-#include "host/ray_gen.h"
+#include "host/scene/ray_gen.h"
 #include "host/render.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "hwmodel/numeric/rng.h"
 #include "hwmodel/timing/timing_config.h"
 

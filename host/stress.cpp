@@ -9,7 +9,7 @@
 #include <limits>
 
 #include "host/error.h"
-#include "host/generators.h"
+#include "host/scene/generators.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"

@@ -9,7 +9,7 @@
 
 #include "host/error.h"
 #include "host/json_io.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 
 namespace rtu::host {
 

@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host {

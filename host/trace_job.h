@@ -11,8 +11,8 @@
 
 #include "host/device_settings.h"
 #include "host/direct_device.h"
-#include "host/scene.h"
-#include "host/shading.h"
+#include "host/scene/scene.h"
+#include "host/scene/shading.h"
 #include "host/stats_json.h"
 
 namespace rtu::host {

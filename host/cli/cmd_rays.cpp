@@ -4,7 +4,7 @@
 
 #include "host/cli/common.h"
 #include "host/error.h"
-#include "host/ray_gen.h"
+#include "host/scene/ray_gen.h"
 #include "host/ray_io.h"
 
 namespace rtu::host::cli {

@@ -6,7 +6,7 @@
 #include "host/cli/common.h"
 #include "host/error.h"
 #include "host/ray_io.h"
-#include "host/ray_spec.h"
+#include "host/scene/ray_spec.h"
 #include "host/trace_job.h"
 
 namespace rtu::host::cli {

@@ -10,8 +10,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "host/ray_gen.h"
-#include "host/scene.h"
+#include "host/scene/ray_gen.h"
+#include "host/scene/scene.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"

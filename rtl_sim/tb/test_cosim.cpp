@@ -14,9 +14,9 @@
 
 #include "host/direct_device.h"
 #include "host/error.h"
-#include "host/ray_gen.h"
+#include "host/scene/ray_gen.h"
 #include "host/render.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "hwmodel/device/timed_engine.h"
 #include "hwmodel/timing/timing_config.h"
 #include "rtl_sim/cosim/rtl_box_unit.h"

@@ -3,7 +3,7 @@
 
 #include <limits>
 
-#include "host/ray_gen.h"
+#include "host/scene/ray_gen.h"
 #include "hwmodel/numeric/fixed_format.h"
 
 namespace rtu::test {

@@ -16,7 +16,7 @@
 #include "firmware/hal.h"
 #include "firmware/ring.h"
 #include "host/firmware_device.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/interface/commands.h"
 #include "hwmodel/format/device_image.h"

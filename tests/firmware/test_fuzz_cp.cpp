@@ -28,8 +28,8 @@
 #include <vector>
 
 #include "host/firmware_device.h"
-#include "host/ray_gen.h"
-#include "host/scene.h"
+#include "host/scene/ray_gen.h"
+#include "host/scene/scene.h"
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/device/command_processor.h"
 #include "hwmodel/interface/commands.h"

@@ -5,7 +5,7 @@
 #include <fstream>
 
 #include "host/error.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "tests/fuzz/fuzz.h"
 
 namespace rtu::fuzz {

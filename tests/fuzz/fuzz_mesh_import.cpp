@@ -1,4 +1,4 @@
-// Mesh files through the importer rtu owns (host/mesh_import.cpp over Assimp): the first byte picks the format
+// Mesh files through the importer rtu owns (host/scene/mesh_import.cpp over Assimp): the first byte picks the format
 // (byte % 8: OBJ, PLY, OFF, STL, glTF, Collada, DirectX .x, AC3D), the rest is the file. The flat formats first;
 // the last four nest (JSON arrays and node trees, XML elements, frames, kids) and reach Assimp's recursive
 // parsers, whose stack overflow on deep input mesh_import.cpp must report as an Error. Accepted meshes give finite
@@ -6,7 +6,7 @@
 #include <cmath>
 
 #include "host/error.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "tests/fuzz/fuzz.h"
 
 namespace rtu::fuzz {

@@ -1,4 +1,4 @@
-// Scene description files (host/scene_file.cpp) and builtin:NAME?params specs, then what a job does with an
+// Scene description files (host/scene/scene_file.cpp) and builtin:NAME?params specs, then what a job does with an
 // accepted scene: BVH build and the fixed device's image (which DeviceImage::from_bytes must accept: the encoder's
 // output is valid by construction), the float scene image round trip, a few rays on the float and fixed devices
 // (every hit names a primitive of the scene), and a tiny firmware render. Mesh files ("file" entries) are left to
@@ -9,9 +9,9 @@
 
 #include "host/direct_device.h"
 #include "host/error.h"
-#include "host/ray_gen.h"
+#include "host/scene/ray_gen.h"
 #include "host/render.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "hwmodel/device/engine.h"
 #include "tests/fuzz/fuzz.h"
 

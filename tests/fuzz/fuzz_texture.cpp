@@ -8,10 +8,10 @@
 
 #include "host/direct_device.h"
 #include "host/error.h"
-#include "host/generators.h"
+#include "host/scene/generators.h"
 #include "host/image.h"
-#include "host/scene.h"
-#include "host/shading.h"
+#include "host/scene/scene.h"
+#include "host/scene/shading.h"
 #include "tests/fuzz/fuzz.h"
 
 namespace rtu::fuzz {

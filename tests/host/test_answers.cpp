@@ -13,7 +13,7 @@
 #include "host/error.h"
 #include "host/grid_check.h"
 #include "host/image.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "tests/host/run_process.h"
 
 namespace fs = std::filesystem;

@@ -11,7 +11,7 @@
 #include "host/image.h"
 #include "host/image_diff.h"
 #include "host/render.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "hwmodel/timing/raster_timing.h"
 
 using rtu::host::RenderOptions;

@@ -14,10 +14,10 @@
 
 #include "host/direct_device.h"
 #include "host/json_io.h"
-#include "host/ray_gen.h"
+#include "host/scene/ray_gen.h"
 #include "host/render.h"
-#include "host/scene.h"
-#include "host/shading.h"
+#include "host/scene/scene.h"
+#include "host/scene/shading.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/device/engine.h"
 #include "hwmodel/datapath/instanced_fixed.h"

@@ -9,8 +9,8 @@
 #include "host/device_settings.h"
 #include "host/direct_device.h"
 #include "host/error.h"
-#include "host/ray_gen.h"
-#include "host/scene.h"
+#include "host/scene/ray_gen.h"
+#include "host/scene/scene.h"
 #include "hwmodel/scene/instancing.h"
 #include "hwmodel/numeric/rng.h"
 

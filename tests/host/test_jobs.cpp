@@ -24,9 +24,9 @@
 #include "host/pareto.h"
 #include "host/pipeline_trace.h"
 #include "host/plan.h"
-#include "host/ray_spec.h"
+#include "host/scene/ray_spec.h"
 #include "host/report.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "host/sweep.h"
 #include "hwmodel/timing/timing_config.h"
 

@@ -22,9 +22,9 @@
 #include "host/error.h"
 #include "host/image.h"
 #include "host/limits.h"
-#include "host/ray_gen.h"
+#include "host/scene/ray_gen.h"
 #include "host/ray_io.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/device/timed_engine.h"
 #include "tests/host/run_process.h"
@@ -193,7 +193,7 @@ TEST_CASE("a PLY header Assimp would loop on is refused first", "[limits]") {
 TEST_CASE("a mesh file that crashes Assimp is an error, not a crash of rtu", "[limits]") {
   // Found by fuzz_mesh_import (regressions/mesh_import/assimp_ply_triangulate_assert_abort): a PLY body that
   // contradicts its header trips an assertion in Assimp's triangulation, which aborts. Assimp runs in a child
-  // process (host/mesh_import.cpp), so the abort becomes an Error naming the file.
+  // process (host/scene/mesh_import.cpp), so the abort becomes an Error naming the file.
   const fs::path dir = temp_dir();
   std::ifstream in(
       fs::path(RTU_SOURCE_DIR) / "tests/fuzz/regressions/mesh_import/assimp_ply_triangulate_assert_abort",

@@ -1,7 +1,7 @@
 // Deeply nested input (issue 25): every parser of rtu refuses a file nested level upon level with a message and
 // exit status 2, never a crash by stack overflow. JSON goes through host/json_io.h (a depth limit while parsing);
 // mesh files through Assimp, whose parsers recurse, in a child process on a stack of known size
-// (host/mesh_import.cpp). The files are generated here (megabytes, not committed); each case runs in well under a
+// (host/scene/mesh_import.cpp). The files are generated here (megabytes, not committed); each case runs in well under a
 // second in the default build.
 #include <catch2/catch.hpp>
 
@@ -14,7 +14,7 @@
 
 #include "host/error.h"
 #include "host/json_io.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "tests/host/run_process.h"
 
 using namespace rtu;
@@ -142,7 +142,7 @@ TEST_CASE("rtusim info on scene files of 10^6 nested arrays: a clear error, exit
   fs::remove_all(d);
 }
 
-// Assimp's parsers recurse per level (host/mesh_import.cpp has the figures). Before the import ran on its own
+// Assimp's parsers recurse per level (host/scene/mesh_import.cpp has the figures). Before the import ran on its own
 // stack, each of these was reported as "the mesh importer (Assimp) crashed (signal 11)": safe, but the message
 // did not say why. Now the overflow is recognized and named.
 TEST_CASE("mesh files nested too deeply for Assimp: a clear error, exit status 2", "[limits][scene]") {

@@ -9,7 +9,7 @@
 #include <limits>
 
 #include "host/error.h"
-#include "host/ray_gen.h"
+#include "host/scene/ray_gen.h"
 #include "host/ray_io.h"
 
 using namespace rtu;

@@ -6,11 +6,11 @@
 #include <string>
 #include <vector>
 
-#include "host/generators.h"
+#include "host/scene/generators.h"
 #include "host/image.h"
 #include "host/image_diff.h"
 #include "host/render.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 
 using rtu::host::Light;
 using rtu::host::LightType;

@@ -16,8 +16,8 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "host/error.h"
-#include "host/generators.h"
-#include "host/scene.h"
+#include "host/scene/generators.h"
+#include "host/scene/scene.h"
 
 namespace fs = std::filesystem;
 using Catch::Matchers::Contains;

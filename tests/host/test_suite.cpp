@@ -12,10 +12,10 @@
 #include <vector>
 
 #include "host/error.h"
-#include "host/scene.h"
-#include "host/shading.h"
+#include "host/scene/scene.h"
+#include "host/scene/shading.h"
 #include "host/suite.h"
-#include "host/suite_scenes.h"
+#include "host/scene/suite_scenes.h"
 #include "hwmodel/datapath/float_tracer.h"
 #include "tests/host/run_process.h"
 

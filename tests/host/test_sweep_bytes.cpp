@@ -15,7 +15,7 @@
 #include "host/json_io.h"
 #include "host/pareto.h"
 #include "host/plan.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "host/sweep.h"
 #include "hwmodel/timing/timing_config.h"
 #include "tests/host/run_process.h"

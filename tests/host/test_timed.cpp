@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "host/direct_device.h"
-#include "host/ray_gen.h"
+#include "host/scene/ray_gen.h"
 #include "host/render.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_stats.h"
 #include "tests/hwmodel/timing_checks.h"

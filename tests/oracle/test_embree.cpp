@@ -24,9 +24,9 @@
 
 #include "host/embree_oracle.h"
 #include "host/image.h"
-#include "host/ray_gen.h"
-#include "host/scene.h"
-#include "host/shading.h"
+#include "host/scene/ray_gen.h"
+#include "host/scene/scene.h"
+#include "host/scene/shading.h"
 #include "hwmodel/datapath/float_tracer.h"
 
 using namespace rtu;

@@ -7,7 +7,7 @@
 
 #include <cstring>
 
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"

@@ -10,7 +10,7 @@
 
 #include "firmware/render_scene.h"
 #include "firmware/surface.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 
 namespace rtu::host {
 

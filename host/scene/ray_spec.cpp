@@ -1,4 +1,4 @@
-#include "host/ray_spec.h"
+#include "host/scene/ray_spec.h"
 
 #include <exception>
 #include <filesystem>
@@ -7,7 +7,7 @@
 
 #include "host/error.h"
 #include "host/limits.h"
-#include "host/ray_gen.h"
+#include "host/scene/ray_gen.h"
 #include "host/ray_io.h"
 
 namespace rtu::host {

@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "host/error.h"
-#include "host/generators.h"
-#include "host/scene.h"
-#include "host/suite_scenes.h"
+#include "host/scene/generators.h"
+#include "host/scene/scene.h"
+#include "host/scene/suite_scenes.h"
 
 namespace rtu::host {
 

@@ -1,4 +1,4 @@
-#include "host/ray_gen.h"
+#include "host/scene/ray_gen.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "host/shading.h"
+#include "host/scene/shading.h"
 
 namespace rtu::host {
 

@@ -1,5 +1,5 @@
 // load_scene: dispatch on the spec, then one validation for every kind of input. Also the automatic camera.
-#include "host/scene.h"
+#include "host/scene/scene.h"
 
 #include <algorithm>
 #include <cctype>

@@ -1,7 +1,7 @@
 // The procedural scenes of the benchmark suite (suite_scenes.h). Each vertex is computed in double and rounded to
 // float once; random numbers come from SplitMix64 with a constant seed per scene, never from the standard
 // library's distributions (whose sequences differ between implementations), so every load gives the same bits.
-#include "host/suite_scenes.h"
+#include "host/scene/suite_scenes.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +10,7 @@
 #include <utility>
 #include <vector>
 
-#include "host/generators.h"
+#include "host/scene/generators.h"
 
 namespace rtu::host {
 

@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "hwmodel/interface/ray.h"
 
 namespace rtu::host {

@@ -14,11 +14,11 @@
 #include <nlohmann/json.hpp>
 
 #include "host/error.h"
-#include "host/generators.h"
+#include "host/scene/generators.h"
 #include "host/image.h"
 #include "host/json_io.h"
 #include "host/limits.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 
 namespace rtu::host {
 namespace {

@@ -3,7 +3,7 @@
 // returns a scene that load_scene validates and marks (mark_non_opaque). Used by builtin_scenes.cpp only.
 #pragma once
 
-#include "host/scene.h"
+#include "host/scene/scene.h"
 
 namespace rtu::host {
 

@@ -42,7 +42,7 @@
 #include "host/error.h"
 #include "host/image.h"
 #include "host/limits.h"
-#include "host/scene.h"
+#include "host/scene/scene.h"
 #include "hwmodel/scene/instancing.h"
 
 namespace rtu::host {

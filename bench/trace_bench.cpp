@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "host/direct_device.h"
+#include "host/devices/direct_device.h"
 #include "host/embree_oracle.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"

@@ -1,5 +1,5 @@
 // The firmware's only door to the unit: MMIO registers, a write barrier and device memory. Backends: the
-// in-process device (host::FirmwareDevice, host/firmware_device.h) and a recording mock for unit tests
+// in-process device (host::FirmwareDevice, host/devices/firmware_device.h) and a recording mock for unit tests
 // (tests/firmware/). Freestanding: no heap, no exceptions, no RTTI, no I/O.
 #pragma once
 

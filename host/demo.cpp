@@ -4,7 +4,7 @@
 #include <memory>
 #include <utility>
 
-#include "host/direct_device.h"
+#include "host/devices/direct_device.h"
 #include "host/error.h"
 #include "host/image.h"
 #include "host/scene/ray_gen.h"

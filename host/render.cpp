@@ -12,8 +12,8 @@
 
 #include "firmware/render_scene.h"
 #include "host/error.h"
-#include "host/firmware_device.h"
-#include "host/grid_check.h"
+#include "host/devices/firmware_device.h"
+#include "host/devices/grid_check.h"
 #include "host/limits.h"
 #include "host/scene/shading.h"
 #include "host/trace_job.h"

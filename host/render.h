@@ -11,7 +11,7 @@
 
 #include "firmware/renderer.h"
 #include "firmware/ring.h"
-#include "host/direct_device.h"
+#include "host/devices/direct_device.h"
 #include "host/image.h"
 #include "host/scene/scene.h"
 #include "hwmodel/device/command_processor.h"

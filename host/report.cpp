@@ -10,7 +10,7 @@
 #include <sstream>
 #include <utility>
 
-#include "host/device_settings.h"
+#include "host/devices/device_settings.h"
 #include "host/error.h"
 #include "host/image.h"
 #include "host/image_diff.h"

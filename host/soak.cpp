@@ -5,7 +5,7 @@
 #include <cstring>
 #include <memory>
 
-#include "host/direct_device.h"
+#include "host/devices/direct_device.h"
 #include "host/error.h"
 #include "host/scene/ray_gen.h"
 #include "host/render.h"

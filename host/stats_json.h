@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "host/direct_device.h"
+#include "host/devices/direct_device.h"
 #include "host/render.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/numeric/fixed_format.h"

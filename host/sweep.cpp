@@ -12,7 +12,7 @@
 
 #include "host/compare.h"
 #include "host/cost_model.h"
-#include "host/direct_device.h"
+#include "host/devices/direct_device.h"
 #include "host/error.h"
 #include "host/image_diff.h"
 #include "host/limits.h"

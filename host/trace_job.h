@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "host/device_settings.h"
-#include "host/direct_device.h"
+#include "host/devices/device_settings.h"
+#include "host/devices/direct_device.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"
 #include "host/stats_json.h"

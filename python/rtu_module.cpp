@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "host/compare_job.h"
-#include "host/device_settings.h"
+#include "host/devices/device_settings.h"
 #include "host/error.h"
 #include "host/image.h"
 #include "host/image_diff.h"

@@ -5,8 +5,8 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
-#include "host/device_settings.h"
-#include "host/direct_device.h"
+#include "host/devices/device_settings.h"
+#include "host/devices/direct_device.h"
 #include "host/pipeline_trace.h"
 #include "host/scene/ray_spec.h"
 #include "host/render.h"

@@ -15,7 +15,7 @@
 
 #include "firmware/hal.h"
 #include "firmware/ring.h"
-#include "host/firmware_device.h"
+#include "host/devices/firmware_device.h"
 #include "host/scene/scene.h"
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/interface/commands.h"
@@ -40,7 +40,7 @@ inline const char* const kEngines[] = {"float", "fixed"};
 
 // The seed scene and its images for both engines, built once. The float engine builds its BVH from the float
 // image with default options; the fixed image is encoded over the BVH the host would choose
-// (host/direct_device.cpp).
+// (host/devices/direct_device.cpp).
 struct SceneData {
   host::Scene scene;
   hw::TracerOptions tracer;

@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "host/firmware_device.h"
+#include "host/devices/firmware_device.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
 #include "hwmodel/scene/bvh.h"

@@ -5,7 +5,7 @@
 // the watchdog fires only on the engine configured to (a valid image never reaches the automatic step bound).
 #include <memory>
 
-#include "host/firmware_device.h"
+#include "host/devices/firmware_device.h"
 #include "hwmodel/interface/commands.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/device/engine.h"

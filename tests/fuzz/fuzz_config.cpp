@@ -7,7 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "host/device_settings.h"
+#include "host/devices/device_settings.h"
 #include "host/error.h"
 #include "host/limits.h"
 #include "hwmodel/format/device_image.h"

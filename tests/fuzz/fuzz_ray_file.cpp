@@ -5,7 +5,7 @@
 #include <cmath>
 #include <memory>
 
-#include "host/direct_device.h"
+#include "host/devices/direct_device.h"
 #include "host/error.h"
 #include "host/ray_io.h"
 #include "tests/fuzz/fuzz.h"

@@ -7,7 +7,7 @@
 #include <memory>
 #include <stdexcept>
 
-#include "host/direct_device.h"
+#include "host/devices/direct_device.h"
 #include "host/error.h"
 #include "host/scene/ray_gen.h"
 #include "host/render.h"

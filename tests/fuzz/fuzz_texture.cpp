@@ -6,7 +6,7 @@
 #include <cstring>
 #include <memory>
 
-#include "host/direct_device.h"
+#include "host/devices/direct_device.h"
 #include "host/error.h"
 #include "host/scene/generators.h"
 #include "host/image.h"

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "host/direct_device.h"
+#include "host/devices/direct_device.h"
 #include "host/error.h"
 #include "host/image.h"
 #include "host/render.h"

@@ -9,9 +9,9 @@
 #include <fstream>
 #include <string>
 
-#include "host/direct_device.h"
+#include "host/devices/direct_device.h"
 #include "host/error.h"
-#include "host/grid_check.h"
+#include "host/devices/grid_check.h"
 #include "host/image.h"
 #include "host/scene/scene.h"
 #include "tests/host/run_process.h"

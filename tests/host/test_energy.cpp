@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "host/cost_model.h"
-#include "host/direct_device.h"
+#include "host/devices/direct_device.h"
 #include "host/plan.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"

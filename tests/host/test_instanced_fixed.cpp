@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "host/direct_device.h"
+#include "host/devices/direct_device.h"
 #include "host/json_io.h"
 #include "host/scene/ray_gen.h"
 #include "host/render.h"

@@ -6,8 +6,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "host/device_settings.h"
-#include "host/direct_device.h"
+#include "host/devices/device_settings.h"
+#include "host/devices/direct_device.h"
 #include "host/error.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"

@@ -16,7 +16,7 @@
 
 #include "host/compare.h"
 #include "host/demo.h"
-#include "host/device_settings.h"
+#include "host/devices/device_settings.h"
 #include "host/error.h"
 #include "host/image.h"
 #include "host/image_diff.h"

@@ -18,7 +18,7 @@
 #include <stb/stb_image_write.h>
 #include <nlohmann/json.hpp>
 
-#include "host/direct_device.h"
+#include "host/devices/direct_device.h"
 #include "host/error.h"
 #include "host/image.h"
 #include "host/limits.h"

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "host/direct_device.h"
+#include "host/devices/direct_device.h"
 #include "host/scene/ray_gen.h"
 #include "host/render.h"
 #include "host/scene/scene.h"

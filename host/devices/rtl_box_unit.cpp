@@ -2,7 +2,7 @@
 // Built as the object library rtu_host_rtl, so that every executable linking it (rtusim, the RTL tests) links this
 // registration, which runs before main.
 #include "rtl_sim/cosim/rtl_box_unit.h"
-#include "host/box_units.h"
+#include "host/devices/box_units.h"
 
 namespace {
 

@@ -11,7 +11,7 @@
 #include <utility>
 #include <vector>
 
-#include "host/grid_check.h"
+#include "host/devices/grid_check.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/device/device_kind.h"
 #include "hwmodel/numeric/fixed_format.h"

@@ -1,8 +1,8 @@
-#include "host/direct_device.h"
+#include "host/devices/direct_device.h"
 
 #include <stdexcept>
 
-#include "host/box_units.h"
+#include "host/devices/box_units.h"
 
 namespace rtu::host {
 

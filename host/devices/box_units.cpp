@@ -1,4 +1,4 @@
-#include "host/box_units.h"
+#include "host/devices/box_units.h"
 
 #include <stdexcept>
 

@@ -1,4 +1,4 @@
-#include "host/grid_check.h"
+#include "host/devices/grid_check.h"
 
 #include <algorithm>
 #include <cfloat>

@@ -1,4 +1,4 @@
-#include "host/device_settings.h"
+#include "host/devices/device_settings.h"
 
 #include <stdexcept>
 

@@ -1,6 +1,6 @@
-#include "host/firmware_device.h"
+#include "host/devices/firmware_device.h"
 
-#include "host/box_units.h"
+#include "host/devices/box_units.h"
 
 namespace rtu::host {
 

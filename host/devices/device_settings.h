@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "host/direct_device.h"
+#include "host/devices/direct_device.h"
 #include "hwmodel/device/device_kind.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/timing_config.h"

@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "host/embree_oracle.h"
-#include "host/ray_io.h"
+#include "host/io/ray_io.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"
 #include "host/trace_job.h"

@@ -1,6 +1,6 @@
 #include "host/compare_job.h"
 
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/trace_job.h"
 
 namespace rtu::host {

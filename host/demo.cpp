@@ -5,10 +5,10 @@
 #include <utility>
 
 #include "host/devices/direct_device.h"
-#include "host/error.h"
-#include "host/image.h"
+#include "host/io/error.h"
+#include "host/io/image.h"
 #include "host/scene/ray_gen.h"
-#include "host/ray_io.h"
+#include "host/io/ray_io.h"
 #include "host/stopwatch.h"
 #include "host/trace_job.h"
 #include "hwmodel/numeric/fixed_format.h"

@@ -13,7 +13,7 @@
 #include "host/compare.h"
 #include "host/image_diff.h"
 #include "host/render.h"
-#include "host/stats_json.h"
+#include "host/io/stats_json.h"
 #include "hwmodel/device/device_kind.h"
 #include "hwmodel/datapath/stats.h"
 

@@ -8,7 +8,7 @@
 #include <limits>
 #include <string>
 
-#include "host/error.h"
+#include "host/io/error.h"
 
 namespace rtu::host {
 

@@ -6,7 +6,7 @@
 #include <array>
 #include <cstdint>
 
-#include "host/image.h"
+#include "host/io/image.h"
 
 namespace rtu::host {
 

@@ -16,7 +16,7 @@
 #include <set>
 #include <sstream>
 
-#include "host/error.h"
+#include "host/io/error.h"
 
 namespace rtu::host {
 

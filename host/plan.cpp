@@ -8,7 +8,7 @@
 #include <stdexcept>
 
 #include "host/cost_model.h"
-#include "host/error.h"
+#include "host/io/error.h"
 #include "hwmodel/cost/energy_model.h"
 #include "hwmodel/timing/timing_config.h"
 

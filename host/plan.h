@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "host/stats_json.h"
+#include "host/io/stats_json.h"
 #include "host/sweep.h"
 #include "hwmodel/numeric/fixed_format.h"
 

@@ -11,10 +11,10 @@
 #include <utility>
 
 #include "firmware/render_scene.h"
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/devices/firmware_device.h"
 #include "host/devices/grid_check.h"
-#include "host/limits.h"
+#include "host/io/limits.h"
 #include "host/scene/shading.h"
 #include "host/trace_job.h"
 #include "hwmodel/format/device_image.h"

@@ -12,7 +12,7 @@
 #include "firmware/renderer.h"
 #include "firmware/ring.h"
 #include "host/devices/direct_device.h"
-#include "host/image.h"
+#include "host/io/image.h"
 #include "host/scene/scene.h"
 #include "hwmodel/device/command_processor.h"
 #include "hwmodel/timing/raster_timing.h"

@@ -11,8 +11,8 @@
 #include <utility>
 
 #include "host/devices/device_settings.h"
-#include "host/error.h"
-#include "host/image.h"
+#include "host/io/error.h"
+#include "host/io/image.h"
 #include "host/image_diff.h"
 #include "host/pareto.h"
 #include "host/scene/ray_gen.h"

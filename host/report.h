@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "host/stats_json.h"
+#include "host/io/stats_json.h"
 
 namespace rtu::host {
 

@@ -8,7 +8,7 @@
 #include <functional>
 #include <limits>
 
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/scene/generators.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/datapath/fixed_tracer.h"

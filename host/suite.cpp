@@ -7,8 +7,8 @@
 #include <fstream>
 #include <set>
 
-#include "host/error.h"
-#include "host/json_io.h"
+#include "host/io/error.h"
+#include "host/io/json_io.h"
 #include "host/scene/scene.h"
 
 namespace rtu::host {

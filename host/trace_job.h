@@ -13,7 +13,7 @@
 #include "host/devices/direct_device.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"
-#include "host/stats_json.h"
+#include "host/io/stats_json.h"
 
 namespace rtu::host {
 

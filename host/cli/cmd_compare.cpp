@@ -8,8 +8,8 @@
 
 #include "host/cli/common.h"
 #include "host/compare_job.h"
-#include "host/error.h"
-#include "host/ray_io.h"
+#include "host/io/error.h"
+#include "host/io/ray_io.h"
 
 namespace rtu::host::cli {
 

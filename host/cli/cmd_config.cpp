@@ -7,7 +7,7 @@
 
 #include "host/cli/common.h"
 #include "host/cost_model.h"
-#include "host/error.h"
+#include "host/io/error.h"
 #include "hwmodel/cost/energy_model.h"
 
 namespace rtu::host::cli {

@@ -5,8 +5,8 @@
 #include <memory>
 
 #include "host/cli/common.h"
-#include "host/error.h"
-#include "host/image.h"
+#include "host/io/error.h"
+#include "host/io/image.h"
 #include "host/image_diff.h"
 
 namespace rtu::host::cli {

@@ -3,7 +3,7 @@
 #include <memory>
 
 #include "host/cli/common.h"
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/suite.h"
 #include "hwmodel/format/hw_format.h"
 #include "hwmodel/format/packed_layout.h"

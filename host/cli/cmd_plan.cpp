@@ -6,7 +6,7 @@
 #include <memory>
 
 #include "host/cli/common.h"
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/plan.h"
 #include "hwmodel/cost/energy_model.h"
 #include "hwmodel/numeric/fixed_format.h"

@@ -3,9 +3,9 @@
 #include <memory>
 
 #include "host/cli/common.h"
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/scene/ray_gen.h"
-#include "host/ray_io.h"
+#include "host/io/ray_io.h"
 
 namespace rtu::host::cli {
 

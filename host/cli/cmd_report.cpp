@@ -5,7 +5,7 @@
 #include <memory>
 
 #include "host/cli/common.h"
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/pareto.h"
 #include "host/report.h"
 #include "host/suite.h"

@@ -3,7 +3,7 @@
 #include <memory>
 
 #include "host/cli/common.h"
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/soak.h"
 
 namespace rtu::host::cli {

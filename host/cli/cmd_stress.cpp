@@ -4,7 +4,7 @@
 #include <memory>
 
 #include "host/cli/common.h"
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/stress.h"
 
 namespace rtu::host::cli {

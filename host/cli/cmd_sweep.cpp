@@ -11,7 +11,7 @@
 #include <set>
 
 #include "host/cli/common.h"
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/suite.h"
 #include "host/sweep.h"
 #include "hwmodel/numeric/fixed_format.h"

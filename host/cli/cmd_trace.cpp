@@ -4,8 +4,8 @@
 #include <vector>
 
 #include "host/cli/common.h"
-#include "host/error.h"
-#include "host/ray_io.h"
+#include "host/io/error.h"
+#include "host/io/ray_io.h"
 #include "host/scene/ray_spec.h"
 #include "host/trace_job.h"
 

@@ -7,11 +7,11 @@
 
 #include "host/devices/device_settings.h"
 #include "host/devices/direct_device.h"
-#include "host/pipeline_trace.h"
+#include "host/io/pipeline_trace.h"
 #include "host/scene/ray_spec.h"
 #include "host/render.h"
 #include "host/scene/scene.h"
-#include "host/stats_json.h"
+#include "host/io/stats_json.h"
 #include "host/stopwatch.h"
 #include "hwmodel/device/device_kind.h"
 #include "hwmodel/timing/timing_config.h"

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "host/cli/common.h"
-#include "host/error.h"
+#include "host/io/error.h"
 
 namespace {
 

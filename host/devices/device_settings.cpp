@@ -2,7 +2,7 @@
 
 #include <stdexcept>
 
-#include "host/error.h"
+#include "host/io/error.h"
 
 namespace rtu::host {
 

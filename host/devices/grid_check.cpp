@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <stdexcept>
 
-#include "host/error.h"
+#include "host/io/error.h"
 #include "hwmodel/numeric/quant_frame.h"
 
 namespace rtu::host {

@@ -8,7 +8,7 @@
 #include <utility>
 #include <vector>
 
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/scene/generators.h"
 #include "host/scene/scene.h"
 #include "host/scene/suite_scenes.h"

@@ -39,9 +39,9 @@
 #include <vector>
 
 #include "firmware/render_scene.h"
-#include "host/error.h"
-#include "host/image.h"
-#include "host/limits.h"
+#include "host/io/error.h"
+#include "host/io/image.h"
+#include "host/io/limits.h"
 #include "host/scene/scene.h"
 #include "hwmodel/scene/instancing.h"
 

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <limits>
 
-#include "host/error.h"
-#include "host/limits.h"
+#include "host/io/error.h"
+#include "host/io/limits.h"
 #include "hwmodel/numeric/rng.h"
 
 namespace rtu::host {

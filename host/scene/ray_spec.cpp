@@ -5,10 +5,10 @@
 #include <string>
 #include <system_error>
 
-#include "host/error.h"
-#include "host/limits.h"
+#include "host/io/error.h"
+#include "host/io/limits.h"
 #include "host/scene/ray_gen.h"
-#include "host/ray_io.h"
+#include "host/io/ray_io.h"
 
 namespace rtu::host {
 

@@ -12,8 +12,8 @@
 #include <string>
 
 #include "firmware/render_scene.h"
-#include "host/error.h"
-#include "host/limits.h"
+#include "host/io/error.h"
+#include "host/io/limits.h"
 #include "hwmodel/scene/bvh.h"
 
 namespace rtu::host {

@@ -127,7 +127,7 @@ struct ImportedModel {
 ImportedModel import_model(const std::string& path);
 
 // Throws Error when a scene of `prims` primitives cannot be traced: more than the unit's primitive index holds
-// (hw::kMaxBvhPrims - 1), or more than the memory budget (host/limits.h) at 256 bytes per primitive.
+// (hw::kMaxBvhPrims - 1), or more than the memory budget (host/io/limits.h) at 256 bytes per primitive.
 void check_scene_size(const std::string& name, uint64_t prims);
 
 // Names accepted by builtin:NAME, each with a one-line description.

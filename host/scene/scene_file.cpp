@@ -2,7 +2,7 @@
 //
 // Strict by design: unknown or duplicate keys, wrong types or array lengths, non-finite numbers and unknown
 // names are errors that name the file and the key path (e.g. "meshes[2].transform.scale"). The JSON itself is read
-// by host/json_io.h, which also refuses nesting deeper than kMaxJsonDepth levels.
+// by host/io/json_io.h, which also refuses nesting deeper than kMaxJsonDepth levels.
 #include <cfloat>
 #include <cmath>
 #include <filesystem>
@@ -13,11 +13,11 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
 
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/scene/generators.h"
-#include "host/image.h"
-#include "host/json_io.h"
-#include "host/limits.h"
+#include "host/io/image.h"
+#include "host/io/json_io.h"
+#include "host/io/limits.h"
 #include "host/scene/scene.h"
 
 namespace rtu::host {

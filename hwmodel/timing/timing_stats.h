@@ -4,7 +4,7 @@
 // Each statistic is declared once, in the tables of timing_stats.cpp: the counters with their unit, description
 // and how sampled timing extrapolates them; the report (the stats JSON, in its order) with each entry's key,
 // unit and description. Merging runs (add), scaling a sample to its packet (scale_sampled), the JSON
-// (host/stats_json.cpp), `rtusim config --stats` and the tests' field-by-field comparisons all read the tables,
+// (host/io/stats_json.cpp), `rtusim config --stats` and the tests' field-by-field comparisons all read the tables,
 // so a new counter is one line in TimingStats and one in the counter table.
 #pragma once
 

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "host/devices/direct_device.h"
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/scene/ray_gen.h"
 #include "host/render.h"
 #include "host/scene/scene.h"

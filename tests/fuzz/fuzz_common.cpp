@@ -4,7 +4,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/scene/scene.h"
 #include "tests/fuzz/fuzz.h"
 

@@ -5,7 +5,7 @@
 // triangles; everything else an Error.
 #include <cmath>
 
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/scene/scene.h"
 #include "tests/fuzz/fuzz.h"
 

@@ -1,4 +1,4 @@
-// Ray and hit files (host/ray_io.cpp), binary and CSV: a binary file is accepted exactly when its size is a
+// Ray and hit files (host/io/ray_io.cpp), binary and CSV: a binary file is accepted exactly when its size is a
 // multiple of the record and then holds the bytes unchanged; CSV is parsed line by line. The rays are then traced
 // on the float, fixed and timed devices over a tiny scene (hostile floats through ray setup): every hit names a
 // primitive or misses, and the timed device's hits equal the fixed device's bit for bit (docs/architecture.md).
@@ -6,8 +6,8 @@
 #include <memory>
 
 #include "host/devices/direct_device.h"
-#include "host/error.h"
-#include "host/ray_io.h"
+#include "host/io/error.h"
+#include "host/io/ray_io.h"
 #include "tests/fuzz/fuzz.h"
 
 namespace rtu::fuzz {

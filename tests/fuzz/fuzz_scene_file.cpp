@@ -8,7 +8,7 @@
 #include <stdexcept>
 
 #include "host/devices/direct_device.h"
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/scene/ray_gen.h"
 #include "host/render.h"
 #include "host/scene/scene.h"

@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "host/ray_io.h"
+#include "host/io/ray_io.h"
 #include "hwmodel/interface/commands.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/device/engine.h"

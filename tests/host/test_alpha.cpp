@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "host/devices/direct_device.h"
-#include "host/error.h"
-#include "host/image.h"
+#include "host/io/error.h"
+#include "host/io/image.h"
 #include "host/render.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"

@@ -10,9 +10,9 @@
 #include <string>
 
 #include "host/devices/direct_device.h"
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/devices/grid_check.h"
-#include "host/image.h"
+#include "host/io/image.h"
 #include "host/scene/scene.h"
 #include "tests/host/run_process.h"
 

@@ -14,9 +14,9 @@
 #include <set>
 #include <sstream>
 
-#include "host/image.h"
-#include "host/json_io.h"
-#include "host/ray_io.h"
+#include "host/io/image.h"
+#include "host/io/json_io.h"
+#include "host/io/ray_io.h"
 #include "host/sweep.h"
 #include "hwmodel/timing/timing_config.h"
 #include "tests/host/run_process.h"
@@ -33,7 +33,7 @@ fs::path temp_dir() {
   return d;
 }
 
-// rtusim's JSON read back through the depth-limited parser rtu reads JSON with (host/json_io.h): so every file
+// rtusim's JSON read back through the depth-limited parser rtu reads JSON with (host/io/json_io.h): so every file
 // these tests read also shows that rtusim writes nothing deeper than host::kMaxJsonDepth.
 nlohmann::json read_json(const fs::path& p) {
   return rtu::host::read_json_file(p.string());

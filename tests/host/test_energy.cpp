@@ -12,7 +12,7 @@
 #include "host/plan.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
-#include "host/stats_json.h"
+#include "host/io/stats_json.h"
 #include "hwmodel/cost/energy_model.h"
 #include "hwmodel/timing/timing_config.h"
 

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "host/image.h"
+#include "host/io/image.h"
 #include "host/image_diff.h"
 #include "host/render.h"
 #include "host/scene/scene.h"

@@ -11,8 +11,8 @@
 #include <iterator>
 #include <random>
 
-#include "host/error.h"
-#include "host/image.h"
+#include "host/io/error.h"
+#include "host/io/image.h"
 #include "host/image_diff.h"
 
 using namespace rtu::host;

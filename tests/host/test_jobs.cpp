@@ -17,12 +17,12 @@
 #include "host/compare.h"
 #include "host/demo.h"
 #include "host/devices/device_settings.h"
-#include "host/error.h"
-#include "host/image.h"
+#include "host/io/error.h"
+#include "host/io/image.h"
 #include "host/image_diff.h"
-#include "host/json_io.h"
+#include "host/io/json_io.h"
 #include "host/pareto.h"
-#include "host/pipeline_trace.h"
+#include "host/io/pipeline_trace.h"
 #include "host/plan.h"
 #include "host/scene/ray_spec.h"
 #include "host/report.h"
@@ -64,7 +64,7 @@ std::string small_scene(const fs::path& dir) {
 }
 
 Json read_json(const fs::path& p) {
-  return rtu::host::read_json_file(p.string());  // depth-limited, as rtu reads JSON (host/json_io.h)
+  return rtu::host::read_json_file(p.string());  // depth-limited, as rtu reads JSON (host/io/json_io.h)
 }
 
 }  // namespace

@@ -19,11 +19,11 @@
 #include <nlohmann/json.hpp>
 
 #include "host/devices/direct_device.h"
-#include "host/error.h"
-#include "host/image.h"
-#include "host/limits.h"
+#include "host/io/error.h"
+#include "host/io/image.h"
+#include "host/io/limits.h"
 #include "host/scene/ray_gen.h"
-#include "host/ray_io.h"
+#include "host/io/ray_io.h"
 #include "host/scene/scene.h"
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/device/timed_engine.h"

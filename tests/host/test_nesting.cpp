@@ -1,5 +1,5 @@
 // Deeply nested input (issue 25): every parser of rtu refuses a file nested level upon level with a message and
-// exit status 2, never a crash by stack overflow. JSON goes through host/json_io.h (a depth limit while parsing);
+// exit status 2, never a crash by stack overflow. JSON goes through host/io/json_io.h (a depth limit while parsing);
 // mesh files through Assimp, whose parsers recurse, in a child process on a stack of known size
 // (host/scene/mesh_import.cpp). The files are generated here (megabytes, not committed); each case runs in well under a
 // second in the default build.
@@ -12,8 +12,8 @@
 #include <fstream>
 #include <string>
 
-#include "host/error.h"
-#include "host/json_io.h"
+#include "host/io/error.h"
+#include "host/io/json_io.h"
 #include "host/scene/scene.h"
 #include "tests/host/run_process.h"
 

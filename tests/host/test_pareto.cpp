@@ -11,8 +11,8 @@
 #include <random>
 #include <sstream>
 
-#include "host/error.h"
-#include "host/image.h"
+#include "host/io/error.h"
+#include "host/io/image.h"
 #include "host/pareto.h"
 
 namespace fs = std::filesystem;

@@ -8,9 +8,9 @@
 #include <fstream>
 #include <limits>
 
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/scene/ray_gen.h"
-#include "host/ray_io.h"
+#include "host/io/ray_io.h"
 
 using namespace rtu;
 namespace fs = std::filesystem;

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "host/scene/generators.h"
-#include "host/image.h"
+#include "host/io/image.h"
 #include "host/image_diff.h"
 #include "host/render.h"
 #include "host/scene/scene.h"

@@ -15,7 +15,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/scene/generators.h"
 #include "host/scene/scene.h"
 

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "host/error.h"
+#include "host/io/error.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"
 #include "host/suite.h"

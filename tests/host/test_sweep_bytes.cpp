@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "host/json_io.h"
+#include "host/io/json_io.h"
 #include "host/pareto.h"
 #include "host/plan.h"
 #include "host/scene/scene.h"

@@ -23,7 +23,7 @@
 #include <cstdio>
 
 #include "host/embree_oracle.h"
-#include "host/image.h"
+#include "host/io/image.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"

@@ -1,4 +1,4 @@
-#include "host/image.h"
+#include "host/io/image.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -16,8 +16,8 @@
 #include <jpeglib.h>
 
 #include "firmware/render_scene.h"
-#include "host/error.h"
-#include "host/limits.h"
+#include "host/io/error.h"
+#include "host/io/limits.h"
 
 #define STB_IMAGE_WRITE_IMPLEMENTATION
 #if defined(__GNUC__)

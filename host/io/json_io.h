@@ -33,7 +33,7 @@ inline constexpr size_t kMaxJsonDepth = 64;
 nlohmann::ordered_json parse_json_limited(const std::string& text, const std::string& what);
 
 // Reads the file `path` and parses it with parse_json_limited (path names it). Throws host::Error when the file
-// is missing, not a regular file, unreadable, or larger than the memory budget (host/limits.h) allows.
+// is missing, not a regular file, unreadable, or larger than the memory budget (host/io/limits.h) allows.
 nlohmann::ordered_json read_json_file(const std::string& path);
 
 }  // namespace rtu::host

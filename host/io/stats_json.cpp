@@ -1,4 +1,4 @@
-#include "host/stats_json.h"
+#include "host/io/stats_json.h"
 
 #include <algorithm>
 #include <array>
@@ -9,7 +9,7 @@
 #include <variant>
 
 #include "host/cost_model.h"
-#include "host/error.h"
+#include "host/io/error.h"
 
 namespace rtu::host {
 

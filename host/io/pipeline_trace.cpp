@@ -1,12 +1,12 @@
-#include "host/pipeline_trace.h"
+#include "host/io/pipeline_trace.h"
 
 #include <charconv>
 #include <fstream>
 #include <set>
 #include <utility>
 
-#include "host/error.h"
-#include "host/stats_json.h"
+#include "host/io/error.h"
+#include "host/io/stats_json.h"
 
 namespace rtu::host {
 

@@ -1,7 +1,7 @@
 // JSON input with a nesting bound (json_io.h). The bound is enforced by nlohmann's parser callback, which runs
 // on every array or object start before the parser builds it: the parse stops at the first container too deep,
 // so no value deeper than kMaxJsonDepth ever exists.
-#include "host/json_io.h"
+#include "host/io/json_io.h"
 
 #include <filesystem>
 #include <fstream>
@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "host/error.h"
-#include "host/limits.h"
+#include "host/io/error.h"
+#include "host/io/limits.h"
 
 namespace rtu::host {
 namespace {

@@ -1,4 +1,4 @@
-#include "host/limits.h"
+#include "host/io/limits.h"
 
 #include <sys/resource.h>
 
@@ -6,7 +6,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "host/error.h"
+#include "host/io/error.h"
 
 namespace rtu::host {
 

@@ -1,4 +1,4 @@
-#include "host/ray_io.h"
+#include "host/io/ray_io.h"
 
 #include <bit>
 #include <cerrno>
@@ -10,8 +10,8 @@
 #include <memory>
 #include <sstream>
 
-#include "host/error.h"
-#include "host/limits.h"
+#include "host/io/error.h"
+#include "host/io/limits.h"
 
 namespace rtu::host {
 

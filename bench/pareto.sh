@@ -12,7 +12,7 @@
 #                staircase line; beside them the gnuplot scripts (.gp), their data (.dat, .front) and logs.
 #     RTUSIM     default build/default/rtusim
 #
-# The plotting is `rtusim pareto --sweep SWEEP.csv --out OUTDIR` (host/pareto.cpp writes the gnuplot scripts
+# The plotting is `rtusim pareto --sweep SWEEP.csv --out OUTDIR` (host/jobs/pareto.cpp writes the gnuplot scripts
 # and runs gnuplot with the pngcairo terminal); `rtusim report` uses the same code.
 set -euo pipefail
 if [ $# -lt 2 ] || [ $# -gt 3 ]; then

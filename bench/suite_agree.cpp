@@ -21,7 +21,7 @@
 #include "host/io/ray_io.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"
-#include "host/trace_job.h"
+#include "host/jobs/trace_job.h"
 
 using namespace rtu;
 

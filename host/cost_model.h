@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "host/io/stats_json.h"
-#include "host/sweep.h"
+#include "host/jobs/sweep.h"
 #include "hwmodel/cost/energy_model.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/timing_config.h"

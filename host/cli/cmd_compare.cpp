@@ -7,7 +7,7 @@
 #include <memory>
 
 #include "host/cli/common.h"
-#include "host/compare_job.h"
+#include "host/jobs/compare_job.h"
 #include "host/io/error.h"
 #include "host/io/ray_io.h"
 

@@ -1,11 +1,11 @@
-// rtusim demo: the main job on the built-in default scene, as the README's first command runs it (host/demo.h);
+// rtusim demo: the main job on the built-in default scene, as the README's first command runs it (host/jobs/demo.h);
 // prints what each step found as it finishes.
 #include <cstdio>
 #include <memory>
 
 #include "host/cli/common.h"
-#include "host/demo.h"
-#include "host/trace_job.h"
+#include "host/jobs/demo.h"
+#include "host/jobs/trace_job.h"
 
 namespace rtu::host::cli {
 

@@ -7,7 +7,7 @@
 #include "host/cli/common.h"
 #include "host/io/error.h"
 #include "host/io/image.h"
-#include "host/image_diff.h"
+#include "host/jobs/image_diff.h"
 
 namespace rtu::host::cli {
 

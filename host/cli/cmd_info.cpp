@@ -4,7 +4,7 @@
 
 #include "host/cli/common.h"
 #include "host/io/error.h"
-#include "host/suite.h"
+#include "host/jobs/suite.h"
 #include "hwmodel/format/hw_format.h"
 #include "hwmodel/format/packed_layout.h"
 

@@ -1,4 +1,4 @@
-// rtusim plan: the cheapest format for a scene within an error budget (host/plan.h); prints each candidate as it
+// rtusim plan: the cheapest format for a scene within an error budget (host/jobs/plan.h); prints each candidate as it
 // is measured and the plan with why it was chosen.
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 
 #include "host/cli/common.h"
 #include "host/io/error.h"
-#include "host/plan.h"
+#include "host/jobs/plan.h"
 #include "hwmodel/cost/energy_model.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/timing_config.h"

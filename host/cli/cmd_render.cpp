@@ -4,8 +4,8 @@
 
 #include "host/cli/common.h"
 #include "host/io/error.h"
-#include "host/image_diff.h"
-#include "host/render.h"
+#include "host/jobs/image_diff.h"
+#include "host/jobs/render.h"
 
 namespace rtu::host::cli {
 

@@ -1,4 +1,4 @@
-// rtusim report: the static HTML report of run time against error (host/report.h), with a line per step.
+// rtusim report: the static HTML report of run time against error (host/jobs/report.h), with a line per step.
 // rtusim pareto: only the Pareto plots of a sweep CSV (bench/pareto.sh runs it); exits 2 without gnuplot.
 #include <cstdio>
 #include <filesystem>
@@ -6,10 +6,10 @@
 
 #include "host/cli/common.h"
 #include "host/io/error.h"
-#include "host/pareto.h"
-#include "host/report.h"
-#include "host/suite.h"
-#include "host/sweep.h"
+#include "host/jobs/pareto.h"
+#include "host/jobs/report.h"
+#include "host/jobs/suite.h"
+#include "host/jobs/sweep.h"
 
 namespace rtu::host::cli {
 

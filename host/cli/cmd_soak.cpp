@@ -1,10 +1,10 @@
-// rtusim soak: random valid scenes and formats, traced and rendered twice, for a bounded time (host/soak.h).
+// rtusim soak: random valid scenes and formats, traced and rendered twice, for a bounded time (host/jobs/soak.h).
 #include <cstdio>
 #include <memory>
 
 #include "host/cli/common.h"
 #include "host/io/error.h"
-#include "host/soak.h"
+#include "host/jobs/soak.h"
 
 namespace rtu::host::cli {
 

@@ -1,11 +1,11 @@
-// rtusim stress: the numerical-stability suite (host/stress.h) on the float and fixed devices. Prints one line per
+// rtusim stress: the numerical-stability suite (host/jobs/stress.h) on the float and fixed devices. Prints one line per
 // category and exits 1 when any promise of docs/architecture.md broke.
 #include <cstdio>
 #include <memory>
 
 #include "host/cli/common.h"
 #include "host/io/error.h"
-#include "host/stress.h"
+#include "host/jobs/stress.h"
 
 namespace rtu::host::cli {
 

@@ -7,7 +7,7 @@
 #include "host/io/error.h"
 #include "host/io/ray_io.h"
 #include "host/scene/ray_spec.h"
-#include "host/trace_job.h"
+#include "host/jobs/trace_job.h"
 
 namespace rtu::host::cli {
 

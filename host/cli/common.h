@@ -9,10 +9,10 @@
 #include "host/devices/direct_device.h"
 #include "host/io/pipeline_trace.h"
 #include "host/scene/ray_spec.h"
-#include "host/render.h"
+#include "host/jobs/render.h"
 #include "host/scene/scene.h"
 #include "host/io/stats_json.h"
-#include "host/stopwatch.h"
+#include "host/jobs/stopwatch.h"
 #include "hwmodel/device/device_kind.h"
 #include "hwmodel/timing/timing_config.h"
 

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "host/devices/direct_device.h"
-#include "host/render.h"
+#include "host/jobs/render.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/stats.h"

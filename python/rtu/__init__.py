@@ -336,7 +336,7 @@ def plan(scene, max_error, *, metric="hit", min_psnr=0.0, confidence=0.95, confi
 
 
 def pareto_front(df, cost="cycles", error="hit_disagreement"):
-    """A boolean Series: the rows of df on the Pareto front of (cost, error), both minimised (host/pareto.h's
+    """A boolean Series: the rows of df on the Pareto front of (cost, error), both minimised (host/jobs/pareto.h's
     rule: no other row at most as costly and at most as wrong and better in one). Rows with a negative cost
     (unknown, e.g. rtl_cells = -1) are never on it."""
     import pandas as pd

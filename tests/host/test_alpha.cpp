@@ -13,7 +13,7 @@
 #include "host/devices/direct_device.h"
 #include "host/io/error.h"
 #include "host/io/image.h"
-#include "host/render.h"
+#include "host/jobs/render.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"
 #include "hwmodel/device/timed_engine.h"

@@ -17,7 +17,7 @@
 #include "host/io/image.h"
 #include "host/io/json_io.h"
 #include "host/io/ray_io.h"
-#include "host/sweep.h"
+#include "host/jobs/sweep.h"
 #include "hwmodel/timing/timing_config.h"
 #include "tests/host/run_process.h"
 

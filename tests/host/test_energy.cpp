@@ -9,7 +9,7 @@
 
 #include "host/cost_model.h"
 #include "host/devices/direct_device.h"
-#include "host/plan.h"
+#include "host/jobs/plan.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
 #include "host/io/stats_json.h"

@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "host/io/image.h"
-#include "host/image_diff.h"
-#include "host/render.h"
+#include "host/jobs/image_diff.h"
+#include "host/jobs/render.h"
 #include "host/scene/scene.h"
 #include "hwmodel/timing/raster_timing.h"
 

@@ -13,7 +13,7 @@
 
 #include "host/io/error.h"
 #include "host/io/image.h"
-#include "host/image_diff.h"
+#include "host/jobs/image_diff.h"
 
 using namespace rtu::host;
 namespace fs = std::filesystem;

@@ -15,7 +15,7 @@
 #include "host/devices/direct_device.h"
 #include "host/io/json_io.h"
 #include "host/scene/ray_gen.h"
-#include "host/render.h"
+#include "host/jobs/render.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"
 #include "hwmodel/format/device_image.h"

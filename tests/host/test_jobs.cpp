@@ -14,20 +14,20 @@
 #include <string>
 #include <vector>
 
-#include "host/compare.h"
-#include "host/demo.h"
+#include "host/jobs/compare.h"
+#include "host/jobs/demo.h"
 #include "host/devices/device_settings.h"
 #include "host/io/error.h"
 #include "host/io/image.h"
-#include "host/image_diff.h"
+#include "host/jobs/image_diff.h"
 #include "host/io/json_io.h"
-#include "host/pareto.h"
+#include "host/jobs/pareto.h"
 #include "host/io/pipeline_trace.h"
-#include "host/plan.h"
+#include "host/jobs/plan.h"
 #include "host/scene/ray_spec.h"
-#include "host/report.h"
+#include "host/jobs/report.h"
 #include "host/scene/scene.h"
-#include "host/sweep.h"
+#include "host/jobs/sweep.h"
 #include "hwmodel/timing/timing_config.h"
 
 namespace fs = std::filesystem;

@@ -1,4 +1,4 @@
-// Pareto fronts of a sweep (host/pareto.h): which points are on the front, how zero errors are drawn on the log
+// Pareto fronts of a sweep (host/jobs/pareto.h): which points are on the front, how zero errors are drawn on the log
 // axis, where the point numbers go (no two overlap), and the gnuplot step writing one PNG per scene and error
 // measure.
 #include <catch2/catch.hpp>
@@ -13,7 +13,7 @@
 
 #include "host/io/error.h"
 #include "host/io/image.h"
-#include "host/pareto.h"
+#include "host/jobs/pareto.h"
 
 namespace fs = std::filesystem;
 using namespace rtu::host;

@@ -8,8 +8,8 @@
 
 #include "host/scene/generators.h"
 #include "host/io/image.h"
-#include "host/image_diff.h"
-#include "host/render.h"
+#include "host/jobs/image_diff.h"
+#include "host/jobs/render.h"
 #include "host/scene/scene.h"
 
 using rtu::host::Light;

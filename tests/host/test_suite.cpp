@@ -1,4 +1,4 @@
-// The benchmark suite: its built-in scenes (hairball, atrium, city, forest) and the manifest (host/suite.h,
+// The benchmark suite: its built-in scenes (hairball, atrium, city, forest) and the manifest (host/jobs/suite.h,
 // scenes/suite.json), with rtusim's --suite options.
 #include <unistd.h>
 
@@ -14,7 +14,7 @@
 #include "host/io/error.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"
-#include "host/suite.h"
+#include "host/jobs/suite.h"
 #include "host/scene/suite_scenes.h"
 #include "hwmodel/datapath/float_tracer.h"
 #include "tests/host/run_process.h"

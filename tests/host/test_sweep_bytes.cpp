@@ -13,10 +13,10 @@
 #include <vector>
 
 #include "host/io/json_io.h"
-#include "host/pareto.h"
-#include "host/plan.h"
+#include "host/jobs/pareto.h"
+#include "host/jobs/plan.h"
 #include "host/scene/scene.h"
-#include "host/sweep.h"
+#include "host/jobs/sweep.h"
 #include "hwmodel/timing/timing_config.h"
 #include "tests/host/run_process.h"
 

@@ -41,7 +41,7 @@ struct SweepRow {
   double hit_agreement = 1.0, prim_agreement = 1.0;
   uint64_t false_misses = 0, false_hits = 0;
   double t_rel_error_mean = 0.0, t_rel_error_max = 0.0;
-  // For confidence bounds (host/plan.h), not in the CSV: rays valid on both devices, of them the rays hitting
+  // For confidence bounds (host/jobs/plan.h), not in the CSV: rays valid on both devices, of them the rays hitting
   // the same primitive (the t error's sample), and the t error's sample standard deviation.
   uint64_t compared_rays = 0, t_compared_rays = 0;
   double t_rel_error_sd = 0.0;

@@ -1,4 +1,4 @@
-#include "host/plan.h"
+#include "host/jobs/plan.h"
 
 #include <algorithm>
 #include <cmath>

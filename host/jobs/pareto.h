@@ -1,4 +1,4 @@
-// Pareto fronts of a design sweep (host/sweep.h) and their plots, drawn by gnuplot (PNG, pngcairo terminal).
+// Pareto fronts of a design sweep (host/jobs/sweep.h) and their plots, drawn by gnuplot (PNG, pngcairo terminal).
 // For each scene of a sweep, error (log scale) against up to four costs: simulated cycles, encoded BVH bytes, the
 // timed run's DRAM bytes per ray and the RTL box unit's area in cells (rows without a synthesis result,
 // rtl_cells = -1, are left out of that panel, and rows without DRAM bytes out of theirs; when no row of the scene
@@ -16,7 +16,7 @@
 #include <utility>
 #include <vector>
 
-#include "host/sweep.h"
+#include "host/jobs/sweep.h"
 
 namespace rtu::host {
 

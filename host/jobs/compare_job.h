@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "host/compare.h"
+#include "host/jobs/compare.h"
 #include "host/devices/device_settings.h"
 #include "host/devices/direct_device.h"
 #include "host/scene/scene.h"

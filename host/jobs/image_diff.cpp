@@ -1,4 +1,4 @@
-#include "host/image_diff.h"
+#include "host/jobs/image_diff.h"
 
 #include <algorithm>
 #include <cmath>

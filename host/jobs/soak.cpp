@@ -1,4 +1,4 @@
-#include "host/soak.h"
+#include "host/jobs/soak.h"
 
 #include <chrono>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include "host/devices/direct_device.h"
 #include "host/io/error.h"
 #include "host/scene/ray_gen.h"
-#include "host/render.h"
+#include "host/jobs/render.h"
 #include "host/scene/scene.h"
 #include "hwmodel/numeric/rng.h"
 #include "hwmodel/timing/timing_config.h"

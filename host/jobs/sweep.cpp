@@ -1,4 +1,4 @@
-#include "host/sweep.h"
+#include "host/jobs/sweep.h"
 
 #include <algorithm>
 #include <charconv>
@@ -10,14 +10,14 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "host/compare.h"
+#include "host/jobs/compare.h"
 #include "host/cost_model.h"
 #include "host/devices/direct_device.h"
 #include "host/io/error.h"
-#include "host/image_diff.h"
+#include "host/jobs/image_diff.h"
 #include "host/io/limits.h"
 #include "host/scene/ray_gen.h"
-#include "host/render.h"
+#include "host/jobs/render.h"
 #include "host/scene/shading.h"
 #include "host/io/stats_json.h"
 #include "hwmodel/numeric/fixed_format.h"

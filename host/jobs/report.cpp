@@ -1,4 +1,4 @@
-#include "host/report.h"
+#include "host/jobs/report.h"
 
 #include <algorithm>
 #include <array>
@@ -13,14 +13,14 @@
 #include "host/devices/device_settings.h"
 #include "host/io/error.h"
 #include "host/io/image.h"
-#include "host/image_diff.h"
-#include "host/pareto.h"
+#include "host/jobs/image_diff.h"
+#include "host/jobs/pareto.h"
 #include "host/scene/ray_gen.h"
-#include "host/render.h"
+#include "host/jobs/render.h"
 #include "host/scene/shading.h"
-#include "host/stopwatch.h"
-#include "host/stress.h"
-#include "host/sweep.h"
+#include "host/jobs/stopwatch.h"
+#include "host/jobs/stress.h"
+#include "host/jobs/sweep.h"
 #include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host {
@@ -241,7 +241,7 @@ Json section_renders(const Scene& scene, const std::string& spec, const ReportOp
   write_png(a.out + "/render_heatmap.png", diff_heatmap_log(images[0], images[1], full_scale));
   j["heatmap"] = "render_heatmap.png";
   j["heatmap_full_scale"] = full_scale;
-  j["heatmap_scale"] = "log2(1 + d) / log2(1 + full_scale) along the ramp of host/image_diff.h (kDiffRamp)";
+  j["heatmap_scale"] = "log2(1 + d) / log2(1 + full_scale) along the ramp of host/jobs/image_diff.h (kDiffRamp)";
   j["psnr_db"] = d.identical() ? Json(nullptr) : Json(d.psnr_db);
   j["max_abs"] = d.max_abs;
   j["mean_abs"] = d.mean_abs;

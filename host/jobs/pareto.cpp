@@ -1,4 +1,4 @@
-#include "host/pareto.h"
+#include "host/jobs/pareto.h"
 
 #include <sys/stat.h>
 #include <sys/wait.h>

@@ -1,4 +1,4 @@
-#include "host/render.h"
+#include "host/jobs/render.h"
 
 #include <algorithm>
 #include <chrono>
@@ -16,7 +16,7 @@
 #include "host/devices/grid_check.h"
 #include "host/io/limits.h"
 #include "host/scene/shading.h"
-#include "host/trace_job.h"
+#include "host/jobs/trace_job.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/device/engine.h"
 #include "hwmodel/datapath/instanced_fixed.h"

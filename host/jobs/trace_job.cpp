@@ -1,4 +1,4 @@
-#include "host/trace_job.h"
+#include "host/jobs/trace_job.h"
 
 #include <unistd.h>
 

@@ -1,7 +1,7 @@
-#include "host/compare_job.h"
+#include "host/jobs/compare_job.h"
 
 #include "host/io/error.h"
-#include "host/trace_job.h"
+#include "host/jobs/trace_job.h"
 
 namespace rtu::host {
 

@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "host/compare.h"
-#include "host/image_diff.h"
-#include "host/render.h"
+#include "host/jobs/compare.h"
+#include "host/jobs/image_diff.h"
+#include "host/jobs/render.h"
 #include "host/io/stats_json.h"
 #include "hwmodel/device/device_kind.h"
 #include "hwmodel/datapath/stats.h"

@@ -1,4 +1,4 @@
-#include "host/compare.h"
+#include "host/jobs/compare.h"
 
 #include <algorithm>
 #include <cmath>

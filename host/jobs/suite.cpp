@@ -1,5 +1,5 @@
 // The benchmark suite's manifest (suite.h).
-#include "host/suite.h"
+#include "host/jobs/suite.h"
 
 #include <cctype>
 #include <cstdio>

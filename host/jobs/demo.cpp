@@ -1,4 +1,4 @@
-#include "host/demo.h"
+#include "host/jobs/demo.h"
 
 #include <filesystem>
 #include <memory>
@@ -9,8 +9,8 @@
 #include "host/io/image.h"
 #include "host/scene/ray_gen.h"
 #include "host/io/ray_io.h"
-#include "host/stopwatch.h"
-#include "host/trace_job.h"
+#include "host/jobs/stopwatch.h"
+#include "host/jobs/trace_job.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/timing_config.h"
 

@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "host/io/stats_json.h"
-#include "host/sweep.h"
+#include "host/jobs/sweep.h"
 #include "hwmodel/numeric/fixed_format.h"
 
 namespace rtu::host {

@@ -1,4 +1,4 @@
-#include "host/stress.h"
+#include "host/jobs/stress.h"
 
 #include <algorithm>
 #include <array>

@@ -6,7 +6,7 @@
 #include <tuple>
 
 #include "host/cli/common.h"
-#include "host/cost_model.h"
+#include "host/cost/cost_model.h"
 #include "host/io/error.h"
 #include "hwmodel/cost/energy_model.h"
 

@@ -8,7 +8,7 @@
 #include <set>
 #include <variant>
 
-#include "host/cost_model.h"
+#include "host/cost/cost_model.h"
 #include "host/io/error.h"
 
 namespace rtu::host {

@@ -7,7 +7,7 @@
 #include <memory>
 #include <stdexcept>
 
-#include "host/cost_model.h"
+#include "host/cost/cost_model.h"
 #include "host/io/error.h"
 #include "hwmodel/cost/energy_model.h"
 #include "hwmodel/timing/timing_config.h"

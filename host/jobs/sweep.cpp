@@ -11,7 +11,7 @@
 #include <stdexcept>
 
 #include "host/jobs/compare.h"
-#include "host/cost_model.h"
+#include "host/cost/cost_model.h"
 #include "host/devices/direct_device.h"
 #include "host/io/error.h"
 #include "host/jobs/image_diff.h"

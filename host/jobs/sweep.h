@@ -58,7 +58,7 @@ struct SweepRow {
   uint64_t bvh_bytes = 0, float_bvh_bytes = 0;
   double bytes_per_prim = 0.0;  // the image's node and primitive bytes / its bounded primitives (0: none)
   int64_t rtl_cells = -1, rtl_transistors = -1;  // -1: no synthesis result for this unit
-  // The estimate of hwmodel/cost/energy_model.h for the point's units (host/cost_model.h: synthesized or fitted size,
+  // The estimate of hwmodel/cost/energy_model.h for the point's units (host/cost/cost_model.h: synthesized or fitted size,
   // measured activity): the unit's area, and the timed run's energy over its rays.
   double area_mm2 = 0.0, pj_per_ray = 0.0;
   double seconds = 0.0;  // wall time of the point

@@ -1,4 +1,4 @@
-// Area and energy (hwmodel/cost/energy_model.h, host/cost_model.h): the accounting adds up on real timed runs, each
+// Area and energy (hwmodel/cost/energy_model.h, host/cost/cost_model.h): the accounting adds up on real timed runs, each
 // event counts what the timing model counted, the tables' sources are where the code says they are, and the
 // estimates respond to the keys that should move them and to nothing else.
 #include <catch2/catch.hpp>
@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "host/cost_model.h"
+#include "host/cost/cost_model.h"
 #include "host/devices/direct_device.h"
 #include "host/jobs/plan.h"
 #include "host/scene/ray_gen.h"

@@ -1,4 +1,4 @@
-#include "host/cost_model.h"
+#include "host/cost/cost_model.h"
 
 #include <algorithm>
 #include <map>

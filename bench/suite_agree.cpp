@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "host/embree_oracle.h"
+#include "host/oracle/embree_oracle.h"
 #include "host/io/ray_io.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"

@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "host/devices/direct_device.h"
-#include "host/embree_oracle.h"
+#include "host/oracle/embree_oracle.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
 #include "hwmodel/format/device_image.h"

@@ -22,7 +22,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "host/embree_oracle.h"
+#include "host/oracle/embree_oracle.h"
 #include "host/io/image.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"

@@ -1,4 +1,4 @@
-#include "host/embree_oracle.h"
+#include "host/oracle/embree_oracle.h"
 
 #include <limits>
 #include <stdexcept>

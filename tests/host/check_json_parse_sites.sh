@@ -6,7 +6,7 @@ set -uo pipefail
 cd "$1" || exit 2
 sites=$(grep -rnE '(json|Json)(::|\.)(parse|sax_parse|from_(cbor|msgpack|ubjson|bson|bjdata))[[:space:]]*\(' \
   --include='*.cpp' --include='*.h' --include='*.hpp' host hwmodel firmware rtl_sim bench tests |
-  grep -v '^host/json_io\.cpp:')
+  grep -v '^host/io/json_io\.cpp:')
 if [ -n "$sites" ]; then
   echo "JSON parsed outside host/io/json_io.cpp (use host::parse_json_limited or host::read_json_file):" >&2
   echo "$sites" >&2

@@ -18,7 +18,7 @@
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/datapath/instanced_fixed.h"
-#include "hwmodel/scene/instancing.h"
+#include "hwmodel/datapath/instancing.h"
 #include "hwmodel/device/timed_engine.h"
 #include "hwmodel/timing/timing_config.h"
 

@@ -7,7 +7,7 @@
 #include <stdexcept>
 
 #include "host/io/error.h"
-#include "hwmodel/numeric/quant_frame.h"
+#include "hwmodel/format/quant_frame.h"
 
 namespace rtu::host {
 

@@ -9,7 +9,7 @@
 
 #include "hwmodel/interface/any_hit.h"
 #include "hwmodel/scene/geometry.h"
-#include "hwmodel/scene/instancing.h"
+#include "hwmodel/datapath/instancing.h"
 #include "hwmodel/interface/ray.h"
 
 namespace rtu::oracle {

@@ -43,7 +43,7 @@
 #include "host/io/image.h"
 #include "host/io/limits.h"
 #include "host/scene/scene.h"
-#include "hwmodel/scene/instancing.h"
+#include "hwmodel/datapath/instancing.h"
 
 namespace rtu::host {
 namespace {

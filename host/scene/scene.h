@@ -16,7 +16,7 @@
 #include <nlohmann/json_fwd.hpp>
 
 #include "hwmodel/scene/geometry.h"
-#include "hwmodel/scene/instancing.h"
+#include "hwmodel/datapath/instancing.h"
 #include "hwmodel/interface/ray.h"
 #include "hwmodel/interface/vec.h"
 

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "hwmodel/datapath/batch.h"
-#include "hwmodel/format/box_node.h"
+#include "hwmodel/datapath/box_node.h"
 #include "hwmodel/datapath/intersect_float.h"
 #include "hwmodel/datapath/traverse.h"
 

@@ -33,7 +33,7 @@
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
-#include "hwmodel/scene/instancing.h"
+#include "hwmodel/datapath/instancing.h"
 #include "hwmodel/interface/ray.h"
 #include "hwmodel/datapath/stats.h"
 

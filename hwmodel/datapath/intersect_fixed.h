@@ -13,7 +13,7 @@
 #include "hwmodel/numeric/fixed.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/format/hw_format.h"
-#include "hwmodel/numeric/quant_frame.h"
+#include "hwmodel/format/quant_frame.h"
 #include "hwmodel/interface/ray.h"
 
 namespace rtu::hw {

@@ -12,14 +12,10 @@
 
 #include <cstdint>
 
-#include "hwmodel/scene/bvh.h"
 #include "hwmodel/datapath/stats.h"
+#include "hwmodel/scene/bvh.h"
 
 namespace rtu::hw {
-
-// Upper bound of the stack: at most width-1 entries per level; the builder keeps the depth below 48 SAH levels
-// plus log2(2^27) median levels.
-inline constexpr int kTraversalStackSize = 8 * 80;
 
 template <class Policy>
 void traverse(Policy& p, uint32_t root, bool any_hit, TraversalStats& s) {

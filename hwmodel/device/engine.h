@@ -17,15 +17,16 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/interface/any_hit.h"
 #include "hwmodel/datapath/box_unit.h"
-#include "hwmodel/device/device_kind.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
-#include "hwmodel/scene/geometry.h"
-#include "hwmodel/interface/ray.h"
 #include "hwmodel/datapath/stats.h"
 #include "hwmodel/datapath/tri_unit.h"
+#include "hwmodel/datapath/watchdog.h"
+#include "hwmodel/device/device_kind.h"
+#include "hwmodel/interface/any_hit.h"
+#include "hwmodel/interface/ray.h"
+#include "hwmodel/scene/geometry.h"
 
 namespace rtu::hw {
 
@@ -60,20 +61,6 @@ struct EngineOptions {
   // fixed and timed: the traversal watchdog, node and leaf visits one ray may make (FixedTraceOptions);
   // 0: the image's own bound (every node and leaf reference once), which no valid image can exceed.
   uint64_t max_steps = 0;
-};
-
-// Thrown by TraceEngine::trace and trace_cycles when the watchdog fires: a ray exceeded its traversal step bound
-// (fixed-point devices) or stayed in its ray slot longer than watchdog_cycles (timed device). what() is a dump
-// of the unit's state (the ray; on the timed device the cycle, ray slots, queues and units). The command
-// processor turns it into reg::ErrorCode::kWatchdog; no hits of the TRACE are written.
-class WatchdogError : public std::runtime_error {
- public:
-  WatchdogError(const std::string& dump, uint64_t cycles) : std::runtime_error(dump), m_cycles(cycles) {}
-  // Cycles into the TRACE packet when it fired (timed device; 0 for the functional ones).
-  uint64_t cycles() const { return m_cycles; }
-
- private:
-  uint64_t m_cycles;
 };
 
 class TraceEngine {

@@ -1,4 +1,5 @@
 #include "hwmodel/format/device_image.h"
+#include "hwmodel/scene/bvh.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +8,6 @@
 #include <string>
 
 #include "hwmodel/format/packed_layout.h"
-#include "hwmodel/datapath/traverse.h"
 
 namespace rtu::hw {
 

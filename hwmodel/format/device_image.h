@@ -19,7 +19,7 @@
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/scene/geometry.h"
 #include "hwmodel/format/hw_format.h"
-#include "hwmodel/numeric/quant_frame.h"
+#include "hwmodel/format/quant_frame.h"
 
 namespace rtu::hw {
 

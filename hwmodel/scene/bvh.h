@@ -18,6 +18,10 @@
 
 namespace rtu::hw {
 
+// Upper bound of a traversal stack (traverse.h): at most width-1 entries per level; the builder keeps the depth
+// below 48 SAH levels plus log2(2^27) median levels.
+inline constexpr int kTraversalStackSize = 8 * 80;
+
 inline constexpr uint32_t kLeafBit = 0x80000000u;
 inline constexpr uint32_t kEmptyChild = 0xFFFFFFFFu;
 inline constexpr int kMaxLeafSize = 16;

@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "hwmodel/device/engine.h"
+#include "hwmodel/datapath/watchdog.h"
 
 namespace rtu::hw {
 

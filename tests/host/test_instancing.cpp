@@ -11,7 +11,7 @@
 #include "host/io/error.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
-#include "hwmodel/scene/instancing.h"
+#include "hwmodel/datapath/instancing.h"
 #include "hwmodel/numeric/rng.h"
 
 using namespace rtu;

@@ -24,7 +24,7 @@
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/scene/geometry.h"
 #include "hwmodel/datapath/intersect_fixed.h"
-#include "hwmodel/numeric/quant_frame.h"
+#include "hwmodel/format/quant_frame.h"
 #include "hwmodel/numeric/rng.h"
 
 // REQUIRE that builds its context message only on failure: the hot loops run millions of cases, and formatting a

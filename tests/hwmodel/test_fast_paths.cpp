@@ -18,10 +18,10 @@
 #include <random>
 #include <vector>
 
-#include "hwmodel/format/box_node.h"
+#include "hwmodel/datapath/box_node.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/intersect_fixed.h"
-#include "hwmodel/numeric/quant_frame.h"
+#include "hwmodel/format/quant_frame.h"
 
 using namespace rtu::hw;
 

@@ -17,7 +17,7 @@
 #include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/scene/geometry.h"
 #include "hwmodel/datapath/intersect_fixed.h"
-#include "hwmodel/numeric/quant_frame.h"
+#include "hwmodel/format/quant_frame.h"
 #include "hwmodel/numeric/rng.h"
 
 using namespace rtu::hw;

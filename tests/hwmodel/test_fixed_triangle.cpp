@@ -15,7 +15,7 @@
 #include "fixed_checks.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/intersect_fixed.h"
-#include "hwmodel/numeric/quant_frame.h"
+#include "hwmodel/format/quant_frame.h"
 #include "hwmodel/numeric/rng.h"
 
 using namespace rtu::hw;

@@ -10,7 +10,7 @@
 #include <random>
 
 #include "fixed_checks.h"
-#include "hwmodel/numeric/quant_frame.h"
+#include "hwmodel/format/quant_frame.h"
 
 using namespace rtu::hw;
 using namespace rtu::hw::fixed_checks;

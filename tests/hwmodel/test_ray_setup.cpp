@@ -13,7 +13,7 @@
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/scene/geometry.h"
 #include "hwmodel/datapath/intersect_fixed.h"
-#include "hwmodel/numeric/quant_frame.h"
+#include "hwmodel/format/quant_frame.h"
 #include "hwmodel/numeric/rng.h"
 
 using namespace rtu::hw;

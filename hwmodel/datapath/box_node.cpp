@@ -1,4 +1,4 @@
-#include "hwmodel/format/box_node.h"
+#include "hwmodel/datapath/box_node.h"
 
 #include <cstdlib>
 #include <cstring>

@@ -1,4 +1,4 @@
-#include "hwmodel/scene/instancing.h"
+#include "hwmodel/datapath/instancing.h"
 
 #include <cmath>
 #include <optional>

@@ -1,4 +1,4 @@
-#include "hwmodel/numeric/quant_frame.h"
+#include "hwmodel/format/quant_frame.h"
 
 #include <algorithm>
 #include <cmath>

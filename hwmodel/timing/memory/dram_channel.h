@@ -1,4 +1,5 @@
-// The timed device's DRAM channel: node cache fills and stack spills and refills go over it.
+// The timed device's DRAM channel: node cache fills and stack spills and refills go over it (the default last
+// level of memory_system.h).
 //
 // Models: one transfer at a time, in the order requested; a transfer of b bytes occupies the channel for
 // ceil(b / dram_bytes_per_cycle) cycles, and its data is there dram_latency cycles after the transfer ends.
@@ -40,6 +41,12 @@ class DramChannel {
     s.dram_busy_cycles += xfer;
     return start + xfer + m_latency;
   }
+  // The same, as a DRAM model of memory_backend.h: one channel has no addresses.
+  uint64_t transfer(uint64_t /*addr*/, uint64_t bytes, uint64_t t, TimingStats& s) {
+    return transfer(bytes, t, s);
+  }
+  // The fewest cycles a line read takes (an idle channel).
+  uint64_t min_line_cycles() const { return m_line_cycles + m_latency; }
   // The cycle the channel is free for the next transfer.
   uint64_t free_at() const { return m_free; }
 

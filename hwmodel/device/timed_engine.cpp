@@ -14,6 +14,7 @@
 
 #include "hwmodel/datapath/batch.h"
 #include "hwmodel/interface/regs.h"
+#include "hwmodel/timing/ray_scheduler.h"
 
 namespace rtu::hw {
 
@@ -266,12 +267,9 @@ uint64_t TimedEngine::trace_cycles_chip(const Ray* rays, Hit* hits, size_t n, bo
   const size_t U = m_chip_units.size();
   // The rays of each unit, in the order the unit takes them.
   std::vector<std::vector<uint32_t>> mine(U);
-  for (size_t i = 0; i < n; ++i) {
-    const size_t u = m_c.ray_policy == "blocks"  ? i * U / n
-                     : m_c.ray_policy == "waves" ? (i / size_t(m_c.ray_slots)) % U
-                                                 : i % U;
-    mine[u].push_back(uint32_t(i));
-  }
+  RayPolicy policy = RayPolicy::kWaves;
+  if (!parse_ray_policy(m_c.ray_policy, policy)) throw std::logic_error("ray_policy not validated");
+  for (size_t i = 0; i < n; ++i) mine[ray_unit(policy, i, n, U, size_t(m_c.ray_slots))].push_back(uint32_t(i));
   // Each unit takes its rays a chunk at a time when it needs the next one (it has taken every ray given). A chunk
   // is recorded (traced by the datapath) into a unit's spare buffer: on a worker thread, in the order the units
   // will ask, while the model runs (with more than one host thread and no attached RTL unit), or when asked.

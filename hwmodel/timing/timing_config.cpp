@@ -7,6 +7,7 @@
 #include <variant>
 
 #include "hwmodel/numeric/fixed_format.h"
+#include "hwmodel/timing/ray_scheduler.h"
 
 namespace rtu::hw {
 
@@ -161,7 +162,8 @@ void TimingConfig::validate() const {
     } else if (key == "tri_unit") {
       if (tri_unit != "cpp" && tri_unit != "rtl") fail("tri_unit = '" + tri_unit + "' must be cpp or rtl");
     } else if (key == "ray_policy") {
-      if (ray_policy != "waves" && ray_policy != "round_robin" && ray_policy != "blocks")
+      RayPolicy policy;
+      if (!parse_ray_policy(ray_policy, policy))
         fail("ray_policy = '" + ray_policy + "' must be waves, round_robin or blocks");
     } else if (key == "l2_kib") {
       const long long set_bytes = static_cast<long long>(l2_slices) * l2_ways * line_bytes;

@@ -1,0 +1,52 @@
+// Which unit of a chip takes which of a packet's rays (ray_policy), as one enum read from the key once per packet.
+//
+// - waves: ray_slots consecutive rays (a wave) to each unit in turn, as a GPU dispatches waves to its compute
+//   units;
+// - round_robin: ray i to unit i mod units;
+// - blocks: the packet cut into `units` consecutive blocks, as screen bands for camera rays.
+// Within a unit, a free slot takes the unit's next ray in order (TimingModel::admit): rays arrive from the ray
+// buffer in order through a queue of queue_depth, so that is the order the ray fetch model (timing_model.h)
+// prices. To add a policy: a name in kRayPolicies and a case in ray_unit(); the key's check and description
+// follow from the list.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <string_view>
+#include <utility>
+
+namespace rtu::hw {
+
+enum class RayPolicy : uint8_t { kWaves, kRoundRobin, kBlocks };
+
+inline constexpr std::array<std::pair<std::string_view, RayPolicy>, 3> kRayPolicies{{
+    {"waves", RayPolicy::kWaves},
+    {"round_robin", RayPolicy::kRoundRobin},
+    {"blocks", RayPolicy::kBlocks},
+}};
+
+// The policy a ray_policy value names; false for none (TimingConfig::validate() refuses such a value).
+inline bool parse_ray_policy(std::string_view name, RayPolicy& out) {
+  for (const auto& [n, p] : kRayPolicies)
+    if (n == name) {
+      out = p;
+      return true;
+    }
+  return false;
+}
+
+// The unit of `units` that takes ray i of a packet of n rays, with `slots` ray slots per unit.
+inline size_t ray_unit(RayPolicy policy, size_t i, size_t n, size_t units, size_t slots) {
+  switch (policy) {
+    case RayPolicy::kBlocks:
+      return i * units / n;
+    case RayPolicy::kWaves:
+      return (i / slots) % units;
+    case RayPolicy::kRoundRobin:
+      break;
+  }
+  return i % units;
+}
+
+}  // namespace rtu::hw

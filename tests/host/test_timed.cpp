@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "host/devices/direct_device.h"
-#include "host/scene/ray_gen.h"
 #include "host/jobs/render.h"
+#include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_stats.h"
@@ -487,13 +487,15 @@ TEST_CASE("sampled timing: the detailed warm-up is as long as the stream's slowe
   INFO("incoherent: 256 rays of warm-up " << short_w << ", 1024 " << long_w << ", chosen (mean " << chosen_warmup
                                           << " rays) " << chosen);
   CHECK(fixed_warmup == 8 * slots);
-  CHECK(chosen_warmup > 14 * slots);  // 560 rays on average (2026-12-02)
+  // The incoherent stream's slow rays lengthen the chosen warm-up well past its shortest (8 x ray_slots).
+  CHECK(chosen_warmup > 14 * slots);
   CHECK(short_w < long_w * (1.0 - 0.01));
   CHECK(std::abs(chosen - long_w) < 0.5 * std::abs(short_w - long_w));
   double camera_warmup = 0.0;
   run(primary, 0, &camera_warmup);
   INFO("camera rays: mean warm-up " << camera_warmup);
-  CHECK(camera_warmup < 11 * slots);  // 304 rays on average (2026-12-02)
+  // Camera rays keep it at the shortest or near it (16 x ray_slots only over the first two units).
+  CHECK(camera_warmup < 11 * slots);
   CHECK(camera_warmup >= 8 * slots);
 }
 
@@ -501,12 +503,11 @@ TEST_CASE("sampled timing: an image whose rows hold a whole number of units is n
           "[timed][sample]") {
   // A 512 x 384 camera image: a row is 2 units of 256 rays and 16 probe blocks of 32. A systematic sample of every
   // 20th unit (F = 0.05) then measures only left or only right halves of rows, and a probe at the start of each
-  // block only columns 0, 32, ..., 480: before 2026-12-02 the estimates of AC14-FZK-Haus's cycles were 17-20%
-  // low in 7 of 8 seeds (+13% in the eighth), with 95% intervals of +-3%. Now the strata spread each one's
-  // sample over its units in order and each block's probed ray is drawn at random: the 8 seeds' estimates ran
-  // from -1.1% to +2.0%, +0.1% on average, each stating +-7.6-8.5%. The mean of 8 estimates whose intervals are
-  // +-8% has a 95% interval of about +-8% / sqrt(8) = +-2.8%: it must lie within 3% (the old design's mean was
-  // -15%).
+  // block only columns 0, 32, ..., 480: an estimate biased by the image's left-right structure, the same on
+  // every seed. The strata spread each one's sample over its units in order and each block's probed ray is drawn
+  // at random, so each seed's estimate is unbiased, with a 95% interval of about +-8% here. The mean of 8
+  // independent estimates has a 95% interval of about +-8% / sqrt(8) = +-2.8%: it must lie within 3%, which a
+  // sample in step with the rows, off by the same bias on each seed, does not.
   const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
   const std::vector<Ray> rays = rtu::host::primary_rays(s.camera, 512, 384);
   const size_t n = rays.size();

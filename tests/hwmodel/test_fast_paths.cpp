@@ -19,15 +19,15 @@
 #include <vector>
 
 #include "hwmodel/datapath/box_node.h"
-#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/intersect_fixed.h"
 #include "hwmodel/format/quant_frame.h"
+#include "hwmodel/numeric/fixed_format.h"
 
 using namespace rtu::hw;
 
 namespace {
 
-// ---- Reference copies of the exact code the fast paths replaced (2026-12-01) ----
+// ---- Reference copies of the exact code the fast paths replaced ----
 
 int64_t to_grid_ref(const QuantFrame& fr, float x, int axis, Round r, int frac_bits) {
   if (std::isnan(x)) {

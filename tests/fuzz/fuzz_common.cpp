@@ -6,6 +6,7 @@
 
 #include "host/io/error.h"
 #include "host/scene/scene.h"
+#include "tests/common/test_util.h"
 #include "tests/fuzz/fuzz.h"
 
 namespace rtu::fuzz {
@@ -18,10 +19,7 @@ void init() {
   if (!g_dir.empty()) return;
   ::setenv("RTU_MEMORY_LIMIT", "256M", 0);
   ::setenv("RTU_IMPORT_TIMEOUT", "10", 0);  // below libFuzzer's -timeout=30: an importer hang is an Error
-  const std::filesystem::path d =
-      std::filesystem::temp_directory_path() / ("rtu_fuzz_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(d);
-  g_dir = d.string();
+  g_dir = test::temp_dir("fuzz").string();
   std::atexit([] {
     std::error_code ec;
     std::filesystem::remove_all(g_dir, ec);

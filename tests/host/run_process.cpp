@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include "tests/common/test_util.h"
+
 namespace rtu::test {
 
 Run run_process(const std::string& command) {
@@ -31,8 +33,7 @@ Run run_measured(const std::string& command) {
   // GNU time reports the peak of the process it runs, a shell small since its exec, and of the processes that
   // shell waited for: not of this test process, whose own peak a child forked from it would inherit.
   REQUIRE(std::filesystem::exists("/usr/bin/time"));
-  const std::string out =
-      (std::filesystem::temp_directory_path() / ("rtu_peak_" + std::to_string(::getpid()) + ".txt")).string();
+  const std::string out = (temp_dir("run_process") / "peak.txt").string();
   std::string quoted = "'";
   for (const char c : command) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
   quoted += "'";

@@ -18,6 +18,7 @@
 #include "host/scene/shading.h"
 #include "hwmodel/device/timed_engine.h"
 #include "hwmodel/timing/timing_config.h"
+#include "tests/common/test_util.h"
 #include "tests/host/run_process.h"
 
 #include <stb/stb_image_write.h>
@@ -28,9 +29,7 @@ using Catch::Matchers::Contains;
 namespace {
 
 std::filesystem::path test_dir() {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "rtu_test_alpha";
-  std::filesystem::create_directories(dir);
-  return dir;
+  return rtu::test::temp_dir("alpha");
 }
 
 std::string write_file(const std::string& name, const std::string& text) {

@@ -10,10 +10,11 @@
 #include <string>
 
 #include "host/devices/direct_device.h"
-#include "host/io/error.h"
 #include "host/devices/grid_check.h"
+#include "host/io/error.h"
 #include "host/io/image.h"
 #include "host/scene/scene.h"
+#include "tests/common/test_util.h"
 #include "tests/host/run_process.h"
 
 namespace fs = std::filesystem;
@@ -21,16 +22,12 @@ using Catch::Matchers::Contains;
 using rtu::test::Run;
 using rtu::test::run_rtusim;
 
+using rtu::test::temp_dir;
+
 namespace {
 
-fs::path temp_dir() {
-  fs::path d = fs::temp_directory_path() / ("rtu_test_answers_" + std::to_string(::getpid()));
-  fs::create_directories(d);
-  return d;
-}
-
 std::string write_scene(const std::string& name, const std::string& text) {
-  const fs::path p = temp_dir() / name;
+  const fs::path p = temp_dir("answers") / name;
   std::ofstream(p) << text;
   return p.string();
 }
@@ -80,7 +77,7 @@ TEST_CASE("trace and render warn of primitives below the grid step and compare s
     CHECK(t.status == 0);
     CHECK_THAT(t.output, Contains("warning: 24 of 24 primitives are smaller than the grid step"));
   }
-  const fs::path png = temp_dir() / "far.png";
+  const fs::path png = temp_dir("answers") / "far.png";
   const Run r =
       run_rtusim("render --scene " + flat + " --device fixed --width 32 --height 24 --out " + png.string());
   INFO(r.output);
@@ -113,8 +110,9 @@ TEST_CASE("a frame whose grid step is below the smallest normal float is refused
     e = x.what();
   }
   CHECK_THAT(e, Contains("below the smallest normal float 2^-126") && Contains("scale the scene up"));
-  for (const std::string& job : {std::string("trace --rays primary"), std::string("compare --rays primary"),
-                                 "render --width 8 --height 6 --out " + (temp_dir() / "tiny.png").string()}) {
+  for (const std::string& job :
+       {std::string("trace --rays primary"), std::string("compare --rays primary"),
+        "render --width 8 --height 6 --out " + (temp_dir("answers") / "tiny.png").string()}) {
     const Run r = run_rtusim(job.substr(0, job.find(' ')) + " --scene " + tiny + job.substr(job.find(' ')) +
                              " --device timed");
     INFO(job << "\n" << r.output);
@@ -126,7 +124,7 @@ TEST_CASE("a frame whose grid step is below the smallest normal float is refused
 }
 
 TEST_CASE("NaN is refused by every floating-point option, naming it", "[answers]") {
-  const std::string png = (temp_dir() / "nan.png").string();
+  const std::string png = (temp_dir("answers") / "nan.png").string();
   const struct {
     const char* args;
     const char* option;
@@ -159,7 +157,7 @@ TEST_CASE("trace takes ray specs and needs no --out for its statistics", "[answe
 
 TEST_CASE("a render with nothing to light it warns and the instancing example is lit", "[answers]") {
   const std::string dark = write_scene("dark.json", R"({"meshes": [{"generate": "box", "size": [1, 1, 1]}]})");
-  const std::string png = (temp_dir() / "dark.png").string();
+  const std::string png = (temp_dir("answers") / "dark.png").string();
   const Run r = run_rtusim("render --scene " + dark + " --width 16 --height 12 --out " + png);
   INFO(r.output);
   CHECK(r.status == 0);
@@ -169,7 +167,7 @@ TEST_CASE("a render with nothing to light it warns and the instancing example is
              !Contains("no light"));
   const Run ex =
       run_rtusim("render --scene " RTU_SOURCE_DIR "/scenes/instances.json --width 64 --height 48 --out " + png +
-                 " --stats " + (temp_dir() / "ex.json").string());
+                 " --stats " + (temp_dir("answers") / "ex.json").string());
   INFO(ex.output);
   CHECK(ex.status == 0);
   CHECK_THAT(ex.output, !Contains("no light"));

@@ -19,19 +19,16 @@
 #include "host/io/ray_io.h"
 #include "host/jobs/sweep.h"
 #include "hwmodel/timing/timing_config.h"
+#include "tests/common/test_util.h"
 #include "tests/host/run_process.h"
 
 namespace fs = std::filesystem;
 using rtu::test::Run;
 using rtu::test::run_rtusim;
 
-namespace {
+using rtu::test::temp_dir;
 
-fs::path temp_dir() {
-  fs::path d = fs::temp_directory_path() / ("rtu_test_cli_" + std::to_string(::getpid()));
-  fs::create_directories(d);
-  return d;
-}
+namespace {
 
 // rtusim's JSON read back through the depth-limited parser rtu reads JSON with (host/io/json_io.h): so every file
 // these tests read also shows that rtusim writes nothing deeper than host::kMaxJsonDepth.
@@ -54,7 +51,7 @@ TEST_CASE("every subcommand has --help", "[cli]") {
 }
 
 TEST_CASE("rays -> trace round trip on a built-in scene, CSV and binary give the same hits", "[cli]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string rays = (d / "p.rays").string(), rays_csv = (d / "p.csv").string();
   REQUIRE(run_rtusim("rays --scene builtin:seed --kind primary --count 20000 --out " + rays).status == 0);
   REQUIRE(run_rtusim("rays --scene builtin:seed --kind primary --count 20000 --out " + rays_csv).status == 0);
@@ -81,7 +78,7 @@ TEST_CASE("rays -> trace round trip on a built-in scene, CSV and binary give the
 }
 
 TEST_CASE("trace with NaN rays warns, counts them and writes misses", "[cli]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   std::ofstream(d / "nan.csv") << "ox,oy,oz,tmin,dx,dy,dz,tmax\n0,1,8,0,0,0,-1,inf\nnan,0,0,0,1,0,0,inf\n"
                                   "0,0,0,0,0,-0,0,inf\n";
   const Run r = run_rtusim("trace --scene builtin:seed --rays " + (d / "nan.csv").string() + " --out " +
@@ -100,7 +97,7 @@ TEST_CASE("trace with NaN rays warns, counts them and writes misses", "[cli]") {
 }
 
 TEST_CASE("bad input: clear error, non-zero exit, no crash", "[cli]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   std::ofstream(d / "odd.rays", std::ios::binary) << std::string(45, 'x');
   std::ofstream(d / "broken.json") << "{ \"spheres\": [ {\"center\": [0,0,0], \"radius\": 1 ";
   std::ofstream(d / "unknown.json") << R"({"spheres": [{"center": [0,0,0], "radius": 1, "colour": 3}]})";
@@ -136,7 +133,7 @@ TEST_CASE("bad input: clear error, non-zero exit, no crash", "[cli]") {
 }
 
 TEST_CASE("demo writes an image, hits and a report", "[cli]") {
-  const fs::path d = temp_dir() / "demo";
+  const fs::path d = temp_dir("cli") / "demo";
   const Run r = run_rtusim("demo --out " + d.string());
   INFO(r.output);
   REQUIRE(r.status == 0);
@@ -151,7 +148,7 @@ TEST_CASE("demo writes an image, hits and a report", "[cli]") {
 }
 
 TEST_CASE("compare: the JSON report's keys, conservative boxes, agreement on the seed scene", "[cli][fixed]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string json = (d / "c.json").string(), replay = (d / "dis.rays").string();
   const Run r = run_rtusim("compare --scene builtin:seed --rays incoherent:50000 --json " + json +
                            " --disagreements " + replay);
@@ -176,7 +173,7 @@ TEST_CASE("compare: the JSON report's keys, conservative boxes, agreement on the
 }
 
 TEST_CASE("compare: what it did not check it does not report", "[cli][fixed]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string json = (d / "c2.json").string();
   // Any-hit: a hit is any hit, so primitives and t are not compared.
   Run r = run_rtusim("compare --scene builtin:cornell --rays primary:3000 --any-hit --json " + json);
@@ -205,7 +202,7 @@ TEST_CASE("compare: what it did not check it does not report", "[cli][fixed]") {
 
 TEST_CASE("a camera beyond the fixed-point frame: render says so, compare fails naming the reason",
           "[cli][fixed]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   // A unit sphere seen from 2000 units: 1000 frame sizes away, beyond the default format's 2^6 guard range.
   std::ofstream(d / "far.json") << R"({"camera": {"position": [0, 0, 2000], "look_at": [0, 0, 0], "fov_y": 0.1,
     "width": 32, "height": 24}, "spheres": [{"center": [0, 0, 0], "radius": 1}],
@@ -235,7 +232,7 @@ TEST_CASE("a camera beyond the fixed-point frame: render says so, compare fails 
 }
 
 TEST_CASE("trace on the fixed device: formats, out-of-frame origins rejected with their reason", "[cli][fixed]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   std::ofstream(d / "far.csv") << "ox,oy,oz,tmin,dx,dy,dz,tmax\n0,1,8,0,0,-0.3,-1,inf\n1e12,0,0,0,-1,0,0,inf\n";
   const std::string stats = (d / "s.json").string();
   const Run r = run_rtusim("trace --device fixed --format compact --scene builtin:seed --rays " +
@@ -253,7 +250,7 @@ TEST_CASE("trace on the fixed device: formats, out-of-frame origins rejected wit
 }
 
 TEST_CASE("info reports the fixed image: bytes per node and footprint per format", "[cli][fixed]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const Run list = run_rtusim("info --formats");
   REQUIRE(list.status == 0);
   for (const char* p : {"default", "wide6", "wide8", "binary", "compact", "precise", "cwbvh", "packed", "xe6"})
@@ -272,7 +269,7 @@ TEST_CASE("info reports the fixed image: bytes per node and footprint per format
 }
 
 TEST_CASE("stress: every category runs, no promise breaks at the default format", "[cli][fixed][stress]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string json = (d / "stress.json").string();
   const Run r = run_rtusim("stress --count 3000 --json " + json);
   INFO(r.output);
@@ -296,7 +293,7 @@ TEST_CASE("stress: every category runs, no promise breaks at the default format"
 }
 
 TEST_CASE("diff: identical and differing PNGs, JSON keys, heatmap", "[cli][image]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   rtu::host::Image a{8, 4, std::vector<uint8_t>(8 * 4 * 3, 120)};
   rtu::host::Image b = a;
   b.rgb[3 * 9 + 2] = 130;  // one channel of one pixel off by 10
@@ -343,7 +340,7 @@ TEST_CASE("diff: identical and differing PNGs, JSON keys, heatmap", "[cli][image
 }
 
 TEST_CASE("diff: missing, corrupt and mismatched files give a clear error and a non-zero exit", "[cli][image]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string a = (d / "d4x4.png").string(), b = (d / "d4x3.png").string(), junk = (d / "junk.png").string();
   rtu::host::write_png(a, rtu::host::Image{4, 4, std::vector<uint8_t>(4 * 4 * 3, 7)});
   rtu::host::write_png(b, rtu::host::Image{4, 3, std::vector<uint8_t>(4 * 3 * 3, 7)});
@@ -392,7 +389,7 @@ TEST_CASE("config: a preset's every key, --set overrides, JSON keys, --list", "[
   CHECK(s.output.find("= 9 ") != std::string::npos);
   CHECK(s.output.find("box_units                  = 2 ") != std::string::npos);  // intel's two box units
 
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string json = (d / "timing.json").string();
   REQUIRE(run_rtusim("config --config embedded --set clock_ghz=0.8 --json " + json).status == 0);
   const nlohmann::ordered_json j = rtu::host::read_json_file(json);
@@ -442,7 +439,7 @@ TEST_CASE("config: unknown preset or key, bad values, malformed --set: exit 2 na
 }
 
 TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad input", "[cli][sweep]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string whole = (d / "sweep_whole.csv").string(), a = (d / "sweep_a.csv").string(),
                     b = (d / "sweep_b.csv").string(), merged = (d / "sweep_merged.csv").string();
   for (const std::string& f : {whole, a, b, merged}) fs::remove(f);
@@ -531,7 +528,7 @@ TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad 
 TEST_CASE(
     "plan: the fewest coordinate bits within the budget and the chosen, the reason, an impossible budget fails",
     "[cli][sweep]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string json = (d / "plan.json").string();
   const Run r = run_rtusim(
       "plan --scene builtin:cornell --max-error 2e-3 --bvh-width 4 --coord-bits 6,8,10,12,16 "
@@ -634,7 +631,7 @@ PipelineFile read_pipeline(const std::string& path, uint64_t from, uint64_t to) 
 
 TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the pipeline trace file",
           "[cli][timing]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string rays = (d / "t.rays").string(), stats = (d / "t.json").string(),
                     pipe = (d / "pipe.json").string();
   REQUIRE(run_rtusim("rays --scene builtin:seed --kind primary --count 3000 --out " + rays).status == 0);
@@ -708,7 +705,7 @@ TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the 
 
 TEST_CASE("trace on a chip: per-unit statistics, the memory timeline, a pipeline track group per unit",
           "[cli][timing][chip]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string rays = (d / "c.rays").string(), stats = (d / "c.json").string(),
                     pipe = (d / "c-pipe.json").string();
   REQUIRE(run_rtusim("rays --scene builtin:seed --kind primary --count 3000 --out " + rays).status == 0);
@@ -748,7 +745,7 @@ TEST_CASE("trace on a chip: per-unit statistics, the memory timeline, a pipeline
 }
 
 TEST_CASE("trace --sample: --sample-seed draws the sample, the same seed, the same estimate", "[cli][timing]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string rays = (d / "s.rays").string(), stats = (d / "s.json").string();
   REQUIRE(run_rtusim("rays --scene builtin:seed --kind incoherent --count 20000 --out " + rays).status == 0);
   // Units of 16 rays with 16 warm-up rays: 1,250 units, every 20th measured (F = 0.05), cycles only.
@@ -774,7 +771,7 @@ TEST_CASE("trace --sample: --sample-seed draws the sample, the same seed, the sa
 
 TEST_CASE("render --mode hybrid on the timed device: raster and trace cycles, rays saved, both modes",
           "[cli][hybrid]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string stats = (d / "hy.json").string();
   const Run r = run_rtusim(
       "render --scene builtin:seed --width 80 --height 60 --device timed --mode hybrid --max-depth 2 "
@@ -836,7 +833,7 @@ std::string slurp(const fs::path& p) {
 }  // namespace
 
 TEST_CASE("report --quick: a static page, its images, consistent figures", "[cli][report]") {
-  const fs::path d = temp_dir() / "report";
+  const fs::path d = temp_dir("cli") / "report";
   fs::remove_all(d);
   const Run r = run_rtusim("report --quick --threads 2 --out " + d.string());
   INFO(r.output);
@@ -914,7 +911,7 @@ TEST_CASE("report --quick: a static page, its images, consistent figures", "[cli
 
   // Without gnuplot the page says so instead of failing; `pareto` exits 2.
   {
-    const fs::path d2 = temp_dir() / "report_nognuplot";
+    const fs::path d2 = temp_dir("cli") / "report_nognuplot";
     fs::remove_all(d2);
     // rtusim by its absolute path needs no PATH; gnuplot is not found on it.
     const Run r2 = run_rtusim("PATH=/nonexistent", "report --quick --threads 2 --scene builtin:cornell --sweep " +
@@ -938,7 +935,7 @@ TEST_CASE("report --quick: a static page, its images, consistent figures", "[cli
 }
 
 TEST_CASE("report and pareto: bad input gives a clear error and exit 2", "[cli][report]") {
-  const fs::path d = temp_dir() / "report_bad";
+  const fs::path d = temp_dir("cli") / "report_bad";
   fs::remove_all(d);
   fs::create_directories(d);
   {
@@ -974,7 +971,7 @@ TEST_CASE("report and pareto: bad input gives a clear error and exit 2", "[cli][
 }
 
 TEST_CASE("usage errors exit 2 with CLI11's message, --help and --version exit 0", "[cli]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   struct Case {
     std::string args, words;
   };
@@ -998,7 +995,7 @@ TEST_CASE("usage errors exit 2 with CLI11's message, --help and --version exit 0
 }
 
 TEST_CASE("device options: a command lists only those it uses, and refuses those the device ignores", "[cli]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string rays = (d / "dev_opts.rays").string(), hits = (d / "dev_opts.hits").string();
   REQUIRE(run_rtusim("rays --scene builtin:seed --count 500 --out " + rays).status == 0);
   auto help = [](const std::string& sub) {
@@ -1073,7 +1070,7 @@ TEST_CASE("device options: a command lists only those it uses, and refuses those
 }
 
 TEST_CASE("rays: --count 0 refused, options of the other kind refused", "[cli]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string out = (d / "r.rays").string();
   fs::remove(out);
   const Run zero = run_rtusim("rays --scene builtin:seed --count 0 --out " + out);
@@ -1096,7 +1093,7 @@ TEST_CASE("rays: --count 0 refused, options of the other kind refused", "[cli]")
 }
 
 TEST_CASE("compare --rays: incoherent without a count, and a spec that is neither a kind nor a file", "[cli]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string json = (d / "c_inc.json").string();
   const Run r = run_rtusim("compare --scene builtin:cornell --rays incoherent --json " + json);
   INFO(r.output);
@@ -1145,13 +1142,13 @@ TEST_CASE("config --config as everywhere else (--preset still works), timing pre
   CHECK(p.status == 2);
   CHECK(p.output.find("amd not in") != std::string::npos);
   const Run s = run_rtusim("sweep --scene builtin:cornell --config rdna2,amd --out " +
-                           (temp_dir() / "presets.csv").string());
+                           (temp_dir("cli") / "presets.csv").string());
   CHECK(s.status == 2);
   CHECK(s.output.find("amd not in") != std::string::npos);
 }
 
 TEST_CASE("options that would be ignored are refused: diff, info, report, sweep --merge, render", "[cli]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string png = (d / "ign.png").string();
   REQUIRE(run_rtusim("render --scene builtin:cornell --width 8 --height 8 --out " + png).status == 0);
   for (const auto& [args, words] : std::vector<std::pair<std::string, std::string>>{
@@ -1175,7 +1172,7 @@ TEST_CASE("render: a progress line on a terminal, none otherwise", "[cli]") {
     WARN("no `script` (util-linux) to give rtusim a terminal: the terminal half is not checked");
     return;
   }
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string args =
       "render --scene builtin:cornell --width 32 --height 32 --spp 2 --out " + (d / "prog.png").string();
   // script(1) runs the command on a pseudo-terminal: stderr is a terminal there.
@@ -1194,7 +1191,7 @@ TEST_CASE("render: a progress line on a terminal, none otherwise", "[cli]") {
 
 TEST_CASE("sweep: resume reruns points made with other --rays, --seed or --image-width, merge refuses a mix",
           "[cli][sweep]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("cli");
   const std::string f = (d / "params.csv").string(), g = (d / "params_g.csv").string(),
                     m = (d / "params_m.csv").string();
   for (const std::string& x : {f, g, m}) fs::remove(x);
@@ -1237,7 +1234,7 @@ TEST_CASE("sweep: resume reruns points made with other --rays, --seed or --image
 TEST_CASE(
     "sweep: a PSNR not measured is an empty cell, merge warns of conflicting duplicates, CRLF and a BOM read",
     "[cli][sweep]") {
-  const fs::path d = temp_dir() / "sweep_cells";
+  const fs::path d = temp_dir("cli") / "sweep_cells";
   fs::remove_all(d);
   fs::create_directories(d);
   const std::string a = (d / "a.csv").string(), b = (d / "b.csv").string();
@@ -1332,7 +1329,7 @@ TEST_CASE(
 
 TEST_CASE("sweep, plan and report --flatten: one image for an instanced scene, recorded in the CSV and JSON",
           "[cli][sweep]") {
-  const fs::path d = temp_dir() / "flatten";
+  const fs::path d = temp_dir("cli") / "flatten";
   fs::remove_all(d);
   fs::create_directories(d);
   const std::string csv = (d / "city.csv").string();

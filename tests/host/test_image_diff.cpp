@@ -14,9 +14,12 @@
 #include "host/io/error.h"
 #include "host/io/image.h"
 #include "host/jobs/image_diff.h"
+#include "tests/common/test_util.h"
 
 using namespace rtu::host;
 namespace fs = std::filesystem;
+
+using rtu::test::temp_dir;
 
 namespace {
 
@@ -24,12 +27,6 @@ Image solid(int w, int h, uint8_t r, uint8_t g, uint8_t b) {
   Image img{w, h, {}};
   for (int i = 0; i < w * h; ++i) img.rgb.insert(img.rgb.end(), {r, g, b});
   return img;
-}
-
-fs::path temp_dir() {
-  fs::path d = fs::temp_directory_path() / ("rtu_test_image_diff_" + std::to_string(::getpid()));
-  fs::create_directories(d);
-  return d;
 }
 
 bool is_black(const Image& img, size_t pixel) {
@@ -106,7 +103,7 @@ TEST_CASE("diff: mismatched sizes and broken images throw", "[image]") {
 }
 
 TEST_CASE("PNG round trip: write_png -> read_png is lossless", "[image][io]") {
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("image_diff");
   std::mt19937 rng(12345);
   for (const auto& [w, h] : {std::pair{1, 1}, std::pair{17, 5}, std::pair{64, 33}}) {
     Image img{w, h, std::vector<uint8_t>(size_t(w) * size_t(h) * 3)};
@@ -122,7 +119,7 @@ TEST_CASE("PNG round trip: write_png -> read_png is lossless", "[image][io]") {
 }
 
 TEST_CASE("read_png: missing and corrupt files throw an Error naming the file", "[image][io]") {
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("image_diff");
   const std::string missing = (dir / "missing.png").string();
   CHECK_THROWS_AS(read_png(missing), Error);
   CHECK_THROWS_WITH(read_png(missing), Catch::Contains("missing.png"));

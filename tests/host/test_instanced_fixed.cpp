@@ -1,5 +1,6 @@
-// The fixed device over two levels (hwmodel/datapath/instanced_fixed.h): agreement with the two-level float reference,
-// statistics, bytes, the transform's widths, origins moved to a far mesh's bounds, and the images it refuses.
+// The fixed device over two levels (hwmodel/datapath/instanced_fixed.h): agreement with the two-level float
+// reference, statistics, bytes, the transform's widths, origins moved to a far mesh's bounds, and the images it
+// refuses.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -14,16 +15,17 @@
 
 #include "host/devices/direct_device.h"
 #include "host/io/json_io.h"
-#include "host/scene/ray_gen.h"
 #include "host/jobs/render.h"
+#include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"
-#include "hwmodel/format/device_image.h"
-#include "hwmodel/device/engine.h"
 #include "hwmodel/datapath/instanced_fixed.h"
-#include "hwmodel/numeric/rng.h"
+#include "hwmodel/device/engine.h"
 #include "hwmodel/device/timed_engine.h"
+#include "hwmodel/format/device_image.h"
+#include "hwmodel/numeric/rng.h"
 #include "hwmodel/timing/timing_config.h"
+#include "tests/common/test_util.h"
 #include "tests/host/run_process.h"
 
 using namespace rtu;
@@ -181,7 +183,7 @@ TEST_CASE("an origin far outside a small mesh's frame starts at the mesh's bound
           "[fixed][instancing][watertight]") {
   // An icosphere of radius 0.001 (its frame spans 0.002 units; guard bits 6 allow origins within 64 times that)
   // seen from 100 units away.
-  const std::filesystem::path path = std::filesystem::temp_directory_path() / "rtu_test_far_instance.json";
+  const std::filesystem::path path = rtu::test::temp_dir("instanced_fixed") / "far_instance.json";
   std::ofstream(path) << R"({
     "prototypes": {"ico": {"meshes": [{"generate": "icosphere", "subdiv": 3, "radius": 1}]}},
     "instances": [
@@ -227,7 +229,7 @@ TEST_CASE("alpha-tested instances: the two-level fixed device asks the any-hit s
     cards += std::string(i ? ", " : "") + R"({"prototype": "card", "transform": {"rotate": [0, 1, 0, )" +
              std::to_string(i * 17) + R"(], "translate": [)" + std::to_string(i % 5 - 2) + ", 0.7, " +
              std::to_string(i / 5 - 2) + "]}}";
-  const std::filesystem::path path = std::filesystem::temp_directory_path() / "rtu_test_alpha_instances.json";
+  const std::filesystem::path path = rtu::test::temp_dir("instanced_fixed") / "alpha_instances.json";
   std::ofstream(path) << R"({
     "camera": {"position": [0, 4, 8], "look_at": [0, 0.5, 0], "fov_y": 45, "width": 320, "height": 200},
     "textures": {"checker": {"width": 4, "height": 4, "texels": [
@@ -375,7 +377,7 @@ TEST_CASE("instance_bytes: what an instance visit fetches, hits unchanged", "[ti
 }
 
 TEST_CASE("rtusim: two levels by default on instanced scenes, --flatten for one", "[cli][instancing]") {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "rtu_test_two_level_cli";
+  const std::filesystem::path dir = rtu::test::temp_dir("instanced_fixed") / "two_level_cli";
   std::filesystem::create_directories(dir);
   const std::string two = (dir / "two.json").string(), one = (dir / "one.json").string();
   REQUIRE(rtu::test::run_rtusim("compare --scene builtin:city --rays primary:2000 --json " + two).status == 0);

@@ -13,6 +13,7 @@
 #include "host/scene/scene.h"
 #include "hwmodel/datapath/instancing.h"
 #include "hwmodel/numeric/rng.h"
+#include "tests/common/test_util.h"
 
 using namespace rtu;
 
@@ -21,8 +22,7 @@ namespace {
 const std::string kInstances = RTU_SOURCE_DIR "/scenes/instances.json";
 
 std::string write_scene(const std::string& name, const std::string& text) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "rtu_test_instancing";
-  std::filesystem::create_directories(dir);
+  const std::filesystem::path dir = rtu::test::temp_dir("instancing");
   const std::string path = (dir / (name + ".json")).string();
   std::ofstream(path) << text;
   return path;
@@ -303,7 +303,7 @@ namespace {
 // A glTF file whose node tree places one mesh (a unit quad in the z = 0 plane, x, y in [-1, 1]) several times,
 // one placement nested under a parent that moves it; `parent_scale` scales that parent (0: singular).
 std::string write_placed_gltf(const std::string& name, double parent_scale) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "rtu_test_instancing" / name;
+  const std::filesystem::path dir = rtu::test::temp_dir("instancing") / name;
   std::filesystem::create_directories(dir);
   const float pos[12] = {-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0};
   const uint16_t idx[6] = {0, 1, 2, 0, 2, 3};

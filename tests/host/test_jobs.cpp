@@ -14,40 +14,29 @@
 #include <string>
 #include <vector>
 
-#include "host/jobs/compare.h"
-#include "host/jobs/demo.h"
 #include "host/devices/device_settings.h"
 #include "host/io/error.h"
 #include "host/io/image.h"
-#include "host/jobs/image_diff.h"
 #include "host/io/json_io.h"
-#include "host/jobs/pareto.h"
 #include "host/io/pipeline_trace.h"
+#include "host/jobs/compare.h"
+#include "host/jobs/demo.h"
+#include "host/jobs/image_diff.h"
+#include "host/jobs/pareto.h"
 #include "host/jobs/plan.h"
-#include "host/scene/ray_spec.h"
 #include "host/jobs/report.h"
-#include "host/scene/scene.h"
 #include "host/jobs/sweep.h"
+#include "host/scene/ray_spec.h"
+#include "host/scene/scene.h"
 #include "hwmodel/timing/timing_config.h"
+#include "tests/common/test_util.h"
 
 namespace fs = std::filesystem;
 using rtu::host::Json;
 
-namespace {
+using rtu::test::TempDir;
 
-// A fresh, empty directory under the system's temporary directory, removed at the end of the test.
-struct TempDir {
-  explicit TempDir(const std::string& name)
-      : path(fs::temp_directory_path() / ("rtu_test_jobs_" + name + "_" + std::to_string(::getpid()))) {
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  fs::path path;
-};
+namespace {
 
 // A small scene of every primitive kind with a light and a 40x30 camera, so that a whole demo runs in seconds.
 std::string small_scene(const fs::path& dir) {
@@ -370,7 +359,7 @@ TEST_CASE("report plots: a hit disagreement of 0 is drawn apart from one wrong r
     WARN("gnuplot not installed: the plot's script is not checked");
     return;
   }
-  TempDir dir("zero_plot");
+  TempDir dir("jobs_zero_plot");
   const auto plots = rtu::host::write_pareto_plots(rows, dir.path.string(), gnuplot);
   REQUIRE(plots.size() == 2);
   REQUIRE(plots[0].error == ParetoError::kHitDisagreement);
@@ -390,7 +379,7 @@ TEST_CASE("report plots: a hit disagreement of 0 is drawn apart from one wrong r
 }
 
 TEST_CASE("demo: writes every file it lists, and its figures agree with the files", "[jobs][demo]") {
-  TempDir dir("demo");
+  TempDir dir("jobs_demo");
   rtu::host::DemoOptions o;
   o.scene = small_scene(dir.path);
   o.out = (dir.path / "out").string();
@@ -434,7 +423,7 @@ TEST_CASE("demo: writes every file it lists, and its figures agree with the file
 }
 
 TEST_CASE("report: the page, report.json, the sweep CSV and every image it embeds are written", "[jobs][report]") {
-  TempDir dir("report");
+  TempDir dir("jobs_report");
   rtu::host::ReportOptions o;
   o.out = (dir.path / "out").string();
   o.scenes = {"builtin:icosphere?subdiv=1"};
@@ -522,7 +511,7 @@ TEST_CASE("report: the area table compiled in is the one the project ships", "[j
 }
 
 TEST_CASE("report: an output directory that cannot be created is refused before any work", "[jobs][report]") {
-  TempDir dir("report_bad");
+  TempDir dir("jobs_report_bad");
   std::ofstream(dir.path / "file") << "x";
   rtu::host::ReportOptions o;
   o.out = (dir.path / "file" / "out").string();

@@ -22,29 +22,19 @@
 #include "host/io/error.h"
 #include "host/io/image.h"
 #include "host/io/limits.h"
-#include "host/scene/ray_gen.h"
 #include "host/io/ray_io.h"
+#include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
-#include "hwmodel/scene/bvh.h"
 #include "hwmodel/device/timed_engine.h"
+#include "hwmodel/scene/bvh.h"
+#include "tests/common/test_util.h"
 #include "tests/host/run_process.h"
 
 using namespace rtu;
 namespace fs = std::filesystem;
-using rtu::test::Run;
-using rtu::test::run_rtusim;
+using namespace rtu::test;  // run_rtusim, temp_dir, contains
 
 namespace {
-
-fs::path temp_dir() {
-  fs::path d = fs::temp_directory_path() / ("rtu_test_limits_" + std::to_string(::getpid()));
-  fs::create_directories(d);
-  return d;
-}
-
-bool contains(const std::string& s, const std::string& part) {
-  return s.find(part) != std::string::npos;
-}
 
 // Sets RTU_MEMORY_LIMIT for the scope.
 struct MemoryLimit {
@@ -87,7 +77,7 @@ TEST_CASE("memory limit: RTU_MEMORY_LIMIT parses sizes and refuses the rest", "[
 }
 
 TEST_CASE("memory limit: ray files larger than the budget are refused before they are read", "[limits]") {
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("limits");
   const std::vector<hw::Ray> rays = host::incoherent_rays(hw::Aabb{hw::Vec3(-1.0f), hw::Vec3(1.0f)}, 1000, 1);
   host::write_rays((dir / "r.bin").string(), rays);
   host::write_rays((dir / "r.csv").string(), rays);
@@ -112,7 +102,7 @@ TEST_CASE("memory limit: ray files larger than the budget are refused before the
 }
 
 TEST_CASE("memory limit: generated rays, scenes, mesh files and render memory are checked", "[limits]") {
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("limits");
   // 10^11 incoherent rays would need 4.8 TB: refused at once, whatever the machine.
   Run r = run_rtusim("compare --scene builtin:seed --rays incoherent:100000000000");
   INFO(r.output);
@@ -146,7 +136,7 @@ TEST_CASE("memory limit: generated rays, scenes, mesh files and render memory ar
 TEST_CASE("finite but huge coordinates are refused (float products would overflow)", "[limits]") {
   // Found by fuzz_device_image: coordinates near FLT_MAX made the BVH builder's centroid bins NaN (undefined
   // behaviour converting to int); the builder is now safe for any input, and scenes keep within 2^62.
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("limits");
   std::ofstream(dir / "huge.json") << R"({"materials": {"m": {}},
     "spheres": [{"center": [0, 0, 0], "radius": 1, "material": "m"}, {"center": [3e38, 0, 0], "radius": 1e38,
                  "material": "m"}]})";
@@ -160,7 +150,7 @@ TEST_CASE("finite but huge coordinates are refused (float products would overflo
 TEST_CASE("a PLY header Assimp would loop on is refused first", "[limits]") {
   // Found by fuzz_mesh_import (tests/fuzz/regressions/mesh_import/assimp_ply_unknown_keyword_hang): Assimp 5.2's
   // PLY parser never returns on a header line with an unknown keyword.
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("limits");
   const std::string head = "ply\nformat ascii 1.0\nelement vertex 3\n";
   const std::string tail =
       "property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n"
@@ -194,7 +184,7 @@ TEST_CASE("a mesh file that crashes Assimp is an error, not a crash of rtu", "[l
   // Found by fuzz_mesh_import (regressions/mesh_import/assimp_ply_triangulate_assert_abort): a PLY body that
   // contradicts its header trips an assertion in Assimp's triangulation, which aborts. Assimp runs in a child
   // process (host/scene/mesh_import.cpp), so the abort becomes an Error naming the file.
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("limits");
   std::ifstream in(
       fs::path(RTU_SOURCE_DIR) / "tests/fuzz/regressions/mesh_import/assimp_ply_triangulate_assert_abort",
       std::ios::binary);
@@ -217,7 +207,7 @@ TEST_CASE("scenes with more primitives than the unit's index holds are refused",
 }
 
 TEST_CASE("watchdogs from the command line: exit status 2 with the unit's state", "[limits][watchdog]") {
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("limits");
   const std::string rays = (dir / "p.rays").string(), hits = (dir / "p.hits").string();
   REQUIRE(run_rtusim("rays --scene builtin:seed --kind primary --count 500 --out " + rays).status == 0);
   Run r = run_rtusim("trace --scene builtin:seed --rays " + rays + " --out " + hits +
@@ -311,7 +301,7 @@ void write_coinciding_scene(const fs::path& path, int levels) {
 }  // namespace
 
 TEST_CASE("memory limit: rays --count is refused before the rays are made", "[limits][memory]") {
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("limits");
   for (const char* kind : {"primary", "incoherent"}) {
     const rtu::test::Run r =
         measured_rtusim("RTU_MEMORY_LIMIT=64M", std::string("rays --scene builtin:seed --kind ") + kind +
@@ -331,7 +321,7 @@ TEST_CASE("memory limit: rays --count is refused before the rays are made", "[li
 }
 
 TEST_CASE("memory limit: sweep --rays and plan --rays are refused before the rays are made", "[limits][memory]") {
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("limits");
   for (const std::string& job :
        {"sweep --out " + (dir / "s.csv").string(), std::string("plan --max-error 0.01")}) {
     const rtu::test::Run r =
@@ -348,7 +338,7 @@ TEST_CASE("memory limit: sweep --rays and plan --rays are refused before the ray
 TEST_CASE("memory limit: a scene's textures are held to the budget in sum", "[limits][memory]") {
   // Six 4096 x 4096 JPEGs (a few hundred KB each; 64 MiB of texels decoded, 128 MiB while decoding): each fits
   // a 300 MiB budget, the fourth does not beside the three before it.
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("limits");
   {
     std::vector<uint8_t> rgb(size_t(4096) * 4096 * 3, 128);
     REQUIRE(stbi_write_jpg((dir / "t.jpg").string().c_str(), 4096, 4096, 3, rgb.data(), 50) != 0);
@@ -379,7 +369,7 @@ TEST_CASE("memory limit: a scene's textures are held to the budget in sum", "[li
 
 TEST_CASE("memory limit: instances are held to the budget as they are expanded", "[limits][memory]") {
   // 4 x 16 x 16 x 16 placements of a 5120-triangle sphere: 84 million triangles from a 3 KB file.
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("limits");
   auto placements = [](const std::string& p, int n) {
     std::string s = "[";
     for (int i = 0; i < n; ++i) {
@@ -410,7 +400,7 @@ TEST_CASE("memory limit: instances are held to the budget as they are expanded",
 
 TEST_CASE("timed device: events are recorded in bounded chunks, with the same hits and cycles",
           "[limits][memory]") {
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("limits");
   write_coinciding_scene(dir / "coin.json", 3);  // 1000 instances in one place
   const host::Scene scene = host::load_scene((dir / "coin.json").string());
   const std::vector<hw::Ray> rays = host::primary_rays(scene.camera, uint64_t(300));
@@ -463,7 +453,7 @@ TEST_CASE("timed device: events are recorded in bounded chunks, with the same hi
 }
 
 TEST_CASE("the pipeline trace is streamed to its file", "[limits][memory]") {
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("limits");
   const std::string rays = (dir / "p.rays").string();
   REQUIRE(run_rtusim("rays --scene builtin:seed --kind incoherent --count 100000 --out " + rays).status == 0);
   const std::string trace = "trace --scene builtin:seed --rays " + rays + " --out " + (dir / "h.bin").string() +
@@ -492,7 +482,7 @@ TEST_CASE("the pipeline trace is streamed to its file", "[limits][memory]") {
 
 TEST_CASE("PLY and OFF files whose counts the file or the budget cannot hold are refused, named",
           "[limits][memory]") {
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("limits");
   std::ofstream(dir / "huge.ply")
       << "ply\nformat ascii 1.0\nelement vertex 4000000000\nproperty float x\n"
          "property float y\nproperty float z\nelement face 1\n"

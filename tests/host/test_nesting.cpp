@@ -1,8 +1,8 @@
 // Deeply nested input (issue 25): every parser of rtu refuses a file nested level upon level with a message and
-// exit status 2, never a crash by stack overflow. JSON goes through host/io/json_io.h (a depth limit while parsing);
-// mesh files through Assimp, whose parsers recurse, in a child process on a stack of known size
-// (host/scene/mesh_import.cpp). The files are generated here (megabytes, not committed); each case runs in well under a
-// second in the default build.
+// exit status 2, never a crash by stack overflow. JSON goes through host/io/json_io.h (a depth limit while
+// parsing); mesh files through Assimp, whose parsers recurse, in a child process on a stack of known size
+// (host/scene/mesh_import.cpp). The files are generated here (megabytes, not committed); each case runs in well
+// under a second in the default build.
 #include <catch2/catch.hpp>
 
 #include <unistd.h>
@@ -15,24 +15,14 @@
 #include "host/io/error.h"
 #include "host/io/json_io.h"
 #include "host/scene/scene.h"
+#include "tests/common/test_util.h"
 #include "tests/host/run_process.h"
 
 using namespace rtu;
 namespace fs = std::filesystem;
-using rtu::test::Run;
-using rtu::test::run_rtusim;
+using namespace rtu::test;  // run_rtusim, temp_dir, contains
 
 namespace {
-
-fs::path temp_dir() {
-  fs::path d = fs::temp_directory_path() / ("rtu_test_nesting_" + std::to_string(::getpid()));
-  fs::create_directories(d);
-  return d;
-}
-
-bool contains(const std::string& s, const std::string& part) {
-  return s.find(part) != std::string::npos;
-}
 
 std::string repeat(const std::string& s, size_t n) {
   std::string out;
@@ -119,7 +109,7 @@ TEST_CASE("parse_json_limited: 10^6 nested arrays are refused at once, without b
 // (iteratively), then copying the "materials" value or naming the "width" value in an error message (dump())
 // recursed once per level. "description" only failed on the type, but is the file of issue 25.
 TEST_CASE("rtusim info on scene files of 10^6 nested arrays: a clear error, exit status 2", "[limits][cli]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("nesting");
   const std::string deep = nested_arrays(1000000);
   for (const auto& [name, text] :
        {std::pair<std::string, std::string>{"description.json", "{\"description\": " + deep + "}"},
@@ -142,11 +132,11 @@ TEST_CASE("rtusim info on scene files of 10^6 nested arrays: a clear error, exit
   fs::remove_all(d);
 }
 
-// Assimp's parsers recurse per level (host/scene/mesh_import.cpp has the figures). Before the import ran on its own
-// stack, each of these was reported as "the mesh importer (Assimp) crashed (signal 11)": safe, but the message
+// Assimp's parsers recurse per level (host/scene/mesh_import.cpp has the figures). Before the import ran on its
+// own stack, each of these was reported as "the mesh importer (Assimp) crashed (signal 11)": safe, but the message
 // did not say why. Now the overflow is recognized and named.
 TEST_CASE("mesh files nested too deeply for Assimp: a clear error, exit status 2", "[limits][scene]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("nesting");
   const std::string overflow = "ran out of its 64 MiB stack: the file nests too deeply";
   // Collada: 10^5 nested <node> elements (1.3 MB; at least 800 bytes of stack a level, 80 MB or more in all).
   const size_t n = 100000;
@@ -171,7 +161,7 @@ TEST_CASE("mesh files nested too deeply for Assimp: a clear error, exit status 2
 // The other side of the stack's size: a node chain that overflowed an 8 MiB stack (the usual default) imports on
 // the import's own 64 MiB, whatever `ulimit -s` says (what Assimp makes of its empty nodes does not matter here).
 TEST_CASE("a node chain deeper than an 8 MiB stack allows still imports", "[scene]") {
-  const fs::path d = temp_dir();
+  const fs::path d = temp_dir("nesting");
   const size_t n = 15000;  // 10^4 levels of Collada overflow 8 MiB (about 800 bytes a level); ASan frames fit 3x
   const std::string dae = write(d / "chain.dae", collada_chain(n));
   const std::string e = error_of_import(dae);

@@ -1,5 +1,5 @@
-// Pareto fronts of a sweep (host/jobs/pareto.h): which points are on the front, how zero errors are drawn on the log
-// axis, where the point numbers go (no two overlap), and the gnuplot step writing one PNG per scene and error
+// Pareto fronts of a sweep (host/jobs/pareto.h): which points are on the front, how zero errors are drawn on the
+// log axis, where the point numbers go (no two overlap), and the gnuplot step writing one PNG per scene and error
 // measure.
 #include <catch2/catch.hpp>
 
@@ -14,6 +14,7 @@
 #include "host/io/error.h"
 #include "host/io/image.h"
 #include "host/jobs/pareto.h"
+#include "tests/common/test_util.h"
 
 namespace fs = std::filesystem;
 using namespace rtu::host;
@@ -189,9 +190,8 @@ TEST_CASE("pareto plots: gnuplot writes one PNG per scene and error measure", "[
     WARN("gnuplot not installed: plot test skipped");
     return;
   }
-  const fs::path d = fs::temp_directory_path() / ("rtu_test_pareto_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
+  const rtu::test::TempDir dir("pareto");
+  const fs::path& d = dir.path;
   std::vector<SweepRow> rows;
   for (int i = 0; i < 4; ++i) {
     SweepRow r;
@@ -280,5 +280,4 @@ TEST_CASE("pareto plots: gnuplot writes one PNG per scene and error measure", "[
   CHECK_THROWS_AS(write_pareto_plots(rows, d.string(), ""), Error);
   // A gnuplot that fails is reported, naming the script.
   CHECK_THROWS_WITH(write_pareto_plots(rows, d.string(), "false"), Catch::Contains("gnuplot failed"));
-  fs::remove_all(d);
 }

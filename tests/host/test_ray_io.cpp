@@ -9,19 +9,16 @@
 #include <limits>
 
 #include "host/io/error.h"
-#include "host/scene/ray_gen.h"
 #include "host/io/ray_io.h"
+#include "host/scene/ray_gen.h"
+#include "tests/common/test_util.h"
 
 using namespace rtu;
 namespace fs = std::filesystem;
 
-namespace {
+using rtu::test::temp_dir;
 
-fs::path temp_dir() {
-  fs::path d = fs::temp_directory_path() / ("rtu_test_ray_io_" + std::to_string(::getpid()));
-  fs::create_directories(d);
-  return d;
-}
+namespace {
 
 void write_text(const fs::path& p, const std::string& s) {
   std::ofstream(p, std::ios::binary) << s;
@@ -30,7 +27,7 @@ void write_text(const fs::path& p, const std::string& s) {
 }  // namespace
 
 TEST_CASE("ray files round-trip bit-exactly in binary and CSV", "[io]") {
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("ray_io");
   std::vector<hw::Ray> rays = host::incoherent_rays(hw::Aabb{hw::Vec3(-3.0f), hw::Vec3(5.0f)}, 1000, 3);
   rays[0].tmax = 1.25e-7f;
   rays[1].dir = hw::Vec3(-0.0f, 0.0f, 1.0f);
@@ -44,7 +41,7 @@ TEST_CASE("ray files round-trip bit-exactly in binary and CSV", "[io]") {
 }
 
 TEST_CASE("hit files round-trip, misses as +inf and 0xFFFFFFFF", "[io]") {
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("ray_io");
   const std::vector<hw::Hit> hits = {hw::Hit{}, hw::Hit{1.5f, 7, 0.25f, 0.5f},
                                      hw::Hit{3.0e-5f, 0xFFFFFFFEu, 0.1f, 0.2f}};
   for (const char* name : {"h.bin", "h.csv"}) {
@@ -62,7 +59,7 @@ TEST_CASE("hit files round-trip, misses as +inf and 0xFFFFFFFF", "[io]") {
 }
 
 TEST_CASE("bad ray files give errors naming the file and the problem", "[io]") {
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("ray_io");
   auto expect = [](const fs::path& p, const std::string& words) {
     try {
       host::read_rays(p.string());
@@ -95,7 +92,7 @@ TEST_CASE("bad ray files give errors naming the file and the problem", "[io]") {
 }
 
 TEST_CASE("NaN rays survive the file round trip, to be rejected at ray setup", "[io]") {
-  const fs::path dir = temp_dir();
+  const fs::path dir = temp_dir("ray_io");
   write_text(dir / "nan.csv", "ox,oy,oz,tmin,dx,dy,dz,tmax\nnan,0,0,0,1,0,0,inf\n0,0,0,0,0,0,0,inf\n");
   const std::vector<hw::Ray> rays = host::read_rays((dir / "nan.csv").string());
   REQUIRE(rays.size() == 2);

@@ -18,6 +18,7 @@
 #include "host/io/error.h"
 #include "host/scene/generators.h"
 #include "host/scene/scene.h"
+#include "tests/common/test_util.h"
 
 namespace fs = std::filesystem;
 using Catch::Matchers::Contains;
@@ -27,34 +28,12 @@ using rtu::host::Scene;
 using rtu::hw::Triangle;
 using rtu::hw::Vec3;
 
+using rtu::test::TempDir;
+
 namespace {
 
 const std::string kModels = "/usr/share/assimp/models";
 const std::string kScenes = std::string(RTU_SOURCE_DIR) + "/scenes";
-
-// A fresh directory under the system temp directory, removed at the end of the test.
-class TempDir {
- public:
-  TempDir() {
-    static int counter = 0;
-    m_path = fs::temp_directory_path() /
-             ("rtu_test_scene_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-    fs::remove_all(m_path);
-    fs::create_directories(m_path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(m_path, ec);
-  }
-  std::string path(const std::string& name) const { return (m_path / name).string(); }
-  std::string write(const std::string& name, const std::string& text) const {
-    std::ofstream(m_path / name, std::ios::binary) << text;
-    return path(name);
-  }
-
- private:
-  fs::path m_path;
-};
 
 // The message of the Error that f throws; fails the test if it throws none.
 std::string error_of(const std::function<void()>& f) {
@@ -308,7 +287,7 @@ TEST_CASE("scenes/example.json loads", "[scene]") {
 }
 
 TEST_CASE("scene file: order does not depend on the order of keys in the file", "[scene]") {
-  TempDir dir;
+  TempDir dir("scene");
   const std::string file = dir.write("order.json", R"({
     "planes": [{"normal": [0, 1, 0], "offset": -1, "material": "p"}],
     "lights": [{"type": "area", "corner": [0, 5, 0], "edge_u": [1, 0, 0], "edge_v": [0, 0, 1]}],
@@ -342,8 +321,8 @@ TEST_CASE("scene file: order does not depend on the order of keys in the file", 
 }
 
 TEST_CASE("scene file: mesh paths are relative to the scene file", "[scene]") {
-  TempDir dir;
-  fs::create_directories(dir.path("sub"));
+  TempDir dir("scene");
+  fs::create_directories(dir.file("sub"));
   dir.write("sub/tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
   const std::string file = dir.write("rel.json", R"({"meshes": [{"file": "sub/tri.obj",
       "transform": {"scale": [2, 3, 4], "translate": [1, 1, 1]}}]})");
@@ -414,7 +393,7 @@ TEST_CASE("import: a bare mesh file is a scene with an automatic camera and a li
 }
 
 TEST_CASE("import: OBJ polygons are triangulated, points and lines dropped", "[scene]") {
-  TempDir dir;
+  TempDir dir("scene");
   const std::string file = dir.write("mixed.obj",
                                      "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
                                      "f 1 2 3 4\n"  // quad -> 2 triangles
@@ -478,7 +457,7 @@ TEST_CASE("import: node tree depth-first with parent * child transforms", "[scen
       {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}
     ]
   })";
-  TempDir dir;
+  TempDir dir("scene");
   const auto tris = rtu::host::import_mesh(dir.write("tree.gltf", gltf));
   REQUIRE(tris.size() == 3);
   // node 1: T(10) S(2)
@@ -508,15 +487,15 @@ TEST_CASE("import: glTF with an out-of-range index", "[scene]") {
 // ---- Bad input
 
 TEST_CASE("error: missing file", "[scene]") {
-  TempDir dir;
-  check_load_error(dir.path("nope.obj"), {"nope.obj", "file not found"});
-  check_load_error(dir.path("nope.json"), {"nope.json", "file not found"});
+  TempDir dir("scene");
+  check_load_error(dir.file("nope.obj"), {"nope.obj", "file not found"});
+  check_load_error(dir.file("nope.json"), {"nope.json", "file not found"});
   const std::string scene = dir.write("s.json", R"({"meshes": [{"file": "gone.obj"}]})");
   check_load_error(scene, {"s.json", "meshes[0].file", "gone.obj", "file not found"});
 }
 
 TEST_CASE("error: unparsable files", "[scene]") {
-  TempDir dir;
+  TempDir dir("scene");
   check_load_error(dir.write("bad.json", R"({"meshes": [})"), {"bad.json", "parse error", "line 1"});
   check_load_error(dir.write("empty.json", ""), {"empty.json", "parse error"});
   check_load_error(dir.write("top.json", "[1, 2]"), {"top.json", "expected a JSON object"});
@@ -526,7 +505,7 @@ TEST_CASE("error: unparsable files", "[scene]") {
 }
 
 TEST_CASE("error: unknown keys name their path", "[scene]") {
-  TempDir dir;
+  TempDir dir("scene");
   check_load_error(dir.write("x.json", R"({"meshes": [{"generate": "box"}, {"generate": "quad"},
       {"generate": "box", "trnasform": {}}]})"),
                    {"x.json", "unknown key 'meshes[2].trnasform'"});
@@ -548,7 +527,7 @@ TEST_CASE("error: unknown keys name their path", "[scene]") {
 }
 
 TEST_CASE("error: wrong types, lengths and values name the key path", "[scene]") {
-  TempDir dir;
+  TempDir dir("scene");
   auto sphere = [&](const std::string& body) { return dir.write("s.json", R"({"spheres": [)" + body + "]}"); };
   check_load_error(sphere(R"({"center": [0, 0], "radius": 1})"), {"s.json", "spheres[0].center", "3 numbers"});
   check_load_error(sphere(R"({"center": [0, 0, "z"], "radius": 1})"),
@@ -592,7 +571,7 @@ TEST_CASE("error: wrong types, lengths and values name the key path", "[scene]")
 }
 
 TEST_CASE("error: NaN/Inf coordinates", "[scene]") {
-  TempDir dir;
+  TempDir dir("scene");
   check_load_error(dir.write("nan.obj", "v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
                    {"nan.obj", "NaN/Inf coordinate", "face 0"});
   check_load_error(dir.write("inf.obj", "v 1 0 0\nv 1e999 0 0\nv 0 1 0\nf 1 2 3\n"),
@@ -610,7 +589,7 @@ TEST_CASE("error: NaN/Inf coordinates", "[scene]") {
 }
 
 TEST_CASE("error: index out of range", "[scene]") {
-  TempDir dir;
+  TempDir dir("scene");
   check_load_error(dir.write("oor.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99\n"),
                    {"oor.obj", "index out of range"});
   const std::string scene = dir.write("oor.json", R"({"meshes": [{"file": "oor.obj"}]})");
@@ -618,7 +597,7 @@ TEST_CASE("error: index out of range", "[scene]") {
 }
 
 TEST_CASE("error: empty scene", "[scene]") {
-  TempDir dir;
+  TempDir dir("scene");
   check_load_error(dir.write("empty.json", "{}"), {"empty.json", "empty scene"});
   check_load_error(dir.write("mats.json", R"({"materials": {"a": {}}, "lights": [{"type": "point",
       "position": [0, 1, 0]}], "meshes": [], "spheres": []})"),

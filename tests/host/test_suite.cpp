@@ -12,11 +12,12 @@
 #include <vector>
 
 #include "host/io/error.h"
+#include "host/jobs/suite.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"
-#include "host/jobs/suite.h"
 #include "host/scene/suite_scenes.h"
 #include "hwmodel/datapath/float_tracer.h"
+#include "tests/common/test_util.h"
 #include "tests/host/run_process.h"
 
 namespace fs = std::filesystem;
@@ -25,33 +26,11 @@ using rtu::host::Error;
 using rtu::host::Scene;
 using rtu::test::run_rtusim;
 
+using rtu::test::TempDir;
+
 namespace {
 
 const std::string kScenes = std::string(RTU_SOURCE_DIR) + "/scenes";
-
-// A fresh directory under the system temp directory, removed at the end of the test.
-class TempDir {
- public:
-  TempDir() {
-    static int counter = 0;
-    m_path = fs::temp_directory_path() /
-             ("rtu_test_suite_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-    fs::remove_all(m_path);
-    fs::create_directories(m_path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(m_path, ec);
-  }
-  std::string path(const std::string& name) const { return (m_path / name).string(); }
-  std::string write(const std::string& name, const std::string& text) const {
-    std::ofstream(m_path / name, std::ios::binary) << text;
-    return path(name);
-  }
-
- private:
-  fs::path m_path;
-};
 
 // Same length and same bytes; memcmp is never handed the null data() of an empty vector.
 template <typename T>
@@ -222,7 +201,7 @@ TEST_CASE("scenes/suite.json names every suite built-in, the benchmarks' meshes 
 }
 
 TEST_CASE("a suite manifest with a mistake is refused with a message naming it", "[suite]") {
-  TempDir d;
+  TempDir d("suite");
   const std::string ok = R"({"name": "a", "scene": "builtin:seed", "hard_because": "x"})";
   struct Case {
     std::string text;
@@ -258,12 +237,12 @@ TEST_CASE("a suite manifest with a mistake is refused with a message naming it",
     CHECK_THAT(message, Contains(path));
     for (const std::string& e : c.expect) CHECK_THAT(message, Contains(e));
   }
-  CHECK_THAT(suite_error(d.path("absent.json")), Contains("absent.json"));
+  CHECK_THAT(suite_error(d.file("absent.json")), Contains("absent.json"));
 }
 
 TEST_CASE("a suite scene whose file is missing is skipped with the reason", "[suite]") {
-  TempDir d;
-  fs::create_directories(d.path("sub"));
+  TempDir d("suite");
+  fs::create_directories(d.file("sub"));
   const std::string manifest = d.write("suite.json", R"({"scenes": [
     {"name": "seed", "scene": "builtin:seed", "hard_because": "x"},
     {"name": "ghost", "scene": "meshes/ghost.off", "hard_because": "x", "source": "Debian libghost"},
@@ -275,7 +254,7 @@ TEST_CASE("a suite scene whose file is missing is skipped with the reason", "[su
   CHECK(check.available[1].name == "cornell");
   REQUIRE(check.skipped.size() == 2);
   CHECK(check.skipped[0].entry.name == "ghost");
-  CHECK_THAT(check.skipped[0].reason, Contains("missing file " + d.path("meshes/ghost.off")));
+  CHECK_THAT(check.skipped[0].reason, Contains("missing file " + d.file("meshes/ghost.off")));
   CHECK_THAT(check.skipped[0].reason, Contains("Debian libghost"));
   CHECK_THAT(check.skipped[1].reason, Contains("not a regular file"));
   std::vector<std::string> warnings;
@@ -287,11 +266,11 @@ TEST_CASE("a suite scene whose file is missing is skipped with the reason", "[su
 }
 
 TEST_CASE("rtusim sweep, report and info take --suite", "[suite][cli]") {
-  TempDir d;
+  TempDir d("suite");
   const std::string manifest = d.write("suite.json", R"({"scenes": [
     {"name": "cornell", "scene": "builtin:cornell", "hard_because": "x"},
     {"name": "ghost", "scene": "ghost.off", "hard_because": "x"}]})");
-  const std::string csv = d.path("s.csv");
+  const std::string csv = d.file("s.csv");
   const rtu::test::Run r = run_rtusim("sweep --suite " + manifest +
                                       " --formats default --bvh-width 4 --config rdna2 --rays 200 --image-width 0 "
                                       "--threads 1 --out " +
@@ -310,14 +289,14 @@ TEST_CASE("rtusim sweep, report and info take --suite", "[suite][cli]") {
   // A suite with nothing available, and a malformed one: exit 2 with the message, no crash.
   const std::string none =
       d.write("none.json", R"({"scenes": [{"name": "g", "scene": "g.off", "hard_because": "x"}]})");
-  const rtu::test::Run empty = run_rtusim("sweep --suite " + none + " --out " + d.path("n.csv"));
+  const rtu::test::Run empty = run_rtusim("sweep --suite " + none + " --out " + d.file("n.csv"));
   CHECK(empty.status == 2);
   CHECK_THAT(empty.output, Contains("no scene of the suite is available"));
-  const rtu::test::Run report = run_rtusim("report --quick --suite " + none + " --out " + d.path("rep"));
+  const rtu::test::Run report = run_rtusim("report --quick --suite " + none + " --out " + d.file("rep"));
   CHECK(report.status == 2);
   CHECK_THAT(report.output, Contains("no scene of the suite is available"));
   const std::string bad = d.write("bad.json", R"({"scenes": 1})");
-  const rtu::test::Run malformed = run_rtusim("sweep --suite " + bad + " --out " + d.path("b.csv"));
+  const rtu::test::Run malformed = run_rtusim("sweep --suite " + bad + " --out " + d.file("b.csv"));
   CHECK(malformed.status == 2);
   CHECK_THAT(malformed.output, Contains("expected an array"));
 }

@@ -15,30 +15,19 @@
 #include "host/io/json_io.h"
 #include "host/jobs/pareto.h"
 #include "host/jobs/plan.h"
-#include "host/scene/scene.h"
 #include "host/jobs/sweep.h"
+#include "host/scene/scene.h"
 #include "hwmodel/timing/timing_config.h"
+#include "tests/common/test_util.h"
 #include "tests/host/run_process.h"
 
 namespace fs = std::filesystem;
 using rtu::host::SweepRow;
 using rtu::test::Run;
 using rtu::test::run_rtusim;
+using rtu::test::TempDir;
 
 namespace {
-
-struct TempDir {
-  explicit TempDir(const std::string& name)
-      : path(fs::temp_directory_path() / ("rtu_test_bytes_" + name + "_" + std::to_string(::getpid()))) {
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  fs::path path;
-};
 
 std::vector<std::string> read_lines(const fs::path& p) {
   std::ifstream in(p);
@@ -56,7 +45,7 @@ std::string strip_time(const std::string& l) {
 
 TEST_CASE("sweep: bytes per primitive and DRAM bytes per ray in the CSV, through resume and merge",
           "[cli][sweep]") {
-  const TempDir t("csv");
+  const TempDir t("bytes_csv");
   const fs::path whole = t.path / "whole.csv", a = t.path / "a.csv", b = t.path / "b.csv",
                  merged = t.path / "merged.csv";
   // Layouts are format specs: the default's structs and records against bit-packed nodes and triangle blocks.
@@ -216,7 +205,7 @@ TEST_CASE("plan --minimise bytes: no more bytes than the cycles plan, within the
 }
 
 TEST_CASE("plan on the command line: --minimise and its alias --minimize, --format", "[cli][sweep]") {
-  const TempDir t("plan");
+  const TempDir t("bytes_plan");
   const std::string base =
       "plan --scene builtin:cornell --max-error 2e-2 --bvh-width 4 --coord-bits 8,12 --child-bits 8 --rays 200 "
       "--image-width 0 --config rdna2-mem --format packed ";

@@ -10,25 +10,24 @@
 #include <vector>
 
 #include "fixed_checks.h"
-#include "hwmodel/scene/bvh.h"
-#include "hwmodel/format/device_image.h"
-#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/device/timed_engine.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/format/hw_format.h"
 #include "hwmodel/format/packed_layout.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/numeric/rng.h"
-#include "hwmodel/device/timed_engine.h"
+#include "hwmodel/scene/bvh.h"
 #include "hwmodel/timing/timing_config.h"
+#include "tests/common/test_util.h"
 #include "timing_checks.h"
 
 using namespace rtu::hw;
 using namespace rtu::hw::fixed_checks;
 
-namespace {
+using rtu::test::contains;
 
-bool contains(const std::string& s, const std::string& part) {
-  return s.find(part) != std::string::npos;
-}
+namespace {
 
 // Node layout 1's formula, written out: origins B + 2 bits, scales bits_for(B + 1), count bits_for(N - 1), the
 // two bases, per child a leaf bit and the group field, 6 N offsets of k bits.

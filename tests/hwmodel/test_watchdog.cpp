@@ -14,19 +14,22 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/scene/bvh.h"
-#include "hwmodel/device/command_processor.h"
-#include "hwmodel/format/device_image.h"
-#include "hwmodel/device/engine.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
-#include "hwmodel/device/timed_engine.h"
-#include "hwmodel/timing/timing_config.h"
 #include "hwmodel/datapath/traverse.h"
+#include "hwmodel/device/command_processor.h"
+#include "hwmodel/device/engine.h"
+#include "hwmodel/device/timed_engine.h"
+#include "hwmodel/format/device_image.h"
+#include "hwmodel/scene/bvh.h"
+#include "hwmodel/timing/timing_config.h"
+#include "tests/common/test_util.h"
 
 using namespace rtu;
 using namespace rtu::hw;
 using reg::ErrorCode;
+
+using rtu::test::contains;
 
 namespace {
 
@@ -106,10 +109,6 @@ std::unique_ptr<TraceEngine> timed(int watchdog_cycles, uint64_t max_steps = 0) 
   EngineOptions o;
   o.max_steps = max_steps;
   return make_timed_engine(o, c);
-}
-
-bool contains(const std::string& s, const std::string& part) {
-  return s.find(part) != std::string::npos;
 }
 
 }  // namespace

@@ -1,0 +1,118 @@
+// rtusim end to end: rays, trace and info on the float and fixed devices.
+#include <catch2/catch.hpp>
+
+#include <cstring>
+#include <fstream>
+#include <vector>
+
+#include "host/io/ray_io.h"
+#include "tests/host/cli_checks.h"
+
+namespace fs = std::filesystem;
+using namespace rtu::test;
+
+TEST_CASE("rays -> trace round trip on a built-in scene, CSV and binary give the same hits", "[cli]") {
+  const fs::path d = temp_dir("cli");
+  const std::string rays = (d / "p.rays").string(), rays_csv = (d / "p.csv").string();
+  REQUIRE(run_rtusim("rays --scene builtin:seed --kind primary --count 20000 --out " + rays).status == 0);
+  REQUIRE(run_rtusim("rays --scene builtin:seed --kind primary --count 20000 --out " + rays_csv).status == 0);
+  const std::string stats = (d / "s.json").string();
+  const Run t = run_rtusim("trace --scene builtin:seed --rays " + rays + " --out " + (d / "h.bin").string() +
+                           " --stats " + stats + " --bvh-width 8");
+  INFO(t.output);
+  REQUIRE(t.status == 0);
+  REQUIRE(
+      run_rtusim("trace --scene builtin:seed --rays " + rays_csv + " --out " + (d / "h.csv").string()).status ==
+      0);
+  const auto a = rtu::host::read_hits((d / "h.bin").string()), b = rtu::host::read_hits((d / "h.csv").string());
+  REQUIRE(a.size() == 20000);
+  REQUIRE(std::memcmp(a.data(), b.data(), a.size() * sizeof(a[0])) == 0);
+
+  const nlohmann::json j = read_json(stats);
+  for (const char* key : {"rays", "hits", "trace_seconds", "rays_per_second", "nodes_visited", "box_tests",
+                          "prim_tests", "invalid_rays"})
+    CHECK(j.contains(key));
+  CHECK(j["rays"] == 20000);
+  CHECK(j["hits"].get<uint64_t>() > 10000);
+  CHECK(j["hits"].get<uint64_t>() <= 20000);
+  CHECK(j["bvh"]["width"] == 8);
+}
+
+TEST_CASE("trace with NaN rays warns, counts them and writes misses", "[cli]") {
+  const fs::path d = temp_dir("cli");
+  std::ofstream(d / "nan.csv") << "ox,oy,oz,tmin,dx,dy,dz,tmax\n0,1,8,0,0,0,-1,inf\nnan,0,0,0,1,0,0,inf\n"
+                                  "0,0,0,0,0,-0,0,inf\n";
+  const Run r = run_rtusim("trace --scene builtin:seed --rays " + (d / "nan.csv").string() + " --out " +
+                           (d / "h.csv").string() + " --stats " + (d / "s.json").string());
+  INFO(r.output);
+  CHECK(r.status == 0);
+  CHECK(r.output.find("2 invalid rays") != std::string::npos);
+  CHECK(r.output.find("ray 1 (nan_origin)") != std::string::npos);
+  const nlohmann::json j = read_json(d / "s.json");
+  CHECK(j["invalid_rays"] == 2);
+  CHECK(j["invalid_by_reason"]["zero_direction"] == 1);
+  const auto hits = rtu::host::read_hits((d / "h.csv").string());
+  REQUIRE(hits.size() == 3);
+  CHECK_FALSE(hits[1].hit());
+  CHECK_FALSE(hits[2].hit());
+}
+
+TEST_CASE("trace on the fixed device: formats, out-of-frame origins rejected with their reason", "[cli][fixed]") {
+  const fs::path d = temp_dir("cli");
+  std::ofstream(d / "far.csv") << "ox,oy,oz,tmin,dx,dy,dz,tmax\n0,1,8,0,0,-0.3,-1,inf\n1e12,0,0,0,-1,0,0,inf\n";
+  const std::string stats = (d / "s.json").string();
+  const Run r = run_rtusim("trace --device fixed --format compact --scene builtin:seed --rays " +
+                           (d / "far.csv").string() + " --out " + (d / "h.csv").string() + " --stats " + stats);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(r.output.find("ray 1 (out_of_frame)") != std::string::npos);
+  const nlohmann::json j = read_json(stats);
+  CHECK(j["invalid_by_reason"]["out_of_frame"] == 1);
+  CHECK(j["format"]["coord_bits"] == 16);
+  const auto hits = rtu::host::read_hits((d / "h.csv").string());
+  REQUIRE(hits.size() == 2);
+  CHECK(hits[0].hit());
+  CHECK_FALSE(hits[1].hit());
+}
+
+TEST_CASE("info reports the fixed image: bytes per node and footprint per format", "[cli][fixed]") {
+  const fs::path d = temp_dir("cli");
+  const Run list = run_rtusim("info --formats");
+  REQUIRE(list.status == 0);
+  for (const char* p : {"default", "wide6", "wide8", "binary", "compact", "precise", "cwbvh", "packed", "xe6"})
+    CHECK(list.output.find(p) != std::string::npos);
+  for (const auto& [format, node_bytes] :
+       {std::pair{"default", 56}, std::pair{"wide6", 76}, std::pair{"wide8", 96}, std::pair{"binary", 36},
+        std::pair{"precise", 80}, std::pair{"cwbvh", 80}, std::pair{"xe6", 64}}) {
+    const std::string json = (d / (std::string(format) + ".json")).string();
+    const Run r = run_rtusim(std::string("info --scene builtin:seed --format ") + format + " --json " + json);
+    INFO(r.output);
+    REQUIRE(r.status == 0);
+    const nlohmann::json j = read_json(json);
+    CHECK(j["bvh"]["image"]["bytes_per_node"] == node_bytes);
+    CHECK(j["bvh"]["image"]["total_bytes"].get<uint64_t>() > j["bvh"]["image"]["node_bytes"].get<uint64_t>());
+  }
+}
+
+TEST_CASE("rays: --count 0 refused, options of the other kind refused", "[cli]") {
+  const fs::path d = temp_dir("cli");
+  const std::string out = (d / "r.rays").string();
+  fs::remove(out);
+  const Run zero = run_rtusim("rays --scene builtin:seed --count 0 --out " + out);
+  INFO(zero.output);
+  CHECK(zero.status == 2);
+  CHECK(zero.output.find("--count") != std::string::npos);
+  CHECK_FALSE(fs::exists(out));  // not the whole image
+  for (const auto& [args, words] : std::vector<std::pair<std::string, std::string>>{
+           {"--kind incoherent --count 10 --width 4", "--width applies to --kind primary only"},
+           {"--kind incoherent --count 10 --height 4", "--height applies to --kind primary only"},
+           {"--kind primary --seed 7", "--seed applies to --kind incoherent only"}}) {
+    const Run r = run_rtusim("rays --scene builtin:seed " + args + " --out " + out);
+    INFO(args << "\n" << r.output);
+    CHECK(r.status == 2);
+    CHECK(r.output.find(words) != std::string::npos);
+  }
+  const Run one = run_rtusim("rays --scene builtin:seed --count 1 --out " + out);
+  CHECK(one.status == 0);
+  CHECK(rtu::host::read_rays(out).size() == 1);
+}

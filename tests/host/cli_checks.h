@@ -1,10 +1,15 @@
-// Shared by the end-to-end tests of rtusim (test_cli*.cpp): running rtusim (run_process.h), scratch folders
-// (test_util.h) and reading back the JSON it writes.
+// Shared by the end-to-end tests of rtusim (test_cli*.cpp, test_sweep_bytes.cpp): running rtusim
+// (run_process.h), scratch folders (test_util.h) and reading back the JSON and CSV files it writes.
 #pragma once
 
+#include <catch2/catch.hpp>
+
+#include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "host/io/json_io.h"
 #include "tests/common/test_util.h"
@@ -16,6 +21,30 @@ namespace rtu::test {
 // these tests read also shows that rtusim writes nothing deeper than host::kMaxJsonDepth.
 inline nlohmann::json read_json(const std::filesystem::path& p) {
   return rtu::host::read_json_file(p.string());
+}
+
+// The lines of a text file.
+inline std::vector<std::string> read_lines(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::vector<std::string> lines;
+  for (std::string l; std::getline(in, l);) lines.push_back(l);
+  return lines;
+}
+
+// A sweep CSV row without its last column (the point's wall time): everything else is deterministic.
+inline std::string strip_time(const std::string& row) {
+  return row.substr(0, row.rfind(','));
+}
+
+// Two sweep CSV files (as read_lines) hold the same rows under the same header, in any order and wall times
+// aside: what shards merged give against the whole sweep.
+inline void check_same_rows(std::vector<std::string> a, std::vector<std::string> b) {
+  REQUIRE(a.size() == b.size());
+  for (auto* v : {&a, &b}) {
+    for (std::string& l : *v) l = strip_time(l);
+    std::sort(v->begin() + 1, v->end());
+  }
+  CHECK(a == b);
 }
 
 }  // namespace rtu::test

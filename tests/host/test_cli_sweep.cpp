@@ -23,14 +23,6 @@ TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad 
   Run r = run_rtusim(grid + "--out " + whole);
   INFO(r.output);
   REQUIRE(r.status == 0);
-  auto read_lines = [](const std::string& path) {
-    std::ifstream in(path);
-    std::vector<std::string> lines;
-    for (std::string l; std::getline(in, l);) lines.push_back(l);
-    return lines;
-  };
-  // Everything but the last column (the point's wall time) is deterministic.
-  auto strip_time = [](std::string l) { return l.substr(0, l.rfind(',')); };
   const std::vector<std::string> w = read_lines(whole);
   REQUIRE(w.size() == 7);  // header + 3 formats x 2 widths
   CHECK(w[0].rfind("scene,format,bvh_width,config,rays,seed,image_width,flatten,hit_agreement", 0) == 0);
@@ -68,13 +60,7 @@ TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad 
   CHECK(read_lines(a).size() == 4);
   CHECK(read_lines(b).size() == 4);
   REQUIRE(run_rtusim("sweep --merge " + a + " " + b + " --out " + merged).status == 0);
-  std::vector<std::string> m = read_lines(merged), ws = w;
-  REQUIRE(m.size() == ws.size());
-  for (auto* v : {&m, &ws}) {
-    for (std::string& l : *v) l = strip_time(l);
-    std::sort(v->begin() + 1, v->end());
-  }
-  CHECK(m == ws);
+  check_same_rows(read_lines(merged), w);
   // Bad input: a clear error naming it, exit 2, nothing crashes.
   for (const auto& [args, words] :
        std::vector<std::pair<std::string, std::string>>{{"--formats nosuch", "unknown format preset"},

@@ -71,21 +71,22 @@ TEST_CASE("bad ray files give errors naming the file and the problem", "[io]") {
       CHECK(msg.find(words) != std::string::npos);
     }
   };
-  write_text(dir / "odd.bin", std::string(33, 'x'));
-  expect(dir / "odd.bin", "not a multiple of 32");
-  write_text(dir / "truncated.bin", std::string(32 * 5 - 7, '\0'));
-  expect(dir / "truncated.bin", "truncated");
+  struct Bad {
+    const char* name;
+    std::string text;
+    const char* words;
+  };
+  for (const Bad& b : {Bad{"odd.bin", std::string(33, 'x'), "not a multiple of 32"},
+                       Bad{"truncated.bin", std::string(32 * 5 - 7, '\0'), "truncated"},
+                       Bad{"noheader.csv", "1,2,3,0,1,0,0,inf\n", "header"},
+                       Bad{"short.csv", "ox,oy,oz,tmin,dx,dy,dz,tmax\n1,2,3,0,1,0,0,inf\n1,2,3,0,1,0\n", "line 3"},
+                       Bad{"junk.csv", "ox,oy,oz,tmin,dx,dy,dz,tmax\n1,2,x,0,1,0,0,inf\n", "line 2"},
+                       Bad{"extra.csv", "ox,oy,oz,tmin,dx,dy,dz,tmax\n1,2,3,0,1,0,0,inf,9\n", "line 2"},
+                       Bad{"empty.csv", "", "empty"}}) {
+    write_text(dir / b.name, b.text);
+    expect(dir / b.name, b.words);
+  }
   expect(dir / "missing.bin", "cannot open");
-  write_text(dir / "noheader.csv", "1,2,3,0,1,0,0,inf\n");
-  expect(dir / "noheader.csv", "header");
-  write_text(dir / "short.csv", "ox,oy,oz,tmin,dx,dy,dz,tmax\n1,2,3,0,1,0,0,inf\n1,2,3,0,1,0\n");
-  expect(dir / "short.csv", "line 3");
-  write_text(dir / "junk.csv", "ox,oy,oz,tmin,dx,dy,dz,tmax\n1,2,x,0,1,0,0,inf\n");
-  expect(dir / "junk.csv", "line 2");
-  write_text(dir / "extra.csv", "ox,oy,oz,tmin,dx,dy,dz,tmax\n1,2,3,0,1,0,0,inf,9\n");
-  expect(dir / "extra.csv", "line 2");
-  write_text(dir / "empty.csv", "");
-  expect(dir / "empty.csv", "empty");
   // An empty binary file is zero rays, not an error.
   write_text(dir / "empty.bin", "");
   CHECK(host::read_rays((dir / "empty.bin").string()).empty());

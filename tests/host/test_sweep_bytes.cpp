@@ -18,30 +18,11 @@
 #include "host/jobs/sweep.h"
 #include "host/scene/scene.h"
 #include "hwmodel/timing/timing_config.h"
-#include "tests/common/test_util.h"
-#include "tests/host/run_process.h"
+#include "tests/host/cli_checks.h"
 
 namespace fs = std::filesystem;
 using rtu::host::SweepRow;
-using rtu::test::Run;
-using rtu::test::run_rtusim;
-using rtu::test::TempDir;
-
-namespace {
-
-std::vector<std::string> read_lines(const fs::path& p) {
-  std::ifstream in(p);
-  std::vector<std::string> lines;
-  for (std::string l; std::getline(in, l);) lines.push_back(l);
-  return lines;
-}
-
-// A row without its last column (the point's wall time): everything else is deterministic.
-std::string strip_time(const std::string& l) {
-  return l.substr(0, l.rfind(','));
-}
-
-}  // namespace
+using namespace rtu::test;
 
 TEST_CASE("sweep: bytes per primitive and DRAM bytes per ray in the CSV, through resume and merge",
           "[cli][sweep]") {
@@ -98,13 +79,7 @@ TEST_CASE("sweep: bytes per primitive and DRAM bytes per ray in the CSV, through
   REQUIRE(run_rtusim(grid + "--shard 1/2 --out " + a.string()).status == 0);
   REQUIRE(run_rtusim(grid + "--shard 2/2 --out " + b.string()).status == 0);
   REQUIRE(run_rtusim("sweep --merge " + a.string() + " " + b.string() + " --out " + merged.string()).status == 0);
-  std::vector<std::string> m = read_lines(merged), ws = w;
-  REQUIRE(m.size() == ws.size());
-  for (auto* v : {&m, &ws}) {
-    for (std::string& l : *v) l = strip_time(l);
-    std::sort(v->begin() + 1, v->end());
-  }
-  CHECK(m == ws);
+  check_same_rows(read_lines(merged), w);
 
   // A file of the previous version (no DRAM or per-primitive bytes) is refused by resume, merge and the plots,
   // saying what it lacks.

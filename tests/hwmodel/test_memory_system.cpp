@@ -203,6 +203,15 @@ std::vector<rtu::hw::TraceEvent> one_node(uint32_t node) {
   return {rtu::hw::TraceEvent{rtu::hw::TraceEvent::kNode, 4, 0, 0, node}};
 }
 
+// One packet of `rays` (each a list of events) on one unit with a memory of its own, over node_layout(): the
+// packet's cycles; its statistics in `s`.
+uint64_t run_packet(const TimingConfig& c, std::vector<std::vector<rtu::hw::TraceEvent>> rays, TimingStats& s) {
+  rtu::hw::TimingModel u(c, node_layout());
+  u.begin(rays.size(), s);
+  u.feed(rays.data(), rays.size());
+  return u.finish();
+}
+
 }  // namespace
 
 TEST_CASE("chip: two units contending for one DRAM channel, cycle by cycle", "[memory][chip]") {
@@ -210,12 +219,8 @@ TEST_CASE("chip: two units contending for one DRAM channel, cycle by cycle", "[m
   const TimingConfig c = bare();
   // Alone: the line from 0 (8 clocks, then 100), the box test at 108 (1 clock), its hit written at 109.
   {
-    TimingModel u(c, node_layout());
     TimingStats s;
-    std::vector<std::vector<rtu::hw::TraceEvent>> ev = {one_node(0)};
-    u.begin(1, s);
-    u.feed(ev.data(), 1);
-    CHECK(u.finish() == 109);
+    CHECK(run_packet(c, {one_node(0)}, s) == 109);
   }
   // Two units on one memory, each fetching a line in the same clock: unit 0 first (ties go to the lower unit), so
   // unit 1's line waits 8 clocks for the channel: 117 for the chip. The same two units on their own memories: 109.
@@ -242,19 +247,14 @@ TEST_CASE("chip: two units contending for one DRAM channel, cycle by cycle", "[m
 }
 
 TEST_CASE("chip: an L2 hit against a miss, cycle by cycle", "[memory][chip]") {
-  using rtu::hw::TimingModel;
   TimingConfig c = bare();
   // Two rays fetching the same node, one after the other (one slot).
   std::vector<std::vector<rtu::hw::TraceEvent>> ev = {one_node(3), one_node(3)};
   {
     // Without an L2 both go to DRAM: ray 0 as above (its hit written at 109, the slot free at 110); ray 1 enters
     // at 110, its line arrives at 110 + 108 = 218, the test takes a clock, its hit is written at 219.
-    TimingModel u(c, node_layout());
     TimingStats s;
-    auto copy = ev;
-    u.begin(2, s);
-    u.feed(copy.data(), 2);
-    CHECK(u.finish() == 219);
+    CHECK(run_packet(c, ev, s) == 219);
     CHECK(s.l2_hits + s.l2_misses == 0);
   }
   c.l2_kib = 1;  // 16 lines: one slice, one set of 16 ways
@@ -263,14 +263,10 @@ TEST_CASE("chip: an L2 hit against a miss, cycle by cycle", "[memory][chip]") {
   c.l2_latency = 20;
   c.l2_bytes_per_cycle = 64;  // 1 clock per line
   c.validate();
-  TimingModel u(c, node_layout());
   TimingStats s;
-  auto copy = ev;
-  u.begin(2, s);
-  u.feed(copy.data(), 2);
   // Ray 0 misses: the tag check until 20, DRAM from 20 (8 + 100): 128, the test, the hit at 129, the slot free at
   // 130. Ray 1 enters at 130 and hits: 1 clock of port and 20 of latency: 151, the test, the hit at 152.
-  CHECK(u.finish() == 152);
+  CHECK(run_packet(c, ev, s) == 152);
   CHECK(s.l2_misses == 1);
   CHECK(s.l2_hits == 1);
 }

@@ -7,6 +7,7 @@
 #include <variant>
 
 #include "hwmodel/numeric/fixed_format.h"
+#include "hwmodel/timing/prefetch/prefetchers.h"
 #include "hwmodel/timing/ray_scheduler.h"
 
 namespace rtu::hw {
@@ -75,6 +76,9 @@ const std::vector<KeyInfo>& key_table() {
       {"cache_latency", &C::cache_latency, 0, kMaxLatency, "cache hit latency in cycles"},
       {"dram_latency", &C::dram_latency, 0, kMaxLatency, "cycles from a miss to the first byte"},
       {"dram_bytes_per_cycle", &C::dram_bytes_per_cycle, 0.001, 65536, "DRAM bandwidth in bytes per cycle"},
+      {"prefetcher", &C::prefetcher, 0, 0,
+       "what fills the node cache besides demand fetches: none or next_line (prefetch/fetch_observer.h)"},
+      {"prefetch_degree", &C::prefetch_degree, 1, 64, "lines a prefetcher fills per trigger"},
       {"units", &C::units, 1, 256, "ray-tracing units on the chip, sharing the L2 and DRAM (1: one unit)"},
       {"ray_policy", &C::ray_policy, 0, 0,
        "how a packet's rays go to the units: waves (ray_slots consecutive rays to each unit in turn), round_robin "
@@ -161,6 +165,14 @@ void TimingConfig::validate() const {
       if (box_unit != "cpp" && box_unit != "rtl") fail("box_unit = '" + box_unit + "' must be cpp or rtl");
     } else if (key == "tri_unit") {
       if (tri_unit != "cpp" && tri_unit != "rtl") fail("tri_unit = '" + tri_unit + "' must be cpp or rtl");
+    } else if (key == "prefetcher") {
+      std::string names;
+      bool known = false;
+      for (const PrefetcherInfo& p : prefetchers()) {
+        known = known || p.name == prefetcher;
+        names += (names.empty() ? "" : ", ") + std::string(p.name);
+      }
+      if (!known) fail("prefetcher = '" + prefetcher + "' is not a prefetcher (known: " + names + ")");
     } else if (key == "ray_policy") {
       RayPolicy policy;
       if (!parse_ray_policy(ray_policy, policy))
@@ -351,6 +363,8 @@ TimingConfig timing_preset(const std::string& name) {
     c.cache_latency = 4;
     c.dram_latency = 200;
     c.dram_bytes_per_cycle = 64.0;
+    c.prefetcher = "none";
+    c.prefetch_degree = 1;
     c.memory_type = "gddr6";  // the RX 6900 XT's VRAM
     // One unit's memory is one channel behind its cache (no L2, no banks): the chip presets add them.
     c.units = 1;

@@ -9,7 +9,7 @@
 // 0..100000; raster_samples_per_clock and raster_fragments_per_clock 0.001..4096; raster_latency 0..100000;
 // raster_prim_bytes 0..4096, raster_depth_bytes 1..64, raster_gbuffer_bytes 0..4096; bvh_width 2, 4, 6 or 8;
 // format the name of a fixed-point format preset; box_unit and tri_unit cpp or rtl; memory_type gddr6, hbm2
-// or lpddr5; watchdog_cycles 0..2^31-1 (0:
+// or lpddr5; prefetcher a name of prefetchers(), prefetch_degree 1..64; watchdog_cycles 0..2^31-1 (0:
 // off). The default-constructed configuration is the "rdna2" preset.
 #pragma once
 
@@ -82,6 +82,10 @@ struct TimingConfig {
   int cache_latency = 4;               // hit latency
   int dram_latency = 200;              // cycles from request to the first byte
   double dram_bytes_per_cycle = 64.0;  // bandwidth
+  // A prefetcher watching the unit's fetches (prefetch/fetch_observer.h): "none" (the default) or a name of
+  // prefetchers() such as "next_line"; prefetch_degree lines per trigger.
+  std::string prefetcher = "none";
+  int prefetch_degree = 1;
   // A chip: `units` ray-tracing units, each with everything above (ray slots, box and triangle units, node cache),
   // sharing the memory below (L2 and DRAM). A packet's rays go to the units by ray_policy: "waves" (ray_slots
   // consecutive rays, a wave, to each unit in turn, as a GPU dispatches waves to its compute units), "round_robin"

@@ -16,6 +16,7 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
       m_own(shared ? nullptr : std::make_unique<MemorySystem>(c)),
       m_mem(shared ? shared : m_own.get()),
       m_unit(unit) {
+  set_fetch_observer(make_fetch_observer(c));
   // A stride of 0 is the item's size (packed): resolved once here, not per fetch.
   auto resolve = [](Layout& l) {
     if (l.node_stride == 0) l.node_stride = l.node_bytes;
@@ -36,6 +37,34 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
   // A node takes at least one issue clock, even one without children (the RTL unit's sequencer does the same).
   for (uint64_t k = 0; k < m_box_issue.size(); ++k)
     m_box_issue[k] = std::max<uint64_t>(1, (k + uint64_t(c.box_rate) - 1) / uint64_t(c.box_rate));
+}
+
+// The observer's port: fills at the fetch's cycle, into this unit's cache, from its memory.
+class TimingModel::Port final : public LinePort {
+ public:
+  Port(TimingModel& m, uint64_t t) : m_m(m), m_t(t) {}
+  void fill(uint64_t line) override { m_m.m_cache.prefetch(line, m_t, *m_m.m_mem, *m_m.m_s); }
+  bool holds(uint64_t line) const override { return m_m.m_cache.holds(line); }
+
+ private:
+  TimingModel& m_m;
+  uint64_t m_t;
+};
+
+void TimingModel::set_fetch_observer(std::unique_ptr<FetchObserver> observer) {
+  m_observer = std::move(observer);
+  if (m_observer) m_cache.track_prefetches();
+}
+
+void TimingModel::observe(const Slot& sl, uint32_t k, const TraceEvent& e, uint64_t t, bool missed) {
+  uint64_t first = ~uint64_t(0), last = 0;
+  for_each_line<false>(*sl.layout, e, [&](uint64_t line) {
+    first = std::min(first, line);
+    last = std::max(last, line);
+  });
+  if (first > last) return;  // a block's later record: nothing fetched
+  Port port(*this, t);
+  m_observer->on_fetch(LineFetch{t, k, uint8_t(e.kind), e.index, first, last, missed}, port);
 }
 
 TimingModel::Layout TimingModel::layout_of(const DeviceImage& image, uint64_t align) {
@@ -341,6 +370,7 @@ bool TimingModel::touches_memory(const Slot& sl) const {
       break;
   }
   if (sl.unit_phase) return false;  // the unit test: the data is there
+  if (m_observer) return true;      // the observer may fill lines at any fetch
   bool miss = false;
   for_each_line<false>(*sl.layout, e, [&](uint64_t line) { miss |= !m_cache.holds(line); });
   return miss;
@@ -440,9 +470,12 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
       if (!sl.unit_phase) {  // fetch the data the unit needs: ready when its last line is
         ++(e.kind == TraceEvent::kNode ? m_s->node_fetches : m_s->prim_fetches);
         next_t = t;
+        const uint64_t misses = m_s->cache_misses;
         for_each_line<false>(*sl.layout, e, [&](uint64_t line) {
           next_t = std::max(next_t, m_cache.access(line, t, *m_mem, *m_s));
         });
+        if (m_observer) [[unlikely]]
+          observe(sl, k, e, t, m_s->cache_misses != misses);
         if (m_trace)
           m_trace->add(m_unit, k, e.kind == TraceEvent::kNode ? "node fetch" : "record fetch", t, next_t);
         // The unit request at next_t. Requests reach the units in the order of (cycle, slot), and only they

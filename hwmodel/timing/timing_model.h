@@ -14,7 +14,8 @@
 // - memory: node, record and plane fetches go through the node cache (node_cache.h) into the memory behind it
 //   (memory_system.h: the DRAM channel of dram_channel.h, or an L2 and banked DRAM, shared by a chip's units). The
 //   image is taken to start at a line boundary. Ray and hit buffers stream through their own port: counted
-//   (stream_bytes), not in the DRAM channel.
+//   (stream_bytes), not in the DRAM channel. A fetch observer (prefetch/fetch_observer.h; prefetcher key, none by
+//   default) sees each fetch and may fill lines into the node cache at the fetch's cycle.
 // - units: box_units box units, box_rate box tests per clock each: a node of c children issues for
 //   ceil(c / box_rate) clocks (at least one), its result comes box_latency after the first; or, with an RTL box
 //   unit attached, the clocks that unit reported for the node (box_unit.h). tri_units triangle units of tri_rate
@@ -40,11 +41,12 @@
 #include <utility>
 #include <vector>
 
-#include "hwmodel/format/device_image.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/instanced_fixed.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/timing/memory/memory_system.h"
 #include "hwmodel/timing/memory/node_cache.h"
+#include "hwmodel/timing/prefetch/prefetchers.h"
 #include "hwmodel/timing/slot_queue.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_stats.h"
@@ -159,6 +161,8 @@ class TimingModel {
   void advance_to(uint64_t cycle) { m_base = cycle > m_base ? cycle : m_base; }
   const Layout& layout() const { return m_layout; }
   const MemorySystem& memory() const { return *m_mem; }  // the unit's own, or the chip's it shares
+  // The fetch observer (prefetch/fetch_observer.h): the configuration's prefetcher, or this one (null: none).
+  void set_fetch_observer(std::unique_ptr<FetchObserver> observer);
   // Off: every unit request waits for a wake-up of its slot at its own cycle, none is served at its fetch
   // (simulate()); the same cycles, slower. For tests.
   void set_early_requests(bool on) { m_early = on; }
@@ -199,6 +203,9 @@ class TimingModel {
   // Calls f(line) for every cache line the fetch of event e touches (none for stack events).
   template <bool Reverse, class F>
   void for_each_line(const Layout& l, const TraceEvent& e, F&& f) const;
+  // Shows the fetch of event e by slot k at cycle t to the observer (which may fill lines at t).
+  void observe(const Slot& sl, uint32_t k, const TraceEvent& e, uint64_t t, bool missed);
+  class Port;
   // The layout a kEnter or kLeave event's mesh index names (std::logic_error for one the layout lacks).
   const Layout& bottom(uint32_t mesh) const;
   // Calls f(layout, event) for every event that fetches, with the layout it addresses (kEnter, kLeave followed);
@@ -209,9 +216,10 @@ class TimingModel {
   TimingConfig m_c;
   Layout m_layout;
   NodeCache m_cache;
-  std::unique_ptr<MemorySystem> m_own;  // the unit's own memory (null on a chip)
-  MemorySystem* m_mem;                  // what the node cache fills from
-  uint32_t m_unit = 0;                  // index on the chip (pipeline trace spans, stack addresses)
+  std::unique_ptr<MemorySystem> m_own;        // the unit's own memory (null on a chip)
+  MemorySystem* m_mem;                        // what the node cache fills from
+  std::unique_ptr<FetchObserver> m_observer;  // null: none (the default)
+  uint32_t m_unit = 0;                        // index on the chip (pipeline trace spans, stack addresses)
   uint64_t m_stack_base = 0;  // where slots spill their stacks: after the image, each slot kStackRegion bytes
   static constexpr uint64_t kStackRegion = 4096;
   int m_line_shift = 0;                     // log2(line_bytes)

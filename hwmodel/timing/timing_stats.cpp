@@ -12,7 +12,7 @@ using S = TimingStats;
 constexpr SampleScale kPacket = SampleScale::kPacket, kPerRay = SampleScale::kPerRay;
 
 // The counters, in the order of the struct.
-constexpr std::array<TimingCounter, 28> kCounters = {{
+constexpr std::array<TimingCounter, 31> kCounters = {{
     {"packets", &S::packets, "packets", "TRACE packets simulated", kPacket},
     {"cycles", &S::cycles, "cycles", "cycles of those packets, from decode to the last hit written", kPacket},
     {"rays", &S::rays, "rays", "rays through the ray slots (rays rejected at setup included)", kPacket},
@@ -29,6 +29,11 @@ constexpr std::array<TimingCounter, 28> kCounters = {{
     {"cache_hits", &S::cache_hits, "lines", "cache line accesses that hit (a line in flight counts as a hit)",
      kPerRay},
     {"cache_misses", &S::cache_misses, "lines", "cache line accesses that missed and went to DRAM", kPerRay},
+    {"prefetch_fills", &S::prefetch_fills, "lines", "lines a prefetcher brought into the node cache", kPerRay},
+    {"prefetch_redundant", &S::prefetch_redundant, "lines",
+     "lines a prefetcher asked for that the node cache held or had on their way", kPerRay},
+    {"prefetch_useful", &S::prefetch_useful, "lines",
+     "prefetched lines a demand access hit before they were evicted (each counted once)", kPerRay},
     {"l2_hits", &S::l2_hits, "lines", "node cache fills found in the L2 (with l2_kib > 0)", kPerRay},
     {"l2_misses", &S::l2_misses, "lines", "node cache fills the L2 missed (read from DRAM)", kPerRay},
     {"dram_bytes", &S::dram_bytes, "bytes",
@@ -138,6 +143,13 @@ const std::vector<ReportEntry>& report_table() {
       figure("cache.hit_rate", "1", "hits / line accesses",
              [](const S& s, const C&, const LowerBound&) -> Value {
                return ratio(double(s.cache_hits), double(s.cache_hits + s.cache_misses));
+             }),
+      count("prefetch.fills", &S::prefetch_fills),
+      count("prefetch.redundant", &S::prefetch_redundant),
+      count("prefetch.useful", &S::prefetch_useful),
+      figure("prefetch.accuracy", "1", "useful / fills; 0 without fills",
+             [](const S& s, const C&, const LowerBound&) -> Value {
+               return ratio(double(s.prefetch_useful), double(s.prefetch_fills));
              }),
       count("l2.hits", &S::l2_hits),
       count("l2.misses", &S::l2_misses),

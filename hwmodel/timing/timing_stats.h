@@ -26,7 +26,10 @@ struct TimingStats {
   uint64_t box_issue_cycles = 0, tri_issue_cycles = 0;  // unit issue slots used, summed over the units
   uint64_t node_fetches = 0, prim_fetches = 0;
   uint64_t cache_hits = 0, cache_misses = 0;  // line accesses
-  uint64_t l2_hits = 0, l2_misses = 0;        // node cache fills through the L2 (memory_system.h)
+  // Prefetcher fills (prefetch/fetch_observer.h): lines brought in, asked for but already there, and brought in
+  // and then hit by a demand access before being evicted.
+  uint64_t prefetch_fills = 0, prefetch_redundant = 0, prefetch_useful = 0;
+  uint64_t l2_hits = 0, l2_misses = 0;  // node cache fills through the L2 (memory_system.h)
   uint64_t dram_bytes = 0, dram_busy_cycles = 0;
   uint64_t dram_row_hits = 0, dram_row_misses = 0;  // with DRAM banks: accesses to the open row, and the others
   uint64_t stream_bytes = 0;                        // ray and hit buffers

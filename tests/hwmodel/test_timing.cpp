@@ -5,11 +5,11 @@
 #include <cstring>
 #include <vector>
 
-#include "hwmodel/scene/bvh.h"
-#include "hwmodel/format/device_image.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/device/timed_engine.h"
+#include "hwmodel/format/device_image.h"
+#include "hwmodel/scene/bvh.h"
 #include "timing_checks.h"
 
 using rtu::hw::TimingConfig;
@@ -445,4 +445,80 @@ TEST_CASE("walk_install: a fetch's lines in the order it touches them, and a set
   CHECK(run(warm2, future, s3) == run(walk2, future, s4));
   CHECK(s3.cache_hits == 1);
   CHECK(s4.cache_hits == 1);
+}
+
+TEST_CASE("a next-line prefetch that arrives in time turns the next node's miss into a hit", "[timing]") {
+  // One ray fetching node 0 and then node 1, one 64-byte line each (lines 0 and 1).
+  TimingConfig c = test_config();
+  const uint64_t line = 64 / 8;  // cycles to transfer a line
+  const uint64_t enter = c.packet_latency + c.ray_fetch_latency + c.setup_latency;
+  const uint64_t miss = c.cache_latency + line + c.dram_latency;
+  const uint64_t per_node = c.box_latency + c.traversal_latency;  // a node of 4 children issues for one clock
+  {
+    TimingModel m(c, layout());
+    TimingStats s;
+    CHECK(run(m, {{node(0, 4), node(1, 4)}}, s) ==
+          enter + miss + per_node + miss + per_node + c.writeback_latency);
+    CHECK(s.cache_misses == 2);
+    CHECK(s.prefetch_fills == 0);
+  }
+  rtu::hw::set_timing_key(c, "prefetcher", "next_line");
+  TimingModel m(c, layout());
+  TimingStats s;
+  // Node 0 misses at `enter`: its line asked of DRAM cache_latency later, transferred [enter + 2, + 8). The miss
+  // triggers a fill of line 1 at the same cycle, asked at enter + 2 too, which waits for the channel: transferred
+  // [enter + 10, + 8), there at enter + 118. Node 0's data is there at enter + 110, its box result and the next
+  // request 9 clocks later: node 1's fetch at enter + 119 hits the line that arrived at enter + 118, and its data
+  // is there cache_latency later.
+  const uint64_t fill_ready = enter + c.cache_latency + 2 * line + c.dram_latency;
+  const uint64_t second_fetch = enter + miss + per_node;
+  REQUIRE(second_fetch >= fill_ready);
+  CHECK(run(m, {{node(0, 4), node(1, 4)}}, s) == second_fetch + c.cache_latency + per_node + c.writeback_latency);
+  CHECK(s.cache_misses == 1);
+  CHECK(s.cache_hits == 1);
+  CHECK(s.prefetch_fills == 1);
+  CHECK(s.prefetch_useful == 1);
+  CHECK(s.prefetch_redundant == 0);
+  CHECK(s.dram_bytes == 128);
+
+  // A fill arriving after the demand fetch is waited for, not fetched twice: with a one-cycle box unit and no
+  // scheduler delay, node 1's fetch comes at enter + 110 + 1, before the fill's data (enter + 118).
+  TimingConfig fast = c;
+  fast.box_latency = 1;
+  fast.traversal_latency = 0;
+  TimingModel f(fast, layout());
+  TimingStats fs;
+  const uint64_t early_fetch = enter + miss + 1;
+  REQUIRE(early_fetch < fill_ready);
+  CHECK(run(f, {{node(0, 4), node(1, 4)}}, fs) == fill_ready + fast.cache_latency + 1 + fast.writeback_latency);
+  CHECK(fs.cache_hits == 1);
+  CHECK(fs.dram_bytes == 128);
+}
+
+TEST_CASE("a prefetcher changes when data is there, never what is fetched or tested", "[timing]") {
+  // The sweep of camera-like rays with and without next-line prefetching of 2 lines: the same demand accesses and
+  // unit work; fills only add DRAM traffic and cache hits.
+  std::vector<std::vector<TraceEvent>> rays;
+  uint32_t x = 12345;
+  for (int i = 0; i < 2000; ++i) rays.push_back(sweep_ray(x, i));
+  TimingConfig c = test_config();
+  c.cache_kib = 4;  // small enough that the window does not fit
+  TimingModel off(c, layout());
+  TimingStats so;
+  run(off, rays, so);
+  rtu::hw::set_timing_key(c, "prefetcher", "next_line");
+  rtu::hw::set_timing_key(c, "prefetch_degree", "2");
+  TimingModel on(c, layout());
+  TimingStats sp;
+  run(on, rays, sp);
+  CHECK(sp.cache_hits + sp.cache_misses == so.cache_hits + so.cache_misses);
+  CHECK(sp.node_fetches == so.node_fetches);
+  CHECK(sp.box_tests == so.box_tests);
+  CHECK(sp.tri_tests == so.tri_tests);
+  CHECK(sp.prefetch_fills > 0);
+  CHECK(sp.prefetch_useful <= sp.prefetch_fills);
+  CHECK(sp.dram_bytes == 64 * (sp.cache_misses + sp.prefetch_fills));  // line reads only: no stack events
+  CHECK(so.dram_bytes == 64 * so.cache_misses);
+  CHECK_THROWS_WITH(rtu::hw::set_timing_key(c, "prefetcher", "stride"),
+                    Catch::Contains("prefetcher = 'stride' is not a prefetcher (known: none, next_line)"));
 }

@@ -22,7 +22,24 @@ void NodeCache::warm(uint64_t line) {
     ways[w].stamp = ++m_stamp;
     return;
   }
-  *lru_way(ways) = Line{line, ++m_stamp, 0};  // in the cache, no time spent
+  Line* victim = lru_way(ways);
+  *victim = Line{line, ++m_stamp, 0};  // in the cache, no time spent
+  if (!m_prefetched.empty()) m_prefetched[size_t(victim - m_lines.data())] = 0;
+}
+
+void NodeCache::prefetch(uint64_t line, uint64_t t, MemorySystem& mem, TimingStats& s) {
+  if (m_lines.empty()) return;
+  Line* ways = set_ways(line);
+  if (find_way(ways, line) >= 0) {
+    ++s.prefetch_redundant;
+    return;
+  }
+  Line* victim = lru_way(ways);
+  ++s.prefetch_fills;
+  victim->tag = line;
+  victim->stamp = ++m_stamp;
+  victim->ready = mem.read_line(line, t + m_latency, s);
+  if (!m_prefetched.empty()) m_prefetched[size_t(victim - m_lines.data())] = 1;
 }
 
 void NodeCache::walk_reset() {
@@ -83,6 +100,7 @@ void NodeCache::walk_install() {
     const size_t c = m_walk_count[set];
     const uint64_t* seen = &m_walk_lines[size_t(set) * W];
     Line* ways = &m_lines[size_t(set) * W];
+    if (!m_prefetched.empty()) std::fill_n(&m_prefetched[size_t(set) * W], W, uint8_t(0));
     size_t k = 0;
     for (size_t j = 0; j < c; ++j) {
       const int w = find_way(ways, seen[j]);

@@ -6,7 +6,8 @@
 // not fetched twice); a miss asks the memory for the line cache_latency cycles after the access. The set
 // is the line number modulo the number of sets. cache_kib = 0: no cache, every access goes to DRAM.
 // Any number of accesses per cycle (no port or bank conflicts); no MSHR limit.
-// Left out: write-allocate of stack spills (they bypass the cache), prefetching, replacement other than LRU.
+// Left out: write-allocate of stack spills (they bypass the cache), replacement other than LRU. Prefetch fills
+// come from a fetch observer (prefetch/fetch_observer.h), off by default.
 //
 // Sampled timing warms the cache without simulating time: warm() takes lines in order (what forward functional
 // warming does); the backward walk (walk_*) finds how few of the lines before a point fix the cache the rays after
@@ -40,15 +41,27 @@ class NodeCache {
       Line& l = ways[w];
       ++s.cache_hits;
       l.stamp = ++m_stamp;
+      if (!m_prefetched.empty() && m_prefetched[size_t(&l - m_lines.data())]) [[unlikely]] {
+        ++s.prefetch_useful;
+        m_prefetched[size_t(&l - m_lines.data())] = 0;
+      }
       return std::max(t, l.ready) + m_latency;
     }
     Line* victim = lru_way(ways);
     ++s.cache_misses;
+    if (!m_prefetched.empty()) m_prefetched[size_t(victim - m_lines.data())] = 0;
     victim->tag = line;
     victim->stamp = ++m_stamp;
     victim->ready = mem.read_line(line, t + m_latency, s);
     return victim->ready;
   }
+
+  // A prefetcher's fill at cycle t (prefetch/fetch_observer.h): unless the line is there or on its way, it is
+  // brought in as the most recent of its set, asked of the memory cache_latency after t as a miss would be.
+  // Counts prefetch_fills or prefetch_redundant, never a hit or a miss. Without a cache: nothing.
+  void prefetch(uint64_t line, uint64_t t, MemorySystem& mem, TimingStats& s);
+  // Marks prefetched lines from now on, for prefetch_useful (a unit with a prefetcher calls it once).
+  void track_prefetches() { m_prefetched.assign(m_lines.size(), 0); }
 
   // Whether the line is in the cache (or on its way): an access to it now would hit. Changes nothing.
   bool holds(uint64_t line) const {
@@ -104,6 +117,8 @@ class NodeCache {
   std::vector<Line> m_lines;
   uint64_t m_sets = 0, m_stamp = 0;
   uint64_t m_set_mask = 0;  // m_sets - 1 when m_sets is a power of two (else 0: a division)
+  // Per way, 1 for a line a prefetcher brought in that no demand access has hit yet (empty: not tracked).
+  std::vector<uint8_t> m_prefetched;
 
   // The walk: per set the distinct lines seen so far (at most cache_ways) and how many; the needed lines, per set
   // how many of them are undetermined, and in all.

@@ -1,0 +1,60 @@
+// The seam at the one place the timed unit fetches node, primitive record and plane lines (TimingModel's fetch of
+// a slot's event): a fetch observer sees each fetch as it is made and may fill lines into the node cache through
+// a LinePort. A prefetcher is such an observer. Off by default (prefetcher = none): no observer, today's cycles.
+//
+// The rules an observer keeps, so that the timing model's arguments stay true (timing_model.h):
+// - it fills at the fetch's cycle only (the port has no other cycle): memory requests stay in the order of their
+//   cycles, and a unit on a chip may still run ahead of the others (with an observer every fetch counts as
+//   touching the shared memory, so run-ahead stops before each);
+// - a fill is not a demand access: it counts neither a hit nor a miss, it brings the line in as the most recent
+//   of its set, and the cache counts it (prefetch_fills, prefetch_redundant; a demand hit on a line a fill brought
+//   that no demand has touched yet counts prefetch_useful);
+// - it never changes what is fetched, only when data is there: hits stay the datapath's.
+// Sampled timing warms the cache with the demand lines only (node_cache.h): with a prefetcher its estimate is of
+// a unit whose warm cache holds no prefetched lines.
+//
+// To add a prefetcher: a class derived from FetchObserver in its own file here (next_line.h is the smallest),
+// and one line in prefetchers.h's table with its name and description; its keys go into timing_config.h.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hwmodel/timing/timing_config.h"
+
+namespace rtu::hw {
+
+// One fetch of a ray slot: what it fetched and the lines it touched.
+struct LineFetch {
+  uint64_t cycle;                  // when the fetch is made (the port fills at this cycle)
+  uint32_t slot;                   // the ray slot
+  uint8_t kind;                    // TraceEvent::Kind: kNode, kPrim or kPlane
+  uint32_t index;                  // the node, record or plane index in the image it addresses
+  uint64_t first_line, last_line;  // the lines the fetch touched (line = byte address / line_bytes)
+  bool missed;                     // whether any of them missed in the node cache
+};
+
+// What an observer may do to the node cache, at the fetch's cycle.
+class LinePort {
+ public:
+  virtual ~LinePort() = default;
+  virtual void fill(uint64_t line) = 0;         // brings the line in unless it is there or on its way
+  virtual bool holds(uint64_t line) const = 0;  // whether it is there or on its way
+};
+
+class FetchObserver {
+ public:
+  virtual ~FetchObserver() = default;
+  virtual void on_fetch(const LineFetch& f, LinePort& port) = 0;
+};
+
+// A prefetcher a configuration may name (prefetcher = name): the table is prefetchers.h.
+struct PrefetcherInfo {
+  const char* name;
+  const char* description;
+  std::unique_ptr<FetchObserver> (*make)(const TimingConfig& c);  // null for "none"
+};
+
+}  // namespace rtu::hw

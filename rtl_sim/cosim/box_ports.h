@@ -1,6 +1,6 @@
 // The ports of rtl/box_unit.sv as integers, and their packing into a Verilated model of any parameter set: the
 // one place that knows the port layout, shared by the testbench (tb/) and the co-simulation adapter
-// (cosim/rtl_box_unit.cpp).
+// (cosim/rtl_box_unit.cpp). BoxPorts are the unit's traits for the shared harness (cosim/rtl_unit.h).
 #pragma once
 
 #include <cstdint>
@@ -10,6 +10,7 @@
 
 #include "hwmodel/datapath/box_unit.h"
 #include "hwmodel/datapath/intersect_fixed.h"
+#include "rtl_sim/cosim/rtl_unit.h"
 #include "rtl_sim/cosim/sim.h"
 #include "rtl_sim/params/rtl_params.h"
 
@@ -116,5 +117,18 @@ BoxOut read_outputs(const Model& m, const BoxUnitParams& p) {
   o.tag = uint32_t(get_bits(m.out_tag, 0, kTagBits));
   return o;
 }
+
+struct BoxPorts {
+  using Params = BoxUnitParams;
+  using Inputs = BoxInputs;
+  using Out = BoxOut;
+  static constexpr const char* kKey = "box_unit";
+  static constexpr const char* kItem = "node";
+  static constexpr const char* kVcd = "box_unit";
+  static constexpr int kTagBits = rtl::kTagBits;
+  static Params params(const hw::TimingConfig& c) { return box_unit_params(c); }
+  static bool same(const Params& p, const Out& a, const Out& b) { return a.same(b, p.n); }
+  static std::string describe(const RtlUnitInfo& u) { return u.name + " (" + u.spec + "): " + u.args; }
+};
 
 }  // namespace rtu::rtl

@@ -1,13 +1,14 @@
-// The co-simulation adapter: hw::BoxUnit (hwmodel/datapath/box_unit.h) answered by a Verilated model of rtl/box_unit.sv,
-// so that the timed device (`--set box_unit=rtl`) takes its box tests, and the clocks of each, from the RTL.
+// The co-simulation adapter: hw::BoxUnit (hwmodel/datapath/box_unit.h) answered by a Verilated model of
+// rtl/box_unit.sv, so that the timed device (`--set box_unit=rtl`) takes its box tests, and the clocks of each,
+// from the RTL.
 #pragma once
 
 #include <memory>
-#include <string>
 #include <vector>
 
 #include "hwmodel/datapath/box_unit.h"
 #include "hwmodel/timing/timing_config.h"
+#include "rtl_sim/cosim/rtl_unit_info.h"
 
 namespace rtu::rtl {
 
@@ -19,11 +20,7 @@ namespace rtu::rtl {
 // (std::runtime_error), as is an input outside the unit's port ranges (std::invalid_argument).
 std::unique_ptr<hw::BoxUnit> make_rtl_box_unit(const hw::TimingConfig& c);
 
-// The units this build verilated: name, configuration spec (a preset, or a preset with keys changed, as
-// rtl_params.h's unit_config() reads it) and Verilator -G options.
-struct RtlUnitInfo {
-  std::string name, spec, args;
-};
+// The box units this build verilated.
 const std::vector<RtlUnitInfo>& rtl_units();
 
 }  // namespace rtu::rtl

@@ -1,14 +1,14 @@
-// The co-simulation adapter of the triangle unit: hw::TriUnit (hwmodel/datapath/tri_unit.h) answered by a Verilated model
-// of rtl/tri_core.sv, so that the timed device (`--set tri_unit=rtl`) takes its triangle tests, and the clocks of
-// each, from the RTL.
+// The co-simulation adapter of the triangle unit: hw::TriUnit (hwmodel/datapath/tri_unit.h) answered by a
+// Verilated model of rtl/tri_core.sv, so that the timed device (`--set tri_unit=rtl`) takes its triangle tests,
+// and the clocks of each, from the RTL.
 #pragma once
 
 #include <memory>
-#include <string>
 #include <vector>
 
-#include "hwmodel/timing/timing_config.h"
 #include "hwmodel/datapath/tri_unit.h"
+#include "hwmodel/timing/timing_config.h"
+#include "rtl_sim/cosim/rtl_unit_info.h"
 
 namespace rtu::rtl {
 
@@ -19,10 +19,7 @@ namespace rtu::rtl {
 // error (std::runtime_error), as is an input outside the unit's port ranges (std::invalid_argument).
 std::unique_ptr<hw::TriUnit> make_rtl_tri_unit(const hw::TimingConfig& c);
 
-// The triangle units this build verilated: the preset each was derived from and its Verilator -G options.
-struct RtlTriUnitInfo {
-  std::string name, args;
-};
-const std::vector<RtlTriUnitInfo>& rtl_tri_units();
+// The triangle units this build verilated (each one's spec is the preset it was derived from).
+const std::vector<RtlUnitInfo>& rtl_tri_units();
 
 }  // namespace rtu::rtl

@@ -1,6 +1,6 @@
 // The ports of rtl/tri_core.sv as integers, and their packing into a Verilated model of any parameter set: the
 // one place that knows the port layout, shared by the testbench (tb/tri_bench.h) and the co-simulation adapter
-// (cosim/rtl_tri_unit.cpp).
+// (cosim/rtl_tri_unit.cpp). TriPorts are the unit's traits for the shared harness (cosim/rtl_unit.h).
 #pragma once
 
 #include <algorithm>
@@ -10,7 +10,9 @@
 #include <string>
 
 #include "hwmodel/datapath/intersect_fixed.h"
+#include "rtl_sim/cosim/rtl_unit.h"
 #include "rtl_sim/cosim/sim.h"
+#include "rtl_sim/params/rtl_params.h"
 #include "rtl_sim/params/tri_params.h"
 
 namespace rtu::rtl {
@@ -95,4 +97,22 @@ TriOut read_outputs(const Model& m, const TriUnitParams& p) {
   o.tag = uint32_t(get_bits(m.out_tag, 0, kTriTagBits));
   return o;
 }
+
+struct TriPorts {
+  using Params = TriUnitParams;
+  using Inputs = TriInputs;
+  using Out = TriOut;
+  static constexpr const char* kKey = "tri_unit";
+  static constexpr const char* kItem = "triangle";
+  static constexpr const char* kVcd = "tri_unit";
+  static constexpr int kTagBits = kTriTagBits;
+  static Params params(const hw::TimingConfig& c) { return tri_unit_params(c); }
+  static bool same(const Params&, const Out& a, const Out& b) { return a == b; }
+  // With the format and tri_latency of the configuration the model was derived from.
+  static std::string describe(const RtlUnitInfo& u) {
+    const hw::TimingConfig c = unit_config(u.spec);
+    return u.name + " (format " + c.format + ", tri_latency " + std::to_string(c.tri_latency) + "): " + u.args;
+  }
+};
+
 }  // namespace rtu::rtl

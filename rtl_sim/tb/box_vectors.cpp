@@ -6,15 +6,12 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
-#include <optional>
 #include <sstream>
 #include <stdexcept>
 
-#include "host/scene/ray_gen.h"
-#include "host/scene/scene.h"
-#include "hwmodel/format/device_image.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/numeric/rng.h"
 
 namespace rtu::rtl {
@@ -60,20 +57,6 @@ void child_interval(const FixedRay& r, const BoxCase& c, int i, int64_t& t0, int
 
 int64_t clamp_t(int64_t t, const FixedRay& r) {
   return std::clamp(t, -r.t_limit, r.t_limit);
-}
-
-int64_t rand_int(Pcg32& rng, int64_t lo, int64_t hi) {  // uniform in [lo, hi]
-  const uint64_t span = uint64_t(hi - lo) + 1;
-  const uint64_t x = (uint64_t(rng.next_u32()) << 32) | rng.next_u32();
-  return span == 0 ? int64_t(x) : lo + int64_t(x % span);
-}
-bool one_in(Pcg32& rng, uint32_t n) {
-  return rng.next_u32() % n == 0;
-}
-// A magnitude with a log-uniform number of bits: in [1, 2^bits].
-int64_t rand_mag(Pcg32& rng, int bits) {
-  const int b = int(rand_int(rng, 0, bits));
-  return rand_int(rng, int64_t(1) << (b > 0 ? b - 1 : 0), int64_t(1) << b);
 }
 
 // A node with every slot's offsets in range of the format: planes < 2^(B+1) (as the encoder guarantees).
@@ -171,17 +154,6 @@ BoxExpect expected(const CaseSet& s, const BoxCase& c) {
     e.c[i].exact = hw::box_test_exact(r, lo, hi, c.tmin, c.tlim);
   }
   return e;
-}
-
-FixedRay grid_ray(const FixedFormat& f, const int64_t o[3], const int64_t d[3]) {
-  FixedRay r{};
-  for (int a = 0; a < 3; ++a) r.o[a] = o[a];
-  set_format_fields(r, f);
-  r.t_exp = f.t_frac_bits;
-  r.tmin = 0;
-  r.tmax = r.t_limit;
-  hw::set_direction(r, d, f);
-  return r;
 }
 
 // ---- directed ----------------------------------------------------------------------------------------------
@@ -632,71 +604,19 @@ void copy_node(const hw::DeviceImage& img, uint32_t index, BoxCase& c) {
 
 CaseSet traversal_cases(const std::string& scene, const FixedFormat& f, size_t max_nodes, uint64_t seed) {
   CaseSet s;
-  s.name = "traversal " + scene.substr(scene.find_last_of('/') + 1);
   s.format = f;
-  const host::Scene sc = host::load_scene(scene);
-  hw::TracerOptions opt;
-  opt.accel = hw::AccelMode::kBvh;
-  opt.bvh.width = f.width;
-  const std::optional<hw::Bvh> bvh = hw::choose_accel(sc.geometry, opt);
-  const hw::DeviceImage img = hw::encode_scene(sc.geometry, f, bvh ? &*bvh : nullptr);
-  if (img.header().flags & hw::kImageNoBvh) throw std::logic_error("traversal_cases: the image has no BVH");
-  const hw::FixedTracer tracer(img);
-  const hw::QuantFrame frame = img.frame();
-  const FixedFormat imgf = img.format();
-
-  // Camera rays (a 320 x 240 grid) and incoherent rays, interleaved, until max_nodes node visits.
-  const std::vector<hw::Ray> primary = host::primary_rays(sc.camera, 320, 240);
-  const std::vector<hw::Ray> incoherent = host::incoherent_rays(sc.geometry.bounds(), primary.size(), seed);
-  std::vector<hw::TraceEvent> events;
-  hw::TraversalStats stats;
-  for (size_t k = 0; k < 2 * primary.size() && s.cases.size() < max_nodes; ++k) {
-    const hw::Ray& ray = (k % 2 == 0) ? primary[k / 2] : incoherent[k / 2];
-    FixedRay fr;
-    if (hw::setup_ray(ray, frame, imgf, fr) != hw::RayStatus::kOk) continue;
-    events.clear();
-    const hw::Hit h = tracer.trace_recorded(ray, false, stats, events);
-    ++s.traced_rays;
-    s.rays.push_back(fr);
-    const uint32_t ri = uint32_t(s.rays.size() - 1);
-    // Replay: the closest hit so far is the limit of every box test (as in FixedTracer: tmax to start with,
-    // lowered by each primitive or plane hit in event order).
-    int64_t closest = fr.tmax;
-    bool any = false;
-    for (const hw::TraceEvent& e : events) {
-      hw::FixedPrimHit ph;
-      if (e.kind == hw::TraceEvent::kNode) {
+  // Every node a traversal visits, with the closest hit so far as the limit of its box test.
+  capture_traversals(
+      s, scene, seed, [&] { return s.cases.size() >= max_nodes; },
+      [&](const hw::DeviceImage& img, const hw::TraceEvent& e, uint32_t ray, int64_t closest) {
+        if (e.kind != hw::TraceEvent::kNode || s.cases.size() >= max_nodes) return;
         BoxCase c;
-        c.ray = ri;
+        c.ray = ray;
         copy_node(img, e.index, c);
-        c.tmin = fr.tmin;
+        c.tmin = s.rays[ray].tmin;
         c.tlim = closest;
-        if (s.cases.size() < max_nodes) s.cases.push_back(c);
-      } else if (e.kind == hw::TraceEvent::kPlane) {
-        if (hw::plane_test(fr, img.planes()[e.index], fr.tmin, closest, ph)) {
-          closest = ph.t;
-          any = true;
-        }
-      } else if (e.kind == hw::TraceEvent::kPrim) {
-        const uint8_t* rec = img.record(e.index);
-        bool hit;
-        if (hw::record_kind(rec) == hw::RecordKind::kTriangle) {
-          hw::TriangleRecord t;
-          std::memcpy(&t, rec, sizeof t);
-          hit = hw::triangle_test(fr, t.v, fr.tmin, closest, ph);
-        } else {
-          hw::SphereRecord sp;
-          std::memcpy(&sp, rec, sizeof sp);
-          hit = hw::sphere_test(fr, sp, fr.tmin, closest, ph);
-        }
-        if (hit) {
-          closest = ph.t;
-          any = true;
-        }
-      }
-    }
-    if (any != h.hit() || (any && hw::t_to_world(closest, fr) != h.t)) ++s.replay_mismatches;
-  }
+        s.cases.push_back(c);
+      });
   return s;
 }
 

@@ -1,6 +1,7 @@
 // Test vectors for the RTL box unit and the C++ model's answers for them. A vector is one BVH node (origin,
 // scale, child offsets, count) against one fixed-point ray (hw::FixedRay) over an interval [tmin, tlim]: exactly
-// what the fixed tracer hands to its box test (hwmodel/datapath/fixed_tracer.cpp, FixedPolicy::expand_impl). Sources:
+// what the fixed tracer hands to its box test (hwmodel/datapath/fixed_tracer.cpp, FixedPolicy::expand_impl).
+// Sources:
 //   directed   corner cases built by hand (signed zero direction components, rays exactly through faces, edges
 //              and corners, flat/point/inverted boxes, tiny direction components (rcp_sh < 0), the largest
 //              magnitudes of every input, empty and reversed intervals, count < N)
@@ -15,9 +16,10 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/intersect_fixed.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "rtl_sim/cosim/box_ports.h"
+#include "rtl_sim/tb/vectors.h"
 
 namespace rtu::rtl {
 
@@ -30,14 +32,9 @@ struct BoxCase {
   int64_t tmin = 0, tlim = 0;     // the interval, t raw
 };
 
-struct CaseSet {
-  std::string name;
-  hw::FixedFormat format;  // format.width = N
-  std::vector<hw::FixedRay> rays;
-  std::vector<BoxCase> cases;
-  // Traversal sets: rays traced, and rays whose replayed closest hit differs from the tracer's (must be 0).
-  uint64_t traced_rays = 0, replay_mismatches = 0;
+// Box vectors of one format (format.width = N).
 
+struct CaseSet : VectorSet<BoxCase> {
   uint64_t child_tests() const;  // occupied slots over all cases
 };
 
@@ -59,10 +56,6 @@ BoxExpect expected(const CaseSet& s, const BoxCase& c);
 
 // The grid box of slot i: lo = origin + (q_lo << exp), hi = origin + (q_hi << exp).
 void child_box(const BoxCase& c, int i, int64_t lo[3], int64_t hi[3]);
-
-// A ray built on the grid: origin o (grid.F), direction d (D fraction bits, largest component in
-// [2^(D-1), 2^D]), t in ray units with T fraction bits (t_exp = T), interval [0, t_limit].
-hw::FixedRay grid_ray(const hw::FixedFormat& f, const int64_t o[3], const int64_t d[3]);
 
 CaseSet directed_cases(const hw::FixedFormat& f);
 CaseSet random_cases(const hw::FixedFormat& f, uint64_t seed, size_t nodes);

@@ -7,20 +7,14 @@
 // [traversal] [handshake] [throughput] [harness].
 #include <catch2/catch.hpp>
 
-#include <algorithm>
-#include <chrono>
-#include <cstdio>
 #include <string>
 
-#include "Vbox_unit_embedded.h"
-#include "Vbox_unit_intel.h"
-#include "Vbox_unit_rdna2.h"
-#include "Vbox_unit_wide8_lanes3.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/timing_config.h"
 #include "rtl_models.h"
 #include "rtl_sim/cosim/rtl_box_unit.h"
 #include "rtl_sim/tb/box_bench.h"
+#include "rtl_sim/tb/unit_checks.h"
 
 namespace {
 
@@ -29,61 +23,23 @@ using namespace rtu::rtl;
 
 constexpr const char* kIfc = "/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc";
 
-// The configuration of a Verilated unit (a preset, or wide8_lanes3: intel with 8-wide nodes and box_rate 3).
 hw::TimingConfig config_of(const std::string& unit) {
-  for (const RtlUnitInfo& u : rtl_units())
-    if (u.name == unit) return unit_config(u.spec);
-  throw std::invalid_argument("no Verilated unit " + unit);
+  return rtl::config_of<BoxBench>(unit);
 }
-
-// The format of a unit's datapath, at its BVH width (as the timed device uses it).
-hw::FixedFormat preset_format(const std::string& preset) {
-  const hw::TimingConfig c = config_of(preset);
-  hw::FixedFormat f = hw::format_preset(c.format);
-  f.width = c.bvh_width;
-  return f;
+hw::FixedFormat preset_format(const std::string& unit) {
+  return unit_format<BoxBench>(unit);
 }
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-void report(const std::string& what, const CompareStats& st, double secs) {
-  std::printf(
-      "rtl %-44s %7llu nodes %9llu child tests (%llu hits, %llu exact accepts, %llu false positives, %llu t_near "
-      "checked, %llu saturated, %llu axes rcp_sh<0, %llu zero axes, %llu reversed intervals, %llu partial nodes) "
-      "%.2f s\n",
-      what.c_str(), (unsigned long long)st.nodes, (unsigned long long)st.child_tests, (unsigned long long)st.hits,
-      (unsigned long long)st.exact_accepts, (unsigned long long)st.false_positives,
-      (unsigned long long)st.tnear_checked, (unsigned long long)st.tnear_saturated,
-      (unsigned long long)st.neg_rcp_sh, (unsigned long long)st.zero_axes,
-      (unsigned long long)st.reversed_intervals, (unsigned long long)st.partial_nodes, secs);
-  std::fflush(stdout);
-}
-
-// Runs a case set on the preset's model and fails with the first disagreement (case, model answers, VCD path).
 template <class Model>
-CompareStats check(const std::string& preset, const CaseSet& s, const Flow& flow = {}) {
-  const BoxUnitParams p = box_unit_params(config_of(preset));
-  CompareStats st;
-  const auto t0 = std::chrono::steady_clock::now();
-  const std::string problem = check_cases<Model>(preset, p, s, flow, st);
-  if (!problem.empty()) FAIL(problem);
-  std::string what = preset + " " + s.name;
-  if (s.traced_rays) what += " (" + std::to_string(s.traced_rays) + " rays)";
-  if (flow.valid_pct < 100 || flow.ready_pct < 100)
-    what += " valid " + std::to_string(flow.valid_pct) + "% ready " + std::to_string(flow.ready_pct) + "%";
-  report(what, st, seconds_since(t0));
-  CHECK(st.nodes == s.cases.size());
-  return st;
+CompareStats check(const std::string& unit, const CaseSet& s, const Flow& flow = {}) {
+  return check_set<BoxBench, Model>(unit, s, flow);
 }
 
 }  // namespace
 
 TEST_CASE("box unit: the Verilated models carry the widths and latency the C++ presets give", "[rtl][params]") {
-  CHECK(std::string(RTU_RTL_ARGS_rdna2) == verilator_args(box_unit_params(hw::timing_preset("rdna2"))));
-  CHECK(std::string(RTU_RTL_ARGS_intel) == verilator_args(box_unit_params(hw::timing_preset("intel"))));
-  CHECK(std::string(RTU_RTL_ARGS_embedded) == verilator_args(box_unit_params(hw::timing_preset("embedded"))));
+  CHECK(std::string(RTU_RTL_BOX_ARGS_rdna2) == verilator_args(box_unit_params(hw::timing_preset("rdna2"))));
+  CHECK(std::string(RTU_RTL_BOX_ARGS_intel) == verilator_args(box_unit_params(hw::timing_preset("intel"))));
+  CHECK(std::string(RTU_RTL_BOX_ARGS_embedded) == verilator_args(box_unit_params(hw::timing_preset("embedded"))));
   CHECK(rtl_units().size() == 4);
   for (const RtlUnitInfo& u : rtl_units()) {
     CAPTURE(u.name, u.spec);
@@ -169,121 +125,24 @@ TEST_CASE("box unit: back-pressure holds every result, none lost, duplicated or 
   const uint64_t seed = test_seed(99);
   CAPTURE(seed);
   const CaseSet s = random_cases(preset_format("rdna2"), seed, 20000);
-  // Random input gaps and output stalls of several densities; run_stream checks order, uniqueness and that a
-  // stalled output holds; check_cases compares every result.
-  for (const Flow& f :
-       {Flow{70, 30, seed}, Flow{100, 50, seed + 1}, Flow{30, 90, seed + 2}, Flow{100, 5, seed + 3}}) {
-    CAPTURE(f.valid_pct, f.ready_pct);
-    check<Vbox_unit_rdna2>("rdna2", s, f);
-  }
+  check_back_pressure<BoxBench, Vbox_unit_rdna2>("rdna2", s, seed);
   check<Vbox_unit_intel>("intel", random_cases(preset_format("intel"), seed, 5000), Flow{60, 40, seed});
   check<Vbox_unit_embedded>("embedded", random_cases(preset_format("embedded"), seed, 5000), Flow{60, 40, seed});
   check<Vbox_unit_wide8_lanes3>("wide8_lanes3", random_cases(preset_format("wide8_lanes3"), seed, 5000),
                                 Flow{60, 40, seed});
 
-  // With the output stalled the unit takes exactly LATENCY nodes (one per stage), then drops in_ready; they all
-  // come out, in order, once the output is ready again.
-  const BoxUnitParams p = box_unit_params(hw::timing_preset("rdna2"));
+  // With the output stalled the unit takes exactly LATENCY nodes, which come out in order once the output is
+  // ready again; a reset empties the pipeline.
   Sim<Vbox_unit_rdna2> sim(requested_vcd("box_unit_rdna2_stall_and_reset"), 0, requested_vcd_cycles());
-  auto& m = sim.dut();
-  m.in_valid = 0;
-  m.out_ready = 0;
-  sim.reset();
-  std::vector<BoxInputs> in;
-  for (size_t k = 0; k < 40; ++k) in.push_back(unit_inputs(s, s.cases[k]));
-  size_t taken = 0;
-  for (int c = 0; c < 3 * p.latency; ++c) {
-    drive_inputs(m, p, in[taken], uint32_t(taken));
-    m.in_valid = 1;
-    sim.eval();
-    if (m.in_ready) ++taken;
-    sim.tick();
-  }
-  CHECK(taken == size_t(p.latency));
-  sim.eval();
-  CHECK(m.out_valid == 1);
-  CHECK(m.in_ready == 0);
-  m.in_valid = 0;
-  // Releasing the output: the held nodes leave one per clock, in order.
-  for (size_t k = 0; k < taken; ++k) {
-    m.out_ready = 1;
-    sim.eval();
-    REQUIRE(m.out_valid == 1);
-    const BoxOut o = read_outputs(m, p);
-    CHECK(o.tag == k);
-    CompareStats st;
-    CHECK(compare_node(p, s, s.cases[k], o, st) == "");
-    sim.tick();
-  }
-  sim.eval();
-  CHECK(m.out_valid == 0);
-
-  // A reset empties the pipeline: nothing half-done comes out afterwards.
-  m.out_ready = 0;
-  m.in_valid = 1;
-  drive_inputs(m, p, in[0], 0);
-  for (int c = 0; c < 3; ++c) sim.tick();
-  m.in_valid = 0;
-  sim.reset(1);
-  m.out_ready = 1;
-  for (int c = 0; c < p.latency + 2; ++c) {
-    sim.eval();
-    CHECK(m.out_valid == 0);
-    sim.tick();
-  }
+  check_stall_and_reset<BoxBench>(sim, box_unit_params(hw::timing_preset("rdna2")), s);
 }
-
-namespace {
-
-// With valid and ready always high, nodes go in back to back: a node of `count` children keeps the input for
-// issue = max(1, ceil(count / box_rate)) clocks and leaves box_latency + issue - 1 clocks after it was taken,
-// exactly the timing model's box unit (timed_engine.cpp, TimingModel::unit). One node per clock when
-// box_rate >= N.
-template <class Model>
-void check_rate(const std::string& preset) {
-  const hw::TimingConfig cfg = config_of(preset);
-  const BoxUnitParams p = box_unit_params(cfg);
-  INFO(preset << ": box_latency " << cfg.box_latency << ", box_rate " << cfg.box_rate << ", N " << p.n
-              << ", LANES " << p.lanes);
-  const CaseSet s = random_cases(preset_format(preset), 5, 1000);
-  std::vector<BoxInputs> in;
-  for (const BoxCase& c : s.cases) in.push_back(unit_inputs(s, c));
-  Sim<Model> sim(requested_vcd("box_unit_" + preset + "_throughput"), 0, requested_vcd_cycles());
-  sim.dut().in_valid = 0;
-  sim.dut().out_ready = 0;
-  sim.reset();
-  const StreamResult r = run_stream(sim, p, in, Flow{100, 100, 1}, 0);
-  REQUIRE(r.error == "");
-  REQUIRE(r.outs.size() == in.size());
-  const uint64_t m = in.size();
-  uint64_t wrong_in = 0, wrong_latency = 0, issue_sum = 0, multi = 0;
-  for (size_t k = 0; k < m; ++k) {
-    const uint64_t count = uint64_t(in[k].count), rate = uint64_t(cfg.box_rate);
-    const uint64_t issue = std::max<uint64_t>(1, (count + rate - 1) / rate);
-    issue_sum += issue;
-    multi += uint64_t(issue > 1);
-    if (k + 1 < m) wrong_in += uint64_t(r.in_edge[k + 1] != r.in_edge[k] + issue);
-    wrong_latency += uint64_t(r.out_edge[k] - r.in_edge[k] != uint64_t(cfg.box_latency) + issue - 1);
-  }
-  CHECK(wrong_in == 0);
-  CHECK(wrong_latency == 0);
-  CHECK(r.out_edge.back() - r.in_edge.front() == issue_sum + uint64_t(cfg.box_latency) - 1);
-  if (cfg.box_rate >= p.n) {
-    CHECK(multi == 0);  // one node per clock
-    CHECK_FALSE(r.in_ready_dropped);
-  } else {
-    CHECK(multi > 0);  // the vectors include nodes that take several clocks
-  }
-}
-
-}  // namespace
 
 TEST_CASE("box unit: issue and latency per node equal the timing preset's box_rate and box_latency",
           "[rtl][throughput]") {
-  check_rate<Vbox_unit_rdna2>("rdna2");
-  check_rate<Vbox_unit_intel>("intel");
-  check_rate<Vbox_unit_embedded>("embedded");
-  check_rate<Vbox_unit_wide8_lanes3>("wide8_lanes3");
+  check_rate<BoxBench, Vbox_unit_rdna2>("rdna2");
+  check_rate<BoxBench, Vbox_unit_intel>("intel");
+  check_rate<BoxBench, Vbox_unit_embedded>("embedded");
+  check_rate<BoxBench, Vbox_unit_wide8_lanes3>("wide8_lanes3");
 }
 
 TEST_CASE("testbench helpers: a wait that never ends fails after its cycle budget", "[rtl][harness]") {
@@ -292,11 +151,9 @@ TEST_CASE("testbench helpers: a wait that never ends fails after its cycle budge
   std::vector<BoxInputs> in;
   for (const BoxCase& c : s.cases) in.push_back(unit_inputs(s, c));
   Sim<Vbox_unit_rdna2> sim(requested_vcd("box_unit_rdna2_timeout"), 0, requested_vcd_cycles());
-  sim.dut().in_valid = 0;
-  sim.dut().out_ready = 0;
-  sim.reset();
+  idle_reset(sim);
   // Output never ready: the stream stops making progress and fails by its stall limit instead of hanging.
-  const StreamResult r = run_stream(sim, p, in, Flow{100, 0, 1}, 0, 200);
+  const auto r = run_stream<BoxBench>(sim, p, in, Flow{100, 0, 1}, 0, 200);
   CHECK(r.error.find("timeout") != std::string::npos);
   CHECK(r.in_edge.size() == size_t(p.latency));
   // run_until gives up after exactly its budget.

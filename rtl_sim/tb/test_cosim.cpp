@@ -210,7 +210,7 @@ TEST_CASE("co-simulation: the RTL triangle unit gives the C++ unit's hits and cy
   const rtu::host::Scene s = rtu::host::load_scene(kIfc);
   const std::vector<Ray> rays = rays_for(s, 3000, 1000);
   REQUIRE(rtu::rtl::rtl_tri_units().size() == 2);
-  for (const rtu::rtl::RtlTriUnitInfo& u : rtu::rtl::rtl_tri_units()) {
+  for (const rtu::rtl::RtlUnitInfo& u : rtu::rtl::rtl_tri_units()) {
     for (const char* box : {"cpp", "rtl"}) {
       CAPTURE(u.name, u.args, box);
       const auto cpp = rtu::host::make_device(s.geometry, options(u.name, "cpp", "cpp"));
@@ -261,7 +261,7 @@ TEST_CASE("co-simulation: the triangle unit's measured latency and throughput ar
           "[rtl][cosim][tri]") {
   const rtu::host::Scene s = rtu::host::load_scene(kIfc);
   const std::vector<Ray> rays = rays_for(s, 1000, 500);
-  for (const rtu::rtl::RtlTriUnitInfo& u : rtu::rtl::rtl_tri_units()) {
+  for (const rtu::rtl::RtlUnitInfo& u : rtu::rtl::rtl_tri_units()) {
     CAPTURE(u.name);
     DeviceOptions fixed = options(u.name, "cpp");
     fixed.kind = rtu::hw::DeviceKind::kFixed;

@@ -9,16 +9,13 @@
 // half on embedded).
 #include <catch2/catch.hpp>
 
-#include <chrono>
-#include <cstdio>
 #include <string>
 
-#include "Vtri_core_embedded.h"
-#include "Vtri_core_rdna2.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/timing_config.h"
+#include "rtl_models.h"
 #include "rtl_sim/tb/tri_bench.h"
-#include "rtl_tri_models.h"
+#include "rtl_sim/tb/unit_checks.h"
 
 namespace {
 
@@ -27,38 +24,13 @@ using namespace rtu::rtl;
 
 constexpr const char* kIfc = "/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc";
 
-hw::FixedFormat preset_format(const std::string& preset) {
-  const hw::TimingConfig c = hw::timing_preset(preset);
-  hw::FixedFormat f = hw::format_preset(c.format);
-  f.width = c.bvh_width;
-  return f;
+hw::FixedFormat preset_format(const std::string& unit) {
+  return unit_format<TriBench>(unit);
 }
-
-void report(const std::string& what, const TriStats& st, double secs) {
-  std::printf(
-      "rtl tri %-40s %8llu cases (%llu hits, %llu det 0, %llu t checked, %llu saturated, %llu u/v checked, %llu "
-      "zero direction components, %llu zero edge functions, %llu reversed intervals) %.2f s\n",
-      what.c_str(), (unsigned long long)st.cases, (unsigned long long)st.hits, (unsigned long long)st.det_zero,
-      (unsigned long long)st.t_checked, (unsigned long long)st.t_saturated, (unsigned long long)st.uv_checked,
-      (unsigned long long)st.zero_dirs, (unsigned long long)st.edge_zero, (unsigned long long)st.reversed, secs);
-  std::fflush(stdout);
-}
-
 template <class Model>
-TriStats check(const std::string& preset, const TriSet& s, const Flow& flow = {},
+TriStats check(const std::string& unit, const TriSet& s, const Flow& flow = {},
                std::vector<TriOut>* outs = nullptr) {
-  const TriUnitParams p = tri_unit_params(hw::timing_preset(preset));
-  TriStats st;
-  const auto t0 = std::chrono::steady_clock::now();
-  const std::string problem = check_tri_cases<Model>(preset, p, s, flow, st, outs);
-  if (!problem.empty()) FAIL(problem);
-  std::string what = preset + " " + s.name;
-  if (s.traced_rays) what += " (" + std::to_string(s.traced_rays) + " rays)";
-  if (flow.valid_pct < 100 || flow.ready_pct < 100)
-    what += " valid " + std::to_string(flow.valid_pct) + "% ready " + std::to_string(flow.ready_pct) + "%";
-  report(what, st, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  CHECK(st.cases == s.cases.size());
-  return st;
+  return check_set<TriBench, Model>(unit, s, flow, outs);
 }
 
 }  // namespace
@@ -155,101 +127,25 @@ TEST_CASE("tri unit: back-pressure holds every result, none lost, duplicated or 
   const uint64_t seed = test_seed(99);
   CAPTURE(seed);
   const TriSet s = tri_random_cases(preset_format("rdna2"), seed, 10000);
-  for (const Flow& f :
-       {Flow{70, 30, seed}, Flow{100, 50, seed + 1}, Flow{30, 90, seed + 2}, Flow{100, 5, seed + 3}}) {
-    CAPTURE(f.valid_pct, f.ready_pct);
-    check<Vtri_core_rdna2>("rdna2", s, f);
-  }
+  check_back_pressure<TriBench, Vtri_core_rdna2>("rdna2", s, seed);
   check<Vtri_core_embedded>("embedded", tri_random_cases(preset_format("embedded"), seed, 5000),
                             Flow{60, 40, seed});
 
-  // With the output stalled the unit takes exactly LATENCY triangles, then drops in_ready; they come out in
-  // order once the output is ready. A reset empties the pipeline.
+  // With the output stalled the unit takes exactly LATENCY triangles, which come out in order once the output
+  // is ready again; a reset empties the pipeline.
   const TriUnitParams p = tri_unit_params(hw::timing_preset("rdna2"));
   Sim<Vtri_core_rdna2> sim(requested_vcd("tri_unit_rdna2_stall_and_reset"), 0, requested_vcd_cycles());
-  auto& m = sim.dut();
-  m.in_valid = 0;
-  m.out_ready = 0;
-  sim.reset();
-  size_t taken = 0;
-  for (int c = 0; c < 3 * p.latency; ++c) {
-    drive_inputs(m, p, tri_inputs(s, s.cases[taken]), uint32_t(taken));
-    m.in_valid = 1;
-    sim.eval();
-    if (m.in_ready) ++taken;
-    sim.tick();
-  }
-  CHECK(taken == size_t(p.latency));
-  sim.eval();
-  CHECK(m.out_valid == 1);
-  CHECK(m.in_ready == 0);
-  m.in_valid = 0;
-  for (size_t k = 0; k < taken; ++k) {
-    m.out_ready = 1;
-    sim.eval();
-    REQUIRE(m.out_valid == 1);
-    const TriOut o = read_outputs(m, p);
-    CHECK(o.tag == k);
-    TriStats st;
-    CHECK(compare_tri(s, s.cases[k], o, st) == "");
-    sim.tick();
-  }
-  sim.eval();
-  CHECK(m.out_valid == 0);
-  m.out_ready = 0;
-  m.in_valid = 1;
-  drive_inputs(m, p, tri_inputs(s, s.cases[0]), 0);
-  for (int c = 0; c < 3; ++c) sim.tick();
-  m.in_valid = 0;
-  sim.reset(1);
-  m.out_ready = 1;
-  for (int c = 0; c < p.latency + 2; ++c) {
-    sim.eval();
-    CHECK(m.out_valid == 0);
-    sim.tick();
-  }
+  check_stall_and_reset<TriBench>(sim, p, s);
   // Output never ready: the stream fails by its stall limit instead of hanging.
   std::vector<TriInputs> in;
   for (size_t k = 0; k < 64; ++k) in.push_back(tri_inputs(s, s.cases[k]));
-  const TriStream r = run_stream(sim, p, in, Flow{100, 0, 1}, 0, 200);
+  const auto r = run_stream<TriBench>(sim, p, in, Flow{100, 0, 1}, 0, 200);
   CHECK(r.error.find("timeout") != std::string::npos);
   CHECK(r.in_edge.size() == size_t(p.latency));
 }
 
-namespace {
-
-// With valid and ready always high: one triangle per clock (tri_rate 1), each leaving tri_latency clocks after
-// it was taken.
-template <class Model>
-void check_rate(const std::string& preset) {
-  const hw::TimingConfig cfg = hw::timing_preset(preset);
-  const TriUnitParams p = tri_unit_params(cfg);
-  const TriSet s = tri_random_cases(preset_format(preset), 5, 1000);
-  std::vector<TriInputs> in;
-  for (const TriCase& c : s.cases) in.push_back(tri_inputs(s, c));
-  Sim<Model> sim(requested_vcd("tri_unit_" + preset + "_throughput"), 0, requested_vcd_cycles());
-  sim.dut().in_valid = 0;
-  sim.dut().out_ready = 0;
-  sim.reset();
-  const TriStream r = run_stream(sim, p, in, Flow{100, 100, 1}, 0);
-  REQUIRE(r.error == "");
-  REQUIRE(r.outs.size() == in.size());
-  uint64_t wrong_in = 0, wrong_latency = 0;
-  for (size_t k = 0; k < in.size(); ++k) {
-    if (k + 1 < in.size()) wrong_in += uint64_t(r.in_edge[k + 1] != r.in_edge[k] + uint64_t(cfg.tri_rate));
-    wrong_latency += uint64_t(r.out_edge[k] - r.in_edge[k] != uint64_t(cfg.tri_latency));
-  }
-  INFO(preset << ": tri_latency " << cfg.tri_latency << ", tri_rate " << cfg.tri_rate);
-  CHECK(wrong_in == 0);
-  CHECK(wrong_latency == 0);
-  CHECK_FALSE(r.in_ready_dropped);
-  CHECK(r.out_edge.back() - r.in_edge.front() == in.size() - 1 + uint64_t(cfg.tri_latency));
-}
-
-}  // namespace
-
 TEST_CASE("tri unit: one test per clock and tri_latency clocks per test, as the timing presets say",
           "[rtl][tri][throughput]") {
-  check_rate<Vtri_core_rdna2>("rdna2");
-  check_rate<Vtri_core_embedded>("embedded");
+  check_rate<TriBench, Vtri_core_rdna2>("rdna2");
+  check_rate<TriBench, Vtri_core_embedded>("embedded");
 }

@@ -1,22 +1,19 @@
-// The triangle unit's testbench driver, for any Verilated parameter set of rtl/tri_core.sv: packs vectors into
-// ports, streams them through the valid/ready handshake (chosen or random valid and ready patterns), checks the
-// protocol (results in order, each exactly once, outputs held while stalled, nothing after the last), and
-// compares every result with the C++ model bit for bit: hit and t with hw::triangle_test, e1, e2 and det with
-// the general 128-bit edge functions, t with hw::div_shift(num, den) whenever den != 0 (hit or not), and u, v
-// formed from the unit's integers as triangle_test forms them, with triangle_test's.
+// The triangle unit's bench traits (bench.h) for rtl/tri_core.sv: its vectors (tri_vectors.h) and their check,
+// every result bit for bit: hit and t with hw::triangle_test, e1, e2 and det with the general 128-bit edge
+// functions, t with hw::div_shift(num, den) whenever den != 0 (hit or not), and u, v formed from the unit's
+// integers as triangle_test forms them, with triangle_test's.
 #pragma once
 
-#include <algorithm>
-#include <cctype>
 #include <cstdint>
+#include <cstdio>
 #include <sstream>
 #include <string>
 #include <vector>
 
-#include "hwmodel/numeric/rng.h"
-#include "rtl_sim/cosim/sim.h"
+#include "rtl_sim/cosim/rtl_tri_unit.h"
 #include "rtl_sim/cosim/tri_ports.h"
 #include "rtl_sim/params/tri_params.h"
+#include "rtl_sim/tb/bench.h"
 #include "rtl_sim/tb/tri_vectors.h"
 
 namespace rtu::rtl {
@@ -25,104 +22,9 @@ inline TriInputs tri_inputs(const TriSet& s, const TriCase& c) {
   return tri_unit_inputs(s.rays[c.ray], c.v, c.tmin, c.tlim);
 }
 
-struct Flow {
-  uint32_t valid_pct = 100, ready_pct = 100;
-  uint64_t seed = 1;
-};
-
-struct TriStream {
-  std::vector<TriOut> outs;
-  std::vector<uint64_t> in_edge, out_edge;
-  std::string error;
-  uint64_t error_cycle = 0;
-  bool in_ready_dropped = false;
-};
-
-// Streams `in` through the unit (already reset); tags count from tag0. Fails on a stall of `stall_limit`
-// cycles, a result out of order, a stalled output that changes, or a result after the last one.
-template <class Model>
-TriStream run_stream(Sim<Model>& sim, const TriUnitParams& p, const std::vector<TriInputs>& in, const Flow& flow,
-                     uint32_t tag0, uint64_t stall_limit = 1000) {
-  Model& m = sim.dut();
-  hw::Pcg32 rng(flow.seed);
-  TriStream r;
-  const uint32_t tag_mask = (1u << kTriTagBits) - 1;
-  size_t next = 0;
-  bool presenting = false, held = false;
-  TriOut held_out;
-  uint64_t idle = 0;
-  while (r.outs.size() < in.size()) {
-    if (!presenting && next < in.size() && (flow.valid_pct >= 100 || rng.next_u32() % 100 < flow.valid_pct)) {
-      drive_inputs(m, p, in[next], uint32_t(tag0 + next) & tag_mask);
-      presenting = true;
-    }
-    m.in_valid = presenting;
-    m.out_ready = flow.ready_pct >= 100 || rng.next_u32() % 100 < flow.ready_pct;
-    sim.eval();
-    if (held && (!m.out_valid || !(read_outputs(m, p) == held_out))) {
-      r.error =
-          "a stalled result changed or vanished before it was taken (cycle " + std::to_string(sim.cycle()) + ")";
-      break;
-    }
-    const bool in_fire = presenting && m.in_ready, out_fire = m.out_valid && m.out_ready;
-    if (presenting && !m.in_ready) r.in_ready_dropped = true;
-    if (out_fire) {
-      const TriOut o = read_outputs(m, p);
-      const uint32_t want = uint32_t(tag0 + r.outs.size()) & tag_mask;
-      if (o.tag != want) {
-        r.error = "result " + std::to_string(r.outs.size()) + " carries tag " + std::to_string(o.tag) +
-                  ", expected " + std::to_string(want) + " (lost, duplicated or reordered)";
-        break;
-      }
-      r.outs.push_back(o);
-      r.out_edge.push_back(sim.cycle());
-    }
-    held = m.out_valid && !m.out_ready;
-    if (held) held_out = read_outputs(m, p);
-    if (in_fire) {
-      r.in_edge.push_back(sim.cycle());
-      ++next;
-      presenting = false;
-    }
-    idle = (in_fire || out_fire) ? 0 : idle + 1;
-    if (idle > stall_limit) {
-      r.error = "timeout: no handshake for " + std::to_string(stall_limit) + " cycles with " +
-                std::to_string(r.outs.size()) + " of " + std::to_string(in.size()) + " results out";
-      break;
-    }
-    sim.tick();
-  }
-  if (!r.error.empty()) r.error_cycle = sim.cycle();
-  m.in_valid = 0;
-  if (r.error.empty()) {
-    m.out_ready = 1;
-    for (int k = 0; k < p.latency + 2; ++k) {
-      sim.eval();
-      if (m.out_valid) {
-        r.error = "a result after the last one (cycle " + std::to_string(sim.cycle()) + ")";
-        r.error_cycle = sim.cycle();
-        break;
-      }
-      sim.tick();
-    }
-  }
-  return r;
-}
-
 struct TriStats {
   uint64_t cases = 0, hits = 0, det_zero = 0, t_checked = 0, t_saturated = 0, uv_checked = 0, zero_dirs = 0,
            edge_zero = 0, reversed = 0;
-  void add(const TriStats& o) {
-    cases += o.cases;
-    hits += o.hits;
-    det_zero += o.det_zero;
-    t_checked += o.t_checked;
-    t_saturated += o.t_saturated;
-    uv_checked += o.uv_checked;
-    zero_dirs += o.zero_dirs;
-    edge_zero += o.edge_zero;
-    reversed += o.reversed;
-  }
 };
 
 // Empty when the unit's result for c agrees with the model bit for bit.
@@ -157,64 +59,38 @@ inline std::string compare_tri(const TriSet& s, const TriCase& c, const TriOut& 
   return err.str();
 }
 
-// Runs a case set through a fresh simulation in batches and compares every result. Returns the first problem
-// (case, model answers, VCD of the failing batch re-run from reset), or "". Fills `outs` when given.
-template <class Model>
-std::string check_tri_cases(const std::string& model, const TriUnitParams& p, const TriSet& s, const Flow& flow,
-                            TriStats& st, std::vector<TriOut>* outs = nullptr, size_t batch = 4096) {
-  std::string name = "tri_unit_" + model + "_" + s.name;
-  std::replace_if(
-      name.begin(), name.end(), [](char ch) { return !std::isalnum(uint8_t(ch)) && ch != '_'; }, '_');
-  Sim<Model> sim(requested_vcd(name), 0, requested_vcd_cycles());
-  sim.dut().in_valid = 0;
-  sim.dut().out_ready = 0;
-  sim.reset();
-  std::vector<TriInputs> in;
-  for (size_t first = 0; first < s.cases.size(); first += batch) {
-    const size_t n = std::min(batch, s.cases.size() - first);
-    in.clear();
-    for (size_t k = 0; k < n; ++k) {
-      in.push_back(tri_inputs(s, s.cases[first + k]));
-      const std::string bad = contract_error(p, in.back());
-      if (!bad.empty()) return bad + "\n" + describe(s, s.cases[first + k]);
-    }
-    Flow f = flow;
-    f.seed = flow.seed + first;
-    const TriStream r = run_stream(sim, p, in, f, uint32_t(first));
-    std::string problem;
-    size_t bad = 0;
-    if (!r.error.empty()) {
-      problem = r.error;
-      bad = r.outs.size();
-    } else {
-      for (size_t k = 0; k < n && problem.empty(); ++k) {
-        problem = compare_tri(s, s.cases[first + k], r.outs[k], st);
-        bad = k;
-      }
-      if (outs) outs->insert(outs->end(), r.outs.begin(), r.outs.end());
-    }
-    if (!problem.empty()) {
-      auto rerun = [&](const std::string& vcd, uint64_t from, uint64_t to) {
-        Sim<Model> again(vcd, from, to);
-        again.dut().in_valid = 0;
-        again.dut().out_ready = 0;
-        again.reset();
-        return run_stream(again, p, in, f, uint32_t(first));
-      };
-      const TriStream r2 = rerun("", 0, 0);
-      const uint64_t at = !r2.error.empty() ? r2.error_cycle : (bad < r2.out_edge.size() ? r2.out_edge[bad] : 0);
-      const uint64_t window = 64 + 4 * uint64_t(p.latency), from = at > window ? at - window : 0;
-      const std::string vcd = vcd_path(name + "_fail");
-      rerun(vcd, from, at + 16);
-      std::ostringstream msg;
-      msg << model << " " << s.name << ", case " << first + bad << " of " << s.cases.size() << ": " << problem
-          << "\n"
-          << describe(s, s.cases[first + std::min(bad, n - 1)]) << "VCD of cycles " << from << ".." << at + 15
-          << " of the batch (cases " << first << ".." << first + n - 1 << " re-run from reset): " << vcd;
-      return msg.str();
-    }
+struct TriBench : TriPorts {
+  using Set = TriSet;
+  using Case = TriCase;
+  using Stats = TriStats;
+  static constexpr bool kDrawAtFullRate = false;
+
+  static Inputs inputs(const Set& s, const Case& c) { return tri_inputs(s, c); }
+  static std::string compare(const Params&, const Set& s, const Case& c, const Out& o, Stats& st) {
+    return compare_tri(s, c, o, st);
   }
-  return std::string();
-}
+  static std::string describe(const Set& s, const Case& c) { return rtl::describe(s, c); }
+  static std::string describe(const Params&, const Out& o) {
+    return "unit: hit " + std::to_string(o.hit) + " t " + std::to_string(o.t) + " e1 " + to_string(o.e1) + " e2 " +
+           to_string(o.e2) + " det " + to_string(o.det);
+  }
+  static uint64_t checked(const Stats& st) { return st.cases; }
+  static Set random_cases(const hw::FixedFormat& f, uint64_t seed, size_t n) {
+    return tri_random_cases(f, seed, n);
+  }
+  static const std::vector<RtlUnitInfo>& units() { return rtl_tri_units(); }
+  static uint64_t issue(const hw::TimingConfig& c, const Inputs&) { return uint64_t(c.tri_rate); }
+  static int latency(const hw::TimingConfig& c) { return c.tri_latency; }
+  static bool one_per_clock(const hw::TimingConfig&, const Params&) { return true; }  // tri_rate is 1
+  static void report(const std::string& what, const Stats& st, double secs) {
+    std::printf(
+        "rtl tri %-40s %8llu cases (%llu hits, %llu det 0, %llu t checked, %llu saturated, %llu u/v checked, %llu "
+        "zero direction components, %llu zero edge functions, %llu reversed intervals) %.2f s\n",
+        what.c_str(), (unsigned long long)st.cases, (unsigned long long)st.hits, (unsigned long long)st.det_zero,
+        (unsigned long long)st.t_checked, (unsigned long long)st.t_saturated, (unsigned long long)st.uv_checked,
+        (unsigned long long)st.zero_dirs, (unsigned long long)st.edge_zero, (unsigned long long)st.reversed, secs);
+    std::fflush(stdout);
+  }
+};
 
 }  // namespace rtu::rtl

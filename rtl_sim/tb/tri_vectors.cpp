@@ -4,16 +4,14 @@
 #include <array>
 #include <cstring>
 #include <map>
-#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
 
-#include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
-#include "hwmodel/format/device_image.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/numeric/rng.h"
 
 namespace rtu::rtl {
@@ -69,31 +67,7 @@ TriExpect expected(const TriSet& s, const TriCase& c) {
   return e;
 }
 
-FixedRay tri_grid_ray(const FixedFormat& f, const int64_t o[3], const int64_t d[3]) {
-  FixedRay r{};
-  for (int a = 0; a < 3; ++a) r.o[a] = o[a];
-  hw::set_format_fields(r, f);
-  r.t_exp = f.t_frac_bits;
-  r.tmin = 0;
-  r.tmax = r.t_limit;
-  hw::set_direction(r, d, f);
-  return r;
-}
-
 namespace {
-
-int64_t rand_int(Pcg32& rng, int64_t lo, int64_t hi) {  // uniform in [lo, hi]
-  const uint64_t span = uint64_t(hi - lo) + 1;
-  const uint64_t x = (uint64_t(rng.next_u32()) << 32) | rng.next_u32();
-  return span == 0 ? int64_t(x) : lo + int64_t(x % span);
-}
-bool one_in(Pcg32& rng, uint32_t n) {
-  return rng.next_u32() % n == 0;
-}
-int64_t rand_mag(Pcg32& rng, int bits) {  // log-uniform magnitude in [1, 2^bits]
-  const int b = int(rand_int(rng, 0, bits));
-  return rand_int(rng, int64_t(1) << (b > 0 ? b - 1 : 0), int64_t(1) << b);
-}
 
 struct Limits {
   int64_t grid_max, olim, dmax;  // 2^B - 1, 2^(B+G+F) - 1 (largest |o|), 2^D
@@ -147,7 +121,7 @@ TriSet tri_directed_cases(const FixedFormat& f) {
   const int F = f.frac_bits;
   const int64_t gm = L.grid_max, mid = gm / 2;
   auto add_ray = [&](const int64_t o[3], const int64_t d[3]) {
-    s.rays.push_back(tri_grid_ray(f, o, d));
+    s.rays.push_back(grid_ray(f, o, d));
     return uint32_t(s.rays.size() - 1);
   };
   // Triangles: ordinary, both windings, degenerate (repeated, collinear, a point), at the grid's ends, huge.
@@ -333,7 +307,7 @@ TriSet tri_random_cases(const FixedFormat& f, uint64_t seed, size_t n) {
       if (delta[0] == 0 && delta[1] == 0 && delta[2] == 0) delta[rng.next_u32() % 3] = 1;
       direction_from(f, delta, d);
     }
-    s.rays.push_back(tri_grid_ray(f, o, d));
+    s.rays.push_back(grid_ray(f, o, d));
     c.ray = uint32_t(s.rays.size() - 1);
     // The interval: the ray's own; random; or ending at (or one beside) the hit distance.
     const FixedRay& r = s.rays.back();
@@ -402,7 +376,7 @@ TriSet tri_watertight_cases(const std::string& scene, const FixedFormat& f, uint
     for (int ax = 0; ax < 3; ++ax) o[ax] = std::clamp(target[ax] - delta[ax], -L.olim, L.olim);
     for (int ax = 0; ax < 3; ++ax) delta[ax] = target[ax] - o[ax];
     direction_from(f, delta, d);
-    s.rays.push_back(tri_grid_ray(f, o, d));
+    s.rays.push_back(grid_ray(f, o, d));
     const uint32_t ri = uint32_t(s.rays.size() - 1);
     // Every triangle through the vertex a (j = 0, j = 2^F: c), or holding the edge a-c.
     const int32_t* at = j == (int64_t(1) << F) ? c : a;
@@ -427,62 +401,23 @@ TriSet tri_watertight_cases(const std::string& scene, const FixedFormat& f, uint
 
 TriSet tri_traversal_cases(const std::string& scene, const FixedFormat& f, size_t max_cases, uint64_t seed) {
   TriSet s;
-  s.name = "traversal " + scene.substr(scene.find_last_of('/') + 1);
   s.format = f;
-  const host::Scene sc = host::load_scene(scene);
-  hw::TracerOptions opt;
-  opt.accel = hw::AccelMode::kBvh;
-  opt.bvh.width = f.width;
-  const std::optional<hw::Bvh> bvh = hw::choose_accel(sc.geometry, opt);
-  const hw::DeviceImage img = hw::encode_scene(sc.geometry, f, bvh ? &*bvh : nullptr);
-  const hw::FixedTracer tracer(img);
-  const hw::QuantFrame frame = img.frame();
-  const FixedFormat imgf = img.format();
-  const std::vector<hw::Ray> primary = host::primary_rays(sc.camera, 320, 240);
-  const std::vector<hw::Ray> incoherent = host::incoherent_rays(sc.geometry.bounds(), primary.size(), seed);
-  std::vector<hw::TraceEvent> events;
-  hw::TraversalStats stats;
-  for (size_t k = 0; k < 2 * primary.size() && s.cases.size() < max_cases; ++k) {
-    const hw::Ray& ray = (k % 2 == 0) ? primary[k / 2] : incoherent[k / 2];
-    FixedRay fr;
-    if (hw::setup_ray(ray, frame, imgf, fr) != hw::RayStatus::kOk) continue;
-    events.clear();
-    const hw::Hit h = tracer.trace_recorded(ray, false, stats, events);
-    ++s.traced_rays;
-    s.rays.push_back(fr);
-    const uint32_t ri = uint32_t(s.rays.size() - 1);
-    int64_t closest = fr.tmax;
-    bool any = false;
-    for (const hw::TraceEvent& e : events) {
-      hw::FixedPrimHit ph;
-      bool hit = false;
-      if (e.kind == hw::TraceEvent::kPlane) {
-        hit = hw::plane_test(fr, img.planes()[e.index], fr.tmin, closest, ph);
-      } else if (e.kind == hw::TraceEvent::kPrim) {
+  // Every triangle a traversal tests, with the closest hit so far as its limit.
+  capture_traversals(
+      s, scene, seed, [&] { return s.cases.size() >= max_cases; },
+      [&](const hw::DeviceImage& img, const hw::TraceEvent& e, uint32_t ray, int64_t closest) {
+        if (e.kind != hw::TraceEvent::kPrim || s.cases.size() >= max_cases) return;
         const uint8_t* rec = img.record(e.index);
-        if (hw::record_kind(rec) == hw::RecordKind::kTriangle) {
-          hw::TriangleRecord t;
-          std::memcpy(&t, rec, sizeof t);
-          TriCase c;
-          c.ray = ri;
-          std::memcpy(c.v, t.v, sizeof c.v);
-          c.tmin = fr.tmin;
-          c.tlim = closest;
-          if (s.cases.size() < max_cases) s.cases.push_back(c);
-          hit = hw::triangle_test(fr, t.v, fr.tmin, closest, ph);
-        } else {
-          hw::SphereRecord sp;
-          std::memcpy(&sp, rec, sizeof sp);
-          hit = hw::sphere_test(fr, sp, fr.tmin, closest, ph);
-        }
-      }
-      if (hit) {
-        closest = ph.t;
-        any = true;
-      }
-    }
-    if (any != h.hit() || (any && hw::t_to_world(closest, fr) != h.t)) ++s.replay_mismatches;
-  }
+        if (hw::record_kind(rec) != hw::RecordKind::kTriangle) return;
+        hw::TriangleRecord t;
+        std::memcpy(&t, rec, sizeof t);
+        TriCase c;
+        c.ray = ray;
+        std::memcpy(c.v, t.v, sizeof c.v);
+        c.tmin = s.rays[ray].tmin;
+        c.tlim = closest;
+        s.cases.push_back(c);
+      });
   return s;
 }
 

@@ -17,9 +17,10 @@
 #include <string>
 #include <vector>
 
+#include "hwmodel/datapath/intersect_fixed.h"
 #include "hwmodel/numeric/fixed.h"
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/datapath/intersect_fixed.h"
+#include "rtl_sim/tb/vectors.h"
 
 namespace rtu::rtl {
 
@@ -30,13 +31,8 @@ struct TriCase {
   uint32_t group = 0;  // watertight sets: the rays' shared-edge group (cases of one group share a ray and edge)
 };
 
-struct TriSet {
-  std::string name;
-  hw::FixedFormat format;
-  std::vector<hw::FixedRay> rays;
-  std::vector<TriCase> cases;
-  uint64_t traced_rays = 0, replay_mismatches = 0;  // traversal sets
-  uint32_t groups = 0;                              // watertight sets: rays through a shared vertex or edge
+struct TriSet : VectorSet<TriCase> {
+  uint32_t groups = 0;  // watertight sets: rays through a shared vertex or edge
 };
 
 // The C++ model's answer: hw::triangle_test (hit, t, u, v), and the integers the unit outputs, by the general
@@ -50,9 +46,6 @@ struct TriExpect {
   int64_t t_div = 0;  // div_shift(num, den, t_shift, nearest even, t_limit) when den != 0
 };
 TriExpect expected(const TriSet& s, const TriCase& c);
-
-// A ray built on the grid: origin o (grid.F), direction d (D fraction bits), t with T fraction bits.
-hw::FixedRay tri_grid_ray(const hw::FixedFormat& f, const int64_t o[3], const int64_t d[3]);
 
 TriSet tri_directed_cases(const hw::FixedFormat& f);
 TriSet tri_random_cases(const hw::FixedFormat& f, uint64_t seed, size_t n);

@@ -14,8 +14,8 @@
 
 #include "host/devices/direct_device.h"
 #include "host/io/error.h"
-#include "host/scene/ray_gen.h"
 #include "host/jobs/render.h"
+#include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
 #include "hwmodel/device/timed_engine.h"
 #include "hwmodel/timing/timing_config.h"
@@ -70,6 +70,45 @@ void check_same_timing(const rtu::hw::TimingStats& a, const rtu::hw::TimingStats
   CHECK(a.slot_busy_cycles == b.slot_busy_cycles);
 }
 
+// Traces the rays on both devices, closest and any hit: the hits identical bit for bit, and so are the nodes
+// visited, the box and primitive tests and the hit count, which exceeds min_hits.
+void check_same_hits(rtu::host::DirectDevice& cpp, rtu::host::DirectDevice& rtl, const std::vector<Ray>& rays,
+                     uint64_t min_hits) {
+  for (bool any_hit : {false, true}) {
+    CAPTURE(any_hit);
+    std::vector<Hit> hc(rays.size()), hr(rays.size());
+    rtu::hw::TraversalStats sc, sr;
+    cpp.trace_batch(rays.data(), hc.data(), rays.size(), any_hit, 2, sc);
+    rtl.trace_batch(rays.data(), hr.data(), rays.size(), any_hit, 2, sr);
+    CHECK(std::memcmp(hc.data(), hr.data(), hc.size() * sizeof(Hit)) == 0);
+    CHECK(sr.nodes_visited == sc.nodes_visited);
+    CHECK(sr.box_tests == sc.box_tests);
+    CHECK(sr.prim_tests == sc.prim_tests);
+    CHECK(sr.hits == sc.hits);
+    CHECK(sr.hits > min_hits);
+  }
+}
+
+// A firmware render of the scene on the rdna2 device with C++ units and on `rtl` (its RTL units): the same image
+// and device clock, and every timing statistic the same. Returns the render with the RTL units.
+rtu::host::RenderResult check_same_render(const std::string& scene, int width, int height, int max_depth,
+                                          const DeviceOptions& rtl) {
+  const rtu::host::Scene s = rtu::host::load_scene(scene);
+  rtu::host::RenderOptions o;
+  o.width = width;
+  o.height = height;
+  o.max_depth = max_depth;
+  o.device = options("rdna2", "cpp");
+  const rtu::host::RenderResult c = rtu::host::render(s, o);
+  o.device = rtl;
+  const rtu::host::RenderResult r = rtu::host::render(s, o);
+  REQUIRE(c.rgb.size() == r.rgb.size());
+  CHECK(std::memcmp(c.rgb.data(), r.rgb.data(), c.rgb.size() * sizeof(float)) == 0);
+  CHECK(r.device_clock == c.device_clock);
+  check_same_timing(c.timing, r.timing);
+  return r;
+}
+
 // A unit that answers as the RTL does but reports one clock more per node: the cycles must follow it.
 class SlowerUnit final : public rtu::hw::BoxUnit {
  public:
@@ -121,17 +160,7 @@ TEST_CASE("co-simulation: the RTL box unit gives the C++ unit's hits and cycles 
     CAPTURE(preset, u.spec);
     const auto cpp = rtu::host::make_device(s.geometry, options(u.spec, "cpp"));
     const auto rtl = rtu::host::make_device(s.geometry, options(u.spec, "rtl"));
-    for (bool any_hit : {false, true}) {
-      std::vector<Hit> hc(rays.size()), hr(rays.size());
-      rtu::hw::TraversalStats sc, sr;
-      cpp->trace_batch(rays.data(), hc.data(), rays.size(), any_hit, 2, sc);
-      rtl->trace_batch(rays.data(), hr.data(), rays.size(), any_hit, 2, sr);
-      CHECK(std::memcmp(hc.data(), hr.data(), hc.size() * sizeof(Hit)) == 0);
-      CHECK(sr.nodes_visited == sc.nodes_visited);
-      CHECK(sr.box_tests == sc.box_tests);
-      CHECK(sr.prim_tests == sc.prim_tests);
-      CHECK(sr.hits > 0);
-    }
+    check_same_hits(*cpp, *rtl, rays, 0);
     check_same_timing(cpp->timed()->timing(), rtl->timed()->timing());
     INFO(preset << ": " << rtl->timed()->timing().cycles << " cycles, " << rtl->timed()->timing().box_tests
                 << " box tests");
@@ -140,19 +169,7 @@ TEST_CASE("co-simulation: the RTL box unit gives the C++ unit's hits and cycles 
 }
 
 TEST_CASE("co-simulation: a render through the firmware is the same image in the same cycles", "[rtl][cosim]") {
-  const rtu::host::Scene s = rtu::host::load_scene("builtin:seed");
-  rtu::host::RenderOptions o;
-  o.width = 48;
-  o.height = 36;
-  o.max_depth = 3;
-  o.device = options("rdna2", "cpp");
-  const rtu::host::RenderResult c = rtu::host::render(s, o);
-  o.device = options("rdna2", "rtl");
-  const rtu::host::RenderResult r = rtu::host::render(s, o);
-  REQUIRE(c.rgb.size() == r.rgb.size());
-  CHECK(std::memcmp(c.rgb.data(), r.rgb.data(), c.rgb.size() * sizeof(float)) == 0);
-  CHECK(r.device_clock == c.device_clock);
-  check_same_timing(c.timing, r.timing);
+  const rtu::host::RenderResult r = check_same_render("builtin:seed", 48, 36, 3, options("rdna2", "rtl"));
   CHECK(r.timing.box_tests > 0);
 }
 
@@ -215,18 +232,7 @@ TEST_CASE("co-simulation: the RTL triangle unit gives the C++ unit's hits and cy
       CAPTURE(u.name, u.args, box);
       const auto cpp = rtu::host::make_device(s.geometry, options(u.name, "cpp", "cpp"));
       const auto rtl = rtu::host::make_device(s.geometry, options(u.name, box, "rtl"));
-      for (bool any_hit : {false, true}) {
-        CAPTURE(any_hit);
-        std::vector<Hit> hc(rays.size()), hr(rays.size());
-        rtu::hw::TraversalStats sc, sr;
-        cpp->trace_batch(rays.data(), hc.data(), rays.size(), any_hit, 2, sc);
-        rtl->trace_batch(rays.data(), hr.data(), rays.size(), any_hit, 2, sr);
-        CHECK(std::memcmp(hc.data(), hr.data(), hc.size() * sizeof(Hit)) == 0);
-        CHECK(sr.nodes_visited == sc.nodes_visited);
-        CHECK(sr.prim_tests == sc.prim_tests);
-        CHECK(sr.hits == sc.hits);
-        CHECK(sr.hits > rays.size() / 4);
-      }
+      check_same_hits(*cpp, *rtl, rays, rays.size() / 4);
       check_same_timing(cpp->timed()->timing(), rtl->timed()->timing());
       INFO(u.name << ": " << rtl->timed()->timing().cycles << " cycles, " << rtl->timed()->timing().tri_tests
                   << " triangle tests");
@@ -237,19 +243,8 @@ TEST_CASE("co-simulation: the RTL triangle unit gives the C++ unit's hits and cy
 
 TEST_CASE("co-simulation: a render with the RTL triangle unit is the same image in the same cycles",
           "[rtl][cosim][tri]") {
-  const rtu::host::Scene s = rtu::host::load_scene("builtin:cornell");
-  rtu::host::RenderOptions o;
-  o.width = 32;
-  o.height = 24;
-  o.max_depth = 2;
-  o.device = options("rdna2", "cpp");
-  const rtu::host::RenderResult c = rtu::host::render(s, o);
-  o.device = options("rdna2", "rtl", "rtl");
-  const rtu::host::RenderResult r = rtu::host::render(s, o);
-  REQUIRE(c.rgb.size() == r.rgb.size());
-  CHECK(std::memcmp(c.rgb.data(), r.rgb.data(), c.rgb.size() * sizeof(float)) == 0);
-  CHECK(r.device_clock == c.device_clock);
-  check_same_timing(c.timing, r.timing);
+  const rtu::host::RenderResult r =
+      check_same_render("builtin:cornell", 32, 24, 2, options("rdna2", "rtl", "rtl"));
   CHECK(r.timing.tri_tests > 0);
 }
 

@@ -1,5 +1,6 @@
 #include "hwmodel/timing/timing_config.h"
 
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <stdexcept>
@@ -324,212 +325,188 @@ void TimingConfig::validate() const {
 //     has it), 51.2 GB/s = 51.2 bytes per clock at 1 GHz; tRCD = tRP = 15 clocks of 1.25 ns = 18.75 ns (Ramulator
 //     2.0's LPDDR5_6400 preset), 19 cycles. L2: 1 MiB in 4 slices of 32 bytes per clock, 16 ways, 30 cycles: our
 //     choices; dram_latency 70, so that a miss is the embedded unit's 100 ns plus the row.
+namespace {
+
+void intel_overrides(TimingConfig& c) {
+  c.format = "xe6";
+  c.bvh_width = 6;
+  c.clock_ghz = 2.1;
+  c.ray_slots = 64;
+  c.box_units = 2;
+  c.box_rate = 6;
+  c.tri_units = 1;
+  c.tri_rate = 1;
+  c.cache_kib = 192;
+  c.cache_ways = 16;
+  c.line_bytes = 64;
+  c.layout_align = 0;
+  c.dram_latency = 210;
+  c.dram_bytes_per_cycle = 64.0;
+  c.raster_setup_cycles = 4.0;
+  c.raster_samples_per_clock = 16.0;
+  c.raster_fragments_per_clock = 4.0;
+  c.raster_latency = 100;
+}
+
+void embedded_overrides(TimingConfig& c) {
+  c.format = "compact";
+  c.bvh_width = 4;
+  c.clock_ghz = 1.0;
+  c.ray_slots = 16;
+  c.stack_entries = 4;
+  c.box_units = 1;
+  c.box_rate = 2;
+  c.box_latency = 4;
+  c.tri_units = 1;
+  c.tri_rate = 1;
+  c.tri_latency = 10;
+  c.sphere_latency = 12;
+  c.plane_latency = 6;
+  c.queue_depth = 8;
+  c.cache_kib = 16;
+  c.cache_ways = 4;
+  c.line_bytes = 64;
+  c.layout_align = 0;
+  c.cache_latency = 2;
+  c.dram_latency = 100;
+  c.dram_bytes_per_cycle = 16.0;
+  c.memory_type = "lpddr5";  // a mobile SoC's
+  c.raster_setup_cycles = 8.0;
+  c.raster_samples_per_clock = 4.0;
+  c.raster_fragments_per_clock = 1.0;
+  c.raster_latency = 50;
+}
+
+void rdna2_mem_overrides(TimingConfig& c) {
+  // rdna2's datapath; only the memory below differs (sources above).
+  c.cache_kib = 16;
+  c.cache_ways = 4;
+  c.line_bytes = 64;
+  c.layout_align = 0;
+  c.cache_latency = 4;
+  c.dram_latency = 600;
+  c.dram_bytes_per_cycle = 3.2;
+}
+
+void intel_mem_overrides(TimingConfig& c) {
+  // intel's datapath; only the memory below differs (sources above).
+  c.cache_kib = 8;
+  c.cache_ways = 4;
+  c.line_bytes = 64;
+  c.layout_align = 0;
+  c.cache_latency = 4;
+  c.dram_latency = 630;
+  c.dram_bytes_per_cycle = 8.33;
+}
+
+void gpu_chip_overrides(TimingConfig& c, bool amd) {
+  // The chip's L2 and DRAM behind its -mem units (sources above).
+  c.units = amd ? 80 : 32;
+  c.ray_policy = "waves";
+  c.l2_kib = amd ? 4096 : 16384;
+  c.l2_slices = 16;
+  c.l2_ways = 16;
+  c.l2_latency = amd ? 130 : 136;
+  c.l2_bytes_per_cycle = 64.0;
+  c.dram_channels = 16;
+  c.dram_banks = 16;
+  c.dram_row_bytes = 2048;
+  c.dram_activate_cycles = amd ? 30 : 31;
+  c.dram_precharge_cycles = amd ? 30 : 31;
+  c.dram_bytes_per_cycle = amd ? 256.0 : 266.67;
+  c.dram_latency = amd ? 440 : 460;
+}
+
+void embedded_chip_overrides(TimingConfig& c) {
+  c.units = 4;
+  c.ray_policy = "waves";
+  c.l2_kib = 1024;
+  c.l2_slices = 4;
+  c.l2_ways = 16;
+  c.l2_latency = 30;
+  c.l2_bytes_per_cycle = 32.0;
+  c.dram_channels = 4;
+  c.dram_banks = 16;
+  c.dram_row_bytes = 2048;
+  c.dram_activate_cycles = 19;
+  c.dram_precharge_cycles = 19;
+  c.dram_bytes_per_cycle = 51.2;
+  c.dram_latency = 70;
+}
+
+// A preset: the preset it starts from (null: the defaults of TimingConfig, which are rdna2's figures), the line
+// `rtusim config --list` prints, and what it changes. A new key whose default in timing_config.h is neutral (it
+// changes nothing unless set) needs no line here.
+struct Preset {
+  const char* name;
+  const char* base;
+  const char* description;
+  void (*overrides)(TimingConfig& c);
+};
+
+const std::array<Preset, 8> kPresets = {{
+    {"rdna2", nullptr,
+     "resembles one AMD RDNA2 Ray Accelerator: BVH4, 4 box tests or 1 triangle test per clock, 2.0 GHz",
+     [](TimingConfig&) {}},
+    {"intel", "rdna2",
+     "resembles one Intel Xe-HPG (Arc A-series) RTU: BVH6, 12 box tests and 1 triangle test per clock, "
+     "2.1 GHz",
+     intel_overrides},
+    {"embedded", "rdna2",
+     "a small embedded unit: format compact (16-bit coordinates), BVH4, 2 box tests per clock, 16 KiB "
+     "cache, 1.0 GHz",
+     embedded_overrides},
+    {"rdna2-mem", "rdna2",
+     "rdna2's datapath with one RX 6900 XT Ray Accelerator's memory: 16 KiB cache, 300 ns and 3.2 bytes per "
+     "clock (512 GB/s over 80 units) to VRAM",
+     rdna2_mem_overrides},
+    {"intel-mem", "intel",
+     "intel's datapath with one Arc A770 RTU's memory: 8 KiB BVH cache, 300 ns and 8.33 bytes per clock "
+     "(560 GB/s over 32 units) to VRAM",
+     intel_mem_overrides},
+    {"rdna2-chip", "rdna2-mem",
+     "an RX 6900 XT-class chip: 80 rdna2-mem units, a 4 MB L2 in 16 slices, 16 GDDR6 channels of 16 banks, "
+     "512 GB/s (no Infinity Cache)",
+     [](TimingConfig& c) { gpu_chip_overrides(c, true); }},
+    {"intel-chip", "intel-mem",
+     "an Arc A770-class chip: 32 intel-mem units, a 16 MB L2 in 16 slices, 16 GDDR6 channels of 16 banks, "
+     "560 GB/s",
+     [](TimingConfig& c) { gpu_chip_overrides(c, false); }},
+    {"embedded-chip", "embedded",
+     "a small SoC GPU: 4 embedded units, a 1 MiB L2, LPDDR5-6400 on 64 bits (4 channels of 16 banks), "
+     "51.2 GB/s",
+     embedded_chip_overrides},
+}};
+
+const Preset& find_preset(const std::string& name) {
+  for (const Preset& p : kPresets)
+    if (name == p.name) return p;
+  std::string names;
+  for (const Preset& p : kPresets) names += (names.empty() ? "" : ", ") + std::string(p.name);
+  throw std::invalid_argument("unknown timing preset '" + name + "' (known: " + names + ")");
+}
+
+}  // namespace
+
 const std::vector<std::string>& timing_preset_names() {
-  static const std::vector<std::string> names = {"rdna2",     "intel",      "embedded",   "rdna2-mem",
-                                                 "intel-mem", "rdna2-chip", "intel-chip", "embedded-chip"};
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> v;
+    for (const Preset& p : kPresets) v.push_back(p.name);
+    return v;
+  }();
   return names;
 }
 
 TimingConfig timing_preset(const std::string& name) {
-  TimingConfig c;
-  if (name == "rdna2") {
-    // Every field assigned, so that the preset stays what it says whatever the header's defaults become.
-    c.name = "rdna2";
-    c.format = "default";
-    c.bvh_width = 4;
-    c.clock_ghz = 2.0;
-    c.packet_latency = 20;
-    c.ray_fetch_latency = 10;
-    c.setup_latency = 8;
-    c.writeback_latency = 4;
-    c.fence_latency = 10;
-    c.irq_latency = 100;
-    c.ray_slots = 32;
-    c.stack_entries = 8;
-    c.traversal_latency = 2;
-    c.box_units = 1;
-    c.box_rate = 4;
-    c.box_latency = 6;
-    c.tri_units = 1;
-    c.tri_rate = 1;
-    c.tri_latency = 12;
-    c.sphere_latency = 16;
-    c.plane_latency = 8;
-    c.queue_depth = 16;
-    c.cache_kib = 64;
-    c.cache_ways = 4;
-    c.line_bytes = 64;
-    c.layout_align = 0;
-    c.cache_latency = 4;
-    c.dram_latency = 200;
-    c.dram_bytes_per_cycle = 64.0;
-    c.prefetcher = "none";
-    c.prefetch_degree = 1;
-    c.memory_type = "gddr6";  // the RX 6900 XT's VRAM
-    // One unit's memory is one channel behind its cache (no L2, no banks): the chip presets add them.
-    c.units = 1;
-    c.ray_policy = "waves";
-    c.l2_kib = 0;
-    c.l2_slices = 4;
-    c.l2_ways = 16;
-    c.l2_latency = 100;
-    c.l2_bytes_per_cycle = 64.0;
-    c.dram_channels = 1;
-    c.dram_banks = 0;
-    c.dram_row_bytes = 2048;
-    c.dram_activate_cycles = 0;
-    c.dram_precharge_cycles = 0;
-    c.raster_setup_cycles = 20.0;
-    c.raster_samples_per_clock = 6.4;
-    c.raster_fragments_per_clock = 1.6;
-    c.raster_latency = 100;
-    c.raster_prim_bytes = 36;
-    c.raster_depth_bytes = 4;
-    c.raster_gbuffer_bytes = 12;
-    // 50 ms at 2 GHz: far beyond any ray's traversal (the slowest in bench/cycles_table.sh take thousands).
-    c.watchdog_cycles = 100000000;
-  } else if (name == "intel") {
-    c = timing_preset("rdna2");
-    c.name = "intel";
-    c.format = "xe6";
-    c.bvh_width = 6;
-    c.clock_ghz = 2.1;
-    c.ray_slots = 64;
-    c.box_units = 2;
-    c.box_rate = 6;
-    c.tri_units = 1;
-    c.tri_rate = 1;
-    c.cache_kib = 192;
-    c.cache_ways = 16;
-    c.line_bytes = 64;
-    c.layout_align = 0;
-    c.dram_latency = 210;
-    c.dram_bytes_per_cycle = 64.0;
-    c.raster_setup_cycles = 4.0;
-    c.raster_samples_per_clock = 16.0;
-    c.raster_fragments_per_clock = 4.0;
-    c.raster_latency = 100;
-  } else if (name == "embedded") {
-    c = timing_preset("rdna2");
-    c.name = "embedded";
-    c.format = "compact";
-    c.bvh_width = 4;
-    c.clock_ghz = 1.0;
-    c.ray_slots = 16;
-    c.stack_entries = 4;
-    c.box_units = 1;
-    c.box_rate = 2;
-    c.box_latency = 4;
-    c.tri_units = 1;
-    c.tri_rate = 1;
-    c.tri_latency = 10;
-    c.sphere_latency = 12;
-    c.plane_latency = 6;
-    c.queue_depth = 8;
-    c.cache_kib = 16;
-    c.cache_ways = 4;
-    c.line_bytes = 64;
-    c.layout_align = 0;
-    c.cache_latency = 2;
-    c.dram_latency = 100;
-    c.dram_bytes_per_cycle = 16.0;
-    c.memory_type = "lpddr5";  // a mobile SoC's
-    c.raster_setup_cycles = 8.0;
-    c.raster_samples_per_clock = 4.0;
-    c.raster_fragments_per_clock = 1.0;
-    c.raster_latency = 50;
-  } else if (name == "rdna2-mem") {
-    // rdna2's datapath; only the memory below differs (sources above).
-    c = timing_preset("rdna2");
-    c.name = "rdna2-mem";
-    c.cache_kib = 16;
-    c.cache_ways = 4;
-    c.line_bytes = 64;
-    c.layout_align = 0;
-    c.cache_latency = 4;
-    c.dram_latency = 600;
-    c.dram_bytes_per_cycle = 3.2;
-  } else if (name == "intel-mem") {
-    // intel's datapath; only the memory below differs (sources above).
-    c = timing_preset("intel");
-    c.name = "intel-mem";
-    c.cache_kib = 8;
-    c.cache_ways = 4;
-    c.line_bytes = 64;
-    c.layout_align = 0;
-    c.cache_latency = 4;
-    c.dram_latency = 630;
-    c.dram_bytes_per_cycle = 8.33;
-  } else if (name == "rdna2-chip" || name == "intel-chip") {
-    // The unit of rdna2-mem or intel-mem; the chip's L2 and DRAM behind it (sources above).
-    const bool amd = name == "rdna2-chip";
-    c = timing_preset(amd ? "rdna2-mem" : "intel-mem");
-    c.name = name;
-    c.units = amd ? 80 : 32;
-    c.ray_policy = "waves";
-    c.l2_kib = amd ? 4096 : 16384;
-    c.l2_slices = 16;
-    c.l2_ways = 16;
-    c.l2_latency = amd ? 130 : 136;
-    c.l2_bytes_per_cycle = 64.0;
-    c.dram_channels = 16;
-    c.dram_banks = 16;
-    c.dram_row_bytes = 2048;
-    c.dram_activate_cycles = amd ? 30 : 31;
-    c.dram_precharge_cycles = amd ? 30 : 31;
-    c.dram_bytes_per_cycle = amd ? 256.0 : 266.67;
-    c.dram_latency = amd ? 440 : 460;
-  } else if (name == "embedded-chip") {
-    c = timing_preset("embedded");
-    c.name = name;
-    c.units = 4;
-    c.ray_policy = "waves";
-    c.l2_kib = 1024;
-    c.l2_slices = 4;
-    c.l2_ways = 16;
-    c.l2_latency = 30;
-    c.l2_bytes_per_cycle = 32.0;
-    c.dram_channels = 4;
-    c.dram_banks = 16;
-    c.dram_row_bytes = 2048;
-    c.dram_activate_cycles = 19;
-    c.dram_precharge_cycles = 19;
-    c.dram_bytes_per_cycle = 51.2;
-    c.dram_latency = 70;
-  } else {
-    std::string names;
-    for (const std::string& n : timing_preset_names()) names += (names.empty() ? "" : ", ") + n;
-    throw std::invalid_argument("unknown timing preset '" + name + "' (known: " + names + ")");
-  }
+  const Preset& p = find_preset(name);
+  TimingConfig c = p.base ? timing_preset(p.base) : TimingConfig{};
+  c.name = p.name;
+  p.overrides(c);
   return c;
 }
 
 std::string timing_preset_description(const std::string& name) {
-  if (name == "rdna2")
-    return "resembles one AMD RDNA2 Ray Accelerator: BVH4, 4 box tests or 1 triangle test per clock, 2.0 GHz";
-  if (name == "intel")
-    return "resembles one Intel Xe-HPG (Arc A-series) RTU: BVH6, 12 box tests and 1 triangle test per clock, "
-           "2.1 GHz";
-  if (name == "embedded")
-    return "a small embedded unit: format compact (16-bit coordinates), BVH4, 2 box tests per clock, 16 KiB "
-           "cache, 1.0 GHz";
-  if (name == "rdna2-mem")
-    return "rdna2's datapath with one RX 6900 XT Ray Accelerator's memory: 16 KiB cache, 300 ns and 3.2 bytes per "
-           "clock (512 GB/s over 80 units) to VRAM";
-  if (name == "intel-mem")
-    return "intel's datapath with one Arc A770 RTU's memory: 8 KiB BVH cache, 300 ns and 8.33 bytes per clock "
-           "(560 GB/s over 32 units) to VRAM";
-  if (name == "rdna2-chip")
-    return "an RX 6900 XT-class chip: 80 rdna2-mem units, a 4 MB L2 in 16 slices, 16 GDDR6 channels of 16 banks, "
-           "512 GB/s (no Infinity Cache)";
-  if (name == "intel-chip")
-    return "an Arc A770-class chip: 32 intel-mem units, a 16 MB L2 in 16 slices, 16 GDDR6 channels of 16 banks, "
-           "560 GB/s";
-  if (name == "embedded-chip")
-    return "a small SoC GPU: 4 embedded units, a 1 MiB L2, LPDDR5-6400 on 64 bits (4 channels of 16 banks), "
-           "51.2 GB/s";
-  timing_preset(name);  // throws, listing the names
-  return {};
+  return find_preset(name).description;
 }
 
 std::vector<TimingKey> timing_keys(const TimingConfig& c) {

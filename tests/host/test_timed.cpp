@@ -6,6 +6,7 @@
 #include <cstring>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "host/devices/direct_device.h"
@@ -665,14 +666,17 @@ TEST_CASE("chip: units running ahead to their next memory access give the cycles
           "[timed][chip]") {
   // Running ahead reorders only what stays inside a unit; the shared memory must see the same requests in the same
   // order. Short stacks (spills and refills reach memory too), a small L2 and banks with row costs, so that every
-  // kind of shared access is there; two packets, the second finding the memory as the first left it.
+  // kind of shared access is there; two packets, the second finding the memory as the first left it. With a
+  // prefetcher, its fills reach the shared memory too (fetch_observer.h: run-ahead stops before every fetch).
   const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
   std::vector<Ray> rays = rtu::host::primary_rays(s.camera, 3000);
   const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), 3000, 5);
   rays.insert(rays.end(), inc.begin(), inc.end());
-  for (const std::string preset : {"embedded-chip", "intel-chip"}) {
-    CAPTURE(preset);
+  for (const auto& [preset, prefetcher] : {std::pair{"embedded-chip", "none"}, std::pair{"intel-chip", "none"},
+                                           std::pair{"embedded-chip", "next_line"}}) {
+    CAPTURE(preset, prefetcher);
     DeviceOptions o = options("timed", preset);
+    rtu::hw::set_timing_key(o.timing, "prefetcher", prefetcher);
     rtu::hw::set_timing_key(o.timing, "units", "6");
     rtu::hw::set_timing_key(o.timing, "stack_entries", "2");
     rtu::hw::set_timing_key(o.timing, "l2_kib", "256");
@@ -691,5 +695,6 @@ TEST_CASE("chip: units running ahead to their next memory access give the cycles
     CHECK(runs[0].stack_spills > 0);
     CHECK(runs[0].l2_misses > 0);
     CHECK(runs[0].dram_row_misses > 0);
+    CHECK((runs[0].prefetch_fills > 0) == (std::string(prefetcher) != "none"));
   }
 }

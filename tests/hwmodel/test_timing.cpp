@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <cstring>
+#include <memory>
 #include <vector>
 
 #include "hwmodel/datapath/fixed_tracer.h"
@@ -521,4 +522,55 @@ TEST_CASE("a prefetcher changes when data is there, never what is fetched or tes
   CHECK(so.dram_bytes == 64 * so.cache_misses);
   CHECK_THROWS_WITH(rtu::hw::set_timing_key(c, "prefetcher", "stride"),
                     Catch::Contains("prefetcher = 'stride' is not a prefetcher (known: none, next_line)"));
+}
+
+namespace {
+
+// An observer that fills the line after every fetch, hit or miss: its fills reach the shared memory at fetches
+// that would otherwise stay inside the unit.
+class FillAfterEveryFetch final : public rtu::hw::FetchObserver {
+ public:
+  void on_fetch(const rtu::hw::LineFetch& f, rtu::hw::LinePort& port) override { port.fill(f.last_line + 1); }
+};
+
+// Three units sharing one memory run a packet of swept rays each, given in chunks of 50; every unit has a
+// FillAfterEveryFetch observer. Returns the chip's cycles; the units' statistics summed in `s`.
+uint64_t run_observed_chip(bool ahead, TimingStats& s) {
+  TimingConfig c = test_config();
+  c.cache_kib = 4;
+  c.ray_slots = 8;
+  rtu::hw::MemorySystem mem(c);
+  std::vector<std::unique_ptr<TimingModel>> units;
+  std::vector<std::vector<std::vector<TraceEvent>>> rays(3);
+  std::vector<TimingStats> stats(3);
+  std::vector<size_t> given(3, 0);
+  for (uint32_t u = 0; u < 3; ++u) {
+    units.push_back(std::make_unique<TimingModel>(c, layout(), &mem, u));
+    units.back()->set_fetch_observer(std::make_unique<FillAfterEveryFetch>());
+    units.back()->set_run_ahead(ahead);
+    uint32_t x = 777 + u;
+    for (int i = 0; i < 300; ++i) rays[u].push_back(sweep_ray(x, i + 100 * int(u)));
+    units.back()->begin(rays[u].size(), stats[u]);
+  }
+  std::vector<TimingModel*> ptrs;
+  for (const auto& u : units) ptrs.push_back(u.get());
+  const uint64_t end = rtu::hw::run_units_in_step(ptrs, 0, [&](size_t u) {
+    const size_t m = std::min<size_t>(50, rays[u].size() - given[u]);
+    units[u]->add_rays(rays[u].data() + given[u], m);
+    given[u] += m;
+  });
+  for (const TimingStats& us : stats) s.add(us);
+  return end;
+}
+
+}  // namespace
+
+TEST_CASE("chip: a fetch observer's fills keep run-ahead exact (units stop before every fetch)", "[timing]") {
+  TimingStats ahead, in_step;
+  const uint64_t a = run_observed_chip(true, ahead);
+  const uint64_t b = run_observed_chip(false, in_step);
+  CHECK(a == b);
+  check_same_timing(ahead, in_step);
+  CHECK(ahead.prefetch_fills > 0);
+  CHECK(ahead.prefetch_redundant > 0);
 }

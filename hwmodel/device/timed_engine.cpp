@@ -403,12 +403,9 @@ void TimedEngine::set_sampling(const SampleOptions& o) {
   m_sample = o;
 }
 
-uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
-                                           TimingStats& ts, size_t k, SlotTimeAccount& slot_time) {
-  const size_t U = m_sample.unit_rays, slots = size_t(m_c.ray_slots);
-  const size_t units = (n + U - 1) / U;  // unit 0 is simulated from the packet's start; 1 .. units-1 sampled
-  const uint64_t draw = packet_draw(m_sample.seed, m_sample_stats.packets_sampled);
-
+TimedEngine::UnitAux TimedEngine::probe_units(const Ray* rays, Hit* hits, size_t n, bool any_hit,
+                                              TraversalStats& s, uint64_t draw, double box_rate, double tri_rate) {
+  const size_t U = m_sample.unit_rays, units = (n + U - 1) / U;
   // The auxiliary per unit, from the datapath's test counts: every ray when hits are needed (they are traced for
   // their hits anyway), else one probed ray per block of kProbe (scaled up; the measured units' exact values
   // replace their estimates below).
@@ -430,7 +427,6 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
             });
   const uint64_t stuck = m_sample.need_hits ? s.watchdog_rays : probe_stats.watchdog_rays;
   if (stuck > 0) throw WatchdogError(tracer().watchdog_report(rays, n, any_hit, stuck), 0);
-  const double box_rate = double(m_c.box_rate) * m_c.box_units, tri_rate = double(m_c.tri_rate) * m_c.tri_units;
   std::vector<double> unit_box(units), unit_prim(units), unit_probes(units);
   for (size_t q = 0; q < probes; ++q) {
     const size_t j = probed[q] / U;
@@ -438,14 +434,28 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
     unit_prim[j] += prim[q];
     unit_probes[j] += 1.0;
   }
-  std::vector<double> aux(units);
-  std::vector<uint8_t> tests_prims(units);  // the unit's probed rays test a primitive (the strata)
+  UnitAux a;
+  a.aux.resize(units);
+  a.tests_prims.resize(units);  // the unit's probed rays test a primitive (the strata)
   for (size_t j = 0; j < units; ++j) {
     const double rays_in_unit = double(std::min(n, (j + 1) * U) - j * U),
                  scale = unit_probes[j] > 0.0 ? rays_in_unit / unit_probes[j] : 0.0;
-    aux[j] = unit_work(rays_in_unit, unit_box[j] * scale, unit_prim[j] * scale, box_rate, tri_rate);
-    tests_prims[j] = unit_prim[j] > 0.0;
+    a.aux[j] = unit_work(rays_in_unit, unit_box[j] * scale, unit_prim[j] * scale, box_rate, tri_rate);
+    a.tests_prims[j] = unit_prim[j] > 0.0;
   }
+  return a;
+}
+
+uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
+                                           TimingStats& ts, size_t k, SlotTimeAccount& slot_time) {
+  const size_t U = m_sample.unit_rays, slots = size_t(m_c.ray_slots);
+  const size_t units = (n + U - 1) / U;  // unit 0 is simulated from the packet's start; 1 .. units-1 sampled
+  const uint64_t draw = packet_draw(m_sample.seed, m_sample_stats.packets_sampled);
+
+  const double box_rate = double(m_c.box_rate) * m_c.box_units, tri_rate = double(m_c.tri_rate) * m_c.tri_units;
+  UnitAux probed_units = probe_units(rays, hits, n, any_hit, s, draw, box_rate, tri_rate);
+  std::vector<double>& aux = probed_units.aux;
+  const std::vector<uint8_t>& tests_prims = probed_units.tests_prims;
   TraversalStats scratch;
   TraversalStats& seg_stats = m_sample.need_hits ? scratch : s;
 

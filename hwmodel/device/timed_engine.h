@@ -16,16 +16,16 @@
 #include <vector>
 
 #include "hwmodel/datapath/box_unit.h"
-#include "hwmodel/interface/commands.h"
-#include "hwmodel/format/device_image.h"
-#include "hwmodel/device/engine.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/instanced_fixed.h"
+#include "hwmodel/datapath/tri_unit.h"
+#include "hwmodel/device/engine.h"
+#include "hwmodel/format/device_image.h"
+#include "hwmodel/interface/commands.h"
 #include "hwmodel/timing/sampler.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_model.h"
 #include "hwmodel/timing/timing_stats.h"
-#include "hwmodel/datapath/tri_unit.h"
 
 namespace rtu::hw {
 
@@ -132,6 +132,15 @@ class TimedEngine final : public TraceEngine {
   uint64_t trace_cycles_full(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
                              TimingStats& ts);
   // One TRACE packet through the timing model with sampling (sampler.h), every k-th unit measured (k >= 2).
+  // Sampled timing's auxiliary variable per unit of unit_rays rays: the work its (probed) rays' box and primitive
+  // tests give at the units' rates, and whether they test a primitive (the strata). With need_hits every ray is
+  // traced and its hit written; a ray stopped by the watchdog throws WatchdogError.
+  struct UnitAux {
+    std::vector<double> aux;
+    std::vector<uint8_t> tests_prims;
+  };
+  UnitAux probe_units(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s, uint64_t draw,
+                      double box_rate, double tri_rate);
   uint64_t trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
                                 TimingStats& ts, size_t k, SlotTimeAccount& slot_time);
   // Traces rays [first, first + count) with recording; events[at + i] for ray first + i. Hits go to hits (or

@@ -26,6 +26,9 @@ namespace rtu::hw {
 class MemorySystem {
  public:
   explicit MemorySystem(const TimingConfig& c);
+  // Its levels refer to its timeline: it stays where it was made.
+  MemorySystem(const MemorySystem&) = delete;
+  MemorySystem& operator=(const MemorySystem&) = delete;
   // A line read at cycle t (a node cache fill): the cycle its data is there.
   uint64_t read_line(uint64_t line, uint64_t t, TimingStats& s) { return m_top->read_line(line, t, s); }
   // An 8-byte stack entry at byte address `addr`: a spill (bandwidth only) and a refill (its data's cycle).

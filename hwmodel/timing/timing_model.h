@@ -98,8 +98,8 @@ class TimingModel {
   // (or `instance_bytes` each, when > 0: TimingConfig::instance_bytes), then each mesh's image, every image
   // starting on a 64-byte boundary (or `align`, when larger).
   static Layout layout_of(const InstancedFixedTracer& t, uint64_t align, uint64_t instance_bytes = 0);
-  // `shared`: the memory behind the node cache when several units share it (a chip, chip_engine.h); null: the
-  // unit's own. `unit`: the unit's index on the chip (where its slots' stacks spill).
+  // `shared`: the memory behind the node cache when several units share it (a chip: TimedEngine with units > 1,
+  // timed_engine.h); null: the unit's own. `unit`: the unit's index on the chip (where its slots' stacks spill).
   TimingModel(const TimingConfig& c, const Layout& layout, MemorySystem* shared = nullptr, uint32_t unit = 0);
 
   // One TRACE packet of n rays: begin, then feed the rays' events in order (any number at a time; an empty list
@@ -112,10 +112,11 @@ class TimingModel {
   void set_trace(PipelineTrace* trace) { m_trace = trace; }
   void feed(std::vector<TraceEvent>* events, size_t m);
   uint64_t finish();
-  // A chip's units run in step (chip_engine.h): begin() as above; add_rays() gives the unit rays like feed() but
-  // does not simulate; run_until(t) does every action at a cycle <= t; next_cycle() is the cycle of the next
-  // action (kNever when the packet's rays are all done), and starved() says that action takes a ray not added yet
-  // (add rays first). end_packet(end) closes the packet at the chip's last cycle `end`.
+  // A chip's units run in step (TimedEngine::trace_cycles_chip, timed_engine.cpp): begin() as above; add_rays()
+  // gives the unit rays like feed() but does not simulate; run_until(t) does every action at a cycle <= t;
+  // next_cycle() is the cycle of the next action (kNever when the packet's rays are all done), and starved() says
+  // that action takes a ray not added yet (add rays first). end_packet(end) closes the packet at the chip's last
+  // cycle `end`.
   static constexpr uint64_t kNever = ~uint64_t(0);
   void add_rays(std::vector<TraceEvent>* events, size_t m);
   // run_until also takes actions past `limit` that stay inside the unit (cache hits, unit tests, write-backs),

@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/scene/geometry.h"
 #include "hwmodel/interface/ray.h"
+#include "hwmodel/scene/geometry.h"
 
 namespace rtu::fuzz {
 
@@ -79,7 +79,7 @@ class Bytes {
     }                                                                                              \
   } while (0)
 
-// The libFuzzer entry point of a target (only in the fuzz preset's executables).
+// The libFuzzer entry point of a target (only in the asan preset's fuzz_* executables).
 #ifdef RTU_LIBFUZZER
 #define RTU_FUZZ_ENTRY(fn)                                                  \
   extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) { \

@@ -21,9 +21,6 @@ out=${RTU_FUZZ_LONG_OUT:-bench/results/fuzzing.md}
 targets=("$@")
 [[ ${#targets[@]} -gt 0 ]] || targets=("${RTU_FUZZ_TARGETS[@]}")
 
-export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
-export LSAN_OPTIONS=suppressions=$PWD/tests/fuzz/lsan.supp:print_suppressions=0  # Assimp's own leaks only
-
 for t in "${targets[@]}"; do
   if [[ ! -x build/asan/fuzz_$t ]]; then
     echo "fuzz_long: build/asan/fuzz_$t missing (cmake --preset asan && cmake --build --preset fuzz)" >&2

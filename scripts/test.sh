@@ -25,8 +25,7 @@ ctest --preset default "$@"
 if [[ "${RTU_SKIP_ASAN:-0}" == 1 ]]; then
   exit 0
 fi
-export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
-export LSAN_OPTIONS=suppressions=$PWD/tests/fuzz/lsan.supp:print_suppressions=0  # Assimp's own leaks only
+# The sanitizers' options are compiled into the build's executables (tests/fuzz/sanitizer_options.cpp).
 cmake --preset asan >/dev/null
 cmake --build --preset asan -j "$(nproc)"
 ctest --preset asan
@@ -47,10 +46,8 @@ for target in "${RTU_FUZZ_TARGETS[@]}"; do
   mkdir -p "$work"
   log=build/asan/fuzz-$target.log
   runs=$(rtu_fuzz_runs "$target")
-  if ! env -i PATH=/usr/bin:/bin ASAN_OPTIONS="$ASAN_OPTIONS" UBSAN_OPTIONS="$UBSAN_OPTIONS" \
-      LSAN_OPTIONS=suppressions=tests/fuzz/lsan.supp:print_suppressions=0 \
-      setarch "$(uname -m)" -R build/asan/fuzz_$target -runs="$runs" -seed="$RTU_FUZZ_SEED" -reload=0 \
-      -rss_limit_mb=2048 -malloc_limit_mb=2048 \
+  if ! env -i PATH=/usr/bin:/bin setarch "$(uname -m)" -R build/asan/fuzz_$target -runs="$runs" \
+      -seed="$RTU_FUZZ_SEED" -reload=0 -rss_limit_mb=2048 -malloc_limit_mb=2048 \
       -timeout=30 -max_len="$(rtu_fuzz_max_len "$target")" -print_final_stats=1 \
       -artifact_prefix=build/asan/fuzz-artifacts/$target- "$work" tests/fuzz/corpus/$target >"$log" 2>&1; then
     tail -n 60 "$log"

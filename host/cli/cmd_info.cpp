@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "host/cli/common.h"
+#include "host/devices/device_json.h"
 #include "host/io/error.h"
 #include "host/jobs/suite.h"
 #include "hwmodel/format/hw_format.h"

@@ -13,46 +13,6 @@
 
 namespace rtu::host {
 
-Json bvh_json(const DirectDevice& d) {
-  Json j;
-  j["accel"] = d.bvh() ? "bvh" : "brute";
-  j["brute_cost"] = d.brute_cost();
-  if (const hw::Bvh* b = d.bvh()) {
-    const hw::BvhFigures f = b->figures();
-    j["width"] = f.width;
-    j["inner_nodes"] = f.inner_nodes;
-    j["leaves"] = f.leaves;
-    j["prims"] = f.prims;
-    j["depth"] = f.depth;
-    j["leaf_size_min"] = f.min_leaf;
-    j["leaf_size_max"] = f.max_leaf;
-    j["leaf_size_mean"] = f.mean_leaf;
-    j["node_fill"] = f.mean_fill;
-    j["sah_cost"] = f.sah_cost;
-    j["node_bytes"] = f.node_bytes;
-    j["index_bytes"] = f.index_bytes;
-    j["bytes_per_prim"] = f.prims ? double(f.node_bytes + f.index_bytes) / double(f.prims) : 0.0;
-  }
-  j["prim_bytes"] = d.prim_bytes();
-  if (const hw::DeviceImage* img = d.image()) j["image"] = image_json(*img, d.bvh());
-  if (const hw::InstancedFixedTracer* t = d.instanced()) j["image"]["two_level"] = two_level_json(*t);
-  return j;
-}
-
-ImageBytes device_image_bytes(const DirectDevice& d) {
-  ImageBytes b;
-  if (const hw::InstancedFixedTracer* t = d.instanced()) {
-    const hw::ImageHeader& h = t->top().header();
-    const uint64_t prims = uint64_t(h.num_triangles) + h.num_spheres;
-    b.total = t->bytes();
-    b.per_prim = prims ? double(b.total - t->top().planes_size()) / double(prims) : 0.0;
-  } else if (const hw::DeviceImage* img = d.image()) {
-    b.total = img->size();
-    b.per_prim = image_bytes_per_prim(*img);
-  }
-  return b;
-}
-
 Json two_level_json(const hw::InstancedFixedTracer& t) {
   Json j;
   uint64_t bottoms = 0;
@@ -190,8 +150,6 @@ Json timing_stats_json(const hw::TimingStats& s, const hw::TimingConfig& c) {
   return j;
 }
 
-namespace {
-
 // The statistics in total, then by ray type (the types that ran rays) and by bounce.
 Json timing_breakdown_json(const hw::TimingStats& total,
                            const std::array<hw::TimingStats, hw::cmd::kRayTypeCount>& by_type,
@@ -244,8 +202,6 @@ void add_timeline(Json& j, const hw::MemoryTimeline* tl, const hw::SampleStats& 
   j["timeline"] = {{"bin_cycles", tl->bin_cycles}, {"dram_bytes", tl->dram_bytes}, {"l2_bytes", tl->l2_bytes}};
 }
 
-}  // namespace
-
 Json timed_json(const hw::TimedEngine& e) {
   Json j = timing_breakdown_json(e.timing(), e.timing_by_type(), e.timing_by_bounce(), e.config());
   if (!e.timing_by_unit().empty()) j["units"] = units_json(e.timing_by_unit(), e.config());
@@ -267,116 +223,6 @@ Json sample_json(const hw::SampleStats& s) {
   j["warmup_rays_mean"] = s.units_measured > 0 ? double(s.warmup_rays) / double(s.units_measured) : 0.0;
   j["packets_stratified"] = s.packets_stratified;
   j["cycles_ci95"] = s.ci95();
-  return j;
-}
-
-Json render_json(const RenderResult& r, const RenderOptions& o) {
-  using hw::cmd::RayType;
-  Json j;
-  j["device"] = hw::device_kind_name(o.device.kind);
-  j["width"] = r.width;
-  j["height"] = r.height;
-  j["spp"] = o.spp;
-  j["max_depth"] = o.max_depth;
-  j["seed"] = o.seed;
-  j["mode"] = o.ao ? "ambient_occlusion" : (o.indirect ? "path_tracing" : "direct_and_specular");
-  j["render_mode"] = o.hybrid ? "hybrid" : "raytrace";
-  j["seconds"] = r.seconds;
-  Json rays;
-  uint64_t total = 0;
-  for (int t = 0; t < hw::cmd::kRayTypeCount; ++t) {
-    rays[hw::cmd::ray_type_name(RayType(t))] = r.fw.rays[t];
-    total += r.fw.rays[t];
-  }
-  j["rays"] = rays;
-  j["rays_total"] = total;
-  j["rays_per_second"] = r.seconds > 0 ? double(total) / r.seconds : 0.0;
-  // Primary rays the rasterizer made unnecessary (hybrid: every camera sample; raytrace: none).
-  j["rays_saved"] = {{"primary", r.fw.primary_rasterized}};
-  if (o.hybrid) {
-    const fw::RasterStats& rs = r.fw.raster;
-    j["raster"] = {{"passes", rs.passes},
-                   {"prims_read", rs.prims_read},
-                   {"setups", rs.setups},
-                   {"samples_tested", rs.samples_tested},
-                   {"fragments", rs.fragments},
-                   {"depth_writes", rs.depth_writes},
-                   {"clears", rs.clears},
-                   {"triangles_culled", rs.triangles_culled},
-                   {"triangles_clipped", rs.triangles_clipped},
-                   {"triangles_degenerate", rs.triangles_degenerate}};
-  }
-  j["paths"] = r.fw.paths;
-  j["batches"] = r.fw.batches;
-  j["batch_paths"] = r.fw.batch_paths;
-  j["bounces"] = r.fw.bounces;
-  j["commands"] = {{"packets", r.ring.packets},
-                   {"trace", r.fw.traces},
-                   {"fences", r.ring.fences},
-                   {"doorbells", r.ring.doorbells},
-                   {"ring_full", r.ring.full}};
-  // What the scene did not need, and why: decided before any ray was built.
-  Json skipped = Json::object();
-  const bool any_diffuse = r.fw.need_shadow || r.fw.need_diffuse || r.fw.need_occlusion;
-  if (!r.fw.need_shadow)
-    skipped["shadow"] =
-        r.fw.rays[int(RayType::kShadow)] == 0 && any_diffuse ? "no lights" : "no lights or no diffuse surface";
-  if (!r.fw.need_reflection)
-    skipped["reflection"] = o.max_depth == 0 ? "max depth 0" : "no mirror or glass material";
-  if (!r.fw.need_refraction) skipped["refraction"] = o.max_depth == 0 ? "max depth 0" : "no glass material";
-  if (!r.fw.need_diffuse)
-    skipped["diffuse"] = o.ao ? "ambient occlusion instead"
-                              : (!o.indirect ? "indirect light off" : "no diffuse material or max depth 0");
-  if (!r.fw.need_occlusion) skipped["occlusion"] = o.ao ? "no diffuse material" : "ambient occlusion off";
-  if (r.fw.hybrid) skipped["primary"] = "rasterized (hybrid mode)";
-  if (r.counts.triangles == 0) skipped["triangle_unit"] = "no triangles";
-  if (r.counts.spheres == 0) skipped["sphere_unit"] = "no spheres";
-  if (r.counts.planes == 0) skipped["plane_unit"] = "no planes";
-  if (!r.uses_bvh) skipped["bvh"] = "brute force is cheaper for this scene (hw::choose_accel)";
-  j["skipped"] = skipped;
-  Json unit;
-  unit["primitives"] = {
-      {"triangles", r.counts.triangles}, {"spheres", r.counts.spheres}, {"planes", r.counts.planes}};
-  unit["accel"] = r.uses_bvh ? "bvh" : "brute_force";
-  unit["memory_bytes"] = r.device_memory_bytes;
-  unit["scene_image_bytes"] = r.scene_image_bytes;
-  unit["packets"] = r.device.packets;
-  Json by_type;
-  for (int t = 0; t < hw::cmd::kRayTypeCount; ++t) {
-    if (r.device.rays_by_type[t] == 0) continue;
-    by_type[hw::cmd::ray_type_name(RayType(t))] = traversal_json(r.device.stats_by_type[t]);
-  }
-  unit["by_ray_type"] = by_type;
-  unit["total"] = traversal_json(r.device.total());
-  j["unit"] = unit;
-  j["spawn_offset"] = {{"abs", r.offset_abs}, {"rel", r.offset_rel}};
-  j["warnings"] = render_warnings(r);
-  if (o.device.kind != hw::DeviceKind::kFloat) j["format"] = format_json(o.device.format);
-  if (r.timed) {
-    Json t = timing_breakdown_json(r.timing, r.timing_by_type, r.timing_by_bounce, o.device.timing);
-    t["device_clock"] = r.device_clock;
-    // Fence interrupts: the host sees the frame's last fence irq_latency after the device clock's end.
-    t["fence_irqs"] = r.device.fence_irqs;
-    t["last_irq_cycle"] = r.device.last_irq_cycle;
-    t["sample"] = sample_json(r.sampling);
-    if (!r.timing_by_unit.empty()) t["units"] = units_json(r.timing_by_unit, o.device.timing);
-    add_timeline(t, &r.timeline, r.sampling);
-    // The frame: the rasterizer's cycles (hybrid) and the unit's (every packet), which do not overlap.
-    const hw::RasterCycles& rc = r.raster_cycles;
-    t["raster"] = {{"cycles", rc.cycles},
-                   {"latency_cycles", rc.latency_cycles},
-                   {"setup_cycles", rc.setup_cycles},
-                   {"scan_cycles", rc.scan_cycles},
-                   {"fragment_cycles", rc.fragment_cycles},
-                   {"dram_cycles", rc.dram_cycles},
-                   {"dram_bytes", rc.dram_bytes},
-                   {"limit", rc.limit}};
-    t["raster_cycles"] = rc.cycles;
-    t["trace_cycles"] = r.device_clock;
-    t["frame_cycles"] = r.frame_cycles;
-    t["config"] = timing_json(o.device.timing);
-    j["timing"] = t;
-  }
   return j;
 }
 

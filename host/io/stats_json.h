@@ -1,24 +1,25 @@
-// Figures as JSON, as rtusim writes them (--stats, --json, report.json): the BVH and the device image, the number
-// format, traversal statistics, the timing configuration and what a timed run measured, and a render's
-// statistics.
+// Figures as JSON, as rtusim writes them (--stats, --json, report.json): the device image, the number format,
+// traversal statistics, the timing configuration and what a timed run measured. The JSON of what a host device or
+// job made sits beside it: bvh_json in host/devices/device_json.h, render_json in host/jobs/render.h.
 #pragma once
 
+#include <array>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
-#include "host/devices/direct_device.h"
-#include "host/jobs/render.h"
-#include "hwmodel/format/device_image.h"
-#include "hwmodel/numeric/fixed_format.h"
+#include "hwmodel/datapath/instanced_fixed.h"
 #include "hwmodel/datapath/stats.h"
 #include "hwmodel/device/timed_engine.h"
+#include "hwmodel/format/device_image.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host {
 
 using Json = nlohmann::ordered_json;
 
-Json bvh_json(const DirectDevice& d);
 Json format_json(const hw::FixedFormat& f);
 // Bytes of the fixed device's image beside the float BVH's (nodes + leaf index) for the same tree: its storage
 // layouts (by name), bytes per node and per primitive (nodes + primitive section over the bounded primitives).
@@ -29,14 +30,6 @@ const char* node_layout_name(int layout);
 const char* prim_layout_name(int layout);
 // The image's node and primitive bytes over its bounded primitives (triangles and spheres); 0 when it has none.
 double image_bytes_per_prim(const hw::DeviceImage& img);
-// The fixed device's memory: total bytes and bytes per bounded primitive of the scene it traces. On the two-level
-// device both levels and the stored transforms over the flattened scene's primitives (instancing's saving shows
-// as fewer bytes per primitive). {0, 0} for the float device.
-struct ImageBytes {
-  uint64_t total = 0;
-  double per_prim = 0.0;
-};
-ImageBytes device_image_bytes(const DirectDevice& d);
 // The two levels' bytes: top image, bottom images, stored transforms, and the instance visits that moved their
 // origin.
 Json two_level_json(const hw::InstancedFixedTracer& t);
@@ -54,9 +47,14 @@ Json timing_stats_json(const hw::TimingStats& s, const hw::TimingConfig& c);
 Json timed_json(const hw::TimedEngine& e);
 // What sampled timing simulated (hw::SampleStats), with the 95% interval of the cycles.
 Json sample_json(const hw::SampleStats& s);
-
-// A render's statistics: rays by type, commands, what was skipped and why, the unit's counters, and on the timed
-// device its timing (in total, by ray type and bounce, the rasterizer's cycles and the frame's).
-Json render_json(const RenderResult& r, const RenderOptions& o);
+// The statistics in total (timing_stats_json), then by ray type (the types that ran rays) and by bounce.
+Json timing_breakdown_json(const hw::TimingStats& total,
+                           const std::array<hw::TimingStats, hw::cmd::kRayTypeCount>& by_type,
+                           const std::map<int, hw::TimingStats>& by_bounce, const hw::TimingConfig& c);
+// Per unit of a chip: what each unit did over the chip's cycles (its utilizations are of its own resources).
+Json units_json(const std::vector<hw::TimingStats>& by_unit, const hw::TimingConfig& c);
+// Adds the memory's bytes over time (memory_system.h) to j as "timeline"; nothing when tl is null or a packet was
+// sampled (the series would hold the simulated rays' traffic at their simulated cycles, not the run's).
+void add_timeline(Json& j, const hw::MemoryTimeline* tl, const hw::SampleStats& sampling);
 
 }  // namespace rtu::host

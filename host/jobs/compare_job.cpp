@@ -1,5 +1,6 @@
 #include "host/jobs/compare_job.h"
 
+#include "host/devices/device_json.h"
 #include "host/io/error.h"
 #include "host/jobs/trace_job.h"
 

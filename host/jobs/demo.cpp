@@ -4,13 +4,14 @@
 #include <memory>
 #include <utility>
 
+#include "host/devices/device_json.h"
 #include "host/devices/direct_device.h"
 #include "host/io/error.h"
 #include "host/io/image.h"
-#include "host/scene/ray_gen.h"
 #include "host/io/ray_io.h"
 #include "host/jobs/stopwatch.h"
 #include "host/jobs/trace_job.h"
+#include "host/scene/ray_gen.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/timing_config.h"
 

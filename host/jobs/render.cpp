@@ -11,15 +11,15 @@
 #include <utility>
 
 #include "firmware/render_scene.h"
-#include "host/io/error.h"
 #include "host/devices/firmware_device.h"
 #include "host/devices/grid_check.h"
+#include "host/io/error.h"
 #include "host/io/limits.h"
-#include "host/scene/shading.h"
 #include "host/jobs/trace_job.h"
-#include "hwmodel/format/device_image.h"
-#include "hwmodel/device/engine.h"
+#include "host/scene/shading.h"
 #include "hwmodel/datapath/instanced_fixed.h"
+#include "hwmodel/device/engine.h"
+#include "hwmodel/format/device_image.h"
 
 namespace rtu::host {
 
@@ -145,8 +145,8 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   res.offset_rel = std::ldexp(1.0f, -19);
   res.offset_abs = std::ldexp(extent, -20);
   hw::TracerOptions tracer = o.device.tracer;
-  // An instanced scene binds its two levels (hwmodel/datapath/instanced_fixed.h) on the fixed-point devices, unless
-  // flattened or co-simulated (the RTL units trace one image).
+  // An instanced scene binds its two levels (hwmodel/datapath/instanced_fixed.h) on the fixed-point devices,
+  // unless flattened or co-simulated (the RTL units trace one image).
   const bool two_level = scene.instanced() && !o.device.flatten && o.device.kind != hw::DeviceKind::kFloat &&
                          (o.device.kind == hw::DeviceKind::kFixed ||
                           (o.device.timing.box_unit == "cpp" && o.device.timing.tri_unit == "cpp"));
@@ -371,6 +371,116 @@ std::vector<std::string> render_warnings(const RenderResult& r) {
     out.push_back(why);
   }
   return out;
+}
+
+Json render_json(const RenderResult& r, const RenderOptions& o) {
+  using hw::cmd::RayType;
+  Json j;
+  j["device"] = hw::device_kind_name(o.device.kind);
+  j["width"] = r.width;
+  j["height"] = r.height;
+  j["spp"] = o.spp;
+  j["max_depth"] = o.max_depth;
+  j["seed"] = o.seed;
+  j["mode"] = o.ao ? "ambient_occlusion" : (o.indirect ? "path_tracing" : "direct_and_specular");
+  j["render_mode"] = o.hybrid ? "hybrid" : "raytrace";
+  j["seconds"] = r.seconds;
+  Json rays;
+  uint64_t total = 0;
+  for (int t = 0; t < hw::cmd::kRayTypeCount; ++t) {
+    rays[hw::cmd::ray_type_name(RayType(t))] = r.fw.rays[t];
+    total += r.fw.rays[t];
+  }
+  j["rays"] = rays;
+  j["rays_total"] = total;
+  j["rays_per_second"] = r.seconds > 0 ? double(total) / r.seconds : 0.0;
+  // Primary rays the rasterizer made unnecessary (hybrid: every camera sample; raytrace: none).
+  j["rays_saved"] = {{"primary", r.fw.primary_rasterized}};
+  if (o.hybrid) {
+    const fw::RasterStats& rs = r.fw.raster;
+    j["raster"] = {{"passes", rs.passes},
+                   {"prims_read", rs.prims_read},
+                   {"setups", rs.setups},
+                   {"samples_tested", rs.samples_tested},
+                   {"fragments", rs.fragments},
+                   {"depth_writes", rs.depth_writes},
+                   {"clears", rs.clears},
+                   {"triangles_culled", rs.triangles_culled},
+                   {"triangles_clipped", rs.triangles_clipped},
+                   {"triangles_degenerate", rs.triangles_degenerate}};
+  }
+  j["paths"] = r.fw.paths;
+  j["batches"] = r.fw.batches;
+  j["batch_paths"] = r.fw.batch_paths;
+  j["bounces"] = r.fw.bounces;
+  j["commands"] = {{"packets", r.ring.packets},
+                   {"trace", r.fw.traces},
+                   {"fences", r.ring.fences},
+                   {"doorbells", r.ring.doorbells},
+                   {"ring_full", r.ring.full}};
+  // What the scene did not need, and why: decided before any ray was built.
+  Json skipped = Json::object();
+  const bool any_diffuse = r.fw.need_shadow || r.fw.need_diffuse || r.fw.need_occlusion;
+  if (!r.fw.need_shadow)
+    skipped["shadow"] =
+        r.fw.rays[int(RayType::kShadow)] == 0 && any_diffuse ? "no lights" : "no lights or no diffuse surface";
+  if (!r.fw.need_reflection)
+    skipped["reflection"] = o.max_depth == 0 ? "max depth 0" : "no mirror or glass material";
+  if (!r.fw.need_refraction) skipped["refraction"] = o.max_depth == 0 ? "max depth 0" : "no glass material";
+  if (!r.fw.need_diffuse)
+    skipped["diffuse"] = o.ao ? "ambient occlusion instead"
+                              : (!o.indirect ? "indirect light off" : "no diffuse material or max depth 0");
+  if (!r.fw.need_occlusion) skipped["occlusion"] = o.ao ? "no diffuse material" : "ambient occlusion off";
+  if (r.fw.hybrid) skipped["primary"] = "rasterized (hybrid mode)";
+  if (r.counts.triangles == 0) skipped["triangle_unit"] = "no triangles";
+  if (r.counts.spheres == 0) skipped["sphere_unit"] = "no spheres";
+  if (r.counts.planes == 0) skipped["plane_unit"] = "no planes";
+  if (!r.uses_bvh) skipped["bvh"] = "brute force is cheaper for this scene (hw::choose_accel)";
+  j["skipped"] = skipped;
+  Json unit;
+  unit["primitives"] = {
+      {"triangles", r.counts.triangles}, {"spheres", r.counts.spheres}, {"planes", r.counts.planes}};
+  unit["accel"] = r.uses_bvh ? "bvh" : "brute_force";
+  unit["memory_bytes"] = r.device_memory_bytes;
+  unit["scene_image_bytes"] = r.scene_image_bytes;
+  unit["packets"] = r.device.packets;
+  Json by_type;
+  for (int t = 0; t < hw::cmd::kRayTypeCount; ++t) {
+    if (r.device.rays_by_type[t] == 0) continue;
+    by_type[hw::cmd::ray_type_name(RayType(t))] = traversal_json(r.device.stats_by_type[t]);
+  }
+  unit["by_ray_type"] = by_type;
+  unit["total"] = traversal_json(r.device.total());
+  j["unit"] = unit;
+  j["spawn_offset"] = {{"abs", r.offset_abs}, {"rel", r.offset_rel}};
+  j["warnings"] = render_warnings(r);
+  if (o.device.kind != hw::DeviceKind::kFloat) j["format"] = format_json(o.device.format);
+  if (r.timed) {
+    Json t = timing_breakdown_json(r.timing, r.timing_by_type, r.timing_by_bounce, o.device.timing);
+    t["device_clock"] = r.device_clock;
+    // Fence interrupts: the host sees the frame's last fence irq_latency after the device clock's end.
+    t["fence_irqs"] = r.device.fence_irqs;
+    t["last_irq_cycle"] = r.device.last_irq_cycle;
+    t["sample"] = sample_json(r.sampling);
+    if (!r.timing_by_unit.empty()) t["units"] = units_json(r.timing_by_unit, o.device.timing);
+    add_timeline(t, &r.timeline, r.sampling);
+    // The frame: the rasterizer's cycles (hybrid) and the unit's (every packet), which do not overlap.
+    const hw::RasterCycles& rc = r.raster_cycles;
+    t["raster"] = {{"cycles", rc.cycles},
+                   {"latency_cycles", rc.latency_cycles},
+                   {"setup_cycles", rc.setup_cycles},
+                   {"scan_cycles", rc.scan_cycles},
+                   {"fragment_cycles", rc.fragment_cycles},
+                   {"dram_cycles", rc.dram_cycles},
+                   {"dram_bytes", rc.dram_bytes},
+                   {"limit", rc.limit}};
+    t["raster_cycles"] = rc.cycles;
+    t["trace_cycles"] = r.device_clock;
+    t["frame_cycles"] = r.frame_cycles;
+    t["config"] = timing_json(o.device.timing);
+    j["timing"] = t;
+  }
+  return j;
 }
 
 }  // namespace rtu::host

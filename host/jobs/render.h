@@ -13,10 +13,11 @@
 #include "firmware/ring.h"
 #include "host/devices/direct_device.h"
 #include "host/io/image.h"
+#include "host/io/stats_json.h"
 #include "host/scene/scene.h"
 #include "hwmodel/device/command_processor.h"
-#include "hwmodel/timing/raster_timing.h"
 #include "hwmodel/device/timed_engine.h"
+#include "hwmodel/timing/raster_timing.h"
 
 namespace rtu::host {
 
@@ -85,5 +86,9 @@ std::vector<std::string> render_warnings(const RenderResult& r);
 
 // Clamp to [0, 1], sRGB transfer function, 8 bits.
 Image to_image(const RenderResult& r);
+
+// A render's statistics: rays by type, commands, what was skipped and why, the unit's counters, and on the timed
+// device its timing (in total, by ray type and bounce, the rasterizer's cycles and the frame's).
+Json render_json(const RenderResult& r, const RenderOptions& o);
 
 }  // namespace rtu::host

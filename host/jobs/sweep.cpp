@@ -12,6 +12,7 @@
 
 #include "host/jobs/compare.h"
 #include "host/cost/cost_model.h"
+#include "host/devices/device_json.h"
 #include "host/devices/direct_device.h"
 #include "host/io/error.h"
 #include "host/jobs/image_diff.h"

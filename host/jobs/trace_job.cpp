@@ -6,6 +6,8 @@
 #include <chrono>
 #include <thread>
 
+#include "host/devices/device_json.h"
+
 namespace rtu::host {
 
 Progress::Progress(const char* what, uint64_t total)

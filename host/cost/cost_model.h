@@ -1,6 +1,6 @@
-// The inputs of the area and energy estimate (hwmodel/cost/energy_model.h) for a format and a timing configuration: the
-// box and triangle units' size from the RTL synthesis table (AreaTable) and their switching activity from the
-// Verilator activity table (ActivityTable), looked up by the units' Verilator parameters.
+// The inputs of the area and energy estimate (hwmodel/cost/energy_model.h) for a format and a timing
+// configuration: the box and triangle units' size from the RTL synthesis table (AreaTable) and their switching
+// activity from the Verilator activity table (ActivityTable), looked up by the units' Verilator parameters.
 //
 // A unit the tables do not hold (a format no synthesis ran for) is estimated and says so (source "fit"): its size
 // from a least-squares line through the synthesized units of its kind against the size of its multipliers (box
@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "host/cost/area_tables.h"
 #include "host/io/stats_json.h"
-#include "host/jobs/sweep.h"
 #include "hwmodel/cost/energy_model.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/timing_config.h"

@@ -10,17 +10,18 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "host/jobs/compare.h"
 #include "host/cost/cost_model.h"
 #include "host/devices/device_json.h"
 #include "host/devices/direct_device.h"
+#include "host/io/csv.h"
 #include "host/io/error.h"
-#include "host/jobs/image_diff.h"
 #include "host/io/limits.h"
-#include "host/scene/ray_gen.h"
-#include "host/jobs/render.h"
-#include "host/scene/shading.h"
 #include "host/io/stats_json.h"
+#include "host/jobs/compare.h"
+#include "host/jobs/image_diff.h"
+#include "host/jobs/render.h"
+#include "host/scene/ray_gen.h"
+#include "host/scene/shading.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/timing_config.h"
 #include "rtl_sim/params/rtl_params.h"
@@ -101,50 +102,6 @@ std::string text(const std::string& s) {
   return q;
 }
 
-std::vector<std::string> split_csv(const std::string& line) {
-  std::vector<std::string> f(1);
-  bool quoted = false;
-  for (size_t i = 0; i < line.size(); ++i) {
-    const char c = line[i];
-    if (quoted) {
-      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
-        f.back() += '"';
-        ++i;
-      } else if (c == '"') {
-        quoted = false;
-      } else {
-        f.back() += c;
-      }
-    } else if (c == '"') {
-      quoted = true;
-    } else if (c == ',') {
-      f.emplace_back();
-    } else {
-      f.back() += c;
-    }
-  }
-  return f;
-}
-
-double parse_double(const std::string& s, const std::string& where) {
-  if (s == "inf") return std::numeric_limits<double>::infinity();
-  if (s == "-inf") return -std::numeric_limits<double>::infinity();
-  double v = 0.0;
-  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
-  if (r.ec != std::errc() || r.ptr != s.data() + s.size() || s.empty())
-    throw Error(where + ": '" + s + "' is not a number");
-  return v;
-}
-
-template <class Int>
-Int parse_int(const std::string& s, const std::string& where) {
-  Int v = 0;
-  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
-  if (r.ec != std::errc() || r.ptr != s.data() + s.size() || s.empty())
-    throw Error(where + ": '" + s + "' is not an integer");
-  return v;
-}
-
 void poll(const SweepOptions& o) {
   if (o.poll) o.poll();
 }
@@ -186,72 +143,6 @@ void SweepCacheDeleter::operator()(SweepCache* c) const {
 
 std::unique_ptr<SweepCache, SweepCacheDeleter> make_sweep_cache() {
   return std::unique_ptr<SweepCache, SweepCacheDeleter>(new SweepCache);
-}
-
-AreaTable AreaTable::load(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error("cannot read the area table " + path);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse(text.str(), path);
-}
-
-AreaTable AreaTable::shipped() {
-  return parse(shipped_area_csv(), std::string(kShippedAreaTable) + " (compiled in)");
-}
-
-AreaTable AreaTable::parse(const std::string& text, const std::string& name) {
-  AreaTable t;
-  std::istringstream in(text);
-  std::string line;
-  size_t n = 0;
-  std::vector<std::string> header;
-  while (std::getline(in, line)) {
-    ++n;
-    if (line.empty()) continue;
-    const std::vector<std::string> f = split_csv(line);
-    const std::string where = name + ":" + std::to_string(n);
-    if (header.empty()) {
-      header = f;
-      if (header.size() < 4 || header[0] != "params" || header[1] != "cells" || header[3] != "transistors")
-        throw Error(where + ": expected the header params,cells,flip_flops,transistors");
-      continue;
-    }
-    if (f.size() != header.size())
-      throw Error(where + ": " + std::to_string(f.size()) + " fields, expected " + std::to_string(header.size()));
-    t.by_params[f[0]] = Entry{parse_int<int64_t>(f[1], where), parse_int<int64_t>(f[3], where)};
-  }
-  return t;
-}
-
-ActivityTable ActivityTable::parse(const std::string& text, const std::string& name) {
-  ActivityTable t;
-  std::istringstream in(text);
-  std::string line;
-  size_t n = 0;
-  bool header = false;
-  while (std::getline(in, line)) {
-    ++n;
-    if (line.empty()) continue;
-    const std::vector<std::string> f = split_csv(line);
-    const std::string where = name + ":" + std::to_string(n);
-    if (!header) {
-      if (line != "params,unit,tests,signal_bits,toggles_per_test")
-        throw Error(where + ": expected the header params,unit,tests,signal_bits,toggles_per_test");
-      header = true;
-      continue;
-    }
-    if (f.size() != 5) throw Error(where + ": " + std::to_string(f.size()) + " fields, expected 5");
-    Entry e{f[1], parse_int<uint64_t>(f[2], where), parse_double(f[3], where), parse_double(f[4], where)};
-    if (!(e.signal_bits > 0) || !(e.toggles_per_test >= 0) || !std::isfinite(e.toggles_per_test) || e.tests == 0)
-      throw Error(where + ": signal_bits and tests must be positive, toggles_per_test finite and >= 0");
-    t.by_params[f[0]] = e;
-  }
-  return t;
-}
-
-ActivityTable ActivityTable::shipped() {
-  return parse(shipped_activity_csv(), std::string(kShippedActivityTable) + " (compiled in)");
 }
 
 namespace {
@@ -562,40 +453,40 @@ std::vector<SweepRow> read_sweep_csv(const std::string& path, bool* header_is_cu
     size_t k = 0;
     r.p.scene = f[k++];
     r.p.format = f[k++];
-    r.p.bvh_width = parse_int<int>(f[k++], where);
+    r.p.bvh_width = parse_csv_int<int>(f[k++], where);
     r.p.config = f[k++];
-    r.rays = parse_int<uint64_t>(f[k++], where);
-    r.seed = parse_int<uint64_t>(f[k++], where);
-    r.image_width = parse_int<int>(f[k++], where);
+    r.rays = parse_csv_int<uint64_t>(f[k++], where);
+    r.seed = parse_csv_int<uint64_t>(f[k++], where);
+    r.image_width = parse_csv_int<int>(f[k++], where);
     if (has_flatten) {
-      const int flat = parse_int<int>(f[k++], where);
+      const int flat = parse_csv_int<int>(f[k++], where);
       if (flat != 0 && flat != 1) throw Error(where + ": flatten must be 0 or 1, got '" + f[k - 1] + "'");
       r.flatten = flat == 1;
     }
-    r.hit_agreement = parse_double(f[k++], where);
-    r.prim_agreement = parse_double(f[k++], where);
-    r.false_misses = parse_int<uint64_t>(f[k++], where);
-    r.false_hits = parse_int<uint64_t>(f[k++], where);
-    r.t_rel_error_mean = parse_double(f[k++], where);
-    r.t_rel_error_max = parse_double(f[k++], where);
-    r.node_visit_overhead = parse_double(f[k++], where);
-    r.prim_test_overhead = parse_double(f[k++], where);
-    r.box_false_negatives = parse_int<uint64_t>(f[k++], where);
+    r.hit_agreement = parse_csv_double(f[k++], where);
+    r.prim_agreement = parse_csv_double(f[k++], where);
+    r.false_misses = parse_csv_int<uint64_t>(f[k++], where);
+    r.false_hits = parse_csv_int<uint64_t>(f[k++], where);
+    r.t_rel_error_mean = parse_csv_double(f[k++], where);
+    r.t_rel_error_max = parse_csv_double(f[k++], where);
+    r.node_visit_overhead = parse_csv_double(f[k++], where);
+    r.prim_test_overhead = parse_csv_double(f[k++], where);
+    r.box_false_negatives = parse_csv_int<uint64_t>(f[k++], where);
     // Empty: not measured (no render); a file of the version before wrote 0 for it when image_width was 0.
-    r.psnr_db =
-        f[k].empty() || r.image_width == 0 ? std::numeric_limits<double>::quiet_NaN() : parse_double(f[k], where);
+    r.psnr_db = f[k].empty() || r.image_width == 0 ? std::numeric_limits<double>::quiet_NaN()
+                                                   : parse_csv_double(f[k], where);
     ++k;
-    r.cycles = parse_int<uint64_t>(f[k++], where);
-    r.cycles_per_ray = parse_double(f[k++], where);
-    r.dram_bytes_per_ray = parse_double(f[k++], where);
-    r.bvh_bytes = parse_int<uint64_t>(f[k++], where);
-    r.float_bvh_bytes = parse_int<uint64_t>(f[k++], where);
-    r.bytes_per_prim = parse_double(f[k++], where);
-    r.rtl_cells = parse_int<int64_t>(f[k++], where);
-    r.rtl_transistors = parse_int<int64_t>(f[k++], where);
-    r.area_mm2 = parse_double(f[k++], where);
-    r.pj_per_ray = parse_double(f[k++], where);
-    r.seconds = parse_double(f[k++], where);
+    r.cycles = parse_csv_int<uint64_t>(f[k++], where);
+    r.cycles_per_ray = parse_csv_double(f[k++], where);
+    r.dram_bytes_per_ray = parse_csv_double(f[k++], where);
+    r.bvh_bytes = parse_csv_int<uint64_t>(f[k++], where);
+    r.float_bvh_bytes = parse_csv_int<uint64_t>(f[k++], where);
+    r.bytes_per_prim = parse_csv_double(f[k++], where);
+    r.rtl_cells = parse_csv_int<int64_t>(f[k++], where);
+    r.rtl_transistors = parse_csv_int<int64_t>(f[k++], where);
+    r.area_mm2 = parse_csv_double(f[k++], where);
+    r.pj_per_ray = parse_csv_double(f[k++], where);
+    r.seconds = parse_csv_double(f[k++], where);
     rows.push_back(r);
   }
   if (n == 0) throw Error(path + ": empty (no header)");

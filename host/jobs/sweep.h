@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "host/cost/area_tables.h"
 #include "host/scene/scene.h"
 #include "hwmodel/timing/timing_config.h"
 
@@ -58,8 +59,8 @@ struct SweepRow {
   uint64_t bvh_bytes = 0, float_bvh_bytes = 0;
   double bytes_per_prim = 0.0;  // the image's node and primitive bytes / its bounded primitives (0: none)
   int64_t rtl_cells = -1, rtl_transistors = -1;  // -1: no synthesis result for this unit
-  // The estimate of hwmodel/cost/energy_model.h for the point's units (host/cost/cost_model.h: synthesized or fitted size,
-  // measured activity): the unit's area, and the timed run's energy over its rays.
+  // The estimate of hwmodel/cost/energy_model.h for the point's units (host/cost/cost_model.h: synthesized or
+  // fitted size, measured activity): the unit's area, and the timed run's energy over its rays.
   double area_mm2 = 0.0, pj_per_ray = 0.0;
   double seconds = 0.0;  // wall time of the point
 
@@ -78,41 +79,6 @@ struct SweepOptions {
   // the job, e.g. the Python module's check for Ctrl-C. Empty: never called.
   std::function<void()> poll;
 };
-
-// Synthesis results of the RTL box unit by its Verilator parameters (rtl_sim/params/rtl_params.h verilator_args),
-// read from a CSV with the columns params,cells,flip_flops,transistors (bench/rtl_area.sh with RTL_AREA_CSV
-// writes it).
-struct AreaTable {
-  struct Entry {
-    int64_t cells = -1, transistors = -1;
-  };
-  std::map<std::string, Entry> by_params;
-  static AreaTable load(const std::string& path);  // throws Error for a malformed file
-  // The CSV's text; `name` is what errors call it. Throws Error for a malformed table.
-  static AreaTable parse(const std::string& text, const std::string& name);
-  // The table the project ships, bench/data/rtl_area.csv, compiled into the library (host/CMakeLists.txt), so
-  // that it is there wherever rtusim runs.
-  static AreaTable shipped();
-};
-inline constexpr const char* kShippedAreaTable = "bench/data/rtl_area.csv";
-// The text of the shipped table (generated from kShippedAreaTable at configure time).
-const char* shipped_area_csv();
-
-// Switching activity of the RTL units by their Verilator parameters, measured in Verilator on tests captured from
-// real traversals (bench/rtl_activity.sh writes it): the CSV columns params,unit,tests,signal_bits,
-// toggles_per_test (bit transitions of the RTL's signals per test).
-struct ActivityTable {
-  struct Entry {
-    std::string unit;
-    uint64_t tests = 0;
-    double signal_bits = 0.0, toggles_per_test = 0.0;
-  };
-  std::map<std::string, Entry> by_params;
-  static ActivityTable parse(const std::string& text, const std::string& name);  // throws Error when malformed
-  static ActivityTable shipped();  // bench/data/rtl_activity.csv, compiled in (empty when the file is absent)
-};
-inline constexpr const char* kShippedActivityTable = "bench/data/rtl_activity.csv";
-const char* shipped_activity_csv();
 
 // Measures one point. `scene` must be the loaded p.scene. Caches the float reference per scene and width in
 // `cache` (opaque; keep one per scene).

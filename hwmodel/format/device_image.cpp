@@ -482,25 +482,11 @@ namespace {
   throw std::invalid_argument("scene image: " + why);
 }
 
-}  // namespace
-
-DeviceImage DeviceImage::from_bytes(const uint8_t* data, size_t bytes) {
-  if (bytes < sizeof(ImageHeader) || bytes % 8 != 0)
-    bad_image("size " + std::to_string(bytes) + " is below the header or not a multiple of 8");
-  DeviceImage img;
-  img.m_words.assign(bytes / 8, 0);
-  std::memcpy(img.m_words.data(), data, bytes);
-  img.check();
-  return img;
-}
-
-void DeviceImage::check() {
-  const ImageHeader& h = header();
-  const uint64_t bytes = uint64_t(m_words.size()) * 8;
+// The header of an image of `bytes` bytes in format f: magic, version, size, format, flags and frame.
+void check_header(const ImageHeader& h, const FixedFormat& f, uint64_t bytes) {
   if (h.magic != kImageMagic) bad_image("bad magic");
   if (h.version != kImageVersion) bad_image("unsupported version " + std::to_string(h.version));
   if (h.total_bytes != bytes) bad_image("total_bytes differs from the bound size");
-  const FixedFormat f = format();
   try {
     f.validate();
   } catch (const std::invalid_argument& e) {
@@ -508,18 +494,19 @@ void DeviceImage::check() {
   }
   if (h.q_bytes != f.offset_bytes()) bad_image("offset bytes do not match child_bits");
   if (h.flags & ~(kImageNoBvh | kImageTopLevel)) bad_image("unknown flag bits");
-  const bool top = h.flags & kImageTopLevel;
-  if (top && h.prim_layout != 0) bad_image("a top level in triangle blocks");
+  if ((h.flags & kImageTopLevel) && h.prim_layout != 0) bad_image("a top level in triangle blocks");
   // The frame: grid -> world must stay exact in double (quant_frame.h) and finite.
   if (h.step_exp < -1000 || h.step_exp > 1000) bad_image("frame step exponent out of range");
   for (int a = 0; a < 3; ++a)
     if (h.frame_origin[a] <= -(int64_t(1) << 52) || h.frame_origin[a] >= (int64_t(1) << 52))
       bad_image("frame origin out of range");
-  // Layouts: the node size the format and the field widths give, the primitive section the layout gives.
-  const bool packed = h.node_layout != 0, blocks = h.prim_layout != 0;
-  const size_t qbytes = qnode_bytes(h.width, h.q_bytes);
+}
+
+// Layouts: the node size the format and the field widths give, the primitive section the layout gives. Returns
+// the packed nodes' fields (default for struct nodes).
+NodeFields check_layouts(const ImageHeader& h, const FixedFormat& f, size_t qbytes) {
   NodeFields fields;
-  if (packed) {
+  if (h.node_layout != 0) {
     if (h.base_bits > 32 || h.prim_bits > 32 || h.group_bits > 7)
       bad_image("node field widths out of range (base_bits, prim_bits <= 32, group_bits <= 7)");
     if (h.node_layout == 2 && (h.base_bits | h.prim_bits | h.group_bits) != 0)
@@ -531,9 +518,13 @@ void DeviceImage::check() {
   } else if (h.node_bytes != qbytes || (h.base_bits | h.prim_bits | h.group_bits) != 0) {
     bad_image("node_bytes or node field widths differ from the struct layout's");
   }
-  if (!blocks && h.record_bytes != uint64_t(h.record_count) * kRecordBytes)
+  if (h.prim_layout == 0 && h.record_bytes != uint64_t(h.record_count) * kRecordBytes)
     bad_image("record_bytes differs from record_count 40-byte records");
-  // Sections inside the image, aligned, not overlapping the header or each other.
+  return fields;
+}
+
+// Sections inside the image, aligned, not overlapping the header or each other; primitive and record counts.
+void check_sections(const ImageHeader& h, uint64_t bytes) {
   const uint64_t nb = uint64_t(h.node_count) * h.node_bytes, rb = h.record_bytes,
                  pb = uint64_t(h.plane_count) * sizeof(PlaneRecord);
   auto section = [&](uint64_t off, uint64_t size, uint64_t after, const char* what) {
@@ -546,96 +537,115 @@ void DeviceImage::check() {
   const uint64_t num_bounded = uint64_t(h.num_triangles) + h.num_spheres;
   if (num_bounded + h.plane_count >= kRecordPrimMask) bad_image("too many primitives");
   // A top level's records are its instances; its counts number the flattened scene's primitives.
-  if (top ? h.record_count > kRecordPrimMask : h.record_count != num_bounded)
+  if ((h.flags & kImageTopLevel) ? h.record_count > kRecordPrimMask : h.record_count != num_bounded)
     bad_image("record count differs from the primitive counts");
+}
 
-  // Blocks: decoded one after another from the section's start; each block's granule -> its first record.
-  std::vector<std::pair<uint64_t, uint32_t>> block_at;  // (granule, first record), granules rising
-  m_records.clear();
-  m_spans.clear();
-  if (blocks) {
-    const uint8_t* sec = data() + h.record_offset;
-    uint64_t g = 0;
-    while (g * kGranuleBytes < rb) {
-      const uint32_t first = uint32_t(m_records.size() / kRecordBytes);
-      if (first >= h.record_count) bad_image("primitive section holds more records than record_count");
-      const std::string at = "block at byte " + std::to_string(g * kGranuleBytes) + " of the primitive section";
-      uint32_t size = 0;
-      try {
-        size = decode_block(sec + g * kGranuleBytes, rb - g * kGranuleBytes, f.coord_bits, m_records, at);
-      } catch (const std::invalid_argument& e) {
-        bad_image(e.what());
-      }
-      block_at.push_back({g, first});
-      m_spans.resize(m_records.size() / kRecordBytes, Span{0, 0});
-      m_spans[first] = Span{h.record_offset + g * kGranuleBytes, size * uint32_t(kGranuleBytes)};
-      g += size;
+// Where each block starts: (granule, first record), granules rising.
+using BlockStarts = std::vector<std::pair<uint64_t, uint32_t>>;
+
+// Blocks: decoded one after another from the section's start into `records` (40-byte records), with the span the
+// unit fetches for each block's first record.
+BlockStarts decode_blocks(const uint8_t* image, const ImageHeader& h, const FixedFormat& f,
+                          std::vector<uint8_t>& records, std::vector<DeviceImage::Span>& spans) {
+  BlockStarts block_at;
+  const uint64_t rb = h.record_bytes;
+  const uint8_t* sec = image + h.record_offset;
+  uint64_t g = 0;
+  while (g * kGranuleBytes < rb) {
+    const uint32_t first = uint32_t(records.size() / kRecordBytes);
+    if (first >= h.record_count) bad_image("primitive section holds more records than record_count");
+    const std::string at = "block at byte " + std::to_string(g * kGranuleBytes) + " of the primitive section";
+    uint32_t size = 0;
+    try {
+      size = decode_block(sec + g * kGranuleBytes, rb - g * kGranuleBytes, f.coord_bits, records, at);
+    } catch (const std::invalid_argument& e) {
+      bad_image(e.what());
     }
-    if (m_records.size() != size_t(h.record_count) * kRecordBytes)
-      bad_image("primitive section decodes to a record count other than record_count");
+    block_at.push_back({g, first});
+    spans.resize(records.size() / kRecordBytes, DeviceImage::Span{0, 0});
+    spans[first] = DeviceImage::Span{h.record_offset + g * kGranuleBytes, size * uint32_t(kGranuleBytes)};
+    g += size;
   }
-  const uint64_t block_end = rb / kGranuleBytes;
-  // Packed nodes -> QNodes: the children's references from the node base, the primitive base and the meta.
-  auto decode_nodes = [&](const NodeFields& fl) {
-    const int W = h.width;
-    m_nodes.assign((size_t(h.node_count) * qbytes + 7) / 8, 0);
-    uint8_t* out = reinterpret_cast<uint8_t*>(m_nodes.data());
-    const uint8_t* in = data() + h.node_offset;
-    for (uint32_t n = 0; n < h.node_count; ++n) {
-      const std::string at = "node " + std::to_string(n);
-      PackedNode pn;
-      try {
-        pn = unpack_node(in + size_t(n) * h.node_bytes, h.node_bytes, fl, f.coord_bits, at);
-      } catch (const std::invalid_argument& e) {
-        bad_image(e.what());
-      }
-      uint8_t* q = out + size_t(n) * qbytes;
-      std::memcpy(q, pn.origin, 12);
-      for (int a = 0; a < 3; ++a) {
-        if (pn.exp[a] > 127) bad_image(at + ": scale out of range");
-        q[12 + a] = uint8_t(pn.exp[a]);
-      }
-      q[15] = uint8_t(pn.count);
-      for (int r = 0; r < 6; ++r)
-        for (int i = 0; i < W; ++i) {
-          const uint16_t v = uint16_t(pn.q[r][i]);  // a field of at most 16 bits
-          std::memcpy(q + 16 + size_t(r * W + i) * h.q_bytes, &v, h.q_bytes);
-        }
-      uint64_t inner = pn.node_base, unit = pn.prim_base;
-      for (int i = 0; i < W; ++i) {
-        uint32_t ref = kEmptyChild;
-        if (i < pn.count && !pn.leaf[i]) {
-          if (inner >= h.node_count) bad_image(at + ": child node out of range");
-          ref = uint32_t(inner++);
-        } else if (i < pn.count) {
-          uint64_t first = unit, count = pn.group[i];
-          if (blocks) {
-            const auto it = std::lower_bound(block_at.begin(), block_at.end(), std::make_pair(unit, uint32_t(0)));
-            if (it == block_at.end() || it->first != unit)
-              bad_image(at + ": leaf child " + std::to_string(i) + " does not point at the start of a block");
-            const bool last = it + 1 == block_at.end();
-            if ((last ? block_end : (it + 1)->first) - unit != pn.group[i])
-              bad_image(at + ": leaf child " + std::to_string(i) + "'s group size differs from its block's");
-            first = it->second;
-            count = (last ? h.record_count : (it + 1)->second) - it->second;
-          } else if (count > uint64_t(kMaxLeafSize)) {
-            bad_image(at + ": leaf child " + std::to_string(i) + " of more than 16 records");
-          }
-          if (first + count > h.record_count || first > kMaxLeafFirst)
-            bad_image(at + ": leaf outside the records");
-          ref = make_leaf(uint32_t(first), uint32_t(count));
-          unit += pn.group[i];
-        }
-        std::memcpy(q + 16 + size_t(6 * W) * h.q_bytes + 4 * size_t(i), &ref, 4);
-      }
+  if (records.size() != size_t(h.record_count) * kRecordBytes)
+    bad_image("primitive section decodes to a record count other than record_count");
+  return block_at;
+}
+
+// The leaf reference of child i of a packed node: its group of `unit` granules (blocks) or records from `unit`.
+uint32_t packed_leaf_ref(const ImageHeader& h, const BlockStarts& block_at, const std::string& at, int i,
+                         uint64_t unit, uint64_t group) {
+  uint64_t first = unit, count = group;
+  if (h.prim_layout != 0) {
+    const uint64_t block_end = h.record_bytes / kGranuleBytes;
+    const auto it = std::lower_bound(block_at.begin(), block_at.end(), std::make_pair(unit, uint32_t(0)));
+    if (it == block_at.end() || it->first != unit)
+      bad_image(at + ": leaf child " + std::to_string(i) + " does not point at the start of a block");
+    const bool last = it + 1 == block_at.end();
+    if ((last ? block_end : (it + 1)->first) - unit != group)
+      bad_image(at + ": leaf child " + std::to_string(i) + "'s group size differs from its block's");
+    first = it->second;
+    count = (last ? h.record_count : (it + 1)->second) - it->second;
+  } else if (count > uint64_t(kMaxLeafSize)) {
+    bad_image(at + ": leaf child " + std::to_string(i) + " of more than 16 records");
+  }
+  if (first + count > h.record_count || first > kMaxLeafFirst) bad_image(at + ": leaf outside the records");
+  return make_leaf(uint32_t(first), uint32_t(count));
+}
+
+// Packed nodes -> QNodes (qbytes each, into `nodes`): the children's references from the node base, the
+// primitive base and the meta.
+void decode_packed_nodes(const uint8_t* image, const ImageHeader& h, const FixedFormat& f, const NodeFields& fl,
+                         size_t qbytes, const BlockStarts& block_at, std::vector<uint64_t>& nodes) {
+  const int W = h.width;
+  nodes.assign((size_t(h.node_count) * qbytes + 7) / 8, 0);
+  uint8_t* out = reinterpret_cast<uint8_t*>(nodes.data());
+  const uint8_t* in = image + h.node_offset;
+  for (uint32_t n = 0; n < h.node_count; ++n) {
+    const std::string at = "node " + std::to_string(n);
+    PackedNode pn;
+    try {
+      pn = unpack_node(in + size_t(n) * h.node_bytes, h.node_bytes, fl, f.coord_bits, at);
+    } catch (const std::invalid_argument& e) {
+      bad_image(e.what());
     }
-  };
-  // Records: kind and index agree, coordinates inside the ranges validate() proves the datapath for.
+    uint8_t* q = out + size_t(n) * qbytes;
+    std::memcpy(q, pn.origin, 12);
+    for (int a = 0; a < 3; ++a) {
+      if (pn.exp[a] > 127) bad_image(at + ": scale out of range");
+      q[12 + a] = uint8_t(pn.exp[a]);
+    }
+    q[15] = uint8_t(pn.count);
+    for (int r = 0; r < 6; ++r)
+      for (int i = 0; i < W; ++i) {
+        const uint16_t v = uint16_t(pn.q[r][i]);  // a field of at most 16 bits
+        std::memcpy(q + 16 + size_t(r * W + i) * h.q_bytes, &v, h.q_bytes);
+      }
+    uint64_t inner = pn.node_base, unit = pn.prim_base;
+    for (int i = 0; i < W; ++i) {
+      uint32_t ref = kEmptyChild;
+      if (i < pn.count && !pn.leaf[i]) {
+        if (inner >= h.node_count) bad_image(at + ": child node out of range");
+        ref = uint32_t(inner++);
+      } else if (i < pn.count) {
+        ref = packed_leaf_ref(h, block_at, at, i, unit, pn.group[i]);
+        unit += pn.group[i];
+      }
+      std::memcpy(q + 16 + size_t(6 * W) * h.q_bytes + 4 * size_t(i), &ref, 4);
+    }
+  }
+}
+
+// Records: kind and index agree, coordinates inside the ranges validate() proves the datapath for.
+void check_records(const DeviceImage& img, const FixedFormat& f) {
+  const ImageHeader& h = img.header();
+  const bool top = h.flags & kImageTopLevel;
+  const uint64_t num_bounded = uint64_t(h.num_triangles) + h.num_spheres;
   const int B = f.coord_bits, F = f.frac_bits;
   const int64_t grid_max = (int64_t(1) << B) - 1;
   const int64_t center_lim = int64_t(1) << (B + f.guard_bits + F);  // like a ray origin
   for (uint32_t i = 0; i < h.record_count; ++i) {
-    const uint8_t* rec = record(i);
+    const uint8_t* rec = img.record(i);
     uint32_t word;
     std::memcpy(&word, rec + 36, 4);
     const uint32_t p = word & kRecordPrimMask;
@@ -674,7 +684,13 @@ void DeviceImage::check() {
       bad_image("record " + std::to_string(i) + ": unknown kind");
     }
   }
-  const PlaneRecord* pl = planes();
+}
+
+// Planes: a non-zero normal and an offset in range, in primitive order after the bounded primitives.
+void check_planes(const DeviceImage& img, const FixedFormat& f) {
+  const ImageHeader& h = img.header();
+  const uint64_t num_bounded = uint64_t(h.num_triangles) + h.num_spheres;
+  const PlaneRecord* pl = img.planes();
   const int64_t wmax = int64_t(1) << f.translated_bits();
   for (uint32_t i = 0; i < h.plane_count; ++i) {
     bool zero = true;
@@ -687,31 +703,40 @@ void DeviceImage::check() {
       bad_image("plane " + std::to_string(i) + " invalid");
     if (pl[i].prim != num_bounded + i) bad_image("plane " + std::to_string(i) + ": index out of order");
   }
+}
 
-  // Tree: leaves inside the records, children after their parent (so no cycles), one parent per node (so no
-  // shared subtrees: a ray visits each node at most once), and no path deeper than the traversal stack holds.
-  auto leaf_ok = [&](uint32_t ref) { return uint64_t(leaf_first(ref)) + leaf_count(ref) <= h.record_count; };
+bool leaf_in_records(uint32_t ref, const ImageHeader& h) {
+  return uint64_t(leaf_first(ref)) + leaf_count(ref) <= h.record_count;
+}
+
+// The root: no nodes without a BVH, none for an empty root, a leaf root inside the records, else node 0. Returns
+// whether there is a tree of nodes to check.
+bool check_root(const ImageHeader& h) {
   if (h.flags & kImageNoBvh) {
     if (h.node_count != 0) bad_image("nodes in an image without a BVH");
-    return;
+    return false;
   }
   if (h.root_ref == kEmptyChild) {
     if (h.record_count != 0 || h.node_count != 0) bad_image("empty root with primitives");
-    return;
+    return false;
   }
   if (is_leaf(h.root_ref)) {
-    if (!leaf_ok(h.root_ref)) bad_image("root leaf outside the records");
-    return;
+    if (!leaf_in_records(h.root_ref, h)) bad_image("root leaf outside the records");
+    return false;
   }
   if (h.root_ref != 0 || h.node_count == 0) bad_image("root must be node 0");
-  const int N = h.width;
+  return true;
+}
+
+// Tree: leaves inside the records, children after their parent (so no cycles), one parent per node (so no
+// shared subtrees: a ray visits each node at most once), and no path deeper than the traversal stack holds.
+// `nodes` are the QNodes, qbytes each.
+void check_tree(const uint8_t* nodes, const ImageHeader& h, const FixedFormat& f, size_t qbytes) {
+  const int N = h.width, B = f.coord_bits;
   const int64_t qlim = int64_t(1) << f.child_bits;
   std::vector<uint32_t> depth(h.node_count, 0);
-  if (packed) decode_nodes(fields);
-  const uint8_t* nodes = reinterpret_cast<const uint8_t*>(this->nodes<uint8_t>());
-  const size_t nbytes = qbytes;
   for (uint32_t n = 0; n < h.node_count; ++n) {
-    const uint8_t* nd = nodes + size_t(n) * nbytes;
+    const uint8_t* nd = nodes + size_t(n) * qbytes;
     int32_t origin[3];
     int8_t exp[3];
     std::memcpy(origin, nd, 12);
@@ -741,7 +766,7 @@ void DeviceImage::check() {
         continue;
       }
       if (is_leaf(ref)) {
-        if (!leaf_ok(ref)) bad_image(at + "leaf outside the records");
+        if (!leaf_in_records(ref, h)) bad_image(at + "leaf outside the records");
       } else if (ref <= n || ref >= h.node_count) {
         bad_image(at + "child node out of order or out of range");
       } else if (depth[ref] != 0) {
@@ -754,6 +779,37 @@ void DeviceImage::check() {
     // The stack holds at most N - 1 entries per level above the deepest node.
     if (uint64_t(depth[n] + 1) * uint64_t(N - 1) >= uint64_t(kTraversalStackSize)) bad_image(at + "too deep");
   }
+}
+
+}  // namespace
+
+DeviceImage DeviceImage::from_bytes(const uint8_t* data, size_t bytes) {
+  if (bytes < sizeof(ImageHeader) || bytes % 8 != 0)
+    bad_image("size " + std::to_string(bytes) + " is below the header or not a multiple of 8");
+  DeviceImage img;
+  img.m_words.assign(bytes / 8, 0);
+  std::memcpy(img.m_words.data(), data, bytes);
+  img.check();
+  return img;
+}
+
+void DeviceImage::check() {
+  const ImageHeader& h = header();
+  const uint64_t bytes = uint64_t(m_words.size()) * 8;
+  const FixedFormat f = format();
+  check_header(h, f, bytes);
+  const size_t qbytes = qnode_bytes(h.width, h.q_bytes);
+  const NodeFields fields = check_layouts(h, f, qbytes);
+  check_sections(h, bytes);
+  m_records.clear();
+  m_spans.clear();
+  BlockStarts block_at;
+  if (h.prim_layout != 0) block_at = decode_blocks(data(), h, f, m_records, m_spans);
+  check_records(*this, f);
+  check_planes(*this, f);
+  if (!check_root(h)) return;
+  if (h.node_layout != 0) decode_packed_nodes(data(), h, f, fields, qbytes, block_at, m_nodes);
+  check_tree(reinterpret_cast<const uint8_t*>(this->nodes<uint8_t>()), h, f, qbytes);
 }
 
 }  // namespace rtu::hw

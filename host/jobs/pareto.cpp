@@ -245,11 +245,26 @@ std::vector<LabelPlace> place_labels(const std::vector<LabelRequest>& labels,
   return out;
 }
 
-std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, const std::string& dir,
-                                           const std::string& gnuplot) {
-  if (rows.empty()) throw Error("pareto: the sweep has no rows");
-  if (gnuplot.empty()) throw Error("pareto: gnuplot not found (install the Debian package gnuplot-nox)");
-  // Rows by scene, in the order scenes first appear.
+namespace {
+
+// One scene's rows of the sweep and where its errors are drawn.
+struct SceneRows {
+  std::string scene;
+  std::vector<size_t> idx;  // its rows, in sweep order (a point's number is its place here + 1)
+  std::string base;         // the stem of its files: pareto_TAG, TAG unique among the sweep's scenes
+  double one_ray = 0.0;     // one wrong ray of its largest sample
+  double hit_zero = 0.0;    // where a hit disagreement of 0 is drawn
+  bool hit_zeros = false;   // some row has a hit disagreement of 0
+
+  // Hit disagreements of 0 are drawn at one place for the scene, a decade under one wrong ray of its largest
+  // sample (rows of one scene made with other --rays would otherwise put their zeros at other heights).
+  double drawn_error(const SweepRow& r, ParetoError e) const {
+    return e == ParetoError::kHitDisagreement && r.hit_disagreement() <= 0.0 ? hit_zero : pareto_error(r, e);
+  }
+};
+
+// The rows by scene, in the order scenes first appear.
+std::vector<SceneRows> rows_by_scene(const std::vector<SweepRow>& rows) {
   std::vector<std::string> scenes;
   std::map<std::string, std::vector<size_t>> by_scene;
   for (size_t i = 0; i < rows.size(); ++i) {
@@ -257,266 +272,385 @@ std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, co
     by_scene[rows[i].p.scene].push_back(i);
   }
   std::set<std::string> tags;
-  std::vector<ParetoPlot> plots;
+  std::vector<SceneRows> out;
   for (const std::string& scene : scenes) {
+    SceneRows s;
+    s.scene = scene;
+    s.idx = by_scene[scene];
     std::string tag = scene_tag(scene);
     for (int k = 2; !tags.insert(tag).second; ++k) tag = scene_tag(scene) + "_" + std::to_string(k);
-    const std::vector<size_t>& idx = by_scene[scene];
-    const std::string base = "pareto_" + tag;
-    const std::string data = base + ".dat";
+    s.base = "pareto_" + tag;
     uint64_t rays = 0;
-    for (size_t i : idx) rays = std::max(rays, rows[i].rays);
-    // Hit disagreements of 0 are drawn at one place for the scene, a decade under one wrong ray of its largest
-    // sample (rows of one scene made with other --rays would otherwise put their zeros at other heights).
-    const double one_ray = rays ? 1.0 / double(rays) : 1e-9, hit_zero = one_ray / kHitZeroBelow;
-    const bool hit_zeros =
-        std::any_of(idx.begin(), idx.end(), [&](size_t i) { return rows[i].hit_disagreement() <= 0.0; });
-    const auto drawn_error = [&](const SweepRow& r, ParetoError e) {
-      return e == ParetoError::kHitDisagreement && r.hit_disagreement() <= 0.0 ? hit_zero : pareto_error(r, e);
-    };
-    {
-      std::ofstream f(dir + "/" + data);
-      // The first columns are the costs in ParetoCost order (a panel plots column cost + 1).
-      f << "# " << scene
-        << ": cycles bvh_bytes rtl_cells dram_bytes_per_ray pj_per_ray hit_disagreement t_rel_error_mean label "
-           "number "
-           "bytes_per_prim (? = unknown)\n";
-      for (size_t k = 0; k < idx.size(); ++k) {
-        const SweepRow& r = rows[idx[k]];
-        f << r.cycles << ' ' << r.bvh_bytes << ' ' << (r.rtl_cells >= 0 ? std::to_string(r.rtl_cells) : "?") << ' '
-          << (r.dram_bytes_per_ray > 0.0 ? g(r.dram_bytes_per_ray) : "?") << ' '
-          << (r.pj_per_ray > 0.0 ? g(r.pj_per_ray) : "?") << ' '
-          << g(drawn_error(r, ParetoError::kHitDisagreement)) << ' '
-          << g(drawn_error(r, ParetoError::kTRelErrorMean)) << ' ' << label_field(pareto_label(r.p)) << ' '
-          << k + 1 << ' ' << g(r.bytes_per_prim) << '\n';
-      }
-      if (!f.flush()) throw Error("cannot write " + dir + "/" + data);
+    for (size_t i : s.idx) rays = std::max(rays, rows[i].rays);
+    s.one_ray = rays ? 1.0 / double(rays) : 1e-9;
+    s.hit_zero = s.one_ray / kHitZeroBelow;
+    s.hit_zeros =
+        std::any_of(s.idx.begin(), s.idx.end(), [&](size_t i) { return rows[i].hit_disagreement() <= 0.0; });
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+// The scene's data file (BASE.dat), a line per point in number order. The first columns are the costs in
+// ParetoCost order (a panel plots column cost + 1).
+void write_scene_data(const std::vector<SweepRow>& rows, const SceneRows& s, const std::string& dir) {
+  const std::string data = s.base + ".dat";
+  std::ofstream f(dir + "/" + data);
+  f << "# " << s.scene
+    << ": cycles bvh_bytes rtl_cells dram_bytes_per_ray pj_per_ray hit_disagreement t_rel_error_mean label "
+       "number "
+       "bytes_per_prim (? = unknown)\n";
+  for (size_t k = 0; k < s.idx.size(); ++k) {
+    const SweepRow& r = rows[s.idx[k]];
+    f << r.cycles << ' ' << r.bvh_bytes << ' ' << (r.rtl_cells >= 0 ? std::to_string(r.rtl_cells) : "?") << ' '
+      << (r.dram_bytes_per_ray > 0.0 ? g(r.dram_bytes_per_ray) : "?") << ' '
+      << (r.pj_per_ray > 0.0 ? g(r.pj_per_ray) : "?") << ' ' << g(s.drawn_error(r, ParetoError::kHitDisagreement))
+      << ' ' << g(s.drawn_error(r, ParetoError::kTRelErrorMean)) << ' ' << label_field(pareto_label(r.p)) << ' '
+      << k + 1 << ' ' << g(r.bytes_per_prim) << '\n';
+  }
+  if (!f.flush()) throw Error("cannot write " + dir + "/" + data);
+}
+
+// The panels drawn, cycles and image bytes always; DRAM bytes, area and energy only when some row of the scene has
+// them.
+struct Panels {
+  std::vector<ParetoCost> costs = {ParetoCost::kCycles, ParetoCost::kBvhBytes};
+  bool dram = false, area = false, energy = false;
+};
+
+Panels scene_panels(const std::vector<SweepRow>& rows, const SceneRows& s) {
+  const auto any_known = [&](ParetoCost c) {
+    return std::any_of(s.idx.begin(), s.idx.end(), [&](size_t i) { return pareto_cost(rows[i], c) > 0; });
+  };
+  Panels p;
+  p.dram = any_known(ParetoCost::kDramBytesPerRay);
+  p.area = any_known(ParetoCost::kRtlCells);
+  p.energy = any_known(ParetoCost::kPjPerRay);
+  if (p.dram) p.costs.push_back(ParetoCost::kDramBytesPerRay);
+  if (p.area) p.costs.push_back(ParetoCost::kRtlCells);
+  if (p.energy) p.costs.push_back(ParetoCost::kPjPerRay);
+  return p;
+}
+
+// The image in pixels (y down) and gnuplot's screen coordinates of a pixel.
+struct Canvas {
+  double width = 0.0, height = 0.0;
+  std::string sx(double px) const { return g(px / width); }
+  std::string sy(double py) const { return g(1.0 - py / height); }
+};
+
+// The script's lines before the panels: terminal, output, the settings every panel shares.
+std::string script_header(const SceneRows& s, ParetoError e, const std::string& png, const std::string& script,
+                          const Canvas& cv) {
+  std::ostringstream gp;
+  gp << "# Pareto plots of " << s.scene << " (rtusim pareto / rtusim report); run: gnuplot " << script << "\n"
+     << "set terminal pngcairo noenhanced size " << kParetoPlotWidth << "," << int(cv.height) << " font 'sans,9'\n"
+     << "set output " << gp_quote(png) << "\n"
+     << "set datafile missing '?'\n"
+     << "set grid\nunset key\nset logscale y\nset format y '%.0e'\n"
+     << "set style textbox opaque noborder margins 1,1\n"
+     << "set ylabel " << gp_quote(error_axis(e)) << "\n";
+  return gp.str();
+}
+
+// The title lines: labels at fixed places, so that they cannot move the panels. Drawn with the first panel (each
+// panel starts with `unset label`).
+std::string title_labels(const SceneRows& s, ParetoError e, const Canvas& cv) {
+  std::string title =
+      s.scene + ": " + error_axis(e) + " against cost, " + std::to_string(s.idx.size()) + " points";
+  title += e == ParetoError::kHitDisagreement
+               ? " (one wrong ray is 1/rays = " + g(s.one_ray) + "; 0 is drawn apart, under the dashed line"
+               : " (0 is drawn at " + g(kZeroTError);
+  title += ")";
+  const std::string legend =
+      "numbers: the points (the scene's rows, format/width/config, in the table under the plots); blue: "
+      "sweep points; red staircase and circles: the Pareto front";
+  return "set label 101 " + gp_quote(title) + " at screen 0.5," + cv.sy(13) +
+         " center font ',11'\nset label 102 " + gp_quote(legend) + " at screen 0.5," + cv.sy(30) + " center\n";
+}
+
+// With zeros on the hit axis: a dashed break between the zeros and one wrong ray (halfway on the log axis), a "0"
+// tick at the zeros and decade ticks only above the break, where errors are measured. Empty otherwise.
+std::string zero_axis(const SceneRows& s, ParetoError e, double yhi) {
+  if (e != ParetoError::kHitDisagreement || !s.hit_zeros) return std::string();
+  const double brk = std::sqrt(s.hit_zero * s.one_ray);
+  std::string z = "set ytics (\"0\" " + g(s.hit_zero);
+  for (double dec = std::pow(10.0, std::ceil(std::log10(brk))); dec <= yhi; dec *= 10.0) z += ", " + g(dec);
+  z += ")\nset arrow 900 from graph 0, first " + g(brk) + " to graph 1, first " + g(brk) +
+       " nohead dt 2 lw 1.5 lc rgb '#606060' back\n";
+  return z;
+}
+
+// What one plot (a scene and an error) shares across its panels.
+struct PlotFrame {
+  const SceneRows& s;
+  ParetoError e;
+  std::string ename;  // "hit" or "terr", in the file names
+  Canvas cv;
+  double ylo = 0.0, yhi = 0.0;  // the error axis
+  std::string title, zero;      // title_labels, zero_axis
+};
+
+// A panel's points: those whose cost is known, at (cost, drawn error).
+struct PanelPoints {
+  std::vector<std::pair<double, double>> pts;
+  std::vector<size_t> which;  // position in the scene's rows (the point's number - 1)
+  Range xr;                   // the costs
+};
+
+PanelPoints panel_points(const std::vector<SweepRow>& rows, const PlotFrame& pf, ParetoCost cost) {
+  PanelPoints p;
+  for (size_t k = 0; k < pf.s.idx.size(); ++k) {
+    const double x = pareto_cost(rows[pf.s.idx[k]], cost);
+    if (x <= 0.0) continue;
+    p.pts.emplace_back(x, pf.s.drawn_error(rows[pf.s.idx[k]], pf.e));
+    p.which.push_back(k);
+    p.xr.add(x);
+  }
+  return p;
+}
+
+// The front's points, cost, error and label, in front order (FRONT_FILE, which the panel draws as a staircase).
+void write_front_file(const std::vector<SweepRow>& rows, const PlotFrame& pf, ParetoCost cost,
+                      const PanelPoints& p, const std::vector<size_t>& front, const std::string& dir,
+                      const std::string& front_file) {
+  std::ofstream f(dir + "/" + front_file);
+  f << "# the Pareto front: " << pareto_cost_name(cost) << ' ' << pareto_error_name(pf.e) << " label\n";
+  for (size_t k : front)
+    f << g(p.pts[k].first) << ' ' << g(p.pts[k].second) << ' '
+      << label_field(pareto_label(rows[pf.s.idx[p.which[k]]].p)) << '\n';
+  if (!f.flush()) throw Error("cannot write " + dir + "/" + front_file);
+}
+
+// The panel's place in the image and the scale of its axes, pixels y down.
+struct PanelAxes {
+  double x0 = 0.0, x1 = 0.0, y0 = 0.0, y1 = 0.0;  // the plot area
+  bool logx = false;
+  double xlo = 0.0, xhi = 0.0, ylo = 0.0, yhi = 0.0;
+  double px(double x) const {
+    const double f = logx ? std::log(x / xlo) / std::log(xhi / xlo) : (x - xlo) / (xhi - xlo);
+    return x0 + f * (x1 - x0);
+  }
+  double py(double y) const { return y1 - std::log(y / ylo) / std::log(yhi / ylo) * (y1 - y0); }
+};
+
+// Panel c of the image (two per row): its plot area leaves margins for the error axis on the left, the panel
+// title on top and the cost axis below. The cost axis is logarithmic over a wide range of costs, linear over a
+// narrow one (a log axis would show no tick there).
+PanelAxes panel_axes(const PlotFrame& pf, size_t c, const Range& xr) {
+  PanelAxes a;
+  const double width = pf.cv.width;
+  const double cx = double(c % 2) * width / 2, cy = kParetoTitleHeight + double(c / 2) * kParetoPanelHeight;
+  a.x0 = cx + 85;
+  a.x1 = cx + width / 2 - 20;
+  a.y0 = cy + 30;
+  a.y1 = cy + kParetoPanelHeight - 60;
+  a.logx = xr.hi >= 3.0 * xr.lo;
+  if (a.logx) {
+    a.xlo = xr.lo / 1.3;
+    a.xhi = xr.hi * 1.3;
+  } else {
+    const double span = xr.hi > xr.lo ? xr.hi - xr.lo : 0.05 * xr.hi;
+    a.xlo = std::max(0.0, xr.lo - 0.15 * span);
+    a.xhi = xr.hi + 0.15 * span;
+  }
+  a.ylo = pf.ylo;
+  a.yhi = pf.yhi;
+  return a;
+}
+
+// One label per place: points drawn on the same spot (within 4 px, so that the eye cannot tell them apart; e.g.
+// presets that differ only in timing, on the memory axis) share one, "3-5" or "1,4".
+struct Place {
+  double x, y;                  // pixels of the first point of the place
+  std::vector<size_t> members;  // numbers - 1
+  bool front = false;
+};
+
+// The places of the panel's points, those with a point of the front first (they are labelled first).
+std::vector<Place> label_places(const PanelPoints& p, const std::vector<size_t>& front, const PanelAxes& a) {
+  std::vector<Place> places;
+  std::set<size_t> front_set(front.begin(), front.end());
+  for (size_t k = 0; k < p.pts.size(); ++k) {
+    const double mx = a.px(p.pts[k].first), my = a.py(p.pts[k].second);
+    auto it = std::find_if(places.begin(), places.end(), [&](const Place& pl) {
+      return std::abs(pl.x - mx) <= 4.0 && std::abs(pl.y - my) <= 4.0;
+    });
+    if (it == places.end()) {
+      places.push_back(Place{mx, my, {}, false});
+      it = places.end() - 1;
     }
-    // The panels drawn: DRAM bytes and area only when some row of the scene has them.
-    std::vector<ParetoCost> costs = {ParetoCost::kCycles, ParetoCost::kBvhBytes};
-    const auto any_known = [&](ParetoCost c) {
-      return std::any_of(idx.begin(), idx.end(), [&](size_t i) { return pareto_cost(rows[i], c) > 0; });
-    };
-    const bool dram_panel = any_known(ParetoCost::kDramBytesPerRay);
-    const bool area_panel = any_known(ParetoCost::kRtlCells);
-    const bool energy_panel = any_known(ParetoCost::kPjPerRay);
-    if (dram_panel) costs.push_back(ParetoCost::kDramBytesPerRay);
-    if (area_panel) costs.push_back(ParetoCost::kRtlCells);
-    if (energy_panel) costs.push_back(ParetoCost::kPjPerRay);
-    const int panel_rows = int(costs.size() + 1) / 2;
-    const double width = kParetoPlotWidth, height = kParetoTitleHeight + panel_rows * kParetoPanelHeight;
-    const auto sx = [&](double px) { return g(px / width); };
-    const auto sy = [&](double py) { return g(1.0 - py / height); };
-    for (ParetoError e : {ParetoError::kHitDisagreement, ParetoError::kTRelErrorMean}) {
-      ParetoPlot plot;
-      plot.scene = scene;
-      plot.error = e;
-      plot.points = idx.size();
-      plot.rows = idx;
-      plot.area_panel = area_panel;
-      plot.dram_panel = dram_panel;
-      plot.energy_panel = energy_panel;
-      const std::string ename = e == ParetoError::kHitDisagreement ? "hit" : "terr";
-      plot.png = base + "_" + ename + ".png";
-      const std::string script = base + "_" + ename + ".gp";
-      std::ostringstream gp;
-      gp << "# Pareto plots of " << scene << " (rtusim pareto / rtusim report); run: gnuplot " << script << "\n"
-         << "set terminal pngcairo noenhanced size " << kParetoPlotWidth << "," << int(height)
-         << " font 'sans,9'\n"
-         << "set output " << gp_quote(plot.png) << "\n"
-         << "set datafile missing '?'\n"
-         << "set grid\nunset key\nset logscale y\nset format y '%.0e'\n"
-         << "set style textbox opaque noborder margins 1,1\n"
-         << "set ylabel " << gp_quote(error_axis(e)) << "\n";
-      std::string title =
-          scene + ": " + error_axis(e) + " against cost, " + std::to_string(idx.size()) + " points";
-      title += e == ParetoError::kHitDisagreement
-                   ? " (one wrong ray is 1/rays = " + g(one_ray) + "; 0 is drawn apart, under the dashed line"
-                   : " (0 is drawn at " + g(kZeroTError);
-      title += ")";
-      const std::string legend =
-          "numbers: the points (the scene's rows, format/width/config, in the table under the plots); blue: "
-          "sweep points; red staircase and circles: the Pareto front";
-      // The title lines are labels at fixed places, so that they cannot move the panels.
-      // Drawn with the first panel (each panel starts with `unset label`).
-      const std::string title_labels = "set label 101 " + gp_quote(title) + " at screen 0.5," + sy(13) +
-                                       " center font ',11'\nset label 102 " + gp_quote(legend) +
-                                       " at screen 0.5," + sy(30) + " center\n";
-      gp << "set multiplot\n";
-      Range yr;
-      for (size_t i : idx) yr.add(drawn_error(rows[i], e));
-      const double ylo = yr.lo / 3, yhi = yr.hi * 3;
-      // With zeros on the hit axis: a dashed break between the zeros and one wrong ray (halfway on the log
-      // axis), a "0" tick at the zeros and decade ticks only above the break, where errors are measured.
-      std::string zero_axis;
-      if (e == ParetoError::kHitDisagreement && hit_zeros) {
-        const double brk = std::sqrt(hit_zero * one_ray);
-        zero_axis = "set ytics (\"0\" " + g(hit_zero);
-        for (double dec = std::pow(10.0, std::ceil(std::log10(brk))); dec <= yhi; dec *= 10.0)
-          zero_axis += ", " + g(dec);
-        zero_axis += ")\nset arrow 900 from graph 0, first " + g(brk) + " to graph 1, first " + g(brk) +
-                     " nohead dt 2 lw 1.5 lc rgb '#606060' back\n";
-      }
-      const int ycol = e == ParetoError::kHitDisagreement ? 6 : 7;
-      for (size_t c = 0; c < costs.size(); ++c) {
-        const ParetoCost cost = costs[c];
-        const int ci = int(cost);  // index into plot.front and the data file's columns
-        std::vector<std::pair<double, double>> pts;
-        std::vector<size_t> which;  // position in idx (the point's number - 1)
-        Range xr;
-        for (size_t k = 0; k < idx.size(); ++k) {
-          const double x = pareto_cost(rows[idx[k]], cost);
-          if (x <= 0.0) continue;
-          pts.emplace_back(x, drawn_error(rows[idx[k]], e));
-          which.push_back(k);
-          xr.add(x);
-        }
-        const std::vector<size_t> front = pareto_front(pts);
-        for (size_t f : front) plot.front[ci].push_back(idx[which[f]]);
-        const std::string front_file = base + "_" + ename + "_" + pareto_cost_name(cost) + ".front";
-        {
-          std::ofstream f(dir + "/" + front_file);
-          f << "# the Pareto front: " << pareto_cost_name(cost) << ' ' << pareto_error_name(e) << " label\n";
-          for (size_t k : front)
-            f << g(pts[k].first) << ' ' << g(pts[k].second) << ' '
-              << label_field(pareto_label(rows[idx[which[k]]].p)) << '\n';
-          if (!f.flush()) throw Error("cannot write " + dir + "/" + front_file);
-        }
-        // The panel's place in the image (two per row) and its plot area in pixels (y down): margins for the
-        // error axis on the left, the panel title on top and the cost axis below.
-        const double cx = double(c % 2) * width / 2, cy = kParetoTitleHeight + double(c / 2) * kParetoPanelHeight;
-        const double x0 = cx + 85, x1 = cx + width / 2 - 20, y0 = cy + 30, y1 = cy + kParetoPanelHeight - 60;
-        // The cost axis: logarithmic over a wide range of costs, linear over a narrow one (a log axis would show
-        // no tick there).
-        const bool logx = xr.hi >= 3.0 * xr.lo;
-        double xlo, xhi;
-        if (logx) {
-          xlo = xr.lo / 1.3;
-          xhi = xr.hi * 1.3;
-        } else {
-          const double span = xr.hi > xr.lo ? xr.hi - xr.lo : 0.05 * xr.hi;
-          xlo = std::max(0.0, xr.lo - 0.15 * span);
-          xhi = xr.hi + 0.15 * span;
-        }
-        const auto px = [&](double x) {
-          const double f = logx ? std::log(x / xlo) / std::log(xhi / xlo) : (x - xlo) / (xhi - xlo);
-          return x0 + f * (x1 - x0);
-        };
-        const auto py = [&](double y) { return y1 - std::log(y / ylo) / std::log(yhi / ylo) * (y1 - y0); };
-        // One label per place: points drawn on the same spot (within 4 px, so that the eye cannot tell them
-        // apart; e.g. presets that differ only in timing, on the memory axis) share one, "3-5" or "1,4". Places
-        // with a point of the front are labelled first.
-        struct Place {
-          double x, y;                  // pixels of the first point of the place
-          std::vector<size_t> members;  // numbers - 1
-          bool front = false;
-        };
-        std::vector<Place> places;
-        std::set<size_t> front_set(front.begin(), front.end());
-        for (size_t k = 0; k < pts.size(); ++k) {
-          const double mx = px(pts[k].first), my = py(pts[k].second);
-          auto it = std::find_if(places.begin(), places.end(), [&](const Place& pl) {
-            return std::abs(pl.x - mx) <= 4.0 && std::abs(pl.y - my) <= 4.0;
-          });
-          if (it == places.end()) {
-            places.push_back(Place{mx, my, {}, false});
-            it = places.end() - 1;
-          }
-          it->members.push_back(which[k]);
-          it->front = it->front || front_set.count(k) > 0;
-        }
-        std::stable_sort(places.begin(), places.end(),
-                         [](const Place& a, const Place& b) { return a.front && !b.front; });
-        std::vector<LabelRequest> requests;
-        std::vector<LabelBox> markers;
-        std::vector<std::string> texts;
-        for (const Place& pl : places) {
-          std::vector<size_t> numbers;
-          for (size_t k : pl.members) numbers.push_back(k + 1);
-          texts.push_back(number_list(numbers));
-          // Glyphs of the 9 pt font are at most 8 px wide and 13 px high; 2 px of room on each side.
-          requests.push_back(LabelRequest{pl.x, pl.y, 8.0 * double(texts.back().size()) + 4.0, 16.0});
-          const double m = pl.front ? 9.0 : 6.0;  // the marker's half size (front: the red circle)
-          markers.push_back(LabelBox{pl.x - m, pl.y - m, pl.x + m, pl.y + m});
-        }
-        const std::vector<LabelPlace> placed = place_labels(requests, markers, LabelBox{x0, y0, x1, y1});
-        const std::string label_file = base + "_" + ename + "_" + pareto_cost_name(cost) + ".labels";
-        std::ostringstream labels_gp;
-        {
-          std::ofstream f(dir + "/" + label_file);
-          f << "# numbers point_x point_y box_x0 box_y0 box_x1 box_y1 leader (pixels of " << plot.png
-            << ", y down; - when no free place was found)\n";
-          for (size_t k = 0; k < places.size(); ++k) {
-            const LabelPlace& p = placed[k];
-            f << label_field(texts[k]) << ' ' << g(requests[k].x) << ' ' << g(requests[k].y);
-            if (!p.placed) {
-              f << " - - - - -\n";
-              ++plot.unlabelled;
-              continue;
-            }
-            f << ' ' << g(p.box.x0) << ' ' << g(p.box.y0) << ' ' << g(p.box.x1) << ' ' << g(p.box.y1) << ' '
-              << (p.leader ? 1 : 0) << '\n';
-            labels_gp << "set label " << k + 1 << ' ' << gp_quote(texts[k]) << " at screen " << sx(p.box.x0 + 2)
-                      << "," << sy((p.box.y0 + p.box.y1) / 2) << " left front boxed\n";
-            if (p.leader) {
-              // From the marker's edge to the nearest point of the box.
-              const double bx = std::clamp(requests[k].x, p.box.x0, p.box.x1);
-              const double by = std::clamp(requests[k].y, p.box.y0, p.box.y1);
-              labels_gp << "set arrow " << k + 1 << " from screen " << sx(requests[k].x) << ","
-                        << sy(requests[k].y) << " to screen " << sx(bx) << "," << sy(by)
-                        << " nohead lc rgb '#909090' lw 1 back\n";
-            }
-          }
-          if (!f.flush()) throw Error("cannot write " + dir + "/" + label_file);
-        }
-        gp << "unset label\nunset arrow\n"
-           << (c == 0 ? title_labels : std::string()) << "set lmargin at screen " << sx(x0)
-           << "\nset rmargin at screen " << sx(x1) << "\n"
-           << "set tmargin at screen " << sy(y0) << "\nset bmargin at screen " << sy(y1) << "\n"
-           << "set title " << gp_quote(std::string(cost_axis(cost))) << "\n"
-           << "set xlabel " << gp_quote(pareto_cost_name(cost)) << "\n"
-           << "set yrange [" << g(ylo) << ":" << g(yhi) << "]\n"
-           << "set xrange [" << g(xlo) << ":" << g(xhi) << "]\n";
-        if (logx) {
-          // Ticks at 1, 2 and 5 times the powers of ten in range (gnuplot's own log ticks are decades only).
-          gp << "set logscale x\nset xtics (";
-          bool first = true;
-          for (double dec = std::pow(10.0, std::floor(std::log10(xlo))); dec <= xhi; dec *= 10.0)
-            for (double m : {1.0, 2.0, 5.0})
-              if (m * dec >= xlo && m * dec <= xhi) {
-                gp << (first ? "" : ", ") << g(m * dec);
-                first = false;
-              }
-          gp << ")\nset format x '%.0s%c'\n";
-        } else {
-          // Enough decimals of the mantissa (gnuplot's %s, scaled by the %c prefix) that ticks about a fifth of
-          // the range apart print differently.
-          const double unit = std::pow(1000.0, std::floor(std::log10(xhi) / 3.0));
-          const int decimals = std::clamp(int(std::ceil(-std::log10((xhi - xlo) / unit / 5.0))), 0, 3);
-          gp << "unset logscale x\nset xtics autofreq\nset format x '%." << decimals << "s%c'\n";
-        }
-        gp << labels_gp.str() << zero_axis;
-        gp << "plot " << gp_quote(data) << " using " << ci + 1 << ":" << ycol
-           << " with points pt 7 ps 1.2 lc rgb '#3060c0', \\\n"
-           << "  " << gp_quote(front_file) << " using 1:2 with steps lw 2 lc rgb '#d03020', \\\n"
-           << "  '' using 1:2 with points pt 6 ps 2 lw 2 lc rgb '#d03020'\n";
-      }
-      gp << "unset multiplot\n";
-      {
-        std::ofstream f(dir + "/" + script);
-        f << gp.str();
-        if (!f.flush()) throw Error("cannot write " + dir + "/" + script);
-      }
-      const std::string log = base + "_" + ename + ".log";
-      const int st = run_in({gnuplot, script}, dir, log);
-      std::error_code ec;
-      if (st != 0 || !std::filesystem::exists(dir + "/" + plot.png, ec))
-        throw Error("pareto: gnuplot failed on " + dir + "/" + script + " (exit " + std::to_string(st) + "; see " +
-                    dir + "/" + log + ")");
-      if (std::filesystem::file_size(dir + "/" + log, ec) == 0 && !ec)
-        std::filesystem::remove(dir + "/" + log, ec);
-      plots.push_back(std::move(plot));
+    it->members.push_back(p.which[k]);
+    it->front = it->front || front_set.count(k) > 0;
+  }
+  std::stable_sort(places.begin(), places.end(),
+                   [](const Place& l, const Place& r) { return l.front && !r.front; });
+  return places;
+}
+
+// Places the labels of the places without overlaps, writes them to LABEL_FILE (pixels of the PNG) and returns
+// the script's lines that draw them; counts the labels that found no place in plot.unlabelled.
+std::string write_labels(const std::vector<Place>& places, const PanelAxes& a, const PlotFrame& pf,
+                         const std::string& dir, const std::string& label_file, ParetoPlot& plot) {
+  std::vector<LabelRequest> requests;
+  std::vector<LabelBox> markers;
+  std::vector<std::string> texts;
+  for (const Place& pl : places) {
+    std::vector<size_t> numbers;
+    for (size_t k : pl.members) numbers.push_back(k + 1);
+    texts.push_back(number_list(numbers));
+    // Glyphs of the 9 pt font are at most 8 px wide and 13 px high; 2 px of room on each side.
+    requests.push_back(LabelRequest{pl.x, pl.y, 8.0 * double(texts.back().size()) + 4.0, 16.0});
+    const double m = pl.front ? 9.0 : 6.0;  // the marker's half size (front: the red circle)
+    markers.push_back(LabelBox{pl.x - m, pl.y - m, pl.x + m, pl.y + m});
+  }
+  const std::vector<LabelPlace> placed = place_labels(requests, markers, LabelBox{a.x0, a.y0, a.x1, a.y1});
+  std::ostringstream labels_gp;
+  std::ofstream f(dir + "/" + label_file);
+  f << "# numbers point_x point_y box_x0 box_y0 box_x1 box_y1 leader (pixels of " << plot.png
+    << ", y down; - when no free place was found)\n";
+  for (size_t k = 0; k < places.size(); ++k) {
+    const LabelPlace& p = placed[k];
+    f << label_field(texts[k]) << ' ' << g(requests[k].x) << ' ' << g(requests[k].y);
+    if (!p.placed) {
+      f << " - - - - -\n";
+      ++plot.unlabelled;
+      continue;
     }
+    f << ' ' << g(p.box.x0) << ' ' << g(p.box.y0) << ' ' << g(p.box.x1) << ' ' << g(p.box.y1) << ' '
+      << (p.leader ? 1 : 0) << '\n';
+    labels_gp << "set label " << k + 1 << ' ' << gp_quote(texts[k]) << " at screen " << pf.cv.sx(p.box.x0 + 2)
+              << "," << pf.cv.sy((p.box.y0 + p.box.y1) / 2) << " left front boxed\n";
+    if (p.leader) {
+      // From the marker's edge to the nearest point of the box.
+      const double bx = std::clamp(requests[k].x, p.box.x0, p.box.x1);
+      const double by = std::clamp(requests[k].y, p.box.y0, p.box.y1);
+      labels_gp << "set arrow " << k + 1 << " from screen " << pf.cv.sx(requests[k].x) << ","
+                << pf.cv.sy(requests[k].y) << " to screen " << pf.cv.sx(bx) << "," << pf.cv.sy(by)
+                << " nohead lc rgb '#909090' lw 1 back\n";
+    }
+  }
+  if (!f.flush()) throw Error("cannot write " + dir + "/" + label_file);
+  return labels_gp.str();
+}
+
+// The cost axis's ticks and their format.
+std::string cost_ticks(const PanelAxes& a) {
+  std::ostringstream gp;
+  if (a.logx) {
+    // Ticks at 1, 2 and 5 times the powers of ten in range (gnuplot's own log ticks are decades only).
+    gp << "set logscale x\nset xtics (";
+    bool first = true;
+    for (double dec = std::pow(10.0, std::floor(std::log10(a.xlo))); dec <= a.xhi; dec *= 10.0)
+      for (double m : {1.0, 2.0, 5.0})
+        if (m * dec >= a.xlo && m * dec <= a.xhi) {
+          gp << (first ? "" : ", ") << g(m * dec);
+          first = false;
+        }
+    gp << ")\nset format x '%.0s%c'\n";
+  } else {
+    // Enough decimals of the mantissa (gnuplot's %s, scaled by the %c prefix) that ticks about a fifth of the
+    // range apart print differently.
+    const double unit = std::pow(1000.0, std::floor(std::log10(a.xhi) / 3.0));
+    const int decimals = std::clamp(int(std::ceil(-std::log10((a.xhi - a.xlo) / unit / 5.0))), 0, 3);
+    gp << "unset logscale x\nset xtics autofreq\nset format x '%." << decimals << "s%c'\n";
+  }
+  return gp.str();
+}
+
+// Panel c of the plot, against `cost`: its front (into plot.front), its front and label files, and its lines of
+// the script.
+std::string write_panel(const std::vector<SweepRow>& rows, const PlotFrame& pf, size_t c, ParetoCost cost,
+                        const std::string& dir, ParetoPlot& plot) {
+  const int ci = int(cost);  // index into plot.front and the data file's columns
+  const PanelPoints p = panel_points(rows, pf, cost);
+  const std::vector<size_t> front = pareto_front(p.pts);
+  for (size_t f : front) plot.front[ci].push_back(pf.s.idx[p.which[f]]);
+  const std::string stem = pf.s.base + "_" + pf.ename + "_" + pareto_cost_name(cost);
+  const std::string front_file = stem + ".front";
+  write_front_file(rows, pf, cost, p, front, dir, front_file);
+  const PanelAxes a = panel_axes(pf, c, p.xr);
+  const std::string labels_gp = write_labels(label_places(p, front, a), a, pf, dir, stem + ".labels", plot);
+  std::ostringstream gp;
+  gp << "unset label\nunset arrow\n"
+     << (c == 0 ? pf.title : std::string()) << "set lmargin at screen " << pf.cv.sx(a.x0)
+     << "\nset rmargin at screen " << pf.cv.sx(a.x1) << "\n"
+     << "set tmargin at screen " << pf.cv.sy(a.y0) << "\nset bmargin at screen " << pf.cv.sy(a.y1) << "\n"
+     << "set title " << gp_quote(std::string(cost_axis(cost))) << "\n"
+     << "set xlabel " << gp_quote(pareto_cost_name(cost)) << "\n"
+     << "set yrange [" << g(a.ylo) << ":" << g(a.yhi) << "]\n"
+     << "set xrange [" << g(a.xlo) << ":" << g(a.xhi) << "]\n";
+  gp << cost_ticks(a) << labels_gp << pf.zero;
+  const int ycol = pf.e == ParetoError::kHitDisagreement ? 6 : 7;
+  gp << "plot " << gp_quote(pf.s.base + ".dat") << " using " << ci + 1 << ":" << ycol
+     << " with points pt 7 ps 1.2 lc rgb '#3060c0', \\\n"
+     << "  " << gp_quote(front_file) << " using 1:2 with steps lw 2 lc rgb '#d03020', \\\n"
+     << "  '' using 1:2 with points pt 6 ps 2 lw 2 lc rgb '#d03020'\n";
+  return gp.str();
+}
+
+// Writes SCRIPT and runs gnuplot on it in dir; throws Error when it fails or makes no PNG. Its log is kept only
+// when gnuplot said something.
+void run_gnuplot(const std::string& gnuplot, const std::string& dir, const std::string& script,
+                 const std::string& text, const std::string& png, const std::string& log) {
+  {
+    std::ofstream f(dir + "/" + script);
+    f << text;
+    if (!f.flush()) throw Error("cannot write " + dir + "/" + script);
+  }
+  const int st = run_in({gnuplot, script}, dir, log);
+  std::error_code ec;
+  if (st != 0 || !std::filesystem::exists(dir + "/" + png, ec))
+    throw Error("pareto: gnuplot failed on " + dir + "/" + script + " (exit " + std::to_string(st) + "; see " +
+                dir + "/" + log + ")");
+  if (std::filesystem::file_size(dir + "/" + log, ec) == 0 && !ec) std::filesystem::remove(dir + "/" + log, ec);
+}
+
+// The scene's plot of error e against each panel's cost: a PNG of its panels, its script, data and label files.
+ParetoPlot write_scene_plot(const std::vector<SweepRow>& rows, const SceneRows& s, const Panels& panels,
+                            ParetoError e, const std::string& dir, const std::string& gnuplot) {
+  const int panel_rows = int(panels.costs.size() + 1) / 2;
+  const Canvas cv{double(kParetoPlotWidth), double(kParetoTitleHeight + panel_rows * kParetoPanelHeight)};
+  Range yr;
+  for (size_t i : s.idx) yr.add(s.drawn_error(rows[i], e));
+  const double yhi = yr.hi * 3;
+  const PlotFrame pf{s,
+                     e,
+                     e == ParetoError::kHitDisagreement ? "hit" : "terr",
+                     cv,
+                     yr.lo / 3,
+                     yhi,
+                     title_labels(s, e, cv),
+                     zero_axis(s, e, yhi)};
+  ParetoPlot plot;
+  plot.scene = s.scene;
+  plot.error = e;
+  plot.points = s.idx.size();
+  plot.rows = s.idx;
+  plot.area_panel = panels.area;
+  plot.dram_panel = panels.dram;
+  plot.energy_panel = panels.energy;
+  plot.png = s.base + "_" + pf.ename + ".png";
+  const std::string script = s.base + "_" + pf.ename + ".gp";
+  std::string gp = script_header(s, e, plot.png, script, pf.cv) + "set multiplot\n";
+  for (size_t c = 0; c < panels.costs.size(); ++c) gp += write_panel(rows, pf, c, panels.costs[c], dir, plot);
+  gp += "unset multiplot\n";
+  run_gnuplot(gnuplot, dir, script, gp, plot.png, s.base + "_" + pf.ename + ".log");
+  return plot;
+}
+
+}  // namespace
+
+std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, const std::string& dir,
+                                           const std::string& gnuplot) {
+  if (rows.empty()) throw Error("pareto: the sweep has no rows");
+  if (gnuplot.empty()) throw Error("pareto: gnuplot not found (install the Debian package gnuplot-nox)");
+  std::vector<ParetoPlot> plots;
+  for (const SceneRows& s : rows_by_scene(rows)) {
+    write_scene_data(rows, s, dir);
+    const Panels panels = scene_panels(rows, s);
+    for (ParetoError e : {ParetoError::kHitDisagreement, ParetoError::kTRelErrorMean})
+      plots.push_back(write_scene_plot(rows, s, panels, e, dir, gnuplot));
   }
   return plots;
 }

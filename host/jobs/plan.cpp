@@ -150,7 +150,10 @@ double plan_smallest_hit_budget(uint64_t rays_per_kind, double confidence) {
   return proportion_upper_bound(0, 2 * rays_per_kind, confidence);
 }
 
-PlanResult plan_format(const PlanOptions& a, const std::function<void(const PlanStep&)>& progress) {
+namespace {
+
+// Refuses options no plan can run with.
+void check_plan_options(const PlanOptions& a) {
   if (a.metric != "hit" && a.metric != "t") throw Error("--metric: hit or t, got '" + a.metric + "'");
   if (!(a.max_error >= 0.0) || !std::isfinite(a.max_error))
     throw Error("--max-error: a finite number >= 0, got " + g(a.max_error));
@@ -166,97 +169,133 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
     throw Error("--area-budget: a finite number of mm^2 >= 0 (0: none), got " + g(a.area_budget));
   if (a.sweep.rays < 1 || a.sweep.rays > kMaxPlanRays)
     throw Error("--rays: " + std::to_string(a.sweep.rays) + " is not in 1.." + std::to_string(kMaxPlanRays));
-  std::string base;
+}
+
+// The format whose bits the plan varies: --format, else the configuration's.
+struct BaseFormat {
+  std::string spec;
+  int child_bits = 0;
+};
+
+BaseFormat plan_base_format(const PlanOptions& a) {
+  BaseFormat b;
   try {
-    base = hw::timing_preset(a.config).format;
+    b.spec = hw::timing_preset(a.config).format;
   } catch (const std::invalid_argument& e) {
     throw Error(std::string("--config: ") + e.what());
   }
-  if (!a.format.empty()) base = a.format;
-  int base_child_bits = 0;
+  if (!a.format.empty()) b.spec = a.format;
   try {
-    base_child_bits = hw::format_from_spec(base).child_bits;
+    b.child_bits = hw::format_from_spec(b.spec).child_bits;
   } catch (const std::invalid_argument& e) {
     throw Error(std::string("--format: ") + e.what());
   }
-  // Zero disagreements on every ray is the best a candidate can show; below that bound no format can meet the
-  // budget, however good. Below the bound on the most rays --rays allows no run can: refused as such (a budget of
-  // 0 would need infinitely many rays). Else the rays that can show it, (1 - p)^n = 1 - confidence solved for n.
+  return b;
+}
+
+// Zero disagreements on every ray is the best a candidate can show; below that bound no format can meet the
+// budget, however good. Below the bound on the most rays --rays allows no run can: refused as such (a budget of 0
+// would need infinitely many rays). Else the rays that can show it, (1 - p)^n = 1 - confidence solved for n.
+void check_hit_budget_can_be_shown(const PlanOptions& a) {
+  if (a.metric != "hit") return;
   const uint64_t sample = 2 * a.sweep.rays;
-  if (a.metric == "hit") {
-    const double smallest = plan_smallest_hit_budget(kMaxPlanRays, a.confidence);
-    if (a.max_error < smallest)
-      throw Error("--max-error " + g(a.max_error) + " is below the smallest hit disagreement a plan can show, " +
-                  g(smallest) + " (the " + g(100.0 * a.confidence) +
-                  "% upper bound with no disagreement at all on " + std::to_string(2 * kMaxPlanRays) +
-                  " rays, the most --rays " + std::to_string(kMaxPlanRays) + " gives): give --max-error " +
-                  g(smallest) + " or more, or --metric t");
-    const double here = plan_smallest_hit_budget(a.sweep.rays, a.confidence);
-    if (here > a.max_error) {
-      const double n = std::log(1.0 - a.confidence) / std::log1p(-a.max_error);  // sample size, both kinds
-      uint64_t need = std::min<uint64_t>(kMaxPlanRays, uint64_t(std::ceil(n / 2.0)));
-      while (need < kMaxPlanRays && plan_smallest_hit_budget(need, a.confidence) > a.max_error) ++need;
-      throw Error("--max-error " + g(a.max_error) + " cannot be shown on " + std::to_string(sample) +
-                  " rays: with no disagreement at all the " + g(100.0 * a.confidence) + "% upper bound is " +
-                  g(here) + "; use --rays " + std::to_string(need) + " or more");
-    }
+  const double smallest = plan_smallest_hit_budget(kMaxPlanRays, a.confidence);
+  if (a.max_error < smallest)
+    throw Error("--max-error " + g(a.max_error) + " is below the smallest hit disagreement a plan can show, " +
+                g(smallest) + " (the " + g(100.0 * a.confidence) +
+                "% upper bound with no disagreement at all on " + std::to_string(2 * kMaxPlanRays) +
+                " rays, the most --rays " + std::to_string(kMaxPlanRays) + " gives): give --max-error " +
+                g(smallest) + " or more, or --metric t");
+  const double here = plan_smallest_hit_budget(a.sweep.rays, a.confidence);
+  if (here > a.max_error) {
+    const double n = std::log(1.0 - a.confidence) / std::log1p(-a.max_error);  // sample size, both kinds
+    uint64_t need = std::min<uint64_t>(kMaxPlanRays, uint64_t(std::ceil(n / 2.0)));
+    while (need < kMaxPlanRays && plan_smallest_hit_budget(need, a.confidence) > a.max_error) ++need;
+    throw Error("--max-error " + g(a.max_error) + " cannot be shown on " + std::to_string(sample) +
+                " rays: with no disagreement at all the " + g(100.0 * a.confidence) + "% upper bound is " +
+                g(here) + "; use --rays " + std::to_string(need) + " or more");
   }
-  check_sweep_rays("plan", a.sweep.rays);
-  const Scene scene = load_scene(a.scene);
-  const AreaTable area = a.area.empty() ? AreaTable::shipped() : AreaTable::load(a.area);
-  const ActivityTable activity = ActivityTable::shipped();
-  auto cache = make_sweep_cache();
-  auto report = [&](PlanStage stage, int width, int coord_bits = 0, const SweepRow* row = nullptr,
-                    bool meets = false) {
-    if (progress) progress(PlanStep{stage, width, coord_bits, row, meets});
-  };
-  auto meets = [&](const SweepRow& r) { return plan_meets(r, a); };
+}
+
+// Runs the plan's candidates on its scene and tells the progress callback of each.
+class Planner {
+ public:
+  Planner(const PlanOptions& a, const std::function<void(const PlanStep&)>& progress)
+      : m_a(a),
+        m_progress(progress),
+        m_scene(load_scene(a.scene)),
+        m_area(a.area.empty() ? AreaTable::shipped() : AreaTable::load(a.area)),
+        m_activity(ActivityTable::shipped()),
+        m_cache(make_sweep_cache()) {}
+
+  const Scene& scene() const { return m_scene; }
+
+  void report(PlanStage stage, int width, int coord_bits = 0, const SweepRow* row = nullptr,
+              bool meets = false) const {
+    if (m_progress) m_progress(PlanStep{stage, width, coord_bits, row, meets});
+  }
+
+  bool meets(const SweepRow& r) const { return plan_meets(r, m_a); }
+
+  // The format at a width, on the configuration (with the units the area budget affords).
+  SweepRow point(const std::string& format, int width) {
+    if (m_a.sweep.poll) m_a.sweep.poll();
+    SweepRow r =
+        run_sweep_point(m_scene, SweepPoint{m_a.scene, format, width, m_a.config}, m_a.sweep, m_area, *m_cache);
+    if (m_a.area_budget > 0.0) r = afford(r);
+    report(PlanStage::kCandidate, width, 0, &r, meets(r));
+    return r;
+  }
+
+ private:
   // The area of a format at a width with a configuration spec, without running it.
-  auto area_of = [&](const std::string& format, int width, const std::string& config) {
+  double area_of(const std::string& format, int width, const std::string& config) const {
     hw::FixedFormat f = hw::format_from_spec(format);
     f.width = width;
     hw::TimingConfig c = sweep_config(config);
     hw::set_timing_key(c, "bvh_width", std::to_string(width));
-    return hw::area_report(c, cost_inputs(f, c, area, activity)).total_mm2;
-  };
+    return hw::area_report(c, cost_inputs(f, c, m_area, m_activity)).total_mm2;
+  }
+
   // Iso-area: one more box or triangle unit at a time, the cheaper of the two that fit, while it is cheaper.
-  auto afford = [&](SweepRow cur) {
-    const hw::TimingConfig preset = hw::timing_preset(a.config);
+  SweepRow afford(SweepRow cur) {
+    const hw::TimingConfig preset = hw::timing_preset(m_a.config);
     int box = preset.box_units, tri = preset.tri_units;
-    while (cur.area_mm2 <= a.area_budget) {
+    while (cur.area_mm2 <= m_a.area_budget) {
       std::unique_ptr<SweepRow> next;
       for (const auto& [nb, nt] : {std::pair{box + 1, tri}, std::pair{box, tri + 1}}) {
         if (nb > 64 || nt > 64) continue;
         const std::string config =
-            a.config + ":box_units=" + std::to_string(nb) + ":tri_units=" + std::to_string(nt);
-        if (area_of(cur.p.format, cur.p.bvh_width, config) > a.area_budget) continue;
-        SweepRow r = retime_sweep_point(scene, cur, config, a.sweep, area, *cache);
-        if (!next || plan_cheaper(r, *next, a)) next = std::make_unique<SweepRow>(r);
+            m_a.config + ":box_units=" + std::to_string(nb) + ":tri_units=" + std::to_string(nt);
+        if (area_of(cur.p.format, cur.p.bvh_width, config) > m_a.area_budget) continue;
+        SweepRow r = retime_sweep_point(m_scene, cur, config, m_a.sweep, m_area, *m_cache);
+        if (!next || plan_cheaper(r, *next, m_a)) next = std::make_unique<SweepRow>(r);
       }
-      if (!next || !plan_cheaper(*next, cur, a)) break;
+      if (!next || !plan_cheaper(*next, cur, m_a)) break;
       cur = *next;
       const hw::TimingConfig c = sweep_config(cur.p.config);
       box = c.box_units, tri = c.tri_units;
     }
     return cur;
-  };
-  auto point = [&](const std::string& format, int width) {
-    if (a.sweep.poll) a.sweep.poll();
-    SweepRow r = run_sweep_point(scene, SweepPoint{a.scene, format, width, a.config}, a.sweep, area, *cache);
-    if (a.area_budget > 0.0) r = afford(r);
-    report(PlanStage::kCandidate, width, 0, &r, meets(r));
-    return r;
-  };
+  }
 
-  PlanResult res;
-  res.scene = scene.name;
-  Json& j = res.json;
-  j["scene"] = scene.name;
+  const PlanOptions& m_a;
+  const std::function<void(const PlanStep&)>& m_progress;
+  const Scene m_scene;
+  const AreaTable m_area;
+  const ActivityTable m_activity;
+  std::unique_ptr<SweepCache, SweepCacheDeleter> m_cache;
+};
+
+// What the plan was asked: the JSON's keys before the widths.
+Json plan_request_json(const PlanOptions& a, const std::string& scene, const std::string& base) {
+  Json j;
+  j["scene"] = scene;
   j["metric"] = a.metric == "t" ? "t_rel_error_mean" : "hit_disagreement";
   j["max_error"] = a.max_error;
   j["confidence"] = a.confidence;
   j["seed"] = a.sweep.seed;
-  j["rays"] = sample;
+  j["rays"] = 2 * a.sweep.rays;
   j["min_psnr"] = a.min_psnr;
   j["flatten"] = a.sweep.flatten;
   j["config"] = a.config;
@@ -266,139 +305,199 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
               : a.minimise == "energy" ? "energy per ray on " + a.config + ", then cycles"
                                        : "cycles on " + a.config + ", then image bytes (bvh_bytes)";
   if (a.area_budget > 0.0) j["area_budget_mm2"] = a.area_budget;
+  return j;
+}
+
+// The fewest coordinate bits that meet the budget at a width (error falls with bits; the first that meets is
+// taken), and the candidate just below it.
+struct FewestBits {
+  std::unique_ptr<SweepRow> first_ok, last_bad;
+};
+
+FewestBits fewest_coord_bits(Planner& pl, const PlanOptions& a, const BaseFormat& base, int w) {
+  FewestBits f;
+  for (int b : a.coord_bits) {
+    SweepRow r = pl.point(spec(base.spec, b, base.child_bits), w);
+    if (pl.meets(r)) {
+      f.first_ok = std::make_unique<SweepRow>(r);
+      break;
+    }
+    f.last_bad = std::make_unique<SweepRow>(r);
+  }
+  return f;
+}
+
+// Fewer coordinate bits are fewer bytes, but not always fewer cycles or less energy: they cost node visits
+// (looser boxes) where they save bytes, so on a compute-bound unit more bits can be faster. Minimising cycles or
+// energy, the bits above go on while they are cheaper and meet the budget (cost against bits falls, then rises).
+// A step up is taken only when it pays beyond the placement noise (plan_more_bits_pay, kPlacementNoise); the
+// measured cause of each step taken, or of the tie that ended the walk, goes to `steps`. Returns the candidate
+// the walk ended on.
+SweepRow walk_more_coord_bits(Planner& pl, const PlanOptions& a, const BaseFormat& base, int w,
+                              const SweepRow& first_ok, Json& steps) {
+  SweepRow at_b = first_ok;
+  if (a.minimise == "bytes") return at_b;
+  const int b0 = hw::format_from_spec(first_ok.p.format).coord_bits;
+  for (int more : a.coord_bits) {
+    if (more <= b0) continue;
+    SweepRow r = pl.point(spec(base.spec, more, base.child_bits), w);
+    if (!pl.meets(r) || !plan_cheaper(r, at_b, a)) break;
+    const bool pays = plan_more_bits_pay(r, at_b, a);
+    steps.push_back({{"from_coord_bits", hw::format_from_spec(at_b.p.format).coord_bits},
+                     {"to_coord_bits", more},
+                     {"taken", pays},
+                     {"cause", plan_more_bits_cause(r, at_b, a)},
+                     {"node_visit_overhead", {at_b.node_visit_overhead, r.node_visit_overhead}},
+                     {"prim_test_overhead", {at_b.prim_test_overhead, r.prim_test_overhead}},
+                     {"dram_bytes_per_ray", {at_b.dram_bytes_per_ray, r.dram_bytes_per_ray}},
+                     {"cycles", {at_b.cycles, r.cycles}}});
+    if (!pays) break;
+    at_b = r;
+  }
+  return at_b;
+}
+
+// Child-offset bits at b coordinate bits: the cheapest among those that still meet the budget, each candidate's
+// figures into `ks`.
+SweepRow cheapest_child_bits(Planner& pl, const PlanOptions& a, const BaseFormat& base, int w, int b,
+                             const SweepRow& at_b, Json& ks) {
+  SweepRow chosen = at_b;
+  for (int k : a.child_bits) {
+    SweepRow r = k == base.child_bits ? at_b : pl.point(spec(base.spec, b, k), w);
+    ks.push_back({{"child_bits", k},
+                  {"error", plan_error(r, a.metric)},
+                  {"error_bound", plan_error_bound(r, a)},
+                  {"cycles", r.cycles},
+                  {"bytes", r.bvh_bytes},
+                  {"bytes_per_prim", r.bytes_per_prim},
+                  {"dram_bytes_per_ray", r.dram_bytes_per_ray},
+                  {"config", r.p.config},
+                  {"area_mm2", r.area_mm2},
+                  {"pj_per_ray", r.pj_per_ray},
+                  {"meets", pl.meets(r)}});
+    if (pl.meets(r) && plan_cheaper(r, chosen, a)) chosen = r;
+  }
+  return chosen;
+}
+
+// The format chosen at a width, as the JSON's "chosen".
+Json chosen_json(const SweepRow& c, const PlanOptions& a) {
+  return {{"format", c.p.format},
+          {"cycles", c.cycles},
+          {"bytes", c.bvh_bytes},
+          {"bytes_per_prim", c.bytes_per_prim},
+          {"dram_bytes_per_ray", c.dram_bytes_per_ray},
+          {"error", plan_error(c, a.metric)},
+          {"error_bound", plan_error_bound(c, a)},
+          {"psnr_db", c.psnr_measured() ? Json(c.psnr_db) : Json(nullptr)},
+          {"rtl_cells", c.rtl_cells},
+          {"config", c.p.config},
+          {"area_mm2", c.area_mm2},
+          {"pj_per_ray", c.pj_per_ray}};
+}
+
+// One width of the plan: its candidates into the JSON jw, and the format chosen there (none when no coordinate
+// width meets the budget).
+std::unique_ptr<SweepRow> plan_width(Planner& pl, const PlanOptions& a, const BaseFormat& base, int w, Json& jw) {
+  pl.report(PlanStage::kCoordBits, w);
+  const FewestBits fewest = fewest_coord_bits(pl, a, base, w);
+  jw["bvh_width"] = w;
+  if (!fewest.first_ok) {
+    jw["feasible"] = false;
+    pl.report(PlanStage::kInfeasible, w);
+    return nullptr;
+  }
+  const SweepRow& first_ok = *fewest.first_ok;
+  Json steps = Json::array();
+  const SweepRow at_b = walk_more_coord_bits(pl, a, base, w, first_ok, steps);
+  const int b = hw::format_from_spec(at_b.p.format).coord_bits;
+  pl.report(PlanStage::kChildBits, w, b);
+  Json ks = Json::array();
+  const SweepRow chosen = cheapest_child_bits(pl, a, base, w, b, at_b, ks);
+  jw["feasible"] = true;
+  jw["coord_bits"] = hw::format_from_spec(first_ok.p.format).coord_bits;
+  jw["chosen_coord_bits"] = b;
+  jw["more_coord_bits"] = steps;
+  jw["error_at_coord_bits"] = plan_error(first_ok, a.metric);
+  jw["error_bound_at_coord_bits"] = plan_error_bound(first_ok, a);
+  if (const SweepRow* last_bad = fewest.last_bad.get()) {
+    jw["fewer_coord_bits"] = hw::format_from_spec(last_bad->p.format).coord_bits;
+    jw["error_at_fewer_coord_bits"] = plan_error(*last_bad, a.metric);
+    jw["error_bound_at_fewer_coord_bits"] = plan_error_bound(*last_bad, a);
+  }
+  jw["child_bits"] = ks;
+  jw["chosen"] = chosen_json(chosen, a);
+  return std::make_unique<SweepRow>(chosen);
+}
+
+// The plan's format, as the JSON's "plan".
+Json plan_json(const SweepRow& best, const hw::FixedFormat& f, const PlanOptions& a) {
+  return {{"format", best.p.format},
+          {"bvh_width", best.p.bvh_width},
+          {"coord_bits", f.coord_bits},
+          {"child_bits", f.child_bits},
+          {"cycles", best.cycles},
+          {"bytes", best.bvh_bytes},
+          {"bytes_per_prim", best.bytes_per_prim},
+          {"dram_bytes_per_ray", best.dram_bytes_per_ray},
+          {"error", plan_error(best, a.metric)},
+          {"error_bound", plan_error_bound(best, a)},
+          {"psnr_db", best.psnr_measured() ? Json(best.psnr_db) : Json(nullptr)},
+          {"rtl_cells", best.rtl_cells},
+          {"config", best.p.config},
+          {"box_units", sweep_config(best.p.config).box_units},
+          {"tri_units", sweep_config(best.p.config).tri_units},
+          {"area_mm2", best.area_mm2},
+          {"pj_per_ray", best.pj_per_ray}};
+}
+
+// The base format at the plan's width, as the JSON's "default".
+Json default_json(const SweepRow& def, const std::string& base, const PlanOptions& a) {
+  return {{"format", base},
+          {"cycles", def.cycles},
+          {"bytes", def.bvh_bytes},
+          {"bytes_per_prim", def.bytes_per_prim},
+          {"dram_bytes_per_ray", def.dram_bytes_per_ray},
+          {"error", plan_error(def, a.metric)},
+          {"error_bound", plan_error_bound(def, a)},
+          {"rtl_cells", def.rtl_cells},
+          {"config", def.p.config},
+          {"area_mm2", def.area_mm2},
+          {"pj_per_ray", def.pj_per_ray}};
+}
+
+}  // namespace
+
+PlanResult plan_format(const PlanOptions& a, const std::function<void(const PlanStep&)>& progress) {
+  check_plan_options(a);
+  const BaseFormat base = plan_base_format(a);
+  check_hit_budget_can_be_shown(a);
+  check_sweep_rays("plan", a.sweep.rays);
+  Planner pl(a, progress);
+
+  PlanResult res;
+  res.scene = pl.scene().name;
+  Json& j = res.json;
+  j = plan_request_json(a, pl.scene().name, base.spec);
   Json per_width = Json::array();
   std::unique_ptr<SweepRow> best;
   for (int w : a.widths) {
-    report(PlanStage::kCoordBits, w);
-    // The fewest coordinate bits that meet the budget (error falls with bits; the first that meets is taken).
-    std::unique_ptr<SweepRow> first_ok, last_bad;
-    for (int b : a.coord_bits) {
-      SweepRow r = point(spec(base, b, base_child_bits), w);
-      if (meets(r)) {
-        first_ok = std::make_unique<SweepRow>(r);
-        break;
-      }
-      last_bad = std::make_unique<SweepRow>(r);
-    }
     Json jw;
-    jw["bvh_width"] = w;
-    if (!first_ok) {
-      jw["feasible"] = false;
-      per_width.push_back(jw);
-      report(PlanStage::kInfeasible, w);
-      continue;
-    }
-    // Fewer coordinate bits are fewer bytes, but not always fewer cycles or less energy: they cost node visits
-    // (looser boxes) where they save bytes, so on a compute-bound unit more bits can be faster. Minimising cycles
-    // or energy, the bits above go on while they are cheaper and meet the budget (cost against bits falls, then
-    // rises).
-    // A step up is taken only when it pays beyond the placement noise (plan_more_bits_pay, kPlacementNoise);
-    // the measured cause of each step taken, or of the tie that ended the walk, goes to the JSON.
-    SweepRow at_b = *first_ok;
-    Json steps = Json::array();
-    if (a.minimise != "bytes") {
-      const int b0 = hw::format_from_spec(first_ok->p.format).coord_bits;
-      for (int more : a.coord_bits) {
-        if (more <= b0) continue;
-        SweepRow r = point(spec(base, more, base_child_bits), w);
-        if (!meets(r) || !plan_cheaper(r, at_b, a)) break;
-        const bool pays = plan_more_bits_pay(r, at_b, a);
-        steps.push_back({{"from_coord_bits", hw::format_from_spec(at_b.p.format).coord_bits},
-                         {"to_coord_bits", more},
-                         {"taken", pays},
-                         {"cause", plan_more_bits_cause(r, at_b, a)},
-                         {"node_visit_overhead", {at_b.node_visit_overhead, r.node_visit_overhead}},
-                         {"prim_test_overhead", {at_b.prim_test_overhead, r.prim_test_overhead}},
-                         {"dram_bytes_per_ray", {at_b.dram_bytes_per_ray, r.dram_bytes_per_ray}},
-                         {"cycles", {at_b.cycles, r.cycles}}});
-        if (!pays) break;
-        at_b = r;
-      }
-    }
-    const int b = hw::format_from_spec(at_b.p.format).coord_bits;
-    // Child-offset bits: the cheapest among those that still meet the budget.
-    report(PlanStage::kChildBits, w, b);
-    SweepRow chosen = at_b;
-    Json ks = Json::array();
-    for (int k : a.child_bits) {
-      SweepRow r = k == base_child_bits ? at_b : point(spec(base, b, k), w);
-      ks.push_back({{"child_bits", k},
-                    {"error", plan_error(r, a.metric)},
-                    {"error_bound", plan_error_bound(r, a)},
-                    {"cycles", r.cycles},
-                    {"bytes", r.bvh_bytes},
-                    {"bytes_per_prim", r.bytes_per_prim},
-                    {"dram_bytes_per_ray", r.dram_bytes_per_ray},
-                    {"config", r.p.config},
-                    {"area_mm2", r.area_mm2},
-                    {"pj_per_ray", r.pj_per_ray},
-                    {"meets", meets(r)}});
-      if (meets(r) && plan_cheaper(r, chosen, a)) chosen = r;
-    }
-    jw["feasible"] = true;
-    jw["coord_bits"] = hw::format_from_spec(first_ok->p.format).coord_bits;
-    jw["chosen_coord_bits"] = b;
-    jw["more_coord_bits"] = steps;
-    jw["error_at_coord_bits"] = plan_error(*first_ok, a.metric);
-    jw["error_bound_at_coord_bits"] = plan_error_bound(*first_ok, a);
-    if (last_bad) {
-      jw["fewer_coord_bits"] = hw::format_from_spec(last_bad->p.format).coord_bits;
-      jw["error_at_fewer_coord_bits"] = plan_error(*last_bad, a.metric);
-      jw["error_bound_at_fewer_coord_bits"] = plan_error_bound(*last_bad, a);
-    }
-    jw["child_bits"] = ks;
-    jw["chosen"] = {{"format", chosen.p.format},
-                    {"cycles", chosen.cycles},
-                    {"bytes", chosen.bvh_bytes},
-                    {"bytes_per_prim", chosen.bytes_per_prim},
-                    {"dram_bytes_per_ray", chosen.dram_bytes_per_ray},
-                    {"error", plan_error(chosen, a.metric)},
-                    {"error_bound", plan_error_bound(chosen, a)},
-                    {"psnr_db", chosen.psnr_measured() ? Json(chosen.psnr_db) : Json(nullptr)},
-                    {"rtl_cells", chosen.rtl_cells},
-                    {"config", chosen.p.config},
-                    {"area_mm2", chosen.area_mm2},
-                    {"pj_per_ray", chosen.pj_per_ray}};
+    std::unique_ptr<SweepRow> chosen = plan_width(pl, a, base, w, jw);
     per_width.push_back(jw);
-    if (!best || plan_cheaper(chosen, *best, a)) best = std::make_unique<SweepRow>(chosen);
+    if (chosen && (!best || plan_cheaper(*chosen, *best, a))) best = std::move(chosen);
   }
   j["widths"] = per_width;
-  // The base format at the chosen width, for comparison.
   if (!best) {
     j["plan"] = nullptr;
     return res;
   }
-  report(PlanStage::kDefault, best->p.bvh_width);
-  const SweepRow def = point(base, best->p.bvh_width);
+  // The base format at the chosen width, for comparison.
+  pl.report(PlanStage::kDefault, best->p.bvh_width);
+  const SweepRow def = pl.point(base.spec, best->p.bvh_width);
   const hw::FixedFormat f = hw::format_from_spec(best->p.format);
-  j["plan"] = {{"format", best->p.format},
-               {"bvh_width", best->p.bvh_width},
-               {"coord_bits", f.coord_bits},
-               {"child_bits", f.child_bits},
-               {"cycles", best->cycles},
-               {"bytes", best->bvh_bytes},
-               {"bytes_per_prim", best->bytes_per_prim},
-               {"dram_bytes_per_ray", best->dram_bytes_per_ray},
-               {"error", plan_error(*best, a.metric)},
-               {"error_bound", plan_error_bound(*best, a)},
-               {"psnr_db", best->psnr_measured() ? Json(best->psnr_db) : Json(nullptr)},
-               {"rtl_cells", best->rtl_cells},
-               {"config", best->p.config},
-               {"box_units", sweep_config(best->p.config).box_units},
-               {"tri_units", sweep_config(best->p.config).tri_units},
-               {"area_mm2", best->area_mm2},
-               {"pj_per_ray", best->pj_per_ray}};
-  j["default"] = {{"format", base},
-                  {"cycles", def.cycles},
-                  {"bytes", def.bvh_bytes},
-                  {"bytes_per_prim", def.bytes_per_prim},
-                  {"dram_bytes_per_ray", def.dram_bytes_per_ray},
-                  {"error", plan_error(def, a.metric)},
-                  {"error_bound", plan_error_bound(def, a)},
-                  {"rtl_cells", def.rtl_cells},
-                  {"config", def.p.config},
-                  {"area_mm2", def.area_mm2},
-                  {"pj_per_ray", def.pj_per_ray}};
+  j["plan"] = plan_json(*best, f, a);
+  j["default"] = default_json(def, base.spec, a);
   res.found = true;
   res.best = *best;
   res.format = f;

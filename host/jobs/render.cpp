@@ -117,13 +117,8 @@ uint64_t align64(uint64_t x) {
   return (x + 63) & ~uint64_t(63);
 }
 
-}  // namespace
-
-RenderResult render(const Scene& scene, const RenderOptions& o) {
-  const hw::Geometry& g = scene.geometry;
-  RenderResult res;
-  res.width = o.width > 0 ? o.width : scene.camera.width;
-  res.height = o.height > 0 ? o.height : scene.camera.height;
+// Refuses an image the firmware cannot render.
+void check_render_size(const RenderResult& res, const RenderOptions& o) {
   if (o.spp < 1 || o.spp > 65536) throw Error("render: spp must be in [1, 65536]");
   if (o.max_depth < 0 || o.max_depth > 64) throw Error("render: max depth must be in [0, 64]");
   if (uint64_t(res.width) * uint64_t(res.height) > (uint64_t(1) << 28))
@@ -131,27 +126,13 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   if (o.hybrid && (uint32_t(res.width) > fw::kMaxRasterSide || uint32_t(res.height) > fw::kMaxRasterSide))
     throw Error("render: hybrid mode rasterizes images of at most " + std::to_string(fw::kMaxRasterSide) +
                 " pixels a side");
+}
 
-  // The unit's scene image, and the offsets spawned rays need on this device.
-  std::vector<uint64_t> image_words;
-  const hw::Aabb bounds = g.bounds();
-  const float extent = bounds.empty() ? 1.0f : std::max({bounds.extent().x, bounds.extent().y, bounds.extent().z});
-  float max_coord = 0.0f;
-  if (!bounds.empty())
-    for (int a = 0; a < 3; ++a) max_coord = std::max({max_coord, std::abs(bounds.lo[a]), std::abs(bounds.hi[a])});
-  // Float: each coordinate of the hit point o + t d carries a few float ulps of the larger of |o_i| and |p_i|
-  // (the product t d_i and the sum round once each, and t's own error is a few ulps); 2^-19 relative is 16 ulps
-  // of a 24-bit significand, 4x over a 4-ulp estimate. 2^-20 of the scene's size covers coordinates near 0.
-  res.offset_rel = std::ldexp(1.0f, -19);
-  res.offset_abs = std::ldexp(extent, -20);
-  hw::TracerOptions tracer = o.device.tracer;
-  // An instanced scene binds its two levels (hwmodel/datapath/instanced_fixed.h) on the fixed-point devices,
-  // unless flattened or co-simulated (the RTL units trace one image).
-  const bool two_level = scene.instanced() && !o.device.flatten && o.device.kind != hw::DeviceKind::kFloat &&
-                         (o.device.kind == hw::DeviceKind::kFixed ||
-                          (o.device.timing.box_unit == "cpp" && o.device.timing.tri_unit == "cpp"));
+// What the user should know before the render: primitives below the fixed-point grid step, nothing to light the
+// scene.
+void add_scene_warnings(const Scene& scene, const RenderOptions& o, bool two_level, RenderResult& res) {
   if (o.device.kind != hw::DeviceKind::kFloat) {  // refuses a frame below the smallest normal float
-    const std::string w = grid_warning(check_grid(g, &scene.instances, !two_level, o.device.format));
+    const std::string w = grid_warning(check_grid(scene.geometry, &scene.instances, !two_level, o.device.format));
     if (!w.empty()) res.warnings.push_back(w);
   }
   // Light comes from lights, emitters, and the background (which is also ambient occlusion's ambient light).
@@ -162,6 +143,14 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
     res.warnings.push_back(
         "the scene has no light, no emissive material and the background is black: the image is black (give "
         "the scene a light, or --background R G B)");
+}
+
+// The unit's scene image on this device: two levels, one fixed-point image or the float scene. Raises
+// res.offset_abs to what spawned rays need on the fixed-point grid; sets the tracer's BVH width to the format's.
+std::vector<uint64_t> encode_scene_image(const Scene& scene, const RenderOptions& o, bool two_level,
+                                         hw::TracerOptions& tracer, RenderResult& res) {
+  const hw::Geometry& g = scene.geometry;
+  std::vector<uint64_t> image_words;
   if (two_level) {
     tracer.bvh.width = o.device.format.width;
     const hw::InstancedFixedTracer two(scene.instances, g, o.device.format, tracer);
@@ -180,13 +169,10 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   } else {
     image_words = hw::encode_float_scene(g);
   }
-  res.scene_image_bytes = image_words.size() * 8;
+  return image_words;
+}
 
-  // Device memory layout: scene image, renderer records, framebuffer, then the firmware's arena.
-  const uint32_t nprims = g.num_prims();
-  ShadingRecords shading = shading_records(scene);
-  const std::vector<fw::SurfaceRecord>& surfaces = shading.surfaces;
-  const std::vector<fw::MaterialRecord>& materials = shading.materials;
+std::vector<fw::LightRecord> light_records(const Scene& scene) {
   std::vector<fw::LightRecord> lights;
   for (const Light& l : scene.lights) {
     fw::LightRecord r{};
@@ -197,7 +183,12 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
     r.power = f3(l.intensity);
     lights.push_back(r);
   }
+  return lights;
+}
 
+// The render job's settings, camera and counts (its addresses are placed by lay_out_memory).
+fw::RenderJob render_job(const Scene& scene, const RenderOptions& o, const RenderResult& res,
+                         const ShadingRecords& shading, size_t num_lights, float extent) {
   fw::RenderJob job{};
   job.width = uint32_t(res.width);
   job.height = uint32_t(res.height);
@@ -220,6 +211,7 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
     job.up = f3(Vec3(up * ty));
   }
   job.background = f3(o.background);
+  const hw::Aabb bounds = scene.geometry.bounds();
   const float diag = bounds.empty() ? 1.0f : glm::length(bounds.extent());
   job.ao_distance = o.ao_distance > 0.0f ? o.ao_distance : 0.25f * diag;
   // The rasterizer's near plane: geometry nearer to the eye than 2^-20 of the scene's size is clipped (the ray
@@ -227,11 +219,28 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   job.raster_near = std::ldexp(extent, -20);
   job.offset_abs = res.offset_abs;
   job.offset_rel = res.offset_rel;
-  job.num_prims = nprims;
-  job.num_materials = uint32_t(materials.size());
-  job.num_lights = uint32_t(lights.size());
+  job.num_prims = scene.geometry.num_prims();
+  job.num_materials = uint32_t(shading.materials.size());
+  job.num_lights = uint32_t(num_lights);
   job.scene_bytes = res.scene_image_bytes;
+  return job;
+}
 
+// Where the job's parts lie in device memory beside the addresses in the job itself.
+struct MemoryLayout {
+  uint64_t texels = 0;      // the textures' texels
+  uint64_t job_addr = 0;    // the job record
+  uint64_t arena_base = 0;  // the firmware's arena: the ring and the renderer's working buffers
+  uint64_t arena_bytes = 0;
+  uint64_t paths = 0;  // camera paths: pixels x samples
+};
+
+// Device memory layout: scene image, renderer records, framebuffer, then the firmware's arena. Sets the job's
+// addresses, rebases the textures' texel offsets and sets res.device_memory_bytes; throws Error beyond the
+// memory budget.
+MemoryLayout lay_out_memory(fw::RenderJob& job, ShadingRecords& shading, size_t num_lights, const RenderOptions& o,
+                            RenderResult& res) {
+  MemoryLayout m;
   uint64_t top = 0;
   auto place = [&](uint64_t bytes) {
     const uint64_t at = top;
@@ -239,55 +248,55 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
     return at;
   };
   job.scene_image = place(res.scene_image_bytes);
-  job.surfaces = place(surfaces.size() * sizeof(fw::SurfaceRecord));
-  job.materials = place(materials.size() * sizeof(fw::MaterialRecord));
-  job.lights = place(lights.size() * sizeof(fw::LightRecord));
+  job.surfaces = place(shading.surfaces.size() * sizeof(fw::SurfaceRecord));
+  job.materials = place(shading.materials.size() * sizeof(fw::MaterialRecord));
+  job.lights = place(num_lights * sizeof(fw::LightRecord));
   job.num_uvs = uint32_t(shading.uvs.size());
   job.uvs = place(shading.uvs.size() * sizeof(fw::UvRecord));
   job.num_textures = uint32_t(shading.textures.size());
   job.textures = place(shading.textures.size() * sizeof(fw::TextureRecord));
-  const uint64_t texels = place(shading.texels.size());
-  for (fw::TextureRecord& t : shading.textures) t.texels += texels;
+  m.texels = place(shading.texels.size());
+  for (fw::TextureRecord& t : shading.textures) t.texels += m.texels;
   job.framebuffer = place(uint64_t(res.width) * res.height * 3 * sizeof(float));
-  const uint64_t paths = uint64_t(res.width) * res.height * uint64_t(o.spp);
-  if (o.keep_primary) job.primary_hits = place(paths * sizeof(hw::Hit));
-  const uint64_t job_addr = place(sizeof job);
+  m.paths = uint64_t(res.width) * res.height * uint64_t(o.spp);
+  if (o.keep_primary) job.primary_hits = place(m.paths * sizeof(hw::Hit));
+  m.job_addr = place(sizeof job);
   // The arena: the ring and up to 2^18 paths of working buffers (renderer.cpp sizes its batch from it).
-  const uint64_t per_path = 200 + 64 * (uint64_t(lights.size()) + 1);
-  const uint64_t arena_bytes = (1u << 16) + std::min<uint64_t>(paths, 1u << 18) * per_path;
-  const uint64_t arena_base = top;
-  res.device_memory_bytes = align64(arena_base + arena_bytes);
+  const uint64_t per_path = 200 + 64 * (uint64_t(num_lights) + 1);
+  m.arena_bytes = (1u << 16) + std::min<uint64_t>(m.paths, 1u << 18) * per_path;
+  m.arena_base = top;
+  res.device_memory_bytes = align64(m.arena_base + m.arena_bytes);
   check_memory("render: the unit's device memory", res.device_memory_bytes);
+  return m;
+}
 
-  hw::EngineOptions eopt;
-  eopt.threads = o.threads;
-  eopt.tracer = tracer;
-  eopt.max_steps = o.device.max_steps;
-  FirmwareDevice dev(o.device.kind, res.device_memory_bytes, eopt, o.device.timing);
-  if (hw::TimedEngine* te = dev.timed()) {
-    te->set_trace(o.pipeline_trace);
-    te->set_sampling(o.device.sample);  // the firmware needs every hit: only the timing model is sampled
-  }
-  hw::DeviceMemory& mem = dev.memory();
-  mem.write(job.scene_image, image_words.data(), res.scene_image_bytes);
-  mem.write(job.surfaces, surfaces.data(), surfaces.size() * sizeof(fw::SurfaceRecord));
-  mem.write(job.materials, materials.data(), materials.size() * sizeof(fw::MaterialRecord));
+// The scene image, the renderer's records and the job into device memory, at the job's addresses.
+void write_device_memory(hw::DeviceMemory& mem, const fw::RenderJob& job, const MemoryLayout& m,
+                         const std::vector<uint64_t>& image_words, const ShadingRecords& shading,
+                         const std::vector<fw::LightRecord>& lights) {
+  mem.write(job.scene_image, image_words.data(), image_words.size() * 8);
+  mem.write(job.surfaces, shading.surfaces.data(), shading.surfaces.size() * sizeof(fw::SurfaceRecord));
+  mem.write(job.materials, shading.materials.data(), shading.materials.size() * sizeof(fw::MaterialRecord));
   if (!lights.empty()) mem.write(job.lights, lights.data(), lights.size() * sizeof(fw::LightRecord));
   if (!shading.uvs.empty()) mem.write(job.uvs, shading.uvs.data(), shading.uvs.size() * sizeof(fw::UvRecord));
   if (!shading.textures.empty()) {
     mem.write(job.textures, shading.textures.data(), shading.textures.size() * sizeof(fw::TextureRecord));
-    mem.write(texels, shading.texels.data(), shading.texels.size());
+    mem.write(m.texels, shading.texels.data(), shading.texels.size());
   }
-  mem.write(job_addr, &job, sizeof job);
+  mem.write(m.job_addr, &job, sizeof job);
+}
 
+// Runs the firmware renderer on the device through the ring (with the progress line and poll when asked), into
+// res.fw and res.seconds. Rethrows what the poll threw; throws Error when the render failed.
+void run_firmware(FirmwareDevice& dev, const MemoryLayout& m, const RenderOptions& o, RenderResult& res) {
   const auto t0 = std::chrono::steady_clock::now();
-  fw::Arena arena(arena_base, arena_bytes);
+  fw::Arena arena(m.arena_base, m.arena_bytes);
   fw::Ring ring;
   std::optional<ProgressHal> watched;
   if (o.progress || o.poll) watched.emplace(dev, res.fw, o.max_depth, o.progress, o.poll);
   fw::Hal& hal = watched ? static_cast<fw::Hal&>(*watched) : dev;
   fw::Status st = ring.init(hal, arena, 256);
-  if (st == fw::Status::kOk) st = fw::render(hal, ring, arena, job_addr, res.fw);
+  if (st == fw::Status::kOk) st = fw::render(hal, ring, arena, m.job_addr, res.fw);
   const std::exception_ptr stopped = watched ? watched->stopped() : nullptr;
   watched.reset();  // the progress line cleared before anything else is printed
   if (stopped) std::rethrow_exception(stopped);
@@ -303,6 +312,11 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
     throw Error(why);
   }
   res.ring = ring.counters();
+}
+
+// What the device counted and timed, the framebuffer and (RenderOptions::keep_primary) the primary hits.
+void read_back(FirmwareDevice& dev, const fw::RenderJob& job, const MemoryLayout& m, const RenderOptions& o,
+               RenderResult& res) {
   res.device = dev.processor().counters();
   res.counts = dev.engine().counts();
   res.uses_bvh = dev.engine().uses_bvh();
@@ -319,12 +333,58 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
     res.raster_cycles = hw::raster_cycles(raster_work(res.fw.raster), te->config());
     res.frame_cycles = res.raster_cycles.cycles + res.device_clock;
   }
+  hw::DeviceMemory& mem = dev.memory();
   res.rgb.resize(size_t(res.width) * res.height * 3);
   mem.read(job.framebuffer, res.rgb.data(), res.rgb.size() * sizeof(float));
   if (o.keep_primary) {
-    res.primary.resize(paths);
-    mem.read(job.primary_hits, res.primary.data(), paths * sizeof(hw::Hit));
+    res.primary.resize(m.paths);
+    mem.read(job.primary_hits, res.primary.data(), m.paths * sizeof(hw::Hit));
   }
+}
+
+}  // namespace
+
+RenderResult render(const Scene& scene, const RenderOptions& o) {
+  RenderResult res;
+  res.width = o.width > 0 ? o.width : scene.camera.width;
+  res.height = o.height > 0 ? o.height : scene.camera.height;
+  check_render_size(res, o);
+
+  // The offsets spawned rays need on this device. Float: each coordinate of the hit point o + t d carries a few
+  // float ulps of the larger of |o_i| and |p_i| (the product t d_i and the sum round once each, and t's own error
+  // is a few ulps); 2^-19 relative is 16 ulps of a 24-bit significand, 4x over a 4-ulp estimate. 2^-20 of the
+  // scene's size covers coordinates near 0.
+  const hw::Aabb bounds = scene.geometry.bounds();
+  const float extent = bounds.empty() ? 1.0f : std::max({bounds.extent().x, bounds.extent().y, bounds.extent().z});
+  res.offset_rel = std::ldexp(1.0f, -19);
+  res.offset_abs = std::ldexp(extent, -20);
+  // An instanced scene binds its two levels (hwmodel/datapath/instanced_fixed.h) on the fixed-point devices,
+  // unless flattened or co-simulated (the RTL units trace one image).
+  const bool two_level = scene.instanced() && !o.device.flatten && o.device.kind != hw::DeviceKind::kFloat &&
+                         (o.device.kind == hw::DeviceKind::kFixed ||
+                          (o.device.timing.box_unit == "cpp" && o.device.timing.tri_unit == "cpp"));
+  add_scene_warnings(scene, o, two_level, res);
+  hw::TracerOptions tracer = o.device.tracer;
+  const std::vector<uint64_t> image_words = encode_scene_image(scene, o, two_level, tracer, res);
+  res.scene_image_bytes = image_words.size() * 8;
+
+  ShadingRecords shading = shading_records(scene);
+  const std::vector<fw::LightRecord> lights = light_records(scene);
+  fw::RenderJob job = render_job(scene, o, res, shading, lights.size(), extent);
+  const MemoryLayout layout = lay_out_memory(job, shading, lights.size(), o, res);
+
+  hw::EngineOptions eopt;
+  eopt.threads = o.threads;
+  eopt.tracer = tracer;
+  eopt.max_steps = o.device.max_steps;
+  FirmwareDevice dev(o.device.kind, res.device_memory_bytes, eopt, o.device.timing);
+  if (hw::TimedEngine* te = dev.timed()) {
+    te->set_trace(o.pipeline_trace);
+    te->set_sampling(o.device.sample);  // the firmware needs every hit: only the timing model is sampled
+  }
+  write_device_memory(dev.memory(), job, layout, image_words, shading, lights);
+  run_firmware(dev, layout, o, res);
+  read_back(dev, job, layout, o, res);
   return res;
 }
 

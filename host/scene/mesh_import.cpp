@@ -379,9 +379,8 @@ RawMaterial raw_material(const aiMaterial& m) {
   return r;
 }
 
-// The import proper, in the child process of import_isolated().
-std::string import_with_assimp(const std::string& path) {
-  Assimp::Importer importer;
+// Reads the file with Assimp, triangulated and validated. Throws Error when Assimp cannot read it.
+const aiScene* read_with_assimp(Assimp::Importer& importer, const std::string& path) {
   const aiScene* scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_ValidateDataStructure);
   if (!scene && std::string(importer.GetErrorString()).find("contains no faces") != std::string::npos) {
     // Validation rejects a mesh without faces (e.g. an OBJ of bare vertices: a point cloud). Such a mesh just
@@ -389,18 +388,50 @@ std::string import_with_assimp(const std::string& path) {
     scene = importer.ReadFile(path, aiProcess_Triangulate);
   }
   if (!scene) throw Error(path + ": " + importer.GetErrorString());
+  return scene;
+}
 
-  // Materials and their base-colour textures (each texture once, by its path).
-  std::vector<RawMaterial> materials(scene->mNumMaterials);
-  std::vector<std::string> names(scene->mNumMaterials);
+// An embedded texture into the blob: compressed (mWidth bytes of a PNG, JPEG, ...) as it is, or mWidth x mHeight
+// aiTexels (BGRA) as RGBA.
+void put_embedded_texture(BlobWriter& textures, const aiTexture& t, const std::string& label) {
+  if (t.mHeight == 0) {
+    textures.put(kTextureEncoded);
+    textures.put_string(label);
+    textures.put_string(std::string(reinterpret_cast<const char*>(t.pcData), t.mWidth));
+    return;
+  }
+  textures.put(kTextureTexels);
+  textures.put_string(label);
+  textures.put(uint32_t(t.mWidth));
+  textures.put(uint32_t(t.mHeight));
+  std::string rgba(size_t(t.mWidth) * t.mHeight * 4, '\0');
+  for (size_t k = 0; k < size_t(t.mWidth) * t.mHeight; ++k) {
+    const aiTexel& x = t.pcData[k];
+    rgba[4 * k] = char(x.r), rgba[4 * k + 1] = char(x.g), rgba[4 * k + 2] = char(x.b);
+    rgba[4 * k + 3] = char(x.a);
+  }
+  textures.put_string(rgba);
+}
+
+// The file's materials and their base-colour textures (each texture once, by its path).
+struct ImportedMaterials {
+  std::vector<RawMaterial> materials;
+  std::vector<std::string> names;
   BlobWriter textures;
+  size_t texture_count = 0;
+};
+
+ImportedMaterials import_materials(const aiScene& scene, const std::string& path) {
+  ImportedMaterials out;
+  out.materials.resize(scene.mNumMaterials);
+  out.names.resize(scene.mNumMaterials);
   std::map<std::string, int32_t> texture_index;
-  for (unsigned i = 0; i < scene->mNumMaterials; ++i) {
-    const aiMaterial* m = scene->mMaterials[i];
+  for (unsigned i = 0; i < scene.mNumMaterials; ++i) {
+    const aiMaterial* m = scene.mMaterials[i];
     if (!m) continue;
-    materials[i] = raw_material(*m);
+    out.materials[i] = raw_material(*m);
     aiString name;
-    if (m->Get(AI_MATKEY_NAME, name) == AI_SUCCESS) names[i] = name.C_Str();
+    if (m->Get(AI_MATKEY_NAME, name) == AI_SUCCESS) out.names[i] = name.C_Str();
     aiString tex;
     if (m->GetTexture(aiTextureType_BASE_COLOR, 0, &tex) != AI_SUCCESS &&
         m->GetTexture(aiTextureType_DIFFUSE, 0, &tex) != AI_SUCCESS)
@@ -410,150 +441,175 @@ std::string import_with_assimp(const std::string& path) {
     auto it = texture_index.find(key);
     if (it == texture_index.end()) {
       it = texture_index.emplace(key, int32_t(texture_index.size())).first;
-      if (const aiTexture* t = scene->GetEmbeddedTexture(key.c_str())) {
-        const std::string label = path + " (embedded texture " + key + ")";
-        if (t->mHeight == 0) {  // compressed: mWidth bytes of a PNG, JPEG, ...
-          textures.put(kTextureEncoded);
-          textures.put_string(label);
-          textures.put_string(std::string(reinterpret_cast<const char*>(t->pcData), t->mWidth));
-        } else {  // mWidth x mHeight aiTexels (BGRA)
-          textures.put(kTextureTexels);
-          textures.put_string(label);
-          textures.put(uint32_t(t->mWidth));
-          textures.put(uint32_t(t->mHeight));
-          std::string rgba(size_t(t->mWidth) * t->mHeight * 4, '\0');
-          for (size_t k = 0; k < size_t(t->mWidth) * t->mHeight; ++k) {
-            const aiTexel& x = t->pcData[k];
-            rgba[4 * k] = char(x.r), rgba[4 * k + 1] = char(x.g), rgba[4 * k + 2] = char(x.b);
-            rgba[4 * k + 3] = char(x.a);
-          }
-          textures.put_string(rgba);
-        }
+      if (const aiTexture* t = scene.GetEmbeddedTexture(key.c_str())) {
+        put_embedded_texture(out.textures, *t, path + " (embedded texture " + key + ")");
       } else {
-        textures.put(kTextureFile);
-        textures.put_string(key);
+        out.textures.put(kTextureFile);
+        out.textures.put_string(key);
       }
     }
-    materials[i].texture = it->second;
+    out.materials[i].texture = it->second;
   }
+  out.texture_count = texture_index.size();
+  return out;
+}
 
-  // First pass: count triangles, so a large mesh is allocated once, and note where each mesh is placed.
-  size_t count = 0;
-  bool textured = false;
-  std::vector<uint32_t> placed(scene->mNumMeshes, 0);
-  std::vector<Placement> placements;
-  std::vector<uint32_t> object_mesh(scene->mNumMeshes, UINT32_MAX);  // Assimp mesh -> object mesh
-  std::vector<uint32_t> object_tris;                                 // per object mesh
-  bool invertible = true;
-  walk_nodes(*scene, [&](unsigned mesh_index, const aiMatrix4x4& world) {
-    if (mesh_index >= scene->mNumMeshes)
+// Where the node tree places each mesh, and how many triangles that makes.
+struct MeshPlacements {
+  size_t count = 0;                   // triangles placed (world space, every placement)
+  bool textured = false;              // a placed mesh has texture coordinates and a textured material
+  std::vector<uint32_t> placed;       // per Assimp mesh: the nodes that place it
+  std::vector<Placement> placements;  // every placement, in node order
+  std::vector<uint32_t> object_mesh;  // Assimp mesh -> object mesh
+  std::vector<uint32_t> object_tris;  // per object mesh
+  bool invertible = true;             // every placement's transform can be inverted
+};
+
+// First pass: count triangles, so a large mesh is allocated once, and note where each mesh is placed.
+MeshPlacements place_meshes(const aiScene& scene, const std::string& path,
+                            const std::vector<RawMaterial>& materials) {
+  MeshPlacements mp;
+  mp.placed.assign(scene.mNumMeshes, 0);
+  mp.object_mesh.assign(scene.mNumMeshes, UINT32_MAX);
+  walk_nodes(scene, [&](unsigned mesh_index, const aiMatrix4x4& world) {
+    if (mesh_index >= scene.mNumMeshes)
       throw Error(path + ": node refers to missing mesh " + std::to_string(mesh_index));
-    if (object_mesh[mesh_index] == UINT32_MAX) {
-      object_mesh[mesh_index] = uint32_t(object_tris.size());
+    if (mp.object_mesh[mesh_index] == UINT32_MAX) {
+      mp.object_mesh[mesh_index] = uint32_t(mp.object_tris.size());
       uint32_t n = 0;
-      for (unsigned f = 0; f < scene->mMeshes[mesh_index]->mNumFaces; ++f)
-        n += scene->mMeshes[mesh_index]->mFaces[f].mNumIndices == 3;
-      object_tris.push_back(n);
+      for (unsigned f = 0; f < scene.mMeshes[mesh_index]->mNumFaces; ++f)
+        n += scene.mMeshes[mesh_index]->mFaces[f].mNumIndices == 3;
+      mp.object_tris.push_back(n);
     }
-    ++placed[mesh_index];
-    Placement pl{object_mesh[mesh_index], {}};
+    ++mp.placed[mesh_index];
+    Placement pl{mp.object_mesh[mesh_index], {}};
     for (int c = 0; c < 4; ++c) {
       pl.to_world.m[0][c] = world[0][c];
       pl.to_world.m[1][c] = world[1][c];
       pl.to_world.m[2][c] = world[2][c];
     }
     hw::AffineD inverse;
-    invertible = invertible && hw::invert(pl.to_world, inverse);
-    placements.push_back(pl);
-    const aiMesh* mesh = scene->mMeshes[mesh_index];
-    for (unsigned f = 0; f < mesh->mNumFaces; ++f) count += mesh->mFaces[f].mNumIndices == 3;
+    mp.invertible = mp.invertible && hw::invert(pl.to_world, inverse);
+    mp.placements.push_back(pl);
+    const aiMesh* mesh = scene.mMeshes[mesh_index];
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f) mp.count += mesh->mFaces[f].mNumIndices == 3;
     if (mesh->mMaterialIndex < materials.size() && materials[mesh->mMaterialIndex].texture >= 0 &&
         mesh->HasTextureCoords(0))
-      textured = true;
+      mp.textured = true;
   });
+  return mp;
+}
+
+// The triangles as sent to the parent, their materials and (textured files) texture coordinates.
+struct ImportedTriangles {
+  std::vector<hw::Triangle> triangles;
+  std::vector<uint32_t> tri_material;
+  std::vector<TriangleUv> tri_uv;
+};
+
+// One face's vertices (world space when `transform`) and texture coordinates. Throws Error for an index out of
+// range or a coordinate that is not finite.
+void read_face(const aiScene& scene, const std::string& path, unsigned mesh_index, unsigned f,
+               const aiMatrix4x4& world, bool transform, hw::Vec3 (&v)[3], TriangleUv& uv) {
+  const aiMesh* mesh = scene.mMeshes[mesh_index];
+  const aiFace& face = mesh->mFaces[f];
+  const bool uvs = mesh->HasTextureCoords(0);
+  for (int k = 0; k < 3; ++k) {
+    const unsigned index = face.mIndices[k];
+    if (index >= mesh->mNumVertices) {
+      throw Error(path + ": " + mesh_label(scene, mesh_index) + ", face " + std::to_string(f) +
+                  ": index out of range (" + std::to_string(index) + " >= " + std::to_string(mesh->mNumVertices) +
+                  " vertices)");
+    }
+    aiVector3D p = mesh->mVertices[index];
+    if (transform) p = world * p;
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
+      throw Error(path + ": " + mesh_label(scene, mesh_index) + ", face " + std::to_string(f) + ", vertex " +
+                  std::to_string(index) + ": NaN/Inf coordinate " + format_vec(p));
+    }
+    v[k] = hw::Vec3(p.x, p.y, p.z);
+    if (uvs) {
+      // Assimp's texture coordinates have their origin at the image's bottom left (it flips glTF's); rtu's
+      // textures have row 0 on top (scene.h), so t is flipped back.
+      uv.s[k] = mesh->mTextureCoords[0][index].x;
+      uv.t[k] = 1.0f - mesh->mTextureCoords[0][index].y;
+    }
+  }
+}
+
+// Second pass: the triangles. Two-level: object space, each mesh's triangles once. Otherwise world space; an
+// identity node keeps the file's bits (the comparison is exact). Materials and texture coordinates are per
+// placed triangle either way.
+ImportedTriangles read_triangles(const aiScene& scene, const std::string& path, size_t num_materials,
+                                 bool instanced, bool textured, size_t count, size_t flat_count) {
+  ImportedTriangles out;
+  out.triangles.reserve(count);
+  out.tri_material.reserve(flat_count);
+  if (textured) out.tri_uv.reserve(flat_count);
+  std::vector<bool> sent(scene.mNumMeshes, false);
+  const aiMatrix4x4 identity;
+  walk_nodes(scene, [&](unsigned mesh_index, const aiMatrix4x4& world) {
+    const aiMesh* mesh = scene.mMeshes[mesh_index];
+    const bool transform = !instanced && !(world == identity);
+    const bool send = !instanced || !sent[mesh_index];
+    sent[mesh_index] = true;
+    const uint32_t material = mesh->mMaterialIndex < num_materials ? mesh->mMaterialIndex : UINT32_MAX;
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
+      if (mesh->mFaces[f].mNumIndices != 3) continue;  // points and lines
+      hw::Vec3 v[3];
+      TriangleUv uv;
+      read_face(scene, path, mesh_index, f, world, transform, v, uv);
+      if (send) out.triangles.push_back({v[0], v[1], v[2]});
+      out.tri_material.push_back(material);
+      if (textured) out.tri_uv.push_back(uv);
+    }
+  });
+  return out;
+}
+
+// The import proper, in the child process of import_isolated().
+std::string import_with_assimp(const std::string& path) {
+  Assimp::Importer importer;
+  const aiScene* scene = read_with_assimp(importer, path);
+  ImportedMaterials mats = import_materials(*scene, path);
+  MeshPlacements mp = place_meshes(*scene, path, mats.materials);
 
   // A mesh placed by more than one node makes the file two-level: its meshes are sent once each in object space
   // with every placement (instances), unless a transform cannot be inverted (a node scaled to zero): then, as
   // for files that place each mesh once, every triangle is sent in world space.
   bool instanced = false;
-  for (const uint32_t n : placed) instanced = instanced || n > 1;
-  instanced = instanced && invertible;
-  const size_t flat_count = count;
+  for (const uint32_t n : mp.placed) instanced = instanced || n > 1;
+  instanced = instanced && mp.invertible;
+  const size_t flat_count = mp.count;
   // A node tree may place a mesh many times: the triangles it places, as the flattened scene will hold them, are
   // held to the scene's budget before anything per placed triangle is reserved (here, and where the parent
   // flattens two levels).
   check_scene_size(path, flat_count);
+  size_t count = flat_count;
   if (instanced) {
     count = 0;
-    for (const uint32_t n : object_tris) count += n;
+    for (const uint32_t n : mp.object_tris) count += n;
   } else {
-    placements.clear();
-    object_tris.clear();
+    mp.placements.clear();
+    mp.object_tris.clear();
   }
-  std::vector<bool> sent(scene->mNumMeshes, false);
-
-  std::vector<hw::Triangle> triangles;
-  std::vector<uint32_t> tri_material;
-  std::vector<TriangleUv> tri_uv;
-  triangles.reserve(count);
-  tri_material.reserve(flat_count);
-  if (textured) tri_uv.reserve(flat_count);
-  const aiMatrix4x4 identity;
-  walk_nodes(*scene, [&](unsigned mesh_index, const aiMatrix4x4& world) {
-    const aiMesh* mesh = scene->mMeshes[mesh_index];
-    // Two-level: object space, each mesh's triangles once. Otherwise world space; an identity node keeps the
-    // file's bits (the comparison is exact).
-    const bool transform = !instanced && !(world == identity);
-    const bool send = !instanced || !sent[mesh_index];
-    sent[mesh_index] = true;
-    const uint32_t material = mesh->mMaterialIndex < materials.size() ? mesh->mMaterialIndex : UINT32_MAX;
-    const bool uvs = mesh->HasTextureCoords(0);
-    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
-      const aiFace& face = mesh->mFaces[f];
-      if (face.mNumIndices != 3) continue;  // points and lines
-      hw::Vec3 v[3];
-      TriangleUv uv;
-      for (int k = 0; k < 3; ++k) {
-        const unsigned index = face.mIndices[k];
-        if (index >= mesh->mNumVertices) {
-          throw Error(path + ": " + mesh_label(*scene, mesh_index) + ", face " + std::to_string(f) +
-                      ": index out of range (" + std::to_string(index) +
-                      " >= " + std::to_string(mesh->mNumVertices) + " vertices)");
-        }
-        aiVector3D p = mesh->mVertices[index];
-        if (transform) p = world * p;
-        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
-          throw Error(path + ": " + mesh_label(*scene, mesh_index) + ", face " + std::to_string(f) + ", vertex " +
-                      std::to_string(index) + ": NaN/Inf coordinate " + format_vec(p));
-        }
-        v[k] = hw::Vec3(p.x, p.y, p.z);
-        if (uvs) {
-          // Assimp's texture coordinates have their origin at the image's bottom left (it flips glTF's); rtu's
-          // textures have row 0 on top (scene.h), so t is flipped back.
-          uv.s[k] = mesh->mTextureCoords[0][index].x;
-          uv.t[k] = 1.0f - mesh->mTextureCoords[0][index].y;
-        }
-      }
-      if (send) triangles.push_back({v[0], v[1], v[2]});
-      tri_material.push_back(material);
-      if (textured) tri_uv.push_back(uv);
-    }
-  });
+  const ImportedTriangles tris =
+      read_triangles(*scene, path, mats.materials.size(), instanced, mp.textured, count, flat_count);
 
   BlobWriter out;
-  out.put_array(triangles);
-  out.put_array(tri_material);
-  out.put_array(tri_uv);
-  out.put_array(object_tris);
-  out.put_array(placements);
-  out.put(uint64_t(materials.size()));
-  for (size_t i = 0; i < materials.size(); ++i) {
-    out.put_string(names[i]);
-    out.put(materials[i]);
+  out.put_array(tris.triangles);
+  out.put_array(tris.tri_material);
+  out.put_array(tris.tri_uv);
+  out.put_array(mp.object_tris);
+  out.put_array(mp.placements);
+  out.put(uint64_t(mats.materials.size()));
+  for (size_t i = 0; i < mats.materials.size(); ++i) {
+    out.put_string(mats.names[i]);
+    out.put(mats.materials[i]);
   }
-  out.put(uint64_t(texture_index.size()));
+  out.put(uint64_t(mats.texture_count));
   std::string blob = out.take();
-  blob += textures.take();
+  blob += mats.textures.take();
   importer.FreeScene();
   return blob;
 }

@@ -15,19 +15,10 @@
 # rays per second on one host thread) against the single unit's in the same run. Prints Markdown; reads the stats
 # JSON with python3.
 set -euo pipefail
-rtusim=${1:-build/default/rtusim}
-rays=${2:-200000}
-shift $(( $# > 2 ? 2 : $# ))
-meshes=("$@")
-if [ ${#meshes[@]} -eq 0 ]; then
-  m=/usr/share/assimp/models
-  meshes=("$m/IFC/AC14-FZK-Haus.ifc" "$m/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb")
-fi
 read -r -a units <<<"${UNITS:-1 2 4 8 16 32 64 80}"
 name=chip_scaling.sh
 source "$(dirname "$0")/lib.sh"
-bench_need_rtusim "$rtusim"
-bench_need_count RAYS "$rays"
+bench_mesh_args 200000 "$bench_house" "$bench_engine" -- "$@"
 bench_need_python
 bench_tmpdir
 plots=${PLOTS:-}

@@ -17,18 +17,9 @@
 # the two-level memory's bytes (top and bottom images and transforms) are a column of their own. Prints Markdown
 # tables; needs python3.
 set -euo pipefail
-rtusim=${1:-build/default/rtusim}
-rays=${2:-50000}
-shift $(( $# > 2 ? 2 : $# ))
-meshes=("$@")
-if [ ${#meshes[@]} -eq 0 ]; then
-  m=/usr/share/assimp/models
-  meshes=("$m/IFC/AC14-FZK-Haus.ifc" "$m/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb")
-fi
 name=compression.sh
 source "$(dirname "$0")/lib.sh"
-bench_need_rtusim "$rtusim"
-bench_need_count RAYS "$rays"
+bench_mesh_args 50000 "$bench_house" "$bench_engine" -- "$@"
 bench_need_python
 bench_tmpdir
 flat=()

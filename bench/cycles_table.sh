@@ -19,64 +19,25 @@
 # host).
 # Reads the stats JSON with jq, or python3 when jq is missing.
 set -euo pipefail
-rtusim=${1:-build/default/rtusim}
-rays=${2:-100000}
-shift $(( $# > 2 ? 2 : $# ))
-meshes=("$@")
-if [ ${#meshes[@]} -eq 0 ]; then
-  m=/usr/share/assimp/models
-  meshes=("$m/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb" "$m/BLEND/SuzanneSubdiv_252.blend"
-          "$m/IFC/AC14-FZK-Haus.ifc")
-fi
 threads=${THREADS:-1}
 presets=(rdna2 intel embedded)
 builtins=(builtin:seed builtin:cornell)
 
 name=cycles_table.sh
 source "$(dirname "$0")/lib.sh"
-bench_need_rtusim "$rtusim"
-bench_need_count RAYS "$rays"
+bench_mesh_args 100000 "$bench_engine" "$bench_suzanne" "$bench_house" -- "$@"
 for mesh in "${meshes[@]}"; do
   [ -r "$mesh" ] || { echo "cycles_table.sh: cannot read $mesh" >&2; exit 2; }
 done
-if command -v jq >/dev/null; then
-  reader=jq
-elif command -v python3 >/dev/null; then
-  reader=python3
-else
-  echo "cycles_table.sh: needs jq or python3 to read the stats JSON" >&2
-  exit 2
-fi
-
+bench_json_reader
 bench_tmpdir
 
-# fields FILE PATH...: the values at the dotted paths, tab-separated, '-' where a path is missing or null.
-fields() {
-  local file=$1
-  shift
-  if [ "$reader" = jq ]; then
-    jq -r '[$ARGS.positional[] as $p | getpath($p | split(".")) | if . == null then "-" else tostring end] | @tsv' \
-      "$file" --args "$@"
-  else
-    python3 - "$file" "$@" <<'PY'
-import json, sys
-doc = json.load(open(sys.argv[1]))
-out = []
-for path in sys.argv[2:]:
-    v = doc
-    for k in path.split("."):
-        v = v.get(k) if isinstance(v, dict) else None
-    out.append("-" if v is None else (str(v).lower() if isinstance(v, bool) else str(v)))
-print("\t".join(out))
-PY
-  fi
-}
 
 # row PRESET SCENE RAYS_LABEL FILE RAYS_KEY WALL_KEY: one table row from a trace or render stats file.
 row() {
   local preset=$1 scene=$2 label=$3 file=$4 rays_key=$5 wall_key=$6
   local n cycles clock cpr rpc lim cob hit wall
-  IFS=$'\t' read -r n cycles clock cpr rpc lim cob hit wall < <(fields "$file" "$rays_key" timing.cycles \
+  IFS=$'\t' read -r n cycles clock cpr rpc lim cob hit wall < <(bench_fields "$file" "$rays_key" timing.cycles \
     timing.device_clock timing.cycles_per_ray timing.rays_per_clock timing.lower_bound.limited_by \
     timing.lower_bound.cycles_over_bound timing.cache.hit_rate "$wall_key")
   printf '| %s | %s | %s %s | %s | %s | %.2f | %.3f | %s | %.2f | %.3f | %.3f | %.2f |\n' "$preset" "$scene" "$label" \

@@ -5,18 +5,9 @@
 #   bench/format_sweep.sh [RTUSIM] [RAYS] [MESH...]
 #     RTUSIM  default build/default/rtusim;  RAYS  rays per kind (primary and incoherent), default 1000000
 set -euo pipefail
-rtusim=${1:-build/default/rtusim}
-rays=${2:-1000000}
-shift $(( $# > 2 ? 2 : $# ))
-meshes=("$@")
-if [ ${#meshes[@]} -eq 0 ]; then
-  m=/usr/share/assimp/models
-  meshes=("$m/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb" "$m/BLEND/SuzanneSubdiv_252.blend")
-fi
 name=format_sweep.sh
 source "$(dirname "$0")/lib.sh"
-bench_need_rtusim "$rtusim"
-bench_need_count RAYS "$rays"
+bench_mesh_args 1000000 "$bench_engine" "$bench_suzanne" -- "$@"
 bench_tmpdir
 
 get() {  # get KEY FILE: a top-level number of the compare JSON (one key per line)

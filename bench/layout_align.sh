@@ -8,18 +8,9 @@
 #     assimp-testmodels meshes
 # Prints a Markdown table. Reads the stats JSON with python3.
 set -euo pipefail
-rtusim=${1:-build/default/rtusim}
-rays=${2:-50000}
-shift $(( $# > 2 ? 2 : $# ))
-meshes=("$@")
-if [ ${#meshes[@]} -eq 0 ]; then
-  m=/usr/share/assimp/models
-  meshes=("$m/IFC/AC14-FZK-Haus.ifc" "$m/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb")
-fi
 name=layout_align.sh
 source "$(dirname "$0")/lib.sh"
-bench_need_rtusim "$rtusim"
-bench_need_count RAYS "$rays"
+bench_mesh_args 50000 "$bench_house" "$bench_engine" -- "$@"
 bench_need_python
 bench_tmpdir
 echo "| mesh | rays | layout_align | cycles | lines per fetch | DRAM bytes | cache hit rate | cycles vs packed |"

@@ -13,3 +13,63 @@ bench_tmpdir() {  # sets tmp
   tmp=$(mktemp -d)
   trap 'rm -rf "$tmp"' EXIT
 }
+
+# The assimp-testmodels meshes the scripts trace by default.
+bench_house=/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc
+bench_engine=/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb
+bench_suzanne=/usr/share/assimp/models/BLEND/SuzanneSubdiv_252.blend
+
+# bench_mesh_args DEFAULT_RAYS DEFAULT_MESH... -- [RTUSIM] [RAYS] [MESH...]: the arguments of a script that traces
+# meshes. Sets rtusim (default build/default/rtusim), rays and meshes, and checks rtusim and RAYS.
+bench_mesh_args() {
+  local default_rays=$1
+  shift
+  local defaults=()
+  while [ "$1" != -- ]; do
+    defaults+=("$1")
+    shift
+  done
+  shift
+  rtusim=${1:-build/default/rtusim}
+  rays=${2:-$default_rays}
+  shift $(($# > 2 ? 2 : $#))
+  meshes=("$@")
+  [ ${#meshes[@]} -gt 0 ] || meshes=("${defaults[@]}")
+  bench_need_rtusim "$rtusim"
+  bench_need_count RAYS "$rays"
+}
+
+# Sets reader to jq, or python3 when jq is missing; exits 2 when neither is there.
+bench_json_reader() {
+  if command -v jq >/dev/null; then
+    reader=jq
+  elif command -v python3 >/dev/null; then
+    reader=python3
+  else
+    echo "$name: needs jq or python3 to read the stats JSON" >&2
+    exit 2
+  fi
+}
+
+# bench_fields FILE PATH...: the values at the dotted paths of a stats JSON, tab-separated, '-' where a path is
+# missing or null (read with $reader, bench_json_reader).
+bench_fields() {
+  local file=$1
+  shift
+  if [ "$reader" = jq ]; then
+    jq -r '[$ARGS.positional[] as $p | getpath($p | split(".")) | if . == null then "-" else tostring end] | @tsv' \
+      "$file" --args "$@"
+  else
+    python3 - "$file" "$@" <<'PY'
+import json, sys
+doc = json.load(open(sys.argv[1]))
+out = []
+for path in sys.argv[2:]:
+    v = doc
+    for k in path.split("."):
+        v = v.get(k) if isinstance(v, dict) else None
+    out.append("-" if v is None else (str(v).lower() if isinstance(v, bool) else str(v)))
+print("\t".join(out))
+PY
+  fi
+}

@@ -11,19 +11,10 @@
 # primary and incoherent ray files (`rtusim rays`) for every preset. Prints a Markdown table. Reads the stats JSON
 # with python3.
 set -euo pipefail
-rtusim=${1:-build/default/rtusim}
-rays=${2:-50000}
-shift $(( $# > 2 ? 2 : $# ))
-meshes=("$@")
-if [ ${#meshes[@]} -eq 0 ]; then
-  m=/usr/share/assimp/models
-  meshes=("$m/IFC/AC14-FZK-Haus.ifc" "$m/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb")
-fi
 read -r -a presets <<<"${PRESETS:-rdna2 rdna2-mem intel intel-mem embedded}"
 name=memory_bound.sh
 source "$(dirname "$0")/lib.sh"
-bench_need_rtusim "$rtusim"
-bench_need_count RAYS "$rays"
+bench_mesh_args 50000 "$bench_house" "$bench_engine" -- "$@"
 bench_need_python
 bench_tmpdir
 echo "| mesh | rays | preset | cycles | cycles/ray | limited by | cycles / bound | DRAM bytes/ray | DRAM utilization | cache hit rate |"

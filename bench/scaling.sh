@@ -26,51 +26,17 @@ read -r -a subdivs <<< "${SUBDIVS:-3 4 5 6 7 8}"
 read -r -a presets <<< "${PRESETS:-rdna2 intel embedded}"
 threads=${THREADS:-2}
 
-if ! [ -x "$rtusim" ]; then
-  echo "scaling.sh: $rtusim is not an executable (build the rtusim target, or pass its path)" >&2
-  exit 2
-fi
-if ! [[ $rays =~ ^[1-9][0-9]*$ ]]; then
-  echo "scaling.sh: RAYS must be a positive integer, not '$rays'" >&2
-  exit 2
-fi
+name=scaling.sh
+source "$(dirname "$0")/lib.sh"
+bench_need_rtusim "$rtusim"
+bench_need_count RAYS "$rays"
 for s in "${subdivs[@]}"; do
   [[ $s =~ ^[0-8]$ ]] || { echo "scaling.sh: SUBDIVS: '$s' is not a level 0..8" >&2; exit 2; }
 done
-if command -v jq >/dev/null; then
-  reader=jq
-elif command -v python3 >/dev/null; then
-  reader=python3
-else
-  echo "scaling.sh: needs jq or python3 to read the stats JSON" >&2
-  exit 2
-fi
+bench_json_reader
 mkdir -p "$out" || { echo "scaling.sh: cannot create $out" >&2; exit 2; }
 
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-
-# fields FILE PATH...: the values at the dotted paths, tab-separated.
-fields() {
-  local file=$1
-  shift
-  if [ "$reader" = jq ]; then
-    jq -r '[$ARGS.positional[] as $p | getpath($p | split(".")) | if . == null then "-" else tostring end] | @tsv' \
-      "$file" --args "$@"
-  else
-    python3 - "$file" "$@" <<'PY'
-import json, sys
-doc = json.load(open(sys.argv[1]))
-out = []
-for path in sys.argv[2:]:
-    v = doc
-    for k in path.split("."):
-        v = v.get(k) if isinstance(v, dict) else None
-    out.append("-" if v is None else str(v))
-print("\t".join(out))
-PY
-  fi
-}
+bench_tmpdir
 
 # The same primary rays for every mesh and preset: a pinhole camera at (0, 0, 4) looking down -z, a square image
 # of side ceil(sqrt(RAYS)) framed on the sphere's silhouette (tan of the half angle 0.26 > 1 / sqrt(15), so the
@@ -92,12 +58,12 @@ for preset in "${presets[@]}"; do
     n=$((20 * 4 ** s))
     "$rtusim" trace --scene "builtin:icosphere?subdiv=$s" --rays "$tmp/primary.csv" --out "$tmp/hits" \
       --device timed --config "$preset" --threads "$threads" --stats "$tmp/stats.json" >/dev/null
-    IFS=$'\t' read -r nr hits cycles cpr nodes prims hit lim < <(fields "$tmp/stats.json" rays hits timing.cycles \
+    IFS=$'\t' read -r nr hits cycles cpr nodes prims hit lim < <(bench_fields "$tmp/stats.json" rays hits timing.cycles \
       timing.cycles_per_ray nodes_visited prim_tests timing.cache.hit_rate timing.lower_bound.limited_by)
     "$rtusim" render --scene "builtin:icosphere?subdiv=$s" --mode hybrid --device timed --config "$preset" \
       --width "$side" --height "$side" --spp 1 --max-depth 0 --threads "$threads" --out "$tmp/hybrid.png" \
       --stats "$tmp/render.json" >/dev/null
-    IFS=$'\t' read -r rc rlim < <(fields "$tmp/render.json" timing.raster.cycles timing.raster.limit)
+    IFS=$'\t' read -r rc rlim < <(bench_fields "$tmp/render.json" timing.raster.cycles timing.raster.limit)
     awk -v OFS=, -v p="$preset" -v s="$s" -v n="$n" -v nr="$nr" -v h="$hits" -v c="$cycles" -v cpr="$cpr" \
       -v nodes="$nodes" -v prims="$prims" -v hit="$hit" -v lim="$lim" -v rc="$rc" -v rlim="$rlim" \
       'BEGIN { print p, s, n, nr, h, c, sprintf("%.4f", cpr), sprintf("%.3f", nodes / nr), sprintf("%.3f", prims / nr), sprintf("%.4f", hit), lim, rc, rlim }' >>"$csv"

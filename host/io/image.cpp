@@ -19,16 +19,14 @@
 #include "host/io/error.h"
 #include "host/io/limits.h"
 
-#define STB_IMAGE_WRITE_IMPLEMENTATION
+// stb's implementations, compiled here without the warnings they raise.
 #if defined(__GNUC__)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmissing-field-initializers"
 #pragma GCC diagnostic ignored "-Wsign-compare"
 #endif
+#define STB_IMAGE_WRITE_IMPLEMENTATION
 #include <stb/stb_image_write.h>
-#if defined(__GNUC__)
-#pragma GCC diagnostic pop
-#endif
 
 #define STB_IMAGE_IMPLEMENTATION
 #define STBI_ONLY_PNG  // PNG by stb; JPEG (glTF's other image format) by libjpeg-turbo, below
@@ -37,11 +35,6 @@
 #define STBI_MALLOC(sz) std::calloc(1, (sz) > 0 ? size_t(sz) : 1)
 #define STBI_REALLOC(p, newsz) std::realloc(p, newsz)
 #define STBI_FREE(p) std::free(p)
-#if defined(__GNUC__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
-#pragma GCC diagnostic ignored "-Wsign-compare"
-#endif
 #include <stb/stb_image.h>
 #if defined(__GNUC__)
 #pragma GCC diagnostic pop

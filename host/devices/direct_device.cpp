@@ -8,10 +8,14 @@ namespace rtu::host {
 
 namespace {
 
-class FloatDevice final : public DirectDevice {
+// What the float devices share: the float reference's tracer (Tracer: one level or two) with the job's any-hit
+// stage, and its ray checks.
+template <class Tracer>
+class FloatDeviceOf : public DirectDevice {
  public:
-  FloatDevice(const hw::Geometry& g, const DeviceOptions& o) : m_tracer(g, o.tracer) {
-    m_tracer.set_any_hit(o.any_hit);
+  template <class... TracerArgs>
+  explicit FloatDeviceOf(const hw::AnyHitStage* any_hit, const TracerArgs&... args) : m_tracer(args...) {
+    m_tracer.set_any_hit(any_hit);
   }
   hw::DeviceKind kind() const override { return hw::DeviceKind::kFloat; }
   void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
@@ -19,34 +23,29 @@ class FloatDevice final : public DirectDevice {
     m_tracer.trace_batch(rays, hits, n, any_hit, threads, s);
   }
   hw::RayStatus ray_status(const hw::Ray& r) const override { return hw::validate_ray(r); }
+
+ protected:
+  Tracer m_tracer;
+};
+
+class FloatDevice final : public FloatDeviceOf<hw::FloatTracer> {
+ public:
+  FloatDevice(const hw::Geometry& g, const DeviceOptions& o) : FloatDeviceOf(o.any_hit, g, o.tracer) {}
   const hw::Bvh* bvh() const override { return m_tracer.bvh(); }
   double bvh_cost() const override { return m_tracer.bvh_cost(); }
   double brute_cost() const override { return m_tracer.brute_cost(); }
   uint64_t prim_bytes() const override { return m_tracer.leaf_prim_bytes(); }
-
- private:
-  hw::FloatTracer m_tracer;
 };
 
 // The float reference over two levels.
-class InstancedFloatDevice final : public DirectDevice {
+class InstancedFloatDevice final : public FloatDeviceOf<hw::InstancedFloatTracer> {
  public:
-  InstancedFloatDevice(const hw::Geometry& g, const DeviceOptions& o) : m_tracer(*o.instances, g, o.tracer) {
-    m_tracer.set_any_hit(o.any_hit);
-  }
-  hw::DeviceKind kind() const override { return hw::DeviceKind::kFloat; }
-  void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
-                   hw::TraversalStats& s) const override {
-    m_tracer.trace_batch(rays, hits, n, any_hit, threads, s);
-  }
-  hw::RayStatus ray_status(const hw::Ray& r) const override { return hw::validate_ray(r); }
+  InstancedFloatDevice(const hw::Geometry& g, const DeviceOptions& o)
+      : FloatDeviceOf(o.any_hit, *o.instances, g, o.tracer) {}
   const hw::Bvh* bvh() const override { return &m_tracer.top(); }
   double bvh_cost() const override { return m_tracer.top().figures().sah_cost; }
   double brute_cost() const override { return 0.0; }
   uint64_t prim_bytes() const override { return m_tracer.bytes() - m_tracer.top().figures().node_bytes; }
-
- private:
-  hw::InstancedFloatTracer m_tracer;
 };
 
 // What the fixed and timed devices share: the float BVH (for figures; the datapath reads only the image), the

@@ -140,15 +140,6 @@ constexpr Vec3 kFarOffset(148376.0f, 1234.0f, -223423.0f);  // icosphere_far: fa
 
 using Params = std::map<std::string, std::string>;
 
-uint32_t add_material(Scene& scene, Material m) {
-  scene.materials.push_back(std::move(m));
-  return uint32_t(scene.materials.size() - 1);
-}
-
-Material diffuse(const std::string& name, Vec3 color) {
-  return {.name = name, .type = MaterialType::kDiffuse, .color = color, .ior = 1.5f, .emission = {}};
-}
-
 // Appends a parallelogram light's two triangles (corner, +u, +u+v) and (corner, +u+v, +v) with its own emissive
 // material, and its Light record. Call after all mesh triangles: they must follow them (scene.h).
 void add_area_light(Scene& scene, std::vector<uint32_t>& tri_material, Vec3 corner, Vec3 edge_u, Vec3 edge_v,
@@ -172,14 +163,6 @@ void add_area_light(Scene& scene, std::vector<uint32_t>& tri_material, Vec3 corn
   scene.lights.push_back(light);
 }
 
-Light point_light(Vec3 position, Vec3 intensity) {
-  Light light;
-  light.type = LightType::kPoint;
-  light.position = position;
-  light.intensity = intensity;
-  return light;
-}
-
 // prim_material from the per-kind lists, in primitive order.
 void set_prim_material(Scene& scene, const std::vector<uint32_t>& tri, const std::vector<uint32_t>& sphere,
                        const std::vector<uint32_t>& plane) {
@@ -192,8 +175,8 @@ void set_prim_material(Scene& scene, const std::vector<uint32_t>& tri, const std
 // ground plane, one point light.
 Scene make_seed() {
   Scene scene;
-  const uint32_t ground = add_material(scene, diffuse("ground", Vec3(0.75f, 0.75f, 0.7f)));
-  const uint32_t torus = add_material(scene, diffuse("torus", Vec3(0.85f, 0.45f, 0.15f)));
+  const uint32_t ground = add_material(scene, diffuse_material("ground", Vec3(0.75f, 0.75f, 0.7f)));
+  const uint32_t torus = add_material(scene, diffuse_material("torus", Vec3(0.85f, 0.45f, 0.15f)));
   const uint32_t mirror = add_material(scene, {"mirror", MaterialType::kMirror, Vec3(0.9f), 1.5f, {}});
   const uint32_t glass = add_material(scene, {"glass", MaterialType::kGlass, Vec3(1.0f), 1.5f, {}});
 
@@ -226,9 +209,9 @@ Scene make_seed() {
 // z = 0. The light is lowered from the ceiling (548.8) to 548.7 so it does not share the ceiling's plane.
 Scene make_cornell() {
   Scene scene;
-  const uint32_t white = add_material(scene, diffuse("white", Vec3(0.73f, 0.73f, 0.73f)));
-  const uint32_t red = add_material(scene, diffuse("red", Vec3(0.65f, 0.05f, 0.05f)));
-  const uint32_t green = add_material(scene, diffuse("green", Vec3(0.12f, 0.45f, 0.15f)));
+  const uint32_t white = add_material(scene, diffuse_material("white", Vec3(0.73f, 0.73f, 0.73f)));
+  const uint32_t red = add_material(scene, diffuse_material("red", Vec3(0.65f, 0.05f, 0.05f)));
+  const uint32_t green = add_material(scene, diffuse_material("green", Vec3(0.12f, 0.45f, 0.15f)));
 
   struct Quad {
     Vec3 a, b, c, d;
@@ -280,7 +263,7 @@ Scene make_cornell() {
 // icosphere: a closed, watertight subdivided icosahedron, camera outside on +z, a point light above it.
 Scene make_icosphere_scene(int subdiv, float radius, Vec3 offset) {
   Scene scene;
-  add_material(scene, diffuse("default", Vec3(0.8f)));
+  add_material(scene, diffuse_material("default", Vec3(0.8f)));
   append_triangles(make_icosphere(subdiv, radius, offset), scene.geometry.triangles);
   scene.prim_material.assign(scene.geometry.triangles.size(), 0);
   scene.camera.position = offset + radius * Vec3(0.0f, 0.0f, 4.0f);

@@ -14,6 +14,23 @@
 
 namespace rtu::host {
 
+Material diffuse_material(const std::string& name, Vec3 color) {
+  return {.name = name, .type = MaterialType::kDiffuse, .color = color, .ior = 1.5f, .emission = {}};
+}
+
+uint32_t add_material(Scene& scene, Material m) {
+  scene.materials.push_back(std::move(m));
+  return uint32_t(scene.materials.size() - 1);
+}
+
+Light point_light(Vec3 position, Vec3 intensity) {
+  Light light;
+  light.type = LightType::kPoint;
+  light.position = position;
+  light.intensity = intensity;
+  return light;
+}
+
 namespace {
 
 using hw::DVec3;
@@ -44,23 +61,6 @@ DVec3 random_unit(Rng& rng) {
     const double l2 = glm::dot(p, p);
     if (l2 > 1e-4 && l2 <= 1.0) return p / std::sqrt(l2);
   }
-}
-
-Material diffuse_material(const std::string& name, Vec3 color) {
-  return {.name = name, .type = MaterialType::kDiffuse, .color = color, .ior = 1.5f, .emission = {}};
-}
-
-uint32_t add_material(Scene& scene, Material m) {
-  scene.materials.push_back(std::move(m));
-  return uint32_t(scene.materials.size() - 1);
-}
-
-Light point_light(Vec3 position, Vec3 intensity) {
-  Light light;
-  light.type = LightType::kPoint;
-  light.position = position;
-  light.intensity = intensity;
-  return light;
 }
 
 // Triangles with their materials and texture coordinates, in the order they are added.

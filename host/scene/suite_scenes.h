@@ -1,11 +1,21 @@
 // The built-in scenes of the benchmark suite (scenes/suite.json): procedural analogues of the field's standard
 // scenes, each named after what makes it hard. Deterministic (a fixed-seed SplitMix64, no files); each builder
-// returns a scene that load_scene validates and marks (mark_non_opaque). Used by builtin_scenes.cpp only.
+// returns a scene that load_scene validates and marks (mark_non_opaque). Used by builtin_scenes.cpp only, which
+// builds its own scenes from the same building blocks.
 #pragma once
+
+#include <cstdint>
+#include <string>
 
 #include "host/scene/scene.h"
 
 namespace rtu::host {
+
+// Building blocks of the built-in scenes: a diffuse material (index of refraction 1.5, no emission), a material
+// appended to the scene (returns its index), a point light.
+Material diffuse_material(const std::string& name, Vec3 color);
+uint32_t add_material(Scene& scene, Material m);
+Light point_light(Vec3 position, Vec3 intensity);
 
 // hairball: 512 thin curved tubes (6 sides, 32 segments each: 196,608 triangles) crossing inside a unit ball:
 // many overlapping thin primitives whose boxes overlap, so traversal visits many nodes per ray.

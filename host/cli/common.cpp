@@ -5,6 +5,10 @@
 #include <string>
 #include <vector>
 
+#include "host/cost/cost_model.h"
+#include "hwmodel/cost/energy_model.h"
+#include "hwmodel/timing/timing_stats.h"
+
 namespace rtu::host::cli {
 
 namespace {
@@ -125,33 +129,32 @@ void check_device_args(const CLI::App& app, const DeviceArgs& o) {
 namespace rtu::host::cli {
 
 void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, bool sampled, const char* indent) {
-  const Json j = timing_stats_json(s, c);
-  std::string limit = j["lower_bound"]["limited_by"].get<std::string>();
+  // The figures of the stats JSON's timing object (timing_stats_json), from the statistics themselves.
+  const auto ratio = [](double a, double b) { return b > 0 ? a / b : 0.0; };
+  const hw::LowerBound bound = hw::lower_bound(s, c);
+  const hw::CostInputs in = cost_inputs(c);
+  const hw::EnergyReport e = hw::energy_report(s, c, in);
+  std::string limit = bound.limited_by;
   if (limit == "latency") {
     // Little's law: what the slots hold and how long each ray holds one, so the cure (more slots, less latency)
     // is in the line.
     char why[160];
-    std::snprintf(
-        why, sizeof why, ": %d ray slots%s, a ray's mean lifetime %.0f cycles without queueing",
-        c.ray_slots * c.units, c.units > 1 ? " over the units" : "",
-        s.rays > 0 ? j["lower_bound"]["latency"].get<double>() * c.ray_slots * c.units / double(s.rays) : 0.0);
+    std::snprintf(why, sizeof why, ": %d ray slots%s, a ray's mean lifetime %.0f cycles without queueing",
+                  c.ray_slots * c.units, c.units > 1 ? " over the units" : "",
+                  s.rays > 0 ? bound.latency * c.ray_slots * c.units / double(s.rays) : 0.0);
     limit += why;
   }
   std::printf(
       "timed (%s): %s%llu cycles, %.1f cycles per ray, %.3f rays per clock; cache hit rate %.3f, DRAM %.1f "
       "B/clock; lower bound %s%.0f cycles (%s%s), cycles / bound %.2f\n",
-      c.name.c_str(), sampled ? "~" : "", (unsigned long long)s.cycles, j["cycles_per_ray"].get<double>(),
-      j["rays_per_clock"].get<double>(), j["cache"]["hit_rate"].get<double>(),
-      j["dram_bytes_per_cycle"].get<double>(), sampled ? "~" : "", j["lower_bound"]["cycles"].get<double>(),
-      limit.c_str(), sampled ? ", estimated from the sample" : "",
-      j["lower_bound"]["cycles_over_bound"].get<double>());
-  const Json& e = j["energy"];
+      c.name.c_str(), sampled ? "~" : "", (unsigned long long)s.cycles, ratio(double(s.cycles), double(s.rays)),
+      ratio(double(s.rays), double(s.cycles)), ratio(double(s.cache_hits), double(s.cache_hits + s.cache_misses)),
+      ratio(double(s.dram_bytes), double(s.cycles)), sampled ? "~" : "", bound.cycles, limit.c_str(),
+      sampled ? ", estimated from the sample" : "", bound.cycles_over_bound);
   std::printf(
       "%senergy (%s estimate, docs/energy-model.md): %.0f pJ per ray, %.3g rays per joule, %.2f W at %g "
       "GHz; area %.2f mm^2\n",
-      indent, e["technology"].get<std::string>().c_str(), e["pj_per_ray"].get<double>(),
-      e["rays_per_joule"].get<double>(), e["watts"].get<double>(), c.clock_ghz,
-      e["area"]["total_mm2"].get<double>());
+      indent, hw::nangate45().name, e.pj_per_ray, e.rays_per_joule, e.watts, c.clock_ghz, e.area.total_mm2);
 }
 
 }  // namespace rtu::host::cli

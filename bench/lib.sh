@@ -73,3 +73,16 @@ print("\t".join(out))
 PY
   fi
 }
+
+# bench_yosys_stat SCRIPT: runs yosys on SCRIPT, which writes its `stat -tech cmos` to $tmp/stat.txt (exits 1 with
+# yosys's log when it fails); sets secs (yosys's wall seconds), cells, ffs (flip-flops) and trans (the CMOS
+# transistor estimate, as yosys prints it).
+bench_yosys_stat() {
+  local t0
+  t0=$(date +%s)
+  yosys -q "$1" >"$tmp/yosys.log" 2>&1 || { cat "$tmp/yosys.log" >&2; exit 1; }
+  secs=$(( $(date +%s) - t0 ))
+  cells=$(sed -n 's/^ *Number of cells: *\([0-9]*\)/\1/p' "$tmp/stat.txt" | tail -1)
+  ffs=$(grep -E '^\s+\$_(S?DFF|DFF)[A-Z_0-9]*\s' "$tmp/stat.txt" | awk '{s+=$2} END{print s+0}')
+  trans=$(sed -n 's/^ *Estimated number of transistors: *\([0-9+]*\)/\1/p' "$tmp/stat.txt" | tail -1)
+}

@@ -18,10 +18,12 @@ build=${1:-build/default}
 rays=${2:-300000}
 mesh=${3:-/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc}
 here=$(cd "$(dirname "$0")/.." && pwd)
+name=rtl_area.sh
+# shellcheck source=bench/lib.sh
+. "$here/bench/lib.sh"
 rtl="$here/rtl_sim/rtl"
 command -v yosys >/dev/null || { echo "rtl_area.sh: yosys is not installed (scripts/setup.sh installs it)" >&2; exit 1; }
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+bench_tmpdir
 
 get() {  # get KEY FILE: a top-level number of the compare JSON (one key per line)
   sed -n "s/^  \"$1\": \([-0-9.e+]*\),*$/\1/p" "$2" | head -1
@@ -45,12 +47,7 @@ synth -flatten -top box_unit
 check -assert
 tee -o $tmp/stat.txt stat -tech cmos
 EOF
-  t0=$(date +%s)
-  yosys -q "$tmp/s.ys" >"$tmp/yosys.log" 2>&1 || { cat "$tmp/yosys.log" >&2; exit 1; }
-  secs=$(( $(date +%s) - t0 ))
-  cells=$(sed -n 's/^ *Number of cells: *\([0-9]*\)/\1/p' "$tmp/stat.txt" | tail -1)
-  ffs=$(grep -E '^\s+\$_(S?DFF|DFF)[A-Z_0-9]*\s' "$tmp/stat.txt" | awk '{s+=$2} END{print s+0}')
-  trans=$(sed -n 's/^ *Estimated number of transistors: *\([0-9+]*\)/\1/p' "$tmp/stat.txt" | tail -1)
+  bench_yosys_stat "$tmp/s.ys"
   [ -n "$csv" ] && echo "$(sed -E 's/-set ([A-Z]+) ([0-9]+)/-G\1=\2/g' <<<"$params"),$cells,$ffs,${trans%+}" >>"$csv"
   n=$(sed -n 's/.*-set N \([0-9]*\).*/\1/p' <<<"$params")
   lanes=$(sed -n 's/.*-set LANES \([0-9]*\).*/\1/p' <<<"$params")

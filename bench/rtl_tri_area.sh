@@ -36,12 +36,7 @@ check -assert
 select -assert-none t:\$_DLATCH_*
 tee -o $tmp/stat.txt stat -tech cmos
 YS
-  t0=$(date +%s)
-  yosys -q "$tmp/s.ys" >"$tmp/yosys.log" 2>&1 || { cat "$tmp/yosys.log" >&2; exit 1; }
-  secs=$(( $(date +%s) - t0 ))
-  cells=$(sed -n 's/^ *Number of cells: *\([0-9]*\)/\1/p' "$tmp/stat.txt" | tail -1)
-  ffs=$(grep -E '^\s+\$_(S?DFF|DFF)[A-Z_0-9]*\s' "$tmp/stat.txt" | awk '{s+=$2} END{print s+0}')
-  trans=$(sed -n 's/^ *Estimated number of transistors: *\([0-9+]*\)/\1/p' "$tmp/stat.txt" | tail -1)
+  bench_yosys_stat "$tmp/s.ys"
   lat=$(sed -n 's/.*-set LATENCY \([0-9]*\).*/\1/p' <<<"$params")
   tb=$(sed -n 's/.*-set TB \([0-9]*\).*/\1/p' <<<"$params")
   s=$(sed -n 's/.*-set S \([0-9]*\).*/\1/p' <<<"$params")

@@ -100,7 +100,7 @@ TEST_CASE("activity: nets are points with equal counts at every checkpoint", "[r
   CHECK(t.toggles == 4);
 }
 
-TEST_CASE("activity: an idle adder shows no transition; a known operand pattern gives the known count",
+TEST_CASE("activity: an idle adder shows no transition and a known operand pattern gives the known count",
           "[rtl][activity]") {
   Sim<Vref_add32_cov> sim;
   sim.reset();

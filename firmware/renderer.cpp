@@ -68,6 +68,7 @@ class Renderer {
   Status run(Arena& arena);
 
  private:
+  void plan_ray_types();
   Status trace(uint64_t rays, uint64_t hits, uint32_t n, bool any_hit, RayType type, uint32_t bounce) {
     if (n == 0) return Status::kOk;
     m_st.rays[uint32_t(type)] += n;
@@ -237,15 +238,9 @@ int Renderer::shade(const hw::Ray& ray, const hw::Hit& hit, Path& path, uint32_t
   return -1;
 }
 
-Status Renderer::run(Arena& arena) {
+// The ray types the scene needs, from its materials and lights, and the shadow slots per path.
+void Renderer::plan_ray_types() {
   const RenderJob& j = m_job;
-  m_surf = at<const SurfaceRecord>(m_hal, j.surfaces);
-  m_mat = at<const MaterialRecord>(m_hal, j.materials);
-  m_light = at<const LightRecord>(m_hal, j.lights);
-  m_inv_spp = 1.0f / float(j.spp ? j.spp : 1);
-  m_st.paths = uint64_t(j.width) * j.height * (j.spp ? j.spp : 1);
-
-  // What the scene needs, from its materials and lights.
   bool diffuse = false, mirror = false, glass = false;
   for (uint32_t i = 0; i < j.num_materials; ++i) {
     diffuse |= m_mat[i].kind == uint32_t(MaterialKind::kDiffuse);
@@ -258,8 +253,19 @@ Status Renderer::run(Arena& arena) {
   m_st.need_refraction = bounces && glass;
   m_st.need_occlusion = diffuse && (j.flags & kRenderAo);
   m_st.need_diffuse = bounces && diffuse && (j.flags & kRenderIndirect) && !(j.flags & kRenderAo);
+  m_shadow_slots = (m_st.need_shadow ? j.num_lights : 0) + (m_st.need_occlusion ? 1 : 0);
+}
+
+Status Renderer::run(Arena& arena) {
+  const RenderJob& j = m_job;
+  m_surf = at<const SurfaceRecord>(m_hal, j.surfaces);
+  m_mat = at<const MaterialRecord>(m_hal, j.materials);
+  m_light = at<const LightRecord>(m_hal, j.lights);
+  m_inv_spp = 1.0f / float(j.spp ? j.spp : 1);
+  m_st.paths = uint64_t(j.width) * j.height * (j.spp ? j.spp : 1);
+
+  plan_ray_types();
   const uint32_t light_slots = m_st.need_shadow ? j.num_lights : 0;
-  m_shadow_slots = light_slots + (m_st.need_occlusion ? 1 : 0);
 
   Status s = m_ring.submit(hw::cmd::bind_scene(j.scene_image, j.scene_bytes));
   if (s != Status::kOk) return s;

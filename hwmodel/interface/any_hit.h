@@ -3,11 +3,11 @@
 // and timed devices) or Geometry::non_opaque marks it (float device). When a tracer finds such a triangle hit
 // inside the ray's current interval, it hands the candidate to the stage (in hardware: the unit raises an any-hit
 // request and the ray waits in its slot while the firmware's any-hit stage looks up the mask and answers,
-// firmware/any_hit.h); an ignored candidate is as if the triangle had not been hit and traversal goes on, an
-// accepted one is a hit like any other (the closest, or the end of an any-hit ray). Without a stage attached,
-// non-opaque triangles are opaque, as in DXR and Vulkan without an any-hit shader. Opaque triangles, spheres and
-// planes never reach the stage. As box_unit.h: hwmodel defines the seam and never sees an implementation.
-// Freestanding (the firmware implements it).
+// fw::AlphaStage in firmware/surface.h); an ignored candidate is as if the triangle had not been hit and traversal
+// goes on, an accepted one is a hit like any other (the closest, or the end of an any-hit ray). Without a stage
+// attached, non-opaque triangles are opaque, as in DXR and Vulkan without an any-hit shader. Opaque triangles,
+// spheres and planes never reach the stage. As box_unit.h: hwmodel defines the seam and never sees an
+// implementation. Freestanding (the firmware implements it).
 #pragma once
 
 #include <cstdint>

@@ -19,10 +19,10 @@
 
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
-#include "hwmodel/scene/bvh.h"
-#include "hwmodel/format/device_image.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/intersect_fixed.h"
+#include "hwmodel/format/device_image.h"
+#include "hwmodel/scene/bvh.h"
 
 using namespace rtu;
 

@@ -17,11 +17,11 @@
 #include <string>
 #include <vector>
 
-#include "host/oracle/embree_oracle.h"
 #include "host/io/ray_io.h"
+#include "host/jobs/trace_job.h"
+#include "host/oracle/embree_oracle.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"
-#include "host/jobs/trace_job.h"
 
 using namespace rtu;
 

@@ -25,9 +25,9 @@
 #include "host/oracle/embree_oracle.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
-#include "hwmodel/format/device_image.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/timing/timing_config.h"
 
 using namespace rtu;

@@ -20,8 +20,9 @@ class Hal {
   // Device memory as mapped into the controller's address space: device address a is mem() + a.
   virtual uint8_t* mem() = 0;
   virtual uint64_t mem_size() = 0;
-  // Installs the firmware's any-hit stage (hwmodel/interface/any_hit.h; null removes it): the handler of the unit's
-  // any-hit requests, called with each candidate hit on a non-opaque triangle while the ray waits for the answer.
+  // Installs the firmware's any-hit stage (hwmodel/interface/any_hit.h; null removes it): the handler of the
+  // unit's any-hit requests, called with each candidate hit on a non-opaque triangle while the ray waits for the
+  // answer.
   virtual void set_any_hit(const hw::AnyHitStage* stage) = 0;
 
  protected:

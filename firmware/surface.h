@@ -1,7 +1,7 @@
 // What the firmware reads of a surface at a hit besides its geometry: texture coordinates, the base colour
-// texture, alpha, and the any-hit stage that alpha-tests candidate hits for the unit (hwmodel/interface/any_hit.h).
-// The same code serves the host's direct devices, over the same records in host memory (host/scene/shading.h), so
-// every device alpha-tests the same way. Freestanding: no heap, no libm.
+// texture, alpha, and the any-hit stage that alpha-tests candidate hits for the unit
+// (hwmodel/interface/any_hit.h). The same code serves the host's direct devices, over the same records in host
+// memory (host/scene/shading.h), so every device alpha-tests the same way. Freestanding: no heap, no libm.
 #pragma once
 
 #include <cstdint>

@@ -1,7 +1,7 @@
 // _rtu: the compiled part of the Python module rtu (python/README.md). Scenes, rays and hits as numpy arrays,
 // tracing on every device, compare, render, sweep and plan. Every job calls the host function rtusim calls
-// (host/jobs/trace_job.h, compare_job.h, render.h, sweep.h, plan.h) with the same settings (host::DeviceSettings), so
-// its hits, cycles and statistics are the CLI's bit for bit; statistics are the CLI's JSON as Python dicts. The
+// (host/jobs/trace_job.h, compare_job.h, render.h, sweep.h, plan.h) with the same settings (host::DeviceSettings),
+// so its hits, cycles and statistics are the CLI's bit for bit; statistics are the CLI's JSON as Python dicts. The
 // GIL is released while a job runs; sweep and plan check for Ctrl-C between their steps (check_signals) and stop
 // with KeyboardInterrupt. Every error a job throws arrives as rtu.Error with the CLI's message; an argument of
 // the wrong type is a TypeError naming the parameter.
@@ -20,23 +20,23 @@
 #include <utility>
 #include <vector>
 
-#include "host/jobs/compare_job.h"
 #include "host/devices/device_settings.h"
 #include "host/io/error.h"
 #include "host/io/image.h"
-#include "host/jobs/image_diff.h"
 #include "host/io/json_io.h"
+#include "host/io/ray_io.h"
+#include "host/io/stats_json.h"
+#include "host/jobs/compare_job.h"
+#include "host/jobs/image_diff.h"
 #include "host/jobs/pareto.h"
 #include "host/jobs/plan.h"
-#include "host/io/ray_io.h"
-#include "host/scene/ray_spec.h"
 #include "host/jobs/render.h"
-#include "host/scene/scene.h"
-#include "host/io/stats_json.h"
 #include "host/jobs/sweep.h"
 #include "host/jobs/trace_job.h"
-#include "hwmodel/scene/bvh.h"
+#include "host/scene/ray_spec.h"
+#include "host/scene/scene.h"
 #include "hwmodel/numeric/fixed_format.h"
+#include "hwmodel/scene/bvh.h"
 #include "hwmodel/timing/timing_config.h"
 
 namespace py = pybind11;

@@ -7,9 +7,9 @@
 #include <memory>
 
 #include "host/cli/common.h"
-#include "host/jobs/compare_job.h"
 #include "host/io/error.h"
 #include "host/io/ray_io.h"
+#include "host/jobs/compare_job.h"
 
 namespace rtu::host::cli {
 

@@ -1,5 +1,5 @@
-// rtusim demo: the main job on the built-in default scene, as the README's first command runs it (host/jobs/demo.h);
-// prints what each step found as it finishes.
+// rtusim demo: the main job on the built-in default scene, as the README's first command runs it
+// (host/jobs/demo.h); prints what each step found as it finishes.
 #include <cstdio>
 #include <memory>
 

@@ -1,5 +1,5 @@
-// rtusim plan: the cheapest format for a scene within an error budget (host/jobs/plan.h); prints each candidate as it
-// is measured and the plan with why it was chosen.
+// rtusim plan: the cheapest format for a scene within an error budget (host/jobs/plan.h); prints each candidate as
+// it is measured and the plan with why it was chosen.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>

@@ -4,8 +4,8 @@
 
 #include "host/cli/common.h"
 #include "host/io/error.h"
-#include "host/scene/ray_gen.h"
 #include "host/io/ray_io.h"
+#include "host/scene/ray_gen.h"
 
 namespace rtu::host::cli {
 

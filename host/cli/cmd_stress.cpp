@@ -1,5 +1,5 @@
-// rtusim stress: the numerical-stability suite (host/jobs/stress.h) on the float and fixed devices. Prints one line per
-// category and exits 1 when any promise of docs/architecture.md broke.
+// rtusim stress: the numerical-stability suite (host/jobs/stress.h) on the float and fixed devices. Prints one
+// line per category and exits 1 when any promise of docs/architecture.md broke.
 #include <cstdio>
 #include <memory>
 

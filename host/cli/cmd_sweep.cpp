@@ -1,5 +1,6 @@
 // rtusim sweep: run time against error over a grid of scenes, formats, BVH widths and timing presets
-// (host/jobs/sweep.h), one CSV row per point. Resumable (points already in --out made with the same --rays, --seed and
+// (host/jobs/sweep.h), one CSV row per point. Resumable (points already in --out made with the same --rays, --seed
+// and
 // --image-width are skipped), shardable (--shard k/N runs every N-th point, so independent jobs split a large
 // sweep) and mergeable (--merge, of rows made with the same run parameters).
 #include <cstdio>

@@ -6,8 +6,8 @@
 #include "host/cli/common.h"
 #include "host/io/error.h"
 #include "host/io/ray_io.h"
-#include "host/scene/ray_spec.h"
 #include "host/jobs/trace_job.h"
+#include "host/scene/ray_spec.h"
 
 namespace rtu::host::cli {
 

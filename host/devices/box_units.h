@@ -7,8 +7,8 @@
 #include <memory>
 
 #include "hwmodel/datapath/box_unit.h"
-#include "hwmodel/timing/timing_config.h"
 #include "hwmodel/datapath/tri_unit.h"
+#include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host {
 

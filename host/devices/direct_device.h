@@ -12,14 +12,14 @@
 #include <vector>
 
 #include "host/devices/grid_check.h"
-#include "hwmodel/format/device_image.h"
-#include "hwmodel/device/device_kind.h"
-#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/datapath/instanced_fixed.h"
 #include "hwmodel/datapath/instancing.h"
+#include "hwmodel/device/device_kind.h"
 #include "hwmodel/device/timed_engine.h"
+#include "hwmodel/format/device_image.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host {
@@ -37,8 +37,8 @@ struct DeviceOptions {
   // traces the flattened geometry.
   const hw::InstanceSet* instances = nullptr;
   bool flatten = false;  // fixed, timed: ignore `instances` (trace the flattened geometry in one image)
-  // The any-hit stage for the geometry's non-opaque triangles (alpha-tested materials: host/scene/shading.h), or null:
-  // they are then opaque. Not owned: must outlive the device.
+  // The any-hit stage for the geometry's non-opaque triangles (alpha-tested materials: host/scene/shading.h), or
+  // null: they are then opaque. Not owned: must outlive the device.
   const hw::AnyHitStage* any_hit = nullptr;
 };
 

@@ -10,10 +10,10 @@
 #include "firmware/hal.h"
 #include "hwmodel/device/command_processor.h"
 #include "hwmodel/device/device_kind.h"
-#include "hwmodel/interface/device_memory.h"
 #include "hwmodel/device/engine.h"
-#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/device/timed_engine.h"
+#include "hwmodel/interface/device_memory.h"
+#include "hwmodel/numeric/fixed_format.h"
 
 namespace rtu::host {
 

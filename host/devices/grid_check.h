@@ -1,18 +1,18 @@
-// How well a scene fits the fixed-point devices' quantization frame (hwmodel/format/quant_frame.h). The frame is fitted
-// to the bounds of what one image holds: the whole scene, or over two levels each mesh in its own frame. One grid
-// step is extent / 2^coord_bits rounded up to a power of two, so a scene whose extent dwarfs its primitives
-// (two unit boxes 10^12 apart) quantizes them to a cell or two: the fixed and timed devices then lose or invent
-// their hits, exactly and conservatively as documented, but no longer the float reference's. Jobs say so before
-// they trace (trace, render, Python); a frame whose step is below the smallest normal float cannot be quantized
-// at all and is refused.
+// How well a scene fits the fixed-point devices' quantization frame (hwmodel/format/quant_frame.h). The frame is
+// fitted to the bounds of what one image holds: the whole scene, or over two levels each mesh in its own frame.
+// One grid step is extent / 2^coord_bits rounded up to a power of two, so a scene whose extent dwarfs its
+// primitives (two unit boxes 10^12 apart) quantizes them to a cell or two: the fixed and timed devices then lose
+// or invent their hits, exactly and conservatively as documented, but no longer the float reference's. Jobs say so
+// before they trace (trace, render, Python); a frame whose step is below the smallest normal float cannot be
+// quantized at all and is refused.
 #pragma once
 
 #include <cstdint>
 #include <string>
 
+#include "hwmodel/datapath/instancing.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/scene/geometry.h"
-#include "hwmodel/datapath/instancing.h"
 
 namespace rtu::host {
 

@@ -9,12 +9,12 @@
 #include <string>
 #include <vector>
 
-#include "host/jobs/compare.h"
 #include "host/devices/device_settings.h"
 #include "host/devices/direct_device.h"
+#include "host/io/stats_json.h"
+#include "host/jobs/compare.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"
-#include "host/io/stats_json.h"
 
 namespace rtu::host {
 

@@ -10,12 +10,12 @@
 #include <string>
 #include <vector>
 
+#include "host/io/stats_json.h"
 #include "host/jobs/compare.h"
 #include "host/jobs/image_diff.h"
 #include "host/jobs/render.h"
-#include "host/io/stats_json.h"
-#include "hwmodel/device/device_kind.h"
 #include "hwmodel/datapath/stats.h"
+#include "hwmodel/device/device_kind.h"
 
 namespace rtu::host {
 

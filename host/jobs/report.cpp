@@ -15,12 +15,12 @@
 #include "host/io/image.h"
 #include "host/jobs/image_diff.h"
 #include "host/jobs/pareto.h"
-#include "host/scene/ray_gen.h"
 #include "host/jobs/render.h"
-#include "host/scene/shading.h"
 #include "host/jobs/stopwatch.h"
 #include "host/jobs/stress.h"
 #include "host/jobs/sweep.h"
+#include "host/scene/ray_gen.h"
+#include "host/scene/shading.h"
 #include "hwmodel/timing/timing_config.h"
 
 namespace rtu::host {

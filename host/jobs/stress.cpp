@@ -10,9 +10,9 @@
 
 #include "host/io/error.h"
 #include "host/scene/generators.h"
-#include "hwmodel/format/device_image.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/numeric/rng.h"
 
 namespace rtu::host {

@@ -11,9 +11,9 @@
 
 #include "host/devices/device_settings.h"
 #include "host/devices/direct_device.h"
+#include "host/io/stats_json.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"
-#include "host/io/stats_json.h"
 
 namespace rtu::host {
 

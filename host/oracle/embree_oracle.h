@@ -7,10 +7,10 @@
 
 #include <vector>
 
-#include "hwmodel/interface/any_hit.h"
-#include "hwmodel/scene/geometry.h"
 #include "hwmodel/datapath/instancing.h"
+#include "hwmodel/interface/any_hit.h"
 #include "hwmodel/interface/ray.h"
+#include "hwmodel/scene/geometry.h"
 
 namespace rtu::oracle {
 

@@ -11,8 +11,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "hwmodel/scene/geometry.h"
 #include "hwmodel/interface/vec.h"
+#include "hwmodel/scene/geometry.h"
 
 namespace rtu::host {
 

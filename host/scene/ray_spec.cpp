@@ -7,8 +7,8 @@
 
 #include "host/io/error.h"
 #include "host/io/limits.h"
-#include "host/scene/ray_gen.h"
 #include "host/io/ray_io.h"
+#include "host/scene/ray_gen.h"
 
 namespace rtu::host {
 

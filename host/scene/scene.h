@@ -15,10 +15,10 @@
 
 #include <nlohmann/json_fwd.hpp>
 
-#include "hwmodel/scene/geometry.h"
 #include "hwmodel/datapath/instancing.h"
 #include "hwmodel/interface/ray.h"
 #include "hwmodel/interface/vec.h"
+#include "hwmodel/scene/geometry.h"
 
 namespace rtu::host {
 

@@ -14,10 +14,10 @@
 #include <nlohmann/json.hpp>
 
 #include "host/io/error.h"
-#include "host/scene/generators.h"
 #include "host/io/image.h"
 #include "host/io/json_io.h"
 #include "host/io/limits.h"
+#include "host/scene/generators.h"
 #include "host/scene/scene.h"
 
 namespace rtu::host {

@@ -17,9 +17,9 @@
 
 #include <cstdint>
 
-#include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/format/hw_format.h"
 #include "hwmodel/datapath/intersect_fixed.h"
+#include "hwmodel/format/hw_format.h"
+#include "hwmodel/numeric/fixed_format.h"
 
 namespace rtu::hw {
 

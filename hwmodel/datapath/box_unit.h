@@ -1,5 +1,6 @@
 // The box-unit seam: where the fixed tracer hands one BVH node and one ray to a box unit other than its own C++
-// box test (hwmodel/datapath/intersect_fixed.h, box_test_delta), e.g. the Verilated RTL unit of rtl_sim/ (co-simulation,
+// box test (hwmodel/datapath/intersect_fixed.h, box_test_delta), e.g. the Verilated RTL unit of rtl_sim/
+// (co-simulation,
 // `--set box_unit=rtl`). hwmodel defines the seam and never sees an implementation (docs/architecture.md).
 //
 // A unit tests every occupied child box of a node in one request and answers, per child, whether the box is hit

@@ -7,13 +7,13 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/interface/any_hit.h"
 #include "hwmodel/datapath/box_unit.h"
-#include "hwmodel/format/device_image.h"
 #include "hwmodel/datapath/intersect_fixed.h"
-#include "hwmodel/interface/ray.h"
 #include "hwmodel/datapath/stats.h"
 #include "hwmodel/datapath/tri_unit.h"
+#include "hwmodel/format/device_image.h"
+#include "hwmodel/interface/any_hit.h"
+#include "hwmodel/interface/ray.h"
 
 namespace rtu::hw {
 

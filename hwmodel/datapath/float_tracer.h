@@ -9,11 +9,11 @@
 #include <optional>
 #include <vector>
 
+#include "hwmodel/datapath/stats.h"
 #include "hwmodel/interface/any_hit.h"
+#include "hwmodel/interface/ray.h"
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/scene/geometry.h"
-#include "hwmodel/interface/ray.h"
-#include "hwmodel/datapath/stats.h"
 
 namespace rtu::hw {
 

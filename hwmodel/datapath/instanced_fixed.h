@@ -27,15 +27,15 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/interface/any_hit.h"
-#include "hwmodel/scene/bvh.h"
-#include "hwmodel/format/device_image.h"
-#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/datapath/instancing.h"
-#include "hwmodel/interface/ray.h"
 #include "hwmodel/datapath/stats.h"
+#include "hwmodel/format/device_image.h"
+#include "hwmodel/interface/any_hit.h"
+#include "hwmodel/interface/ray.h"
+#include "hwmodel/numeric/fixed_format.h"
+#include "hwmodel/scene/bvh.h"
 
 namespace rtu::hw {
 

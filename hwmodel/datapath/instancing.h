@@ -14,13 +14,13 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/scene/aabb.h"
-#include "hwmodel/interface/any_hit.h"
-#include "hwmodel/scene/bvh.h"
 #include "hwmodel/datapath/float_tracer.h"
-#include "hwmodel/scene/geometry.h"
-#include "hwmodel/interface/ray.h"
 #include "hwmodel/datapath/stats.h"
+#include "hwmodel/interface/any_hit.h"
+#include "hwmodel/interface/ray.h"
+#include "hwmodel/scene/aabb.h"
+#include "hwmodel/scene/bvh.h"
+#include "hwmodel/scene/geometry.h"
 
 namespace rtu::hw {
 

@@ -10,11 +10,11 @@
 
 #include <cstdint>
 
-#include "hwmodel/numeric/fixed.h"
-#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/format/hw_format.h"
 #include "hwmodel/format/quant_frame.h"
 #include "hwmodel/interface/ray.h"
+#include "hwmodel/numeric/fixed.h"
+#include "hwmodel/numeric/fixed_format.h"
 
 namespace rtu::hw {
 

@@ -17,8 +17,8 @@
 #include <cstdint>
 #include <limits>
 
-#include "hwmodel/scene/geometry.h"
 #include "hwmodel/interface/ray.h"
+#include "hwmodel/scene/geometry.h"
 
 namespace rtu::hw {
 

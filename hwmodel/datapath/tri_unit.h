@@ -1,6 +1,6 @@
 // The triangle-unit seam: where the fixed tracer hands one triangle record and one ray to a triangle unit other
-// than its own C++ triangle test (hwmodel/datapath/intersect_fixed.h, triangle_test), e.g. the Verilated RTL unit of
-// rtl_sim/ (co-simulation, `--set tri_unit=rtl`). As box_unit.h: hwmodel defines the seam and never sees an
+// than its own C++ triangle test (hwmodel/datapath/intersect_fixed.h, triangle_test), e.g. the Verilated RTL unit
+// of rtl_sim/ (co-simulation, `--set tri_unit=rtl`). As box_unit.h: hwmodel defines the seam and never sees an
 // implementation (docs/architecture.md). Spheres and planes stay with the C++ tests.
 //
 // A unit tests one triangle (the record's three grid vertices) over [tmin, tlim] and answers whether it is hit,

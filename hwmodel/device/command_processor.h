@@ -14,11 +14,11 @@
 #include <cstdint>
 #include <string>
 
+#include "hwmodel/datapath/stats.h"
+#include "hwmodel/device/engine.h"
 #include "hwmodel/interface/commands.h"
 #include "hwmodel/interface/device_memory.h"
-#include "hwmodel/device/engine.h"
 #include "hwmodel/interface/regs.h"
-#include "hwmodel/datapath/stats.h"
 
 namespace rtu::hw {
 

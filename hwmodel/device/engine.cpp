@@ -8,8 +8,8 @@
 #include <utility>
 
 #include "hwmodel/datapath/instanced_fixed.h"
-#include "hwmodel/interface/regs.h"
 #include "hwmodel/device/timed_engine.h"
+#include "hwmodel/interface/regs.h"
 
 namespace rtu::hw {
 

@@ -15,11 +15,11 @@
 #include <cstdint>
 #include <vector>
 
-#include "hwmodel/scene/bvh.h"
-#include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/scene/geometry.h"
 #include "hwmodel/format/hw_format.h"
 #include "hwmodel/format/quant_frame.h"
+#include "hwmodel/numeric/fixed_format.h"
+#include "hwmodel/scene/bvh.h"
+#include "hwmodel/scene/geometry.h"
 
 namespace rtu::hw {
 

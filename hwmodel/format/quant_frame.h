@@ -8,8 +8,8 @@
 
 #include <cstdint>
 
-#include "hwmodel/scene/aabb.h"
 #include "hwmodel/numeric/fixed.h"
+#include "hwmodel/scene/aabb.h"
 
 namespace rtu::hw {
 

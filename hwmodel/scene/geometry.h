@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "hwmodel/scene/aabb.h"
 #include "hwmodel/interface/vec.h"
+#include "hwmodel/scene/aabb.h"
 
 namespace rtu::hw {
 

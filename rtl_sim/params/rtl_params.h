@@ -1,7 +1,8 @@
 // The parameters of rtl/box_unit.sv for a fixed-point format, a node width and a pipeline depth: the one place
-// where the RTL's widths are derived from the C++ model's formats (hwmodel/numeric/fixed_format.h) and its latency from
-// the timing presets (hwmodel/timing/timing_config.h). CMake runs rtl_params_main.cpp at configure time to verilate the
-// unit with these values; the testbench derives them again and checks that the Verilated models match.
+// where the RTL's widths are derived from the C++ model's formats (hwmodel/numeric/fixed_format.h) and its latency
+// from the timing presets (hwmodel/timing/timing_config.h). CMake runs rtl_params_main.cpp at configure time to
+// verilate the unit with these values; the testbench derives them again and checks that the Verilated models
+// match.
 #pragma once
 
 #include <bit>

@@ -1,7 +1,8 @@
 // The parameters of rtl/tri_core.sv (the triangle test unit) for a fixed-point format and a pipeline depth: its
-// widths derived from the C++ model's formats (hwmodel/numeric/fixed_format.h), its latency from the timing presets
-// (hwmodel/timing/timing_config.h, tri_latency). CMake runs rtl_params_main.cpp at configure time to verilate the unit
-// with these values; the testbench derives them again and checks that the Verilated models match.
+// widths derived from the C++ model's formats (hwmodel/numeric/fixed_format.h), its latency from the timing
+// presets (hwmodel/timing/timing_config.h, tri_latency). CMake runs rtl_params_main.cpp at configure time to
+// verilate the unit with these values; the testbench derives them again and checks that the Verilated models
+// match.
 #pragma once
 
 #include <stdexcept>

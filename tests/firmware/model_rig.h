@@ -17,14 +17,14 @@
 #include "firmware/ring.h"
 #include "host/devices/firmware_device.h"
 #include "host/scene/scene.h"
-#include "hwmodel/scene/bvh.h"
-#include "hwmodel/interface/commands.h"
-#include "hwmodel/format/device_image.h"
-#include "hwmodel/device/device_kind.h"
-#include "hwmodel/device/engine.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
+#include "hwmodel/device/device_kind.h"
+#include "hwmodel/device/engine.h"
+#include "hwmodel/format/device_image.h"
+#include "hwmodel/interface/commands.h"
 #include "hwmodel/interface/regs.h"
+#include "hwmodel/scene/bvh.h"
 
 namespace rtu::test {
 

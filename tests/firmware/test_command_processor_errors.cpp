@@ -1,5 +1,6 @@
-// The command processor's error paths (hwmodel/device/command_processor.cpp) on the model device (host::FirmwareDevice
-// over the float and fixed engines), driven by the firmware ring driver as the firmware would (model_rig.h):
+// The command processor's error paths (hwmodel/device/command_processor.cpp) on the model device
+// (host::FirmwareDevice over the float and fixed engines), driven by the firmware ring driver as the firmware
+// would (model_rig.h):
 // - each malformed packet (unknown opcodes, addresses outside memory and ends that overflow 64 bits, misaligned
 //   buffers, bad counts, reserved fields of each opcode, overlapping ray and hit buffers, scenes the engine cannot
 //   use, a TRACE before any scene) and each bad register access (read-only, unknown and unaligned offsets,

@@ -1,5 +1,6 @@
 // Fuzzing the unit's untrusted inputs:
-// - the command processor (hwmodel/device/command_processor.cpp): >= 100000 random packets, valid and malformed (random
+// - the command processor (hwmodel/device/command_processor.cpp): >= 100000 random packets, valid and malformed
+// (random
 //   opcodes, addresses near the end of memory and past it, random counts, flags and reserved fields, overlapping
 //   buffers), rung through the ring of a 1 MiB model device with a tiny scene bound, mixed with random writes to
 //   every register offset (reset included) and random reads. Checked after every step: the error code is a defined
@@ -30,15 +31,15 @@
 #include "host/devices/firmware_device.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
-#include "hwmodel/scene/bvh.h"
-#include "hwmodel/device/command_processor.h"
-#include "hwmodel/interface/commands.h"
-#include "hwmodel/format/device_image.h"
-#include "hwmodel/device/engine.h"
-#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
+#include "hwmodel/device/command_processor.h"
+#include "hwmodel/device/engine.h"
+#include "hwmodel/format/device_image.h"
+#include "hwmodel/interface/commands.h"
 #include "hwmodel/interface/regs.h"
+#include "hwmodel/numeric/fixed_format.h"
+#include "hwmodel/scene/bvh.h"
 
 using namespace rtu;
 namespace cmd = hw::cmd;

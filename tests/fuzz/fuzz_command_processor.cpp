@@ -1,17 +1,17 @@
-// The command processor (hwmodel/device/command_processor.cpp) on an in-process unit: the input is a program of register
-// writes and reads, raw 32-byte packets and well-formed packets rung through the ring, resets and memory pokes.
-// The first byte picks the engine: float, fixed, timed, or timed with a 64-cycle watchdog. Checked after every
-// step: the error code is a defined one and shows in STATUS, an enabled ring's head and tail lie inside it, and
-// the watchdog fires only on the engine configured to (a valid image never reaches the automatic step bound).
+// The command processor (hwmodel/device/command_processor.cpp) on an in-process unit: the input is a program of
+// register writes and reads, raw 32-byte packets and well-formed packets rung through the ring, resets and memory
+// pokes. The first byte picks the engine: float, fixed, timed, or timed with a 64-cycle watchdog. Checked after
+// every step: the error code is a defined one and shows in STATUS, an enabled ring's head and tail lie inside it,
+// and the watchdog fires only on the engine configured to (a valid image never reaches the automatic step bound).
 #include <memory>
 
 #include "host/devices/firmware_device.h"
-#include "hwmodel/interface/commands.h"
-#include "hwmodel/format/device_image.h"
-#include "hwmodel/device/engine.h"
-#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/float_tracer.h"
+#include "hwmodel/device/engine.h"
+#include "hwmodel/format/device_image.h"
+#include "hwmodel/interface/commands.h"
 #include "hwmodel/interface/regs.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "tests/fuzz/fuzz.h"
 
 namespace rtu::fuzz {

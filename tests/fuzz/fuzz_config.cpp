@@ -10,11 +10,11 @@
 #include "host/devices/device_settings.h"
 #include "host/io/error.h"
 #include "host/io/limits.h"
-#include "hwmodel/format/device_image.h"
-#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/device/timed_engine.h"
+#include "hwmodel/format/device_image.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "tests/fuzz/fuzz.h"
 
 namespace rtu::fuzz {

@@ -5,12 +5,12 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "hwmodel/format/device_image.h"
-#include "hwmodel/device/engine.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/datapath/instanced_fixed.h"
+#include "hwmodel/device/engine.h"
 #include "hwmodel/device/timed_engine.h"
+#include "hwmodel/format/device_image.h"
 #include "tests/fuzz/fuzz.h"
 
 namespace rtu::fuzz {

@@ -9,8 +9,8 @@
 
 #include "host/devices/direct_device.h"
 #include "host/io/error.h"
-#include "host/scene/ray_gen.h"
 #include "host/jobs/render.h"
+#include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
 #include "hwmodel/device/engine.h"
 #include "tests/fuzz/fuzz.h"

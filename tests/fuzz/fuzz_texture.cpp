@@ -1,15 +1,15 @@
-// Texture images (host/io/image.cpp: PNG and JPEG through stb_image), as scene files and mesh files reference them.
-// A decoded texture has the size it claims and four bytes per texel, read from memory or from a file alike. It
-// then masks a quad (alpha_mode mask, texture coordinates that wrap) traced on the float, fixed and timed devices
-// through the firmware's any-hit stage: the bilinear filter's samples stay inside the texels (ASan), hits name
-// the quad or miss, and the timed device's hits equal the fixed device's bit for bit.
+// Texture images (host/io/image.cpp: PNG and JPEG through stb_image), as scene files and mesh files reference
+// them. A decoded texture has the size it claims and four bytes per texel, read from memory or from a file alike.
+// It then masks a quad (alpha_mode mask, texture coordinates that wrap) traced on the float, fixed and timed
+// devices through the firmware's any-hit stage: the bilinear filter's samples stay inside the texels (ASan), hits
+// name the quad or miss, and the timed device's hits equal the fixed device's bit for bit.
 #include <cstring>
 #include <memory>
 
 #include "host/devices/direct_device.h"
 #include "host/io/error.h"
-#include "host/scene/generators.h"
 #include "host/io/image.h"
+#include "host/scene/generators.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"
 #include "tests/fuzz/fuzz.h"

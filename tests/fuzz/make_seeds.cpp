@@ -6,12 +6,12 @@
 #include <fstream>
 
 #include "host/io/ray_io.h"
-#include "hwmodel/interface/commands.h"
-#include "hwmodel/format/device_image.h"
-#include "hwmodel/device/engine.h"
-#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/datapath/instanced_fixed.h"
+#include "hwmodel/device/engine.h"
+#include "hwmodel/format/device_image.h"
+#include "hwmodel/interface/commands.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "tests/fuzz/fuzz.h"
 
 #include <stb/stb_image_write.h>

@@ -1,6 +1,6 @@
-// Area and energy (hwmodel/cost/energy_model.h, host/cost/cost_model.h): the accounting adds up on real timed runs, each
-// event counts what the timing model counted, the tables' sources are where the code says they are, and the
-// estimates respond to the keys that should move them and to nothing else.
+// Area and energy (hwmodel/cost/energy_model.h, host/cost/cost_model.h): the accounting adds up on real timed
+// runs, each event counts what the timing model counted, the tables' sources are where the code says they are, and
+// the estimates respond to the keys that should move them and to nothing else.
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <stdexcept>
@@ -9,10 +9,10 @@
 
 #include "host/cost/cost_model.h"
 #include "host/devices/direct_device.h"
+#include "host/io/stats_json.h"
 #include "host/jobs/plan.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
-#include "host/io/stats_json.h"
 #include "hwmodel/cost/energy_model.h"
 #include "hwmodel/timing/timing_config.h"
 

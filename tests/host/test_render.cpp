@@ -6,10 +6,10 @@
 #include <string>
 #include <vector>
 
-#include "host/scene/generators.h"
 #include "host/io/image.h"
 #include "host/jobs/image_diff.h"
 #include "host/jobs/render.h"
+#include "host/scene/generators.h"
 #include "host/scene/scene.h"
 
 using rtu::host::Light;

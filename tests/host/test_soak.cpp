@@ -1,7 +1,7 @@
-// The soak run (host/jobs/soak.h) in short: random scenes and formats traced and rendered twice agree bit for bit and
-// cycle for cycle, and the run is a function of its seed (the digest of every hit, pixel and cycle count repeats
-// for the same seed and changes with it). `rtusim soak --seconds S` runs it for longer; scripts/test.sh runs it
-// under ASan + LeakSanitizer.
+// The soak run (host/jobs/soak.h) in short: random scenes and formats traced and rendered twice agree bit for bit
+// and cycle for cycle, and the run is a function of its seed (the digest of every hit, pixel and cycle count
+// repeats for the same seed and changes with it). `rtusim soak --seconds S` runs it for longer; scripts/test.sh
+// runs it under ASan + LeakSanitizer.
 #include <catch2/catch.hpp>
 
 #include "host/jobs/soak.h"

@@ -21,11 +21,11 @@
 #include <string>
 #include <vector>
 
-#include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/scene/geometry.h"
 #include "hwmodel/datapath/intersect_fixed.h"
 #include "hwmodel/format/quant_frame.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/numeric/rng.h"
+#include "hwmodel/scene/geometry.h"
 
 // REQUIRE that builds its context message only on failure: the hot loops run millions of cases, and formatting a
 // message for every passing one would dominate the run time.

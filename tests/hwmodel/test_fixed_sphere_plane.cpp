@@ -11,14 +11,14 @@
 #include <vector>
 
 #include "fixed_checks.h"
-#include "hwmodel/format/device_image.h"
-#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
-#include "hwmodel/scene/geometry.h"
 #include "hwmodel/datapath/intersect_fixed.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/format/quant_frame.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/numeric/rng.h"
+#include "hwmodel/scene/geometry.h"
 
 using namespace rtu::hw;
 using namespace rtu::hw::fixed_checks;

@@ -13,15 +13,15 @@
 #include <vector>
 
 #include "fixed_checks.h"
-#include "hwmodel/scene/bvh.h"
-#include "hwmodel/format/device_image.h"
-#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
-#include "hwmodel/scene/geometry.h"
 #include "hwmodel/datapath/intersect_fixed.h"
-#include "hwmodel/numeric/rng.h"
 #include "hwmodel/device/timed_engine.h"
+#include "hwmodel/format/device_image.h"
+#include "hwmodel/numeric/fixed_format.h"
+#include "hwmodel/numeric/rng.h"
+#include "hwmodel/scene/bvh.h"
+#include "hwmodel/scene/geometry.h"
 #include "timing_checks.h"
 
 using namespace rtu::hw;

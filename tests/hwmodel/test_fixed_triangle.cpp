@@ -13,9 +13,9 @@
 #include <vector>
 
 #include "fixed_checks.h"
-#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/datapath/intersect_fixed.h"
 #include "hwmodel/format/quant_frame.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/numeric/rng.h"
 
 using namespace rtu::hw;

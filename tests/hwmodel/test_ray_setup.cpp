@@ -10,11 +10,11 @@
 #include <limits>
 
 #include "fixed_checks.h"
-#include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/scene/geometry.h"
 #include "hwmodel/datapath/intersect_fixed.h"
 #include "hwmodel/format/quant_frame.h"
+#include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/numeric/rng.h"
+#include "hwmodel/scene/geometry.h"
 
 using namespace rtu::hw;
 using namespace rtu::hw::fixed_checks;

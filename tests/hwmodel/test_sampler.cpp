@@ -1,5 +1,6 @@
-// Sampled timing's estimator (hwmodel/timing/sampler.h) as pure functions: steps, probes, strata, the ratio estimate and
-// its jackknife variance, the detailed warm-up's length; and the statistics table (hwmodel/timing/timing_stats.h).
+// Sampled timing's estimator (hwmodel/timing/sampler.h) as pure functions: steps, probes, strata, the ratio
+// estimate and its jackknife variance, the detailed warm-up's length; and the statistics table
+// (hwmodel/timing/timing_stats.h).
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>

@@ -22,8 +22,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include "host/oracle/embree_oracle.h"
 #include "host/io/image.h"
+#include "host/oracle/embree_oracle.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"

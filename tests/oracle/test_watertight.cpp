@@ -8,9 +8,9 @@
 #include <cstring>
 
 #include "host/scene/scene.h"
-#include "hwmodel/format/device_image.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
+#include "hwmodel/format/device_image.h"
 #include "hwmodel/numeric/rng.h"
 
 using namespace rtu;

@@ -167,13 +167,8 @@ void TimingConfig::validate() const {
     } else if (key == "tri_unit") {
       if (tri_unit != "cpp" && tri_unit != "rtl") fail("tri_unit = '" + tri_unit + "' must be cpp or rtl");
     } else if (key == "prefetcher") {
-      std::string names;
-      bool known = false;
-      for (const PrefetcherInfo& p : prefetchers()) {
-        known = known || p.name == prefetcher;
-        names += (names.empty() ? "" : ", ") + std::string(p.name);
-      }
-      if (!known) fail("prefetcher = '" + prefetcher + "' is not a prefetcher (known: " + names + ")");
+      if (!find_prefetcher(prefetcher))
+        fail("prefetcher = '" + prefetcher + "' is not a prefetcher (known: " + prefetcher_names() + ")");
     } else if (key == "ray_policy") {
       RayPolicy policy;
       if (!parse_ray_policy(ray_policy, policy))

@@ -27,8 +27,6 @@ class DramChannel {
 
   // Cycles the channel is busy with b bytes: ceil(b / bandwidth).
   uint64_t transfer_cycles(uint64_t bytes) const { return uint64_t(std::ceil(double(bytes) / m_bytes_per_cycle)); }
-  uint64_t line_cycles() const { return m_line_cycles; }
-  uint64_t latency() const { return m_latency; }
 
   // A transfer of `bytes` requested at cycle t: returns the cycle its data is there. Counts bytes and busy cycles.
   uint64_t transfer(uint64_t bytes, uint64_t t, TimingStats& s) {

@@ -22,7 +22,6 @@ namespace rtu::hw {
 class L2Cache {
  public:
   explicit L2Cache(const TimingConfig& c);
-  bool enabled() const { return !m_lines.empty(); }
   // A line read at cycle t: returns the cycle its data is there; a miss reads it through `dram(line, t)`.
   template <class Dram>
   uint64_t access(uint64_t line, uint64_t t, Dram&& dram, TimingStats& s);

@@ -30,10 +30,24 @@ inline const std::vector<PrefetcherInfo>& prefetchers() {
   return table;
 }
 
-inline std::unique_ptr<FetchObserver> make_fetch_observer(const TimingConfig& c) {
+// The entry a prefetcher key names; null for none (TimingConfig::validate() refuses such a name).
+inline const PrefetcherInfo* find_prefetcher(const std::string& name) {
   for (const PrefetcherInfo& p : prefetchers())
-    if (c.prefetcher == p.name) return p.make ? p.make(c) : nullptr;
-  throw std::invalid_argument("prefetcher = '" + c.prefetcher + "' is not a prefetcher");
+    if (name == p.name) return &p;
+  return nullptr;
+}
+
+// The prefetchers' names, comma separated (for the refusal of an unknown one).
+inline std::string prefetcher_names() {
+  std::string names;
+  for (const PrefetcherInfo& p : prefetchers()) names += (names.empty() ? "" : ", ") + std::string(p.name);
+  return names;
+}
+
+inline std::unique_ptr<FetchObserver> make_fetch_observer(const TimingConfig& c) {
+  const PrefetcherInfo* p = find_prefetcher(c.prefetcher);
+  if (!p) throw std::invalid_argument("prefetcher = '" + c.prefetcher + "' is not a prefetcher");
+  return p->make ? p->make(c) : nullptr;
 }
 
 }  // namespace rtu::hw

@@ -9,8 +9,8 @@
 #include <string>
 
 #include "hwmodel/datapath/batch.h"
-#include "hwmodel/datapath/box_node.h"
 #include "hwmodel/datapath/intersect_float.h"
+#include "hwmodel/datapath/node_test.h"
 #include "hwmodel/datapath/traverse.h"
 
 namespace rtu::hw {
@@ -137,12 +137,16 @@ inline bool test_recorded(const uint8_t* record, uint32_t index, const FixedRay&
   return hit;
 }
 
-template <int N, class Q>
+// The traversal's datapath policy (traverse.h) over nodes of kind K (node_test.h).
+template <NodeKind K>
 struct FixedPolicy {
   using Dist = int64_t;
+  using Node = typename K::Node;
+  using Test = NodeTest<K>;
+  static constexpr int N = K::kWidth;
   static constexpr int kWidth = N;
 
-  const QNode<N, Q>* nodes;
+  const Node* nodes;
   const DeviceImage& image;
   const FixedRay& r;
   bool any_hit;
@@ -168,14 +172,14 @@ struct FixedPolicy {
     return true;
   }
 
-  NodeRay nr;                 // the node kernels' constants (box_node.h): node_ray()
-  bool short_edges;           // short_edges_known for the ray
-  int short_stack = -1;       // FixedTraceOptions::record_short_stack
-  mutable int rec_depth = 0;  // stack entries, as the recorder counts them (every push and pop)
+  typename Test::RayState nr;  // the node kernels' constants for the ray
+  bool short_edges;            // short_edges_known for the ray
+  int short_stack = -1;        // FixedTraceOptions::record_short_stack
+  mutable int rec_depth = 0;   // stack entries, as the recorder counts them (every push and pop)
 
   // A constructor, not aggregate initialization: GCC 12 clears the whole object before an aggregate's fields
   // (rep stos, a stall once per ray).
-  FixedPolicy(const QNode<N, Q>* nodes_, const DeviceImage& image_, const FixedRay& r_, bool any_hit_, bool check_,
+  FixedPolicy(const Node* nodes_, const DeviceImage& image_, const FixedRay& r_, bool any_hit_, bool check_,
               Closest& closest_, TraversalStats& s_, std::vector<TraceEvent>* rec_, BoxUnit* unit_,
               TriUnit* tri_unit_, const AnyHitStage* stage_, const Ray* world_, const BottomLevels* bottom_,
               FixedTracer::WatchState& watch_, uint64_t step_limit_, const FixedFormat& f, int short_stack_)
@@ -194,7 +198,7 @@ struct FixedPolicy {
         bottom(bottom_),
         watch(watch_),
         step_limit(step_limit_),
-        nr(make_node_ray(r_, f, int(sizeof(Q)))),
+        nr(Test::ray(r_, f)),
         short_edges(short_edges_known(r_, f.coord_bits)),
         short_stack(short_stack_) {
     nr.fast = nr.fast && !check && !unit;
@@ -203,18 +207,17 @@ struct FixedPolicy {
   int expand(uint32_t node, uint32_t refs[N], int64_t dists[N], int& tested) const {
     if (stopped(node)) return 0;
     if (unit) return expand_unit(node, refs, dists, tested);
-    if (rec) rec->push_back(TraceEvent{TraceEvent::kNode, nodes[node].count, 0, 0, node});
+    const Node& n = nodes[node];
+    if (rec) rec->push_back(TraceEvent{TraceEvent::kNode, uint8_t(K::count(n)), 0, 0, node});
     if (nr.fast) {
-      const QNode<N, Q>& n = nodes[node];
-      const int k = box_node<N, Q>(nr, n, r.tmin, closest.t, refs, dists);
+      const int k = Test::fast(nr, n, r.tmin, closest.t, refs, dists);
       if (k >= 0) {
-        tested += n.count;
+        tested += K::count(n);
         prefetch(refs, k);
         return k;
       }
     }
-    return r.narrow ? expand_impl<int64_t>(node, refs, dists, tested)
-                    : expand_impl<Wide>(node, refs, dists, tested);
+    return r.narrow ? expand_ref<int64_t>(n, refs, dists, tested) : expand_ref<Wide>(n, refs, dists, tested);
   }
 
   // Asks the cache for the accepted children's nodes or first records (a hint: no effect on any result).
@@ -228,77 +231,45 @@ struct FixedPolicy {
   }
 
   // Repeats child i's box test exactly and counts a disagreement with the datapath's answer.
-  void check_child(const QNode<N, Q>& n, int i, bool hit) const {
-    int64_t lo[3], hi[3];
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a][i]) << n.exp[a]);
-      hi[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a + 1][i]) << n.exp[a]);
-    }
+  void check_child(const Node& n, int i, bool hit) const {
     ++s.box_checks;
-    const bool exact = box_test_exact(r, lo, hi, r.tmin, closest.t);
+    const bool exact = Test::exact(r, n, i, r.tmin, closest.t);
     s.box_false_negatives += uint64_t(exact && !hit);
     s.box_false_positives += uint64_t(hit && !exact);
   }
 
-  // The node through the box unit seam: the same decoded inputs, the hit children in slot order as
-  // expand_impl keeps them, and the unit's clocks in the recorded event.
+  // The node through the box unit seam: the same decoded inputs, the hit children in slot order as the reference
+  // path keeps them, and the unit's clocks in the recorded event.
   int expand_unit(uint32_t node, uint32_t refs[N], int64_t dists[N], int& tested) const {
-    const QNode<N, Q>& n = nodes[node];
-    BoxUnitNode in{};
-    for (int a = 0; a < 3; ++a) {
-      in.base[a] = (int64_t(n.origin[a]) << r.frac) - r.o[a];
-      in.sh[a] = n.exp[a] + r.frac;
-    }
-    for (int row = 0; row < 6; ++row)
-      for (int i = 0; i < N; ++i) in.q[row][i] = uint16_t(n.q[row][i]);
-    in.count = n.count;
+    const Node& n = nodes[node];
+    const BoxUnitNode in = Test::unit_input(r, n);
     BoxUnitResult out;
     unit->test(r, in, r.tmin, closest.t, out);
     if (out.issue < 1 || out.issue > 255 || out.result < out.issue || out.result > 255)
       throw std::logic_error(std::string("box unit ") + unit->name() + ": clocks (issue " +
                              std::to_string(out.issue) + ", result " + std::to_string(out.result) +
                              ") outside 1 <= issue <= result <= 255");
-    if (rec) rec->push_back(TraceEvent{TraceEvent::kNode, n.count, uint8_t(out.issue), uint8_t(out.result), node});
+    const int count = K::count(n);
+    if (rec)
+      rec->push_back(TraceEvent{TraceEvent::kNode, uint8_t(count), uint8_t(out.issue), uint8_t(out.result), node});
     int k = 0;
-    for (int i = 0; i < n.count; ++i) {
+    for (int i = 0; i < count; ++i) {
       ++tested;
       const bool hit = (out.hit >> i) & 1u;
       if (check) check_child(n, i, hit);
-      refs[k] = n.child[i];
+      refs[k] = K::child(n, i);
       dists[k] = out.t_near[i];
       k += int(hit);
     }
     return k;
   }
 
-  // Child planes relative to the ray origin in grid.F: (origin << F) - o once per node and axis, then
-  // + (q << (exp + F)) per child plane: the decode and the subtraction of box_test in one step.
   template <class Int>
-  int expand_impl(uint32_t node, uint32_t refs[N], int64_t dists[N], int& tested) const {
-    const QNode<N, Q>& n = nodes[node];
-    int64_t base[3];
-    int sh[3];
-    for (int a = 0; a < 3; ++a) {
-      base[a] = (int64_t(n.origin[a]) << r.frac) - r.o[a];
-      sh[a] = n.exp[a] + r.frac;
-    }
-    int k = 0;
-    for (int i = 0; i < n.count; ++i) {
+  int expand_ref(const Node& n, uint32_t refs[N], int64_t dists[N], int& tested) const {
+    return Test::template test<Int>(r, n, r.tmin, closest.t, refs, dists, [&](int i, bool hit) {
       ++tested;
-      int64_t dl[3], dh[3];
-      for (int a = 0; a < 3; ++a) {
-        dl[a] = base[a] + (int64_t(n.q[2 * a][i]) << sh[a]);
-        dh[a] = base[a] + (int64_t(n.q[2 * a + 1][i]) << sh[a]);
-      }
-      int64_t t = 0;
-      const bool hit = box_test_delta<Int>(r, dl, dh, r.tmin, closest.t, t);
       if (check) check_child(n, i, hit);
-      // Written unconditionally, kept when hit: whether a child is hit varies from child to child.
-      refs[k] = n.child[i];
-      dists[k] = t;
-      k += int(hit);
-    }
-    return k;
+    });
   }
 
   bool leaf(uint32_t ref) const {
@@ -439,30 +410,13 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
         if (hit && any_hit) break;
       }
     } else {
-      auto run = [&](auto node_tag) {
-        using Node = decltype(node_tag);
-        constexpr int N = sizeof(Node::child) / sizeof(uint32_t);
-        using Q = std::remove_cv_t<std::remove_reference_t<decltype(Node::q[0][0])>>;
-        FixedPolicy<N, Q> p(m_image.nodes<Node>(), m_image, fr, any_hit, m_opt.check_boxes, c, s, rec,
-                            m_opt.box_unit, m_opt.tri_unit, m_opt.any_hit, r, m_opt.bottom, watch, m_step_limit,
-                            m_format, m_opt.record_short_stack);
+      with_node_kind(node_kind(hd), hd.width, hd.q_bytes, [&](auto kind) {
+        using K = decltype(kind);
+        FixedPolicy<K> p(m_image.nodes<typename K::Node>(), m_image, fr, any_hit, m_opt.check_boxes, c, s, rec,
+                         m_opt.box_unit, m_opt.tri_unit, m_opt.any_hit, r, m_opt.bottom, watch, m_step_limit,
+                         m_format, m_opt.record_short_stack);
         traverse(p, hd.root_ref, any_hit, s);
-      };
-      const bool q8 = hd.q_bytes == 1;
-      switch (hd.width) {
-        case 2:
-          q8 ? run(QNode<2, uint8_t>{}) : run(QNode<2, uint16_t>{});
-          break;
-        case 4:
-          q8 ? run(QNode<4, uint8_t>{}) : run(QNode<4, uint16_t>{});
-          break;
-        case 6:
-          q8 ? run(QNode<6, uint8_t>{}) : run(QNode<6, uint16_t>{});
-          break;
-        default:
-          q8 ? run(QNode<8, uint8_t>{}) : run(QNode<8, uint16_t>{});
-          break;
-      }
+      });
     }
   }
   if (c.prim == kMissPrim) return Hit{};

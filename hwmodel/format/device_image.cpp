@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "hwmodel/format/node_kinds.h"
 #include "hwmodel/format/packed_layout.h"
 
 namespace rtu::hw {
@@ -40,18 +41,6 @@ QuantFrame DeviceImage::frame() const {
 }
 
 namespace {
-
-// A box on the grid, exact integers.
-struct GridBox {
-  int64_t lo[3] = {INT64_MAX, INT64_MAX, INT64_MAX};
-  int64_t hi[3] = {INT64_MIN, INT64_MIN, INT64_MIN};
-  void extend(const GridBox& b) {
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], b.lo[a]);
-      hi[a] = std::max(hi[a], b.hi[a]);
-    }
-  }
-};
 
 int64_t floor_shift(int64_t x, int s) {
   return int64_t(round_shift(x, s, Round::kDown));
@@ -160,56 +149,38 @@ class Encoder {
     return g;
   }
 
-  // Quantizes the children's grid boxes relative to their common low corner, lows down and highs up, and checks
-  // that every decoded box contains its grid box and its float box.
-  template <int N, class Q>
-  void encode_node(QNode<N, Q>& node, const GridBox* boxes, const Aabb* float_boxes, const uint32_t* refs,
+  // Encodes one node of kind K and checks that every decoded child box contains its grid box and its float box.
+  template <NodeKind K>
+  void encode_node(typename K::Node& node, const GridBox* boxes, const Aabb* float_boxes, const uint32_t* refs,
                    int count) const {
-    const int64_t qmax = (int64_t(1) << m_f.child_bits) - 1;
-    std::memset(&node, 0, sizeof node);
-    node.count = uint8_t(count);
-    for (int a = 0; a < 3; ++a) {
-      int64_t lo = INT64_MAX, hi = INT64_MIN;
-      for (int i = 0; i < count; ++i) {
-        lo = std::min(lo, boxes[i].lo[a]);
-        hi = std::max(hi, boxes[i].hi[a]);
-      }
-      int e = 0;
-      while (ceil_shift(hi - lo, e) > qmax) ++e;
-      node.origin[a] = int32_t(lo);
-      node.exp[a] = int8_t(e);
-      for (int i = 0; i < count; ++i) {
-        node.q[2 * a][i] = Q(floor_shift(boxes[i].lo[a] - lo, e));
-        node.q[2 * a + 1][i] = Q(ceil_shift(boxes[i].hi[a] - lo, e));
-      }
-    }
-    for (int i = 0; i < N; ++i) {
-      node.child[i] = i < count ? refs[i] : kEmptyChild;
-      if (i >= count) continue;
+    K::encode(node, boxes, refs, count, m_f);
+    for (int i = 0; i < count; ++i) {
+      int64_t dlo[3], dhi[3];
+      K::child_box(node, i, dlo, dhi);
       for (int a = 0; a < 3; ++a) {
-        const int64_t dlo = int64_t(node.origin[a]) + (int64_t(node.q[2 * a][i]) << node.exp[a]);
-        const int64_t dhi = int64_t(node.origin[a]) + (int64_t(node.q[2 * a + 1][i]) << node.exp[a]);
-        const bool ok = dlo <= boxes[i].lo[a] && dhi >= boxes[i].hi[a] &&
-                        m_frame.to_world(dlo, a) <= double(float_boxes[i].lo[a]) &&
-                        m_frame.to_world(dhi, a) >= double(float_boxes[i].hi[a]);
+        const bool ok = dlo[a] <= boxes[i].lo[a] && dhi[a] >= boxes[i].hi[a] &&
+                        m_frame.to_world(dlo[a], a) <= double(float_boxes[i].lo[a]) &&
+                        m_frame.to_world(dhi[a], a) >= double(float_boxes[i].hi[a]);
         if (!ok) throw std::logic_error("encoder: a quantized child box does not contain its exact box");
       }
     }
   }
 
-  template <int N, class Q>
-  void encode_tree(const WideBvh<N>& t, std::vector<QNode<N, Q>>& nodes, std::vector<uint8_t>& records) {
+  template <NodeKind K>
+  void encode_tree(const WideBvh<K::kWidth>& t, std::vector<typename K::Node>& nodes,
+                   std::vector<uint8_t>& records) {
     records.assign(t.prim_ids.size() * kRecordBytes, 0);
     m_record_boxes.assign(t.prim_ids.size(), GridBox{});
     for (size_t i = 0; i < t.prim_ids.size(); ++i)
       make_record(t.prim_ids[i], records.data() + i * kRecordBytes, m_record_boxes[i]);
     nodes.resize(t.nodes.size());
-    if (!is_leaf(t.root_ref) && t.root_ref != kEmptyChild) subtree(t, nodes, t.root_ref);
+    if (!is_leaf(t.root_ref) && t.root_ref != kEmptyChild) subtree<K>(t, nodes, t.root_ref);
   }
 
  private:
-  template <int N, class Q>
-  GridBox subtree(const WideBvh<N>& t, std::vector<QNode<N, Q>>& nodes, uint32_t ref) {
+  template <NodeKind K>
+  GridBox subtree(const WideBvh<K::kWidth>& t, std::vector<typename K::Node>& nodes, uint32_t ref) {
+    constexpr int N = K::kWidth;
     GridBox all;
     if (is_leaf(ref)) {
       for (uint32_t i = leaf_first(ref); i < leaf_first(ref) + leaf_count(ref); ++i) all.extend(m_record_boxes[i]);
@@ -223,13 +194,13 @@ class Encoder {
     for (int i = 0; i < N; ++i) {
       if (fn.child[i] == kEmptyChild) continue;
       fboxes[count] = fn.child_box(i);
-      boxes[count] = subtree(t, nodes, fn.child[i]);
+      boxes[count] = subtree<K>(t, nodes, fn.child[i]);
       boxes[count].extend(outward(fboxes[count]));
       refs[count] = fn.child[i];
       all.extend(boxes[count]);
       ++count;
     }
-    encode_node(nodes[ref], boxes, fboxes, refs, count);
+    encode_node<K>(nodes[ref], boxes, fboxes, refs, count);
     return all;
   }
 
@@ -255,18 +226,18 @@ struct PackedTree {
 };
 
 // Numbers nodes breadth first, each node's inner children consecutive, and stores each node's leaf groups
-// consecutively (packed_layout.h): the QNodes' values are unchanged, their references follow the new order.
-template <int N, class Q>
-PackedTree pack_tree(const FixedFormat& f, std::vector<QNode<N, Q>>& nodes, const std::vector<uint8_t>& records,
-                     uint32_t root) {
+// consecutively (packed_layout.h): the nodes' values are unchanged, their references follow the new order.
+template <NodeKind K>
+PackedTree pack_tree(const FixedFormat& f, const std::vector<typename K::Node>& nodes,
+                     const std::vector<uint8_t>& records, uint32_t root) {
   PackedTree p;
   const bool blocks = f.prim_layout == 1;
   std::vector<uint32_t> order;  // new index -> old
   if (root != kEmptyChild && !is_leaf(root)) order.push_back(root);
   for (size_t k = 0; k < order.size(); ++k) {
-    const QNode<N, Q>& n = nodes[order[k]];
-    for (int i = 0; i < n.count; ++i)
-      if (!is_leaf(n.child[i])) order.push_back(n.child[i]);
+    const typename K::Node& n = nodes[order[k]];
+    for (int i = 0; i < K::count(n); ++i)
+      if (!is_leaf(K::child(n, i))) order.push_back(K::child(n, i));
   }
   uint64_t units = 0;  // primitive section so far: records, or granules of blocks
   uint32_t next_record = 0;
@@ -290,25 +261,21 @@ PackedTree pack_tree(const FixedFormat& f, std::vector<QNode<N, Q>>& nodes, cons
   uint64_t max_base = 0, max_prim = 0, max_group = 0;
   uint32_t next_node = 1;
   for (size_t k = 0; k < order.size(); ++k) {
-    QNode<N, Q> n = nodes[order[k]];
+    typename K::Node n = nodes[order[k]];
     PackedNode& pn = packed[k];
-    for (int a = 0; a < 3; ++a) {
-      pn.origin[a] = n.origin[a];
-      pn.exp[a] = n.exp[a];
-    }
-    pn.count = n.count;
+    K::to_packed(n, pn);
     pn.node_base = next_node;
     pn.prim_base = units;
     bool any_inner = false, any_leaf = false;
-    for (int i = 0; i < n.count; ++i) {
-      for (int r = 0; r < 6; ++r) pn.q[r][i] = n.q[r][i];
-      if (is_leaf(n.child[i])) {
+    for (int i = 0; i < K::count(n); ++i) {
+      const uint32_t ref = K::child(n, i);
+      if (is_leaf(ref)) {
         pn.leaf[i] = true;
-        n.child[i] = group(n.child[i], pn.group[i]);
+        K::set_child(n, i, group(ref, pn.group[i]));
         max_group = std::max<uint64_t>(max_group, pn.group[i] - 1);
         any_leaf = true;
       } else {
-        n.child[i] = next_node++;
+        K::set_child(n, i, next_node++);
         any_inner = true;
       }
     }
@@ -375,29 +342,29 @@ DeviceImage ImageWriter::write(Encoder& enc, const Geometry& g, const FixedForma
   PackedTree tree;  // the node and primitive sections (and, packed, their expected decoding)
   const int q_bytes = f.offset_bytes();
   const bool packed = f.node_layout != 0;
+  const NodeKindId kind = NodeKindId::kQuantizedAabb;  // the one kind the encoder builds (node_kinds.h)
+  flags |= uint32_t(kind) << kImageNodeKindShift;
   if (bvh) {
     bvh->visit([&](const auto& t) {
       constexpr int N = std::decay_t<decltype(t)>::kWidth;
-      auto run = [&](auto q_tag) {
-        using Q = decltype(q_tag);
-        std::vector<QNode<N, Q>> nodes;
-        std::vector<uint8_t> records;
-        enc.encode_tree(t, nodes, records);
-        if (packed) {
-          tree = pack_tree(f, nodes, records, t.root_ref);
-          return;
+      with_node_kind(kind, N, q_bytes, [&](auto kind_tag) {
+        using K = decltype(kind_tag);
+        if constexpr (K::kWidth == N) {
+          std::vector<typename K::Node> nodes;
+          std::vector<uint8_t> records;
+          enc.encode_tree<K>(t, nodes, records);
+          if (packed) {
+            tree = pack_tree<K>(f, nodes, records, t.root_ref);
+            return;
+          }
+          tree.nodes.resize(nodes.size() * sizeof(typename K::Node));
+          if (!nodes.empty()) std::memcpy(tree.nodes.data(), nodes.data(), tree.nodes.size());
+          tree.prims = std::move(records);
+          tree.node_count = uint32_t(nodes.size());
+          tree.node_bytes = sizeof(typename K::Node);
+          tree.root = t.root_ref;
         }
-        tree.nodes.resize(nodes.size() * sizeof(QNode<N, Q>));
-        if (!nodes.empty()) std::memcpy(tree.nodes.data(), nodes.data(), tree.nodes.size());
-        tree.prims = std::move(records);
-        tree.node_count = uint32_t(nodes.size());
-        tree.node_bytes = sizeof(QNode<N, Q>);
-        tree.root = t.root_ref;
-      };
-      if (q_bytes == 1)
-        run(uint8_t{});
-      else
-        run(uint16_t{});
+      });
     });
   } else {
     flags |= kImageNoBvh;
@@ -493,7 +460,8 @@ void check_header(const ImageHeader& h, const FixedFormat& f, uint64_t bytes) {
     bad_image(std::string("format: ") + e.what());
   }
   if (h.q_bytes != f.offset_bytes()) bad_image("offset bytes do not match child_bits");
-  if (h.flags & ~(kImageNoBvh | kImageTopLevel)) bad_image("unknown flag bits");
+  if (h.flags & ~(kImageNoBvh | kImageTopLevel | kImageNodeKindMask)) bad_image("unknown flag bits");
+  if (!find_node_kind(uint32_t(node_kind(h)))) bad_image("unknown node kind " + std::to_string(int(node_kind(h))));
   if ((h.flags & kImageTopLevel) && h.prim_layout != 0) bad_image("a top level in triangle blocks");
   // The frame: grid -> world must stay exact in double (quant_frame.h) and finite.
   if (h.step_exp < -1000 || h.step_exp > 1000) bad_image("frame step exponent out of range");
@@ -593,12 +561,13 @@ uint32_t packed_leaf_ref(const ImageHeader& h, const BlockStarts& block_at, cons
   return make_leaf(uint32_t(first), uint32_t(count));
 }
 
-// Packed nodes -> QNodes (qbytes each, into `nodes`): the children's references from the node base, the
-// primitive base and the meta.
+// Packed nodes -> nodes of kind K (into `nodes`): the kind's fields, then the children's references from the node
+// base, the primitive base and the meta.
+template <NodeKind K>
 void decode_packed_nodes(const uint8_t* image, const ImageHeader& h, const FixedFormat& f, const NodeFields& fl,
-                         size_t qbytes, const BlockStarts& block_at, std::vector<uint64_t>& nodes) {
-  const int W = h.width;
-  nodes.assign((size_t(h.node_count) * qbytes + 7) / 8, 0);
+                         const BlockStarts& block_at, std::vector<uint64_t>& nodes) {
+  using Node = typename K::Node;
+  nodes.assign((size_t(h.node_count) * sizeof(Node) + 7) / 8, 0);
   uint8_t* out = reinterpret_cast<uint8_t*>(nodes.data());
   const uint8_t* in = image + h.node_offset;
   for (uint32_t n = 0; n < h.node_count; ++n) {
@@ -609,20 +578,11 @@ void decode_packed_nodes(const uint8_t* image, const ImageHeader& h, const Fixed
     } catch (const std::invalid_argument& e) {
       bad_image(e.what());
     }
-    uint8_t* q = out + size_t(n) * qbytes;
-    std::memcpy(q, pn.origin, 12);
-    for (int a = 0; a < 3; ++a) {
-      if (pn.exp[a] > 127) bad_image(at + ": scale out of range");
-      q[12 + a] = uint8_t(pn.exp[a]);
-    }
-    q[15] = uint8_t(pn.count);
-    for (int r = 0; r < 6; ++r)
-      for (int i = 0; i < W; ++i) {
-        const uint16_t v = uint16_t(pn.q[r][i]);  // a field of at most 16 bits
-        std::memcpy(q + 16 + size_t(r * W + i) * h.q_bytes, &v, h.q_bytes);
-      }
+    Node node;
+    const std::string why = K::from_packed(pn, node);
+    if (!why.empty()) bad_image(at + ": " + why);
     uint64_t inner = pn.node_base, unit = pn.prim_base;
-    for (int i = 0; i < W; ++i) {
+    for (int i = 0; i < K::kWidth; ++i) {
       uint32_t ref = kEmptyChild;
       if (i < pn.count && !pn.leaf[i]) {
         if (inner >= h.node_count) bad_image(at + ": child node out of range");
@@ -631,8 +591,9 @@ void decode_packed_nodes(const uint8_t* image, const ImageHeader& h, const Fixed
         ref = packed_leaf_ref(h, block_at, at, i, unit, pn.group[i]);
         unit += pn.group[i];
       }
-      std::memcpy(q + 16 + size_t(6 * W) * h.q_bytes + 4 * size_t(i), &ref, 4);
+      K::set_child(node, i, ref);
     }
+    std::memcpy(out + size_t(n) * sizeof(Node), &node, sizeof(Node));
   }
 }
 
@@ -728,39 +689,23 @@ bool check_root(const ImageHeader& h) {
   return true;
 }
 
-// Tree: leaves inside the records, children after their parent (so no cycles), one parent per node (so no
-// shared subtrees: a ray visits each node at most once), and no path deeper than the traversal stack holds.
-// `nodes` are the QNodes, qbytes each.
-void check_tree(const uint8_t* nodes, const ImageHeader& h, const FixedFormat& f, size_t qbytes) {
-  const int N = h.width, B = f.coord_bits;
-  const int64_t qlim = int64_t(1) << f.child_bits;
+// Tree: each node's fields as its kind checks them, leaves inside the records, children after their parent (so no
+// cycles), one parent per node (so no shared subtrees: a ray visits each node at most once), and no path deeper
+// than the traversal stack holds.
+template <NodeKind K>
+void check_tree(const uint8_t* nodes, const ImageHeader& h, const FixedFormat& f) {
+  using Node = typename K::Node;
+  constexpr int N = K::kWidth;
   std::vector<uint32_t> depth(h.node_count, 0);
   for (uint32_t n = 0; n < h.node_count; ++n) {
-    const uint8_t* nd = nodes + size_t(n) * qbytes;
-    int32_t origin[3];
-    int8_t exp[3];
-    std::memcpy(origin, nd, 12);
-    std::memcpy(exp, nd + 12, 3);
-    const uint8_t count = nd[15];
+    Node nd;
+    std::memcpy(&nd, nodes + size_t(n) * sizeof(Node), sizeof(Node));
     const std::string at = "node " + std::to_string(n) + ": ";
-    if (count < 1 || count > N) bad_image(at + "child count out of range");
-    for (int a = 0; a < 3; ++a)
-      if (exp[a] < 0 || exp[a] > B + 1) bad_image(at + "scale out of range");
-    // Decoded planes within [-2^B, 2^(B+1)] grid units: minus any valid ray origin they stay below 2^(B+G+1),
-    // the translated range the box unit's widths are derived for (G >= 1).
-    for (int r = 0; r < 6; ++r) {
-      for (int i = 0; i < N; ++i) {
-        uint32_t q = 0;
-        std::memcpy(&q, nd + 16 + size_t(r * N + i) * h.q_bytes, h.q_bytes);
-        if (int64_t(q) >= qlim) bad_image(at + "child offset wider than child_bits");
-        const int64_t plane = int64_t(origin[r / 2]) + (int64_t(q) << exp[r / 2]);
-        if (plane < -(int64_t(1) << B) || plane > (int64_t(1) << (B + 1))) bad_image(at + "box outside the grid");
-      }
-    }
-    const uint8_t* child = nd + 16 + size_t(6 * N) * h.q_bytes;
+    const std::string why = K::check(nd, f);
+    if (!why.empty()) bad_image(at + why);
+    const int count = K::count(nd);
     for (int i = 0; i < N; ++i) {
-      uint32_t ref;
-      std::memcpy(&ref, child + 4 * i, 4);
+      const uint32_t ref = K::child(nd, i);
       if (i >= count) {
         if (ref != kEmptyChild) bad_image(at + "an empty slot holds a child");
         continue;
@@ -798,7 +743,9 @@ void DeviceImage::check() {
   const uint64_t bytes = uint64_t(m_words.size()) * 8;
   const FixedFormat f = format();
   check_header(h, f, bytes);
-  const size_t qbytes = qnode_bytes(h.width, h.q_bytes);
+  const NodeKindId kind = node_kind(h);
+  const size_t qbytes =
+      with_node_kind(kind, h.width, h.q_bytes, [](auto k) { return sizeof(typename decltype(k)::Node); });
   const NodeFields fields = check_layouts(h, f, qbytes);
   check_sections(h, bytes);
   m_records.clear();
@@ -808,8 +755,11 @@ void DeviceImage::check() {
   check_records(*this, f);
   check_planes(*this, f);
   if (!check_root(h)) return;
-  if (h.node_layout != 0) decode_packed_nodes(data(), h, f, fields, qbytes, block_at, m_nodes);
-  check_tree(reinterpret_cast<const uint8_t*>(this->nodes<uint8_t>()), h, f, qbytes);
+  with_node_kind(kind, h.width, h.q_bytes, [&](auto k) {
+    using K = decltype(k);
+    if (h.node_layout != 0) decode_packed_nodes<K>(data(), h, f, fields, block_at, m_nodes);
+    check_tree<K>(reinterpret_cast<const uint8_t*>(this->nodes<uint8_t>()), h, f);
+  });
 }
 
 }  // namespace rtu::hw

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "hwmodel/format/hw_format.h"
+#include "hwmodel/format/node_kind.h"
 #include "hwmodel/format/quant_frame.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/scene/bvh.h"
@@ -44,7 +45,7 @@ struct ImageHeader {
   uint8_t t_frac_bits;      //
   uint8_t t_bits;           //
   int32_t step_exp;         // quantization frame: grid step 2^step_exp world units
-  uint32_t flags;           // kImageNoBvh
+  uint32_t flags;           // kImageNoBvh, kImageTopLevel; bits 8..11 the node kind (node_kind.h)
   int64_t frame_origin[3];  // quantization frame: world position of grid 0 = origin * 2^step_exp
   uint32_t root_ref;        // node index 0, a leaf reference, or kEmptyChild (no bounded primitives)
   uint32_t node_count;      // nodes at node_offset
@@ -66,6 +67,9 @@ struct ImageHeader {
   uint64_t record_bytes;    // bytes of the primitive section
 };
 static_assert(sizeof(ImageHeader) == 120);
+inline NodeKindId node_kind(const ImageHeader& h) {
+  return NodeKindId((h.flags & kImageNodeKindMask) >> kImageNodeKindShift);
+}
 
 class DeviceImage {
  public:
@@ -76,7 +80,8 @@ class DeviceImage {
   FixedFormat format() const;
   QuantFrame frame() const;
   size_t node_bytes() const { return header().node_bytes; }  // one node in memory, in the image's layout
-  // The nodes as QNodes (decoded when the layout is packed); Node must be the image's QNode type.
+  // The nodes as stored structs of the image's kind (decoded when the layout is packed); Node must be the kind's
+  // Node type for the image's width and offset bytes (with_node_kind, node_kinds.h).
   template <class Node>
   const Node* nodes() const {
     return reinterpret_cast<const Node*>(m_nodes.empty() ? data() + header().node_offset

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "hwmodel/datapath/watchdog.h"
+#include "hwmodel/format/node_kinds.h"
 
 namespace rtu::hw {
 
@@ -34,9 +35,8 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
   m_stack_base = (layout.total_bytes + kStackRegion - 1) / kStackRegion * kStackRegion +
                  uint64_t(unit) * uint64_t(c.ray_slots) * kStackRegion;
   m_waiting.reserve(size_t(c.ray_slots));
-  // A node takes at least one issue clock, even one without children (the RTL unit's sequencer does the same).
-  for (uint64_t k = 0; k < m_box_issue.size(); ++k)
-    m_box_issue[k] = std::max<uint64_t>(1, (k + uint64_t(c.box_rate) - 1) / uint64_t(c.box_rate));
+  // One format builds both levels of a two-level scene, so the top level's node kind prices every node.
+  m_box_cost = box_cost(c, layout.node_cost);
 }
 
 // The observer's port: fills at the fetch's cycle, into this unit's cache, from its memory.
@@ -71,6 +71,7 @@ TimingModel::Layout TimingModel::layout_of(const DeviceImage& image, uint64_t al
   const ImageHeader& h = image.header();
   Layout l;
   l.node_bytes = image.node_bytes();
+  l.node_cost = find_node_kind(uint32_t(node_kind(h)))->cost;  // the image check refused unknown kinds
   l.record_spans = image.record_spans();
   if (align == 0) {
     l.node_offset = h.node_offset;
@@ -292,8 +293,8 @@ uint64_t TimingModel::unit_request(const TraceEvent& e, uint32_t k, uint64_t t) 
   uint64_t done;
   if (e.kind == TraceEvent::kNode) {
     // The configured rate and depth, or the clocks the box unit that tested the node reported (box_unit.h).
-    const uint64_t issue = e.unit_issue ? e.unit_issue : m_box_issue[e.count];
-    const uint64_t latency = e.unit_issue ? uint64_t(e.unit_result) - issue + 1 : uint64_t(m_c.box_latency);
+    const uint64_t issue = e.unit_issue ? e.unit_issue : m_box_cost.issue[e.count];
+    const uint64_t latency = e.unit_issue ? uint64_t(e.unit_result) - issue + 1 : m_box_cost.latency;
     done = unit(m_box_free, issue, latency, t);
     if (m_trace) m_trace->add(m_unit, k, "box", t, done);
     m_s->box_tests += e.count;

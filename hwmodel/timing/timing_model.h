@@ -46,6 +46,7 @@
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/timing/memory/memory_system.h"
 #include "hwmodel/timing/memory/node_cache.h"
+#include "hwmodel/timing/node_cost.h"
 #include "hwmodel/timing/prefetch/prefetchers.h"
 #include "hwmodel/timing/slot_queue.h"
 #include "hwmodel/timing/timing_config.h"
@@ -82,6 +83,7 @@ class TimingModel {
     uint64_t node_offset = 0, node_bytes = 56, record_offset = 0, plane_offset = 0;
     uint64_t node_stride = 0, record_stride = 0, plane_stride = 0;  // 0: the item's size (packed)
     uint64_t total_bytes = 0;  // the footprint of the sections so placed, from offset 0
+    NodeCostClass node_cost = NodeCostClass::kAxisAligned;  // how the node kind's test is priced (node_cost.h)
     // Primitive blocks (DeviceImage::record_spans): record i is fetched as the bytes of its span, which are the
     // whole block for a block's first record and none for the others. Empty: 40-byte records at the stride.
     std::vector<DeviceImage::Span> record_spans;
@@ -223,8 +225,8 @@ class TimingModel {
   uint32_t m_unit = 0;                        // index on the chip (pipeline trace spans, stack addresses)
   uint64_t m_stack_base = 0;  // where slots spill their stacks: after the image, each slot kStackRegion bytes
   static constexpr uint64_t kStackRegion = 4096;
-  int m_line_shift = 0;                     // log2(line_bytes)
-  std::array<uint64_t, 256> m_box_issue{};  // ceil(children / box_rate)
+  int m_line_shift = 0;  // log2(line_bytes)
+  BoxCost m_box_cost;    // issue clocks and latency of a node test, by the node kind's cost class
   std::vector<uint64_t> m_box_free, m_tri_free;
   // Unit requests whose slot waits for its cycle (cycle << 12 | slot, a min-heap); the others went ahead at
   // their fetch (simulate()). m_min_fetch: the fewest cycles any fetch takes (a cache hit, or without a cache a

@@ -12,6 +12,7 @@
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/format/device_image.h"
+#include "hwmodel/format/node_kinds.h"
 #include "hwmodel/numeric/rng.h"
 
 namespace rtu::rtl {
@@ -583,21 +584,13 @@ void copy_node(const hw::DeviceImage& img, uint32_t index, BoxCase& c) {
 }
 
 void copy_node(const hw::DeviceImage& img, uint32_t index, BoxCase& c) {
-  const bool q8 = img.header().q_bytes == 1;
-  switch (img.header().width) {
-    case 2:
-      q8 ? copy_node<2, uint8_t>(img, index, c) : copy_node<2, uint16_t>(img, index, c);
-      break;
-    case 4:
-      q8 ? copy_node<4, uint8_t>(img, index, c) : copy_node<4, uint16_t>(img, index, c);
-      break;
-    case 6:
-      q8 ? copy_node<6, uint8_t>(img, index, c) : copy_node<6, uint16_t>(img, index, c);
-      break;
-    default:
-      q8 ? copy_node<8, uint8_t>(img, index, c) : copy_node<8, uint16_t>(img, index, c);
-      break;
-  }
+  const hw::ImageHeader& h = img.header();
+  hw::with_node_kind(hw::node_kind(h), h.width, h.q_bytes, [&](auto kind) {
+    using K = decltype(kind);
+    using Q = std::remove_cvref_t<decltype(K::Node::q[0][0])>;
+    constexpr int N = K::kWidth;
+    copy_node<N, Q>(img, index, c);
+  });
 }
 
 }  // namespace

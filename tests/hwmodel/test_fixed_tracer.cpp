@@ -18,6 +18,7 @@
 #include "hwmodel/datapath/intersect_fixed.h"
 #include "hwmodel/device/timed_engine.h"
 #include "hwmodel/format/device_image.h"
+#include "hwmodel/format/node_kinds.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/numeric/rng.h"
 #include "hwmodel/scene/bvh.h"
@@ -49,16 +50,7 @@ std::vector<Ray> random_rays(uint64_t seed, int n) {
   return rays;
 }
 
-struct RecordBox {
-  int64_t lo[3] = {INT64_MAX, INT64_MAX, INT64_MAX};
-  int64_t hi[3] = {INT64_MIN, INT64_MIN, INT64_MIN};
-  void extend(const RecordBox& b) {
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], b.lo[a]);
-      hi[a] = std::max(hi[a], b.hi[a]);
-    }
-  }
-};
+using RecordBox = GridBox;  // grid bounds of what lies below a child (format/node_kind.h)
 
 // Walks the image's tree: every decoded child box origin + (q << exp) contains the grid bounds of every record
 // below it (a triangle's vertices; a sphere's center -+ radius rounded outward to the grid), offsets fit in k
@@ -138,21 +130,11 @@ void check_image_boxes(const DeviceImage& img) {
 
 void check_image(const DeviceImage& img) {
   const ImageHeader& h = img.header();
-  const bool q8 = h.q_bytes == 1;
-  switch (h.width) {
-    case 2:
-      q8 ? check_image_boxes<2, uint8_t>(img) : check_image_boxes<2, uint16_t>(img);
-      break;
-    case 4:
-      q8 ? check_image_boxes<4, uint8_t>(img) : check_image_boxes<4, uint16_t>(img);
-      break;
-    case 6:
-      q8 ? check_image_boxes<6, uint8_t>(img) : check_image_boxes<6, uint16_t>(img);
-      break;
-    default:
-      q8 ? check_image_boxes<8, uint8_t>(img) : check_image_boxes<8, uint16_t>(img);
-      break;
-  }
+  with_node_kind(node_kind(h), h.width, h.q_bytes, [&](auto kind) {
+    using Node = typename decltype(kind)::Node;
+    constexpr int N = decltype(kind)::kWidth;
+    check_image_boxes<N, std::remove_cvref_t<decltype(Node::q[0][0])>>(img);
+  });
 }
 
 }  // namespace

@@ -1,0 +1,54 @@
+// The node kinds the unit knows (node_kind.h), one row each, and the one dispatch from an image's (kind, width,
+// offset bytes) to the kind's type.
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+#include "hwmodel/format/node_kind.h"
+#include "hwmodel/format/quantized_aabb.h"
+
+namespace rtu::hw {
+
+struct NodeKindInfo {
+  NodeKindId id;
+  const char* name;  // as reports and errors name it
+  NodeCostClass cost;
+};
+inline constexpr NodeKindInfo kNodeKinds[] = {
+    {NodeKindId::kQuantizedAabb, "quantized-aabb", NodeCostClass::kAxisAligned},
+};
+
+// The kind's row, or null for an id no kind has.
+inline const NodeKindInfo* find_node_kind(uint32_t id) {
+  for (const NodeKindInfo& k : kNodeKinds)
+    if (uint32_t(k.id) == id) return &k;
+  return nullptr;
+}
+
+// Calls f with a value of the kind type for (id, width, q_bytes) and returns what it returns. Widths 2, 4, 6, 8;
+// q_bytes 1 or 2 (the image check has refused anything else; std::logic_error here means a caller skipped it).
+template <class F>
+decltype(auto) with_node_kind(NodeKindId id, int width, int q_bytes, F&& f) {
+  if (id != NodeKindId::kQuantizedAabb || (q_bytes != 1 && q_bytes != 2))
+    throw std::logic_error("with_node_kind: no kind " + std::to_string(int(id)) + " with " +
+                           std::to_string(q_bytes) + "-byte offsets");
+  const bool q8 = q_bytes == 1;
+  switch (width) {
+    case 2:
+      return q8 ? f(QuantizedAabb<2, uint8_t>{}) : f(QuantizedAabb<2, uint16_t>{});
+    case 4:
+      return q8 ? f(QuantizedAabb<4, uint8_t>{}) : f(QuantizedAabb<4, uint16_t>{});
+    case 6:
+      return q8 ? f(QuantizedAabb<6, uint8_t>{}) : f(QuantizedAabb<6, uint16_t>{});
+    case 8:
+      return q8 ? f(QuantizedAabb<8, uint8_t>{}) : f(QuantizedAabb<8, uint16_t>{});
+    default:
+      throw std::logic_error("with_node_kind: width " + std::to_string(width));
+  }
+}
+
+static_assert(NodeKind<QuantizedAabb<4, uint8_t>> && NodeKind<QuantizedAabb<8, uint16_t>>);
+
+}  // namespace rtu::hw

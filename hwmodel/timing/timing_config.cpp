@@ -15,21 +15,16 @@ namespace rtu::hw {
 
 namespace {
 
-// One key: the field it names, its allowed range (ints and doubles) and a one-line description. The table is in
-// the order of the struct; validate(), timing_keys() and set_timing_key() all read it.
-struct KeyInfo {
-  const char* key;
-  std::variant<int TimingConfig::*, double TimingConfig::*, std::string TimingConfig::*> field;
-  double lo, hi;  // inclusive range of ints and doubles; unused for strings (the rules in validate())
-  const char* description;
-};
+using KeyInfo = TimingKeyInfo;
 
 constexpr int kMaxLatency = 100000;
 constexpr double kNoRange = -1e300;  // lo of a key whose rule is not a range (bvh_width: 2, 4, 6 or 8)
 
-const std::vector<KeyInfo>& key_table() {
+// Every key, in the order of the struct: the unit's own rows here, a component's gathered from its header.
+// validate(), timing_keys() and set_timing_key() all read it.
+std::vector<KeyInfo> make_key_table() {
   using C = TimingConfig;
-  static const std::vector<KeyInfo> table = {
+  std::vector<KeyInfo> table = {
       {"format", &C::format, 0, 0, "fixed-point format preset of the datapath (rtusim info --formats)"},
       {"bvh_width", &C::bvh_width, kNoRange, -kNoRange,
        "children per BVH node: 2, 4, 6 or 8 (overrides the format's width)"},
@@ -77,9 +72,10 @@ const std::vector<KeyInfo>& key_table() {
       {"cache_latency", &C::cache_latency, 0, kMaxLatency, "cache hit latency in cycles"},
       {"dram_latency", &C::dram_latency, 0, kMaxLatency, "cycles from a miss to the first byte"},
       {"dram_bytes_per_cycle", &C::dram_bytes_per_cycle, 0.001, 65536, "DRAM bandwidth in bytes per cycle"},
-      {"prefetcher", &C::prefetcher, 0, 0,
-       "what fills the node cache besides demand fetches: none or next_line (prefetch/fetch_observer.h)"},
-      {"prefetch_degree", &C::prefetch_degree, 1, 64, "lines a prefetcher fills per trigger"},
+  };
+  const std::vector<KeyInfo>& prefetch = prefetch_keys();
+  table.insert(table.end(), prefetch.begin(), prefetch.end());
+  const KeyInfo after_prefetch[] = {
       {"units", &C::units, 1, 256, "ray-tracing units on the chip, sharing the L2 and DRAM (1: one unit)"},
       {"ray_policy", &C::ray_policy, 0, 0,
        "how a packet's rays go to the units: waves (ray_slots consecutive rays to each unit in turn), round_robin "
@@ -113,6 +109,12 @@ const std::vector<KeyInfo>& key_table() {
       {"watchdog_cycles", &C::watchdog_cycles, 0, 2147483647,
        "most cycles a ray may stay in its slot before a watchdog error (0: off)"},
   };
+  table.insert(table.end(), std::begin(after_prefetch), std::end(after_prefetch));
+  return table;
+}
+
+const std::vector<KeyInfo>& key_table() {
+  static const std::vector<KeyInfo> table = make_key_table();
   return table;
 }
 
@@ -153,6 +155,10 @@ void TimingConfig::validate() const {
         fail(std::string(k.key) + " = " + double_text(v) + " outside " + range_text(k.lo, k.hi, false));
     }
     // Rules beyond a range, checked in key order so that the first bad key is the one named.
+    if (k.rule) {
+      const std::string why = k.rule(*this);
+      if (!why.empty()) fail(why);
+    }
     const std::string key = k.key;
     if (key == "format") {
       std::string names;
@@ -166,9 +172,6 @@ void TimingConfig::validate() const {
       if (box_unit != "cpp" && box_unit != "rtl") fail("box_unit = '" + box_unit + "' must be cpp or rtl");
     } else if (key == "tri_unit") {
       if (tri_unit != "cpp" && tri_unit != "rtl") fail("tri_unit = '" + tri_unit + "' must be cpp or rtl");
-    } else if (key == "prefetcher") {
-      if (!find_prefetcher(prefetcher))
-        fail("prefetcher = '" + prefetcher + "' is not a prefetcher (known: " + prefetcher_names() + ")");
     } else if (key == "ray_policy") {
       RayPolicy policy;
       if (!parse_ray_policy(ray_policy, policy))

@@ -17,6 +17,7 @@
 
 #include <cstdint>
 #include <string>
+#include <variant>
 #include <vector>
 
 namespace rtu::hw {
@@ -144,6 +145,18 @@ const std::vector<std::string>& timing_preset_names();
 TimingConfig timing_preset(const std::string& name);
 // One line saying what a preset resembles (for `rtusim config --list`); throws like timing_preset().
 std::string timing_preset_description(const std::string& name);
+
+// A key's declaration: the field it names, its allowed range (ints and doubles), a one-line description, and a
+// rule beyond the range (null, or the problem as text, empty when the value is allowed). The central table in
+// timing_config.cpp holds the unit's own keys; a component declares its keys beside itself (as the prefetchers'
+// prefetch_keys() in prefetch/prefetchers.h) and the table gathers them at their place in the struct's order.
+struct TimingKeyInfo {
+  const char* key;
+  std::variant<int TimingConfig::*, double TimingConfig::*, std::string TimingConfig::*> field;
+  double lo, hi;  // inclusive range of ints and doubles; unused for strings
+  const char* description;
+  std::string (*rule)(const TimingConfig&) = nullptr;
+};
 
 // One key of the configuration: name, value as text, one-line description.
 struct TimingKey {

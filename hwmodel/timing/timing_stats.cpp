@@ -4,6 +4,8 @@
 #include <array>
 #include <cmath>
 
+#include "hwmodel/timing/prefetch/prefetchers.h"
+
 namespace rtu::hw {
 
 namespace {
@@ -11,8 +13,9 @@ namespace {
 using S = TimingStats;
 constexpr SampleScale kPacket = SampleScale::kPacket, kPerRay = SampleScale::kPerRay;
 
-// The counters, in the order of the struct.
-constexpr std::array<TimingCounter, 31> kCounters = {{
+// The unit's own counters, in the order of the struct, with a component's gathered from its header where its
+// members sit.
+constexpr std::array<TimingCounter, 13> kBeforePrefetch = {{
     {"packets", &S::packets, "packets", "TRACE packets simulated", kPacket},
     {"cycles", &S::cycles, "cycles", "cycles of those packets, from decode to the last hit written", kPacket},
     {"rays", &S::rays, "rays", "rays through the ray slots (rays rejected at setup included)", kPacket},
@@ -29,11 +32,8 @@ constexpr std::array<TimingCounter, 31> kCounters = {{
     {"cache_hits", &S::cache_hits, "lines", "cache line accesses that hit (a line in flight counts as a hit)",
      kPerRay},
     {"cache_misses", &S::cache_misses, "lines", "cache line accesses that missed and went to DRAM", kPerRay},
-    {"prefetch_fills", &S::prefetch_fills, "lines", "lines a prefetcher brought into the node cache", kPerRay},
-    {"prefetch_redundant", &S::prefetch_redundant, "lines",
-     "lines a prefetcher asked for that the node cache held or had on their way", kPerRay},
-    {"prefetch_useful", &S::prefetch_useful, "lines",
-     "prefetched lines a demand access hit before they were evicted (each counted once)", kPerRay},
+}};
+constexpr std::array<TimingCounter, 15> kAfterPrefetch = {{
     {"l2_hits", &S::l2_hits, "lines", "node cache fills found in the L2 (with l2_kib > 0)", kPerRay},
     {"l2_misses", &S::l2_misses, "lines", "node cache fills the L2 missed (read from DRAM)", kPerRay},
     {"dram_bytes", &S::dram_bytes, "bytes",
@@ -63,6 +63,19 @@ constexpr std::array<TimingCounter, 31> kCounters = {{
      "the latency itself)",
      kPerRay},
 }};
+
+template <size_t A, size_t B, size_t C>
+constexpr std::array<TimingCounter, A + B + C> join(const std::array<TimingCounter, A>& a,
+                                                    const std::array<TimingCounter, B>& b,
+                                                    const std::array<TimingCounter, C>& c) {
+  std::array<TimingCounter, A + B + C> out{};
+  size_t i = 0;
+  for (const TimingCounter& x : a) out[i++] = x;
+  for (const TimingCounter& x : b) out[i++] = x;
+  for (const TimingCounter& x : c) out[i++] = x;
+  return out;
+}
+constexpr auto kCounters = join(kBeforePrefetch, kPrefetchCounters, kAfterPrefetch);
 static_assert(sizeof(TimingStats) == kCounters.size() * sizeof(uint64_t), "a counter is missing from the table");
 
 const TimingCounter& counter(uint64_t S::*member) {

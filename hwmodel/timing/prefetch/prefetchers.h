@@ -1,7 +1,9 @@
-// The prefetchers a configuration may name (the prefetcher key): one line each in the table below. Header-only,
-// so that anything that validates a TimingConfig (the RTL parameter derivation too) sees the same list.
+// The prefetchers a configuration may name (the prefetcher key): one line each in the table below; and the keys
+// and counters they own, which the central tables gather. Header-only, so that anything that validates a
+// TimingConfig (the RTL parameter derivation too) sees the same list.
 #pragma once
 
+#include <array>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -9,6 +11,7 @@
 
 #include "hwmodel/timing/prefetch/fetch_observer.h"
 #include "hwmodel/timing/prefetch/next_line.h"
+#include "hwmodel/timing/timing_stats.h"
 
 namespace rtu::hw {
 
@@ -42,6 +45,33 @@ inline std::string prefetcher_names() {
   std::string names;
   for (const PrefetcherInfo& p : prefetchers()) names += (names.empty() ? "" : ", ") + std::string(p.name);
   return names;
+}
+
+// The prefetchers' counters (TimingStats members, filled by NodeCache::prefetch), gathered into the statistics
+// table (timing_stats.cpp) after cache_misses.
+inline constexpr std::array<TimingCounter, 3> kPrefetchCounters = {{
+    {"prefetch_fills", &TimingStats::prefetch_fills, "lines", "lines a prefetcher brought into the node cache",
+     SampleScale::kPerRay},
+    {"prefetch_redundant", &TimingStats::prefetch_redundant, "lines",
+     "lines a prefetcher asked for that the node cache held or had on their way", SampleScale::kPerRay},
+    {"prefetch_useful", &TimingStats::prefetch_useful, "lines",
+     "prefetched lines a demand access hit before they were evicted (each counted once)", SampleScale::kPerRay},
+}};
+
+// The prefetchers' keys, gathered into the timing key table (timing_config.cpp) after dram_bytes_per_cycle.
+inline const std::vector<TimingKeyInfo>& prefetch_keys() {
+  using C = TimingConfig;
+  static const std::vector<TimingKeyInfo> keys = {
+      {"prefetcher", &C::prefetcher, 0, 0,
+       "what fills the node cache besides demand fetches: none or next_line (prefetch/fetch_observer.h)",
+       [](const C& c) {
+         return find_prefetcher(c.prefetcher) ? std::string()
+                                              : "prefetcher = '" + c.prefetcher +
+                                                    "' is not a prefetcher (known: " + prefetcher_names() + ")";
+       }},
+      {"prefetch_degree", &C::prefetch_degree, 1, 64, "lines a prefetcher fills per trigger"},
+  };
+  return keys;
 }
 
 inline std::unique_ptr<FetchObserver> make_fetch_observer(const TimingConfig& c) {

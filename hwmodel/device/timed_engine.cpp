@@ -14,6 +14,7 @@
 
 #include "hwmodel/datapath/batch.h"
 #include "hwmodel/interface/regs.h"
+#include "hwmodel/timing/prefetch/treelets.h"
 #include "hwmodel/timing/ray_scheduler.h"
 
 namespace rtu::hw {
@@ -86,9 +87,17 @@ void TimedEngine::bind_instanced(const InstanceSet& set, const Geometry& flat, c
 }
 
 void TimedEngine::make_models() {
-  const TimingModel::Layout l =
+  TimingModel::Layout l =
       m_two ? TimingModel::layout_of(*m_two, uint64_t(m_c.layout_align), uint64_t(m_c.instance_bytes))
             : TimingModel::layout_of(*m_image, uint64_t(m_c.layout_align));
+  // Checked at bind rather than by validate(), so that --set order does not matter.
+  if (m_c.prefetcher == "treelet" && m_c.treelet_bytes == 0)
+    throw std::invalid_argument("prefetcher = treelet needs treelet_bytes > 0 (the treelets it prefetches)");
+  if (m_c.treelet_bytes > 0) {
+    if (m_two) throw std::invalid_argument("treelet_bytes: treelet layouts are for one-level scenes");
+    const uint64_t stride = l.node_stride ? l.node_stride : l.node_bytes;
+    l.treelets = std::make_shared<const Treelets>(form_treelets(*m_image, uint64_t(m_c.treelet_bytes), stride));
+  }
   m_model.reset();
   m_chip_units.clear();
   m_chip_memory.reset();
@@ -400,6 +409,11 @@ void TimedEngine::set_sampling(const SampleOptions& o) {
   if (!(o.fraction >= 0.0 && o.fraction <= 1.0))
     throw std::invalid_argument("sampled timing: the fraction must be in [0, 1]");
   if (o.unit_rays == 0) throw std::invalid_argument("sampled timing: a unit needs at least one ray");
+  // Functional warming brings in the demand lines only; a sampled unit with a prefetcher would start from a cache
+  // without the prefetched lines, an estimate of a different unit.
+  if (sample_step(o.fraction) >= 2 && m_c.prefetcher != "none")
+    throw std::invalid_argument("sampled timing: warming does not model prefetched lines; run prefetcher = " +
+                                m_c.prefetcher + " unsampled (no --sample)");
   m_sample = o;
 }
 

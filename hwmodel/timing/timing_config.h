@@ -89,6 +89,10 @@ struct TimingConfig {
   // prefetchers() such as "next_line"; prefetch_degree lines per trigger.
   std::string prefetcher = "none";
   int prefetch_degree = 1;
+  // Lines a prefetcher's fills may wait for an idle memory (0: none wait, each goes at once).
+  int prefetch_queue = 0;
+  // Bytes of a treelet in the timing layout (prefetch/treelets.h): 0 places nodes in the image's order.
+  int treelet_bytes = 0;
   // A chip: `units` ray-tracing units, each with everything above (ray slots, box and triangle units, node cache),
   // sharing the memory below (L2 and DRAM). A packet's rays go to the units by ray_policy: "waves" (ray_slots
   // consecutive rays, a wave, to each unit in turn, as a GPU dispatches waves to its compute units), "round_robin"

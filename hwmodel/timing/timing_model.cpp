@@ -17,7 +17,6 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
       m_own(shared ? nullptr : std::make_unique<MemorySystem>(c)),
       m_mem(shared ? shared : m_own.get()),
       m_unit(unit) {
-  set_fetch_observer(make_fetch_observer(c));
   // A stride of 0 is the item's size (packed): resolved once here, not per fetch.
   auto resolve = [](Layout& l) {
     if (l.node_stride == 0) l.node_stride = l.node_bytes;
@@ -26,6 +25,13 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
   };
   resolve(m_layout);
   for (Layout& b : m_layout.bottoms) resolve(b);
+  FetchContext ctx;
+  ctx.node_offset = m_layout.node_offset;
+  ctx.node_stride = m_layout.node_stride;
+  ctx.node_bytes = m_layout.node_bytes;
+  ctx.line_bytes = uint64_t(c.line_bytes);
+  ctx.treelets = m_layout.treelets.get();
+  set_fetch_observer(make_fetch_observer(c, ctx));
   m_box_free.assign(size_t(c.box_units), 0);
   m_tri_free.assign(size_t(c.tri_units) * size_t(c.tri_rate), 0);  // a unit of rate r: r issue slots per clock
   m_slots.resize(size_t(c.ray_slots));
@@ -43,7 +49,17 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
 class TimingModel::Port final : public LinePort {
  public:
   Port(TimingModel& m, uint64_t t) : m_m(m), m_t(t) {}
-  void fill(uint64_t line) override { m_m.m_cache.prefetch(line, m_t, *m_m.m_mem, *m_m.m_s); }
+  void fill(uint64_t line) override {
+    if (m_m.m_c.prefetch_queue == 0) {
+      m_m.m_cache.prefetch(line, m_t, *m_m.m_mem, *m_m.m_s);
+      return;
+    }
+    if (m_m.m_pf_queue.size() == size_t(m_m.m_c.prefetch_queue)) {
+      m_m.m_pf_queue.pop_front();
+      ++m_m.m_s->prefetch_dropped;
+    }
+    m_m.m_pf_queue.push_back(line);
+  }
   bool holds(uint64_t line) const override { return m_m.m_cache.holds(line); }
 
  private:
@@ -65,6 +81,12 @@ void TimingModel::observe(const Slot& sl, uint32_t k, const TraceEvent& e, uint6
   if (first > last) return;  // a block's later record: nothing fetched
   Port port(*this, t);
   m_observer->on_fetch(LineFetch{t, k, uint8_t(e.kind), e.index, first, last, missed}, port);
+  // Queued fills go while the memory is idle at this cycle: after the demand requests made so far, before any
+  // demand a later cycle brings (a fill keeps the memory busy, so usually one goes per fetch).
+  while (!m_pf_queue.empty() && m_mem->free_at() <= t) {
+    m_cache.prefetch(m_pf_queue.front(), t, *m_mem, *m_s);
+    m_pf_queue.pop_front();
+  }
 }
 
 TimingModel::Layout TimingModel::layout_of(const DeviceImage& image, uint64_t align) {
@@ -155,7 +177,7 @@ void TimingModel::for_each_line(const Layout& l, const TraceEvent& e, F&& f) con
   uint64_t addr, bytes;
   if (e.kind == TraceEvent::kNode) {
     bytes = l.node_bytes;
-    addr = l.node_offset + uint64_t(e.index) * l.node_stride;
+    addr = l.node_offset + uint64_t(l.treelets ? l.treelets->position[e.index] : e.index) * l.node_stride;
   } else if (e.kind == TraceEvent::kPrim && e.count == uint8_t(RecordKind::kInstance)) {
     bytes = l.instance_bytes;
     addr = l.record_offset + uint64_t(e.index) * l.record_stride;

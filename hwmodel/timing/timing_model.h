@@ -84,6 +84,9 @@ class TimingModel {
     uint64_t node_stride = 0, record_stride = 0, plane_stride = 0;  // 0: the item's size (packed)
     uint64_t total_bytes = 0;  // the footprint of the sections so placed, from offset 0
     NodeCostClass node_cost = NodeCostClass::kAxisAligned;  // how the node kind's test is priced (node_cost.h)
+    // Treelets (treelet_bytes > 0, prefetch/treelets.h): node i lies at node_offset + position[i] * node_stride.
+    // Null: at i * node_stride. One level only.
+    std::shared_ptr<const Treelets> treelets;
     // Primitive blocks (DeviceImage::record_spans): record i is fetched as the bytes of its span, which are the
     // whole block for a block's first record and none for the others. Empty: 40-byte records at the stride.
     std::vector<DeviceImage::Span> record_spans;
@@ -222,6 +225,7 @@ class TimingModel {
   std::unique_ptr<MemorySystem> m_own;        // the unit's own memory (null on a chip)
   MemorySystem* m_mem;                        // what the node cache fills from
   std::unique_ptr<FetchObserver> m_observer;  // null: none (the default)
+  std::deque<uint64_t> m_pf_queue;            // lines a prefetcher asked for, waiting for idle memory
   uint32_t m_unit = 0;                        // index on the chip (pipeline trace spans, stack addresses)
   uint64_t m_stack_base = 0;  // where slots spill their stacks: after the image, each slot kStackRegion bytes
   static constexpr uint64_t kStackRegion = 4096;

@@ -160,6 +160,7 @@ const std::vector<ReportEntry>& report_table() {
       count("prefetch.fills", &S::prefetch_fills),
       count("prefetch.redundant", &S::prefetch_redundant),
       count("prefetch.useful", &S::prefetch_useful),
+      count("prefetch.dropped", &S::prefetch_dropped),
       figure("prefetch.accuracy", "1", "useful / fills; 0 without fills",
              [](const S& s, const C&, const LowerBound&) -> Value {
                return ratio(double(s.prefetch_useful), double(s.prefetch_fills));

@@ -4,6 +4,7 @@
 
 #include <catch2/catch.hpp>
 
+#include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_stats.h"
 
 inline void check_same_timing(const rtu::hw::TimingStats& a, const rtu::hw::TimingStats& b) {
@@ -11,4 +12,32 @@ inline void check_same_timing(const rtu::hw::TimingStats& a, const rtu::hw::Timi
     CAPTURE(c.name);
     CHECK(a.*c.member == b.*c.member);
   }
+}
+
+// A configuration with distinct latencies, so a sum that misses or doubles one does not match by accident.
+inline rtu::hw::TimingConfig test_config() {
+  using rtu::hw::TimingConfig;
+  TimingConfig c;
+  c.packet_latency = 20;
+  c.ray_fetch_latency = 10;
+  c.setup_latency = 8;
+  c.writeback_latency = 5;
+  c.traversal_latency = 3;
+  c.ray_slots = 64;
+  c.stack_entries = 4;
+  c.box_units = 1;
+  c.box_rate = 4;
+  c.box_latency = 6;
+  c.tri_units = 1;
+  c.tri_latency = 12;
+  c.sphere_latency = 16;
+  c.plane_latency = 7;
+  c.queue_depth = 64;
+  c.cache_kib = 16;
+  c.cache_ways = 4;
+  c.line_bytes = 64;
+  c.cache_latency = 2;
+  c.dram_latency = 100;
+  c.dram_bytes_per_cycle = 8.0;  // a 64-byte line transfers in 8 cycles
+  return c;
 }

@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "hwmodel/timing/prefetch/treelets.h"
 #include "hwmodel/timing/timing_config.h"
 
 namespace rtu::hw {
@@ -50,11 +51,19 @@ class FetchObserver {
   virtual void on_fetch(const LineFetch& f, LinePort& port) = 0;
 };
 
+// What an observer may know of the unit's layout when it is made: where the nodes lie, and the treelets when the
+// layout has them (treelet_bytes > 0, treelets.h). One level only: a two-level scene has no treelets.
+struct FetchContext {
+  uint64_t node_offset = 0, node_stride = 0, node_bytes = 0;  // node i at node_offset + position * node_stride
+  uint64_t line_bytes = 64;
+  const Treelets* treelets = nullptr;  // null: node i at position i
+};
+
 // A prefetcher a configuration may name (prefetcher = name): the table is prefetchers.h.
 struct PrefetcherInfo {
   const char* name;
   const char* description;
-  std::unique_ptr<FetchObserver> (*make)(const TimingConfig& c);  // null for "none"
+  std::unique_ptr<FetchObserver> (*make)(const TimingConfig& c, const FetchContext& ctx);  // null for "none"
 };
 
 }  // namespace rtu::hw

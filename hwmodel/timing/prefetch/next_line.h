@@ -13,7 +13,7 @@ namespace rtu::hw {
 
 class NextLinePrefetcher final : public FetchObserver {
  public:
-  explicit NextLinePrefetcher(const TimingConfig& c) : m_degree(uint64_t(c.prefetch_degree)) {}
+  NextLinePrefetcher(const TimingConfig& c, const FetchContext&) : m_degree(uint64_t(c.prefetch_degree)) {}
   void on_fetch(const LineFetch& f, LinePort& port) override {
     if (!f.missed) return;
     for (uint64_t d = 1; d <= m_degree; ++d) port.fill(f.last_line + d);

@@ -11,6 +11,7 @@
 
 #include "hwmodel/timing/prefetch/fetch_observer.h"
 #include "hwmodel/timing/prefetch/next_line.h"
+#include "hwmodel/timing/prefetch/treelet.h"
 #include "hwmodel/timing/timing_stats.h"
 
 namespace rtu::hw {
@@ -18,8 +19,8 @@ namespace rtu::hw {
 namespace detail {
 
 template <class P>
-inline std::unique_ptr<FetchObserver> make_prefetcher(const TimingConfig& c) {
-  return std::make_unique<P>(c);
+inline std::unique_ptr<FetchObserver> make_prefetcher(const TimingConfig& c, const FetchContext& ctx) {
+  return std::make_unique<P>(c, ctx);
 }
 
 }  // namespace detail
@@ -29,6 +30,8 @@ inline const std::vector<PrefetcherInfo>& prefetchers() {
       {"none", "no prefetching: only demand fetches fill the node cache", nullptr},
       {"next_line", "on a miss, the prefetch_degree lines after the fetch's last line",
        detail::make_prefetcher<NextLinePrefetcher>},
+      {"treelet", "on a fetch of a treelet's root, the treelet's other lines (needs treelet_bytes > 0)",
+       detail::make_prefetcher<TreeletPrefetcher>},
   };
   return table;
 }
@@ -49,13 +52,15 @@ inline std::string prefetcher_names() {
 
 // The prefetchers' counters (TimingStats members, filled by NodeCache::prefetch), gathered into the statistics
 // table (timing_stats.cpp) after cache_misses.
-inline constexpr std::array<TimingCounter, 3> kPrefetchCounters = {{
+inline constexpr std::array<TimingCounter, 4> kPrefetchCounters = {{
     {"prefetch_fills", &TimingStats::prefetch_fills, "lines", "lines a prefetcher brought into the node cache",
      SampleScale::kPerRay},
     {"prefetch_redundant", &TimingStats::prefetch_redundant, "lines",
      "lines a prefetcher asked for that the node cache held or had on their way", SampleScale::kPerRay},
     {"prefetch_useful", &TimingStats::prefetch_useful, "lines",
      "prefetched lines a demand access hit before they were evicted (each counted once)", SampleScale::kPerRay},
+    {"prefetch_dropped", &TimingStats::prefetch_dropped, "lines",
+     "fills dropped from a full prefetch queue, oldest first (prefetch_queue > 0)", SampleScale::kPerRay},
 }};
 
 // The prefetchers' keys, gathered into the timing key table (timing_config.cpp) after dram_bytes_per_cycle.
@@ -70,14 +75,20 @@ inline const std::vector<TimingKeyInfo>& prefetch_keys() {
                                                     "' is not a prefetcher (known: " + prefetcher_names() + ")";
        }},
       {"prefetch_degree", &C::prefetch_degree, 1, 64, "lines a prefetcher fills per trigger"},
+      {"prefetch_queue", &C::prefetch_queue, 0, 4096,
+       "0: a prefetcher's fills go to memory at once; > 0: they wait in a queue of this many lines and go only "
+       "when the memory is idle at a fetch (demand first; a full queue drops its oldest)"},
+      {"treelet_bytes", &C::treelet_bytes, 0, 65536,
+       "timing layout: 0 nodes in the image's order; > 0 nodes in treelets of at most this many bytes, each "
+       "contiguous (prefetch/treelets.h; prefetcher = treelet needs it > 0)"},
   };
   return keys;
 }
 
-inline std::unique_ptr<FetchObserver> make_fetch_observer(const TimingConfig& c) {
+inline std::unique_ptr<FetchObserver> make_fetch_observer(const TimingConfig& c, const FetchContext& ctx) {
   const PrefetcherInfo* p = find_prefetcher(c.prefetcher);
   if (!p) throw std::invalid_argument("prefetcher = '" + c.prefetcher + "' is not a prefetcher");
-  return p->make ? p->make(c) : nullptr;
+  return p->make ? p->make(c, ctx) : nullptr;
 }
 
 }  // namespace rtu::hw

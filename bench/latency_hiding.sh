@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# Latency-hiding techniques side by side on the timed device: cycles, node-cache misses, prefetch accuracy, DRAM
+# bytes and energy per ray, per scene, ray kind, preset and format. Writes a Markdown table to stdout (the rows of
+# bench/results/latency-hiding.md). Cycles and counts are deterministic; only the run time is the machine's.
+# Usage: bench/latency_hiding.sh [RTUSIM] [RAYS]      (RAYS per kind, default 32768)
+set -euo pipefail
+rtusim=${1:-build/default/rtusim}
+rays=${2:-32768}
+models=/usr/share/assimp/models
+scenes=(
+  "house=$models/IFC/AC14-FZK-Haus.ifc"
+  "engine=$models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb"
+)
+presets=(${PRESETS:-rdna2-mem rdna2-chip})
+formats=(${FORMATS:-default compact})  # compact: B = 16, k = 6, reduced precision
+# name | --set arguments
+techniques=(
+  "none|"
+  "next_line|--set prefetcher=next_line"
+  "treelet layout|--set treelet_bytes=512"
+  "treelet 512|--set treelet_bytes=512 --set prefetcher=treelet"
+  "treelet 512, queue 64|--set treelet_bytes=512 --set prefetcher=treelet --set prefetch_queue=64"
+  "treelet 2048, queue 64|--set treelet_bytes=2048 --set prefetcher=treelet --set prefetch_queue=64"
+)
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+echo "| scene | rays | preset | format | technique | cycles | speed-up | misses | miss change | accuracy | DRAM B/ray | pJ/ray |"
+echo "|---|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|"
+for s in "${scenes[@]}"; do
+  name=${s%%=*}
+  path=${s#*=}
+  for kind in primary incoherent; do
+    for preset in "${presets[@]}"; do
+      for fmt in "${formats[@]}"; do
+        base=""
+        for t in "${techniques[@]}"; do
+          label=${t%%|*}
+          args=${t#*|}
+          out=$work/out.json
+          # shellcheck disable=SC2086
+          "$rtusim" trace --flatten --scene "$path" --rays "$kind:$rays" --device timed --config "$preset" \
+            --format "$fmt" $args --stats "$out" > /dev/null
+          row=$(/usr/bin/python3 - "$out" "$base" <<'PY'
+import json, sys
+t = json.load(open(sys.argv[1]))["timing"]
+rays = max(1, t["rays"])
+misses = t["cache"]["misses"]
+base = sys.argv[2].split(",") if sys.argv[2] else [str(t["cycles"]), str(misses)]
+speed = float(base[0]) / t["cycles"]
+change = (misses - float(base[1])) / max(1.0, float(base[1]))
+print("%d,%d|%d | %.3f | %d | %+.1f%% | %.2f | %.0f | %.0f" % (t["cycles"], misses, t["cycles"], speed, misses,
+      100 * change, t["prefetch"]["accuracy"], t["dram_bytes"] / rays, t["energy"]["pj_per_ray"]))
+PY
+)
+          [ -z "$base" ] && base=${row%%|*}
+          echo "| $name | $kind | $preset | $fmt | $label | ${row#*|} |"
+        done
+      done
+    done
+  done
+done

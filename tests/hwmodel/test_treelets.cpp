@@ -1,0 +1,237 @@
+// Treelets and the treelet prefetcher (timing/prefetch/treelets.h, treelet.h), and the demand-first prefetch
+// queue (prefetch_queue): exact cycles worked by hand on a one-line-per-node layout, the formation's invariants on
+// a real BVH, and hits unchanged on the timed device.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <memory>
+#include <vector>
+
+#include "fixed_checks.h"
+#include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/device/timed_engine.h"
+#include "hwmodel/format/device_image.h"
+#include "hwmodel/format/node_kinds.h"
+#include "hwmodel/scene/bvh.h"
+#include "hwmodel/timing/prefetch/treelets.h"
+#include "hwmodel/timing/timing_model.h"
+#include "timing_checks.h"
+
+using namespace rtu::hw;
+
+namespace {
+
+// Nodes 0..3 one line each at their own index; treelet {0, 1, 2} rooted at 0, treelet {3} at 3.
+TimingModel::Layout layout() {
+  TimingModel::Layout l;
+  l.node_bytes = 64;
+  l.record_offset = 1 << 20;
+  l.plane_offset = 2 << 20;
+  auto t = std::make_shared<Treelets>();
+  t->position = {0, 1, 2, 3};
+  t->size = {3, 0, 0, 1};
+  t->count = 2;
+  l.treelets = t;
+  return l;
+}
+
+TraceEvent node(uint32_t index) {
+  return TraceEvent{TraceEvent::kNode, 4, 0, 0, index};
+}
+
+uint64_t run(TimingModel& m, std::vector<TraceEvent> ev, TimingStats& s) {
+  m.begin(1, s);
+  m.feed(&ev, 1);
+  return m.finish();
+}
+
+}  // namespace
+
+TEST_CASE("a treelet root's fetch fills the treelet: the next nodes hit or wait for their fill", "[timing]") {
+  TimingConfig c = test_config();
+  const uint64_t line = 64 / 8;
+  const uint64_t enter = c.packet_latency + c.ray_fetch_latency + c.setup_latency;
+  const uint64_t miss = c.cache_latency + line + c.dram_latency;
+  const uint64_t per_node = c.box_latency + c.traversal_latency;  // 4 children: one issue clock
+  const std::vector<TraceEvent> ray = {node(0), node(2), node(1)};
+  {
+    TimingModel m(c, layout());
+    TimingStats s;
+    CHECK(run(m, ray, s) == enter + 3 * (miss + per_node) + c.writeback_latency);
+    CHECK(s.cache_misses == 3);
+  }
+  set_timing_key(c, "treelet_bytes", "192");
+  set_timing_key(c, "prefetcher", "treelet");
+  TimingModel m(c, layout());
+  TimingStats s;
+  // Node 0 misses at `enter`; its line goes over the channel in [enter + 2, + 8), the fills of lines 1 and 2
+  // (asked at the same cycle) after it: line 1 there at enter + 2 + 16 + 100, line 2 at enter + 2 + 24 + 100. Node
+  // 2's fetch at enter + miss + per_node = enter + 119 finds its line on the way and waits for it; node 1's fetch
+  // comes per_node after node 2's data and hits.
+  const uint64_t line2_ready = enter + c.cache_latency + 3 * line + c.dram_latency;
+  REQUIRE(enter + miss + per_node < line2_ready);
+  CHECK(run(m, ray, s) ==
+        line2_ready + c.cache_latency + per_node + c.cache_latency + per_node + c.writeback_latency);
+  CHECK(s.cache_misses == 1);
+  CHECK(s.cache_hits == 2);
+  CHECK(s.prefetch_fills == 2);
+  CHECK(s.prefetch_useful == 2);
+  CHECK(s.dram_bytes == 3 * 64);
+  // A root whose treelet is itself fills nothing.
+  TimingModel m3(c, layout());
+  TimingStats s3;
+  run(m3, {node(3)}, s3);
+  CHECK(s3.prefetch_fills == 0);
+  CHECK(s3.prefetch_redundant == 0);
+}
+
+TEST_CASE("queued prefetches wait for an idle memory: demand first, a late fill saves what it covered",
+          "[timing]") {
+  TimingConfig c = test_config();
+  set_timing_key(c, "treelet_bytes", "192");
+  set_timing_key(c, "prefetcher", "treelet");
+  set_timing_key(c, "prefetch_queue", "4");
+  const uint64_t line = 64 / 8;
+  const uint64_t enter = c.packet_latency + c.ray_fetch_latency + c.setup_latency;
+  const uint64_t miss = c.cache_latency + line + c.dram_latency;
+  const uint64_t per_node = c.box_latency + c.traversal_latency;
+  // Node 0, node 0 again (a hit), then node 1. At node 0's miss the channel is busy with it, so lines 1 and 2
+  // wait. At the hit (enter + miss + per_node) the channel is idle: line 1 goes, asked cache_latency later, there
+  // at t1 + miss; line 2 waits again (the channel is busy with line 1). Node 1's fetch, cache_latency + per_node
+  // after the hit, finds line 1 on its way and waits for it.
+  const uint64_t t1 = enter + miss + per_node;
+  const uint64_t t2 = t1 + c.cache_latency + per_node;
+  const uint64_t fill_ready = t1 + miss;
+  REQUIRE(t2 < fill_ready);
+  TimingModel m(c, layout());
+  TimingStats s;
+  CHECK(run(m, {node(0), node(0), node(1)}, s) == fill_ready + c.cache_latency + per_node + c.writeback_latency);
+  // Node 1's fetch hits a line on its way, and the channel is idle again by then (line 1 took it for 8 cycles from
+  // t1 + 2, and t2 = t1 + 11): line 2 goes at t2, unused.
+  REQUIRE(t1 + c.cache_latency + line <= t2);
+  CHECK(s.prefetch_fills == 2);
+  CHECK(s.prefetch_useful == 1);
+  CHECK(s.prefetch_dropped == 0);
+  // Against no prefetcher, node 1's own miss: the fill saved the cycles between its request and node 1's, less
+  // the cache_latency of waiting for a line on its way.
+  TimingConfig off = test_config();
+  TimingModel o(off, layout());
+  TimingStats so;
+  const uint64_t without = run(o, {node(0), node(0), node(1)}, so);
+  CHECK(without == t2 + miss + per_node + c.writeback_latency);
+  CHECK(without - (fill_ready + c.cache_latency + per_node + c.writeback_latency) == (t2 - t1) - c.cache_latency);
+  // A demand fetch is never delayed by a queued fill: the same ray without the hit in between (no idle channel at
+  // a fetch) takes exactly the cycles of no prefetcher, and its fills wait in the queue.
+  TimingModel q(c, layout());
+  TimingStats sq;
+  TimingModel o2(off, layout());
+  TimingStats so2;
+  CHECK(run(q, {node(0), node(1)}, sq) == run(o2, {node(0), node(1)}, so2));
+  CHECK(sq.prefetch_fills == 0);
+  // A queue of one line keeps the newest ask: of lines 1 and 2, line 1 is dropped.
+  set_timing_key(c, "prefetch_queue", "1");
+  TimingModel d(c, layout());
+  TimingStats sd;
+  run(d, {node(0)}, sd);
+  CHECK(sd.prefetch_dropped == 1);
+}
+
+TEST_CASE("treelets: a permutation of the nodes, connected pieces within the budget", "[timing][image]") {
+  const Geometry g = fixed_checks::random_scene(9, 3000, 20);
+  for (int width : {2, 4, 8}) {
+    FixedFormat f = format_preset("default");
+    f.width = width;
+    BvhBuildParams bp;
+    bp.width = width;
+    const Bvh bvh = Bvh::build(g, bp);
+    const DeviceImage img = encode_scene(g, f, &bvh);
+    const ImageHeader& h = img.header();
+    for (uint64_t budget : {uint64_t(1), uint64_t(256), uint64_t(4096)}) {
+      CAPTURE(width, budget);
+      const uint64_t stride = img.node_bytes();
+      const Treelets t = form_treelets(img, budget, stride);
+      REQUIRE(t.position.size() == h.node_count);
+      std::vector<uint32_t> seen(h.node_count, 0);
+      for (uint32_t p : t.position) ++seen[p];
+      CHECK(std::count(seen.begin(), seen.end(), 1u) == h.node_count);  // a permutation
+      CHECK(t.position[0] == 0);                                        // the root's treelet first
+      uint64_t total = 0;
+      for (uint32_t n = 0; n < h.node_count; ++n) {
+        total += t.size[n];
+        CHECK(uint64_t(t.size[n]) * stride <= std::max(budget, stride));
+      }
+      CHECK(total == h.node_count);
+      if (budget == 1) CHECK(t.count == h.node_count);  // one node each
+      // Each treelet's positions are consecutive from its root's and connected: every non-root node's parent
+      // lies in the same treelet (its position within the treelet's span).
+      std::vector<uint32_t> owner(h.node_count, 0);  // position -> root of its treelet
+      for (uint32_t n = 0; n < h.node_count; ++n)
+        for (uint32_t k = 0; k < t.size[n]; ++k) owner[t.position[n] + k] = n;
+      with_node_kind(node_kind(h), h.width, h.q_bytes, [&](auto kind) {
+        using K = decltype(kind);
+        const auto* nodes = img.nodes<typename K::Node>();
+        for (uint32_t n = 0; n < h.node_count; ++n)
+          for (int i = 0; i < K::count(nodes[n]); ++i) {
+            const uint32_t c = K::child(nodes[n], i);
+            if (is_leaf(c) || t.size[c] > 0) continue;  // a leaf, or the root of another treelet
+            CHECK(owner[t.position[c]] == owner[t.position[n]]);
+          }
+      });
+    }
+  }
+}
+
+TEST_CASE("treelet layouts and prefetchers never change a hit, and refuse what they cannot model", "[timing]") {
+  const Geometry g = fixed_checks::random_scene(10, 2000, 20);
+  const FixedFormat f = format_preset("default");
+  BvhBuildParams bp;
+  bp.width = f.width;
+  const Bvh bvh = Bvh::build(g, bp);
+  const DeviceImage img = encode_scene(g, f, &bvh);
+  std::vector<Ray> rays;
+  Pcg32 rng(3);
+  for (int i = 0; i < 3000; ++i) {
+    Ray r;
+    r.origin = Vec3(fixed_checks::rand_float(rng, -1, 1), fixed_checks::rand_float(rng, -1, 1), -3.0f);
+    r.dir = Vec3(fixed_checks::rand_float(rng, -0.3f, 0.3f), fixed_checks::rand_float(rng, -0.3f, 0.3f), 1.0f);
+    r.tmin = 0.0f;
+    r.tmax = 1e30f;
+    rays.push_back(r);
+  }
+  std::vector<Hit> want(rays.size());
+  TraversalStats fs;
+  FixedTracer(img).trace_batch(rays.data(), want.data(), rays.size(), false, 1, fs);
+  std::vector<uint8_t> bytes(img.data(), img.data() + img.size());
+  uint64_t cycles[2] = {0, 0};
+  for (const char* pf : {"none", "treelet", "next_line"})
+    for (int q : {0, 16}) {
+      CAPTURE(pf, q);
+      TimingConfig c = timing_preset("rdna2-mem");
+      set_timing_key(c, "treelet_bytes", "512");
+      set_timing_key(c, "prefetcher", pf);
+      set_timing_key(c, "prefetch_queue", std::to_string(q));
+      for (int threads : {1, 2}) {
+        TimedEngine timed(EngineOptions{}, c);
+        timed.set_threads(threads);
+        timed.bind(bytes.data(), bytes.size());
+        std::vector<Hit> got(rays.size());
+        TraversalStats ts;
+        cycles[threads - 1] = timed.trace_cycles(rays.data(), got.data(), rays.size(), false, ts, 0, 0);
+        size_t differ = 0;
+        for (size_t i = 0; i < rays.size(); ++i) differ += got[i].prim != want[i].prim || got[i].t != want[i].t;
+        CHECK(differ == 0);
+      }
+      CHECK(cycles[0] == cycles[1]);  // the same cycles on 1 and 2 host threads
+    }
+  TimingConfig c = timing_preset("rdna2");
+  set_timing_key(c, "prefetcher", "treelet");
+  {
+    TimedEngine none(EngineOptions{}, c);
+    CHECK_THROWS_WITH(none.bind(bytes.data(), bytes.size()), Catch::Contains("needs treelet_bytes > 0"));
+  }
+  set_timing_key(c, "treelet_bytes", "512");
+  TimedEngine timed(EngineOptions{}, c);
+  SampleOptions so;
+  so.fraction = 0.1;
+  CHECK_THROWS_WITH(timed.set_sampling(so), Catch::Contains("warming does not model prefetched lines"));
+}

@@ -21,6 +21,8 @@ techniques=(
   "treelet 512|--set treelet_bytes=512 --set prefetcher=treelet"
   "treelet 512, queue 64|--set treelet_bytes=512 --set prefetcher=treelet --set prefetch_queue=64"
   "treelet 2048, queue 64|--set treelet_bytes=2048 --set prefetcher=treelet --set prefetch_queue=64"
+  "stack, degree 1|--set prefetcher=stack"
+  "stack, degree 2, queue 64|--set prefetcher=stack --set prefetch_degree=2 --set prefetch_queue=64"
 )
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT

@@ -175,6 +175,7 @@ struct FixedPolicy {
   typename Test::RayState nr;  // the node kernels' constants for the ray
   bool short_edges;            // short_edges_known for the ray
   int short_stack = -1;        // FixedTraceOptions::record_short_stack
+  bool stack_refs = false;     // FixedTraceOptions::record_stack_refs
   mutable int rec_depth = 0;   // stack entries, as the recorder counts them (every push and pop)
 
   // A constructor, not aggregate initialization: GCC 12 clears the whole object before an aggregate's fields
@@ -286,7 +287,7 @@ struct FixedPolicy {
   }
 
   int64_t limit() const { return watch.fired ? INT64_MIN : closest.t; }
-  void pushed(int n) const {
+  void pushed(const uint32_t* refs, int n) const {
     if (!watch.fired) watch.depth += n;
     if (rec) {
       if (short_stack < 0) {
@@ -297,6 +298,9 @@ struct FixedPolicy {
         if (over > 0) rec->push_back(TraceEvent{TraceEvent::kSpill, uint8_t(over), 0, 0, 0});
       }
       rec_depth += n;
+      if (stack_refs)
+        for (int j = 0; j < n; ++j)
+          if (!is_leaf(refs[j])) rec->push_back(TraceEvent{TraceEvent::kStackRef, uint8_t(j), 0, 0, refs[j]});
     }
   }
   void popped() const {
@@ -415,6 +419,7 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
         FixedPolicy<K> p(m_image.nodes<typename K::Node>(), m_image, fr, any_hit, m_opt.check_boxes, c, s, rec,
                          m_opt.box_unit, m_opt.tri_unit, m_opt.any_hit, r, m_opt.bottom, watch, m_step_limit,
                          m_format, m_opt.record_short_stack);
+        p.stack_refs = m_opt.record_stack_refs;
         traverse(p, hd.root_ref, any_hit, s);
       });
     }

@@ -38,7 +38,9 @@ struct TraceEvent {
     kRefill = 6,
     kAnyHit = 7,
     kEnter = 8,
-    kLeave = 9
+    kLeave = 9,
+    kStackRef = 10  // a node pushed on the stack (FixedTraceOptions::record_stack_refs): count its rank in pop
+                    // order (0: popped first), index the node
   };
   uint8_t kind;
   uint8_t count;  // kNode: child boxes tested; kPrim: RecordKind; kPush: entries pushed; kSpill: entries spilled
@@ -85,6 +87,9 @@ struct FixedTraceOptions {
   // stack of N entries sees it: pushes and pops within it are left out, entries pushed beyond it are kSpill
   // events, entries popped from beyond it kRefill events (the timing engine sets its stack_entries here).
   int record_short_stack = -1;
+  // Recording: after a push's stack event, one kStackRef per inner node pushed, nearest first (what a stack
+  // prefetcher sees, prefetch/stack.h). Off: no such events.
+  bool record_stack_refs = false;
   // The any-hit stage of non-opaque triangles (records with kRecordNonOpaque), or null: they are opaque. Not
   // owned; must outlive the tracer's use.
   const AnyHitStage* any_hit = nullptr;

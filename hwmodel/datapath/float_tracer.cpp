@@ -82,7 +82,7 @@ struct FloatPolicy {
   }
 
   float limit() const { return closest.tmax; }
-  void pushed(int) const {}
+  void pushed(const uint32_t*, int) const {}
   void popped() const {}
 };
 

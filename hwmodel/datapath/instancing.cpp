@@ -245,7 +245,7 @@ struct TopPolicy {
   }
 
   float limit() const { return closest.t; }
-  void pushed(int) const {}
+  void pushed(const uint32_t*, int) const {}
   void popped() const {}
 };
 

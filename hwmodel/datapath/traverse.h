@@ -7,7 +7,7 @@
 //       // tests the occupied children of an inner node; writes the accepted ones; returns how many
 //   bool leaf(uint32_t ref);                            // tests a leaf's primitives; true if the closest changed
 //   Dist limit() const;                                 // the current end of the ray interval (closest hit)
-//   void pushed(int n); void popped();                  // stack traffic, for the timing model's recorder
+//   void pushed(const uint32_t* refs, int n); void popped(); // stack traffic, for the timing model's recorder
 #pragma once
 
 #include <cstdint>
@@ -48,7 +48,7 @@ void traverse(Policy& p, uint32_t root, bool any_hit, TraversalStats& s) {
           }
         }
         for (int i = k - 1; i > 0; --i) stack[sp++] = Entry{refs[i], dists[i]};
-        if (k > 1) p.pushed(k - 1);
+        if (k > 1) p.pushed(&refs[1], k - 1);  // refs[1] is popped first
         cur = refs[0];
         continue;
       }

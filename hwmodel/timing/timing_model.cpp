@@ -81,6 +81,21 @@ void TimingModel::observe(const Slot& sl, uint32_t k, const TraceEvent& e, uint6
   if (first > last) return;  // a block's later record: nothing fetched
   Port port(*this, t);
   m_observer->on_fetch(LineFetch{t, k, uint8_t(e.kind), e.index, first, last, missed}, port);
+  drain_prefetches(t);
+}
+
+void TimingModel::observe_push(const Slot& sl, uint32_t k, const TraceEvent& e, uint64_t t) {
+  uint64_t first = ~uint64_t(0), last = 0;
+  for_each_line<false>(*sl.layout, TraceEvent{TraceEvent::kNode, 0, 0, 0, e.index}, [&](uint64_t line) {
+    first = std::min(first, line);
+    last = std::max(last, line);
+  });
+  Port port(*this, t);
+  m_observer->on_push(StackPush{t, k, e.count, first, last}, port);
+  drain_prefetches(t);
+}
+
+void TimingModel::drain_prefetches(uint64_t t) {
   // Queued fills go while the memory is idle at this cycle: after the demand requests made so far, before any
   // demand a later cycle brings (a fill keeps the memory busy, so usually one goes per fetch).
   while (!m_pf_queue.empty() && m_mem->free_at() <= t) {
@@ -389,6 +404,8 @@ bool TimingModel::touches_memory(const Slot& sl) const {
     case TraceEvent::kEnter:
     case TraceEvent::kLeave:
       return false;
+    case TraceEvent::kStackRef:
+      return m_observer != nullptr;  // the observer may fill the pushed node's lines
     default:
       break;
   }
@@ -485,6 +502,10 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
           continue;
         case TraceEvent::kLeave:
           sl.layout = &m_layout;
+          ++sl.pos;
+          continue;
+        case TraceEvent::kStackRef:  // no time: the push it follows is done
+          if (m_observer) observe_push(sl, k, e, t);
           ++sl.pos;
           continue;
         default:

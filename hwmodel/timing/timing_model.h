@@ -211,6 +211,8 @@ class TimingModel {
   void for_each_line(const Layout& l, const TraceEvent& e, F&& f) const;
   // Shows the fetch of event e by slot k at cycle t to the observer (which may fill lines at t).
   void observe(const Slot& sl, uint32_t k, const TraceEvent& e, uint64_t t, bool missed);
+  void observe_push(const Slot& sl, uint32_t k, const TraceEvent& e, uint64_t t);
+  void drain_prefetches(uint64_t t);
   class Port;
   // The layout a kEnter or kLeave event's mesh index names (std::logic_error for one the layout lacks).
   const Layout& bottom(uint32_t mesh) const;

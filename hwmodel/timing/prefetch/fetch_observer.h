@@ -45,10 +45,20 @@ class LinePort {
   virtual bool holds(uint64_t line) const = 0;  // whether it is there or on its way
 };
 
+// A node a ray pushed on its traversal stack (only for a prefetcher that asks for them,
+// PrefetcherInfo::stack_refs): seen at the cycle of the push, after the node test whose result it is.
+struct StackPush {
+  uint64_t cycle;
+  uint32_t slot;
+  uint32_t rank;                   // in pop order: 0 is popped first
+  uint64_t first_line, last_line;  // the node's lines
+};
+
 class FetchObserver {
  public:
   virtual ~FetchObserver() = default;
   virtual void on_fetch(const LineFetch& f, LinePort& port) = 0;
+  virtual void on_push(const StackPush&, LinePort&) {}
 };
 
 // What an observer may know of the unit's layout when it is made: where the nodes lie, and the treelets when the
@@ -64,6 +74,7 @@ struct PrefetcherInfo {
   const char* name;
   const char* description;
   std::unique_ptr<FetchObserver> (*make)(const TimingConfig& c, const FetchContext& ctx);  // null for "none"
+  bool stack_refs = false;  // the tracer records the nodes rays push (on_push), which costs trace bytes
 };
 
 }  // namespace rtu::hw

@@ -11,6 +11,7 @@
 
 #include "hwmodel/timing/prefetch/fetch_observer.h"
 #include "hwmodel/timing/prefetch/next_line.h"
+#include "hwmodel/timing/prefetch/stack.h"
 #include "hwmodel/timing/prefetch/treelet.h"
 #include "hwmodel/timing/timing_stats.h"
 
@@ -32,6 +33,8 @@ inline const std::vector<PrefetcherInfo>& prefetchers() {
        detail::make_prefetcher<NextLinePrefetcher>},
       {"treelet", "on a fetch of a treelet's root, the treelet's other lines (needs treelet_bytes > 0)",
        detail::make_prefetcher<TreeletPrefetcher>},
+      {"stack", "the lines of the prefetch_degree nodes a ray pushes that it pops first, at the push",
+       detail::make_prefetcher<StackPrefetcher>, true},
   };
   return table;
 }
@@ -83,6 +86,12 @@ inline const std::vector<TimingKeyInfo>& prefetch_keys() {
        "contiguous (prefetch/treelets.h; prefetcher = treelet needs it > 0)"},
   };
   return keys;
+}
+
+// Whether the configured prefetcher needs the nodes rays push (the tracer records them only then).
+inline bool prefetcher_wants_stack_refs(const TimingConfig& c) {
+  const PrefetcherInfo* p = find_prefetcher(c.prefetcher);
+  return p && p->stack_refs;
 }
 
 inline std::unique_ptr<FetchObserver> make_fetch_observer(const TimingConfig& c, const FetchContext& ctx) {

@@ -1,6 +1,6 @@
-// Treelets and the treelet prefetcher (timing/prefetch/treelets.h, treelet.h), and the demand-first prefetch
-// queue (prefetch_queue): exact cycles worked by hand on a one-line-per-node layout, the formation's invariants on
-// a real BVH, and hits unchanged on the timed device.
+// The prefetchers behind the fetch-observer seam (timing/prefetch/): the treelet layout and prefetcher, the
+// stack prefetcher, and the demand-first prefetch queue (prefetch_queue). Exact cycles worked by hand on a
+// one-line-per-node layout, the treelets' invariants on a real BVH, and hits unchanged on the timed device.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -203,7 +203,7 @@ TEST_CASE("treelet layouts and prefetchers never change a hit, and refuse what t
   FixedTracer(img).trace_batch(rays.data(), want.data(), rays.size(), false, 1, fs);
   std::vector<uint8_t> bytes(img.data(), img.data() + img.size());
   uint64_t cycles[2] = {0, 0};
-  for (const char* pf : {"none", "treelet", "next_line"})
+  for (const char* pf : {"none", "treelet", "next_line", "stack"})
     for (int q : {0, 16}) {
       CAPTURE(pf, q);
       TimingConfig c = timing_preset("rdna2-mem");
@@ -234,4 +234,34 @@ TEST_CASE("treelet layouts and prefetchers never change a hit, and refuse what t
   SampleOptions so;
   so.fraction = 0.1;
   CHECK_THROWS_WITH(timed.set_sampling(so), Catch::Contains("warming does not model prefetched lines"));
+}
+
+TEST_CASE("a stack prefetch at the push turns the popped node's miss into a hit", "[timing]") {
+  TimingConfig c = test_config();
+  const uint64_t line = 64 / 8;
+  const uint64_t enter = c.packet_latency + c.ray_fetch_latency + c.setup_latency;
+  const uint64_t miss = c.cache_latency + line + c.dram_latency;
+  const uint64_t per_node = c.box_latency + c.traversal_latency;
+  // Node 0, whose test pushes node 5 (rank 0, popped first) and node 6 (rank 1); the ray goes on to node 1, then
+  // pops node 5.
+  const std::vector<TraceEvent> ray = {node(0), TraceEvent{TraceEvent::kStackRef, 0, 0, 0, 5},
+                                       TraceEvent{TraceEvent::kStackRef, 1, 0, 0, 6}, node(1), node(5)};
+  TimingModel::Layout l = layout();
+  l.treelets.reset();
+  const uint64_t t1 = enter + miss + per_node;  // node 0's result: the push, and node 1's fetch
+  TimingStats so;
+  TimingModel off(c, l);
+  CHECK(run(off, ray, so) == t1 + miss + per_node + miss + per_node + c.writeback_latency);
+  set_timing_key(c, "prefetcher", "stack");
+  TimingModel m(c, l);
+  TimingStats s;
+  // At t1 the push fills node 5's line first (channel [t1 + 2, + 8), there at t1 + miss); node 1's miss, asked at
+  // the same cycle, waits for the channel: there at t1 + 2 + 2 * 8 + 100. Node 5's fetch per_node later hits.
+  const uint64_t node1_ready = t1 + c.cache_latency + 2 * line + c.dram_latency;
+  const uint64_t t2 = node1_ready + per_node;
+  REQUIRE(t1 + miss <= t2);
+  CHECK(run(m, ray, s) == t2 + c.cache_latency + per_node + c.writeback_latency);
+  CHECK(s.prefetch_fills == 1);  // prefetch_degree 1: rank 1 (node 6) is not filled
+  CHECK(s.prefetch_useful == 1);
+  CHECK(s.cache_misses == 2);
 }

@@ -1,10 +1,11 @@
-// Traversal-stack prefetching (after TTP: Tozlu, Naithani, Zhou, arXiv 2605.16253, 2026): the nodes a ray pushes
-// on its stack are nodes it will fetch unless a closer hit culls them, so their lines are filled when they are
-// pushed. Of each push, the prefetch_degree entries popped first (the nearest) are filled.
+// Traversal-stack prefetching, in the spirit of TTP (Tozlu, Naithani, Zhou, arXiv 2605.16253, 2026: prefetch BVH
+// nodes from the addresses already on the ray's traversal stack): the nodes a ray pushes are nodes it will fetch
+// unless a closer hit culls them, so their lines are filled. Of each push, the prefetch_degree entries popped
+// first (the nearest) are filled, at the push.
 // Modelled: the trigger at the push (after the node test that found the children), the fill of the nodes' lines
-// (filtered by the cache's tags: prefetch_redundant), the rank in pop order. Left out: TTP's filtering of entries
-// whose distance exceeds the closest hit at prefetch time, and its own prefetch buffer (fills go into the node
-// cache; with prefetch_queue > 0 they wait for an idle memory).
+// (filtered by the cache's tags: prefetch_redundant), the rank in pop order. Differs from TTP: TTP triggers when
+// nodes are popped consecutively (upward traversal) and prefetches the entries then on the stack; fills here go
+// into the node cache (with prefetch_queue > 0 they wait for an idle memory).
 #pragma once
 
 #include "hwmodel/timing/prefetch/fetch_observer.h"

@@ -3,8 +3,10 @@
 // other lines are filled, so the nodes the ray visits next in that treelet are on their way.
 // Modelled: the trigger (any fetch of a treelet root, hit or miss: a hardware prefetcher sees the visit), the
 // fill of every line of the treelet not already held (filtered by the cache's tags: counted prefetch_redundant).
-// Left out: the paper's prefetch queue ahead of the L1 and its priority below demand fetches (here fills go to
-// memory at the trigger's cycle, in order with demand requests), and its popularity-based treelet selection.
+// Left out: the paper's two-stack, treelet-based traversal order (per its abstract: a ray finishes the treelet it
+// is in before it leaves it, so a prefetched treelet is used before it is evicted; here traversal stays
+// depth-first, nearest child first). Fills go to memory at the trigger's cycle, or wait for an idle memory with
+// prefetch_queue > 0.
 #pragma once
 
 #include "hwmodel/datapath/fixed_tracer.h"

@@ -4,9 +4,9 @@
 //
 // Formation here is greedy and breadth-first: the root's piece takes nodes in breadth-first order below it while
 // they fit the budget (at least the root); every inner child left out roots a piece of its own, formed in the
-// order they were left out. Chou et al. grow a piece by the children most likely to be visited (surface area);
-// breadth-first takes the same near-root nodes first without a probability model. The pieces are placed in
-// formation order, so the root's piece comes first, as the image's node 0 does.
+// order they were left out. A simple rule: another formation (by the children most likely to be visited, say)
+// replaces this function. The pieces are placed in formation order, so the root's piece comes first, as the
+// image's node 0 does.
 //
 // A timing layout (treelet_bytes > 0, TimingModel::Layout::treelets) places node i at node_offset + position[i]
 // * stride instead of i * stride: the hits and the image stay as they are, only where the unit fetches changes.

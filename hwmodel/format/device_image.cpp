@@ -379,7 +379,8 @@ DeviceImage ImageWriter::write(Encoder& enc, const Geometry& g, const FixedForma
       encode_block(tree.records.data() + size_t(p) * kRecordBytes, int(std::min<uint32_t>(kMaxLeafSize, n - p)),
                    f.coord_bits, tree.prims);
     if (f.prim_layout == 0) tree.prims = tree.records;
-    tree.node_bytes = packed ? node_fields(f, 0, 0, 0).bytes(f.node_align) : qnode_bytes(f.width, q_bytes);
+    tree.node_bytes =
+        packed ? node_fields(f, 0, 0, 0).bytes(f.node_align) : node_struct_bytes(kind, f.width, q_bytes);
   }
   std::vector<PlaneRecord> planes;
   for (uint32_t i = 0; i < g.planes.size(); ++i) planes.push_back(enc.make_plane(i));
@@ -472,7 +473,7 @@ void check_header(const ImageHeader& h, const FixedFormat& f, uint64_t bytes) {
 
 // Layouts: the node size the format and the field widths give, the primitive section the layout gives. Returns
 // the packed nodes' fields (default for struct nodes).
-NodeFields check_layouts(const ImageHeader& h, const FixedFormat& f, size_t qbytes) {
+NodeFields check_layouts(const ImageHeader& h, const FixedFormat& f, size_t struct_bytes) {
   NodeFields fields;
   if (h.node_layout != 0) {
     if (h.base_bits > 32 || h.prim_bits > 32 || h.group_bits > 7)
@@ -483,7 +484,7 @@ NodeFields check_layouts(const ImageHeader& h, const FixedFormat& f, size_t qbyt
     if (h.node_bytes != fields.bytes(f.node_align))
       bad_image("node_bytes " + std::to_string(h.node_bytes) + " differs from the layout's " +
                 std::to_string(fields.bytes(f.node_align)));
-  } else if (h.node_bytes != qbytes || (h.base_bits | h.prim_bits | h.group_bits) != 0) {
+  } else if (h.node_bytes != struct_bytes || (h.base_bits | h.prim_bits | h.group_bits) != 0) {
     bad_image("node_bytes or node field widths differ from the struct layout's");
   }
   if (h.prim_layout == 0 && h.record_bytes != uint64_t(h.record_count) * kRecordBytes)
@@ -744,9 +745,7 @@ void DeviceImage::check() {
   const FixedFormat f = format();
   check_header(h, f, bytes);
   const NodeKindId kind = node_kind(h);
-  const size_t qbytes =
-      with_node_kind(kind, h.width, h.q_bytes, [](auto k) { return sizeof(typename decltype(k)::Node); });
-  const NodeFields fields = check_layouts(h, f, qbytes);
+  const NodeFields fields = check_layouts(h, f, node_struct_bytes(kind, h.width, h.q_bytes));
   check_sections(h, bytes);
   m_records.clear();
   m_spans.clear();

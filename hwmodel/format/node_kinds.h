@@ -2,6 +2,7 @@
 // offset bytes) to the kind's type.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -47,6 +48,11 @@ decltype(auto) with_node_kind(NodeKindId id, int width, int q_bytes, F&& f) {
     default:
       throw std::logic_error("with_node_kind: width " + std::to_string(width));
   }
+}
+
+// Bytes of the kind's stored struct (a node in the struct layout, and as a bound image decodes packed nodes).
+inline size_t node_struct_bytes(NodeKindId id, int width, int q_bytes) {
+  return with_node_kind(id, width, q_bytes, [](auto k) { return sizeof(typename decltype(k)::Node); });
 }
 
 static_assert(NodeKind<QuantizedAabb<4, uint8_t>> && NodeKind<QuantizedAabb<8, uint16_t>>);

@@ -72,12 +72,17 @@ void TimingModel::set_fetch_observer(std::unique_ptr<FetchObserver> observer) {
   if (m_observer) m_cache.track_prefetches();
 }
 
-void TimingModel::observe(const Slot& sl, uint32_t k, const TraceEvent& e, uint64_t t, bool missed) {
+std::pair<uint64_t, uint64_t> TimingModel::line_range(const Layout& l, const TraceEvent& e) const {
   uint64_t first = ~uint64_t(0), last = 0;
-  for_each_line<false>(*sl.layout, e, [&](uint64_t line) {
+  for_each_line<false>(l, e, [&](uint64_t line) {
     first = std::min(first, line);
     last = std::max(last, line);
   });
+  return {first, last};
+}
+
+void TimingModel::observe(const Slot& sl, uint32_t k, const TraceEvent& e, uint64_t t, bool missed) {
+  const auto [first, last] = line_range(*sl.layout, e);
   if (first > last) return;  // a block's later record: nothing fetched
   Port port(*this, t);
   m_observer->on_fetch(LineFetch{t, k, uint8_t(e.kind), e.index, first, last, missed}, port);
@@ -85,11 +90,7 @@ void TimingModel::observe(const Slot& sl, uint32_t k, const TraceEvent& e, uint6
 }
 
 void TimingModel::observe_push(const Slot& sl, uint32_t k, const TraceEvent& e, uint64_t t) {
-  uint64_t first = ~uint64_t(0), last = 0;
-  for_each_line<false>(*sl.layout, TraceEvent{TraceEvent::kNode, 0, 0, 0, e.index}, [&](uint64_t line) {
-    first = std::min(first, line);
-    last = std::max(last, line);
-  });
+  const auto [first, last] = line_range(*sl.layout, TraceEvent{TraceEvent::kNode, 0, 0, 0, e.index});
   Port port(*this, t);
   m_observer->on_push(StackPush{t, k, e.count, first, last}, port);
   drain_prefetches(t);

@@ -212,6 +212,8 @@ class TimingModel {
   // Shows the fetch of event e by slot k at cycle t to the observer (which may fill lines at t).
   void observe(const Slot& sl, uint32_t k, const TraceEvent& e, uint64_t t, bool missed);
   void observe_push(const Slot& sl, uint32_t k, const TraceEvent& e, uint64_t t);
+  // The first and last line event e fetches in layout l (first > last: none).
+  std::pair<uint64_t, uint64_t> line_range(const Layout& l, const TraceEvent& e) const;
   void drain_prefetches(uint64_t t);
   class Port;
   // The layout a kEnter or kLeave event's mesh index names (std::logic_error for one the layout lacks).

@@ -190,7 +190,7 @@ std::vector<EnergyKey> energy_json_keys() {
       {"energy.area.box_units_mm2", "mm^2", "box units (NAND2 equivalents x NAND2 area / utilization)"},
       {"energy.area.tri_units_mm2", "mm^2", "triangle units"},
       {"energy.area.cache_mm2", "mm^2", "cache data and tag SRAM"},
-      {"energy.area.slots_mm2", "mm^2", "ray slot state, short stacks and ray queue SRAM"},
+      {"energy.area.slots_mm2", "mm^2", "ray slot state, short stacks and trails, ray and prefetch queue SRAM"},
       {"energy.area.l2_mm2", "mm^2", "the L2's data and tag SRAM (a chip's shared L2)"},
       {"energy.area.logic_nand2_eq", "NAND2", "NAND2 equivalents of all units"},
       {"energy.area.sram_bits", "bits", "SRAM bits of cache and slots"},

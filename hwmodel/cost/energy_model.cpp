@@ -66,8 +66,9 @@ double cache_sram_bits(const TimingConfig& c) {
 }
 
 double slot_sram_bits(const TimingConfig& c) {
-  return 8.0 * (double(c.ray_slots) * (kSlotStateBytes + 8.0 * c.stack_entries) +
-                double(c.queue_depth) * kQueueRayBytes);
+  const double trail = c.stack_mode == "restart" ? kTrailBytes : 0.0;
+  return 8.0 * (double(c.ray_slots) * (kSlotStateBytes + 8.0 * c.stack_entries + trail) +
+                double(c.queue_depth) * kQueueRayBytes + double(c.prefetch_queue) * kPrefetchEntryBytes);
 }
 
 double l2_sram_bits(const TimingConfig& c) {

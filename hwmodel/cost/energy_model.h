@@ -80,9 +80,14 @@ struct CostInputs {
   UnitCost box, tri;  // one box unit, one triangle unit
 };
 
-// The unit's SRAM: cache data and tags, ray slot state (kSlotStateBytes per slot), short stacks, ray queue.
+// The unit's SRAM: cache data and tags, ray slot state (kSlotStateBytes per slot), short stacks and trails, ray
+// queue, prefetch queue.
 inline constexpr int kSlotStateBytes = 64;  // a slot's ray, hit and traversal registers (fixed ray + hit record)
 inline constexpr int kQueueRayBytes = 32;   // a queued ray (origin, direction, t range as floats)
+// stack_mode restart: a slot's trail, a 4-bit counter (children taken, up to 8) for each of 64 levels.
+inline constexpr int kTrailBytes = 32;
+// prefetch_queue: a queued prefetch is a line address.
+inline constexpr int kPrefetchEntryBytes = 8;
 struct AreaReport {
   double box_mm2 = 0, tri_mm2 = 0;      // all units of the kind
   double cache_mm2 = 0, slots_mm2 = 0;  // all units'
@@ -92,7 +97,7 @@ struct AreaReport {
 };
 AreaReport area_report(const TimingConfig& c, const CostInputs& in, const Technology& t = nangate45());
 double cache_sram_bits(const TimingConfig& c);  // data + tags (a 32-bit tag and a valid bit per line)
-double slot_sram_bits(const TimingConfig& c);   // slot state, stacks, queue
+double slot_sram_bits(const TimingConfig& c);   // slot state, stacks and trails, ray and prefetch queues
 double l2_sram_bits(const TimingConfig& c);     // the L2's data + tags (0 without one)
 
 struct EnergyEvent {

@@ -5,12 +5,14 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
 #include "hwmodel/datapath/batch.h"
 #include "hwmodel/datapath/intersect_float.h"
 #include "hwmodel/datapath/node_test.h"
+#include "hwmodel/datapath/restart_trail.h"
 #include "hwmodel/datapath/traverse.h"
 
 namespace rtu::hw {
@@ -172,11 +174,12 @@ struct FixedPolicy {
     return true;
   }
 
-  typename Test::RayState nr;  // the node kernels' constants for the ray
-  bool short_edges;            // short_edges_known for the ray
-  int short_stack = -1;        // FixedTraceOptions::record_short_stack
-  bool stack_refs = false;     // FixedTraceOptions::record_stack_refs
-  mutable int rec_depth = 0;   // stack entries, as the recorder counts them (every push and pop)
+  typename Test::RayState nr;     // the node kernels' constants for the ray
+  bool short_edges;               // short_edges_known for the ray
+  int short_stack = -1;           // FixedTraceOptions::record_short_stack
+  bool stack_refs = false;        // FixedTraceOptions::record_stack_refs
+  mutable int rec_depth = 0;      // stack entries, as the recorder counts them (every push and pop)
+  RestartTrail* trail = nullptr;  // recording with FixedTraceOptions::record_restart: the restarts' costs
 
   // A constructor, not aggregate initialization: GCC 12 clears the whole object before an aggregate's fields
   // (rep stos, a stall once per ray).
@@ -207,6 +210,12 @@ struct FixedPolicy {
 
   int expand(uint32_t node, uint32_t refs[N], int64_t dists[N], int& tested) const {
     if (stopped(node)) return 0;
+    const int k = expand_recorded(node, refs, dists, tested);
+    if (trail) trail->expanded(rec->back(), k);
+    return k;
+  }
+
+  int expand_recorded(uint32_t node, uint32_t refs[N], int64_t dists[N], int& tested) const {
     if (unit) return expand_unit(node, refs, dists, tested);
     const Node& n = nodes[node];
     if (rec) rec->push_back(TraceEvent{TraceEvent::kNode, uint8_t(K::count(n)), 0, 0, node});
@@ -290,7 +299,9 @@ struct FixedPolicy {
   void pushed(const uint32_t* refs, int n) const {
     if (!watch.fired) watch.depth += n;
     if (rec) {
-      if (short_stack < 0) {
+      if (trail) {
+        trail->pushed(n);
+      } else if (short_stack < 0) {
         rec->push_back(TraceEvent{TraceEvent::kPush, uint8_t(n), 0, 0, 0});
       } else {
         // Entries beyond the short stack after the push, less those beyond it before.
@@ -306,7 +317,9 @@ struct FixedPolicy {
   void popped() const {
     if (!watch.fired) --watch.depth;
     if (rec) {
-      if (short_stack < 0)
+      if (trail) {
+        if (!watch.fired) trail->popped(*rec);  // a stopped ray ends: no restart
+      } else if (short_stack < 0)
         rec->push_back(TraceEvent{TraceEvent::kPop, 0, 0, 0, 0});
       else if (rec_depth > short_stack)
         rec->push_back(TraceEvent{TraceEvent::kRefill, 0, 0, 0, 0});
@@ -420,6 +433,9 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
                          m_opt.box_unit, m_opt.tri_unit, m_opt.any_hit, r, m_opt.bottom, watch, m_step_limit,
                          m_format, m_opt.record_short_stack);
         p.stack_refs = m_opt.record_stack_refs;
+        std::optional<RestartTrail> trail;
+        if (rec && m_opt.record_restart && m_opt.record_short_stack >= 0)
+          p.trail = &trail.emplace(m_opt.record_short_stack);
         traverse(p, hd.root_ref, any_hit, s);
       });
     }

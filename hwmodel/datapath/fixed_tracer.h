@@ -39,8 +39,10 @@ struct TraceEvent {
     kAnyHit = 7,
     kEnter = 8,
     kLeave = 9,
-    kStackRef = 10  // a node pushed on the stack (FixedTraceOptions::record_stack_refs): count its rank in pop
-                    // order (0: popped first), index the node
+    kStackRef = 10,  // a node pushed on the stack (FixedTraceOptions::record_stack_refs): count its rank in pop
+                     // order (0: popped first), index the node
+    kRestart = 11    // a restart from the root (FixedTraceOptions::record_restart, restart_trail.h): index the
+                     // nodes re-visited, whose kNode events follow
   };
   uint8_t kind;
   uint8_t count;  // kNode: child boxes tested; kPrim: RecordKind; kPush: entries pushed; kSpill: entries spilled
@@ -90,6 +92,10 @@ struct FixedTraceOptions {
   // Recording: after a push's stack event, one kStackRef per inner node pushed, nearest first (what a stack
   // prefetcher sees, prefetch/stack.h). Off: no such events.
   bool record_stack_refs = false;
+  // Recording with record_short_stack = N >= 0: the short stack drops its oldest entry instead of spilling it, and
+  // a pop of a dropped entry restarts from the root with a trail (restart_trail.h): a kRestart event and the kNode
+  // events of the nodes re-visited, no kSpill or kRefill. The hits are the same.
+  bool record_restart = false;
   // The any-hit stage of non-opaque triangles (records with kRecordNonOpaque), or null: they are opaque. Not
   // owned; must outlive the tracer's use.
   const AnyHitStage* any_hit = nullptr;

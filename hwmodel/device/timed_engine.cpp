@@ -59,6 +59,7 @@ void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   to.max_steps = m_opt.max_steps;
   to.record_short_stack = m_c.stack_entries;  // the model charges only for entries beyond it
   to.record_stack_refs = prefetcher_wants_stack_refs(m_c);
+  to.record_restart = m_c.stack_mode == "restart";
   to.box_unit = m_box_unit.get();
   to.tri_unit = m_tri_unit.get();
   to.any_hit = m_any_hit;
@@ -74,6 +75,7 @@ FixedTraceOptions TimedEngine::two_level_options() const {
   to.max_steps = m_opt.max_steps;
   to.record_short_stack = m_c.stack_entries;  // the model charges only for entries beyond it
   to.record_stack_refs = prefetcher_wants_stack_refs(m_c);
+  to.record_restart = m_c.stack_mode == "restart";
   to.any_hit = m_any_hit;
   return to;
 }

@@ -40,6 +40,14 @@ std::vector<KeyInfo> make_key_table() {
        "cycles from a FENCE's value write to its interrupt reaching the host"},
       {"ray_slots", &C::ray_slots, 1, 4096, "rays in flight, each with its own traversal state"},
       {"stack_entries", &C::stack_entries, 1, 64, "short stack per slot; deeper entries spill (8 bytes each)"},
+      {"stack_mode", &C::stack_mode, 0, 0,
+       "entries beyond the short stack: spill (to memory, read back at their pop) or restart (the oldest dropped; "
+       "its pop restarts from the root along a trail, re-fetching the nodes above it)",
+       [](const C& c) {
+         return c.stack_mode == "spill" || c.stack_mode == "restart"
+                    ? std::string()
+                    : "stack_mode = '" + c.stack_mode + "' must be spill or restart";
+       }},
       {"traversal_latency", &C::traversal_latency, 0, kMaxLatency,
        "scheduler: cycles from a unit result to the slot's next request"},
       {"any_hit_latency", &C::any_hit_latency, 0, kMaxLatency,

@@ -39,6 +39,9 @@ struct TimingConfig {
   // Ray slots and traversal.
   int ray_slots = 32;         // rays in flight, each with its own traversal state
   int stack_entries = 8;      // short stack per slot; deeper entries spill to memory (8 bytes each)
+  // What happens to entries beyond the short stack: "spill" (to memory, read back when popped) or "restart" (the
+  // oldest is dropped; popping a dropped entry restarts from the root along a trail, restart_trail.h).
+  std::string stack_mode = "spill";
   int traversal_latency = 2;  // scheduler: cycles from a unit result to the slot's next request
   // Cycles a ray waits in its slot for the any-hit stage's answer on a candidate hit of a non-opaque triangle
   // (any_hit.h): the request to the firmware, its mask lookup (a texture read from memory) and the answer.

@@ -407,6 +407,8 @@ bool TimingModel::touches_memory(const Slot& sl) const {
       return false;
     case TraceEvent::kStackRef:
       return m_observer != nullptr;  // the observer may fill the pushed node's lines
+    case TraceEvent::kRestart:
+      return false;
     default:
       break;
   }
@@ -503,6 +505,11 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
           continue;
         case TraceEvent::kLeave:
           sl.layout = &m_layout;
+          ++sl.pos;
+          continue;
+        case TraceEvent::kRestart:  // no time of its own: the node events that follow are the restart's cost
+          ++m_s->restarts;
+          m_s->restart_nodes += e.index;
           ++sl.pos;
           continue;
         case TraceEvent::kStackRef:  // no time: the push it follows is done

@@ -33,7 +33,7 @@ constexpr std::array<TimingCounter, 13> kBeforePrefetch = {{
      kPerRay},
     {"cache_misses", &S::cache_misses, "lines", "cache line accesses that missed and went to DRAM", kPerRay},
 }};
-constexpr std::array<TimingCounter, 15> kAfterPrefetch = {{
+constexpr std::array<TimingCounter, 17> kAfterPrefetch = {{
     {"l2_hits", &S::l2_hits, "lines", "node cache fills found in the L2 (with l2_kib > 0)", kPerRay},
     {"l2_misses", &S::l2_misses, "lines", "node cache fills the L2 missed (read from DRAM)", kPerRay},
     {"dram_bytes", &S::dram_bytes, "bytes",
@@ -48,6 +48,11 @@ constexpr std::array<TimingCounter, 15> kAfterPrefetch = {{
     {"stack_spills", &S::stack_spills, "entries", "stack entries beyond the short stack written to memory",
      kPerRay},
     {"stack_refills", &S::stack_refills, "entries", "spilled stack entries read back", kPerRay},
+    {"restarts", &S::restarts, "restarts",
+     "stack_mode restart: pops of a dropped entry, each a restart from the root along the trail", kPerRay},
+    {"restart_nodes", &S::restart_nodes, "nodes",
+     "stack_mode restart: nodes fetched and tested again by restarts (in node_fetches and box_tests too)",
+     kPerRay},
     {"queue_stall_cycles", &S::queue_stall_cycles, "cycles",
      "cycles unit requests waited beyond queue_depth for a free unit", kPerRay},
     {"slot_busy_cycles", &S::slot_busy_cycles, "cycles",
@@ -191,6 +196,8 @@ const std::vector<ReportEntry>& report_table() {
       count("stream_bytes", &S::stream_bytes),
       count("stack_spills", &S::stack_spills),
       count("stack_refills", &S::stack_refills),
+      count("restarts", &S::restarts),
+      count("restart_nodes", &S::restart_nodes),
       count("queue_stall_cycles", &S::queue_stall_cycles),
       count("any_hit_requests", &S::any_hit_requests),
       count("instance_transforms", &S::instance_transforms),

@@ -35,6 +35,7 @@ struct TimingStats {
   uint64_t dram_row_hits = 0, dram_row_misses = 0;  // with DRAM banks: accesses to the open row, and the others
   uint64_t stream_bytes = 0;                        // ray and hit buffers
   uint64_t stack_spills = 0, stack_refills = 0;
+  uint64_t restarts = 0, restart_nodes = 0;  // stack_mode restart: restarts from the root, nodes re-visited
   uint64_t queue_stall_cycles = 0;
   uint64_t slot_busy_cycles = 0;     // sum over rays of the cycles from entering a slot to leaving it
   uint64_t any_hit_requests = 0;     // candidate hits on non-opaque triangles sent to the firmware's any-hit stage

@@ -211,12 +211,8 @@ TEST_CASE("treelet layouts and prefetchers never change a hit, and refuse what t
       set_timing_key(c, "prefetcher", pf);
       set_timing_key(c, "prefetch_queue", std::to_string(q));
       for (int threads : {1, 2}) {
-        TimedEngine timed(EngineOptions{}, c);
-        timed.set_threads(threads);
-        timed.bind(bytes.data(), bytes.size());
-        std::vector<Hit> got(rays.size());
-        TraversalStats ts;
-        cycles[threads - 1] = timed.trace_cycles(rays.data(), got.data(), rays.size(), false, ts, 0, 0);
+        std::vector<Hit> got;
+        cycles[threads - 1] = trace_timed(c, bytes, rays, threads, got);
         size_t differ = 0;
         for (size_t i = 0; i < rays.size(); ++i) differ += got[i].prim != want[i].prim || got[i].t != want[i].t;
         CHECK(differ == 0);

@@ -4,6 +4,10 @@
 
 #include <catch2/catch.hpp>
 
+#include <cstdint>
+#include <vector>
+
+#include "hwmodel/device/timed_engine.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_stats.h"
 
@@ -40,4 +44,19 @@ inline rtu::hw::TimingConfig test_config() {
   c.dram_latency = 100;
   c.dram_bytes_per_cycle = 8.0;  // a 64-byte line transfers in 8 cycles
   return c;
+}
+
+// Traces `rays` (closest hit) on a timed device of configuration c, bound to the image `bytes`, on `threads` host
+// threads: the hits in `got`, the device's statistics in `timing` (if given); returns the cycles.
+inline uint64_t trace_timed(const rtu::hw::TimingConfig& c, const std::vector<uint8_t>& bytes,
+                            const std::vector<rtu::hw::Ray>& rays, int threads, std::vector<rtu::hw::Hit>& got,
+                            rtu::hw::TimingStats* timing = nullptr) {
+  rtu::hw::TimedEngine timed(rtu::hw::EngineOptions{}, c);
+  timed.set_threads(threads);
+  timed.bind(bytes.data(), bytes.size());
+  got.assign(rays.size(), rtu::hw::Hit{});
+  rtu::hw::TraversalStats ts;
+  const uint64_t cycles = timed.trace_cycles(rays.data(), got.data(), rays.size(), false, ts, 0, 0);
+  if (timing) *timing = timed.timing();
+  return cycles;
 }

@@ -65,10 +65,16 @@ double cache_sram_bits(const TimingConfig& c) {
   return lines * (double(c.line_bytes) * 8.0 + 33.0);
 }
 
+// The ray queue, or with gathering the gather buffer that takes its place (rays and their bin keys).
+static double ray_queue_bytes(const TimingConfig& c) {
+  return c.gather != "none" ? double(c.gather_buffer) * (kQueueRayBytes + kGatherKeyBytes)
+                            : double(c.queue_depth) * kQueueRayBytes;
+}
+
 double slot_sram_bits(const TimingConfig& c) {
   const double trail = c.stack_mode == "restart" ? kTrailBytes : 0.0;
-  return 8.0 * (double(c.ray_slots) * (kSlotStateBytes + 8.0 * c.stack_entries + trail) +
-                double(c.queue_depth) * kQueueRayBytes + double(c.prefetch_queue) * kPrefetchEntryBytes);
+  return 8.0 * (double(c.ray_slots) * (kSlotStateBytes + 8.0 * c.stack_entries + trail) + ray_queue_bytes(c) +
+                double(c.prefetch_queue) * kPrefetchEntryBytes);
 }
 
 double l2_sram_bits(const TimingConfig& c) {
@@ -119,6 +125,9 @@ EnergyReport energy_report(const TimingStats& s, const TimingConfig& c, const Co
       {"l2_fill", "lines", "L2 line writes on a miss", s.l2_misses, l2_line},
       {"stack", "accesses", "slot stack SRAM accesses (one per node fetch)", s.node_fetches,
        sram_access_pj(stack_bytes, 8, t)},
+      {"gather", "rays", "gather buffer: each ray written and read once (ray and bin key)",
+       c.gather != "none" ? s.rays : 0,
+       2.0 * sram_access_pj(ray_queue_bytes(c), kQueueRayBytes + kGatherKeyBytes, t)},
       {"dram", "bytes", "DRAM bytes (line fills, stack spills, refills)", s.dram_bytes, dram_pj_per_byte},
       {"stream", "bytes", "ray and hit buffer bytes (in DRAM)", s.stream_bytes, dram_pj_per_byte},
       {"transform", "rays", "instance transforms (two-level scenes): 18 float32 multiplies and 15 adds each",

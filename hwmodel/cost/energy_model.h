@@ -88,6 +88,8 @@ inline constexpr int kQueueRayBytes = 32;   // a queued ray (origin, direction, 
 inline constexpr int kTrailBytes = 32;
 // prefetch_queue: a queued prefetch is a line address.
 inline constexpr int kPrefetchEntryBytes = 8;
+// gather (ray_gather.h): a buffered ray's bin key beside the ray.
+inline constexpr int kGatherKeyBytes = 4;
 struct AreaReport {
   double box_mm2 = 0, tri_mm2 = 0;      // all units of the kind
   double cache_mm2 = 0, slots_mm2 = 0;  // all units'

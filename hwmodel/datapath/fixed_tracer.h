@@ -41,8 +41,9 @@ struct TraceEvent {
     kLeave = 9,
     kStackRef = 10,  // a node pushed on the stack (FixedTraceOptions::record_stack_refs): count its rank in pop
                      // order (0: popped first), index the node
-    kRestart = 11    // a restart from the root (FixedTraceOptions::record_restart, restart_trail.h): index the
+    kRestart = 11,   // a restart from the root (FixedTraceOptions::record_restart, restart_trail.h): index the
                      // nodes re-visited, whose kNode events follow
+    kRayKey = 12  // first in a ray's events when the timing model gathers rays (ray_gather.h): index its bin key
   };
   uint8_t kind;
   uint8_t count;  // kNode: child boxes tested; kPrim: RecordKind; kPush: entries pushed; kSpill: entries spilled

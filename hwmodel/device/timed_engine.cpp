@@ -91,6 +91,13 @@ void TimedEngine::bind_instanced(const InstanceSet& set, const Geometry& flat, c
 }
 
 void TimedEngine::make_models() {
+  parse_gather_key(m_c.gather, m_gather);
+  {
+    const QuantFrame f = tracer().image().frame();
+    const double step = f.step();
+    for (int a = 0; a < 3; ++a) m_gather_lo[a] = double(f.origin[a]) * step;
+    m_gather_extent = std::ldexp(step, f.bits);
+  }
   TimingModel::Layout l =
       m_two ? TimingModel::layout_of(*m_two, uint64_t(m_c.layout_align), uint64_t(m_c.instance_bytes))
             : TimingModel::layout_of(*m_image, uint64_t(m_c.layout_align));
@@ -142,14 +149,22 @@ uint64_t TimedEngine::packet_cycles(uint8_t opcode) const {
   return opcode == uint8_t(cmd::Opcode::kFence) ? p + uint64_t(m_c.fence_latency) : p;
 }
 
+void TimedEngine::begin_events(const Ray& r, std::vector<TraceEvent>& ev) const {
+  ev.clear();
+  if (m_gather != GatherKey::kNone)
+    ev.push_back(TraceEvent{TraceEvent::kRayKey, 0, 0, 0,
+                            gather_key(m_gather, m_c.gather_grid_bits, r, m_gather_lo, m_gather_extent)});
+}
+
 void TimedEngine::record(const Ray* rays, Hit* hits, size_t first, size_t count, bool any_hit, TraversalStats& s,
                          std::vector<std::vector<TraceEvent>>& events, size_t at) const {
   TraversalStats local;
   const int threads = has_units() ? 1 : m_opt.threads;  // a unit is not thread-safe (box_unit.h, tri_unit.h)
   run_batch(count, threads, local, [&](size_t i, TraversalStats& st) {
     std::vector<TraceEvent>& ev = events[at + i];
-    ev.clear();
+    begin_events(rays[first + i], ev);
     const Hit h = tracer().trace_recorded(rays[first + i], any_hit, st, ev);
+    if (ev.size() == 1 && m_gather != GatherKey::kNone) ev.clear();
     if (hits) hits[first + i] = h;
   });
   if (local.watchdog_rays > 0)
@@ -169,7 +184,9 @@ bool TimedEngine::record_within(const Ray* rays, Hit* hits, size_t first, size_t
     std::vector<TraceEvent>& ev = events[i];
     ev.clear();
     if (over.load(std::memory_order_relaxed)) return;  // this attempt is lost anyway
+    begin_events(rays[first + i], ev);
     const Hit h = tracer().trace_recorded(rays[first + i], any_hit, st, ev);
+    if (ev.size() == 1 && m_gather != GatherKey::kNone) ev.clear();
     if (hits) hits[first + i] = h;
     // A list keeps the capacity of the longest ray it held (lists are swapped with the model's slots): trimmed,
     // so that what the lists hold stays near what the chunk recorded.
@@ -418,6 +435,10 @@ void TimedEngine::set_sampling(const SampleOptions& o) {
   if (sample_step(o.fraction) >= 2 && m_c.prefetcher != "none")
     throw std::invalid_argument("sampled timing: warming does not model prefetched lines; run prefetcher = " +
                                 m_c.prefetcher + " unsampled (no --sample)");
+  // The gathering unit reorders a packet's rays across the units sampling measures one by one.
+  if (sample_step(o.fraction) >= 2 && m_c.gather != "none")
+    throw std::invalid_argument("sampled timing: the units it measures do not model ray gathering; run gather = " +
+                                m_c.gather + " unsampled (no --sample)");
   m_sample = o;
 }
 

@@ -22,6 +22,7 @@
 #include "hwmodel/device/engine.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/interface/commands.h"
+#include "hwmodel/timing/ray_gather.h"
 #include "hwmodel/timing/sampler.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_model.h"
@@ -119,6 +120,12 @@ class TimedEngine final : public TraceEngine {
   std::vector<std::unique_ptr<TimingModel>> m_chip_units;
   std::vector<TimingStats> m_unit_stats;  // per unit, every TRACE since bind
   void make_models();
+  // Gathering (ray_gather.h): the bin key of each ray, from the bound scene's frame (make_models).
+  GatherKey m_gather = GatherKey::kNone;
+  double m_gather_lo[3] = {0, 0, 0}, m_gather_extent = 1.0;
+  // Starts a ray's events with its bin key when gathering; after the trace, a ray with no other event (rejected
+  // at setup) has its key removed.
+  void begin_events(const Ray& r, std::vector<TraceEvent>& ev) const;
   PipelineTrace* m_trace = nullptr;
   // What sampled packets' measured units showed of the time their rays hold slots, per stream (ray type << 8 |
   // bounce): the detailed warm-up's length (sampler.h, warmup_rays).

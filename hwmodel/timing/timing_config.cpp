@@ -9,6 +9,7 @@
 
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/prefetch/prefetchers.h"
+#include "hwmodel/timing/ray_gather.h"
 #include "hwmodel/timing/ray_scheduler.h"
 
 namespace rtu::hw {
@@ -83,6 +84,8 @@ std::vector<KeyInfo> make_key_table() {
   };
   const std::vector<KeyInfo>& prefetch = prefetch_keys();
   table.insert(table.end(), prefetch.begin(), prefetch.end());
+  const std::vector<KeyInfo>& gather = gather_keys();
+  table.insert(table.end(), gather.begin(), gather.end());
   const KeyInfo after_prefetch[] = {
       {"units", &C::units, 1, 256, "ray-tracing units on the chip, sharing the L2 and DRAM (1: one unit)"},
       {"ray_policy", &C::ray_policy, 0, 0,

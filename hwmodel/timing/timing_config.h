@@ -37,8 +37,8 @@ struct TimingConfig {
   int irq_latency = 100;       // cycles from a FENCE's value write to its interrupt reaching the host (kIrqFence)
 
   // Ray slots and traversal.
-  int ray_slots = 32;         // rays in flight, each with its own traversal state
-  int stack_entries = 8;      // short stack per slot; deeper entries spill to memory (8 bytes each)
+  int ray_slots = 32;     // rays in flight, each with its own traversal state
+  int stack_entries = 8;  // short stack per slot; deeper entries spill to memory (8 bytes each)
   // What happens to entries beyond the short stack: "spill" (to memory, read back when popped) or "restart" (the
   // oldest is dropped; popping a dropped entry restarts from the root along a trail, restart_trail.h).
   std::string stack_mode = "spill";
@@ -96,6 +96,13 @@ struct TimingConfig {
   int prefetch_queue = 0;
   // Bytes of a treelet in the timing layout (prefetch/treelets.h): 0 places nodes in the image's order.
   int treelet_bytes = 0;
+  // Ray coherence gathering (ray_gather.h): "none" (the default) or the bin key; the origin grid's bits per axis,
+  // the gather buffer's rays, a bin's rays when it is issued full, and the cycles after which it is issued anyway.
+  std::string gather = "none";
+  int gather_grid_bits = 3;
+  int gather_buffer = 64;
+  int gather_rays = 16;
+  int gather_timeout = 200;
   // A chip: `units` ray-tracing units, each with everything above (ray slots, box and triangle units, node cache),
   // sharing the memory below (L2 and DRAM). A packet's rays go to the units by ray_policy: "waves" (ray_slots
   // consecutive rays, a wave, to each unit in turn, as a GPU dispatches waves to its compute units), "round_robin"

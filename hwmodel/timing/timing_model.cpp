@@ -36,6 +36,7 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
   m_tri_free.assign(size_t(c.tri_units) * size_t(c.tri_rate), 0);  // a unit of rate r: r issue slots per clock
   m_slots.resize(size_t(c.ray_slots));
   m_recent.assign(size_t(c.queue_depth), 0);
+  if (c.gather != "none") m_gather = std::make_unique<RayGather>(c);
   while ((uint64_t(1) << m_line_shift) < uint64_t(c.line_bytes)) ++m_line_shift;
   m_min_fetch = m_cache.enabled() ? m_cache.latency() : m_mem->min_line_cycles();
   m_stack_base = (layout.total_bytes + kStackRegion - 1) / kStackRegion * kStackRegion +
@@ -274,6 +275,7 @@ void TimingModel::begin(size_t n, TimingStats& s) {
   m_setup_free = m_wb_free = 0;
   m_end = m_t0;
   std::fill(m_recent.begin(), m_recent.end(), 0);
+  if (m_gather) m_gather->begin(n, m_t0);
   ++s.packets;
   // Every slot is free when the packet is decoded; they take rays as the rays are fed.
   m_free_slots.clear();
@@ -284,18 +286,28 @@ void TimingModel::begin(size_t n, TimingStats& s) {
 }
 
 void TimingModel::admit(uint32_t k, uint64_t free_at) {
-  const size_t i = m_next++;
-  uint64_t fetch = m_t0 + i;
-  const size_t D = m_recent.size();
-  if (i >= D) fetch = std::max(fetch, m_recent[i % D]);  // the prefetch queue holds D rays
-  const uint64_t arrive = fetch + uint64_t(m_c.ray_fetch_latency);
-  const uint64_t enter = std::max({arrive, free_at, m_setup_free});
+  Slot& sl = m_slots[k];
+  size_t i;
+  uint64_t enter;
+  if (m_gather) {
+    uint64_t issued;
+    i = m_gather->take(sl.ev, issued);
+    enter = std::max({issued, free_at, m_setup_free});
+    m_gather->leave(enter);
+    ++m_next;
+  } else {
+    i = m_next++;
+    uint64_t fetch = m_t0 + i;
+    const size_t D = m_recent.size();
+    if (i >= D) fetch = std::max(fetch, m_recent[i % D]);  // the prefetch queue holds D rays
+    const uint64_t arrive = fetch + uint64_t(m_c.ray_fetch_latency);
+    enter = std::max({arrive, free_at, m_setup_free});
+    m_recent[i % D] = enter;
+    sl.ev.swap(m_feed[i - m_feed_first]);
+  }
   m_setup_free = enter + 1;
-  m_recent[i % D] = enter;
   m_s->stream_bytes += kRayBytesStream;
   ++m_s->rays;
-  Slot& sl = m_slots[k];
-  sl.ev.swap(m_feed[i - m_feed_first]);
   sl.pos = 0;
   sl.layout = &m_layout;
   sl.depth = 0;
@@ -408,6 +420,7 @@ bool TimingModel::touches_memory(const Slot& sl) const {
     case TraceEvent::kStackRef:
       return m_observer != nullptr;  // the observer may fill the pushed node's lines
     case TraceEvent::kRestart:
+    case TraceEvent::kRayKey:
       return false;
     default:
       break;
@@ -428,9 +441,21 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
       const auto [free_at, k] = m_free_slots.front();
       if (!m_queue.empty() && m_queue.top_cycle() < free_at) break;  // a busy slot acts first
       if (free_at > limit && !ahead) return;
-      if (m_next >= m_feed_first + m_feed_count) return;  // its ray is not fed yet
+      if (m_gather) {
+        if (!gather_until(free_at)) return;  // an arrival up to free_at is a ray not fed yet
+      } else if (m_next >= m_feed_first + m_feed_count) {
+        return;  // its ray is not fed yet
+      }
       std::pop_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
       m_free_slots.pop_back();
+      if (m_gather && !m_gather->ready()) {
+        // No bin is issued yet: the slot looks again at the next arrival or timeout (both after free_at).
+        const uint64_t next = std::min(m_gather->next_arrival(), m_gather->next_timeout());
+        if (next == RayGather::kNever) throw std::logic_error("gather: rays left but none can arrive or issue");
+        m_free_slots.push_back({next, k});
+        std::push_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
+        continue;
+      }
       admit(k, free_at);
     }
     if (m_queue.empty()) return;
@@ -510,6 +535,9 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
         case TraceEvent::kRestart:  // no time of its own: the node events that follow are the restart's cost
           ++m_s->restarts;
           m_s->restart_nodes += e.index;
+          ++sl.pos;
+          continue;
+        case TraceEvent::kRayKey:  // read by the gathering unit when the ray arrived
           ++sl.pos;
           continue;
         case TraceEvent::kStackRef:  // no time: the push it follows is done
@@ -635,9 +663,23 @@ void TimingModel::fire(uint32_t k, uint64_t cycle) {
   throw WatchdogError(d, cycle - m_base);
 }
 
+bool TimingModel::gather_until(uint64_t t) {
+  for (uint64_t a; (a = m_gather->next_arrival()) <= t;) {
+    if (m_gather->arrived() >= m_feed_first + m_feed_count) return false;
+    m_gather->expire(a, *m_s);
+    m_gather->arrive(m_feed[m_gather->arrived() - m_feed_first], *m_s);
+  }
+  m_gather->expire(t, *m_s);
+  return true;
+}
+
+size_t TimingModel::fed_up_to() const {
+  return m_gather ? m_gather->arrived() : m_next;
+}
+
 void TimingModel::feed(std::vector<TraceEvent>* events, size_t m) {
   m_feed = events;
-  m_feed_first = m_next;
+  m_feed_first = fed_up_to();
   m_feed_count = m;
   simulate();
   m_feed = nullptr;
@@ -674,7 +716,7 @@ uint64_t run_units_in_step(const std::vector<TimingModel*>& units, uint64_t star
 
 void TimingModel::add_rays(std::vector<TraceEvent>* events, size_t m) {
   m_feed = events;
-  m_feed_first = m_next;
+  m_feed_first = fed_up_to();
   m_feed_count = m;
 }
 
@@ -685,8 +727,12 @@ uint64_t TimingModel::next_cycle() const {
 }
 
 bool TimingModel::starved() const {
-  if (m_free_slots.empty() || m_next >= m_n || m_next < m_feed_first + m_feed_count) return false;
-  return m_queue.empty() || m_queue.top_cycle() >= m_free_slots.front().first;
+  if (m_free_slots.empty() || m_next >= m_n) return false;
+  const uint64_t free_at = m_free_slots.front().first;
+  if (!(m_queue.empty() || m_queue.top_cycle() >= free_at)) return false;  // a busy slot acts first
+  const size_t fed = m_feed_first + m_feed_count;
+  if (m_gather) return m_gather->arrived() >= fed && m_gather->next_arrival() <= free_at;
+  return m_next >= fed;
 }
 
 void TimingModel::end_packet(uint64_t end) {
@@ -696,7 +742,7 @@ void TimingModel::end_packet(uint64_t end) {
 
 uint64_t TimingModel::finish() {
   m_feed_count = 0;
-  m_feed_first = m_next;
+  m_feed_first = fed_up_to();
   simulate();
   const uint64_t cycles = m_end - m_base;
   m_base = m_end;

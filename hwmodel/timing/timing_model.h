@@ -7,7 +7,9 @@
 //   does not wait for it; DeviceCounters::last_irq_cycle); TRACE packets run one after another (no overlap
 //   between packets).
 // - ray fetch: rays stream from the ray buffer at one per clock with ray_fetch_latency, at most queue_depth rays
-//   ahead of the slots (a bounded prefetch queue); ray setup issues one ray per clock, setup_latency deep.
+//   ahead of the slots (a bounded prefetch queue); ray setup issues one ray per clock, setup_latency deep. With
+//   gathering (gather key, ray_gather.h) the rays wait in a gather buffer instead, binned by a key, and slots
+//   take the rays of issued bins.
 // - ray slots: ray_slots rays in flight; a free slot takes the next ray (in order; lowest free slot first). Each
 //   slot has a stack of stack_entries; deeper pushes spill 8 bytes to DRAM (bandwidth only) and pops of spilled
 //   entries wait for a DRAM read (latency and bandwidth).
@@ -48,6 +50,7 @@
 #include "hwmodel/timing/memory/node_cache.h"
 #include "hwmodel/timing/node_cost.h"
 #include "hwmodel/timing/prefetch/prefetchers.h"
+#include "hwmodel/timing/ray_gather.h"
 #include "hwmodel/timing/slot_queue.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_stats.h"
@@ -215,6 +218,10 @@ class TimingModel {
   // The first and last line event e fetches in layout l (first > last: none).
   std::pair<uint64_t, uint64_t> line_range(const Layout& l, const TraceEvent& e) const;
   void drain_prefetches(uint64_t t);
+  // Gathering: brings the gathering unit to cycle t (arrivals, timeouts); false when an arrival up to t is a ray
+  // not fed yet.
+  bool gather_until(uint64_t t);
+  size_t fed_up_to() const;  // rays taken from the feeds so far (into slots, or into the gather buffer)
   class Port;
   // The layout a kEnter or kLeave event's mesh index names (std::logic_error for one the layout lacks).
   const Layout& bottom(uint32_t mesh) const;
@@ -230,6 +237,7 @@ class TimingModel {
   MemorySystem* m_mem;                        // what the node cache fills from
   std::unique_ptr<FetchObserver> m_observer;  // null: none (the default)
   std::deque<uint64_t> m_pf_queue;            // lines a prefetcher asked for, waiting for idle memory
+  std::unique_ptr<RayGather> m_gather;        // the gathering unit (ray_gather.h); null: rays in order
   uint32_t m_unit = 0;                        // index on the chip (pipeline trace spans, stack addresses)
   uint64_t m_stack_base = 0;  // where slots spill their stacks: after the image, each slot kStackRegion bytes
   static constexpr uint64_t kStackRegion = 4096;

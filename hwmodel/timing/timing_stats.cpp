@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "hwmodel/timing/prefetch/prefetchers.h"
+#include "hwmodel/timing/ray_gather.h"
 
 namespace rtu::hw {
 
@@ -69,18 +70,14 @@ constexpr std::array<TimingCounter, 17> kAfterPrefetch = {{
      kPerRay},
 }};
 
-template <size_t A, size_t B, size_t C>
-constexpr std::array<TimingCounter, A + B + C> join(const std::array<TimingCounter, A>& a,
-                                                    const std::array<TimingCounter, B>& b,
-                                                    const std::array<TimingCounter, C>& c) {
-  std::array<TimingCounter, A + B + C> out{};
+template <size_t... N>
+constexpr std::array<TimingCounter, (N + ...)> join(const std::array<TimingCounter, N>&... parts) {
+  std::array<TimingCounter, (N + ...)> out{};
   size_t i = 0;
-  for (const TimingCounter& x : a) out[i++] = x;
-  for (const TimingCounter& x : b) out[i++] = x;
-  for (const TimingCounter& x : c) out[i++] = x;
+  ((std::copy(parts.begin(), parts.end(), out.begin() + i), i += parts.size()), ...);
   return out;
 }
-constexpr auto kCounters = join(kBeforePrefetch, kPrefetchCounters, kAfterPrefetch);
+constexpr auto kCounters = join(kBeforePrefetch, kPrefetchCounters, kAfterPrefetch, kGatherCounters);
 static_assert(sizeof(TimingStats) == kCounters.size() * sizeof(uint64_t), "a counter is missing from the table");
 
 const TimingCounter& counter(uint64_t S::*member) {
@@ -203,6 +200,17 @@ const std::vector<ReportEntry>& report_table() {
       count("instance_transforms", &S::instance_transforms),
       count("unit_wait_cycles", &S::unit_wait_cycles),
       count("mem_wait_cycles", &S::mem_wait_cycles),
+      count("gather.bins", &S::gather_bins),
+      count("gather.full", &S::gather_bins_full),
+      count("gather.timeout", &S::gather_bins_timeout),
+      figure("gather.rays_per_bin", "rays", "rays / bins issued; 0 without gathering",
+             [](const S& s, const C&, const LowerBound&) -> Value {
+               return ratio(double(s.rays), double(s.gather_bins));
+             }),
+      figure("gather.wait_per_ray", "cycles", "cycles a ray waited in its bin, mean; 0 without gathering",
+             [](const S& s, const C&, const LowerBound&) -> Value {
+               return s.gather_bins > 0 ? ratio(double(s.gather_wait_cycles), double(s.rays)) : 0.0;
+             }),
       figure("lower_bound.cycles", "cycles",
              "the largest of the ray fetch, box, triangle, DRAM and latency bounds",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.cycles; }),

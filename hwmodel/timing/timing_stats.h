@@ -44,6 +44,8 @@ struct TimingStats {
   // reads queued for a busy L2 slice port, DRAM bank or channel (the latency bound takes them out of a ray's
   // life).
   uint64_t unit_wait_cycles = 0, mem_wait_cycles = 0;
+  // Ray coherence gathering (ray_gather.h): bins issued (full, by timeout), rays' waits in their bins.
+  uint64_t gather_bins = 0, gather_bins_full = 0, gather_bins_timeout = 0, gather_wait_cycles = 0;
 
   void add(const TimingStats& o);  // every counter summed (runs, packets, ray types merge this way)
 };

@@ -182,12 +182,6 @@ TEST_CASE("treelets: a permutation of the nodes, connected pieces within the bud
 }
 
 TEST_CASE("treelet layouts and prefetchers never change a hit, and refuse what they cannot model", "[timing]") {
-  const Geometry g = fixed_checks::random_scene(10, 2000, 20);
-  const FixedFormat f = format_preset("default");
-  BvhBuildParams bp;
-  bp.width = f.width;
-  const Bvh bvh = Bvh::build(g, bp);
-  const DeviceImage img = encode_scene(g, f, &bvh);
   std::vector<Ray> rays;
   Pcg32 rng(3);
   for (int i = 0; i < 3000; ++i) {
@@ -198,10 +192,9 @@ TEST_CASE("treelet layouts and prefetchers never change a hit, and refuse what t
     r.tmax = 1e30f;
     rays.push_back(r);
   }
-  std::vector<Hit> want(rays.size());
-  TraversalStats fs;
-  FixedTracer(img).trace_batch(rays.data(), want.data(), rays.size(), false, 1, fs);
-  std::vector<uint8_t> bytes(img.data(), img.data() + img.size());
+  const FixedReference ref = fixed_reference(10, rays);
+  const std::vector<uint8_t>& bytes = ref.bytes;
+  const std::vector<Hit>& want = ref.hits;
   uint64_t cycles[2] = {0, 0};
   for (const char* pf : {"none", "treelet", "next_line", "stack"})
     for (int q : {0, 16}) {

@@ -165,17 +165,10 @@ TEST_CASE("a restart costs exactly the nodes it re-visits", "[timing]") {
 
 TEST_CASE("stack_mode restart: hits equal the fixed device's, cycles the same on threads, chips and sampling",
           "[timing]") {
-  const Geometry g = fixed_checks::random_scene(10, 2000, 20);
-  const FixedFormat f = format_preset("default");
-  BvhBuildParams bp;
-  bp.width = f.width;
-  const Bvh bvh = Bvh::build(g, bp);
-  const DeviceImage img = encode_scene(g, f, &bvh);
   const std::vector<Ray> rays = random_rays(5, 3000);
-  std::vector<Hit> want(rays.size());
-  TraversalStats fs;
-  FixedTracer(img).trace_batch(rays.data(), want.data(), rays.size(), false, 1, fs);
-  std::vector<uint8_t> bytes(img.data(), img.data() + img.size());
+  const FixedReference ref = fixed_reference(10, rays);
+  const std::vector<uint8_t>& bytes = ref.bytes;
+  const std::vector<Hit>& want = ref.hits;
   for (const char* preset : {"rdna2-mem", "rdna2-chip"}) {
     TimingConfig c = timing_preset(preset);
     set_timing_key(c, "stack_entries", "2");

@@ -7,7 +7,11 @@
 #include <cstdint>
 #include <vector>
 
+#include "fixed_checks.h"
+#include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/device/timed_engine.h"
+#include "hwmodel/format/device_image.h"
+#include "hwmodel/scene/bvh.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_stats.h"
 
@@ -59,4 +63,24 @@ inline uint64_t trace_timed(const rtu::hw::TimingConfig& c, const std::vector<ui
   const uint64_t cycles = timed.trace_cycles(rays.data(), got.data(), rays.size(), false, ts, 0, 0);
   if (timing) *timing = timed.timing();
   return cycles;
+}
+
+// A random soup (fixed_checks::random_scene(seed, 2000, 20)) encoded at the default format: the image's bytes, and
+// the fixed device's closest hits of `rays`, which every timed run must reproduce bit for bit.
+struct FixedReference {
+  std::vector<uint8_t> bytes;
+  std::vector<rtu::hw::Hit> hits;
+};
+inline FixedReference fixed_reference(uint64_t seed, const std::vector<rtu::hw::Ray>& rays) {
+  using namespace rtu::hw;
+  const Geometry g = fixed_checks::random_scene(seed, 2000, 20);
+  const FixedFormat f = format_preset("default");
+  BvhBuildParams bp;
+  bp.width = f.width;
+  const Bvh bvh = Bvh::build(g, bp);
+  const DeviceImage img = encode_scene(g, f, &bvh);
+  FixedReference ref{std::vector<uint8_t>(img.data(), img.data() + img.size()), std::vector<Hit>(rays.size())};
+  TraversalStats fs;
+  FixedTracer(img).trace_batch(rays.data(), ref.hits.data(), rays.size(), false, 1, fs);
+  return ref;
 }

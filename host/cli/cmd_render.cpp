@@ -90,6 +90,7 @@ void run_render(const RenderArgs& a) {
       if (x.timed) {
         m["raster_cycles"] = x.raster_cycles.cycles;
         m["trace_cycles"] = x.device_clock;
+        if (x.fw.sorted) m["sort_cycles"] = x.sort_cycles.cycles;
         m["frame_cycles"] = x.frame_cycles;
       }
       return m;

@@ -8,11 +8,13 @@ namespace rtu::hw {
 SortCycles sort_cycles(const SortWork& w, const TimingConfig& c) {
   SortCycles r;
   if (w.sorts == 0) return r;
-  const double bw = c.dram_bytes_per_cycle, rate = c.sort_keys_per_clock;
+  // The keys and the pairs are shared by `units` controllers working side by side; each runs the prefix sum over
+  // the bins of its own share.
+  const double bw = c.dram_bytes_per_cycle, rate = c.sort_keys_per_clock * c.units;
   const double rays = double(w.rays), pass_rays = double(w.pass_rays);
   const uint64_t bins = uint64_t(1) << c.sort_radix_bits;
-  // Per phase: the controller's work and its bytes over the bandwidth; the phase costs the larger.
-  const double key_compute = rays * c.sort_key_cycles;
+  // Per phase: the controllers' work and its bytes over the bandwidth; the phase costs the larger.
+  const double key_compute = rays * c.sort_key_cycles / c.units;
   const double pass_compute = pass_rays / rate + double(w.passes * bins);
   const double move_compute = rays / rate;  // permute and return alike
   const uint64_t key_bytes = w.rays * kSortKeyPhaseBytes, pass_bytes = w.pass_rays * kSortPassBytes;

@@ -16,20 +16,25 @@
 //   (68 bytes a ray);
 // - return: after the fence, each hit scattered back to its ray's place at sort_keys_per_clock: an index read,
 //   a 16-byte hit read and written (36 bytes a ray).
-// Bytes move at dram_bytes_per_cycle; the latency is dram_latency per phase. Over a frame:
+// Bytes move at dram_bytes_per_cycle; the latency is dram_latency per phase. A chip of `units` units sorts on
+// `units` controllers side by side (as a GPU sorts on all its compute units, one per ray-tracing unit on the GPU
+// presets): they share the keys and pairs, each computes the prefix sum of its own share's bins, and they share
+// the chip's DRAM bandwidth. Over a frame:
 //   cycles = (3 sorts + passes) * dram_latency
-//            + ceil(max(rays * sort_key_cycles, 40 rays / bw) + max(pass_rays / rate + passes * 2^radix_bits,
-//                   20 pass_rays / bw) + max(rays / rate, 68 rays / bw) + max(rays / rate, 36 rays / bw))
-// with pass_rays = the sum over sorts of passes * n, rate = sort_keys_per_clock, bw = dram_bytes_per_cycle.
+//            + ceil(max(rays * sort_key_cycles / units, 40 rays / bw)
+//                   + max(pass_rays / rate + passes * 2^radix_bits, 20 pass_rays / bw)
+//                   + max(rays / rate, 68 rays / bw) + max(rays / rate, 36 rays / bw))
+// with pass_rays = the sum over sorts of passes * n, rate = sort_keys_per_clock * units, bw =
+// dram_bytes_per_cycle.
 // Segments of fewer than 2 rays are not sorted. The frame's cycles are raster + sort + the unit's device clock:
-// the controller sorts while the unit waits, and the unit traces while the controller waits.
+// the controllers sort while the unit waits, and the unit traces while they wait.
 //
-// Left out: overlap of a sort with the unit's tracing of an earlier packet (the sort of the shadow rays could
-// run beside nothing else in this renderer, the bounce rays' beside the previous type's TRACE); caches on the
-// controller (every byte goes to DRAM, as sorting a wavefront larger than any cache does); the sort's traffic
-// competing with the unit's for the DRAM channel (they do not overlap in time here); skipping a pass whose digit
-// is the same for every key; an odd pass count's final copy (the firmware starts the passes in the buffer that
-// makes the last one land in place); the controller's shading, which is not priced at all.
+// Left out: the merge of the controllers' histograms on a chip (a scan over units x bins per pass); overlap of
+// a sort with the unit's tracing (the controller could sort one ray type while the unit traces the one before);
+// caches on the controller (every byte goes to DRAM, as sorting a wavefront larger than any cache does); the
+// sort's traffic competing with the unit's for the DRAM channel (they do not overlap in time here); skipping a
+// pass whose digit is the same for every key; an odd pass count's final copy (the firmware starts the passes in
+// the buffer that makes the last one land in place); the controller's shading, which is not priced at all.
 //
 // The keys' default figures are estimates of a compute unit's share, as the rasterizer's are a GPU's raster
 // hardware's: a Morton code is about 30 integer operations, one clock of a 32-lane SIMD (sort_key_cycles 1); a

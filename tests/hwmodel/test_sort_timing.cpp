@@ -47,6 +47,12 @@ TEST_CASE("ray sort cycles worked by hand", "[sort][timing]") {
     // 400 / 3 + 800 / 3 + 680 / 3 + 360 / 3 = 2240 / 3 = 746.67: 747.
     CHECK(rtu::hw::sort_cycles(w, c).cycles == 1400 + 747);
   }
+  SECTION("a chip of 2 units: the compute shared, the prefix sums side by side, the bandwidth the chip's") {
+    c.units = 2;
+    c.dram_bytes_per_cycle = 1000;
+    // keys 30 / 2 = 15; passes 40 / (2 x 2) + 8 x 16 = 138; permute and return 10 / 4 = 2.5 each: 158.
+    CHECK(rtu::hw::sort_cycles(w, c).cycles == 1400 + 158);
+  }
   SECTION("no sort, no cycles") {
     const SortCycles r = rtu::hw::sort_cycles(SortWork{}, c);
     CHECK(r.cycles == 0);

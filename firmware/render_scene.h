@@ -73,6 +73,9 @@ static_assert(sizeof(LightRecord) == 52);
 inline constexpr uint32_t kRenderIndirect = 1u << 0;  // diffuse indirect bounces (path tracing)
 inline constexpr uint32_t kRenderAo = 1u << 1;      // ambient occlusion at diffuse hits instead of indirect light
 inline constexpr uint32_t kRenderHybrid = 1u << 2;  // primary visibility by the rasterizer (firmware/raster.h)
+// Ray sorting (firmware/ray_sort.h): a RaySortJob follows the RenderJob in device memory (at job address +
+// sizeof(RenderJob)); without the flag there is none, and the job's layout is what it was before sorting existed.
+inline constexpr uint32_t kRenderRaySort = 1u << 3;
 
 struct RenderJob {
   // Image and sampling.
@@ -106,5 +109,25 @@ struct RenderJob {
   uint32_t num_uvs, num_textures;
 };
 static_assert(sizeof(RenderJob) == 192);
+
+// The key rays are sorted by before each TRACE (firmware/ray_sort.h says what each is).
+enum class RaySortKey : uint32_t {
+  kNone = 0,
+  kOrigin = 1,
+  kDirection = 2,
+  kOriginDirection = 3,
+  kTermination = 4
+};
+inline constexpr uint32_t kRaySortKeyCount = 5;
+
+struct RaySortJob {
+  uint32_t key;         // RaySortKey
+  uint32_t radix_bits;  // digit bits of the LSD radix sort, in [1, 16]
+  F3 lo, hi;            // the scene's bounds: the box origin and termination keys are quantized in
+  float distance;       // termination key: the estimated distance L to a ray's end, in world units (> 0)
+  uint32_t reserved;    // 0
+};
+static_assert(sizeof(RaySortJob) == 40);
+static_assert(offsetof(RaySortJob, lo) == 8 && offsetof(RaySortJob, distance) == 32);
 
 }  // namespace rtu::fw

@@ -62,8 +62,8 @@ constexpr int kNumBounceTypes = 3;
 class Renderer {
  public:
   Renderer(Hal& hal, Ring& ring, const RenderJob& job, const ShadingTables& tables, const hw::AnyHitStage* stage,
-           RenderStats& st)
-      : m_hal(hal), m_ring(ring), m_job(job), m_tables(tables), m_stage(stage), m_st(st) {}
+           const RaySortJob* sort, RenderStats& st)
+      : m_hal(hal), m_ring(ring), m_job(job), m_tables(tables), m_stage(stage), m_sort(sort), m_st(st) {}
 
   Status run(Arena& arena);
 
@@ -74,6 +74,21 @@ class Renderer {
     m_st.rays[uint32_t(type)] += n;
     ++m_st.traces;
     return m_ring.submit(hw::cmd::trace(rays, hits, n, any_hit, type, uint8_t(bounce > 255 ? 255 : bounce)));
+  }
+  // A TRACE of n rays at device address `rays`, their hits to `hits`. With sorting, the rays' sorted copy at
+  // sorted place `place` is traced instead, and unsort_hits() puts its hits back at `hits` after the fence.
+  Status trace_rays(uint64_t rays, uint64_t hits, uint32_t n, bool any_hit, RayType type, uint32_t bounce,
+                    uint32_t place) {
+    if (!m_sort || n < 2) return trace(rays, hits, n, any_hit, type, bounce);
+    m_sorter.sort(at<const hw::Ray>(m_hal, rays), n, place, type);
+    m_unsort[m_num_unsort++] = Unsort{hits, n, place};
+    return trace(m_sorter.ray_addr(place), m_sorter.hit_addr(place), n, any_hit, type, bounce);
+  }
+  // After the fence: the sorted TRACEs' hits back in their rays' order.
+  void unsort_hits() {
+    for (uint32_t i = 0; i < m_num_unsort; ++i)
+      m_sorter.unsort(at<hw::Hit>(m_hal, m_unsort[i].hits), m_unsort[i].n, m_unsort[i].place);
+    m_num_unsort = 0;
   }
   void add(uint32_t pixel, const V& radiance) {
     float* fb = at<float>(m_hal, m_job.framebuffer) + uint64_t(pixel) * 3;
@@ -101,7 +116,17 @@ class Renderer {
   const RenderJob& m_job;
   const ShadingTables& m_tables;
   const hw::AnyHitStage* m_stage;  // the any-hit stage (the rasterizer's alpha test too), or null
+  const RaySortJob* m_sort;        // ray sorting's settings, or null: no sorting
   RenderStats& m_st;
+  // Ray sorting: the sorter, and the sorted TRACEs whose hits go back after the next fence (at most one per
+  // segment: four bounce ray types, or shadow and occlusion rays).
+  struct Unsort {
+    uint64_t hits;
+    uint32_t n, place;
+  };
+  RaySorter m_sorter;
+  Unsort m_unsort[kNumBounceTypes + 1] = {};
+  uint32_t m_num_unsort = 0;
   float m_inv_spp = 1.0f;
   uint32_t m_shadow_slots = 0;  // shadow/occlusion rays per path vertex at most
   // Working buffers (device addresses) and the shadow queue of the current bounce.
@@ -280,8 +305,12 @@ Status Renderer::run(Arena& arena) {
   const uint64_t per_path = 2 * sizeof(Path) + 2 * sizeof(hw::Ray) + sizeof(hw::Hit) + 1 +
                             uint64_t(m_shadow_slots) * (sizeof(hw::Ray) + sizeof(hw::Hit) + sizeof(Pending)) +
                             (jitter_table ? sizeof(SampleOffset) : 0);
-  const uint64_t room = arena.size() > arena.used() + 1024 ? arena.size() - arena.used() - 1024 : 0;
-  uint64_t batch = room / per_path;
+  // Ray sorting: per path, the sorted places of its bounce ray or its shadow slots, whichever are more, and once
+  // the digit histogram.
+  const uint64_t sort_per_path = m_sort ? RaySorter::kBytesPerRay * (m_shadow_slots > 1 ? m_shadow_slots : 1) : 0;
+  const uint64_t reserve = 1024 + (m_sort ? RaySorter::fixed_bytes(m_sort->radix_bits) : 0);
+  const uint64_t room = arena.size() > arena.used() + reserve ? arena.size() - arena.used() - reserve : 0;
+  uint64_t batch = room / (per_path + sort_per_path);
   if (batch > m_st.paths) batch = m_st.paths;
   if (batch > (1u << 18)) batch = 1u << 18;
   if (batch == 0) return Status::kNoMemory;
@@ -300,6 +329,9 @@ Status Renderer::run(Arena& arena) {
       a_next_rays == Arena::kNull || a_hits == Arena::kNull || a_types == Arena::kNull ||
       m_shadow_rays == Arena::kNull || m_shadow_hits == Arena::kNull || m_pending == Arena::kNull)
     return Status::kNoMemory;
+  if (m_sort && !m_sorter.init(m_hal, arena, *m_sort, uint32_t(batch > shadow_n ? batch : shadow_n), m_st.sort))
+    return Status::kNoMemory;
+  m_st.sorted = m_sort != nullptr;
   m_srays = at<hw::Ray>(m_hal, m_shadow_rays);
   m_spend = at<Pending>(m_hal, m_pending);
   const hw::Hit* shits = at<const hw::Hit>(m_hal, m_shadow_hits);
@@ -341,12 +373,14 @@ Status Renderer::run(Arena& arena) {
       ++m_st.bounces;
       uint32_t submitted = 0;
       for (int t = 0; t < kNumBounceTypes + 1; ++t) {
-        s = trace(ray_buf + uint64_t(seg_begin[t]) * sizeof(hw::Ray),
-                  a_hits + uint64_t(seg_begin[t]) * sizeof(hw::Hit), seg_count[t], false, seg_type[t], depth);
+        s = trace_rays(ray_buf + uint64_t(seg_begin[t]) * sizeof(hw::Ray),
+                       a_hits + uint64_t(seg_begin[t]) * sizeof(hw::Hit), seg_count[t], false, seg_type[t], depth,
+                       seg_begin[t]);
         if (s != Status::kOk) return s;
         submitted += seg_count[t];
       }
       if (submitted > 0 && (s = m_ring.sync()) != Status::kOk) return s;
+      unsort_hits();
 
       if (depth == 0 && j.primary_hits != 0) {  // the primary hits, for comparing the two modes
         hw::Hit* out = at<hw::Hit>(m_hal, j.primary_hits) + first;
@@ -367,13 +401,14 @@ Status Renderer::run(Arena& arena) {
       }
       // Shadow and occlusion rays: any-hit TRACEs; the contributions of those that reach their target.
       if (m_num_shadow + m_num_occlusion > 0) {
-        if ((s = trace(m_shadow_rays, m_shadow_hits, m_num_shadow, true, RayType::kShadow, depth)) !=
+        if ((s = trace_rays(m_shadow_rays, m_shadow_hits, m_num_shadow, true, RayType::kShadow, depth, 0)) !=
                 Status::kOk ||
-            (s = trace(m_shadow_rays + uint64_t(m_occlusion_base) * sizeof(hw::Ray),
-                       m_shadow_hits + uint64_t(m_occlusion_base) * sizeof(hw::Hit), m_num_occlusion, true,
-                       RayType::kOcclusion, depth)) != Status::kOk)
+            (s = trace_rays(m_shadow_rays + uint64_t(m_occlusion_base) * sizeof(hw::Ray),
+                            m_shadow_hits + uint64_t(m_occlusion_base) * sizeof(hw::Hit), m_num_occlusion, true,
+                            RayType::kOcclusion, depth, m_occlusion_base)) != Status::kOk)
           return s;
         if ((s = m_ring.sync()) != Status::kOk) return s;
+        unsort_hits();
         for (uint32_t i = 0; i < m_num_shadow; ++i)
           if (!shits[i].hit()) add(m_spend[i].pixel, m_spend[i].radiance);
         for (uint32_t i = m_occlusion_base; i < m_occlusion_base + m_num_occlusion; ++i)
@@ -425,13 +460,22 @@ Status render(Hal& hal, Ring& ring, Arena& arena, uint64_t job_addr, RenderStats
   tables.num_textures = job.num_textures;
   tables.mem = hal.mem();
   tables.mem_size = mem;
+  // Ray sorting: its record follows the job; a key or digit width the sorter does not know is refused.
+  const RaySortJob* sort = nullptr;
+  if (job.flags & kRenderRaySort) {
+    const uint64_t sort_addr = job_addr + sizeof(RenderJob);
+    if (!inside(sort_addr, 1, sizeof(RaySortJob))) return Status::kBadArgument;
+    sort = at<const RaySortJob>(hal, sort_addr);
+    if (ray_sort_key_bits(RaySortKey(sort->key)) == 0 || sort->radix_bits < 1 || sort->radix_bits > 16)
+      return Status::kBadArgument;
+  }
   // The any-hit stage answers the unit while the job runs, when a material is alpha-masked.
   bool masked = false;
   for (uint32_t i = 0; i < job.num_materials; ++i)
     masked |= tables.materials[i].alpha_mode == uint32_t(AlphaMode::kMask);
   const AlphaStage stage(tables);
   if (masked) hal.set_any_hit(&stage);
-  Renderer r(hal, ring, job, tables, masked ? &stage : nullptr, stats);
+  Renderer r(hal, ring, job, tables, masked ? &stage : nullptr, sort, stats);
   const Status st = r.run(arena);
   if (masked) hal.set_any_hit(nullptr);
   return st;

@@ -1,8 +1,9 @@
 // The renderer: a wavefront path tracer that runs on the unit's controller and uses the unit for every ray.
 // Per batch of paths and per bounce: build the rays, TRACE them (one packet per ray type), wait on a fence,
-// shade; shadow and occlusion rays go out as any-hit TRACEs after each bounce. Primary rays from a pinhole
-// camera (jittered when spp > 1), shadow rays toward every light at diffuse hits, mirror reflection, glass with
-// Snell refraction, exact dielectric Fresnel and total internal reflection, diffuse indirect bounces (cosine
+// shade; shadow and occlusion rays go out as any-hit TRACEs after each bounce. With kRenderRaySort each TRACE's
+// rays are sorted by a key first (ray_sort.h) and the hits put back in order after the fence. Primary rays from a
+// pinhole camera (jittered when spp > 1), shadow rays toward every light at diffuse hits, mirror reflection, glass
+// with Snell refraction, exact dielectric Fresnel and total internal reflection, diffuse indirect bounces (cosine
 // sampled) or ambient occlusion. Random numbers come from a counter-based hash of (seed, pixel, sample, bounce,
 // use), so the image does not depend on the batch size. Freestanding: working memory from the arena.
 #pragma once
@@ -11,6 +12,7 @@
 
 #include "firmware/hal.h"
 #include "firmware/raster.h"
+#include "firmware/ray_sort.h"
 #include "firmware/render_scene.h"
 #include "firmware/ring.h"
 #include "hwmodel/interface/commands.h"
@@ -34,6 +36,9 @@ struct RenderStats {
   bool hybrid = false;
   uint64_t primary_rasterized = 0;  // camera samples whose primary hit the G-buffer gave: primary rays saved
   RasterStats raster;
+  // Ray sorting (kRenderRaySort): rays sorted before their TRACE, and the sorts' work.
+  bool sorted = false;
+  SortStats sort;
 };
 
 // Renders job (a RenderJob at device address job_addr) through the ring; working buffers come from the arena.

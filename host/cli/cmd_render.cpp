@@ -57,9 +57,16 @@ void run_render(const RenderArgs& a) {
     std::printf("  device clock at the end (all packets, fences included): %llu cycles\n",
                 (unsigned long long)r.device_clock);
     if (o.hybrid)
-      std::printf("  rasterizer: %llu cycles (limit: %s); frame: %llu cycles (raster + trace)\n",
-                  (unsigned long long)r.raster_cycles.cycles, r.raster_cycles.limit,
-                  (unsigned long long)r.frame_cycles);
+      std::printf("  rasterizer: %llu cycles (limit: %s)%s", (unsigned long long)r.raster_cycles.cycles,
+                  r.raster_cycles.limit, r.fw.sorted ? "\n" : "; ");
+    if (r.fw.sorted)
+      std::printf("  ray sorting: %llu cycles (limit: %s, %llu DRAM bytes); ",
+                  (unsigned long long)r.sort_cycles.cycles, r.sort_cycles.limit,
+                  (unsigned long long)r.sort_cycles.dram_bytes);
+    if (o.hybrid || r.fw.sorted)
+      std::printf(
+          "frame: %llu cycles (%s)\n", (unsigned long long)r.frame_cycles,
+          o.hybrid && r.fw.sorted ? "raster + sort + trace" : (o.hybrid ? "raster + trace" : "sort + trace"));
   }
   std::printf("  wrote %s\n", a.out.c_str());
   Json modes;
@@ -83,6 +90,7 @@ void run_render(const RenderArgs& a) {
       if (x.timed) {
         m["raster_cycles"] = x.raster_cycles.cycles;
         m["trace_cycles"] = x.device_clock;
+        if (x.fw.sorted) m["sort_cycles"] = x.sort_cycles.cycles;
         m["frame_cycles"] = x.frame_cycles;
       }
       return m;
@@ -195,6 +203,12 @@ void print_render_summary(const RenderResult& r, const RenderOptions& o) {
       (unsigned long long)ry[int(RayType::kRefraction)], (unsigned long long)ry[int(RayType::kDiffuse)],
       (unsigned long long)ry[int(RayType::kOcclusion)], r.seconds, (unsigned long long)r.fw.traces,
       (unsigned long long)r.ring.fences);
+  if (r.fw.sorted) {
+    const fw::SortStats& ss = r.fw.sort;
+    std::printf("  ray sorting by %s: %llu rays sorted in %llu sorts, %llu radix passes\n",
+                o.device.timing.ray_sort.c_str(), (unsigned long long)ss.rays, (unsigned long long)ss.sorts,
+                (unsigned long long)ss.passes);
+  }
   if (o.hybrid) {
     const fw::RasterStats& rs = r.fw.raster;
     std::printf(

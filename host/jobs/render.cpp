@@ -111,6 +111,15 @@ hw::RasterWork raster_work(const fw::RasterStats& s) {
   return w;
 }
 
+hw::SortWork sort_work(const fw::SortStats& s) {
+  hw::SortWork w;
+  w.sorts = s.sorts;
+  w.rays = s.rays;
+  w.passes = s.passes;
+  w.pass_rays = s.pass_rays;
+  return w;
+}
+
 namespace {
 
 uint64_t align64(uint64_t x) {
@@ -226,6 +235,25 @@ fw::RenderJob render_job(const Scene& scene, const RenderOptions& o, const Rende
   return job;
 }
 
+// Ray sorting's record (the job's kRenderRaySort): on the timed device, when the ray_sort key names a key.
+std::optional<fw::RaySortJob> ray_sort_job(const Scene& scene, const RenderOptions& o) {
+  const hw::TimingConfig& c = o.device.timing;
+  if (o.device.kind != hw::DeviceKind::kTimed || c.ray_sort == "none") return std::nullopt;
+  const hw::RaySortKeyInfo* key = hw::find_ray_sort_key(c.ray_sort);
+  if (!key) throw Error("render: ray_sort = '" + c.ray_sort + "' is not a sort key");
+  fw::RaySortJob r{};
+  r.key = uint32_t(key - hw::kRaySortKeys.data());  // the table's order is fw::RaySortKey's
+  r.radix_bits = uint32_t(c.sort_radix_bits);
+  const hw::Aabb b = scene.geometry.bounds();
+  if (!b.empty()) {
+    r.lo = f3(b.lo);
+    r.hi = f3(b.hi);
+  }
+  // The termination key's distance: a quarter of the scene's diagonal, as the occlusion rays' default length.
+  r.distance = b.empty() ? 1.0f : 0.25f * glm::length(b.extent());
+  return r;
+}
+
 // Where the job's parts lie in device memory beside the addresses in the job itself.
 struct MemoryLayout {
   uint64_t texels = 0;      // the textures' texels
@@ -239,7 +267,7 @@ struct MemoryLayout {
 // addresses, rebases the textures' texel offsets and sets res.device_memory_bytes; throws Error beyond the
 // memory budget.
 MemoryLayout lay_out_memory(fw::RenderJob& job, ShadingRecords& shading, size_t num_lights, const RenderOptions& o,
-                            RenderResult& res) {
+                            const std::optional<fw::RaySortJob>& sort, RenderResult& res) {
   MemoryLayout m;
   uint64_t top = 0;
   auto place = [&](uint64_t bytes) {
@@ -260,10 +288,18 @@ MemoryLayout lay_out_memory(fw::RenderJob& job, ShadingRecords& shading, size_t 
   job.framebuffer = place(uint64_t(res.width) * res.height * 3 * sizeof(float));
   m.paths = uint64_t(res.width) * res.height * uint64_t(o.spp);
   if (o.keep_primary) job.primary_hits = place(m.paths * sizeof(hw::Hit));
-  m.job_addr = place(sizeof job);
-  // The arena: the ring and up to 2^18 paths of working buffers (renderer.cpp sizes its batch from it).
-  const uint64_t per_path = 200 + 64 * (uint64_t(num_lights) + 1);
-  m.arena_bytes = (1u << 16) + std::min<uint64_t>(m.paths, 1u << 18) * per_path;
+  // The job, and ray sorting's record right behind it (only with sorting: otherwise the layout is as before).
+  m.job_addr = place(sizeof job + (sort ? sizeof(fw::RaySortJob) : 0));
+  // The arena: the ring and up to 2^18 paths of working buffers (renderer.cpp sizes its batch from it); with
+  // sorting, each path's sorted places (its bounce ray or its shadow and occlusion slots) and the histogram, so
+  // that the batch is what it is without sorting.
+  uint64_t per_path = 200 + 64 * (uint64_t(num_lights) + 1);
+  uint64_t fixed = 1u << 16;
+  if (sort) {
+    per_path += fw::RaySorter::kBytesPerRay * (uint64_t(num_lights) + 2);
+    fixed += fw::RaySorter::fixed_bytes(sort->radix_bits);
+  }
+  m.arena_bytes = fixed + std::min<uint64_t>(m.paths, 1u << 18) * per_path;
   m.arena_base = top;
   res.device_memory_bytes = align64(m.arena_base + m.arena_bytes);
   check_memory("render: the unit's device memory", res.device_memory_bytes);
@@ -273,7 +309,7 @@ MemoryLayout lay_out_memory(fw::RenderJob& job, ShadingRecords& shading, size_t 
 // The scene image, the renderer's records and the job into device memory, at the job's addresses.
 void write_device_memory(hw::DeviceMemory& mem, const fw::RenderJob& job, const MemoryLayout& m,
                          const std::vector<uint64_t>& image_words, const ShadingRecords& shading,
-                         const std::vector<fw::LightRecord>& lights) {
+                         const std::vector<fw::LightRecord>& lights, const std::optional<fw::RaySortJob>& sort) {
   mem.write(job.scene_image, image_words.data(), image_words.size() * 8);
   mem.write(job.surfaces, shading.surfaces.data(), shading.surfaces.size() * sizeof(fw::SurfaceRecord));
   mem.write(job.materials, shading.materials.data(), shading.materials.size() * sizeof(fw::MaterialRecord));
@@ -284,6 +320,7 @@ void write_device_memory(hw::DeviceMemory& mem, const fw::RenderJob& job, const 
     mem.write(m.texels, shading.texels.data(), shading.texels.size());
   }
   mem.write(m.job_addr, &job, sizeof job);
+  if (sort) mem.write(m.job_addr + sizeof job, &*sort, sizeof *sort);
 }
 
 // Runs the firmware renderer on the device through the ring (with the progress line and poll when asked), into
@@ -331,7 +368,8 @@ void read_back(FirmwareDevice& dev, const fw::RenderJob& job, const MemoryLayout
     res.timing_by_unit = te->timing_by_unit();
     if (te->timeline()) res.timeline = *te->timeline();
     res.raster_cycles = hw::raster_cycles(raster_work(res.fw.raster), te->config());
-    res.frame_cycles = res.raster_cycles.cycles + res.device_clock;
+    res.sort_cycles = hw::sort_cycles(sort_work(res.fw.sort), te->config());
+    res.frame_cycles = res.raster_cycles.cycles + res.sort_cycles.cycles + res.device_clock;
   }
   hw::DeviceMemory& mem = dev.memory();
   res.rgb.resize(size_t(res.width) * res.height * 3);
@@ -371,7 +409,9 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   ShadingRecords shading = shading_records(scene);
   const std::vector<fw::LightRecord> lights = light_records(scene);
   fw::RenderJob job = render_job(scene, o, res, shading, lights.size(), extent);
-  const MemoryLayout layout = lay_out_memory(job, shading, lights.size(), o, res);
+  const std::optional<fw::RaySortJob> sort = ray_sort_job(scene, o);
+  if (sort) job.flags |= fw::kRenderRaySort;
+  const MemoryLayout layout = lay_out_memory(job, shading, lights.size(), o, sort, res);
 
   hw::EngineOptions eopt;
   eopt.threads = o.threads;
@@ -382,7 +422,7 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
     te->set_trace(o.pipeline_trace);
     te->set_sampling(o.device.sample);  // the firmware needs every hit: only the timing model is sampled
   }
-  write_device_memory(dev.memory(), job, layout, image_words, shading, lights);
+  write_device_memory(dev.memory(), job, layout, image_words, shading, lights, sort);
   run_firmware(dev, layout, o, res);
   read_back(dev, job, layout, o, res);
   return res;
@@ -469,6 +509,15 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
                    {"triangles_clipped", rs.triangles_clipped},
                    {"triangles_degenerate", rs.triangles_degenerate}};
   }
+  if (r.fw.sorted) {  // ray sorting: what the firmware sorted (its cycles are under timing)
+    const fw::SortStats& ss = r.fw.sort;
+    Json by_type = Json::object();
+    for (int t = 0; t < hw::cmd::kRayTypeCount; ++t)
+      if (ss.by_type[t] > 0) by_type[hw::cmd::ray_type_name(RayType(t))] = ss.by_type[t];
+    j["sort"] = {
+        {"key", o.device.timing.ray_sort}, {"sorts", ss.sorts},     {"rays", ss.rays}, {"passes", ss.passes},
+        {"pass_rays", ss.pass_rays},       {"by_ray_type", by_type}};
+  }
   j["paths"] = r.fw.paths;
   j["batches"] = r.fw.batches;
   j["batch_paths"] = r.fw.batch_paths;
@@ -524,7 +573,8 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
     t["sample"] = sample_json(r.sampling);
     if (!r.timing_by_unit.empty()) t["units"] = units_json(r.timing_by_unit, o.device.timing);
     add_timeline(t, &r.timeline, r.sampling);
-    // The frame: the rasterizer's cycles (hybrid) and the unit's (every packet), which do not overlap.
+    // The frame: the rasterizer's cycles (hybrid), the sort's (ray sorting) and the unit's (every packet), which
+    // do not overlap.
     const hw::RasterCycles& rc = r.raster_cycles;
     t["raster"] = {{"cycles", rc.cycles},
                    {"latency_cycles", rc.latency_cycles},
@@ -535,6 +585,20 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
                    {"dram_bytes", rc.dram_bytes},
                    {"limit", rc.limit}};
     t["raster_cycles"] = rc.cycles;
+    if (r.fw.sorted) {  // the controller's sorting, while the unit waits
+      const hw::SortCycles& sc = r.sort_cycles;
+      t["sort"] = {{"cycles", sc.cycles},
+                   {"latency_cycles", sc.latency_cycles},
+                   {"key_cycles", sc.key_cycles},
+                   {"pass_cycles", sc.pass_cycles},
+                   {"permute_cycles", sc.permute_cycles},
+                   {"return_cycles", sc.return_cycles},
+                   {"compute_cycles", sc.compute_cycles},
+                   {"dram_cycles", sc.dram_cycles},
+                   {"dram_bytes", sc.dram_bytes},
+                   {"limit", sc.limit}};
+      t["sort_cycles"] = sc.cycles;
+    }
     t["trace_cycles"] = r.device_clock;
     t["frame_cycles"] = r.frame_cycles;
     t["config"] = timing_json(o.device.timing);

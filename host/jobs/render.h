@@ -18,6 +18,7 @@
 #include "hwmodel/device/command_processor.h"
 #include "hwmodel/device/timed_engine.h"
 #include "hwmodel/timing/raster_timing.h"
+#include "hwmodel/timing/sort_timing.h"
 
 namespace rtu::host {
 
@@ -66,7 +67,11 @@ struct RenderResult {
   // Hybrid mode on the timed device: the rasterizer's cycles from its cost model (raster_timing.h); the frame's
   // cycles are raster_cycles.cycles + device_clock (the raster passes and the unit's packets do not overlap).
   hw::RasterCycles raster_cycles;
-  uint64_t frame_cycles = 0;  // timed: raster + device clock (raytrace mode: the device clock)
+  // Ray sorting on the timed device (the ray_sort key; RenderStats::sort counts the firmware's work): the
+  // controller's sorting cycles from their cost model (sort_timing.h), before each TRACE and after its fence,
+  // while the unit waits.
+  hw::SortCycles sort_cycles;
+  uint64_t frame_cycles = 0;  // timed: raster + sort + device clock (raytrace mode without sorting: the clock)
   // What the job saw before it rendered (render_warnings adds the device's): primitives below the fixed-point
   // grid step (grid_check.h), nothing to light the scene.
   std::vector<std::string> warnings;
@@ -77,6 +82,8 @@ RenderResult render(const Scene& scene, const RenderOptions& o);
 
 // The rasterizer's counts as its cost model takes them.
 hw::RasterWork raster_work(const fw::RasterStats& s);
+// The sorter's counts as its cost model takes them.
+hw::SortWork sort_work(const fw::SortStats& s);
 
 // What the user must know about a render's rays: the rays the device rejected at ray setup (a fixed-point device
 // cannot represent an origin beyond its format's guard range, out_of_frame; a NaN from a material) were traced as

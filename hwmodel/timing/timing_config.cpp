@@ -11,6 +11,7 @@
 #include "hwmodel/timing/prefetch/prefetchers.h"
 #include "hwmodel/timing/ray_gather.h"
 #include "hwmodel/timing/ray_scheduler.h"
+#include "hwmodel/timing/sort_timing.h"
 
 namespace rtu::hw {
 
@@ -117,10 +118,12 @@ std::vector<KeyInfo> make_key_table() {
        "hybrid rasterizer: depth bytes read per fragment, written per pass and clear (DRAM channel)"},
       {"raster_gbuffer_bytes", &C::raster_gbuffer_bytes, 0, 4096,
        "hybrid rasterizer: G-buffer bytes written per depth pass besides depth (DRAM channel)"},
-      {"watchdog_cycles", &C::watchdog_cycles, 0, 2147483647,
-       "most cycles a ray may stay in its slot before a watchdog error (0: off)"},
   };
   table.insert(table.end(), std::begin(after_prefetch), std::end(after_prefetch));
+  const std::vector<KeyInfo>& sort = sort_keys();
+  table.insert(table.end(), sort.begin(), sort.end());
+  table.push_back({"watchdog_cycles", &C::watchdog_cycles, 0, 2147483647,
+                   "most cycles a ray may stay in its slot before a watchdog error (0: off)"});
   return table;
 }
 

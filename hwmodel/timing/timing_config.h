@@ -9,7 +9,8 @@
 // 0..100000; raster_samples_per_clock and raster_fragments_per_clock 0.001..4096; raster_latency 0..100000;
 // raster_prim_bytes 0..4096, raster_depth_bytes 1..64, raster_gbuffer_bytes 0..4096; bvh_width 2, 4, 6 or 8;
 // format the name of a fixed-point format preset; box_unit and tri_unit cpp or rtl; memory_type gddr6, hbm2
-// or lpddr5; prefetcher a name of prefetchers(), prefetch_degree 1..64; watchdog_cycles 0..2^31-1 (0:
+// or lpddr5; prefetcher a name of prefetchers(), prefetch_degree 1..64; ray_sort a name of kRaySortKeys,
+// sort_key_cycles 0..100000, sort_keys_per_clock 0.001..4096, sort_radix_bits 1..16; watchdog_cycles 0..2^31-1 (0:
 // off). The default-constructed configuration is the "rdna2" preset: its figures are the defaults below, and every
 // other preset is a base preset plus the keys it changes (timing_config.cpp), so a new key with a neutral default
 // needs no preset edited.
@@ -137,6 +138,12 @@ struct TimingConfig {
   int raster_prim_bytes = 36;               // bytes fetched per primitive per pass (three float3 vertices)
   int raster_depth_bytes = 4;               // depth bytes read per fragment, written per pass and per clear
   int raster_gbuffer_bytes = 12;            // G-buffer bytes written per pass besides depth (prim, u, v)
+  // Ray sorting in the firmware (sort_timing.h): the key the renderer sorts each bounce's rays of a type by before
+  // their TRACE ("none": no sorting; a name of kRaySortKeys), and the controller's cost of the sort.
+  std::string ray_sort = "none";
+  double sort_key_cycles = 1.0;      // cycles per key computed
+  double sort_keys_per_clock = 1.0;  // keys a radix pass counts and scatters per clock
+  int sort_radix_bits = 8;           // digit bits of the LSD radix sort
   // Watchdog: the most cycles a ray may stay in its ray slot; a ray still there after that stops the TRACE with
   // a watchdog error and a dump of the unit's state (timing_model.h). 0: off.
   // 50 ms at 2 GHz: far beyond any ray's traversal (the slowest in bench/cycles_table.sh take thousands).

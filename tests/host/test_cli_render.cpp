@@ -162,3 +162,49 @@ TEST_CASE("render: a progress line on a terminal, none otherwise", "[cli]") {
   CHECK(pipe.output.find("batch 1/") == std::string::npos);
   CHECK(pipe.output.find('\r') == std::string::npos);
 }
+
+TEST_CASE("render --set ray_sort: the sort's rays and cycles in the summary and the JSON, bad keys refused",
+          "[cli][sort]") {
+  const fs::path d = temp_dir("cli");
+  const std::string stats = (d / "sorted.json").string();
+  const Run r = run_rtusim(
+      "render --scene builtin:seed --width 40 --height 30 --device timed --max-depth 2 --threads 2 --set "
+      "ray_sort=direction --out " +
+      (d / "sorted.png").string() + " --stats " + stats);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(r.output.find("ray sorting by direction:") != std::string::npos);
+  CHECK(r.output.find("(sort + trace)") != std::string::npos);
+  const nlohmann::json j = read_json(stats);
+  CHECK(j["sort"]["key"] == "direction");
+  CHECK(j["sort"]["rays"] == j["rays_total"]);
+  CHECK(j["sort"]["by_ray_type"]["primary"] == 40 * 30);
+  CHECK(j["sort"]["passes"] == 4 * j["sort"]["sorts"].get<uint64_t>());
+  const auto& t = j["timing"];
+  CHECK(t["config"]["ray_sort"] == "direction");
+  CHECK(t["sort_cycles"] == t["sort"]["cycles"]);
+  CHECK(t["sort"]["dram_bytes"].get<uint64_t>() > 0);
+  CHECK(t["frame_cycles"].get<uint64_t>() ==
+        t["raster_cycles"].get<uint64_t>() + t["sort_cycles"].get<uint64_t>() + t["trace_cycles"].get<uint64_t>());
+  // Without sorting the JSON has no sort figures at all (every figure is as before the key existed).
+  const Run plain = run_rtusim("render --scene builtin:seed --width 8 --height 8 --device timed --out " +
+                               (d / "plain.png").string() + " --stats " + (d / "plain.json").string());
+  REQUIRE(plain.status == 0);
+  const nlohmann::json p = read_json(d / "plain.json");
+  CHECK_FALSE(p.contains("sort"));
+  CHECK_FALSE(p["timing"].contains("sort_cycles"));
+  CHECK(p["timing"]["config"]["ray_sort"] == "none");
+  // An unknown key, or a digit width out of range, is refused naming the key.
+  const Run bad = run_rtusim(
+      "render --scene builtin:seed --width 8 --height 8 --device timed --set "
+      "ray_sort=zorder --out " +
+      (d / "bad.png").string());
+  CHECK(bad.status == 2);
+  CHECK(bad.output.find("ray_sort = 'zorder' is not a sort key (known: none, origin") != std::string::npos);
+  const Run radix = run_rtusim(
+      "render --scene builtin:seed --width 8 --height 8 --device timed --set "
+      "ray_sort=origin --set sort_radix_bits=20 --out " +
+      (d / "bad.png").string());
+  CHECK(radix.status == 2);
+  CHECK(radix.output.find("sort_radix_bits = 20 outside [1, 16]") != std::string::npos);
+}

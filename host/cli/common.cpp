@@ -155,6 +155,31 @@ void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, b
       "%senergy (%s estimate, docs/energy-model.md): %.0f pJ per ray, %.3g rays per joule, %.2f W at %g "
       "GHz; area %.2f mm^2\n",
       indent, hw::nangate45().name, e.pj_per_ray, e.rays_per_joule, e.watts, c.clock_ghz, e.area.total_mm2);
+  // The latency levers that are on (docs/timing-model.md), each with what it did.
+  std::string levers;
+  char part[200];
+  if (c.prefetcher != "none") {
+    std::snprintf(part, sizeof part, "; prefetcher %s: %llu lines filled, accuracy %.3f, %llu dropped",
+                  c.prefetcher.c_str(), (unsigned long long)s.prefetch_fills,
+                  ratio(double(s.prefetch_useful), double(s.prefetch_fills)),
+                  (unsigned long long)s.prefetch_dropped);
+    levers += part;
+  }
+  if (c.stack_mode == "restart") {
+    std::snprintf(part, sizeof part, "; restart trail (%d entries): %.3f restarts and %.2f nodes again per ray",
+                  c.stack_entries, ratio(double(s.restarts), double(s.rays)),
+                  ratio(double(s.restart_nodes), double(s.rays)));
+    levers += part;
+  }
+  if (c.gather != "none") {
+    std::snprintf(part, sizeof part,
+                  "; gather %s: %llu bins of %.1f rays (%llu full, %llu by timeout), %.0f cycles' wait per ray",
+                  c.gather.c_str(), (unsigned long long)s.gather_bins,
+                  ratio(double(s.rays), double(s.gather_bins)), (unsigned long long)s.gather_bins_full,
+                  (unsigned long long)s.gather_bins_timeout, ratio(double(s.gather_wait_cycles), double(s.rays)));
+    levers += part;
+  }
+  if (!levers.empty()) std::printf("%slatency levers:%s\n", indent, levers.c_str() + 1);
 }
 
 }  // namespace rtu::host::cli

@@ -163,9 +163,16 @@ const std::vector<ReportEntry>& report_table() {
       count("prefetch.redundant", &S::prefetch_redundant),
       count("prefetch.useful", &S::prefetch_useful),
       count("prefetch.dropped", &S::prefetch_dropped),
+      count("prefetch.late", &S::prefetch_late),
+      count("prefetch.unused", &S::prefetch_unused),
       figure("prefetch.accuracy", "1", "useful / fills; 0 without fills",
              [](const S& s, const C&, const LowerBound&) -> Value {
                return ratio(double(s.prefetch_useful), double(s.prefetch_fills));
+             }),
+      figure("prefetch.coverage", "1",
+             "useful / (useful + cache misses): the share of would-be misses the prefetches removed",
+             [](const S& s, const C&, const LowerBound&) -> Value {
+               return ratio(double(s.prefetch_useful), double(s.prefetch_useful + s.cache_misses));
              }),
       count("l2.hits", &S::l2_hits),
       count("l2.misses", &S::l2_misses),

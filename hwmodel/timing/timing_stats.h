@@ -30,6 +30,8 @@ struct TimingStats {
   // and then hit by a demand access before being evicted.
   uint64_t prefetch_fills = 0, prefetch_redundant = 0, prefetch_useful = 0;
   uint64_t prefetch_dropped = 0;        // fills a full prefetch queue dropped (prefetch_queue > 0)
+  uint64_t prefetch_late = 0;           // useful fills whose data was still on its way at the first demand hit
+  uint64_t prefetch_unused = 0;         // prefetched lines evicted before any demand access hit them
   uint64_t l2_hits = 0, l2_misses = 0;  // node cache fills through the L2 (memory_system.h)
   uint64_t dram_bytes = 0, dram_busy_cycles = 0;
   uint64_t dram_row_hits = 0, dram_row_misses = 0;  // with DRAM banks: accesses to the open row, and the others

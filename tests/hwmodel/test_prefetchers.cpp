@@ -76,6 +76,8 @@ TEST_CASE("a treelet root's fetch fills the treelet: the next nodes hit or wait 
   CHECK(s.cache_hits == 2);
   CHECK(s.prefetch_fills == 2);
   CHECK(s.prefetch_useful == 2);
+  CHECK(s.prefetch_late == 1);  // node 2's line was on its way; node 1's had arrived
+  CHECK(s.prefetch_unused == 0);
   CHECK(s.dram_bytes == 3 * 64);
   // A root whose treelet is itself fills nothing.
   TimingModel m3(c, layout());
@@ -111,6 +113,7 @@ TEST_CASE("queued prefetches wait for an idle memory: demand first, a late fill 
   REQUIRE(t1 + c.cache_latency + line <= t2);
   CHECK(s.prefetch_fills == 2);
   CHECK(s.prefetch_useful == 1);
+  CHECK(s.prefetch_late == 1);
   CHECK(s.prefetch_dropped == 0);
   // Against no prefetcher, node 1's own miss: the fill saved the cycles between its request and node 1's, less
   // the cache_latency of waiting for a line on its way.
@@ -134,6 +137,28 @@ TEST_CASE("queued prefetches wait for an idle memory: demand first, a late fill 
   TimingStats sd;
   run(d, {node(0)}, sd);
   CHECK(sd.prefetch_dropped == 1);
+}
+
+TEST_CASE("a prefetched line evicted before any demand hit counts as unused", "[timing]") {
+  TimingConfig c = test_config();  // 16 KiB of 64-byte lines, 4 ways: 64 sets
+  set_timing_key(c, "prefetcher", "next_line");
+  TimingModel::Layout l;
+  l.node_bytes = 64;
+  l.record_offset = 1 << 20;
+  l.plane_offset = 2 << 20;
+  // Node 0's miss fills line 1 (set 1). Nodes 65, 129 and 193 take set 1's other ways, and node 257 evicts the
+  // least recent, line 1, never used. The other misses fill lines 66, 130, 194 and 258: set 2's four ways, none
+  // evicted and none used.
+  TimingModel m(c, l);
+  TimingStats s;
+  m.begin(1, s);
+  std::vector<TraceEvent> ray = {node(0), node(65), node(129), node(193), node(257)};
+  m.feed(&ray, 1);
+  m.finish();
+  CHECK(s.cache_misses == 5);
+  CHECK(s.prefetch_fills == 5);
+  CHECK(s.prefetch_useful == 0);
+  CHECK(s.prefetch_unused == 1);
 }
 
 TEST_CASE("treelets: a permutation of the nodes, connected pieces within the budget", "[timing][image]") {

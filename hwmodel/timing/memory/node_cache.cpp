@@ -36,6 +36,7 @@ void NodeCache::prefetch(uint64_t line, uint64_t t, MemorySystem& mem, TimingSta
   }
   Line* victim = lru_way(ways);
   ++s.prefetch_fills;
+  if (!m_prefetched.empty()) evict_prefetched(victim, s);
   victim->tag = line;
   victim->stamp = ++m_stamp;
   victim->ready = mem.read_line(line, t + m_latency, s);

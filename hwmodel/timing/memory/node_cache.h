@@ -43,13 +43,14 @@ class NodeCache {
       l.stamp = ++m_stamp;
       if (!m_prefetched.empty() && m_prefetched[size_t(&l - m_lines.data())]) [[unlikely]] {
         ++s.prefetch_useful;
+        s.prefetch_late += l.ready > t;  // on its way: it saves only the part of the latency it covered
         m_prefetched[size_t(&l - m_lines.data())] = 0;
       }
       return std::max(t, l.ready) + m_latency;
     }
     Line* victim = lru_way(ways);
     ++s.cache_misses;
-    if (!m_prefetched.empty()) m_prefetched[size_t(victim - m_lines.data())] = 0;
+    if (!m_prefetched.empty()) evict_prefetched(victim, s);
     victim->tag = line;
     victim->stamp = ++m_stamp;
     victim->ready = mem.read_line(line, t + m_latency, s);
@@ -119,6 +120,12 @@ class NodeCache {
   uint64_t m_set_mask = 0;  // m_sets - 1 when m_sets is a power of two (else 0: a division)
   // Per way, 1 for a line a prefetcher brought in that no demand access has hit yet (empty: not tracked).
   std::vector<uint8_t> m_prefetched;
+  // The victim's line leaves: a prefetched line no demand access hit counts as unused.
+  void evict_prefetched(const Line* victim, TimingStats& s) {
+    uint8_t& p = m_prefetched[size_t(victim - m_lines.data())];
+    s.prefetch_unused += p;
+    p = 0;
+  }
 
   // The walk: per set the distinct lines seen so far (at most cache_ways) and how many; the needed lines, per set
   // how many of them are undetermined, and in all.

@@ -55,7 +55,7 @@ inline std::string prefetcher_names() {
 
 // The prefetchers' counters (TimingStats members, filled by NodeCache::prefetch), gathered into the statistics
 // table (timing_stats.cpp) after cache_misses.
-inline constexpr std::array<TimingCounter, 4> kPrefetchCounters = {{
+inline constexpr std::array<TimingCounter, 6> kPrefetchCounters = {{
     {"prefetch_fills", &TimingStats::prefetch_fills, "lines", "lines a prefetcher brought into the node cache",
      SampleScale::kPerRay},
     {"prefetch_redundant", &TimingStats::prefetch_redundant, "lines",
@@ -64,6 +64,11 @@ inline constexpr std::array<TimingCounter, 4> kPrefetchCounters = {{
      "prefetched lines a demand access hit before they were evicted (each counted once)", SampleScale::kPerRay},
     {"prefetch_dropped", &TimingStats::prefetch_dropped, "lines",
      "fills dropped from a full prefetch queue, oldest first (prefetch_queue > 0)", SampleScale::kPerRay},
+    {"prefetch_late", &TimingStats::prefetch_late, "lines",
+     "useful prefetched lines still on their way at the first demand hit (they saved part of the latency)",
+     SampleScale::kPerRay},
+    {"prefetch_unused", &TimingStats::prefetch_unused, "lines",
+     "prefetched lines evicted before a demand access hit them", SampleScale::kPerRay},
 }};
 
 // The prefetchers' keys, gathered into the timing key table (timing_config.cpp) after dram_bytes_per_cycle.

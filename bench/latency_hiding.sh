@@ -29,6 +29,7 @@ techniques=(
   "treelet 2048, queue 64|--set treelet_bytes=2048 --set prefetcher=treelet --set prefetch_queue=64"
   "stack, degree 1|--set prefetcher=stack"
   "stack, degree 2, queue 64|--set prefetcher=stack --set prefetch_degree=2 --set prefetch_queue=64"
+  "stack_pop, degree 2, queue 64|--set prefetcher=stack_pop --set prefetch_degree=2 --set prefetch_queue=64"
   "restart trail|--set stack_mode=restart"
   "gather octant|--set gather=octant"
   "gather two_point|--set gather=two_point"

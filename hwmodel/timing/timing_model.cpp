@@ -93,7 +93,7 @@ void TimingModel::observe(const Slot& sl, uint32_t k, const TraceEvent& e, uint6
 void TimingModel::observe_push(const Slot& sl, uint32_t k, const TraceEvent& e, uint64_t t) {
   const auto [first, last] = line_range(*sl.layout, TraceEvent{TraceEvent::kNode, 0, 0, 0, e.index});
   Port port(*this, t);
-  m_observer->on_push(StackPush{t, k, e.count, first, last}, port);
+  m_observer->on_push(StackPush{t, k, e.count, first, last, e.index}, port);
   drain_prefetches(t);
 }
 
@@ -316,6 +316,7 @@ void TimingModel::admit(uint32_t k, uint64_t free_at) {
   sl.entered = enter;
   sl.ray = i;
   sl.busy = true;
+  if (m_observer) m_observer->on_ray(k);
   if (m_c.watchdog_cycles > 0) {
     if (m_watch_deadline == kNoDeadline) m_watch_deadline = enter + uint64_t(m_c.watchdog_cycles);
     m_age.push_back({enter, k});

@@ -221,7 +221,7 @@ TEST_CASE("treelet layouts and prefetchers never change a hit, and refuse what t
   const std::vector<uint8_t>& bytes = ref.bytes;
   const std::vector<Hit>& want = ref.hits;
   uint64_t cycles[2] = {0, 0};
-  for (const char* pf : {"none", "treelet", "next_line", "stack"})
+  for (const char* pf : {"none", "treelet", "next_line", "stack", "stack_pop"})
     for (int q : {0, 16}) {
       CAPTURE(pf, q);
       TimingConfig c = timing_preset("rdna2-mem");
@@ -278,4 +278,50 @@ TEST_CASE("a stack prefetch at the push turns the popped node's miss into a hit"
   CHECK(s.prefetch_fills == 1);  // prefetch_degree 1: rank 1 (node 6) is not filled
   CHECK(s.prefetch_useful == 1);
   CHECK(s.cache_misses == 2);
+}
+
+TEST_CASE("a stack prefetch on the second of two pops fills the entry then on top", "[timing]") {
+  TimingConfig c = test_config();
+  const uint64_t enter = c.packet_latency + c.ray_fetch_latency + c.setup_latency;
+  const uint64_t miss = c.cache_latency + 64 / 8 + c.dram_latency;
+  const uint64_t per_node = c.box_latency + c.traversal_latency;
+  // Node 0 pushes nodes 5, 6, 7 (popped in that order); the ray descends to node 1, then pops 5, 6 and 7.
+  const std::vector<TraceEvent> ray = {node(0),
+                                       TraceEvent{TraceEvent::kStackRef, 0, 0, 0, 5},
+                                       TraceEvent{TraceEvent::kStackRef, 1, 0, 0, 6},
+                                       TraceEvent{TraceEvent::kStackRef, 2, 0, 0, 7},
+                                       node(1),
+                                       node(5),
+                                       node(6),
+                                       node(7)};
+  TimingModel::Layout l = layout();
+  l.treelets.reset();
+  TimingStats so;
+  TimingModel off(c, l);
+  const uint64_t without = run(off, ray, so);
+  CHECK(without == enter + 5 * (miss + per_node) + c.writeback_latency);
+  set_timing_key(c, "prefetcher", "stack_pop");
+  TimingModel m(c, l);
+  TimingStats s;
+  // Node 5 is the first pop (after the descent to node 1): no fill. Node 6 is the second: node 7, then on top, is
+  // filled behind node 6's own miss on the channel (there 2 + 16 + 100 after node 6's fetch) and node 7's fetch,
+  // miss + per_node after node 6's, hits. The fill saves node 7's miss less the hit's latency.
+  CHECK(run(m, ray, s) == without - (miss - c.cache_latency));
+  CHECK(s.prefetch_fills == 1);
+  CHECK(s.prefetch_useful == 1);
+  CHECK(s.prefetch_late == 0);
+  CHECK(s.cache_misses == 4);
+  // A new ray in the slot starts with an empty stack: one slot, a ray that pushes 5, 6, 7 and ends, then a ray
+  // that fetches them. Without the reset, 5 and 6 would be two pops and fill 7.
+  c.ray_slots = 1;
+  TimingModel m2(c, l);
+  TimingStats s2;
+  std::vector<std::vector<TraceEvent>> rays = {
+      {node(0), TraceEvent{TraceEvent::kStackRef, 0, 0, 0, 5}, TraceEvent{TraceEvent::kStackRef, 1, 0, 0, 6},
+       TraceEvent{TraceEvent::kStackRef, 2, 0, 0, 7}},
+      {node(5), node(6), node(7)}};
+  m2.begin(2, s2);
+  m2.feed(rays.data(), 2);
+  m2.finish();
+  CHECK(s2.prefetch_fills == 0);
 }

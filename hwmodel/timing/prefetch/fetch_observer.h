@@ -52,6 +52,7 @@ struct StackPush {
   uint32_t slot;
   uint32_t rank;                   // in pop order: 0 is popped first
   uint64_t first_line, last_line;  // the node's lines
+  uint32_t index;                  // the node
 };
 
 class FetchObserver {
@@ -59,6 +60,7 @@ class FetchObserver {
   virtual ~FetchObserver() = default;
   virtual void on_fetch(const LineFetch& f, LinePort& port) = 0;
   virtual void on_push(const StackPush&, LinePort&) {}
+  virtual void on_ray(uint32_t /*slot*/) {}  // a new ray entered the slot
 };
 
 // What an observer may know of the unit's layout when it is made: where the nodes lie, and the treelets when the

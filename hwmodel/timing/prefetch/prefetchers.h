@@ -35,6 +35,10 @@ inline const std::vector<PrefetcherInfo>& prefetchers() {
        detail::make_prefetcher<TreeletPrefetcher>},
       {"stack", "the lines of the prefetch_degree nodes a ray pushes that it pops first, at the push",
        detail::make_prefetcher<StackPrefetcher>, true},
+      {"stack_pop",
+       "on the second of two consecutive pops, the lines of the prefetch_degree entries then on the stack (TTP's "
+       "trigger)",
+       detail::make_prefetcher<StackPopPrefetcher>, true},
   };
   return table;
 }
@@ -76,7 +80,8 @@ inline const std::vector<TimingKeyInfo>& prefetch_keys() {
   using C = TimingConfig;
   static const std::vector<TimingKeyInfo> keys = {
       {"prefetcher", &C::prefetcher, 0, 0,
-       "what fills the node cache besides demand fetches: none or next_line (prefetch/fetch_observer.h)",
+       "what fills the node cache besides demand fetches: none, next_line, treelet, stack or stack_pop "
+       "(prefetch/prefetchers.h)",
        [](const C& c) {
          return find_prefetcher(c.prefetcher) ? std::string()
                                               : "prefetcher = '" + c.prefetcher +

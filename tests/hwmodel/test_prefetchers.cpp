@@ -217,26 +217,30 @@ TEST_CASE("treelet layouts and prefetchers never change a hit, and refuse what t
     r.tmax = 1e30f;
     rays.push_back(r);
   }
-  const FixedReference ref = fixed_reference(10, rays);
-  const std::vector<uint8_t>& bytes = ref.bytes;
-  const std::vector<Hit>& want = ref.hits;
-  uint64_t cycles[2] = {0, 0};
-  for (const char* pf : {"none", "treelet", "next_line", "stack", "stack_pop"})
-    for (int q : {0, 16}) {
-      CAPTURE(pf, q);
-      TimingConfig c = timing_preset("rdna2-mem");
-      set_timing_key(c, "treelet_bytes", "512");
-      set_timing_key(c, "prefetcher", pf);
-      set_timing_key(c, "prefetch_queue", std::to_string(q));
-      for (int threads : {1, 2}) {
-        std::vector<Hit> got;
-        cycles[threads - 1] = trace_timed(c, bytes, rays, threads, got);
-        size_t differ = 0;
-        for (size_t i = 0; i < rays.size(); ++i) differ += got[i].prim != want[i].prim || got[i].t != want[i].t;
-        CHECK(differ == 0);
+  // compact: the packed layout, whose leaves are pushed beside inner nodes (a push's first inner node may have any
+  // rank).
+  for (const char* format : {"default", "compact"}) {
+    const FixedReference ref = fixed_reference(10, rays, format);
+    const std::vector<Hit>& want = ref.hits;
+    uint64_t cycles[2] = {0, 0};
+    for (const char* pf : {"none", "treelet", "next_line", "stack", "stack_pop"})
+      for (int q : {0, 16}) {
+        CAPTURE(format, pf, q);
+        TimingConfig c = timing_preset("rdna2-mem");
+        set_timing_key(c, "treelet_bytes", "512");
+        set_timing_key(c, "prefetcher", pf);
+        set_timing_key(c, "prefetch_queue", std::to_string(q));
+        for (int threads : {1, 2}) {
+          std::vector<Hit> got;
+          cycles[threads - 1] = trace_timed(c, ref.bytes, rays, threads, got);
+          size_t differ = 0;
+          for (size_t i = 0; i < rays.size(); ++i) differ += got[i].prim != want[i].prim || got[i].t != want[i].t;
+          CHECK(differ == 0);
+        }
+        CHECK(cycles[0] == cycles[1]);  // the same cycles on 1 and 2 host threads
       }
-      CHECK(cycles[0] == cycles[1]);  // the same cycles on 1 and 2 host threads
-    }
+  }
+  const std::vector<uint8_t> bytes = fixed_reference(10, rays).bytes;
   TimingConfig c = timing_preset("rdna2");
   set_timing_key(c, "prefetcher", "treelet");
   {

@@ -65,16 +65,17 @@ inline uint64_t trace_timed(const rtu::hw::TimingConfig& c, const std::vector<ui
   return cycles;
 }
 
-// A random soup (fixed_checks::random_scene(seed, 2000, 20)) encoded at the default format: the image's bytes, and
+// A random soup (fixed_checks::random_scene(seed, 2000, 20)) encoded at a format preset: the image's bytes, and
 // the fixed device's closest hits of `rays`, which every timed run must reproduce bit for bit.
 struct FixedReference {
   std::vector<uint8_t> bytes;
   std::vector<rtu::hw::Hit> hits;
 };
-inline FixedReference fixed_reference(uint64_t seed, const std::vector<rtu::hw::Ray>& rays) {
+inline FixedReference fixed_reference(uint64_t seed, const std::vector<rtu::hw::Ray>& rays,
+                                      const char* format = "default") {
   using namespace rtu::hw;
   const Geometry g = fixed_checks::random_scene(seed, 2000, 20);
-  const FixedFormat f = format_preset("default");
+  const FixedFormat f = format_preset(format);
   BvhBuildParams bp;
   bp.width = f.width;
   const Bvh bvh = Bvh::build(g, bp);

@@ -42,16 +42,21 @@ class StackPopPrefetcher final : public FetchObserver {
     Slot& s = m_slots[slot];
     s.stack.clear();
     s.popped = false;
+    s.new_push = true;
   }
   void on_push(const StackPush& p, LinePort&) override {
     Slot& s = m_slots[p.slot];
-    if (p.rank == 0) s.group = s.stack.size();
+    // A push's entries come together, after the fetch of the node whose test pushed them (leaves are not shown,
+    // so the first may have any rank).
+    if (s.new_push) s.group = s.stack.size();
+    s.new_push = false;
     // The nearest entry of a push is on top: each later rank goes below the ones before it.
     s.stack.insert(s.stack.begin() + ptrdiff_t(s.group), Entry{p.index, p.first_line, p.last_line});
   }
   void on_fetch(const LineFetch& f, LinePort& port) override {
-    if (f.kind != TraceEvent::kNode) return;
     Slot& s = m_slots[f.slot];
+    s.new_push = true;
+    if (f.kind != TraceEvent::kNode) return;
     size_t i = s.stack.size();
     while (i > 0 && s.stack[i - 1].index != f.index) --i;
     if (i == 0) {  // a descent
@@ -77,6 +82,7 @@ class StackPopPrefetcher final : public FetchObserver {
     std::vector<Entry> stack;  // bottom first
     size_t group = 0;          // where the current push's entries go
     bool popped = false;       // the slot's last node fetch was a pop
+    bool new_push = true;      // the next pushed entry starts a push (a fetch came since the last)
   };
   uint32_t m_degree;
   std::vector<Slot> m_slots;

@@ -95,6 +95,9 @@ struct TimingConfig {
   int prefetch_degree = 1;
   // Lines a prefetcher's fills may wait for an idle memory (0: none wait, each goes at once).
   int prefetch_queue = 0;
+  // Lines of a fully associative prefetch buffer beside the node cache (LRU): fills go there instead of into the
+  // cache, and a demand hit moves the line into the cache (0: fills go into the cache).
+  int prefetch_buffer = 0;
   // Bytes of a treelet in the timing layout (prefetch/treelets.h): 0 places nodes in the image's order.
   int treelet_bytes = 0;
   // Ray coherence gathering (ray_gather.h): "none" (the default) or the bin key; the origin grid's bits per axis,

@@ -329,3 +329,45 @@ TEST_CASE("a stack prefetch on the second of two pops fills the entry then on to
   m2.finish();
   CHECK(s2.prefetch_fills == 0);
 }
+
+TEST_CASE("a prefetch buffer keeps fills out of the cache: no pollution, a hit moves the line in", "[timing]") {
+  TimingConfig c = test_config();
+  c.cache_kib = 1;   // 16 lines of 64 bytes,
+  c.cache_ways = 1;  // direct mapped: line 16 evicts line 0
+  set_timing_key(c, "prefetcher", "next_line");
+  TimingModel::Layout l;
+  l.node_bytes = 64;
+  l.record_offset = 1 << 20;
+  l.plane_offset = 2 << 20;
+  const uint64_t enter = c.packet_latency + c.ray_fetch_latency + c.setup_latency;
+  const uint64_t miss = c.cache_latency + 64 / 8 + c.dram_latency;
+  const uint64_t per_node = c.box_latency + c.traversal_latency;
+  // Node 0, node 15, node 0 again. Each miss fills its next line behind its own on the channel, long before the
+  // next fetch. Into the cache, node 15's fill (line 16) evicts line 0: node 0 misses again.
+  const std::vector<TraceEvent> ray = {node(0), node(15), node(0)};
+  TimingModel polluted(c, l);
+  TimingStats sp;
+  CHECK(run(polluted, ray, sp) == enter + 3 * (miss + per_node) + c.writeback_latency);
+  CHECK(sp.cache_misses == 3);
+  CHECK(sp.prefetch_unused == 1);  // line 16, evicted unused by node 0's second miss
+  // Into a buffer of one line: line 1 goes there, line 16 replaces it (line 1 unused), and node 0 hits.
+  set_timing_key(c, "prefetch_buffer", "1");
+  TimingModel buffered(c, l);
+  TimingStats sb;
+  CHECK(run(buffered, ray, sb) ==
+        enter + 2 * (miss + per_node) + c.cache_latency + per_node + c.writeback_latency);
+  CHECK(sb.cache_misses == 2);
+  CHECK(sb.cache_hits == 1);
+  CHECK(sb.prefetch_fills == 2);
+  CHECK(sb.prefetch_unused == 1);
+  CHECK(sb.prefetch_useful == 0);
+  // A demand access that finds its line in the buffer: node 0, then node 1 (line 1, filled by node 0's miss) hits
+  // in the buffer and moves into the cache; a third access to it hits the cache.
+  TimingModel moved(c, l);
+  TimingStats sm;
+  run(moved, {node(0), node(1), node(1)}, sm);
+  CHECK(sm.cache_misses == 1);
+  CHECK(sm.cache_hits == 2);
+  CHECK(sm.prefetch_useful == 1);
+  CHECK(sm.prefetch_late == 0);
+}

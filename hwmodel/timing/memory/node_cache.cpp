@@ -11,6 +11,7 @@ NodeCache::NodeCache(const TimingConfig& c)
     m_sets = lines / m_ways;
     if ((m_sets & (m_sets - 1)) == 0) m_set_mask = m_sets - 1;
     m_lines.assign(lines, Line{});
+    m_buffer.assign(size_t(c.prefetch_buffer), Line{});
   }
 }
 
@@ -27,11 +28,30 @@ void NodeCache::warm(uint64_t line) {
   if (!m_prefetched.empty()) m_prefetched[size_t(victim - m_lines.data())] = 0;
 }
 
+uint64_t NodeCache::from_buffer(Line& b, Line* victim, uint64_t t, TimingStats& s) {
+  ++s.cache_hits;
+  ++s.prefetch_useful;
+  s.prefetch_late += b.ready > t;
+  if (!m_prefetched.empty()) evict_prefetched(victim, s);
+  *victim = Line{b.tag, ++m_stamp, b.ready};
+  b = Line{};
+  return std::max(t, victim->ready) + m_latency;
+}
+
 void NodeCache::prefetch(uint64_t line, uint64_t t, MemorySystem& mem, TimingStats& s) {
   if (m_lines.empty()) return;
   Line* ways = set_ways(line);
-  if (find_way(ways, line) >= 0) {
+  if (find_way(ways, line) >= 0 || (!m_buffer.empty() && buffered(line) >= 0)) {
     ++s.prefetch_redundant;
+    return;
+  }
+  if (!m_buffer.empty()) {
+    Line* victim = &m_buffer[0];
+    for (Line& b : m_buffer)
+      if (b.stamp < victim->stamp) victim = &b;
+    s.prefetch_unused += victim->stamp != 0;  // a buffered line is one no demand access has hit
+    ++s.prefetch_fills;
+    *victim = Line{line, ++m_stamp, mem.read_line(line, t + m_latency, s)};
     return;
   }
   Line* victim = lru_way(ways);

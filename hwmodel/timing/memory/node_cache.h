@@ -49,6 +49,9 @@ class NodeCache {
       return std::max(t, l.ready) + m_latency;
     }
     Line* victim = lru_way(ways);
+    if (!m_buffer.empty()) [[unlikely]] {
+      if (const int b = buffered(line); b >= 0) return from_buffer(m_buffer[size_t(b)], victim, t, s);
+    }
     ++s.cache_misses;
     if (!m_prefetched.empty()) evict_prefetched(victim, s);
     victim->tag = line;
@@ -58,8 +61,10 @@ class NodeCache {
   }
 
   // A prefetcher's fill at cycle t (prefetch/fetch_observer.h): unless the line is there or on its way, it is
-  // brought in as the most recent of its set, asked of the memory cache_latency after t as a miss would be.
-  // Counts prefetch_fills or prefetch_redundant, never a hit or a miss. Without a cache: nothing.
+  // brought in as the most recent of its set, asked of the memory cache_latency after t as a miss would be; with a
+  // prefetch buffer (prefetch_buffer lines), into the buffer's least recent entry instead, and a demand access
+  // that misses the cache and finds it there is a hit that moves it into the cache. Counts prefetch_fills or
+  // prefetch_redundant, never a hit or a miss. Without a cache: nothing.
   void prefetch(uint64_t line, uint64_t t, MemorySystem& mem, TimingStats& s);
   // Marks prefetched lines from now on, for prefetch_useful (a unit with a prefetcher calls it once).
   void track_prefetches() { m_prefetched.assign(m_lines.size(), 0); }
@@ -67,7 +72,8 @@ class NodeCache {
   // Whether the line is in the cache (or on its way): an access to it now would hit. Changes nothing.
   bool holds(uint64_t line) const {
     if (m_lines.empty()) return false;
-    return find_way(&m_lines[set_of(line) * m_ways], line) >= 0;
+    if (find_way(&m_lines[set_of(line) * m_ways], line) >= 0) return true;
+    return !m_buffer.empty() && buffered(line) >= 0;
   }
 
   // Functional warming: the line is made the most recent of its set (brought in, ready at once, if absent).
@@ -120,6 +126,17 @@ class NodeCache {
   uint64_t m_set_mask = 0;  // m_sets - 1 when m_sets is a power of two (else 0: a division)
   // Per way, 1 for a line a prefetcher brought in that no demand access has hit yet (empty: not tracked).
   std::vector<uint8_t> m_prefetched;
+  // The prefetch buffer (prefetch_buffer > 0): fully associative, LRU by stamp.
+  std::vector<Line> m_buffer;
+  // The buffer entry holding line, or -1.
+  int buffered(uint64_t line) const {
+    for (size_t i = 0; i < m_buffer.size(); ++i)
+      if (m_buffer[i].tag == line) return int(i);
+    return -1;
+  }
+  // A demand access at t that missed the cache found its line in the buffer: the line moves into the cache's
+  // victim way.
+  uint64_t from_buffer(Line& b, Line* victim, uint64_t t, TimingStats& s);
   // The victim's line leaves: a prefetched line no demand access hit counts as unused.
   void evict_prefetched(const Line* victim, TimingStats& s) {
     uint8_t& p = m_prefetched[size_t(victim - m_lines.data())];

@@ -91,6 +91,9 @@ inline const std::vector<TimingKeyInfo>& prefetch_keys() {
       {"prefetch_queue", &C::prefetch_queue, 0, 4096,
        "0: a prefetcher's fills go to memory at once; > 0: they wait in a queue of this many lines and go only "
        "when the memory is idle at a fetch (demand first; a full queue drops its oldest)"},
+      {"prefetch_buffer", &C::prefetch_buffer, 0, 4096,
+       "0: a prefetcher's fills go into the node cache; > 0: into a fully associative buffer of this many lines "
+       "beside it, from which a demand hit moves the line into the cache (no pollution of the cache)"},
       {"treelet_bytes", &C::treelet_bytes, 0, 65536,
        "timing layout: 0 nodes in the image's order; > 0 nodes in treelets of at most this many bytes, each "
        "contiguous (prefetch/treelets.h; prefetcher = treelet needs it > 0)"},

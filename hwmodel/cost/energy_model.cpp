@@ -61,7 +61,8 @@ double logic_area_mm2(double nand2_eq, const Technology& t) {
 
 double cache_sram_bits(const TimingConfig& c) {
   if (c.cache_kib <= 0) return 0.0;
-  const double lines = double(c.cache_kib) * 1024.0 / double(c.line_bytes);
+  // The prefetch buffer's lines are cache lines with full tags beside it.
+  const double lines = double(c.cache_kib) * 1024.0 / double(c.line_bytes) + double(c.prefetch_buffer);
   return lines * (double(c.line_bytes) * 8.0 + 33.0);
 }
 

@@ -30,6 +30,8 @@ techniques=(
   "stack, degree 1|--set prefetcher=stack"
   "stack, degree 2, queue 64|--set prefetcher=stack --set prefetch_degree=2 --set prefetch_queue=64"
   "stack_pop, degree 2, queue 64|--set prefetcher=stack_pop --set prefetch_degree=2 --set prefetch_queue=64"
+  "next_line, buffer 16|--set prefetcher=next_line --set prefetch_buffer=16"
+  "treelet 512, queue 64, buffer 32|--set treelet_bytes=512 --set prefetcher=treelet --set prefetch_queue=64 --set prefetch_buffer=32"
   "restart trail|--set stack_mode=restart"
   "gather octant|--set gather=octant"
   "gather two_point|--set gather=two_point"

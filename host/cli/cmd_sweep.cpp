@@ -3,7 +3,10 @@
 // and
 // --image-width are skipped), shardable (--shard k/N runs every N-th point, so independent jobs split a large
 // sweep) and mergeable (--merge, of rows made with the same run parameters).
+#include <unistd.h>
+
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -13,6 +16,7 @@
 
 #include "host/cli/common.h"
 #include "host/io/error.h"
+#include "host/jobs/point_key.h"
 #include "host/jobs/suite.h"
 #include "host/jobs/sweep.h"
 #include "hwmodel/numeric/fixed_format.h"
@@ -24,10 +28,59 @@ namespace {
 
 struct SweepArgs {
   SweepGrid grid;
-  std::vector<std::string> merge;
+  std::vector<std::string> merge, sets;
   std::string out, shard = "1/1", area, suite;
+  std::string write_manifest, manifest, results, collect;
   SweepOptions opt;
 };
+
+// --set KEY=V1,V2,...: every configuration with each value of each key (in the order given, the last key varying
+// fastest), as sweep_config specs "preset:KEY=V".
+std::vector<std::string> expand_sets(const std::vector<std::string>& configs,
+                                     const std::vector<std::string>& sets) {
+  std::vector<std::string> out = configs;
+  for (const std::string& s : sets) {
+    const size_t eq = s.find('=');
+    if (eq == std::string::npos || eq == 0 || eq + 1 == s.size())
+      throw Error("--set: expected KEY=V1,V2,... (a timing key and its values), got '" + s + "'");
+    const std::string key = s.substr(0, eq);
+    std::vector<std::string> values;
+    for (size_t start = eq + 1;;) {
+      const size_t comma = s.find(',', start);
+      values.push_back(s.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
+      if (comma == std::string::npos) break;
+      start = comma + 1;
+    }
+    std::vector<std::string> next;
+    for (const std::string& c : out)
+      for (const std::string& v : values) {
+        if (v.empty()) throw Error("--set " + s + ": an empty value");
+        next.push_back(c + ":" + key + "=" + v);
+      }
+    out = std::move(next);
+  }
+  return out;
+}
+
+// --shard auto: the task's share from its scheduler: a Slurm array task (SLURM_ARRAY_TASK_ID counted from
+// SLURM_ARRAY_TASK_MIN, of SLURM_ARRAY_TASK_COUNT), or RTU_SHARD=k/N (GNU parallel, HTCondor, a shell loop).
+std::string shard_from_env() {
+  const char* id = std::getenv("SLURM_ARRAY_TASK_ID");
+  const char* count = std::getenv("SLURM_ARRAY_TASK_COUNT");
+  if (id && count) {
+    const char* min = std::getenv("SLURM_ARRAY_TASK_MIN");
+    try {
+      const long k = std::stol(id) - (min ? std::stol(min) : 0) + 1;
+      return std::to_string(k) + "/" + count;
+    } catch (const std::exception&) {
+      throw Error(std::string("--shard auto: SLURM_ARRAY_TASK_ID '") + id + "' is not a number");
+    }
+  }
+  if (const char* s = std::getenv("RTU_SHARD")) return s;
+  throw Error(
+      "--shard auto: neither a Slurm array task (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_COUNT) nor RTU_SHARD=k/N "
+      "in the environment");
+}
 
 // "k/N" with 1 <= k <= N.
 std::pair<size_t, size_t> parse_shard(const std::string& s) {
@@ -91,10 +144,16 @@ void run_merge(const SweepArgs& a) {
 }
 
 void run_sweep_points(const SweepArgs& a);
+void write_manifest(const SweepArgs& a);
+void run_manifest(const SweepArgs& a);
+void collect_points(const SweepArgs& a);
 
 void run_sweep(const SweepArgs& a) {
   if (!a.merge.empty()) return run_merge(a);
+  if (!a.collect.empty()) return collect_points(a);
+  if (!a.manifest.empty()) return run_manifest(a);
   SweepArgs args = a;
+  args.grid.configs = expand_sets(a.grid.configs, a.sets);
   if (!a.suite.empty()) {  // the suite's available scenes after --scene's; skipped ones named on stderr
     for (const std::string& spec : suite_scenes(a.suite, [](const std::string& line) {
            std::fprintf(stderr, "rtusim: warning: %s\n", line.c_str());
@@ -102,7 +161,143 @@ void run_sweep(const SweepArgs& a) {
       args.grid.scenes.push_back(spec);
     if (args.grid.scenes.empty()) throw Error("sweep: " + a.suite + ": no scene of the suite is available");
   }
+  if (!a.write_manifest.empty()) return write_manifest(args);
+  if (a.out.empty())
+    throw Error("sweep: --out is required (or --write-manifest FILE, --manifest FILE --results DIR)");
   run_sweep_points(args);
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("cannot read " + path);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+void write_manifest(const SweepArgs& a) {
+  if (a.grid.scenes.empty()) throw Error("sweep: --scene or --suite is required");
+  check_sweep_grid(a.grid);
+  check_sweep_rays("sweep", a.opt.rays);
+  Manifest m;
+  m.params = sweep_run_params(a.opt);
+  std::set<std::string> seen;
+  size_t repeated = 0;
+  for (const std::string& spec : a.grid.scenes) {
+    const std::string digest = scene_digest(load_scene(spec));
+    for (int w : a.grid.widths)
+      for (const std::string& f : a.grid.formats)
+        for (const std::string& c : a.grid.configs) {
+          const SweepPoint p{spec, f, w, c};
+          const std::string key = point_key(digest, p, a.opt);
+          if (!seen.insert(key).second) {
+            ++repeated;  // the same computation under another spelling: it runs once
+            continue;
+          }
+          m.points.push_back({key, p});
+        }
+  }
+  std::ofstream out(a.write_manifest, std::ios::binary | std::ios::trunc);
+  out << manifest_text(m);
+  if (!out.flush()) throw Error("cannot write " + a.write_manifest);
+  std::printf("manifest: %zu points (%zu repeated points listed once) with %s -> %s\n", m.points.size(), repeated,
+              m.params.c_str(), a.write_manifest.c_str());
+}
+
+void run_manifest(const SweepArgs& a) {
+  if (a.results.empty()) throw Error("sweep --manifest: --results DIR is required (the folder of point files)");
+  const Manifest m = parse_manifest(read_text(a.manifest), a.manifest);
+  SweepOptions o = options_from_params(m.params);
+  o.threads = a.opt.threads;
+  SweepGrid check;
+  check.scenes.clear();
+  check.formats.clear();
+  check.configs.clear();
+  check.widths.clear();
+  for (const ManifestPoint& p : m.points) {
+    check.formats.push_back(p.point.format);
+    check.configs.push_back(p.point.config);
+    check.widths.push_back(p.point.bvh_width);
+  }
+  check_sweep_grid(check);
+  check_sweep_rays("sweep", o.rays);
+  const auto [shard, shards] = parse_shard(a.shard == "auto" ? shard_from_env() : a.shard);
+  std::filesystem::create_directories(a.results);
+  const AreaTable area = a.area.empty() ? AreaTable::shipped() : AreaTable::load(a.area);
+  char host[256] = "unknown";
+  gethostname(host, sizeof host - 1);
+  std::string loaded;  // the scene spec held in `scene`
+  std::unique_ptr<Scene> scene;
+  std::string digest;
+  auto cache = make_sweep_cache();
+  size_t ran = 0, done = 0, mine = 0;
+  for (size_t i = 0; i < m.points.size(); ++i) {
+    if (i % shards != shard - 1) continue;
+    ++mine;
+    const ManifestPoint& mp = m.points[i];
+    if (std::filesystem::exists(std::filesystem::path(a.results) / (mp.key + ".json"))) {
+      ++done;  // complete: a point file appears only whole
+      continue;
+    }
+    if (!scene || loaded != mp.point.scene) {
+      scene = std::make_unique<Scene>(load_scene(mp.point.scene));
+      digest = scene_digest(*scene);
+      loaded = mp.point.scene;
+      cache = make_sweep_cache();
+    }
+    const std::string key = point_key(digest, mp.point, o);
+    if (key != mp.key)
+      throw Error("point " + mp.key + " (" + mp.point.key() + "): this rtu and these files make it point " + key +
+                  ": the scene, a mesh it references or rtu's results revision changed since the manifest was "
+                  "written; write the manifest again");
+    const SweepRow r = run_sweep_point(*scene, mp.point, o, area, *cache);
+    write_point_file(a.results, mp.key, r, PointProvenance{kRtuVersion, host, o.threads, r.seconds});
+    ++ran;
+    std::printf("%s %s %s w%d %s: %llu cycles, %.1f s\n", mp.key.c_str(), mp.point.scene.c_str(),
+                mp.point.format.c_str(), mp.point.bvh_width, mp.point.config.c_str(), (unsigned long long)r.cycles,
+                r.seconds);
+    std::fflush(stdout);
+  }
+  std::printf("sweep: %zu points in this shard (%zu/%zu), %zu run, %zu already in %s\n", mine, shard, shards, ran,
+              done, a.results.c_str());
+}
+
+void collect_points(const SweepArgs& a) {
+  if (a.manifest.empty() || a.out.empty())
+    throw Error("sweep --collect DIR: --manifest FILE (which points, in which order) and --out CSV are required");
+  const Manifest m = parse_manifest(read_text(a.manifest), a.manifest);
+  std::vector<SweepRow> rows;
+  std::vector<std::string> missing;
+  std::string prov_csv = "key,version,host,threads,seconds\n";  // the manifest names each key's point
+  double seconds = 0.0;
+  for (const ManifestPoint& mp : m.points) {
+    SweepRow r;
+    PointProvenance prov;
+    if (!read_point_file(a.collect, mp.key, r, prov)) {
+      missing.push_back(mp.key);
+      continue;
+    }
+    if (r.p.key() != mp.point.key() || sweep_run_params(r) != m.params)
+      throw Error(a.collect + "/" + mp.key + ".json: holds point " + r.p.key() + " made with " +
+                  sweep_run_params(r) + ", not the manifest's " + mp.point.key() + " with " + m.params);
+    rows.push_back(r);
+    seconds += prov.seconds;
+    prov_csv += mp.key + "," + prov.version + "," + prov.host + "," + std::to_string(prov.threads) + "," +
+                std::to_string(prov.seconds) + "\n";
+  }
+  if (!missing.empty()) {
+    std::string some;
+    for (size_t i = 0; i < missing.size() && i < 5; ++i) some += (i ? ", " : "") + missing[i];
+    throw Error("sweep --collect: " + std::to_string(missing.size()) + " of " + std::to_string(m.points.size()) +
+                " points have no file in " + a.collect + " (" + some + (missing.size() > 5 ? ", ..." : "") +
+                "); run the manifest again: only the missing points run");
+  }
+  write_rows(a.out, rows);
+  const std::string prov_path = a.out + ".provenance.csv";
+  std::ofstream prov(prov_path, std::ios::binary | std::ios::trunc);
+  prov << prov_csv;
+  if (!prov.flush()) throw Error("cannot write " + prov_path);
+  std::printf("collected %zu points -> %s (provenance: %s); %.1f s of point time, %.0f points per worker-hour\n",
+              rows.size(), a.out.c_str(), prov_path.c_str(), seconds,
+              seconds > 0 ? 3600.0 * rows.size() / seconds : 0.0);
 }
 
 void run_sweep_points(const SweepArgs& a) {
@@ -213,10 +408,26 @@ void add_sweep(CLI::App& app) {
   sub->add_option("--bvh-width", a->grid.widths, "BVH widths, comma-separated (2, 4, 6, 8)")
       ->delimiter(',')
       ->capture_default_str();
-  sub->add_option("--config", a->grid.configs, "timing presets, comma-separated")
+  sub->add_option("--config", a->grid.configs,
+                  "timing configurations, comma-separated: a preset (rtusim config --list) or a preset with keys "
+                  "changed, e.g. rdna2:cache_kib=16:box_units=2")
       ->delimiter(',')
-      ->check(CLI::IsMember(hw::timing_preset_names()))  // each element
       ->capture_default_str();
+  sub->add_option("--set", a->sets,
+                  "KEY=V1,V2,...: each configuration with each value of the timing key (repeatable: every "
+                  "combination)");
+  sub->add_option("--write-manifest", a->write_manifest,
+                  "write the grid's points, each with its content key, to this manifest and run none");
+  sub->add_option("--manifest", a->manifest,
+                  "run this manifest's points (or --shard k/N of them, --shard auto from a Slurm array or "
+                  "RTU_SHARD) into --results, one file per point; with --collect: the points to collect")
+      ->check(CLI::ExistingFile);
+  sub->add_option("--results", a->results,
+                  "folder of point files (KEY.json, each written whole); points whose file is there are skipped");
+  sub->add_option("--collect", a->collect,
+                  "collect this folder's point files for --manifest's points into --out (a sweep CSV) and "
+                  "--out.provenance.csv")
+      ->check(CLI::ExistingDirectory);
   sub->add_option("--rays", a->opt.rays, "camera rays and as many incoherent rays per point")
       ->check(CLI::Range(uint64_t(1), uint64_t(1) << 26))
       ->capture_default_str();
@@ -234,7 +445,10 @@ void add_sweep(CLI::App& app) {
                   "RTL area table (CSV params,cells,flip_flops,transistors; bench/rtl_area.sh writes it; default: "
                   "the shipped bench/data/rtl_area.csv)")
       ->check(CLI::ExistingFile);
-  sub->add_option("--shard", a->shard, "run every N-th point, starting at the k-th: k/N")->capture_default_str();
+  sub->add_option("--shard", a->shard,
+                  "run every N-th point, starting at the k-th: k/N; with --manifest also auto (a Slurm array "
+                  "task's, or RTU_SHARD's)")
+      ->capture_default_str();
   CLI::Option* merge =
       sub->add_option("--merge", a->merge,
                       "merge these sweep CSVs into --out (no points run; their rows must share --rays, --seed and "
@@ -242,12 +456,16 @@ void add_sweep(CLI::App& app) {
           ->check(CLI::ExistingFile);
   // Merging runs no point: the options of a run would be ignored, so they are refused with it.
   for (const char* name : {"--scene", "--suite", "--formats", "--bvh-width", "--config", "--rays", "--seed",
-                           "--image-width", "--threads", "--area", "--shard", "--flatten"})
+                           "--image-width", "--threads", "--area", "--shard", "--flatten", "--set",
+                           "--write-manifest", "--manifest", "--results", "--collect"})
     merge->excludes(sub->get_option(name));
+  // A manifest fixes the grid and the run parameters: the grid's options would be ignored.
+  for (const char* name : {"--scene", "--suite", "--formats", "--bvh-width", "--config", "--rays", "--seed",
+                           "--image-width", "--flatten", "--set", "--write-manifest"})
+    sub->get_option("--manifest")->excludes(sub->get_option(name));
   sub->add_option("--out", a->out,
                   "CSV to write; points already in it made with the same --rays, --seed and --image-width are "
-                  "skipped (resume)")
-      ->required();
+                  "skipped (resume)");
   sub->callback([a] { run_sweep(*a); });
 }
 

@@ -414,8 +414,14 @@ std::string sweep_csv_line(const SweepRow& r) {
 }
 
 std::vector<SweepRow> read_sweep_csv(const std::string& path, bool* header_is_current) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error("cannot read the sweep file " + path);
+  std::ifstream file(path, std::ios::binary);
+  if (!file) throw Error("cannot read the sweep file " + path);
+  const std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  return parse_sweep_csv(text, path, header_is_current);
+}
+
+std::vector<SweepRow> parse_sweep_csv(const std::string& text, const std::string& path, bool* header_is_current) {
+  std::istringstream in(text);
   std::vector<SweepRow> rows;
   std::string line;
   size_t n = 0;

@@ -133,6 +133,9 @@ std::string sweep_csv_line(const SweepRow& r);
 // that traced two levels (flatten 0), as that version did; `header_is_current`, when given, says whether the file
 // has this version's header (a resumed sweep rewrites an older one before appending).
 std::vector<SweepRow> read_sweep_csv(const std::string& path, bool* header_is_current = nullptr);
+// The same from the file's text (`path` names it in errors).
+std::vector<SweepRow> parse_sweep_csv(const std::string& text, const std::string& path,
+                                      bool* header_is_current = nullptr);
 // True when two rows of one point give the same results: every column but the wall time (`seconds`).
 bool same_sweep_results(const SweepRow& a, const SweepRow& b);
 // The first column whose value differs between two rows of one point, as "name a against b" (empty: none but

@@ -367,3 +367,139 @@ TEST_CASE("plan: budgets no sample can show and NaN options are refused up front
     CHECK(r.output.find(std::string(opt) + ": 'nan' is not a finite number") != std::string::npos);
   }
 }
+
+namespace {
+
+// The keys of a manifest's points, in order.
+std::vector<std::string> manifest_keys(const fs::path& m) {
+  std::vector<std::string> keys;
+  const std::vector<std::string> lines = read_lines(m);
+  for (size_t i = 2; i < lines.size(); ++i) keys.push_back(lines[i].substr(0, lines[i].find('\t')));
+  return keys;
+}
+
+size_t point_files(const fs::path& dir, size_t* temporary = nullptr) {
+  size_t n = 0, tmp = 0;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind(".tmp-", 0) == 0)
+      ++tmp;
+    else if (e.path().extension() == ".json")
+      ++n;
+  }
+  if (temporary) *temporary = tmp;
+  return n;
+}
+
+}  // namespace
+
+TEST_CASE("sweep manifests: content keys, shards in any order, eight writers, resume, collect", "[cli][sweep]") {
+  const fs::path d = temp_dir("cli_manifest");
+  fs::remove_all(d / "res");
+  const std::string grid =
+      "sweep --scene builtin:seed --formats default,compact --set cache_kib=16,64 --rays 400 --image-width 0 ";
+  const std::string whole = (d / "whole.csv").string(), m = (d / "m.txt").string(), res = (d / "res").string(),
+                    all = (d / "all.csv").string();
+  fs::remove(whole);
+  REQUIRE(run_rtusim(grid + "--out " + whole).status == 0);
+  Run r = run_rtusim(grid + "--write-manifest " + m);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  const std::vector<std::string> keys = manifest_keys(m);
+  REQUIRE(keys.size() == 4);
+  // Three shards, last first, then the collected table equals the single run's (wall times aside).
+  for (const char* shard : {"3/3", "1/3", "2/3"})
+    REQUIRE(run_rtusim("sweep --manifest " + m + " --results " + res + " --shard " + shard).status == 0);
+  REQUIRE(point_files(res) == 4);
+  r = run_rtusim("sweep --collect " + res + " --manifest " + m + " --out " + all);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  check_same_rows(read_lines(all), read_lines(whole));
+  CHECK(read_lines(all + ".provenance.csv").size() == 5);
+  // Resume: nothing runs again. A point whose file is gone (a task killed before its rename leaves at most a
+  // temporary file, which nothing reads) runs alone.
+  r = run_rtusim("sweep --manifest " + m + " --results " + res);
+  CHECK(r.output.find("4 points in this shard (1/1), 0 run, 4 already") != std::string::npos);
+  fs::remove(fs::path(res) / (keys[1] + ".json"));
+  std::ofstream(fs::path(res) / (".tmp-" + keys[1] + "-killed")) << "{\"key\": \"" << keys[1];
+  r = run_rtusim("RTU_SHARD=1/1", "sweep --manifest " + m + " --results " + res + " --shard auto");
+  INFO(r.output);
+  CHECK(r.output.find("1 run, 3 already") != std::string::npos);
+  REQUIRE(run_rtusim("sweep --collect " + res + " --manifest " + m + " --out " + all).status == 0);
+  check_same_rows(read_lines(all), read_lines(whole));
+  // A missing point: collect names it and fails.
+  fs::remove(fs::path(res) / (keys[2] + ".json"));
+  r = run_rtusim("sweep --collect " + res + " --manifest " + m + " --out " + all);
+  CHECK(r.status == 2);
+  CHECK(r.output.find("1 of 4 points have no file") != std::string::npos);
+  CHECK(r.output.find(keys[2]) != std::string::npos);
+  // Eight writers of the same manifest into one folder at once: every point once, whole.
+  fs::remove_all(res);
+  std::string eight;
+  for (int i = 0; i < 8; ++i)
+    eight +=
+        std::string(RTUSIM_EXE) + " sweep --manifest " + m + " --results " + res + " --threads 1 >/dev/null & ";
+  REQUIRE(run_process(eight + "wait").status == 0);
+  size_t tmp = 0;
+  CHECK(point_files(res, &tmp) == 4);
+  CHECK(tmp == 0);
+  REQUIRE(run_rtusim("sweep --collect " + res + " --manifest " + m + " --out " + all).status == 0);
+  check_same_rows(read_lines(all), read_lines(whole));
+}
+
+TEST_CASE("sweep point keys: a changed mesh or timing key changes exactly the points it touches", "[cli][sweep]") {
+  const fs::path d = temp_dir("cli_keys");
+  const fs::path mesh = d / "two.obj", copy = d / "copy.obj";
+  auto write_mesh = [](const fs::path& p, const char* z) {
+    std::ofstream f(p);
+    f << "v 0 0 " << z << "\nv 1 0 0\nv 0 1 0\nv 1 1 1\nf 1 2 3\nf 2 4 3\n";
+  };
+  write_mesh(mesh, "0");
+  write_mesh(copy, "0");
+  auto keys_of = [&](const std::string& args) {
+    const std::string m = (d / "m.txt").string();
+    const Run r = run_rtusim("sweep " + args + " --rays 50 --image-width 0 --write-manifest " + m);
+    INFO(r.output);
+    REQUIRE(r.status == 0);
+    return manifest_keys(m);
+  };
+  const std::string cfg = " --config rdna2 --set cache_kib=16,64";
+  const std::vector<std::string> a = keys_of("--scene " + mesh.string() + " --scene builtin:seed" + cfg);
+  REQUIRE(a.size() == 4);
+  // The same content under another path: the same keys. A key computed twice: the same.
+  CHECK(keys_of("--scene " + copy.string() + " --scene builtin:seed" + cfg) == a);
+  // A preset's own value spelled out is the same configuration: listed once.
+  const std::vector<std::string> same = keys_of("--scene builtin:seed --config rdna2,rdna2:cache_kib=64");
+  CHECK(same.size() == 1);
+  CHECK(same[0] == a[3]);
+  // One timing value changed: only its points change.
+  const std::vector<std::string> b =
+      keys_of("--scene " + mesh.string() + " --scene builtin:seed --config rdna2 --set cache_kib=16,32");
+  CHECK(b[0] == a[0]);
+  CHECK(b[1] != a[1]);
+  CHECK(b[2] == a[2]);
+  CHECK(b[3] != a[3]);
+  // The mesh changed: its points change, the built-in's do not; a manifest written before refuses to run them.
+  const std::string m = (d / "before.txt").string();
+  REQUIRE(run_rtusim("sweep --scene " + mesh.string() + cfg + " --rays 50 --image-width 0 --write-manifest " + m)
+              .status == 0);
+  write_mesh(mesh, "0.5");
+  const std::vector<std::string> c = keys_of("--scene " + mesh.string() + " --scene builtin:seed" + cfg);
+  CHECK(c[0] != a[0]);
+  CHECK(c[1] != a[1]);
+  CHECK(c[2] == a[2]);
+  CHECK(c[3] == a[3]);
+  const Run r = run_rtusim("sweep --manifest " + m + " --results " + (d / "res").string());
+  CHECK(r.status == 2);
+  CHECK(r.output.find("changed since the manifest was written") != std::string::npos);
+  // A malformed manifest: a clear error.
+  {
+    std::ofstream f(d / "bad.txt");
+    f << "# rtu sweep manifest 1\n# params\t--rays 10 --seed 1 --image-width "
+         "0\nnotakey\tbuiltin:seed\tdefault\t4\trdna2\n";
+  }
+  const Run bad =
+      run_rtusim("sweep --manifest " + (d / "bad.txt").string() + " --results " + (d / "res").string());
+  CHECK(bad.status == 2);
+  CHECK(bad.output.find("not a point key") != std::string::npos);
+}

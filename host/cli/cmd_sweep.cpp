@@ -13,6 +13,7 @@
 #include <map>
 #include <memory>
 #include <set>
+#include <sstream>
 
 #include "host/cli/common.h"
 #include "host/io/error.h"
@@ -30,7 +31,7 @@ struct SweepArgs {
   SweepGrid grid;
   std::vector<std::string> merge, sets;
   std::string out, shard = "1/1", area, suite;
-  std::string write_manifest, manifest, results, collect;
+  std::string write_manifest, manifest, results, collect, points;
   SweepOptions opt;
 };
 
@@ -162,6 +163,8 @@ void run_sweep(const SweepArgs& a) {
     if (args.grid.scenes.empty()) throw Error("sweep: " + a.suite + ": no scene of the suite is available");
   }
   if (!a.write_manifest.empty()) return write_manifest(args);
+  if (!a.points.empty())
+    throw Error("sweep: --points needs --write-manifest (its points then run from the manifest)");
   if (a.out.empty())
     throw Error("sweep: --out is required (or --write-manifest FILE, --manifest FILE --results DIR)");
   run_sweep_points(args);
@@ -173,27 +176,72 @@ std::string read_text(const std::string& path) {
   return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
+// --points FILE: one point per line, "scene<TAB>format<TAB>width<TAB>config" (or the same with commas), as a
+// script writes them (Latin-hypercube samples, a table of configurations); # starts a comment line.
+std::vector<SweepPoint> read_points(const std::string& path) {
+  std::vector<SweepPoint> out;
+  std::istringstream in(read_text(path));
+  std::string line;
+  for (size_t n = 1; std::getline(in, line); ++n) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    const char sep = line.find('\t') != std::string::npos ? '\t' : ',';
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string x; std::getline(ss, x, sep);) f.push_back(x);
+    const std::string where = path + ":" + std::to_string(n);
+    if (f.size() != 4)
+      throw Error(where + ": expected scene, format, BVH width, configuration; got '" + line + "'");
+    SweepPoint p{f[0], f[1], 0, f[3]};
+    try {
+      size_t used = 0;
+      p.bvh_width = std::stoi(f[2], &used);
+      if (used != f[2].size()) throw std::invalid_argument("trailing");
+    } catch (const std::exception&) {
+      throw Error(where + ": BVH width '" + f[2] + "' is not an integer");
+    }
+    SweepGrid one;
+    one.formats = {p.format};
+    one.configs = {p.config};
+    one.widths = {p.bvh_width};
+    try {
+      check_sweep_grid(one);
+    } catch (const Error& e) {
+      throw Error(where + ": " + e.what());
+    }
+    out.push_back(p);
+  }
+  if (out.empty()) throw Error(path + ": no point");
+  return out;
+}
+
 void write_manifest(const SweepArgs& a) {
-  if (a.grid.scenes.empty()) throw Error("sweep: --scene or --suite is required");
-  check_sweep_grid(a.grid);
+  std::vector<SweepPoint> points;
+  if (!a.points.empty()) {
+    points = read_points(a.points);
+  } else {
+    if (a.grid.scenes.empty()) throw Error("sweep: --scene, --suite or --points is required");
+    check_sweep_grid(a.grid);
+    for (const std::string& spec : a.grid.scenes)
+      for (int w : a.grid.widths)
+        for (const std::string& f : a.grid.formats)
+          for (const std::string& c : a.grid.configs) points.push_back({spec, f, w, c});
+  }
   check_sweep_rays("sweep", a.opt.rays);
   Manifest m;
   m.params = sweep_run_params(a.opt);
   std::set<std::string> seen;
+  std::map<std::string, std::string> digests;  // scene spec: its content's digest
   size_t repeated = 0;
-  for (const std::string& spec : a.grid.scenes) {
-    const std::string digest = scene_digest(load_scene(spec));
-    for (int w : a.grid.widths)
-      for (const std::string& f : a.grid.formats)
-        for (const std::string& c : a.grid.configs) {
-          const SweepPoint p{spec, f, w, c};
-          const std::string key = point_key(digest, p, a.opt);
-          if (!seen.insert(key).second) {
-            ++repeated;  // the same computation under another spelling: it runs once
-            continue;
-          }
-          m.points.push_back({key, p});
-        }
+  for (const SweepPoint& p : points) {
+    auto it = digests.find(p.scene);
+    if (it == digests.end()) it = digests.emplace(p.scene, scene_digest(load_scene(p.scene))).first;
+    const std::string key = point_key(it->second, p, a.opt);
+    if (!seen.insert(key).second) {
+      ++repeated;  // the same computation under another spelling: it runs once
+      continue;
+    }
+    m.points.push_back({key, p});
   }
   std::ofstream out(a.write_manifest, std::ios::binary | std::ios::trunc);
   out << manifest_text(m);
@@ -418,6 +466,10 @@ void add_sweep(CLI::App& app) {
                   "combination)");
   sub->add_option("--write-manifest", a->write_manifest,
                   "write the grid's points, each with its content key, to this manifest and run none");
+  sub->add_option("--points", a->points,
+                  "with --write-manifest: the points of this file instead of a grid, one per line: scene, format, "
+                  "BVH width, configuration (tab- or comma-separated; # comments)")
+      ->check(CLI::ExistingFile);
   sub->add_option("--manifest", a->manifest,
                   "run this manifest's points (or --shard k/N of them, --shard auto from a Slurm array or "
                   "RTU_SHARD) into --results, one file per point; with --collect: the points to collect")
@@ -457,12 +509,14 @@ void add_sweep(CLI::App& app) {
   // Merging runs no point: the options of a run would be ignored, so they are refused with it.
   for (const char* name : {"--scene", "--suite", "--formats", "--bvh-width", "--config", "--rays", "--seed",
                            "--image-width", "--threads", "--area", "--shard", "--flatten", "--set",
-                           "--write-manifest", "--manifest", "--results", "--collect"})
+                           "--write-manifest", "--manifest", "--results", "--collect", "--points"})
     merge->excludes(sub->get_option(name));
   // A manifest fixes the grid and the run parameters: the grid's options would be ignored.
   for (const char* name : {"--scene", "--suite", "--formats", "--bvh-width", "--config", "--rays", "--seed",
-                           "--image-width", "--flatten", "--set", "--write-manifest"})
+                           "--image-width", "--flatten", "--set", "--write-manifest", "--points"})
     sub->get_option("--manifest")->excludes(sub->get_option(name));
+  for (const char* name : {"--scene", "--suite", "--formats", "--bvh-width", "--config", "--set"})
+    sub->get_option("--points")->excludes(sub->get_option(name));
   sub->add_option("--out", a->out,
                   "CSV to write; points already in it made with the same --rays, --seed and --image-width are "
                   "skipped (resume)");

@@ -492,6 +492,26 @@ TEST_CASE("sweep point keys: a changed mesh or timing key changes exactly the po
   const Run r = run_rtusim("sweep --manifest " + m + " --results " + (d / "res").string());
   CHECK(r.status == 2);
   CHECK(r.output.find("changed since the manifest was written") != std::string::npos);
+  // Points listed by a script: the same point twice is one; a bad line is named.
+  {
+    std::ofstream f(d / "points.csv");
+    f << "# scene,format,width,config\nbuiltin:seed,default,4,rdna2:cache_kib=16\n"
+         "builtin:seed\tcompact\t8\trdna2-mem:ray_slots=8\nbuiltin:seed,default,4,rdna2:cache_kib=16\n";
+  }
+  const Run pts = run_rtusim("sweep --points " + (d / "points.csv").string() +
+                             " --rays 50 --image-width 0 --write-manifest " + (d / "pm.txt").string());
+  INFO(pts.output);
+  REQUIRE(pts.status == 0);
+  CHECK(manifest_keys(d / "pm.txt").size() == 2);
+  CHECK(manifest_keys(d / "pm.txt")[0] == a[2]);  // the grid's builtin:seed, rdna2 with cache_kib 16
+  {
+    std::ofstream f(d / "points_bad.csv");
+    f << "builtin:seed,default,3,rdna2\n";
+  }
+  const Run pb = run_rtusim("sweep --points " + (d / "points_bad.csv").string() +
+                            " --rays 50 --image-width 0 --write-manifest " + (d / "pm.txt").string());
+  CHECK(pb.status == 2);
+  CHECK(pb.output.find("points_bad.csv:1") != std::string::npos);
   // A malformed manifest: a clear error.
   {
     std::ofstream f(d / "bad.txt");

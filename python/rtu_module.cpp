@@ -475,10 +475,16 @@ host::SweepOptions sweep_options(uint64_t rays, uint64_t seed, int image_width, 
   return o;
 }
 
-// rtusim sweep: the CSV text of every point (the Python layer reads it into a DataFrame).
+// rtusim sweep: the CSV text of every point (the Python layer reads it into a DataFrame); with shards > 1, of
+// shard `shard` of them only (1-based), as rtusim sweep --shard shard/shards: every shards-th point of the grid's
+// order, starting at the shard-th.
 std::string sweep(const std::vector<std::string>& scenes, const std::vector<std::string>& formats,
                   const std::vector<int>& widths, const std::vector<std::string>& configs, uint64_t rays,
-                  uint64_t seed, int image_width, int threads, const std::string& area_path, bool flatten) {
+                  uint64_t seed, int image_width, int threads, const std::string& area_path, bool flatten,
+                  size_t shard, size_t shards) {
+  if (shards < 1 || shard < 1 || shard > shards)
+    fail("shard: expected (k, N) with 1 <= k <= N, got (" + std::to_string(shard) + ", " + std::to_string(shards) +
+         ")");
   // An empty list would make an empty grid: no row, and no word of why.
   if (scenes.empty()) fail("scenes: empty (give at least one scene)");
   if (formats.empty()) fail("formats: empty (give at least one format spec)");
@@ -491,7 +497,7 @@ std::string sweep(const std::vector<std::string>& scenes, const std::vector<std:
   const host::AreaTable area = area_path.empty() ? host::AreaTable::shipped() : host::AreaTable::load(area_path);
   std::string csv = host::sweep_csv_header() + "\n";
   host::run_sweep_grid(
-      g, o, area, [](size_t, const host::SweepPoint&) { return true; },
+      g, o, area, [&](size_t index, const host::SweepPoint&) { return index % shards == shard - 1; },
       [&](const host::Scene&, const host::SweepRow& r) { csv += host::sweep_csv_line(r) + "\n"; });
   return csv;
 }
@@ -637,7 +643,7 @@ PYBIND11_MODULE(_rtu, m) {
 
   m.def("sweep", &sweep, py::arg("scenes"), py::arg("formats"), py::arg("bvh_widths"), py::arg("configs"),
         py::arg("rays"), py::arg("seed"), py::arg("image_width"), py::arg("threads"), py::arg("area"),
-        py::arg("flatten"));
+        py::arg("flatten"), py::arg("shard") = 1, py::arg("shards") = 1);
   m.def(
       "plan",
       [](const std::string& scene, double max_error, const std::string& metric, double min_psnr, double confidence,

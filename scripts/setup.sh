@@ -18,6 +18,9 @@ packages=(
   clang libclang-rt-14-dev                       # libFuzzer targets with ASan + UBSan (preset fuzz, tests/fuzz/)
   pybind11-dev python3-dev python3-numpy         # the Python module rtu (python/), built with pybind11
   python3-pandas python3-matplotlib python3-pytest  # its DataFrames, examples/ plots and pytest tests
+  slurm-wlm munge                                # sweeps as a Slurm job array: the cluster test starts a
+                                                 # single-node Slurm (scripts/slurm_local.sh, docs/guide/cluster.md)
+  python3-distributed                            # Dask: rtu.sweep_on with a Dask cluster's executor, and its test
 )
 
 missing=()

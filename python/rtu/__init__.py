@@ -27,7 +27,7 @@ __all__ = [
     "Error", "Scene", "InvalidRayWarning", "AccuracyWarning", "HIT_DTYPE", "RAY_FIELDS", "load_scene", "builtin_scenes", "rays",
     "make_rays", "read_rays", "write_rays", "read_hits", "write_hits", "trace", "TraceResult", "compare",
     "render", "RenderResult", "diff", "read_png", "write_png", "config", "presets", "formats", "format",
-    "sweep", "read_sweep", "plan", "pareto_front",
+    "sweep", "sweep_on", "read_sweep", "plan", "pareto_front",
 ]
 
 # The columns of a ray array (the ray file's record) and the dtype of a hit array (the hit file's record).
@@ -279,19 +279,101 @@ def _number(value, name):
 
 
 def sweep(scenes, formats=("default",), bvh_widths=(4,), configs=("rdna2",), *, rays=20000, seed=1, image_width=128,
-          threads=0, area=None, flatten=False):
+          threads=0, area=None, flatten=False, shard=None):
     """A design sweep, as `rtusim sweep`: one row per scene x BVH width x format x configuration, with the CSV's
     columns (error, cycles, bytes, area, energy). Configurations are presets or "preset:key=value:...".
-    flatten: trace instanced scenes in one image on the fixed and timed devices (rtusim sweep --flatten)."""
+    flatten: trace instanced scenes in one image on the fixed and timed devices (rtusim sweep --flatten).
+    shard: (k, N) or "k/N", 1 <= k <= N: only every N-th point of the grid's order, starting at the k-th, as
+    rtusim sweep --shard k/N (rtu.sweep_on runs the N shards on an executor)."""
     import io
 
     import pandas as pd
 
-    csv = _rtu.sweep(_list(scenes, "scenes"), _list(formats, "formats"), _list(bvh_widths, "bvh_widths"),
-                     _list(configs, "configs"), _int(rays, "rays"), _int(seed, "seed"),
-                     _int(image_width, "image_width"), _int(threads, "threads"), _os.fspath(area) if area else "",
-                     bool(flatten))
+    csv = _sweep_csv(scenes, formats, bvh_widths, configs, rays=rays, seed=seed, image_width=image_width,
+                     threads=threads, area=area, flatten=flatten, shard=shard)
     return _sweep_frame(pd.read_csv(io.StringIO(csv)))
+
+
+def _sweep_csv(scenes, formats, bvh_widths, configs, *, rays, seed, image_width, threads, area, flatten, shard):
+    """rtu.sweep's rows as the CSV text rtusim sweep writes (header and one line per point)."""
+    k, n = _shard(shard)
+    return _rtu.sweep(_list(scenes, "scenes"), _list(formats, "formats"), _list(bvh_widths, "bvh_widths"),
+                      _list(configs, "configs"), _int(rays, "rays"), _int(seed, "seed"),
+                      _int(image_width, "image_width"), _int(threads, "threads"), _os.fspath(area) if area else "",
+                      bool(flatten), k, n)
+
+
+def _shard(shard):
+    """(k, N) from None (the whole grid: (1, 1)), a pair or "k/N"; rtu.Error unless 1 <= k <= N."""
+    if shard is None:
+        return 1, 1
+    try:
+        k, n = (shard.split("/") if isinstance(shard, str) else shard)
+        k, n = int(k), int(n)
+    except (TypeError, ValueError):
+        raise Error(f"shard: expected (k, N) or 'k/N', got {shard!r}") from None
+    if not 1 <= k <= n:
+        raise Error(f"shard: expected 1 <= k <= N, got {k}/{n}")
+    return k, n
+
+
+def _sweep_task(shard, shards, grid, options):
+    """The body of one task of rtu.sweep_on, run on an executor's worker (a separate process on a Dask cluster or
+    a process pool, so a module-level function the worker imports by name): shard `shard` of `shards` of the grid
+    as CSV text. The one place that says what a task computes (issue 43's manifest points will replace it)."""
+    return _sweep_csv(*grid, shard=(shard, shards), **options)
+
+
+def sweep_on(executor, scenes, formats=("default",), bvh_widths=(4,), configs=("rdna2",), *, shards=None, rays=20000,
+             seed=1, image_width=128, threads=1, area=None, flatten=False):
+    """rtu.sweep's grid run as `shards` tasks on any concurrent.futures.Executor (a ProcessPoolExecutor, a Dask
+    cluster's `Client.get_executor()`, submitit's or Ray's executors): task k runs shard k/shards (every
+    shards-th point), and the DataFrame returned is rtu.sweep's of the whole grid, in its row order, the same but
+    for the wall time `seconds`. shards defaults to the number of points (a task per point); threads is each
+    task's (the executor's workers are the parallelism). Workers must import rtu (PYTHONPATH naming the build's
+    python/ folder) and see the scene files at the same paths. A task that fails cancels the others and raises
+    rtu.Error naming its shard, chained to the worker's exception."""
+    import io
+
+    import pandas as pd
+
+    grid = (_list(scenes, "scenes"), _list(formats, "formats"), _list(bvh_widths, "bvh_widths"),
+            _list(configs, "configs"))
+    points = len(grid[0]) * len(grid[1]) * len(grid[2]) * len(grid[3])
+    shards = points if shards is None else _int(shards, "shards")
+    if shards < 1:
+        raise Error(f"shards: expected at least 1, got {shards}")
+    shards = min(shards, points)  # a shard beyond the points would run none
+    options = dict(rays=_int(rays, "rays"), seed=_int(seed, "seed"), image_width=_int(image_width, "image_width"),
+                   threads=_int(threads, "threads"), area=_os.fspath(area) if area else None, flatten=bool(flatten))
+    futures = [executor.submit(_sweep_task, k, shards, grid, options) for k in range(1, shards + 1)]
+    texts = []
+    try:
+        for k, f in enumerate(futures, start=1):
+            try:
+                texts.append(f.result())
+            except Exception as e:
+                raise Error(f"sweep_on: shard {k}/{shards} failed: {type(e).__name__}: {e}") from e
+    finally:
+        for f in futures:
+            f.cancel()  # after a failure, the shards not yet started (no-op on finished ones)
+    # The shards' lines back in the grid's order (line i of shard k is point (k - 1) + i * shards), read as one
+    # CSV text: the DataFrame rtu.sweep reads from the whole grid's text.
+    header, lines = None, [None] * points
+    for k, text in enumerate(texts, start=1):
+        head, *rows = text.splitlines()
+        if header not in (None, head):
+            raise Error(f"sweep_on: shard {k}/{shards} has another header than shard 1 (another rtu on a worker?)")
+        header = head
+        for i, row in enumerate(rows):
+            point = k - 1 + i * shards
+            if point >= points:
+                raise Error(f"sweep_on: shard {k}/{shards} returned more rows than its points")
+            lines[point] = row
+    if None in lines:
+        raise Error(f"sweep_on: point {lines.index(None)} of {points} is missing from shard "
+                    f"{lines.index(None) % shards + 1}/{shards}")
+    return _sweep_frame(pd.read_csv(io.StringIO("\n".join([header, *lines]) + "\n")))
 
 
 def _sweep_frame(df):

@@ -1,0 +1,99 @@
+"""rtu.sweep_on: a sweep's shards run on a concurrent.futures.Executor whose workers are other processes (a
+ProcessPoolExecutor, and a real Dask LocalCluster of 2 worker processes, started and closed here) give the
+DataFrame rtu.sweep gives for the whole grid in one process, apart from the wall time; a task that fails is named.
+ctest runs it with the module tests (label python)."""
+
+import logging
+import os
+import sys
+from concurrent.futures import ProcessPoolExecutor
+
+import pandas as pd
+import pytest
+
+import rtu
+
+# A grid no CLI sweep can list (a configuration with a changed key), of 12 points, so that shards hold 3, 4 or
+# more points each and their rows must be put back in the grid's order.
+GRID = dict(scenes=["builtin:cornell", "builtin:seed"], formats=["default", "compact"], bvh_widths=[4],
+            configs=["rdna2", "rdna2:box_units=2", "intel"])
+RUN = dict(rays=300, image_width=0)
+
+
+@pytest.fixture(scope="module")
+def reference():
+    """The whole grid in this process."""
+    df = rtu.sweep(**GRID, **RUN)
+    assert len(df) == 12
+    return df
+
+
+@pytest.fixture(scope="module", autouse=True)
+def workers_import_rtu():
+    """Worker processes import rtu by name: PYTHONPATH must name the folder this rtu came from (ctest sets it;
+    this makes a run by hand work too)."""
+    here = os.path.dirname(os.path.dirname(os.path.abspath(rtu.__file__)))
+    old = os.environ.get("PYTHONPATH")
+    os.environ["PYTHONPATH"] = os.pathsep.join([here] + ([old] if old else []))
+    yield
+    if old is None:
+        del os.environ["PYTHONPATH"]
+    else:
+        os.environ["PYTHONPATH"] = old
+
+
+def same_but_seconds(df, ref):
+    assert list(df.columns) == list(ref.columns)
+    assert (df["seconds"] > 0).all()  # measured on the workers, not copied
+    pd.testing.assert_frame_equal(df.drop(columns="seconds"), ref.drop(columns="seconds"), check_exact=True)
+
+
+@pytest.mark.parametrize("shards", [1, 3, 5, None])
+def test_a_process_pool_gives_the_whole_sweep(reference, shards):
+    with ProcessPoolExecutor(max_workers=2) as ex:
+        df = rtu.sweep_on(ex, **GRID, **RUN, shards=shards)
+    same_but_seconds(df, reference)
+
+
+# Debian's tornado warns inside distributed 2022.12's LocalCluster; not this module's.
+@pytest.mark.filterwarnings("ignore:make_current is deprecated:DeprecationWarning")
+def test_a_dask_cluster_of_worker_processes_gives_the_whole_sweep(reference):
+    distributed = pytest.importorskip("distributed")  # Debian's python3-distributed (scripts/setup.sh)
+    with distributed.LocalCluster(processes=True, n_workers=2, threads_per_worker=1, dashboard_address=None,
+                                  silence_logs=logging.ERROR) as cluster, distributed.Client(cluster) as client:
+        client.wait_for_workers(2, timeout=60)
+        pids = client.run(os.getpid)
+        assert len(pids) == 2 and os.getpid() not in pids.values()
+        df = rtu.sweep_on(client.get_executor(), **GRID, **RUN, shards=4)
+        # The shards ran in the worker processes: rtu was imported there (it is not before a task needs it).
+        imported = client.run(lambda: "rtu" in sys.modules)
+        assert any(imported.values()), imported
+    same_but_seconds(df, reference)
+
+
+def test_a_failed_shard_is_named(tmp_path):
+    # The second scene's file is missing: check_sweep_grid does not load scenes, so its shard fails on the worker.
+    missing = tmp_path / "gone.obj"
+    with ProcessPoolExecutor(max_workers=2) as ex:
+        with pytest.raises(rtu.Error, match=r"sweep_on: shard 2/2 failed: .*gone\.obj") as e:
+            rtu.sweep_on(ex, ["builtin:cornell", str(missing)], **RUN)
+    assert isinstance(e.value.__cause__, Exception)
+
+
+def test_bad_shards_are_refused():
+    with ProcessPoolExecutor(max_workers=1) as ex:
+        with pytest.raises(rtu.Error, match="shards: expected at least 1, got 0"):
+            rtu.sweep_on(ex, "builtin:cornell", shards=0, **RUN)
+        with pytest.raises(TypeError, match="shards: expected an int"):
+            rtu.sweep_on(ex, "builtin:cornell", shards=2.5, **RUN)
+    for bad in ("0/2", "3/2", (1,), "x/y", "1-2"):
+        with pytest.raises(rtu.Error, match="shard: expected"):
+            rtu.sweep("builtin:cornell", shard=bad, **RUN)
+
+
+def test_a_shard_of_rtu_sweep_is_every_nth_point(reference):
+    """rtu.sweep(shard=(k, N)) selects the points rtusim sweep --shard k/N selects: every N-th of the grid's order,
+    from the k-th."""
+    for k in (1, 2, 5):
+        df = rtu.sweep(**GRID, **RUN, shard=(k, 5))
+        same_but_seconds(df.reset_index(drop=True), reference.iloc[k - 1::5].reset_index(drop=True))

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# A design sweep (`rtusim sweep`) as a Slurm job array: writes the sbatch script, submits it, and collects the
-# tasks' CSVs into one sweep CSV. Each of N array tasks runs every N-th point of the grid (`rtusim sweep --shard
-# k/N`), at most THROTTLE of them at once; docs/guide/cluster.md has the whole walk-through.
+# A design sweep (`rtusim sweep`) as a Slurm job array: writes the grid's manifest of content-keyed points and the
+# sbatch script, submits it, and collects the tasks' point files into one sweep CSV. Each of N array tasks runs
+# every N-th point of the manifest (`rtusim sweep --manifest M --results RESULTS/points --shard k/N`), at most
+# THROTTLE of them at once; docs/guide/cluster.md has the whole walk-through.
 #
 # On a real cluster (RESULTS and rtusim on a file system every node sees; rtusim built as in README.md):
 #
@@ -12,19 +13,20 @@
 #   scripts/slurm_sweep.sh --collect --results /shared/me/sweep1 --rtusim /shared/rtu/rtusim
 #       -> /shared/me/sweep1/sweep.csv (rtusim pareto|plan|report read it)
 #
-# Write mode (without --collect) writes RESULTS/sweep.sbatch (and with --submit runs sbatch on it, prints the job
-# id and keeps it in RESULTS/job_id). Arguments after `--` are rtusim sweep's grid and run options (--scene,
-# --suite, --formats, --bvh-width, --config, --rays, --seed, --image-width, --flatten, --area); --shard, --out,
-# --merge and --threads are the script's (each task runs --threads = --cpus-per-task). Task k writes
-# RESULTS/shard-k.csv, logs to RESULTS/logs/JOBID_k.out and, when it ends, its exit status to
-# RESULTS/status/task-k.exit. Rerunning a task (sbatch --array=k RESULTS/sweep.sbatch) resumes its shard: the points
-# already in shard-k.csv are not run again.
+# Write mode (without --collect) writes RESULTS/manifest.txt (the grid's points, each with its content key: rtusim
+# sweep --write-manifest) and RESULTS/sweep.sbatch, and with --submit runs sbatch on it, prints the job id and
+# keeps it in RESULTS/job_id. Arguments after `--` are rtusim sweep's grid and run options (--scene, --suite,
+# --formats, --bvh-width, --config, --set, --rays, --seed, --image-width, --flatten); --shard, --out, --merge and
+# --threads are the script's (each task runs --threads = --cpus-per-task). Task k writes one file per point to
+# RESULTS/points/KEY.json (whole, by rename), logs to RESULTS/logs/JOBID_k.out and, when it ends, its exit status
+# to RESULTS/status/task-k.exit. Rerunning a task (sbatch --array=k RESULTS/sweep.sbatch) or the whole script runs
+# only the points that have no file.
 #
 # --collect checks every task 1..N: a task that exited non-zero, or has no exit status (killed, timed out, never
-# ran), or has no shard file fails the collect, naming the task and its log, and how to rerun it; otherwise the
-# shards are merged with `rtusim sweep --merge` into RESULTS/sweep.csv (or --out), rows grouped by shard. sacct is
-# not used: it needs slurmdbd, which many clusters (and the local test cluster) lack; the status files and logs
-# work everywhere.
+# ran), fails the collect, naming the task and its log, and how to rerun it; otherwise `rtusim sweep --collect`
+# gathers the point files into RESULTS/sweep.csv (or --out) in the manifest's order, with
+# RESULTS/sweep.csv.provenance.csv, and fails naming any point without a file. sacct is not used: it needs
+# slurmdbd, which many clusters (and the local test cluster) lack; the status files and logs work everywhere.
 #
 # Options:
 #   --results DIR         the sweep's folder (created): script, shards, logs, status, merged CSV
@@ -79,6 +81,9 @@ fi
 [ -x "$rtusim" ] || die "--rtusim $rtusim is not an executable"
 rtusim=$(cd "$(dirname "$rtusim")" && pwd)/$(basename "$rtusim")
 
+manifest=$results/manifest.txt
+points=$results/points
+
 # --- collect ---
 if [ $collect -eq 1 ]; then
   [ ${#grid[@]} -eq 0 ] || die "--collect takes no grid options"
@@ -100,18 +105,15 @@ if [ $collect -eq 1 ]; then
     elif [ "$(cat "$status_file")" != 0 ]; then
       echo "slurm_sweep: task $k exited with status $(cat "$status_file"); log: $log" >&2
       bad=1
-    elif [ ! -s "$results/shard-$k.csv" ]; then
-      echo "slurm_sweep: task $k exited 0 but wrote no $results/shard-$k.csv; log: $log" >&2
-      bad=1
     fi
-    shards+=("$results/shard-$k.csv")
   done
   if [ $bad -ne 0 ]; then
     echo "slurm_sweep: not collected. Rerun the failed tasks (their finished points are kept), e.g." \
       "sbatch --array=K $script, then --collect again" >&2
     exit 1
   fi
-  "$rtusim" sweep --merge "${shards[@]}" --out "${out:-$results/sweep.csv}"
+  # Every point's file is there unless a task lost one: collect names the missing keys and fails.
+  "$rtusim" sweep --collect "$points" --manifest "$manifest" --out "${out:-$results/sweep.csv}"
   exit 0
 fi
 
@@ -124,7 +126,9 @@ throttle=${throttle:-$tasks}
 for a in "${grid[@]}"; do
   case $a in
     --shard | --shard=* | --out | --out=* | --merge | --merge=* | --threads | --threads=*)
-      die "$a is set by the script (each task: --shard k/N --out RESULTS/shard-k.csv --threads C)" ;;
+      die "$a is set by the script (each task: --manifest RESULTS/manifest.txt --shard k/N --threads C)" ;;
+    --area | --area=*)
+      die "$a: a manifest's points use the shipped area table" ;;
   esac
 done
 grid_q=$(printf '%q ' "${grid[@]}")
@@ -144,10 +148,10 @@ set -uo pipefail
 k=\${SLURM_ARRAY_TASK_ID:?not a Slurm array task}
 results=$(printf '%q' "$results")
 
-# The task body, the one place that says what a task computes: shard k of $tasks of the grid, resumed from what
-# shard-k.csv already holds. (Issue 43's manifest of content-keyed points replaces this line.)
+# The task body, the one place that says what a task computes: shard k of $tasks of the manifest's points, each
+# into its own file under points/ (written whole; a point whose file is there is skipped, so a rerun resumes).
 run_task() {
-  $(printf '%q' "$rtusim") sweep $grid_q--threads $cpus --shard "\$1/$tasks" --out "\$results/shard-\$1.csv"
+  $(printf '%q' "$rtusim") sweep --manifest "\$results/manifest.txt" --results "\$results/points" --threads $cpus --shard "\$1/$tasks"
 }
 
 # The exit status is written when the task ends, whatever ends it but SIGKILL; a task with no status file did
@@ -164,9 +168,16 @@ EOF
 if [ -f "$script" ] && [ "$(cat "$script")" != "$body" ]; then
   die "$results already holds another sweep ($script differs); use a new --results folder"
 fi
-mkdir -p "$results/logs" "$results/status"
+mkdir -p "$results/logs" "$results/status" "$points"
 printf '%s\n' "$body" >"$script"
-echo "slurm_sweep: wrote $script ($tasks tasks, at most $throttle at once)"
+# The points, each named by what it computes: a rerun of a task, or of the whole array, runs only the missing ones.
+"$rtusim" sweep "${grid[@]}" --write-manifest "$manifest.new" >/dev/null
+if [ -f "$manifest" ] && ! cmp -s "$manifest" "$manifest.new"; then
+  rm -f "$manifest.new"
+  die "$manifest lists other points (a scene or rtu changed since it was written); use a new --results folder"
+fi
+mv "$manifest.new" "$manifest"
+echo "slurm_sweep: wrote $script ($tasks tasks, at most $throttle at once) and $manifest ($(($(wc -l <"$manifest") - 2)) points)"
 
 if [ $submit -eq 1 ]; then
   command -v sbatch >/dev/null || die "--submit: no sbatch on PATH"

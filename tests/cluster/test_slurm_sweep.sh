@@ -2,10 +2,12 @@
 # A sweep as a real Slurm job array (scripts/slurm_sweep.sh) on a single-node cluster this test starts
 # (scripts/slurm_local.sh: munged, slurmctld, slurmd as root, all under a temporary folder) and stops again, also
 # when it fails. Checks:
-#   - 4 array tasks, at most 2 at once, each ran its shard: shard k holds rows k-1, k+3, ... of the same grid run
-#     in one process, equal apart from the wall time; the collected CSV holds every row of the local run
-#   - a task that fails for real (its shard file is a directory, so rtusim cannot write it) fails the collect,
-#     which names the task, its exit status and its log; rerunning only that task (sbatch --array=2) mends it
+#   - 4 array tasks, at most 2 at once, each ran its shard of the manifest (points k-1, k+3, ... of it), one point
+#     file per point; the collected CSV holds every row of the same grid run in one process, equal apart from the
+#     wall time
+#   - a task that fails for real (its points folder is a file, so rtusim cannot write it) fails the collect, which
+#     names the task, its exit status and its log; rerunning only that task (sbatch --array=2) runs only its
+#     missing points and mends the sweep
 # Exits 77 (skipped) when the cluster cannot start for want of root or packages.
 # Usage: test_slurm_sweep.sh RTUSIM SOURCE_DIR
 set -euo pipefail
@@ -72,14 +74,21 @@ for k in $(seq 1 $tasks); do
   [ -f "$results/logs/${id}_$k.out" ] || fail "task $k wrote no log ${id}_$k.out"
   grep -q "task $k/4 of job $id on" "$results/logs/${id}_$k.out" || fail "log of task $k does not name its task"
   [ "$(cat "$results/status/task-$k.exit")" = 0 ] || fail "task $k: exit status $(cat "$results/status/task-$k.exit")"
-  python3 "$src"/tests/cluster/compare_sweeps.py --shard $k $tasks "$tmp/local.csv" "$results/shard-$k.csv"
+  want=$(awk -v k=$k -v n=$tasks 'NR > 2 && (NR - 3) % n == k - 1' "$results/manifest.txt" | wc -l)
+  grep -q "$want points in this shard ($k/$tasks), $want run, 0 already" "$results/logs/${id}_$k.out" ||
+    fail "task $k did not run its $want points"
 done
+[ "$(ls "$results/points" | grep -c '[.]json$')" -eq 6 ] || fail "not one point file per point"
 "$src"/scripts/slurm_sweep.sh --collect --results "$results" --rtusim "$rtusim"
 python3 "$src"/tests/cluster/compare_sweeps.py "$tmp/local.csv" "$results/sweep.csv"
 
 # --- a task that fails: collect refuses, naming it and its log; rerunning that task alone mends the sweep ---
-rm "$results/shard-2.csv" "$results/sweep.csv"
-mkdir "$results/shard-2.csv"  # rtusim cannot open it for writing: task 2 exits non-zero
+rm "$results/sweep.csv"
+for key in $(awk -v n=$tasks 'NR > 2 && (NR - 3) % n == 1 {print $1}' "$results/manifest.txt"); do
+  rm "$results/points/$key.json"  # task 2's points
+done
+mv "$results/points" "$results/points.kept"
+touch "$results/points"  # a file where the folder was: task 2 cannot write its points and exits non-zero
 id2=$(sbatch --parsable --array=2 "$results/sweep.sbatch")
 id2=${id2%%;*}
 wait_job "$id2"
@@ -93,9 +102,12 @@ grep -q "task 2 exited with status [1-9][0-9]*; log: $results/logs/${id2}_2.out"
   fail "--collect did not name task 2, its exit status and its log"
 grep -q "task [134] " "$tmp/collect.err" && fail "--collect blamed a task that succeeded"
 [ -f "$results/sweep.csv" ] && fail "--collect wrote sweep.csv although task 2 failed"
-rmdir "$results/shard-2.csv"
+rm "$results/points"
+mv "$results/points.kept" "$results/points"
 id3=$(sbatch --parsable --array=2 "$results/sweep.sbatch")
 wait_job "${id3%%;*}"
+grep -q "2 points in this shard (2/$tasks), 2 run, 0 already" "$results/logs/${id3%%;*}_2.out" ||
+  fail "the rerun of task 2 did not run exactly its 2 missing points"
 "$src"/scripts/slurm_sweep.sh --collect --results "$results" --rtusim "$rtusim"
 python3 "$src"/tests/cluster/compare_sweeps.py "$tmp/local.csv" "$results/sweep.csv"
 echo "PASS: a 4-task Slurm array collected to the local sweep; a failed task named and mended"

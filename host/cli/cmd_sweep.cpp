@@ -456,9 +456,11 @@ void add_sweep(CLI::App& app) {
   sub->add_option("--bvh-width", a->grid.widths, "BVH widths, comma-separated (2, 4, 6, 8)")
       ->delimiter(',')
       ->capture_default_str();
+  std::string presets;
+  for (const std::string& p : hw::timing_preset_names()) presets += (presets.empty() ? "" : ",") + p;
   sub->add_option("--config", a->grid.configs,
-                  "timing configurations, comma-separated: a preset (rtusim config --list) or a preset with keys "
-                  "changed, e.g. rdna2:cache_kib=16:box_units=2")
+                  "timing configurations, comma-separated: a preset (" + presets +
+                      ") or a preset with keys changed, e.g. rdna2:cache_kib=16:box_units=2")
       ->delimiter(',')
       ->capture_default_str();
   sub->add_option("--set", a->sets,

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "host/io/error.h"
+#include "host/io/json_io.h"
 #include "host/io/stats_json.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/timing_config.h"
@@ -306,9 +307,9 @@ bool read_point_file(const std::string& dir, const std::string& key, SweepRow& r
   std::ifstream in(path, std::ios::binary);
   if (!in) return false;
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  nlohmann::json j;
+  nlohmann::ordered_json j;
   try {
-    j = nlohmann::json::parse(text);
+    j = parse_json_limited(text, path.string());
     if (j.at("key").get<std::string>() != key) throw Error("its key is " + j.at("key").get<std::string>());
     const std::vector<SweepRow> rows = parse_sweep_csv(
         j.at("header").get<std::string>() + "\n" + j.at("row").get<std::string>() + "\n", path.string());

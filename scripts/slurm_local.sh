@@ -36,6 +36,14 @@ if [ "$cmd" = env ]; then
   exit 0
 fi
 
+# Whether process $1 runs: a zombie has exited (the daemons are orphans, and an init that is slow to reap them,
+# as in some containers, leaves them as zombies for a while).
+alive() {
+  local state
+  state=$(sed -n 's/^State:[[:space:]]*\([A-Z]\).*/\1/p' /proc/"$1"/status 2>/dev/null || true)
+  [ -n "$state" ] && [ "$state" != Z ]
+}
+
 # Stops the daemon whose pid file is $1 (if it runs) and waits up to 20 s for it to exit, then SIGKILLs it. A pid
 # file naming a process of another program (a pid reused after a reboot) is left alone.
 stop_daemon() {
@@ -47,7 +55,7 @@ stop_daemon() {
   [ "$(cat /proc/"$pid"/comm 2>/dev/null || true)" = "$name" ] || return 0
   kill -TERM "$pid" 2>/dev/null || return 0
   for i in $(seq 1 200); do
-    kill -0 "$pid" 2>/dev/null || return 0
+    alive "$pid" || return 0
     sleep 0.1
   done
   echo "slurm_local: $name (pid $pid) did not exit in 20 s; killing it" >&2

@@ -73,6 +73,8 @@ done
 [ -n "$results" ] || die "--results DIR is required"
 mkdir -p "$results"
 results=$(cd "$results" && pwd)
+# An #SBATCH --output line ends at white space.
+[[ "$results" =~ [[:space:]] ]] && die "--results: the folder's path may not contain white space: '$results'"
 script=$results/sweep.sbatch
 
 if [ -z "$rtusim" ]; then

@@ -133,7 +133,6 @@ for a in "${grid[@]}"; do
       die "$a: a manifest's points use the shipped area table" ;;
   esac
 done
-grid_q=$(printf '%q ' "${grid[@]}")
 body=$(
   cat <<EOF
 #!/usr/bin/env bash

@@ -320,7 +320,7 @@ def _shard(shard):
 def _sweep_task(shard, shards, grid, options):
     """The body of one task of rtu.sweep_on, run on an executor's worker (a separate process on a Dask cluster or
     a process pool, so a module-level function the worker imports by name): shard `shard` of `shards` of the grid
-    as CSV text. The one place that says what a task computes (issue 43's manifest points will replace it)."""
+    as CSV text. The one place that says what a task computes."""
     return _sweep_csv(*grid, shard=(shard, shards), **options)
 
 

@@ -14,6 +14,8 @@
 # Wall-clock fields (seconds, rays per second) and file names are dropped from the JSON; everything else is kept.
 # Prints one line per run and a final digest over all of them; two builds that print the same final line computed
 # the same results on these inputs.
+# DIGEST_DROP="key1 key2 ..." drops those JSON keys too: a change that only adds keys (a new timing key or counter,
+# zero or at its default) shows it changed nothing else when the digest without them equals the one before.
 # Usage: scripts/digest.sh [RTUSIM] [RAYS]     (RAYS per kind and mesh, default 20000; a few minutes)
 set -euo pipefail
 rtusim=${1:-build/default/rtusim}
@@ -30,9 +32,10 @@ trap 'rm -rf "$work"' EXIT
 # The JSON without wall-clock figures and paths, keys sorted, as one line.
 strip_json() {
   python3 - "$1" <<'EOF'
-import json, sys
+import json, os, sys
 drop = {"trace_seconds", "rays_per_second", "load_seconds", "build_seconds", "seconds", "wall_seconds",
         "render_seconds", "rays_file", "out", "image", "path", "threads"}
+drop |= set(os.environ.get("DIGEST_DROP", "").split())
 def clean(v):
     if isinstance(v, dict):
         return {k: clean(x) for k, x in v.items() if k not in drop and not k.endswith("_seconds")}

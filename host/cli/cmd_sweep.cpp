@@ -255,11 +255,7 @@ void run_manifest(const SweepArgs& a) {
   const Manifest m = parse_manifest(read_text(a.manifest), a.manifest);
   SweepOptions o = options_from_params(m.params);
   o.threads = a.opt.threads;
-  SweepGrid check;
-  check.scenes.clear();
-  check.formats.clear();
-  check.configs.clear();
-  check.widths.clear();
+  SweepGrid check{{}, {}, {}, {}};  // the manifest's formats, configurations and widths, checked as a grid's
   for (const ManifestPoint& p : m.points) {
     check.formats.push_back(p.point.format);
     check.configs.push_back(p.point.config);

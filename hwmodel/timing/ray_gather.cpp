@@ -24,7 +24,6 @@ void RayGather::begin(size_t n, uint64_t t0) {
   m_bins.clear();
   m_timeouts.clear();
   m_ready.clear();
-  m_last_arrival = 0;
 }
 
 uint64_t RayGather::next_arrival() const {
@@ -36,7 +35,8 @@ uint64_t RayGather::next_arrival() const {
     if (m_left <= i - m_buffer) return kNever;
     fetch = std::max(fetch, m_departed[(i - m_buffer) % m_buffer]);
   }
-  return std::max(fetch + m_fetch_latency, m_last_arrival);
+  // Both terms grow with i (departures come in cycle order), so rays arrive in order.
+  return fetch + m_fetch_latency;
 }
 
 void RayGather::arrive(std::vector<TraceEvent>& events, TimingStats& s) {
@@ -48,7 +48,6 @@ void RayGather::arrive(std::vector<TraceEvent>& events, TimingStats& s) {
   m_events[entry].swap(events);
   m_ray[entry] = m_arrived++;
   m_arrival[entry] = t;
-  m_last_arrival = t;
   Bin& b = m_bins[key];
   if (b.entries.empty()) {
     b.first = t;

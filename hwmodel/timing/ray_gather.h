@@ -167,7 +167,6 @@ class RayGather {
   std::unordered_map<uint32_t, Bin> m_bins;
   std::set<std::pair<uint64_t, uint32_t>> m_timeouts;  // (timeout cycle, key) of every bin
   std::deque<std::pair<uint32_t, uint64_t>> m_ready;   // (entry, issue cycle), in issue order
-  uint64_t m_last_arrival = 0;
 };
 
 }  // namespace rtu::hw

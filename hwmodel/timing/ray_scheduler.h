@@ -6,8 +6,8 @@
 // - blocks: the packet cut into `units` consecutive blocks, as screen bands for camera rays.
 // Within a unit, a free slot takes the unit's next ray in order (TimingModel::admit): rays arrive from the ray
 // buffer in order through a queue of queue_depth, so that is the order the ray fetch model (timing_model.h)
-// prices; or, with gathering (ray_gather.h), the first ray of the bins issued so far. To add a policy: a name in kRayPolicies and a case in ray_unit(); the key's check and description
-// follow from the list.
+// prices; or, with gathering (ray_gather.h), the first ray of the bins issued so far. To add a policy: a name in
+// kRayPolicies and a case in ray_unit(); the key's check and description follow from the list.
 #pragma once
 
 #include <array>

@@ -385,18 +385,7 @@ TEST_CASE("where nothing misses, a prefetcher or a restart trail changes no cycl
   const DeviceImage img = encode_scene(g, f, &bvh);
   const std::vector<uint8_t> bytes(img.data(), img.data() + img.size());
   REQUIRE(bytes.size() < 16 * 1024);
-  std::vector<Ray> rays;
-  Pcg32 rng(4);
-  for (int i = 0; i < 2000; ++i) {
-    Ray r;
-    for (int a = 0; a < 3; ++a) {
-      r.origin[a] = fixed_checks::rand_float(rng, -12.0f, 12.0f);
-      r.dir[a] = fixed_checks::rand_float(rng, -1.0f, 1.0f);
-    }
-    r.tmin = 0.0f;
-    r.tmax = 1e30f;
-    rays.push_back(r);
-  }
+  const std::vector<Ray> rays = random_box_rays(4, 2000);
   auto second_packet = [&](const TimingConfig& c, TimingStats& second) {
     TimedEngine timed(EngineOptions{}, c);
     timed.bind(bytes.data(), bytes.size());

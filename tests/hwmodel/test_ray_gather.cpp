@@ -87,18 +87,7 @@ TEST_CASE("gathering: bins issued full, by timeout, forced by a full buffer and 
 
 TEST_CASE("gathering never changes a hit: the same cycles on 1 and 2 threads, on one unit and a chip",
           "[timing]") {
-  std::vector<Ray> rays;
-  Pcg32 rng(7);
-  for (int i = 0; i < 4000; ++i) {
-    Ray r;
-    for (int a = 0; a < 3; ++a) {
-      r.origin[a] = fixed_checks::rand_float(rng, -12.0f, 12.0f);
-      r.dir[a] = fixed_checks::rand_float(rng, -1.0f, 1.0f);
-    }
-    r.tmin = 0.0f;
-    r.tmax = 1e30f;
-    rays.push_back(r);
-  }
+  const std::vector<Ray> rays = random_box_rays(7, 4000);
   const FixedReference ref = fixed_reference(12, rays);
   for (const char* preset : {"rdna2-mem", "rdna2-chip"})
     for (const char* key : {"octant", "origin_octant", "two_point"}) {

@@ -495,7 +495,8 @@ TEST_CASE("a prefetcher changes when data is there, never what is fetched or tes
   CHECK(so.dram_bytes == 64 * so.cache_misses);
   CHECK_THROWS_WITH(
       rtu::hw::set_timing_key(c, "prefetcher", "stride"),
-      Catch::Contains("prefetcher = 'stride' is not a prefetcher (known: none, next_line, treelet, stack, stack_pop)"));
+      Catch::Contains(
+          "prefetcher = 'stride' is not a prefetcher (known: none, next_line, treelet, stack, stack_pop)"));
 }
 
 namespace {

@@ -85,3 +85,20 @@ inline FixedReference fixed_reference(uint64_t seed, const std::vector<rtu::hw::
   FixedTracer(img).trace_batch(rays.data(), ref.hits.data(), rays.size(), false, 1, fs);
   return ref;
 }
+
+// n rays from random origins in [-12, 12]^3 in random directions (components in [-1, 1]), t in [0, 1e30].
+inline std::vector<rtu::hw::Ray> random_box_rays(uint64_t seed, int n) {
+  rtu::hw::Pcg32 rng(seed);
+  std::vector<rtu::hw::Ray> rays;
+  for (int i = 0; i < n; ++i) {
+    rtu::hw::Ray r;
+    for (int a = 0; a < 3; ++a) {
+      r.origin[a] = rtu::hw::fixed_checks::rand_float(rng, -12.0f, 12.0f);
+      r.dir[a] = rtu::hw::fixed_checks::rand_float(rng, -1.0f, 1.0f);
+    }
+    r.tmin = 0.0f;
+    r.tmax = 1e30f;
+    rays.push_back(r);
+  }
+  return rays;
+}

@@ -3,15 +3,12 @@
 // and
 // --image-width are skipped), shardable (--shard k/N runs every N-th point, so independent jobs split a large
 // sweep) and mergeable (--merge, of rows made with the same run parameters).
-#include <unistd.h>
-
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <map>
-#include <memory>
 #include <set>
 #include <sstream>
 
@@ -20,6 +17,7 @@
 #include "host/jobs/point_key.h"
 #include "host/jobs/suite.h"
 #include "host/jobs/sweep.h"
+#include "host/jobs/sweep_manifest.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/timing_config.h"
 
@@ -222,27 +220,10 @@ void write_manifest(const SweepArgs& a) {
   } else {
     if (a.grid.scenes.empty()) throw Error("sweep: --scene, --suite or --points is required");
     check_sweep_grid(a.grid);
-    for (const std::string& spec : a.grid.scenes)
-      for (int w : a.grid.widths)
-        for (const std::string& f : a.grid.formats)
-          for (const std::string& c : a.grid.configs) points.push_back({spec, f, w, c});
+    points = sweep_grid_points(a.grid);
   }
-  check_sweep_rays("sweep", a.opt.rays);
-  Manifest m;
-  m.params = sweep_run_params(a.opt);
-  std::set<std::string> seen;
-  std::map<std::string, std::string> digests;  // scene spec: its content's digest
-  size_t repeated = 0;
-  for (const SweepPoint& p : points) {
-    auto it = digests.find(p.scene);
-    if (it == digests.end()) it = digests.emplace(p.scene, scene_digest(load_scene(p.scene))).first;
-    const std::string key = point_key(it->second, p, a.opt);
-    if (!seen.insert(key).second) {
-      ++repeated;  // the same computation under another spelling: it runs once
-      continue;
-    }
-    m.points.push_back({key, p});
-  }
+  size_t repeated = 0;  // the same computation under another spelling: it runs once
+  const Manifest m = make_manifest(points, a.opt, &repeated);
   std::ofstream out(a.write_manifest, std::ios::binary | std::ios::trunc);
   out << manifest_text(m);
   if (!out.flush()) throw Error("cannot write " + a.write_manifest);
@@ -252,96 +233,32 @@ void write_manifest(const SweepArgs& a) {
 
 void run_manifest(const SweepArgs& a) {
   if (a.results.empty()) throw Error("sweep --manifest: --results DIR is required (the folder of point files)");
-  const Manifest m = parse_manifest(read_text(a.manifest), a.manifest);
-  SweepOptions o = options_from_params(m.params);
-  o.threads = a.opt.threads;
-  SweepGrid check{{}, {}, {}, {}};  // the manifest's formats, configurations and widths, checked as a grid's
-  for (const ManifestPoint& p : m.points) {
-    check.formats.push_back(p.point.format);
-    check.configs.push_back(p.point.config);
-    check.widths.push_back(p.point.bvh_width);
-  }
-  check_sweep_grid(check);
-  check_sweep_rays("sweep", o.rays);
+  const Manifest m = read_manifest(a.manifest);
   const auto [shard, shards] = parse_shard(a.shard == "auto" ? shard_from_env() : a.shard);
-  std::filesystem::create_directories(a.results);
   const AreaTable area = a.area.empty() ? AreaTable::shipped() : AreaTable::load(a.area);
-  char host[256] = "unknown";
-  gethostname(host, sizeof host - 1);
-  std::string loaded;  // the scene spec held in `scene`
-  std::unique_ptr<Scene> scene;
-  std::string digest;
-  auto cache = make_sweep_cache();
-  size_t ran = 0, done = 0, mine = 0;
-  for (size_t i = 0; i < m.points.size(); ++i) {
-    if (i % shards != shard - 1) continue;
-    ++mine;
-    const ManifestPoint& mp = m.points[i];
-    if (std::filesystem::exists(std::filesystem::path(a.results) / (mp.key + ".json"))) {
-      ++done;  // complete: a point file appears only whole
-      continue;
-    }
-    if (!scene || loaded != mp.point.scene) {
-      scene = std::make_unique<Scene>(load_scene(mp.point.scene));
-      digest = scene_digest(*scene);
-      loaded = mp.point.scene;
-      cache = make_sweep_cache();
-    }
-    const std::string key = point_key(digest, mp.point, o);
-    if (key != mp.key)
-      throw Error("point " + mp.key + " (" + mp.point.key() + "): this rtu and these files make it point " + key +
-                  ": the scene, a mesh it references or rtu's results revision changed since the manifest was "
-                  "written; write the manifest again");
-    const SweepRow r = run_sweep_point(*scene, mp.point, o, area, *cache);
-    write_point_file(a.results, mp.key, r, PointProvenance{kRtuVersion, host, o.threads, r.seconds});
-    ++ran;
-    std::printf("%s %s %s w%d %s: %llu cycles, %.1f s\n", mp.key.c_str(), mp.point.scene.c_str(),
-                mp.point.format.c_str(), mp.point.bvh_width, mp.point.config.c_str(), (unsigned long long)r.cycles,
-                r.seconds);
-    std::fflush(stdout);
-  }
-  std::printf("sweep: %zu points in this shard (%zu/%zu), %zu run, %zu already in %s\n", mine, shard, shards, ran,
-              done, a.results.c_str());
+  const ManifestRun run = run_manifest(
+      m, a.results, shard, shards, a.opt.threads, area, [](const ManifestPoint& mp, const SweepRow& r) {
+        std::printf("%s %s %s w%d %s: %llu cycles, %.1f s\n", mp.key.c_str(), mp.point.scene.c_str(),
+                    mp.point.format.c_str(), mp.point.bvh_width, mp.point.config.c_str(),
+                    (unsigned long long)r.cycles, r.seconds);
+        std::fflush(stdout);
+      });
+  std::printf("sweep: %zu points in this shard (%zu/%zu), %zu run, %zu already in %s\n", run.mine, shard, shards,
+              run.ran, run.done, a.results.c_str());
 }
 
 void collect_points(const SweepArgs& a) {
   if (a.manifest.empty() || a.out.empty())
     throw Error("sweep --collect DIR: --manifest FILE (which points, in which order) and --out CSV are required");
-  const Manifest m = parse_manifest(read_text(a.manifest), a.manifest);
-  std::vector<SweepRow> rows;
-  std::vector<std::string> missing;
-  std::string prov_csv = "key,version,host,threads,seconds\n";  // the manifest names each key's point
-  double seconds = 0.0;
-  for (const ManifestPoint& mp : m.points) {
-    SweepRow r;
-    PointProvenance prov;
-    if (!read_point_file(a.collect, mp.key, r, prov)) {
-      missing.push_back(mp.key);
-      continue;
-    }
-    if (r.p.key() != mp.point.key() || sweep_run_params(r) != m.params)
-      throw Error(a.collect + "/" + mp.key + ".json: holds point " + r.p.key() + " made with " +
-                  sweep_run_params(r) + ", not the manifest's " + mp.point.key() + " with " + m.params);
-    rows.push_back(r);
-    seconds += prov.seconds;
-    prov_csv += mp.key + "," + prov.version + "," + prov.host + "," + std::to_string(prov.threads) + "," +
-                std::to_string(prov.seconds) + "\n";
-  }
-  if (!missing.empty()) {
-    std::string some;
-    for (size_t i = 0; i < missing.size() && i < 5; ++i) some += (i ? ", " : "") + missing[i];
-    throw Error("sweep --collect: " + std::to_string(missing.size()) + " of " + std::to_string(m.points.size()) +
-                " points have no file in " + a.collect + " (" + some + (missing.size() > 5 ? ", ..." : "") +
-                "); run the manifest again: only the missing points run");
-  }
-  write_rows(a.out, rows);
+  const CollectedSweep c = collect_manifest(parse_manifest(read_text(a.manifest), a.manifest), a.collect);
+  write_rows(a.out, c.rows);
   const std::string prov_path = a.out + ".provenance.csv";
   std::ofstream prov(prov_path, std::ios::binary | std::ios::trunc);
-  prov << prov_csv;
+  prov << c.provenance_csv;
   if (!prov.flush()) throw Error("cannot write " + prov_path);
   std::printf("collected %zu points -> %s (provenance: %s); %.1f s of point time, %.0f points per worker-hour\n",
-              rows.size(), a.out.c_str(), prov_path.c_str(), seconds,
-              seconds > 0 ? 3600.0 * rows.size() / seconds : 0.0);
+              c.rows.size(), a.out.c_str(), prov_path.c_str(), c.seconds,
+              c.seconds > 0 ? 3600.0 * c.rows.size() / c.seconds : 0.0);
 }
 
 void run_sweep_points(const SweepArgs& a) {

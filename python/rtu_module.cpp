@@ -13,6 +13,9 @@
 #include <cmath>
 #include <cstring>
 #include <exception>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <new>
 #include <string>
@@ -32,6 +35,7 @@
 #include "host/jobs/plan.h"
 #include "host/jobs/render.h"
 #include "host/jobs/sweep.h"
+#include "host/jobs/sweep_manifest.h"
 #include "host/jobs/trace_job.h"
 #include "host/scene/ray_spec.h"
 #include "host/scene/scene.h"
@@ -502,6 +506,40 @@ std::string sweep(const std::vector<std::string>& scenes, const std::vector<std:
   return csv;
 }
 
+// rtusim sweep --write-manifest: the grid's manifest written to `path`; (points, repeated points listed once).
+// A file already there listing other points is refused (a folder holds one sweep: resuming another's points
+// would mix them).
+py::tuple write_manifest(const std::string& path, const std::vector<std::string>& scenes,
+                         const std::vector<std::string>& formats, const std::vector<int>& widths,
+                         const std::vector<std::string>& configs, uint64_t rays, uint64_t seed, int image_width,
+                         bool flatten) {
+  const host::SweepGrid g{scenes, formats, configs, widths};
+  const host::SweepOptions o = sweep_options(rays, seed, image_width, 1, flatten);
+  host::check_sweep_grid(g);
+  size_t points = 0, repeated = 0;
+  {
+    py::gil_scoped_release nogil;
+    const host::Manifest m = host::make_manifest(host::sweep_grid_points(g), o, &repeated);
+    points = m.points.size();
+    const std::string text = host::manifest_text(m);
+    std::ifstream old(path, std::ios::binary);
+    if (old) {
+      if (std::string((std::istreambuf_iterator<char>(old)), std::istreambuf_iterator<char>()) != text)
+        throw host::Error(path +
+                          " lists other points (another grid, or a scene or rtu changed since it was written); "
+                          "use a new results folder");
+    } else {
+      const std::string tmp = path + ".tmp";
+      std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+      out << text;
+      if (!out.flush()) throw host::Error("cannot write " + tmp);
+      out.close();
+      std::filesystem::rename(tmp, path);
+    }
+  }
+  return py::make_tuple(points, repeated);
+}
+
 // rtusim plan: (the --json dict, the CSV text of every candidate measured, whether each met the budget).
 py::tuple plan(const host::PlanOptions& o) {
   std::string csv = host::sweep_csv_header() + "\n";
@@ -644,6 +682,35 @@ PYBIND11_MODULE(_rtu, m) {
   m.def("sweep", &sweep, py::arg("scenes"), py::arg("formats"), py::arg("bvh_widths"), py::arg("configs"),
         py::arg("rays"), py::arg("seed"), py::arg("image_width"), py::arg("threads"), py::arg("area"),
         py::arg("flatten"), py::arg("shard") = 1, py::arg("shards") = 1);
+  m.def("write_manifest", &write_manifest, py::arg("path"), py::arg("scenes"), py::arg("formats"),
+        py::arg("bvh_widths"), py::arg("configs"), py::arg("rays"), py::arg("seed"), py::arg("image_width"),
+        py::arg("flatten"));
+  m.def(
+      "run_manifest",
+      [](const std::string& manifest, const std::string& results, size_t shard, size_t shards, int threads,
+         const std::string& area_path) {
+        if (shards < 1 || shard < 1 || shard > shards) fail("shard: expected 1 <= k <= N");
+        const int t = check_threads(threads);
+        py::gil_scoped_release nogil;
+        const host::Manifest m = host::read_manifest(manifest);
+        const host::AreaTable area =
+            area_path.empty() ? host::AreaTable::shipped() : host::AreaTable::load(area_path);
+        const host::ManifestRun r = host::run_manifest(m, results, shard, shards, t, area);
+        return std::make_tuple(r.mine, r.ran, r.done);
+      },
+      py::arg("manifest"), py::arg("results"), py::arg("shard"), py::arg("shards"), py::arg("threads"),
+      py::arg("area"), "Shard k/N of a manifest into a folder of point files: (points, run, already there)");
+  m.def(
+      "collect",
+      [](const std::string& manifest, const std::string& results) {
+        py::gil_scoped_release nogil;
+        const host::CollectedSweep c = host::collect_manifest(host::read_manifest(manifest), results);
+        std::string csv = host::sweep_csv_header() + "\n";
+        for (const host::SweepRow& r : c.rows) csv += host::sweep_csv_line(r) + "\n";
+        return std::make_pair(csv, c.provenance_csv);
+      },
+      py::arg("manifest"), py::arg("results"),
+      "A manifest's point files as (the sweep CSV's text, the provenance CSV's text), as rtusim sweep --collect");
   m.def(
       "plan",
       [](const std::string& scene, double max_error, const std::string& metric, double min_psnr, double confidence,

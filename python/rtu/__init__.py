@@ -27,7 +27,7 @@ __all__ = [
     "Error", "Scene", "InvalidRayWarning", "AccuracyWarning", "HIT_DTYPE", "RAY_FIELDS", "load_scene", "builtin_scenes", "rays",
     "make_rays", "read_rays", "write_rays", "read_hits", "write_hits", "trace", "TraceResult", "compare",
     "render", "RenderResult", "diff", "read_png", "write_png", "config", "presets", "formats", "format",
-    "sweep", "sweep_on", "read_sweep", "plan", "pareto_front",
+    "sweep", "sweep_on", "collect", "read_sweep", "plan", "pareto_front",
 ]
 
 # The columns of a ray array (the ray file's record) and the dtype of a hit array (the hit file's record).
@@ -324,15 +324,44 @@ def _sweep_task(shard, shards, grid, options):
     return _sweep_csv(*grid, shard=(shard, shards), **options)
 
 
+def _manifest_task(shard, shards, manifest, points, threads, area):
+    """The body of one task of rtu.sweep_on(results=...): shard `shard` of `shards` of the manifest's points into
+    the folder `points`, as rtusim sweep --manifest --results --shard; (points, run, already there)."""
+    return _rtu.run_manifest(manifest, points, shard, shards, threads, area)
+
+
+def _run_tasks(executor, task, shards, *args):
+    """Shards 1..shards of `task` on the executor; their results in shard order. A task that fails cancels the
+    others and raises rtu.Error naming its shard."""
+    futures = [executor.submit(task, k, shards, *args) for k in range(1, shards + 1)]
+    results = []
+    try:
+        for k, f in enumerate(futures, start=1):
+            try:
+                results.append(f.result())
+            except Exception as e:
+                raise Error(f"sweep_on: shard {k}/{shards} failed: {type(e).__name__}: {e}") from e
+    finally:
+        for f in futures:
+            f.cancel()  # after a failure, the shards not yet started (no-op on finished ones)
+    return results
+
+
 def sweep_on(executor, scenes, formats=("default",), bvh_widths=(4,), configs=("rdna2",), *, shards=None, rays=20000,
-             seed=1, image_width=128, threads=1, area=None, flatten=False):
+             seed=1, image_width=128, threads=1, area=None, flatten=False, results=None):
     """rtu.sweep's grid run as `shards` tasks on any concurrent.futures.Executor (a ProcessPoolExecutor, a Dask
     cluster's `Client.get_executor()`, submitit's or Ray's executors): task k runs shard k/shards (every
     shards-th point), and the DataFrame returned is rtu.sweep's of the whole grid, in its row order, the same but
     for the wall time `seconds`. shards defaults to the number of points (a task per point); threads is each
     task's (the executor's workers are the parallelism). Workers must import rtu (PYTHONPATH naming the build's
     python/ folder) and see the scene files at the same paths. A task that fails cancels the others and raises
-    rtu.Error naming its shard, chained to the worker's exception."""
+    rtu.Error naming its shard, chained to the worker's exception.
+
+    results: a folder every worker sees. The grid's points are written to results/manifest.txt, each with its
+    content key, the tasks write one file per point to results/points/ (points whose file is there are skipped,
+    so a rerun resumes), and the collected table to results/sweep.csv with results/sweep.csv.provenance.csv:
+    the folder rtusim sweep --write-manifest, --manifest and --collect make (rtu.collect reads it back); the
+    rows then come in the manifest's order, a point listed twice once."""
     import io
 
     import pandas as pd
@@ -346,17 +375,16 @@ def sweep_on(executor, scenes, formats=("default",), bvh_widths=(4,), configs=("
     shards = min(shards, points)  # a shard beyond the points would run none
     options = dict(rays=_int(rays, "rays"), seed=_int(seed, "seed"), image_width=_int(image_width, "image_width"),
                    threads=_int(threads, "threads"), area=_os.fspath(area) if area else None, flatten=bool(flatten))
-    futures = [executor.submit(_sweep_task, k, shards, grid, options) for k in range(1, shards + 1)]
-    texts = []
-    try:
-        for k, f in enumerate(futures, start=1):
-            try:
-                texts.append(f.result())
-            except Exception as e:
-                raise Error(f"sweep_on: shard {k}/{shards} failed: {type(e).__name__}: {e}") from e
-    finally:
-        for f in futures:
-            f.cancel()  # after a failure, the shards not yet started (no-op on finished ones)
+    if results is not None:
+        folder = _os.path.abspath(_os.fspath(results))
+        _os.makedirs(folder, exist_ok=True)
+        manifest = _os.path.join(folder, "manifest.txt")
+        _rtu.write_manifest(manifest, *grid, options["rays"], options["seed"], options["image_width"],
+                            options["flatten"])
+        _run_tasks(executor, _manifest_task, shards, manifest, _os.path.join(folder, "points"),
+                   options["threads"], options["area"] or "")
+        return collect(folder)
+    texts = _run_tasks(executor, _sweep_task, shards, grid, options)
     # The shards' lines back in the grid's order (line i of shard k is point (k - 1) + i * shards), read as one
     # CSV text: the DataFrame rtu.sweep reads from the whole grid's text.
     header, lines = None, [None] * points
@@ -374,6 +402,23 @@ def sweep_on(executor, scenes, formats=("default",), bvh_widths=(4,), configs=("
         raise Error(f"sweep_on: point {lines.index(None)} of {points} is missing from shard "
                     f"{lines.index(None) % shards + 1}/{shards}")
     return _sweep_frame(pd.read_csv(io.StringIO("\n".join([header, *lines]) + "\n")))
+
+
+def collect(results, out=None):
+    """A sweep folder's table (results/manifest.txt's points from results/points/, as rtusim sweep --collect) as
+    a DataFrame; the CSV and its provenance (key, version, host, threads, seconds) are written to `out` and
+    out.provenance.csv (default results/sweep.csv). rtu.Error naming the points without a file."""
+    import io
+
+    import pandas as pd
+
+    folder = _os.fspath(results)
+    csv, provenance = _rtu.collect(_os.path.join(folder, "manifest.txt"), _os.path.join(folder, "points"))
+    out = _os.fspath(out) if out is not None else _os.path.join(folder, "sweep.csv")
+    for path, text in ((out, csv), (out + ".provenance.csv", provenance)):
+        with open(path, "w", encoding="utf-8", newline="") as f:
+            f.write(text)
+    return _sweep_frame(pd.read_csv(io.StringIO(csv)))
 
 
 def _sweep_frame(df):

@@ -5,6 +5,7 @@ ctest runs it with the module tests (label python)."""
 
 import logging
 import os
+import subprocess
 import sys
 from concurrent.futures import ProcessPoolExecutor
 
@@ -69,6 +70,60 @@ def test_a_dask_cluster_of_worker_processes_gives_the_whole_sweep(reference):
         imported = client.run(lambda: "rtu" in sys.modules)
         assert any(imported.values()), imported
     same_but_seconds(df, reference)
+
+
+RTUSIM = os.environ.get("RTUSIM", os.path.join(os.path.dirname(__file__), "../../build/default/rtusim"))
+
+
+def dask_cluster():
+    distributed = pytest.importorskip("distributed")  # Debian's python3-distributed (scripts/setup.sh)
+    cluster = distributed.LocalCluster(processes=True, n_workers=2, threads_per_worker=1, dashboard_address=None,
+                                       silence_logs=logging.ERROR)
+    return cluster, distributed.Client(cluster)
+
+
+@pytest.mark.filterwarnings("ignore:make_current is deprecated:DeprecationWarning")
+def test_a_dask_sweep_into_a_folder_collects_as_rtusim_does(reference, tmp_path):
+    """With results=DIR the Dask workers write one point file each under DIR/points; the table collected equals
+    the whole grid's, and rtusim sweep --manifest/--collect on the same grid makes the same manifest and, from
+    the Dask folder, byte for byte the same CSV."""
+    folder = tmp_path / "dask"
+    cluster, client = dask_cluster()
+    with cluster, client:
+        client.wait_for_workers(2, timeout=60)
+        df = rtu.sweep_on(client.get_executor(), **GRID, **RUN, shards=4, results=folder)
+    same_but_seconds(df, reference)  # the grid's order is the manifest's: every point differs here
+    assert len(list((folder / "points").glob("*.json"))) == 12
+    # The manifest rtusim writes for the same grid (--set spells the changed key) is the one rtu wrote.
+    run = [RTUSIM, "sweep"]
+    grid = ["--scene", "builtin:cornell", "--scene", "builtin:seed", "--formats", "default,compact",
+            "--bvh-width", "4", "--config", "rdna2,intel", "--rays", "300", "--image-width", "0"]
+    subprocess.run([*run, *grid, "--write-manifest", tmp_path / "cli.txt"], check=True, capture_output=True)
+    cli = (tmp_path / "cli.txt").read_text().splitlines()
+    ours = (folder / "manifest.txt").read_text().splitlines()
+    assert cli[0] == ours[0] and set(cli[1:]) < set(ours[1:]) and len(cli) == 10 and len(ours) == 14
+    subprocess.run([*run, "--collect", folder / "points", "--manifest", folder / "manifest.txt", "--out",
+                    tmp_path / "cli.csv"], check=True, capture_output=True)
+    assert (tmp_path / "cli.csv").read_bytes() == (folder / "sweep.csv").read_bytes()
+    prov = pd.read_csv(str(folder / "sweep.csv.provenance.csv"))
+    assert list(prov.columns) == ["key", "version", "host", "threads", "seconds"] and len(prov) == 12
+    # A rerun finds every point's file: nothing runs again (the files are untouched), the same table.
+    stamps = {p.name: p.stat().st_mtime_ns for p in (folder / "points").iterdir()}
+    with ProcessPoolExecutor(max_workers=2) as ex:
+        again = rtu.sweep_on(ex, **GRID, **RUN, shards=3, results=folder)
+    assert stamps == {p.name: p.stat().st_mtime_ns for p in (folder / "points").iterdir()}
+    pd.testing.assert_frame_equal(again, df, check_exact=True)
+    pd.testing.assert_frame_equal(rtu.collect(folder, out=tmp_path / "again.csv"), df, check_exact=True)
+
+
+def test_a_folder_holds_one_sweep(tmp_path):
+    with ProcessPoolExecutor(max_workers=1) as ex:
+        rtu.sweep_on(ex, "builtin:cornell", **RUN, results=tmp_path)
+        with pytest.raises(rtu.Error, match="manifest.txt lists other points"):
+            rtu.sweep_on(ex, "builtin:cornell", configs=["intel"], **RUN, results=tmp_path)
+    (tmp_path / "points" / os.listdir(tmp_path / "points")[0]).unlink()
+    with pytest.raises(rtu.Error, match=r"1 of 1 points have no file in .*points"):
+        rtu.collect(tmp_path)
 
 
 def test_a_failed_shard_is_named(tmp_path):

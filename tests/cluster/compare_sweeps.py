@@ -5,7 +5,10 @@ points may differ in): exits 1 naming the first difference. Used by the cluster 
       the same header, and the same rows as a set (ACTUAL's rows may come in another order: a merge groups them
       by shard), each point once
   compare_sweeps.py --shard K N EXPECTED.csv SHARD.csv
-      SHARD holds exactly rows K-1, K-1+N, K-1+2N, ... of EXPECTED, in that order (rtusim sweep --shard K/N)"""
+      SHARD holds exactly rows K-1, K-1+N, K-1+2N, ... of EXPECTED, in that order (rtusim sweep --shard K/N)
+  compare_sweeps.py --same-order EXPECTED.csv ACTUAL.csv...
+      each ACTUAL has EXPECTED's lines in EXPECTED's order, byte for byte apart from the seconds column (tables
+      collected from one manifest by different engines)"""
 import csv
 import sys
 
@@ -24,7 +27,23 @@ def rows(path):
     return [header[i] for i in keep], [tuple(row[i] for i in keep) for row in r[1:]]
 
 
+def same_order(expected, actuals):
+    eh, erows = rows(expected)
+    with open(expected, "rb") as f:
+        lines = f.read().splitlines()
+    for path in actuals:
+        ah, arows = rows(path)
+        with open(path, "rb") as f:
+            alines = f.read().splitlines()
+        if ah != eh or arows != erows or len(alines) != len(lines):
+            first = next((i for i, (a, b) in enumerate(zip(erows, arows)) if a != b), min(len(erows), len(arows)))
+            sys.exit(f"compare_sweeps: {path} differs from {expected} at row {first + 1} (apart from seconds)")
+        print(f"compare_sweeps: {path}: {len(arows)} rows, {expected}'s in its order, apart from seconds")
+
+
 def main(argv):
+    if argv[:1] == ["--same-order"] and len(argv) >= 3:
+        return same_order(argv[1], argv[2:])
     shard = None
     if argv[:1] == ["--shard"]:
         shard = (int(argv[1]), int(argv[2]))

@@ -5,6 +5,9 @@
 #   - 4 array tasks, at most 2 at once, each ran its shard of the manifest (points k-1, k+3, ... of it), one point
 #     file per point; the collected CSV holds every row of the same grid run in one process, equal apart from the
 #     wall time
+#   - the same manifest run in one process, as 3 shards in the order 3, 1, 2, and from Python on a Dask cluster of 2
+#     worker processes (rtu.sweep_on(results=...), which writes the same manifest) collects to the Slurm array's
+#     table: the same lines in the same order, byte for byte apart from the wall time
 #   - a task that fails for real (its points folder is a file, so rtusim cannot write it) fails the collect, which
 #     names the task, its exit status and its log; rerunning only that task (sbatch --array=2) runs only its
 #     missing points and mends the sweep
@@ -82,6 +85,25 @@ done
 "$src"/scripts/slurm_sweep.sh --collect --results "$results" --rtusim "$rtusim"
 python3 "$src"/tests/cluster/compare_sweeps.py "$tmp/local.csv" "$results/sweep.csv"
 
+# --- the same manifest on every other engine collects to the same table ---
+manifest=$results/manifest.txt
+"$rtusim" sweep --manifest "$manifest" --results "$tmp/one" --threads 2 >/dev/null
+"$rtusim" sweep --collect "$tmp/one" --manifest "$manifest" --out "$tmp/one.csv" >/dev/null
+for k in 3 1 2; do
+  "$rtusim" sweep --manifest "$manifest" --results "$tmp/three" --shard $k/3 >/dev/null
+done
+"$rtusim" sweep --collect "$tmp/three" --manifest "$manifest" --out "$tmp/three.csv" >/dev/null
+if /usr/bin/python3 -c "import distributed, pandas" 2>/dev/null; then
+  PYTHONPATH="$(dirname "$rtusim")/python" /usr/bin/python3 "$src"/tests/cluster/dask_sweep.py "$tmp/dask"
+  cmp "$manifest" "$tmp/dask/manifest.txt" || fail "rtu.sweep_on wrote another manifest for the same grid"
+  dask_csv=$tmp/dask/sweep.csv
+else
+  echo "note: no python3-distributed: the Dask engine is not compared" >&2
+  dask_csv=
+fi
+python3 "$src"/tests/cluster/compare_sweeps.py --same-order "$results/sweep.csv" "$tmp/one.csv" "$tmp/three.csv" \
+  ${dask_csv:+"$dask_csv"}
+
 # --- a task that fails: collect refuses, naming it and its log; rerunning that task alone mends the sweep ---
 rm "$results/sweep.csv"
 for key in $(awk -v n=$tasks 'NR > 2 && (NR - 3) % n == 1 {print $1}' "$results/manifest.txt"); do
@@ -110,4 +132,4 @@ grep -q "2 points in this shard (2/$tasks), 2 run, 0 already" "$results/logs/${i
   fail "the rerun of task 2 did not run exactly its 2 missing points"
 "$src"/scripts/slurm_sweep.sh --collect --results "$results" --rtusim "$rtusim"
 python3 "$src"/tests/cluster/compare_sweeps.py "$tmp/local.csv" "$results/sweep.csv"
-echo "PASS: a 4-task Slurm array collected to the local sweep; a failed task named and mended"
+echo "PASS: a 4-task Slurm array, one process, 3 shards and Dask collected to one table; a failed task named and mended"

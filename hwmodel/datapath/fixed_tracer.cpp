@@ -243,7 +243,7 @@ struct FixedPolicy {
   // Repeats child i's box test exactly and counts a disagreement with the datapath's answer.
   void check_child(const Node& n, int i, bool hit) const {
     ++s.box_checks;
-    const bool exact = Test::exact(r, n, i, r.tmin, closest.t);
+    const bool exact = Test::exact(nr, r, n, i, r.tmin, closest.t);
     s.box_false_negatives += uint64_t(exact && !hit);
     s.box_false_positives += uint64_t(hit && !exact);
   }
@@ -252,7 +252,7 @@ struct FixedPolicy {
   // path keeps them, and the unit's clocks in the recorded event.
   int expand_unit(uint32_t node, uint32_t refs[N], int64_t dists[N], int& tested) const {
     const Node& n = nodes[node];
-    const BoxUnitNode in = Test::unit_input(r, n);
+    const BoxUnitNode in = Test::unit_input(nr, r, n);
     BoxUnitResult out;
     unit->test(r, in, r.tmin, closest.t, out);
     if (out.issue < 1 || out.issue > 255 || out.result < out.issue || out.result > 255)
@@ -276,7 +276,7 @@ struct FixedPolicy {
 
   template <class Int>
   int expand_ref(const Node& n, uint32_t refs[N], int64_t dists[N], int& tested) const {
-    return Test::template test<Int>(r, n, r.tmin, closest.t, refs, dists, [&](int i, bool hit) {
+    return Test::template test<Int>(nr, r, n, r.tmin, closest.t, refs, dists, [&](int i, bool hit) {
       ++tested;
       if (check) check_child(n, i, hit);
     });

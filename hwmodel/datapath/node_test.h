@@ -6,12 +6,14 @@
 //   int fast(RayState, Node, tmin, tlim, refs[], dists[])
 //                                       the fast kernel: accepted children in slot order and their entry
 //                                       distances, or -1 when the node is outside the kernel's bounds
-//   int test<Int>(FixedRay, Node, tmin, tlim, refs[], dists[], on_child)
+//   int test<Int>(RayState, FixedRay, Node, tmin, tlim, refs[], dists[], on_child)
 //                                       the reference path in Int arithmetic (int64_t for a narrow format,
 //                                       Wide else), calling on_child(i, hit) for each occupied slot; bit for bit
 //                                       the fast kernel's answer
-//   BoxUnitNode unit_input(FixedRay, Node)   what an attached box unit (box_unit.h) is handed
-//   bool exact(FixedRay, Node, i, tmin, tlim) the exact oracle of child i (what the check counts against)
+//   BoxUnitNode unit_input(RayState, FixedRay, Node)   what an attached box unit (box_unit.h) is handed (a kind
+//                                       no unit tests throws std::invalid_argument saying so)
+//   bool exact(RayState, FixedRay, Node, i, tmin, tlim)   the exact oracle of child i (what the check counts
+//                                       against)
 // The one rule every kind keeps: conservative, no child the exact oracle hits is rejected (docs/numerics.md).
 #pragma once
 
@@ -25,4 +27,5 @@ struct NodeTest;
 }  // namespace rtu::hw
 
 // The kinds' tests, one include each.
+#include "hwmodel/datapath/oriented_aabb_test.h"
 #include "hwmodel/datapath/quantized_aabb_test.h"

@@ -25,8 +25,8 @@ struct NodeTest<QuantizedAabb<N, Q>> {
   // Child planes relative to the ray origin in grid.F: (origin << F) - o once per node and axis, then
   // + (q << (exp + F)) per child plane: the decode and the subtraction of box_test in one step.
   template <class Int, class OnChild>
-  static int test(const FixedRay& r, const Node& n, int64_t tmin, int64_t tlim, uint32_t refs[N], int64_t dists[N],
-                  OnChild&& on_child) {
+  static int test(const NodeRay&, const FixedRay& r, const Node& n, int64_t tmin, int64_t tlim, uint32_t refs[N],
+                  int64_t dists[N], OnChild&& on_child) {
     int64_t base[3];
     int sh[3];
     for (int a = 0; a < 3; ++a) {
@@ -51,7 +51,7 @@ struct NodeTest<QuantizedAabb<N, Q>> {
     return k;
   }
 
-  static BoxUnitNode unit_input(const FixedRay& r, const Node& n) {
+  static BoxUnitNode unit_input(const NodeRay&, const FixedRay& r, const Node& n) {
     BoxUnitNode in{};
     for (int a = 0; a < 3; ++a) {
       in.base[a] = (int64_t(n.origin[a]) << r.frac) - r.o[a];
@@ -63,7 +63,7 @@ struct NodeTest<QuantizedAabb<N, Q>> {
     return in;
   }
 
-  static bool exact(const FixedRay& r, const Node& n, int i, int64_t tmin, int64_t tlim) {
+  static bool exact(const NodeRay&, const FixedRay& r, const Node& n, int i, int64_t tmin, int64_t tlim) {
     int64_t lo[3], hi[3];
     QuantizedAabb<N, Q>::child_box(n, i, lo, hi);
     return box_test_exact(r, lo, hi, tmin, tlim);

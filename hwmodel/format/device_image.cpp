@@ -9,6 +9,7 @@
 
 #include "hwmodel/format/node_kinds.h"
 #include "hwmodel/format/packed_layout.h"
+#include "hwmodel/format/rotation_table.h"
 
 namespace rtu::hw {
 
@@ -28,6 +29,11 @@ FixedFormat DeviceImage::format() const {
   f.node_layout = h.node_layout;
   f.prim_layout = h.prim_layout;
   f.node_align = h.node_align;
+  if (node_kind(h) == NodeKindId::kOrientedAabb) {
+    f.node_kind = 1;
+    f.rotations = int((h.flags & kImageRotationsMask) >> kImageRotationsShift) + 1;
+    f.rot_bits = int((h.flags & kImageRotBitsMask) >> kImageRotBitsShift);
+  }
   return f;
 }
 
@@ -173,11 +179,124 @@ class Encoder {
     m_record_boxes.assign(t.prim_ids.size(), GridBox{});
     for (size_t i = 0; i < t.prim_ids.size(); ++i)
       make_record(t.prim_ids[i], records.data() + i * kRecordBytes, m_record_boxes[i]);
+    m_records_bytes = records.data();
     nodes.resize(t.nodes.size());
-    if (!is_leaf(t.root_ref) && t.root_ref != kEmptyChild) subtree<K>(t, nodes, t.root_ref);
+    if (is_leaf(t.root_ref) || t.root_ref == kEmptyChild) return;
+    if constexpr (K::kId == NodeKindId::kOrientedAabb) {
+      m_rot = &rotation_table(m_f.rotations, m_f.rot_bits);
+      subtree_oriented<K>(t, nodes, t.root_ref);
+    } else {
+      subtree<K>(t, nodes, t.root_ref);
+    }
   }
 
  private:
+  // Oriented kinds: what lies below a subtree, as the extents of its points along each rotation's axes: element
+  // 6k + 2a is the least (M_k p)_a over its points p (grid integers times the table's integers: exact), 6k + 2a +
+  // 1 the greatest. A triangle's points are its vertices (its hull lies within), other records' the corners of
+  // their grid boxes.
+  using Extents = std::vector<int64_t>;
+
+  Extents record_extents(uint32_t i) const {
+    const std::vector<Rotation>& rot = *m_rot;
+    Extents e(6 * rot.size());
+    for (size_t k = 0; k < rot.size(); ++k)
+      for (int a = 0; a < 3; ++a) {
+        e[6 * k + 2 * a] = INT64_MAX;
+        e[6 * k + 2 * a + 1] = INT64_MIN;
+      }
+    int64_t pts[8][3];
+    int np = 0;
+    const uint8_t* rec = m_records_bytes + size_t(i) * kRecordBytes;
+    if (record_kind(rec) == RecordKind::kTriangle) {
+      TriangleRecord tr;
+      std::memcpy(&tr, rec, sizeof tr);
+      for (; np < 3; ++np)
+        for (int a = 0; a < 3; ++a) pts[np][a] = tr.v[np][a];
+    } else {
+      const GridBox& b = m_record_boxes[i];
+      for (; np < 8; ++np)
+        for (int a = 0; a < 3; ++a) pts[np][a] = (np >> a) & 1 ? b.hi[a] : b.lo[a];
+    }
+    for (size_t k = 0; k < rot.size(); ++k)
+      for (int a = 0; a < 3; ++a) {
+        const int32_t* m = rot[k].m[a];
+        int64_t& lo = e[6 * k + 2 * a];
+        int64_t& hi = e[6 * k + 2 * a + 1];
+        for (int p = 0; p < np; ++p) {
+          const int64_t v = m[0] * pts[p][0] + m[1] * pts[p][1] + m[2] * pts[p][2];
+          lo = std::min(lo, v);
+          hi = std::max(hi, v);
+        }
+      }
+    return e;
+  }
+
+  static void merge(Extents& into, const Extents& e) {
+    for (size_t j = 0; j < into.size(); j += 2) {
+      into[j] = std::min(into[j], e[j]);
+      into[j + 1] = std::max(into[j + 1], e[j + 1]);
+    }
+  }
+
+  // Encodes the subtree's nodes, each in the rotation whose children's boxes have the least summed surface area
+  // (the first such: the identity on a tie with it), and returns the subtree's extents.
+  template <NodeKind K>
+  Extents subtree_oriented(const WideBvh<K::kWidth>& t, std::vector<typename K::Node>& nodes, uint32_t ref) {
+    constexpr int N = K::kWidth;
+    if (is_leaf(ref)) {
+      Extents all = record_extents(leaf_first(ref));
+      for (uint32_t i = leaf_first(ref) + 1; i < leaf_first(ref) + leaf_count(ref); ++i)
+        merge(all, record_extents(i));
+      return all;
+    }
+    const WideNode<N>& fn = t.nodes[ref];
+    Extents ext[N];
+    uint32_t refs[N];
+    int count = 0;
+    for (int i = 0; i < N; ++i) {
+      if (fn.child[i] == kEmptyChild) continue;
+      ext[count] = subtree_oriented<K>(t, nodes, fn.child[i]);
+      refs[count] = fn.child[i];
+      ++count;
+    }
+    const size_t R = m_rot->size();
+    size_t best = 0;
+    double best_area = 0.0;
+    for (size_t k = 0; k < R; ++k) {
+      double area = 0.0;
+      for (int i = 0; i < count; ++i) {
+        const int64_t* e = ext[i].data() + 6 * k;
+        const double dx = double(e[1] - e[0]), dy = double(e[3] - e[2]), dz = double(e[5] - e[4]);
+        area += dx * dy + dy * dz + dz * dx;
+      }
+      if (k == 0 || area < best_area) {
+        best = k;
+        best_area = area;
+      }
+    }
+    // The children's boxes in that frame, grid units: the extents divided by 2^rot_bits, outward.
+    const int rb = m_f.rot_bits;
+    GridBox boxes[N];
+    for (int i = 0; i < count; ++i)
+      for (int a = 0; a < 3; ++a) {
+        boxes[i].lo[a] = round_shift64(ext[i][6 * best + 2 * a], rb, Round::kDown);
+        boxes[i].hi[a] = round_shift64(ext[i][6 * best + 2 * a + 1], rb, Round::kUp);
+      }
+    typename K::Node& node = nodes[ref];
+    K::encode_rotated(node, int(best), boxes, refs, count, m_f);
+    for (int i = 0; i < count; ++i) {
+      int64_t lo[3], hi[3];
+      K::child_box(node, i, lo, hi);
+      for (int a = 0; a < 3; ++a)
+        if ((lo[a] << rb) > ext[i][6 * best + 2 * a] || (hi[a] << rb) < ext[i][6 * best + 2 * a + 1])
+          throw std::logic_error("encoder: an oriented child box does not contain its points");
+    }
+    Extents all = std::move(ext[0]);
+    for (int i = 1; i < count; ++i) merge(all, ext[i]);
+    return all;
+  }
+
   template <NodeKind K>
   GridBox subtree(const WideBvh<K::kWidth>& t, std::vector<typename K::Node>& nodes, uint32_t ref) {
     constexpr int N = K::kWidth;
@@ -208,6 +327,8 @@ class Encoder {
   const FixedFormat& m_f;
   QuantFrame m_frame;
   std::vector<GridBox> m_record_boxes;
+  const uint8_t* m_records_bytes = nullptr;  // encode_tree's records (oriented kinds read their vertices)
+  const std::vector<Rotation>* m_rot = nullptr;
   const std::vector<Aabb>* m_boxes = nullptr;  // top level: instance bounds, and their instance indices
   const std::vector<uint32_t>* m_ids = nullptr;
 };
@@ -333,6 +454,7 @@ DeviceImage encode_top_level(const std::vector<Aabb>& boxes, const std::vector<u
     if (id > kRecordPrimMask) throw std::invalid_argument("encode_top_level: instance index beyond 2^29 - 1");
   FixedFormat f = format;
   f.prim_layout = 0;
+  f.node_kind = 0;  // the top level's nodes stay axis-aligned: instance bounds are boxes
   Encoder enc(boxes, ids, flat, f);
   return ImageWriter::write(enc, flat, f, &bvh, kImageTopLevel);
 }
@@ -342,8 +464,10 @@ DeviceImage ImageWriter::write(Encoder& enc, const Geometry& g, const FixedForma
   PackedTree tree;  // the node and primitive sections (and, packed, their expected decoding)
   const int q_bytes = f.offset_bytes();
   const bool packed = f.node_layout != 0;
-  const NodeKindId kind = NodeKindId::kQuantizedAabb;  // the one kind the encoder builds (node_kinds.h)
+  const NodeKindId kind = f.node_kind == 1 ? NodeKindId::kOrientedAabb : NodeKindId::kQuantizedAabb;
   flags |= uint32_t(kind) << kImageNodeKindShift;
+  if (kind == NodeKindId::kOrientedAabb)
+    flags |= (uint32_t(f.rotations - 1) << kImageRotationsShift) | (uint32_t(f.rot_bits) << kImageRotBitsShift);
   if (bvh) {
     bvh->visit([&](const auto& t) {
       constexpr int N = std::decay_t<decltype(t)>::kWidth;
@@ -461,8 +585,11 @@ void check_header(const ImageHeader& h, const FixedFormat& f, uint64_t bytes) {
     bad_image(std::string("format: ") + e.what());
   }
   if (h.q_bytes != f.offset_bytes()) bad_image("offset bytes do not match child_bits");
-  if (h.flags & ~(kImageNoBvh | kImageTopLevel | kImageNodeKindMask)) bad_image("unknown flag bits");
+  if (h.flags & ~(kImageNoBvh | kImageTopLevel | kImageNodeKindMask | kImageRotationsMask | kImageRotBitsMask))
+    bad_image("unknown flag bits");
   if (!find_node_kind(uint32_t(node_kind(h)))) bad_image("unknown node kind " + std::to_string(int(node_kind(h))));
+  if (node_kind(h) != NodeKindId::kOrientedAabb && (h.flags & (kImageRotationsMask | kImageRotBitsMask)))
+    bad_image("rotation table fields in an image of axis-aligned nodes");
   if ((h.flags & kImageTopLevel) && h.prim_layout != 0) bad_image("a top level in triangle blocks");
   // The frame: grid -> world must stay exact in double (quant_frame.h) and finite.
   if (h.step_exp < -1000 || h.step_exp > 1000) bad_image("frame step exponent out of range");

@@ -24,15 +24,21 @@
 
 namespace rtu::hw {
 
-enum class NodeKindId : uint8_t { kQuantizedAabb = 0 };
+enum class NodeKindId : uint8_t { kQuantizedAabb = 0, kOrientedAabb = 1 };
 
-// Which of the timing model's box-test costs prices a node of the kind (box_rate and box_latency today).
-enum class NodeCostClass : uint8_t { kAxisAligned = 0 };
+// Which of the timing model's box-test costs prices a node of the kind (node_cost.h): slab tests (box_rate,
+// box_latency), or slab tests after the ray's rotation into the node's frame (and obb_rotate_latency).
+enum class NodeCostClass : uint8_t { kAxisAligned = 0, kOriented = 1 };
 
 // Image header flags bits 8..11: the node kind. 0 is the quantized AABB, so images written before kinds existed
 // read as that kind, byte for byte.
 inline constexpr uint32_t kImageNodeKindShift = 8;
 inline constexpr uint32_t kImageNodeKindMask = 0xFu << kImageNodeKindShift;
+// Image header flags of an oriented kind: bits 12..21 the rotation table's size - 1, bits 22..26 its entries'
+// fraction bits (rotation_table.h); zero in other kinds.
+inline constexpr uint32_t kImageRotationsShift = 12, kImageRotBitsShift = 22;
+inline constexpr uint32_t kImageRotationsMask = 0x3FFu << kImageRotationsShift;
+inline constexpr uint32_t kImageRotBitsMask = 0x1Fu << kImageRotBitsShift;
 
 // A box on the grid, exact integers: the encoder's input for one child (contains everything below it).
 struct GridBox {

@@ -6,8 +6,10 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "hwmodel/format/node_kind.h"
+#include "hwmodel/format/oriented_aabb.h"
 #include "hwmodel/format/quantized_aabb.h"
 
 namespace rtu::hw {
@@ -19,6 +21,7 @@ struct NodeKindInfo {
 };
 inline constexpr NodeKindInfo kNodeKinds[] = {
     {NodeKindId::kQuantizedAabb, "quantized-aabb", NodeCostClass::kAxisAligned},
+    {NodeKindId::kOrientedAabb, "oriented-aabb", NodeCostClass::kOriented},
 };
 
 // The kind's row, or null for an id no kind has.
@@ -30,24 +33,33 @@ inline const NodeKindInfo* find_node_kind(uint32_t id) {
 
 // Calls f with a value of the kind type for (id, width, q_bytes) and returns what it returns. Widths 2, 4, 6, 8;
 // q_bytes 1 or 2 (the image check has refused anything else; std::logic_error here means a caller skipped it).
-template <class F>
-decltype(auto) with_node_kind(NodeKindId id, int width, int q_bytes, F&& f) {
-  if (id != NodeKindId::kQuantizedAabb || (q_bytes != 1 && q_bytes != 2))
-    throw std::logic_error("with_node_kind: no kind " + std::to_string(int(id)) + " with " +
-                           std::to_string(q_bytes) + "-byte offsets");
-  const bool q8 = q_bytes == 1;
+template <template <int, class> class Kind, class F>
+decltype(auto) with_kind_width(int width, bool q8, F&& f) {
   switch (width) {
     case 2:
-      return q8 ? f(QuantizedAabb<2, uint8_t>{}) : f(QuantizedAabb<2, uint16_t>{});
+      return q8 ? f(Kind<2, uint8_t>{}) : f(Kind<2, uint16_t>{});
     case 4:
-      return q8 ? f(QuantizedAabb<4, uint8_t>{}) : f(QuantizedAabb<4, uint16_t>{});
+      return q8 ? f(Kind<4, uint8_t>{}) : f(Kind<4, uint16_t>{});
     case 6:
-      return q8 ? f(QuantizedAabb<6, uint8_t>{}) : f(QuantizedAabb<6, uint16_t>{});
+      return q8 ? f(Kind<6, uint8_t>{}) : f(Kind<6, uint16_t>{});
     case 8:
-      return q8 ? f(QuantizedAabb<8, uint8_t>{}) : f(QuantizedAabb<8, uint16_t>{});
+      return q8 ? f(Kind<8, uint8_t>{}) : f(Kind<8, uint16_t>{});
     default:
       throw std::logic_error("with_node_kind: width " + std::to_string(width));
   }
+}
+
+template <class F>
+decltype(auto) with_node_kind(NodeKindId id, int width, int q_bytes, F&& f) {
+  if (q_bytes != 1 && q_bytes != 2)
+    throw std::logic_error("with_node_kind: no kind with " + std::to_string(q_bytes) + "-byte offsets");
+  switch (id) {
+    case NodeKindId::kQuantizedAabb:
+      return with_kind_width<QuantizedAabb>(width, q_bytes == 1, std::forward<F>(f));
+    case NodeKindId::kOrientedAabb:
+      return with_kind_width<OrientedAabb>(width, q_bytes == 1, std::forward<F>(f));
+  }
+  throw std::logic_error("with_node_kind: no kind " + std::to_string(int(id)));
 }
 
 // Bytes of the kind's stored struct (a node in the struct layout, and as a bound image decodes packed nodes).
@@ -56,5 +68,6 @@ inline size_t node_struct_bytes(NodeKindId id, int width, int q_bytes) {
 }
 
 static_assert(NodeKind<QuantizedAabb<4, uint8_t>> && NodeKind<QuantizedAabb<8, uint16_t>>);
+static_assert(NodeKind<OrientedAabb<4, uint8_t>> && NodeKind<OrientedAabb<8, uint16_t>>);
 
 }  // namespace rtu::hw

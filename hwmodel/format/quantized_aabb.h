@@ -12,6 +12,16 @@
 
 namespace rtu::hw {
 
+// Child i's box of a node that stores k-bit offsets from an origin at a power-of-two scale per axis (fields
+// origin, exp, q: the axis-aligned and the oriented kinds), grid units.
+template <class Node>
+inline void offset_box(const Node& n, int i, int64_t lo[3], int64_t hi[3]) {
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a][i]) << n.exp[a]);
+    hi[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a + 1][i]) << n.exp[a]);
+  }
+}
+
 template <int N, class Q>
 struct QuantizedAabb {
   using Node = QNode<N, Q>;
@@ -22,12 +32,7 @@ struct QuantizedAabb {
   static uint32_t child(const Node& n, int i) { return n.child[i]; }
   static void set_child(Node& n, int i, uint32_t ref) { n.child[i] = ref; }
 
-  static void child_box(const Node& n, int i, int64_t lo[3], int64_t hi[3]) {
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a][i]) << n.exp[a]);
-      hi[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a + 1][i]) << n.exp[a]);
-    }
-  }
+  static void child_box(const Node& n, int i, int64_t lo[3], int64_t hi[3]) { offset_box(n, i, lo, hi); }
 
   // The children's grid boxes relative to their common low corner, at the smallest scale whose offsets fit
   // child_bits, lows rounded down and highs up (so each decoded box contains its grid box); empty slots hold

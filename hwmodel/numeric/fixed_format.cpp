@@ -33,6 +33,11 @@ int FixedFormat::edge_function_bits() const {
 int FixedFormat::t_shift() const {
   return dir_bits - frac_bits + t_frac_bits;
 }
+// Rotated frame: |o'| = |M o| < 3 2^(B+G+F+rb) and decoded planes |P| <= 2^(B+2) grid units (check of
+// oriented_aabb.h), so |P 2^(F+rb) - o'| < 2^(B+G+F+rb+3).
+int FixedFormat::rotated_translated_bits() const {
+  return coord_bits + guard_bits + frac_bits + rot_bits + 3;
+}
 
 void FixedFormat::validate() const {
   auto fail = [&](const std::string& what) {
@@ -72,6 +77,18 @@ void FixedFormat::validate() const {
   fits("the sphere closest-approach vector", t_bits + dir_bits + 1);
   fits("the sphere distance", 2 * (a + 1) + 2);
   fits("the exact box checker (model only)", a + s + dir_bits + 1);
+  if (node_kind == 1) {
+    // The oriented test: the ray rotated per node (o' = M o, d' = M d exactly), then the slab test in that frame
+    // with the reciprocals of d' (|d'| < 2^(D+rb+1)) at R + 1 bits.
+    if (node_layout != 0) fail("node_kind 1 (oriented boxes) is stored in struct nodes only (node_layout 0)");
+    const int ar = rotated_translated_bits();
+    if (dir_bits + rot_bits + rcp_bits > 62)
+      fail("dir_bits + rot_bits + rcp_bits must be <= 62 (the rotated direction's reciprocal is 64 bits)");
+    if (coord_bits + guard_bits + frac_bits + rot_bits + 2 > 62)
+      fail("coord_bits + guard_bits + frac_bits + rot_bits must be <= 60 (the rotated origin is 64 bits)");
+    fits("the rotated box product", ar + rcp_bits + 2);
+    fits("the rotated exact box checker (model only)", ar + s + dir_bits + rot_bits + 1);
+  }
 }
 
 std::string FixedFormat::describe() const {
@@ -86,6 +103,7 @@ std::string FixedFormat::describe() const {
     o << ", " << (prim_layout ? "triangle blocks" : "40-byte records");
   }
   if (xform_bits != 24) o << ", transforms " << xform_bits << " bits";
+  if (node_kind == 1) o << ", oriented boxes (" << rotations << " rotations, " << rot_bits << " bits)";
   return o.str();
 }
 
@@ -176,6 +194,9 @@ constexpr FormatField kFields[] = {
     {"node_align", "", &F::node_align, 1, 128, "packed node size rounded up to a multiple of this (bytes)"},
     {"prim_layout", "", &F::prim_layout, 0, 1, "primitive storage: 0 40-byte records, 1 triangle blocks"},
     {"xform_bits", "X", &F::xform_bits, 8, 24, "significant bits of an instance transform's entries"},
+    {"node_kind", "", &F::node_kind, 0, 1, "node kind: 0 axis-aligned boxes, 1 oriented boxes (rotation table)"},
+    {"rotations", "", &F::rotations, 1, 1024, "oriented boxes: rotations in the table a node indexes"},
+    {"rot_bits", "", &F::rot_bits, 4, 16, "oriented boxes: fraction bits of the rotation table's entries"},
 };
 
 }  // namespace

@@ -32,6 +32,12 @@ struct FixedFormat {
   // Two-level scenes (instanced_fixed.h): significant bits of each entry of an instance's world -> object
   // transform, 8..24 (24: the float32 matrices of DXR and Vulkan instances).
   int xform_bits = 24;
+  // The node kind (format/node_kinds.h): 0 quantized axis-aligned boxes, 1 oriented boxes (each node's children
+  // in the frame of one of `rotations` fixed rotations whose entries have rot_bits fraction bits:
+  // format/rotation_table.h; struct nodes only).
+  int node_kind = 0;
+  int rotations = 104;
+  int rot_bits = 12;
 
   // Throws std::invalid_argument with the rule a format breaks.
   void validate() const;
@@ -40,6 +46,9 @@ struct FixedFormat {
   int box_product_bits() const;    // (plane - origin) * reciprocal
   int edge_function_bits() const;  // d . (A x B) of the triangle test
   int t_shift() const;             // s = D - F + T: a quotient of (F-unit) / (D-unit) values -> t raw
+  // An oriented node's test (datapath/oriented_aabb_test.h) works in the rotated frame: origins and planes with
+  // F + rot_bits fraction bits, directions with D + rot_bits; a plane minus an origin there.
+  int rotated_translated_bits() const;                          // B + G + F + rot_bits + 3
   int offset_bytes() const { return child_bits <= 8 ? 1 : 2; }  // storage of one child offset
   std::string describe() const;                                 // one line: "width 4, B=24 k=8 ..."
 };

@@ -27,6 +27,11 @@ inline BoxCost box_cost(const TimingConfig& c, NodeCostClass k) {
         b.issue[n] = std::max<uint64_t>(1, (n + uint64_t(c.box_rate) - 1) / uint64_t(c.box_rate));
       b.latency = uint64_t(c.box_latency);
       return b;
+    case NodeCostClass::kOriented:
+      // The slab tests issue as the axis-aligned ones; the rotation stage in front adds its clocks.
+      b = box_cost(c, NodeCostClass::kAxisAligned);
+      b.latency += uint64_t(c.obb_latency);
+      return b;
   }
   throw std::logic_error("box_cost: unknown cost class");
 }

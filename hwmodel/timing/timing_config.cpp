@@ -63,6 +63,8 @@ std::vector<KeyInfo> make_key_table() {
       {"box_units", &C::box_units, 1, 64, "box test units"},
       {"box_rate", &C::box_rate, 1, 64, "box tests per clock per unit (a node of width <= rate: one clock)"},
       {"box_latency", &C::box_latency, 1, kMaxLatency, "box unit pipeline depth (issue to result)"},
+      {"obb_latency", &C::obb_latency, 0, kMaxLatency,
+       "oriented nodes: clocks the ray's rotation into the node's frame adds to a box test"},
       {"box_unit", &C::box_unit, 0, 0,
        "box tests by cpp (the C++ datapath) or rtl (the Verilated RTL unit: co-simulation, its clocks per node)"},
       {"tri_units", &C::tri_units, 1, 64, "triangle units (spheres and planes use them too)"},

@@ -59,6 +59,10 @@ struct TimingConfig {
   int box_units = 1;
   int box_rate = 4;  // box tests per clock per unit (a node of width <= rate issues in one clock)
   int box_latency = 6;
+  // Oriented nodes (node_kind 1): clocks the ray's rotation into the node's frame adds to the box test's latency
+  // (a 3x3 integer product of origin and direction and the reciprocals of the rotated direction; an estimate,
+  // timing-model.md). No effect on axis-aligned images.
+  int obb_latency = 4;
   // Which box unit answers the box tests: "cpp" (the C++ datapath, box_rate and box_latency) or "rtl" (the
   // Verilated RTL of rtl_sim/, co-simulation: its clocks per node replace box_rate and box_latency; hits stay
   // the C++ unit's, bit for bit). The host attaches the RTL unit (hwmodel never sees it).

@@ -177,3 +177,9 @@ TEST_CASE("fixed device with triangle blocks is watertight on the icospheres", "
   check_closed_fixed("builtin:icosphere", 300000, 150000, 5, "packed");
   check_closed_fixed("builtin:icosphere_far", 300000, 150000, 6, "cwbvh");
 }
+
+// Oriented nodes change only which boxes contain what: a closed mesh stays closed.
+TEST_CASE("fixed device with oriented nodes is watertight on the icospheres", "[fixed][watertight][obb]") {
+  check_closed_fixed("builtin:icosphere", 200000, 100000, 7, "default:node_kind=1");
+  check_closed_fixed("builtin:icosphere_far", 200000, 100000, 8, "default:node_kind=1");
+}

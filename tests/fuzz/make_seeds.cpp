@@ -66,6 +66,16 @@ int main(int argc, char** argv) {
     const hw::DeviceImage img = hw::encode_scene(g, f, &*bvh);
     put(dir / "device_image" / ("fixed_" + f.name + ".img"), img.data(), img.size(), 0);
   }
+  // Oriented nodes (node_kind 1): 4- and 8-wide, the table's size and bits in the header's flags.
+  for (const char* spec : {"default:node_kind=1", "wide8:node_kind=1:child_bits=12:rotations=13:rot_bits=8"}) {
+    const hw::FixedFormat f = hw::format_from_spec(spec);
+    hw::BvhBuildParams bp;
+    bp.width = f.width;
+    bp.max_leaf_size = 2;
+    const hw::Bvh bvh = hw::Bvh::build(g, bp);
+    const hw::DeviceImage img = hw::encode_scene(g, f, &bvh);
+    put(dir / "device_image" / ("fixed_oriented_w" + std::to_string(f.width) + ".img"), img.data(), img.size(), 0);
+  }
   const hw::DeviceImage brute = hw::encode_scene(g, hw::FixedFormat{}, nullptr);
   put(dir / "device_image" / "fixed_brute.img", brute.data(), brute.size(), 0);
   // No BVH, primitives in triangle blocks (the packed layouts' other path through the checker).

@@ -129,6 +129,23 @@ hw::CostInputs cost_inputs(const hw::FixedFormat& f, const hw::TimingConfig& c, 
   }
   in.box = unit_cost(Kind::kBox, box_key, box_feature(lanes, a, f.rcp_bits + 1), area, activity);
   in.tri = unit_cost(Kind::kTri, tri_key, tri_feature(a, f.dir_bits), area, activity);
+  if (f.node_kind == 1) {
+    // The rotation stage: 24 multiplies and 12 adds of the reference operators (synthesized and measured when
+    // the tables have them, Horowitz's 45 nm figures else). A 32-bit operator bounds the stage's narrower ones
+    // (origin x entry: B+G+F by rot_bits + 1 bits).
+    const std::vector<ReferenceOp> ops = reference_ops(area, activity);
+    const hw::Technology& t = hw::nangate45();
+    double ge = 0.0, pj = 0.0;
+    for (const ReferenceOp& op : ops) {
+      const double n = op.key == "ref:mul32" ? 24.0 : 12.0;
+      ge += n * (op.measured ? op.nand2_eq : op.horowitz_um2 / t.nand2_um2);
+      pj += n * (op.measured ? op.pj : op.horowitz_pj);
+    }
+    in.rotate.nand2_eq = ge;
+    in.rotate.toggles_per_test = pj / t.pj_per_transition();
+    in.rotate.source = ops[0].measured && ops[1].measured ? "reference operators, synthesized"
+                                                          : "reference operators, Horowitz ISSCC 2014";
+  }
   return in;
 }
 
@@ -153,7 +170,8 @@ Json energy_json(const hw::EnergyReport& e, const hw::TimingConfig& c, const hw:
                {"logic_nand2_eq", e.area.logic_nand2_eq},
                {"sram_bits", e.area.sram_bits},
                {"box_unit", {{"nand2_eq", in.box.nand2_eq}, {"source", in.box.source}}},
-               {"tri_unit", {{"nand2_eq", in.tri.nand2_eq}, {"source", in.tri.source}}}};
+               {"tri_unit", {{"nand2_eq", in.tri.nand2_eq}, {"source", in.tri.source}}},
+               {"rotate_stage", {{"nand2_eq", in.rotate.nand2_eq}, {"source", in.rotate.source}}}};
   Json events = Json::object();
   for (const hw::EnergyEvent& ev : e.events)
     events[ev.key] = {{"count", ev.count}, {"unit", ev.unit}, {"pj_each", ev.pj_each}, {"pj", ev.pj()}};
@@ -196,6 +214,8 @@ std::vector<EnergyKey> energy_json_keys() {
       {"energy.area.sram_bits", "bits", "SRAM bits of cache and slots"},
       {"energy.area.box_unit", "-", "one box unit: nand2_eq and where its size and activity come from"},
       {"energy.area.tri_unit", "-", "one triangle unit: nand2_eq and where its size and activity come from"},
+      {"energy.area.rotate_stage", "-",
+       "oriented nodes: one box unit's rotation stage (nand2_eq, 0 for axis-aligned nodes; in box_units_mm2)"},
       {"energy.events", "-", "each event: count, unit, pj_each, pj (count x pj_each)"},
       {"energy.total_pj", "pJ", "sum of the events' pj"},
       {"energy.pj_per_ray", "pJ/ray", "total_pj / rays"},

@@ -87,8 +87,9 @@ double l2_sram_bits(const TimingConfig& c) {
 AreaReport area_report(const TimingConfig& c, const CostInputs& in, const Technology& t) {
   AreaReport a;
   const double units = double(c.units);  // a chip: every unit has its own units, cache and slots
-  a.logic_nand2_eq = units * (c.box_units * in.box.nand2_eq + c.tri_units * in.tri.nand2_eq);
-  a.box_mm2 = logic_area_mm2(units * c.box_units * in.box.nand2_eq, t);
+  const double box_ge = in.box.nand2_eq + in.rotate.nand2_eq;  // a box unit and its rotation stage
+  a.logic_nand2_eq = units * (c.box_units * box_ge + c.tri_units * in.tri.nand2_eq);
+  a.box_mm2 = logic_area_mm2(units * c.box_units * box_ge, t);
   a.tri_mm2 = logic_area_mm2(units * c.tri_units * in.tri.nand2_eq, t);
   const double cache_bits = units * cache_sram_bits(c), slot_bits = units * slot_sram_bits(c);
   const double l2_bits = l2_sram_bits(c);
@@ -131,6 +132,8 @@ EnergyReport energy_report(const TimingStats& s, const TimingConfig& c, const Co
        2.0 * sram_access_pj(ray_queue_bytes(c), kQueueRayBytes + kGatherKeyBytes, t)},
       {"dram", "bytes", "DRAM bytes (line fills, stack spills, refills)", s.dram_bytes, dram_pj_per_byte},
       {"stream", "bytes", "ray and hit buffer bytes (in DRAM)", s.stream_bytes, dram_pj_per_byte},
+      {"rotate", "nodes", "oriented node tests x the rotation stage's switching energy per rotation",
+       s.obb_rotations, in.rotate.toggles_per_test * e_gate},
       {"transform", "rays", "instance transforms (two-level scenes): 18 float32 multiplies and 15 adds each",
        s.instance_transforms, 18.0 * t.fp32_mul_pj + 15.0 * t.fp32_add_pj},
       {"leakage", "cycles", "leakage of the unit's area over the run's cycles", s.cycles, leak_pj_per_cycle},

@@ -12,6 +12,7 @@
 //   stack          node fetches x one 8-byte access of the slots' stack SRAM (a push or a pop per node visit)
 //   dram           DRAM bytes (line fills, stack spills and refills) x 8 x the memory type's energy per bit
 //   stream         ray and hit buffer bytes x 8 x the same (they live in DRAM)
+//   rotate         oriented node tests x the rotation stage's energy (CostInputs::rotate)
 //   transform      instance transforms (two-level scenes) x 18 float32 multiplies and 15 adds (the origin's three
 //                  rows of 3 products and 3 sums, the direction's of 3 products and 2 sums)
 //   leakage        cycles x the unit's leakage power over the clock
@@ -78,6 +79,10 @@ struct UnitCost {
 };
 struct CostInputs {
   UnitCost box, tri;  // one box unit, one triangle unit
+  // Oriented nodes: the rotation stage in front of each box unit (24 multiplies: the origin's and direction's
+  // 3x3 products and a Newton step per reciprocal; 12 adds), its size and its energy per rotation as gate
+  // transitions; zero for axis-aligned nodes.
+  UnitCost rotate;
 };
 
 // The unit's SRAM: cache data and tags, ray slot state (kSlotStateBytes per slot), short stacks and trails, ray

@@ -454,7 +454,6 @@ DeviceImage encode_top_level(const std::vector<Aabb>& boxes, const std::vector<u
     if (id > kRecordPrimMask) throw std::invalid_argument("encode_top_level: instance index beyond 2^29 - 1");
   FixedFormat f = format;
   f.prim_layout = 0;
-  f.node_kind = 0;  // the top level's nodes stay axis-aligned: instance bounds are boxes
   Encoder enc(boxes, ids, flat, f);
   return ImageWriter::write(enc, flat, f, &bvh, kImageTopLevel);
 }

@@ -44,6 +44,7 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
   m_waiting.reserve(size_t(c.ray_slots));
   // One format builds both levels of a two-level scene, so the top level's node kind prices every node.
   m_box_cost = box_cost(c, layout.node_cost);
+  m_oriented = layout.node_cost == NodeCostClass::kOriented;
 }
 
 // The observer's port: fills at the fetch's cycle, into this unit's cache, from its memory.
@@ -350,6 +351,7 @@ uint64_t TimingModel::unit_request(const TraceEvent& e, uint32_t k, uint64_t t) 
     if (m_trace) m_trace->add(m_unit, k, "box", t, done);
     m_s->box_tests += e.count;
     m_s->box_issue_cycles += issue;
+    m_s->obb_rotations += uint64_t(m_oriented);
     return done;
   }
   if (e.kind == TraceEvent::kPrim && e.count == uint8_t(RecordKind::kInstance)) {

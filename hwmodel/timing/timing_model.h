@@ -241,8 +241,9 @@ class TimingModel {
   uint32_t m_unit = 0;                        // index on the chip (pipeline trace spans, stack addresses)
   uint64_t m_stack_base = 0;  // where slots spill their stacks: after the image, each slot kStackRegion bytes
   static constexpr uint64_t kStackRegion = 4096;
-  int m_line_shift = 0;  // log2(line_bytes)
-  BoxCost m_box_cost;    // issue clocks and latency of a node test, by the node kind's cost class
+  int m_line_shift = 0;     // log2(line_bytes)
+  BoxCost m_box_cost;       // issue clocks and latency of a node test, by the node kind's cost class
+  bool m_oriented = false;  // the image's nodes are oriented: each node test turns the ray (obb_rotations)
   std::vector<uint64_t> m_box_free, m_tri_free;
   // Unit requests whose slot waits for its cycle (cycle << 12 | slot, a min-heap); the others went ahead at
   // their fetch (simulate()). m_min_fetch: the fewest cycles any fetch takes (a cache hit, or without a cache a

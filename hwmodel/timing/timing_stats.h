@@ -39,8 +39,9 @@ struct TimingStats {
   uint64_t stack_spills = 0, stack_refills = 0;
   uint64_t restarts = 0, restart_nodes = 0;  // stack_mode restart: restarts from the root, nodes re-visited
   uint64_t queue_stall_cycles = 0;
-  uint64_t slot_busy_cycles = 0;     // sum over rays of the cycles from entering a slot to leaving it
-  uint64_t any_hit_requests = 0;     // candidate hits on non-opaque triangles sent to the firmware's any-hit stage
+  uint64_t slot_busy_cycles = 0;  // sum over rays of the cycles from entering a slot to leaving it
+  uint64_t any_hit_requests = 0;  // candidate hits on non-opaque triangles sent to the firmware's any-hit stage
+  uint64_t obb_rotations = 0;     // oriented nodes: rays turned into a node's frame (one per oriented node test)
   uint64_t instance_transforms = 0;  // two-level scenes: rays transformed into an instance's bottom level
   // Waits that are throughput, not latency: requests queued for a busy box or triangle unit, and line and stack
   // reads queued for a busy L2 slice port, DRAM bank or channel (the latency bound takes them out of a ray's

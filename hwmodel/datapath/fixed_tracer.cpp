@@ -91,7 +91,7 @@ inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool 
     asked = false;
     return test_instance(rec, r, world, c, bottom, any_hit, s, events);
   }
-  if (record_kind(rec) == RecordKind::kTriangle) {
+  if (is_triangle(record_kind(rec))) {
     TriangleRecord t;
     std::memcpy(&t, rec, sizeof t);
     word = t.prim;
@@ -123,6 +123,45 @@ inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool 
 
 // Tests record `index` and appends its events to rec (when not null): kPrim, and kAnyHit when the stage was
 // asked; an instance's kPrim comes before its bottom level's events.
+inline bool test_recorded(const uint8_t* record, uint32_t index, const FixedRay& r, Closest& c, bool short_edges,
+                          TriUnit* unit, const AnyHitStage* stage, TraversalStats& s, const Ray* world,
+                          const BottomLevels* bottom, bool any_hit, std::vector<TraceEvent>* rec);
+
+// Records [first, first + count) of a leaf (or of an image without a BVH) in order. A triangle pair with its
+// second in the range is one request: both tested in order (the second skipped once an any-hit query has its
+// hit, as without pairs), one kPrim event of kind kTrianglePair whose clocks are the two tests'; a pair's first
+// at the range's end is tested alone.
+inline bool test_records(const DeviceImage& image, uint32_t first, uint32_t count, const FixedRay& r, Closest& c,
+                         bool short_edges, TriUnit* unit, const AnyHitStage* stage, TraversalStats& s,
+                         const Ray* world, const BottomLevels* bottom, bool any_hit,
+                         std::vector<TraceEvent>* rec) {
+  bool found = false;
+  for (uint32_t i = first; i < first + count; ++i) {
+    const uint8_t* a = image.record(i);
+    if (record_kind(a) != RecordKind::kTrianglePair || i + 1 == first + count) {
+      found |= test_recorded(a, i, r, c, short_edges, unit, stage, s, world, bottom, any_hit, rec);
+      if (found && any_hit) return true;
+      continue;
+    }
+    uint8_t issue = 0, result = 0, issue2 = 0, result2 = 0;
+    bool asked = false, asked2 = false;
+    found |= test_record(a, r, c, short_edges, unit, issue, result, stage, s, asked, world, bottom, any_hit, rec);
+    if (!(found && any_hit))
+      found |= test_record(image.record(i + 1), r, c, short_edges, unit, issue2, result2, stage, s, asked2, world,
+                           bottom, any_hit, rec);
+    if (rec) {
+      const uint8_t is = uint8_t(std::min(255, issue + issue2)),
+                    res = uint8_t(std::min(255, std::max<int>(result, issue + result2)));
+      rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(RecordKind::kTrianglePair), is, res, i});
+      if (asked) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, i});
+      if (asked2) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, i + 1});
+    }
+    if (found && any_hit) return true;
+    ++i;
+  }
+  return found;
+}
+
 inline bool test_recorded(const uint8_t* record, uint32_t index, const FixedRay& r, Closest& c, bool short_edges,
                           TriUnit* unit, const AnyHitStage* stage, TraversalStats& s, const Ray* world,
                           const BottomLevels* bottom, bool any_hit, std::vector<TraceEvent>* rec) {
@@ -286,13 +325,8 @@ struct FixedPolicy {
     if (stopped(ref)) return false;
     const uint32_t first = leaf_first(ref), count = leaf_count(ref);
     if (!bottom) s.prim_tests += count;  // an instance record is not a test: its bottom level counts its own
-    bool found = false;
-    for (uint32_t i = 0; i < count; ++i) {
-      found |= test_recorded(image.record(first + i), first + i, r, closest, short_edges, tri_unit, stage, s,
-                             world, bottom, any_hit, rec);
-      if (found && any_hit) return true;
-    }
-    return found;
+    return test_records(image, first, count, r, closest, short_edges, tri_unit, stage, s, world, bottom, any_hit,
+                        rec);
   }
 
   int64_t limit() const { return watch.fired ? INT64_MIN : closest.t; }
@@ -421,11 +455,8 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
     if (hd.flags & kImageNoBvh) {
       const bool short_brute = short_edges_known(fr, m_format.coord_bits);
       if (!m_opt.bottom) s.prim_tests += hd.record_count;
-      for (uint32_t i = 0; i < hd.record_count; ++i) {
-        const bool hit = test_recorded(m_image.record(i), i, fr, c, short_brute, m_opt.tri_unit, m_opt.any_hit, s,
-                                       r, m_opt.bottom, any_hit, rec);
-        if (hit && any_hit) break;
-      }
+      test_records(m_image, 0, hd.record_count, fr, c, short_brute, m_opt.tri_unit, m_opt.any_hit, s, r,
+                   m_opt.bottom, any_hit, rec);
     } else {
       with_node_kind(node_kind(hd), hd.width, hd.q_bytes, [&](auto kind) {
         using K = decltype(kind);

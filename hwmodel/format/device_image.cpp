@@ -145,6 +145,24 @@ class Encoder {
     return rec;
   }
 
+  // Triangle pairs (FixedFormat::tri_pairs): in the records [first, first + count), each triangle that shares an
+  // edge with the next (and is not the second of a pair) becomes a kTrianglePair; the order stays, so every ray
+  // tests the same triangles in the same order as without pairs.
+  static void mark_pairs(uint8_t* records, uint32_t first, uint32_t count) {
+    for (uint32_t i = first; i + 1 < first + count; ++i) {
+      uint8_t* a = records + size_t(i) * kRecordBytes;
+      const uint8_t* b = a + kRecordBytes;
+      if (record_kind(a) != RecordKind::kTriangle || record_kind(b) != RecordKind::kTriangle) continue;
+      TriangleRecord ta, tb;
+      std::memcpy(&ta, a, sizeof ta);
+      std::memcpy(&tb, b, sizeof tb);
+      if (!share_edge(ta, tb)) continue;
+      ta.prim = (ta.prim & ~(3u << 30)) | (uint32_t(RecordKind::kTrianglePair) << 30);
+      std::memcpy(a, &ta, sizeof ta);
+      ++i;  // b is the pair's second
+    }
+  }
+
   // Float box -> grid, rounded outward.
   GridBox outward(const Aabb& b) const {
     GridBox g;
@@ -180,6 +198,13 @@ class Encoder {
     for (size_t i = 0; i < t.prim_ids.size(); ++i)
       make_record(t.prim_ids[i], records.data() + i * kRecordBytes, m_record_boxes[i]);
     m_records_bytes = records.data();
+    if (m_f.tri_pairs) {
+      if (is_leaf(t.root_ref) && t.root_ref != kEmptyChild)
+        mark_pairs(records.data(), leaf_first(t.root_ref), leaf_count(t.root_ref));
+      for (const WideNode<K::kWidth>& n : t.nodes)
+        for (uint32_t ref : n.child)
+          if (ref != kEmptyChild && is_leaf(ref)) mark_pairs(records.data(), leaf_first(ref), leaf_count(ref));
+    }
     nodes.resize(t.nodes.size());
     if (is_leaf(t.root_ref) || t.root_ref == kEmptyChild) return;
     if constexpr (K::kId == NodeKindId::kOrientedAabb) {
@@ -208,7 +233,7 @@ class Encoder {
     int64_t pts[8][3];
     int np = 0;
     const uint8_t* rec = m_records_bytes + size_t(i) * kRecordBytes;
-    if (record_kind(rec) == RecordKind::kTriangle) {
+    if (is_triangle(record_kind(rec))) {
       TriangleRecord tr;
       std::memcpy(&tr, rec, sizeof tr);
       for (; np < 3; ++np)
@@ -497,6 +522,7 @@ DeviceImage ImageWriter::write(Encoder& enc, const Geometry& g, const FixedForma
       GridBox unused;
       enc.make_record(p, tree.records.data() + size_t(p) * kRecordBytes, unused);
     }
+    if (f.tri_pairs) Encoder::mark_pairs(tree.records.data(), 0, n);
     // Blocks of up to 16 records (the group size a block holds), in order.
     for (uint32_t p = 0; p < n && f.prim_layout == 1; p += uint32_t(kMaxLeafSize))
       encode_block(tree.records.data() + size_t(p) * kRecordBytes, int(std::min<uint32_t>(kMaxLeafSize, n - p)),
@@ -738,7 +764,8 @@ void check_records(const DeviceImage& img, const FixedFormat& f) {
     std::memcpy(&word, rec + 36, 4);
     const uint32_t p = word & kRecordPrimMask;
     const uint32_t kind = word >> 30;
-    if ((word & kRecordNonOpaque) && kind != uint32_t(RecordKind::kTriangle))
+    const bool triangle = is_triangle(RecordKind(kind));
+    if ((word & kRecordNonOpaque) && !triangle)
       bad_image("record " + std::to_string(i) + ": a sphere or instance marked non-opaque");
     if (top != (kind == uint32_t(RecordKind::kInstance)))
       bad_image("record " + std::to_string(i) +
@@ -751,13 +778,22 @@ void check_records(const DeviceImage& img, const FixedFormat& f) {
           bad_image("record " + std::to_string(i) + ": instance bounds outside the grid");
       if (r.reserved[0] != 0 || r.reserved[1] != 0 || r.reserved[2] != 0)
         bad_image("record " + std::to_string(i) + ": reserved bits set");
-    } else if (kind == uint32_t(RecordKind::kTriangle)) {
+    } else if (triangle) {
       if (p >= h.num_triangles) bad_image("record " + std::to_string(i) + ": triangle index out of range");
       TriangleRecord t;
       std::memcpy(&t, rec, sizeof t);
       for (const auto& v : t.v)
         for (int32_t c : v)
           if (c < 0 || c > grid_max) bad_image("record " + std::to_string(i) + ": vertex outside the grid");
+      if (kind == uint32_t(RecordKind::kTrianglePair)) {
+        // Its second: the next record, a single triangle sharing an edge with it.
+        TriangleRecord second;
+        if (i + 1 >= h.record_count || record_kind(img.record(i + 1)) != RecordKind::kTriangle)
+          bad_image("record " + std::to_string(i) + ": a triangle pair without its second triangle");
+        std::memcpy(&second, img.record(i + 1), sizeof second);
+        if (!share_edge(t, second))
+          bad_image("record " + std::to_string(i) + ": a triangle pair whose triangles share no edge");
+      }
     } else if (kind == uint32_t(RecordKind::kSphere)) {
       if (p < h.num_triangles || p >= num_bounded)
         bad_image("record " + std::to_string(i) + ": sphere index out of range");

@@ -48,7 +48,9 @@ static_assert(offsetof(QNode6x8, q) == 16 && offsetof(QNode6x8, child) == 52 && 
 // The kind of a primitive record, in bits 30..31 of its `prim` word. Instance records are found only in a
 // top-level image (kImageTopLevel, device_image.h): the unit hands the ray to the instance's bottom level
 // (instanced_fixed.h).
-enum class RecordKind : uint32_t { kTriangle = 0, kSphere = 1, kInstance = 2 };
+// kTrianglePair: a triangle whose next record is a triangle sharing an edge with it (format tri_pairs): the unit
+// fetches and tests the two in one request, as RDNA4's compressed primitive nodes and Xe's quad leaves do.
+enum class RecordKind : uint32_t { kTriangle = 0, kSphere = 1, kInstance = 2, kTrianglePair = 3 };
 // Bit 29 of a triangle's `prim` word: the triangle is not opaque, its candidate hits go to the any-hit stage
 // (any_hit.h). Never set on a sphere.
 inline constexpr uint32_t kRecordNonOpaque = 1u << 29;
@@ -79,6 +81,16 @@ static_assert(offsetof(TriangleRecord, prim) == 36 && offsetof(SphereRecord, pri
 inline constexpr size_t kRecordBytes = 40;
 inline RecordKind record_kind(const uint8_t* rec) {
   return RecordKind(rec[39] >> 6);
+}
+inline bool is_triangle(RecordKind k) {
+  return k == RecordKind::kTriangle || k == RecordKind::kTrianglePair;
+}
+// True when triangles a and b share an edge: two of a's grid vertices are two of b's.
+inline bool share_edge(const TriangleRecord& a, const TriangleRecord& b) {
+  int same = 0;
+  for (const auto& va : a.v)
+    for (const auto& vb : b.v) same += va[0] == vb[0] && va[1] == vb[1] && va[2] == vb[2];
+  return same == 2;
 }
 
 // A plane {x : n . x = w} in grid space, tested per ray outside the BVH.

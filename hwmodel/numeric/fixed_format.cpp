@@ -77,6 +77,8 @@ void FixedFormat::validate() const {
   fits("the sphere closest-approach vector", t_bits + dir_bits + 1);
   fits("the sphere distance", 2 * (a + 1) + 2);
   fits("the exact box checker (model only)", a + s + dir_bits + 1);
+  if (tri_pairs == 1 && prim_layout != 0)
+    fail("tri_pairs 1 (triangle pairs) marks 40-byte records (prim_layout 0); triangle blocks hold no pairs");
   if (node_kind == 1) {
     // The oriented test: the ray rotated per node (o' = M o, d' = M d exactly), then the slab test in that frame
     // with the reciprocals of d' (|d'| < 2^(D+rb+1)) at R + 1 bits.
@@ -104,6 +106,7 @@ std::string FixedFormat::describe() const {
   }
   if (xform_bits != 24) o << ", transforms " << xform_bits << " bits";
   if (node_kind == 1) o << ", oriented boxes (" << rotations << " rotations, " << rot_bits << " bits)";
+  if (tri_pairs == 1) o << ", triangle pairs";
   return o.str();
 }
 
@@ -197,6 +200,8 @@ constexpr FormatField kFields[] = {
     {"node_kind", "", &F::node_kind, 0, 1, "node kind: 0 axis-aligned boxes, 1 oriented boxes (rotation table)"},
     {"rotations", "", &F::rotations, 1, 1024, "oriented boxes: rotations in the table a node indexes"},
     {"rot_bits", "", &F::rot_bits, 4, 16, "oriented boxes: fraction bits of the rotation table's entries"},
+    {"tri_pairs", "", &F::tri_pairs, 0, 1,
+     "triangle pairs: consecutive triangles of a leaf sharing an edge tested as one request (prim_layout 0)"},
 };
 
 }  // namespace

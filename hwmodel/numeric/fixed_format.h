@@ -36,6 +36,9 @@ struct FixedFormat {
   // in the frame of one of `rotations` fixed rotations whose entries have rot_bits fraction bits:
   // format/rotation_table.h; struct nodes only).
   int node_kind = 0;
+  // Triangle pairs: a leaf's consecutive triangles that share an edge are one request of the unit (a
+  // kTrianglePair record and the next; 40-byte records only).
+  int tri_pairs = 0;
   int rotations = 104;
   int rot_bits = 12;
 

@@ -205,7 +205,8 @@ void TimingModel::for_each_line(const Layout& l, const TraceEvent& e, F&& f) con
     bytes = s.bytes;
     addr = s.offset;
   } else if (e.kind == TraceEvent::kPrim) {
-    bytes = kRecordBytes;
+    // A triangle pair's two records in one fetch.
+    bytes = e.count == uint8_t(RecordKind::kTrianglePair) ? l.record_stride + kRecordBytes : kRecordBytes;
     addr = l.record_offset + uint64_t(e.index) * l.record_stride;
   } else if (e.kind == TraceEvent::kPlane) {
     bytes = sizeof(PlaneRecord);
@@ -363,6 +364,22 @@ uint64_t TimingModel::unit_request(const TraceEvent& e, uint32_t k, uint64_t t) 
   }
   uint64_t lat = uint64_t(m_c.plane_latency), issue = 1;
   const char* what = "plane";
+  if (e.kind == TraceEvent::kPrim && e.count == uint8_t(RecordKind::kTrianglePair)) {
+    // One request of two triangle tests: two issue slots taken at once (one clock on a unit of tri_rate >= 2),
+    // the result when both are done; or the clocks the triangle unit reported for the two.
+    if (e.unit_issue) {
+      done = unit(m_tri_free, e.unit_issue, uint64_t(e.unit_result) - e.unit_issue + 1, t);
+      m_s->tri_issue_cycles += e.unit_issue;
+    } else {
+      done = std::max(unit(m_tri_free, 1, uint64_t(m_c.tri_latency), t),
+                      unit(m_tri_free, 1, uint64_t(m_c.tri_latency), t));
+      m_s->tri_issue_cycles += 2;
+    }
+    if (m_trace) m_trace->add(m_unit, k, "triangle pair", t, done);
+    m_s->tri_tests += 2;
+    ++m_s->tri_pairs;
+    return done;
+  }
   if (e.kind == TraceEvent::kPrim && e.count == uint8_t(RecordKind::kTriangle)) {
     // One clock and tri_latency, or the clocks the triangle unit that tested it reported (tri_unit.h).
     if (e.unit_issue) {

@@ -34,7 +34,7 @@ constexpr std::array<TimingCounter, 13> kBeforePrefetch = {{
      kPerRay},
     {"cache_misses", &S::cache_misses, "lines", "cache line accesses that missed and went to DRAM", kPerRay},
 }};
-constexpr std::array<TimingCounter, 18> kAfterPrefetch = {{
+constexpr std::array<TimingCounter, 19> kAfterPrefetch = {{
     {"l2_hits", &S::l2_hits, "lines", "node cache fills found in the L2 (with l2_kib > 0)", kPerRay},
     {"l2_misses", &S::l2_misses, "lines", "node cache fills the L2 missed (read from DRAM)", kPerRay},
     {"dram_bytes", &S::dram_bytes, "bytes",
@@ -60,6 +60,9 @@ constexpr std::array<TimingCounter, 18> kAfterPrefetch = {{
      "sum over rays of the cycles from entering a ray slot to leaving it", kPerRay},
     {"any_hit_requests", &S::any_hit_requests, "requests",
      "candidate hits on non-opaque triangles sent to the any-hit stage (each waits any_hit_latency)", kPerRay},
+    {"tri_pairs", &S::tri_pairs, "requests",
+     "triangle pairs (format tri_pairs) fetched and tested as one request; their two tests are in tri_tests",
+     kPerRay},
     {"obb_rotations", &S::obb_rotations, "nodes",
      "oriented nodes: rays turned into a node's frame, one per oriented node test (each adds obb_latency)",
      kPerRay},
@@ -207,6 +210,7 @@ const std::vector<ReportEntry>& report_table() {
       count("restart_nodes", &S::restart_nodes),
       count("queue_stall_cycles", &S::queue_stall_cycles),
       count("any_hit_requests", &S::any_hit_requests),
+      count("tri_pairs", &S::tri_pairs),
       count("obb_rotations", &S::obb_rotations),
       count("instance_transforms", &S::instance_transforms),
       count("unit_wait_cycles", &S::unit_wait_cycles),

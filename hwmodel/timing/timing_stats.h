@@ -41,6 +41,7 @@ struct TimingStats {
   uint64_t queue_stall_cycles = 0;
   uint64_t slot_busy_cycles = 0;  // sum over rays of the cycles from entering a slot to leaving it
   uint64_t any_hit_requests = 0;  // candidate hits on non-opaque triangles sent to the firmware's any-hit stage
+  uint64_t tri_pairs = 0;         // triangle pairs tested as one request (in tri_tests twice)
   uint64_t obb_rotations = 0;     // oriented nodes: rays turned into a node's frame (one per oriented node test)
   uint64_t instance_transforms = 0;  // two-level scenes: rays transformed into an instance's bottom level
   // Waits that are throughput, not latency: requests queued for a busy box or triangle unit, and line and stack

@@ -66,6 +66,22 @@ int main(int argc, char** argv) {
     const hw::DeviceImage img = hw::encode_scene(g, f, &*bvh);
     put(dir / "device_image" / ("fixed_" + f.name + ".img"), img.data(), img.size(), 0);
   }
+  // Triangle pairs (kTrianglePair records): the tiny geometry's triangles as a strip of quads.
+  {
+    hw::Geometry quads;
+    for (int i = 0; i < 4; ++i) {
+      const float x = float(i);
+      quads.triangles.push_back({hw::Vec3(x, 0, 0), hw::Vec3(x + 1, 0, 0), hw::Vec3(x, 1, 0)});
+      quads.triangles.push_back({hw::Vec3(x + 1, 0, 0), hw::Vec3(x + 1, 1, 0), hw::Vec3(x, 1, 0)});
+    }
+    hw::FixedFormat f = hw::format_preset("default");
+    f.tri_pairs = 1;
+    hw::BvhBuildParams bp;
+    bp.max_leaf_size = 4;
+    const hw::Bvh bvh = hw::Bvh::build(quads, bp);
+    const hw::DeviceImage img = hw::encode_scene(quads, f, &bvh);
+    put(dir / "device_image" / "fixed_tri_pairs.img", img.data(), img.size(), 0);
+  }
   // Oriented nodes (node_kind 1): 4- and 8-wide, the table's size and bits in the header's flags.
   for (const char* spec : {"default:node_kind=1", "wide8:node_kind=1:child_bits=12:rotations=13:rot_bits=8"}) {
     const hw::FixedFormat f = hw::format_from_spec(spec);

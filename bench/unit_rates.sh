@@ -34,9 +34,10 @@
 # Sensitivity (SUITE_RAYS > 0): cycles per ray of SUITE_RAYS primary and SUITE_RAYS incoherent rays on every
 # available scene of the suite, `rtusim trace --device timed --threads 1`, for intel-mem, intel-mem with one Xe2
 # change at a time (BVH cache 16 KiB; three traversal pipelines: box_units 3 and 96 ray slots; 2 triangle tests
-# per clock), the 18/2 rates without the third pipeline's slots, and xe2-mem; likewise rdna2-mem, one RDNA4
-# change at a time (the 32 KiB L0; 8/2 rates on BVH4 nodes; the BVH8 format at rdna2's rates; BVH8 with 8/2; 64 ray
-# slots) and rdna4-mem. The table gives cycles per ray and the ratio to the older preset (> 1: faster), and the
+# per clock), the 18/2 rates without the third pipeline's slots, the B580's VRAM share per clock (bytes per clock
+# and 300 ns at 2.67 GHz), and xe2-mem; likewise rdna2-mem, one RDNA4 change at a time (the 32 KiB L0; 8/2 rates on
+# BVH4 nodes; the BVH8 format at rdna2's rates; BVH8 with 8/2; 64 ray slots; the RX 9070 XT's VRAM share per clock)
+# and rdna4-mem. The table gives cycles per ray and the ratio to the older preset (> 1: faster), and the
 # geometric mean of the ratios over the scenes; the last column is also at each preset's own clock (ns per ray).
 set -euo pipefail
 rtusim=${1:-build/default/rtusim}
@@ -206,6 +207,7 @@ for e in d['entries']:
     "3 pipelines (box_units 3, 96 slots)|intel-mem|--set box_units=3 --set ray_slots=96"
     "2 triangle tests/clk|intel-mem|--set tri_units=2"
     "18/2 rates, 64 slots|intel-mem|--set box_units=3 --set tri_units=2"
+    "B580 VRAM share (8.53 B/clk, 801 cycles)|intel-mem|--set dram_bytes_per_cycle=8.53 --set dram_latency=801"
     "xe2-mem|xe2-mem|"
   )
   steps_amd=(
@@ -215,6 +217,7 @@ for e in d['entries']:
     "BVH8 (format rdna4), 4/1 rates|rdna2-mem|--set format=rdna4 --set bvh_width=8"
     "BVH8 and 8/2 rates|rdna2-mem|--set format=rdna4 --set bvh_width=8 --set box_rate=8 --set tri_units=2"
     "64 ray slots|rdna2-mem|--set ray_slots=64"
+    "RX 9070 XT VRAM share (4.19 B/clk, 720 cycles)|rdna2-mem|--set dram_bytes_per_cycle=4.19 --set dram_latency=720"
     "rdna4-mem|rdna4-mem|"
   )
   cpr="$tmp/cpr.tsv"  # scene kind family step cycles/ray ns/ray

@@ -360,7 +360,8 @@ void TimingConfig::validate() const {
 //     rdna2's estimates, the latency kept at 100 ns.
 //   - Pipeline depths and the command processor's latencies: rdna2's (estimates).
 //   - Rasterizer: 64 CUs and 128 ROPs (AMD, same specifications): 2 fragments per clock per unit, coverage
-//     tests at 4x; 4 primitive units, one per shader engine (estimate): 64 / 4 = 16 cycles per primitive.
+//     tests at 4x (estimate); Navi 48's four shader engines (AMD's RDNA4 architecture deck, Feb. 2025, as reported
+//     by Neowin and TechPowerUp) with one primitive unit each (estimate): 64 / 4 = 16 cycles per primitive.
 // xe2: one RTU of an Xe2 core of Intel's Arc B580 (Xe2-HPG, "Battlemage", BMG-G21).
 //   - 18 box tests and 2 triangle tests per clock per RTU, in three traversal pipelines where Xe-HPG had two,
 //     and a 16 KB BVH cache where Xe-HPG had 8 KB (Chips and Cheese, "Raytracing on Intel's Arc B580", 2025):

@@ -154,6 +154,9 @@ const std::vector<FixedFormat>& format_presets() {
       // 6-wide bit-packed nodes padded to 64 bytes, in the spirit of Intel's 64-byte BVH6 node (Intel's Embree
       // and Xe documentation), with 40-byte records as Intel's quad leaves hold full-precision vertices.
       {"xe6", "width=6:node_layout=1:node_align=64"},
+      // 8-wide bit-packed nodes of 12-bit child boxes padded to 128 bytes, with triangle blocks, in the spirit of
+      // AMD RDNA4's 128-byte BVH8 node and compressed primitive nodes (timing preset rdna4, timing_config.cpp).
+      {"rdna4", "width=8:child_bits=12:node_layout=1:node_align=128:prim_layout=1"},
   };
   static const std::vector<FixedFormat> presets = [] {
     std::vector<FixedFormat> v;

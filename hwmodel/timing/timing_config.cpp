@@ -339,6 +339,76 @@ void TimingConfig::validate() const {
 //     has it), 51.2 GB/s = 51.2 bytes per clock at 1 GHz; tRCD = tRP = 15 clocks of 1.25 ns = 18.75 ns (Ramulator
 //     2.0's LPDDR5_6400 preset), 19 cycles. L2: 1 MiB in 4 slices of 32 bytes per clock, 16 ways, 30 cycles: our
 //     choices; dram_latency 70, so that a miss is the embedded unit's 100 ns plus the row.
+// The 2025 units, rdna4 and xe2, with their -mem and -chip presets: built as rdna2 and intel are, and their
+// pairs are. Only the BVH width, the box and triangle tests per clock, Xe2's traversal pipelines and BVH cache,
+// and the chips' published figures (units, clock, bandwidth, cache sizes) are sources; the rest is marked
+// "estimate". rdna4: one Ray Accelerator of an RDNA4 compute unit (Radeon RX 9070 XT, Navi 48).
+//   - Two intersection engines per Ray Accelerator: together 8 box tests or 2 triangle tests per clock, where
+//     RDNA2/3's one engine did 4 or 1; 8-wide box nodes of 128 bytes with 12-bit quantized child boxes, tested by
+//     IMAGE_BVH8_INTERSECT_RAY on both engines at once; compressed primitive nodes that pack triangle pairs (Chips
+//     and Cheese, "RDNA 4's raytracing improvements", 2025; AMD, "RDNA4" Instruction Set Architecture reference
+//     guide, 2025). Modelled as one box unit of rate 8 (an 8-wide node a clock: the BVH8 instruction's two
+//     engines together) and two triangle units of rate 1 (one per engine). Format rdna4 (fixed_format.cpp): the
+//     default format's widths with 12-bit child boxes, 8-wide bit-packed nodes padded to 128 bytes, and triangle
+//     blocks standing in for AMD's compressed primitive nodes (the triangle-pair layout is not in the model).
+//   - The model's box and triangle units work side by side; AMD's engines do box tests or triangle tests in a
+//     clock. The same holds for rdna2: both are optimistic when a ray mixes the two in one clock.
+//   - 2.4 GHz: the RX 9070 XT's game clock (2400 MHz; boost 2970 MHz; AMD, Radeon RX 9070 series
+//     specifications, Feb. 2025, as reported e.g. by Multiplayer.it, 2025). The game clock, as rdna2 takes the RX
+//     6900 XT's, so that the rdna2 -> rdna4 step compares like with like; at the boost clock the same unit's
+//     figures per clock hold and only the seconds and bytes per clock change.
+//   - 64 ray slots: two wave32s of rays, one per intersection engine, as rdna2's 32 for its one (estimate).
+//   - 64 KiB 4-way cache with 64-byte lines, 240 cycles (100 ns at 2.4 GHz) and 64 bytes per clock behind it:
+//     rdna2's estimates, the latency kept at 100 ns.
+//   - Pipeline depths and the command processor's latencies: rdna2's (estimates).
+//   - Rasterizer: 64 CUs and 128 ROPs (AMD, same specifications): 2 fragments per clock per unit, coverage
+//     tests at 4x (estimate); Navi 48's four shader engines (AMD's RDNA4 architecture deck, Feb. 2025, as reported
+//     by Neowin and TechPowerUp) with one primitive unit each (estimate): 64 / 4 = 16 cycles per primitive.
+// xe2: one RTU of an Xe2 core of Intel's Arc B580 (Xe2-HPG, "Battlemage", BMG-G21).
+//   - 18 box tests and 2 triangle tests per clock per RTU, in three traversal pipelines where Xe-HPG had two,
+//     and a 16 KB BVH cache where Xe-HPG had 8 KB (Chips and Cheese, "Raytracing on Intel's Arc B580", 2025):
+//     6 box tests per pipeline, as Xe-HPG's 12 in two. Modelled as intel is: three box units of rate 6, one per
+//     traversal pipeline, and two triangle units of rate 1. The model has no traversal pipeline of its own (the
+//     scheduler's traversal_latency is pipelined, without an issue limit), so a pipeline is its box unit and its
+//     share of the ray slots: 96 slots, 32 per pipeline as intel's 64 for two (estimate).
+//   - BVH6 of 64-byte nodes, format xe6, as intel (Xe2 keeps Xe-HPG's BVH; the same article).
+//   - 2.67 GHz: the B580's graphics clock (2670 MHz; Intel, Arc B-series specifications, Dec. 2024, as
+//     TechPowerUp's review and GPU database list it), as intel takes the A770's graphics clock; partner cards and
+//     Geekbench runs boost to 2.85 GHz.
+//   - 256 KiB 16-way cache (256 sets) with 64-byte lines: the Xe2 core's 256 KB L1/shared local memory (Intel
+//     Xe2 disclosures, 2024; TechPowerUp's GPU database), with the 16 KB BVH cache folded into it as intel folds
+//     its 8 KB; 267 cycles (100 ns at 2.67 GHz) and 64 bytes per clock behind it: estimates, as intel's.
+//   - Rasterizer: 20 Xe cores, 5 render slices, 80 ROPs (TechPowerUp's GPU database): 20 / 5 = 4 cycles per
+//     primitive, 80 / 20 = 4 fragments per clock, coverage tests at 4x (estimate): intel's figures.
+// rdna4-mem and xe2-mem: the datapath of rdna4 and xe2 with one unit's share of the chip's memory, as rdna2-mem
+// and intel-mem are built; every miss pays 300 ns (the same estimate) and the VRAM bandwidth.
+//   - rdna4-mem, one Ray Accelerator of the RX 9070 XT: 64 CUs with one Ray Accelerator each, 2.4 GHz (above),
+//     16 GB GDDR6 on 256 bits: 644.6 GB/s at 20.1 Gbps (TechPowerUp's GPU database; AMD rounds to 640 GB/s at 20
+//     Gbps). Share: 644.6 / (64 x 2.4) = 4.197, 4.19 bytes per clock (rounded down). Cache: the CU's 32 KB L0
+//     vector cache (doubled from 16 KB in RDNA3, AMD's RDNA3 disclosure, 2022; taken as unchanged in RDNA4, an
+//     estimate), 4 ways and 64-byte lines as rdna2-mem. VRAM 300 ns = 720 cycles at 2.4 GHz. The 64 MB Infinity
+//     Cache (AMD, same specifications) is left out as rdna2-mem leaves out Navi 21's 128 MB: this preset is the
+//     VRAM miss, the pessimistic end.
+//   - xe2-mem, one RTU of the Arc B580: 20 Xe2 cores with one RTU each, 2.67 GHz, 12 GB GDDR6 on 192 bits at
+//     19 Gbps = 456 GB/s (Intel, same specifications). Share: 456 / (20 x 2.67) = 8.539, 8.53 bytes per clock
+//     (rounded down). Cache: the RTU's 16 KB BVH cache (Chips and Cheese, above); 4 ways as intel-mem (estimate).
+//     VRAM 300 ns = 801 cycles at 2.67 GHz.
+// rdna4-chip and xe2-chip: the chips' units sharing their L2 and DRAM, built as rdna2-chip and intel-chip.
+//   - rdna4-chip, the RX 9070 XT (Navi 48): 64 rdna4-mem units. L2: 8 MB (AMD, same specifications) in 16
+//     slices of 64 bytes per clock, 16 ways (rdna2-chip's organization: estimates). L2 latency 158 cycles: rdna2-
+//     chip's 66 ns at 2.4 GHz (estimate; no RDNA4 measurement found). DRAM: 256-bit GDDR6, 8 devices of 2 x16
+//     channels = 16 channels of 16 banks with 2 KB pages (as rdna2-chip), 644.6 GB/s = 268.58 bytes per clock at
+//     2.4 GHz, tRCD = tRP = 14.8 ns = 36 cycles; dram_latency 526 = 720 - 158 - 36. The memory system has one
+//     cache level behind the units (memory_system.h), so the 64 MB Infinity Cache between the L2 and DRAM is not
+//     modelled: as rdna2-chip, this is the chip without it, the bandwidth-bound end; `--set l2_kib=73728 --set
+//     l2_latency=206` approximates the L2 and Infinity Cache as one 72 MB level at the Infinity Cache's latency
+//     (rdna2-chip's +20 ns past the L2, an estimate).
+//   - xe2-chip, the Arc B580 (BMG-G21): 20 xe2-mem units. L2: 18 MB (Intel, same specifications) in 16 slices
+//     of 16 ways and 64 bytes per clock, intel-chip's organization (estimates; 16 slices also keep every chip
+//     preset's L2 size a whole number of sets in every other's slices, which `--set` round trips need). L2 latency
+//     174 cycles: intel-chip's 65 ns at 2.67 GHz (estimate). DRAM: 192-bit GDDR6, 6 devices of 2 x16 channels = 12
+//     channels of 16 banks with 2 KB pages, 456 GB/s = 170.79 bytes per clock at 2.67 GHz, tRCD = tRP = 14.8 ns =
+//     40 cycles; dram_latency 587 = 801 - 174 - 40.
 namespace {
 
 void intel_overrides(TimingConfig& c) {
@@ -448,6 +518,91 @@ void embedded_chip_overrides(TimingConfig& c) {
   c.dram_latency = 70;
 }
 
+void rdna4_overrides(TimingConfig& c) {
+  // rdna2's unit with RDNA4's two intersection engines and 8-wide nodes (sources above).
+  c.format = "rdna4";
+  c.bvh_width = 8;
+  c.clock_ghz = 2.4;
+  c.ray_slots = 64;
+  c.box_units = 1;
+  c.box_rate = 8;
+  c.tri_units = 2;
+  c.tri_rate = 1;
+  c.dram_latency = 240;
+  c.raster_setup_cycles = 16.0;
+  c.raster_samples_per_clock = 8.0;
+  c.raster_fragments_per_clock = 2.0;
+}
+
+void xe2_overrides(TimingConfig& c) {
+  // intel's unit with Xe2's three traversal pipelines, 18 box and 2 triangle tests per clock (sources above).
+  c.clock_ghz = 2.67;
+  c.ray_slots = 96;
+  c.box_units = 3;
+  c.box_rate = 6;
+  c.tri_units = 2;
+  c.tri_rate = 1;
+  c.cache_kib = 256;
+  c.cache_ways = 16;
+  c.dram_latency = 267;
+}
+
+void rdna4_mem_overrides(TimingConfig& c) {
+  // rdna4's datapath; only the memory below differs (sources above).
+  c.cache_kib = 32;
+  c.cache_ways = 4;
+  c.line_bytes = 64;
+  c.layout_align = 0;
+  c.cache_latency = 4;
+  c.dram_latency = 720;
+  c.dram_bytes_per_cycle = 4.19;
+}
+
+void xe2_mem_overrides(TimingConfig& c) {
+  // xe2's datapath; only the memory below differs (sources above).
+  c.cache_kib = 16;
+  c.cache_ways = 4;
+  c.line_bytes = 64;
+  c.layout_align = 0;
+  c.cache_latency = 4;
+  c.dram_latency = 801;
+  c.dram_bytes_per_cycle = 8.53;
+}
+
+void rdna4_chip_overrides(TimingConfig& c) {
+  c.units = 64;
+  c.ray_policy = "waves";
+  c.l2_kib = 8192;
+  c.l2_slices = 16;
+  c.l2_ways = 16;
+  c.l2_latency = 158;
+  c.l2_bytes_per_cycle = 64.0;
+  c.dram_channels = 16;
+  c.dram_banks = 16;
+  c.dram_row_bytes = 2048;
+  c.dram_activate_cycles = 36;
+  c.dram_precharge_cycles = 36;
+  c.dram_bytes_per_cycle = 268.58;
+  c.dram_latency = 526;
+}
+
+void xe2_chip_overrides(TimingConfig& c) {
+  c.units = 20;
+  c.ray_policy = "waves";
+  c.l2_kib = 18432;
+  c.l2_slices = 16;
+  c.l2_ways = 16;
+  c.l2_latency = 174;
+  c.l2_bytes_per_cycle = 64.0;
+  c.dram_channels = 12;
+  c.dram_banks = 16;
+  c.dram_row_bytes = 2048;
+  c.dram_activate_cycles = 40;
+  c.dram_precharge_cycles = 40;
+  c.dram_bytes_per_cycle = 170.79;
+  c.dram_latency = 587;
+}
+
 // A preset: the preset it starts from (null: the defaults of TimingConfig, which are rdna2's figures), the line
 // `rtusim config --list` prints, and what it changes. A new key whose default in timing_config.h is neutral (it
 // changes nothing unless set) needs no line here.
@@ -458,7 +613,7 @@ struct Preset {
   void (*overrides)(TimingConfig& c);
 };
 
-const std::array<Preset, 8> kPresets = {{
+const std::array<Preset, 14> kPresets = {{
     {"rdna2", nullptr,
      "resembles one AMD RDNA2 Ray Accelerator: BVH4, 4 box tests or 1 triangle test per clock, 2.0 GHz",
      [](TimingConfig&) {}},
@@ -490,6 +645,30 @@ const std::array<Preset, 8> kPresets = {{
      "a small SoC GPU: 4 embedded units, a 1 MiB L2, LPDDR5-6400 on 64 bits (4 channels of 16 banks), "
      "51.2 GB/s",
      embedded_chip_overrides},
+    {"rdna4", "rdna2",
+     "resembles one AMD RDNA4 Ray Accelerator: BVH8 (128-byte nodes, 12-bit child boxes), 8 box tests or 2 "
+     "triangle tests per clock, 2.4 GHz",
+     rdna4_overrides},
+    {"xe2", "intel",
+     "resembles one Intel Xe2 (Arc B580) RTU: BVH6, 3 traversal pipelines, 18 box tests and 2 triangle tests per "
+     "clock, 2.67 GHz",
+     xe2_overrides},
+    {"rdna4-mem", "rdna4",
+     "rdna4's datapath with one RX 9070 XT Ray Accelerator's memory: 32 KiB cache, 300 ns and 4.19 bytes per "
+     "clock (644.6 GB/s over 64 units) to VRAM",
+     rdna4_mem_overrides},
+    {"xe2-mem", "xe2",
+     "xe2's datapath with one Arc B580 RTU's memory: 16 KiB BVH cache, 300 ns and 8.53 bytes per clock "
+     "(456 GB/s over 20 units) to VRAM",
+     xe2_mem_overrides},
+    {"rdna4-chip", "rdna4-mem",
+     "an RX 9070 XT-class chip: 64 rdna4-mem units, an 8 MB L2 in 16 slices, 16 GDDR6 channels of 16 banks, "
+     "644.6 GB/s (no Infinity Cache)",
+     rdna4_chip_overrides},
+    {"xe2-chip", "xe2-mem",
+     "an Arc B580-class chip: 20 xe2-mem units, an 18 MB L2 in 16 slices, 12 GDDR6 channels of 16 banks, "
+     "456 GB/s",
+     xe2_chip_overrides},
 }};
 
 const Preset& find_preset(const std::string& name) {

@@ -167,7 +167,11 @@ struct TimingConfig {
 // "rdna2-mem" and "intel-mem" (rdna2's and intel's datapath with one unit's share of a real GPU's memory: its
 // small first-level cache, VRAM latency and bandwidth / units), and the chips "rdna2-chip" (80 rdna2-mem units,
 // a 4 MB L2, 16 GDDR6 channels), "intel-chip" (32 intel-mem units, a 16 MB L2, 16 GDDR6 channels) and
-// "embedded-chip" (4 embedded units, a 1 MiB L2, LPDDR5). timing_config.cpp says where each figure comes from.
+// "embedded-chip" (4 embedded units, a 1 MiB L2, LPDDR5); the units of 2025, "rdna4" (an RDNA4 Ray Accelerator:
+// BVH8 of 128-byte nodes with 12-bit child boxes, 8 box tests or 2 triangle tests per clock) and "xe2" (an Xe2
+// RTU: BVH6, three traversal pipelines as three box units of 6, 2 triangle tests per clock, more ray slots), with
+// "rdna4-mem", "xe2-mem" (RX 9070 XT and Arc B580 shares) and "rdna4-chip" (64 units, an 8 MB L2, no Infinity
+// Cache), "xe2-chip" (20 units, an 18 MB L2). timing_config.cpp says where each figure comes from.
 const std::vector<std::string>& timing_preset_names();
 // Throws std::invalid_argument for an unknown name (listing the known ones).
 TimingConfig timing_preset(const std::string& name);

@@ -79,11 +79,12 @@ TEST_CASE("info reports the fixed image: bytes per node and footprint per format
   const fs::path d = temp_dir("cli");
   const Run list = run_rtusim("info --formats");
   REQUIRE(list.status == 0);
-  for (const char* p : {"default", "wide6", "wide8", "binary", "compact", "precise", "cwbvh", "packed", "xe6"})
+  for (const char* p :
+       {"default", "wide6", "wide8", "binary", "compact", "precise", "cwbvh", "packed", "xe6", "rdna4"})
     CHECK(list.output.find(p) != std::string::npos);
   for (const auto& [format, node_bytes] :
        {std::pair{"default", 56}, std::pair{"wide6", 76}, std::pair{"wide8", 96}, std::pair{"binary", 36},
-        std::pair{"precise", 80}, std::pair{"cwbvh", 80}, std::pair{"xe6", 64}}) {
+        std::pair{"precise", 80}, std::pair{"cwbvh", 80}, std::pair{"xe6", 64}, std::pair{"rdna4", 128}}) {
     const std::string json = (d / (std::string(format) + ".json")).string();
     const Run r = run_rtusim(std::string("info --scene builtin:seed --format ") + format + " --json " + json);
     INFO(r.output);

@@ -157,6 +157,9 @@ TEST_CASE("packed node sizes are the layouts' formulas", "[fixed][image]") {
   // units (bases of 24 bits, groups of 128 granules).
   CHECK(node_fields(format_preset("xe6"), 24, 24, 7).bytes(1) <= 64);
   CHECK(node_fields(format_preset("xe6"), 24, 24, 7).bytes(64) == 64);
+  // rdna4: 8-wide bit-packed nodes with 12-bit child boxes fit AMD RDNA4's 128-byte BVH8 node, likewise.
+  CHECK(node_fields(format_preset("rdna4"), 24, 24, 7).bytes(1) <= 128);
+  CHECK(node_fields(format_preset("rdna4"), 24, 24, 7).bytes(128) == 128);
   for (int width : {2, 4, 6, 8}) {
     for (int k : {4, 8, 12}) {
       FixedFormat f = format_preset("default");

@@ -36,7 +36,9 @@ std::string value_of(const TimingConfig& c, const std::string& key) {
 
 TEST_CASE("every timing preset validates and lists every key", "[timing][config]") {
   REQUIRE(timing_preset_names() == std::vector<std::string>{"rdna2", "intel", "embedded", "rdna2-mem", "intel-mem",
-                                                            "rdna2-chip", "intel-chip", "embedded-chip"});
+                                                            "rdna2-chip", "intel-chip", "embedded-chip", "rdna4",
+                                                            "xe2", "rdna4-mem", "xe2-mem", "rdna4-chip",
+                                                            "xe2-chip"});
   for (const std::string& name : timing_preset_names()) {
     INFO(name);
     const TimingConfig c = timing_preset(name);
@@ -79,8 +81,49 @@ TEST_CASE("timing presets differ where the hardware does", "[timing][config]") {
   CHECK(embedded.box_rate <= 2);
   CHECK(embedded.cache_kib == 16);
   CHECK(embedded.ray_slots < rdna2.ray_slots);
-  // Every preset's format exists.
-  for (const std::string& name : timing_preset_names()) CHECK_NOTHROW(format_preset(timing_preset(name).format));
+  // Every preset's format exists, as wide as the preset's BVH.
+  for (const std::string& name : timing_preset_names()) {
+    INFO(name);
+    CHECK_NOTHROW(format_preset(timing_preset(name).format));
+    CHECK(format_preset(timing_preset(name).format).width == timing_preset(name).bvh_width);
+  }
+}
+
+TEST_CASE("the 2025 presets take the vendors' rates, widths and caches", "[timing][config]") {
+  const TimingConfig rdna2 = timing_preset("rdna2"), rdna4 = timing_preset("rdna4"),
+                     intel = timing_preset("intel"), xe2 = timing_preset("xe2");
+  // RDNA4: two intersection engines, 8 box tests (one 8-wide node a clock) or 2 triangle tests per clock.
+  CHECK(rdna4.bvh_width == 8);
+  CHECK(rdna4.box_units * rdna4.box_rate == 8);
+  CHECK(rdna4.box_rate == rdna4.bvh_width);  // a BVH8 node a clock on both engines
+  CHECK(rdna4.tri_units * rdna4.tri_rate == 2);
+  CHECK(rdna4.box_units * rdna4.box_rate == 2 * rdna2.box_units * rdna2.box_rate);
+  // 128-byte nodes with 12-bit child boxes.
+  CHECK(format_preset(rdna4.format).child_bits == 12);
+  CHECK(format_preset(rdna4.format).node_align == 128);
+  // Xe2: three traversal pipelines of 6 box tests (one box unit each), 2 triangle tests, BVH6 as Xe-HPG.
+  CHECK(xe2.format == intel.format);
+  CHECK(xe2.bvh_width == 6);
+  CHECK(xe2.box_units == 3);
+  CHECK(xe2.box_rate == xe2.bvh_width);
+  CHECK(xe2.box_units * xe2.box_rate == 18);
+  CHECK(xe2.tri_units * xe2.tri_rate == 2);
+  CHECK(xe2.ray_slots * intel.box_units == intel.ray_slots * xe2.box_units);  // the slots of a pipeline as intel's
+  // The memory: one unit's share of the chip's bandwidth at its clock, the first-level cache, 300 ns to VRAM.
+  const TimingConfig rm = timing_preset("rdna4-mem"), xm = timing_preset("xe2-mem");
+  CHECK(rm.dram_bytes_per_cycle == Approx(644.6 / (64 * 2.4)).epsilon(0.002));   // RX 9070 XT: 64 RAs
+  CHECK(xm.dram_bytes_per_cycle == Approx(456.0 / (20 * 2.67)).epsilon(0.002));  // B580: 20 Xe2 cores
+  CHECK(rm.cache_kib == 32);                                                     // the CU's L0
+  CHECK(xm.cache_kib == 2 * timing_preset("intel-mem").cache_kib);               // Xe2's 16 KB BVH cache
+  CHECK(rm.dram_latency == Approx(300 * rm.clock_ghz).margin(1));
+  CHECK(xm.dram_latency == Approx(300 * xm.clock_ghz).margin(1));
+  const TimingConfig rc = timing_preset("rdna4-chip"), xc = timing_preset("xe2-chip");
+  CHECK(rc.units == 64);
+  CHECK(xc.units == 20);
+  CHECK(rc.l2_kib == 8192);   // Navi 48: 8 MB
+  CHECK(xc.l2_kib == 18432);  // BMG-G21: 18 MB
+  CHECK(rc.dram_bytes_per_cycle * rc.clock_ghz == Approx(644.6).epsilon(0.0001));
+  CHECK(xc.dram_bytes_per_cycle * xc.clock_ghz == Approx(456.0).epsilon(0.0001));
 }
 
 TEST_CASE("memory-bound presets keep their base's datapath and take one unit's share of a real GPU's memory",
@@ -89,8 +132,10 @@ TEST_CASE("memory-bound presets keep their base's datapath and take one unit's s
   // that a difference in cycles between the two is the memory's alone.
   const std::vector<std::string> memory = {"cache_kib",     "cache_ways",   "line_bytes",          "layout_align",
                                            "cache_latency", "dram_latency", "dram_bytes_per_cycle"};
-  for (const auto& [mem, base] :
-       {std::pair<std::string, std::string>{"rdna2-mem", "rdna2"}, {"intel-mem", "intel"}}) {
+  for (const auto& [mem, base] : {std::pair<std::string, std::string>{"rdna2-mem", "rdna2"},
+                                  {"intel-mem", "intel"},
+                                  {"rdna4-mem", "rdna4"},
+                                  {"xe2-mem", "xe2"}}) {
     INFO(mem << " against " << base);
     const auto a = timing_keys(timing_preset(mem)), b = timing_keys(timing_preset(base));
     REQUIRE(a.size() == b.size());
@@ -113,8 +158,10 @@ TEST_CASE("memory-bound presets keep their base's datapath and take one unit's s
   CHECK(r.dram_latency == Approx(300 * r.clock_ghz));
   CHECK(i.dram_latency == Approx(300 * i.clock_ghz));
   // Memory-bound against their bases: a smaller cache, slower and narrower memory behind it.
-  for (const auto& [mem, base] :
-       {std::pair<std::string, std::string>{"rdna2-mem", "rdna2"}, {"intel-mem", "intel"}}) {
+  for (const auto& [mem, base] : {std::pair<std::string, std::string>{"rdna2-mem", "rdna2"},
+                                  {"intel-mem", "intel"},
+                                  {"rdna4-mem", "rdna4"},
+                                  {"xe2-mem", "xe2"}}) {
     const TimingConfig m = timing_preset(mem), g = timing_preset(base);
     CHECK(m.cache_kib < g.cache_kib);
     CHECK(m.dram_latency > g.dram_latency);
@@ -140,7 +187,9 @@ TEST_CASE("chip presets keep their unit's preset and take the chip's published m
                                          "dram_latency"};
   for (const auto& [name, unit] : {std::pair<std::string, std::string>{"rdna2-chip", "rdna2-mem"},
                                    {"intel-chip", "intel-mem"},
-                                   {"embedded-chip", "embedded"}}) {
+                                   {"embedded-chip", "embedded"},
+                                   {"rdna4-chip", "rdna4-mem"},
+                                   {"xe2-chip", "xe2-mem"}}) {
     INFO(name << " against " << unit);
     const auto a = timing_keys(timing_preset(name)), b = timing_keys(timing_preset(unit));
     REQUIRE(a.size() == b.size());
@@ -159,7 +208,9 @@ TEST_CASE("chip presets keep their unit's preset and take the chip's published m
   CHECK(i.dram_bytes_per_cycle * i.clock_ghz == Approx(560.0).epsilon(0.0001));  // 266.67 x 2.1
   CHECK(e.dram_bytes_per_cycle * e.clock_ghz == Approx(51.2));                   // LPDDR5-6400 x64
   // A miss through the L2 that opens a row costs about the -mem presets' 300 ns (the unit alone).
-  for (const TimingConfig* c : {&r, &i}) {
+  const TimingConfig r4 = timing_preset("rdna4-chip"), x2 = timing_preset("xe2-chip");
+  for (const TimingConfig* c : {&r, &i, &r4, &x2}) {
+    INFO(c->name);
     const double ns = (c->l2_latency + c->dram_activate_cycles + c->dram_latency) / c->clock_ghz;
     CHECK(ns == Approx(300.0).epsilon(0.02));
   }

@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # Node kinds side by side: axis-aligned nodes at widths 4 and 8 against oriented nodes at width 8 (format
-# node_kind=1, docs/numerics.md), per scene and ray kind: image bytes, traversal steps (node and leaf visits), box
+# node_kind=1, docs/numerics.md), without and with triangle pairs (tri_pairs=1), per scene and ray kind: image bytes, traversal steps (node and leaf visits), box
 # and primitive tests per ray, the build's wall time (BVH and image), and cycles on each timing preset. Then the
 # rotation table's knobs (its size and its entries' bits) on one scene. Writes Markdown to stdout (the tables of
 # bench/results/node-kinds.md). Counts and cycles are deterministic; build seconds are this machine's.
 # Usage: bench/node_kinds.sh [RTUSIM] [RAYS]      (RAYS per kind, default 32768)
-#   PRESETS="rdna2-mem intel-mem"  the timing presets of the cycles columns
+#   PRESETS="rdna4-mem xe2-mem"    the timing presets of the cycles columns
 #   KNOB_SCENE=builtin:hairball    the scene of the knob table
 set -euo pipefail
 name=node_kinds.sh
@@ -15,7 +15,7 @@ rays=${2:-32768}
 bench_need_rtusim "$rtusim"
 bench_need_count RAYS "$rays"
 bench_tmpdir
-presets=(${PRESETS:-rdna2-mem intel-mem})
+presets=(${PRESETS:-rdna4-mem xe2-mem})
 scenes=(
   "hairball=builtin:hairball"
   "instances (rotated, flattened)=scenes/instances.json"
@@ -23,16 +23,19 @@ scenes=(
   "house=$bench_house"
   "cornell=builtin:cornell"
 )
-variants=("AABB BVH4=4:0" "AABB BVH8=8:0" "OBB BVH8=8:1")
+variants=("AABB BVH4=4:0:0" "AABB BVH8=8:0:0" "OBB BVH8=8:1:0" "OBB BVH8 + pairs=8:1:1")
+# Every variant in struct nodes and 40-byte records (oriented nodes and pairs need them), whatever the preset's
+# format stores, so that the columns differ by the node kind and the pairs only.
+layout=(--node-layout 0 --node-align 1 --prim-layout 0)
 
 # fixed SCENE RAYS WIDTH KIND OUT [FORMAT CHANGES...]: the fixed device's stats of a run.
 fixed() {
   local scene=$1 r=$2 w=$3 k=$4 out=$5
   shift 5
-  "$rtusim" compare --flatten --scene "$scene" --rays "$r" --bvh-width "$w" --node-kind "$k" "$@" --json "$out.cmp" \
-    > /dev/null
-  "$rtusim" trace --flatten --scene "$scene" --rays "$r" --device fixed --bvh-width "$w" --node-kind "$k" "$@" \
-    --stats "$out" > /dev/null
+  "$rtusim" compare --flatten --scene "$scene" --rays "$r" --bvh-width "$w" --node-kind "$k" "${layout[@]}" "$@" \
+    --json "$out.cmp" > /dev/null
+  "$rtusim" trace --flatten --scene "$scene" --rays "$r" --device fixed --bvh-width "$w" --node-kind "$k" \
+    "${layout[@]}" "$@" --stats "$out" > /dev/null
 }
 
 header="| scene | rays | nodes | image bytes | steps/ray | box tests/ray | prim tests/ray | build s | hit agreement |"
@@ -51,13 +54,12 @@ for s in "${scenes[@]}"; do
     for v in "${variants[@]}"; do
       vname=${v%%=*}
       spec=${v#*=}
-      w=${spec%%:*}
-      k=${spec#*:}
-      fixed "$path" "$kind:$rays" "$w" "$k" "$tmp/f.json"
+      IFS=: read -r w k pairs <<< "$spec"
+      fixed "$path" "$kind:$rays" "$w" "$k" "$tmp/f.json" --tri-pairs "$pairs"
       cycles=""
       for p in "${presets[@]}"; do
         "$rtusim" trace --flatten --scene "$path" --rays "$kind:$rays" --device timed --config "$p" \
-          --set bvh_width="$w" --node-kind "$k" --stats "$tmp/t.json" > /dev/null
+          --set bvh_width="$w" --node-kind "$k" --tri-pairs "$pairs" "${layout[@]}" --stats "$tmp/t.json" > /dev/null
         cycles+=" $(/usr/bin/python3 -c 'import json,sys; j=json.load(open(sys.argv[1])); print("%.1f" % (j["timing"]["cycles"] / max(1, j["rays"])))' "$tmp/t.json") |"
       done
       row=$(/usr/bin/python3 - "$tmp/f.json" "$tmp/f.json.cmp" <<'PY'

@@ -141,10 +141,23 @@ hw::CostInputs cost_inputs(const hw::FixedFormat& f, const hw::TimingConfig& c, 
       ge += n * (op.measured ? op.nand2_eq : op.horowitz_um2 / t.nand2_um2);
       pj += n * (op.measured ? op.pj : op.horowitz_pj);
     }
-    in.rotate.nand2_eq = ge;
     in.rotate.toggles_per_test = pj / t.pj_per_transition();
     in.rotate.source = ops[0].measured && ops[1].measured ? "reference operators, synthesized"
                                                           : "reference operators, Horowitz ISSCC 2014";
+    // The size: the synthesized rotation stage (rtl_sim/rtl/rotate_stage.sv: the 18 products and their sums;
+    // bench/rtl_rotate_area.sh) where the table has the format's widths, plus the reciprocals' 6 multiplies.
+    const std::string key = "-GOB=" + std::to_string(f.coord_bits + f.guard_bits + f.frac_bits + 1) +
+                            " -GDB=" + std::to_string(f.dir_bits + 2) + " -GMB=" + std::to_string(f.rot_bits + 2);
+    const auto row = area.by_params.find(key);
+    if (row != area.by_params.end() && row->second.transistors > 0) {
+      const ReferenceOp& mul = ops[1];
+      ge = double(row->second.transistors) / 4.0 +
+           6.0 * (mul.measured ? mul.nand2_eq : mul.horowitz_um2 / t.nand2_um2);
+      in.rotate.source =
+          "size synthesized (products) and reference multipliers (reciprocals), energy reference "
+          "operators";
+    }
+    in.rotate.nand2_eq = ge;
   }
   return in;
 }

@@ -292,6 +292,13 @@ TEST_CASE("energy: oriented nodes pay a rotation per node test and the stage's a
   CHECK(pj > 0.8 * 75.6);
   CHECK(pj < 1.2 * 75.6);
   CHECK(oi.box.nand2_eq == ai.box.nand2_eq);  // the slab tests are the same unit
+  // The stage's size: the synthesized products (bench/rtl_rotate_area.sh's row for the default widths) and the
+  // reciprocals' six multiplies.
+  const auto row = area.by_params.find("-GOB=39 -GDB=26 -GMB=14");
+  REQUIRE(row != area.by_params.end());
+  CHECK(oi.rotate.nand2_eq > double(row->second.transistors) / 4.0);
+  CHECK(oi.rotate.nand2_eq < double(row->second.transistors) / 4.0 + 6.0 * 49290.0 / 4.0 + 1.0);
+  CHECK(oi.rotate.source.find("size synthesized") == 0);
   const rtu::hw::AreaReport aa = rtu::hw::area_report(c, ai), oa = rtu::hw::area_report(c, oi);
   CHECK(oa.box_mm2 == Approx(rtu::hw::logic_area_mm2(c.box_units * (ai.box.nand2_eq + oi.rotate.nand2_eq))));
   CHECK(oa.tri_mm2 == aa.tri_mm2);

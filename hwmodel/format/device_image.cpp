@@ -446,7 +446,7 @@ PackedTree pack_tree(const FixedFormat& f, const std::vector<typename K::Node>& 
   const NodeFields fields = node_fields(f, p.base_bits, p.prim_bits, p.group_bits);
   p.node_bytes = fields.bytes(f.node_align);
   if (p.node_bytes > 0xFFFF) throw std::invalid_argument("encode_scene: a packed node above 65535 bytes");
-  for (const PackedNode& pn : packed) pack_node(pn, fields, f.coord_bits, p.node_bytes, p.nodes);
+  for (const PackedNode& pn : packed) pack_node(pn, fields, p.node_bytes, p.nodes);
   p.node_count = uint32_t(order.size());
   return p;
 }
@@ -717,7 +717,7 @@ uint32_t packed_leaf_ref(const ImageHeader& h, const BlockStarts& block_at, cons
 // Packed nodes -> nodes of kind K (into `nodes`): the kind's fields, then the children's references from the node
 // base, the primitive base and the meta.
 template <NodeKind K>
-void decode_packed_nodes(const uint8_t* image, const ImageHeader& h, const FixedFormat& f, const NodeFields& fl,
+void decode_packed_nodes(const uint8_t* image, const ImageHeader& h, const NodeFields& fl,
                          const BlockStarts& block_at, std::vector<uint64_t>& nodes) {
   using Node = typename K::Node;
   nodes.assign((size_t(h.node_count) * sizeof(Node) + 7) / 8, 0);
@@ -727,7 +727,7 @@ void decode_packed_nodes(const uint8_t* image, const ImageHeader& h, const Fixed
     const std::string at = "node " + std::to_string(n);
     PackedNode pn;
     try {
-      pn = unpack_node(in + size_t(n) * h.node_bytes, h.node_bytes, fl, f.coord_bits, at);
+      pn = unpack_node(in + size_t(n) * h.node_bytes, h.node_bytes, fl, at);
     } catch (const std::invalid_argument& e) {
       bad_image(e.what());
     }
@@ -918,7 +918,7 @@ void DeviceImage::check() {
   if (!check_root(h)) return;
   with_node_kind(kind, h.width, h.q_bytes, [&](auto k) {
     using K = decltype(k);
-    if (h.node_layout != 0) decode_packed_nodes<K>(data(), h, f, fields, block_at, m_nodes);
+    if (h.node_layout != 0) decode_packed_nodes<K>(data(), h, fields, block_at, m_nodes);
     check_tree<K>(reinterpret_cast<const uint8_t*>(this->nodes<uint8_t>()), h, f);
   });
 }

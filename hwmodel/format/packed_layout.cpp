@@ -10,8 +10,8 @@
 namespace rtu::hw {
 
 uint64_t NodeFields::bits() const {
-  return 3 * uint64_t(origin + exp) + uint64_t(count + node_base + prim_base) + uint64_t(width) * (1 + group) +
-         6 * uint64_t(width) * uint64_t(q);
+  return 3 * uint64_t(origin + exp) + uint64_t(count + rot + node_base + prim_base) +
+         uint64_t(width) * (1 + group) + 6 * uint64_t(width) * uint64_t(q);
 }
 
 uint64_t NodeFields::bytes(int align) const {
@@ -22,18 +22,24 @@ uint64_t NodeFields::bytes(int align) const {
 NodeFields node_fields(const FixedFormat& f, int base_bits, int prim_bits, int group_bits) {
   NodeFields n;
   n.width = f.width;
+  const bool oriented = f.node_kind == 1;
+  n.origin_bias = oriented ? f.coord_bits + 2 : f.coord_bits;
   if (f.node_layout == 2) {
     n.origin = 32;
     n.exp = 8;
     n.count = 8;
+    n.rot = oriented ? 16 : 0;
     n.node_base = 32;
     n.prim_base = 32;
     n.group = 7;
     n.q = 8 * f.offset_bytes();
     return n;
   }
-  n.origin = f.coord_bits + 2;  // origins lie in [-2^B, 2^(B+1)] (DeviceImage's check), stored plus 2^B
-  n.exp = bits_for(uint64_t(f.coord_bits) + 1);
+  // Origins lie in [-2^B, 2^(B+1)] (DeviceImage's check), stored plus 2^B; an oriented node's in [-2^(B+2),
+  // 2^(B+2)], stored plus 2^(B+2); scales up to B+1 (B+3 oriented).
+  n.origin = oriented ? f.coord_bits + 4 : f.coord_bits + 2;
+  n.exp = bits_for(uint64_t(f.coord_bits) + (oriented ? 3 : 1));
+  n.rot = oriented ? bits_for(uint64_t(f.rotations) - 1) : 0;
   n.count = bits_for(uint64_t(f.width) - 1);
   n.node_base = base_bits;
   n.prim_base = prim_bits;
@@ -70,12 +76,12 @@ bool BitReader::zero_to(uint64_t bytes) const {
   return true;
 }
 
-void pack_node(const PackedNode& n, const NodeFields& f, int coord_bits, uint64_t bytes,
-               std::vector<uint8_t>& out) {
+void pack_node(const PackedNode& n, const NodeFields& f, uint64_t bytes, std::vector<uint8_t>& out) {
   BitWriter w(out);
-  for (int a = 0; a < 3; ++a) w.put(uint64_t(int64_t(n.origin[a]) + (int64_t(1) << coord_bits)), f.origin);
+  for (int a = 0; a < 3; ++a) w.put(uint64_t(int64_t(n.origin[a]) + (int64_t(1) << f.origin_bias)), f.origin);
   for (int a = 0; a < 3; ++a) w.put(uint64_t(n.exp[a]), f.exp);
   w.put(uint64_t(n.count - 1), f.count);
+  w.put(n.rot, f.rot);
   w.put(n.node_base, f.node_base);
   w.put(n.prim_base, f.prim_base);
   for (int i = 0; i < f.width; ++i) {
@@ -88,14 +94,14 @@ void pack_node(const PackedNode& n, const NodeFields& f, int coord_bits, uint64_
   w.pad_to(bytes);
 }
 
-PackedNode unpack_node(const uint8_t* data, uint64_t bytes, const NodeFields& f, int coord_bits,
-                       const std::string& at) {
+PackedNode unpack_node(const uint8_t* data, uint64_t bytes, const NodeFields& f, const std::string& at) {
   BitReader r(data, bytes, at);
   PackedNode n;
-  for (int a = 0; a < 3; ++a) n.origin[a] = int32_t(int64_t(r.get(f.origin)) - (int64_t(1) << coord_bits));
+  for (int a = 0; a < 3; ++a) n.origin[a] = int32_t(int64_t(r.get(f.origin)) - (int64_t(1) << f.origin_bias));
   for (int a = 0; a < 3; ++a) n.exp[a] = int(r.get(f.exp));
   n.count = int(r.get(f.count)) + 1;
   if (n.count > f.width) throw std::invalid_argument(at + ": child count beyond the node width");
+  n.rot = uint32_t(r.get(f.rot));
   n.node_base = r.get(f.node_base);
   n.prim_base = r.get(f.prim_base);
   for (int i = 0; i < f.width; ++i) {

@@ -18,8 +18,9 @@
 // the sizes of the children before it. The encoder numbers nodes breadth first to make this so.
 //
 // Bit order: field after field, each least significant bit first, bit p of a node or block in byte p / 8 at bit
-// p % 8. Node fields in order: origin x, y, z (each the origin plus 2^B, unsigned); scale x, y, z; count - 1;
-// node base; primitive base; meta of child 0 .. N-1 (leaf bit, then group size - 1); offsets in QNode's row
+// p % 8. Node fields in order: origin x, y, z (each the origin plus 2^B, unsigned; oriented nodes: plus 2^(B+2),
+// their rotated boxes reach -2^(B+2)); scale x, y, z; count - 1; oriented nodes: the rotation index; node base;
+// primitive base; meta of child 0 .. N-1 (leaf bit, then group size - 1); offsets in QNode's row
 // order (lo_x of child 0 .. N-1, hi_x, ...). Slots past the count and the padding are zero.
 //
 // Primitives (FixedFormat::prim_layout):
@@ -52,6 +53,8 @@ struct NodeFields {
   int width = 4;            // children N
   int origin = 0, exp = 0;  // per axis
   int count = 0;            // count - 1
+  int rot = 0;              // oriented nodes: the rotation index (0 bits for axis-aligned nodes)
+  int origin_bias = 0;      // the origin is stored plus 2^origin_bias (B; B + 2 for oriented nodes)
   int node_base = 0, prim_base = 0;
   int group = 0;                    // group size - 1 in a leaf child's meta (after its leaf bit)
   int q = 0;                        // one child offset
@@ -112,19 +115,18 @@ struct PackedNode {
   int32_t origin[3] = {0, 0, 0};
   int exp[3] = {0, 0, 0};
   int count = 1;
+  uint32_t rot = 0;  // oriented nodes
   uint64_t node_base = 0, prim_base = 0;
   bool leaf[8] = {};
   uint32_t group[8] = {};  // leaf children: group size in units (records or 8-byte granules)
   uint32_t q[6][8] = {};
 };
-// Writes n (coord_bits B: the origin is stored plus 2^B) as `fields` and pads to `bytes`. Throws std::logic_error
+// Writes n (the origin stored plus 2^fields.origin_bias) as `fields` and pads to `bytes`. Throws std::logic_error
 // when a value does not fit its field (an encoder bug).
-void pack_node(const PackedNode& n, const NodeFields& fields, int coord_bits, uint64_t bytes,
-               std::vector<uint8_t>& out);
+void pack_node(const PackedNode& n, const NodeFields& fields, uint64_t bytes, std::vector<uint8_t>& out);
 // Reads one node of `bytes` bytes; throws std::invalid_argument naming the field when the node is malformed
 // (count beyond the width, nonzero empty slots or padding). Ranges against the format are the caller's.
-PackedNode unpack_node(const uint8_t* data, uint64_t bytes, const NodeFields& fields, int coord_bits,
-                       const std::string& at);
+PackedNode unpack_node(const uint8_t* data, uint64_t bytes, const NodeFields& fields, const std::string& at);
 
 // Primitive blocks. Encodes `count` 40-byte records (one leaf) as one block appended to out (8-byte aligned);
 // returns its size in 8-byte granules.

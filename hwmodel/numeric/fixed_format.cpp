@@ -82,7 +82,10 @@ void FixedFormat::validate() const {
   if (node_kind == 1) {
     // The oriented test: the ray rotated per node (o' = M o, d' = M d exactly), then the slab test in that frame
     // with the reciprocals of d' (|d'| < 2^(D+rb+1)) at R + 1 bits.
-    if (node_layout != 0) fail("node_kind 1 (oriented boxes) is stored in struct nodes only (node_layout 0)");
+    if (node_layout == 2 && coord_bits > 28)
+      fail(
+          "node_kind 1 in compressed-wide nodes needs coord_bits <= 28 (the origin's 32-bit field holds "
+          "[-2^(B+2), 2^(B+2)] plus 2^(B+2))");
     const int ar = rotated_translated_bits();
     if (dir_bits + rot_bits + rcp_bits > 62)
       fail("dir_bits + rot_bits + rcp_bits must be <= 62 (the rotated direction's reciprocal is 64 bits)");
@@ -154,9 +157,10 @@ const std::vector<FixedFormat>& format_presets() {
       // 6-wide bit-packed nodes padded to 64 bytes, in the spirit of Intel's 64-byte BVH6 node (Intel's Embree
       // and Xe documentation), with 40-byte records as Intel's quad leaves hold full-precision vertices.
       {"xe6", "width=6:node_layout=1:node_align=64"},
-      // 8-wide bit-packed nodes of 12-bit child boxes padded to 128 bytes, with triangle blocks, in the spirit of
-      // AMD RDNA4's 128-byte BVH8 node and compressed primitive nodes (timing preset rdna4, timing_config.cpp).
-      {"rdna4", "width=8:child_bits=12:node_layout=1:node_align=128:prim_layout=1"},
+      // 8-wide bit-packed oriented nodes (104 rotations, as RDNA4's table) of 12-bit child boxes padded to 128
+      // bytes, with triangle blocks, in the spirit of AMD RDNA4's 128-byte BVH8 node with its rotation index and
+      // compressed primitive nodes (timing preset rdna4, timing_config.cpp).
+      {"rdna4", "width=8:child_bits=12:node_layout=1:node_align=128:prim_layout=1:node_kind=1"},
   };
   static const std::vector<FixedFormat> presets = [] {
     std::vector<FixedFormat> v;

@@ -34,7 +34,7 @@ struct FixedFormat {
   int xform_bits = 24;
   // The node kind (format/node_kinds.h): 0 quantized axis-aligned boxes, 1 oriented boxes (each node's children
   // in the frame of one of `rotations` fixed rotations whose entries have rot_bits fraction bits:
-  // format/rotation_table.h; struct nodes only).
+  // format/rotation_table.h).
   int node_kind = 0;
   // Triangle pairs: a leaf's consecutive triangles that share an edge are one request of the unit (a
   // kTrianglePair record and the next; 40-byte records only).

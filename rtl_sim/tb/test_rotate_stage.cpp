@@ -28,7 +28,7 @@ uint64_t bits(int64_t v, int w) {
 
 }  // namespace
 
-TEST_CASE("rotation stage: bit for bit the C++ rotation, every rotation, one ray per clock", "[rotate]") {
+TEST_CASE("rotation stage: bit for bit the C++ rotation, every rotation, one ray per clock", "[obb]") {
   hw::FixedFormat f = hw::format_from_spec("default:node_kind=1");
   // The verilated widths (rtl_sim/CMakeLists.txt) are the format's.
   const int OB = f.coord_bits + f.guard_bits + f.frac_bits + 1, DB = f.dir_bits + 2, MB = f.rot_bits + 2;

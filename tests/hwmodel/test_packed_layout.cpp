@@ -45,14 +45,18 @@ PackedNode random_node(Pcg32& rng, const NodeFields& fl, int B) {
     return bits >= 64 ? v : v & ((uint64_t(1) << bits) - 1);
   };
   n.count = 1 + int(below(uint64_t(fl.width)));
-  // QNode's origin is an int32: at B = 30 the top of the range is INT32_MAX.
-  const int64_t lo = -(int64_t(1) << B), hi = std::min<int64_t>(int64_t(1) << (B + 1), INT32_MAX);
+  // QNode's origin is an int32: at B = 30 the top of the range is INT32_MAX. Oriented nodes' origins span
+  // [-2^(B+2), 2^(B+2)] (their bias says which: B or B + 2).
+  const bool oriented = fl.origin_bias == B + 2;
+  const int64_t lo = std::max<int64_t>(-(int64_t(1) << fl.origin_bias), INT32_MIN),
+                hi = std::min<int64_t>(int64_t(1) << (oriented ? B + 2 : B + 1), INT32_MAX);
   for (int a = 0; a < 3; ++a) {
     // The origin's range ends, and values in between.
     const uint64_t pick = below(4);
     n.origin[a] = int32_t(pick == 0 ? lo : pick == 1 ? hi : lo + int64_t(below(uint64_t(hi - lo + 1))));
-    n.exp[a] = int(below(uint64_t(B) + 2));
+    n.exp[a] = int(below(uint64_t(B) + (oriented ? 4 : 2)));
   }
+  n.rot = uint32_t(field(fl.rot));
   n.node_base = field(fl.node_base);
   n.prim_base = field(fl.prim_base);
   for (int i = 0; i < n.count; ++i) {
@@ -69,6 +73,7 @@ void check_same(const PackedNode& a, const PackedNode& b, int width) {
     CHECK(a.exp[x] == b.exp[x]);
   }
   CHECK(a.count == b.count);
+  CHECK(a.rot == b.rot);
   CHECK(a.node_base == b.node_base);
   CHECK(a.prim_base == b.prim_base);
   for (int i = 0; i < width; ++i) {
@@ -192,27 +197,30 @@ TEST_CASE("packed nodes round-trip: every field at its ends and at random", "[fi
   const uint64_t seed = 2612;
   INFO("seed " << seed);
   Pcg32 rng(seed);
-  for (int layout : {1, 2})
-    for (int width : {2, 4, 6, 8})
-      for (int B : {2, 16, 30}) {
-        FixedFormat f = format_preset("default");
-        f.width = width;
-        f.coord_bits = B;
-        f.child_bits = layout == 2 ? 8 : 1 + int(rng.next_u32() % 16);
-        f.node_layout = layout;
-        const int base = int(rng.next_u32() % 33), prim = int(rng.next_u32() % 33),
-                  group = int(rng.next_u32() % 8);
-        const NodeFields fl = node_fields(f, base, prim, group);
-        const uint64_t bytes = fl.bytes(layout == 1 ? 8 : 1);
-        CAPTURE(layout, width, B, f.child_bits, base, prim, group);
-        for (int i = 0; i < 200; ++i) {
-          const PackedNode n = random_node(rng, fl, B);
-          std::vector<uint8_t> out;
-          pack_node(n, fl, B, bytes, out);
-          REQUIRE(out.size() == bytes);
-          check_same(unpack_node(out.data(), bytes, fl, B, "node"), n, width);
+  for (int kind : {0, 1})
+    for (int layout : {1, 2})
+      for (int width : {2, 4, 6, 8})
+        for (int B : {2, 16, kind ? 28 : 30}) {
+          FixedFormat f = format_preset("default");
+          f.width = width;
+          f.coord_bits = B;
+          f.node_kind = kind;
+          f.rotations = 1 + int(rng.next_u32() % 1024);
+          f.child_bits = layout == 2 ? 8 : 1 + int(rng.next_u32() % 16);
+          f.node_layout = layout;
+          const int base = int(rng.next_u32() % 33), prim = int(rng.next_u32() % 33),
+                    group = int(rng.next_u32() % 8);
+          const NodeFields fl = node_fields(f, base, prim, group);
+          const uint64_t bytes = fl.bytes(layout == 1 ? 8 : 1);
+          CAPTURE(kind, layout, width, B, f.child_bits, base, prim, group, f.rotations);
+          for (int i = 0; i < 200; ++i) {
+            const PackedNode n = random_node(rng, fl, B);
+            std::vector<uint8_t> out;
+            pack_node(n, fl, bytes, out);
+            REQUIRE(out.size() == bytes);
+            check_same(unpack_node(out.data(), bytes, fl, "node"), n, width);
+          }
         }
-      }
 }
 
 TEST_CASE("triangle blocks round-trip exactly: 1 to 16 triangles, grid ends, degenerate triangles",
@@ -364,10 +372,10 @@ TEST_CASE("from_bytes refuses malformed packed nodes and blocks, naming the fiel
   auto node_changed = [&](uint32_t n, auto change) {
     std::vector<uint8_t> b = good;
     uint8_t* at = b.data() + h.node_offset + size_t(n) * h.node_bytes;
-    PackedNode pn = unpack_node(at, h.node_bytes, fl, f.coord_bits, "node");
+    PackedNode pn = unpack_node(at, h.node_bytes, fl, "node");
     change(pn);
     std::vector<uint8_t> out;
-    pack_node(pn, fl, f.coord_bits, h.node_bytes, out);
+    pack_node(pn, fl, h.node_bytes, out);
     std::memcpy(at, out.data(), out.size());
     return b;
   };
@@ -382,8 +390,8 @@ TEST_CASE("from_bytes refuses malformed packed nodes and blocks, naming the fiel
   // A leaf child pointing into the middle of a block, and one whose size disagrees with its block's.
   uint32_t leafy = 0;
   for (uint32_t n = 0; n < h.node_count && !leafy; ++n) {
-    const PackedNode pn = unpack_node(good.data() + h.node_offset + size_t(n) * h.node_bytes, h.node_bytes, fl,
-                                      f.coord_bits, "node");
+    const PackedNode pn =
+        unpack_node(good.data() + h.node_offset + size_t(n) * h.node_bytes, h.node_bytes, fl, "node");
     if (pn.leaf[0]) leafy = n;
   }
   REQUIRE(leafy > 0);

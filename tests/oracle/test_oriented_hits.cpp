@@ -20,12 +20,12 @@ namespace {
 
 constexpr const char* kEngine = "/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb";
 
-void check_same_hits(const std::string& spec, int width, uint64_t n) {
+void check_same_hits(const std::string& spec, int width, uint64_t n, const char* layout = "default") {
   const host::Scene scene = host::load_scene(spec);
   hw::BvhBuildParams bp;
   bp.width = width;
   const hw::Bvh bvh = hw::Bvh::build(scene.geometry, bp);
-  hw::FixedFormat aabb = hw::format_preset("default");
+  hw::FixedFormat aabb = hw::format_preset(layout);
   aabb.width = width;
   hw::FixedFormat obb = aabb;
   obb.node_kind = 1;
@@ -68,6 +68,12 @@ void check_same_hits(const std::string& spec, int width, uint64_t n) {
 TEST_CASE("oriented nodes hit what axis-aligned nodes hit: built-in scenes", "[fixed][obb]") {
   for (const char* spec : {"builtin:seed", "builtin:cornell", "builtin:hairball", "builtin:forest"})
     for (int width : {4, 8}) check_same_hits(spec, width, 6000);
+}
+
+TEST_CASE("oriented nodes hit what axis-aligned nodes hit: packed layouts", "[fixed][obb]") {
+  check_same_hits("builtin:hairball", 8, 4000, "packed");
+  check_same_hits("builtin:forest", 8, 4000, "rdna4");
+  check_same_hits("builtin:seed", 8, 4000, "cwbvh");
 }
 
 TEST_CASE("oriented nodes hit what axis-aligned nodes hit: 2CylinderEngine.glb", "[fixed][obb][mesh]") {

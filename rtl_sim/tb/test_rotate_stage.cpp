@@ -95,9 +95,11 @@ TEST_CASE("rotation stage: bit for bit the C++ rotation, every rotation, one ray
       std::copy(c.o, c.o + 3, r.o);
       hw::set_direction(r, c.d, f);
       const hw::FixedRay want = hw::rotate_ray(r, table[size_t(c.rot)], rotated);
-      const int64_t got_o[3] = {rtl::sign_extend(dut.out_o0, OB + MB + 1), rtl::sign_extend(dut.out_o1, OB + MB + 1),
+      const int64_t got_o[3] = {rtl::sign_extend(dut.out_o0, OB + MB + 1),
+                                rtl::sign_extend(dut.out_o1, OB + MB + 1),
                                 rtl::sign_extend(dut.out_o2, OB + MB + 1)};
-      const int64_t got_d[3] = {rtl::sign_extend(dut.out_d0, DB + MB + 1), rtl::sign_extend(dut.out_d1, DB + MB + 1),
+      const int64_t got_d[3] = {rtl::sign_extend(dut.out_d0, DB + MB + 1),
+                                rtl::sign_extend(dut.out_d1, DB + MB + 1),
                                 rtl::sign_extend(dut.out_d2, DB + MB + 1)};
       for (int a = 0; a < 3; ++a) {
         INFO("rotation " << c.rot << " axis " << a);

@@ -11,6 +11,7 @@
 // - Sphere: the quadratic with the discriminant in the form of Haines et al., "Precision Improvements for
 //   Ray/Sphere Intersection" (Ray Tracing Gems, 2019), and roots by the stable q-form (no cancellation).
 // - Plane: t = (c - p.n) / (d.n); a ray parallel to the plane (d.n == 0) misses.
+// - Linear swept sphere: the cone tangent to two end spheres and the sphere at its end, in double (below).
 #pragma once
 
 #include <cmath>
@@ -142,6 +143,77 @@ inline bool intersect_sphere(const Vec3& center, float radius, const RayPrecomp&
   if (t < tmin || t > tmax) return false;
   out.t = t;
   out.u = out.v = 0.0f;  // filled for the final hit only (sphere_uv)
+  return true;
+}
+
+// Linear swept sphere (a round linear curve segment, the hair primitive of NVIDIA's Blackwell RT core and Embree's
+// RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE): the spheres centered on p0 + s (p1 - p0) of radius r0 + s (r1 - r0),
+// s in [0, 1]. As Embree builds a segment (kernels/geometry/roundline_intersector.h): the cone tangent to the end
+// spheres between its two circles of tangency, plus the sphere at p1; the sphere at p0 only with `start_cap` (a
+// strand's first segment; the others get it from the segment before). The nearest crossing of these surfaces in
+// [tmin, tmax]: from outside, where the ray enters the exact union of the spheres (tests/oracle/
+// test_swept_sphere.cpp: within a float ulp of it; Embree's start cap differs). u = s of the hit (0 or 1 on the
+// end spheres), v = 0.
+//
+// In double, relative to p0 (thin, long segments far from the origin keep their digits). The cone is the
+// envelope of the spheres: a point q = x - p0 lies on sphere s's circle of tangency when (q - s ba) . ba =
+// -r(s) dr, so s = (q . ba + r0 dr) / (|ba|^2 - dr^2), linear along the ray, and |q - s ba|^2 = r(s)^2 is a
+// quadratic in t; its roots count where 0 <= s <= 1. When one end sphere holds the other (|ba| <= |dr|) there is
+// no cone and the segment is its larger sphere.
+inline bool intersect_swept_sphere(const Vec3& p0, float r0, const Vec3& p1, float r1, bool start_cap,
+                                   const RayPrecomp& r, float tmin, float tmax, PrimHit& out) {
+  using D3 = glm::dvec3;
+  const D3 o = D3(r.origin) - D3(p0), d = D3(r.dir), ba = D3(p1) - D3(p0);
+  const double R0 = r0, R1 = r1, dr = R1 - R0, L2 = glm::dot(ba, ba), a = glm::dot(d, d);
+  double best = std::numeric_limits<double>::infinity(), best_s = 0.0;
+  const auto consider = [&](double t, double s) {
+    if (t >= double(tmin) && t <= double(tmax) && t < best) {
+      best = t;
+      best_s = s;
+    }
+  };
+  // A sphere's roots, as intersect_sphere forms them (Haines et al.), in double.
+  const auto sphere = [&](const D3& c, double R, double s) {
+    const D3 f = o - c;
+    const double b = -glm::dot(f, d);
+    const D3 l = f + (b / a) * d;
+    const double disc = a * (R * R - glm::dot(l, l));
+    if (!(disc >= 0.0)) return;
+    const double q = b + std::copysign(std::sqrt(disc), b);
+    if (q == 0.0) return consider(0.0, s);
+    consider((glm::dot(f, f) - R * R) / q, s);
+    consider(q / a, s);
+  };
+  sphere(ba, R1, 1.0);
+  if (start_cap || L2 <= dr * dr) sphere(D3(0.0), R0, 0.0);
+  const double K = L2 - dr * dr;
+  if (K > 0.0) {
+    // s(t) = alpha + beta t; q(t) - s(t) ba = u + t w; r(s(t)) = rho + t sigma.
+    const double alpha = (glm::dot(o, ba) + R0 * dr) / K, beta = glm::dot(d, ba) / K;
+    const D3 u = o - alpha * ba, w = d - beta * ba;
+    const double rho = R0 + alpha * dr, sigma = beta * dr;
+    const double A = glm::dot(w, w) - sigma * sigma, B = glm::dot(u, w) - rho * sigma,
+                 C = glm::dot(u, u) - rho * rho;
+    const auto lateral = [&](double t) {
+      const double s = alpha + beta * t;
+      if (s >= 0.0 && s <= 1.0) consider(t, s);
+    };
+    if (A != 0.0) {
+      const double disc = B * B - A * C;
+      if (disc >= 0.0) {
+        const double q = -(B + std::copysign(std::sqrt(disc), B));
+        if (q != 0.0) lateral(C / q);
+        lateral(q / A);
+      }
+    } else if (B != 0.0) {
+      lateral(-C / (2.0 * B));  // the ray parallel to a generator of the cone
+    }
+  }
+  if (best == std::numeric_limits<double>::infinity()) return false;  // no crossing in [tmin, tmax]
+  out.t = float(best);
+  if (out.t < tmin || out.t > tmax) return false;  // rounding to float may cross an end of the interval
+  out.u = float(best_s);
+  out.v = 0.0f;
   return true;
 }
 

@@ -86,3 +86,40 @@ bench_yosys_stat() {
   ffs=$(grep -E '^\s+\$_(S?DFF|DFF)[A-Z_0-9]*\s' "$tmp/stat.txt" | awk '{s+=$2} END{print s+0}')
   trans=$(sed -n 's/^ *Estimated number of transistors: *\([0-9+]*\)/\1/p' "$tmp/stat.txt" | tail -1)
 }
+
+# bench_synth_row PREFIX KEY TOP SV [CHPARAM...]: synthesizes module TOP of SV with yosys (chparam -set of the pairs
+# given, synth -flatten, check -assert, stat -tech cmos) in $tmp (bench_tmpdir) and puts the row
+# KEY,cells,flip_flops,transistors into bench/data/rtl_area.csv, replacing one of that key; prints it after PREFIX.
+bench_synth_row() {
+  local prefix=$1 key=$2 top=$3 sv=$4 area
+  shift 4
+  area="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)/data/rtl_area.csv"
+  {
+    echo "read_verilog -sv $sv"
+    [ $# -eq 0 ] || echo "chparam $(printf -- '-set %s %s ' "$@")$top"
+    echo "synth -flatten -top $top"
+    echo "check -assert"
+    echo "tee -o $tmp/stat.txt stat -tech cmos"
+  } >"$tmp/s.ys"
+  yosys -q "$tmp/s.ys" >"$tmp/yosys.log" 2>&1 || { cat "$tmp/yosys.log" >&2; exit 1; }
+  local cells ffs trans
+  cells=$(sed -n 's/^ *Number of cells: *\([0-9]*\)/\1/p' "$tmp/stat.txt" | tail -1)
+  ffs=$(grep -E '^\s+\$_(S?DFF|DFF)[A-Z_0-9]*\s' "$tmp/stat.txt" | awk '{s+=$2} END{print s+0}')
+  trans=$(sed -n 's/^ *Estimated number of transistors: *\([0-9+]*\)/\1/p' "$tmp/stat.txt" | tail -1)
+  grep -v -- "^$key," "$area" >"$tmp/area.csv" || true
+  echo "$key,$cells,$ffs,${trans%+}" >>"$tmp/area.csv"
+  cp "$tmp/area.csv" "$area"
+  echo "$prefix$key: $cells cells, $ffs flip-flops, ${trans%+} transistors (est.) -> $area"
+}
+
+# bench_report_context OUT ROOT: what a results file written whole keeps and names. Sets notes (OUT's "## Notes"
+# section to its end, written by hand and kept across runs; empty when none), commit (ROOT's), cpu and os.
+bench_report_context() {
+  notes=""
+  if [ -f "$1" ] && grep -q '^## Notes' "$1"; then
+    notes=$(sed -n '/^## Notes/,$p' "$1")
+  fi
+  commit=$(git -C "$2" rev-parse --short HEAD 2>/dev/null || echo unknown)
+  cpu=$(grep -m1 'model name' /proc/cpuinfo 2>/dev/null | sed 's/.*: //' || echo unknown)
+  os=$( (. /etc/os-release && echo "$PRETTY_NAME") 2>/dev/null || uname -s)
+}

@@ -35,22 +35,6 @@ echo "# wrote $csv"
 [ -n "${NO_AREA:-}" ] && exit 0
 
 command -v yosys >/dev/null || { echo "$name: yosys is not installed (scripts/setup.sh installs it)" >&2; exit 2; }
-area="$here/bench/data/rtl_area.csv"
 for row in add32:0 mul32:1; do
-  key=ref:${row%%:*} op=${row##*:}
-  cat >"$tmp/s.ys" <<YS
-read_verilog -sv $here/rtl_sim/rtl/ref_ops.sv
-chparam -set OP $op -set W 32 ref_ops
-synth -flatten -top ref_ops
-check -assert
-tee -o $tmp/stat.txt stat -tech cmos
-YS
-  yosys -q "$tmp/s.ys" >"$tmp/yosys.log" 2>&1 || { cat "$tmp/yosys.log" >&2; exit 1; }
-  cells=$(sed -n 's/^ *Number of cells: *\([0-9]*\)/\1/p' "$tmp/stat.txt" | tail -1)
-  ffs=$(grep -E '^\s+\$_(S?DFF|DFF)[A-Z_0-9]*\s' "$tmp/stat.txt" | awk '{s+=$2} END{print s+0}')
-  trans=$(sed -n 's/^ *Estimated number of transistors: *\([0-9+]*\)/\1/p' "$tmp/stat.txt" | tail -1)
-  grep -v "^$key," "$area" >"$tmp/area.csv" || true
-  echo "$key,$cells,$ffs,${trans%+}" >>"$tmp/area.csv"
-  cp "$tmp/area.csv" "$area"
-  echo "# $key: $cells cells, $ffs flip-flops, ${trans%+} transistors (est.) -> $area"
+  bench_synth_row "# " "ref:${row%%:*}" ref_ops "$here/rtl_sim/rtl/ref_ops.sv" OP "${row##*:}" W 32
 done

@@ -11,22 +11,8 @@ name=rtl_rotate_area.sh
 here=$(cd "$(dirname "$0")/.." && pwd)
 ob=${1:-39} db=${2:-26} mb=${3:-14}
 command -v yosys >/dev/null || { echo "$name: yosys is not installed (scripts/setup.sh installs it)" >&2; exit 2; }
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-cat >"$tmp/s.ys" <<YS
-read_verilog -sv $here/rtl_sim/rtl/rotate_stage.sv
-chparam -set OB $ob -set DB $db -set MB $mb rotate_stage
-synth -flatten -top rotate_stage
-check -assert
-tee -o $tmp/stat.txt stat -tech cmos
-YS
-yosys -q "$tmp/s.ys" >"$tmp/yosys.log" 2>&1 || { cat "$tmp/yosys.log" >&2; exit 1; }
-cells=$(sed -n 's/^ *Number of cells: *\([0-9]*\)/\1/p' "$tmp/stat.txt" | tail -1)
-ffs=$(grep -E '^\s+\$_(S?DFF|DFF)[A-Z_0-9]*\s' "$tmp/stat.txt" | awk '{s+=$2} END{print s+0}')
-trans=$(sed -n 's/^ *Estimated number of transistors: *\([0-9+]*\)/\1/p' "$tmp/stat.txt" | tail -1)
-key="-GOB=$ob -GDB=$db -GMB=$mb"
-area="$here/bench/data/rtl_area.csv"
-grep -v "^$key," "$area" >"$tmp/area.csv" || true
-echo "$key,$cells,$ffs,${trans%+}" >>"$tmp/area.csv"
-cp "$tmp/area.csv" "$area"
-echo "$name: $key: $cells cells, $ffs flip-flops, ${trans%+} transistors (est.) -> $area"
+# shellcheck source=bench/lib.sh
+. "$here/bench/lib.sh"
+bench_tmpdir
+bench_synth_row "$name: " "-GOB=$ob -GDB=$db -GMB=$mb" rotate_stage "$here/rtl_sim/rtl/rotate_stage.sv" OB "$ob" DB "$db" \
+  MB "$mb"

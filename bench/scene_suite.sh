@@ -97,13 +97,7 @@ for entry in "${entries[@]}"; do
 done
 seconds=$(($(date +%s) - start))
 
-notes=""
-if [ -f "$out" ] && grep -q '^## Notes' "$out"; then
-  notes=$(sed -n '/^## Notes/,$p' "$out")
-fi
-commit=$(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo unknown)
-cpu=$(grep -m1 'model name' /proc/cpuinfo 2>/dev/null | sed 's/.*: //' || echo unknown)
-os=$( (. /etc/os-release && echo "$PRETTY_NAME") 2>/dev/null || uname -s)
+bench_report_context "$out" "$root"
 {
   printf '# The benchmark scene suite\n\n'
   printf '**Question.** What does each scene of the suite (`%s`) cost the unit, what does it hold, and does the\n' "$suite"

@@ -276,13 +276,7 @@ PY
 fi
 seconds=$(($(date +%s) - start))
 
-notes=""
-if [ -f "$out" ] && grep -q '^## Notes' "$out"; then
-  notes=$(sed -n '/^## Notes/,$p' "$out")
-fi
-commit=$(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo unknown)
-cpu=$(grep -m1 'model name' /proc/cpuinfo 2>/dev/null | sed 's/.*: //' || echo unknown)
-os=$( (. /etc/os-release && echo "$PRETTY_NAME") 2>/dev/null || uname -s)
+bench_report_context "$out" "$root"
 {
   printf '# The units of 2025: the vendors'"'"' test rates, and the steps to RDNA4 and Xe2\n\n'
   printf '**Question.** Do the timing presets test as many boxes and triangles per clock as the vendors say their\n'

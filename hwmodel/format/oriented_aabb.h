@@ -97,28 +97,14 @@ struct OrientedAabb {
 
   // The packed layouts' fields of the node (packed_layout.h: the rotation index after the count).
   static void to_packed(const Node& n, PackedNode& pn) {
-    for (int a = 0; a < 3; ++a) {
-      pn.origin[a] = n.origin[a];
-      pn.exp[a] = n.exp[a];
-    }
-    pn.count = n.count;
+    offset_fields_to_packed(n, pn);
     pn.rot = n.rot;
-    for (int i = 0; i < n.count; ++i)
-      for (int r = 0; r < 6; ++r) pn.q[r][i] = n.q[r][i];
   }
   static std::string from_packed(const PackedNode& pn, Node& n) {
-    std::memset(&n, 0, sizeof n);
-    for (int a = 0; a < 3; ++a) {
-      if (pn.exp[a] > 127) return "scale out of range";
-      n.origin[a] = pn.origin[a];
-      n.exp[a] = int8_t(pn.exp[a]);
-    }
-    if (pn.rot > 0xFFFF) return "rotation index out of range";
-    n.count = uint8_t(pn.count);
+    std::string why = offset_fields_from_packed(pn, n);
+    if (why.empty() && pn.rot > 0xFFFF) why = "rotation index out of range";
     n.rot = uint16_t(pn.rot);
-    for (int r = 0; r < 6; ++r)
-      for (int i = 0; i < N; ++i) n.q[r][i] = Q(pn.q[r][i]);
-    return {};
+    return why;
   }
 };
 

@@ -4,6 +4,7 @@
 
 #include <cstring>
 #include <string>
+#include <type_traits>
 
 #include "hwmodel/format/hw_format.h"
 #include "hwmodel/format/node_kind.h"
@@ -20,6 +21,35 @@ inline void offset_box(const Node& n, int i, int64_t lo[3], int64_t hi[3]) {
     lo[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a][i]) << n.exp[a]);
     hi[a] = int64_t(n.origin[a]) + (int64_t(n.q[2 * a + 1][i]) << n.exp[a]);
   }
+}
+
+// The packed layouts' fields of such a node (origin, scales, count, offsets); references are the caller's.
+template <class Node>
+inline void offset_fields_to_packed(const Node& n, PackedNode& pn) {
+  for (int a = 0; a < 3; ++a) {
+    pn.origin[a] = n.origin[a];
+    pn.exp[a] = n.exp[a];
+  }
+  pn.count = n.count;
+  for (int i = 0; i < n.count; ++i)
+    for (int r = 0; r < 6; ++r) pn.q[r][i] = n.q[r][i];
+}
+// Such a node, cleared, from a packed node's fields (unpack_node has checked the count against the width);
+// references are the caller's.
+template <class Node>
+inline std::string offset_fields_from_packed(const PackedNode& pn, Node& n) {
+  using Q = std::remove_cvref_t<decltype(n.q[0][0])>;
+  constexpr int N = int(sizeof(n.child) / sizeof(n.child[0]));
+  std::memset(&n, 0, sizeof n);
+  for (int a = 0; a < 3; ++a) {
+    if (pn.exp[a] > 127) return "scale out of range";
+    n.origin[a] = pn.origin[a];
+    n.exp[a] = int8_t(pn.exp[a]);
+  }
+  n.count = uint8_t(pn.count);
+  for (int r = 0; r < 6; ++r)
+    for (int i = 0; i < N; ++i) n.q[r][i] = Q(pn.q[r][i]);  // a field of at most 16 bits
+  return {};
 }
 
 template <int N, class Q>
@@ -80,29 +110,8 @@ struct QuantizedAabb {
   }
 
   // The packed layouts' fields of the node (the children's leaf bits, groups and bases are the caller's).
-  static void to_packed(const Node& n, PackedNode& pn) {
-    for (int a = 0; a < 3; ++a) {
-      pn.origin[a] = n.origin[a];
-      pn.exp[a] = n.exp[a];
-    }
-    pn.count = n.count;
-    for (int i = 0; i < n.count; ++i)
-      for (int r = 0; r < 6; ++r) pn.q[r][i] = n.q[r][i];
-  }
-  // The node from a packed node's fields (unpack_node has checked the count against the width); references are
-  // the caller's.
-  static std::string from_packed(const PackedNode& pn, Node& n) {
-    std::memset(&n, 0, sizeof n);
-    for (int a = 0; a < 3; ++a) {
-      if (pn.exp[a] > 127) return "scale out of range";
-      n.origin[a] = pn.origin[a];
-      n.exp[a] = int8_t(pn.exp[a]);
-    }
-    n.count = uint8_t(pn.count);
-    for (int r = 0; r < 6; ++r)
-      for (int i = 0; i < N; ++i) n.q[r][i] = Q(pn.q[r][i]);  // a field of at most 16 bits
-    return {};
-  }
+  static void to_packed(const Node& n, PackedNode& pn) { offset_fields_to_packed(n, pn); }
+  static std::string from_packed(const PackedNode& pn, Node& n) { return offset_fields_from_packed(pn, n); }
 };
 
 }  // namespace rtu::hw

@@ -35,7 +35,7 @@ struct Segment {
   float r0, r1;
 };
 
-// Embree's answer for one ray against one segment (no neighbour flags: the cone and the sphere at p1).
+// Embree's answer for one ray against one segment, its neighbour flags 0 (Embree then caps both ends).
 class EmbreeSegment {
  public:
   EmbreeSegment(RTCDevice dev, const Segment& s) : m_scene(rtcNewScene(dev)) {
@@ -80,17 +80,17 @@ class EmbreeSegment {
   RTCScene m_scene;
 };
 
-// Distance from the ray's point at t to the union of the spheres, in long double (min over s of |p - c(s)| - r(s);
-// convex in s).
-double union_distance(const Segment& sg, const hw::Ray& ray, double t) {
+// Signed distance from the ray's point at t to the union of the spheres, in long double: min over s of
+// |p - c(s)| - r(s), convex in s (a ternary search finds it).
+double union_distance(const Segment& sg, const hw::Ray& ray, long double t) {
   using L = long double;
-  const L pt[3] = {L(ray.origin.x) + L(t) * L(ray.dir.x), L(ray.origin.y) + L(t) * L(ray.dir.y),
-                   L(ray.origin.z) + L(t) * L(ray.dir.z)};
+  const L pt[3] = {L(ray.origin.x) + t * L(ray.dir.x), L(ray.origin.y) + t * L(ray.dir.y),
+                   L(ray.origin.z) + t * L(ray.dir.z)};
   auto g = [&](L s) {
     L q = 0;
     for (int i = 0; i < 3; ++i) {
       const L c = L(sg.p0[i]) + s * (L(sg.p1[i]) - L(sg.p0[i]));
-      q += (L(pt[i]) - c) * (L(pt[i]) - c);
+      q += (pt[i] - c) * (pt[i] - c);
     }
     return std::sqrt(q) - (L(sg.r0) + s * (L(sg.r1) - L(sg.r0)));
   };
@@ -102,43 +102,18 @@ double union_distance(const Segment& sg, const hw::Ray& ray, double t) {
     else
       lo = m1;
   }
-  return double(std::abs(std::min({g(0), g(1), g((lo + hi) / 2)})));
+  return double(std::min({g(0), g(1), g((lo + hi) / 2)}));
 }
 
-// The first t >= 0 where the ray meets the union of the spheres, by sphere tracing in long double: the distance
-// to the union is min over s of |p - c(s)| - r(s), convex in s (a ternary search finds it).
+// The first t >= 0 where the ray meets the union of the spheres, by sphere tracing on union_distance.
 double oracle_t(const Segment& sg, const hw::Ray& ray) {
   using L = long double;
-  const L o[3] = {ray.origin.x, ray.origin.y, ray.origin.z}, d[3] = {ray.dir.x, ray.dir.y, ray.dir.z};
-  const L a[3] = {sg.p0.x, sg.p0.y, sg.p0.z}, b[3] = {sg.p1.x, sg.p1.y, sg.p1.z};
-  auto dist = [&](L t) {
-    L p[3];
-    for (int i = 0; i < 3; ++i) p[i] = o[i] + t * d[i];
-    auto g = [&](L s) {
-      L q = 0;
-      for (int i = 0; i < 3; ++i) {
-        const L c = a[i] + s * (b[i] - a[i]);
-        q += (p[i] - c) * (p[i] - c);
-      }
-      return std::sqrt(q) - (L(sg.r0) + s * (L(sg.r1) - L(sg.r0)));
-    };
-    L lo = 0, hi = 1;
-    for (int k = 0; k < 200; ++k) {
-      const L m1 = lo + (hi - lo) / 3, m2 = hi - (hi - lo) / 3;
-      if (g(m1) < g(m2))
-        hi = m2;
-      else
-        lo = m1;
-    }
-    return std::min({g(0), g(1), g((lo + hi) / 2)});
-  };
-  const L dl = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  const L dl = std::sqrt(L(ray.dir.x) * ray.dir.x + L(ray.dir.y) * ray.dir.y + L(ray.dir.z) * ray.dir.z);
   L t = 0;
-  for (int k = 0; k < 100000; ++k) {
-    const L f = dist(t);
-    if (f < 1e-14L) return double(t);
-    t += f / dl;
-    if (t > 1e6L) break;
+  for (int k = 0; k < 100000 && t <= 1e6L; ++k) {
+    const double f = union_distance(sg, ray, t);
+    if (f < 1e-14) return double(t);
+    t += L(f) / dl;
   }
   return std::numeric_limits<double>::infinity();
 }
@@ -197,7 +172,7 @@ TEST_CASE("linear swept spheres agree with Embree's round linear curves", "[floa
           // moves |d| ulp(t) in an ulp), where the other's quadratic has just no real root.
           const double th = ours ? double(h.t) : to, dist = union_distance(s, ray, th);
           const double ulp = double(std::nextafter(float(th), INFINITY) - float(th));
-          if (!(dist <= ulp * double(glm::length(ray.dir)))) {
+          if (!(std::abs(dist) <= ulp * double(glm::length(ray.dir)))) {
             ++oracle_disagree;
           }
         } else if (ours) {

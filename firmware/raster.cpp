@@ -419,8 +419,9 @@ void rasterize(const RenderJob& job, const SurfaceRecord* surfaces, const Sample
       r.triangle(s, p);
     else if (s.kind == uint32_t(SurfaceKind::kSphere))
       r.sphere(s, p);
-    else
+    else if (s.kind == uint32_t(SurfaceKind::kPlane))
       r.plane(s, p);
+    // Curve segments are not rasterized: the host refuses hybrid renders of scenes with curves.
   }
 }
 

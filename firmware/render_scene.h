@@ -46,15 +46,15 @@ struct UvRecord {
 };
 static_assert(sizeof(UvRecord) == 24);
 
-enum class SurfaceKind : uint32_t { kTriangle = 0, kSphere = 1, kPlane = 2 };
+enum class SurfaceKind : uint32_t { kTriangle = 0, kSphere = 1, kPlane = 2, kCurve = 3 };
 
-// Per primitive index (the unit's index space: triangles, spheres, planes).
+// Per primitive index (the unit's index space: triangles, spheres, curve segments, planes).
 struct SurfaceRecord {
   uint32_t kind;      // SurfaceKind
   uint32_t material;  // index into the material table
-  F3 a;               // triangle v0; sphere center; plane normal (any length)
-  F3 b;               // triangle v1; sphere (radius, 0, 0); plane (offset, 0, 0)
-  F3 c;               // triangle v2; otherwise 0
+  F3 a;               // triangle v0; sphere center; curve p0; plane normal (any length)
+  F3 b;               // triangle v1; sphere (radius, 0, 0); curve p1; plane (offset, 0, 0)
+  F3 c;               // triangle v2; curve (r0, r1, 0); otherwise 0
 };
 static_assert(sizeof(SurfaceRecord) == 44);
 

@@ -170,6 +170,8 @@ int Renderer::shade(const hw::Ray& ray, const hw::Hit& hit, Path& path, uint32_t
     n = glm::cross(vec(s.b) - vec(s.a), vec(s.c) - vec(s.a));
   else if (s.kind == uint32_t(SurfaceKind::kSphere))
     n = p - vec(s.a);
+  else if (s.kind == uint32_t(SurfaceKind::kCurve))
+    n = p - (vec(s.a) + hit.u * (vec(s.b) - vec(s.a)));  // from the center of the sphere the hit lies on (u = s)
   else
     n = vec(s.a);
   const float nl = glm::length(n);

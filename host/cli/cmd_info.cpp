@@ -91,6 +91,7 @@ void run_info(const InfoOptions& o) {
   j["scene"] = scene.name;
   j["triangles"] = g.triangles.size();
   j["spheres"] = g.spheres.size();
+  if (!g.curves.empty()) j["curve_segments"] = g.curves.size();
   j["planes"] = g.planes.size();
   j["materials"] = scene.materials.size();
   j["lights"] = scene.lights.size();
@@ -127,8 +128,10 @@ void run_info(const InfoOptions& o) {
   j["format"] = format_json(dopt.format);
 
   std::printf("scene        %s\n", scene.name.c_str());
-  std::printf("primitives   %zu triangles, %zu spheres, %zu planes\n", g.triangles.size(), g.spheres.size(),
+  std::printf("primitives   %zu triangles, %zu spheres, %zu planes", g.triangles.size(), g.spheres.size(),
               g.planes.size());
+  if (!g.curves.empty()) std::printf(", %zu curve segments", g.curves.size());
+  std::printf("\n");
   std::printf("materials    %zu, lights %zu, textures %zu\n", scene.materials.size(), scene.lights.size(),
               scene.textures.size());
   if (non_opaque > 0)

@@ -225,6 +225,11 @@ hw::Vec3 hit_normal(const hw::Geometry& g, const hw::Ray& ray, const hw::Hit& hi
       n = ray.origin + hit.t * ray.dir - s.center;
       break;
     }
+    case hw::PrimKind::kCurve: {
+      const hw::CurveSegment& c = g.curve(hit.prim);  // u of a curve hit: s of the sphere it lies on
+      n = ray.origin + hit.t * ray.dir - (c.p0 + hit.u * (c.p1 - c.p0));
+      break;
+    }
     case hw::PrimKind::kPlane:
       n = g.planes[hit.prim - g.num_bounded()].normal;
       break;

@@ -50,6 +50,16 @@ void hash_geometry(ContentHash& h, const hw::Geometry& g) {
   }
   h.u64(g.non_opaque.size());
   h.bytes(g.non_opaque.data(), g.non_opaque.size());
+  if (!g.curves.empty()) {  // hashed only when present: keys of scenes without curves stay as they were
+    h.u64(g.curves.size());
+    for (const hw::CurveSegment& c : g.curves) {
+      vec(c.p0);
+      h.f32(c.r0);
+      vec(c.p1);
+      h.f32(c.r1);
+      h.u64(c.flags);
+    }
+  }
 }
 
 }  // namespace

@@ -127,7 +127,7 @@ void check_scene_size(const std::string& name, uint64_t prims) {
 void validate_scene(const Scene& scene) {
   auto fail = [&](const std::string& problem) { throw Error(scene.name + ": " + problem); };
   const hw::Geometry& g = scene.geometry;
-  if (g.num_prims() == 0) fail("empty scene (no triangles, spheres or planes)");
+  if (g.num_prims() == 0) fail("empty scene (no triangles, spheres, curves or planes)");
   check_scene_size(scene.name, g.num_prims());
   if (scene.instanced()) {
     try {
@@ -153,6 +153,10 @@ void validate_scene(const Scene& scene) {
       fail("sphere " + std::to_string(i) + ": radius must be finite and > 0, got " + std::to_string(s.radius));
     }
   }
+  for (size_t i = 0; i < g.curves.size(); ++i)
+    if (const std::string why = hw::check_curve_segment(g.curves[i]); !why.empty())
+      fail("curve segment " + std::to_string(i) + ": " + why);
+  if (scene.instanced() && !g.curves.empty()) fail("curve segments in a two-level scene are not supported");
   for (size_t i = 0; i < g.planes.size(); ++i) {
     const hw::Plane& p = g.planes[i];
     if (!finite(p.normal) || !std::isfinite(p.offset)) fail("plane " + std::to_string(i) + ": NaN/Inf value");

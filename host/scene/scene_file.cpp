@@ -17,6 +17,7 @@
 #include "host/io/image.h"
 #include "host/io/json_io.h"
 #include "host/io/limits.h"
+#include "host/scene/curves.h"
 #include "host/scene/generators.h"
 #include "host/scene/scene.h"
 
@@ -139,7 +140,7 @@ struct Builder {
   const Reader& reader;
   Scene scene;
   std::map<std::string, uint32_t> material_index;
-  std::vector<uint32_t> tri_material, sphere_material, plane_material;
+  std::vector<uint32_t> tri_material, sphere_material, curve_material, plane_material;
   // Instancing: prototypes by name (their meshes are InstanceSet meshes 1.., mesh 0 is the loose geometry), the
   // per-triangle materials of every mesh, and the materials of instance triangles in instance order.
   struct Prototype {
@@ -679,6 +680,53 @@ void read_spheres(Builder& b, const Json& j) {
   }
 }
 
+// A curve set: points, a radius per point (or one for all) and segment starts (default: one strand through every
+// point), as Embree's round linear curves take them (curves.h).
+void read_curves(Builder& b, const Json& j) {
+  const Reader& r = b.reader;
+  r.array(j, "curves");
+  for (size_t i = 0; i < j.size(); ++i) {
+    const std::string path = join("curves", i);
+    const Json& c = r.object(j[i], path);
+    r.check_keys(c, path, {"points", "radius", "radii", "segments", "material"});
+    if (!c.contains("points")) r.fail(path, "missing key 'points'");
+    if (c.contains("radius") == c.contains("radii")) r.fail(path, "give either 'radius' or 'radii'");
+    const Json& pj = r.array(c["points"], join(path, "points"));
+    if (pj.size() < 2) r.fail(join(path, "points"), "a curve needs at least 2 points");
+    std::vector<Vec3> points;
+    for (size_t k = 0; k < pj.size(); ++k) points.push_back(r.vec3(pj[k], join(join(path, "points"), k)));
+    std::vector<float> radii;
+    if (c.contains("radius")) {
+      radii.assign(points.size(), r.positive(c["radius"], join(path, "radius")));
+    } else {
+      const Json& rj = r.array(c["radii"], join(path, "radii"));
+      if (rj.size() != points.size())
+        r.fail(join(path, "radii"), "expected one radius per point (" + std::to_string(points.size()) + ")");
+      for (size_t k = 0; k < rj.size(); ++k) {
+        const float v = r.number(rj[k], join(join(path, "radii"), k));
+        if (!(v >= 0.0f)) r.fail(join(join(path, "radii"), k), "must be >= 0");
+        radii.push_back(v);
+      }
+    }
+    std::vector<uint32_t> starts;
+    if (c.contains("segments")) {
+      const Json& sj = r.array(c["segments"], join(path, "segments"));
+      const int last = int(std::min<size_t>(points.size(), size_t(INT32_MAX))) - 2;
+      for (size_t k = 0; k < sj.size(); ++k)
+        starts.push_back(uint32_t(r.integer(sj[k], join(join(path, "segments"), k), 0, last)));
+    } else {
+      for (uint32_t k = 0; k + 1 < points.size(); ++k) starts.push_back(k);
+    }
+    const uint32_t material = b.material(c, path);
+    try {
+      add_curve_set(b.scene.geometry, points, radii, starts, "curve");
+    } catch (const Error& e) {
+      r.fail(path, e.what());
+    }
+    b.curve_material.insert(b.curve_material.end(), starts.size(), material);
+  }
+}
+
 void read_planes(Builder& b, const Json& j) {
   const Reader& r = b.reader;
   r.array(j, "planes");
@@ -763,10 +811,10 @@ Scene load_scene_json(const nlohmann::ordered_json& root, const std::string& pat
   if (!root.is_object())
     r.fail("", std::string("expected a JSON object at the top level, got ") + root.type_name());
   r.check_keys(root, "",
-               {"description", "camera", "textures", "materials", "meshes", "spheres", "planes", "lights",
-                "prototypes", "instances"});
+               {"description", "camera", "textures", "materials", "meshes", "spheres", "curves", "planes",
+                "lights", "prototypes", "instances"});
 
-  Builder b{r, {}, {}, {}, {}, {}, {}, std::vector<std::vector<uint32_t>>(1), {}, 0, {}, {}, {}, {}, {}};
+  Builder b{r, {}, {}, {}, {}, {}, {}, {}, std::vector<std::vector<uint32_t>>(1), {}, 0, {}, {}, {}, {}, {}};
   b.mesh_tri_uv.resize(1);
   b.scene.name = path;
   try {
@@ -778,6 +826,7 @@ Scene load_scene_json(const nlohmann::ordered_json& root, const std::string& pat
     if (root.contains("meshes")) read_meshes(b, root["meshes"], base_dir);
     if (root.contains("lights")) read_lights(b, root["lights"]);
     if (root.contains("spheres")) read_spheres(b, root["spheres"]);
+    if (root.contains("curves")) read_curves(b, root["curves"]);
     if (root.contains("planes")) read_planes(b, root["planes"]);
     b.scene.instances.meshes.emplace_back();  // mesh 0: the loose geometry, if instances follow
     add_file_instances(b);
@@ -798,6 +847,7 @@ Scene load_scene_json(const nlohmann::ordered_json& root, const std::string& pat
       r.fail("instances", "no instance has triangles (its prototypes have no meshes)");
     scene.instances = {};
   } else {
+    if (!scene.geometry.curves.empty()) r.fail("curves", "curves in a scene with instances are not supported");
     // Two levels: the loose triangles and spheres become mesh 0 under the identity, instance 0; the geometry is
     // the flattened scene (loose triangles, instance triangles, spheres, planes).
     hw::InstanceSet& set = scene.instances;
@@ -813,6 +863,7 @@ Scene load_scene_json(const nlohmann::ordered_json& root, const std::string& pat
   if (!scene.textures.empty()) scene.triangle_uv = std::move(b.tri_uv);
   scene.prim_material = b.tri_material;
   scene.prim_material.insert(scene.prim_material.end(), b.sphere_material.begin(), b.sphere_material.end());
+  scene.prim_material.insert(scene.prim_material.end(), b.curve_material.begin(), b.curve_material.end());
   scene.prim_material.insert(scene.prim_material.end(), b.plane_material.begin(), b.plane_material.end());
   if (!scene.has_camera) scene.camera = frame_camera(scene.geometry.bounds());
   return std::move(b.scene);

@@ -34,6 +34,14 @@ ShadingRecords shading_records(const Scene& scene) {
         s.b = fw::F3{sp.radius, 0.0f, 0.0f};
         break;
       }
+      case hw::PrimKind::kCurve: {
+        const hw::CurveSegment& c = g.curve(p);
+        s.kind = uint32_t(fw::SurfaceKind::kCurve);
+        s.a = f3(c.p0);
+        s.b = f3(c.p1);
+        s.c = fw::F3{c.r0, c.r1, 0.0f};
+        break;
+      }
       case hw::PrimKind::kPlane: {
         const hw::Plane& pl = g.planes[p - g.num_bounded()];
         s.kind = uint32_t(fw::SurfaceKind::kPlane);

@@ -97,6 +97,11 @@ inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool 
     word = t.prim;
     hit = unit ? unit_triangle(*unit, r, t.v, r.tmin, c.t, h, issue, result)
                : triangle_test(r, t.v, r.tmin, c.t, h, short_edges);
+  } else if (is_curve_record(rec)) {
+    CurveRecord cr;
+    std::memcpy(&cr, rec, sizeof cr);
+    word = cr.prim;
+    hit = swept_sphere_test(r, cr, r.tmin, c.t, h);
   } else {
     SphereRecord sr;
     std::memcpy(&sr, rec, sizeof sr);
@@ -478,7 +483,7 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
     h.t = c.world_t;  // the bottom level's t and u, v (of a sphere too)
     return h;
   }
-  if (r && c.record && record_kind(c.record) == RecordKind::kSphere) {
+  if (r && c.record && record_kind(c.record) == RecordKind::kSphere && !is_curve_record(c.record)) {
     // u, v of a sphere hit from its world center (a shading output, not part of the datapath).
     SphereRecord sr;
     std::memcpy(&sr, c.record, sizeof sr);

@@ -19,9 +19,12 @@ struct Closest {
 inline bool test_leaf_prim(const LeafPrim& lp, uint32_t num_tris, const RayPrecomp& rp, float tmin, Closest& c,
                            const AnyHitStage* stage, TraversalStats& s) {
   PrimHit h;
-  const uint32_t prim = lp.prim & ~kLeafNonOpaque;
-  const bool hit = prim < num_tris ? intersect_triangle(lp.a, lp.b, lp.c, rp, tmin, c.tmax, h)
-                                   : intersect_sphere(lp.a, lp.b.x, rp, tmin, c.tmax, h);
+  const uint32_t prim = lp.prim & kLeafPrimMask;
+  const bool hit =
+      prim < num_tris ? intersect_triangle(lp.a, lp.b, lp.c, rp, tmin, c.tmax, h)
+      : (lp.prim & kLeafCurve)
+          ? intersect_swept_sphere(lp.a, lp.c.x, lp.b, lp.c.y, (lp.prim & kLeafCapStart) != 0, rp, tmin, c.tmax, h)
+          : intersect_sphere(lp.a, lp.b.x, rp, tmin, c.tmax, h);
   if (!hit) return false;
   if ((lp.prim & kLeafNonOpaque) && stage) {
     ++s.any_hit_calls;
@@ -119,10 +122,16 @@ FloatTracer::FloatTracer(const Geometry& g, const TracerOptions& opt) : m_geom(g
       lp.a = t.v0;
       lp.b = t.v1;
       lp.c = t.v2;
-    } else {
+    } else if (g.kind(p) == PrimKind::kSphere) {
       const Sphere& s = g.spheres[p - g.triangles.size()];
       lp.a = s.center;
       lp.b = Vec3(s.radius, 0.0f, 0.0f);
+    } else {
+      const CurveSegment& cs = g.curve(p);
+      lp.a = cs.p0;
+      lp.b = cs.p1;
+      lp.c = Vec3(cs.r0, cs.r1, 0.0f);
+      lp.prim |= kLeafCurve | ((cs.flags & kCurveCapStart) ? kLeafCapStart : 0u);
     }
     return lp;
   };

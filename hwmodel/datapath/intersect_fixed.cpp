@@ -44,6 +44,7 @@ void set_format_fields(FixedRay& r, const FixedFormat& f) {
   r.box_shift = f.frac_bits + f.rcp_bits - f.t_frac_bits;
   r.t_shift = f.t_shift();
   r.t_limit = int64_t((uint64_t(1) << f.t_bits) - 1);
+  r.curve_bits = f.curve_bits;
 }
 
 RayStatus setup_ray(const Ray& r, const QuantFrame& frame, const FixedFormat& f, FixedRay& out) {
@@ -193,6 +194,7 @@ RayStatus RaySetup::operator()(const Ray& r, FixedRay& out) const {
   out.box_shift = m_fields.box_shift;
   out.t_shift = m_fields.t_shift;
   out.t_limit = m_fields.t_limit;
+  out.curve_bits = m_fields.curve_bits;
   const int kk = E + 1 - m_frame.step_exp;
   out.t_exp = m_f.t_frac_bits + kk;
   out.tmin = bmin == 0 ? 0 : clamp_t(scaled_round(r.tmin, out.t_exp, Round::kDown), out.t_limit);
@@ -259,6 +261,141 @@ bool sphere_test(const FixedRay& r, const SphereRecord& s, int64_t tmin, int64_t
   if (t < tmin || t > tlim || !in_register(t, r)) return false;
   out.t = t;
   out.u = out.v = 0.0f;  // filled for the final hit only (sphere_uv)
+  return true;
+}
+
+namespace {
+
+int bit_length(Wide x) {
+  int n = 0;
+  while (x > 0) {
+    x >>= 1;
+    ++n;
+  }
+  return n;
+}
+Wide abs_wide(Wide x) {
+  return x < 0 ? -x : x;
+}
+
+}  // namespace
+
+bool swept_sphere_test(const FixedRay& r, const CurveRecord& c, int64_t tmin, int64_t tlim, FixedPrimHit& out) {
+  const int F = r.frac;
+  int64_t p0[3], p1[3], e[3];
+  for (int a = 0; a < 3; ++a) {
+    p0[a] = int64_t(c.p0[a]) << F;
+    p1[a] = int64_t(c.p1[a]) << F;
+    e[a] = p1[a] - p0[a];
+  }
+  const int64_t R0 = c.r0, R1 = c.r1, dr = R1 - R0;
+  const Wide E2 = Wide(e[0]) * e[0] + Wide(e[1]) * e[1] + Wide(e[2]) * e[2];
+  int64_t best = INT64_MAX;
+  float best_s = 0.0f;
+  auto sphere = [&](const int64_t* center, int64_t radius, float s) {
+    if (radius <= 0) return;  // a zero radius: a point, hit by no ray of positive measure
+    SphereRecord sr{};
+    for (int a = 0; a < 3; ++a) sr.center[a] = center[a];
+    sr.radius = radius;
+    FixedPrimHit h;
+    if (sphere_test(r, sr, tmin, tlim, h) && h.t < best) {
+      best = h.t;
+      best_s = s;
+    }
+  };
+  sphere(p1, R1, 1.0f);
+  if ((c.round & kRoundCapStart) || E2 <= Wide(dr) * dr) sphere(p0, R0, 0.0f);
+
+  // 1. o' near the closest approach to the midpoint (twice the midpoint keeps it exact).
+  Wide fd = 0, dd = 0;
+  for (int a = 0; a < 3; ++a) {
+    fd += Wide(2 * r.o[a] - p0[a] - p1[a]) * r.d[a];
+    dd += Wide(r.d[a]) * r.d[a];
+  }
+  const int64_t tc = div_shift(-fd, 2 * dd, r.t_shift, Round::kNearestEven, r.t_limit);
+  // Beyond 2^61 grid.F units from the midpoint the ray is far outside every segment of the frame (whose
+  // lengths and radii are below 2^(B+F+2)); the clamp keeps the squares below inside 127 bits.
+  constexpr Wide kFar = Wide(1) << 61;
+  Wide g[3], m2 = 0;
+  bool near = true;
+  for (int a = 0; a < 3; ++a) {
+    const Wide o2 = r.o[a] + round_shift(Wide(tc) * r.d[a], r.t_shift, Round::kNearestEven);
+    const Wide c2 = 2 * o2 - p0[a] - p1[a];
+    near = near && c2 <= kFar && c2 >= -kFar;
+    m2 += near ? c2 * c2 : 0;
+    g[a] = o2 - p0[a];
+  }
+  // The union lies within L/2 + max(r0, r1) of the midpoint (L = |e| rounded up); o' is within one unit of the
+  // line's closest point. Twice both sides: |2 o' - (p0 + p1)| against L + 2 max(r) + 4.
+  const Wide L = isqrt_round(E2, Round::kUp);
+  const Wide reach = L + 2 * Wide(std::max(R0, R1)) + 4;
+  const Wide K_full = E2 - Wide(dr) * dr;
+  if (near && K_full > 0 && m2 <= reach * reach) {
+    // 2. The local scale: everything below 2^curve_bits after a shift by z.
+    Wide mag = std::max(R0, R1);
+    for (int a = 0; a < 3; ++a) mag = std::max({mag, abs_wide(g[a]), Wide(e[a] < 0 ? -e[a] : e[a])});
+    const int z = std::max(0, bit_length(mag) - r.curve_bits);
+    Wide gz[3], ez[3];
+    for (int a = 0; a < 3; ++a) {
+      gz[a] = round_shift(g[a], z, Round::kNearestEven);
+      ez[a] = round_shift(e[a], z, Round::kNearestEven);
+    }
+    const Wide r0 = round_shift(R0, z, Round::kUp), r1 = round_shift(R1, z, Round::kUp), drz = r1 - r0;
+    const Wide e2 = ez[0] * ez[0] + ez[1] * ez[1] + ez[2] * ez[2];
+    const Wide K = e2 - drz * drz;
+    if (K > 0) {
+      // 3. U = K g - (g . e + r0 dr) e, W = K d - (d . e) e, Rho = |e|^2 r0 + (g . e) dr, Sigma = (d . e) dr,
+      // over 2^n.
+      const int n = bit_length(e2) - 1;
+      const Wide ge = gz[0] * ez[0] + gz[1] * ez[1] + gz[2] * ez[2];
+      const Wide de = r.d[0] * ez[0] + r.d[1] * ez[1] + r.d[2] * ez[2];
+      const Wide a0 = ge + r0 * drz;  // K s at t = 0
+      Wide u[3], w[3];
+      for (int a = 0; a < 3; ++a) {
+        u[a] = round_shift(K * gz[a] - a0 * ez[a], n, Round::kNearestEven);
+        w[a] = round_shift(K * r.d[a] - de * ez[a], n, Round::kNearestEven);
+      }
+      const Wide rho = round_shift(e2 * r0 + ge * drz, n, Round::kNearestEven);
+      const Wide sigma = round_shift(de * drz, n, Round::kNearestEven);
+      const Wide A = w[0] * w[0] + w[1] * w[1] + w[2] * w[2] - sigma * sigma;
+      const Wide B = u[0] * w[0] + u[1] * w[1] + u[2] * w[2] - rho * sigma;
+      const Wide C = u[0] * u[0] + u[1] * u[1] + u[2] * u[2] - rho * rho;
+      const int sh = r.t_shift + z;  // (grid.F * 2^z) / (direction) quotients -> t raw
+      // A root num / den (den != 0): its t, kept when its tangent sphere's s = (a0 + root de) / K is in [0, 1],
+      // i.e. a0 den + num de between 0 and K den (den > 0; reversed for den < 0).
+      auto root = [&](Wide num, Wide den) {
+        if (den < 0) {
+          num = -num;
+          den = -den;
+        }
+        const Wide ks = a0 * den + num * de;
+        if (ks < 0 || ks > K * den) return;
+        const int64_t t = clamp_t(Wide(tc) + div_shift(num, den, sh, Round::kNearestEven, r.t_limit), r.t_limit);
+        if (t < tmin || t > tlim || !in_register(t, r) || t >= best) return;
+        best = t;
+        best_s = float(double(ks) / (double(K) * double(den)));
+      };
+      // 4. The stable quadratic: A t^2 + 2 B t + C = 0.
+      if (A != 0) {
+        const Wide disc = B * B - A * C;
+        if (disc >= 0) {
+          const Wide q = -(B + (B < 0 ? -1 : 1) * isqrt_round(disc, Round::kNearestEven));
+          if (q != 0) {
+            root(C, q);
+            root(q, A);
+          } else {
+            root(0, 1);  // B = disc = 0, so C = 0: the ray touches the cone at t' = 0
+          }
+        }
+      } else if (B != 0) {
+        root(-C, 2 * B);  // the ray parallel to a generator of the cone
+      }
+    }
+  }
+  if (best == INT64_MAX) return false;
+  out.t = best;
+  out.u = best_s;
+  out.v = 0.0f;
   return true;
 }
 

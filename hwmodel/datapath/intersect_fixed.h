@@ -40,10 +40,11 @@ struct FixedRay {
   int box_shift;    // F + R - T: box product -> t raw
   int t_shift;      // D - F + T: (grid.F / d) quotients -> t raw
   int64_t t_limit;  // largest t raw: 2^t_bits - 1
+  int curve_bits;   // FixedFormat::curve_bits (swept_sphere_test)
 };
 
-// The format constants of a FixedRay (frac, dir_bits, box_shift, t_shift, t_limit): the part of setup_ray that
-// depends on the format only, for code that builds rays on the grid.
+// The format constants of a FixedRay (frac, dir_bits, box_shift, t_shift, t_limit, curve_bits): the part of
+// setup_ray that depends on the format only, for code that builds rays on the grid.
 void set_format_fields(FixedRay& r, const FixedFormat& f);
 
 // Ray setup: float world ray -> FixedRay. Rejects what validate_ray() rejects, and rays whose origin is out of
@@ -288,6 +289,23 @@ inline bool short_edges_known(const FixedRay& r, int coord_bits) {
 // within the frame's magnitude (the fixed-point form of the stable quadratic; rounding errors are absolute,
 // one unit in t or grid.F each). The near root, or the far one when the near is before tmin.
 bool sphere_test(const FixedRay& r, const SphereRecord& s, int64_t tmin, int64_t tlim, FixedPrimHit& out);
+
+// Linear swept sphere test (a round linear curve segment, CurveRecord): the first crossing in [tmin, tlim] of
+// the union of the end sphere at p1 (and the one at p0 with kRoundCapStart, or when one end sphere holds the
+// other) and the lateral surface of the cone tangent to both, between its circles of tangency. The spheres are
+// sphere_test's. The cone (K = |e|^2 - dr^2 > 0, e = p1 - p0, dr = r1 - r0), in four steps, each rounding
+// once:
+//  1. The origin moves along the ray to o' near the point closest to the segment's midpoint (tc, nearest, as
+//     sphere_test's tca); a ray whose o' lies outside the segment's bounding sphere misses.
+//  2. Positions relative to p0 (g = o' - p0, e, the radii) are shifted right by z so that each is below
+//     2^curve_bits (z = 0 unless the segment or its distance to o' exceeds 2^curve_bits grid.F units).
+//  3. The quadric |v - s e|^2 = (r0 + s dr)^2 with s = (v . e + r0 dr) / K, multiplied out over K and divided by
+//     2^n ~ |e|^2 (n = bit length of |e|^2 - 1): u + t w and rho + t sigma have magnitudes of a position and a
+//     direction; |u + t w|^2 - (rho + t sigma)^2 = A t^2 + 2 B t + C, with A, B, C and B^2 - A C exact.
+//  4. The roots as the stable quadratic forms them (C / q and q / A, q = -(B + sign(B) sqrt(B^2 - A C))), each
+//     kept only where its tangent sphere's s lies in [0, 1] (compared exactly, in the root's own fractions).
+// The bits: FixedFormat::curve_limits(). u of the hit is its s (0 and 1 on the end spheres), v is 0.
+bool swept_sphere_test(const FixedRay& r, const CurveRecord& c, int64_t tmin, int64_t tlim, FixedPrimHit& out);
 
 // Plane test: t = (w - n . o) / (n . d), nearest; misses when n . d = 0.
 bool plane_test(const FixedRay& r, const PlaneRecord& p, int64_t tmin, int64_t tlim, FixedPrimHit& out);

@@ -19,9 +19,17 @@ constexpr uint64_t align8(uint64_t x) {
   return (x + 7) & ~uint64_t(7);
 }
 
-uint64_t float_scene_bytes(uint64_t nt, uint64_t ns, uint64_t np, bool flags) {
-  return align8(sizeof(FloatSceneHeader) + nt * sizeof(Triangle) + ns * sizeof(Sphere) + np * sizeof(Plane) +
-                (flags ? nt : 0));
+// Bytes before the curve section (its count word starts at the next multiple of 4).
+uint64_t float_scene_body(uint64_t nt, uint64_t ns, uint64_t np, bool flags) {
+  return sizeof(FloatSceneHeader) + nt * sizeof(Triangle) + ns * sizeof(Sphere) + np * sizeof(Plane) +
+         (flags ? nt : 0);
+}
+constexpr uint64_t align4(uint64_t x) {
+  return (x + 3) & ~uint64_t(3);
+}
+uint64_t float_scene_bytes(uint64_t nt, uint64_t ns, uint64_t np, bool flags, bool curves, uint64_t nc) {
+  const uint64_t body = float_scene_body(nt, ns, np, flags);
+  return align8(curves ? align4(body) + 4 + nc * sizeof(CurveSegment) : body);
 }
 
 [[noreturn]] void bad_scene(const std::string& why) {
@@ -45,8 +53,9 @@ std::vector<uint64_t> encode_float_scene(const Geometry& g) {
   const bool flags = !g.non_opaque.empty();
   if (flags && g.non_opaque.size() != g.triangles.size())
     throw std::invalid_argument("float scene: non_opaque has not one flag per triangle");
-  h.flags = flags ? kFloatSceneNonOpaque : 0;
-  h.total_bytes = float_scene_bytes(h.num_triangles, h.num_spheres, h.num_planes, flags);
+  const bool curves = !g.curves.empty();
+  h.flags = (flags ? kFloatSceneNonOpaque : 0) | (curves ? kFloatSceneCurves : 0);
+  h.total_bytes = float_scene_bytes(h.num_triangles, h.num_spheres, h.num_planes, flags, curves, g.curves.size());
   std::vector<uint64_t> words(h.total_bytes / 8, 0);
   auto* p = reinterpret_cast<uint8_t*>(words.data());
   std::memcpy(p, &h, sizeof h);
@@ -60,6 +69,13 @@ std::vector<uint64_t> encode_float_scene(const Geometry& g) {
   put(g.spheres);
   put(g.planes);
   if (flags) put(g.non_opaque);
+  if (curves) {
+    off = align4(off);
+    const uint32_t nc = uint32_t(g.curves.size());
+    std::memcpy(p + off, &nc, 4);
+    off += 4;
+    put(g.curves);
+  }
   return words;
 }
 
@@ -70,10 +86,20 @@ Geometry decode_float_scene(const uint8_t* data, size_t bytes) {
   if (h.magic != kFloatSceneMagic) bad_scene("bad magic");
   if (h.version != kFloatSceneVersion) bad_scene("unsupported version " + std::to_string(h.version));
   if (h.reserved != 0) bad_scene("reserved fields not zero");
-  if (h.flags & ~kFloatSceneNonOpaque) bad_scene("unknown flags");
-  const bool flags = h.flags & kFloatSceneNonOpaque;
+  if (h.flags & ~(kFloatSceneNonOpaque | kFloatSceneCurves)) bad_scene("unknown flags");
+  const bool flags = h.flags & kFloatSceneNonOpaque, curves = h.flags & kFloatSceneCurves;
   if (uint64_t(h.num_triangles) + h.num_spheres + h.num_planes >= kMaxBvhPrims) bad_scene("too many primitives");
-  if (h.total_bytes != bytes || float_scene_bytes(h.num_triangles, h.num_spheres, h.num_planes, flags) != bytes)
+  uint32_t nc = 0;
+  if (curves) {
+    const uint64_t at = align4(float_scene_body(h.num_triangles, h.num_spheres, h.num_planes, flags));
+    if (at + 4 > bytes) bad_scene("size does not match the primitive counts");
+    std::memcpy(&nc, data + at, 4);
+    if (nc == 0) bad_scene("curve flag set with no curve segments");
+    if (uint64_t(h.num_triangles) + h.num_spheres + h.num_planes + nc >= kMaxBvhPrims)
+      bad_scene("too many primitives");
+  }
+  if (h.total_bytes != bytes ||
+      float_scene_bytes(h.num_triangles, h.num_spheres, h.num_planes, flags, curves, nc) != bytes)
     bad_scene("size does not match the primitive counts");
   Geometry g;
   g.triangles.resize(h.num_triangles);
@@ -93,6 +119,14 @@ Geometry decode_float_scene(const uint8_t* data, size_t bytes) {
     get(g.non_opaque);
     for (size_t i = 0; i < g.non_opaque.size(); ++i)
       if (g.non_opaque[i] > 1) bad_scene("triangle " + std::to_string(i) + ": opacity flag neither 0 nor 1");
+  }
+  if (curves) {
+    off = align4(off) + 4;
+    g.curves.resize(nc);
+    get(g.curves);
+    for (size_t i = 0; i < g.curves.size(); ++i)
+      if (const std::string why = check_curve_segment(g.curves[i]); !why.empty())
+        bad_scene("curve segment " + std::to_string(i) + ": " + why);
   }
   for (size_t i = 0; i < g.triangles.size(); ++i)
     if (!finite3(g.triangles[i].v0) || !finite3(g.triangles[i].v1) || !finite3(g.triangles[i].v2))

@@ -5,9 +5,9 @@
 // Scene images, written by the host into device memory and named by BIND_SCENE:
 // - fixed: the DeviceImage of device_image.h (hardware BVH nodes, fixed-point records), checked field by field
 //   at bind (DeviceImage::from_bytes);
-// - float: a FloatSceneHeader followed by the float triangles, spheres and planes of geometry.h. The float
-//   device builds its BVH when the scene is bound (it is the reference, not a model of a memory format), with
-//   the options it was made with.
+// - float: a FloatSceneHeader followed by the float triangles, spheres, planes and curve segments of
+//   geometry.h. The float device builds its BVH when the scene is bound (it is the reference, not a model of a
+//   memory format), with the options it was made with.
 #pragma once
 
 #include <cstddef>
@@ -45,8 +45,11 @@ struct FloatSceneHeader {
 };
 // After the planes, one byte per triangle: 1 = non-opaque (Geometry::non_opaque), else 0.
 inline constexpr uint32_t kFloatSceneNonOpaque = 1u << 0;
+// Curve segments: after the planes (and the opacity bytes), at the next multiple of 4 bytes, a uint32 count (> 0)
+// and that many CurveSegment records (36 B). Scenes without curves leave the flag clear and the bytes as before.
+inline constexpr uint32_t kFloatSceneCurves = 1u << 1;
 static_assert(sizeof(FloatSceneHeader) == 32);
-static_assert(sizeof(Triangle) == 36 && sizeof(Sphere) == 16 && sizeof(Plane) == 16);
+static_assert(sizeof(Triangle) == 36 && sizeof(Sphere) == 16 && sizeof(Plane) == 16 && sizeof(CurveSegment) == 36);
 
 // The float scene image of g (8-byte words so it can be copied anywhere aligned).
 std::vector<uint64_t> encode_float_scene(const Geometry& g);

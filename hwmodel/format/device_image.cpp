@@ -29,6 +29,7 @@ FixedFormat DeviceImage::format() const {
   f.node_layout = h.node_layout;
   f.prim_layout = h.prim_layout;
   f.node_align = h.node_align;
+  if (const uint32_t cb = (h.flags & kImageCurveBitsMask) >> kImageCurveBitsShift) f.curve_bits = int(cb);
   if (node_kind(h) == NodeKindId::kOrientedAabb) {
     f.node_kind = 1;
     f.rotations = int((h.flags & kImageRotationsMask) >> kImageRotationsShift) + 1;
@@ -100,6 +101,33 @@ class Encoder {
         }
       }
       rec.prim = (uint32_t(RecordKind::kTriangle) << 30) | (m_g.opaque(p) ? 0u : kRecordNonOpaque) | p;
+      std::memcpy(out, &rec, sizeof rec);
+    } else if (m_g.kind(p) == PrimKind::kCurve) {
+      const CurveSegment& cs = m_g.curve(p);
+      CurveRecord rec{};
+      const int F = m_f.frac_bits;
+      const Vec3* ends[2] = {&cs.p0, &cs.p1};
+      const float radii[2] = {cs.r0, cs.r1};
+      uint32_t* stored[2] = {&rec.r0, &rec.r1};
+      int32_t* points[2] = {rec.p0, rec.p1};
+      for (int i = 0; i < 2; ++i) {
+        // Radius in grid.F units, rounded up (exact in double, as a sphere's); the record's field is 32 bits.
+        const double rs = std::ceil(std::ldexp(double(radii[i]), F - m_frame.step_exp));
+        if (rs >= 4294967296.0)
+          throw std::invalid_argument(
+              "curve segment " + std::to_string(p - m_g.triangles.size() - m_g.spheres.size()) + ": a radius of " +
+              std::to_string(radii[i]) + " exceeds the record's 32 bits of grid units with frac_bits " +
+              std::to_string(F) + " (use fewer frac_bits)");
+        *stored[i] = uint32_t(rs);
+        for (int a = 0; a < 3; ++a) {
+          const int64_t g = m_frame.to_grid((*ends[i])[a], a, Round::kNearestEven);
+          points[i][a] = int32_t(g);  // in [0, 2^B - 1]: the end point lies inside the frame's bounds
+          box.lo[a] = std::min(box.lo[a], floor_shift((g << F) - int64_t(*stored[i]), F));
+          box.hi[a] = std::max(box.hi[a], ceil_shift((g << F) + int64_t(*stored[i]), F));
+        }
+      }
+      rec.round = kRoundCurve | ((cs.flags & kCurveCapStart) ? kRoundCapStart : 0u);
+      rec.prim = (uint32_t(RecordKind::kSphere) << 30) | p;
       std::memcpy(out, &rec, sizeof rec);
     } else {
       const Sphere& s = m_g.spheres[p - m_g.triangles.size()];
@@ -492,6 +520,10 @@ DeviceImage ImageWriter::write(Encoder& enc, const Geometry& g, const FixedForma
   flags |= uint32_t(kind) << kImageNodeKindShift;
   if (kind == NodeKindId::kOrientedAabb)
     flags |= (uint32_t(f.rotations - 1) << kImageRotationsShift) | (uint32_t(f.rot_bits) << kImageRotBitsShift);
+  if (!g.curves.empty()) {
+    if (const std::string why = f.curve_limits(); !why.empty()) throw std::invalid_argument(why);
+    flags |= uint32_t(f.curve_bits) << kImageCurveBitsShift;
+  }
   if (bvh) {
     bvh->visit([&](const auto& t) {
       constexpr int N = std::decay_t<decltype(t)>::kWidth;
@@ -555,7 +587,7 @@ DeviceImage ImageWriter::write(Encoder& enc, const Geometry& g, const FixedForma
   h.record_count = enc.record_count();
   h.plane_count = uint32_t(planes.size());
   h.num_triangles = uint32_t(g.triangles.size());
-  h.num_spheres = uint32_t(g.spheres.size());
+  h.num_spheres = g.num_round();
   h.node_layout = uint8_t(f.node_layout);
   h.prim_layout = uint8_t(f.prim_layout);
   h.node_bytes = uint16_t(tree.node_bytes);
@@ -610,8 +642,12 @@ void check_header(const ImageHeader& h, const FixedFormat& f, uint64_t bytes) {
     bad_image(std::string("format: ") + e.what());
   }
   if (h.q_bytes != f.offset_bytes()) bad_image("offset bytes do not match child_bits");
-  if (h.flags & ~(kImageNoBvh | kImageTopLevel | kImageNodeKindMask | kImageRotationsMask | kImageRotBitsMask))
+  if (h.flags & ~(kImageNoBvh | kImageTopLevel | kImageNodeKindMask | kImageRotationsMask | kImageRotBitsMask |
+                  kImageCurveBitsMask))
     bad_image("unknown flag bits");
+  if (h.flags & kImageCurveBitsMask) {
+    if (const std::string why = f.curve_limits(); !why.empty()) bad_image(why);
+  }
   if (!find_node_kind(uint32_t(node_kind(h)))) bad_image("unknown node kind " + std::to_string(int(node_kind(h))));
   if (node_kind(h) != NodeKindId::kOrientedAabb && (h.flags & (kImageRotationsMask | kImageRotBitsMask)))
     bad_image("rotation table fields in an image of axis-aligned nodes");
@@ -794,6 +830,20 @@ void check_records(const DeviceImage& img, const FixedFormat& f) {
         if (!share_edge(t, second))
           bad_image("record " + std::to_string(i) + ": a triangle pair whose triangles share no edge");
       }
+    } else if (kind == uint32_t(RecordKind::kSphere) && is_curve_record(rec)) {
+      if (p < h.num_triangles || p >= num_bounded)
+        bad_image("record " + std::to_string(i) + ": curve segment index out of range");
+      if (!(h.flags & kImageCurveBitsMask))
+        bad_image("record " + std::to_string(i) + ": a curve segment in an image without curve_bits");
+      CurveRecord c;
+      std::memcpy(&c, rec, sizeof c);
+      for (int e = 0; e < 3; ++e)
+        if (c.p0[e] < 0 || c.p0[e] > grid_max || c.p1[e] < 0 || c.p1[e] > grid_max)
+          bad_image("record " + std::to_string(i) + ": curve end point outside the grid");
+      if (c.r0 > (uint64_t(1) << (B + F + 1)) || c.r1 > (uint64_t(1) << (B + F + 1)))
+        bad_image("record " + std::to_string(i) + ": curve radius out of range");
+      if (c.round & ~(kRoundCurve | kRoundCapStart))
+        bad_image("record " + std::to_string(i) + ": unknown round-primitive bits");
     } else if (kind == uint32_t(RecordKind::kSphere)) {
       if (p < h.num_triangles || p >= num_bounded)
         bad_image("record " + std::to_string(i) + ": sphere index out of range");

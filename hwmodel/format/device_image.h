@@ -30,6 +30,9 @@ inline constexpr uint32_t kImageNoBvh = 1u;  // flags: no BVH; test every primit
 // flags: a top level, whose records are instances (InstanceRecord); num_triangles and num_spheres count the
 // flattened scene's, so its planes keep their flattened indices.
 inline constexpr uint32_t kImageTopLevel = 2u;
+// flags bits 27..31: FixedFormat::curve_bits (8..31) of an image that holds curve segments; 0 in any other.
+inline constexpr uint32_t kImageCurveBitsShift = 27;
+inline constexpr uint32_t kImageCurveBitsMask = 0x1Fu << kImageCurveBitsShift;
 
 struct ImageHeader {
   uint32_t magic;           // kImageMagic
@@ -52,7 +55,7 @@ struct ImageHeader {
   uint32_t record_count;    // primitive records at record_offset
   uint32_t plane_count;     // plane records at plane_offset
   uint32_t num_triangles;   // scene primitive counts (the primitive index space)
-  uint32_t num_spheres;     //
+  uint32_t num_spheres;     // round primitives: the spheres, then the curve segments (records of kind kSphere)
   uint64_t node_offset;     // byte offsets from the image start
   uint64_t record_offset;   //
   uint64_t plane_offset;    //

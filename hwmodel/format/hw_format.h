@@ -61,12 +61,25 @@ struct TriangleRecord {
   int32_t v[3][3];  // vertices v0, v1, v2 on the grid (integers in [0, 2^B - 1]), rounded to nearest
   uint32_t prim;    // kind (bits 30..31), kRecordNonOpaque (bit 29), scene primitive index (bits 0..28)
 };
+// Kind kSphere holds the round primitives: the word at bytes 32..35 says which (kRoundSphere, kRoundCurve).
 struct SphereRecord {
   int64_t center[3];  // grid coordinates with F fraction bits, rounded to nearest
   int64_t radius;     // grid units with F fraction bits, rounded up (> 0)
-  uint32_t reserved;  // 0
+  uint32_t reserved;  // kRoundSphere (0)
   uint32_t prim;      // kind (bits 30..31) and scene primitive index (bits 0..28)
 };
+// A segment of a round linear curve (geometry.h's CurveSegment; the test is intersect_fixed.h's
+// swept_sphere_test): end points on the grid like a triangle's vertices, radii in grid.F rounded up, so the
+// record's segment contains the spheres of the float one's rounded end points.
+struct CurveRecord {
+  int32_t p0[3], p1[3];  // end points on the grid (integers in [0, 2^B - 1]), rounded to nearest
+  uint32_t r0, r1;       // radii, grid units with F fraction bits, rounded up (0 only for a zero radius)
+  uint32_t round;        // kRoundCurve, with kRoundCapStart when the sphere at p0 belongs to the segment
+  uint32_t prim;         // kind kSphere (bits 30..31) and scene primitive index (bits 0..28)
+};
+inline constexpr uint32_t kRoundSphere = 0, kRoundCurve = 1;
+inline constexpr uint32_t kRoundCapStart = 1u << 8;
+inline constexpr size_t kRoundWordOffset = 32;
 // An instance of a top-level image: its world bounds on the grid (rounded outward) and its index in the scene's
 // instance list (bits 0..28). Its transform and bottom level are held beside the image (instanced_fixed.h).
 struct InstanceRecord {
@@ -74,13 +87,20 @@ struct InstanceRecord {
   uint32_t reserved[3];  // 0
   uint32_t prim;         // kind (bits 30..31) and instance index (bits 0..28)
 };
-static_assert(sizeof(TriangleRecord) == 40 && sizeof(SphereRecord) == 40 && sizeof(InstanceRecord) == 40);
+static_assert(sizeof(TriangleRecord) == 40 && sizeof(SphereRecord) == 40 && sizeof(InstanceRecord) == 40 &&
+              sizeof(CurveRecord) == 40);
+static_assert(offsetof(SphereRecord, reserved) == kRoundWordOffset &&
+              offsetof(CurveRecord, round) == kRoundWordOffset);
 // The prim word is the last 4 bytes of every record, so its kind bits are in byte 39.
 static_assert(offsetof(TriangleRecord, prim) == 36 && offsetof(SphereRecord, prim) == 36 &&
-              offsetof(InstanceRecord, prim) == 36);
+              offsetof(InstanceRecord, prim) == 36 && offsetof(CurveRecord, prim) == 36);
 inline constexpr size_t kRecordBytes = 40;
 inline RecordKind record_kind(const uint8_t* rec) {
   return RecordKind(rec[39] >> 6);
+}
+// True for a kSphere record that holds a curve segment.
+inline bool is_curve_record(const uint8_t* rec) {
+  return record_kind(rec) == RecordKind::kSphere && (rec[kRoundWordOffset] & 0xFF) == kRoundCurve;
 }
 inline bool is_triangle(RecordKind k) {
   return k == RecordKind::kTriangle || k == RecordKind::kTrianglePair;

@@ -1,5 +1,6 @@
 #include "hwmodel/numeric/fixed_format.h"
 
+#include <algorithm>
 #include <charconv>
 #include <sstream>
 #include <stdexcept>
@@ -94,6 +95,21 @@ void FixedFormat::validate() const {
     fits("the rotated box product", ar + rcp_bits + 2);
     fits("the rotated exact box checker (model only)", ar + s + dir_bits + rot_bits + 1);
   }
+}
+
+std::string FixedFormat::curve_limits() const {
+  // swept_sphere_test, with C = curve_bits and positions below 2^C after the local shift z <= B + F + 3 - C:
+  // B^2 - A C < 2^(2(C + D) + 17); a root's quotient shifts a remainder below 2^(C + D + 9) by t_shift + z; the
+  // origin's move along the ray is sphere_test's closest approach with one bit more (twice the midpoint).
+  const int C = curve_bits, D = dir_bits, s = t_shift(), z = std::max(0, coord_bits + frac_bits + 3 - C);
+  const auto rule = [](const char* what, int bits) {
+    return bits > 126 ? std::string(what) + " needs " + std::to_string(bits) + " bits (> 126)" : std::string();
+  };
+  for (const std::string& why :
+       {rule("the curve discriminant", 2 * (C + D) + 17), rule("the curve root quotient", C + D + 9 + s + z),
+        rule("the curve closest approach", 2 * D + 3 + s), rule("the curve parameter check", 3 * C + D + 12)})
+    if (!why.empty()) return "fixed-point format " + name + " cannot hold curve segments: " + why;
+  return "";
 }
 
 std::string FixedFormat::describe() const {
@@ -209,6 +225,8 @@ constexpr FormatField kFields[] = {
     {"rot_bits", "", &F::rot_bits, 4, 16, "oriented boxes: fraction bits of the rotation table's entries"},
     {"tri_pairs", "", &F::tri_pairs, 0, 1,
      "triangle pairs: consecutive triangles of a leaf sharing an edge tested as one request (prim_layout 0)"},
+    {"curve_bits", "", &F::curve_bits, 8, 31,
+     "curve segments: magnitude bits of the curve unit's local positions"},
 };
 
 }  // namespace

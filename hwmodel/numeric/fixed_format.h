@@ -41,6 +41,9 @@ struct FixedFormat {
   int tri_pairs = 0;
   int rotations = 104;
   int rot_bits = 12;
+  // Curve segments (intersect_fixed.h, swept_sphere_test): magnitude bits of the curve unit's local positions
+  // (a ray's offset from a segment, the segment, its radii), each shifted right until it fits.
+  int curve_bits = 24;
 
   // Throws std::invalid_argument with the rule a format breaks.
   void validate() const;
@@ -51,7 +54,11 @@ struct FixedFormat {
   int t_shift() const;             // s = D - F + T: a quotient of (F-unit) / (D-unit) values -> t raw
   // An oriented node's test (datapath/oriented_aabb_test.h) works in the rotated frame: origins and planes with
   // F + rot_bits fraction bits, directions with D + rot_bits; a plane minus an origin there.
-  int rotated_translated_bits() const;                          // B + G + F + rot_bits + 3
+  int rotated_translated_bits() const;  // B + G + F + rot_bits + 3
+  // Empty when swept_sphere_test's intermediates fit 127 bits in this format, else the rule it breaks. Checked
+  // where a scene or image holds curve segments, not by validate(): a format too wide for curves still traces
+  // triangles and spheres.
+  std::string curve_limits() const;
   int offset_bytes() const { return child_bits <= 8 ? 1 : 2; }  // storage of one child offset
   std::string describe() const;                                 // one line: "width 4, B=24 k=8 ..."
 };

@@ -347,20 +347,22 @@ bool swept_sphere_test(const FixedRay& r, const CurveRecord& c, int64_t tmin, in
       // 3. U = K g - (g . e + r0 dr) e, W = K d - (d . e) e, Rho = |e|^2 r0 + (g . e) dr, Sigma = (d . e) dr,
       // over 2^n.
       const int n = bit_length(e2) - 1;
+      // w and sigma keep X more fraction bits than the direction, Dc = D + X = max(D, 54 - curve_bits) in all.
+      const int X = std::max(0, 54 - r.curve_bits - r.dir_bits);
       const Wide ge = gz[0] * ez[0] + gz[1] * ez[1] + gz[2] * ez[2];
       const Wide de = r.d[0] * ez[0] + r.d[1] * ez[1] + r.d[2] * ez[2];
       const Wide a0 = ge + r0 * drz;  // K s at t = 0
       Wide u[3], w[3];
       for (int a = 0; a < 3; ++a) {
         u[a] = round_shift(K * gz[a] - a0 * ez[a], n, Round::kNearestEven);
-        w[a] = round_shift(K * r.d[a] - de * ez[a], n, Round::kNearestEven);
+        w[a] = round_shift((K * r.d[a] - de * ez[a]) << X, n, Round::kNearestEven);
       }
       const Wide rho = round_shift(e2 * r0 + ge * drz, n, Round::kNearestEven);
-      const Wide sigma = round_shift(de * drz, n, Round::kNearestEven);
+      const Wide sigma = round_shift((de * drz) << X, n, Round::kNearestEven);
       const Wide A = w[0] * w[0] + w[1] * w[1] + w[2] * w[2] - sigma * sigma;
       const Wide B = u[0] * w[0] + u[1] * w[1] + u[2] * w[2] - rho * sigma;
       const Wide C = u[0] * u[0] + u[1] * u[1] + u[2] * u[2] - rho * rho;
-      const int sh = r.t_shift + z;  // (grid.F * 2^z) / (direction) quotients -> t raw
+      const int sh = r.t_shift + z + X;  // (grid.F 2^z) / (direction 2^-X) quotients -> t raw
       // A root num / den (den != 0): its t, kept when its tangent sphere's s = (a0 + root de) / K is in [0, 1],
       // i.e. a0 den + num de between 0 and K den (den > 0; reversed for den < 0).
       auto root = [&](Wide num, Wide den) {
@@ -368,7 +370,7 @@ bool swept_sphere_test(const FixedRay& r, const CurveRecord& c, int64_t tmin, in
           num = -num;
           den = -den;
         }
-        const Wide ks = a0 * den + num * de;
+        const Wide ks = a0 * den + ((num * de) << X);
         if (ks < 0 || ks > K * den) return;
         const int64_t t = clamp_t(Wide(tc) + div_shift(num, den, sh, Round::kNearestEven, r.t_limit), r.t_limit);
         if (t < tmin || t > tlim || !in_register(t, r) || t >= best) return;

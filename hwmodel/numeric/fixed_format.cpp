@@ -98,16 +98,19 @@ void FixedFormat::validate() const {
 }
 
 std::string FixedFormat::curve_limits() const {
-  // swept_sphere_test, with C = curve_bits and positions below 2^C after the local shift z <= B + F + 3 - C:
-  // B^2 - A C < 2^(2(C + D) + 17); a root's quotient shifts a remainder below 2^(C + D + 9) by t_shift + z; the
-  // origin's move along the ray is sphere_test's closest approach with one bit more (twice the midpoint).
+  // swept_sphere_test, with C = curve_bits, positions below 2^C after the local shift z <= B + F + 3 - C, and
+  // Dc = max(D, 54 - C) fraction bits of w and sigma (X = Dc - D more than the direction): B^2 - A C <
+  // 2^(2(C + Dc) + 17); a root's quotient shifts a remainder below 2^(C + Dc + 9) by t_shift + z + X; the
+  // s check multiplies C by d . e and 2^X; the origin's move along the ray is sphere_test's closest approach with
+  // one bit more (twice the midpoint).
   const int C = curve_bits, D = dir_bits, s = t_shift(), z = std::max(0, coord_bits + frac_bits + 3 - C);
+  const int Dc = std::max(D, 54 - C), X = Dc - D;
   const auto rule = [](const char* what, int bits) {
     return bits > 126 ? std::string(what) + " needs " + std::to_string(bits) + " bits (> 126)" : std::string();
   };
   for (const std::string& why :
-       {rule("the curve discriminant", 2 * (C + D) + 17), rule("the curve root quotient", C + D + 9 + s + z),
-        rule("the curve closest approach", 2 * D + 3 + s), rule("the curve parameter check", 3 * C + D + 12)})
+       {rule("the curve discriminant", 2 * (C + Dc) + 17), rule("the curve root quotient", C + Dc + 9 + s + z + X),
+        rule("the curve closest approach", 2 * D + 3 + s), rule("the curve parameter check", 3 * C + Dc + 12)})
     if (!why.empty()) return "fixed-point format " + name + " cannot hold curve segments: " + why;
   return "";
 }

@@ -276,7 +276,7 @@ Scene make_icosphere_scene(int subdiv, float radius, Vec3 offset) {
 struct BuiltinInfo {
   const char* name;
   const char* description;
-  bool takes_params;  // the icosphere parameters
+  bool takes_params;  // the icosphere or hair parameters
 };
 
 constexpr BuiltinInfo kBuiltins[] = {
@@ -293,6 +293,11 @@ constexpr BuiltinInfo kBuiltins[] = {
     {"icosphere_far", "icosphere with offset=148376,1234,-223423 (far from the origin); same parameters", true},
     // The benchmark suite's procedural scenes (suite_scenes.h, scenes/suite.json).
     {"hairball", "hard: thin overlapping tubes; 512 curved tubes in a unit ball, 196,608 triangles", false},
+    {"hair",
+     "hard: hair; a head with 24,000 strands of 8 linear swept spheres (192,000 curve segments), half curly; "
+     "?as=curves|ribbons|dots (the same strands as camera-facing ribbons or two orthogonal strips of "
+     "triangles)&strands=N (1..400000)",
+     true},
     {"atrium",
      "hard: occlusion; a two-storey hall of columns and arches round an open court, lit inside, 19,422 triangles",
      false},
@@ -370,6 +375,29 @@ Scene load_builtin_scene(const std::string& spec) {
     scene = make_cornell();
   } else if (name == "hairball") {
     scene = make_hairball_scene();
+  } else if (name == "hair") {
+    HairForm form = HairForm::kCurves;
+    int strands = kHairStrands;
+    for (const auto& [key, value] : params) {
+      if (key == "as") {
+        if (value == "curves")
+          form = HairForm::kCurves;
+        else if (value == "ribbons")
+          form = HairForm::kRibbons;
+        else if (value == "dots")
+          form = HairForm::kDots;
+        else
+          fail_param(spec, key, value, "curves, ribbons or dots");
+      } else if (key == "strands") {
+        const char* end = value.data() + value.size();
+        auto [ptr, ec] = std::from_chars(value.data(), end, strands);
+        if (ec != std::errc() || ptr != end || strands < 1 || strands > kMaxHairStrands)
+          fail_param(spec, key, value, "an integer 1..400000");
+      } else {
+        throw Error("builtin:" + spec + ": unknown parameter '" + key + "' for 'hair' (valid: as, strands)");
+      }
+    }
+    scene = make_hair_scene(form, strands);
   } else if (name == "atrium") {
     scene = make_atrium_scene();
   } else if (name == "city") {

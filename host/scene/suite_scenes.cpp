@@ -5,11 +5,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <numbers>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "host/scene/curves.h"
 #include "host/scene/generators.h"
 
 namespace rtu::host {
@@ -581,8 +583,114 @@ Scene build_forest() {
   return scene;
 }
 
+// ---- hair
+
+// The strands of builtin:hair as polylines: roots buried just under the scalp of an ellipsoid head (its upper
+// half and back, the face left bare), grown out along the normal and bent by gravity; every second strand curls
+// (a helical wobble about its path). Points and radii in double.
+struct Strand {
+  std::vector<DVec3> p;
+  std::vector<double> r;
+};
+constexpr DVec3 kHeadScale(0.9, 1.05, 1.0);
+constexpr int kHairPoints = 9;  // 8 segments a strand
+
+std::vector<Strand> hair_strands(int count) {
+  Rng rng(0x48414952ull + uint64_t(count));  // "HAIR"
+  std::vector<Strand> out;
+  out.reserve(size_t(count));
+  while (int(out.size()) < count) {
+    const DVec3 n = random_unit(rng);
+    if (n.y < -0.15 || (n.z > 0.45 && n.y < 0.55)) continue;  // below the ears, or the face
+    const bool curly = out.size() % 2 == 1;
+    Strand s;
+    DVec3 p = 0.985 * n * kHeadScale;  // the root, inside the scalp
+    DVec3 d = glm::normalize(n + DVec3(0.0, 0.05, 0.0));
+    const DVec3 a = glm::normalize(glm::cross(d, std::fabs(d.x) < 0.9 ? DVec3(1, 0, 0) : DVec3(0, 1, 0)));
+    const DVec3 b = glm::cross(d, a);
+    const double len = rng.uniform(0.07, 0.11), phase = rng.uniform(0.0, 2.0 * kPi);
+    for (int i = 0; i < kHairPoints; ++i) {
+      s.p.push_back(p);
+      s.r.push_back(0.0045 - 0.003 * double(i) / (kHairPoints - 1));  // tapered toward the tip
+      d = glm::normalize(d + DVec3(0.0, -0.22, 0.0));                 // gravity
+      if (curly) d = glm::normalize(d + 0.55 * (std::cos(phase + 1.4 * i) * a + std::sin(phase + 1.4 * i) * b));
+      p += len * d;
+      const double q = glm::length(p / kHeadScale);
+      if (q < 1.04) p *= 1.04 / q;  // kept off the head
+    }
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+// Triangle strips of a strand: one whose side at each point is side(i) (unit), 2 triangles a segment, its width
+// twice the strand's radius there.
+void add_strip(const Strand& s, const std::function<DVec3(size_t)>& side, uint32_t mat, Builder& b) {
+  MeshD m;
+  for (size_t i = 0; i < s.p.size(); ++i) {
+    m.add(s.p[i] - s.r[i] * side(i));
+    m.add(s.p[i] + s.r[i] * side(i));
+  }
+  for (uint32_t i = 0; i + 1 < s.p.size(); ++i) m.quad(2 * i, 2 * i + 1, 2 * i + 3, 2 * i + 2);
+  b.add(m.mesh(), mat);
+}
+
+Scene build_hair(HairForm form, int strands) {
+  Scene scene;
+  const uint32_t skin = add_material(scene, diffuse_material("skin", Vec3(0.72f, 0.55f, 0.45f)));
+  const uint32_t hair = add_material(scene, diffuse_material("hair", Vec3(0.30f, 0.19f, 0.10f)));
+  scene.camera.position = Vec3(1.6f, 0.5f, 4.4f);
+  scene.camera.look_at = Vec3(0.0f, 0.05f, 0.0f);
+  scene.camera.width = 512;
+  scene.camera.height = 512;
+  scene.has_camera = true;
+  Builder b;
+  IndexedMesh head = make_icosphere(4, 1.0f);
+  for (Vec3& v : head.vertices) v = Vec3(DVec3(v) * kHeadScale);
+  b.add(head, skin);
+  const std::vector<Strand> all = hair_strands(strands);
+  const DVec3 eye(scene.camera.position);
+  for (const Strand& s : all) {
+    const size_t n = s.p.size();
+    auto tangent = [&](size_t i) { return glm::normalize(s.p[std::min(i + 1, n - 1)] - s.p[i == 0 ? 0 : i - 1]); };
+    if (form == HairForm::kRibbons) {
+      // Facing the camera: each point's side across the tangent and the view direction.
+      add_strip(
+          s, [&](size_t i) { return glm::normalize(glm::cross(tangent(i), eye - s.p[i])); }, hair, b);
+    } else if (form == HairForm::kDots) {
+      // Two orthogonal strips, each point's sides across the tangent, fixed in the strand (view independent).
+      const DVec3 t0 = tangent(0);
+      const DVec3 ref = std::fabs(t0.y) < 0.9 ? DVec3(0, 1, 0) : DVec3(1, 0, 0);
+      auto s1 = [&](size_t i) { return glm::normalize(glm::cross(tangent(i), ref)); };
+      add_strip(s, s1, hair, b);
+      add_strip(
+          s, [&](size_t i) { return glm::normalize(glm::cross(tangent(i), s1(i))); }, hair, b);
+    }
+  }
+  scene.geometry.triangles = std::move(b.tris);
+  scene.prim_material = std::move(b.material);
+  if (form == HairForm::kCurves) {
+    for (size_t k = 0; k < all.size(); ++k) {
+      std::vector<Vec3> p;
+      std::vector<float> r;
+      for (size_t i = 0; i < all[k].p.size(); ++i) {
+        p.push_back(Vec3(all[k].p[i]));
+        r.push_back(float(all[k].r[i]));
+      }
+      add_strand(scene.geometry, p, r, "hair strand " + std::to_string(k));
+    }
+    scene.prim_material.insert(scene.prim_material.end(), scene.geometry.curves.size(), hair);
+  }
+  scene.lights.push_back(point_light(Vec3(2.5f, 3.5f, 3.0f), Vec3(30.0f)));
+  scene.lights.push_back(point_light(Vec3(-3.0f, 1.0f, -2.0f), Vec3(10.0f)));
+  return scene;
+}
+
 }  // namespace
 
+Scene make_hair_scene(HairForm form, int strands) {
+  return build_hair(form, strands);
+}
 Scene make_hairball_scene() {
   return build_hairball();
 }

@@ -20,6 +20,13 @@ Light point_light(Vec3 position, Vec3 intensity);
 // hairball: 512 thin curved tubes (6 sides, 32 segments each: 196,608 triangles) crossing inside a unit ball:
 // many overlapping thin primitives whose boxes overlap, so traversal visits many nodes per ray.
 Scene make_hairball_scene();
+// hair: a head (an ellipsoid of 5,120 triangles) with `strands` strands of 8 segments, half straight and half
+// curly, tapered from radius 0.0045 to 0.0015 (the head is 2 units tall), as linear swept spheres (curve
+// segments), as camera-facing ribbons (2 triangles a segment) or as two orthogonal triangle strips a strand
+// (4 triangles a segment, view independent, in the spirit of NVIDIA's DOTS). The same strands in every form.
+enum class HairForm { kCurves, kRibbons, kDots };
+inline constexpr int kHairStrands = 24000, kMaxHairStrands = 400000;
+Scene make_hair_scene(HairForm form, int strands = kHairStrands);
 // atrium: a two-storey hall of columns and round arches around an open court, side aisles under galleries,
 // lit from inside: heavy occlusion, most light arrives after bounces (a Sponza-like interior).
 Scene make_atrium_scene();

@@ -177,7 +177,9 @@ inline bool test_recorded(const uint8_t* record, uint32_t index, const FixedRay&
   const bool hit =
       test_record(record, r, c, short_edges, unit, issue, result, stage, s, asked, world, bottom, any_hit, rec);
   if (rec && !instance) {
-    rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(record)), issue, result, index});
+    rec->push_back(TraceEvent{TraceEvent::kPrim,
+                              is_curve_record(record) ? kPrimCurve : uint8_t(record_kind(record)), issue, result,
+                              index});
     if (asked) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, index});
   }
   return hit;

@@ -76,6 +76,13 @@ struct TimingConfig {
   std::string tri_unit = "cpp";
   int sphere_latency = 16;  // spheres and planes share the triangle units' issue slots (one test per clock)
   int plane_latency = 8;
+  // Curve segments (linear swept spheres): a unit of their own, as NVIDIA Blackwell's RT core has, or none, and
+  // then each curve test takes one triangle unit issue slot for curve_issue clocks. Latency and fallback slots
+  // are estimates (timing-model.md); curve_units 0 is every preset but the -lss what-ifs.
+  int curve_units = 0;     // curve units per unit; 0: curve tests go to the triangle units
+  int curve_rate = 1;      // curve tests per clock per curve unit
+  int curve_latency = 20;  // curve test pipeline depth, issue to result
+  int curve_issue = 2;     // without curve units: clocks a curve test holds a triangle unit issue slot
   // Rays the ray prefetch queue holds ahead of the slots, and clocks a unit request may wait for a free unit
   // before the wait counts as a queue stall (waiting requests stay in their slots; there is no request buffer).
   int queue_depth = 16;

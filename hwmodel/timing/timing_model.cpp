@@ -34,6 +34,7 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
   set_fetch_observer(make_fetch_observer(c, ctx));
   m_box_free.assign(size_t(c.box_units), 0);
   m_tri_free.assign(size_t(c.tri_units) * size_t(c.tri_rate), 0);  // a unit of rate r: r issue slots per clock
+  m_curve_free.assign(size_t(c.curve_units) * size_t(c.curve_rate), 0);
   m_slots.resize(size_t(c.ray_slots));
   m_recent.assign(size_t(c.queue_depth), 0);
   if (c.gather != "none") m_gather = std::make_unique<RayGather>(c);
@@ -360,6 +361,18 @@ uint64_t TimingModel::unit_request(const TraceEvent& e, uint32_t k, uint64_t t) 
     done = t + uint64_t(m_c.xform_latency);
     if (m_trace) m_trace->add(m_unit, k, "transform", t, done);
     ++m_s->instance_transforms;
+    return done;
+  }
+  if (e.kind == TraceEvent::kPrim && e.count == kPrimCurve) {
+    // A curve unit's slot for one clock, or without curve units a triangle unit's for curve_issue clocks.
+    ++m_s->curve_tests;
+    if (m_c.curve_units > 0) {
+      done = unit(m_curve_free, 1, uint64_t(m_c.curve_latency), t);
+    } else {
+      done = unit(m_tri_free, uint64_t(m_c.curve_issue), uint64_t(m_c.curve_latency), t);
+      m_s->tri_issue_cycles += uint64_t(m_c.curve_issue);
+    }
+    if (m_trace) m_trace->add(m_unit, k, "curve", t, done);
     return done;
   }
   uint64_t lat = uint64_t(m_c.plane_latency), issue = 1;

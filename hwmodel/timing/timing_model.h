@@ -244,7 +244,7 @@ class TimingModel {
   int m_line_shift = 0;     // log2(line_bytes)
   BoxCost m_box_cost;       // issue clocks and latency of a node test, by the node kind's cost class
   bool m_oriented = false;  // the image's nodes are oriented: each node test turns the ray (obb_rotations)
-  std::vector<uint64_t> m_box_free, m_tri_free;
+  std::vector<uint64_t> m_box_free, m_tri_free, m_curve_free;
   // Unit requests whose slot waits for its cycle (cycle << 12 | slot, a min-heap); the others went ahead at
   // their fetch (simulate()). m_min_fetch: the fewest cycles any fetch takes (a cache hit, or without a cache a
   // line from DRAM).

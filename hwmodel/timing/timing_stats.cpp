@@ -16,7 +16,7 @@ constexpr SampleScale kPacket = SampleScale::kPacket, kPerRay = SampleScale::kPe
 
 // The unit's own counters, in the order of the struct, with a component's gathered from its header where its
 // members sit.
-constexpr std::array<TimingCounter, 13> kBeforePrefetch = {{
+constexpr std::array<TimingCounter, 14> kBeforePrefetch = {{
     {"packets", &S::packets, "packets", "TRACE packets simulated", kPacket},
     {"cycles", &S::cycles, "cycles", "cycles of those packets, from decode to the last hit written", kPacket},
     {"rays", &S::rays, "rays", "rays through the ray slots (rays rejected at setup included)", kPacket},
@@ -24,6 +24,8 @@ constexpr std::array<TimingCounter, 13> kBeforePrefetch = {{
     {"tri_tests", &S::tri_tests, "tests", "ray-triangle tests", kPerRay},
     {"sphere_tests", &S::sphere_tests, "tests", "ray-sphere tests (in the triangle units' issue slots)", kPerRay},
     {"plane_tests", &S::plane_tests, "tests", "ray-plane tests (in the triangle units' issue slots)", kPerRay},
+    {"curve_tests", &S::curve_tests, "tests",
+     "ray-curve segment tests (curve units, or curve_issue triangle unit clocks each without them)", kPerRay},
     {"box_issue_cycles", &S::box_issue_cycles, "unit clocks",
      "box unit issue clocks used, summed over the units (ceil(children / box_rate) per node)", kPerRay},
     {"tri_issue_cycles", &S::tri_issue_cycles, "unit clocks",
@@ -138,6 +140,7 @@ const std::vector<ReportEntry>& report_table() {
       count("triangle_tests", &S::tri_tests),
       count("sphere_tests", &S::sphere_tests),
       count("plane_tests", &S::plane_tests),
+      count("curve_tests", &S::curve_tests),
       figure("utilization.box_units", "1", "box unit issue clocks used / (cycles x box_units x units)",
              [](const S& s, const C& c, const LowerBound&) -> Value {
                return s.cycles > 0 ? double(s.box_issue_cycles) / (double(s.cycles) * c.box_units * c.units) : 0.0;
@@ -227,22 +230,28 @@ const std::vector<ReportEntry>& report_table() {
                return s.gather_bins > 0 ? ratio(double(s.gather_wait_cycles), double(s.rays)) : 0.0;
              }),
       figure("lower_bound.cycles", "cycles",
-             "the largest of the ray fetch, box, triangle, DRAM and latency bounds",
+             "the largest of the ray fetch, box, triangle, curve, DRAM and latency bounds",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.cycles; }),
       figure("lower_bound.fetch", "cycles",
              "rays / (1 per clock x units) (each unit's ray fetch and setup issue one ray a clock)",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.fetch; }),
       figure("lower_bound.box", "cycles", "box unit issue clocks / (box_units x units)",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.box; }),
-      figure("lower_bound.triangle", "cycles", "triangle, sphere and plane tests / (tri_rate x tri_units x units)",
+      figure("lower_bound.triangle", "cycles",
+             "triangle, sphere and plane tests (and curve slots without curve units) / (tri_rate x tri_units x "
+             "units)",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.triangle; }),
+      figure("lower_bound.curve", "cycles",
+             "curve tests / (curve_rate x curve_units x units); 0 without curve units",
+             [](const S&, const C&, const LowerBound& b) -> Value { return b.curve; }),
       figure("lower_bound.dram", "cycles", "DRAM bytes / dram_bytes_per_cycle",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.dram; }),
       figure("lower_bound.latency", "cycles",
              "(slot busy cycles - unit and memory waits) / (ray_slots x units): rays x mean lifetime / rays in "
              "flight (Little's law)",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.latency; }),
-      figure("lower_bound.limited_by", "", "which bound is the largest: fetch, box, triangle, dram or latency",
+      figure("lower_bound.limited_by", "",
+             "which bound is the largest: fetch, box, triangle, curve, dram or latency",
              [](const S&, const C&, const LowerBound& b) -> Value { return std::string(b.limited_by); }),
       figure("lower_bound.cycles_over_bound", "1", "simulated cycles / lower bound",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.cycles_over_bound; }),
@@ -271,13 +280,17 @@ LowerBound lower_bound(const TimingStats& s, const TimingConfig& c) {
   const double units = double(c.units);
   b.fetch = double(s.rays) / units;
   b.box = double(s.box_issue_cycles) / (double(c.box_units) * units);
-  b.triangle = double(s.tri_tests + s.sphere_tests + s.plane_tests) / (double(c.tri_rate * c.tri_units) * units);
+  const uint64_t curve_slots = c.curve_units == 0 ? s.curve_tests * uint64_t(c.curve_issue) : 0;
+  b.triangle = double(s.tri_tests + s.sphere_tests + s.plane_tests + curve_slots) /
+               (double(c.tri_rate * c.tri_units) * units);
+  if (c.curve_units > 0) b.curve = double(s.curve_tests) / (double(c.curve_rate * c.curve_units) * units);
   b.dram = double(s.dram_bytes) / c.dram_bytes_per_cycle;
   const uint64_t waits = s.unit_wait_cycles + s.mem_wait_cycles;
   b.latency = double(s.slot_busy_cycles > waits ? s.slot_busy_cycles - waits : 0) / (double(c.ray_slots) * units);
-  b.cycles = std::max({b.fetch, b.box, b.triangle, b.dram, b.latency});
+  b.cycles = std::max({b.fetch, b.box, b.triangle, b.curve, b.dram, b.latency});
   b.limited_by = b.cycles == b.box        ? "box"
                  : b.cycles == b.triangle ? "triangle"
+                 : b.cycles == b.curve    ? "curve"
                  : b.cycles == b.dram     ? "dram"
                  : b.cycles == b.fetch    ? "fetch"
                                           : "latency";

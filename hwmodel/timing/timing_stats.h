@@ -23,6 +23,7 @@ struct TimingStats {
   uint64_t cycles = 0;   // cycles of those packets
   uint64_t rays = 0;     // rays through the slots (including rays rejected at setup)
   uint64_t box_tests = 0, tri_tests = 0, sphere_tests = 0, plane_tests = 0;
+  uint64_t curve_tests = 0;  // curve segment tests, in curve units or triangle unit slots (curve_units)
   uint64_t box_issue_cycles = 0, tri_issue_cycles = 0;  // unit issue slots used, summed over the units
   uint64_t node_fetches = 0, prim_fetches = 0;
   uint64_t cache_hits = 0, cache_misses = 0;  // line accesses
@@ -81,9 +82,9 @@ void scale_sampled(TimingStats& s, double factor);
 // already account for (unit_wait_cycles, mem_wait_cycles), so it binds when rays wait on latency, not on a queue.
 struct LowerBound {
   // fetch: rays / 1 per clock (the ray buffer streams and ray setup issues one ray per clock)
-  double fetch = 0.0, box = 0.0, triangle = 0.0, dram = 0.0, latency = 0.0;
-  double cycles = 0.0;             // the largest of the five
-  const char* limited_by = "box";  // "fetch", "box", "triangle", "dram" or "latency"
+  double fetch = 0.0, box = 0.0, triangle = 0.0, curve = 0.0, dram = 0.0, latency = 0.0;
+  double cycles = 0.0;             // the largest of them
+  const char* limited_by = "box";  // "fetch", "box", "triangle", "curve", "dram" or "latency"
   double cycles_over_bound = 0.0;  // simulated cycles / cycles (0 without a bound)
 };
 LowerBound lower_bound(const TimingStats& s, const TimingConfig& c);

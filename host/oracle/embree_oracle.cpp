@@ -1,7 +1,9 @@
 #include "host/oracle/embree_oracle.h"
 
+#include <algorithm>
 #include <limits>
 #include <stdexcept>
+#include <vector>
 
 namespace rtu::oracle {
 
@@ -50,6 +52,45 @@ void attach(RTCDevice device, RTCScene scene, const hw::Geometry& g, unsigned& t
   }
 }
 
+// Attaches g's curve segments as one round linear curve geometry (RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE) and
+// returns its id. Segments that continue the one before (no kCurveCapStart, its start the other's end) share that
+// vertex, so Embree finds a segment's neighbours where its neighbour flags say: left when it continues the one
+// before, right when the next continues it. Embree then leaves out the parts of a segment inside its neighbours'
+// (the same union of spheres), and caps only a strand's ends.
+unsigned attach_curves(RTCDevice device, RTCScene scene, const hw::Geometry& g) {
+  const std::vector<hw::CurveSegment>& c = g.curves;
+  std::vector<float> verts;
+  std::vector<unsigned> index(c.size());
+  std::vector<unsigned char> flags(c.size(), 0);
+  auto continues = [&](size_t i) {  // segment i starts where segment i - 1 ends
+    return i > 0 && !(c[i].flags & hw::kCurveCapStart) && c[i].p0 == c[i - 1].p1 && c[i].r0 == c[i - 1].r1;
+  };
+  for (size_t i = 0; i < c.size(); ++i) {
+    if (continues(i)) {
+      flags[i] |= RTC_CURVE_FLAG_NEIGHBOR_LEFT;
+      flags[i - 1] |= RTC_CURVE_FLAG_NEIGHBOR_RIGHT;
+    } else {
+      verts.insert(verts.end(), {c[i].p0.x, c[i].p0.y, c[i].p0.z, c[i].r0});
+    }
+    index[i] = unsigned(verts.size() / 4 - 1);
+    verts.insert(verts.end(), {c[i].p1.x, c[i].p1.y, c[i].p1.z, c[i].r1});
+  }
+  RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE);
+  auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4,
+                                                        4 * sizeof(float), verts.size() / 4));
+  std::copy(verts.begin(), verts.end(), v);
+  auto* idx = static_cast<unsigned*>(
+      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, sizeof(unsigned), c.size()));
+  std::copy(index.begin(), index.end(), idx);
+  auto* fl = static_cast<unsigned char*>(
+      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_FLAGS, 0, RTC_FORMAT_UCHAR, sizeof(unsigned char), c.size()));
+  std::copy(flags.begin(), flags.end(), fl);
+  rtcCommitGeometry(geom);
+  const unsigned id = rtcAttachGeometry(scene, geom);
+  rtcReleaseGeometry(geom);
+  return id;
+}
+
 }  // namespace
 
 EmbreeScene::EmbreeScene(const hw::Geometry& g, const char* config, RTCMemoryMonitorFunction monitor) : m_geom(g) {
@@ -59,6 +100,7 @@ EmbreeScene::EmbreeScene(const hw::Geometry& g, const char* config, RTCMemoryMon
   m_scene = rtcNewScene(m_device);
   if (!g.non_opaque.empty()) rtcSetSceneFlags(m_scene, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
   attach(m_device, m_scene, g, m_tri_geom, m_sphere_geom);
+  if (!g.curves.empty()) m_curve_geom = attach_curves(m_device, m_scene, g);
   rtcCommitScene(m_scene);
   if (rtcGetDeviceError(m_device) != RTC_ERROR_NONE) throw std::runtime_error("embree: scene build failed");
 }
@@ -125,6 +167,7 @@ uint32_t EmbreeScene::prim_of(unsigned geom, unsigned prim, unsigned inst, bool&
     return m_set->global_prim(inst, triangle ? prim : ntri + prim);
   }
   triangle = geom == m_tri_geom;
+  if (geom == m_curve_geom) return m_geom.curve_prim(prim);
   return triangle ? prim : m_geom.sphere_prim(prim);
 }
 
@@ -166,7 +209,9 @@ hw::Hit EmbreeScene::intersect(const hw::Ray& r) const {
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return h;
   bool tri = false;
   const uint32_t prim = prim_of(rh.hit.geomID, rh.hit.primID, rh.hit.instID[0], tri);
-  return hw::Hit{rh.ray.tfar, prim, tri ? rh.hit.u : 0.0f, tri ? rh.hit.v : 0.0f};
+  // Triangles: barycentrics; curve segments: u along the segment (ours is the s of the sphere the hit is on).
+  const bool curve = rh.hit.geomID == m_curve_geom;
+  return hw::Hit{rh.ray.tfar, prim, tri || curve ? rh.hit.u : 0.0f, tri ? rh.hit.v : 0.0f};
 }
 
 bool EmbreeScene::occluded(const hw::Ray& r) const {

@@ -50,6 +50,7 @@ class EmbreeScene {
   RTCDevice m_device = nullptr;
   RTCScene m_scene = nullptr;
   unsigned m_tri_geom = RTC_INVALID_GEOMETRY_ID, m_sphere_geom = RTC_INVALID_GEOMETRY_ID;
+  unsigned m_curve_geom = RTC_INVALID_GEOMETRY_ID;  // round linear curves (attach_curves)
   const hw::AnyHitStage* m_any_hit = nullptr;
 };
 

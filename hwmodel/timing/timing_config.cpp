@@ -619,7 +619,7 @@ struct Preset {
   void (*overrides)(TimingConfig& c);
 };
 
-const std::array<Preset, 14> kPresets = {{
+const std::array<Preset, 15> kPresets = {{
     {"rdna2", nullptr,
      "resembles one AMD RDNA2 Ray Accelerator: BVH4, 4 box tests or 1 triangle test per clock, 2.0 GHz",
      [](TimingConfig&) {}},
@@ -675,6 +675,13 @@ const std::array<Preset, 14> kPresets = {{
      "an Arc B580-class chip: 20 xe2-mem units, an 18 MB L2 in 16 slices, 12 GDDR6 channels of 16 banks, "
      "456 GB/s",
      xe2_chip_overrides},
+    {"rdna4-lss", "rdna4-mem",
+     "what-if: rdna4-mem with a curve unit testing one linear swept sphere a clock (20 clocks deep), as NVIDIA "
+     "Blackwell's RT core adds for hair; rate and depth are estimates",
+     [](TimingConfig& c) {
+       c.curve_units = 1;
+       c.curve_rate = 1;
+     }},
 }};
 
 const Preset& find_preset(const std::string& name) {

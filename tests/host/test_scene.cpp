@@ -99,7 +99,7 @@ void check_consistent(const Scene& s) {
 
 TEST_CASE("every listed built-in scene loads", "[scene]") {
   const auto names = rtu::host::builtin_scene_names();
-  REQUIRE(names.size() == 8);  // seed, cornell, icosphere, icosphere_far and the suite's four (test_suite.cpp)
+  REQUIRE(names.size() == 9);  // seed, cornell, icosphere, icosphere_far, hair and the suite's four (test_suite.cpp)
   for (const auto& [name, description] : names) {
     INFO(name);
     CHECK(!description.empty());

@@ -38,7 +38,7 @@ TEST_CASE("every timing preset validates and lists every key", "[timing][config]
   REQUIRE(timing_preset_names() == std::vector<std::string>{"rdna2", "intel", "embedded", "rdna2-mem", "intel-mem",
                                                             "rdna2-chip", "intel-chip", "embedded-chip", "rdna4",
                                                             "xe2", "rdna4-mem", "xe2-mem", "rdna4-chip",
-                                                            "xe2-chip"});
+                                                            "xe2-chip", "rdna4-lss"});
   for (const std::string& name : timing_preset_names()) {
     INFO(name);
     const TimingConfig c = timing_preset(name);
@@ -46,7 +46,7 @@ TEST_CASE("every timing preset validates and lists every key", "[timing][config]
     CHECK_NOTHROW(c.validate());
     CHECK_FALSE(timing_preset_description(name).empty());
     const auto keys = timing_keys(c);
-    CHECK(keys.size() == 70);  // every field of TimingConfig but `name`
+    CHECK(keys.size() == 74);  // every field of TimingConfig but `name`
     for (const TimingKey& k : keys) {
       CHECK_FALSE(k.key.empty());
       CHECK_FALSE(k.value.empty());

@@ -59,7 +59,9 @@ void list_formats() {
     scene_sized = scene_sized || sized;
     const uint64_t bytes = f.node_layout == 0 ? hw::qnode_bytes(f.width, f.offset_bytes())
                                               : hw::node_fields(f, 20, 20, 7).bytes(f.node_align);
-    const std::string layout = std::string(kNodes[f.node_layout]) + (f.prim_layout ? "+blocks" : "");
+    const std::string layout = std::string(kNodes[f.node_layout]) + (f.prim_layout == 2 ? "+clusters"
+                                                                     : f.prim_layout    ? "+blocks"
+                                                                                        : "");
     std::printf("%-9s %5d %5d %5d %5d %5d %5d %5d %4d.%-2d  %-22s %llu%s\n", f.name.c_str(), f.width, f.coord_bits,
                 f.child_bits, f.guard_bits, f.frac_bits, f.dir_bits, f.rcp_bits, f.t_bits, f.t_frac_bits,
                 layout.c_str(), (unsigned long long)bytes, sized ? " *" : "");

@@ -42,8 +42,8 @@ const char* node_layout_name(int layout) {
 }
 
 const char* prim_layout_name(int layout) {
-  static const char* const kNames[] = {"records", "blocks"};
-  return layout >= 0 && layout < 2 ? kNames[layout] : "unknown";
+  static const char* const kNames[] = {"records", "blocks", "clusters"};
+  return layout >= 0 && layout < 3 ? kNames[layout] : "unknown";
 }
 
 double image_bytes_per_prim(const hw::DeviceImage& img) {
@@ -65,6 +65,13 @@ Json image_json(const hw::DeviceImage& img, const hw::Bvh* bvh) {
   j["plane_bytes"] = img.planes_size();
   j["total_bytes"] = img.size();
   j["bytes_per_prim"] = image_bytes_per_prim(img);
+  if (h.prim_layout == 2) {
+    // Triangle clusters: their internal nodes (in record_bytes, not in nodes) and the clusters that have some.
+    uint64_t clusters = 0;
+    for (const hw::DeviceImage::Span& s : img.cluster_node_spans()) clusters += s.bytes > 0;
+    j["cluster_nodes"] = img.cluster_node_spans().size();
+    j["clusters"] = clusters;
+  }
   j["frame"] = {{"coord_bits", h.coord_bits},
                 {"step_exp", h.step_exp},
                 {"origin", {h.frame_origin[0], h.frame_origin[1], h.frame_origin[2]}}};

@@ -24,8 +24,8 @@ Json format_json(const hw::FixedFormat& f);
 // Bytes of the fixed device's image beside the float BVH's (nodes + leaf index) for the same tree: its storage
 // layouts (by name), bytes per node and per primitive (nodes + primitive section over the bounded primitives).
 Json image_json(const hw::DeviceImage& img, const hw::Bvh* bvh);
-// The names of FixedFormat::node_layout (structs, bit-packed, compressed-wide) and prim_layout (records, blocks);
-// "unknown" for another value.
+// The names of FixedFormat::node_layout (structs, bit-packed, compressed-wide) and prim_layout (records, blocks,
+// clusters); "unknown" for another value.
 const char* node_layout_name(int layout);
 const char* prim_layout_name(int layout);
 // The image's node and primitive bytes over its bounded primitives (triangles and spheres); 0 when it has none.

@@ -376,8 +376,7 @@ FixedTracer::FixedTracer(const DeviceImage& image, const FixedTraceOptions& opt)
   if (m_opt.box_unit && !(image.header().flags & kImageNoBvh))
     m_opt.box_unit->check_format(m_format, int(image.header().width));
   if (m_opt.tri_unit) m_opt.tri_unit->check_format(m_format);
-  m_step_limit =
-      opt.max_steps > 0 ? opt.max_steps : uint64_t(image.header().node_count) * image.header().width + 1;
+  m_step_limit = opt.max_steps > 0 ? opt.max_steps : uint64_t(image.node_total()) * image.header().width + 1;
 }
 
 Hit FixedTracer::trace(const Ray& r, bool any_hit, TraversalStats& s) const {

@@ -79,7 +79,7 @@ struct FixedTraceOptions {
   // (box_false_negatives must stay 0). Slower; what `rtusim compare` and the tests use.
   bool check_boxes = false;
   // The traversal watchdog: node and leaf visits one ray may make before it is stopped (a miss, counted in
-  // TraversalStats::watchdog_rays). 0: the image's bound, node_count * width + 1: in a tree (what
+  // TraversalStats::watchdog_rays). 0: the image's bound, node_total() * width + 1: in a tree (what
   // DeviceImage::from_bytes accepts) every node and leaf reference is visited at most once, so only a
   // corrupted image held outside from_bytes, or a smaller configured bound, can reach it.
   uint64_t max_steps = 0;

@@ -2,11 +2,13 @@
 #include "hwmodel/scene/bvh.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
 #include <string>
 
+#include "hwmodel/format/cluster_layout.h"
 #include "hwmodel/format/node_kinds.h"
 #include "hwmodel/format/packed_layout.h"
 #include "hwmodel/format/rotation_table.h"
@@ -399,27 +401,128 @@ struct PackedTree {
   int base_bits = 0, prim_bits = 0, group_bits = 0;
 };
 
+// The cluster of the subtree at inner node `root` (cluster_layout.h): its nodes breadth first with their leaf
+// groups, its records in leaf order; and, when `decoded` is not null, the nodes as the image decodes them, with
+// references from node `node_base` and record `record_base`.
+template <NodeKind K>
+void gather_cluster(const std::vector<typename K::Node>& nodes, const std::vector<uint8_t>& records, uint32_t root,
+                    Cluster& c, std::vector<typename K::Node>* decoded, uint32_t node_base, uint32_t record_base) {
+  std::vector<uint32_t> order{root};
+  uint32_t next_node = 1, next_record = 0;
+  for (size_t k = 0; k < order.size(); ++k) {
+    typename K::Node n = nodes[order[k]];
+    PackedNode pn;
+    K::to_packed(n, pn);
+    for (int i = 0; i < K::count(n); ++i) {
+      const uint32_t ref = K::child(n, i);
+      if (is_leaf(ref)) {
+        const uint8_t* rec = records.data() + size_t(leaf_first(ref)) * kRecordBytes;
+        c.records.insert(c.records.end(), rec, rec + size_t(leaf_count(ref)) * kRecordBytes);
+        pn.leaf[i] = true;
+        pn.group[i] = leaf_count(ref);
+        K::set_child(n, i, make_leaf(record_base + next_record, leaf_count(ref)));
+        next_record += leaf_count(ref);
+      } else {
+        order.push_back(ref);
+        K::set_child(n, i, node_base + next_node++);
+      }
+    }
+    c.nodes.push_back(pn);
+    if (decoded) decoded->push_back(n);
+  }
+}
+
+// Triangle clusters (prim_layout 2): the inner nodes below the root that root a cluster, each with its encoded
+// bytes. Top down, a subtree becomes a cluster when it holds only opaque triangles, at most cluster_tris of them
+// and at most kMaxClusterNodes nodes, and its cluster fits the format (kMaxClusterLines); else its children are
+// tried. The root stays a node of the top tree.
+template <NodeKind K>
+std::vector<std::vector<uint8_t>> choose_clusters(const FixedFormat& f, const std::vector<typename K::Node>& nodes,
+                                                  const std::vector<uint8_t>& records, uint32_t root) {
+  std::vector<std::vector<uint8_t>> bytes(nodes.size());
+  if (root == kEmptyChild || is_leaf(root)) return bytes;
+  // Below each node: triangles, nodes, and whether all are opaque triangles. Children follow their parents.
+  std::vector<uint32_t> tris(nodes.size(), 0), inner(nodes.size(), 1);
+  std::vector<uint8_t> ok(nodes.size(), 1);
+  for (size_t n = nodes.size(); n-- > 0;) {
+    for (int i = 0; i < K::count(nodes[n]); ++i) {
+      const uint32_t ref = K::child(nodes[n], i);
+      if (is_leaf(ref)) {
+        tris[n] += leaf_count(ref);
+        ok[n] &= uint8_t(clusterable(records.data() + size_t(leaf_first(ref)) * kRecordBytes, leaf_count(ref)));
+      } else {
+        if (ref <= n) throw std::logic_error("encoder: a child node before its parent");
+        tris[n] += tris[ref];
+        inner[n] += inner[ref];
+        ok[n] &= ok[ref];
+      }
+    }
+  }
+  std::vector<uint32_t> todo;
+  auto children = [&](uint32_t n) {
+    for (int i = 0; i < K::count(nodes[n]); ++i)
+      if (!is_leaf(K::child(nodes[n], i))) todo.push_back(K::child(nodes[n], i));
+  };
+  children(root);
+  while (!todo.empty()) {
+    const uint32_t n = todo.back();
+    todo.pop_back();
+    if (ok[n] && tris[n] <= uint32_t(f.cluster_tris) && inner[n] <= uint32_t(kMaxClusterNodes)) {
+      Cluster c;
+      gather_cluster<K>(nodes, records, n, c, nullptr, 0, 0);
+      if (encode_cluster(c, f, bytes[n]) > 0) continue;
+    }
+    children(n);
+  }
+  return bytes;
+}
+
 // Numbers nodes breadth first, each node's inner children consecutive, and stores each node's leaf groups
-// consecutively (packed_layout.h): the nodes' values are unchanged, their references follow the new order.
+// consecutively (packed_layout.h): the nodes' values are unchanged, their references follow the new order. With
+// clusters (prim_layout 2) a cluster's subtree is a leaf group of the top tree: its nodes are decoded after the
+// top tree's, cluster by cluster in the order of the primitive section.
 template <NodeKind K>
 PackedTree pack_tree(const FixedFormat& f, const std::vector<typename K::Node>& nodes,
                      const std::vector<uint8_t>& records, uint32_t root) {
   PackedTree p;
-  const bool blocks = f.prim_layout == 1;
+  const bool blocks = f.prim_layout == 1, clusters = f.prim_layout == 2;
+  std::vector<std::vector<uint8_t>> cluster_bytes;  // clusters: a cluster root's encoded cluster, else empty
+  if (clusters) cluster_bytes = choose_clusters<K>(f, nodes, records, root);
+  auto cluster_root = [&](uint32_t ref) { return clusters && !is_leaf(ref) && !cluster_bytes[ref].empty(); };
   std::vector<uint32_t> order;  // new index -> old
   if (root != kEmptyChild && !is_leaf(root)) order.push_back(root);
   for (size_t k = 0; k < order.size(); ++k) {
     const typename K::Node& n = nodes[order[k]];
     for (int i = 0; i < K::count(n); ++i)
-      if (!is_leaf(K::child(n, i))) order.push_back(K::child(n, i));
+      if (!is_leaf(K::child(n, i)) && !cluster_root(K::child(n, i))) order.push_back(K::child(n, i));
   }
-  uint64_t units = 0;  // primitive section so far: records, or granules of blocks
+  uint64_t units = 0;  // primitive section so far: records, or granules of blocks, or lines of clusters
   uint32_t next_record = 0;
+  std::vector<typename K::Node> cluster_nodes;  // clusters: their nodes as decoded, after the top tree's
+  // Appends the cluster rooted at inner node `ref`; returns its size in lines and its decoded reference.
+  auto cluster = [&](uint32_t ref, uint32_t& size) {
+    Cluster c;
+    const uint32_t at = uint32_t(order.size() + cluster_nodes.size());
+    gather_cluster<K>(nodes, records, ref, c, &cluster_nodes, at, next_record);
+    p.prims.insert(p.prims.end(), cluster_bytes[ref].begin(), cluster_bytes[ref].end());
+    p.records.insert(p.records.end(), c.records.begin(), c.records.end());
+    size = uint32_t(cluster_bytes[ref].size() / kClusterLineBytes);
+    units += size;
+    next_record += uint32_t(c.records.size() / kRecordBytes);
+    return at;
+  };
   // Appends leaf `ref`'s group; returns its size in units and the leaf's reference in the new record order.
   auto group = [&](uint32_t ref, uint32_t& size) {
     const uint8_t* rec = records.data() + size_t(leaf_first(ref)) * kRecordBytes;
     const uint32_t count = leaf_count(ref);
-    if (blocks) {
+    if (clusters && clusterable(rec, count)) {
+      Cluster c;
+      c.records.assign(rec, rec + size_t(count) * kRecordBytes);
+      size = encode_cluster(c, f, p.prims);
+      if (size == 0) throw std::logic_error("encoder: a leaf that fits no cluster");
+    } else if (clusters) {
+      size = encode_raw_unit(rec, int(count), f, p.prims);
+    } else if (blocks) {
       size = encode_block(rec, int(count), f.coord_bits, p.prims);
     } else {
       p.prims.insert(p.prims.end(), rec, rec + size_t(count) * kRecordBytes);
@@ -443,9 +546,9 @@ PackedTree pack_tree(const FixedFormat& f, const std::vector<typename K::Node>& 
     bool any_inner = false, any_leaf = false;
     for (int i = 0; i < K::count(n); ++i) {
       const uint32_t ref = K::child(n, i);
-      if (is_leaf(ref)) {
+      if (is_leaf(ref) || cluster_root(ref)) {
         pn.leaf[i] = true;
-        K::set_child(n, i, group(ref, pn.group[i]));
+        K::set_child(n, i, is_leaf(ref) ? group(ref, pn.group[i]) : cluster(ref, pn.group[i]));
         max_group = std::max<uint64_t>(max_group, pn.group[i] - 1);
         any_leaf = true;
       } else {
@@ -465,6 +568,10 @@ PackedTree pack_tree(const FixedFormat& f, const std::vector<typename K::Node>& 
     p.root = group(root, size);
   } else {
     p.root = order.empty() ? kEmptyChild : 0;
+  }
+  for (const typename K::Node& n : cluster_nodes) {
+    const auto* b = reinterpret_cast<const uint8_t*>(&n);
+    p.qnodes.insert(p.qnodes.end(), b, b + sizeof n);
   }
   if (next_record * kRecordBytes != records.size())
     throw std::logic_error("encoder: packed layout did not place every record once");
@@ -559,6 +666,17 @@ DeviceImage ImageWriter::write(Encoder& enc, const Geometry& g, const FixedForma
     for (uint32_t p = 0; p < n && f.prim_layout == 1; p += uint32_t(kMaxLeafSize))
       encode_block(tree.records.data() + size_t(p) * kRecordBytes, int(std::min<uint32_t>(kMaxLeafSize, n - p)),
                    f.coord_bits, tree.prims);
+    // Clusters: leaves of up to 16 records without internal nodes, or raw blocks, in order.
+    for (uint32_t p = 0; p < n && f.prim_layout == 2; p += uint32_t(kMaxLeafSize)) {
+      const uint8_t* rec = tree.records.data() + size_t(p) * kRecordBytes;
+      const uint32_t count = std::min<uint32_t>(kMaxLeafSize, n - p);
+      Cluster c;
+      c.records.assign(rec, rec + size_t(count) * kRecordBytes);
+      if (!clusterable(rec, count))
+        encode_raw_unit(rec, int(count), f, tree.prims);
+      else if (encode_cluster(c, f, tree.prims) == 0)
+        throw std::logic_error("encoder: a leaf that fits no cluster");
+    }
     if (f.prim_layout == 0) tree.prims = tree.records;
     tree.node_bytes =
         packed ? node_fields(f, 0, 0, 0).bytes(f.node_align) : node_struct_bytes(kind, f.width, q_bytes);
@@ -598,6 +716,8 @@ DeviceImage ImageWriter::write(Encoder& enc, const Geometry& g, const FixedForma
   h.record_bytes = tree.prims.size();
   h.node_offset = align8(sizeof(ImageHeader));
   h.record_offset = align8(h.node_offset + tree.nodes.size());
+  if (f.prim_layout == 2)  // clusters start on 64-byte lines of the image
+    h.record_offset = (h.record_offset + kClusterLineBytes - 1) / kClusterLineBytes * kClusterLineBytes;
   h.plane_offset = align8(h.record_offset + tree.prims.size());
   h.total_bytes = align8(h.plane_offset + planes.size() * sizeof(PlaneRecord));
 
@@ -677,6 +797,8 @@ NodeFields check_layouts(const ImageHeader& h, const FixedFormat& f, size_t stru
   }
   if (h.prim_layout == 0 && h.record_bytes != uint64_t(h.record_count) * kRecordBytes)
     bad_image("record_bytes differs from record_count 40-byte records");
+  if (h.prim_layout == 2 && (h.record_offset % kClusterLineBytes != 0 || h.record_bytes % kClusterLineBytes != 0))
+    bad_image("record_offset or record_bytes of triangle clusters not on a 64-byte line");
   return fields;
 }
 
@@ -698,8 +820,85 @@ void check_sections(const ImageHeader& h, uint64_t bytes) {
     bad_image("record count differs from the primitive counts");
 }
 
-// Where each block starts: (granule, first record), granules rising.
+// Where each block starts: (granule, first record), granules rising; with clusters (prim_layout 2) each unit's
+// (line, first record).
 using BlockStarts = std::vector<std::pair<uint64_t, uint32_t>>;
+
+// Clusters (prim_layout 2): the decoded internal nodes (after the node section's) with their children's
+// references, and each unit's reference as a leaf child of the top tree names it.
+struct ClusterDecode {
+  std::vector<PackedNode> nodes;
+  std::vector<std::array<uint32_t, 8>> refs;
+  std::vector<uint32_t> unit_ref;  // per unit of BlockStarts: its root node, or its leaf of records
+};
+
+// The units of triangle clusters one after another from the section's start into `records` and `cd`, with the
+// spans the unit fetches: a cluster's root node carries the cluster, a unit without internal nodes its first
+// record.
+BlockStarts decode_clusters(const uint8_t* image, const ImageHeader& h, const FixedFormat& f,
+                            std::vector<uint8_t>& records, std::vector<DeviceImage::Span>& spans,
+                            std::vector<DeviceImage::Span>& node_spans, std::vector<uint8_t>& flags,
+                            ClusterDecode& cd) {
+  BlockStarts unit_at;
+  const uint64_t rb = h.record_bytes;
+  const uint8_t* sec = image + h.record_offset;
+  uint64_t line = 0;
+  Cluster c;
+  while (line * kClusterLineBytes < rb) {
+    const uint32_t first = uint32_t(records.size() / kRecordBytes);
+    if (first >= h.record_count) bad_image("primitive section holds more records than record_count");
+    const std::string at =
+        "cluster at byte " + std::to_string(line * kClusterLineBytes) + " of the primitive section";
+    uint32_t size = 0;
+    try {
+      size = decode_cluster_unit(sec + line * kClusterLineBytes, rb - line * kClusterLineBytes, f, c, at);
+    } catch (const std::invalid_argument& e) {
+      bad_image(e.what());
+    }
+    const uint32_t count = uint32_t(c.records.size() / kRecordBytes);
+    if (uint64_t(first) + count > h.record_count) bad_image(at + ": records beyond record_count");
+    if (uint64_t(first) + count > uint64_t(kMaxLeafFirst) + 1) bad_image(at + ": records beyond a leaf's reach");
+    if (!c.nodes.empty() && (h.flags & kImageNoBvh)) bad_image(at + ": internal nodes in an image without a BVH");
+    records.insert(records.end(), c.records.begin(), c.records.end());
+    spans.resize(records.size() / kRecordBytes, DeviceImage::Span{0, 0});
+    flags.resize(records.size() / kRecordBytes, 0);
+    const DeviceImage::Span whole{h.record_offset + line * kClusterLineBytes, size * uint32_t(kClusterLineBytes)};
+    const bool raw = c.nodes.empty() && !clusterable(c.records.data(), count);
+    for (uint32_t i = first; i < first + count; ++i) flags[i] = raw ? 0 : DeviceImage::kRecordInCluster;
+    unit_at.push_back({line, first});
+    if (c.nodes.empty()) {
+      spans[first] = whole;
+      flags[first] |= DeviceImage::kRecordLeafStart;
+      cd.unit_ref.push_back(make_leaf(first, count));
+    } else {
+      const uint64_t base = uint64_t(h.node_count) + cd.nodes.size();
+      if (base + c.nodes.size() >= kLeafBit) bad_image(at + ": too many nodes");
+      cd.unit_ref.push_back(uint32_t(base));
+      uint32_t next_node = 1, next_record = first;
+      for (size_t j = 0; j < c.nodes.size(); ++j) {
+        const PackedNode& pn = c.nodes[j];
+        std::array<uint32_t, 8> r;
+        r.fill(kEmptyChild);
+        for (int i = 0; i < pn.count; ++i) {
+          if (pn.leaf[i]) {
+            flags[next_record] |= DeviceImage::kRecordLeafStart;
+            r[size_t(i)] = make_leaf(next_record, pn.group[i]);
+            next_record += pn.group[i];
+          } else {
+            r[size_t(i)] = uint32_t(base + next_node++);
+          }
+        }
+        cd.nodes.push_back(pn);
+        cd.refs.push_back(r);
+        node_spans.push_back(j == 0 ? whole : DeviceImage::Span{0, 0});
+      }
+    }
+    line += size;
+  }
+  if (records.size() != size_t(h.record_count) * kRecordBytes)
+    bad_image("primitive section decodes to a record count other than record_count");
+  return unit_at;
+}
 
 // Blocks: decoded one after another from the section's start into `records` (40-byte records), with the span the
 // unit fetches for each block's first record.
@@ -730,9 +929,18 @@ BlockStarts decode_blocks(const uint8_t* image, const ImageHeader& h, const Fixe
 }
 
 // The leaf reference of child i of a packed node: its group of `unit` granules (blocks) or records from `unit`.
-uint32_t packed_leaf_ref(const ImageHeader& h, const BlockStarts& block_at, const std::string& at, int i,
-                         uint64_t unit, uint64_t group) {
+uint32_t packed_leaf_ref(const ImageHeader& h, const BlockStarts& block_at, const ClusterDecode& cd,
+                         const std::string& at, int i, uint64_t unit, uint64_t group) {
   uint64_t first = unit, count = group;
+  if (h.prim_layout == 2) {
+    const uint64_t end = h.record_bytes / kClusterLineBytes;
+    const auto it = std::lower_bound(block_at.begin(), block_at.end(), std::make_pair(unit, uint32_t(0)));
+    if (it == block_at.end() || it->first != unit)
+      bad_image(at + ": leaf child " + std::to_string(i) + " does not point at the start of a cluster");
+    if ((it + 1 == block_at.end() ? end : (it + 1)->first) - unit != group)
+      bad_image(at + ": leaf child " + std::to_string(i) + "'s group size differs from its cluster's");
+    return cd.unit_ref[size_t(it - block_at.begin())];
+  }
   if (h.prim_layout != 0) {
     const uint64_t block_end = h.record_bytes / kGranuleBytes;
     const auto it = std::lower_bound(block_at.begin(), block_at.end(), std::make_pair(unit, uint32_t(0)));
@@ -754,9 +962,9 @@ uint32_t packed_leaf_ref(const ImageHeader& h, const BlockStarts& block_at, cons
 // base, the primitive base and the meta.
 template <NodeKind K>
 void decode_packed_nodes(const uint8_t* image, const ImageHeader& h, const NodeFields& fl,
-                         const BlockStarts& block_at, std::vector<uint64_t>& nodes) {
+                         const BlockStarts& block_at, const ClusterDecode& cd, std::vector<uint64_t>& nodes) {
   using Node = typename K::Node;
-  nodes.assign((size_t(h.node_count) * sizeof(Node) + 7) / 8, 0);
+  nodes.assign(((size_t(h.node_count) + cd.nodes.size()) * sizeof(Node) + 7) / 8, 0);
   uint8_t* out = reinterpret_cast<uint8_t*>(nodes.data());
   const uint8_t* in = image + h.node_offset;
   for (uint32_t n = 0; n < h.node_count; ++n) {
@@ -777,12 +985,20 @@ void decode_packed_nodes(const uint8_t* image, const ImageHeader& h, const NodeF
         if (inner >= h.node_count) bad_image(at + ": child node out of range");
         ref = uint32_t(inner++);
       } else if (i < pn.count) {
-        ref = packed_leaf_ref(h, block_at, at, i, unit, pn.group[i]);
+        ref = packed_leaf_ref(h, block_at, cd, at, i, unit, pn.group[i]);
         unit += pn.group[i];
       }
       K::set_child(node, i, ref);
     }
     std::memcpy(out + size_t(n) * sizeof(Node), &node, sizeof(Node));
+  }
+  // The clusters' internal nodes: the kind's fields, the references their cluster gave them.
+  for (size_t j = 0; j < cd.nodes.size(); ++j) {
+    Node node;
+    const std::string why = K::from_packed(cd.nodes[j], node);
+    if (!why.empty()) bad_image("cluster node " + std::to_string(h.node_count + j) + ": " + why);
+    for (int i = 0; i < K::kWidth; ++i) K::set_child(node, i, cd.refs[j][size_t(i)]);
+    std::memcpy(out + (size_t(h.node_count) + j) * sizeof(Node), &node, sizeof(Node));
   }
 }
 
@@ -906,11 +1122,11 @@ bool check_root(const ImageHeader& h) {
 // cycles), one parent per node (so no shared subtrees: a ray visits each node at most once), and no path deeper
 // than the traversal stack holds.
 template <NodeKind K>
-void check_tree(const uint8_t* nodes, const ImageHeader& h, const FixedFormat& f) {
+void check_tree(const uint8_t* nodes, uint32_t node_total, const ImageHeader& h, const FixedFormat& f) {
   using Node = typename K::Node;
   constexpr int N = K::kWidth;
-  std::vector<uint32_t> depth(h.node_count, 0);
-  for (uint32_t n = 0; n < h.node_count; ++n) {
+  std::vector<uint32_t> depth(node_total, 0);
+  for (uint32_t n = 0; n < node_total; ++n) {
     Node nd;
     std::memcpy(&nd, nodes + size_t(n) * sizeof(Node), sizeof(Node));
     const std::string at = "node " + std::to_string(n) + ": ";
@@ -925,7 +1141,7 @@ void check_tree(const uint8_t* nodes, const ImageHeader& h, const FixedFormat& f
       }
       if (is_leaf(ref)) {
         if (!leaf_in_records(ref, h)) bad_image(at + "leaf outside the records");
-      } else if (ref <= n || ref >= h.node_count) {
+      } else if (ref <= n || ref >= node_total) {
         bad_image(at + "child node out of order or out of range");
       } else if (depth[ref] != 0) {
         // A node reached twice (a DAG) would be traversed once per path: exponential work for a small image.
@@ -961,15 +1177,24 @@ void DeviceImage::check() {
   check_sections(h, bytes);
   m_records.clear();
   m_spans.clear();
+  m_cluster_spans.clear();
+  m_record_flags.clear();
   BlockStarts block_at;
-  if (h.prim_layout != 0) block_at = decode_blocks(data(), h, f, m_records, m_spans);
+  ClusterDecode cd;
+  if (h.prim_layout == 2)
+    block_at = decode_clusters(data(), h, f, m_records, m_spans, m_cluster_spans, m_record_flags, cd);
+  else if (h.prim_layout != 0)
+    block_at = decode_blocks(data(), h, f, m_records, m_spans);
   check_records(*this, f);
   check_planes(*this, f);
-  if (!check_root(h)) return;
+  if (!check_root(h)) {
+    if (!cd.nodes.empty()) bad_image("cluster nodes without a tree of nodes to reach them");
+    return;
+  }
   with_node_kind(kind, h.width, h.q_bytes, [&](auto k) {
     using K = decltype(k);
-    if (h.node_layout != 0) decode_packed_nodes<K>(data(), h, fields, block_at, m_nodes);
-    check_tree<K>(reinterpret_cast<const uint8_t*>(this->nodes<uint8_t>()), h, f);
+    if (h.node_layout != 0) decode_packed_nodes<K>(data(), h, fields, block_at, cd, m_nodes);
+    check_tree<K>(reinterpret_cast<const uint8_t*>(this->nodes<uint8_t>()), node_total(), h, f);
   });
 }
 

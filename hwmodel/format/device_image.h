@@ -60,7 +60,7 @@ struct ImageHeader {
   uint64_t record_offset;   //
   uint64_t plane_offset;    //
   uint64_t total_bytes;     // size of the image
-  uint8_t node_layout;      // FixedFormat::node_layout, prim_layout
+  uint8_t node_layout;      // FixedFormat::node_layout, prim_layout (2: record_offset on a 64-byte line)
   uint8_t prim_layout;      //
   uint16_t node_bytes;      // bytes of one node in the node section (padded)
   uint8_t base_bits;        // bit-packed nodes: bits of the node base, primitive base, group size - 1
@@ -96,11 +96,25 @@ class DeviceImage {
   }
   // Where the unit fetches record i: image offset and bytes. With blocks the first record of a block carries the
   // whole block and the others nothing (the unit reads a leaf's block once); empty when records are 40 bytes.
+  // With clusters (prim_layout 2) a record inside a cluster with internal nodes carries nothing: the cluster's
+  // root node carries the cluster (cluster_node_spans).
   struct Span {
     uint64_t offset;
     uint32_t bytes;
   };
   const std::vector<Span>& record_spans() const { return m_spans; }
+  // Nodes as decoded: the node section's header().node_count, then the internal nodes of the clusters
+  // (prim_layout 2, cluster_layout.h), each cluster's breadth first, clusters in the order of the primitive
+  // section. nodes() holds node_total() nodes.
+  uint32_t node_total() const { return header().node_count + uint32_t(m_cluster_spans.size()); }
+  // Where the unit fetches cluster node header().node_count + j: element j. A cluster's root carries the whole
+  // cluster (the unit reads it once, when the ray enters the cluster: a subtree is traversed without leaving it,
+  // so its other nodes and its records carry nothing). Empty without clusters.
+  const std::vector<Span>& cluster_node_spans() const { return m_cluster_spans; }
+  // Per record with clusters (else empty): kRecordInCluster when a cluster holds it, kRecordLeafStart when it is
+  // the first of its leaf (the cluster unit tests a leaf's triangles as one request).
+  static constexpr uint8_t kRecordInCluster = 1, kRecordLeafStart = 2;
+  const std::vector<uint8_t>& cluster_record_flags() const { return m_record_flags; }
   const PlaneRecord* planes() const {
     return reinterpret_cast<const PlaneRecord*>(data() + header().plane_offset);
   }
@@ -122,6 +136,8 @@ class DeviceImage {
   std::vector<uint64_t> m_nodes;   // decoded QNodes of a packed layout (8-byte aligned), else empty
   std::vector<uint8_t> m_records;  // decoded records of blocks, else empty
   std::vector<Span> m_spans;
+  std::vector<Span> m_cluster_spans;    // clusters' internal nodes
+  std::vector<uint8_t> m_record_flags;  // clusters: kRecordInCluster, kRecordLeafStart
 };
 
 // Encodes `g` in format `f` over `bvh` (its width must be f.width), or without a BVH when bvh is null (every

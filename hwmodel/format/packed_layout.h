@@ -33,6 +33,8 @@
 //     Decoding is exact: every vertex decodes to the grid point its 40-byte record holds, so a vertex shared by
 //     two blocks decodes to the same point in both (watertightness) and the layout adds no error. A leaf holding
 //     a sphere is a raw block: an 8-byte header, then its 40-byte records.
+//   2 clusters: subtrees of the BVH of up to 256 triangles, each one unit of 64-byte lines with its internal nodes
+//     and shared vertices (cluster_layout.h); leaves outside clusters are clusters of one leaf, or raw blocks.
 //   Block bits: kind (1 triangles, 0 raw), count - 1 (4); triangles go on: vertices - 1 (6), bits per axis
 //   x, y, z (5 each), anchor x, y, z (B each), bits of a primitive offset (5), primitive base (30), the
 //   triangles' primitive offsets, the vertices (x, y, z offsets each), the triangles' vertex indices (3 each,

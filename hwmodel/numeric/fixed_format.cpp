@@ -55,8 +55,11 @@ void FixedFormat::validate() const {
   if ((node_align & (node_align - 1)) != 0) fail("node_align must be a power of two");
   if (node_layout == 0 && node_align != 1)
     fail("node_align applies to packed nodes (node_layout 1 or 2); node_layout 0 stores whole structs");
-  if (prim_layout != 0 && node_layout == 0)
+  if (prim_layout == 1 && node_layout == 0)
     fail("prim_layout 1 (triangle blocks) needs packed nodes (node_layout 1 or 2), which address blocks");
+  if (prim_layout == 2 && node_layout == 0)
+    fail("prim_layout 2 (triangle clusters) needs packed nodes (node_layout 1 or 2), which address clusters");
+  if (prim_layout != 2 && cluster_tris != 256) fail("cluster_tris applies to triangle clusters (prim_layout 2)");
   constexpr int kLimit = 126;  // magnitude bits of the 128-bit intermediates, one spare
   auto fits = [&](const char* what, int bits) {
     if (bits > kLimit) fail(std::string(what) + " needs " + std::to_string(bits) + " bits (> 126)");
@@ -124,7 +127,8 @@ std::string FixedFormat::describe() const {
   if (node_layout != 0 || prim_layout != 0) {
     o << ", nodes " << kNodes[node_layout < 0 || node_layout > 2 ? 0 : node_layout];
     if (node_align > 1) o << " (" << node_align << "-byte aligned)";
-    o << ", " << (prim_layout ? "triangle blocks" : "40-byte records");
+    o << ", " << (prim_layout == 2 ? "triangle clusters" : prim_layout ? "triangle blocks" : "40-byte records");
+    if (prim_layout == 2 && cluster_tris != 256) o << " of " << cluster_tris;
   }
   if (xform_bits != 24) o << ", transforms " << xform_bits << " bits";
   if (node_kind == 1) o << ", oriented boxes (" << rotations << " rotations, " << rot_bits << " bits)";
@@ -180,6 +184,10 @@ const std::vector<FixedFormat>& format_presets() {
       // bytes, with triangle blocks, in the spirit of AMD RDNA4's 128-byte BVH8 node with its rotation index and
       // compressed primitive nodes (timing preset rdna4, timing_config.cpp).
       {"rdna4", "width=8:child_bits=12:node_layout=1:node_align=128:prim_layout=1:node_kind=1"},
+      // The default's bits, bit-packed nodes over triangle clusters of up to 256 triangles
+      // (format/cluster_layout.h), in the spirit of the cluster acceleration structures of NVIDIA's RTX Mega
+      // Geometry.
+      {"clusters", "node_layout=1:prim_layout=2"},
   };
   static const std::vector<FixedFormat> presets = [] {
     std::vector<FixedFormat> v;
@@ -221,7 +229,8 @@ constexpr FormatField kFields[] = {
     {"t_bits", "", &F::t_bits, 8, 62, "magnitude bits of the t register"},
     {"node_layout", "", &F::node_layout, 0, 2, "node storage: 0 structs, 1 bit-packed, 2 compressed-wide bytes"},
     {"node_align", "", &F::node_align, 1, 128, "packed node size rounded up to a multiple of this (bytes)"},
-    {"prim_layout", "", &F::prim_layout, 0, 1, "primitive storage: 0 40-byte records, 1 triangle blocks"},
+    {"prim_layout", "", &F::prim_layout, 0, 2,
+     "primitive storage: 0 40-byte records, 1 triangle blocks, 2 triangle clusters"},
     {"xform_bits", "X", &F::xform_bits, 8, 24, "significant bits of an instance transform's entries"},
     {"node_kind", "", &F::node_kind, 0, 1, "node kind: 0 axis-aligned boxes, 1 oriented boxes (rotation table)"},
     {"rotations", "", &F::rotations, 1, 1024, "oriented boxes: rotations in the table a node indexes"},
@@ -230,6 +239,7 @@ constexpr FormatField kFields[] = {
      "triangle pairs: consecutive triangles of a leaf sharing an edge tested as one request (prim_layout 0)"},
     {"curve_bits", "", &F::curve_bits, 8, 31,
      "curve segments: magnitude bits of the curve unit's local positions"},
+    {"cluster_tris", "", &F::cluster_tris, 16, 256, "triangle clusters: the most triangles one cluster holds"},
 };
 
 }  // namespace

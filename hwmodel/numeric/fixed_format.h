@@ -28,7 +28,8 @@ struct FixedFormat {
   // How the image stores what the fields above describe (packed_layout.h): the bytes the bits cost.
   int node_layout = 0;  // 0 structs (whole-byte fields), 1 bit-packed, 2 compressed-wide (CWBVH-like bytes)
   int node_align = 1;   // packed nodes padded to a multiple of this many bytes (power of two, 1..128)
-  int prim_layout = 0;  // 0 40-byte records, 1 compressed triangle blocks (needs node_layout 1 or 2)
+  int prim_layout =
+      0;  // 0 40-byte records, 1 compressed triangle blocks, 2 triangle clusters (1, 2: node_layout 1/2)
   // Two-level scenes (instanced_fixed.h): significant bits of each entry of an instance's world -> object
   // transform, 8..24 (24: the float32 matrices of DXR and Vulkan instances).
   int xform_bits = 24;
@@ -44,6 +45,8 @@ struct FixedFormat {
   // Curve segments (intersect_fixed.h, swept_sphere_test): magnitude bits of the curve unit's local positions
   // (a ray's offset from a segment, the segment, its radii), each shifted right until it fits.
   int curve_bits = 24;
+  // Triangle clusters (prim_layout 2, format/cluster_layout.h): the most triangles one cluster holds, 16..256.
+  int cluster_tris = 256;
 
   // Throws std::invalid_argument with the rule a format breaks.
   void validate() const;

@@ -80,6 +80,9 @@ std::vector<KeyInfo> make_key_table() {
       {"curve_latency", &C::curve_latency, 1, kMaxLatency, "curve test pipeline depth (either unit)"},
       {"curve_issue", &C::curve_issue, 1, 64,
        "without curve units: clocks a curve test holds a triangle unit issue slot"},
+      {"cluster_tri_rate", &C::cluster_tri_rate, 0, 64,
+       "triangle clusters: the cluster engine's triangles per clock, a leaf per request, its nodes beside the box "
+       "units (0: off, the box and triangle units test clusters)"},
       {"queue_depth", &C::queue_depth, 1, 4096,
        "rays the prefetch queue holds; clocks a unit request waits before it counts as a stall"},
       {"cache_kib", &C::cache_kib, 0, 65536, "node and primitive cache in KiB (0: no cache)"},

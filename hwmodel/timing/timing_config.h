@@ -83,6 +83,11 @@ struct TimingConfig {
   int curve_rate = 1;      // curve tests per clock per curve unit
   int curve_latency = 20;  // curve test pipeline depth, issue to result
   int curve_issue = 2;     // without curve units: clocks a curve test holds a triangle unit issue slot
+  // Triangle clusters (format prim_layout 2, format/cluster_layout.h): the cluster engine, one per unit, tests a
+  // cluster's internal nodes (box_rate boxes per clock, box_latency deep, beside the box units) and each leaf of
+  // the cluster as one request of cluster_tri_rate triangles per clock (tri_latency deep). 0: off, a cluster's
+  // nodes and triangles go to the box and triangle units as any others do. An estimate: no published figure.
+  int cluster_tri_rate = 0;
   // Rays the ray prefetch queue holds ahead of the slots, and clocks a unit request may wait for a free unit
   // before the wait counts as a queue stall (waiting requests stay in their slots; there is no request buffer).
   int queue_depth = 16;

@@ -35,6 +35,10 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
   m_box_free.assign(size_t(c.box_units), 0);
   m_tri_free.assign(size_t(c.tri_units) * size_t(c.tri_rate), 0);  // a unit of rate r: r issue slots per clock
   m_curve_free.assign(size_t(c.curve_units) * size_t(c.curve_rate), 0);
+  if (c.cluster_tri_rate > 0) {
+    m_cluster_box_free.assign(1, 0);
+    m_cluster_tri_free.assign(1, 0);
+  }
   m_slots.resize(size_t(c.ray_slots));
   m_recent.assign(size_t(c.queue_depth), 0);
   if (c.gather != "none") m_gather = std::make_unique<RayGather>(c);
@@ -114,6 +118,9 @@ TimingModel::Layout TimingModel::layout_of(const DeviceImage& image, uint64_t al
   l.node_bytes = image.node_bytes();
   l.node_cost = find_node_kind(uint32_t(node_kind(h)))->cost;  // the image check refused unknown kinds
   l.record_spans = image.record_spans();
+  l.cluster_node_begin = h.node_count;
+  l.cluster_node_spans = image.cluster_node_spans();
+  l.cluster_record_flags = image.cluster_record_flags();
   if (align == 0) {
     l.node_offset = h.node_offset;
     l.record_offset = h.record_offset;
@@ -128,7 +135,20 @@ TimingModel::Layout TimingModel::layout_of(const DeviceImage& image, uint64_t al
   l.node_offset = up(h.node_offset);
   l.record_offset = up(l.node_offset + uint64_t(h.node_count) * l.node_stride);
   uint64_t record_end = l.record_offset + uint64_t(h.record_count) * l.record_stride;
-  if (!l.record_spans.empty()) {  // each block starts on the alignment
+  if (!l.cluster_node_spans.empty()) {  // each cluster or block starts on the alignment, in the image's order
+    std::vector<DeviceImage::Span*> spans;
+    for (DeviceImage::Span& s : l.record_spans)
+      if (s.bytes > 0) spans.push_back(&s);
+    for (DeviceImage::Span& s : l.cluster_node_spans)
+      if (s.bytes > 0) spans.push_back(&s);
+    std::sort(spans.begin(), spans.end(), [](const auto* a, const auto* b) { return a->offset < b->offset; });
+    uint64_t at = l.record_offset;
+    for (DeviceImage::Span* s : spans) {
+      s->offset = at;
+      at = up(at + s->bytes);
+    }
+    record_end = at;
+  } else if (!l.record_spans.empty()) {  // each block starts on the alignment
     uint64_t at = l.record_offset;
     for (DeviceImage::Span& s : l.record_spans) {
       if (s.bytes == 0) continue;
@@ -163,6 +183,7 @@ TimingModel::Layout TimingModel::layout_of(const InstancedFixedTracer& t, uint64
     b.record_offset += base;
     b.plane_offset += base;
     for (DeviceImage::Span& sp : b.record_spans) sp.offset += base;
+    for (DeviceImage::Span& sp : b.cluster_node_spans) sp.offset += base;
     end = base + b.total_bytes;
     b.total_bytes = end;
     top.bottoms.push_back(std::move(b));
@@ -194,7 +215,12 @@ void TimingModel::for_each_fetch(const std::vector<TraceEvent>& ev, F&& f) const
 template <bool Reverse, class F>
 void TimingModel::for_each_line(const Layout& l, const TraceEvent& e, F&& f) const {
   uint64_t addr, bytes;
-  if (e.kind == TraceEvent::kNode) {
+  if (cluster_node(l, e)) {
+    const DeviceImage::Span& s = l.cluster_node_spans[e.index - l.cluster_node_begin];
+    if (s.bytes == 0) return;  // in the cluster its root fetched
+    bytes = s.bytes;
+    addr = s.offset;
+  } else if (e.kind == TraceEvent::kNode) {
     bytes = l.node_bytes;
     addr = l.node_offset + uint64_t(l.treelets ? l.treelets->position[e.index] : e.index) * l.node_stride;
   } else if (e.kind == TraceEvent::kPrim && e.count == uint8_t(RecordKind::kInstance)) {
@@ -345,6 +371,27 @@ uint64_t TimingModel::refill(Slot& sl, uint32_t k, uint64_t t) {
 
 uint64_t TimingModel::unit_request(const TraceEvent& e, uint32_t k, uint64_t t) {
   uint64_t done;
+  const Slot& sl = m_slots[k];
+  if (!m_cluster_box_free.empty() && cluster_node(*sl.layout, e)) {
+    // The cluster engine's box stage: the node's children at box_rate per clock.
+    done = unit(m_cluster_box_free, m_box_cost.issue[e.count], m_box_cost.latency, t);
+    if (m_trace) m_trace->add(m_unit, k, "cluster box", t, done);
+    m_s->cluster_box_tests += e.count;
+    ++m_s->cluster_requests;
+    return done;
+  }
+  if (!m_cluster_tri_free.empty() && cluster_tri(*sl.layout, e)) {
+    // The cluster engine's triangle stage: this triangle and those after it of its leaf (leaf_follower), as one
+    // request of ceil(n / cluster_tri_rate) clocks; the followers take no time of their own (simulate()).
+    uint64_t n = 1;
+    for (size_t j = sl.pos + 1; j < sl.ev.size() && leaf_follower(*sl.layout, sl.ev[j - 1], sl.ev[j]); ++j) ++n;
+    const uint64_t rate = uint64_t(m_c.cluster_tri_rate);
+    done = unit(m_cluster_tri_free, (n + rate - 1) / rate, uint64_t(m_c.tri_latency), t);
+    if (m_trace) m_trace->add(m_unit, k, "cluster triangles", t, done);
+    m_s->cluster_tri_tests += n;
+    ++m_s->cluster_requests;
+    return done;
+  }
   if (e.kind == TraceEvent::kNode) {
     // The configured rate and depth, or the clocks the box unit that tested the node reported (box_unit.h).
     const uint64_t issue = e.unit_issue ? e.unit_issue : m_box_cost.issue[e.count];
@@ -579,6 +626,10 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
           continue;
         default:
           break;
+      }
+      if (!m_cluster_tri_free.empty() && sl.pos > 0 && leaf_follower(*sl.layout, sl.ev[sl.pos - 1], e)) {
+        ++sl.pos;  // tested in its leaf's request to the cluster engine
+        continue;
       }
       if (!sl.unit_phase) {  // fetch the data the unit needs: ready when its last line is
         ++(e.kind == TraceEvent::kNode ? m_s->node_fetches : m_s->prim_fetches);

@@ -24,6 +24,11 @@
 //   tests per clock (tri_units * tri_rate issue slots, one test per clock each; spheres and planes use the same
 //   slots with their own latency). A request waits for the earliest free unit (first come, first served); waits
 //   longer than queue_depth clocks count as queue stalls.
+// - cluster engine (cluster_tri_rate > 0; triangle clusters, format/cluster_layout.h): a cluster is fetched whole
+//   when a ray enters it (its root node), as a block is; its internal nodes are tested in the engine's box stage
+//   (box_rate per clock, box_latency deep, one node at a time) and each of its leaves' triangles as one request
+//   of ceil(triangles / cluster_tri_rate) issue clocks, tri_latency deep (the triangles the datapath tested: an
+//   any-hit ray's leaf ends at its hit). Off: the box and triangle units test clusters as any nodes and triangles.
 // - scheduler: traversal_latency from a unit result to the slot's next request; hit write-back one per clock,
 //   writeback_latency deep; a slot is free again the clock after its hit is issued to write-back.
 // - watchdog: a ray that stays in its slot more than watchdog_cycles stops the packet with a WatchdogError
@@ -93,6 +98,12 @@ class TimingModel {
     // Primitive blocks (DeviceImage::record_spans): record i is fetched as the bytes of its span, which are the
     // whole block for a block's first record and none for the others. Empty: 40-byte records at the stride.
     std::vector<DeviceImage::Span> record_spans;
+    // Triangle clusters (DeviceImage::cluster_node_spans): node cluster_node_begin + j is fetched as the bytes of
+    // cluster_node_spans[j], the whole cluster for its root and none for its other nodes; cluster_record_flags
+    // says which records a cluster holds and which start a leaf (the cluster engine's requests). Empty: none.
+    uint64_t cluster_node_begin = 0;
+    std::vector<DeviceImage::Span> cluster_node_spans;
+    std::vector<uint8_t> cluster_record_flags;
     // Two levels (instanced_fixed.h), in the top level: an instance record is fetched with its stored transform
     // and bottom-level address, instance_bytes at record_offset + index * record_stride; bottoms[m] places mesh
     // m's image after the top level's sections (total_bytes then covers them all). Empty: one level.
@@ -245,6 +256,22 @@ class TimingModel {
   BoxCost m_box_cost;       // issue clocks and latency of a node test, by the node kind's cost class
   bool m_oriented = false;  // the image's nodes are oriented: each node test turns the ray (obb_rotations)
   std::vector<uint64_t> m_box_free, m_tri_free, m_curve_free;
+  // The cluster engine (cluster_tri_rate > 0): its box stage and its triangle stage, one issue port each.
+  std::vector<uint64_t> m_cluster_box_free, m_cluster_tri_free;
+  // Whether event e (in layout l) is a cluster's internal node, or a triangle of a cluster; and whether it is a
+  // triangle that follows the previous one of its leaf (tested in the leaf's request, at no time of its own).
+  static bool cluster_node(const Layout& l, const TraceEvent& e) {
+    return e.kind == TraceEvent::kNode && !l.cluster_node_spans.empty() && e.index >= l.cluster_node_begin;
+  }
+  static bool cluster_tri(const Layout& l, const TraceEvent& e) {
+    return e.kind == TraceEvent::kPrim && e.count == uint8_t(RecordKind::kTriangle) &&
+           e.index < l.cluster_record_flags.size() &&
+           (l.cluster_record_flags[e.index] & DeviceImage::kRecordInCluster);
+  }
+  static bool leaf_follower(const Layout& l, const TraceEvent& prev, const TraceEvent& e) {
+    return cluster_tri(l, e) && !(l.cluster_record_flags[e.index] & DeviceImage::kRecordLeafStart) &&
+           cluster_tri(l, prev) && prev.index + 1 == e.index;
+  }
   // Unit requests whose slot waits for its cycle (cycle << 12 | slot, a min-heap); the others went ahead at
   // their fetch (simulate()). m_min_fetch: the fewest cycles any fetch takes (a cache hit, or without a cache a
   // line from DRAM).

@@ -36,7 +36,7 @@ constexpr std::array<TimingCounter, 14> kBeforePrefetch = {{
      kPerRay},
     {"cache_misses", &S::cache_misses, "lines", "cache line accesses that missed and went to DRAM", kPerRay},
 }};
-constexpr std::array<TimingCounter, 19> kAfterPrefetch = {{
+constexpr std::array<TimingCounter, 22> kAfterPrefetch = {{
     {"l2_hits", &S::l2_hits, "lines", "node cache fills found in the L2 (with l2_kib > 0)", kPerRay},
     {"l2_misses", &S::l2_misses, "lines", "node cache fills the L2 missed (read from DRAM)", kPerRay},
     {"dram_bytes", &S::dram_bytes, "bytes",
@@ -68,6 +68,12 @@ constexpr std::array<TimingCounter, 19> kAfterPrefetch = {{
     {"obb_rotations", &S::obb_rotations, "nodes",
      "oriented nodes: rays turned into a node's frame, one per oriented node test (each adds obb_latency)",
      kPerRay},
+    {"cluster_box_tests", &S::cluster_box_tests, "tests",
+     "triangle clusters: box tests of clusters' internal nodes by the cluster engine (not in box_tests)", kPerRay},
+    {"cluster_tri_tests", &S::cluster_tri_tests, "tests",
+     "triangle clusters: triangle tests by the cluster engine (not in tri_tests)", kPerRay},
+    {"cluster_requests", &S::cluster_requests, "requests",
+     "triangle clusters: requests to the cluster engine (an internal node, or a leaf's triangles)", kPerRay},
     {"instance_transforms", &S::instance_transforms, "rays",
      "two-level scenes: rays transformed into an instance's bottom level (each waits xform_latency)", kPerRay},
     {"unit_wait_cycles", &S::unit_wait_cycles, "cycles",
@@ -215,6 +221,9 @@ const std::vector<ReportEntry>& report_table() {
       count("any_hit_requests", &S::any_hit_requests),
       count("tri_pairs", &S::tri_pairs),
       count("obb_rotations", &S::obb_rotations),
+      count("cluster.box_tests", &S::cluster_box_tests),
+      count("cluster.tri_tests", &S::cluster_tri_tests),
+      count("cluster.requests", &S::cluster_requests),
       count("instance_transforms", &S::instance_transforms),
       count("unit_wait_cycles", &S::unit_wait_cycles),
       count("mem_wait_cycles", &S::mem_wait_cycles),

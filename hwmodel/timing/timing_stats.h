@@ -44,6 +44,9 @@ struct TimingStats {
   uint64_t any_hit_requests = 0;  // candidate hits on non-opaque triangles sent to the firmware's any-hit stage
   uint64_t tri_pairs = 0;         // triangle pairs tested as one request (in tri_tests twice)
   uint64_t obb_rotations = 0;     // oriented nodes: rays turned into a node's frame (one per oriented node test)
+  // Triangle clusters with the cluster engine on (cluster_tri_rate > 0): box tests of clusters' internal nodes and
+  // triangle tests it did (not in box_tests, tri_tests), and its requests (a node, or a leaf's triangles).
+  uint64_t cluster_box_tests = 0, cluster_tri_tests = 0, cluster_requests = 0;
   uint64_t instance_transforms = 0;  // two-level scenes: rays transformed into an instance's bottom level
   // Waits that are throughput, not latency: requests queued for a busy box or triangle unit, and line and stack
   // reads queued for a busy L2 slice port, DRAM bank or channel (the latency bound takes them out of a ray's

@@ -82,6 +82,27 @@ int main(int argc, char** argv) {
     const hw::DeviceImage img = hw::encode_scene(quads, f, &bvh);
     put(dir / "device_image" / "fixed_tri_pairs.img", img.data(), img.size(), 0);
   }
+  // Triangle clusters (prim_layout 2): a 6 x 4 grid of quads in a binary tree of leaves of 2, clusters of up to 16
+  // triangles (so they hold internal nodes); and without a BVH (clusters of one leaf).
+  {
+    hw::Geometry grid;
+    for (int y = 0; y < 4; ++y)
+      for (int x = 0; x < 6; ++x) {
+        const hw::Vec3 a(float(x), float(y), 0.1f * float(x % 3)), b(float(x + 1), float(y), 0.1f * float(y % 2)),
+            c(float(x), float(y + 1), 0.0f), d(float(x + 1), float(y + 1), 0.2f);
+        grid.triangles.push_back({a, b, c});
+        grid.triangles.push_back({b, d, c});
+      }
+    const hw::FixedFormat f = hw::format_from_spec("clusters:width=2:cluster_tris=16");
+    hw::BvhBuildParams bp;
+    bp.width = 2;
+    bp.max_leaf_size = 2;
+    const hw::Bvh bvh = hw::Bvh::build(grid, bp);
+    const hw::DeviceImage img = hw::encode_scene(grid, f, &bvh);
+    put(dir / "device_image" / "fixed_clusters_tree.img", img.data(), img.size(), 0);
+    const hw::DeviceImage brute_clusters = hw::encode_scene(grid, f, nullptr);
+    put(dir / "device_image" / "fixed_brute_clusters.img", brute_clusters.data(), brute_clusters.size(), 0);
+  }
   // Oriented nodes (node_kind 1): 4- and 8-wide, the table's size and bits in the header's flags.
   for (const char* spec : {"default:node_kind=1", "wide8:node_kind=1:child_bits=12:rotations=13:rot_bits=8"}) {
     const hw::FixedFormat f = hw::format_from_spec(spec);

@@ -46,7 +46,7 @@ TEST_CASE("every timing preset validates and lists every key", "[timing][config]
     CHECK_NOTHROW(c.validate());
     CHECK_FALSE(timing_preset_description(name).empty());
     const auto keys = timing_keys(c);
-    CHECK(keys.size() == 74);  // every field of TimingConfig but `name`
+    CHECK(keys.size() == 75);  // every field of TimingConfig but `name`
     for (const TimingKey& k : keys) {
       CHECK_FALSE(k.key.empty());
       CHECK_FALSE(k.value.empty());
@@ -253,6 +253,13 @@ TEST_CASE("set_timing_key sets what it parses and refuses the rest, naming the k
   TimingConfig c = timing_preset("rdna2");
   set_timing_key(c, "ray_slots", "64");
   CHECK(c.ray_slots == 64);
+  // The cluster engine: off in every preset, 1..64 triangles per clock when set.
+  for (const std::string& name : timing_preset_names()) CHECK(timing_preset(name).cluster_tri_rate == 0);
+  set_timing_key(c, "cluster_tri_rate", "8");
+  CHECK(c.cluster_tri_rate == 8);
+  CHECK(value_of(c, "cluster_tri_rate") == "8");
+  CHECK_THROWS_WITH(set_timing_key(c, "cluster_tri_rate", "65"), Catch::Contains("cluster_tri_rate"));
+  set_timing_key(c, "cluster_tri_rate", "0");
   set_timing_key(c, "dram_bytes_per_cycle", "12.5");
   CHECK(c.dram_bytes_per_cycle == 12.5);
   set_timing_key(c, "format", "compact");

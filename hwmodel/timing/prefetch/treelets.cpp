@@ -35,7 +35,8 @@ Treelets form_treelets(const DeviceImage& image, uint64_t budget_bytes, uint64_t
         ++taken;
         const typename K::Node& nd = nodes[n];
         for (int i = 0; i < K::count(nd); ++i)
-          if (!is_leaf(K::child(nd, i))) frontier.push_back(K::child(nd, i));
+          if (!is_leaf(K::child(nd, i)) && K::child(nd, i) < h.node_count)  // not a cluster's node
+            frontier.push_back(K::child(nd, i));
       }
       t.size[root] = taken;
     }

@@ -159,6 +159,31 @@ hw::CostInputs cost_inputs(const hw::FixedFormat& f, const hw::TimingConfig& c, 
     }
     in.rotate.nand2_eq = ge;
   }
+  {
+    // The curve test, fitted from the reference operators (no RTL unit): swept_sphere_test's products at their
+    // operand widths, a product of m by n bits costing m n / 32^2 reference 32-bit multiplies: 82 of a position
+    // (C + 4 bits, C = curve_bits) by a direction (Dc + 3, Dc = max(D, 54 - C)), the cone's 58 and the two end
+    // spheres' 24; the discriminant's 2 squares of C + Dc + 8 bits; the 3 parameter checks' of 2C + 9 by
+    // C + Dc + 2; 5 quotients and 3 square roots as 4 position-by-direction products each. 60 sums of 2C + 8 bits
+    // cost (2C + 8) / 32 reference adds each.
+    const std::vector<ReferenceOp> ops = reference_ops(area, activity);
+    const hw::Technology& t = hw::nangate45();
+    const double C = f.curve_bits, Dc = std::max(f.dir_bits, 54 - f.curve_bits);
+    const double pd = (C + 4.0) * (Dc + 3.0) / 1024.0;
+    const double muls = (82.0 + 4.0 * 8.0) * pd + 2.0 * (C + Dc + 8.0) * (C + Dc + 8.0) / 1024.0 +
+                        3.0 * (2.0 * C + 9.0) * (C + Dc + 2.0) / 1024.0,
+                 adds = 60.0 * (2.0 * C + 8.0) / 32.0;
+    double ge = 0.0, pj = 0.0;
+    for (const ReferenceOp& op : ops) {
+      const double n = op.key == "ref:mul32" ? muls : adds;
+      ge += n * (op.measured ? op.nand2_eq : op.horowitz_um2 / t.nand2_um2);
+      pj += n * (op.measured ? op.pj : op.horowitz_pj);
+    }
+    in.curve.nand2_eq = ge;
+    in.curve.toggles_per_test = pj / t.pj_per_transition();
+    in.curve.source = std::string("fit: operation counts of swept_sphere_test x reference operators (") +
+                      (ops[0].measured && ops[1].measured ? "synthesized" : "Horowitz ISSCC 2014") + ")";
+  }
   return in;
 }
 
@@ -184,7 +209,9 @@ Json energy_json(const hw::EnergyReport& e, const hw::TimingConfig& c, const hw:
                {"sram_bits", e.area.sram_bits},
                {"box_unit", {{"nand2_eq", in.box.nand2_eq}, {"source", in.box.source}}},
                {"tri_unit", {{"nand2_eq", in.tri.nand2_eq}, {"source", in.tri.source}}},
-               {"rotate_stage", {{"nand2_eq", in.rotate.nand2_eq}, {"source", in.rotate.source}}}};
+               {"rotate_stage", {{"nand2_eq", in.rotate.nand2_eq}, {"source", in.rotate.source}}},
+               {"curve_units_mm2", e.area.curve_mm2},
+               {"curve_unit", {{"nand2_eq", in.curve.nand2_eq}, {"source", in.curve.source}}}};
   Json events = Json::object();
   for (const hw::EnergyEvent& ev : e.events)
     events[ev.key] = {{"count", ev.count}, {"unit", ev.unit}, {"pj_each", ev.pj_each}, {"pj", ev.pj()}};
@@ -229,6 +256,9 @@ std::vector<EnergyKey> energy_json_keys() {
       {"energy.area.tri_unit", "-", "one triangle unit: nand2_eq and where its size and activity come from"},
       {"energy.area.rotate_stage", "-",
        "oriented nodes: one box unit's rotation stage (nand2_eq, 0 for axis-aligned nodes; in box_units_mm2)"},
+      {"energy.area.curve_units_mm2", "mm^2", "curve units (curve_units; 0 without)"},
+      {"energy.area.curve_unit", "-",
+       "one curve test's logic: nand2_eq fitted from operation counts (its area counts only with curve_units)"},
       {"energy.events", "-", "each event: count, unit, pj_each, pj (count x pj_each)"},
       {"energy.total_pj", "pJ", "sum of the events' pj"},
       {"energy.pj_per_ray", "pJ/ray", "total_pj / rays"},

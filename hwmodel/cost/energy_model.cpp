@@ -88,16 +88,18 @@ AreaReport area_report(const TimingConfig& c, const CostInputs& in, const Techno
   AreaReport a;
   const double units = double(c.units);  // a chip: every unit has its own units, cache and slots
   const double box_ge = in.box.nand2_eq + in.rotate.nand2_eq;  // a box unit and its rotation stage
-  a.logic_nand2_eq = units * (c.box_units * box_ge + c.tri_units * in.tri.nand2_eq);
+  a.logic_nand2_eq = units * (c.box_units * box_ge + c.tri_units * in.tri.nand2_eq +
+                              c.curve_units * c.curve_rate * in.curve.nand2_eq);
   a.box_mm2 = logic_area_mm2(units * c.box_units * box_ge, t);
   a.tri_mm2 = logic_area_mm2(units * c.tri_units * in.tri.nand2_eq, t);
+  a.curve_mm2 = logic_area_mm2(units * c.curve_units * c.curve_rate * in.curve.nand2_eq, t);
   const double cache_bits = units * cache_sram_bits(c), slot_bits = units * slot_sram_bits(c);
   const double l2_bits = l2_sram_bits(c);
   a.sram_bits = cache_bits + slot_bits + l2_bits;
   a.cache_mm2 = sram_area_mm2(cache_bits, t);
   a.slots_mm2 = sram_area_mm2(slot_bits, t);
   a.l2_mm2 = sram_area_mm2(l2_bits, t);
-  a.total_mm2 = a.box_mm2 + a.tri_mm2 + a.cache_mm2 + a.slots_mm2 + a.l2_mm2;
+  a.total_mm2 = a.box_mm2 + a.tri_mm2 + a.curve_mm2 + a.cache_mm2 + a.slots_mm2 + a.l2_mm2;
   return a;
 }
 
@@ -119,7 +121,10 @@ EnergyReport energy_report(const TimingStats& s, const TimingConfig& c, const Co
       {"box_test", "tests", "box tests x the box unit's switching energy per test", s.box_tests,
        in.box.toggles_per_test * e_gate},
       {"tri_test", "tests", "triangle unit tests (triangles, spheres, planes) x its switching energy per test",
-       s.tri_issue_cycles, in.tri.toggles_per_test * e_gate},
+       s.tri_issue_cycles - (c.curve_units == 0 ? s.curve_tests * uint64_t(c.curve_issue) : 0),
+       in.tri.toggles_per_test * e_gate},
+      {"curve_test", "tests", "curve segment tests x a curve test's switching energy (in either unit)",
+       s.curve_tests, in.curve.toggles_per_test * e_gate},
       {"cache_read", "lines", "cache line reads (hits and misses)", s.cache_hits + s.cache_misses, line},
       {"cache_fill", "lines", "cache line writes on a miss or a prefetcher's fill",
        s.cache_misses + s.prefetch_fills, line},

@@ -83,6 +83,10 @@ struct CostInputs {
   // 3x3 products and a Newton step per reciprocal; 12 adds), its size and its energy per rotation as gate
   // transitions; zero for axis-aligned nodes.
   UnitCost rotate;
+  // Curve segments: one curve test (swept_sphere_test: its products, sums, quotients and roots), sized from the
+  // reference operators (host/cost/cost_model.cpp says how); a curve unit's area when curve_units > 0, and the
+  // energy of every curve test, on a curve unit or in triangle unit slots.
+  UnitCost curve;
 };
 
 // The unit's SRAM: cache data and tags, ray slot state (kSlotStateBytes per slot), short stacks and trails, ray
@@ -97,6 +101,7 @@ inline constexpr int kPrefetchEntryBytes = 8;
 inline constexpr int kGatherKeyBytes = 4;
 struct AreaReport {
   double box_mm2 = 0, tri_mm2 = 0;      // all units of the kind
+  double curve_mm2 = 0;                 // curve units (curve_units, 0 without)
   double cache_mm2 = 0, slots_mm2 = 0;  // all units'
   double l2_mm2 = 0;                    // the chip's L2
   double total_mm2 = 0;

@@ -357,6 +357,125 @@ void grazing_spheres(const StressOptions& o, StressResult& res) {
   }
 }
 
+// Distance from the line through o along d (double) to the segment [a, b]: the closest points of the two lines,
+// the segment's parameter clamped to [0, 1] and the line's re-projected (convex: exact in exact arithmetic).
+double line_segment_distance(const hw::DVec3& o, const hw::DVec3& d, const hw::DVec3& a, const hw::DVec3& b) {
+  const hw::DVec3 e = b - a, w = o - a;
+  const double dd = glm::dot(d, d), de = glm::dot(d, e), ee = glm::dot(e, e), dw = glm::dot(d, w),
+               ew = glm::dot(e, w), den = dd * ee - de * de;
+  double s = den > 1e-300 * dd * ee ? (dd * ew - de * dw) / den : 0.0;
+  s = ee > 0.0 ? std::clamp(s, 0.0, 1.0) : 0.0;
+  const hw::DVec3 c = a + s * e;
+  const hw::DVec3 f = o - c;
+  const hw::DVec3 l = f - glm::dot(f, d) / dd * d;
+  double best = glm::length(l);
+  // The clamp can leave the segment's end closer than the re-projection found: check both ends too.
+  for (const hw::DVec3& p : {a, b}) {
+    const hw::DVec3 g = o - p;
+    best = std::min(best, glm::length(g - glm::dot(g, d) / dd * d));
+  }
+  return best;
+}
+
+void curves(const StressOptions& o, StressResult& res) {
+  res.checks =
+      "curve segments of constant radius r (capsules): rays passing the axis at r (1 +- 10^-k), k = 1..6, from 2 "
+      "to 50 radii away, across and nearly along the axis (end caps), centered and far from the world origin; "
+      "zero-length segments (a sphere) and zero-radius segments (no surface)";
+  res.failure_rule =
+      "a wrong hit/miss outside the band the format implies (float: 2^-20 r plus 2^-21 of the distances; fixed: "
+      "8 grid steps plus the direction rounding 2^-D times the distance); any hit on a zero-radius segment";
+  hw::Pcg32 rng(o.seed + 12);
+  struct Variant {
+    const char* name;
+    Vec3 center;
+    float length;  // 0: a zero-length segment
+    bool along;    // rays nearly along the axis, at the end caps
+  };
+  const Variant variants[] = {{"across", Vec3(0.0f), 6.0f, false},
+                              {"along_axis", Vec3(0.0f), 6.0f, true},
+                              {"zero_length", Vec3(0.0f), 0.0f, false},
+                              {"far", Vec3(-52000.0f, 91000.0f, 12000.0f), 6.0f, false}};
+  for (const Variant& v : variants) {
+    const float radius = 1.0f;
+    const hw::DVec3 axis = glm::normalize(hw::DVec3(0.37, 0.81, -0.45));
+    const hw::DVec3 cd(v.center), a = cd - 0.5 * double(v.length) * axis, b = cd + 0.5 * double(v.length) * axis;
+    hw::Geometry g;
+    const Vec3 fa(a), fb(b);
+    g.curves.push_back(hw::CurveSegment{fa, radius, fb, radius, hw::kCurveCapStart});
+    const hw::QuantFrame frame = hw::QuantFrame::fit(g.bounds(), o.format.coord_bits);
+    std::vector<Ray> rays(o.count);
+    std::vector<double> gap(o.count), band_fx(o.count), band_fl(o.count);
+    for (size_t i = 0; i < rays.size(); ++i) {
+      const int k = 1 + int(rng.next_u32() % 6);
+      const double off = radius * (1.0 + ((rng.next_u32() & 1) ? 1.0 : -1.0) * std::pow(10.0, -k));
+      const double far = 2.0 + 48.0 * rng.next_float();
+      hw::DVec3 u, w;  // u: the ray's direction; w: the offset's, perpendicular to u
+      hw::DVec3 target;
+      if (v.along) {
+        // Toward the segment's p0 from beyond p1, nearly along the axis: the end cap at p1 decides.
+        u = glm::normalize(-axis + 1e-3 * hw::DVec3(random_in(rng, Vec3(0.0f), 1.0f)));
+        w = glm::normalize(glm::cross(u, hw::DVec3(0.3, 0.5, 0.8)));
+        target = b + off * w;
+      } else {
+        const hw::DVec3 r = glm::normalize(hw::DVec3(random_in(rng, Vec3(0.0f), 1.0f)) + hw::DVec3(1e-3));
+        u = glm::normalize(r - glm::dot(r, axis) * axis + 1e-9 * axis);
+        w = glm::normalize(glm::cross(u, axis));
+        target = a + (0.2 + 0.6 * rng.next_float()) * (b - a) + off * w;
+      }
+      const Vec3 orig(target - far * u);
+      rays[i] = Ray{orig, 0.0f, Vec3(target) - orig, kInf};
+      const hw::DVec3 od(rays[i].origin), dd(rays[i].dir);
+      gap[i] = line_segment_distance(od, dd, hw::DVec3(fa), hw::DVec3(fb)) - radius;
+      const double dist = glm::length(od - cd);
+      band_fx[i] = 8.0 * frame.step() + std::ldexp(dist, -o.format.dir_bits) * 2.0;
+      band_fl[i] = std::ldexp(double(radius), -20) + std::ldexp(dist + glm::length(cd), -21);
+    }
+    const Run r = run_both(g, o, rays);
+    uint64_t wrong_fl = 0, wrong_fx = 0, amb_fl = 0, amb_fx = 0;
+    for (size_t i = 0; i < rays.size(); ++i) {
+      const bool should_hit = gap[i] < 0;
+      if (std::abs(gap[i]) <= band_fl[i])
+        ++amb_fl;
+      else
+        wrong_fl += r.fl[i].hit() != should_hit;
+      if (std::abs(gap[i]) <= band_fx[i])
+        ++amb_fx;
+      else
+        wrong_fx += r.fx[i].hit() != should_hit;
+    }
+    res.cases += rays.size();
+    res.failures += wrong_fl + wrong_fx + r.sfx.box_false_negatives;
+    res.figures[v.name] = {{"rays", rays.size()},
+                           {"float", {{"wrong", wrong_fl}, {"ambiguous", amb_fl}}},
+                           {"fixed", {{"wrong", wrong_fx}, {"ambiguous", amb_fx}}}};
+  }
+  // Zero-radius segments: a line has no surface, so no ray of these hits it, on either device (rays through its
+  // points included).
+  hw::Geometry g;
+  g.curves.push_back(hw::CurveSegment{Vec3(-1.0f, 0.0f, 0.0f), 0.0f, Vec3(1.0f, 0.5f, 0.25f), 0.0f, 0});
+  g.curves.push_back(hw::CurveSegment{Vec3(0.0f, 1.0f, 0.0f), 0.0f, Vec3(0.0f, 1.0f, 0.0f), 0.0f, 0});
+  g.curves.push_back(hw::CurveSegment{Vec3(0.0f, -1.0f, 0.0f), 1.0f, Vec3(0.0f, -1.0f, 0.0f), 0.0f, 0});
+  std::vector<Ray> rays(o.count);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const float s = rng.next_float();
+    const Vec3 on = i % 2 ? Vec3(-1.0f, 0.0f, 0.0f) + s * Vec3(2.0f, 0.5f, 0.25f) : Vec3(0.0f, 1.0f, 0.0f);
+    const Vec3 from = on + 5.0f * glm::normalize(random_in(rng, Vec3(0.0f), 1.0f) + Vec3(1e-3f));
+    rays[i] = Ray{from, 0.0f, on - from, 2.0f};
+  }
+  const Run r = run_both(g, o, rays);
+  uint64_t line_fl = 0, line_fx = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    // The third segment (a zero-length one whose end sphere has radius 0 and start sphere radius 1) is a sphere of
+    // radius 1 at (0, -1, 0): rays toward y >= 0 from above it may meet it only if they pass within 1 of it.
+    line_fl += r.fl[i].hit() && r.fl[i].prim != 2;
+    line_fx += r.fx[i].hit() && r.fx[i].prim != 2;
+  }
+  res.cases += rays.size();
+  res.failures += line_fl + line_fx;
+  res.figures["zero_radius"] = {{"rays", rays.size()}, {"float_hits", line_fl}, {"fixed_hits", line_fx}};
+}
+
 void coordinate_range(const StressOptions& o, StressResult& res) {
   res.checks = "a closed icosphere of radius 1e-8 .. 1e8, centered and offset by 1e3 radii, rays at its edges";
   res.failure_rule = "a leak or an invalid ray on either device; a box false negative";
@@ -479,6 +598,7 @@ const Category kCategories[] = {
     {"fans_needles", fans_needles},
     {"self_intersection", self_intersection},
     {"grazing_spheres", grazing_spheres},
+    {"curves", curves},
     {"coordinate_range", coordinate_range},
     {"degenerate_triangles", degenerate_triangles},
     {"subgrid_triangles", subgrid_triangles},

@@ -288,7 +288,7 @@ bool swept_sphere_test(const FixedRay& r, const CurveRecord& c, int64_t tmin, in
     p1[a] = int64_t(c.p1[a]) << F;
     e[a] = p1[a] - p0[a];
   }
-  const int64_t R0 = c.r0, R1 = c.r1, dr = R1 - R0;
+  const int64_t R0 = curve_radius(c.r0), R1 = curve_radius(c.r1), dr = R1 - R0;
   const Wide E2 = Wide(e[0]) * e[0] + Wide(e[1]) * e[1] + Wide(e[2]) * e[2];
   int64_t best = INT64_MAX;
   float best_s = 0.0f;

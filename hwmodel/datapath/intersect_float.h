@@ -162,6 +162,7 @@ inline bool intersect_sphere(const Vec3& center, float radius, const RayPrecomp&
 // no cone and the segment is its larger sphere.
 inline bool intersect_swept_sphere(const Vec3& p0, float r0, const Vec3& p1, float r1, bool start_cap,
                                    const RayPrecomp& r, float tmin, float tmax, PrimHit& out) {
+  if (!(r0 > 0.0f) && !(r1 > 0.0f)) return false;  // a line: no surface (as the fixed test)
   using D3 = glm::dvec3;
   const D3 o = D3(r.origin) - D3(p0), d = D3(r.dir), ba = D3(p1) - D3(p0);
   const double R0 = r0, R1 = r1, dr = R1 - R0, L2 = glm::dot(ba, ba), a = glm::dot(d, d);
@@ -174,6 +175,7 @@ inline bool intersect_swept_sphere(const Vec3& p0, float r0, const Vec3& p1, flo
   };
   // A sphere's roots, as intersect_sphere forms them (Haines et al.), in double.
   const auto sphere = [&](const D3& c, double R, double s) {
+    if (!(R > 0.0)) return;  // a point: no surface
     const D3 f = o - c;
     const double b = -glm::dot(f, d);
     const D3 l = f + (b / a) * d;

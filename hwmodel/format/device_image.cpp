@@ -113,19 +113,20 @@ class Encoder {
       uint32_t* stored[2] = {&rec.r0, &rec.r1};
       int32_t* points[2] = {rec.p0, rec.p1};
       for (int i = 0; i < 2; ++i) {
-        // Radius in grid.F units, rounded up (exact in double, as a sphere's); the record's field is 32 bits.
+        // Radius in grid.F units, rounded up (exact in double, as a sphere's), then to the field's 27 significant
+        // bits, up. The frame holds the segment's spheres, so a radius is below 2^(B+F).
         const double rs = std::ceil(std::ldexp(double(radii[i]), F - m_frame.step_exp));
-        if (rs >= 4294967296.0)
-          throw std::invalid_argument(
-              "curve segment " + std::to_string(p - m_g.triangles.size() - m_g.spheres.size()) + ": a radius of " +
-              std::to_string(radii[i]) + " exceeds the record's 32 bits of grid units with frac_bits " +
-              std::to_string(F) + " (use fewer frac_bits)");
-        *stored[i] = uint32_t(rs);
+        if (!(rs < std::ldexp(1.0, 58)))
+          throw std::invalid_argument("curve segment " +
+                                      std::to_string(p - m_g.triangles.size() - m_g.spheres.size()) +
+                                      ": radius beyond the record's range");
+        *stored[i] = curve_radius_field(int64_t(rs));
+        const int64_t r = curve_radius(*stored[i]);
         for (int a = 0; a < 3; ++a) {
           const int64_t g = m_frame.to_grid((*ends[i])[a], a, Round::kNearestEven);
           points[i][a] = int32_t(g);  // in [0, 2^B - 1]: the end point lies inside the frame's bounds
-          box.lo[a] = std::min(box.lo[a], floor_shift((g << F) - int64_t(*stored[i]), F));
-          box.hi[a] = std::max(box.hi[a], ceil_shift((g << F) + int64_t(*stored[i]), F));
+          box.lo[a] = std::min(box.lo[a], floor_shift((g << F) - r, F));
+          box.hi[a] = std::max(box.hi[a], ceil_shift((g << F) + r, F));
         }
       }
       rec.round = kRoundCurve | ((cs.flags & kCurveCapStart) ? kRoundCapStart : 0u);
@@ -248,8 +249,9 @@ class Encoder {
  private:
   // Oriented kinds: what lies below a subtree, as the extents of its points along each rotation's axes: element
   // 6k + 2a is the least (M_k p)_a over its points p (grid integers times the table's integers: exact), 6k + 2a +
-  // 1 the greatest. A triangle's points are its vertices (its hull lies within), other records' the corners of
-  // their grid boxes.
+  // 1 the greatest. A triangle's points are its vertices (its hull lies within); a curve segment's its end points,
+  // widened by its larger radius times the row's length (both rounded up: the union of its spheres lies within);
+  // other records' the corners of their grid boxes.
   using Extents = std::vector<int64_t>;
 
   Extents record_extents(uint32_t i) const {
@@ -262,8 +264,19 @@ class Encoder {
       }
     int64_t pts[8][3];
     int np = 0;
+    int64_t pad = 0;  // curve segments: the larger radius in grid units, rounded up
     const uint8_t* rec = m_records_bytes + size_t(i) * kRecordBytes;
-    if (is_triangle(record_kind(rec))) {
+    if (is_curve_record(rec)) {
+      CurveRecord cr;
+      std::memcpy(&cr, rec, sizeof cr);
+      for (int a = 0; a < 3; ++a) {
+        pts[0][a] = cr.p0[a];
+        pts[1][a] = cr.p1[a];
+      }
+      np = 2;
+      const int64_t r = std::max(curve_radius(cr.r0), curve_radius(cr.r1));
+      pad = ceil_shift(r, m_f.frac_bits);
+    } else if (is_triangle(record_kind(rec))) {
       TriangleRecord tr;
       std::memcpy(&tr, rec, sizeof tr);
       for (; np < 3; ++np)
@@ -278,10 +291,14 @@ class Encoder {
         const int32_t* m = rot[k].m[a];
         int64_t& lo = e[6 * k + 2 * a];
         int64_t& hi = e[6 * k + 2 * a + 1];
+        // The row's length, rounded up: a sphere of radius r spans r |m| along it.
+        const int64_t len =
+            pad == 0 ? 0
+                     : int64_t(isqrt_round(Wide(m[0]) * m[0] + Wide(m[1]) * m[1] + Wide(m[2]) * m[2], Round::kUp));
         for (int p = 0; p < np; ++p) {
           const int64_t v = m[0] * pts[p][0] + m[1] * pts[p][1] + m[2] * pts[p][2];
-          lo = std::min(lo, v);
-          hi = std::max(hi, v);
+          lo = std::min(lo, v - pad * len);
+          hi = std::max(hi, v + pad * len);
         }
       }
     return e;
@@ -1056,7 +1073,7 @@ void check_records(const DeviceImage& img, const FixedFormat& f) {
       for (int e = 0; e < 3; ++e)
         if (c.p0[e] < 0 || c.p0[e] > grid_max || c.p1[e] < 0 || c.p1[e] > grid_max)
           bad_image("record " + std::to_string(i) + ": curve end point outside the grid");
-      if (c.r0 > (uint64_t(1) << (B + F + 1)) || c.r1 > (uint64_t(1) << (B + F + 1)))
+      if (curve_radius(c.r0) > (int64_t(1) << (B + F + 1)) || curve_radius(c.r1) > (int64_t(1) << (B + F + 1)))
         bad_image("record " + std::to_string(i) + ": curve radius out of range");
       if (c.round & ~(kRoundCurve | kRoundCapStart))
         bad_image("record " + std::to_string(i) + ": unknown round-primitive bits");

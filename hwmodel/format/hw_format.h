@@ -73,11 +73,29 @@ struct SphereRecord {
 // record's segment contains the spheres of the float one's rounded end points.
 struct CurveRecord {
   int32_t p0[3], p1[3];  // end points on the grid (integers in [0, 2^B - 1]), rounded to nearest
-  uint32_t r0, r1;       // radii, grid units with F fraction bits, rounded up (0 only for a zero radius)
+  uint32_t r0, r1;       // radii in grid.F, rounded up, as curve_radius_field stores them (0: a zero radius)
   uint32_t round;        // kRoundCurve, with kRoundCapStart when the sphere at p0 belongs to the segment
   uint32_t prim;         // kind kSphere (bits 30..31) and scene primitive index (bits 0..28)
 };
 inline constexpr uint32_t kRoundSphere = 0, kRoundCurve = 1;
+// A curve radius field: a 27-bit mantissa m (bits 0..26) and a shift s (bits 27..31), the radius m * 2^s grid.F
+// units. Radii below 2^27 are stored as they are (s = 0); larger ones keep 27 significant bits, rounded up, so
+// the stored radius never shrinks (relative growth below 2^-26).
+inline constexpr int kCurveRadiusMantissaBits = 27;
+inline int64_t curve_radius(uint32_t field) {
+  return int64_t(field & ((1u << kCurveRadiusMantissaBits) - 1)) << (field >> kCurveRadiusMantissaBits);
+}
+// The field of a radius r >= 0 (grid.F units, below 2^58), rounded up.
+inline uint32_t curve_radius_field(int64_t r) {
+  int s = 0;
+  while ((r >> s) >= (int64_t(1) << kCurveRadiusMantissaBits)) ++s;
+  int64_t m = (r + (int64_t(1) << s) - 1) >> s;  // rounded up
+  if (m >> kCurveRadiusMantissaBits) {           // the rounding carried into a 28th bit
+    ++s;
+    m = (m + 1) >> 1;
+  }
+  return uint32_t(m) | (uint32_t(s) << kCurveRadiusMantissaBits);
+}
 inline constexpr uint32_t kRoundCapStart = 1u << 8;
 inline constexpr size_t kRoundWordOffset = 32;
 // An instance of a top-level image: its world bounds on the grid (rounded outward) and its index in the scene's

@@ -133,8 +133,8 @@ TEST_CASE("fixed swept spheres against the exact union of their spheres", "[fixe
         c.p0[a] = int32_t(std::llround(p0g[a]));
         c.p1[a] = int32_t(std::llround(p0g[a] + len * axis[a] / an));
       }
-      c.r0 = uint32_t(std::llround(std::ldexp(r0, F)));
-      c.r1 = uint32_t(std::llround(std::ldexp(r1, F)));
+      c.r0 = curve_radius_field(std::llround(std::ldexp(r0, F)));
+      c.r1 = curve_radius_field(std::llround(std::ldexp(r1, F)));
       c.round = kRoundCurve | kRoundCapStart;
       if (c.r0 == 0 && c.r1 == 0) continue;
       ExactSegment sg;
@@ -142,8 +142,8 @@ TEST_CASE("fixed swept spheres against the exact union of their spheres", "[fixe
         sg.p0[a] = c.p0[a];
         sg.p1[a] = c.p1[a];
       }
-      sg.r0 = std::ldexp(LD(c.r0), -F);
-      sg.r1 = std::ldexp(LD(c.r1), -F);
+      sg.r0 = std::ldexp(LD(curve_radius(c.r0)), -F);
+      sg.r1 = std::ldexp(LD(curve_radius(c.r1)), -F);
       LD E2 = 0;
       for (int a = 0; a < 3; ++a) E2 += std::ldexp((sg.p1[a] - sg.p0[a]) * (sg.p1[a] - sg.p0[a]), 2 * F);
       const LD dr = std::ldexp(sg.r1 - sg.r0, F), K = E2 - dr * dr;

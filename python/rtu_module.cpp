@@ -586,6 +586,7 @@ PYBIND11_MODULE(_rtu, m) {
       .def_property_readonly("name", [](const PyScene& s) { return s.scene->name; })
       .def_property_readonly("triangles", [](const PyScene& s) { return s.scene->geometry.triangles.size(); })
       .def_property_readonly("spheres", [](const PyScene& s) { return s.scene->geometry.spheres.size(); })
+      .def_property_readonly("curves", [](const PyScene& s) { return s.scene->geometry.curves.size(); })
       .def_property_readonly("planes", [](const PyScene& s) { return s.scene->geometry.planes.size(); })
       .def_property_readonly("primitives", [](const PyScene& s) { return s.scene->geometry.num_prims(); })
       .def_property_readonly("lights", [](const PyScene& s) { return s.scene->lights.size(); })

@@ -134,6 +134,21 @@ def test_scene_dict_equals_the_file(seed):
     assert b.name == "scene dict" and a.camera == b.camera
 
 
+def test_curves_trace_on_every_device_as_the_cli(tmp_path):
+    hair = rtu.load_scene("builtin:hair?strands=500")
+    assert hair.curves == 4000 and hair.spheres == 0
+    rays = rtu.rays(hair, "primary:3000")
+    fixed = rtu.trace(hair, rays, "fixed").hits
+    assert np.array_equal(rtu.trace(hair, rays, "timed", config="rdna4-lss").hits, fixed)
+    path = tmp_path / "rays.bin"
+    rays.tofile(path)
+    out = tmp_path / "hits.bin"
+    cli("trace", "--scene", "builtin:hair?strands=500", "--rays", path, "--device", "fixed", "--out", out)
+    assert np.fromfile(out, dtype=fixed.dtype).tobytes() == fixed.tobytes()
+    d = {"curves": [{"points": [[0, 0, 0], [0, 1, 0]], "radius": 0.2}]}
+    assert rtu.load_scene(d).curves == 1
+
+
 def test_malformed_scene_dict_has_the_cli_message(tmp_path):
     bad = {"spheres": [{"center": [0, 0, 0], "radius": -1.0}], "colour": 1}
     f = tmp_path / "bad.json"

@@ -113,6 +113,29 @@ int main(int argc, char** argv) {
     const hw::DeviceImage img = hw::encode_scene(g, f, &bvh);
     put(dir / "device_image" / ("fixed_oriented_w" + std::to_string(f.width) + ".img"), img.data(), img.size(), 0);
   }
+  // Curve segments (round records of kind sphere, word 1): two strands of three tapered segments and a lone
+  // capped one, in a BVH of 40-byte records and in triangle blocks' raw leaves, and in the float image.
+  hw::Geometry curves;
+  for (int s = 0; s < 2; ++s) {
+    for (int i = 0; i < 3; ++i) {
+      const hw::Vec3 p0(float(s), float(i), 0.2f * float(i)), p1(float(s), float(i + 1), 0.2f * float(i + 1));
+      curves.curves.push_back(
+          {p0, 0.3f - 0.05f * float(i), p1, 0.25f - 0.05f * float(i), i == 0 ? hw::kCurveCapStart : 0u});
+    }
+  }
+  curves.curves.push_back({hw::Vec3(3, 0, 0), 0.0f, hw::Vec3(3, 0, 2), 0.4f, hw::kCurveCapStart});
+  curves.triangles = {g.triangles.begin(), g.triangles.begin() + 2};
+  for (const char* spec : {"default", "packed"}) {
+    const hw::FixedFormat f = hw::format_preset(spec);
+    hw::BvhBuildParams bp;
+    bp.width = f.width;
+    bp.max_leaf_size = 2;
+    const hw::Bvh bvh = hw::Bvh::build(curves, bp);
+    const hw::DeviceImage img = hw::encode_scene(curves, f, &bvh);
+    put(dir / "device_image" / ("fixed_curves_" + std::string(spec) + ".img"), img.data(), img.size(), 0);
+  }
+  const std::vector<uint64_t> fcurves = hw::encode_float_scene(curves);
+  put(dir / "device_image" / "float_curves.img", fcurves.data(), fcurves.size() * 8, 1);
   const hw::DeviceImage brute = hw::encode_scene(g, hw::FixedFormat{}, nullptr);
   put(dir / "device_image" / "fixed_brute.img", brute.data(), brute.size(), 0);
   // No BVH, primitives in triangle blocks (the packed layouts' other path through the checker).

@@ -1,9 +1,11 @@
 #include "host/scene/curves.h"
 
 #include <algorithm>
+#include <limits>
 #include <numeric>
 
 #include "host/io/error.h"
+#include "host/scene/scene.h"
 
 namespace rtu::host {
 
@@ -25,6 +27,22 @@ void add_curve_set(hw::Geometry& g, std::span<const hw::Vec3> points, std::span<
       throw Error(what + ": segment " + std::to_string(i) + ": " + why);
     g.curves.push_back(c);
   }
+}
+
+void add_lines(hw::Geometry& g, std::span<const ImportedLine> lines, float radius,
+               const std::function<hw::Vec3(const hw::Vec3&)>& transform, const std::string& what) {
+  for (size_t i = 0; i < lines.size(); ++i) {
+    const hw::CurveSegment c{transform(lines[i].p0), radius, transform(lines[i].p1), radius,
+                             lines[i].joined ? 0u : hw::kCurveCapStart};
+    if (const std::string why = hw::check_curve_segment(c); !why.empty())
+      throw Error(what + ": line " + std::to_string(i) + ": " + why);
+    g.curves.push_back(c);
+  }
+}
+
+float default_line_radius(const hw::Aabb& bounds) {
+  const double d = bounds.empty() ? 0.0 : glm::length(hw::DVec3(bounds.hi) - hw::DVec3(bounds.lo));
+  return std::max(float(1e-3 * d), std::numeric_limits<float>::min());
 }
 
 void add_strand(hw::Geometry& g, std::span<const hw::Vec3> points, std::span<const float> radii,

@@ -567,6 +567,41 @@ ImportedTriangles read_triangles(const aiScene& scene, const std::string& path, 
   return out;
 }
 
+// The lines (faces of two indices) in world space, in node order; a line joins the one before it in the same mesh
+// placement when it starts where that one ends (the same point: importers such as OBJ's give every face its own
+// vertices). Throws Error for an index out of range or a
+// coordinate that is not finite.
+std::vector<ImportedLine> read_lines(const aiScene& scene, const std::string& path, size_t num_materials) {
+  std::vector<ImportedLine> out;
+  walk_nodes(scene, [&](unsigned mesh_index, const aiMatrix4x4& world) {
+    const aiMesh* mesh = scene.mMeshes[mesh_index];
+    const uint32_t material = mesh->mMaterialIndex < num_materials ? mesh->mMaterialIndex : UINT32_MAX;
+    bool any = false;
+    hw::Vec3 last_end(0.0f);
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
+      const aiFace& face = mesh->mFaces[f];
+      if (face.mNumIndices != 2) continue;
+      hw::Vec3 p[2];
+      for (int k = 0; k < 2; ++k) {
+        const unsigned index = face.mIndices[k];
+        if (index >= mesh->mNumVertices)
+          throw Error(path + ": " + mesh_label(scene, mesh_index) + ", line " + std::to_string(f) +
+                      ": index out of range (" + std::to_string(index) +
+                      " >= " + std::to_string(mesh->mNumVertices) + " vertices)");
+        const aiVector3D v = world * mesh->mVertices[index];
+        if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+          throw Error(path + ": " + mesh_label(scene, mesh_index) + ", line " + std::to_string(f) +
+                      ": NaN/Inf coordinate " + format_vec(v));
+        p[k] = hw::Vec3(v.x, v.y, v.z);
+      }
+      out.push_back({p[0], p[1], any && p[0] == last_end ? 1u : 0u, material});
+      last_end = p[1];
+      any = true;
+    }
+  });
+  return out;
+}
+
 // The import proper, in the child process of import_isolated().
 std::string import_with_assimp(const std::string& path) {
   Assimp::Importer importer;
@@ -602,6 +637,7 @@ std::string import_with_assimp(const std::string& path) {
   out.put_array(tris.tri_uv);
   out.put_array(mp.object_tris);
   out.put_array(mp.placements);
+  out.put_array(read_lines(*scene, path, mats.materials.size()));
   out.put(uint64_t(mats.materials.size()));
   for (size_t i = 0; i < mats.materials.size(); ++i) {
     out.put_string(mats.names[i]);
@@ -865,6 +901,7 @@ ImportedModel decode_model(const std::string& blob, const std::string& path) {
   model.tri_uv = in.get_array<TriangleUv>();
   const std::vector<uint32_t> object_tris = in.get_array<uint32_t>();
   const std::vector<Placement> placements = in.get_array<Placement>();
+  model.lines = in.get_array<ImportedLine>();
   if (!placements.empty()) {
     // Two levels: the object meshes, one instance per placement, and the flattened scene they number.
     hw::InstanceSet& set = model.instances;
@@ -890,6 +927,8 @@ ImportedModel decode_model(const std::string& blob, const std::string& path) {
     model.triangles = set.flatten({}).triangles;
   }
   const uint64_t num_materials = in.get<uint64_t>();
+  for (const ImportedLine& l : model.lines)
+    if (l.joined > 1 || (l.material != UINT32_MAX && l.material >= num_materials)) in.truncated();
   if (tri_material.size() != model.triangles.size() ||
       !(model.tri_uv.empty() || model.tri_uv.size() == model.triangles.size()) || num_materials > blob.size())
     in.truncated();

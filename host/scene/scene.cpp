@@ -14,6 +14,7 @@
 #include "firmware/render_scene.h"
 #include "host/io/error.h"
 #include "host/io/limits.h"
+#include "host/scene/curves.h"
 #include "hwmodel/scene/bvh.h"
 
 namespace rtu::host {
@@ -45,9 +46,24 @@ Scene load_mesh_scene(const std::string& path) {
   ImportedModel model = import_model(path);
   scene.geometry.triangles = std::move(model.triangles);
   scene.instances = std::move(model.instances);  // a node tree that places meshes more than once: two levels
-  if (!model.materials.empty()) {                // the file's own materials
+  // Its lines, as strands of curve segments a thousandth of the file's size thick (a scene file's mesh entry
+  // names the radius: `curve_radius`).
+  if (!model.lines.empty()) {
+    if (!scene.instances.instances.empty())
+      throw Error(path + ": lines in a file whose node tree places a mesh more than once are not supported");
+    hw::Aabb b = scene.geometry.bounds();
+    for (const ImportedLine& l : model.lines) {
+      b.extend(l.p0);
+      b.extend(l.p1);
+    }
+    add_lines(
+        scene.geometry, model.lines, default_line_radius(b), [](const Vec3& v) { return v; }, path);
+  }
+  if (!model.materials.empty()) {  // the file's own materials
     scene.materials = std::move(model.materials);
     scene.prim_material = std::move(model.tri_material);
+    for (const ImportedLine& l : model.lines)
+      scene.prim_material.push_back(l.material == UINT32_MAX ? 0 : l.material);
     scene.textures = std::move(model.textures);
     if (!scene.textures.empty()) scene.triangle_uv = std::move(model.tri_uv);
   } else {
@@ -56,7 +72,7 @@ Scene load_mesh_scene(const std::string& path) {
                                .color = Vec3(0.8f),
                                .ior = 1.5f,
                                .emission = Vec3(0.0f)});
-    scene.prim_material.assign(scene.geometry.triangles.size(), 0);
+    scene.prim_material.assign(scene.geometry.num_prims(), 0);
   }
   scene.camera = frame_camera(scene.geometry.bounds());
   // Intensity = squared distance to the target: irradiance about 1 there.

@@ -114,8 +114,18 @@ std::vector<hw::Triangle> import_mesh(const std::string& path);
 // materials as the renderer approximates them (docs/scenes.md), their base-colour textures and the triangles'
 // texture coordinates (when a material is textured). A texture that cannot be read is left out with a warning on
 // stderr.
+// A line of a mesh file (a face of two indices, as OBJ's `l` gives them), in world space: a strand's segment once
+// it has a radius (curves.h, add_lines).
+struct ImportedLine {
+  hw::Vec3 p0, p1;
+  uint32_t joined;    // 1: it starts where the line before it in the same mesh ends (the same point)
+  uint32_t material;  // the file's material index, or UINT32_MAX
+};
+static_assert(sizeof(ImportedLine) == 32);
+
 struct ImportedModel {
   std::vector<hw::Triangle> triangles;
+  std::vector<ImportedLine> lines;     // the file's lines (faces of two indices), in node order
   std::vector<uint32_t> tri_material;  // per triangle, into `materials`; empty: the file has no materials
   std::vector<Material> materials;     // `texture` indexes `textures`
   std::vector<Texture> textures;

@@ -463,7 +463,9 @@ void read_mesh_entries(Builder& b, const Json& j, const std::string& where, cons
     const size_t first = tris.size();
 
     if (has_file) {
-      r.check_keys(m, path, common);
+      std::vector<std::string> keys = common;
+      keys.push_back("curve_radius");
+      r.check_keys(m, path, keys);
       const Transform t =
           m.contains("transform") ? read_transform(r, m["transform"], join(path, "transform")) : Transform{};
       std::filesystem::path file(r.string(m["file"], join(path, "file")));
@@ -475,7 +477,35 @@ void read_mesh_entries(Builder& b, const Json& j, const std::string& where, cons
         r.fail(join(path, "file"), e.what());
       }
       std::vector<hw::Triangle>& imported = model.triangles;
-      if (imported.empty()) r.fail(join(path, "file"), file.string() + ": no triangles");
+      if (imported.empty() && model.lines.empty()) r.fail(join(path, "file"), file.string() + ": no triangles");
+      if (m.contains("curve_radius") && model.lines.empty())
+        r.fail(join(path, "curve_radius"), file.string() + " has no lines");
+      if (!model.lines.empty()) {
+        // Its lines: strands of curve segments, after the triangles in the primitive order, of the entry's
+        // material (not the file's).
+        if (!model.instances.instances.empty())
+          r.fail(join(path, "file"),
+                 file.string() + ": lines in a file whose node tree places a mesh more than once");
+        const Transform t =
+            m.contains("transform") ? read_transform(r, m["transform"], join(path, "transform")) : Transform{};
+        hw::Aabb bounds;
+        for (const ImportedLine& l : model.lines) {
+          bounds.extend(t.apply(l.p0));
+          bounds.extend(t.apply(l.p1));
+        }
+        for (const hw::Triangle& tri : imported)
+          for (const Vec3& v : {tri.v0, tri.v1, tri.v2}) bounds.extend(t.apply(v));
+        const float radius = m.contains("curve_radius") ? r.positive(m["curve_radius"], join(path, "curve_radius"))
+                                                        : default_line_radius(bounds);
+        try {
+          add_lines(
+              b.scene.geometry, model.lines, radius, [&](const Vec3& v) { return t.apply(v); }, "lines");
+        } catch (const Error& e) {
+          r.fail(join(path, "file"), e.what());
+        }
+        b.curve_material.insert(b.curve_material.end(), model.lines.size(), material);
+        if (imported.empty()) continue;
+      }
       if (keep_instances && !model.instances.instances.empty()) {
         keep_file_instances(b, m, path, file, t, material, model);
         continue;

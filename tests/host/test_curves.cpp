@@ -11,6 +11,8 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -216,4 +218,44 @@ TEST_CASE("curves: the image check refuses malformed curve records", "[curve][im
   const hw::FixedFormat wide = hw::format_from_spec("default:curve_bits=31");
   CHECK_FALSE(wide.curve_limits().empty());
   CHECK_THROWS_WITH(hw::encode_scene(g, wide, nullptr), Catch::Contains("cannot hold curve segments"));
+}
+
+TEST_CASE("curves: a mesh file's lines become strands", "[curve][scene][mesh]") {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "rtu_test_curves_lines";
+  std::filesystem::create_directories(dir);
+  const std::string obj = (dir / "strands.obj").string();
+  {
+    std::ofstream f(obj);
+    f << "v 0 0 0\nv 0 1 0\nv 0.2 2 0\nv 0.5 2.5 0.3\nv 1 0 0\nv 1 1 0\nv 0 0 1\nv 1 0 1\nv 0 -1 1\n"
+         "l 1 2 3 4\nl 5 6\nf 7 8 9\n";
+  }
+  // A bare mesh file: a polyline of 3 segments (one strand: only its first holds its start sphere) and a line.
+  const host::Scene bare = host::load_scene(obj);
+  REQUIRE(bare.geometry.curves.size() == 4);
+  REQUIRE(bare.geometry.triangles.size() == 1);
+  const std::vector<uint32_t> flags = {bare.geometry.curves[0].flags, bare.geometry.curves[1].flags,
+                                       bare.geometry.curves[2].flags, bare.geometry.curves[3].flags};
+  CHECK(flags == std::vector<uint32_t>{hw::kCurveCapStart, 0, 0, hw::kCurveCapStart});
+  CHECK(bare.geometry.curves[1].p0 == hw::Vec3(0, 1, 0));
+  // A thousandth of the diagonal of the file's triangle and lines.
+  CHECK(bare.geometry.curves[0].r0 ==
+        host::default_line_radius(hw::Aabb{hw::Vec3(0, -1, 0), hw::Vec3(1, 2.5f, 1)}));
+  CHECK(bare.prim_material.size() == bare.geometry.num_prims());
+  // In a scene file: the entry's radius and transform.
+  const std::string json = R"({"meshes": [{"file": ")" + obj + R"(", "curve_radius": 0.05,
+                              "transform": {"translate": [10, 0, 0]}}]})";
+  const host::Scene s = host::load_scene_json(host::parse_json_limited(json, "x.json"), "x.json", ".");
+  REQUIRE(s.geometry.curves.size() == 4);
+  CHECK(s.geometry.curves[0].r0 == 0.05f);
+  CHECK(s.geometry.curves[0].p0 == hw::Vec3(10, 0, 0));
+  CHECK(s.geometry.kind(1) == hw::PrimKind::kCurve);  // after the file's one triangle
+  const std::string tri = (dir / "tri.obj").string();
+  {
+    std::ofstream f(tri);
+    f << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  }
+  const std::string no_lines = R"({"meshes": [{"file": ")" + tri + R"(", "curve_radius": 0.05}]})";
+  CHECK_THROWS_WITH(host::load_scene_json(host::parse_json_limited(no_lines, "x.json"), "x.json", "."),
+                    Catch::Contains("curve_radius") && Catch::Contains("has no lines"));
+  std::filesystem::remove_all(dir);
 }

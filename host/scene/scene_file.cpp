@@ -477,7 +477,8 @@ void read_mesh_entries(Builder& b, const Json& j, const std::string& where, cons
         r.fail(join(path, "file"), e.what());
       }
       std::vector<hw::Triangle>& imported = model.triangles;
-      if (imported.empty() && model.lines.empty()) r.fail(join(path, "file"), file.string() + ": no triangles");
+      if (imported.empty() && model.lines.empty())
+        r.fail(join(path, "file"), file.string() + ": no triangles or lines");
       if (m.contains("curve_radius") && model.lines.empty())
         r.fail(join(path, "curve_radius"), file.string() + " has no lines");
       if (!model.lines.empty()) {

@@ -99,7 +99,8 @@ void check_consistent(const Scene& s) {
 
 TEST_CASE("every listed built-in scene loads", "[scene]") {
   const auto names = rtu::host::builtin_scene_names();
-  REQUIRE(names.size() == 9);  // seed, cornell, icosphere, icosphere_far, hair and the suite's four (test_suite.cpp)
+  REQUIRE(names.size() ==
+          9);  // seed, cornell, icosphere, icosphere_far, hair and the suite's four (test_suite.cpp)
   for (const auto& [name, description] : names) {
     INFO(name);
     CHECK(!description.empty());
@@ -604,8 +605,10 @@ TEST_CASE("error: empty scene", "[scene]") {
                    {"mats.json", "empty scene"});
   const std::string verts = dir.write("verts.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n");
   check_load_error(verts, {"verts.obj", "empty scene"});
-  check_load_error(dir.write("lines.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\nl 2 3\n"),
-                   {"lines.obj", "empty scene"});
+  // Lines alone are a scene of curve segments (test_curves.cpp), one strand here.
+  const Scene lines = rtu::host::load_scene(dir.write("lines.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\nl 2 3\n"));
+  CHECK(lines.geometry.curves.size() == 2);
+  CHECK(lines.geometry.triangles.empty());
   // In a scene file, a mesh file without triangles is an error of its own.
   check_load_error(dir.write("nomesh.json", R"({"meshes": [{"file": "verts.obj"}], "spheres": [
       {"center": [0, 0, 0], "radius": 1}]})"),

@@ -188,7 +188,7 @@ TEST_CASE("scenes/suite.json names every suite built-in, the benchmarks' meshes 
     scenes.insert(e.scene);
     CHECK(!e.hard_because.empty());
   }
-  for (const char* b : {"builtin:hairball", "builtin:atrium", "builtin:city", "builtin:forest"})
+  for (const char* b : {"builtin:hairball", "builtin:hair", "builtin:atrium", "builtin:city", "builtin:forest"})
     CHECK(scenes.count(b));
   CHECK(scenes.count("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc"));
   CHECK(names.count("bunny"));

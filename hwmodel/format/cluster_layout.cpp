@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
-#include <map>
 #include <stdexcept>
 
 #include "hwmodel/format/hw_format.h"
@@ -61,62 +60,32 @@ uint32_t encode_cluster(const Cluster& c, const FixedFormat& f, std::vector<uint
     throw std::logic_error("encode_cluster: a cluster without internal nodes is one leaf of at most 16");
   if (c.nodes.size() > size_t(kMaxClusterNodes)) return 0;
   const NodeFields nf = cluster_node_fields(f);
-  // The distinct vertices in order of first use, and the bounds of the vertices and node origins.
-  std::map<std::array<int32_t, 3>, uint32_t> index;
-  std::vector<std::array<int32_t, 3>> verts;
-  std::vector<std::array<uint32_t, 3>> idx(count);
-  std::vector<uint32_t> prims(count);
-  int64_t lo[3] = {INT64_MAX, INT64_MAX, INT64_MAX}, hi[3] = {INT64_MIN, INT64_MIN, INT64_MIN};
-  auto extend = [&](const int64_t p[3]) {
+  // The distinct vertices in order of first use; the anchor bounds the vertices and the node origins.
+  TriangleGroup g = group_triangles(c.records.data(), count);
+  int64_t(&lo)[3] = g.lo;
+  int64_t(&hi)[3] = g.hi;
+  for (const PackedNode& n : c.nodes)
     for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], p[a]);
-      hi[a] = std::max(hi[a], p[a]);
+      lo[a] = std::min<int64_t>(lo[a], n.origin[a]);
+      hi[a] = std::max<int64_t>(hi[a], n.origin[a]);
     }
-  };
-  uint32_t pmin = UINT32_MAX, pmax = 0;
-  for (size_t i = 0; i < count; ++i) {
-    TriangleRecord t;
-    std::memcpy(&t, c.records.data() + i * kRecordBytes, sizeof t);
-    prims[i] = t.prim & kRecordPrimMask;
-    pmin = std::min(pmin, prims[i]);
-    pmax = std::max(pmax, prims[i]);
-    for (int k = 0; k < 3; ++k) {
-      const std::array<int32_t, 3> v = {t.v[k][0], t.v[k][1], t.v[k][2]};
-      const auto [it, added] = index.emplace(v, uint32_t(verts.size()));
-      if (added) verts.push_back(v);
-      idx[i][size_t(k)] = it->second;
-      const int64_t p[3] = {v[0], v[1], v[2]};
-      extend(p);
-    }
-  }
-  for (const PackedNode& n : c.nodes) {
-    const int64_t p[3] = {n.origin[0], n.origin[1], n.origin[2]};
-    extend(p);
-  }
-  if (verts.size() > size_t(kMaxClusterVerts)) return 0;
+  if (g.verts.size() > size_t(kMaxClusterVerts)) return 0;
   int axis[3];
   for (int a = 0; a < 3; ++a) {
     axis[a] = bits_for(uint64_t(hi[a] - lo[a]));
     if (axis[a] > nf.origin || lo[a] + (int64_t(1) << nf.origin_bias) < 0)
       throw std::logic_error("encode_cluster: an anchor or offset beyond the origin field");
   }
-  const int ibits = bits_for(verts.size() - 1), pbits = bits_for(pmax - pmin);
 
   std::vector<uint8_t> bytes;
   BitWriter w(bytes);
   w.put(1, 1);
   w.put(count - 1, kTriBits);
   w.put(c.nodes.size(), kNodeBits);
-  w.put(verts.size() - 1, kVertBits);
+  w.put(g.verts.size() - 1, kVertBits);
   for (int a = 0; a < 3; ++a) w.put(uint64_t(axis[a]), kAxisBits);
   for (int a = 0; a < 3; ++a) w.put(uint64_t(lo[a] + (int64_t(1) << nf.origin_bias)), nf.origin);
-  w.put(uint64_t(pbits), kPrimOffBits);
-  w.put(pmin, kPrimBaseBits);
-  for (uint32_t p : prims) w.put(p - pmin, pbits);
-  for (const auto& v : verts)
-    for (int a = 0; a < 3; ++a) w.put(uint64_t(v[size_t(a)] - lo[a]), axis[a]);
-  for (const auto& t : idx)
-    for (uint32_t k : t) w.put(k, ibits);
+  g.put_body(w, axis, kPrimOffBits, kPrimBaseBits);
   for (const PackedNode& n : c.nodes) {
     if (n.count < 1 || n.count > f.width)
       throw std::logic_error("encode_cluster: a node's count beyond its width");

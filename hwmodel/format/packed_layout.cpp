@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
+#include <map>
 #include <stdexcept>
 
 #include "hwmodel/format/hw_format.h"
@@ -132,6 +133,42 @@ uint32_t granules(uint64_t bits) {
 
 }  // namespace
 
+TriangleGroup group_triangles(const uint8_t* records, size_t count) {
+  TriangleGroup g;
+  std::map<std::array<int32_t, 3>, uint32_t> index;
+  g.idx.resize(count);
+  g.prims.resize(count);
+  for (size_t i = 0; i < count; ++i) {
+    TriangleRecord t;
+    std::memcpy(&t, records + i * kRecordBytes, sizeof t);
+    g.prims[i] = t.prim & kRecordPrimMask;
+    g.pmin = std::min(g.pmin, g.prims[i]);
+    g.pmax = std::max(g.pmax, g.prims[i]);
+    for (int k = 0; k < 3; ++k) {
+      const std::array<int32_t, 3> v = {t.v[k][0], t.v[k][1], t.v[k][2]};
+      const auto [it, added] = index.emplace(v, uint32_t(g.verts.size()));
+      if (added) g.verts.push_back(v);
+      g.idx[i][size_t(k)] = it->second;
+      for (int a = 0; a < 3; ++a) {
+        g.lo[a] = std::min<int64_t>(g.lo[a], v[size_t(a)]);
+        g.hi[a] = std::max<int64_t>(g.hi[a], v[size_t(a)]);
+      }
+    }
+  }
+  return g;
+}
+
+void TriangleGroup::put_body(BitWriter& w, const int axis[3], int off_bits, int base_bits) const {
+  const int pbits = prim_bits(), ibits = index_bits();
+  w.put(uint64_t(pbits), off_bits);
+  w.put(pmin, base_bits);
+  for (uint32_t p : prims) w.put(p - pmin, pbits);
+  for (const auto& v : verts)
+    for (int a = 0; a < 3; ++a) w.put(uint64_t(v[size_t(a)] - lo[a]), axis[a]);
+  for (const auto& t : idx)
+    for (uint32_t k : t) w.put(k, ibits);
+}
+
 uint32_t encode_block(const uint8_t* records, int count, int B, std::vector<uint8_t>& out) {
   if (count < 1 || count > (1 << kCountBits)) throw std::logic_error("encode_block: group size out of range");
   const uint32_t raw = 1 + uint32_t(count) * uint32_t(kRecordBytes / kGranuleBytes);
@@ -143,36 +180,13 @@ uint32_t encode_block(const uint8_t* records, int count, int B, std::vector<uint
     triangles = triangles && record_kind(records + i * kRecordBytes) == RecordKind::kTriangle &&
                 !(word & kRecordNonOpaque);
   }
-  std::vector<std::array<int32_t, 3>> verts;
-  std::vector<std::array<uint32_t, 3>> idx(static_cast<size_t>(count));
-  std::vector<uint32_t> prims(static_cast<size_t>(count));
-  int64_t lo[3] = {INT64_MAX, INT64_MAX, INT64_MAX}, hi[3] = {INT64_MIN, INT64_MIN, INT64_MIN};
-  uint32_t pmin = UINT32_MAX, pmax = 0;
-  if (triangles) {
-    for (int i = 0; i < count; ++i) {
-      TriangleRecord t;
-      std::memcpy(&t, records + i * kRecordBytes, sizeof t);
-      prims[size_t(i)] = t.prim & kRecordPrimMask;
-      pmin = std::min(pmin, prims[size_t(i)]);
-      pmax = std::max(pmax, prims[size_t(i)]);
-      for (int k = 0; k < 3; ++k) {
-        const std::array<int32_t, 3> v = {t.v[k][0], t.v[k][1], t.v[k][2]};
-        const auto it = std::find(verts.begin(), verts.end(), v);
-        idx[size_t(i)][size_t(k)] = uint32_t(it - verts.begin());
-        if (it == verts.end()) verts.push_back(v);
-        for (int a = 0; a < 3; ++a) {
-          lo[a] = std::min<int64_t>(lo[a], v[size_t(a)]);
-          hi[a] = std::max<int64_t>(hi[a], v[size_t(a)]);
-        }
-      }
-    }
-  }
+  const TriangleGroup g = triangles ? group_triangles(records, size_t(count)) : TriangleGroup{};
   int axis[3] = {0, 0, 0};
-  const int nv = int(verts.size());
-  const int ibits = bits_for(uint64_t(nv > 0 ? nv - 1 : 0)), pbits = bits_for(pmax - pmin);
+  const int nv = int(g.verts.size());
+  const int ibits = g.index_bits(), pbits = g.prim_bits();
   uint64_t bits = 0;
   if (triangles) {
-    for (int a = 0; a < 3; ++a) axis[a] = bits_for(uint64_t(hi[a] - lo[a]));
+    for (int a = 0; a < 3; ++a) axis[a] = bits_for(uint64_t(g.hi[a] - g.lo[a]));
     bits = kKindBits + kCountBits + kVertBits + 3 * kAxisBits + 3 * uint64_t(B) + kPrimOffBits + kPrimBaseBits +
            uint64_t(count) * uint64_t(pbits) + uint64_t(nv) * uint64_t(axis[0] + axis[1] + axis[2]) +
            3 * uint64_t(count) * uint64_t(ibits);
@@ -189,14 +203,8 @@ uint32_t encode_block(const uint8_t* records, int count, int B, std::vector<uint
   w.put(uint64_t(count - 1), kCountBits);
   w.put(uint64_t(nv - 1), kVertBits);
   for (int a = 0; a < 3; ++a) w.put(uint64_t(axis[a]), kAxisBits);
-  for (int a = 0; a < 3; ++a) w.put(uint64_t(lo[a]), B);
-  w.put(uint64_t(pbits), kPrimOffBits);
-  w.put(pmin, kPrimBaseBits);
-  for (uint32_t p : prims) w.put(p - pmin, pbits);
-  for (const auto& v : verts)
-    for (int a = 0; a < 3; ++a) w.put(uint64_t(v[size_t(a)] - lo[a]), axis[a]);
-  for (const auto& t : idx)
-    for (uint32_t k : t) w.put(k, ibits);
+  for (int a = 0; a < 3; ++a) w.put(uint64_t(g.lo[a]), B);
+  g.put_body(w, axis, kPrimOffBits, kPrimBaseBits);
   w.pad_to(uint64_t(granules(bits)) * kGranuleBytes);
   return granules(bits);
 }

@@ -41,6 +41,7 @@
 //   as many bits as the vertex count needs).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -129,6 +130,24 @@ void pack_node(const PackedNode& n, const NodeFields& fields, uint64_t bytes, st
 // Reads one node of `bytes` bytes; throws std::invalid_argument naming the field when the node is malformed
 // (count beyond the width, nonzero empty slots or padding). Ranges against the format are the caller's.
 PackedNode unpack_node(const uint8_t* data, uint64_t bytes, const NodeFields& fields, const std::string& at);
+
+// A leaf's opaque triangles as a triangle block and a cluster (cluster_layout.h) store them: their distinct grid
+// vertices in order of first use, three vertex indices per triangle, the scene primitive indices and the
+// vertices' bounds.
+struct TriangleGroup {
+  std::vector<std::array<int32_t, 3>> verts;
+  std::vector<std::array<uint32_t, 3>> idx;
+  std::vector<uint32_t> prims;
+  uint32_t pmin = UINT32_MAX, pmax = 0;
+  int64_t lo[3] = {INT64_MAX, INT64_MAX, INT64_MAX}, hi[3] = {INT64_MIN, INT64_MIN, INT64_MIN};
+  int index_bits() const { return verts.empty() ? 0 : bits_for(verts.size() - 1); }  // one vertex index
+  int prim_bits() const { return prims.empty() ? 0 : bits_for(pmax - pmin); }        // one primitive offset
+  // Writes what follows the anchor in both: the offsets' width (off_bits wide) and base (base_bits), the
+  // primitive offsets, the vertices (axis a in axis[a] bits above lo[a]) and the vertex indices.
+  void put_body(BitWriter& w, const int axis[3], int off_bits, int base_bits) const;
+};
+// The group of `count` 40-byte triangle records.
+TriangleGroup group_triangles(const uint8_t* records, size_t count);
 
 // Primitive blocks. Encodes `count` 40-byte records (one leaf) as one block appended to out (8-byte aligned);
 // returns its size in 8-byte granules.

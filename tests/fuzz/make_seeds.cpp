@@ -28,6 +28,16 @@ void put(const fs::path& p, const void* data, size_t n, int prefix = -1) {
   out.write(static_cast<const char*>(data), std::streamsize(n));
 }
 
+// The image of g in format f over a BVH as wide as the format, of leaves of at most `leaf` primitives.
+void put_image(const fs::path& p, const hw::Geometry& g, const hw::FixedFormat& f, int leaf) {
+  hw::BvhBuildParams bp;
+  bp.width = f.width;
+  bp.max_leaf_size = leaf;
+  const hw::Bvh bvh = hw::Bvh::build(g, bp);
+  const hw::DeviceImage img = hw::encode_scene(g, f, &bvh);
+  put(p, img.data(), img.size(), 0);
+}
+
 // The command program of fuzz_command_processor.cpp: ops of one byte plus their operands.
 struct Program {
   std::vector<uint8_t> b;
@@ -76,11 +86,7 @@ int main(int argc, char** argv) {
     }
     hw::FixedFormat f = hw::format_preset("default");
     f.tri_pairs = 1;
-    hw::BvhBuildParams bp;
-    bp.max_leaf_size = 4;
-    const hw::Bvh bvh = hw::Bvh::build(quads, bp);
-    const hw::DeviceImage img = hw::encode_scene(quads, f, &bvh);
-    put(dir / "device_image" / "fixed_tri_pairs.img", img.data(), img.size(), 0);
+    put_image(dir / "device_image" / "fixed_tri_pairs.img", quads, f, 4);
   }
   // Triangle clusters (prim_layout 2): a 6 x 4 grid of quads in a binary tree of leaves of 2, clusters of up to 16
   // triangles (so they hold internal nodes); and without a BVH (clusters of one leaf).
@@ -94,24 +100,14 @@ int main(int argc, char** argv) {
         grid.triangles.push_back({b, d, c});
       }
     const hw::FixedFormat f = hw::format_from_spec("clusters:width=2:cluster_tris=16");
-    hw::BvhBuildParams bp;
-    bp.width = 2;
-    bp.max_leaf_size = 2;
-    const hw::Bvh bvh = hw::Bvh::build(grid, bp);
-    const hw::DeviceImage img = hw::encode_scene(grid, f, &bvh);
-    put(dir / "device_image" / "fixed_clusters_tree.img", img.data(), img.size(), 0);
+    put_image(dir / "device_image" / "fixed_clusters_tree.img", grid, f, 2);  // f is 2 wide
     const hw::DeviceImage brute_clusters = hw::encode_scene(grid, f, nullptr);
     put(dir / "device_image" / "fixed_brute_clusters.img", brute_clusters.data(), brute_clusters.size(), 0);
   }
   // Oriented nodes (node_kind 1): 4- and 8-wide, the table's size and bits in the header's flags.
   for (const char* spec : {"default:node_kind=1", "wide8:node_kind=1:child_bits=12:rotations=13:rot_bits=8"}) {
     const hw::FixedFormat f = hw::format_from_spec(spec);
-    hw::BvhBuildParams bp;
-    bp.width = f.width;
-    bp.max_leaf_size = 2;
-    const hw::Bvh bvh = hw::Bvh::build(g, bp);
-    const hw::DeviceImage img = hw::encode_scene(g, f, &bvh);
-    put(dir / "device_image" / ("fixed_oriented_w" + std::to_string(f.width) + ".img"), img.data(), img.size(), 0);
+    put_image(dir / "device_image" / ("fixed_oriented_w" + std::to_string(f.width) + ".img"), g, f, 2);
   }
   // Curve segments (round records of kind sphere, word 1): two strands of three tapered segments and a lone
   // capped one, in a BVH of 40-byte records and in triangle blocks' raw leaves, and in the float image.
@@ -126,13 +122,8 @@ int main(int argc, char** argv) {
   curves.curves.push_back({hw::Vec3(3, 0, 0), 0.0f, hw::Vec3(3, 0, 2), 0.4f, hw::kCurveCapStart});
   curves.triangles = {g.triangles.begin(), g.triangles.begin() + 2};
   for (const char* spec : {"default", "packed"}) {
-    const hw::FixedFormat f = hw::format_preset(spec);
-    hw::BvhBuildParams bp;
-    bp.width = f.width;
-    bp.max_leaf_size = 2;
-    const hw::Bvh bvh = hw::Bvh::build(curves, bp);
-    const hw::DeviceImage img = hw::encode_scene(curves, f, &bvh);
-    put(dir / "device_image" / ("fixed_curves_" + std::string(spec) + ".img"), img.data(), img.size(), 0);
+    put_image(dir / "device_image" / ("fixed_curves_" + std::string(spec) + ".img"), curves,
+              hw::format_preset(spec), 2);
   }
   const std::vector<uint64_t> fcurves = hw::encode_float_scene(curves);
   put(dir / "device_image" / "float_curves.img", fcurves.data(), fcurves.size() * 8, 1);

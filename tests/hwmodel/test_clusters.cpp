@@ -20,52 +20,17 @@
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_model.h"
+#include "image_checks.h"
 #include "tests/common/test_util.h"
 #include "timing_checks.h"
 
 using namespace rtu::hw;
 using namespace rtu::hw::fixed_checks;
+using namespace rtu::hw::image_checks;
 
 using rtu::test::contains;
 
 namespace {
-
-DeviceImage encode(const Geometry& g, const FixedFormat& f, int leaf = 8) {
-  BvhBuildParams bp;
-  bp.width = f.width;
-  bp.max_leaf_size = leaf;
-  const Bvh bvh = Bvh::build(g, bp);
-  return encode_scene(g, f, &bvh);
-}
-
-std::vector<uint8_t> bytes_of(const DeviceImage& img) {
-  return std::vector<uint8_t>(img.data(), img.data() + img.size());
-}
-
-std::string refusal(const std::vector<uint8_t>& b) {
-  try {
-    (void)DeviceImage::from_bytes(b.data(), b.size());
-  } catch (const std::invalid_argument& e) {
-    return e.what();
-  }
-  return "";
-}
-
-std::vector<Ray> rays(uint64_t seed, int n) {
-  Pcg32 rng(seed);
-  std::vector<Ray> out;
-  for (int i = 0; i < n; ++i) {
-    Ray r;
-    for (int a = 0; a < 3; ++a) {
-      r.origin[a] = rand_float(rng, -12.0f, 12.0f);
-      r.dir[a] = rand_float(rng, -1.0f, 1.0f);
-    }
-    r.tmin = 0.0f;
-    r.tmax = kInf;
-    out.push_back(r);
-  }
-  return out;
-}
 
 // A strip of n triangles on a small grid patch: neighbours share two vertices, as a mesh's do.
 Geometry strip_mesh(int rows, int cols) {

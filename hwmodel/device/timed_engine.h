@@ -135,6 +135,28 @@ class TimedEngine final : public TraceEngine {
   // (ties: lower unit first), so the cycles do not depend on the host's threads.
   uint64_t trace_cycles_chip(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
                              TimingStats& ts);
+  // A chip whose dispatcher hands each wave to whichever unit asks first (ray_policy dynamic): one TRACE packet,
+  // every ray simulated (k < 2) or, with sampling, its waves thinned (sampler.h, chip sampling): the first and
+  // last waves simulated, every k-th wave between, the skipped waves warming the chip's memory.
+  uint64_t trace_cycles_chip_dynamic(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
+                                     TimingStats& ts, size_t k);
+  // A wave handed to the next unit that asks: rays [first, first + count), after the rays [warm_first, first)
+  // have warmed the chip's memory (functional warming: their fetches' lines, no time).
+  struct ChipWave {
+    size_t first = 0, count = 0, warm_first = 0;
+  };
+  // Runs the chip's units on the waves in order, each to the unit that asks first; hits of every ray (simulated or
+  // warming) to hits (null: nowhere), each unit's statistics to packet[u], each wave's work (sampler.h,
+  // unit_work) to work[2w] and its warming rays' to work[2w + 1]. Returns the packet's cycles.
+  uint64_t run_chip_dynamic(const std::vector<ChipWave>& waves, const Ray* rays, Hit* hits, bool any_hit,
+                            TraversalStats& s, std::vector<TimingStats>& packet, std::vector<double>& work);
+  // The rays of a packet of n rays each of the chip's units takes, in the order it takes them (ray_policy).
+  std::vector<std::vector<uint32_t>> chip_rays(size_t n) const;
+  // Runs units[u] on the rays mine[u] in step, sharing their memory, from the latest of their clocks; hits of the
+  // rays go to hits (null: nowhere), each unit's statistics to packet[u]. Returns the packet's cycles.
+  uint64_t run_chip(const std::vector<TimingModel*>& units, const std::vector<std::vector<uint32_t>>& mine,
+                    const Ray* rays, Hit* hits, bool any_hit, TraversalStats& s, std::vector<TimingStats>& packet,
+                    std::vector<uint64_t>* ends = nullptr);
   // One TRACE packet through the timing model, every ray simulated.
   uint64_t trace_cycles_full(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
                              TimingStats& ts);

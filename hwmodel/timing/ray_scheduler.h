@@ -3,7 +3,10 @@
 // - waves: ray_slots consecutive rays (a wave) to each unit in turn, as a GPU dispatches waves to its compute
 //   units;
 // - round_robin: ray i to unit i mod units;
-// - blocks: the packet cut into `units` consecutive blocks, as screen bands for camera rays.
+// - blocks: the packet cut into `units` consecutive blocks, as screen bands for camera rays;
+// - dynamic: ray_slots consecutive rays (a wave) to whichever unit asks first for a ray it has not been given (the
+//   units in the order of the cycle they ask, ties to the lower unit), as a GPU's dispatcher hands waves to the
+//   compute units with room. The only policy under which sampled timing runs on a chip (sampler.h).
 // Within a unit, a free slot takes the unit's next ray in order (TimingModel::admit): rays arrive from the ray
 // buffer in order through a queue of queue_depth, so that is the order the ray fetch model (timing_model.h)
 // prices; or, with gathering (ray_gather.h), the first ray of the bins issued so far. To add a policy: a name in
@@ -18,12 +21,13 @@
 
 namespace rtu::hw {
 
-enum class RayPolicy : uint8_t { kWaves, kRoundRobin, kBlocks };
+enum class RayPolicy : uint8_t { kWaves, kRoundRobin, kBlocks, kDynamic };
 
-inline constexpr std::array<std::pair<std::string_view, RayPolicy>, 3> kRayPolicies{{
+inline constexpr std::array<std::pair<std::string_view, RayPolicy>, 4> kRayPolicies{{
     {"waves", RayPolicy::kWaves},
     {"round_robin", RayPolicy::kRoundRobin},
     {"blocks", RayPolicy::kBlocks},
+    {"dynamic", RayPolicy::kDynamic},
 }};
 
 // The policy a ray_policy value names; false for none (TimingConfig::validate() refuses such a value).
@@ -36,12 +40,14 @@ inline bool parse_ray_policy(std::string_view name, RayPolicy& out) {
   return false;
 }
 
-// The unit of `units` that takes ray i of a packet of n rays, with `slots` ray slots per unit.
+// The unit of `units` that takes ray i of a packet of n rays, with `slots` ray slots per unit (dynamic: decided
+// while the packet runs, TimedEngine::run_chip_dynamic; the waves' unit here).
 inline size_t ray_unit(RayPolicy policy, size_t i, size_t n, size_t units, size_t slots) {
   switch (policy) {
     case RayPolicy::kBlocks:
       return i * units / n;
     case RayPolicy::kWaves:
+    case RayPolicy::kDynamic:
       return (i / slots) % units;
     case RayPolicy::kRoundRobin:
       break;

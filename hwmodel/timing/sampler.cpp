@@ -106,6 +106,47 @@ CycleEstimate estimate_cycles(const std::vector<Stratum>& strata, const std::vec
   return e;
 }
 
+ChipThinning chip_thinning(size_t waves, size_t units, size_t k, size_t burst_turns) {
+  ChipThinning t;
+  if (k < 2 || units == 0 || burst_turns == 0) return t;
+  t.lead = kChipLeadTurns * units;
+  t.trail = kChipTrailTurns * units;
+  t.burst = burst_turns;
+  t.warm = kChipWarmTurns;
+  t.tail = kChipTailTurns;
+  if (waves <= t.lead + t.trail) return t;
+  const size_t B = burst_turns * units, bursts = (waves - t.lead - t.trail) / B, measured = bursts / k;
+  const size_t simulated = t.lead + t.trail + measured * (B + (t.warm + t.tail) * units);
+  if (measured < 2 || 2 * simulated > waves) return t;
+  t.sampled = true;
+  return t;
+}
+
+CycleEstimate estimate_chip_cycles(const ChipSample& c, uint64_t start) {
+  const size_t m = c.measured_c.size();
+  double sum_c = 0.0, sum_a = 0.0;
+  for (size_t q = 0; q < m; ++q) {
+    sum_c += c.measured_c[q];
+    sum_a += c.measured_a[q];
+  }
+  const double total = sum_a + c.skipped_work, ratio = sum_a > 0.0 ? sum_c / sum_a : 0.0;
+  CycleEstimate e;
+  e.cycles = double(c.lead_done - start) + ratio * total + double(c.end - c.mid_done);
+  if (m > 1) {
+    double sum_r = 0.0, sum_r2 = 0.0;
+    for (size_t q = 0; q < m; ++q) {
+      const double rest = sum_a - c.measured_a[q];
+      const double r = rest > 0.0 ? (sum_c - c.measured_c[q]) / rest : ratio;
+      sum_r += r;
+      sum_r2 += r * r;
+    }
+    const double spread = std::max(0.0, sum_r2 - sum_r * sum_r / double(m));
+    const double f = c.population > 0.0 ? c.sampled / c.population : 1.0;
+    e.variance = (double(m) - 1) / double(m) * spread * total * total * std::max(0.0, 1.0 - f);
+  }
+  return e;
+}
+
 void account_slot_time(SlotTimeAccount& a, const std::vector<uint64_t>& done, const std::vector<uint64_t>& written,
                        const std::vector<uint64_t>& entered, size_t w, size_t unit_rays, size_t ray_slots) {
   const size_t U = unit_rays;

@@ -32,6 +32,7 @@
 // constants were chosen and what the estimator's error is on the benchmark meshes.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -106,6 +107,44 @@ struct CycleEstimate {
   double cycles = 0.0, variance = 0.0;
 };
 CycleEstimate estimate_cycles(const std::vector<Stratum>& strata, const std::vector<double>& aux, double exact);
+
+// Sampled timing on a chip (ray_policy dynamic: a wave of ray_slots rays to whichever unit asks first). A chip's
+// packet is short for its slots (262,144 rays are about 100 rays per slot on 80 units of 32), too short for units
+// measured apart, each after its own warm-up from empty slots. The chip runs a thinned packet instead, every unit
+// and the shared memory simulated, so the measured rays meet the contention the whole packet has:
+// - the lead: its first kChipLeadTurns turns (a turn: a wave per unit), the fill, simulated;
+// - bursts of kChipBurstTurns turns between, every k-th from a seeded offset measured, each after a warm-up turn
+//   and before a tail turn, simulated but not measured (the slots in steady state on both sides of it);
+// - the trail: its last kChipTrailTurns turns, the drain, simulated;
+// - before each simulated wave the waves skipped since the last warm the shared memory functionally (their
+//   fetches' lines into the L2 as reads would leave them; no time). A unit's node cache is not warmed: which
+//   unit would have taken a skipped wave is decided only as the packet runs, and warming a unit that has rays in
+//   flight evicts their lines (it measured worse).
+// The lead and the trail are taken as simulated. A measured burst's cost is the cycles from the last hit of the
+// rays before it to the last of its own, counted in order of writing (as a single unit's sample is); the cycles
+// between lead and trail are the ratio of the bursts' cost to their work (unit_work) times the work of every wave
+// between, with the ratio's jackknife variance over the bursts, finite-population corrected. Every ray is traced
+// (the skipped ones too: their hits and their lines), so the speed-up is the timing model's, not the datapath's.
+// docs/timing-model.md gives the error measured on renders.
+struct ChipThinning {
+  bool sampled = false;
+  size_t lead = 0, trail = 0;            // waves
+  size_t burst = 0, warm = 0, tail = 0;  // turns per measured burst, and simulated before and after it
+};
+inline constexpr size_t kChipLeadTurns = 4, kChipTrailTurns = 4, kChipBurstTurns = 2, kChipWarmTurns = 1,
+                        kChipTailTurns = 1;
+// The thinning of a packet of `waves` waves on `units` units at every k-th burst: sampled when at least two
+// bursts are measured and what is simulated is at most half the waves; otherwise not (every wave simulated).
+ChipThinning chip_thinning(size_t waves, size_t units, size_t k, size_t burst_turns = kChipBurstTurns);
+struct ChipSample {
+  uint64_t lead_done = 0, mid_done = 0;        // the last hit of the lead's rays, and of the rays before the trail
+  uint64_t end = 0;                            // the thinned packet's last hit
+  std::vector<double> measured_c, measured_a;  // per measured burst: cycles (in order of writing), work
+  double skipped_work = 0.0;                   // of the waves between lead and trail not in a measured burst
+  double population = 0.0, sampled = 0.0;      // waves between lead and trail, and those measured
+};
+// The packet's cycles from `start`, and the variance: the lead, the ratio x the work between, the trail.
+CycleEstimate estimate_chip_cycles(const ChipSample& c, uint64_t start);
 
 // The detailed warm-up's length. A segment starts with every ray slot free, but in the full simulation some slots
 // are held at that point by rays that entered long before (a stream's slowest rays, chains of cache misses, stay

@@ -102,7 +102,9 @@ std::vector<KeyInfo> make_key_table() {
       {"units", &C::units, 1, 256, "ray-tracing units on the chip, sharing the L2 and DRAM (1: one unit)"},
       {"ray_policy", &C::ray_policy, 0, 0,
        "how a packet's rays go to the units: waves (ray_slots consecutive rays to each unit in turn), round_robin "
-       "(ray i to unit i mod units) or blocks (the packet in units consecutive blocks)"},
+       "(ray i to unit i mod units), blocks (the packet in units consecutive blocks) or dynamic (a wave to "
+       "whichever "
+       "unit asks first; the policy sampled timing runs on a chip with)"},
       {"l2_kib", &C::l2_kib, 0, 1048576, "L2 behind the node cache in KiB (0: none; memory_system.h)"},
       {"l2_slices", &C::l2_slices, 1, 256, "L2 slices (a line's slice: line number mod slices)"},
       {"l2_ways", &C::l2_ways, 1, 64, "L2 associativity"},
@@ -200,7 +202,7 @@ void TimingConfig::validate() const {
     } else if (key == "ray_policy") {
       RayPolicy policy;
       if (!parse_ray_policy(ray_policy, policy))
-        fail("ray_policy = '" + ray_policy + "' must be waves, round_robin or blocks");
+        fail("ray_policy = '" + ray_policy + "' must be waves, round_robin, blocks or dynamic");
     } else if (key == "l2_kib") {
       const long long set_bytes = static_cast<long long>(l2_slices) * l2_ways * line_bytes;
       if (l2_kib > 0 && set_bytes > 0 && (static_cast<long long>(l2_kib) * 1024) % set_bytes != 0)

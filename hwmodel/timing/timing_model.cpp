@@ -257,6 +257,13 @@ void TimingModel::warm(const std::vector<TraceEvent>* events, size_t m) {
     });
 }
 
+void TimingModel::warm_memory(const std::vector<TraceEvent>* events, size_t m) {
+  for (size_t i = 0; i < m; ++i)
+    for_each_fetch<false>(events[i], [&](const Layout& l, const TraceEvent& e) {
+      for_each_line<false>(l, e, [&](uint64_t line) { m_mem->warm_line(line); });
+    });
+}
+
 void TimingModel::walk_begin(const std::vector<TraceEvent>* events, size_t m) {
   m_cache.walk_reset();
   if (!m_cache.enabled()) return;  // nothing to warm

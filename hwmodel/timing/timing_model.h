@@ -40,6 +40,7 @@
 // Left out: overlap of consecutive TRACE packets, DRAM refresh, write-allocate of spills into the cache.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <deque>
@@ -147,11 +148,17 @@ class TimingModel {
   uint64_t next_cycle() const;
   bool starved() const;
   uint64_t end_cycle() const { return m_end; }
+  // The unit takes no rays beyond those added so far (begin() was given an upper bound: a chip that hands rays to
+  // whichever unit asks, ray_policy dynamic).
+  void close_input() { m_n = std::min(m_n, m_feed_first + m_feed_count); }
   void end_packet(uint64_t end);
   // Functional warming: the cache takes the lines these rays' fetches touch, in order, with LRU updates, but no
   // time passes and nothing is counted. Sampled timing warms through the walk below (walk_install leaves the same
   // cache, in less time); this is the definition the tests hold walk_install to.
   void warm(const std::vector<TraceEvent>* events, size_t m);
+  // The same for the memory behind the node cache (a chip's L2: memory_backend.h, warm_line): its levels take the
+  // lines these rays' fetches touch, in order. The node cache is left alone.
+  void warm_memory(const std::vector<TraceEvent>* events, size_t m);
   // How far back functional warming must reach. An LRU cache's contents at a point are, in each set, the
   // cache_ways most recent distinct lines touched before it, in that order. Of the lines that rays simulated after
   // the point touch, a line is in the cache at the point if it is among those of its set, and is not if its set

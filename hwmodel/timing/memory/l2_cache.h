@@ -25,6 +25,9 @@ class L2Cache {
   // A line read at cycle t: returns the cycle its data is there; a miss reads it through `dram(line, t)`.
   template <class Dram>
   uint64_t access(uint64_t line, uint64_t t, Dram&& dram, TimingStats& s);
+  // Functional warming: the line is taken (most recently used) with no time and no count; a line already there
+  // keeps its arrival cycle.
+  void warm(uint64_t line);
   // The fewest cycles a line read takes, when DRAM takes at least `dram_min`.
   uint64_t min_cycles(uint64_t dram_min) const { return m_latency + (m_xfer < dram_min ? m_xfer : dram_min); }
 
@@ -40,6 +43,22 @@ class L2Cache {
   std::vector<uint64_t> m_port_free;  // per slice
   uint64_t m_stamp = 0;
 };
+
+inline void L2Cache::warm(uint64_t line) {
+  const uint64_t in_slice = line / m_slices;
+  Line* ways = &m_lines[(uint64_t(line % m_slices) * m_sets + in_slice % m_sets) * m_ways];
+  Line* victim = ways;
+  for (uint32_t w = 0; w < m_ways; ++w) {
+    if (ways[w].tag == line) {
+      ways[w].stamp = ++m_stamp;
+      return;
+    }
+    if (ways[w].stamp < victim->stamp) victim = &ways[w];
+  }
+  victim->tag = line;
+  victim->stamp = ++m_stamp;
+  victim->ready = 0;
+}
 
 template <class Dram>
 uint64_t L2Cache::access(uint64_t line, uint64_t t, Dram&& dram, TimingStats& s) {

@@ -35,6 +35,9 @@ class MemoryBackend {
   virtual uint64_t min_line_cycles() const = 0;
   // The latest cycle the backend's transfers keep it busy until.
   virtual uint64_t free_at() const = 0;
+  // Functional warming (sampled timing): a cache level takes the line as a read would, with its replacement
+  // order updated, but no time passes and nothing is counted. A DRAM has nothing to warm.
+  virtual void warm_line(uint64_t line) { (void)line; }
 };
 
 // Cycles a port of `bytes_per_cycle` is busy moving `bytes` (0 bytes per cycle: unlimited, no cycles).

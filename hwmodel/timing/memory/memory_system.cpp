@@ -58,6 +58,7 @@ class L2Level final : public MemoryBackend {
   void write_word(uint64_t addr, uint64_t t, TimingStats& s) override { m_next->write_word(addr, t, s); }
   uint64_t min_line_cycles() const override { return m_l2.min_cycles(m_next->min_line_cycles()); }
   uint64_t free_at() const override { return m_next->free_at(); }
+  void warm_line(uint64_t line) override { m_l2.warm(line); }
 
  private:
   L2Cache m_l2;

@@ -36,7 +36,8 @@ class MemorySystem {
   uint64_t read_word(uint64_t addr, uint64_t t, TimingStats& s) { return m_top->read_word(addr, t, s); }
   // The fewest cycles a line read takes (a lower bound the timing model's early requests rely on).
   uint64_t min_line_cycles() const { return m_top->min_line_cycles(); }
-  uint64_t free_at() const { return m_top->free_at(); }  // when the DRAM is free (the watchdog's dump)
+  uint64_t free_at() const { return m_top->free_at(); }      // when the DRAM is free (the watchdog's dump)
+  void warm_line(uint64_t line) { m_top->warm_line(line); }  // functional warming (memory_backend.h)
   const MemoryTimeline& timeline() const { return m_timeline; }
 
  private:

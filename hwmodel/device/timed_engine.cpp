@@ -549,6 +549,13 @@ uint64_t TimedEngine::run_chip_dynamic(const std::vector<ChipWave>& waves, const
     work[2 * w + 1] = unit_work(double(cw.first - cw.warm_first), double(r->warm_stats.box_tests),
                                 double(r->warm_stats.prim_tests), box_rate, tri_rate);
     if (cw.first > cw.warm_first) m_chip_units[u]->warm_memory(r->warm.data(), cw.first - cw.warm_first);
+    // Each skipped wave warms the node cache of the unit it would have gone to in turn (its number mod the units),
+    // each unit's share under dynamic dispatch (sampler.h).
+    for (size_t f = cw.warm_first; f < cw.first;) {
+      const size_t S = size_t(m_c.ray_slots), wave_no = f / S, c = std::min(cw.first, (wave_no + 1) * S) - f;
+      m_chip_units[wave_no % U]->warm(r->warm.data() + (f - cw.warm_first), c);
+      f += c;
+    }
     m_chip_units[u]->add_rays(r->events.data(), cw.count);
     if (held[u]) {  // the unit has taken every ray of its previous wave: its storage can be recorded into again
       const std::lock_guard<std::mutex> lock(mutex);

@@ -106,6 +106,15 @@ CycleEstimate estimate_cycles(const std::vector<Stratum>& strata, const std::vec
   return e;
 }
 
+double student_t975(size_t df) {
+  // Student's t distribution, two-sided 95% (the 0.975 quantile), for 1 .. 30 degrees of freedom.
+  static constexpr double kT[] = {12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228,
+                                  2.201,  2.179, 2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086,
+                                  2.080,  2.074, 2.069, 2.064, 2.060, 2.056, 2.052, 2.048, 2.045, 2.042};
+  if (df == 0) return kT[0];
+  return df <= 30 ? kT[df - 1] : 1.96;
+}
+
 ChipThinning chip_thinning(size_t waves, size_t units, size_t k, size_t burst_turns) {
   ChipThinning t;
   if (k < 2 || units == 0 || burst_turns == 0) return t;
@@ -117,7 +126,7 @@ ChipThinning chip_thinning(size_t waves, size_t units, size_t k, size_t burst_tu
   if (waves <= t.lead + t.trail) return t;
   const size_t B = burst_turns * units, bursts = (waves - t.lead - t.trail) / B, measured = bursts / k;
   const size_t simulated = t.lead + t.trail + measured * (B + (t.warm + t.tail) * units);
-  if (measured < 2 || 2 * simulated > waves) return t;
+  if (measured < kChipMinBursts || 2 * simulated > waves) return t;
   t.sampled = true;
   return t;
 }
@@ -142,7 +151,10 @@ CycleEstimate estimate_chip_cycles(const ChipSample& c, uint64_t start) {
     }
     const double spread = std::max(0.0, sum_r2 - sum_r * sum_r / double(m));
     const double f = c.population > 0.0 ? c.sampled / c.population : 1.0;
-    e.variance = (double(m) - 1) / double(m) * spread * total * total * std::max(0.0, 1.0 - f);
+    // A few bursts: the jackknife's variance has m - 1 degrees of freedom, so the interval takes Student's t
+    // quantile, given as the variance scaled by (t / 1.96)^2 (ci95() is 1.96 sqrt(variance)).
+    const double t = student_t975(m - 1) / 1.96;
+    e.variance = (double(m) - 1) / double(m) * spread * total * total * std::max(0.0, 1.0 - f) * t * t;
   }
   return e;
 }

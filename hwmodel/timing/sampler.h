@@ -113,13 +113,14 @@ CycleEstimate estimate_cycles(const std::vector<Stratum>& strata, const std::vec
 // measured apart, each after its own warm-up from empty slots. The chip runs a thinned packet instead, every unit
 // and the shared memory simulated, so the measured rays meet the contention the whole packet has:
 // - the lead: its first kChipLeadTurns turns (a turn: a wave per unit), the fill, simulated;
-// - bursts of kChipBurstTurns turns between, every k-th from a seeded offset measured, each after a warm-up turn
-//   and before a tail turn, simulated but not measured (the slots in steady state on both sides of it);
+// - bursts of kChipBurstTurns turns between, every k-th from a seeded offset measured, each after kChipWarmTurns
+//   warm-up turns and before kChipTailTurns tail turns, simulated but not measured (the slots in steady state on
+//   both sides of it; the warm-up and the tail lie in the bursts next to it);
 // - the trail: its last kChipTrailTurns turns, the drain, simulated;
-// - before each simulated wave the waves skipped since the last warm the shared memory functionally (their
-//   fetches' lines into the L2 as reads would leave them; no time). A unit's node cache is not warmed: which
-//   unit would have taken a skipped wave is decided only as the packet runs, and warming a unit that has rays in
-//   flight evicts their lines (it measured worse).
+// - before each simulated wave the waves skipped since the last warm the chip functionally (their fetches'
+//   lines as reads would leave them; no time): the shared L2 with every skipped wave, and each unit's node cache
+//   with the skipped waves it would have taken in turn (wave number mod units; under dynamic dispatch which unit
+//   takes a wave is decided only as the packet runs, and in turn is each unit's share of them).
 // The lead and the trail are taken as simulated. A measured burst's cost is the cycles from the last hit of the
 // rays before it to the last of its own, counted in order of writing (as a single unit's sample is); the cycles
 // between lead and trail are the ratio of the bursts' cost to their work (unit_work) times the work of every wave
@@ -131,10 +132,15 @@ struct ChipThinning {
   size_t lead = 0, trail = 0;            // waves
   size_t burst = 0, warm = 0, tail = 0;  // turns per measured burst, and simulated before and after it
 };
-inline constexpr size_t kChipLeadTurns = 4, kChipTrailTurns = 4, kChipBurstTurns = 2, kChipWarmTurns = 1,
+inline constexpr size_t kChipLeadTurns = 4, kChipTrailTurns = 4, kChipBurstTurns = 4, kChipWarmTurns = 2,
                         kChipTailTurns = 1;
-// The thinning of a packet of `waves` waves on `units` units at every k-th burst: sampled when at least two
-// bursts are measured and what is simulated is at most half the waves; otherwise not (every wave simulated).
+// Bursts measured at the least: the interval's t quantile for 3 degrees of freedom is 3.18 (for 1, 12.7).
+inline constexpr size_t kChipMinBursts = 4;
+static_assert(kChipWarmTurns + kChipTailTurns <= kChipBurstTurns,
+              "a burst's warm-up and tail lie in its neighbours");
+// The thinning of a packet of `waves` waves on `units` units at every k-th burst: sampled when at least
+// kChipMinBursts bursts are measured and what is simulated is at most half the waves; otherwise not (every wave
+// simulated).
 ChipThinning chip_thinning(size_t waves, size_t units, size_t k, size_t burst_turns = kChipBurstTurns);
 struct ChipSample {
   uint64_t lead_done = 0, mid_done = 0;        // the last hit of the lead's rays, and of the rays before the trail
@@ -143,7 +149,10 @@ struct ChipSample {
   double skipped_work = 0.0;                   // of the waves between lead and trail not in a measured burst
   double population = 0.0, sampled = 0.0;      // waves between lead and trail, and those measured
 };
-// The packet's cycles from `start`, and the variance: the lead, the ratio x the work between, the trail.
+// Student's t quantile for a two-sided 95% interval with df degrees of freedom (1.96 beyond 30).
+double student_t975(size_t df);
+// The packet's cycles from `start`, and the variance: the lead, the ratio x the work between, the trail; the
+// variance scaled so that 1.96 sqrt(variance) is the t interval of the bursts' jackknife.
 CycleEstimate estimate_chip_cycles(const ChipSample& c, uint64_t start);
 
 // The detailed warm-up's length. A segment starts with every ray slot free, but in the full simulation some slots

@@ -698,3 +698,145 @@ TEST_CASE("chip: units running ahead to their next memory access give the cycles
     CHECK((runs[0].prefetch_fills > 0) == (std::string(prefetcher) != "none"));
   }
 }
+
+namespace {
+
+// A small chip: `units` units of rdna2 sharing an L2 and banked DRAM, waves handed to whichever unit asks first.
+DeviceOptions dynamic_chip(int units, double fraction, uint64_t seed = 1) {
+  DeviceOptions o = options("timed", "rdna2");
+  rtu::hw::set_timing_key(o.timing, "units", std::to_string(units));
+  rtu::hw::set_timing_key(o.timing, "ray_policy", "dynamic");
+  rtu::hw::set_timing_key(o.timing, "l2_kib", "256");
+  rtu::hw::set_timing_key(o.timing, "dram_banks", "8");
+  rtu::hw::set_timing_key(o.timing, "dram_channels", "2");
+  o.sample.fraction = fraction;
+  o.sample.seed = seed;
+  return o;
+}
+
+}  // namespace
+
+TEST_CASE("chip, dynamic dispatch: the fixed device's hits, the same cycles on any number of threads, sampled too",
+          "[timed][chip][sample]") {
+  const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
+  std::vector<Ray> rays = rtu::host::primary_rays(s.camera, 12000);
+  const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), 12000, 4);
+  rays.insert(rays.end(), inc.begin(), inc.end());
+  const size_t n = rays.size();
+  const auto fixed = rtu::host::make_device(s.geometry, options("fixed", "rdna2"));
+  std::vector<Hit> hf(n);
+  rtu::hw::TraversalStats sf;
+  fixed->trace_batch(rays.data(), hf.data(), n, false, 2, sf);
+  for (double fraction : {0.0, 0.1}) {
+    CAPTURE(fraction);
+    std::vector<rtu::hw::TimingStats> runs;
+    for (int threads : {1, 2}) {
+      const auto chip = rtu::host::make_device(s.geometry, dynamic_chip(4, fraction));
+      std::vector<Hit> h(n);
+      rtu::hw::TraversalStats st;
+      chip->trace_batch(rays.data(), h.data(), n, false, threads, st);
+      // Sampled or not, every ray is traced: the hits and the datapath's counts are the fixed device's.
+      CHECK(std::memcmp(h.data(), hf.data(), n * sizeof(Hit)) == 0);
+      CHECK(st.box_tests == sf.box_tests);
+      CHECK(st.prim_tests == sf.prim_tests);
+      runs.push_back(chip->timed()->timing());
+      const rtu::hw::SampleStats& ss = chip->timed()->sampling();
+      if (fraction == 0.0) {
+        // Each unit took whole waves of 32 (the last of 0 rays here: 24000 = 750 x 32), all of them together.
+        uint64_t unit_rays = 0;
+        for (const auto& u : chip->timed()->timing_by_unit()) {
+          CHECK(u.rays % 32 == 0);
+          CHECK(u.rays > 0);
+          unit_rays += u.rays;
+        }
+        CHECK(unit_rays == n);
+        CHECK(ss.packets_sampled == 0);
+      } else {
+        // 750 waves: a lead and a trail of 16 waves, 44 bursts of 16 between, 4 or 5 of them measured, each with
+        // 12 waves more simulated around it.
+        CHECK(ss.packets_sampled == 1);
+        CHECK(ss.units_measured >= 4);
+        CHECK(ss.units_measured <= 5);
+        CHECK(ss.rays_simulated <= (32 + ss.units_measured * 28) * 32);
+        CHECK(ss.rays_simulated + ss.rays_warmed == n);
+        CHECK(runs.back().rays == n);
+      }
+    }
+    check_same_timing(runs[0], runs[1]);
+  }
+}
+
+TEST_CASE("chip sampling: the full simulation's cycles lie in the stated interval, seed after seed",
+          "[timed][chip][sample]") {
+  // A packet of incoherent rays and one of camera rays on a small chip, sampled at 1 in 10 with five seeds against
+  // the full simulation; a fixed seed list makes this deterministic. Incoherent rays cost alike everywhere: the
+  // interval is narrow and holds the truth. Camera rays cross from sky to house once; each measured burst meets
+  // such a change as it follows waves from elsewhere, and the camera rays' interval is wide (bench/results/
+  // sampled-timing.md gives the error on renders).
+  const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
+  const std::vector<Ray> primary = rtu::host::primary_rays(s.camera, 40000);
+  const std::vector<Ray> incoherent = rtu::host::incoherent_rays(s.geometry.bounds(), 40000, 6);
+  for (const std::vector<Ray>* rays : {&incoherent, &primary}) {
+    CAPTURE(rays == &primary ? "primary" : "incoherent");
+    const size_t n = rays->size();
+    std::vector<Hit> h(n);
+    rtu::hw::TraversalStats st;
+    const auto full = rtu::host::make_device(s.geometry, dynamic_chip(4, 0.0));
+    full->trace_batch(rays->data(), h.data(), n, false, 2, st);
+    const double exact = double(full->timed()->timing().cycles);
+    int inside = 0;
+    for (uint64_t seed : {1, 2, 3, 6, 7}) {
+      const auto chip = rtu::host::make_device(s.geometry, dynamic_chip(4, 0.1, seed));
+      chip->trace_batch(rays->data(), h.data(), n, false, 2, st);
+      const double est = double(chip->timed()->timing().cycles), ci = chip->timed()->sampling().ci95();
+      INFO("seed " << seed << ": full " << exact << ", sampled " << est << " +- " << ci);
+      REQUIRE(chip->timed()->sampling().packets_sampled == 1);
+      CHECK(ci > 0.0);
+      CHECK(ci < (rays == &primary ? 0.6 : 0.06) * exact);
+      CHECK(std::abs(est - exact) <= 2.0 * ci);
+      inside += std::abs(est - exact) <= ci;
+    }
+    CHECK(inside >= 4);
+  }
+}
+
+TEST_CASE("chip sampling: a chip whose units' rays are fixed refuses it, naming the policy that samples",
+          "[timed][chip][sample]") {
+  const rtu::host::Scene s = rtu::host::load_scene("builtin:seed");
+  DeviceOptions o = dynamic_chip(4, 0.1);
+  rtu::hw::set_timing_key(o.timing, "ray_policy", "waves");
+  const auto chip = rtu::host::make_device(s.geometry, o);
+  const std::vector<Ray> rays = rtu::host::primary_rays(s.camera, 40000);
+  std::vector<Hit> h(rays.size());
+  rtu::hw::TraversalStats st;
+  REQUIRE_THROWS_WITH(chip->trace_batch(rays.data(), h.data(), rays.size(), false, 2, st),
+                      Catch::Contains("ray_policy = dynamic") && Catch::Contains("slowest unit"));
+}
+
+TEST_CASE("chip sampling: a render's image is the unsampled render's, its cycles the same on 1 and 2 threads",
+          "[timed][chip][sample]") {
+  const rtu::host::Scene s = rtu::host::load_scene("builtin:seed");
+  rtu::host::RenderOptions o;
+  o.width = 80;
+  o.height = 60;
+  o.spp = 2;
+  o.max_depth = 3;
+  o.threads = 2;
+  // Two units of 8 slots: 9600 camera rays are 1200 waves, enough for every bounce's packet to be thinned.
+  o.device = dynamic_chip(2, 0.0);
+  rtu::hw::set_timing_key(o.device.timing, "ray_slots", "8");
+  const rtu::host::RenderResult full = rtu::host::render(s, o);
+  o.device.sample.fraction = 0.2;
+  const rtu::host::RenderResult sampled = rtu::host::render(s, o);
+  o.threads = 1;
+  const rtu::host::RenderResult sampled1 = rtu::host::render(s, o);
+  REQUIRE(full.rgb.size() == sampled.rgb.size());
+  CHECK(std::memcmp(full.rgb.data(), sampled.rgb.data(), full.rgb.size() * sizeof(float)) == 0);
+  CHECK(std::memcmp(full.rgb.data(), sampled1.rgb.data(), full.rgb.size() * sizeof(float)) == 0);
+  CHECK(sampled.sampling.packets_sampled >= 3);  // camera rays and the larger bounces' packets
+  CHECK(sampled.timing.cycles == sampled1.timing.cycles);
+  CHECK(sampled.device_clock == sampled1.device_clock);
+  const double exact = double(full.timing.cycles), est = double(sampled.timing.cycles);
+  INFO("full " << exact << ", sampled " << est << " +- " << sampled.sampling.ci95());
+  CHECK(std::abs(est - exact) <= 2.0 * sampled.sampling.ci95());
+}

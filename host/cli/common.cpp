@@ -52,7 +52,8 @@ void add_sampling_args(CLI::App& app, DeviceArgs& o) {
   app.add_option("--sample", o.sample,
                  "timed device: simulate this fraction of each packet's rays in the timing model (units of rays "
                  "sampled in strata or systematically, each after functional cache warming and a warm-up) and "
-                 "estimate the cycles with a 95% interval; 0: all")
+                 "estimate the cycles with a 95% interval; on a chip (units > 1) with --set ray_policy=dynamic, "
+                 "bursts of waves on every unit; 0: all")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   app.add_option("--sample-unit", o.sample_unit, "timed device, --sample: rays per measured unit")

@@ -129,6 +129,42 @@ TEST_CASE("sampler: the ratio estimate and its jackknife variance", "[sample]") 
   }
 }
 
+TEST_CASE("sampler: a chip's thinned packet, its estimate and its t interval", "[sample]") {
+  using rtu::hw::chip_thinning;
+  // 1000 waves on 4 units at 1 in 10: a lead and a trail of 16 waves, 60 bursts of 16 between, 6 measured, each
+  // with 12 waves of warm-up and tail: 200 waves simulated, under half.
+  const rtu::hw::ChipThinning t = chip_thinning(1000, 4, 10);
+  CHECK(t.sampled);
+  CHECK(t.lead == 16);
+  CHECK(t.trail == 16);
+  CHECK(t.burst == rtu::hw::kChipBurstTurns);
+  // Too few bursts (10 between, 1 measured), no sampling asked, or what would be simulated over half: not sampled.
+  CHECK_FALSE(chip_thinning(200, 4, 10).sampled);
+  CHECK_FALSE(chip_thinning(1000, 4, 1).sampled);
+  CHECK_FALSE(chip_thinning(1000, 4, 2).sampled);  // 30 measured bursts of 28 waves: 872 of 1000
+  // Student's t: 12.706 for 1 degree of freedom, 2.042 for 30, 1.96 beyond.
+  CHECK(rtu::hw::student_t975(1) == 12.706);
+  CHECK(rtu::hw::student_t975(30) == 2.042);
+  CHECK(rtu::hw::student_t975(31) == 1.96);
+  // Two bursts costing 50 and 70 cycles for 100 work each, 800 more work between skipped: the ratio 0.6 times the
+  // 1000 work between, plus the lead's 100 cycles and the trail's 30.
+  rtu::hw::ChipSample c;
+  c.lead_done = 1100;
+  c.measured_c = {50.0, 70.0};
+  c.measured_a = {100.0, 100.0};
+  c.skipped_work = 800.0;
+  c.mid_done = 1800;
+  c.end = 1830;
+  c.population = 20.0;
+  c.sampled = 2.0;
+  const rtu::hw::CycleEstimate e = rtu::hw::estimate_chip_cycles(c, 1000);
+  CHECK(e.cycles == Approx(100.0 + 0.6 * 1000.0 + 30.0));
+  // The jackknife: ratios 0.7 and 0.5 with one burst left out, (m - 1) / m x their squared spread, x the work
+  // between squared, x (1 - 2 / 20), x (t for 1 degree of freedom / 1.96)^2.
+  const double t1 = 12.706 / 1.96;
+  CHECK(e.variance == Approx(0.5 * 0.02 * 1000.0 * 1000.0 * 0.9 * t1 * t1));
+}
+
 TEST_CASE("sampler: the detailed warm-up follows how long the stream's rays hold their slots", "[sample]") {
   const size_t slots = 32, U = 256;
   SlotTimeAccount a;

@@ -9,6 +9,10 @@ bench_need_count() {  # bench_need_count WHAT VALUE: a positive integer
 bench_need_python() {
   command -v python3 >/dev/null || { echo "$name: needs python3 to read the stats JSON" >&2; exit 2; }
 }
+num() {  # num PATH FILE: a number from the stats JSON, by a Python-style path
+  python3 -c "import json,sys; d=json.load(open(sys.argv[2])); print(eval('d'+sys.argv[1]))" "$1" "$2"
+}
+least() { awk -v a="$1" -v b="$2" 'BEGIN{print (a == "" || b < a) ? b : a}'; }  # least A B: the smaller; A may be empty
 bench_tmpdir() {  # sets tmp
   tmp=$(mktemp -d)
   trap 'rm -rf "$tmp"' EXIT

@@ -34,11 +34,6 @@ bench_need_count SEEDS "$seeds"
 bench_need_python
 bench_tmpdir
 
-num() {  # num PATH FILE: a number from the stats JSON, by a Python-style path
-  python3 -c "import json,sys; d=json.load(open(sys.argv[2])); print(eval('d'+sys.argv[1]))" "$1" "$2"
-}
-least() { awk -v a="$1" -v b="$2" 'BEGIN{print (a == "" || b < a) ? b : a}'; }
-
 printf '| scene | device | sample | rays | cycles (full) | seeds | mean error | mean abs error | max abs error | in 95%% interval | rays simulated | render s (full / sampled) | speed-up | image |\n'
 printf '|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n'
 for scene in "${scenes[@]}"; do

@@ -35,11 +35,6 @@ bench_tmpdir
 width=${size%x*}
 height=${size#*x}
 
-num() {  # num PATH FILE: a number from the stats JSON, by a Python-style path
-  python3 -c "import json,sys; d=json.load(open(sys.argv[2])); print(eval('d'+sys.argv[1]))" "$1" "$2"
-}
-least() { awk -v a="$1" -v b="$2" 'BEGIN{print (a == "" || b < a) ? b : a}'; }
-
 printf '| scene | device | rays | frame cycles | error | render s | simulated rays / s / core |\n'
 printf '|---|---|---:|---:|---:|---:|---:|\n'
 for scene in "${scenes[@]}"; do

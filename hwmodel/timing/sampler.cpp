@@ -74,6 +74,27 @@ std::vector<Stratum> choose_strata(const std::vector<double>& aux, const std::ve
   return strata;
 }
 
+double jackknife_ratio_variance(const std::vector<double>& c, const std::vector<double>& x) {
+  const size_t m = c.size();
+  if (m < 2) return 0.0;
+  double sum_c = 0.0, sum_x = 0.0;
+  for (size_t q = 0; q < m; ++q) {
+    sum_c += c[q];
+    sum_x += x[q];
+  }
+  const double ratio = sum_x > 0.0 ? sum_c / sum_x : 0.0;
+  // The ratio recomputed with each pair left out.
+  double sum_r = 0.0, sum_r2 = 0.0;
+  for (size_t q = 0; q < m; ++q) {
+    const double rest = sum_x - x[q];
+    const double r = rest > 0.0 ? (sum_c - c[q]) / rest : ratio;
+    sum_r += r;
+    sum_r2 += r * r;
+  }
+  const double spread = std::max(0.0, sum_r2 - sum_r * sum_r / double(m));  // sum of (r_(q) - mean)^2
+  return (double(m) - 1) / double(m) * spread;
+}
+
 CycleEstimate estimate_cycles(const std::vector<Stratum>& strata, const std::vector<double>& aux, double exact) {
   CycleEstimate e;
   e.cycles = exact;
@@ -87,18 +108,9 @@ CycleEstimate estimate_cycles(const std::vector<Stratum>& strata, const std::vec
     for (size_t j : st.units) total += aux[j];
     const double ratio = sum_x > 0.0 ? sum_c / sum_x : 0.0;
     e.cycles += ratio * total;
-    if (m > 1) {
-      // The jackknife: the ratio recomputed with each measured unit left out.
-      double sum_r = 0.0, sum_r2 = 0.0;
-      for (size_t q = 0; q < st.picked.size(); ++q) {
-        const double rest = sum_x - aux[st.picked[q]];
-        const double r = rest > 0.0 ? (sum_c - st.measured_c[q]) / rest : ratio;
-        sum_r += r;
-        sum_r2 += r * r;
-      }
-      const double spread = std::max(0.0, sum_r2 - sum_r * sum_r / m);  // sum of (r_(q) - mean)^2
-      e.variance += (m - 1) / m * spread * total * total * std::max(0.0, 1.0 - m / M);
-    }
+    std::vector<double> x;
+    for (size_t j : st.picked) x.push_back(aux[j]);
+    e.variance += jackknife_ratio_variance(st.measured_c, x) * total * total * std::max(0.0, 1.0 - m / M);
     // The probe's error in the work's total: each unit not measured carries its own, whose variance the measured
     // units show (their probe value against their exact one); the estimate scales it by the ratio.
     if (m > 0) e.variance += ratio * ratio * (M - m) * (st.probe_error2 / m);
@@ -142,19 +154,12 @@ CycleEstimate estimate_chip_cycles(const ChipSample& c, uint64_t start) {
   CycleEstimate e;
   e.cycles = double(c.lead_done - start) + ratio * total + double(c.end - c.mid_done);
   if (m > 1) {
-    double sum_r = 0.0, sum_r2 = 0.0;
-    for (size_t q = 0; q < m; ++q) {
-      const double rest = sum_a - c.measured_a[q];
-      const double r = rest > 0.0 ? (sum_c - c.measured_c[q]) / rest : ratio;
-      sum_r += r;
-      sum_r2 += r * r;
-    }
-    const double spread = std::max(0.0, sum_r2 - sum_r * sum_r / double(m));
     const double f = c.population > 0.0 ? c.sampled / c.population : 1.0;
     // A few bursts: the jackknife's variance has m - 1 degrees of freedom, so the interval takes Student's t
     // quantile, given as the variance scaled by (t / 1.96)^2 (ci95() is 1.96 sqrt(variance)).
     const double t = student_t975(m - 1) / 1.96;
-    e.variance = (double(m) - 1) / double(m) * spread * total * total * std::max(0.0, 1.0 - f) * t * t;
+    e.variance =
+        jackknife_ratio_variance(c.measured_c, c.measured_a) * total * total * std::max(0.0, 1.0 - f) * t * t;
   }
   return e;
 }

@@ -99,6 +99,10 @@ struct Stratum {
 std::vector<Stratum> choose_strata(const std::vector<double>& aux, const std::vector<uint8_t>& tests_prims,
                                    size_t k, uint64_t draw);
 
+// The jackknife variance of the ratio sum(c) / sum(x) over pairs (c[q], x[q]): (m - 1) / m times the squared
+// deviations of the ratios with each pair left out from their mean; 0 for fewer than 2 pairs.
+double jackknife_ratio_variance(const std::vector<double>& c, const std::vector<double>& x);
+
 // The packet's cycles and the variance of the estimate: `exact` (the cycles of the units simulated in full) plus,
 // per stratum, the ratio estimate (measured cycles / measured auxiliary x the stratum's auxiliary total; aux holds
 // the exact values of the measured units); the variance is, per stratum, the ratio's jackknife variance,

@@ -43,6 +43,13 @@ std::vector<std::string> expand_sets(const std::vector<std::string>& configs,
     if (eq == std::string::npos || eq == 0 || eq + 1 == s.size())
       throw Error("--set: expected KEY=V1,V2,... (a timing key and its values), got '" + s + "'");
     const std::string key = s.substr(0, eq);
+    // The grid's own axes: as timing keys they would relabel rows without changing them.
+    if (key == "format")
+      throw Error("--set " + s + ": a sweep's formats are given by --formats (e.g. --formats " + s.substr(eq + 1) +
+                  "), not by the timing key format");
+    if (key == "bvh_width")
+      throw Error("--set " + s + ": a sweep's BVH widths are given by --bvh-width (e.g. --bvh-width " +
+                  s.substr(eq + 1) + "), not by the timing key bvh_width");
     std::vector<std::string> values;
     for (size_t start = eq + 1;;) {
       const size_t comma = s.find(',', start);

@@ -216,6 +216,18 @@ void check_sweep_grid(const SweepGrid& g) {
     } catch (const Error& e) {
       throw Error(std::string("--config: ") + e.what());
     }
+    // A point's format and BVH width are its own (--formats, --bvh-width): the configuration's keys of those names
+    // would change the row's label but not what it measures.
+    for (size_t colon = c.find(':'); colon != std::string::npos; colon = c.find(':', colon + 1)) {
+      const std::string kv = c.substr(colon + 1, c.find(':', colon + 1) - colon - 1);
+      const std::string key = kv.substr(0, kv.find('='));
+      if (key == "format")
+        throw Error("--config " + c + ": a sweep point's format is set by --formats (e.g. --formats " +
+                    kv.substr(kv.find('=') + 1) + "), not by the configuration's key format");
+      if (key == "bvh_width")
+        throw Error("--config " + c + ": a sweep point's BVH width is set by --bvh-width (e.g. --bvh-width " +
+                    kv.substr(kv.find('=') + 1) + "), not by the configuration's key bvh_width");
+    }
   }
 }
 

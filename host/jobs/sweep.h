@@ -106,7 +106,9 @@ struct SweepGrid {
   std::vector<int> widths{4};
 };
 // Checks every format spec, BVH width and configuration of the grid before the first point runs; throws Error
-// naming the option (--formats, --bvh-width, --config) and the problem.
+// naming the option (--formats, --bvh-width, --config) and the problem. A configuration that sets the timing keys
+// format or bvh_width is refused, naming --formats or --bvh-width: a point's own format and width are what it
+// runs.
 void check_sweep_grid(const SweepGrid& g);
 // The rays of a sweep or plan job (--rays N camera rays and N incoherent) and their hits on the float, fixed and
 // timed devices, held at once, against the memory limit: throws the budget's Error naming `job` and N.

@@ -432,6 +432,34 @@ std::vector<SweepRow> read_sweep_csv(const std::string& path, bool* header_is_cu
   return parse_sweep_csv(text, path, header_is_current);
 }
 
+namespace {
+
+// A row's figures within what a measurement can give: a row edited by hand, or written by something else, is
+// refused rather than averaged or plotted into a table.
+void check_sweep_row(const SweepRow& r, const std::string& where) {
+  auto check = [&](const char* column, double v, double lo, double hi, bool inf_allowed) {
+    if (std::isnan(v) || (!inf_allowed && std::isinf(v)) || v < lo || v > hi)
+      throw Error(where + ": " + column + " " + (std::isnan(v) ? "nan" : num(v)) + " is out of range (" +
+                  (inf_allowed ? "" : "finite, ") + "from " + num(lo) + (std::isinf(hi) ? "" : " to " + num(hi)) +
+                  ")");
+  };
+  const double inf = std::numeric_limits<double>::infinity();
+  check("hit_agreement", r.hit_agreement, 0.0, 1.0, false);
+  check("prim_agreement", r.prim_agreement, 0.0, 1.0, false);
+  check("t_rel_error_mean", r.t_rel_error_mean, 0.0, inf, true);
+  check("t_rel_error_max", r.t_rel_error_max, 0.0, inf, true);
+  check("node_visit_overhead", r.node_visit_overhead, -1.0, inf, false);
+  check("prim_test_overhead", r.prim_test_overhead, -1.0, inf, false);
+  check("cycles_per_ray", r.cycles_per_ray, 0.0, inf, false);
+  check("dram_bytes_per_ray", r.dram_bytes_per_ray, 0.0, inf, false);
+  check("bytes_per_prim", r.bytes_per_prim, 0.0, inf, false);
+  check("area_mm2", r.area_mm2, 0.0, inf, false);
+  check("pj_per_ray", r.pj_per_ray, 0.0, inf, false);
+  check("seconds", r.seconds, 0.0, inf, false);
+}
+
+}  // namespace
+
 std::vector<SweepRow> parse_sweep_csv(const std::string& text, const std::string& path, bool* header_is_current) {
   std::istringstream in(text);
   std::vector<SweepRow> rows;
@@ -493,6 +521,8 @@ std::vector<SweepRow> parse_sweep_csv(const std::string& text, const std::string
     // Empty: not measured (no render); a file of the version before wrote 0 for it when image_width was 0.
     r.psnr_db = f[k].empty() || r.image_width == 0 ? std::numeric_limits<double>::quiet_NaN()
                                                    : parse_csv_double(f[k], where);
+    if (!f[k].empty() && r.image_width > 0 && std::isnan(r.psnr_db))  // "not measured" is an empty cell
+      throw Error(where + ": psnr_db '" + f[k] + "' is not a measurement (an empty cell: no render)");
     ++k;
     r.cycles = parse_csv_int<uint64_t>(f[k++], where);
     r.cycles_per_ray = parse_csv_double(f[k++], where);
@@ -505,6 +535,7 @@ std::vector<SweepRow> parse_sweep_csv(const std::string& text, const std::string
     r.area_mm2 = parse_csv_double(f[k++], where);
     r.pj_per_ray = parse_csv_double(f[k++], where);
     r.seconds = parse_csv_double(f[k++], where);
+    check_sweep_row(r, where);
     rows.push_back(r);
   }
   if (n == 0) throw Error(path + ": empty (no header)");

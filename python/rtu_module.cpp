@@ -506,20 +506,23 @@ std::string sweep(const std::vector<std::string>& scenes, const std::vector<std:
   return csv;
 }
 
-// rtusim sweep --write-manifest: the grid's manifest written to `path`; (points, repeated points listed once).
+// rtusim sweep --write-manifest: the grid's manifest, priced with the area table at `area_path` (empty: the shipped
+// one), written to `path`; (points, repeated points listed once).
 // A file already there listing other points is refused (a folder holds one sweep: resuming another's points
 // would mix them).
 py::tuple write_manifest(const std::string& path, const std::vector<std::string>& scenes,
                          const std::vector<std::string>& formats, const std::vector<int>& widths,
                          const std::vector<std::string>& configs, uint64_t rays, uint64_t seed, int image_width,
-                         bool flatten) {
+                         bool flatten, const std::string& area_path) {
   const host::SweepGrid g{scenes, formats, configs, widths};
   const host::SweepOptions o = sweep_options(rays, seed, image_width, 1, flatten);
   host::check_sweep_grid(g);
   size_t points = 0, repeated = 0;
   {
     py::gil_scoped_release nogil;
-    const host::Manifest m = host::make_manifest(host::sweep_grid_points(g), o, &repeated);
+    const host::AreaTable area =
+        area_path.empty() ? host::AreaTable::shipped() : host::AreaTable::load(area_path);
+    const host::Manifest m = host::make_manifest(host::sweep_grid_points(g), o, area, &repeated);
     points = m.points.size();
     const std::string text = host::manifest_text(m);
     std::ifstream old(path, std::ios::binary);
@@ -685,7 +688,7 @@ PYBIND11_MODULE(_rtu, m) {
         py::arg("flatten"), py::arg("shard") = 1, py::arg("shards") = 1);
   m.def("write_manifest", &write_manifest, py::arg("path"), py::arg("scenes"), py::arg("formats"),
         py::arg("bvh_widths"), py::arg("configs"), py::arg("rays"), py::arg("seed"), py::arg("image_width"),
-        py::arg("flatten"));
+        py::arg("flatten"), py::arg("area"));
   m.def(
       "run_manifest",
       [](const std::string& manifest, const std::string& results, size_t shard, size_t shards, int threads,

@@ -178,7 +178,7 @@ if [ -f "$manifest" ] && ! cmp -s "$manifest" "$manifest.new"; then
   die "$manifest lists other points (a scene or rtu changed since it was written); use a new --results folder"
 fi
 mv "$manifest.new" "$manifest"
-echo "slurm_sweep: wrote $script ($tasks tasks, at most $throttle at once) and $manifest ($(($(wc -l <"$manifest") - 2)) points)"
+echo "slurm_sweep: wrote $script ($tasks tasks, at most $throttle at once) and $manifest ($(grep -vc '^#' "$manifest") points)"
 
 if [ $submit -eq 1 ]; then
   command -v sbatch >/dev/null || die "--submit: no sbatch on PATH"

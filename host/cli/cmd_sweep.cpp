@@ -230,7 +230,9 @@ void write_manifest(const SweepArgs& a) {
     points = sweep_grid_points(a.grid);
   }
   size_t repeated = 0;  // the same computation under another spelling: it runs once
-  const Manifest m = make_manifest(points, a.opt, &repeated);
+  // The area table prices every point: its digest is part of each key, and the run must give the same table.
+  const AreaTable area = a.area.empty() ? AreaTable::shipped() : AreaTable::load(a.area);
+  const Manifest m = make_manifest(points, a.opt, area, &repeated);
   std::ofstream out(a.write_manifest, std::ios::binary | std::ios::trunc);
   out << manifest_text(m);
   if (!out.flush()) throw Error("cannot write " + a.write_manifest);
@@ -254,10 +256,33 @@ void run_manifest(const SweepArgs& a) {
               run.ran, run.done, a.results.c_str());
 }
 
+// True when `a` and `b` name one file (b need not exist).
+bool same_file(const std::string& a, const std::string& b) {
+  std::error_code ec;
+  if (std::filesystem::exists(a, ec) && std::filesystem::exists(b, ec))
+    return std::filesystem::equivalent(a, b, ec);
+  return std::filesystem::weakly_canonical(a, ec) == std::filesystem::weakly_canonical(b, ec);
+}
+
 void collect_points(const SweepArgs& a) {
   if (a.manifest.empty() || a.out.empty())
     throw Error("sweep --collect DIR: --manifest FILE (which points, in which order) and --out CSV are required");
-  const CollectedSweep c = collect_manifest(parse_manifest(read_text(a.manifest), a.manifest), a.collect);
+  const Manifest m = parse_manifest(read_text(a.manifest), a.manifest);
+  // --out and its provenance file are written: neither may be one of the inputs, the manifest or a point file.
+  for (const std::string& out : {a.out, a.out + ".provenance.csv"}) {
+    if (same_file(out, a.manifest))
+      throw Error("sweep --collect: --out " + a.out + " would overwrite the manifest " + a.manifest +
+                  "; name another file");
+    const std::filesystem::path path(out);
+    const std::string name = path.filename().string();
+    if (name.size() == 37 && name.ends_with(".json") &&
+        same_file(path.parent_path().empty() ? "." : path.parent_path().string(), a.collect))
+      for (const ManifestPoint& mp : m.points)
+        if (name == mp.key + ".json")
+          throw Error("sweep --collect: --out " + a.out + " would overwrite the point file of " + mp.key + " in " +
+                      a.collect + "; name another file");
+  }
+  const CollectedSweep c = collect_manifest(m, a.collect);
   write_rows(a.out, c.rows);
   const std::string prov_path = a.out + ".provenance.csv";
   std::ofstream prov(prov_path, std::ios::binary | std::ios::trunc);
@@ -417,7 +442,8 @@ void add_sweep(CLI::App& app) {
                 "its two levels (the float reference keeps them); a run parameter, in the CSV's flatten column");
   sub->add_option("--area", a->area,
                   "RTL area table (CSV params,cells,flip_flops,transistors; bench/rtl_area.sh writes it; default: "
-                  "the shipped bench/data/rtl_area.csv)")
+                  "the shipped bench/data/rtl_area.csv); part of a manifest's keys: run it with the table it was "
+                  "written with")
       ->check(CLI::ExistingFile);
   sub->add_option("--shard", a->shard,
                   "run every N-th point, starting at the k-th: k/N; with --manifest also auto (a Slurm array "

@@ -7,6 +7,7 @@
 
 #include "host/cli/common.h"
 #include "host/io/error.h"
+#include "host/jobs/model_identity.h"
 
 namespace {
 
@@ -31,7 +32,8 @@ void refuse_nan(CLI::App& app) {
 int main(int argc, char** argv) {
   CLI::App app{"rtusim: a model of a fixed-function ray-tracing unit (float reference, scenes, rays, hits)"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "rtusim 0.1.0");
+  // The model identity names the build: sweep point keys hold it (host/jobs/model_identity.h).
+  app.set_version_flag("--version", std::string("rtusim 0.1.0 (model ") + rtu::host::model_identity() + ")");
   rtu::host::cli::add_info(app);
   rtu::host::cli::add_rays(app);
   rtu::host::cli::add_trace(app);

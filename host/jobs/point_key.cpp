@@ -7,7 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <set>
+#include <map>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -15,6 +15,7 @@
 #include "host/io/error.h"
 #include "host/io/json_io.h"
 #include "host/io/stats_json.h"
+#include "host/jobs/model_identity.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/timing_config.h"
 
@@ -150,9 +151,24 @@ std::string scene_digest(const Scene& s) {
   return h.hex();
 }
 
-std::string point_key(const std::string& scene, const SweepPoint& p, const SweepOptions& o) {
+std::string area_digest(const AreaTable& area) {
   ContentHash h;
-  h.text(std::string("rtu sweep point ") + kRtuVersion + " results " + std::to_string(kResultsRevision));
+  h.text("rtu area table");
+  h.u64(area.by_params.size());
+  for (const auto& [params, e] : area.by_params) {  // a map: in the order of its parameters, however written
+    h.text(params);
+    h.u64(uint64_t(e.cells));
+    h.u64(uint64_t(e.transistors));
+  }
+  return h.hex();
+}
+
+std::string point_key(const std::string& scene, const SweepPoint& p, const SweepOptions& o,
+                      const std::string& area) {
+  ContentHash h;
+  h.text(std::string("rtu sweep point ") + kRtuVersion + " results " + std::to_string(kResultsRevision) +
+         " model " + model_identity());
+  h.text(area);
   h.text(scene);
   h.text(format_json(hw::format_from_spec(p.format)).dump());
   h.u64(uint64_t(p.bvh_width));
@@ -163,7 +179,9 @@ std::string point_key(const std::string& scene, const SweepPoint& p, const Sweep
 
 namespace {
 
-constexpr const char* kManifestHeader = "# rtu sweep manifest 1";
+constexpr const char* kManifestHeader = "# rtu sweep manifest 2";
+// The format before the model identity and the area table: its keys name neither.
+constexpr const char* kManifestHeaderBefore = "# rtu sweep manifest 1";
 
 std::vector<std::string> split_tabs(const std::string& line) {
   std::vector<std::string> f;
@@ -186,7 +204,8 @@ bool is_key(const std::string& k) {
 }  // namespace
 
 std::string manifest_text(const Manifest& m) {
-  std::string s = std::string(kManifestHeader) + "\n# params\t" + m.params + "\n";
+  std::string s = std::string(kManifestHeader) + "\n# params\t" + m.params + "\n# model\t" + m.model +
+                  "\n# area\t" + m.area + "\n";
   for (const ManifestPoint& p : m.points) {
     for (const std::string* f : {&p.point.scene, &p.point.format, &p.point.config})
       if (f->find_first_of("\t\n\r") != std::string::npos)
@@ -202,21 +221,37 @@ Manifest parse_manifest(const std::string& text, const std::string& name) {
   std::istringstream in(text);
   std::string line;
   size_t n = 0;
-  std::set<std::string> keys;
+  std::map<std::string, std::pair<size_t, size_t>> listed;  // key: the line that lists it, its point
+  // A header line "# NAME<TAB>VALUE", NAME the n-th expected.
+  auto header = [&](const std::string& where, const char* field, const char* what) {
+    const std::vector<std::string> f = split_tabs(line);
+    if (f.size() != 2 || f[0] != std::string("# ") + field)
+      throw Error(where + ": expected '# " + field + "<TAB>" + what + "'");
+    return f[1];
+  };
   while (std::getline(in, line)) {
     ++n;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     const std::string where = name + ":" + std::to_string(n);
     if (n == 1) {
+      if (line == kManifestHeaderBefore)
+        throw Error(where +
+                    ": a manifest of an earlier rtu (its keys name no model identity or area table); "
+                    "write the manifest again, into a new results folder");
       if (line != kManifestHeader)
         throw Error(where + ": not a sweep manifest (expected the line '" + kManifestHeader + "')");
       continue;
     }
     if (n == 2) {
-      const std::vector<std::string> f = split_tabs(line);
-      if (f.size() != 2 || f[0] != "# params") throw Error(where + ": expected '# params<TAB>--rays N ...'");
-      options_from_params(f[1]);  // checks it
-      m.params = f[1];
+      m.params = header(where, "params", "--rays N ...");
+      options_from_params(m.params);  // checks it
+      continue;
+    }
+    if (n == 3 || n == 4) {
+      std::string& v = n == 3 ? m.model : m.area;
+      v = header(where, n == 3 ? "model" : "area", n == 3 ? "the model identity" : "the area table's digest");
+      if (v.empty() || v.find_first_not_of("0123456789abcdef") != std::string::npos)
+        throw Error(where + ": '" + v + "' is not a digest (lowercase hex digits)");
       continue;
     }
     if (line.empty()) continue;
@@ -235,9 +270,15 @@ Manifest parse_manifest(const std::string& text, const std::string& name) {
       throw Error(where + ": BVH width '" + f[3] + "' is not an integer");
     }
     p.point.config = f[4];
-    if (keys.insert(p.key).second) m.points.push_back(p);  // the same point listed twice runs once
+    // One key, one row: a key listed again would collect into one row where the lines promise two.
+    const auto [first, fresh] = listed.emplace(p.key, std::make_pair(n, m.points.size()));
+    if (!fresh)
+      throw Error(where + ": point " + p.key + " (" + p.point.key() + ") is listed already on line " +
+                  std::to_string(first->second.first) + " (" + m.points[first->second.second].point.key() +
+                  "); a manifest lists each point once (--write-manifest does)");
+    m.points.push_back(p);
   }
-  if (n < 2) throw Error(name + ": not a sweep manifest (no header)");
+  if (n < 4) throw Error(name + ": not a sweep manifest (its header is cut short)");
   return m;
 }
 
@@ -290,6 +331,8 @@ void write_point_file(const std::string& dir, const std::string& key, const Swee
   j["header"] = sweep_csv_header();
   j["row"] = sweep_csv_line(row);
   j["version"] = prov.version;
+  j["model"] = prov.model;
+  j["area"] = prov.area;
   j["host"] = prov.host;
   j["threads"] = prov.threads;
   j["seconds"] = prov.seconds;
@@ -317,15 +360,14 @@ bool read_point_file(const std::string& dir, const std::string& key, SweepRow& r
   std::ifstream in(path, std::ios::binary);
   if (!in) return false;
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  nlohmann::ordered_json j;
+  std::string csv;
   try {
-    j = parse_json_limited(text, path.string());
+    const nlohmann::ordered_json j = parse_json_limited(text, path.string());
     if (j.at("key").get<std::string>() != key) throw Error("its key is " + j.at("key").get<std::string>());
-    const std::vector<SweepRow> rows = parse_sweep_csv(
-        j.at("header").get<std::string>() + "\n" + j.at("row").get<std::string>() + "\n", path.string());
-    if (rows.size() != 1) throw Error("no row");
-    row = rows[0];
+    csv = j.at("header").get<std::string>() + "\n" + j.at("row").get<std::string>() + "\n";
     prov.version = j.at("version").get<std::string>();
+    prov.model = j.at("model").get<std::string>();
+    prov.area = j.at("area").get<std::string>();
     prov.host = j.at("host").get<std::string>();
     prov.threads = j.at("threads").get<int>();
     prov.seconds = j.at("seconds").get<double>();
@@ -334,6 +376,10 @@ bool read_point_file(const std::string& dir, const std::string& key, SweepRow& r
   } catch (const std::exception& e) {
     throw Error(path.string() + ": not a point file of this version: " + e.what());
   }
+  // The row's own errors name the file and the field (a figure out of range, a malformed number).
+  const std::vector<SweepRow> rows = parse_sweep_csv(csv, path.string());
+  if (rows.size() != 1) throw Error(path.string() + ": no row");
+  row = rows[0];
   return true;
 }
 

@@ -18,10 +18,11 @@ namespace rtu::host {
 // The grid's points in its order (scene x width x format x configuration; check_sweep_grid first).
 std::vector<SweepPoint> sweep_grid_points(const SweepGrid& g);
 
-// The manifest of `points` made with `o`: each point's key from its scene's content (each scene loaded once);
-// a point whose key an earlier one has (the same computation spelled otherwise) is listed once and counted in
-// `repeated`.
-Manifest make_manifest(const std::vector<SweepPoint>& points, const SweepOptions& o, size_t* repeated = nullptr);
+// The manifest of `points` made with `o` and priced with `area`, by this build: each point's key from its scene's
+// content (each scene loaded once); a point whose key an earlier one has (the same computation spelled otherwise)
+// is listed once and counted in `repeated`.
+Manifest make_manifest(const std::vector<SweepPoint>& points, const SweepOptions& o, const AreaTable& area,
+                       size_t* repeated = nullptr);
 
 // Reads a manifest file and checks its formats, configurations, widths and ray count as a grid's.
 Manifest read_manifest(const std::string& path);
@@ -30,9 +31,10 @@ struct ManifestRun {
   size_t mine = 0, ran = 0, done = 0;  // this shard's points; of them run now and found complete in the folder
 };
 // Runs shard `shard` of `shards` (1-based: points shard-1, shard-1+shards, ...) of the manifest into `results`
-// (created), one point file per point; a point whose file is there is skipped. Each point's key is made again
-// from the scene as this machine loads it: Error when it differs from the manifest's (the scene, a mesh or rtu
-// changed). `ran(point, row)` sees each point run.
+// (created), one point file per point; a point whose file is there is skipped. Error, before any point runs, when
+// the manifest was written by another build (its model identity, naming both) or for another area table than
+// `area`. Each point's key is made again from the scene as this machine loads it: Error when it differs from the
+// manifest's (the scene or a mesh changed). `ran(point, row)` sees each point run.
 ManifestRun run_manifest(const Manifest& m, const std::string& results, size_t shard, size_t shards, int threads,
                          const AreaTable& area,
                          const std::function<void(const ManifestPoint&, const SweepRow&)>& ran = {});
@@ -43,7 +45,8 @@ struct CollectedSweep {
   double seconds = 0.0;        // the points' wall time summed
 };
 // The manifest's points from the folder's point files; Error naming the missing points (and how to resume), or a
-// file holding another point or run parameters.
+// file holding another point or run parameters, made by another build than the manifest's (naming both model
+// identities) or with another area table, or with a figure out of its range (read_sweep_csv).
 CollectedSweep collect_manifest(const Manifest& m, const std::string& results);
 
 }  // namespace rtu::host

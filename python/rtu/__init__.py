@@ -380,7 +380,7 @@ def sweep_on(executor, scenes, formats=("default",), bvh_widths=(4,), configs=("
         _os.makedirs(folder, exist_ok=True)
         manifest = _os.path.join(folder, "manifest.txt")
         _rtu.write_manifest(manifest, *grid, options["rays"], options["seed"], options["image_width"],
-                            options["flatten"])
+                            options["flatten"], options["area"] or "")
         _run_tasks(executor, _manifest_task, shards, manifest, _os.path.join(folder, "points"),
                    options["threads"], options["area"] or "")
         return collect(folder)
@@ -406,8 +406,9 @@ def sweep_on(executor, scenes, formats=("default",), bvh_widths=(4,), configs=("
 
 def collect(results, out=None):
     """A sweep folder's table (results/manifest.txt's points from results/points/, as rtusim sweep --collect) as
-    a DataFrame; the CSV and its provenance (key, version, host, threads, seconds) are written to `out` and
-    out.provenance.csv (default results/sweep.csv). rtu.Error naming the points without a file."""
+    a DataFrame; the CSV and its provenance (key, version, model, host, threads, seconds) are written to `out` and
+    out.provenance.csv (default results/sweep.csv). rtu.Error naming the points without a file, or a point file of
+    another build than the manifest's."""
     import io
 
     import pandas as pd

@@ -101,12 +101,13 @@ def test_a_dask_sweep_into_a_folder_collects_as_rtusim_does(reference, tmp_path)
     subprocess.run([*run, *grid, "--write-manifest", tmp_path / "cli.txt"], check=True, capture_output=True)
     cli = (tmp_path / "cli.txt").read_text().splitlines()
     ours = (folder / "manifest.txt").read_text().splitlines()
-    assert cli[0] == ours[0] and set(cli[1:]) < set(ours[1:]) and len(cli) == 10 and len(ours) == 14
+    assert cli[:4] == ours[:4] and set(cli[4:]) < set(ours[4:]) and len(cli) == 12 and len(ours) == 16
     subprocess.run([*run, "--collect", folder / "points", "--manifest", folder / "manifest.txt", "--out",
                     tmp_path / "cli.csv"], check=True, capture_output=True)
     assert (tmp_path / "cli.csv").read_bytes() == (folder / "sweep.csv").read_bytes()
     prov = pd.read_csv(str(folder / "sweep.csv.provenance.csv"))
-    assert list(prov.columns) == ["key", "version", "host", "threads", "seconds"] and len(prov) == 12
+    assert list(prov.columns) == ["key", "version", "model", "host", "threads", "seconds"] and len(prov) == 12
+    assert (prov["model"] == ours[2].split("\t")[1]).all()  # the build that wrote the manifest made every point
     # A rerun finds every point's file: nothing runs again (the files are untouched), the same table.
     stamps = {p.name: p.stat().st_mtime_ns for p in (folder / "points").iterdir()}
     with ProcessPoolExecutor(max_workers=2) as ex:

@@ -77,7 +77,7 @@ for k in $(seq 1 $tasks); do
   [ -f "$results/logs/${id}_$k.out" ] || fail "task $k wrote no log ${id}_$k.out"
   grep -q "task $k/4 of job $id on" "$results/logs/${id}_$k.out" || fail "log of task $k does not name its task"
   [ "$(cat "$results/status/task-$k.exit")" = 0 ] || fail "task $k: exit status $(cat "$results/status/task-$k.exit")"
-  want=$(awk -v k=$k -v n=$tasks 'NR > 2 && (NR - 3) % n == k - 1' "$results/manifest.txt" | wc -l)
+  want=$(awk -v k=$k -v n=$tasks '!/^#/ && (i++ % n) == k - 1' "$results/manifest.txt" | wc -l)
   grep -q "$want points in this shard ($k/$tasks), $want run, 0 already" "$results/logs/${id}_$k.out" ||
     fail "task $k did not run its $want points"
 done
@@ -108,7 +108,7 @@ python3 "$src"/tests/cluster/compare_sweeps.py --same-order "$results/sweep.csv"
 
 # --- a task that fails: collect refuses, naming it and its log; rerunning that task alone mends the sweep ---
 rm "$results/sweep.csv"
-for key in $(awk -v n=$tasks 'NR > 2 && (NR - 3) % n == 1 {print $1}' "$results/manifest.txt"); do
+for key in $(awk -v n=$tasks '!/^#/ && (i++ % n) == 1 {print $1}' "$results/manifest.txt"); do
   rm "$results/points/$key.json"  # task 2's points
 done
 mv "$results/points" "$results/points.kept"

@@ -3,8 +3,11 @@
 
 #include <algorithm>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "host/jobs/sweep.h"
 #include "tests/host/cli_checks.h"
@@ -374,7 +377,8 @@ namespace {
 std::vector<std::string> manifest_keys(const fs::path& m) {
   std::vector<std::string> keys;
   const std::vector<std::string> lines = read_lines(m);
-  for (size_t i = 2; i < lines.size(); ++i) keys.push_back(lines[i].substr(0, lines[i].find('\t')));
+  for (const std::string& line : lines)
+    if (!line.empty() && line[0] != '#') keys.push_back(line.substr(0, line.find('\t')));
   return keys;
 }
 
@@ -515,8 +519,8 @@ TEST_CASE("sweep point keys: a changed mesh or timing key changes exactly the po
   // A malformed manifest: a clear error.
   {
     std::ofstream f(d / "bad.txt");
-    f << "# rtu sweep manifest 1\n# params\t--rays 10 --seed 1 --image-width "
-         "0\nnotakey\tbuiltin:seed\tdefault\t4\trdna2\n";
+    f << "# rtu sweep manifest 2\n# params\t--rays 10 --seed 1 --image-width 0\n# model\t0123456789abcdef\n"
+         "# area\t0123456789abcdef0123456789abcdef\nnotakey\tbuiltin:seed\tdefault\t4\trdna2\n";
   }
   const Run bad =
       run_rtusim("sweep --manifest " + (d / "bad.txt").string() + " --results " + (d / "res").string());
@@ -561,4 +565,180 @@ TEST_CASE("sweep manifests: a run killed with SIGKILL halfway leaves whole files
   REQUIRE(run_rtusim("sweep --collect " + res + " --manifest " + m + " --out " + all).status == 0);
   REQUIRE(run_rtusim(grid + "--threads 1 --out " + whole).status == 0);
   check_same_rows(read_lines(all), read_lines(whole));
+}
+
+namespace {
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+void write_text(const fs::path& p, const std::string& text) {
+  std::ofstream(p, std::ios::binary | std::ios::trunc) << text;
+}
+
+// The manifest's text with its header line "# NAME<TAB>..." given another value.
+std::string with_header(const std::string& text, const std::string& name, const std::string& value) {
+  const size_t at = text.find("# " + name + "\t");
+  REQUIRE(at != std::string::npos);
+  const size_t from = at + name.size() + 3, end = text.find('\n', from);
+  return text.substr(0, from) + value + text.substr(end);
+}
+
+// A point file with one field of its JSON, or one column of its row, changed.
+void edit_point_file(const fs::path& p, const std::string& field, const std::string& value) {
+  nlohmann::ordered_json j = rtu::host::read_json_file(p.string());
+  j[field] = value;
+  write_text(p, j.dump(1) + "\n");
+}
+void edit_point_row(const fs::path& p, size_t column, const std::string& value) {
+  nlohmann::ordered_json j = rtu::host::read_json_file(p.string());
+  std::vector<std::string> f;
+  std::stringstream ss(j["row"].get<std::string>());
+  for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+  REQUIRE(column < f.size());
+  f[column] = value;
+  std::string row;
+  for (size_t i = 0; i < f.size(); ++i) row += (i ? "," : "") + f[i];
+  j["row"] = row;
+  write_text(p, j.dump(1) + "\n");
+}
+
+}  // namespace
+
+TEST_CASE("sweep manifests: points of two builds never mix, the build's model identity is in every key",
+          "[cli][sweep]") {
+  const fs::path d = temp_dir("cli_builds");
+  fs::remove_all(d / "res");
+  const std::string m = (d / "m.txt").string(), res = (d / "res").string(), out = (d / "out.csv").string();
+  REQUIRE(run_rtusim("sweep --scene builtin:seed --formats default,compact --rays 50 --image-width 0 "
+                     "--write-manifest " +
+                     m)
+              .status == 0);
+  // The header names the build (the identity rtusim --version prints) and the area table.
+  const std::vector<std::string> lines = read_lines(m);
+  REQUIRE(lines.size() == 6);
+  CHECK(lines[0] == "# rtu sweep manifest 2");
+  REQUIRE(lines[2].rfind("# model\t", 0) == 0);
+  const std::string model = lines[2].substr(8);
+  CHECK(model.size() == 16);
+  CHECK(model.find_first_not_of("0123456789abcdef") == std::string::npos);
+  CHECK(lines[3].rfind("# area\t", 0) == 0);
+  const Run version = run_rtusim("--version");
+  CHECK(version.output.find("(model " + model + ")") != std::string::npos);
+  REQUIRE(run_rtusim("sweep --manifest " + m + " --results " + res).status == 0);
+  REQUIRE(run_rtusim("sweep --collect " + res + " --manifest " + m + " --out " + out).status == 0);
+  const std::vector<std::string> keys = manifest_keys(m);
+  REQUIRE(keys.size() == 2);
+  const std::vector<std::string> prov = read_lines(out + ".provenance.csv");
+  REQUIRE(prov.size() == 3);
+  CHECK(prov[0] == "key,version,model,host,threads,seconds");
+  CHECK(prov[1].rfind(keys[0] + ",0.1.0," + model + ",", 0) == 0);
+
+  // A manifest another build wrote: refused before any point runs, naming both builds.
+  const std::string other = "00000000deadbeef";
+  const std::string text = read_text(m);
+  write_text(d / "other.txt", with_header(text, "model", other));
+  Run r = run_rtusim("sweep --manifest " + (d / "other.txt").string() + " --results " + (d / "res2").string());
+  INFO(r.output);
+  CHECK(r.status == 2);
+  CHECK(r.output.find("build of model " + other) != std::string::npos);
+  CHECK(r.output.find("this is build " + model) != std::string::npos);
+  CHECK((!fs::exists(d / "res2") || point_files(d / "res2") == 0));
+  // A point file another build made, among this build's: collect refuses, naming both builds and the file.
+  edit_point_file(fs::path(res) / (keys[1] + ".json"), "model", other);
+  r = run_rtusim("sweep --collect " + res + " --manifest " + m + " --out " + out);
+  INFO(r.output);
+  CHECK(r.status == 2);
+  CHECK(r.output.find(keys[1] + ".json was made by the rtu build of model " + other + ", the manifest by build " +
+                      model) != std::string::npos);
+}
+
+TEST_CASE("sweep: what determines a row is in its key or refused, and collect refuses what would mix",
+          "[cli][sweep]") {
+  const fs::path d = temp_dir("cli_mix");
+  fs::remove_all(d / "res");
+  const std::string grid = "sweep --scene builtin:seed --rays 50 --image-width 0 ";
+  const std::string m = (d / "m.txt").string(), res = (d / "res").string(), out = (d / "out.csv").string();
+  REQUIRE(run_rtusim(grid + "--write-manifest " + m).status == 0);
+  const std::vector<std::string> keys = manifest_keys(m);
+  REQUIRE(keys.size() == 1);
+
+  // --area prices the points: another table gives other keys, and a run with another table than the manifest's
+  // is refused.
+  const std::string table = read_text(fs::path(RTU_SOURCE_DIR) / "bench/data/rtl_area.csv");
+  const size_t comma = table.find(',', table.find('\n'));
+  REQUIRE(comma != std::string::npos);
+  // The first unit's cell count, another number.
+  write_text(d / "area.csv", table.substr(0, comma + 1) + "1" + table.substr(comma + 1));
+  const std::string am = (d / "am.txt").string();
+  REQUIRE(run_rtusim(grid + "--area " + (d / "area.csv").string() + " --write-manifest " + am).status == 0);
+  CHECK(manifest_keys(am).size() == 1);
+  CHECK(manifest_keys(am) != keys);
+  Run r = run_rtusim("sweep --manifest " + am + " --results " + (d / "ares").string());
+  INFO(r.output);
+  CHECK(r.status == 2);
+  CHECK(r.output.find("give the run the --area the manifest was written with") != std::string::npos);
+  CHECK(run_rtusim("sweep --manifest " + am + " --results " + (d / "ares").string() + " --area " +
+                   (d / "area.csv").string())
+            .status == 0);
+
+  // A point's format and BVH width are --formats and --bvh-width; the timing keys of those names are refused.
+  for (const auto& [args, option] : std::vector<std::pair<std::string, std::string>>{
+           {"--set format=compact", "--formats compact"},
+           {"--config rdna2:format=compact", "--formats compact"},
+           {"--set bvh_width=8", "--bvh-width 8"},
+           {"--config rdna2:cache_kib=16:bvh_width=2", "--bvh-width 2"}}) {
+    for (const std::string& how :
+         {"--out " + (d / "x.csv").string(), "--write-manifest " + (d / "x.txt").string()}) {
+      const Run bad = run_rtusim(grid + args + " " + how);
+      INFO(args << " " << how << ": " << bad.output);
+      CHECK(bad.status == 2);
+      CHECK(bad.output.find("(e.g. " + option + ")") != std::string::npos);
+    }
+  }
+
+  REQUIRE(run_rtusim("sweep --manifest " + m + " --results " + res).status == 0);
+  const fs::path point = fs::path(res) / (keys[0] + ".json");
+  const std::string good = read_text(point);
+  // A figure no measurement gives: collect refuses it, naming the column and the file.
+  for (const char* bad : {"7", "nan", "-0.5"}) {
+    edit_point_row(point, 8, bad);  // hit_agreement
+    r = run_rtusim("sweep --collect " + res + " --manifest " + m + " --out " + out);
+    INFO(bad << ": " << r.output);
+    CHECK(r.status == 2);
+    CHECK(r.output.find(keys[0] + ".json:2: hit_agreement " + std::string(bad) + " is out of range") !=
+          std::string::npos);
+  }
+  write_text(point, good);
+  // A key listed twice (another spelling of the point would collect into one row where two were listed): refused,
+  // naming both lines.
+  const std::string text = read_text(m);
+  write_text(d / "twice.txt", text + keys[0] + "\tbuiltin:seed\tdefault\t4\trdna2:cache_kib=64\n");
+  r = run_rtusim("sweep --collect " + res + " --manifest " + (d / "twice.txt").string() + " --out " + out);
+  INFO(r.output);
+  CHECK(r.status == 2);
+  CHECK(r.output.find("twice.txt:6: point " + keys[0]) != std::string::npos);
+  CHECK(r.output.find("is listed already on line 5") != std::string::npos);
+  r = run_rtusim("sweep --manifest " + (d / "twice.txt").string() + " --results " + res);
+  CHECK(r.status == 2);
+  CHECK(r.output.find("is listed already on line 5") != std::string::npos);
+  // --out naming an input: the manifest, a point file (under another spelling too) or the manifest as the
+  // provenance file: refused, the input untouched.
+  for (const std::string& o : {m, (d / "." / "m.txt").string(), point.string(),
+                               (fs::path(res) / ".." / "res" / (keys[0] + ".json")).string()}) {
+    r = run_rtusim("sweep --collect " + res + " --manifest " + m + " --out " + o);
+    INFO(o << ": " << r.output);
+    CHECK(r.status == 2);
+    CHECK(r.output.find("would overwrite the") != std::string::npos);
+  }
+  write_text(d / "m.csv.provenance.csv", text);
+  r = run_rtusim("sweep --collect " + res + " --manifest " + (d / "m.csv.provenance.csv").string() + " --out " +
+                 (d / "m.csv").string());
+  CHECK(r.status == 2);
+  CHECK(r.output.find("would overwrite the manifest") != std::string::npos);
+  CHECK(read_text(m) == text);
+  CHECK(read_text(point) == good);
+  CHECK(run_rtusim("sweep --collect " + res + " --manifest " + m + " --out " + out).status == 0);
 }

@@ -10,6 +10,10 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <exception>
@@ -506,10 +510,12 @@ std::string sweep(const std::vector<std::string>& scenes, const std::vector<std:
   return csv;
 }
 
-// rtusim sweep --write-manifest: the grid's manifest, priced with the area table at `area_path` (empty: the shipped
-// one), written to `path`; (points, repeated points listed once).
-// A file already there listing other points is refused (a folder holds one sweep: resuming another's points
-// would mix them).
+// rtusim sweep --write-manifest: the grid's manifest, priced with the area table at `area_path` (empty: the
+// shipped one), written to `path`; (points, repeated points listed once, the manifest's text). A file already
+// there listing other points is refused (a folder holds one sweep: resuming another's points would mix them).
+// Concurrent calls on one path create it once: each writes its text to a name of its own and hard-links it to
+// `path`, which fails when `path` exists, so exactly one call creates it, whole, and every other compares its own
+// text with that one.
 py::tuple write_manifest(const std::string& path, const std::vector<std::string>& scenes,
                          const std::vector<std::string>& formats, const std::vector<int>& widths,
                          const std::vector<std::string>& configs, uint64_t rays, uint64_t seed, int image_width,
@@ -518,29 +524,34 @@ py::tuple write_manifest(const std::string& path, const std::vector<std::string>
   const host::SweepOptions o = sweep_options(rays, seed, image_width, 1, flatten);
   host::check_sweep_grid(g);
   size_t points = 0, repeated = 0;
+  std::string text;
   {
     py::gil_scoped_release nogil;
-    const host::AreaTable area =
-        area_path.empty() ? host::AreaTable::shipped() : host::AreaTable::load(area_path);
+    const host::AreaTable area = area_path.empty() ? host::AreaTable::shipped() : host::AreaTable::load(area_path);
     const host::Manifest m = host::make_manifest(host::sweep_grid_points(g), o, area, &repeated);
     points = m.points.size();
-    const std::string text = host::manifest_text(m);
-    std::ifstream old(path, std::ios::binary);
-    if (old) {
+    text = host::manifest_text(m);
+    static std::atomic<unsigned> counter{0};
+    const std::string tmp = path + ".tmp-" + std::to_string(getpid()) + "-" + std::to_string(counter++);
+    {
+      std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+      out << text;
+      if (!out.flush()) throw host::Error("cannot write " + tmp);
+    }
+    const int linked = link(tmp.c_str(), path.c_str());
+    const int err = errno;
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    if (linked != 0 && err != EEXIST) throw host::Error("cannot create " + path + ": " + std::strerror(err));
+    if (linked != 0) {
+      std::ifstream old(path, std::ios::binary);
       if (std::string((std::istreambuf_iterator<char>(old)), std::istreambuf_iterator<char>()) != text)
         throw host::Error(path +
                           " lists other points (another grid, or a scene or rtu changed since it was written); "
                           "use a new results folder");
-    } else {
-      const std::string tmp = path + ".tmp";
-      std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-      out << text;
-      if (!out.flush()) throw host::Error("cannot write " + tmp);
-      out.close();
-      std::filesystem::rename(tmp, path);
     }
   }
-  return py::make_tuple(points, repeated);
+  return py::make_tuple(points, repeated, text);
 }
 
 // rtusim plan: (the --json dict, the CSV text of every candidate measured, whether each met the budget).

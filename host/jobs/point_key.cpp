@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <atomic>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -337,8 +338,9 @@ void write_point_file(const std::string& dir, const std::string& key, const Swee
   j["threads"] = prov.threads;
   j["seconds"] = prov.seconds;
   const std::filesystem::path final_path = std::filesystem::path(dir) / (key + ".json");
-  // A name no other writer uses (host, process, a counter), in the same folder so the rename is atomic.
-  static int counter = 0;
+  // A name no other writer uses (host, process, a counter shared by its threads), in the same folder so the
+  // rename is atomic.
+  static std::atomic<unsigned> counter{0};
   const std::filesystem::path tmp =
       std::filesystem::path(dir) /
       (".tmp-" + key + "-" + prov.host + "-" + std::to_string(getpid()) + "-" + std::to_string(counter++));

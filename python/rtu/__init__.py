@@ -361,7 +361,8 @@ def sweep_on(executor, scenes, formats=("default",), bvh_widths=(4,), configs=("
     content key, the tasks write one file per point to results/points/ (points whose file is there are skipped,
     so a rerun resumes), and the collected table to results/sweep.csv with results/sweep.csv.provenance.csv:
     the folder rtusim sweep --write-manifest, --manifest and --collect make (rtu.collect reads it back); the
-    rows then come in the manifest's order, a point listed twice once."""
+    rows then come in the manifest's order, a point listed twice once. The manifest is created once: a call with
+    another grid into the same folder, even at the same moment, raises rtu.Error before any of its points runs."""
     import io
 
     import pandas as pd
@@ -379,11 +380,13 @@ def sweep_on(executor, scenes, formats=("default",), bvh_widths=(4,), configs=("
         folder = _os.path.abspath(_os.fspath(results))
         _os.makedirs(folder, exist_ok=True)
         manifest = _os.path.join(folder, "manifest.txt")
-        _rtu.write_manifest(manifest, *grid, options["rays"], options["seed"], options["image_width"],
-                            options["flatten"], options["area"] or "")
+        # The folder's manifest is created once, whole; a call with another grid is refused here, before any of
+        # its points runs, so every call collects its own grid's points.
+        *_, text = _rtu.write_manifest(manifest, *grid, options["rays"], options["seed"], options["image_width"],
+                                       options["flatten"], options["area"] or "")
         _run_tasks(executor, _manifest_task, shards, manifest, _os.path.join(folder, "points"),
                    options["threads"], options["area"] or "")
-        return collect(folder)
+        return _collect(folder, None, text)
     texts = _run_tasks(executor, _sweep_task, shards, grid, options)
     # The shards' lines back in the grid's order (line i of shard k is point (k - 1) + i * shards), read as one
     # CSV text: the DataFrame rtu.sweep reads from the whole grid's text.
@@ -407,15 +410,30 @@ def sweep_on(executor, scenes, formats=("default",), bvh_widths=(4,), configs=("
 def collect(results, out=None):
     """A sweep folder's table (results/manifest.txt's points from results/points/, as rtusim sweep --collect) as
     a DataFrame; the CSV and its provenance (key, version, model, host, threads, seconds) are written to `out` and
-    out.provenance.csv (default results/sweep.csv). rtu.Error naming the points without a file, or a point file of
-    another build than the manifest's."""
+    out.provenance.csv (default results/sweep.csv; refused when it names the manifest or a point file). rtu.Error
+    naming the points without a file, or a point file of another build than the manifest's."""
+    return _collect(results, out, None)
+
+
+def _collect(results, out, manifest_text):
+    """rtu.collect; with manifest_text, the folder's manifest must be that text (rtu.Error otherwise)."""
     import io
 
     import pandas as pd
 
     folder = _os.fspath(results)
-    csv, provenance = _rtu.collect(_os.path.join(folder, "manifest.txt"), _os.path.join(folder, "points"))
+    manifest, points = _os.path.join(folder, "manifest.txt"), _os.path.join(folder, "points")
     out = _os.fspath(out) if out is not None else _os.path.join(folder, "sweep.csv")
+    for path in (out, out + ".provenance.csv"):  # written below: never one of the sweep's inputs
+        real = _os.path.realpath(path)
+        if real == _os.path.realpath(manifest) or _os.path.dirname(real) == _os.path.realpath(points):
+            raise Error(f"collect: out {out} would overwrite the sweep's manifest or point files; name another file")
+    if manifest_text is not None:
+        with open(manifest, encoding="utf-8", newline="") as f:
+            if f.read() != manifest_text:
+                raise Error(f"sweep_on: {manifest} was replaced while the sweep ran (another sweep into the same "
+                            "folder?); use a results folder per sweep")
+    csv, provenance = _rtu.collect(manifest, points)
     for path, text in ((out, csv), (out + ".provenance.csv", provenance)):
         with open(path, "w", encoding="utf-8", newline="") as f:
             f.write(text)

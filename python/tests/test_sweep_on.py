@@ -122,9 +122,52 @@ def test_a_folder_holds_one_sweep(tmp_path):
         rtu.sweep_on(ex, "builtin:cornell", **RUN, results=tmp_path)
         with pytest.raises(rtu.Error, match="manifest.txt lists other points"):
             rtu.sweep_on(ex, "builtin:cornell", configs=["intel"], **RUN, results=tmp_path)
-    (tmp_path / "points" / os.listdir(tmp_path / "points")[0]).unlink()
+    manifest = (tmp_path / "manifest.txt").read_bytes()
+    point = tmp_path / "points" / os.listdir(tmp_path / "points")[0]
+    for out in (tmp_path / "manifest.txt", point):  # collect's output over one of its inputs: refused, untouched
+        with pytest.raises(rtu.Error, match="would overwrite the sweep's manifest or point files"):
+            rtu.collect(tmp_path, out=out)
+    assert (tmp_path / "manifest.txt").read_bytes() == manifest and point.stat().st_size > 0
+    point.unlink()
     with pytest.raises(rtu.Error, match=r"1 of 1 points have no file in .*points"):
         rtu.collect(tmp_path)
+
+
+def test_concurrent_calls_into_one_folder_each_get_their_own_grid_or_a_refusal(tmp_path):
+    """Three callers with three grids start rtu.sweep_on into one fresh results folder at once (a barrier), in each
+    of 10 trials. Whatever the interleaving, exactly one of them creates the folder's manifest and gets its own
+    grid's table; the two others are refused before any of their points runs, and none gets another's rows."""
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+
+    configs = ["rdna2", "intel", "rdna2:box_units=2"]
+    for trial in range(10):
+        folder = tmp_path / f"trial{trial}"
+        start = threading.Barrier(len(configs))
+        outcome = {}
+
+        def call(config):
+            start.wait()
+            try:
+                with ThreadPoolExecutor(max_workers=1) as ex:
+                    df = rtu.sweep_on(ex, "builtin:cornell", configs=[config], rays=50, image_width=0,
+                                      results=folder)
+                outcome[config] = list(df["config"])
+            except Exception as e:  # an error of another kind than rtu.Error fails the verdict below
+                outcome[config] = e
+
+        callers = [threading.Thread(target=call, args=(c,)) for c in configs]
+        for t in callers:
+            t.start()
+        for t in callers:
+            t.join()
+        won = [c for c, got in outcome.items() if isinstance(got, list)]
+        assert len(won) == 1, (trial, outcome)
+        assert outcome[won[0]] == [won[0]], (trial, outcome)  # its own grid's row, not another caller's
+        for c in configs:
+            if c != won[0]:
+                assert isinstance(outcome[c], rtu.Error) and "lists other points" in str(outcome[c]), (trial, outcome)
+        assert len(os.listdir(folder / "points")) == 1  # the refused callers ran nothing
 
 
 def test_a_failed_shard_is_named(tmp_path):

@@ -56,6 +56,19 @@ TimedEngine::TimedEngine(const EngineOptions& o, const TimingConfig& c, std::uni
                                 ": a triangle unit is attached, but tri_unit = " + m_c.tri_unit);
 }
 
+uint64_t TimedEngine::state_bytes(const TimingConfig& c, bool sampled) {
+  constexpr uint64_t kList = sizeof(std::vector<TraceEvent>);
+  const uint64_t units = uint64_t(c.units), slots = uint64_t(c.ray_slots);
+  const uint64_t memory = MemorySystem::state_bytes(c);
+  if (units == 1)  // trace_cycles_full: two chunks of at most 4096 rays' lists
+    return TimingModel::state_bytes(c, sampled) + memory + 2 * 4096 * kList;
+  // run_chip: per unit a chunk given and one recorded ahead, each ray with its copy, its hit and its list;
+  // run_chip_dynamic: 2 units + 2 waves recorded ahead and one held per unit, a list per ray and per warming ray.
+  const uint64_t chip = units * 2 * chip_chunk_rays(c) * (sizeof(Ray) + sizeof(Hit) + kList);
+  const uint64_t dynamic = (3 * units + 2) * slots * 2 * kList;
+  return units * TimingModel::state_bytes(c, false) + memory + std::max(chip, dynamic);
+}
+
 uint32_t TimedEngine::caps() const {
   return reg::kCapTriangles | reg::kCapSpheres | reg::kCapPlanes | reg::kCapAnyHit | reg::kCapFixed |
          reg::kCapTimed;

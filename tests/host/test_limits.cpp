@@ -518,3 +518,45 @@ TEST_CASE("PLY and OFF files whose counts the file or the budget cannot hold are
   CHECK(contains(r.output, "4000000000 vertices"));
   CHECK(mib(r.peak_kib) < 64);
 }
+
+// Memory the input does not justify (issue 55): each path below was found taking gigabytes under
+// RTU_MEMORY_LIMIT=1G; it is now refused before the memory is taken, or bounded, with a message naming the input
+// and the budget.
+TEST_CASE("memory limit: timing keys whose caches and units pass the budget are refused", "[limits][memory]") {
+  // 256 units of 64 MiB node caches (a 24-byte line record per 64-byte line): 6 GiB of cache state for any ray.
+  hw::TimingConfig c;
+  c.units = 256;
+  c.cache_kib = 65536;
+  const uint64_t lines = uint64_t(65536) * 1024 / uint64_t(c.line_bytes);
+  CHECK(hw::TimedEngine::state_bytes(c, false) >= 256 * lines * 24);
+  // Each part counts: the units' caches, the L2, the walk of sampled timing.
+  hw::TimingConfig one;
+  const uint64_t base = hw::TimedEngine::state_bytes(one, false);
+  one.l2_kib = 1 << 20;  // 1 GiB of L2: 2^24 lines
+  CHECK(hw::TimedEngine::state_bytes(one, false) >= base + (uint64_t(1) << 24) * 24);
+  hw::TimingConfig big_cache;
+  big_cache.cache_kib = 65536;
+  CHECK(hw::TimedEngine::state_bytes(big_cache, true) > hw::TimedEngine::state_bytes(big_cache, false));
+
+  const fs::path dir = temp_dir("limits");
+  for (const std::string& job :
+       {"trace --rays primary:4x4 --out " + (dir / "h.bin").string(),
+        "render --width 4 --height 4 --out " + (dir / "i.png").string()}) {
+    const rtu::test::Run r = measured_rtusim(
+        "RTU_MEMORY_LIMIT=1G", job + " --scene builtin:seed --device timed --set units=256 --set cache_kib=65536");
+    INFO(r.output);
+    CHECK(r.status == 2);
+    CHECK(contains(r.output, "rtusim: error: timing configuration rdna2 (units=256 cache_kib=65536 l2_kib=0 "
+                             "ray_slots=32): the timing model needs about "));
+    CHECK(contains(r.output, "above the limit of 1024 MiB"));
+    CHECK(mib(r.peak_kib) < 64);
+  }
+  // What fits runs.
+  const rtu::test::Run ok = run_rtusim("RTU_MEMORY_LIMIT=1G", "trace --rays primary:4x4 --out " +
+                                                                  (dir / "h.bin").string() +
+                                                                  " --scene builtin:seed --device timed --set "
+                                                                  "units=4 --set cache_kib=1024");
+  INFO(ok.output);
+  CHECK(ok.status == 0);
+}
+

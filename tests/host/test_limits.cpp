@@ -560,3 +560,61 @@ TEST_CASE("memory limit: timing keys whose caches and units pass the budget are 
   CHECK(ok.status == 0);
 }
 
+TEST_CASE("memory limit: a mesh file's accessor counts are held to its buffers and the budget", "[limits][memory]") {
+  // A 600-byte glTF declaring 10^8 line vertices as a sparse accessor (zeros but for one value): Assimp filled and
+  // copied them and made a face per pair, 6.5 GiB in its child process, before rtu refused the 5 * 10^7 lines.
+  const fs::path dir = temp_dir("limits");
+  const std::string head = R"({"asset": {"version": "2.0"},
+    "buffers": [{"byteLength": 24, "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAA"}],
+    "bufferViews": [{"buffer": 0, "byteLength": 4}, {"buffer": 0, "byteOffset": 12, "byteLength": 12},
+                    {"buffer": 0, "byteLength": 24}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "mode": 1}]}],
+    "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0, "accessors": [)";
+  std::ofstream(dir / "sparse.gltf") << head << R"({"componentType": 5126, "count": 100000000, "type": "VEC3",
+    "min": [0, 0, 0], "max": [1, 0, 0], "sparse": {"count": 1,
+    "indices": {"bufferView": 0, "componentType": 5125}, "values": {"bufferView": 1}}}]})";
+  rtu::test::Run r = measured_rtusim("RTU_MEMORY_LIMIT=1G", "info --scene " + (dir / "sparse.gltf").string());
+  INFO(r.output);
+  CHECK(r.status == 2);
+  CHECK(contains(r.output, "sparse.gltf: the glTF accessors' elements needs about 5723 MiB of memory, above the "
+                           "limit of 1024 MiB"));
+  CHECK(mib(r.peak_kib) < 64);
+  // On a buffer view: the count against the view's bytes, whatever the budget.
+  std::ofstream(dir / "lines.gltf") << head << R"({"bufferView": 2, "componentType": 5126, "count": 100000000,
+    "type": "VEC3", "min": [0, 0, 0], "max": [1, 0, 0]}]})";
+  r = measured_rtusim("", "info --scene " + (dir / "lines.gltf").string());
+  INFO(r.output);
+  CHECK(r.status == 2);
+  CHECK(contains(r.output, "lines.gltf: glTF accessor 0: 100000000 elements of 12 bytes need 1200000000 bytes, "
+                           "more than its buffer view's 24"));
+  CHECK(mib(r.peak_kib) < 64);
+  // The same file with the count its buffer holds imports: one line of two vertices.
+  std::ofstream(dir / "ok.gltf") << head << R"({"bufferView": 2, "componentType": 5126, "count": 2,
+    "type": "VEC3", "min": [0, 0, 0], "max": [1, 0, 0]}]})";
+  CHECK(host::import_model((dir / "ok.gltf").string()).lines.size() == 1);
+}
+
+TEST_CASE("memory limit: mesh files' textures are held to the budget beside the scene's", "[limits][memory]") {
+  // An OBJ whose material has a 4096 x 4096 texture (64 MiB of texels), placed by five mesh entries of one scene
+  // file: each file's textures fit a 300 MiB budget alone, not beside the earlier ones.
+  const fs::path dir = temp_dir("limits");
+  {
+    std::vector<uint8_t> rgb(size_t(4096) * 4096 * 3, 128);
+    REQUIRE(stbi_write_jpg((dir / "t.jpg").string().c_str(), 4096, 4096, 3, rgb.data(), 50) != 0);
+  }
+  std::ofstream(dir / "m.mtl") << "newmtl skin\nKd 1 1 1\nmap_Kd t.jpg\n";
+  std::ofstream(dir / "m.obj") << "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
+                                  "usemtl skin\nf 1/1 2/2 3/3\n";
+  std::string meshes;
+  for (int i = 0; i < 5; ++i) meshes += std::string(i ? ", " : "") + R"({"file": "m.obj"})";
+  std::ofstream(dir / "s.json") << R"({"materials": {"m": {}}, "meshes": [)" << meshes << "]}";
+  const rtu::test::Run r = measured_rtusim("RTU_MEMORY_LIMIT=300M", "info --scene " + (dir / "s.json").string());
+  INFO(r.output);
+  // Past the budget a file's texture is not used (a warning naming the budget); the geometry imports.
+  CHECK(r.status == 0);
+  CHECK(contains(r.output, "m.obj: texture not used: "));
+  CHECK(contains(r.output, "m.obj: 1 textures so far beside the scene's 192 MiB of textures needs about 320 MiB"));
+  CHECK(contains(r.output, "above the limit of 300 MiB"));
+  if (!kSanitized) CHECK(mib(r.peak_kib) < 300 + mib(baseline_kib()));
+}
+

@@ -618,3 +618,35 @@ TEST_CASE("memory limit: mesh files' textures are held to the budget beside the 
   if (!kSanitized) CHECK(mib(r.peak_kib) < 300 + mib(baseline_kib()));
 }
 
+TEST_CASE("memory limit: sweep's text inputs are held to the budget before they are read", "[limits][memory]") {
+  const fs::path dir = temp_dir("limits");
+  {
+    // 96 MiB of one 256-byte line repeated: a points file, a manifest, a sweep CSV.
+    std::ofstream out(dir / "big.txt", std::ios::binary);
+    std::string line = "builtin:seed\tdefault\t4\trdna2";
+    line += std::string(255 - line.size(), ' ') + "\n";
+    for (uint64_t b = 0; b < (uint64_t(96) << 20); b += line.size()) out << line;
+  }
+  const std::string big = (dir / "big.txt").string();
+  for (const std::string& args :
+       {"sweep --points " + big + " --write-manifest " + (dir / "m.txt").string(),
+        "sweep --manifest " + big + " --collect " + dir.string() + " --out " + (dir / "o.csv").string(),
+        "sweep --merge " + big + " --out " + (dir / "o.csv").string(), "pareto --sweep " + big + " --out " + (dir / "p").string()}) {
+    const rtu::test::Run r = measured_rtusim("RTU_MEMORY_LIMIT=256M", args);
+    INFO(args);
+    INFO(r.output);
+    CHECK(r.status == 2);
+    CHECK(contains(r.output, "big.txt: reading a 96 MiB file needs about 384 MiB of memory, above the limit of "
+                             "256 MiB"));
+    CHECK(mib(r.peak_kib) < 64);
+  }
+  // A directory is named as such, with its path.
+  for (const std::string& args :
+       {"pareto --sweep " + dir.string() + " --out " + (dir / "p").string(),
+        "trace --scene builtin:seed --rays " + dir.string() + " --out " + (dir / "h.bin").string()}) {
+    const rtu::test::Run r = run_rtusim(args);
+    INFO(r.output);
+    CHECK(r.status == 2);
+    CHECK(contains(r.output, dir.string() + ": is a directory, not a file"));
+  }
+}

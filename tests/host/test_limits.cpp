@@ -560,6 +560,61 @@ TEST_CASE("memory limit: timing keys whose caches and units pass the budget are 
   CHECK(ok.status == 0);
 }
 
+TEST_CASE("memory limit: a chip records its units' rays in bounded chunks, with the same hits and cycles",
+          "[limits][memory]") {
+  const fs::path dir = temp_dir("limits");
+  write_coinciding_scene(dir / "coin.json", 3);  // 1000 instances in one place
+  const host::Scene scene = host::load_scene((dir / "coin.json").string());
+  const std::vector<hw::Ray> rays = host::primary_rays(scene.camera, uint64_t(300));
+  auto run = [&](const std::string& policy, uint64_t chunk_bytes, int threads, uint64_t& cycles) {
+    host::DeviceOptions o;
+    o.kind = hw::DeviceKind::kTimed;
+    o.instances = &scene.instances;
+    o.timing.units = 3;
+    o.timing.ray_slots = 8;
+    o.timing.ray_policy = policy;
+    const auto dev = host::make_device(scene.geometry, o);
+    if (chunk_bytes) dev->timed()->set_chunk_event_bytes(chunk_bytes);
+    std::vector<hw::Hit> hits(rays.size());
+    hw::TraversalStats s;
+    dev->trace_batch(rays.data(), hits.data(), rays.size(), false, threads, s);
+    cycles = dev->timed()->timing().cycles;
+    return hits;
+  };
+  for (const char* policy : {"waves", "round_robin"}) {
+    uint64_t c0 = 0, c1 = 0, c2 = 0, c3 = 0;
+    const std::vector<hw::Hit> h0 = run(policy, 0, 1, c0);
+    const std::vector<hw::Hit> h1 = run(policy, 64 << 10, 1, c1);  // a few rays per unit's chunk
+    const std::vector<hw::Hit> h2 = run(policy, 64 << 10, 2, c2);
+    const std::vector<hw::Hit> h3 = run(policy, 1, 2, c3);  // every ray a chunk of its own
+    size_t same = 0;
+    for (size_t i = 0; i < rays.size(); ++i)
+      same += std::memcmp(&h0[i], &h1[i], sizeof(hw::Hit)) == 0 && std::memcmp(&h0[i], &h2[i], sizeof(hw::Hit)) == 0 &&
+              std::memcmp(&h0[i], &h3[i], sizeof(hw::Hit)) == 0;
+    CHECK(same == rays.size());
+    CHECK(c0 > 0);
+    CHECK(c1 == c0);
+    CHECK(c2 == c0);
+    CHECK(c3 == c0);
+  }
+
+  // From the command line, 10000 instances on 4 units of 8 slots: the chip holds its units' chunks (at most twice
+  // 32 MiB of events) and its 32 slots' rays (0.2 MiB each), not 2 x 256 rays per unit (about 460 MiB here).
+  write_coinciding_scene(dir / "coin4.json", 4);
+  const std::string rays_file = (dir / "c.bin").string();
+  REQUIRE(
+      run_rtusim("rays --scene " + (dir / "coin4.json").string() + " --count 1024 --out " + rays_file).status ==
+      0);
+  const std::string trace = "trace --scene " + (dir / "coin4.json").string() + " --rays " + rays_file + " --out " +
+                            (dir / "h.bin").string() + " --threads 2 --device ";
+  const rtu::test::Run f = measured_rtusim("", trace + "float");
+  const rtu::test::Run t = measured_rtusim("", trace + "timed --set units=4 --set ray_slots=8");
+  INFO(t.output);
+  REQUIRE(f.status == 0);
+  REQUIRE(t.status == 0);
+  if (!kSanitized) CHECK(mib(t.peak_kib) < mib(f.peak_kib) + 64 + 32);
+}
+
 TEST_CASE("memory limit: a mesh file's accessor counts are held to its buffers and the budget", "[limits][memory]") {
   // A 600-byte glTF declaring 10^8 line vertices as a sparse accessor (zeros but for one value): Assimp filled and
   // copied them and made a face per pair, 6.5 GiB in its child process, before rtu refused the 5 * 10^7 lines.

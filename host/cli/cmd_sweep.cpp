@@ -14,6 +14,7 @@
 
 #include "host/cli/common.h"
 #include "host/io/error.h"
+#include "host/io/limits.h"
 #include "host/jobs/point_key.h"
 #include "host/jobs/suite.h"
 #include "host/jobs/sweep.h"
@@ -175,10 +176,9 @@ void run_sweep(const SweepArgs& a) {
   run_sweep_points(args);
 }
 
+// The text, its copy split into lines and what is parsed from it: four times the file at most.
 std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error("cannot read " + path);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return read_file_limited(path, 4);
 }
 
 // --points FILE: one point per line, "scene<TAB>format<TAB>width<TAB>config" (or the same with commas), as a
@@ -308,11 +308,7 @@ void run_sweep_points(const SweepArgs& a) {
   std::set<std::string> done;
   bool exists = std::filesystem::exists(a.out) && std::filesystem::file_size(a.out) > 0;
   if (exists) {
-    std::string text;
-    {
-      std::ifstream in(a.out, std::ios::binary);
-      text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-    }
+    const std::string text = read_text(a.out);
     if (text.back() != '\n') {
       const size_t keep = text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1;
       std::fprintf(stderr, "rtusim: warning: %s ends in an unfinished row; dropping it\n", a.out.c_str());

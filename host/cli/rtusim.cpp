@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <new>
 #include <string>
 
 #include "host/cli/common.h"
@@ -58,6 +59,13 @@ int main(int argc, char** argv) {
     return e.code();
   } catch (const rtu::host::Error& e) {
     std::fprintf(stderr, "rtusim: error: %s\n", e.what());
+    return 2;
+  } catch (const std::bad_alloc&) {
+    // A path no estimate covers took more than the machine gave: say so, and what bounds it.
+    std::fprintf(stderr,
+                 "rtusim: error: out of memory: the command's inputs need more memory than the machine gives (the "
+                 "budget: RTU_MEMORY_LIMIT, else the memory available; docs/guide/hardening.md); make them "
+                 "smaller\n");
     return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "rtusim: error: %s\n", e.what());

@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "host/devices/box_units.h"
+#include "host/io/limits.h"
 
 namespace rtu::host {
 
@@ -217,6 +218,14 @@ GridCheck device_grid_check(const hw::Geometry& g, const DeviceOptions& o) {
   return GridCheck{};
 }
 
+void check_timing_memory(const hw::TimingConfig& c, bool sampled, uint64_t beside) {
+  const uint64_t state = hw::TimedEngine::state_bytes(c, sampled);
+  check_memory("timing configuration " + c.name + " (units=" + std::to_string(c.units) +
+                   " cache_kib=" + std::to_string(c.cache_kib) + " l2_kib=" + std::to_string(c.l2_kib) +
+                   " ray_slots=" + std::to_string(c.ray_slots) + "): the timing model",
+               state + beside);
+}
+
 std::unique_ptr<DirectDevice> make_device(const hw::Geometry& g, const DeviceOptions& o) {
   DeviceOptions opt = o;
   opt.tracer.bvh.width = o.format.width;
@@ -232,6 +241,7 @@ std::unique_ptr<DirectDevice> make_device(const hw::Geometry& g, const DeviceOpt
     case hw::DeviceKind::kTimed:
       o.format.validate();
       o.timing.validate();
+      check_timing_memory(o.timing, hw::sample_step(o.sample.fraction) >= 2);
       device_grid_check(g, o);
       if (timed_two_level(o)) return std::make_unique<InstancedTimedDevice>(g, opt);
       return std::make_unique<TimedDevice>(g, opt);

@@ -73,6 +73,12 @@ class DirectDevice {
 // timed: that or the timing config's watchdog_cycles).
 std::unique_ptr<DirectDevice> make_device(const hw::Geometry& g, const DeviceOptions& o);
 
+// Throws Error (check_memory) when the timing model of configuration c (hw::TimedEngine::state_bytes: its units'
+// caches and slots, the L2, the recording buffers; `sampled`: with sampled timing on one unit), with `beside`
+// bytes held beside it, passes the memory budget; the message names the configuration and its sizing keys.
+// make_device calls it for the timed device; render for its firmware device, beside the device memory.
+void check_timing_memory(const hw::TimingConfig& c, bool sampled, uint64_t beside = 0);
+
 // The fixed and timed devices' quantization frames for make_device(g, o) (grid_check.h: one frame, or one per
 // mesh over two levels) and the primitives below their grid step; the float device has none (an empty check).
 // Throws Error for a frame below the smallest normal float, as make_device does.

@@ -3,7 +3,9 @@
 #include <sys/resource.h>
 
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 
 #include "host/io/error.h"
@@ -80,6 +82,23 @@ void check_memory(const std::string& what, uint64_t bytes) {
   };
   throw Error(what + " needs about " + size(bytes) + " of memory, above the limit of " + size(limit) +
               " (RTU_MEMORY_LIMIT, else the memory available)");
+}
+
+std::string read_file_limited(const std::string& path, uint64_t factor) {
+  std::error_code ec;
+  const std::filesystem::file_status st = std::filesystem::status(path, ec);
+  if (!std::filesystem::exists(st)) throw Error(path + ": file not found");
+  if (std::filesystem::is_directory(st)) throw Error(path + ": is a directory, not a file");
+  if (!std::filesystem::is_regular_file(st)) throw Error(path + ": not a regular file");
+  const uint64_t bytes = std::filesystem::file_size(path, ec);
+  if (ec) throw Error(path + ": cannot read the file (" + ec.message() + ")");
+  const uint64_t need = factor > 0 && bytes > UINT64_MAX / factor ? UINT64_MAX : bytes * factor;
+  check_memory(path + ": reading a " + std::to_string(bytes >> 20) + " MiB file", need);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path + ": cannot read the file");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw Error(path + ": cannot read the file");
+  return text;
 }
 
 }  // namespace rtu::host

@@ -16,6 +16,12 @@ uint64_t memory_limit();
 // Throws Error("WHAT needs about N MiB ... above the memory limit of M MiB ...") when bytes > memory_limit().
 void check_memory(const std::string& what, uint64_t bytes);
 
+// The whole text of the file at `path`, read after its size times `factor` (what its reader holds at once: the
+// text, a copy being split into lines, the values parsed from it) passes check_memory. Throws Error naming the
+// path for a missing file, a directory or anything else that is not a regular file, a file that cannot be read,
+// and one too large for the budget ("PATH: reading a N MiB file needs about ...").
+std::string read_file_limited(const std::string& path, uint64_t factor);
+
 // Parses a size such as "4096", "512M", "2G" (powers of 1024); throws Error naming `what` otherwise.
 uint64_t parse_size(const std::string& text, const std::string& what);
 

@@ -24,7 +24,14 @@ struct FileCloser {
 };
 using File = std::unique_ptr<std::FILE, FileCloser>;
 
+// A directory opens for reading on Linux and fails at the first read (EISDIR, "Is a directory"): named first.
+void refuse_directory(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw Error(path + ": is a directory, not a file");
+}
+
 File open_file(const std::string& path, const char* mode) {
+  refuse_directory(path);
   File f(std::fopen(path.c_str(), mode));
   if (!f) throw Error(path + ": cannot open: " + std::strerror(errno));
   return f;
@@ -96,6 +103,7 @@ std::string csv_float(float x) {
 // The shortest CSV line of a record ("0,0,0,0,0,0,0,0\n" for a ray) bounds the records a file can hold.
 template <class T, class F>
 void read_csv(const std::string& path, const char* header, uint64_t min_line, F&& on_line) {
+  refuse_directory(path);
   std::ifstream in(path);
   if (!in) throw Error(path + ": cannot open: " + std::strerror(errno));
   std::error_code ec;

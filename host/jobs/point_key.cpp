@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "host/io/error.h"
+#include "host/io/limits.h"
 #include "host/io/json_io.h"
 #include "host/io/stats_json.h"
 #include "host/jobs/model_identity.h"
@@ -359,9 +360,10 @@ void write_point_file(const std::string& dir, const std::string& key, const Swee
 
 bool read_point_file(const std::string& dir, const std::string& key, SweepRow& row, PointProvenance& prov) {
   const std::filesystem::path path = std::filesystem::path(dir) / (key + ".json");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return false;
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return false;
+  // The text and the JSON values parsed from it (a few times the text): a point file is a few hundred bytes.
+  const std::string text = read_file_limited(path.string(), 8);
   std::string csv;
   try {
     const nlohmann::ordered_json j = parse_json_limited(text, path.string());

@@ -419,6 +419,10 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   eopt.threads = o.threads;
   eopt.tracer = tracer;
   eopt.max_steps = o.device.max_steps;
+  if (o.device.kind == hw::DeviceKind::kTimed) {
+    o.device.timing.validate();
+    check_timing_memory(o.device.timing, hw::sample_step(o.device.sample.fraction) >= 2, res.device_memory_bytes);
+  }
   FirmwareDevice dev(o.device.kind, res.device_memory_bytes, eopt, o.device.timing);
   if (hw::TimedEngine* te = dev.timed()) {
     te->set_trace(o.pipeline_trace);

@@ -426,10 +426,9 @@ std::string sweep_csv_line(const SweepRow& r) {
 }
 
 std::vector<SweepRow> read_sweep_csv(const std::string& path, bool* header_is_current) {
-  std::ifstream file(path, std::ios::binary);
-  if (!file) throw Error("cannot read the sweep file " + path);
-  const std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
-  return parse_sweep_csv(text, path, header_is_current);
+  // The text, its copy split into lines and the rows parsed from it (a row's strings and numbers take about
+  // what its line does): four times the file at most.
+  return parse_sweep_csv(read_file_limited(path, 4), path, header_is_current);
 }
 
 namespace {

@@ -10,6 +10,7 @@
 #include <set>
 
 #include "host/io/error.h"
+#include "host/io/limits.h"
 #include "host/jobs/model_identity.h"
 
 namespace rtu::host {
@@ -48,10 +49,8 @@ Manifest make_manifest(const std::vector<SweepPoint>& points, const SweepOptions
 }
 
 Manifest read_manifest(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error("cannot read " + path);
-  const Manifest m =
-      parse_manifest(std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()), path);
+  // The text, its copy split into lines and the points parsed from it: four times the file at most.
+  const Manifest m = parse_manifest(read_file_limited(path, 4), path);
   SweepGrid check{{}, {}, {}, {}};  // the manifest's formats, configurations and widths, checked as a grid's
   for (const ManifestPoint& p : m.points) {
     check.formats.push_back(p.point.format);

@@ -31,6 +31,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <optional>
 #include <set>
@@ -41,6 +42,7 @@
 #include "firmware/render_scene.h"
 #include "host/io/error.h"
 #include "host/io/image.h"
+#include "host/io/json_io.h"
 #include "host/io/limits.h"
 #include "host/scene/scene.h"
 #include "hwmodel/datapath/instancing.h"
@@ -93,7 +95,7 @@ void walk_nodes(const aiScene& scene, Visit&& visit) {
 // by a count before reading a byte of data, so a count past either is refused, named, not left to
 // std::bad_alloc.
 std::string import_isolated(const std::string& path);
-ImportedModel decode_model(const std::string& blob, const std::string& path);
+ImportedModel decode_model(const std::string& blob, const std::string& path, uint64_t held);
 
 constexpr uint64_t kPlyElementBytes = 64, kPlyValueBytes = 64;
 
@@ -244,7 +246,104 @@ static void check_off_header(const std::string& path) {
   check_memory(named, vertices * 12 + faces * (16 + 12 + sizeof(hw::Triangle)));
 }
 
-ImportedModel import_model(const std::string& path) {
+// glTF 2.0 (.gltf JSON, or the JSON chunk of a .glb): Assimp allocates an accessor's `count` elements before it
+// reads them, and for point and line primitives a face with its own index list per vertex or pair (a 627-byte
+// file declaring 10^8 line vertices took 6.7 GB in the importer). Every accessor is checked first: one on a
+// buffer view must fit in it (offset, stride and count against the view's byteLength, the view against its
+// buffer's), and all of them against the memory limit, at their elements' bytes and about 48 bytes of Assimp's
+// faces each. Files that are not glTF 2.0, or that do not parse, are left to Assimp and its messages.
+static void check_gltf_accessors(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".gltf" && ext != ".glb") return;
+  std::ifstream in(path, std::ios::binary);
+  std::string text;
+  if (ext == ".glb") {  // header (magic, version, length), then the JSON chunk (length, type "JSON", bytes)
+    uint32_t head[5] = {};
+    if (!in.read(reinterpret_cast<char*>(head), sizeof head) || head[0] != 0x46546C67u || head[4] != 0x4E4F534Au)
+      return;
+    std::error_code ec;
+    const uint64_t file_bytes = std::filesystem::file_size(path, ec);
+    if (ec || head[3] > file_bytes) return;
+    text.resize(head[3]);
+    if (!in.read(text.data(), std::streamsize(text.size()))) return;
+  } else {
+    text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  nlohmann::ordered_json j;
+  try {
+    j = parse_json_limited(text, path);
+  } catch (const Error&) {
+    return;  // Assimp says what is wrong with it
+  }
+  if (!j.is_object() || !j.contains("accessors") || !j["accessors"].is_array()) return;  // not glTF 2.0
+  auto length = [](const nlohmann::ordered_json& o, const char* key, uint64_t fallback) -> uint64_t {
+    if (!o.is_object() || !o.contains(key)) return fallback;
+    const auto& v = o[key];
+    if (v.is_number_unsigned()) return v.get<uint64_t>();
+    if (v.is_number_integer() && v.get<int64_t>() >= 0) return uint64_t(v.get<int64_t>());
+    return fallback;
+  };
+  const auto& buffers = j.contains("buffers") && j["buffers"].is_array() ? j["buffers"] : nlohmann::ordered_json();
+  const auto& views =
+      j.contains("bufferViews") && j["bufferViews"].is_array() ? j["bufferViews"] : nlohmann::ordered_json();
+  const auto component_bytes = [](uint64_t type) -> uint64_t {
+    switch (type) {
+      case 5120:  // BYTE
+      case 5121:  // UNSIGNED_BYTE
+        return 1;
+      case 5122:  // SHORT
+      case 5123:  // UNSIGNED_SHORT
+        return 2;
+      case 5125:  // UNSIGNED_INT
+      case 5126:  // FLOAT
+        return 4;
+      default:
+        return 0;
+    }
+  };
+  const std::map<std::string, uint64_t> components = {{"SCALAR", 1}, {"VEC2", 2},  {"VEC3", 3}, {"VEC4", 4},
+                                                      {"MAT2", 4},   {"MAT3", 9}, {"MAT4", 16}};
+  constexpr uint64_t kFaceBytes = 48;  // Assimp's face per point or line vertex, with its index list
+  uint64_t total = 0;
+  const auto& accessors = j["accessors"];
+  for (size_t i = 0; i < accessors.size(); ++i) {
+    const auto& a = accessors[i];
+    const std::string named = path + ": glTF accessor " + std::to_string(i);
+    const uint64_t count = length(a, "count", 0), comp = component_bytes(length(a, "componentType", 0));
+    const auto type = a.is_object() && a.contains("type") && a["type"].is_string()
+                          ? components.find(a["type"].get<std::string>())
+                          : components.end();
+    if (count == 0 || comp == 0 || type == components.end()) continue;  // malformed: Assimp's message
+    const uint64_t elem = comp * type->second;
+    if (count > (uint64_t(1) << 40)) throw Error(named + ": count " + std::to_string(count) + " is beyond any file");
+    total = std::min(total + count * (elem + kFaceBytes), uint64_t(1) << 62);  // each term below 2^47
+    if (!a.contains("bufferView")) continue;  // zeros (or sparse): nothing to hold the count to but the budget
+    const uint64_t v = length(a, "bufferView", UINT64_MAX);
+    if (v >= views.size()) continue;
+    const auto& view = views[size_t(v)];
+    const uint64_t view_bytes = length(view, "byteLength", 0);
+    // glTF's strides are at most 252 and offsets below 2^53: clamped so that the sum cannot wrap.
+    const uint64_t stride = std::min<uint64_t>(std::max(length(view, "byteStride", 0), elem), 1 << 20);
+    const uint64_t need =
+        std::min<uint64_t>(length(a, "byteOffset", 0), uint64_t(1) << 53) + stride * (count - 1) + elem;
+    if (need > view_bytes)
+      throw Error(named + ": " + std::to_string(count) + " elements of " + std::to_string(elem) + " bytes need " +
+                  std::to_string(need) + " bytes, more than its buffer view's " + std::to_string(view_bytes));
+    const uint64_t b = length(view, "buffer", UINT64_MAX);
+    if (b < buffers.size()) {
+      const uint64_t buffer_bytes = length(buffers[size_t(b)], "byteLength", 0);
+      if (std::min<uint64_t>(length(view, "byteOffset", 0), uint64_t(1) << 53) +
+              std::min<uint64_t>(view_bytes, uint64_t(1) << 53) >
+          buffer_bytes)
+        throw Error(path + ": glTF buffer view " + std::to_string(v) + ": " + std::to_string(view_bytes) +
+                    " bytes, more than its buffer's " + std::to_string(buffer_bytes));
+    }
+  }
+  check_memory(path + ": the glTF accessors' elements", total);
+}
+
+ImportedModel import_model(const std::string& path, uint64_t held) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw Error(path + ": file not found");
   if (!std::filesystem::is_regular_file(path, ec)) throw Error(path + ": not a regular file");
@@ -256,7 +355,8 @@ ImportedModel import_model(const std::string& path) {
 
   check_ply_header(path);
   check_off_header(path);
-  return decode_model(import_isolated(path), path);
+  check_gltf_accessors(path);
+  return decode_model(import_isolated(path), path, held);
 }
 
 std::vector<hw::Triangle> import_mesh(const std::string& path) {
@@ -893,7 +993,7 @@ Material approximate_material(const RawMaterial& r, const std::string& name) {
   return m;
 }
 
-ImportedModel decode_model(const std::string& blob, const std::string& path) {
+ImportedModel decode_model(const std::string& blob, const std::string& path, uint64_t held) {
   BlobReader in(blob, path);
   ImportedModel model;
   model.triangles = in.get_array<hw::Triangle>();
@@ -945,10 +1045,13 @@ ImportedModel decode_model(const std::string& blob, const std::string& path) {
   const std::filesystem::path dir = std::filesystem::path(path).parent_path();
   std::vector<int> texture_slot(num_textures, -1);
   // Each texture is held to the budget when decoded; their sum here, from the size each header declares, before
-  // decoding it: the texels read so far, and this texture's twice while it decodes.
-  uint64_t held = 0;
+  // decoding it: the texels the caller holds (`held`) and those read so far, and this texture's twice while it
+  // decodes.
+  const std::string beside =
+      held > 0 ? " beside the scene's " + std::to_string((held + (1 << 20) - 1) >> 20) + " MiB of textures" : "";
   auto fits = [&](uint64_t next) {
-    check_memory(path + ": " + std::to_string(model.textures.size() + 1) + " textures so far", held + 2 * next);
+    check_memory(path + ": " + std::to_string(model.textures.size() + 1) + " textures so far" + beside,
+                 held + 2 * next);
   };
   for (uint64_t i = 0; i < num_textures; ++i) {
     const auto kind = in.get<uint8_t>();

@@ -134,7 +134,9 @@ struct ImportedModel {
   // (each node's transform composed from the root); `triangles` is then their flattened form. Empty otherwise.
   hw::InstanceSet instances;
 };
-ImportedModel import_model(const std::string& path);
+// `held`: the texel bytes of textures the caller already holds (a scene file's, and earlier mesh files'): the
+// file's textures are held to the memory budget beside them.
+ImportedModel import_model(const std::string& path, uint64_t held = 0);
 
 // Throws Error when a scene of `prims` primitives cannot be traced: more than the unit's primitive index holds
 // (hw::kMaxBvhPrims - 1), or more than the memory budget (host/io/limits.h) at 256 bytes per primitive.

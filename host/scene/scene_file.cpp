@@ -472,7 +472,11 @@ void read_mesh_entries(Builder& b, const Json& j, const std::string& where, cons
       if (file.is_relative()) file = base_dir / file;
       ImportedModel model;
       try {
-        model = import_model(file.string());
+        // The file's textures are held to the budget beside those the scene holds already (its own, and earlier
+        // files'): each file's alone may fit where all of them do not.
+        uint64_t held = 0;
+        for (const Texture& tex : b.scene.textures) held += tex.rgba.size();
+        model = import_model(file.string(), held);
       } catch (const Error& e) {
         r.fail(join(path, "file"), e.what());
       }

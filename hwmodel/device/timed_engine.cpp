@@ -56,6 +56,19 @@ TimedEngine::TimedEngine(const EngineOptions& o, const TimingConfig& c, std::uni
                                 ": a triangle unit is attached, but tri_unit = " + m_c.tri_unit);
 }
 
+uint64_t TimedEngine::state_bytes(const TimingConfig& c, bool sampled) {
+  constexpr uint64_t kList = sizeof(std::vector<TraceEvent>);
+  const uint64_t units = uint64_t(c.units), slots = uint64_t(c.ray_slots);
+  const uint64_t memory = MemorySystem::state_bytes(c);
+  if (units == 1)  // trace_cycles_full: two chunks of at most 4096 rays' lists
+    return TimingModel::state_bytes(c, sampled) + memory + 2 * 4096 * kList;
+  // run_chip: per unit a chunk given and one recorded ahead, each ray with its copy, its hit and its list;
+  // run_chip_dynamic: 2 units + 2 waves recorded ahead and one held per unit, a list per ray and per warming ray.
+  const uint64_t chip = units * 2 * chip_chunk_rays(c) * (sizeof(Ray) + sizeof(Hit) + kList);
+  const uint64_t dynamic = (3 * units + 2) * slots * 2 * kList;
+  return units * TimingModel::state_bytes(c, false) + memory + std::max(chip, dynamic);
+}
+
 uint32_t TimedEngine::caps() const {
   return reg::kCapTriangles | reg::kCapSpheres | reg::kCapPlanes | reg::kCapAnyHit | reg::kCapFixed |
          reg::kCapTimed;
@@ -354,7 +367,14 @@ uint64_t TimedEngine::run_chip(const std::vector<TimingModel*>& units,
   // is recorded (traced by the datapath) into a unit's spare buffer: on a worker thread, in the order the units
   // will ask, while the model runs (with more than one host thread and no attached RTL unit), or when asked.
   // Either way each ray's events, hits and statistics are the same, and so is every cycle.
-  const size_t chunk = std::max<size_t>(256, 2 * size_t(m_c.ray_slots));
+  //
+  // A chunk is at most `chunk` rays and, unless it is one ray, at most m_chunk_event_bytes / U bytes of events,
+  // so that the chunks given and recorded ahead hold at most twice m_chunk_event_bytes in all (a ray through
+  // many overlapping instances records megabytes): as trace_cycles_full does, a chunk whose events pass that is
+  // recorded again with half its rays, and the unit's next chunk tries as many rays as would fill it. The model
+  // takes a unit's rays any number at a time, so the cycles do not depend on the bound.
+  const size_t chunk = chip_chunk_rays(m_c);
+  const uint64_t cap = std::max<uint64_t>(1, m_chunk_event_bytes / std::max<size_t>(1, U));
   struct Chunk {
     std::vector<std::vector<TraceEvent>> events;
     std::vector<Ray> rays;
@@ -365,10 +385,10 @@ uint64_t TimedEngine::run_chip(const std::vector<TimingModel*>& units,
   };
   std::vector<Chunk> given(U), spare(U);
   std::vector<size_t> next(U, 0);        // the first ray of unit u not yet in a chunk
+  std::vector<size_t> want(U, chunk);    // the rays unit u's next chunk tries
   auto fill = [&](size_t u, Chunk& c) {  // the next chunk of unit u's rays, recorded into c
     c.first = next[u];
-    c.count = std::min(chunk, mine[u].size() - next[u]);
-    next[u] += c.count;
+    c.count = std::min(want[u], mine[u].size() - next[u]);
     c.rays.resize(c.count);
     c.hits.resize(c.count);
     for (size_t j = 0; j < c.count; ++j) c.rays[j] = rays[mine[u][c.first + j]];
@@ -376,10 +396,18 @@ uint64_t TimedEngine::run_chip(const std::vector<TimingModel*>& units,
     c.stats = TraversalStats{};
     c.error = nullptr;
     try {
-      TimedEngine::record(c.rays.data(), c.hits.data(), 0, c.count, any_hit, c.stats, c.events);
+      uint64_t bytes = 0;
+      while (!record_within(c.rays.data(), c.hits.data(), 0, c.count, any_hit, c.stats, c.events,
+                            c.count == 1 ? UINT64_MAX : cap, bytes)) {
+        for (size_t i = c.count / 2; i < c.count; ++i) std::vector<TraceEvent>().swap(c.events[i]);
+        c.count /= 2;
+      }
+      const uint64_t fits = bytes > 0 ? uint64_t(c.count) * cap / bytes : chunk;
+      want[u] = size_t(std::max<uint64_t>(1, std::min<uint64_t>({chunk, 2 * uint64_t(c.count), fits})));
     } catch (...) {
       c.error = std::current_exception();
     }
+    next[u] += c.count;
   };
   // The worker: fills spare[u] for the units in `jobs`, in order; done[u] once spare[u] holds the chunk.
   const bool background = m_opt.threads != 1 && !has_units() && U > 0;
@@ -464,26 +492,25 @@ uint64_t TimedEngine::run_chip_dynamic(const std::vector<ChipWave>& waves, const
   const size_t U = m_chip_units.size(), W = waves.size();
   const double box_rate = double(m_c.box_rate) * m_c.box_units, tri_rate = double(m_c.tri_rate) * m_c.tri_units;
   work.assign(2 * W, 0.0);
-  // A wave recorded (traced by the datapath): its events, and its warming rays' events.
+  // A wave recorded (traced by the datapath): its events. Its warming rays are recorded when it is given, a
+  // wave's worth at a time (below).
   struct Recorded {
-    std::vector<std::vector<TraceEvent>> events, warm;
-    TraversalStats stats, warm_stats;
+    std::vector<std::vector<TraceEvent>> events;
+    TraversalStats stats;
     std::exception_ptr error;
   };
   auto record_wave = [&](size_t w, Recorded& r) {
     const ChipWave& cw = waves[w];
-    const size_t warm = cw.first - cw.warm_first;
-    r.stats = r.warm_stats = TraversalStats{};
+    r.stats = TraversalStats{};
     r.error = nullptr;
     r.events.resize(std::max(r.events.size(), cw.count));
-    r.warm.resize(std::max(r.warm.size(), warm));
     try {
-      if (warm > 0) record(rays, hits, cw.warm_first, warm, any_hit, r.warm_stats, r.warm, 0);
       record(rays, hits, cw.first, cw.count, any_hit, r.stats, r.events, 0);
     } catch (...) {
       r.error = std::current_exception();
     }
   };
+  std::vector<std::vector<TraceEvent>> warm_events;  // one skipped wave's events at a time
   // Waves are recorded in order, on a worker thread up to `ahead` waves before the model (with more than one host
   // thread and no attached RTL unit), or when a unit asks. Either way every ray's events are the same, and so is
   // every cycle: which unit takes a wave depends on the model alone.
@@ -542,20 +569,25 @@ uint64_t TimedEngine::run_chip_dynamic(const std::vector<ChipWave>& waves, const
     const size_t w = given++;
     if (r->error) std::rethrow_exception(r->error);
     const ChipWave& cw = waves[w];
-    s.add(r->warm_stats);
+    // The skipped waves before it, a wave at a time (the events of thousands of waves need not fit at once): each
+    // warms the chip's memory (the L2), and the node cache of the unit it would have gone to in turn (its number
+    // mod the units), each unit's share under dynamic dispatch (sampler.h). The memory and the node caches are
+    // apart, so each sees its lines in the order warming them all at once would.
+    TraversalStats warm_stats;
+    for (size_t f = cw.warm_first; f < cw.first;) {
+      const size_t S = size_t(m_c.ray_slots), wave_no = f / S, c = std::min(cw.first, (wave_no + 1) * S) - f;
+      warm_events.resize(std::max(warm_events.size(), c));
+      record(rays, hits, f, c, any_hit, warm_stats, warm_events, 0);
+      m_chip_units[u]->warm_memory(warm_events.data(), c);
+      m_chip_units[wave_no % U]->warm(warm_events.data(), c);
+      f += c;
+    }
+    s.add(warm_stats);
     s.add(r->stats);
     work[2 * w] =
         unit_work(double(cw.count), double(r->stats.box_tests), double(r->stats.prim_tests), box_rate, tri_rate);
-    work[2 * w + 1] = unit_work(double(cw.first - cw.warm_first), double(r->warm_stats.box_tests),
-                                double(r->warm_stats.prim_tests), box_rate, tri_rate);
-    if (cw.first > cw.warm_first) m_chip_units[u]->warm_memory(r->warm.data(), cw.first - cw.warm_first);
-    // Each skipped wave warms the node cache of the unit it would have gone to in turn (its number mod the units),
-    // each unit's share under dynamic dispatch (sampler.h).
-    for (size_t f = cw.warm_first; f < cw.first;) {
-      const size_t S = size_t(m_c.ray_slots), wave_no = f / S, c = std::min(cw.first, (wave_no + 1) * S) - f;
-      m_chip_units[wave_no % U]->warm(r->warm.data() + (f - cw.warm_first), c);
-      f += c;
-    }
+    work[2 * w + 1] = unit_work(double(cw.first - cw.warm_first), double(warm_stats.box_tests),
+                                double(warm_stats.prim_tests), box_rate, tri_rate);
     m_chip_units[u]->add_rays(r->events.data(), cw.count);
     if (held[u]) {  // the unit has taken every ray of its previous wave: its storage can be recorded into again
       const std::lock_guard<std::mutex> lock(mutex);
@@ -774,7 +806,9 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   constexpr double kUndetermined = 0.10;
   constexpr size_t kWalkChunkMax = 64;
   const size_t CW = m_sample.cache_warm_rays;
-  std::vector<std::vector<TraceEvent>> walk_events(CW);  // ray end - traced + i at CW - traced + i
+  // One chunk's events at a time: the walk keeps the lines it saw, not the events (at most kWalkChunkMax rays'
+  // events are held, not cache_warm_rays').
+  std::vector<std::vector<TraceEvent>> walk_events(kWalkChunkMax);
   auto warm_before = [&](size_t end, size_t sim) {
     const size_t reach = std::min(CW, end);
     m_model->walk_begin(events.data(), sim);
@@ -783,8 +817,8 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
     while (traced < reach && m_model->walk_open() > enough) {
       const size_t c = std::min(chunk, reach - traced);
       TraversalStats other;
-      record(rays, nullptr, end - traced - c, c, any_hit, other, walk_events, CW - traced - c);
-      const size_t taken = m_model->walk_add(walk_events.data() + (CW - traced - c), c, enough);
+      record(rays, nullptr, end - traced - c, c, any_hit, other, walk_events, 0);
+      const size_t taken = m_model->walk_add(walk_events.data(), c, enough);
       traced += c;
       if (taken < c) break;
       chunk = std::min<size_t>(2 * chunk, kWalkChunkMax);

@@ -8,6 +8,7 @@
 // in total, by ray type and by bounce.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <map>
@@ -63,6 +64,13 @@ class TimedEngine final : public TraceEngine {
   bool uses_bvh() const override;
 
   const TimingConfig& config() const { return m_c; }
+  // Bytes an engine of configuration c holds for its timing model whatever the scene and the rays: every unit
+  // (TimingModel::state_bytes; with `sampled` on one unit, its cache walk's scratch), the memory behind their
+  // caches (MemorySystem::state_bytes) and the buffers rays are recorded into (a ray, its hit and its event
+  // list's handle for every ray a chip's units are given ahead). Not the events themselves: they depend on the
+  // scene, and are recorded in chunks of bounded bytes. The host holds it to its memory budget before making
+  // the engine (host::check_timing_memory, host/devices/direct_device.h).
+  static uint64_t state_bytes(const TimingConfig& c, bool sampled);
   void set_threads(int threads) { m_opt.threads = threads; }
   // Sampled timing of later TRACE packets (SampleOptions); throws std::invalid_argument for a fraction outside
   // [0, 1] or a unit of 0 rays.
@@ -150,6 +158,8 @@ class TimedEngine final : public TraceEngine {
   // unit_work) to work[2w] and its warming rays' to work[2w + 1]. Returns the packet's cycles.
   uint64_t run_chip_dynamic(const std::vector<ChipWave>& waves, const Ray* rays, Hit* hits, bool any_hit,
                             TraversalStats& s, std::vector<TimingStats>& packet, std::vector<double>& work);
+  // The rays a chip's unit is given at a time (run_chip): at least two slots' worth.
+  static size_t chip_chunk_rays(const TimingConfig& c) { return std::max<size_t>(256, 2 * size_t(c.ray_slots)); }
   // The rays of a packet of n rays each of the chip's units takes, in the order it takes them (ray_policy).
   std::vector<std::vector<uint32_t>> chip_rays(size_t n) const;
   // Runs units[u] on the rays mine[u] in step, sharing their memory, from the latest of their clocks; hits of the

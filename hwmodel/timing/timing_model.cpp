@@ -52,6 +52,14 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
   m_oriented = layout.node_cost == NodeCostClass::kOriented;
 }
 
+uint64_t TimingModel::state_bytes(const TimingConfig& c, bool walk) {
+  // Per slot: the slot, its place in the queue, the free list, the age list and the waiting requests (a few
+  // words each); the admission record per queued ray; a gathered ray's entry and bin (a few words).
+  const uint64_t slots = uint64_t(c.ray_slots);
+  return NodeCache::state_bytes(c, walk) + slots * (sizeof(Slot) + 8 * sizeof(uint64_t)) +
+         uint64_t(c.queue_depth) * sizeof(uint64_t) + uint64_t(c.gather_buffer) * 8 * sizeof(uint64_t);
+}
+
 // The observer's port: fills at the fetch's cycle, into this unit's cache, from its memory.
 class TimingModel::Port final : public LinePort {
  public:

@@ -121,6 +121,10 @@ class TimingModel {
   // `shared`: the memory behind the node cache when several units share it (a chip: TimedEngine with units > 1,
   // timed_engine.h); null: the unit's own. `unit`: the unit's index on the chip (where its slots' stacks spill).
   TimingModel(const TimingConfig& c, const Layout& layout, MemorySystem* shared = nullptr, uint32_t unit = 0);
+  // Bytes a unit of configuration c holds whatever its rays: its node cache (with `walk`, the backward walk's
+  // scratch too: NodeCache::state_bytes), its slots, queues and gather buffer. Not the memory behind the cache
+  // (MemorySystem::state_bytes), not the events of the rays in its slots, which depend on the scene.
+  static uint64_t state_bytes(const TimingConfig& c, bool walk);
 
   // One TRACE packet of n rays: begin, then feed the rays' events in order (any number at a time; an empty list
   // is a ray rejected at setup), then finish, which returns the packet's cycles from its decode to the last hit

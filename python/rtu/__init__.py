@@ -92,7 +92,7 @@ def load_scene(scene, base_dir=None):
 def rays(scene, spec="primary", seed=1):
     """Rays as an (N, 8) float32 array from rtusim's ray spec: "primary", "primary:N", "primary:WxH",
     "incoherent", "incoherent:N" (seeded), or a ray file."""
-    return _rtu.rays(load_scene(scene), spec, seed)
+    return _rtu.rays(load_scene(scene), _spec(spec, "spec"), _int(seed, "seed"))
 
 
 def make_rays(origin, direction, tmin=0.0, tmax=_math.inf):
@@ -111,39 +111,39 @@ def make_rays(origin, direction, tmin=0.0, tmax=_math.inf):
 
 def read_rays(path):
     """A ray file (binary or .csv) as an (N, 8) float32 array."""
-    return _rtu.read_rays(_os.fspath(path))
+    return _rtu.read_rays(_path(path, "path"))
 
 
 def write_rays(path, rays):
     """Writes an (N, 8) ray array as a ray file (binary, or CSV when the name ends in .csv)."""
-    _rtu.write_rays(_os.fspath(path), rays)
+    _rtu.write_rays(_path(path, "path"), rays)
 
 
 def read_hits(path):
     """A hit file (binary or .csv) as a HIT_DTYPE array."""
-    return _rtu.read_hits(_os.fspath(path))
+    return _rtu.read_hits(_path(path, "path"))
 
 
 def read_png(path):
     """A PNG as a uint8 (height, width, 3) array (grey replicated, alpha dropped)."""
-    return _rtu.read_png(_os.fspath(path))
+    return _rtu.read_png(_path(path, "path"))
 
 
 def write_png(path, image):
     """Writes a uint8 (height, width, 3) array as a PNG."""
-    _rtu.write_png(_os.fspath(path), image)
+    _rtu.write_png(_path(path, "path"), image)
 
 
 def write_hits(path, hits):
     """Writes a hit array (HIT_DTYPE) as a hit file (binary, or CSV when the name ends in .csv)."""
-    _rtu.write_hits(_os.fspath(path), hits)
+    _rtu.write_hits(_path(path, "path"), hits)
 
 
 def _rays_arg(scene, rays, seed):
     """Rays given as an array (traced in place when float32, C-contiguous) or as a spec string."""
     if isinstance(rays, (str, _os.PathLike)):
         spec = _os.fspath(rays)
-        return _rtu.rays(scene, spec, seed), spec
+        return _rtu.rays(scene, spec, _int(seed, "seed")), spec
     return rays, "array"
 
 
@@ -175,7 +175,8 @@ def trace(scene, rays, device="float", *, any_hit=False, threads=0, hits=True, i
         raise Error(f"invalid: '{invalid}' is not raise, warn or ignore")
     scene = load_scene(scene)
     rays, name = _rays_arg(scene, rays, seed)
-    h, stats, message = _rtu.trace(scene, rays, any_hit, threads, hits, name, device=device, **device_options)
+    h, stats, message = _rtu.trace(scene, rays, _bool(any_hit, "any_hit"), _int(threads, "threads"),
+                                   _bool(hits, "hits"), name, device=device, **device_options)
     for w in stats.get("warnings", []):
         _warnings.warn(w, AccuracyWarning, stacklevel=2)
     if message:
@@ -194,7 +195,8 @@ def compare(scene, rays="primary", device="fixed", *, any_hit=False, threads=0, 
 
     scene = load_scene(scene)
     rays, name = _rays_arg(scene, rays, seed)
-    result, replay = _rtu.compare(scene, rays, name, any_hit, threads, max_list, device=device, **device_options)
+    result, replay = _rtu.compare(scene, rays, name, _bool(any_hit, "any_hit"), _int(threads, "threads"),
+                                  _int(max_list, "max_list"), device=device, **device_options)
     for w in result.get("warnings", []):
         _warnings.warn(w, AccuracyWarning, stacklevel=2)
     rows = []
@@ -228,8 +230,16 @@ def render(scene, device="float", *, mode="raytrace", width=0, height=0, spp=1, 
            ao=False, ao_distance=0.0, background=(0.0, 0.0, 0.0), threads=0, **device_options):
     """Renders with the firmware renderer on a device, as `rtusim render` (width, height 0: the camera's)."""
     scene = load_scene(scene)
-    img, rad, stats, warns = _rtu.render(scene, mode, width, height, spp, max_depth, seed, indirect, ao, ao_distance,
-                                         list(background), threads, device=device, **device_options)
+    if not isinstance(mode, str):
+        raise TypeError(f"mode: expected a str, got {mode!r}")
+    try:
+        background = [_number(c, "background") for c in background]
+    except TypeError:
+        raise TypeError(f"background: expected three numbers (r, g, b), got {background!r}") from None
+    img, rad, stats, warns = _rtu.render(scene, mode, _int(width, "width"), _int(height, "height"), _int(spp, "spp"),
+                                         _int(max_depth, "max_depth"), _int(seed, "seed"), _bool(indirect, "indirect"),
+                                         _bool(ao, "ao"), _number(ao_distance, "ao_distance"), background,
+                                         _int(threads, "threads"), device=device, **device_options)
     for w in warns:
         _warnings.warn(w, _render_warning_kind(w), stacklevel=2)
     return RenderResult(img, rad, stats, list(warns))
@@ -267,6 +277,27 @@ def _int(value, name):
     if isinstance(value, bool) or not isinstance(value, (int, _np.integer)):
         raise TypeError(f"{name}: expected an int, got {value!r}")
     return int(value)
+
+
+def _bool(value, name):
+    """A flag argument (numpy booleans and integers too); a TypeError naming it otherwise."""
+    if not isinstance(value, (bool, _np.bool_, int, _np.integer)):
+        raise TypeError(f"{name}: expected True or False, got {value!r}")
+    return bool(value)
+
+
+def _path(value, name):
+    """A file name argument (str or os.PathLike); a TypeError naming it otherwise."""
+    if not isinstance(value, (str, _os.PathLike)):
+        raise TypeError(f"{name}: expected a file name (str or os.PathLike), got {value!r}")
+    return _os.fspath(value)
+
+
+def _spec(value, name):
+    """A ray spec or a ray file's name."""
+    if not isinstance(value, (str, _os.PathLike)):
+        raise TypeError(f"{name}: expected a ray spec such as 'primary:64x48' or a ray file's name, got {value!r}")
+    return _os.fspath(value)
 
 
 def _number(value, name):

@@ -483,3 +483,24 @@ def test_primitives_below_the_grid_step_warn():
         warnings.simplefilter("error", rtu.AccuracyWarning)
         rtu.trace(flat, "primary", "float")
         assert rtu.compare(inst, "primary", "fixed")["hit_agreement"] == 1.0
+
+
+def test_wrong_argument_types_name_the_argument(seed, tmp_path):
+    # Not pybind11's "incompatible function arguments" listing the C++ signature: the argument, what it takes.
+    with pytest.raises(TypeError, match="threads: expected an int, got 'two'"):
+        rtu.trace(seed, "primary:4x4", threads="two")
+    with pytest.raises(TypeError, match="any_hit: expected True or False, got 'yes'"):
+        rtu.trace(seed, "primary:4x4", any_hit="yes")
+    with pytest.raises(TypeError, match="max_list: expected an int"):
+        rtu.compare(seed, "primary:4x4", max_list=None)
+    with pytest.raises(TypeError, match="width: expected an int, got 32.5"):
+        rtu.render(seed, width=32.5, height=24)
+    with pytest.raises(TypeError, match=r"background: expected three numbers \(r, g, b\)"):
+        rtu.render(seed, width=8, height=8, background=("a", 0, 0))
+    with pytest.raises(TypeError, match="spec: expected a ray spec"):
+        rtu.rays(seed, 64)
+    with pytest.raises(TypeError, match="path: expected a file name"):
+        rtu.read_rays(3)
+    # A directory is named with its path.
+    with pytest.raises(rtu.Error, match=str(tmp_path)):
+        rtu.read_rays(tmp_path)

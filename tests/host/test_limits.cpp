@@ -518,3 +518,190 @@ TEST_CASE("PLY and OFF files whose counts the file or the budget cannot hold are
   CHECK(contains(r.output, "4000000000 vertices"));
   CHECK(mib(r.peak_kib) < 64);
 }
+
+// Memory the input does not justify (issue 55): each path below was found taking gigabytes under
+// RTU_MEMORY_LIMIT=1G; it is now refused before the memory is taken, or bounded, with a message naming the input
+// and the budget.
+TEST_CASE("memory limit: timing keys whose caches and units pass the budget are refused", "[limits][memory]") {
+  // 256 units of 64 MiB node caches (a 24-byte line record per 64-byte line): 6 GiB of cache state for any ray.
+  hw::TimingConfig c;
+  c.units = 256;
+  c.cache_kib = 65536;
+  const uint64_t lines = uint64_t(65536) * 1024 / uint64_t(c.line_bytes);
+  CHECK(hw::TimedEngine::state_bytes(c, false) >= 256 * lines * 24);
+  // Each part counts: the units' caches, the L2, the walk of sampled timing.
+  hw::TimingConfig one;
+  const uint64_t base = hw::TimedEngine::state_bytes(one, false);
+  one.l2_kib = 1 << 20;  // 1 GiB of L2: 2^24 lines
+  CHECK(hw::TimedEngine::state_bytes(one, false) >= base + (uint64_t(1) << 24) * 24);
+  hw::TimingConfig big_cache;
+  big_cache.cache_kib = 65536;
+  CHECK(hw::TimedEngine::state_bytes(big_cache, true) > hw::TimedEngine::state_bytes(big_cache, false));
+
+  const fs::path dir = temp_dir("limits");
+  for (const std::string& job :
+       {"trace --rays primary:4x4 --out " + (dir / "h.bin").string(),
+        "render --width 4 --height 4 --out " + (dir / "i.png").string()}) {
+    const rtu::test::Run r = measured_rtusim(
+        "RTU_MEMORY_LIMIT=1G", job + " --scene builtin:seed --device timed --set units=256 --set cache_kib=65536");
+    INFO(r.output);
+    CHECK(r.status == 2);
+    CHECK(contains(r.output, "rtusim: error: timing configuration rdna2 (units=256 cache_kib=65536 l2_kib=0 "
+                             "ray_slots=32): the timing model needs about "));
+    CHECK(contains(r.output, "above the limit of 1024 MiB"));
+    CHECK(mib(r.peak_kib) < 64);
+  }
+  // What fits runs.
+  const rtu::test::Run ok = run_rtusim("RTU_MEMORY_LIMIT=1G", "trace --rays primary:4x4 --out " +
+                                                                  (dir / "h.bin").string() +
+                                                                  " --scene builtin:seed --device timed --set "
+                                                                  "units=4 --set cache_kib=1024");
+  INFO(ok.output);
+  CHECK(ok.status == 0);
+}
+
+TEST_CASE("memory limit: a chip records its units' rays in bounded chunks, with the same hits and cycles",
+          "[limits][memory]") {
+  const fs::path dir = temp_dir("limits");
+  write_coinciding_scene(dir / "coin.json", 3);  // 1000 instances in one place
+  const host::Scene scene = host::load_scene((dir / "coin.json").string());
+  const std::vector<hw::Ray> rays = host::primary_rays(scene.camera, uint64_t(300));
+  auto run = [&](const std::string& policy, uint64_t chunk_bytes, int threads, uint64_t& cycles) {
+    host::DeviceOptions o;
+    o.kind = hw::DeviceKind::kTimed;
+    o.instances = &scene.instances;
+    o.timing.units = 3;
+    o.timing.ray_slots = 8;
+    o.timing.ray_policy = policy;
+    const auto dev = host::make_device(scene.geometry, o);
+    if (chunk_bytes) dev->timed()->set_chunk_event_bytes(chunk_bytes);
+    std::vector<hw::Hit> hits(rays.size());
+    hw::TraversalStats s;
+    dev->trace_batch(rays.data(), hits.data(), rays.size(), false, threads, s);
+    cycles = dev->timed()->timing().cycles;
+    return hits;
+  };
+  for (const char* policy : {"waves", "round_robin"}) {
+    uint64_t c0 = 0, c1 = 0, c2 = 0, c3 = 0;
+    const std::vector<hw::Hit> h0 = run(policy, 0, 1, c0);
+    const std::vector<hw::Hit> h1 = run(policy, 64 << 10, 1, c1);  // a few rays per unit's chunk
+    const std::vector<hw::Hit> h2 = run(policy, 64 << 10, 2, c2);
+    const std::vector<hw::Hit> h3 = run(policy, 1, 2, c3);  // every ray a chunk of its own
+    size_t same = 0;
+    for (size_t i = 0; i < rays.size(); ++i)
+      same += std::memcmp(&h0[i], &h1[i], sizeof(hw::Hit)) == 0 && std::memcmp(&h0[i], &h2[i], sizeof(hw::Hit)) == 0 &&
+              std::memcmp(&h0[i], &h3[i], sizeof(hw::Hit)) == 0;
+    CHECK(same == rays.size());
+    CHECK(c0 > 0);
+    CHECK(c1 == c0);
+    CHECK(c2 == c0);
+    CHECK(c3 == c0);
+  }
+
+  // From the command line, 10000 instances on 4 units of 8 slots: the chip holds its units' chunks (at most twice
+  // 32 MiB of events) and its 32 slots' rays (0.2 MiB each), not 2 x 256 rays per unit (about 460 MiB here).
+  write_coinciding_scene(dir / "coin4.json", 4);
+  const std::string rays_file = (dir / "c.bin").string();
+  REQUIRE(
+      run_rtusim("rays --scene " + (dir / "coin4.json").string() + " --count 1024 --out " + rays_file).status ==
+      0);
+  const std::string trace = "trace --scene " + (dir / "coin4.json").string() + " --rays " + rays_file + " --out " +
+                            (dir / "h.bin").string() + " --threads 2 --device ";
+  const rtu::test::Run f = measured_rtusim("", trace + "float");
+  const rtu::test::Run t = measured_rtusim("", trace + "timed --set units=4 --set ray_slots=8");
+  INFO(t.output);
+  REQUIRE(f.status == 0);
+  REQUIRE(t.status == 0);
+  if (!kSanitized) CHECK(mib(t.peak_kib) < mib(f.peak_kib) + 64 + 32);
+}
+
+TEST_CASE("memory limit: a mesh file's accessor counts are held to its buffers and the budget", "[limits][memory]") {
+  // A 600-byte glTF declaring 10^8 line vertices as a sparse accessor (zeros but for one value): Assimp filled and
+  // copied them and made a face per pair, 6.5 GiB in its child process, before rtu refused the 5 * 10^7 lines.
+  const fs::path dir = temp_dir("limits");
+  const std::string head = R"({"asset": {"version": "2.0"},
+    "buffers": [{"byteLength": 24, "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAA"}],
+    "bufferViews": [{"buffer": 0, "byteLength": 4}, {"buffer": 0, "byteOffset": 12, "byteLength": 12},
+                    {"buffer": 0, "byteLength": 24}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "mode": 1}]}],
+    "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0, "accessors": [)";
+  std::ofstream(dir / "sparse.gltf") << head << R"({"componentType": 5126, "count": 100000000, "type": "VEC3",
+    "min": [0, 0, 0], "max": [1, 0, 0], "sparse": {"count": 1,
+    "indices": {"bufferView": 0, "componentType": 5125}, "values": {"bufferView": 1}}}]})";
+  rtu::test::Run r = measured_rtusim("RTU_MEMORY_LIMIT=1G", "info --scene " + (dir / "sparse.gltf").string());
+  INFO(r.output);
+  CHECK(r.status == 2);
+  CHECK(contains(r.output, "sparse.gltf: the glTF accessors' elements needs about 5723 MiB of memory, above the "
+                           "limit of 1024 MiB"));
+  CHECK(mib(r.peak_kib) < 64);
+  // On a buffer view: the count against the view's bytes, whatever the budget.
+  std::ofstream(dir / "lines.gltf") << head << R"({"bufferView": 2, "componentType": 5126, "count": 100000000,
+    "type": "VEC3", "min": [0, 0, 0], "max": [1, 0, 0]}]})";
+  r = measured_rtusim("", "info --scene " + (dir / "lines.gltf").string());
+  INFO(r.output);
+  CHECK(r.status == 2);
+  CHECK(contains(r.output, "lines.gltf: glTF accessor 0: 100000000 elements of 12 bytes need 1200000000 bytes, "
+                           "more than its buffer view's 24"));
+  CHECK(mib(r.peak_kib) < 64);
+  // The same file with the count its buffer holds imports: one line of two vertices.
+  std::ofstream(dir / "ok.gltf") << head << R"({"bufferView": 2, "componentType": 5126, "count": 2,
+    "type": "VEC3", "min": [0, 0, 0], "max": [1, 0, 0]}]})";
+  CHECK(host::import_model((dir / "ok.gltf").string()).lines.size() == 1);
+}
+
+TEST_CASE("memory limit: mesh files' textures are held to the budget beside the scene's", "[limits][memory]") {
+  // An OBJ whose material has a 4096 x 4096 texture (64 MiB of texels), placed by five mesh entries of one scene
+  // file: each file's textures fit a 300 MiB budget alone, not beside the earlier ones.
+  const fs::path dir = temp_dir("limits");
+  {
+    std::vector<uint8_t> rgb(size_t(4096) * 4096 * 3, 128);
+    REQUIRE(stbi_write_jpg((dir / "t.jpg").string().c_str(), 4096, 4096, 3, rgb.data(), 50) != 0);
+  }
+  std::ofstream(dir / "m.mtl") << "newmtl skin\nKd 1 1 1\nmap_Kd t.jpg\n";
+  std::ofstream(dir / "m.obj") << "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
+                                  "usemtl skin\nf 1/1 2/2 3/3\n";
+  std::string meshes;
+  for (int i = 0; i < 5; ++i) meshes += std::string(i ? ", " : "") + R"({"file": "m.obj"})";
+  std::ofstream(dir / "s.json") << R"({"materials": {"m": {}}, "meshes": [)" << meshes << "]}";
+  const rtu::test::Run r = measured_rtusim("RTU_MEMORY_LIMIT=300M", "info --scene " + (dir / "s.json").string());
+  INFO(r.output);
+  // Past the budget a file's texture is not used (a warning naming the budget); the geometry imports.
+  CHECK(r.status == 0);
+  CHECK(contains(r.output, "m.obj: texture not used: "));
+  CHECK(contains(r.output, "m.obj: 1 textures so far beside the scene's 192 MiB of textures needs about 320 MiB"));
+  CHECK(contains(r.output, "above the limit of 300 MiB"));
+  if (!kSanitized) CHECK(mib(r.peak_kib) < 300 + mib(baseline_kib()));
+}
+
+TEST_CASE("memory limit: sweep's text inputs are held to the budget before they are read", "[limits][memory]") {
+  const fs::path dir = temp_dir("limits");
+  {
+    // 96 MiB of one 256-byte line repeated: a points file, a manifest, a sweep CSV.
+    std::ofstream out(dir / "big.txt", std::ios::binary);
+    std::string line = "builtin:seed\tdefault\t4\trdna2";
+    line += std::string(255 - line.size(), ' ') + "\n";
+    for (uint64_t b = 0; b < (uint64_t(96) << 20); b += line.size()) out << line;
+  }
+  const std::string big = (dir / "big.txt").string();
+  for (const std::string& args :
+       {"sweep --points " + big + " --write-manifest " + (dir / "m.txt").string(),
+        "sweep --manifest " + big + " --collect " + dir.string() + " --out " + (dir / "o.csv").string(),
+        "sweep --merge " + big + " --out " + (dir / "o.csv").string(), "pareto --sweep " + big + " --out " + (dir / "p").string()}) {
+    const rtu::test::Run r = measured_rtusim("RTU_MEMORY_LIMIT=256M", args);
+    INFO(args);
+    INFO(r.output);
+    CHECK(r.status == 2);
+    CHECK(contains(r.output, "big.txt: reading a 96 MiB file needs about 384 MiB of memory, above the limit of "
+                             "256 MiB"));
+    CHECK(mib(r.peak_kib) < 64);
+  }
+  // A directory is named as such, with its path.
+  for (const std::string& args :
+       {"pareto --sweep " + dir.string() + " --out " + (dir / "p").string(),
+        "trace --scene builtin:seed --rays " + dir.string() + " --out " + (dir / "h.bin").string()}) {
+    const rtu::test::Run r = run_rtusim(args);
+    INFO(r.output);
+    CHECK(r.status == 2);
+    CHECK(contains(r.output, dir.string() + ": is a directory, not a file"));
+  }
+}

@@ -19,4 +19,10 @@ L2Cache::L2Cache(const TimingConfig& c)
   m_port_free.assign(m_slices, 0);
 }
 
+uint64_t L2Cache::state_bytes(const TimingConfig& c) {
+  if (c.l2_kib <= 0) return 0;
+  return uint64_t(c.l2_kib) * 1024 / uint64_t(c.line_bytes) * sizeof(Line) +
+         uint64_t(std::max(1, c.l2_slices)) * sizeof(uint64_t);
+}
+
 }  // namespace rtu::hw

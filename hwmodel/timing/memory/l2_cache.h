@@ -22,6 +22,8 @@ namespace rtu::hw {
 class L2Cache {
  public:
   explicit L2Cache(const TimingConfig& c);
+  // Bytes an L2 of configuration c holds (its lines and ports; 0 without an L2).
+  static uint64_t state_bytes(const TimingConfig& c);
   // A line read at cycle t: returns the cycle its data is there; a miss reads it through `dram(line, t)`.
   template <class Dram>
   uint64_t access(uint64_t line, uint64_t t, Dram&& dram, TimingStats& s);

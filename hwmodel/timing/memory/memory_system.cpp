@@ -1,5 +1,6 @@
 #include "hwmodel/timing/memory/memory_system.h"
 
+#include <algorithm>
 #include <memory>
 #include <utility>
 
@@ -96,5 +97,10 @@ void MemoryTimeline::add(std::vector<uint64_t>& series, uint64_t cycle, uint64_t
 }
 
 MemorySystem::MemorySystem(const TimingConfig& c) : m_top(compose_memory(c, m_timeline)) {}
+
+uint64_t MemorySystem::state_bytes(const TimingConfig& c) {
+  const uint64_t banks = uint64_t(c.dram_channels) * uint64_t(std::max(1, c.dram_banks));
+  return L2Cache::state_bytes(c) + banks * 2 * sizeof(uint64_t) + 2 * MemoryTimeline::kTimelineBins * sizeof(uint64_t);
+}
 
 }  // namespace rtu::hw

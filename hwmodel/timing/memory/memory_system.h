@@ -26,6 +26,8 @@ namespace rtu::hw {
 class MemorySystem {
  public:
   explicit MemorySystem(const TimingConfig& c);
+  // Bytes a memory system of configuration c holds: the L2's lines, the DRAM's banks and the timeline.
+  static uint64_t state_bytes(const TimingConfig& c);
   // Its levels refer to its timeline: it stays where it was made.
   MemorySystem(const MemorySystem&) = delete;
   MemorySystem& operator=(const MemorySystem&) = delete;

@@ -26,6 +26,10 @@ namespace rtu::hw {
 class NodeCache {
  public:
   explicit NodeCache(const TimingConfig& c);
+  // Bytes a cache of configuration c holds: its lines, prefetch buffer and prefetch marks; with `walk`, also the
+  // backward walk's scratch (walk_start: a seen line per way, a count and an open count per set). Not the walk's
+  // marks, which grow with the image's lines.
+  static uint64_t state_bytes(const TimingConfig& c, bool walk);
   bool enabled() const { return !m_lines.empty(); }
   uint64_t latency() const { return m_latency; }
 

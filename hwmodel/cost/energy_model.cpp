@@ -3,6 +3,7 @@
 #include <array>
 #include <cmath>
 #include <stdexcept>
+#include <string_view>
 
 namespace rtu::hw {
 
@@ -130,6 +131,9 @@ EnergyReport energy_report(const TimingStats& s, const TimingConfig& c, const Co
        s.cache_misses + s.prefetch_fills, line},
       {"l2_read", "lines", "L2 line reads (node cache fills, hits and misses)", s.l2_hits + s.l2_misses, l2_line},
       {"l2_fill", "lines", "L2 line writes on a miss", s.l2_misses, l2_line},
+      {"l2_stack", "words", "stack spills and refills through the L2: an 8-byte access of a slice's SRAM",
+       s.l2_stack_hits + s.l2_stack_misses,
+       c.l2_kib > 0 ? sram_access_pj(double(c.l2_kib) * 1024.0 / c.l2_slices, 8, t) : 0.0},
       {"stack", "accesses", "slot stack SRAM accesses (one per node fetch)", s.node_fetches,
        sram_access_pj(stack_bytes, 8, t)},
       {"gather", "rays", "gather buffer: each ray written and read once (ray and bin key)",
@@ -143,8 +147,15 @@ EnergyReport energy_report(const TimingStats& s, const TimingConfig& c, const Co
        s.instance_transforms, 18.0 * t.fp32_mul_pj + 15.0 * t.fp32_add_pj},
       {"leakage", "cycles", "leakage of the unit's area over the run's cycles", s.cycles, leak_pj_per_cycle},
   };
-  for (const EnergyEvent& e : r.events) r.total_pj += e.pj();
-  if (s.rays > 0) r.pj_per_ray = r.total_pj / double(s.rays);
+  double memory_pj = 0.0;
+  for (const EnergyEvent& e : r.events) {
+    r.total_pj += e.pj();
+    if (std::string_view(e.key) == "dram" || std::string_view(e.key) == "stream") memory_pj += e.pj();
+  }
+  if (s.rays > 0) {
+    r.pj_per_ray = r.total_pj / double(s.rays);
+    r.unit_pj_per_ray = (r.total_pj - memory_pj) / double(s.rays);
+  }
   if (r.total_pj > 0) r.rays_per_joule = double(s.rays) / (r.total_pj * 1e-12);
   if (s.cycles > 0) r.watts = r.total_pj * 1e-12 / (double(s.cycles) / (c.clock_ghz * 1e9));
   return r;

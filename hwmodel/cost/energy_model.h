@@ -9,6 +9,7 @@
 //   cache_read     cache line accesses x one line read of an SRAM of the cache's size
 //   cache_fill     cache misses x one line write (as a read)
 //   l2_read        L2 line reads x one line read of an L2 slice's SRAM; l2_fill: L2 misses x one line write
+//   l2_stack       stack spills and refills through the L2 x one 8-byte access of a slice's SRAM
 //   stack          node fetches x one 8-byte access of the slots' stack SRAM (a push or a pop per node visit)
 //   dram           DRAM bytes (line fills, stack spills and refills) x 8 x the memory type's energy per bit
 //   stream         ray and hit buffer bytes x 8 x the same (they live in DRAM)
@@ -124,6 +125,7 @@ struct EnergyReport {
   std::vector<EnergyEvent> events;  // in the order of the list at the top of this file
   double total_pj = 0.0;            // the events' sum
   double pj_per_ray = 0.0;
+  double unit_pj_per_ray = 0.0;  // the same without the DRAM's events (dram, stream): the chip's own energy
   double rays_per_joule = 0.0;
   double watts = 0.0;  // total over the run's time at clock_ghz
   AreaReport area;

@@ -99,16 +99,20 @@ std::pair<uint64_t, uint64_t> TimingModel::line_range(const Layout& l, const Tra
 void TimingModel::observe(const Slot& sl, uint32_t k, const TraceEvent& e, uint64_t t, bool missed) {
   const auto [first, last] = line_range(*sl.layout, e);
   if (first > last) return;  // a block's later record: nothing fetched
+  const uint64_t waited = m_s->mem_wait_cycles;  // a prefetcher's fills wait for nobody's ray
   Port port(*this, t);
   m_observer->on_fetch(LineFetch{t, k, uint8_t(e.kind), e.index, first, last, missed}, port);
   drain_prefetches(t);
+  m_s->mem_wait_cycles = waited;
 }
 
 void TimingModel::observe_push(const Slot& sl, uint32_t k, const TraceEvent& e, uint64_t t) {
   const auto [first, last] = line_range(*sl.layout, TraceEvent{TraceEvent::kNode, 0, 0, 0, e.index});
+  const uint64_t waited = m_s->mem_wait_cycles;
   Port port(*this, t);
   m_observer->on_push(StackPush{t, k, e.count, first, last, e.index}, port);
   drain_prefetches(t);
+  m_s->mem_wait_cycles = waited;
 }
 
 void TimingModel::drain_prefetches(uint64_t t) {
@@ -650,9 +654,18 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
         ++(e.kind == TraceEvent::kNode ? m_s->node_fetches : m_s->prim_fetches);
         next_t = t;
         const uint64_t misses = m_s->cache_misses;
+        // The lines are asked for together, so the ray waits for the last to arrive: its queueing is how much
+        // later that is than the last would be without its lines' waits (mem_wait_cycles counts the ray's wait,
+        // not the sum over lines in parallel).
+        const uint64_t waited = m_s->mem_wait_cycles;
+        uint64_t unqueued = t;
         for_each_line<false>(*sl.layout, e, [&](uint64_t line) {
-          next_t = std::max(next_t, m_cache.access(line, t, *m_mem, *m_s));
+          const uint64_t before = m_s->mem_wait_cycles;
+          const uint64_t ready = m_cache.access(line, t, *m_mem, *m_s);
+          next_t = std::max(next_t, ready);
+          unqueued = std::max(unqueued, ready - (m_s->mem_wait_cycles - before));
         });
+        m_s->mem_wait_cycles = waited + (next_t - unqueued);
         if (m_observer) [[unlikely]]
           observe(sl, k, e, t, m_s->cache_misses != misses);
         if (m_trace)

@@ -11,8 +11,9 @@
 //   gathering (gather key, ray_gather.h) the rays wait in a gather buffer instead, binned by a key, and slots
 //   take the rays of issued bins.
 // - ray slots: ray_slots rays in flight; a free slot takes the next ray (in order; lowest free slot first). Each
-//   slot has a stack of stack_entries; deeper pushes spill 8 bytes to DRAM (bandwidth only) and pops of spilled
-//   entries wait for a DRAM read (latency and bandwidth).
+//   slot has a stack of stack_entries; deeper pushes spill 8 bytes to memory (bandwidth only) and pops of spilled
+//   entries wait for a memory read (latency and bandwidth): through the L2 when there is one (l2_cache.h), else
+//   to DRAM.
 // - memory: node, record and plane fetches go through the node cache (node_cache.h) into the memory behind it
 //   (memory_system.h: the DRAM channel of dram_channel.h, or an L2 and banked DRAM, shared by a chip's units). The
 //   image is taken to start at a line boundary. Ray and hit buffers stream through their own port: counted
@@ -37,7 +38,8 @@
 //   figures.
 // Every request is served in the order of its cycle (ties by slot number), so the result does not depend on the
 // order in which the code evaluates components, and time jumps from event to event (idle cycles are skipped).
-// Left out: overlap of consecutive TRACE packets, DRAM refresh, write-allocate of spills into the cache.
+// Left out: overlap of consecutive TRACE packets, DRAM refresh, spills into the node cache (it holds nodes and
+// records only).
 #pragma once
 
 #include <algorithm>
@@ -226,9 +228,12 @@ class TimingModel {
   uint64_t pop_waiting();  // removes and returns the earliest waiting request's key
   void spill(Slot& sl, uint32_t k, uint64_t t);       // one stack entry written to memory at t
   uint64_t refill(Slot& sl, uint32_t k, uint64_t t);  // one read back from t: when it is there
-  // The byte address of slot k's spilled entry number i (the stack region wraps: only banks see addresses).
+  // The byte address of slot k's spilled entry number i. A unit's stack region holds kStackRegion bytes per slot,
+  // entry-major: entry i of every slot, then entry i + 1, so the spills of slots at one depth share lines and
+  // consecutive lines spread over the L2's slices and DRAM's channels. Deeper than kStackRegion / 8 entries the
+  // region wraps (only the L2 and banks see addresses).
   uint64_t stack_addr(uint32_t k, int i) const {
-    return m_stack_base + uint64_t(k) * kStackRegion + (uint64_t(i) % (kStackRegion / 8)) * 8;
+    return m_stack_base + ((uint64_t(i) % (kStackRegion / 8)) * uint64_t(m_c.ray_slots) + k) * 8;
   }
   uint64_t unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t);
   // Calls f(line) for every cache line the fetch of event e touches (none for stack events).
@@ -261,7 +266,7 @@ class TimingModel {
   std::deque<uint64_t> m_pf_queue;            // lines a prefetcher asked for, waiting for idle memory
   std::unique_ptr<RayGather> m_gather;        // the gathering unit (ray_gather.h); null: rays in order
   uint32_t m_unit = 0;                        // index on the chip (pipeline trace spans, stack addresses)
-  uint64_t m_stack_base = 0;  // where slots spill their stacks: after the image, each slot kStackRegion bytes
+  uint64_t m_stack_base = 0;  // where the unit's slots spill their stacks: after the image, kStackRegion a slot
   static constexpr uint64_t kStackRegion = 4096;
   int m_line_shift = 0;     // log2(line_bytes)
   BoxCost m_box_cost;       // issue clocks and latency of a node test, by the node kind's cost class

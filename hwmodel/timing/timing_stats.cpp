@@ -36,11 +36,19 @@ constexpr std::array<TimingCounter, 14> kBeforePrefetch = {{
      kPerRay},
     {"cache_misses", &S::cache_misses, "lines", "cache line accesses that missed and went to DRAM", kPerRay},
 }};
-constexpr std::array<TimingCounter, 22> kAfterPrefetch = {{
+constexpr std::array<TimingCounter, 26> kAfterPrefetch = {{
     {"l2_hits", &S::l2_hits, "lines", "node cache fills found in the L2 (with l2_kib > 0)", kPerRay},
     {"l2_misses", &S::l2_misses, "lines", "node cache fills the L2 missed (read from DRAM)", kPerRay},
+    {"l2_stack_hits", &S::l2_stack_hits, "words", "stack spills and refills whose line was in the L2", kPerRay},
+    {"l2_stack_misses", &S::l2_stack_misses, "words",
+     "stack spills that allocated their line in the L2, and refills that read it from DRAM", kPerRay},
+    {"l2_writebacks", &S::l2_writebacks, "lines", "dirty L2 lines (spilled stack words) written back to DRAM",
+     kPerRay},
+    {"l2_port_cycles", &S::l2_port_cycles, "port clocks",
+     "clocks the L2 slices' ports were held, summed over the slices (line and stack word accesses)", kPerRay},
     {"dram_bytes", &S::dram_bytes, "bytes",
-     "bytes moved over the DRAM channel (line fills, stack spills and refills)", kPerRay},
+     "bytes moved over the DRAM channel (line fills, stack spills and refills past any L2, L2 write-backs)",
+     kPerRay},
     {"dram_busy_cycles", &S::dram_busy_cycles, "cycles", "cycles the DRAM channel spent transferring", kPerRay},
     {"dram_row_hits", &S::dram_row_hits, "accesses", "DRAM accesses to the bank's open row (with dram_banks > 0)",
      kPerRay},
@@ -195,6 +203,10 @@ const std::vector<ReportEntry>& report_table() {
              [](const S& s, const C&, const LowerBound&) -> Value {
                return ratio(double(s.l2_hits), double(s.l2_hits + s.l2_misses));
              }),
+      count("l2.stack_hits", &S::l2_stack_hits),
+      count("l2.stack_misses", &S::l2_stack_misses),
+      count("l2.writebacks", &S::l2_writebacks),
+      count("l2.port_cycles", &S::l2_port_cycles),
       count("node_fetches", &S::node_fetches),
       count("prim_fetches", &S::prim_fetches),
       count("dram_bytes", &S::dram_bytes),
@@ -239,7 +251,7 @@ const std::vector<ReportEntry>& report_table() {
                return s.gather_bins > 0 ? ratio(double(s.gather_wait_cycles), double(s.rays)) : 0.0;
              }),
       figure("lower_bound.cycles", "cycles",
-             "the largest of the ray fetch, box, triangle, curve, DRAM and latency bounds",
+             "the largest of the ray fetch, box, triangle, curve, DRAM, L2 and latency bounds",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.cycles; }),
       figure("lower_bound.fetch", "cycles",
              "rays / (1 per clock x units) (each unit's ray fetch and setup issue one ray a clock)",
@@ -255,15 +267,26 @@ const std::vector<ReportEntry>& report_table() {
              [](const S&, const C&, const LowerBound& b) -> Value { return b.curve; }),
       figure("lower_bound.dram", "cycles", "DRAM bytes / dram_bytes_per_cycle",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.dram; }),
+      figure("lower_bound.l2", "cycles",
+             "L2 port clocks / l2_slices (line and stack word accesses); 0 without an L2",
+             [](const S&, const C&, const LowerBound& b) -> Value { return b.l2; }),
       figure("lower_bound.latency", "cycles",
              "(slot busy cycles - unit and memory waits) / (ray_slots x units): rays x mean lifetime / rays in "
              "flight (Little's law)",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.latency; }),
       figure("lower_bound.limited_by", "",
-             "which bound is the largest: fetch, box, triangle, curve, dram or latency",
+             "which bound is the largest: fetch, box, triangle, curve, dram, l2 or latency",
              [](const S&, const C&, const LowerBound& b) -> Value { return std::string(b.limited_by); }),
       figure("lower_bound.cycles_over_bound", "1", "simulated cycles / lower bound",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.cycles_over_bound; }),
+      figure("queueing.slot_occupancy", "cycles",
+             "slot busy cycles / (ray_slots x units): the cycles if every slot were always full",
+             [](const S&, const C&, const LowerBound& b) -> Value { return b.slot_occupancy; }),
+      figure("queueing.units", "cycles", "unit_wait_cycles / (ray_slots x units): slot time queued for busy units",
+             [](const S&, const C&, const LowerBound& b) -> Value { return b.unit_queue; }),
+      figure("queueing.memory", "cycles",
+             "mem_wait_cycles / (ray_slots x units): slot time queued for busy L2 ports, DRAM banks and channels",
+             [](const S&, const C&, const LowerBound& b) -> Value { return b.mem_queue; }),
   };
   return table;
 }
@@ -294,13 +317,19 @@ LowerBound lower_bound(const TimingStats& s, const TimingConfig& c) {
                (double(c.tri_rate * c.tri_units) * units);
   if (c.curve_units > 0) b.curve = double(s.curve_tests) / (double(c.curve_rate * c.curve_units) * units);
   b.dram = double(s.dram_bytes) / c.dram_bytes_per_cycle;
+  if (c.l2_kib > 0) b.l2 = double(s.l2_port_cycles) / double(std::max(1, c.l2_slices));
   const uint64_t waits = s.unit_wait_cycles + s.mem_wait_cycles;
-  b.latency = double(s.slot_busy_cycles > waits ? s.slot_busy_cycles - waits : 0) / (double(c.ray_slots) * units);
-  b.cycles = std::max({b.fetch, b.box, b.triangle, b.curve, b.dram, b.latency});
+  const double slots = double(c.ray_slots) * units;
+  b.latency = double(s.slot_busy_cycles > waits ? s.slot_busy_cycles - waits : 0) / slots;
+  b.unit_queue = double(s.unit_wait_cycles) / slots;
+  b.mem_queue = double(s.mem_wait_cycles) / slots;
+  b.slot_occupancy = double(s.slot_busy_cycles) / slots;
+  b.cycles = std::max({b.fetch, b.box, b.triangle, b.curve, b.dram, b.l2, b.latency});
   b.limited_by = b.cycles == b.box        ? "box"
                  : b.cycles == b.triangle ? "triangle"
                  : b.cycles == b.curve    ? "curve"
                  : b.cycles == b.dram     ? "dram"
+                 : b.cycles == b.l2       ? "l2"
                  : b.cycles == b.fetch    ? "fetch"
                                           : "latency";
   b.cycles_over_bound = b.cycles > 0 ? double(s.cycles) / b.cycles : 0.0;

@@ -34,6 +34,9 @@ struct TimingStats {
   uint64_t prefetch_late = 0;           // useful fills whose data was still on its way at the first demand hit
   uint64_t prefetch_unused = 0;         // prefetched lines evicted before any demand access hit them
   uint64_t l2_hits = 0, l2_misses = 0;  // node cache fills through the L2 (memory_system.h)
+  // Stack spills and refills through the L2 (l2_cache.h): words that found their line there, and the others;
+  // dirty lines the L2 wrote back to DRAM; clocks its slices' ports were held (lines and words).
+  uint64_t l2_stack_hits = 0, l2_stack_misses = 0, l2_writebacks = 0, l2_port_cycles = 0;
   uint64_t dram_bytes = 0, dram_busy_cycles = 0;
   uint64_t dram_row_hits = 0, dram_row_misses = 0;  // with DRAM banks: accesses to the open row, and the others
   uint64_t stream_bytes = 0;                        // ray and hit buffers
@@ -79,16 +82,23 @@ void scale_sampled(TimingStats& s, double factor);
 
 // The unit cannot be faster than its busiest resource: box tests count in whole issue clocks per node (a node of c
 // children issues for ceil(c / box_rate) clocks) over the box units; triangle, sphere and plane tests one per
-// issue slot of the triangle units; DRAM bytes over its bandwidth. Nor faster than its ray slots let it be
-// (Little's law: rays in flight = throughput x lifetime, and at most ray_slots x units are in flight): the latency
-// bound is rays x their mean lifetime / (ray_slots x units), the lifetime without the waits the throughput bounds
-// already account for (unit_wait_cycles, mem_wait_cycles), so it binds when rays wait on latency, not on a queue.
+// issue slot of the triangle units; DRAM bytes over its bandwidth; the L2's port clocks (lines and stack words)
+// over its slices. Nor faster than its ray slots let it be (Little's law: rays in flight = throughput x lifetime,
+// and at most ray_slots x units are in flight): the latency bound is rays x their mean lifetime / (ray_slots x
+// units), the lifetime without the waits the throughput bounds already account for (unit_wait_cycles,
+// mem_wait_cycles), so it binds when rays wait on latency, not on a queue.
+// Each term assumes its resource busy without a gap; a queue at a slice, bank or unit that is busy while others
+// idle is in none of them. What rays spent queued is measured: unit_queue and mem_queue are the slots' waits
+// for busy units and for busy memory (L2 ports, DRAM banks and channels) on the scale of the latency term, so that
+// with every slot full latency + unit_queue + mem_queue is about the cycles (slot_occupancy).
 struct LowerBound {
   // fetch: rays / 1 per clock (the ray buffer streams and ray setup issues one ray per clock)
-  double fetch = 0.0, box = 0.0, triangle = 0.0, curve = 0.0, dram = 0.0, latency = 0.0;
+  double fetch = 0.0, box = 0.0, triangle = 0.0, curve = 0.0, dram = 0.0, l2 = 0.0, latency = 0.0;
   double cycles = 0.0;             // the largest of them
-  const char* limited_by = "box";  // "fetch", "box", "triangle", "curve", "dram" or "latency"
+  const char* limited_by = "box";  // "fetch", "box", "triangle", "curve", "dram", "l2" or "latency"
   double cycles_over_bound = 0.0;  // simulated cycles / cycles (0 without a bound)
+  // Slot time: waits for busy units and busy memory, and every slot's busy time, / (ray_slots x units).
+  double unit_queue = 0.0, mem_queue = 0.0, slot_occupancy = 0.0;
 };
 LowerBound lower_bound(const TimingStats& s, const TimingConfig& c);
 

@@ -140,6 +140,68 @@ TEST_CASE("L2: a miss goes to DRAM after the tag check, a hit costs its port and
   CHECK(mz.min_line_cycles() == 0);
 }
 
+TEST_CASE("L2: stack words are written without a fill, read back from the L2, and dirty lines written back",
+          "[memory]") {
+  TimingConfig c;
+  c.line_bytes = 64;
+  c.dram_latency = 100;
+  c.dram_bytes_per_cycle = 64;
+  c.l2_kib = 1;  // 16 lines: 2 slices of 4 sets of 2 ways
+  c.l2_slices = 2;
+  c.l2_ways = 2;
+  c.l2_latency = 10;
+  c.l2_bytes_per_cycle = 4;  // a line holds the port 16 clocks, a word 2
+  c.validate();
+  MemorySystem m(c);
+  TimingStats s;
+  // A spill at 0 to line 0 (byte 0): a miss that allocates without reading DRAM; it holds slice 0's port 2 clocks.
+  m.write_word(0, 0, s);
+  CHECK(s.l2_stack_misses == 1);
+  CHECK(s.dram_bytes == 0);
+  CHECK(s.mem_wait_cycles == 0);
+  // A second spill at 0, byte 8 of the same line: a hit, after the first word's 2 clocks (a write's wait is not a
+  // ray's: not counted).
+  m.write_word(8, 0, s);
+  CHECK(s.l2_stack_hits == 1);
+  CHECK(s.mem_wait_cycles == 0);
+  CHECK(s.l2_port_cycles == 4);
+  // Its refill at 50: a hit, the word's 2 clocks and the latency. No DRAM, unlike a unit without an L2.
+  CHECK(m.read_word(8, 50, s) == 50 + 2 + 10);
+  CHECK(s.l2_stack_hits == 2);
+  CHECK(s.dram_bytes == 0);
+  // A refill of a word whose line is not there (line 2, slice 0, set 1): read from DRAM as a fill is.
+  CHECK(m.read_word(2 * 64, 100, s) == 100 + 10 + 1 + 100);
+  CHECK(s.l2_stack_misses == 2);
+  CHECK(s.dram_bytes == 64);
+  // Lines 8 and 16 share set 0 of slice 0 with the dirty line 0: the second of them evicts it, which writes it
+  // back (a line to DRAM, bandwidth only) when its access starts.
+  m.read_line(8, 1000, s);
+  CHECK(s.l2_writebacks == 0);
+  const uint64_t bytes = s.dram_bytes;
+  m.read_line(16, 2000, s);
+  CHECK(s.l2_writebacks == 1);
+  CHECK(s.dram_bytes == bytes + 64 + 64);  // the write-back and line 16's fill
+  // Line 0 is clean once gone: reading it again is a miss, and evicting it later writes nothing.
+  CHECK(m.read_word(0, 3000, s) > 3000 + 100);
+  m.read_line(8, 4000, s);
+  m.read_line(16, 5000, s);
+  CHECK(s.l2_writebacks == 1);
+}
+
+TEST_CASE("without an L2 stack words go to DRAM as before", "[memory]") {
+  TimingConfig c;
+  c.line_bytes = 64;
+  c.dram_latency = 100;
+  c.dram_bytes_per_cycle = 8;
+  c.validate();
+  MemorySystem m(c);
+  TimingStats s;
+  m.write_word(0, 0, s);
+  CHECK(m.read_word(0, 0, s) == 1 + 1 + 100);  // after the spill's clock on the channel
+  CHECK(s.dram_bytes == 16);
+  CHECK(s.l2_stack_hits + s.l2_stack_misses + s.l2_port_cycles == 0);
+}
+
 TEST_CASE("DRAM channels without banks: lines interleave, no rows", "[memory]") {
   // 2 channels sharing 8 bytes per clock: 4 each, so a 64-byte line holds its channel's bus 16 clocks; data 50
   // clocks after the transfer. Lines 0 and 1 fall on channels 0 and 1 (the hash leaves small line numbers alone),

@@ -9,6 +9,7 @@ namespace rtu::hw {
 L2Cache::L2Cache(const TimingConfig& c)
     : m_latency(uint64_t(c.l2_latency)),
       m_xfer(transfer_cycles(uint64_t(c.line_bytes), c.l2_bytes_per_cycle)),
+      m_word_xfer(transfer_cycles(8, c.l2_bytes_per_cycle)),
       m_slices(uint32_t(std::max(1, c.l2_slices))),
       m_sets(0),
       m_ways(uint32_t(std::max(1, c.l2_ways))) {

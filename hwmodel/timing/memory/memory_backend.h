@@ -1,5 +1,5 @@
-// The seam below a unit's node cache: a memory backend serves line reads (cache fills) and 8-byte stack words
-// (spills and refills). memory_system.cpp composes the backends a configuration names, from the DRAM up
+// The seam below a unit's node cache: a memory backend serves line reads (cache fills), 8-byte stack words
+// (spills and refills) and line write-backs (a cache level's dirty lines). memory_system.cpp composes the backends a configuration names, from the DRAM up
 // (DramLevel over dram_channel.h or banked_dram.h, then the L2 of l2_cache.h in front of it); MemorySystem is the
 // composition a unit, or a chip's units, fill from.
 //
@@ -31,6 +31,8 @@ class MemoryBackend {
   // once (bandwidth only, and its wait is not a ray's: mem_wait_cycles counts reads).
   virtual uint64_t read_word(uint64_t addr, uint64_t t, TimingStats& s) = 0;
   virtual void write_word(uint64_t addr, uint64_t t, TimingStats& s) = 0;
+  // A dirty line written back at cycle t by the level in front (bandwidth only; nobody waits for it).
+  virtual void write_line(uint64_t line, uint64_t t, TimingStats& s) = 0;
   // The fewest cycles a line read takes, from its request to its data.
   virtual uint64_t min_line_cycles() const = 0;
   // The latest cycle the backend's transfers keep it busy until.
@@ -45,8 +47,8 @@ inline uint64_t transfer_cycles(uint64_t bytes, double bytes_per_cycle) {
   return bytes_per_cycle > 0 ? uint64_t(std::ceil(double(bytes) / bytes_per_cycle)) : 0;
 }
 
-// Bytes moved over time: DRAM bytes by the cycle their transfer ends, L2 line accesses (hits and misses, a line
-// each) by the cycle they are asked for, in bins of bin_cycles from cycle 0 (the device's cycles since bind). The
+// Bytes moved over time: DRAM bytes by the cycle their transfer ends, L2 accesses (a line each for fills, hits and
+// misses; 8 bytes for a stack word) by the cycle they are asked for, in bins of bin_cycles from cycle 0 (the device's cycles since bind). The
 // bins start kTimelineBin wide and double (pairs merged) whenever a cycle falls beyond kTimelineBins bins, so the
 // series stays at most that long however long the run.
 struct MemoryTimeline {

@@ -12,7 +12,8 @@ namespace rtu::hw {
 
 namespace {
 
-// A DRAM model as the last level: lines and stack words are transfers, each on the timeline by the cycle it ends.
+// A DRAM model as the last level: lines, stack words and write-backs are transfers, each on the timeline by the
+// cycle it ends.
 template <class Dram>
 class DramLevel final : public MemoryBackend {
  public:
@@ -25,10 +26,9 @@ class DramLevel final : public MemoryBackend {
     return transfer(line * m_line_bytes, m_line_bytes, t, s);
   }
   uint64_t read_word(uint64_t addr, uint64_t t, TimingStats& s) override { return transfer(addr, 8, t, s); }
-  void write_word(uint64_t addr, uint64_t t, TimingStats& s) override {
-    const uint64_t waited = s.mem_wait_cycles;
-    transfer(addr, 8, t, s);
-    s.mem_wait_cycles = waited;
+  void write_word(uint64_t addr, uint64_t t, TimingStats& s) override { write(addr, 8, t, s); }
+  void write_line(uint64_t line, uint64_t t, TimingStats& s) override {
+    write(line * m_line_bytes, m_line_bytes, t, s);
   }
   uint64_t min_line_cycles() const override { return m_dram.min_line_cycles(); }
   uint64_t free_at() const override { return m_dram.free_at(); }
@@ -39,13 +39,19 @@ class DramLevel final : public MemoryBackend {
     m_timeline.add(m_timeline.dram_bytes, ready - m_latency, bytes);
     return ready;
   }
+  // A write takes the channel as a read does; its wait is nobody's (mem_wait_cycles counts reads).
+  void write(uint64_t addr, uint64_t bytes, uint64_t t, TimingStats& s) {
+    const uint64_t waited = s.mem_wait_cycles;
+    transfer(addr, bytes, t, s);
+    s.mem_wait_cycles = waited;
+  }
   Dram m_dram;
   uint64_t m_line_bytes, m_latency;  // dram_latency: a transfer ends this long before its data is there
   MemoryTimeline& m_timeline;
 };
 
-// The L2 in front of the next level: line reads through its slices (each on the timeline when asked for), stack
-// words straight to the next level.
+// The L2 in front of the next level: line reads and stack words through its slices (each on the timeline when
+// asked for); its dirty lines written back to the next level.
 class L2Level final : public MemoryBackend {
  public:
   L2Level(const TimingConfig& c, std::unique_ptr<MemoryBackend> next, MemoryTimeline& timeline)
@@ -53,15 +59,23 @@ class L2Level final : public MemoryBackend {
   uint64_t read_line(uint64_t line, uint64_t t, TimingStats& s) override {
     m_timeline.add(m_timeline.l2_bytes, t, m_line_bytes);
     return m_l2.access(
-        line, t, [&](uint64_t l, uint64_t at) { return m_next->read_line(l, at, s); }, s);
+        line, t, [&](uint64_t l, uint64_t at) { return m_next->read_line(l, at, s); },
+        [&](uint64_t l, uint64_t at) { m_next->write_line(l, at, s); }, s);
   }
-  uint64_t read_word(uint64_t addr, uint64_t t, TimingStats& s) override { return m_next->read_word(addr, t, s); }
-  void write_word(uint64_t addr, uint64_t t, TimingStats& s) override { m_next->write_word(addr, t, s); }
+  uint64_t read_word(uint64_t addr, uint64_t t, TimingStats& s) override { return word(addr, false, t, s); }
+  void write_word(uint64_t addr, uint64_t t, TimingStats& s) override { word(addr, true, t, s); }
+  void write_line(uint64_t line, uint64_t t, TimingStats& s) override { m_next->write_line(line, t, s); }
   uint64_t min_line_cycles() const override { return m_l2.min_cycles(m_next->min_line_cycles()); }
   uint64_t free_at() const override { return m_next->free_at(); }
   void warm_line(uint64_t line) override { m_l2.warm(line); }
 
  private:
+  uint64_t word(uint64_t addr, bool write, uint64_t t, TimingStats& s) {
+    m_timeline.add(m_timeline.l2_bytes, t, 8);
+    return m_l2.word(
+        addr / m_line_bytes, write, t, [&](uint64_t l, uint64_t at) { return m_next->read_line(l, at, s); },
+        [&](uint64_t l, uint64_t at) { m_next->write_line(l, at, s); }, s);
+  }
   L2Cache m_l2;
   std::unique_ptr<MemoryBackend> m_next;
   uint64_t m_line_bytes;

@@ -3,8 +3,8 @@
 // - the DRAM: without banks and with one channel (dram_banks = 0, dram_channels = 1: the defaults) the one
 //   channel of dram_channel.h, and the unit's cycles are what they always were; otherwise channels with
 //   open-page banks (banked_dram.h);
-// - in front of it, with l2_kib > 0, the L2 (l2_cache.h), shared by a chip's units. Line fills only: stack spills
-//   and refills bypass it.
+// - in front of it, with l2_kib > 0, the L2 (l2_cache.h), shared by a chip's units: line fills and stack spills
+//   and refills go through it, its dirty lines back to the DRAM.
 // A new level or DRAM model is a backend (memory_backend.h) and one line of compose_memory().
 // Every request is served at its own cycle in the order the unit makes them (the unit's requests come in
 // cycle order), so the result is deterministic.

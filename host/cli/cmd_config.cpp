@@ -70,7 +70,10 @@ void print_stats() {
   std::printf("%-30s %-12s %s\n", "timeline.dram_bytes", "bytes",
               "DRAM bytes per bin, by the cycle each transfer ends");
   std::printf("%-30s %-12s %s\n", "timeline.l2_bytes", "bytes",
-              "L2 line accesses x line bytes per bin, by request cycle");
+              "L2 bytes per bin (line accesses x line bytes, stack words x 8), by request cycle");
+  std::printf("%-30s %-12s %s\n", "notes", "-",
+              "total only: what a reader of these figures should know, one sentence each (the summary prints "
+              "them): slot time queued, cycles far above the bound, stack spills, a short packet, the sample");
   std::printf(
       "\n# the counters the timing model keeps (sampled timing: per-ray counters are scaled to the packet)\n");
   for (const hw::TimingCounter& c : hw::timing_counters())

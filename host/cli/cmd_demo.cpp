@@ -44,7 +44,7 @@ void print_stage(DemoStage stage, const DemoResult& r, const DemoOptions& o) {
       print_render_summary(rr, ro);
       if (rr.timed) {
         std::printf("        ");
-        print_timing_summary(rr.timing, ro.device.timing, false, "        ");
+        print_timing_summary(rr.timing, ro.device.timing, ro.device.format, &rr.sampling, "        ");
         std::printf("        cycles per frame (every packet, fences included): %llu = %.3f ms at %.1f GHz\n",
                     (unsigned long long)rr.device_clock,
                     double(rr.device_clock) / (ro.device.timing.clock_ghz * 1e6), ro.device.timing.clock_ghz);

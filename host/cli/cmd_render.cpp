@@ -53,7 +53,7 @@ void run_render(const RenderArgs& a) {
   for (const std::string& w : render_warnings(r)) std::fprintf(stderr, "rtusim: warning: %s\n", w.c_str());
   if (r.timed) {
     std::printf("  ");
-    print_timing_summary(r.timing, o.device.timing, r.sampling.packets_sampled > 0);
+    print_timing_summary(r.timing, o.device.timing, o.device.format, &r.sampling, "  ");
     std::printf("  device clock at the end (all packets, fences included): %llu cycles\n",
                 (unsigned long long)r.device_clock);
     if (o.hybrid)

@@ -64,12 +64,7 @@ void run_trace(const TraceOptions& o) {
     std::printf("any-hit: %llu candidate hits on alpha-tested triangles, %llu ignored\n",
                 (unsigned long long)stats.any_hit_calls, (unsigned long long)stats.any_hit_ignored);
   if (const hw::TimedEngine* te = run.device->timed()) {
-    print_timing_summary(te->timing(), te->config(), te->sampling().packets_sampled > 0);
-    const hw::SampleStats& ss = te->sampling();
-    if (ss.packets_sampled > 0)
-      std::printf("sampled: %llu of %llu packets estimated from %.1f%% of their rays; cycles +- %.0f (95%%)\n",
-                  (unsigned long long)ss.packets_sampled, (unsigned long long)ss.packets,
-                  100.0 * double(ss.rays_simulated) / double(ss.rays), ss.ci95());
+    print_timing_summary(te->timing(), te->config(), te->format(), &te->sampling());
     pt.write(te->timeline());
   }
 

@@ -129,11 +129,13 @@ void check_device_args(const CLI::App& app, const DeviceArgs& o) {
 
 namespace rtu::host::cli {
 
-void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, bool sampled, const char* indent) {
+void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, const hw::FixedFormat& f,
+                          const hw::SampleStats* sampling, const char* indent) {
   // The figures of the stats JSON's timing object (timing_stats_json), from the statistics themselves.
   const auto ratio = [](double a, double b) { return b > 0 ? a / b : 0.0; };
+  const bool sampled = sampling != nullptr && sampling->packets_sampled > 0;
   const hw::LowerBound bound = hw::lower_bound(s, c);
-  const hw::CostInputs in = cost_inputs(c);
+  const hw::CostInputs in = cost_inputs(f, c);
   const hw::EnergyReport e = hw::energy_report(s, c, in);
   std::string limit = bound.limited_by;
   if (limit == "latency") {
@@ -152,10 +154,12 @@ void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, b
       ratio(double(s.rays), double(s.cycles)), ratio(double(s.cache_hits), double(s.cache_hits + s.cache_misses)),
       ratio(double(s.dram_bytes), double(s.cycles)), sampled ? "~" : "", bound.cycles, limit.c_str(),
       sampled ? ", estimated from the sample" : "", bound.cycles_over_bound);
+  for (const std::string& line : timing_notes(s, c, sampling)) std::printf("%s%s\n", indent, line.c_str());
   std::printf(
-      "%senergy (%s estimate, docs/energy-model.md): %.0f pJ per ray, %.3g rays per joule, %.2f W at %g "
-      "GHz; area %.2f mm^2\n",
-      indent, hw::nangate45().name, e.pj_per_ray, e.rays_per_joule, e.watts, c.clock_ghz, e.area.total_mm2);
+      "%senergy (%s estimate, docs/energy-model.md): %.0f pJ per ray (%.0f in the unit, the rest DRAM and the "
+      "ray and hit streams), %.3g rays per joule, %.2f W at %g GHz; area %.2f mm^2\n",
+      indent, hw::nangate45().name, e.pj_per_ray, e.unit_pj_per_ray, e.rays_per_joule, e.watts, c.clock_ghz,
+      e.area.total_mm2);
   // The latency levers that are on (docs/timing-model.md), each with what it did.
   std::string levers;
   char part[200];

@@ -50,11 +50,12 @@ inline constexpr const char* kRaySpecHelp =
 
 // A render's one-line summary on stdout (and the rasterizer's in hybrid mode).
 void print_render_summary(const RenderResult& r, const RenderOptions& o);
-// One line: cycles, cycles per ray, rays per clock, the lower bound and what limits it. `sampled`: the counters
-// are estimates from sampled timing, and the line says the bound is too.
-// Two lines: cycles and the lower bound; energy and area (the second line prefixed by `indent`).
-void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, bool sampled = false,
-                          const char* indent = "");
+// A timed run's summary: cycles, cycles per ray, rays per clock, the lower bound and what limits it; the notes
+// of timing_notes (stats_json.h); energy (the unit's own beside the total) and area, priced for the run's format
+// `f`; the latency levers that are on. Lines after the first are prefixed by `indent`. `sampling` (or null):
+// what sampled timing simulated; with a packet sampled the counters and the bound are estimates, and it says so.
+void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, const hw::FixedFormat& f,
+                          const hw::SampleStats* sampling = nullptr, const char* indent = "");
 // --pipeline-trace F.json and --trace-window FROM:TO (cycles) of the timed device's commands.
 struct PipelineTraceArgs {
   std::string path, window = "0:100000";

@@ -187,12 +187,16 @@ hw::CostInputs cost_inputs(const hw::FixedFormat& f, const hw::TimingConfig& c, 
   return in;
 }
 
-hw::CostInputs cost_inputs(const hw::TimingConfig& c) {
+hw::CostInputs cost_inputs(const hw::FixedFormat& f, const hw::TimingConfig& c) {
   static const AreaTable area = AreaTable::shipped();
   static const ActivityTable activity = ActivityTable::shipped();
+  return cost_inputs(f, c, area, activity);
+}
+
+hw::CostInputs cost_inputs(const hw::TimingConfig& c) {
   hw::FixedFormat f = hw::format_preset(c.format);
   f.width = c.bvh_width;
-  return cost_inputs(f, c, area, activity);
+  return cost_inputs(f, c);
 }
 
 Json energy_json(const hw::EnergyReport& e, const hw::TimingConfig& c, const hw::CostInputs& in) {
@@ -218,6 +222,7 @@ Json energy_json(const hw::EnergyReport& e, const hw::TimingConfig& c, const hw:
   j["events"] = events;
   j["total_pj"] = e.total_pj;
   j["pj_per_ray"] = e.pj_per_ray;
+  j["unit_pj_per_ray"] = e.unit_pj_per_ray;
   j["rays_per_joule"] = e.rays_per_joule;
   j["watts"] = e.watts;
   return j;
@@ -262,6 +267,8 @@ std::vector<EnergyKey> energy_json_keys() {
       {"energy.events", "-", "each event: count, unit, pj_each, pj (count x pj_each)"},
       {"energy.total_pj", "pJ", "sum of the events' pj"},
       {"energy.pj_per_ray", "pJ/ray", "total_pj / rays"},
+      {"energy.unit_pj_per_ray", "pJ/ray",
+       "the same without the DRAM's events (dram, stream): the energy spent on the chip"},
       {"energy.rays_per_joule", "rays/J", "rays / total energy"},
       {"energy.watts", "W", "total energy / run time at clock_ghz"},
   };

@@ -23,7 +23,10 @@ namespace rtu::host {
 // `f` is the datapath's format (the configuration's `format` preset, or a sweep point's spec), at c.bvh_width.
 hw::CostInputs cost_inputs(const hw::FixedFormat& f, const hw::TimingConfig& c, const AreaTable& area,
                            const ActivityTable& activity);
-// With the shipped tables and the configuration's own format.
+// With the shipped tables: the run's format `f` (what its image was encoded with: every field, the node kind and
+// the BVH width), so that a design point has one price in trace, render, sweep and plan.
+hw::CostInputs cost_inputs(const hw::FixedFormat& f, const hw::TimingConfig& c);
+// The configuration's own format (its `format` preset at its bvh_width): what `rtusim config` prices.
 hw::CostInputs cost_inputs(const hw::TimingConfig& c);
 
 // {technology, memory_type, area: {...mm^2, units: {box, tri}}, events: [{key, count, pj_each, pj}], total_pj,

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <charconv>
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <set>
@@ -143,7 +144,7 @@ Json timing_json(const hw::TimingConfig& c) {
   return j;
 }
 
-Json timing_stats_json(const hw::TimingStats& s, const hw::TimingConfig& c) {
+Json timing_stats_json(const hw::TimingStats& s, const hw::TimingConfig& c, const hw::FixedFormat& f) {
   // The report table of timing_stats.h, in its order; "a.b" is key b of object a.
   Json j;
   for (const hw::TimingStatValue& v : hw::timing_report(s, c)) {
@@ -152,7 +153,7 @@ Json timing_stats_json(const hw::TimingStats& s, const hw::TimingConfig& c) {
     Json& slot = dot == std::string::npos ? j[key] : j[key.substr(0, dot)][key.substr(dot + 1)];
     std::visit([&](const auto& x) { slot = x; }, v.value);
   }
-  const hw::CostInputs in = cost_inputs(c);
+  const hw::CostInputs in = cost_inputs(f, c);
   j["energy"] = energy_json(hw::energy_report(s, c, in), c, in);
   return j;
 }
@@ -160,15 +161,16 @@ Json timing_stats_json(const hw::TimingStats& s, const hw::TimingConfig& c) {
 // The statistics in total, then by ray type (the types that ran rays) and by bounce.
 Json timing_breakdown_json(const hw::TimingStats& total,
                            const std::array<hw::TimingStats, hw::cmd::kRayTypeCount>& by_type,
-                           const std::map<int, hw::TimingStats>& by_bounce, const hw::TimingConfig& c) {
-  Json j = timing_stats_json(total, c);
+                           const std::map<int, hw::TimingStats>& by_bounce, const hw::TimingConfig& c,
+                           const hw::FixedFormat& f) {
+  Json j = timing_stats_json(total, c, f);
   Json types = Json::object();
   for (int t = 0; t < hw::cmd::kRayTypeCount; ++t)
     if (by_type[size_t(t)].rays > 0)
-      types[hw::cmd::ray_type_name(hw::cmd::RayType(t))] = timing_stats_json(by_type[size_t(t)], c);
+      types[hw::cmd::ray_type_name(hw::cmd::RayType(t))] = timing_stats_json(by_type[size_t(t)], c, f);
   j["by_ray_type"] = types;
   Json bounces = Json::object();
-  for (const auto& [b, s] : by_bounce) bounces[std::to_string(b)] = timing_stats_json(s, c);
+  for (const auto& [b, s] : by_bounce) bounces[std::to_string(b)] = timing_stats_json(s, c, f);
   j["by_bounce"] = bounces;
   return j;
 }
@@ -209,8 +211,91 @@ void add_timeline(Json& j, const hw::MemoryTimeline* tl, const hw::SampleStats& 
   j["timeline"] = {{"bin_cycles", tl->bin_cycles}, {"dram_bytes", tl->dram_bytes}, {"l2_bytes", tl->l2_bytes}};
 }
 
+// Cycles over the lower bound above which the bound's terms do not name the limit: no resource it counts is
+// busy more than two thirds of the time.
+constexpr double kFarAboveBound = 1.5;
+// A packet whose slots' fill and drain (about one mean ray lifetime per packet) is more than this share of its
+// cycles is short: its rays per clock are below the unit's steady state.
+constexpr double kShortPacketShare = 0.1;
+
+std::vector<std::string> timing_notes(const hw::TimingStats& s, const hw::TimingConfig& c,
+                                      const hw::SampleStats* sampling) {
+  std::vector<std::string> notes;
+  if (s.rays == 0 || s.cycles == 0) return notes;
+  const hw::LowerBound b = hw::lower_bound(s, c);
+  char text[600];
+  const auto pct = [](double a, double whole) { return whole > 0 ? 100.0 * a / whole : 0.0; };
+  const double occ = b.slot_occupancy, full = double(s.cycles) > 0 ? occ / double(s.cycles) : 0.0;
+  if (occ > 0 && b.mem_queue + b.unit_queue > 0.1 * occ) {
+    std::snprintf(text, sizeof text,
+                  "slot time: latency %.0f%%, queued for memory %.0f%% (L2 ports, DRAM banks and channels), queued "
+                  "for units %.0f%%; the slots are full %.0f%% of the cycles",
+                  pct(b.latency, occ), pct(b.mem_queue, occ), pct(b.unit_queue, occ), 100.0 * std::min(1.0, full));
+    std::string line = text;
+    if (b.mem_queue > 0.25 * occ && b.mem_queue >= b.unit_queue)
+      line += ": memory queueing holds the slots, so more L2 or DRAM bandwidth (l2_bytes_per_cycle, l2_slices, "
+              "dram_bytes_per_cycle) moves the cycles more than more ray slots do";
+    else if (b.unit_queue > 0.25 * occ)
+      line += ": rays queue for the units, so more or faster units move the cycles more than more ray slots do";
+    notes.push_back(line);
+  }
+  if (b.cycles_over_bound > kFarAboveBound) {
+    std::snprintf(text, sizeof text,
+                  "warning: the cycles are %.2f times the lower bound: no resource the bound counts is busy most "
+                  "of the time, so '%s' is its largest term, not the limit; %s",
+                  b.cycles_over_bound, b.limited_by,
+                  full < 0.7 ? "the ray slots are full only part of the time (fill and drain of the packet, the ray "
+                               "fetch, gathering or a few long rays)"
+                             : "the slots are full and their rays wait in queues the bound does not count (slot "
+                               "time above)");
+    notes.push_back(text);
+  }
+  if (s.stack_spills > 0) {
+    std::snprintf(text, sizeof text, "stack: %.3f entries spilled and %.3f refilled per ray (%s)",
+                  double(s.stack_spills) / double(s.rays), double(s.stack_refills) / double(s.rays),
+                  c.l2_kib > 0 ? "through the L2" : "to DRAM");
+    notes.push_back(text);
+  }
+  const double slots = double(c.ray_slots) * double(c.units);
+  const double per_packet = double(s.rays) / double(std::max<uint64_t>(1, s.packets));
+  const double lifetime = double(s.slot_busy_cycles) / double(s.rays);
+  const double fill_drain = lifetime * double(std::max<uint64_t>(1, s.packets)) / double(s.cycles);
+  if (fill_drain > kShortPacketShare && per_packet > 0) {
+    // The rays a packet needs for fill and drain to be under 5% of its cycles at this throughput.
+    const double enough = 20.0 * lifetime * double(s.rays) / double(s.cycles);
+    std::snprintf(text, sizeof text,
+                  "note: %.0f rays a packet for %.0f ray slots (%.1f a slot): filling and draining the slots (a "
+                  "ray's mean lifetime, %.0f cycles) is about %.0f%% of the cycles, so rays per clock are below "
+                  "the steady state; compare designs on packets of at least %.0f rays",
+                  per_packet, slots, per_packet / slots, lifetime, 100.0 * std::min(1.0, fill_drain), enough);
+    notes.push_back(text);
+  }
+  if (sampling != nullptr && sampling->packets_sampled > 0) {
+    std::snprintf(text, sizeof text,
+                  "sampled: %llu of %llu packets estimated from %.1f%% of their rays; cycles +- %.0f (95%%)",
+                  (unsigned long long)sampling->packets_sampled, (unsigned long long)sampling->packets,
+                  pct(double(sampling->rays_simulated), double(sampling->rays)), sampling->ci95());
+    std::string line = text;
+    if (c.units > 1)
+      line += "; the estimate is of ray_policy " + c.ray_policy +
+              " (sampled chips need it): a full run under another policy (the chip presets' is waves) differs "
+              "by its policy too";
+    notes.push_back(line);
+    if (double(s.cycles) < b.cycles) {
+      std::snprintf(text, sizeof text,
+                    "warning: the sampled estimate (%llu cycles) is below its own lower bound (%.0f cycles): the "
+                    "sample does not stand for the packet (too few measured rays, or a warm-up that outweighs "
+                    "them); use a larger --sample or a shorter --sample-warmup",
+                    (unsigned long long)s.cycles, b.cycles);
+      notes.push_back(text);
+    }
+  }
+  return notes;
+}
+
 Json timed_json(const hw::TimedEngine& e) {
-  Json j = timing_breakdown_json(e.timing(), e.timing_by_type(), e.timing_by_bounce(), e.config());
+  Json j = timing_breakdown_json(e.timing(), e.timing_by_type(), e.timing_by_bounce(), e.config(), e.format());
+  j["notes"] = timing_notes(e.timing(), e.config(), &e.sampling());
   if (!e.timing_by_unit().empty()) j["units"] = units_json(e.timing_by_unit(), e.config());
   add_timeline(j, e.timeline(), e.sampling());
   j["config"] = timing_json(e.config());

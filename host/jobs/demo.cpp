@@ -111,7 +111,7 @@ uint64_t render_raytraced(const DemoRun& run, const Scene& scene, std::vector<Im
     Json rj = render_json(r, ro);
     rj["image"] = path;
     if (r.timed) {
-      rj["timing"] = timing_stats_json(r.timing, ro.device.timing);
+      rj["timing"] = timing_stats_json(r.timing, ro.device.timing, ro.device.format);
       rj["timing"]["cycles_per_frame"] = r.device_clock;
       rj["timing"]["config"] = timing_json(ro.device.timing);
     }

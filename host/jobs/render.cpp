@@ -571,13 +571,15 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
   j["warnings"] = render_warnings(r);
   if (o.device.kind != hw::DeviceKind::kFloat) j["format"] = format_json(o.device.format);
   if (r.timed) {
-    Json t = timing_breakdown_json(r.timing, r.timing_by_type, r.timing_by_bounce, o.device.timing);
+    Json t = timing_breakdown_json(r.timing, r.timing_by_type, r.timing_by_bounce, o.device.timing,
+                                   o.device.format);
     t["device_clock"] = r.device_clock;
     // Fence interrupts: the host sees the frame's last fence irq_latency after the device clock's end.
     t["fence_irqs"] = r.device.fence_irqs;
     t["last_irq_cycle"] = r.device.last_irq_cycle;
     t["sample"] = sample_json(r.sampling);
     if (!r.timing_by_unit.empty()) t["units"] = units_json(r.timing_by_unit, o.device.timing);
+    t["notes"] = timing_notes(r.timing, o.device.timing, &r.sampling);
     add_timeline(t, &r.timeline, r.sampling);
     // The frame: the rasterizer's cycles (hybrid), the sort's (ray sorting) and the unit's (every packet), which
     // do not overlap.

@@ -302,7 +302,7 @@ Json section_cycles(const std::vector<std::unique_ptr<Scene>>& scenes, const std
       hw::TraversalStats ts;
       dev->trace_batch(rays.data(), hits.data(), rays.size(), false, a.threads, ts);
       const double secs = sw.seconds();
-      const Json t = timing_stats_json(dev->timed()->timing(), opt.timing);
+      const Json t = timing_stats_json(dev->timed()->timing(), opt.timing, dev->timed()->format());
       Json r = {{"preset", preset},
                 {"scene", specs[i]},
                 {"rays", rays.size()},

@@ -71,6 +71,9 @@ class TimedEngine final : public TraceEngine {
   // scene, and are recorded in chunks of bounded bytes. The host holds it to its memory budget before making
   // the engine (host::check_timing_memory, host/devices/direct_device.h).
   static uint64_t state_bytes(const TimingConfig& c, bool sampled);
+  // The bound image's format (a two-level scene's top level's; both levels share it): what the unit is built
+  // for. Requires bound().
+  FixedFormat format() const { return tracer().image().format(); }
   void set_threads(int threads) { m_opt.threads = threads; }
   // Sampled timing of later TRACE packets (SampleOptions); throws std::invalid_argument for a fraction outside
   // [0, 1] or a unit of 0 rays.

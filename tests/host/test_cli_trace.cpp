@@ -1,8 +1,12 @@
 // rtusim end to end: rays, trace and info on the float and fixed devices.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cstring>
 #include <fstream>
+#include <sstream>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "host/io/ray_io.h"
@@ -116,4 +120,49 @@ TEST_CASE("rays: --count 0 refused, options of the other kind refused", "[cli]")
   const Run one = run_rtusim("rays --scene builtin:seed --count 1 --out " + out);
   CHECK(one.status == 0);
   CHECK(rtu::host::read_rays(out).size() == 1);
+}
+
+TEST_CASE("trace prices the run's format: its bits and node kind, as sweep prices the same point",
+          "[cli][energy]") {
+  // One design point, one price: the area in trace's stats is the format the image was encoded with (a
+  // --coord-bits override, a --node-kind), not the preset's, and equals sweep's area for the same point.
+  const fs::path d = temp_dir("cli_price");
+  auto area = [&](const std::string& opts) {
+    const std::string json = (d / "t.json").string();
+    const Run r = run_rtusim("trace --scene builtin:seed --rays primary:16x16 --device timed " + opts + " --stats " +
+                             json);
+    INFO(r.output);
+    REQUIRE(r.status == 0);
+    const nlohmann::json j = read_json(json)["timing"]["energy"]["area"];
+    return std::make_pair(j["total_mm2"].get<double>(), j["rotate_stage"]["nand2_eq"].get<double>());
+  };
+  const auto preset = area("--config rdna2");
+  const auto narrow = area("--config rdna2 --coord-bits 12");
+  CHECK(narrow.first < preset.first);  // a narrower datapath is a smaller unit
+  // rdna4's format has oriented nodes: its rotation stage is priced, and gone with --node-kind 0.
+  const auto obb = area("--config rdna4");
+  const auto aabb = area("--config rdna4 --node-kind 0");
+  CHECK(obb.second > 0);
+  CHECK(aabb.second == 0);
+  CHECK(aabb.first < obb.first);
+  // sweep's area for the point of the default format (rdna2's) with coord_bits 12, to the digits its CSV prints.
+  const std::string csv = (d / "s.csv").string();
+  fs::remove(csv);
+  const Run s = run_rtusim("sweep --scene builtin:seed --formats default:coord_bits=12 --config rdna2 --rays 64 "
+                           "--image-width 0 --out " + csv);
+  INFO(s.output);
+  REQUIRE(s.status == 0);
+  const std::vector<std::string> lines = read_lines(csv);
+  REQUIRE(lines.size() == 2);
+  auto fields = [](const std::string& line) {
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+    return f;
+  };
+  const std::vector<std::string> head = fields(lines[0]), row = fields(lines[1]);
+  const auto col = std::find(head.begin(), head.end(), "area_mm2");
+  REQUIRE(col != head.end());
+  const double swept = std::stod(row[size_t(col - head.begin())]);
+  CHECK(swept == Approx(narrow.first).epsilon(1e-4));  // the CSV prints 6 significant digits or more
 }

@@ -88,7 +88,7 @@ TEST_CASE("energy: the events times their energies are the total, and each count
     CHECK(event("dram").pj_each == dram_pj_per_byte);
 
     // The stats JSON carries the same figures: its events add up to its total.
-    const rtu::host::Json j = rtu::host::timing_stats_json(s, c)["energy"];
+    const rtu::host::Json j = rtu::host::timing_stats_json(s, c, rtu::hw::format_preset(c.format))["energy"];
     double jsum = 0;
     for (const auto& [key, ev] : j["events"].items()) {
       CAPTURE(key);

@@ -2,6 +2,7 @@
 // happens), on built-in scenes, a real mesh and hostile rays; cycles that repeat across runs and thread counts;
 // renders through the command processor identical to the fixed device's, with a clock that counts cycles.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -10,6 +11,7 @@
 #include <vector>
 
 #include "host/devices/direct_device.h"
+#include "host/io/stats_json.h"
 #include "host/jobs/render.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
@@ -233,6 +235,55 @@ TEST_CASE("the summary names latency where the ray slots bind, and the slots are
   CAPTURE(slots, box, tri, dram);
   for (double other : {box, tri, dram}) CHECK(base - slots > base - other);
   CHECK(slots < 0.8 * base);  // the lever moves it, not by noise
+}
+
+TEST_CASE("a chip whose L2 ports queue: the bound and the notes name them, and L2 bandwidth is the lever",
+          "[timed][chip]") {
+  // Incoherent rays on the 2CylinderEngine (its node cache misses about 40% of lines) over 8 units of
+  // rdna4-chip whose L2 has 2 slices: the slices' ports are busy nearly all the time and the slots are full of
+  // rays queued at them. The L2 term of the bound must name that (within 1.5x of the cycles), the notes must say
+  // memory queueing holds the slots, and unlimited L2 bandwidth must move the cycles more than twice the slots.
+  // The waits are a ray's (the latest of a fetch's lines, not their sum; no prefetcher fill's), so they never
+  // exceed the slots' time, and the latency term stays above 0 with a prefetcher on.
+  const rtu::host::Scene s =
+      rtu::host::load_scene("/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb");
+  const std::vector<Ray> rays = rtu::host::incoherent_rays(s.geometry.bounds(), 16384, 7);
+  auto run = [&](const std::vector<std::pair<std::string, std::string>>& keys, rtu::hw::TimingStats* out) {
+    DeviceOptions o = options("timed", "rdna4-chip");
+    o.instances = &s.instances;
+    rtu::hw::set_timing_key(o.timing, "units", "8");
+    rtu::hw::set_timing_key(o.timing, "l2_slices", "2");
+    for (const auto& [k, v] : keys) rtu::hw::set_timing_key(o.timing, k, v);
+    const auto d = rtu::host::make_device(s.geometry, o);
+    std::vector<Hit> h(rays.size());
+    rtu::hw::TraversalStats st;
+    d->trace_batch(rays.data(), h.data(), rays.size(), false, 2, st);
+    *out = d->timed()->timing();
+    return o.timing;
+  };
+  rtu::hw::TimingStats base;
+  const rtu::hw::TimingConfig c = run({}, &base);
+  const rtu::hw::LowerBound b = rtu::hw::lower_bound(base, c);
+  CAPTURE(base.cycles, b.latency, b.mem_queue, b.unit_queue, b.slot_occupancy, b.l2, b.limited_by);
+  CHECK(std::string(b.limited_by) == "l2");
+  CHECK(b.cycles_over_bound < 1.5);
+  CHECK(base.mem_wait_cycles <= base.slot_busy_cycles);
+  CHECK(b.mem_queue > 0.25 * b.slot_occupancy);
+  bool named = false;
+  for (const std::string& n : rtu::host::timing_notes(base, c, nullptr))
+    named |= n.find("memory queueing holds the slots") != std::string::npos;
+  CHECK(named);
+  rtu::hw::TimingStats wide, slots;
+  run({{"l2_bytes_per_cycle", "0"}}, &wide);
+  run({{"ray_slots", "128"}}, &slots);
+  CAPTURE(wide.cycles, slots.cycles);
+  CHECK(base.cycles - wide.cycles > 2 * (base.cycles - std::min(base.cycles, slots.cycles)));
+  // With a prefetcher the fills queue too, but for nobody's ray.
+  rtu::hw::TimingStats pf;
+  run({{"prefetcher", "next_line"}}, &pf);
+  CHECK(pf.prefetch_fills > 0);
+  CHECK(pf.mem_wait_cycles <= pf.slot_busy_cycles);
+  CHECK(rtu::hw::lower_bound(pf, c).latency > 0);
 }
 
 TEST_CASE("layout_align: nodes and records padded to the line take one line per fetch, hits unchanged",

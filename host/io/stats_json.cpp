@@ -217,6 +217,9 @@ constexpr double kFarAboveBound = 1.5;
 // A packet whose slots' fill and drain (about one mean ray lifetime per packet) is more than this share of its
 // cycles is short: its rays per clock are below the unit's steady state.
 constexpr double kShortPacketShare = 0.1;
+// Rays a slot below which a chip's packet is short: rays per clock on rdna2-chip still rose from 3.6 to 4.5 when
+// builtin:atrium's camera rays went from 102 to 205 a slot (bench/results/chip-scaling.md, "Packet size").
+constexpr double kChipSteadyRaysPerSlot = 256;
 
 std::vector<std::string> timing_notes(const hw::TimingStats& s, const hw::TimingConfig& c,
                                       const hw::SampleStats* sampling) {
@@ -260,7 +263,16 @@ std::vector<std::string> timing_notes(const hw::TimingStats& s, const hw::Timing
   const double per_packet = double(s.rays) / double(std::max<uint64_t>(1, s.packets));
   const double lifetime = double(s.slot_busy_cycles) / double(s.rays);
   const double fill_drain = lifetime * double(std::max<uint64_t>(1, s.packets)) / double(s.cycles);
-  if (fill_drain > kShortPacketShare && per_packet > 0) {
+  if (c.units > 1 && per_packet < kChipSteadyRaysPerSlot * slots) {
+    std::snprintf(text, sizeof text,
+                  "note: %.0f rays a packet for %.0f ray slots (%.1f a slot): on a chip the start of a packet (cold "
+                  "caches, every unit missing on the same nodes at once) and its end (the last units' tail) weigh "
+                  "on packets this short, so rays per clock still rise with the packet's size (rdna2-chip, "
+                  "builtin:atrium camera rays: 2.0 rays per clock at 26 rays a slot, 4.5 at 205); compare designs "
+                  "on packets of your workload's size",
+                  per_packet, slots, per_packet / slots);
+    notes.push_back(text);
+  } else if (fill_drain > kShortPacketShare) {
     // The rays a packet needs for fill and drain to be under 5% of its cycles at this throughput.
     const double enough = 20.0 * lifetime * double(s.rays) / double(s.cycles);
     std::snprintf(text, sizeof text,
@@ -281,12 +293,21 @@ std::vector<std::string> timing_notes(const hw::TimingStats& s, const hw::Timing
               " (sampled chips need it): a full run under another policy (the chip presets' is waves) differs "
               "by its policy too";
     notes.push_back(line);
-    if (double(s.cycles) < b.cycles) {
+    if (sampling->rays_simulated >= sampling->rays) {
       std::snprintf(text, sizeof text,
-                    "warning: the sampled estimate (%llu cycles) is below its own lower bound (%.0f cycles): the "
-                    "sample does not stand for the packet (too few measured rays, or a warm-up that outweighs "
-                    "them); use a larger --sample or a shorter --sample-warmup",
-                    (unsigned long long)s.cycles, b.cycles);
+                    "warning: sampled timing simulated %llu rays for packets of %llu (its warm-up): a full run "
+                    "would cost no more and be exact; shorten --sample-warmup or drop --sample",
+                    (unsigned long long)sampling->rays_simulated, (unsigned long long)sampling->rays);
+      notes.push_back(text);
+    }
+    // The bound is estimated from the same sample, so only an estimate below it by more than the interval says
+    // the sample does not stand for the packet.
+    if (double(s.cycles) + sampling->ci95() < b.cycles) {
+      std::snprintf(text, sizeof text,
+                    "warning: the sampled estimate (%llu +- %.0f cycles) is below its own lower bound (%.0f "
+                    "cycles): the sample does not stand for the packet (too few measured rays, or a warm-up that "
+                    "outweighs them); use a larger --sample or a shorter --sample-warmup",
+                    (unsigned long long)s.cycles, sampling->ci95(), b.cycles);
       notes.push_back(text);
     }
   }

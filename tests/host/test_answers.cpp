@@ -8,11 +8,13 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "host/devices/direct_device.h"
 #include "host/devices/grid_check.h"
 #include "host/io/error.h"
 #include "host/io/image.h"
+#include "host/io/stats_json.h"
 #include "host/scene/scene.h"
 #include "tests/common/test_util.h"
 #include "tests/host/run_process.h"
@@ -175,4 +177,66 @@ TEST_CASE("a render with nothing to light it warns and the instancing example is
   uint64_t sum = 0;
   for (uint8_t v : img.rgb) sum += v;
   CHECK(double(sum) / double(img.rgb.size()) > 20.0);  // not black: a mean above 20 of 255
+}
+
+TEST_CASE("a timed run's notes: queueing, far above the bound, spills, short packets, the sample", "[answers][timed]") {
+  auto has = [](const std::vector<std::string>& notes, const std::string& what) {
+    for (const std::string& n : notes)
+      if (n.find(what) != std::string::npos) return true;
+    return false;
+  };
+  // Hand-made counters on rdna2 (32 slots): 32000 rays of 1000 cycles each in the slots, 600 of them queued for
+  // memory: the slots' time is 60% memory queueing, and the bound (latency 400 x 1000 / 32... ) is far below
+  // cycles of 3x it.
+  rtu::hw::TimingConfig c = rtu::hw::timing_preset("rdna2");
+  rtu::hw::TimingStats s;
+  s.packets = 1;
+  s.rays = 32000;
+  s.slot_busy_cycles = 32000ull * 1000;
+  s.mem_wait_cycles = 32000ull * 600;
+  const rtu::hw::LowerBound b0 = rtu::hw::lower_bound(s, c);
+  s.cycles = uint64_t(3 * b0.cycles);
+  std::vector<std::string> n = rtu::host::timing_notes(s, c, nullptr);
+  CHECK(has(n, "queued for memory 60%"));
+  CHECK(has(n, "memory queueing holds the slots"));
+  CHECK(has(n, "warning: the cycles are 3.00 times the lower bound"));
+  CHECK_FALSE(has(n, "stack:"));
+  CHECK_FALSE(has(n, "sampled"));
+  // Spills are shown, and where they go.
+  s.stack_spills = s.stack_refills = 3200;
+  CHECK(has(rtu::host::timing_notes(s, c, nullptr), "stack: 0.100 entries spilled and 0.100 refilled per ray (to DRAM)"));
+  // A chip's short packet: 32000 rays for 80 units of 32 slots.
+  rtu::hw::TimingConfig chip = rtu::hw::timing_preset("rdna2-chip");
+  CHECK(has(rtu::host::timing_notes(s, chip, nullptr), "12.5 a slot"));
+  CHECK(has(rtu::host::timing_notes(s, chip, nullptr), "(through the L2)"));
+  // Sampled: the interval is printed; an estimate below its own bound by more than the interval warns, one
+  // within it does not; a warm-up longer than the packet warns.
+  rtu::hw::SampleStats ss;
+  ss.packets = ss.packets_sampled = 1;
+  ss.rays = 32000;
+  ss.rays_simulated = 3200;
+  ss.variance = 100.0 * 100.0;  // ci95 196 cycles
+  rtu::hw::TimingStats low = s;
+  low.cycles = uint64_t(b0.cycles) - 1000;
+  n = rtu::host::timing_notes(low, c, &ss);
+  CHECK(has(n, "sampled: 1 of 1 packets estimated from 10.0% of their rays; cycles +- 196 (95%)"));
+  CHECK(has(n, "is below its own lower bound"));
+  low.cycles = uint64_t(b0.cycles) - 100;
+  CHECK_FALSE(has(rtu::host::timing_notes(low, c, &ss), "is below its own lower bound"));
+  ss.rays_simulated = 40000;
+  CHECK(has(rtu::host::timing_notes(low, c, &ss), "simulated 40000 rays for packets of 32000"));
+}
+
+TEST_CASE("render and trace print the sampled interval and the notes", "[answers][timed][sample]") {
+  const fs::path d = temp_dir("answers_notes");
+  const Run r = run_rtusim("render --scene builtin:cornell --width 64 --height 64 --spp 1 --device timed --sample "
+                           "0.2 --sample-unit 64 --out " + (d / "c.png").string());
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK_THAT(r.output, Contains("cycles +- "));
+  const Run t = run_rtusim("trace --scene builtin:seed --rays primary:64x64 --device timed --config rdna2-chip --set "
+                           "units=4");
+  INFO(t.output);
+  REQUIRE(t.status == 0);
+  CHECK_THAT(t.output, Contains("32.0 a slot"));
 }

@@ -159,11 +159,11 @@ TEST_CASE("report and pareto: bad input gives a clear error and exit 2", "[cli][
            {"report --quick --sweep " + (d / "short.csv").string() + out, "fields, expected"},
            {"report --quick --sweep " + (d / "nan.csv").string() + out, "not a number"},
            {"report --quick --sweep " + (d / "empty_rows.csv").string() + out, "no rows"},
-           {"report --quick --sweep " + (d / "missing.csv").string() + out, "cannot read"},
+           {"report --quick --sweep " + (d / "missing.csv").string() + out, "file not found"},
            {"report --quick --scene nosuch.obj" + out, "nosuch.obj"},
            {"report --quick --area " + (d / "foreign.csv").string() + out, "params,cells"},
            {"pareto --sweep " + (d / "foreign.csv").string() + out, "not a sweep file"},
-           {"pareto --sweep " + (d / "missing.csv").string() + out, "cannot read"}}) {
+           {"pareto --sweep " + (d / "missing.csv").string() + out, "file not found"}}) {
     const auto t0 = std::chrono::steady_clock::now();
     const Run r = run_rtusim(args);
     INFO(args << "\n" << r.output);

@@ -1,9 +1,16 @@
 #!/usr/bin/env bash
 # Sets up (Debian packages), builds the `default` preset and runs every test; then the sanitizer stage, one build
 # of the `asan` preset (clang: AddressSanitizer + UndefinedBehaviorSanitizer + LeakSanitizer, with libFuzzer's
-# coverage instrumentation so that the same build holds the fuzz targets):
-#  1. the test suite but the Embree oracle (10^6-ray comparisons per scene, minutes under ASan; run by the default
-#     stage) and the RTL (Verilator models): the preset builds neither;
+# coverage instrumentation so that the same build holds the fuzz targets). It builds only what it runs (rtusim,
+# test_hwmodel, test_host, test_firmware, test_fuzz_corpus, the fuzz targets) and runs:
+#  1. the test suite but the tests labelled `*-scale` (tagged [scale]: the same code paths again at large scale,
+#     10^5-10^6 rays or random cases, big sweeps, long timing comparisons, and the scripts bench_plots,
+#     unit_rates, report_browser, slurm_sweep), the Embree oracle, the RTL (Verilator models) and the Python
+#     module: the preset builds none of the last three. So every parser and check of untrusted input (scene and
+#     mesh files, textures, ray files, scene images, command packets, configurations, limits), every error path
+#     of the command line and the unit tests of the datapath and timing model run under the sanitizers; the
+#     default stage runs all of it again and the rest. tests/README.md, "Under the sanitizers", lists what is
+#     left out and the test under ASan that runs the same code;
 #  2. `rtusim soak` for RTU_SOAK_ITERATIONS (default 300) iterations from seed 1: random scenes and formats
 #     traced and rendered twice, identical bits and cycles, no leak;
 #  3. each libFuzzer target of tests/fuzz for a fixed number of inputs from a fixed seed (RTU_FUZZ_SEED) over its

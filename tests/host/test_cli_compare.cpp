@@ -93,7 +93,7 @@ TEST_CASE("a camera beyond the fixed-point frame: render says so, compare fails 
   CHECK(r.output.find("t error") == std::string::npos);
 }
 
-TEST_CASE("stress: every category runs, no promise breaks at the default format", "[cli][fixed][stress]") {
+TEST_CASE("stress: every category runs, no promise breaks at the default format", "[cli][fixed][stress][scale]") {
   const fs::path d = temp_dir("cli");
   const std::string json = (d / "stress.json").string();
   const Run r = run_rtusim("stress --count 3000 --json " + json);

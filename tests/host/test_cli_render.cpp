@@ -11,7 +11,7 @@
 namespace fs = std::filesystem;
 using namespace rtu::test;
 
-TEST_CASE("demo writes an image, hits and a report", "[cli]") {
+TEST_CASE("demo writes an image, hits and a report", "[cli][scale]") {
   const fs::path d = temp_dir("cli") / "demo";
   const Run r = run_rtusim("demo --out " + d.string());
   INFO(r.output);

@@ -37,7 +37,7 @@ std::string slurp(const fs::path& p) {
 
 }  // namespace
 
-TEST_CASE("report --quick: a static page, its images, consistent figures", "[cli][report]") {
+TEST_CASE("report --quick: a static page, its images, consistent figures", "[cli][report][scale]") {
   const fs::path d = temp_dir("cli") / "report";
   fs::remove_all(d);
   const Run r = run_rtusim("report --quick --threads 2 --out " + d.string());

@@ -284,7 +284,7 @@ TEST_CASE(
 }
 
 TEST_CASE("sweep, plan and report --flatten: one image for an instanced scene, recorded in the CSV and JSON",
-          "[cli][sweep]") {
+          "[cli][sweep][scale]") {
   const fs::path d = temp_dir("cli") / "flatten";
   fs::remove_all(d);
   fs::create_directories(d);
@@ -529,7 +529,7 @@ TEST_CASE("sweep point keys: a changed mesh or timing key changes exactly the po
 }
 
 TEST_CASE("sweep manifests: a run killed with SIGKILL halfway leaves whole files, and the rerun redoes none",
-          "[cli][sweep]") {
+          "[cli][sweep][scale]") {
   const fs::path d = temp_dir("cli_kill");
   fs::remove_all(d / "res");
   const std::string grid =

@@ -16,7 +16,7 @@
 using namespace rtu;
 
 TEST_CASE("triangle clusters: the hits of records and blocks on built-in scenes and a real mesh, timed as fixed",
-          "[fixed][timed][cluster]") {
+          "[fixed][timed][cluster][scale]") {
   for (const char* spec : {"builtin:seed", "builtin:cornell", "builtin:icosphere", "builtin:forest",
                            "/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb"}) {
     CAPTURE(spec);

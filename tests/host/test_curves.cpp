@@ -64,7 +64,7 @@ std::vector<hw::Hit> trace(const hw::Geometry& g, const host::DeviceOptions& o, 
 
 }  // namespace
 
-TEST_CASE("a torus of strands leaks no ray, on every device and format", "[curve][fixed][float]") {
+TEST_CASE("a torus of strands leaks no ray, on every device and format", "[curve][fixed][float][scale]") {
   constexpr double R = 1.0, a = 0.3, rho = 0.02;
   constexpr int kRings = 300, kSides = 24;
   // Rings are furthest apart on the outer equator: there they still overlap by a quarter of their width. A ring's

@@ -220,7 +220,7 @@ rtu::host::PlanOptions small_plan(double area_budget, const std::string& minimis
 TEST_CASE(
     "plan --area-budget: the chosen units fit, running the chosen configuration gives the plan's figures, "
     "and one more unit of either kind would not fit or not be faster",
-    "[energy][plan]") {
+    "[energy][plan][scale]") {
   const double budget = 2.5;  // mm^2: the rdna2 unit with one box and one triangle unit is 1.6
   const rtu::host::PlanOptions o = small_plan(budget, "cycles");
   std::vector<rtu::host::SweepRow> candidates;
@@ -256,7 +256,7 @@ TEST_CASE(
 }
 
 TEST_CASE("plan --minimise energy: no candidate that meets the budget uses less energy per ray than the plan",
-          "[energy][plan]") {
+          "[energy][plan][scale]") {
   const rtu::host::PlanOptions o = small_plan(0.0, "energy");
   std::vector<rtu::host::SweepRow> candidates;
   bool comparison = false;  // after kDefault: the base format, measured for comparison, is no candidate
@@ -274,7 +274,7 @@ TEST_CASE("plan --minimise energy: no candidate that meets the budget uses less 
   CHECK(res.json["plan"]["pj_per_ray"].get<double>() == res.best.pj_per_ray);
 }
 
-TEST_CASE("energy: oriented nodes pay a rotation per node test and the stage's area", "[energy][obb]") {
+TEST_CASE("energy: oriented nodes pay a rotation per node test and the stage's area", "[energy][obb][scale]") {
   TimingConfig c = rtu::hw::timing_preset("rdna2");
   c.bvh_width = 8;
   rtu::hw::FixedFormat aabb = rtu::hw::format_preset("wide8");

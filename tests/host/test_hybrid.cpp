@@ -76,7 +76,7 @@ RenderOptions options(const std::string& device, bool hybrid, int w, int h) {
 
 }  // namespace
 
-TEST_CASE("hybrid: rasterized primary visibility agrees with ray-traced primary hits", "[hybrid]") {
+TEST_CASE("hybrid: rasterized primary visibility agrees with ray-traced primary hits", "[hybrid][scale]") {
   // The scenes' own cameras (the mesh is framed automatically) at their own resolution or a 320x240 one: seed
   // has spheres, a plane and a 3072-triangle torus; cornell large triangles sharing edges; icosphere a closed
   // 5120-triangle mesh; Wuson a real 7k-triangle mesh. Depth 0 without indirect light: only the primary hits
@@ -276,7 +276,7 @@ TEST_CASE("hybrid cost model: each stage limits in turn, latency per pass", "[hy
   CHECK(rtu::hw::raster_cycles(rtu::hw::RasterWork{}, c).cycles == 0);
 }
 
-TEST_CASE("hybrid images agree with ray-traced images within a PSNR bound", "[hybrid]") {
+TEST_CASE("hybrid images agree with ray-traced images within a PSNR bound", "[hybrid][scale]") {
   // Where the primary hits agree, the shading is the same computation on the same random numbers: the hit
   // points differ by float rounding (t within 1e-5 relative, above), which moves secondary rays by about as
   // much and can flip a discrete choice (a Fresnel draw, a shadow ray grazing an edge) only with a probability of

@@ -422,7 +422,8 @@ TEST_CASE("demo: writes every file it lists, and its figures agree with the file
   CHECK(j["render_fixed_vs_float"]["pixels_differing"] == r.render_fixed_vs_float.pixels_differing);
 }
 
-TEST_CASE("report: the page, report.json, the sweep CSV and every image it embeds are written", "[jobs][report]") {
+TEST_CASE("report: the page, report.json, the sweep CSV and every image it embeds are written",
+          "[jobs][report][scale]") {
   TempDir dir("jobs_report");
   rtu::host::ReportOptions o;
   o.out = (dir.path / "out").string();

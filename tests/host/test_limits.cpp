@@ -399,7 +399,7 @@ TEST_CASE("memory limit: instances are held to the budget as they are expanded",
 }
 
 TEST_CASE("timed device: events are recorded in bounded chunks, with the same hits and cycles",
-          "[limits][memory]") {
+          "[limits][memory][scale]") {
   const fs::path dir = temp_dir("limits");
   write_coinciding_scene(dir / "coin.json", 3);  // 1000 instances in one place
   const host::Scene scene = host::load_scene((dir / "coin.json").string());
@@ -452,7 +452,7 @@ TEST_CASE("timed device: events are recorded in bounded chunks, with the same hi
   if (!kSanitized) CHECK(mib(t.peak_kib) < mib(f.peak_kib) + 80);
 }
 
-TEST_CASE("the pipeline trace is streamed to its file", "[limits][memory]") {
+TEST_CASE("the pipeline trace is streamed to its file", "[limits][memory][scale]") {
   const fs::path dir = temp_dir("limits");
   const std::string rays = (dir / "p.rays").string();
   REQUIRE(run_rtusim("rays --scene builtin:seed --kind incoherent --count 100000 --out " + rays).status == 0);

@@ -205,7 +205,7 @@ TEST_CASE("plan on the command line: --minimise and its alias --minimize, --form
 TEST_CASE(
     "memory-bound preset, packed layout: fewer coordinate bits, fewer bytes and fewer cycles than the most "
     "precise format",
-    "[timed][sweep]") {
+    "[timed][sweep][scale]") {
   // On rdna2-mem (a 16 KiB cache, 3.2 bytes per clock of VRAM bandwidth) incoherent rays are limited by DRAM
   // (test_timed.cpp). Bit-packed nodes and triangle blocks take bytes in proportion to the coordinate bits, so a
   // format with fewer bits fetches fewer lines and runs faster, up to where the coarser boxes' extra node visits

@@ -85,7 +85,7 @@ void check_timed_equals_fixed(rtu::host::DirectDevice& fixed, rtu::host::DirectD
 
 }  // namespace
 
-TEST_CASE("timed hits equal the fixed device's bit for bit, cycles repeat", "[timed]") {
+TEST_CASE("timed hits equal the fixed device's bit for bit, cycles repeat", "[timed][scale]") {
   const std::vector<std::string> scenes = {"builtin:seed", "builtin:cornell", "builtin:icosphere_far?subdiv=3",
                                            "/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc",
                                            "/usr/share/assimp/models/OBJ/WusonOBJ.obj"};
@@ -145,7 +145,7 @@ TEST_CASE("timed hits equal the fixed device's at every BVH width, 6 included", 
 }
 
 TEST_CASE("memory-bound presets: incoherent rays on a real mesh are limited by DRAM, the base presets' are not",
-          "[timed][memory]") {
+          "[timed][memory][scale]") {
   // Why DRAM must be the bound (the lower bound's largest term) on these presets. A packed fetch touches about 1.7
   // 64-byte lines (56-byte nodes and 40-byte records straddle lines: docs/timing-model.md; intel-mem's 76-byte
   // BVH6 nodes touch two or three, so 1.7 understates its lines), and costs one box or triangle clock (a BVH4 node
@@ -204,7 +204,7 @@ TEST_CASE("memory-bound presets: incoherent rays on a real mesh are limited by D
   }
 }
 
-TEST_CASE("the summary names latency where the ray slots bind, and the slots are the lever", "[timed]") {
+TEST_CASE("the summary names latency where the ray slots bind, and the slots are the lever", "[timed][scale]") {
   // Incoherent rays on the IFC house (two levels, as the CLI traces it) on rdna2: the 64 KiB node cache misses
   // a few percent of lines, each miss waits 200 cycles of DRAM latency, the channel is busy under 10% of the time
   // and the box unit under half: the 32 slots are full of rays waiting on latency. The latency bound (Little's
@@ -407,7 +407,8 @@ TEST_CASE("the pipeline trace shows each slot's work in order, inside its window
   CHECK(r.timing.cycles > trace.to);
 }
 
-TEST_CASE("sampled timing estimates a packet's cycles within its interval, hits stay exact", "[timed][sample]") {
+TEST_CASE("sampled timing estimates a packet's cycles within its interval, hits stay exact",
+          "[timed][sample][scale]") {
   const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
   const std::vector<Ray> primary = rtu::host::primary_rays(s.camera, 200000);
   const std::vector<Ray> incoherent = rtu::host::incoherent_rays(s.geometry.bounds(), 200000, 5);
@@ -505,7 +506,8 @@ TEST_CASE("sampled timing estimates a packet's cycles within its interval, hits 
   CHECK(half->timed()->timing().cycles == full->timed()->timing().cycles);
 }
 
-TEST_CASE("sampled timing: the detailed warm-up is as long as the stream's slowest rays need", "[timed][sample]") {
+TEST_CASE("sampled timing: the detailed warm-up is as long as the stream's slowest rays need",
+          "[timed][sample][scale]") {
   // AC14-FZK-Haus incoherent rays: chains of cache misses keep a few rays in their slots while hundreds of others
   // pass, so a short warm-up leaves out rays that would hold slots during the measured unit, and the unit runs
   // fast (at 4M rays: 3.0% low with 256 rays of warm-up, 0.6% with 512, 0.0% with 1,024). The same seed measures
@@ -552,7 +554,7 @@ TEST_CASE("sampled timing: the detailed warm-up is as long as the stream's slowe
 }
 
 TEST_CASE("sampled timing: an image whose rows hold a whole number of units is not sampled in step with them",
-          "[timed][sample]") {
+          "[timed][sample][scale]") {
   // A 512 x 384 camera image: a row is 2 units of 256 rays and 16 probe blocks of 32. A systematic sample of every
   // 20th unit (F = 0.05) then measures only left or only right halves of rows, and a probe at the start of each
   // block only columns 0, 32, ..., 480: an estimate biased by the image's left-right structure, the same on
@@ -818,7 +820,7 @@ TEST_CASE("chip, dynamic dispatch: the fixed device's hits, the same cycles on a
 }
 
 TEST_CASE("chip sampling: the full simulation's cycles lie in the stated interval, seed after seed",
-          "[timed][chip][sample]") {
+          "[timed][chip][sample][scale]") {
   // A packet of incoherent rays and one of camera rays on a small chip, sampled at 1 in 10 with five seeds against
   // the full simulation; a fixed seed list makes this deterministic. Incoherent rays cost alike everywhere: the
   // interval is narrow and holds the truth. Camera rays cross from sky to house once; each measured burst meets

@@ -74,7 +74,7 @@ TEST_CASE("triangle pairs: marked on shared edges, checked, refused by name", "[
   CHECK(count_pairs(encode(scene.geometry, hw::format_preset("default"))) == 0);
 }
 
-TEST_CASE("triangle pairs: the same hits, one request per pair", "[fixed][timing][pairs]") {
+TEST_CASE("triangle pairs: the same hits, one request per pair", "[fixed][timing][pairs][scale]") {
   for (const char* spec : {"builtin:hairball", "builtin:icosphere", "builtin:seed"}) {
     CAPTURE(spec);
     const host::Scene scene = host::load_scene(spec);

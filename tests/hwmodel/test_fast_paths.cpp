@@ -232,7 +232,7 @@ TEST_CASE("round_shift64 equals round_shift on 64-bit values", "[fixed][fast]") 
 }
 
 TEST_CASE("set_direction: the double quotient with integer correction equals the 64-bit division",
-          "[fixed][fast][setup]") {
+          "[fixed][fast][setup][scale]") {
   std::mt19937_64 rng(11);
   uint64_t cases = 0;
   for (const FixedFormat& f : format_presets()) {
@@ -285,7 +285,8 @@ TEST_CASE("set_direction: the double quotient with integer correction equals the
   CHECK(cases > 2500000);
 }
 
-TEST_CASE("ray setup: the 64-bit fast paths equal the exact 128-bit code on odd floats", "[fixed][fast][setup]") {
+TEST_CASE("ray setup: the 64-bit fast paths equal the exact 128-bit code on odd floats",
+          "[fixed][fast][setup][scale]") {
   std::mt19937_64 rng(13);
   uint64_t ok = 0, rejected = 0, saturated = 0;  // (the coarse range test keeps to_grid from saturating)
   for (const FixedFormat& f : format_presets()) {
@@ -511,7 +512,7 @@ void check_node_kernels(const FixedFormat& f, std::mt19937_64& rng, uint64_t& no
 }  // namespace
 
 TEST_CASE("node kernels: scalar and AVX-512 equal box_test child by child (random nodes, every width)",
-          "[fixed][fast][box]") {
+          "[fixed][fast][box][scale]") {
   std::mt19937_64 rng(19);
   uint64_t nodes = 0, declined = 0, accepted = 0, simd_nodes = 0;
   std::vector<FixedFormat> formats;
@@ -538,7 +539,7 @@ TEST_CASE("node kernels: scalar and AVX-512 equal box_test child by child (rando
 }
 
 TEST_CASE("triangle test: the 64-bit q x d edge functions equal the 128-bit code, through vertices and edges",
-          "[fixed][fast][triangle]") {
+          "[fixed][fast][triangle][scale]") {
   std::mt19937_64 rng(23);
   auto rint = [&](int64_t lo, int64_t hi) { return lo + int64_t(rng() % uint64_t(hi - lo + 1)); };
   uint64_t cases = 0, hits = 0, through = 0, short_path = 0, long_path = 0, known = 0;

@@ -98,7 +98,7 @@ LD first_within(const ExactSegment& sg, const LD o[3], const LD d[3], LD level, 
 
 }  // namespace
 
-TEST_CASE("fixed swept spheres against the exact union of their spheres", "[fixed][curve]") {
+TEST_CASE("fixed swept spheres against the exact union of their spheres", "[fixed][curve][scale]") {
   const uint64_t seed = 4242;
   INFO("seed " << seed);
   Pcg32 rng(seed);

@@ -14,6 +14,7 @@
 #include <functional>
 #include <iterator>
 #include <string>
+#include <utility>
 
 #include <stb/stb_image_write.h>
 #include <nlohmann/json.hpp>
@@ -298,6 +299,24 @@ void write_coinciding_scene(const fs::path& path, int levels) {
                       << "}, \"instances\": " << ten(prev) << "}";
 }
 
+// 1024 rays through 10,000 instances in one place (write_coinciding_scene, 4 levels) traced on the float device
+// and on the timed device with `timed` options, each with its peak memory measured.
+std::pair<rtu::test::Run, rtu::test::Run> coinciding_peaks(const fs::path& dir, const std::string& timed) {
+  write_coinciding_scene(dir / "coin4.json", 4);
+  const std::string rays_file = (dir / "c.bin").string();
+  REQUIRE(
+      run_rtusim("rays --scene " + (dir / "coin4.json").string() + " --count 1024 --out " + rays_file).status ==
+      0);
+  const std::string trace = "trace --scene " + (dir / "coin4.json").string() + " --rays " + rays_file + " --out " +
+                            (dir / "h.bin").string() + " --threads 2 --device ";
+  rtu::test::Run f = measured_rtusim("", trace + "float");
+  rtu::test::Run t = measured_rtusim("", trace + timed);
+  INFO(t.output);
+  REQUIRE(f.status == 0);
+  REQUIRE(t.status == 0);
+  return {f, t};
+}
+
 }  // namespace
 
 TEST_CASE("memory limit: rays --count is refused before the rays are made", "[limits][memory]") {
@@ -437,18 +456,7 @@ TEST_CASE("timed device: events are recorded in bounded chunks, with the same hi
 
   // From the command line, 10000 instances: the timed device holds a chunk's events (at most 32 MiB) and its ray
   // slots' (32 rays in flight), not every ray's (8 bytes an event, tens of thousands of events per ray here).
-  write_coinciding_scene(dir / "coin4.json", 4);
-  const std::string rays_file = (dir / "c.bin").string();
-  REQUIRE(
-      run_rtusim("rays --scene " + (dir / "coin4.json").string() + " --count 1024 --out " + rays_file).status ==
-      0);
-  const std::string trace = "trace --scene " + (dir / "coin4.json").string() + " --rays " + rays_file + " --out " +
-                            (dir / "h.bin").string() + " --threads 2 --device ";
-  const rtu::test::Run f = measured_rtusim("", trace + "float");
-  const rtu::test::Run t = measured_rtusim("", trace + "timed");
-  INFO(t.output);
-  REQUIRE(f.status == 0);
-  REQUIRE(t.status == 0);
+  const auto [f, t] = coinciding_peaks(dir, "timed");
   if (!kSanitized) CHECK(mib(t.peak_kib) < mib(f.peak_kib) + 80);
 }
 
@@ -600,18 +608,7 @@ TEST_CASE("memory limit: a chip records its units' rays in bounded chunks, with 
 
   // From the command line, 10000 instances on 4 units of 8 slots: the chip holds its units' chunks (at most twice
   // 32 MiB of events) and its 32 slots' rays (0.2 MiB each), not 2 x 256 rays per unit (about 460 MiB here).
-  write_coinciding_scene(dir / "coin4.json", 4);
-  const std::string rays_file = (dir / "c.bin").string();
-  REQUIRE(
-      run_rtusim("rays --scene " + (dir / "coin4.json").string() + " --count 1024 --out " + rays_file).status ==
-      0);
-  const std::string trace = "trace --scene " + (dir / "coin4.json").string() + " --rays " + rays_file + " --out " +
-                            (dir / "h.bin").string() + " --threads 2 --device ";
-  const rtu::test::Run f = measured_rtusim("", trace + "float");
-  const rtu::test::Run t = measured_rtusim("", trace + "timed --set units=4 --set ray_slots=8");
-  INFO(t.output);
-  REQUIRE(f.status == 0);
-  REQUIRE(t.status == 0);
+  const auto [f, t] = coinciding_peaks(dir, "timed --set units=4 --set ray_slots=8");
   if (!kSanitized) CHECK(mib(t.peak_kib) < mib(f.peak_kib) + 64 + 32);
 }
 

@@ -36,6 +36,22 @@ TimingConfig banked(int channels) {
   return c;
 }
 
+// A 1 KiB L2 (16 lines of 64 bytes: 2 slices of 4 sets of 2 ways, latency 10) whose ports move
+// `l2_bytes_per_cycle` a clock, in front of one DRAM channel of 64 bytes a clock and latency 100.
+TimingConfig small_l2(double l2_bytes_per_cycle) {
+  TimingConfig c;
+  c.line_bytes = 64;
+  c.dram_latency = 100;
+  c.dram_bytes_per_cycle = 64;
+  c.l2_kib = 1;
+  c.l2_slices = 2;
+  c.l2_ways = 2;
+  c.l2_latency = 10;
+  c.l2_bytes_per_cycle = l2_bytes_per_cycle;
+  c.validate();
+  return c;
+}
+
 }  // namespace
 
 TEST_CASE("banked DRAM: row hits, empty banks and row conflicts cost what the open-page model says", "[memory]") {
@@ -97,16 +113,7 @@ TEST_CASE("banked DRAM without row costs on one channel is the single channel, t
 
 TEST_CASE("L2: a miss goes to DRAM after the tag check, a hit costs its port and latency, in-flight lines wait",
           "[memory]") {
-  TimingConfig c;
-  c.line_bytes = 64;
-  c.dram_latency = 100;
-  c.dram_bytes_per_cycle = 64;
-  c.l2_kib = 1;  // 16 lines: 2 slices of 4 sets of 2 ways
-  c.l2_slices = 2;
-  c.l2_ways = 2;
-  c.l2_latency = 10;
-  c.l2_bytes_per_cycle = 32;  // 2 clocks per line
-  c.validate();
+  const TimingConfig c = small_l2(32);  // 2 clocks per line
   MemorySystem m(c);
   TimingStats s;
   // Miss: the port from 0 (2 clocks), the tag check ends at 10, DRAM from 10: 1 clock and 100.
@@ -142,17 +149,7 @@ TEST_CASE("L2: a miss goes to DRAM after the tag check, a hit costs its port and
 
 TEST_CASE("L2: stack words are written without a fill, read back from the L2, and dirty lines written back",
           "[memory]") {
-  TimingConfig c;
-  c.line_bytes = 64;
-  c.dram_latency = 100;
-  c.dram_bytes_per_cycle = 64;
-  c.l2_kib = 1;  // 16 lines: 2 slices of 4 sets of 2 ways
-  c.l2_slices = 2;
-  c.l2_ways = 2;
-  c.l2_latency = 10;
-  c.l2_bytes_per_cycle = 4;  // a line holds the port 16 clocks, a word 2
-  c.validate();
-  MemorySystem m(c);
+  MemorySystem m(small_l2(4));  // a line holds the port 16 clocks, a word 2
   TimingStats s;
   // A spill at 0 to line 0 (byte 0): a miss that allocates without reading DRAM; it holds slice 0's port 2 clocks.
   m.write_word(0, 0, s);

@@ -39,9 +39,6 @@ class L2Cache {
   // data is there (for a spill, the cycle the write is done; nobody waits for it).
   template <class Dram, class Writeback>
   uint64_t word(uint64_t line, bool write, uint64_t t, Dram&& dram, Writeback&& writeback, TimingStats& s);
-  // Clocks an access holds its slice's port: a line's, a stack word's.
-  uint64_t line_port_cycles() const { return m_xfer; }
-  uint64_t word_port_cycles() const { return m_word_xfer; }
   // Functional warming: the line is taken (most recently used) with no time and no count; a line already there
   // keeps its arrival cycle.
   void warm(uint64_t line);
@@ -142,12 +139,9 @@ uint64_t L2Cache::word(uint64_t line, bool write, uint64_t t, Dram&& dram, Write
     // A write allocates without a fill: its bytes are there when the port has moved them.
     l->ready = write ? start + m_word_xfer : dram(line, start + m_latency);
   }
-  if (write) {
-    l->dirty = true;
-    return start + m_word_xfer + m_latency;
-  }
+  l->dirty |= write;
   const uint64_t ready = start + m_word_xfer + m_latency;
-  return ready > l->ready ? ready : l->ready;
+  return write || ready > l->ready ? ready : l->ready;
 }
 
 }  // namespace rtu::hw

@@ -230,14 +230,16 @@ std::vector<std::string> timing_notes(const hw::TimingStats& s, const hw::Timing
   const auto pct = [](double a, double whole) { return whole > 0 ? 100.0 * a / whole : 0.0; };
   const double occ = b.slot_occupancy, full = double(s.cycles) > 0 ? occ / double(s.cycles) : 0.0;
   if (occ > 0 && b.mem_queue + b.unit_queue > 0.1 * occ) {
-    std::snprintf(text, sizeof text,
-                  "slot time: latency %.0f%%, queued for memory %.0f%% (L2 ports, DRAM banks and channels), queued "
-                  "for units %.0f%%; the slots are full %.0f%% of the cycles",
-                  pct(b.latency, occ), pct(b.mem_queue, occ), pct(b.unit_queue, occ), 100.0 * std::min(1.0, full));
+    std::snprintf(
+        text, sizeof text,
+        "slot time: latency %.0f%%, queued for memory %.0f%% (L2 ports, DRAM banks and channels), queued "
+        "for units %.0f%%; the slots are full %.0f%% of the cycles",
+        pct(b.latency, occ), pct(b.mem_queue, occ), pct(b.unit_queue, occ), 100.0 * std::min(1.0, full));
     std::string line = text;
     if (b.mem_queue > 0.25 * occ && b.mem_queue >= b.unit_queue)
-      line += ": memory queueing holds the slots, so more L2 or DRAM bandwidth (l2_bytes_per_cycle, l2_slices, "
-              "dram_bytes_per_cycle) moves the cycles more than more ray slots do";
+      line +=
+          ": memory queueing holds the slots, so more L2 or DRAM bandwidth (l2_bytes_per_cycle, l2_slices, "
+          "dram_bytes_per_cycle) moves the cycles more than more ray slots do";
     else if (b.unit_queue > 0.25 * occ)
       line += ": rays queue for the units, so more or faster units move the cycles more than more ray slots do";
     notes.push_back(line);
@@ -247,10 +249,11 @@ std::vector<std::string> timing_notes(const hw::TimingStats& s, const hw::Timing
                   "warning: the cycles are %.2f times the lower bound: no resource the bound counts is busy most "
                   "of the time, so '%s' is its largest term, not the limit; %s",
                   b.cycles_over_bound, b.limited_by,
-                  full < 0.7 ? "the ray slots are full only part of the time (fill and drain of the packet, the ray "
-                               "fetch, gathering or a few long rays)"
-                             : "the slots are full and their rays wait in queues the bound does not count (slot "
-                               "time above)");
+                  full < 0.7
+                      ? "the ray slots are full only part of the time (fill and drain of the packet, the ray "
+                        "fetch, gathering or a few long rays)"
+                      : "the slots are full and their rays wait in queues the bound does not count (slot "
+                        "time above)");
     notes.push_back(text);
   }
   if (s.stack_spills > 0) {
@@ -264,13 +267,14 @@ std::vector<std::string> timing_notes(const hw::TimingStats& s, const hw::Timing
   const double lifetime = double(s.slot_busy_cycles) / double(s.rays);
   const double fill_drain = lifetime * double(std::max<uint64_t>(1, s.packets)) / double(s.cycles);
   if (c.units > 1 && per_packet < kChipSteadyRaysPerSlot * slots) {
-    std::snprintf(text, sizeof text,
-                  "note: %.0f rays a packet for %.0f ray slots (%.1f a slot): on a chip the start of a packet (cold "
-                  "caches, every unit missing on the same nodes at once) and its end (the last units' tail) weigh "
-                  "on packets this short, so rays per clock still rise with the packet's size (rdna2-chip, "
-                  "builtin:atrium camera rays: 2.0 rays per clock at 26 rays a slot, 4.5 at 205); compare designs "
-                  "on packets of your workload's size",
-                  per_packet, slots, per_packet / slots);
+    std::snprintf(
+        text, sizeof text,
+        "note: %.0f rays a packet for %.0f ray slots (%.1f a slot): on a chip the start of a packet (cold "
+        "caches, every unit missing on the same nodes at once) and its end (the last units' tail) weigh "
+        "on packets this short, so rays per clock still rise with the packet's size (rdna2-chip, "
+        "builtin:atrium camera rays: 2.0 rays per clock at 26 rays a slot, 4.5 at 205); compare designs "
+        "on packets of your workload's size",
+        per_packet, slots, per_packet / slots);
     notes.push_back(text);
   } else if (fill_drain > kShortPacketShare) {
     // The rays a packet needs for fill and drain to be under 5% of its cycles at this throughput.

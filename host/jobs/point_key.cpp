@@ -14,8 +14,8 @@
 #include <nlohmann/json.hpp>
 
 #include "host/io/error.h"
-#include "host/io/limits.h"
 #include "host/io/json_io.h"
+#include "host/io/limits.h"
 #include "host/io/stats_json.h"
 #include "host/jobs/model_identity.h"
 #include "hwmodel/numeric/fixed_format.h"

@@ -571,8 +571,8 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
   j["warnings"] = render_warnings(r);
   if (o.device.kind != hw::DeviceKind::kFloat) j["format"] = format_json(o.device.format);
   if (r.timed) {
-    Json t = timing_breakdown_json(r.timing, r.timing_by_type, r.timing_by_bounce, o.device.timing,
-                                   o.device.format);
+    Json t =
+        timing_breakdown_json(r.timing, r.timing_by_type, r.timing_by_bounce, o.device.timing, o.device.format);
     t["device_clock"] = r.device_clock;
     // Fence interrupts: the host sees the frame's last fence irq_latency after the device clock's end.
     t["fence_irqs"] = r.device.fence_irqs;

@@ -302,7 +302,7 @@ static void check_gltf_accessors(const std::string& path) {
         return 0;
     }
   };
-  const std::map<std::string, uint64_t> components = {{"SCALAR", 1}, {"VEC2", 2},  {"VEC3", 3}, {"VEC4", 4},
+  const std::map<std::string, uint64_t> components = {{"SCALAR", 1}, {"VEC2", 2}, {"VEC3", 3}, {"VEC4", 4},
                                                       {"MAT2", 4},   {"MAT3", 9}, {"MAT4", 16}};
   constexpr uint64_t kFaceBytes = 48;  // Assimp's face per point or line vertex, with its index list
   uint64_t total = 0;
@@ -316,7 +316,8 @@ static void check_gltf_accessors(const std::string& path) {
                           : components.end();
     if (count == 0 || comp == 0 || type == components.end()) continue;  // malformed: Assimp's message
     const uint64_t elem = comp * type->second;
-    if (count > (uint64_t(1) << 40)) throw Error(named + ": count " + std::to_string(count) + " is beyond any file");
+    if (count > (uint64_t(1) << 40))
+      throw Error(named + ": count " + std::to_string(count) + " is beyond any file");
     total = std::min(total + count * (elem + kFaceBytes), uint64_t(1) << 62);  // each term below 2^47
     if (!a.contains("bufferView")) continue;  // zeros (or sparse): nothing to hold the count to but the budget
     const uint64_t v = length(a, "bufferView", UINT64_MAX);

@@ -179,7 +179,8 @@ TEST_CASE("a render with nothing to light it warns and the instancing example is
   CHECK(double(sum) / double(img.rgb.size()) > 20.0);  // not black: a mean above 20 of 255
 }
 
-TEST_CASE("a timed run's notes: queueing, far above the bound, spills, short packets, the sample", "[answers][timed]") {
+TEST_CASE("a timed run's notes: queueing, far above the bound, spills, short packets, the sample",
+          "[answers][timed]") {
   auto has = [](const std::vector<std::string>& notes, const std::string& what) {
     for (const std::string& n : notes)
       if (n.find(what) != std::string::npos) return true;
@@ -204,7 +205,8 @@ TEST_CASE("a timed run's notes: queueing, far above the bound, spills, short pac
   CHECK_FALSE(has(n, "sampled"));
   // Spills are shown, and where they go.
   s.stack_spills = s.stack_refills = 3200;
-  CHECK(has(rtu::host::timing_notes(s, c, nullptr), "stack: 0.100 entries spilled and 0.100 refilled per ray (to DRAM)"));
+  CHECK(has(rtu::host::timing_notes(s, c, nullptr),
+            "stack: 0.100 entries spilled and 0.100 refilled per ray (to DRAM)"));
   // A chip's short packet: 32000 rays for 80 units of 32 slots.
   rtu::hw::TimingConfig chip = rtu::hw::timing_preset("rdna2-chip");
   CHECK(has(rtu::host::timing_notes(s, chip, nullptr), "12.5 a slot"));
@@ -229,13 +231,16 @@ TEST_CASE("a timed run's notes: queueing, far above the bound, spills, short pac
 
 TEST_CASE("render and trace print the sampled interval and the notes", "[answers][timed][sample]") {
   const fs::path d = temp_dir("answers_notes");
-  const Run r = run_rtusim("render --scene builtin:cornell --width 64 --height 64 --spp 1 --device timed --sample "
-                           "0.2 --sample-unit 64 --out " + (d / "c.png").string());
+  const Run r = run_rtusim(
+      "render --scene builtin:cornell --width 64 --height 64 --spp 1 --device timed --sample "
+      "0.2 --sample-unit 64 --out " +
+      (d / "c.png").string());
   INFO(r.output);
   REQUIRE(r.status == 0);
   CHECK_THAT(r.output, Contains("cycles +- "));
-  const Run t = run_rtusim("trace --scene builtin:seed --rays primary:64x64 --device timed --config rdna2-chip --set "
-                           "units=4");
+  const Run t = run_rtusim(
+      "trace --scene builtin:seed --rays primary:64x64 --device timed --config rdna2-chip --set "
+      "units=4");
   INFO(t.output);
   REQUIRE(t.status == 0);
   CHECK_THAT(t.output, Contains("32.0 a slot"));

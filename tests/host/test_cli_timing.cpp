@@ -238,7 +238,7 @@ TEST_CASE("trace on a chip: per-unit statistics, the memory timeline, a pipeline
   for (const auto& b : t["timeline"]["l2_bytes"]) l2 += b.get<uint64_t>();
   CHECK(dram == t["dram_bytes"].get<uint64_t>());
   CHECK(l2 == 64 * (t["l2"]["hits"].get<uint64_t>() + t["l2"]["misses"].get<uint64_t>()) +
-                   8 * (t["l2"]["stack_hits"].get<uint64_t>() + t["l2"]["stack_misses"].get<uint64_t>()));
+                  8 * (t["l2"]["stack_hits"].get<uint64_t>() + t["l2"]["stack_misses"].get<uint64_t>()));
   // The pipeline trace: a process per unit, each named, each with its slots' tracks; the memory's counters.
   const PipelineFile p = read_pipeline(pipe, 0, 2000);
   CHECK(p.units == std::set<uint64_t>{0, 1, 2, 3});

@@ -129,8 +129,8 @@ TEST_CASE("trace prices the run's format: its bits and node kind, as sweep price
   const fs::path d = temp_dir("cli_price");
   auto area = [&](const std::string& opts) {
     const std::string json = (d / "t.json").string();
-    const Run r = run_rtusim("trace --scene builtin:seed --rays primary:16x16 --device timed " + opts + " --stats " +
-                             json);
+    const Run r =
+        run_rtusim("trace --scene builtin:seed --rays primary:16x16 --device timed " + opts + " --stats " + json);
     INFO(r.output);
     REQUIRE(r.status == 0);
     const nlohmann::json j = read_json(json)["timing"]["energy"]["area"];
@@ -148,8 +148,10 @@ TEST_CASE("trace prices the run's format: its bits and node kind, as sweep price
   // sweep's area for the point of the default format (rdna2's) with coord_bits 12, to the digits its CSV prints.
   const std::string csv = (d / "s.csv").string();
   fs::remove(csv);
-  const Run s = run_rtusim("sweep --scene builtin:seed --formats default:coord_bits=12 --config rdna2 --rays 64 "
-                           "--image-width 0 --out " + csv);
+  const Run s = run_rtusim(
+      "sweep --scene builtin:seed --formats default:coord_bits=12 --config rdna2 --rays 64 "
+      "--image-width 0 --out " +
+      csv);
   INFO(s.output);
   REQUIRE(s.status == 0);
   const std::vector<std::string> lines = read_lines(csv);

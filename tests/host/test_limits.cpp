@@ -547,23 +547,23 @@ TEST_CASE("memory limit: timing keys whose caches and units pass the budget are 
   CHECK(hw::TimedEngine::state_bytes(big_cache, true) > hw::TimedEngine::state_bytes(big_cache, false));
 
   const fs::path dir = temp_dir("limits");
-  for (const std::string& job :
-       {"trace --rays primary:4x4 --out " + (dir / "h.bin").string(),
-        "render --width 4 --height 4 --out " + (dir / "i.png").string()}) {
+  for (const std::string& job : {"trace --rays primary:4x4 --out " + (dir / "h.bin").string(),
+                                 "render --width 4 --height 4 --out " + (dir / "i.png").string()}) {
     const rtu::test::Run r = measured_rtusim(
         "RTU_MEMORY_LIMIT=1G", job + " --scene builtin:seed --device timed --set units=256 --set cache_kib=65536");
     INFO(r.output);
     CHECK(r.status == 2);
-    CHECK(contains(r.output, "rtusim: error: timing configuration rdna2 (units=256 cache_kib=65536 l2_kib=0 "
-                             "ray_slots=32): the timing model needs about "));
+    CHECK(contains(r.output,
+                   "rtusim: error: timing configuration rdna2 (units=256 cache_kib=65536 l2_kib=0 "
+                   "ray_slots=32): the timing model needs about "));
     CHECK(contains(r.output, "above the limit of 1024 MiB"));
     CHECK(mib(r.peak_kib) < 64);
   }
   // What fits runs.
-  const rtu::test::Run ok = run_rtusim("RTU_MEMORY_LIMIT=1G", "trace --rays primary:4x4 --out " +
-                                                                  (dir / "h.bin").string() +
-                                                                  " --scene builtin:seed --device timed --set "
-                                                                  "units=4 --set cache_kib=1024");
+  const rtu::test::Run ok =
+      run_rtusim("RTU_MEMORY_LIMIT=1G", "trace --rays primary:4x4 --out " + (dir / "h.bin").string() +
+                                            " --scene builtin:seed --device timed --set "
+                                            "units=4 --set cache_kib=1024");
   INFO(ok.output);
   CHECK(ok.status == 0);
 }
@@ -597,7 +597,8 @@ TEST_CASE("memory limit: a chip records its units' rays in bounded chunks, with 
     const std::vector<hw::Hit> h3 = run(policy, 1, 2, c3);  // every ray a chunk of its own
     size_t same = 0;
     for (size_t i = 0; i < rays.size(); ++i)
-      same += std::memcmp(&h0[i], &h1[i], sizeof(hw::Hit)) == 0 && std::memcmp(&h0[i], &h2[i], sizeof(hw::Hit)) == 0 &&
+      same += std::memcmp(&h0[i], &h1[i], sizeof(hw::Hit)) == 0 &&
+              std::memcmp(&h0[i], &h2[i], sizeof(hw::Hit)) == 0 &&
               std::memcmp(&h0[i], &h3[i], sizeof(hw::Hit)) == 0;
     CHECK(same == rays.size());
     CHECK(c0 > 0);
@@ -612,7 +613,8 @@ TEST_CASE("memory limit: a chip records its units' rays in bounded chunks, with 
   if (!kSanitized) CHECK(mib(t.peak_kib) < mib(f.peak_kib) + 64 + 32);
 }
 
-TEST_CASE("memory limit: a mesh file's accessor counts are held to its buffers and the budget", "[limits][memory]") {
+TEST_CASE("memory limit: a mesh file's accessor counts are held to its buffers and the budget",
+          "[limits][memory]") {
   // A 600-byte glTF declaring 10^8 line vertices as a sparse accessor (zeros but for one value): Assimp filled and
   // copied them and made a face per pair, 6.5 GiB in its child process, before rtu refused the 5 * 10^7 lines.
   const fs::path dir = temp_dir("limits");
@@ -628,8 +630,9 @@ TEST_CASE("memory limit: a mesh file's accessor counts are held to its buffers a
   rtu::test::Run r = measured_rtusim("RTU_MEMORY_LIMIT=1G", "info --scene " + (dir / "sparse.gltf").string());
   INFO(r.output);
   CHECK(r.status == 2);
-  CHECK(contains(r.output, "sparse.gltf: the glTF accessors' elements needs about 5723 MiB of memory, above the "
-                           "limit of 1024 MiB"));
+  CHECK(contains(r.output,
+                 "sparse.gltf: the glTF accessors' elements needs about 5723 MiB of memory, above the "
+                 "limit of 1024 MiB"));
   CHECK(mib(r.peak_kib) < 64);
   // On a buffer view: the count against the view's bytes, whatever the budget.
   std::ofstream(dir / "lines.gltf") << head << R"({"bufferView": 2, "componentType": 5126, "count": 100000000,
@@ -637,8 +640,9 @@ TEST_CASE("memory limit: a mesh file's accessor counts are held to its buffers a
   r = measured_rtusim("", "info --scene " + (dir / "lines.gltf").string());
   INFO(r.output);
   CHECK(r.status == 2);
-  CHECK(contains(r.output, "lines.gltf: glTF accessor 0: 100000000 elements of 12 bytes need 1200000000 bytes, "
-                           "more than its buffer view's 24"));
+  CHECK(contains(r.output,
+                 "lines.gltf: glTF accessor 0: 100000000 elements of 12 bytes need 1200000000 bytes, "
+                 "more than its buffer view's 24"));
   CHECK(mib(r.peak_kib) < 64);
   // The same file with the count its buffer holds imports: one line of two vertices.
   std::ofstream(dir / "ok.gltf") << head << R"({"bufferView": 2, "componentType": 5126, "count": 2,
@@ -683,13 +687,15 @@ TEST_CASE("memory limit: sweep's text inputs are held to the budget before they 
   for (const std::string& args :
        {"sweep --points " + big + " --write-manifest " + (dir / "m.txt").string(),
         "sweep --manifest " + big + " --collect " + dir.string() + " --out " + (dir / "o.csv").string(),
-        "sweep --merge " + big + " --out " + (dir / "o.csv").string(), "pareto --sweep " + big + " --out " + (dir / "p").string()}) {
+        "sweep --merge " + big + " --out " + (dir / "o.csv").string(),
+        "pareto --sweep " + big + " --out " + (dir / "p").string()}) {
     const rtu::test::Run r = measured_rtusim("RTU_MEMORY_LIMIT=256M", args);
     INFO(args);
     INFO(r.output);
     CHECK(r.status == 2);
-    CHECK(contains(r.output, "big.txt: reading a 96 MiB file needs about 384 MiB of memory, above the limit of "
-                             "256 MiB"));
+    CHECK(contains(r.output,
+                   "big.txt: reading a 96 MiB file needs about 384 MiB of memory, above the limit of "
+                   "256 MiB"));
     CHECK(mib(r.peak_kib) < 64);
   }
   // A directory is named as such, with its path.

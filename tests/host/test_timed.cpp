@@ -1,8 +1,8 @@
 // The timed device against the fixed device: identical hits, bit for bit (the fixed datapath decides what
 // happens), on built-in scenes, a real mesh and hostile rays; cycles that repeat across runs and thread counts;
 // renders through the command processor identical to the fixed device's, with a clock that counts cycles.
-#include <catch2/catch.hpp>
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <cstring>
 #include <limits>

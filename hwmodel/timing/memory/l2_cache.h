@@ -91,7 +91,8 @@ inline uint64_t L2Cache::take_port(uint32_t slice, uint64_t xfer, uint64_t t, bo
 }
 
 template <class Writeback>
-L2Cache::Line* L2Cache::lookup(uint64_t line, uint64_t start, Line*& victim, Writeback&& writeback, TimingStats& s) {
+L2Cache::Line* L2Cache::lookup(uint64_t line, uint64_t start, Line*& victim, Writeback&& writeback,
+                               TimingStats& s) {
   Line* ways = &m_lines[(uint64_t(line % m_slices) * m_sets + (line / m_slices) % m_sets) * m_ways];
   victim = ways;
   for (uint32_t w = 0; w < m_ways; ++w) {

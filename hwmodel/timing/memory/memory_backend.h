@@ -1,7 +1,7 @@
 // The seam below a unit's node cache: a memory backend serves line reads (cache fills), 8-byte stack words
-// (spills and refills) and line write-backs (a cache level's dirty lines). memory_system.cpp composes the backends a configuration names, from the DRAM up
-// (DramLevel over dram_channel.h or banked_dram.h, then the L2 of l2_cache.h in front of it); MemorySystem is the
-// composition a unit, or a chip's units, fill from.
+// (spills and refills) and line write-backs (a cache level's dirty lines). memory_system.cpp composes the backends
+// a configuration names, from the DRAM up (DramLevel over dram_channel.h or banked_dram.h, then the L2 of
+// l2_cache.h in front of it); MemorySystem is the composition a unit, or a chip's units, fill from.
 //
 // The contract every backend keeps, which the timing model's early service and a chip's run-ahead rely on
 // (timing_model.h): requests come in the order of their cycles and each is served at its own cycle, so the
@@ -48,9 +48,9 @@ inline uint64_t transfer_cycles(uint64_t bytes, double bytes_per_cycle) {
 }
 
 // Bytes moved over time: DRAM bytes by the cycle their transfer ends, L2 accesses (a line each for fills, hits and
-// misses; 8 bytes for a stack word) by the cycle they are asked for, in bins of bin_cycles from cycle 0 (the device's cycles since bind). The
-// bins start kTimelineBin wide and double (pairs merged) whenever a cycle falls beyond kTimelineBins bins, so the
-// series stays at most that long however long the run.
+// misses; 8 bytes for a stack word) by the cycle they are asked for, in bins of bin_cycles from cycle 0 (the
+// device's cycles since bind). The bins start kTimelineBin wide and double (pairs merged) whenever a cycle falls
+// beyond kTimelineBins bins, so the series stays at most that long however long the run.
 struct MemoryTimeline {
   static constexpr uint64_t kTimelineBin = 256;
   static constexpr size_t kTimelineBins = 4096;

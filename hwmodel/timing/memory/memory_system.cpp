@@ -114,7 +114,8 @@ MemorySystem::MemorySystem(const TimingConfig& c) : m_top(compose_memory(c, m_ti
 
 uint64_t MemorySystem::state_bytes(const TimingConfig& c) {
   const uint64_t banks = uint64_t(c.dram_channels) * uint64_t(std::max(1, c.dram_banks));
-  return L2Cache::state_bytes(c) + banks * 2 * sizeof(uint64_t) + 2 * MemoryTimeline::kTimelineBins * sizeof(uint64_t);
+  return L2Cache::state_bytes(c) + banks * 2 * sizeof(uint64_t) +
+         2 * MemoryTimeline::kTimelineBins * sizeof(uint64_t);
 }
 
 }  // namespace rtu::hw

@@ -17,7 +17,8 @@ NodeCache::NodeCache(const TimingConfig& c)
 
 uint64_t NodeCache::state_bytes(const TimingConfig& c, bool walk) {
   if (c.cache_kib <= 0) return 0;
-  const uint64_t lines = uint64_t(c.cache_kib) * 1024 / uint64_t(c.line_bytes), sets = lines / uint64_t(c.cache_ways);
+  const uint64_t lines = uint64_t(c.cache_kib) * 1024 / uint64_t(c.line_bytes),
+                 sets = lines / uint64_t(c.cache_ways);
   uint64_t b = lines * (sizeof(Line) + sizeof(uint8_t)) + uint64_t(c.prefetch_buffer) * sizeof(Line);
   if (walk) b += lines * sizeof(uint64_t) + sets * (sizeof(uint8_t) + sizeof(uint32_t) + sizeof(uint32_t));
   return b;

@@ -33,6 +33,7 @@
 #include "host/io/json_io.h"
 #include "host/io/ray_io.h"
 #include "host/io/stats_json.h"
+#include "host/jobs/ab.h"
 #include "host/jobs/compare_job.h"
 #include "host/jobs/image_diff.h"
 #include "host/jobs/pareto.h"
@@ -272,7 +273,7 @@ struct DeviceArgs {
   }
 };
 
-DeviceArgs device_args(const py::kwargs& kw) {
+DeviceArgs device_args(const py::dict& kw) {
   DeviceArgs d;
   d.config = py::none();
   d.set = py::none();
@@ -352,6 +353,40 @@ py::tuple trace(const PyScene& scene, const py::handle& rays_obj, bool any_hit, 
     hits = std::move(run.hits);
   }
   return py::make_tuple(hits_to_numpy(std::move(hits)), to_python(stats), invalid);
+}
+
+// rtusim trace --against-*: two timed runs of one ray set and host::ab_json of them: (A/B dict, A's stats, B's
+// stats). `a_kw` and `b_kw` are each side's device options, the common ones already merged in.
+py::tuple ab(const PyScene& scene, const py::handle& rays_obj, bool any_hit, int threads, bool need_hits,
+             const std::string& rays_name, const py::dict& a_kw, const py::dict& b_kw) {
+  const DeviceArgs da = device_args(a_kw), db = device_args(b_kw);
+  if (da.kind() != hw::DeviceKind::kTimed || db.kind() != hw::DeviceKind::kTimed)
+    fail("ab: compares two runs of the timed device (device='timed')");
+  if (!need_hits && !(da.sample > 0.0 && db.sample > 0.0))
+    fail("hits=False is allowed only with sample > 0 (cycles only)");
+  host::TraceRequest ra;
+  ra.scene = scene.scene.get();
+  ra.settings = da.settings();
+  ra.kind = hw::DeviceKind::kTimed;
+  ra.any_hit = any_hit;
+  ra.threads = check_threads(threads);
+  ra.need_hits = need_hits;
+  ra.poll = check_signals;
+  host::TraceRequest rb = ra;
+  rb.settings = db.settings();
+  const RaysIn in = rays_from_numpy(rays_obj);
+  ra.rays = rb.rays = in.rays;
+  host::Json ab, sa, sb;
+  {
+    py::gil_scoped_release nogil;
+    const host::TraceRun a = host::run_trace(ra);
+    sa = host::trace_stats_json(ra, a, rays_name, "timed", 0.0);
+    const host::TraceRun b = host::run_trace(rb);
+    sb = host::trace_stats_json(rb, b, rays_name, "timed", 0.0);
+    ab = host::ab_json({host::settings_label(ra.settings), &sa, a.hits},
+                       {host::settings_label(rb.settings), &sb, b.hits});
+  }
+  return py::make_tuple(to_python(ab), to_python(sa), to_python(sb));
 }
 
 // rtusim compare: the --json dict and the disagreeing rays.
@@ -663,6 +698,8 @@ PYBIND11_MODULE(_rtu, m) {
 
   m.def("trace", &trace, py::arg("scene"), py::arg("rays"), py::arg("any_hit"), py::arg("threads"),
         py::arg("need_hits"), py::arg("rays_name"));
+  m.def("ab", &ab, py::arg("scene"), py::arg("rays"), py::arg("any_hit"), py::arg("threads"), py::arg("need_hits"),
+        py::arg("rays_name"), py::arg("a"), py::arg("b"));
   m.def("compare", &compare, py::arg("scene"), py::arg("rays"), py::arg("rays_name"), py::arg("any_hit"),
         py::arg("threads"), py::arg("max_list"));
   m.def("render", &render, py::arg("scene"), py::arg("mode"), py::arg("width"), py::arg("height"), py::arg("spp"),

@@ -6,6 +6,7 @@
 #include "host/cli/common.h"
 #include "host/io/error.h"
 #include "host/io/ray_io.h"
+#include "host/jobs/ab.h"
 #include "host/jobs/trace_job.h"
 #include "host/scene/ray_spec.h"
 
@@ -20,6 +21,7 @@ struct TraceOptions {
   int threads = 0;
   DeviceArgs dev;
   PipelineTraceArgs pipeline;
+  AgainstSpec against;  // --against-*: design point B of an A/B
 };
 
 void run_trace(const TraceOptions& o) {
@@ -68,7 +70,22 @@ void run_trace(const TraceOptions& o) {
     pt.write(te->timeline());
   }
 
-  if (!o.stats.empty()) write_json(o.stats, trace_stats_json(req, run, o.rays, o.dev.device, load_s));
+  Json json;
+  if (!o.stats.empty() || !o.against.empty()) json = trace_stats_json(req, run, o.rays, o.dev.device, load_s);
+  if (!o.against.empty()) {
+    // B: the same scene, rays and options but the configuration and format --against-* name.
+    TraceRequest breq = req;
+    breq.settings = against_settings(o.dev, o.against);
+    breq.pipeline = nullptr;
+    const TraceRun brun = host::run_trace(breq);
+    const Json bjson = trace_stats_json(breq, brun, o.rays, o.dev.device, 0.0);
+    const Json ab =
+        ab_json({settings_label(o.dev), &json, run.hits}, {settings_label(breq.settings), &bjson, brun.hits});
+    for (const std::string& line : ab_lines(ab)) std::printf("%s\n", line.c_str());
+    json["against"] = bjson;
+    json["ab"] = ab;
+  }
+  if (!o.stats.empty()) write_json(o.stats, json);
 }
 
 }  // namespace
@@ -94,8 +111,20 @@ void add_trace(CLI::App& app) {
   add_timing_args(*sub, o->dev);
   add_sampling_args(*sub, o->dev);
   add_watchdog_args(*sub, o->dev);
+  sub->add_option("--against-config", o->against.config,
+                  "timed device, A/B: also trace with this timing preset (its own keys, without --set) and print "
+                  "B against A: speed-up, rays per clock, limiter, area, energy, performance per mm^2, hits")
+      ->check(CLI::IsMember(hw::timing_preset_names()));
+  sub->add_option("--against-set", o->against.sets,
+                  "timed device, A/B: a timing key of B, KEY=VALUE (repeatable; on --against-config's preset, or "
+                  "else on A's configuration)");
+  sub->add_option("--against-format", o->against.format, "timed device, A/B: B's format preset");
   sub->callback([o, sub] {
     check_device_args(*sub, o->dev);
+    if (!o->against.empty() && o->dev.kind() != hw::DeviceKind::kTimed)
+      throw CLI::ValidationError(
+          "--against-config, --against-set and --against-format compare two runs of the "
+          "timed device (--device timed)");
     if (sub->count("--seed") > 0 && o->rays.rfind("incoherent", 0) != 0)
       throw CLI::ValidationError("--seed applies to --rays incoherent[:N] only");
     run_trace(*o);

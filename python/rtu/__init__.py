@@ -25,7 +25,7 @@ from ._rtu import Error, Scene, builtin_scenes, diff, formats, presets
 
 __all__ = [
     "Error", "Scene", "InvalidRayWarning", "AccuracyWarning", "HIT_DTYPE", "RAY_FIELDS", "load_scene", "builtin_scenes", "rays",
-    "make_rays", "read_rays", "write_rays", "read_hits", "write_hits", "trace", "TraceResult", "compare",
+    "make_rays", "read_rays", "write_rays", "read_hits", "write_hits", "trace", "TraceResult", "ab", "compare",
     "render", "RenderResult", "diff", "read_png", "write_png", "config", "presets", "formats", "format",
     "sweep", "sweep_on", "collect", "read_sweep", "plan", "pareto_front",
 ]
@@ -185,6 +185,28 @@ def trace(scene, rays, device="float", *, any_hit=False, threads=0, hits=True, i
         if invalid == "warn":
             _warnings.warn(message, InvalidRayWarning, stacklevel=2)
     return TraceResult(h, stats, message)
+
+
+def ab(scene, rays="primary", *, a=None, b=None, any_hit=False, threads=0, hits=True, seed=1, **device_options):
+    """Design point B against design point A on the same rays, as `rtusim trace --against-*`: both traced on the
+    timed device with the common device options, each side's dict (a, b) of device options replacing them (e.g.
+    a={"config": "rdna4-chip"}, b={"config": "rdna4-chip", "set": {"l2_bytes_per_cycle": 128}}). Returns the A/B
+    dict: "a" and "b" (label, cycles, rays_per_clock, limited_by, cycles_over_bound, area_mm2, pj_per_ray,
+    unit_pj_per_ray, rays_per_clock_per_mm2), "speedup" (A's cycles over B's), "area_ratio", "energy_ratio",
+    "unit_energy_ratio", "perf_per_area_ratio" (B over A), "hits_differ", "verdict"; and each side's full
+    statistics under "a_stats" and "b_stats"."""
+    for name, side in (("a", a), ("b", b)):
+        if side is not None and not isinstance(side, dict):
+            raise Error(f"{name}: expected a dict of device options, got {type(side).__name__}")
+    if "device" in device_options or "device" in (a or {}) or "device" in (b or {}):
+        raise Error("ab: both sides run on the timed device; device is not an option here")
+    scene = load_scene(scene)
+    rays, name = _rays_arg(scene, rays, seed)
+    sides = [{**device_options, **(side or {}), "device": "timed"} for side in (a, b)]
+    result, sa, sb = _rtu.ab(scene, rays, _bool(any_hit, "any_hit"), _int(threads, "threads"), _bool(hits, "hits"),
+                             name, sides[0], sides[1])
+    result["a_stats"], result["b_stats"] = sa, sb
+    return result
 
 
 def compare(scene, rays="primary", device="fixed", *, any_hit=False, threads=0, max_list=1000, seed=1, **device_options):

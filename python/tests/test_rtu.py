@@ -81,6 +81,24 @@ def test_trace_equals_the_cli(tmp_path, seed, ray_file, device):
     assert np.array_equal(rtu.read_hits(tmp_path / "h.hits"), r.hits)
 
 
+def test_ab_equals_the_cli(tmp_path, seed, ray_file):
+    path, rays = ray_file
+    cli("trace", "--scene", SEED, "--rays", path, "--device", "timed", "--config", "rdna4", "--against-set",
+        "box_units=2", "--against-format", "compact", "--stats", tmp_path / "s.json")
+    want = json.loads((tmp_path / "s.json").read_text())["ab"]
+    got = rtu.ab(seed, rays, a={"config": "rdna4"}, b={"config": "rdna4", "set": {"box_units": 2},
+                                                        "format": "compact"})
+    # The same design points, so the same figures as the CLI's, and each side's full statistics beside them.
+    for key in ("speedup", "area_ratio", "energy_ratio", "perf_per_area_ratio", "hits_differ", "t_differ", "verdict"):
+        assert got[key] == want[key], key
+    assert got["a"]["cycles"] == got["a_stats"]["timing"]["cycles"] == want["a"]["cycles"]
+    assert got["b"]["label"] == want["b"]["label"] == "rdna4 + box_units=2, format compact"
+    with pytest.raises(rtu.Error, match="device"):
+        rtu.ab(seed, rays, a={"device": "fixed"})
+    with pytest.raises(rtu.Error, match="expected a dict"):
+        rtu.ab(seed, rays, b="rdna4")
+
+
 def test_timed_cycles_equal_the_cli(tmp_path, seed, ray_file):
     path, rays = ray_file
     cli("trace", "--scene", SEED, "--rays", path, "--device", "timed", "--config", "intel", "--set", "cache_kib=64",

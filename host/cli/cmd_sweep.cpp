@@ -1,8 +1,8 @@
 // rtusim sweep: run time against error over a grid of scenes, formats, BVH widths and timing presets
-// (host/jobs/sweep.h), one CSV row per point. Resumable (points already in --out made with the same --rays, --seed
-// and
-// --image-width are skipped), shardable (--shard k/N runs every N-th point, so independent jobs split a large
-// sweep) and mergeable (--merge, of rows made with the same run parameters).
+// (host/jobs/sweep.h), one CSV row per point. Resumable (points already in --out made by this build with the same
+// --rays, --seed, --image-width and --flatten are skipped), shardable (--shard k/N runs every N-th point, so
+// independent jobs split a large sweep) and mergeable (--merge, of rows made by one build with the same run
+// parameters).
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -17,6 +17,7 @@
 #include "host/io/limits.h"
 #include "host/jobs/point_key.h"
 #include "host/jobs/suite.h"
+#include "host/jobs/model_identity.h"
 #include "host/jobs/sweep.h"
 #include "host/jobs/sweep_manifest.h"
 #include "hwmodel/numeric/fixed_format.h"
@@ -115,8 +116,21 @@ void run_merge(const SweepArgs& a) {
   std::map<std::string, std::pair<size_t, std::string>> first;  // point key: its row in `all`, and its file
   size_t duplicates = 0, conflicts = 0;
   std::string params, params_file;  // the run parameters of the first row, and its file
+  std::string model, model_file;    // the model identity of the first row, and its file
+  const auto model_name = [](const std::string& m) {
+    return m.empty() ? std::string("none (a file written before rows carried the model)") : m;
+  };
   for (const std::string& f : a.merge)
     for (const SweepRow& r : read_sweep_csv(f)) {
+      // Rows of two builds are results of two models: one table would mix them.
+      if (model_file.empty()) {
+        model = r.model;
+        model_file = f;
+      } else if (r.model != model) {
+        throw Error("--merge: rows of different models, " + model_name(model) + " (in " + model_file + ") and " +
+                    model_name(r.model) + " (in " + f +
+                    "): only rows of one build merge (rtusim --version names a build's model)");
+      }
       // Rows made with other rays or another render are not parts of one sweep.
       const std::string p = sweep_run_params(r);
       if (params.empty()) {
@@ -302,8 +316,8 @@ void run_sweep_points(const SweepArgs& a) {
   check_sweep_grid(a.grid);
   const AreaTable area = a.area.empty() ? AreaTable::shipped() : AreaTable::load(a.area);
 
-  // Resume: the points already in --out with this sweep's run parameters are done; rows made with others stay in
-  // the file, beside the new ones. A last line without its newline is a row an interrupted sweep did not finish
+  // Resume: the points already in --out with this sweep's run parameters and this build's model are done; rows
+  // made with others stay in the file, beside the new ones. A last line without its newline is a row an interrupted sweep did not finish
   // writing: it is dropped (and run again).
   std::set<std::string> done;
   bool exists = std::filesystem::exists(a.out) && std::filesystem::file_size(a.out) > 0;
@@ -323,20 +337,23 @@ void run_sweep_points(const SweepArgs& a) {
     bool current = true;
     const std::vector<SweepRow> old = read_sweep_csv(a.out, &current);
     if (!current) {
-      // A file of the version before the flatten column: rewritten in this version (its rows kept, flatten 0)
-      // so that the rows appended below match its header.
+      // A file of a version before the flatten or model column: rewritten in this version (its rows kept, flatten
+      // 0, model none) so that the rows appended below match its header.
       write_rows(a.out, old);
       std::fprintf(stderr,
-                   "rtusim: warning: %s was written by an earlier rtusim (no flatten column); rewritten "
+                   "rtusim: warning: %s was written by an earlier rtusim (no flatten or model column); rewritten "
                    "in this version, its rows kept\n",
                    a.out.c_str());
     }
+    size_t other_models = 0;
     for (const SweepRow& r : old) {
-      if (sweep_run_params(r) == params) {
-        done.insert(r.p.key());
-      } else {
+      if (sweep_run_params(r) != params) {
         ++others;
         other = sweep_run_params(r);
+      } else if (r.model != model_identity()) {
+        ++other_models;  // another build's results of the point: this build measures it again
+      } else {
+        done.insert(r.p.key());
       }
     }
     if (others > 0)
@@ -344,6 +361,12 @@ void run_sweep_points(const SweepArgs& a) {
                    "rtusim: warning: %s holds %zu rows made with other run parameters (e.g. %s); they are kept, "
                    "and this sweep's points run again with %s beside them (--merge refuses such a file)\n",
                    a.out.c_str(), others, other.c_str(), params.c_str());
+    if (other_models > 0)
+      std::fprintf(stderr,
+                   "rtusim: warning: %s holds %zu rows of another model (another build, or written before rows "
+                   "carried the model); they are kept, and their points run again with model %s (--merge "
+                   "refuses such a file)\n",
+                   a.out.c_str(), other_models, model_identity());
   }
   std::ofstream out(a.out, std::ios::app);
   if (!out) throw Error("cannot write " + a.out);

@@ -19,6 +19,7 @@
 #include "host/io/stats_json.h"
 #include "host/jobs/compare.h"
 #include "host/jobs/image_diff.h"
+#include "host/jobs/model_identity.h"
 #include "host/jobs/render.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/shading.h"
@@ -59,7 +60,8 @@ const char* const kColumns[] = {"scene",
                                 "rtl_transistors",
                                 "area_mm2",
                                 "pj_per_ray",
-                                "seconds"};
+                                "seconds",
+                                "model"};
 constexpr size_t kColumnCount = sizeof(kColumns) / sizeof(kColumns[0]);
 
 // The header of the previous version (before dram_bytes_per_ray and bytes_per_prim), refused with a message that
@@ -73,8 +75,15 @@ constexpr const char* kHeaderBeforeEnergy =
     "scene,format,bvh_width,config,rays,seed,image_width,hit_agreement,prim_agreement,false_misses,false_hits,"
     "t_rel_error_mean,t_rel_error_max,node_visit_overhead,prim_test_overhead,box_false_negatives,psnr_db,cycles,"
     "cycles_per_ray,dram_bytes_per_ray,bvh_bytes,float_bvh_bytes,bytes_per_prim,rtl_cells,rtl_transistors,seconds";
+// The header before model: its rows say not which build made them, so they read as model "" (another build's:
+// resume runs their points again, merge keeps them apart).
+constexpr const char* kHeaderBeforeModel =
+    "scene,format,bvh_width,config,rays,seed,image_width,flatten,hit_agreement,prim_agreement,false_misses,"
+    "false_hits,t_rel_error_mean,t_rel_error_max,node_visit_overhead,prim_test_overhead,box_false_negatives,"
+    "psnr_db,cycles,cycles_per_ray,dram_bytes_per_ray,bvh_bytes,float_bvh_bytes,bytes_per_prim,rtl_cells,"
+    "rtl_transistors,area_mm2,pj_per_ray,seconds";
 // The header before flatten: that version traced instanced scenes over two levels only, so its rows read as
-// flatten 0 (its columns are this version's but for flatten).
+// flatten 0 (its columns are this version's but for flatten and model).
 constexpr const char* kHeaderBeforeFlatten =
     "scene,format,bvh_width,config,rays,seed,image_width,hit_agreement,prim_agreement,false_misses,false_hits,"
     "t_rel_error_mean,t_rel_error_max,node_visit_overhead,prim_test_overhead,box_false_negatives,psnr_db,cycles,"
@@ -258,6 +267,7 @@ SweepRow retime_sweep_point(const Scene& scene, const SweepRow& measured, const 
     throw Error("retime_sweep_point: the cache holds other rays than the row was measured on");
   const auto t0 = std::chrono::steady_clock::now();
   SweepRow row = measured;
+  row.model = model_identity();  // its cycles are this build's
   row.p.config = config;
   hw::FixedFormat format;
   hw::TimingConfig timing;
@@ -284,6 +294,7 @@ SweepRow run_sweep_point(const Scene& scene, const SweepPoint& p, const SweepOpt
   const auto t0 = std::chrono::steady_clock::now();
   SweepRow row;
   row.p = p;
+  row.model = model_identity();
   hw::FixedFormat format;
   hw::TimingConfig timing;
   try {
@@ -421,7 +432,7 @@ std::string sweep_csv_line(const SweepRow& r) {
     << num(r.prim_test_overhead) << ',' << r.box_false_negatives << ',' << num(r.psnr_db) << ',' << r.cycles << ','
     << num(r.cycles_per_ray) << ',' << num(r.dram_bytes_per_ray) << ',' << r.bvh_bytes << ',' << r.float_bvh_bytes
     << ',' << num(r.bytes_per_prim) << ',' << r.rtl_cells << ',' << r.rtl_transistors << ',' << num(r.area_mm2)
-    << ',' << num(r.pj_per_ray) << ',' << num(r.seconds);
+    << ',' << num(r.pj_per_ray) << ',' << num(r.seconds) << ',' << text(r.model);
   return o.str();
 }
 
@@ -464,7 +475,7 @@ std::vector<SweepRow> parse_sweep_csv(const std::string& text, const std::string
   std::vector<SweepRow> rows;
   std::string line;
   size_t n = 0;
-  bool has_flatten = true;
+  bool has_flatten = true, has_model = true;
   while (std::getline(in, line)) {
     ++n;
     const std::string where = path + ":" + std::to_string(n);
@@ -483,14 +494,15 @@ std::vector<SweepRow> parse_sweep_csv(const std::string& text, const std::string
                     "and pj_per_ray (its points have no area or energy estimate); run the sweep again into a new "
                     "file");
       has_flatten = line != kHeaderBeforeFlatten;
-      if (has_flatten && line != sweep_csv_header())
+      has_model = has_flatten && line != kHeaderBeforeModel;
+      if (has_model && line != sweep_csv_header())
         throw Error(where + ": not a sweep file of this version (expected the header " + sweep_csv_header() + ")");
-      if (header_is_current) *header_is_current = has_flatten;
+      if (header_is_current) *header_is_current = has_model;
       continue;
     }
     if (line.empty()) continue;
     const std::vector<std::string> f = split_csv(line);
-    const size_t columns = kColumnCount - (has_flatten ? 0 : 1);
+    const size_t columns = kColumnCount - (has_flatten ? 0 : 1) - (has_model ? 0 : 1);
     if (f.size() != columns)
       throw Error(where + ": " + std::to_string(f.size()) + " fields, expected " + std::to_string(columns) +
                   " (a row cut short? re-run the sweep to redo it)");
@@ -534,6 +546,7 @@ std::vector<SweepRow> parse_sweep_csv(const std::string& text, const std::string
     r.area_mm2 = parse_csv_double(f[k++], where);
     r.pj_per_ray = parse_csv_double(f[k++], where);
     r.seconds = parse_csv_double(f[k++], where);
+    if (has_model) r.model = f[k++];
     check_sweep_row(r, where);
     rows.push_back(r);
   }

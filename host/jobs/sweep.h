@@ -63,6 +63,9 @@ struct SweepRow {
   // fitted size, measured activity): the unit's area, and the timed run's energy over its rays.
   double area_mm2 = 0.0, pj_per_ray = 0.0;
   double seconds = 0.0;  // wall time of the point
+  // The model identity of the build that made the row (model_identity.h); "" in a file written before rows carried
+  // it. Rows of two models are results of two models: resume runs the point again, merge refuses to mix them.
+  std::string model;
 
   double hit_disagreement() const { return 1.0 - hit_agreement; }
 };

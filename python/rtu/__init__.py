@@ -344,7 +344,7 @@ def sweep(scenes, formats=("default",), bvh_widths=(4,), configs=("rdna2",), *, 
 
     csv = _sweep_csv(scenes, formats, bvh_widths, configs, rays=rays, seed=seed, image_width=image_width,
                      threads=threads, area=area, flatten=flatten, shard=shard)
-    return _sweep_frame(pd.read_csv(io.StringIO(csv)))
+    return _sweep_frame(pd.read_csv(io.StringIO(csv), dtype=_SWEEP_DTYPES))
 
 
 def _sweep_csv(scenes, formats, bvh_widths, configs, *, rays, seed, image_width, threads, area, flatten, shard):
@@ -457,7 +457,7 @@ def sweep_on(executor, scenes, formats=("default",), bvh_widths=(4,), configs=("
     if None in lines:
         raise Error(f"sweep_on: point {lines.index(None)} of {points} is missing from shard "
                     f"{lines.index(None) % shards + 1}/{shards}")
-    return _sweep_frame(pd.read_csv(io.StringIO("\n".join([header, *lines]) + "\n")))
+    return _sweep_frame(pd.read_csv(io.StringIO("\n".join([header, *lines]) + "\n"), dtype=_SWEEP_DTYPES))
 
 
 def collect(results, out=None):
@@ -490,7 +490,11 @@ def _collect(results, out, manifest_text):
     for path, text in ((out, csv), (out + ".provenance.csv", provenance)):
         with open(path, "w", encoding="utf-8", newline="") as f:
             f.write(text)
-    return _sweep_frame(pd.read_csv(io.StringIO(csv)))
+    return _sweep_frame(pd.read_csv(io.StringIO(csv), dtype=_SWEEP_DTYPES))
+
+
+# The model identity is 16 hex digits: read as text, or an all-digit one would become a number.
+_SWEEP_DTYPES = {"model": str}
 
 
 def _sweep_frame(df):
@@ -507,7 +511,7 @@ def read_sweep(path):
     import pandas as pd
 
     # utf-8-sig: a byte order mark (a spreadsheet's) is not part of the first column's name.
-    return _sweep_frame(pd.read_csv(_os.fspath(path), encoding="utf-8-sig"))
+    return _sweep_frame(pd.read_csv(_os.fspath(path), encoding="utf-8-sig", dtype=_SWEEP_DTYPES))
 
 
 def plan(scene, max_error, *, metric="hit", min_psnr=0.0, confidence=0.95, config="rdna2", format="",
@@ -528,7 +532,7 @@ def plan(scene, max_error, *, metric="hit", min_psnr=0.0, confidence=0.95, confi
                               _list(coord_bits, "coord_bits"), _list(child_bits, "child_bits"), _int(rays, "rays"),
                               _int(seed, "seed"), _int(image_width, "image_width"), _int(threads, "threads"),
                               _os.fspath(area) if area else "", bool(flatten))
-    df = _sweep_frame(pd.read_csv(io.StringIO(csv)))
+    df = _sweep_frame(pd.read_csv(io.StringIO(csv), dtype=_SWEEP_DTYPES))
     df["meets"] = meets
     j["candidates"] = df
     return j

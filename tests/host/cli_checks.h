@@ -31,9 +31,13 @@ inline std::vector<std::string> read_lines(const std::filesystem::path& p) {
   return lines;
 }
 
-// A sweep CSV row without its last column (the point's wall time): everything else is deterministic.
+// A sweep CSV row without its next-to-last column, the point's wall time (the last is the model identity):
+// everything else is deterministic.
 inline std::string strip_time(const std::string& row) {
-  return row.substr(0, row.rfind(','));
+  const size_t model = row.rfind(',');
+  if (model == std::string::npos || model == 0) return row;
+  const size_t seconds = row.rfind(',', model - 1);
+  return seconds == std::string::npos ? row : row.substr(0, seconds) + row.substr(model);
 }
 
 // Two sweep CSV files (as read_lines) hold the same rows under the same header, in any order and wall times

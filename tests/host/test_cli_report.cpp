@@ -149,7 +149,7 @@ TEST_CASE("report and pareto: bad input gives a clear error and exit 2", "[cli][
     std::ofstream(d / "short.csv") << rtu::host::sweep_csv_header() << "\nbuiltin:seed,default,4\n";
     std::ofstream(d / "nan.csv") << rtu::host::sweep_csv_header()
                                  << "\nbuiltin:seed,default,4,rdna2,10,1,48,0,x,1,0,0,0,0,0,0,0,inf,5,0.5,64,100,"
-                                    "100,2.5,-1,-1,0.5,900,0.1\n";
+                                    "100,2.5,-1,-1,0.5,900,0.1,0123456789abcdef\n";
     std::ofstream(d / "empty_rows.csv") << rtu::host::sweep_csv_header() << "\n";
   }
   const std::string out = " --out " + (d / "o").string();

@@ -37,7 +37,7 @@ TEST_CASE("sweep: rows per point, resume, shards that merge into the whole, bad 
     std::vector<std::string> f;
     std::stringstream ss(w[i]);
     for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
-    REQUIRE(f.size() == 29);
+    REQUIRE(f.size() == 30);  // the last is the model identity
     const double node_overhead = std::stod(f[14]);
     INFO(w[i]);
     CHECK(node_overhead >= -0.01);
@@ -210,7 +210,7 @@ TEST_CASE(
     std::vector<std::string> f;
     std::stringstream ss(lines[i]);
     for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
-    REQUIRE(f.size() == 29);
+    REQUIRE(f.size() == 30);  // the last is the model identity
     CHECK(f[17].empty());
     CHECK(lines[i].find("nan") == std::string::npos);
   }
@@ -258,29 +258,51 @@ TEST_CASE(
   REQUIRE(kept.size() == 2);
   CHECK(kept[1].cycles == rows[1].cycles);  // the first file's row
 
-  // A file of the version before the flatten column reads as two-level rows, and a resumed sweep rewrites it in
-  // this version before it appends.
+  // A file of the version before the flatten column (and the model column) reads as two-level rows of no known
+  // model; a resumed sweep rewrites it in this version, keeps its row and runs its point again (which build made
+  // the row is not known).
   const std::string old = (d / "old.csv").string();
   {
     std::string header = lines[0];
     header.replace(header.find(",flatten"), 8, "");
+    header.erase(header.rfind(",model"));
     std::string row = lines[1];
     size_t comma = 0;
     for (int i = 0; i < 7; ++i) comma = row.find(',', comma) + 1;  // after image_width
     row.erase(comma, 2);                                           // "0,"
+    row.erase(row.rfind(','));                                     // the model
     std::ofstream f(old);
     f << header << '\n' << row << '\n';
   }
   const std::vector<rtu::host::SweepRow> old_rows = rtu::host::read_sweep_csv(old);
   REQUIRE(old_rows.size() == 1);
   CHECK_FALSE(old_rows[0].flatten);
-  CHECK(rtu::host::same_sweep_results(old_rows[0], rows[0]));
+  CHECK(old_rows[0].model.empty());
+  rtu::host::SweepRow as_new = old_rows[0];
+  as_new.model = rows[0].model;
+  CHECK(rtu::host::same_sweep_results(as_new, rows[0]));
   const Run resumed =
       run_rtusim("sweep --scene builtin:cornell --formats default,compact --rays 64 --image-width 0 --out " + old);
   INFO(resumed.output);
   REQUIRE(resumed.status == 0);
-  CHECK(resumed.output.find("1 run, 1 already") != std::string::npos);
-  CHECK(rtu::host::read_sweep_csv(old).size() == 2);
+  CHECK(resumed.output.find("1 rows of another model") != std::string::npos);
+  CHECK(resumed.output.find("2 run, 0 already") != std::string::npos);
+  CHECK(rtu::host::read_sweep_csv(old).size() == 3);
+
+  // Rows of two models (two builds) do not merge into one table: the user is told which files they came from.
+  const std::string other = (d / "other_model.csv").string();
+  {
+    std::ofstream f(other);
+    f << lines[0] << '\n';
+    rtu::host::SweepRow row = rows[0];
+    row.model = "ffffffffffffffff";
+    f << rtu::host::sweep_csv_line(row) << '\n';
+  }
+  const Run mixed = run_rtusim("sweep --merge " + a + " " + other + " --out " + (d / "m3.csv").string());
+  INFO(mixed.output);
+  CHECK(mixed.status == 2);
+  CHECK(mixed.output.find("rows of different models") != std::string::npos);
+  CHECK(mixed.output.find("ffffffffffffffff (in " + other + ")") != std::string::npos);
 }
 
 TEST_CASE("sweep, plan and report --flatten: one image for an instanced scene, recorded in the CSV and JSON",

@@ -27,6 +27,7 @@
 #include <utility>
 #include <vector>
 
+#include "host/cost/timing_json.h"
 #include "host/devices/device_settings.h"
 #include "host/io/error.h"
 #include "host/io/image.h"

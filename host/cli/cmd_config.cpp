@@ -7,6 +7,7 @@
 
 #include "host/cli/common.h"
 #include "host/cost/cost_model.h"
+#include "host/cost/timing_json.h"
 #include "host/io/error.h"
 #include "hwmodel/cost/energy_model.h"
 

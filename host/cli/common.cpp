@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "host/cost/cost_model.h"
+#include "host/cost/timing_json.h"
 #include "hwmodel/cost/energy_model.h"
 #include "hwmodel/timing/timing_stats.h"
 

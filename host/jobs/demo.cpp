@@ -4,6 +4,7 @@
 #include <memory>
 #include <utility>
 
+#include "host/cost/timing_json.h"
 #include "host/devices/device_json.h"
 #include "host/devices/direct_device.h"
 #include "host/io/error.h"

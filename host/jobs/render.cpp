@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "firmware/render_scene.h"
+#include "host/cost/timing_json.h"
 #include "host/devices/firmware_device.h"
 #include "host/devices/grid_check.h"
 #include "host/io/error.h"

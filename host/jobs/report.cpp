@@ -10,6 +10,7 @@
 #include <sstream>
 #include <utility>
 
+#include "host/cost/timing_json.h"
 #include "host/devices/device_settings.h"
 #include "host/io/error.h"
 #include "host/io/image.h"

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <thread>
 
+#include "host/cost/timing_json.h"
 #include "host/devices/device_json.h"
 
 namespace rtu::host {

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "host/cost/timing_json.h"
 #include "host/devices/direct_device.h"
 #include "host/devices/grid_check.h"
 #include "host/io/error.h"

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "host/cost/cost_model.h"
+#include "host/cost/timing_json.h"
 #include "host/devices/direct_device.h"
 #include "host/io/stats_json.h"
 #include "host/jobs/plan.h"

@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "host/cost/timing_json.h"
 #include "host/devices/direct_device.h"
 #include "host/io/stats_json.h"
 #include "host/jobs/render.h"

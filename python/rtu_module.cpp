@@ -384,8 +384,10 @@ py::tuple ab(const PyScene& scene, const py::handle& rays_obj, bool any_hit, int
     sa = host::trace_stats_json(ra, a, rays_name, "timed", 0.0);
     const host::TraceRun b = host::run_trace(rb);
     sb = host::trace_stats_json(rb, b, rays_name, "timed", 0.0);
-    ab = host::ab_json({host::settings_label(ra.settings), &sa, a.hits},
-                       {host::settings_label(rb.settings), &sb, b.hits});
+    // Cycles only (hits=False): the hit arrays hold no answers to compare.
+    const std::span<const hw::Hit> ha = need_hits ? std::span<const hw::Hit>(a.hits) : std::span<const hw::Hit>(),
+                                   hb = need_hits ? std::span<const hw::Hit>(b.hits) : std::span<const hw::Hit>();
+    ab = host::ab_json({host::settings_label(ra.settings), &sa, ha}, {host::settings_label(rb.settings), &sb, hb});
   }
   return py::make_tuple(to_python(ab), to_python(sa), to_python(sb));
 }

@@ -79,8 +79,10 @@ void run_trace(const TraceOptions& o) {
     breq.pipeline = nullptr;
     const TraceRun brun = host::run_trace(breq);
     const Json bjson = trace_stats_json(breq, brun, o.rays, o.dev.device, 0.0);
-    const Json ab =
-        ab_json({settings_label(o.dev), &json, run.hits}, {settings_label(breq.settings), &bjson, brun.hits});
+    // Cycles only (--sample without --out): the hit arrays hold no answers to compare.
+    const std::span<const hw::Hit> ha = cycles_only ? std::span<const hw::Hit>() : run.hits,
+                                   hb = cycles_only ? std::span<const hw::Hit>() : brun.hits;
+    const Json ab = ab_json({settings_label(o.dev), &json, ha}, {settings_label(breq.settings), &bjson, hb});
     for (const std::string& line : ab_lines(ab)) std::printf("%s\n", line.c_str());
     json["against"] = bjson;
     json["ab"] = ab;

@@ -76,7 +76,7 @@ Json ab_json(const AbSide& a, const AbSide& b) {
       ratio(jb["rays_per_clock_per_mm2"].get<double>(), ja["rays_per_clock_per_mm2"].get<double>());
   // Timing never changes a hit, so two configurations of one format agree on every ray; another format (bits,
   // node kind) may move hits, and how many is part of the answer.
-  const bool compare_hits = !a.hits.empty() && a.hits.size() == b.hits.size();
+  const bool compare_hits = !a.hits.empty() && !b.hits.empty() && a.hits.size() == b.hits.size();
   size_t differ = 0, t_differ = 0;
   if (compare_hits)
     for (size_t i = 0; i < a.hits.size(); ++i) {

@@ -74,6 +74,19 @@ TEST_CASE("A/B: another preset drops A's overrides, another format counts the hi
   CHECK(f["ab"]["b"]["format"] == c["format"]["name"]);
 }
 
+TEST_CASE("A/B: cycles only (--sample, no --out) compares no hits", "[cli][timed]") {
+  const fs::path d = temp_dir("cli_ab");
+  const std::string stats = (d / "s.json").string();
+  const Run r = run_rtusim(
+      kScene + "--config rdna4 --sample 0.5 --sample-unit 64 --against-set box_units=2 --stats " + stats);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  const nlohmann::json j = read_json(stats);
+  CHECK(j["ab"]["hits_compared"] == 0);
+  CHECK(j["ab"]["hits_differ"] == 0);
+  CHECK(r.output.find("hits: not compared") != std::string::npos);
+}
+
 TEST_CASE("A/B: refused off the timed device and for bad keys, with the reason", "[cli][timed]") {
   Run r = run_rtusim("trace --scene builtin:seed --rays primary:8x8 --device fixed --against-set box_units=2");
   CHECK(r.status != 0);

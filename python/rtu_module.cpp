@@ -592,10 +592,12 @@ py::tuple write_manifest(const std::string& path, const std::vector<std::string>
   return py::make_tuple(points, repeated, text);
 }
 
-// rtusim plan: (the --json dict, the CSV text of every candidate measured, whether each met the budget).
+// rtusim plan: (the --json dict, the CSV text of every candidate measured, whether each met the budget, each one's
+// rays per clock per mm^2).
 py::tuple plan(const host::PlanOptions& o) {
   std::string csv = host::sweep_csv_header() + "\n";
   std::vector<bool> meets;
+  std::vector<double> perf_per_mm2;
   host::PlanResult res;
   {
     py::gil_scoped_release nogil;
@@ -603,9 +605,10 @@ py::tuple plan(const host::PlanOptions& o) {
       if (s.stage != host::PlanStage::kCandidate) return;
       csv += host::sweep_csv_line(*s.row) + "\n";
       meets.push_back(s.meets);
+      perf_per_mm2.push_back(host::plan_perf_per_area(*s.row));
     });
   }
-  return py::make_tuple(to_python(res.json), csv, meets);
+  return py::make_tuple(to_python(res.json), csv, meets, perf_per_mm2);
 }
 
 }  // namespace
@@ -769,13 +772,15 @@ PYBIND11_MODULE(_rtu, m) {
   m.def(
       "plan",
       [](const std::string& scene, double max_error, const std::string& metric, double min_psnr, double confidence,
-         const std::string& config, const std::string& format, const std::string& minimise, double area_budget,
-         const std::vector<int>& widths, const std::vector<int>& coord_bits, const std::vector<int>& child_bits,
-         uint64_t rays, uint64_t seed, int image_width, int threads, const std::string& area, bool flatten) {
+         const std::string& config, const std::string& format, const std::string& minimise, double min_gain,
+         double area_budget, const std::vector<int>& widths, const std::vector<int>& coord_bits,
+         const std::vector<int>& child_bits, uint64_t rays, uint64_t seed, int image_width, int threads,
+         const std::string& area, bool flatten) {
         // NaN would pass the range checks below (every comparison with it is false): refused by name first.
         for (const auto& [name, v] : {std::pair<const char*, double>{"max_error", max_error},
                                       {"min_psnr", min_psnr},
                                       {"confidence", confidence},
+                                      {"min_gain", min_gain},
                                       {"area_budget", area_budget}})
           if (!std::isfinite(v)) fail(std::string(name) + ": " + std::to_string(v) + " is not a finite number");
         host::PlanOptions o;
@@ -788,6 +793,8 @@ PYBIND11_MODULE(_rtu, m) {
         o.config = config;
         o.format = format;
         o.minimise = minimise;
+        if (!(min_gain >= 0.0 && min_gain <= 100.0)) fail("min_gain: not in [0, 100] percent");
+        o.min_gain_pct = min_gain;
         if (!(area_budget >= 0.0 && area_budget <= 1e6)) fail("area_budget: not in [0, 1e6] mm^2");
         o.area_budget = area_budget;
         for (int w : widths)
@@ -808,9 +815,9 @@ PYBIND11_MODULE(_rtu, m) {
         return plan(o);
       },
       py::arg("scene"), py::arg("max_error"), py::arg("metric"), py::arg("min_psnr"), py::arg("confidence"),
-      py::arg("config"), py::arg("format"), py::arg("minimise"), py::arg("area_budget"), py::arg("bvh_widths"),
-      py::arg("coord_bits"), py::arg("child_bits"), py::arg("rays"), py::arg("seed"), py::arg("image_width"),
-      py::arg("threads"), py::arg("area"), py::arg("flatten"));
+      py::arg("config"), py::arg("format"), py::arg("minimise"), py::arg("min_gain"), py::arg("area_budget"),
+      py::arg("bvh_widths"), py::arg("coord_bits"), py::arg("child_bits"), py::arg("rays"), py::arg("seed"),
+      py::arg("image_width"), py::arg("threads"), py::arg("area"), py::arg("flatten"));
   m.def(
       "pareto_front",
       [](const std::vector<std::pair<double, double>>& points) { return host::pareto_front(points); },

@@ -26,6 +26,13 @@ const CLI::Validator kFinite(
     },
     "FINITE");
 
+// A percentage as the plan prints it ("2%", "0.5%").
+std::string format_pct(double pct) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g%%", pct);
+  return buf;
+}
+
 struct PlanArgs {
   PlanOptions o;
   std::string json;
@@ -47,11 +54,11 @@ void print_step(const PlanStep& s, const PlanOptions& a) {
       }
       std::printf(
           "  %-40s w%d: %s %.3g (%g%% bound %.3g)%s, %llu cycles, %llu bytes (%.1f per primitive), %.3f mm^2%s, "
-          "%.0f pJ/ray%s\n",
+          "%.0f pJ/ray, %.4g rays/clock/mm^2%s\n",
           r.p.format.c_str(), s.width, a.metric == "t" ? "t error" : "hit disagreement", plan_error(r, a.metric),
           100.0 * a.confidence, plan_error_bound(r, a), psnr, (unsigned long long)r.cycles,
           (unsigned long long)r.bvh_bytes, r.bytes_per_prim, r.area_mm2, units, r.pj_per_ray,
-          s.meets ? "" : "  (over budget)");
+          plan_perf_per_area(r), s.meets ? "" : "  (over budget)");
       std::fflush(stdout);
       break;
     }
@@ -92,11 +99,16 @@ void run_plan(const PlanArgs& args) {
       best->p.format.c_str(), best->p.bvh_width, f.coord_bits, f.child_bits, (unsigned long long)best->cycles,
       (unsigned long long)best->bvh_bytes, best->bytes_per_prim, best->dram_bytes_per_ray, metric,
       plan_error(*best, a.metric), plan_error_bound(*best, a));
-  std::printf("  cheapest: %s%s\n", j["cost"].get<std::string>().c_str(),
-              a.area_budget > 0 ? (" within " + std::to_string(a.area_budget) + " mm^2").c_str() : "");
-  std::printf("  units: %d box, %d triangle (%s); %.3f mm^2, %.0f pJ per ray (%s)\n",
-              j["plan"]["box_units"].get<int>(), j["plan"]["tri_units"].get<int>(), best->p.config.c_str(),
-              best->area_mm2, best->pj_per_ray, hw::nangate45().name);
+  std::printf(
+      "  cheapest: %s%s%s\n", j["cost"].get<std::string>().c_str(),
+      a.area_budget > 0 ? (" within " + std::to_string(a.area_budget) + " mm^2").c_str() : "",
+      plan_min_gain_applies(a) && a.min_gain_pct > 0
+          ? ("; more bits or area only for a saving over " + format_pct(a.min_gain_pct) + " (--min-gain)").c_str()
+          : "");
+  std::printf(
+      "  units: %d box, %d triangle (%s); %.3f mm^2, %.0f pJ per ray (%s); %.4g rays per clock, %.4g per mm^2\n",
+      j["plan"]["box_units"].get<int>(), j["plan"]["tri_units"].get<int>(), best->p.config.c_str(), best->area_mm2,
+      best->pj_per_ray, hw::nangate45().name, plan_rays_per_clock(*best), plan_perf_per_area(*best));
   for (const Json& jw : j["widths"]) {
     if (jw["bvh_width"] != best->p.bvh_width) continue;
     if (jw.contains("fewer_coord_bits"))
@@ -110,7 +122,16 @@ void run_plan(const PlanArgs& args) {
                   m["taken"].get<bool>() ? m["to_coord_bits"].get<int>() : m["from_coord_bits"].get<int>(),
                   m["taken"].get<bool>() ? m["from_coord_bits"].get<int>() : m["to_coord_bits"].get<int>(),
                   a.config.c_str(), m["cause"].get<std::string>().c_str());
+    // Child-offset bits that were cheaper but saved too little for their size (plan_passed_over).
+    for (const Json& k : jw["child_bits"])
+      if (k.contains("passed_over"))
+        std::printf("  kept %d child-offset bits over %d on %s: %s\n", f.child_bits, k["child_bits"].get<int>(),
+                    a.config.c_str(), k["passed_over"].get<std::string>().c_str());
   }
+  for (const Json& jw : j["widths"])
+    if (jw.contains("passed_over"))
+      std::printf("  kept BVH width %d over %d on %s: %s\n", best->p.bvh_width, jw["bvh_width"].get<int>(),
+                  a.config.c_str(), jw["passed_over"].get<std::string>().c_str());
   std::printf(
       "  against the base format (%s: %d coordinate bits, %d child bits%s): %+.1f%% cycles, %+.1f%% bytes, "
       "%+.1f%% energy per ray\n",
@@ -132,9 +153,9 @@ void add_plan(CLI::App& app) {
   auto a = std::make_shared<PlanArgs>();
   CLI::App* sub = app.add_subcommand(
       "plan",
-      "The cheapest format (by --minimise: fewest cycles on --config, fewest image bytes or least energy; "
-      "coordinate bits, offset bits, BVH width; with --area-budget the units it affords) whose error's upper "
-      "confidence bound meets a budget on a scene");
+      "The cheapest format (by --minimise: fewest cycles on --config, fewest image bytes, least energy, "
+      "smallest area or most rays per clock per mm^2; coordinate bits, offset bits, BVH width; with "
+      "--area-budget the units it affords) whose error's upper confidence bound meets a budget on a scene");
   sub->add_option("--scene", a->o.scene, "scene file, mesh file or builtin:NAME")->required();
   sub->add_option("--max-error", a->o.max_error, "error budget of --metric")->required()->check(kFinite);
   sub->add_option("--metric", a->o.metric,
@@ -161,8 +182,18 @@ void add_plan(CLI::App& app) {
                   "layouts too) kept, e.g. packed or cwbvh (default: the --config's format)");
   sub->add_option("--minimise,--minimize", a->o.minimise,
                   "the cost: cycles (fewest cycles on --config, then fewest image bytes), bytes (fewest image "
-                  "bytes, bvh_bytes, then fewest cycles) or energy (fewest pJ per ray, then fewest cycles)")
-      ->check(CLI::IsMember({"cycles", "bytes", "energy"}))
+                  "bytes, bvh_bytes, then fewest cycles), energy (fewest pJ per ray, then fewest cycles), area "
+                  "(smallest area_mm2, then fewest cycles) or perf-per-area (most rays per clock per mm^2, then "
+                  "fewest cycles)")
+      ->check(CLI::IsMember({"cycles", "bytes", "energy", "area", "perf-per-area"}))
+      ->capture_default_str();
+  sub->add_option("--min-gain", a->o.min_gain_pct,
+                  "PCT: minimising cycles or energy, a candidate with more bits or area is taken over a smaller "
+                  "one only when it saves more than PCT% (0: any saving). Default 2: the timing model is "
+                  "deterministic, but its cycles are of a sample of rays and it is cycle-approximate; one "
+                  "format's saving over another moves by about a point from one --seed to the next, so a "
+                  "smaller saving is not shown, while the bits cost area for certain")
+      ->check(kFinite & CLI::Range(0.0, 100.0))
       ->capture_default_str();
   sub->add_flag_callback(
       "--energy", [a] { a->o.minimise = "energy"; }, "the same as --minimise energy");

@@ -48,10 +48,61 @@ std::string g(double v) {
   return buf;
 }
 
-// The relative saving of `more` over `fewer` in the cost o.minimise names first (cycles or energy per ray).
-double relative_saving(const SweepRow& more, const SweepRow& fewer, const PlanOptions& o) {
-  if (o.minimise == "energy") return fewer.pj_per_ray > 0.0 ? 1.0 - more.pj_per_ray / fewer.pj_per_ray : 0.0;
-  return fewer.cycles > 0 ? 1.0 - double(more.cycles) / double(fewer.cycles) : 0.0;
+// A fraction as a signed percentage ("+12%", "-0.3%").
+std::string signed_pct(double fraction) {
+  return (fraction >= 0.0 ? "+" : "") + g(100.0 * fraction) + "%";
+}
+
+// A's gain over b in the cost o.minimise names first, in words: "0.2% fewer cycles", "3% more rays per clock per
+// mm^2".
+std::string gain_text(const SweepRow& a, const SweepRow& b, const PlanOptions& o) {
+  const std::string pct = g(100.0 * plan_gain(a, b, o)) + "% ";
+  if (o.minimise == "energy") return pct + "less energy per ray";
+  if (o.minimise == "bytes") return pct + "fewer bytes";
+  if (o.minimise == "area") return pct + "less area";
+  if (o.minimise == "perf-per-area") return pct + "more rays per clock per mm^2";
+  return pct + "fewer cycles";
+}
+
+// Coordinate and child-offset bits of a row's format (0 when it names none).
+int format_bits(const SweepRow& r) {
+  try {
+    const hw::FixedFormat f = hw::format_from_spec(r.p.format);
+    return f.coord_bits + f.child_bits;
+  } catch (const std::invalid_argument&) {
+    return 0;
+  }
+}
+
+// True when a is the costlier in size: more area, or as much and more bits.
+bool costlier(const SweepRow& a, const SweepRow& b) {
+  return a.area_mm2 != b.area_mm2 ? a.area_mm2 > b.area_mm2 : format_bits(a) > format_bits(b);
+}
+
+// What `a` costs over `b` in size, for a costlier a: "+12% area", or with as much area "+2 bits".
+std::string size_cost(const SweepRow& a, const SweepRow& b) {
+  if (a.area_mm2 != b.area_mm2 && b.area_mm2 > 0.0) return signed_pct(a.area_mm2 / b.area_mm2 - 1.0) + " area";
+  return "+" + std::to_string(format_bits(a) - format_bits(b)) + " bits";
+}
+
+// Of candidates that all meet the budget, the one a walk from the least costly up (in size: area, then bits, then
+// BVH width) keeps: each replaces the one kept when it pays (plan_pays). A candidate cheaper than the one finally
+// kept then comes after it in the walk and was weighed against it: every candidate kept is cheaper than those
+// passed over before it (it saved more than the threshold over the one kept then; they did not). Returns the
+// index of the candidate kept.
+size_t keep_by_size(const std::vector<const SweepRow*>& rows, const PlanOptions& o) {
+  std::vector<size_t> order(rows.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](size_t x, size_t y) {
+    const SweepRow &a = *rows[x], &b = *rows[y];
+    if (a.area_mm2 != b.area_mm2) return a.area_mm2 < b.area_mm2;
+    if (format_bits(a) != format_bits(b)) return format_bits(a) < format_bits(b);
+    return a.p.bvh_width < b.p.bvh_width;
+  });
+  size_t kept = order.front();
+  for (size_t i : order)
+    if (i != kept && plan_pays(*rows[i], *rows[kept], o)) kept = i;
+  return kept;
 }
 
 // The standard normal's quantile by bisection of erfc (the bound needs a few digits, not speed).
@@ -65,6 +116,14 @@ double normal_quantile(double c) {
 }
 
 }  // namespace
+
+double plan_rays_per_clock(const SweepRow& r) {
+  return r.cycles > 0 ? double(r.rays) / double(r.cycles) : 0.0;
+}
+
+double plan_perf_per_area(const SweepRow& r) {
+  return r.area_mm2 > 0.0 ? plan_rays_per_clock(r) / r.area_mm2 : 0.0;
+}
 
 double plan_error(const SweepRow& r, const std::string& metric) {
   return metric == "t" ? r.t_rel_error_mean : std::max(r.hit_disagreement(), 0.0);
@@ -99,21 +158,53 @@ bool plan_cheaper(const SweepRow& a, const SweepRow& b, const PlanOptions& o) {
     return a.pj_per_ray < b.pj_per_ray || (a.pj_per_ray == b.pj_per_ray && a.cycles < b.cycles);
   if (o.minimise == "bytes")
     return a.bvh_bytes < b.bvh_bytes || (a.bvh_bytes == b.bvh_bytes && a.cycles < b.cycles);
+  if (o.minimise == "area") return a.area_mm2 < b.area_mm2 || (a.area_mm2 == b.area_mm2 && a.cycles < b.cycles);
+  if (o.minimise == "perf-per-area") {
+    const double pa = plan_perf_per_area(a), pb = plan_perf_per_area(b);
+    return pa > pb || (pa == pb && a.cycles < b.cycles);
+  }
   return a.cycles < b.cycles || (a.cycles == b.cycles && a.bvh_bytes < b.bvh_bytes);
 }
 
+double plan_gain(const SweepRow& a, const SweepRow& b, const PlanOptions& o) {
+  const auto saving = [](double x, double y) { return y > 0.0 ? 1.0 - x / y : 0.0; };
+  if (o.minimise == "energy") return saving(a.pj_per_ray, b.pj_per_ray);
+  if (o.minimise == "bytes") return saving(double(a.bvh_bytes), double(b.bvh_bytes));
+  if (o.minimise == "area") return saving(a.area_mm2, b.area_mm2);
+  if (o.minimise == "perf-per-area") {
+    const double pb = plan_perf_per_area(b);
+    return pb > 0.0 ? plan_perf_per_area(a) / pb - 1.0 : 0.0;
+  }
+  return saving(double(a.cycles), double(b.cycles));
+}
+
+bool plan_min_gain_applies(const PlanOptions& o) {
+  return o.minimise == "cycles" || o.minimise == "energy";
+}
+
+bool plan_pays(const SweepRow& candidate, const SweepRow& kept, const PlanOptions& o) {
+  if (!plan_cheaper(candidate, kept, o)) return false;
+  if (!plan_min_gain_applies(o) || o.min_gain_pct <= 0.0 || !costlier(candidate, kept)) return true;
+  return 100.0 * plan_gain(candidate, kept, o) > o.min_gain_pct;
+}
+
+std::string plan_passed_over(const SweepRow& costlier, const SweepRow& kept, const PlanOptions& o) {
+  if (!plan_cheaper(costlier, kept, o) || plan_pays(costlier, kept, o)) return {};
+  return gain_text(costlier, kept, o) + " for " + size_cost(costlier, kept) + ", below --min-gain " +
+         g(o.min_gain_pct) + "%";
+}
+
 bool plan_more_bits_pay(const SweepRow& more, const SweepRow& fewer, const PlanOptions& o) {
-  if (!plan_cheaper(more, fewer, o)) return false;
-  if (o.minimise == "bytes") return true;  // exact: no placement noise
+  if (!plan_pays(more, fewer, o)) return false;
+  if (o.minimise == "bytes" || o.minimise == "area") return true;  // exact: no placement noise
   // Both overheads are over the same float reference (one scene, one width): a smaller one is fewer visits.
   const bool less_work =
       more.node_visit_overhead < fewer.node_visit_overhead || more.prim_test_overhead < fewer.prim_test_overhead;
-  return less_work || relative_saving(more, fewer, o) > kPlacementNoise;
+  return less_work || plan_gain(more, fewer, o) > kPlacementNoise;
 }
 
 std::string plan_more_bits_cause(const SweepRow& more, const SweepRow& fewer, const PlanOptions& o) {
-  const std::string cost = o.minimise == "energy" ? "energy per ray" : o.minimise == "bytes" ? "bytes" : "cycles";
-  const std::string saving = g(100.0 * relative_saving(more, fewer, o)) + "% fewer " + cost;
+  const std::string saving = gain_text(more, fewer, o) + " for " + size_cost(more, fewer);
   std::vector<std::string> causes;
   // Node visits and primitive tests as overheads over the float reference's (one reference for both rows).
   auto pct = [](double overhead) { return (overhead >= 0.0 ? "+" : "") + g(100.0 * overhead) + "%"; };
@@ -134,6 +225,9 @@ std::string plan_more_bits_cause(const SweepRow& more, const SweepRow& fewer, co
   std::string why;
   for (size_t i = 0; i < causes.size(); ++i) why += (i ? "; " : "") + causes[i];
   if (why.empty()) why = "no measured cause in node visits, primitive tests or DRAM bytes";
+  if (!plan_cheaper(more, fewer, o)) return saving + " (" + why + "): not cheaper, the fewer bits kept";
+  if (!plan_pays(more, fewer, o))
+    return saving + ", below --min-gain " + g(o.min_gain_pct) + "% (" + why + "): the fewer bits kept";
   if (!plan_more_bits_pay(more, fewer, o))
     return saving + ", within the " + g(100.0 * kPlacementNoise) + "% placement noise (" + why +
            "): a tie, the fewer bits kept";
@@ -163,8 +257,11 @@ void check_plan_options(const PlanOptions& a) {
     throw Error("--min-psnr: a finite number of dB >= 0 (0: none), got " + g(a.min_psnr));
   if (a.min_psnr > 0.0 && a.sweep.image_width <= 0)
     throw Error("--min-psnr needs a render to measure: --image-width must be above 0");
-  if (a.minimise != "cycles" && a.minimise != "bytes" && a.minimise != "energy")
-    throw Error("--minimise: cycles, bytes or energy, got '" + a.minimise + "'");
+  if (a.minimise != "cycles" && a.minimise != "bytes" && a.minimise != "energy" && a.minimise != "area" &&
+      a.minimise != "perf-per-area")
+    throw Error("--minimise: cycles, bytes, energy, area or perf-per-area, got '" + a.minimise + "'");
+  if (!(a.min_gain_pct >= 0.0 && a.min_gain_pct <= 100.0))
+    throw Error("--min-gain: a finite percentage in 0..100, got " + g(a.min_gain_pct));
   if (!(a.area_budget >= 0.0) || !std::isfinite(a.area_budget))
     throw Error("--area-budget: a finite number of mm^2 >= 0 (0: none), got " + g(a.area_budget));
   if (a.sweep.rays < 1 || a.sweep.rays > kMaxPlanRays)
@@ -244,8 +341,12 @@ class Planner {
         run_sweep_point(m_scene, SweepPoint{m_a.scene, format, width, m_a.config}, m_a.sweep, m_area, *m_cache);
     if (m_a.area_budget > 0.0) r = afford(r);
     report(PlanStage::kCandidate, width, 0, &r, meets(r));
+    m_measured.push_back(r);
     return r;
   }
+
+  // Every candidate measured, in order.
+  const std::vector<SweepRow>& measured() const { return m_measured; }
 
  private:
   // The area of a format at a width with a configuration spec, without running it.
@@ -285,6 +386,7 @@ class Planner {
   const AreaTable m_area;
   const ActivityTable m_activity;
   std::unique_ptr<SweepCache, SweepCacheDeleter> m_cache;
+  std::vector<SweepRow> m_measured;
 };
 
 // What the plan was asked: the JSON's keys before the widths.
@@ -301,9 +403,13 @@ Json plan_request_json(const PlanOptions& a, const std::string& scene, const std
   j["config"] = a.config;
   j["base_format"] = base;
   j["minimise"] = a.minimise;
-  j["cost"] = a.minimise == "bytes"    ? "image bytes (bvh_bytes), then cycles on " + a.config
-              : a.minimise == "energy" ? "energy per ray on " + a.config + ", then cycles"
-                                       : "cycles on " + a.config + ", then image bytes (bvh_bytes)";
+  j["cost"] = a.minimise == "bytes"           ? "image bytes (bvh_bytes), then cycles on " + a.config
+              : a.minimise == "energy"        ? "energy per ray on " + a.config + ", then cycles"
+              : a.minimise == "area"          ? "area (area_mm2), then cycles on " + a.config
+              : a.minimise == "perf-per-area" ? "rays per clock per mm^2 on " + a.config + ", then cycles"
+                                              : "cycles on " + a.config + ", then image bytes (bvh_bytes)";
+  j["min_gain_pct"] = a.min_gain_pct;
+  j["min_gain_applies"] = plan_min_gain_applies(a);
   if (a.area_budget > 0.0) j["area_budget_mm2"] = a.area_budget;
   return j;
 }
@@ -327,57 +433,90 @@ FewestBits fewest_coord_bits(Planner& pl, const PlanOptions& a, const BaseFormat
   return f;
 }
 
-// Fewer coordinate bits are fewer bytes, but not always fewer cycles or less energy: they cost node visits
-// (looser boxes) where they save bytes, so on a compute-bound unit more bits can be faster. Minimising cycles or
-// energy, the bits above go on while they are cheaper and meet the budget (cost against bits falls, then rises).
-// A step up is taken only when it pays beyond the placement noise (plan_more_bits_pay, kPlacementNoise); the
-// measured cause of each step taken, or of the tie that ended the walk, goes to `steps`. Returns the candidate
-// the walk ended on.
+// Fewer coordinate bits are fewer bytes and less area, but not always fewer cycles or less energy: they cost node
+// visits (looser boxes) where they save bytes, so on a compute-bound unit more bits can be faster. Minimising
+// cycles, energy or rays per clock per mm^2, the bits above go on while they meet the budget and each is cheaper
+// than the one before (cost against bits falls, then rises). Each is weighed against the bits kept so far and
+// taken when it pays: beyond --min-gain and the placement noise (plan_more_bits_pay); so a run of small steps
+// that together save more than --min-gain is taken at the step that crosses it. Each step weighed, with its
+// measured cause, goes to `steps`. Returns the candidate kept.
 SweepRow walk_more_coord_bits(Planner& pl, const PlanOptions& a, const BaseFormat& base, int w,
                               const SweepRow& first_ok, Json& steps) {
-  SweepRow at_b = first_ok;
-  if (a.minimise == "bytes") return at_b;
+  SweepRow kept = first_ok;
+  if (a.minimise == "bytes" || a.minimise == "area") return kept;  // more bits never take fewer
+  SweepRow prev = first_ok;
   const int b0 = hw::format_from_spec(first_ok.p.format).coord_bits;
   for (int more : a.coord_bits) {
     if (more <= b0) continue;
     SweepRow r = pl.point(spec(base.spec, more, base.child_bits), w);
-    if (!pl.meets(r) || !plan_cheaper(r, at_b, a)) break;
-    const bool pays = plan_more_bits_pay(r, at_b, a);
-    steps.push_back({{"from_coord_bits", hw::format_from_spec(at_b.p.format).coord_bits},
+    if (!pl.meets(r) || !plan_cheaper(r, prev, a)) break;
+    const bool pays = plan_more_bits_pay(r, kept, a);
+    steps.push_back({{"from_coord_bits", hw::format_from_spec(kept.p.format).coord_bits},
                      {"to_coord_bits", more},
                      {"taken", pays},
-                     {"cause", plan_more_bits_cause(r, at_b, a)},
-                     {"node_visit_overhead", {at_b.node_visit_overhead, r.node_visit_overhead}},
-                     {"prim_test_overhead", {at_b.prim_test_overhead, r.prim_test_overhead}},
-                     {"dram_bytes_per_ray", {at_b.dram_bytes_per_ray, r.dram_bytes_per_ray}},
-                     {"cycles", {at_b.cycles, r.cycles}}});
-    if (!pays) break;
-    at_b = r;
+                     {"cause", plan_more_bits_cause(r, kept, a)},
+                     {"gain", plan_gain(r, kept, a)},
+                     {"node_visit_overhead", {kept.node_visit_overhead, r.node_visit_overhead}},
+                     {"prim_test_overhead", {kept.prim_test_overhead, r.prim_test_overhead}},
+                     {"dram_bytes_per_ray", {kept.dram_bytes_per_ray, r.dram_bytes_per_ray}},
+                     {"cycles", {kept.cycles, r.cycles}},
+                     {"area_mm2", {kept.area_mm2, r.area_mm2}},
+                     {"perf_per_mm2", {plan_perf_per_area(kept), plan_perf_per_area(r)}}});
+    if (pays) kept = r;
+    prev = r;
   }
-  return at_b;
+  return kept;
 }
 
-// Child-offset bits at b coordinate bits: the cheapest among those that still meet the budget, each candidate's
-// figures into `ks`.
+// Child-offset bits at b coordinate bits: among those that still meet the budget (and at_b, which does), the one
+// keep_by_size keeps; each candidate's figures into `ks`, with why when it was cheaper and not taken
+// ("passed_over").
 SweepRow cheapest_child_bits(Planner& pl, const PlanOptions& a, const BaseFormat& base, int w, int b,
                              const SweepRow& at_b, Json& ks) {
-  SweepRow chosen = at_b;
-  for (int k : a.child_bits) {
-    SweepRow r = k == base.child_bits ? at_b : pl.point(spec(base.spec, b, k), w);
-    ks.push_back({{"child_bits", k},
-                  {"error", plan_error(r, a.metric)},
-                  {"error_bound", plan_error_bound(r, a)},
-                  {"cycles", r.cycles},
-                  {"bytes", r.bvh_bytes},
-                  {"bytes_per_prim", r.bytes_per_prim},
-                  {"dram_bytes_per_ray", r.dram_bytes_per_ray},
-                  {"config", r.p.config},
-                  {"area_mm2", r.area_mm2},
-                  {"pj_per_ray", r.pj_per_ray},
-                  {"meets", pl.meets(r)}});
-    if (pl.meets(r) && plan_cheaper(r, chosen, a)) chosen = r;
+  std::vector<SweepRow> rows;
+  for (int k : a.child_bits) rows.push_back(k == base.child_bits ? at_b : pl.point(spec(base.spec, b, k), w));
+  std::vector<const SweepRow*> ok{&at_b};
+  for (const SweepRow& r : rows)
+    if (pl.meets(r)) ok.push_back(&r);
+  const SweepRow chosen = *ok[keep_by_size(ok, a)];
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const SweepRow& r = rows[i];
+    Json k = {{"child_bits", a.child_bits[i]},
+              {"error", plan_error(r, a.metric)},
+              {"error_bound", plan_error_bound(r, a)},
+              {"cycles", r.cycles},
+              {"bytes", r.bvh_bytes},
+              {"bytes_per_prim", r.bytes_per_prim},
+              {"dram_bytes_per_ray", r.dram_bytes_per_ray},
+              {"config", r.p.config},
+              {"area_mm2", r.area_mm2},
+              {"pj_per_ray", r.pj_per_ray},
+              {"rays_per_clock", plan_rays_per_clock(r)},
+              {"perf_per_mm2", plan_perf_per_area(r)},
+              {"meets", pl.meets(r)}};
+    if (pl.meets(r))
+      if (const std::string why = plan_passed_over(r, chosen, a); !why.empty()) k["passed_over"] = why;
+    ks.push_back(k);
   }
   return chosen;
+}
+
+// A measured candidate, as the JSON's width's "candidates".
+Json candidate_json(const SweepRow& r, const PlanOptions& a, bool meets) {
+  const hw::FixedFormat f = hw::format_from_spec(r.p.format);
+  return {{"format", r.p.format},
+          {"coord_bits", f.coord_bits},
+          {"child_bits", f.child_bits},
+          {"config", r.p.config},
+          {"cycles", r.cycles},
+          {"bytes", r.bvh_bytes},
+          {"error", plan_error(r, a.metric)},
+          {"error_bound", plan_error_bound(r, a)},
+          {"area_mm2", r.area_mm2},
+          {"pj_per_ray", r.pj_per_ray},
+          {"rays_per_clock", plan_rays_per_clock(r)},
+          {"perf_per_mm2", plan_perf_per_area(r)},
+          {"meets", meets}};
 }
 
 // The format chosen at a width, as the JSON's "chosen".
@@ -393,17 +532,27 @@ Json chosen_json(const SweepRow& c, const PlanOptions& a) {
           {"rtl_cells", c.rtl_cells},
           {"config", c.p.config},
           {"area_mm2", c.area_mm2},
-          {"pj_per_ray", c.pj_per_ray}};
+          {"pj_per_ray", c.pj_per_ray},
+          {"rays_per_clock", plan_rays_per_clock(c)},
+          {"perf_per_mm2", plan_perf_per_area(c)}};
 }
 
 // One width of the plan: its candidates into the JSON jw, and the format chosen there (none when no coordinate
 // width meets the budget).
 std::unique_ptr<SweepRow> plan_width(Planner& pl, const PlanOptions& a, const BaseFormat& base, int w, Json& jw) {
   pl.report(PlanStage::kCoordBits, w);
+  const size_t first_measured = pl.measured().size();
+  const auto list_candidates = [&] {
+    Json cs = Json::array();
+    for (size_t i = first_measured; i < pl.measured().size(); ++i)
+      cs.push_back(candidate_json(pl.measured()[i], a, pl.meets(pl.measured()[i])));
+    jw["candidates"] = cs;
+  };
   const FewestBits fewest = fewest_coord_bits(pl, a, base, w);
   jw["bvh_width"] = w;
   if (!fewest.first_ok) {
     jw["feasible"] = false;
+    list_candidates();
     pl.report(PlanStage::kInfeasible, w);
     return nullptr;
   }
@@ -427,6 +576,7 @@ std::unique_ptr<SweepRow> plan_width(Planner& pl, const PlanOptions& a, const Ba
   }
   jw["child_bits"] = ks;
   jw["chosen"] = chosen_json(chosen, a);
+  list_candidates();
   return std::make_unique<SweepRow>(chosen);
 }
 
@@ -448,7 +598,9 @@ Json plan_json(const SweepRow& best, const hw::FixedFormat& f, const PlanOptions
           {"box_units", sweep_config(best.p.config).box_units},
           {"tri_units", sweep_config(best.p.config).tri_units},
           {"area_mm2", best.area_mm2},
-          {"pj_per_ray", best.pj_per_ray}};
+          {"pj_per_ray", best.pj_per_ray},
+          {"rays_per_clock", plan_rays_per_clock(best)},
+          {"perf_per_mm2", plan_perf_per_area(best)}};
 }
 
 // The base format at the plan's width, as the JSON's "default".
@@ -463,7 +615,9 @@ Json default_json(const SweepRow& def, const std::string& base, const PlanOption
           {"rtl_cells", def.rtl_cells},
           {"config", def.p.config},
           {"area_mm2", def.area_mm2},
-          {"pj_per_ray", def.pj_per_ray}};
+          {"pj_per_ray", def.pj_per_ray},
+          {"rays_per_clock", plan_rays_per_clock(def)},
+          {"perf_per_mm2", plan_perf_per_area(def)}};
 }
 
 }  // namespace
@@ -480,26 +634,35 @@ PlanResult plan_format(const PlanOptions& a, const std::function<void(const Plan
   Json& j = res.json;
   j = plan_request_json(a, pl.scene().name, base.spec);
   Json per_width = Json::array();
-  std::unique_ptr<SweepRow> best;
+  std::vector<std::unique_ptr<SweepRow>> chosen;  // per width; null where none meets the budget
   for (int w : a.widths) {
     Json jw;
-    std::unique_ptr<SweepRow> chosen = plan_width(pl, a, base, w, jw);
+    chosen.push_back(plan_width(pl, a, base, w, jw));
     per_width.push_back(jw);
-    if (chosen && (!best || plan_cheaper(*chosen, *best, a))) best = std::move(chosen);
   }
-  j["widths"] = per_width;
-  if (!best) {
+  std::vector<const SweepRow*> feasible;
+  for (const auto& c : chosen)
+    if (c) feasible.push_back(c.get());
+  if (feasible.empty()) {
+    j["widths"] = per_width;
     j["plan"] = nullptr;
     return res;
   }
+  // The width: of each width's choice, the one keep_by_size keeps; a cheaper width not taken says why.
+  const SweepRow best = *feasible[keep_by_size(feasible, a)];
+  for (size_t i = 0; i < chosen.size(); ++i)
+    if (chosen[i])
+      if (const std::string why = plan_passed_over(*chosen[i], best, a); !why.empty())
+        per_width[i]["passed_over"] = why;
+  j["widths"] = per_width;
   // The base format at the chosen width, for comparison.
-  pl.report(PlanStage::kDefault, best->p.bvh_width);
-  const SweepRow def = pl.point(base.spec, best->p.bvh_width);
-  const hw::FixedFormat f = hw::format_from_spec(best->p.format);
-  j["plan"] = plan_json(*best, f, a);
+  pl.report(PlanStage::kDefault, best.p.bvh_width);
+  const SweepRow def = pl.point(base.spec, best.p.bvh_width);
+  const hw::FixedFormat f = hw::format_from_spec(best.p.format);
+  j["plan"] = plan_json(best, f, a);
   j["default"] = default_json(def, base.spec, a);
   res.found = true;
-  res.best = *best;
+  res.best = best;
   res.format = f;
   res.reference = def;
   return res;

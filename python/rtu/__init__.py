@@ -515,25 +515,30 @@ def read_sweep(path):
 
 
 def plan(scene, max_error, *, metric="hit", min_psnr=0.0, confidence=0.95, config="rdna2", format="",
-         minimise="cycles", area_budget=0.0, bvh_widths=(2, 4, 6, 8), coord_bits=tuple(range(8, 29, 2)),
-         child_bits=(4, 6, 8, 12), rays=20000, seed=1, image_width=128, threads=0, area=None, flatten=False):
+         minimise="cycles", min_gain=2.0, area_budget=0.0, bvh_widths=(2, 4, 6, 8),
+         coord_bits=tuple(range(8, 29, 2)), child_bits=(4, 6, 8, 12), rays=20000, seed=1, image_width=128,
+         threads=0, area=None, flatten=False):
     """The cheapest format within an error budget, as `rtusim plan`: its --json dict ("plan" is None when no
     format meets the budget) with every candidate measured as a DataFrame under "candidates" (the sweep's
-    columns and "meets"). flatten: instanced scenes in one image (rtusim plan --flatten)."""
+    columns, "meets" and "perf_per_mm2", rays per clock per mm^2). minimise: cycles, bytes, energy, area or
+    perf-per-area; min_gain: the percentage a candidate with more bits or area must save (rtusim plan
+    --min-gain). flatten: instanced scenes in one image (rtusim plan --flatten)."""
     import io
 
     import pandas as pd
 
     if isinstance(scene, Scene):
         scene = scene.name
-    j, csv, meets = _rtu.plan(scene, _number(max_error, "max_error"), metric, _number(min_psnr, "min_psnr"),
-                              _number(confidence, "confidence"), config, format, minimise,
-                              _number(area_budget, "area_budget"), _list(bvh_widths, "bvh_widths"),
-                              _list(coord_bits, "coord_bits"), _list(child_bits, "child_bits"), _int(rays, "rays"),
-                              _int(seed, "seed"), _int(image_width, "image_width"), _int(threads, "threads"),
-                              _os.fspath(area) if area else "", bool(flatten))
+    j, csv, meets, perf = _rtu.plan(scene, _number(max_error, "max_error"), metric, _number(min_psnr, "min_psnr"),
+                                    _number(confidence, "confidence"), config, format, minimise,
+                                    _number(min_gain, "min_gain"), _number(area_budget, "area_budget"),
+                                    _list(bvh_widths, "bvh_widths"), _list(coord_bits, "coord_bits"),
+                                    _list(child_bits, "child_bits"), _int(rays, "rays"), _int(seed, "seed"),
+                                    _int(image_width, "image_width"), _int(threads, "threads"),
+                                    _os.fspath(area) if area else "", bool(flatten))
     df = _sweep_frame(pd.read_csv(io.StringIO(csv), dtype=_SWEEP_DTYPES))
     df["meets"] = meets
+    df["perf_per_mm2"] = perf
     j["candidates"] = df
     return j
 

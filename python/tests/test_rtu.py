@@ -289,6 +289,29 @@ def test_plan_equals_the_cli(tmp_path):
     assert p["plan"] == s["plan"] and p["plan"] is not None
     assert p["widths"] == s["widths"]
     assert len(p["candidates"]) >= 1 and p["candidates"]["meets"].any()
+    # The same defaults: the cost and the threshold of --min-gain.
+    assert (p["minimise"], p["min_gain_pct"]) == (s["minimise"], s["min_gain_pct"]) == ("cycles", 2.0)
+    # Each candidate's rays per clock per mm^2, the JSON's for the width's candidates (the last row is the base
+    # format, measured for comparison).
+    listed = [c["perf_per_mm2"] for c in s["widths"][0]["candidates"]]
+    assert list(p["candidates"]["perf_per_mm2"])[:-1] == listed and min(listed) > 0
+
+
+def test_plan_objectives_and_min_gain_equal_the_cli(tmp_path):
+    opts = ["--max-error", "1e-2", "--bvh-width", "4", "--coord-bits", "8,12,16", "--child-bits", "8",
+            "--rays", 800, "--image-width", 0, "--minimise", "perf-per-area", "--min-gain", 5,
+            "--json", tmp_path / "p.json"]
+    cli("plan", "--scene", SEED, *opts)
+    s = json.loads((tmp_path / "p.json").read_text())
+    p = rtu.plan(SEED, 1e-2, bvh_widths=[4], coord_bits=[8, 12, 16], child_bits=[8], rays=800, image_width=0,
+                 minimise="perf-per-area", min_gain=5)
+    assert p["plan"] == s["plan"] and p["widths"] == s["widths"]
+    assert (p["minimise"], p["min_gain_pct"], p["min_gain_applies"]) == ("perf-per-area", 5, False)
+    with pytest.raises(rtu.Error, match="--minimise: cycles, bytes, energy, area or perf-per-area, got 'foo'"):
+        rtu.plan(SEED, 1e-2, minimise="foo")
+    for bad in (-1, 100.5):
+        with pytest.raises(rtu.Error, match="min_gain: not in"):
+            rtu.plan(SEED, 1e-2, min_gain=bad)
 
 
 def test_config_and_presets():
@@ -397,7 +420,7 @@ def test_unshowable_budgets_and_nan_options_are_refused():
     with pytest.raises(rtu.Error) as e:
         rtu.plan(SEED, 0.0)
     assert str(e.value) == message
-    for name in ("min_psnr", "confidence", "area_budget"):
+    for name in ("min_psnr", "confidence", "min_gain", "area_budget"):
         with pytest.raises(rtu.Error, match=f"{name}: nan is not a finite number"):
             rtu.plan(SEED, 1e-2, **{name: float("nan")})
     with pytest.raises(rtu.Error, match="max_error: nan is not a finite number"):

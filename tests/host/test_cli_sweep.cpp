@@ -113,17 +113,18 @@ TEST_CASE(
   }
   // Minimising cycles, the plan may take more bits than the fewest within the budget, never fewer.
   CHECK(w["chosen_coord_bits"].get<int>() >= b);
-  // Every step up it weighed is printed with its measured cause; the steps taken lead to the chosen bits, and
-  // only the last may be a tie that was not taken.
+  // Every step up it weighed is printed with its measured cause, weighed against the bits kept so far; the steps
+  // taken lead to the chosen bits, and one not taken saved too little (--min-gain) or was a placement tie.
   int reached = b;
   for (size_t i = 0; i < w["more_coord_bits"].size(); ++i) {
     const auto& m = w["more_coord_bits"][i];
+    const std::string cause = m["cause"];
     CHECK(m["from_coord_bits"] == reached);
-    CHECK(r.output.find(m["cause"].get<std::string>()) != std::string::npos);
+    CHECK(r.output.find(cause) != std::string::npos);
     if (m["taken"] == true)
       reached = m["to_coord_bits"];
     else
-      CHECK(i + 1 == w["more_coord_bits"].size());
+      CHECK((cause.find("below --min-gain 2%") != std::string::npos || cause.find("a tie") != std::string::npos));
   }
   CHECK(reached == w["chosen_coord_bits"].get<int>());
   CHECK(r.output.find("(fewer node visits)") == std::string::npos);  // no cause claimed unmeasured
@@ -132,9 +133,14 @@ TEST_CASE(
   CHECK(j["plan"]["cycles"].get<uint64_t>() > 0);
   // The plan skips bits: fewer than the default format's 24 are enough for this budget.
   CHECK(b < 24);
-  // Every child-bit candidate that met the budget costs at least the chosen cycles.
-  for (const auto& k : w["child_bits"])
-    if (k["meets"] == true) CHECK(k["cycles"].get<uint64_t>() >= j["plan"]["cycles"].get<uint64_t>());
+  // Every child-bit candidate that met the budget costs at least the chosen cycles, or is larger and saves no more
+  // than --min-gain, which the plan prints.
+  for (const auto& k : w["child_bits"]) {
+    if (k["meets"] != true || k["cycles"].get<uint64_t>() >= j["plan"]["cycles"].get<uint64_t>()) continue;
+    REQUIRE(k.contains("passed_over"));
+    CHECK(k["cycles"].get<double>() >= 0.98 * j["plan"]["cycles"].get<double>());
+    CHECK(r.output.find(k["passed_over"].get<std::string>()) != std::string::npos);
+  }
   // No format can have a mean t error of exactly 0 at 2 coordinate bits only: exit 1, saying so.
   const Run none = run_rtusim(
       "plan --scene builtin:cornell --metric t --max-error 0 --bvh-width 4 --coord-bits 2 "
@@ -143,6 +149,52 @@ TEST_CASE(
   CHECK(none.output.find("no format meets") != std::string::npos);
   CHECK(run_rtusim("plan --scene builtin:cornell --max-error -1").status == 2);
   CHECK(run_rtusim("plan --scene builtin:cornell --max-error 1e-3 --metric psnr").status != 0);
+}
+
+TEST_CASE("plan --min-gain and --minimise area or perf-per-area on the command line, and bad values exit 2",
+          "[cli][sweep]") {
+  const fs::path d = temp_dir("cli");
+  const std::string json = (d / "plan_gain.json").string();
+  // 12 and 16 coordinate bits both meet the budget; 16 save a few percent of the cycles (1-3% on these rays).
+  const std::string base =
+      "plan --scene builtin:seed --max-error 1e-2 --bvh-width 4 --coord-bits 12,16 --child-bits 8 --rays 1000 "
+      "--image-width 0 --threads 1 ";
+  const Run r = run_rtusim(base + "--min-gain 5 --json " + json);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  const nlohmann::json j = read_json(json);
+  CHECK(j["plan"]["coord_bits"] == 12);
+  CHECK(j["min_gain_pct"] == 5.0);
+  CHECK(j["minimise"] == "cycles");
+  CHECK(r.output.find("more bits or area only for a saving over 5% (--min-gain)") != std::string::npos);
+  CHECK(r.output.find("kept 12 coordinate bits over 16 on rdna2: ") != std::string::npos);
+  CHECK(r.output.find("% area, below --min-gain 5% (") != std::string::npos);
+  CHECK(r.output.find("rays/clock/mm^2") != std::string::npos);  // every candidate's ratio
+  for (const auto& c : j["widths"][0]["candidates"]) CHECK(c["perf_per_mm2"].get<double>() > 0.0);
+  // Any saving: 16 bits.
+  const Run any = run_rtusim(base + "--min-gain 0 --json " + json);
+  REQUIRE(any.status == 0);
+  CHECK(read_json(json)["plan"]["coord_bits"] == 16);
+  CHECK(any.output.find("took 16 coordinate bits over 12 on rdna2: ") != std::string::npos);
+  // The smallest unit, and the best ratio, each named as the cost.
+  const Run area = run_rtusim(base + "--minimise area --json " + json);
+  REQUIRE(area.status == 0);
+  CHECK(read_json(json)["plan"]["coord_bits"] == 12);
+  CHECK(area.output.find("cheapest: area (area_mm2), then cycles on rdna2\n") != std::string::npos);
+  const Run ppa = run_rtusim(base + "--minimize perf-per-area --json " + json);
+  REQUIRE(ppa.status == 0);
+  const nlohmann::json jp = read_json(json);
+  CHECK(jp["minimise"] == "perf-per-area");
+  CHECK(ppa.output.find("cheapest: rays per clock per mm^2 on rdna2, then cycles\n") != std::string::npos);
+  for (const auto& c : jp["widths"][0]["candidates"])
+    if (c["meets"] == true) CHECK(c["perf_per_mm2"].get<double>() <= jp["plan"]["perf_per_mm2"].get<double>());
+  // Bad values: a usage error naming the option, exit 2.
+  for (const char* bad : {"--minimise foo", "--min-gain -1", "--min-gain nan", "--min-gain 101"}) {
+    const Run e = run_rtusim(base + bad);
+    INFO(bad << ": " << e.output);
+    CHECK(e.status == 2);
+    CHECK(e.output.find(std::string(bad).substr(0, std::string(bad).find(' ')) + ": ") != std::string::npos);
+  }
 }
 
 TEST_CASE("sweep: resume reruns points made with other --rays, --seed or --image-width, merge refuses a mix",
@@ -383,7 +435,7 @@ TEST_CASE("plan: budgets no sample can show and NaN options are refused up front
   const Run more = run_rtusim("plan --scene builtin:cornell --max-error 1e-6");
   CHECK(more.status == 2);
   CHECK(more.output.find("use --rays 1497866 or more") != std::string::npos);
-  for (const char* opt : {"--max-error", "--min-psnr", "--confidence", "--area-budget"}) {
+  for (const char* opt : {"--max-error", "--min-psnr", "--confidence", "--area-budget", "--min-gain"}) {
     const std::string args = std::string("plan --scene builtin:cornell ") +
                              (std::string(opt) == "--max-error" ? "" : "--max-error 0.01 ") + opt + " nan";
     const Run r = run_rtusim(args);

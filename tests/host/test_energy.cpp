@@ -256,23 +256,34 @@ TEST_CASE(
   }
 }
 
-TEST_CASE("plan --minimise energy: no candidate that meets the budget uses less energy per ray than the plan",
-          "[energy][plan][scale]") {
-  const rtu::host::PlanOptions o = small_plan(0.0, "energy");
-  std::vector<rtu::host::SweepRow> candidates;
-  bool comparison = false;  // after kDefault: the base format, measured for comparison, is no candidate
-  const rtu::host::PlanResult res = rtu::host::plan_format(o, [&](const rtu::host::PlanStep& s) {
-    comparison = comparison || s.stage == rtu::host::PlanStage::kDefault;
-    if (s.stage == rtu::host::PlanStage::kCandidate && s.meets && !comparison) candidates.push_back(*s.row);
-  });
-  REQUIRE(res.found);
-  REQUIRE(!candidates.empty());
-  for (const auto& r : candidates) {
-    CAPTURE(r.p.format);
-    CHECK(res.best.pj_per_ray <= r.pj_per_ray);
+TEST_CASE(
+    "plan --minimise energy: no candidate that meets the budget uses less energy per ray than the plan, but by "
+    "at most --min-gain for more area",
+    "[energy][plan][scale]") {
+  rtu::host::PlanOptions o = small_plan(0.0, "energy");
+  for (const double min_gain : {o.min_gain_pct, 0.0}) {
+    o.min_gain_pct = min_gain;
+    CAPTURE(min_gain);
+    std::vector<rtu::host::SweepRow> candidates;
+    bool comparison = false;  // after kDefault: the base format, measured for comparison, is no candidate
+    const rtu::host::PlanResult res = rtu::host::plan_format(o, [&](const rtu::host::PlanStep& s) {
+      comparison = comparison || s.stage == rtu::host::PlanStage::kDefault;
+      if (s.stage == rtu::host::PlanStage::kCandidate && s.meets && !comparison) candidates.push_back(*s.row);
+    });
+    REQUIRE(res.found);
+    REQUIRE(!candidates.empty());
+    CHECK(res.json["min_gain_applies"] == true);
+    for (const auto& r : candidates) {
+      CAPTURE(r.p.format);
+      if (r.pj_per_ray >= res.best.pj_per_ray) continue;
+      // One width and child-offset width: the candidates are the walk up the coordinate bits, each weighed
+      // against the plan's bits once they were kept.
+      CHECK(r.area_mm2 > res.best.area_mm2);
+      CHECK(100.0 * (1.0 - r.pj_per_ray / res.best.pj_per_ray) <= min_gain);
+    }
+    CHECK(res.best.pj_per_ray > 0);
+    CHECK(res.json["plan"]["pj_per_ray"].get<double>() == res.best.pj_per_ray);
   }
-  CHECK(res.best.pj_per_ray > 0);
-  CHECK(res.json["plan"]["pj_per_ray"].get<double>() == res.best.pj_per_ray);
 }
 
 TEST_CASE("energy: oriented nodes pay a rotation per node test and the stage's area", "[energy][obb][scale]") {

@@ -203,7 +203,7 @@ TEST_CASE("plan: a seed, a stated bound that meets the budget, and the configura
   CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("use --rays"));
 }
 
-TEST_CASE("plan: a bad metric or budget is refused before the scene is loaded", "[jobs][plan]") {
+TEST_CASE("plan: a bad metric, budget, cost or --min-gain is refused before the scene is loaded", "[jobs][plan]") {
   rtu::host::PlanOptions o;
   o.scene = "no/such/scene.obj";
   o.metric = "psnr";
@@ -216,6 +216,15 @@ TEST_CASE("plan: a bad metric or budget is refused before the scene is loaded", 
   o.sweep.image_width = 0;
   CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("--min-psnr needs a render"));
   o.min_psnr = 0.0;
+  o.minimise = "foo";
+  CHECK_THROWS_WITH(rtu::host::plan_format(o),
+                    Catch::Contains("--minimise: cycles, bytes, energy, area or perf-per-area, got 'foo'"));
+  o.minimise = "cycles";
+  for (const double bad : {-1.0, 100.5, std::nan(""), HUGE_VAL}) {
+    o.min_gain_pct = bad;
+    CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("--min-gain: a finite percentage in 0..100"));
+  }
+  o.min_gain_pct = rtu::host::kDefaultMinGainPct;
   o.config = "no-such-preset";
   CHECK_THROWS_AS(rtu::host::plan_format(o), rtu::host::Error);
 }
@@ -260,8 +269,10 @@ TEST_CASE("plan: budgets below the smallest showable bound and NaN options are r
   CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("--max-error"));
 }
 
-TEST_CASE("plan: more coordinate bits pay only for less traversal work or beyond the placement noise",
-          "[jobs][plan]") {
+TEST_CASE(
+    "plan: more coordinate bits pay only beyond --min-gain, and for less traversal work or beyond the placement "
+    "noise",
+    "[jobs][plan]") {
   rtu::host::PlanOptions o;
   rtu::host::SweepRow fewer, more;
   fewer.p.format = "packed:coord_bits=14:child_bits=8";
@@ -288,14 +299,24 @@ TEST_CASE("plan: more coordinate bits pay only for less traversal work or beyond
   why = rtu::host::plan_more_bits_cause(more, fewer, o);
   CHECK(why.find("a tie") == std::string::npos);
   CHECK(why.find("DRAM bytes") != std::string::npos);
-  // Fewer node visits: taken at any saving, and named as the cause (not cache lines).
-  more.cycles = 990000;
+  // Fewer node visits: taken at any saving beyond --min-gain, and named as the cause (not cache lines).
+  more.cycles = 970000;
   more.node_visit_overhead = 0.01;
   more.dram_bytes_per_ray = 190.0;
   CHECK(rtu::host::plan_more_bits_pay(more, fewer, o));
   why = rtu::host::plan_more_bits_cause(more, fewer, o);
   CHECK(why.find("fewer node visits (+1% over the float reference's, against +5%)") != std::string::npos);
   CHECK(why.find("DRAM") == std::string::npos);
+  // Fewer node visits but 1% fewer cycles: within --min-gain (2%), so the fewer bits are kept, saying why; with
+  // --min-gain 0 any saving pays.
+  more.cycles = 990000;
+  CHECK_FALSE(rtu::host::plan_more_bits_pay(more, fewer, o));
+  why = rtu::host::plan_more_bits_cause(more, fewer, o);
+  CHECK(why.rfind("1% fewer cycles for +2 bits, below --min-gain 2% (fewer node visits", 0) == 0);
+  CHECK(why.find("the fewer bits kept") != std::string::npos);
+  o.min_gain_pct = 0.0;
+  CHECK(rtu::host::plan_more_bits_pay(more, fewer, o));
+  o.min_gain_pct = rtu::host::kDefaultMinGainPct;
   // Not cheaper: never taken.
   more.cycles = 1000001;
   CHECK_FALSE(rtu::host::plan_more_bits_pay(more, fewer, o));
@@ -304,6 +325,163 @@ TEST_CASE("plan: more coordinate bits pay only for less traversal work or beyond
   fewer.bvh_bytes = 1000;
   more.bvh_bytes = 999;
   CHECK(rtu::host::plan_more_bits_pay(more, fewer, o));
+}
+
+TEST_CASE("plan: the objectives' order, and why a costlier candidate that saves too little is passed over",
+          "[jobs][plan]") {
+  rtu::host::PlanOptions o;
+  rtu::host::SweepRow small, big;
+  small.p.format = "default:coord_bits=12:child_bits=8";
+  big.p.format = "default:coord_bits=16:child_bits=8";
+  small.rays = big.rays = 1000;
+  small.cycles = 100000;
+  big.cycles = 99800;  // 0.2% fewer cycles
+  small.area_mm2 = 1.0;
+  big.area_mm2 = 1.12;  // for 12% more area
+  small.pj_per_ray = 1000.0;
+  big.pj_per_ray = 900.0;
+  // Rays per clock per mm^2: rays / cycles / area.
+  CHECK(rtu::host::plan_rays_per_clock(small) == Approx(0.01));
+  CHECK(rtu::host::plan_perf_per_area(small) == Approx(0.01));
+  CHECK(rtu::host::plan_perf_per_area(big) == Approx(1000.0 / 99800.0 / 1.12));
+  CHECK(rtu::host::plan_perf_per_area(rtu::host::SweepRow{}) == 0.0);  // no cycles, no area: no figure
+  // Minimising cycles (the default): big is cheaper, but its saving is below --min-gain 2%, so small is kept, and
+  // the plan says why in the issue's words.
+  CHECK(rtu::host::plan_cheaper(big, small, o));
+  CHECK(rtu::host::plan_gain(big, small, o) == Approx(0.002));
+  CHECK(rtu::host::plan_min_gain_applies(o));
+  CHECK_FALSE(rtu::host::plan_pays(big, small, o));
+  CHECK(rtu::host::plan_passed_over(big, small, o) == "0.2% fewer cycles for +12% area, below --min-gain 2%");
+  CHECK(rtu::host::plan_passed_over(small, big, o).empty());  // not cheaper: nothing passed over
+  // Smaller and cheaper needs no threshold; a saving beyond it pays.
+  rtu::host::SweepRow smaller = small;
+  smaller.cycles = 99700;
+  CHECK(rtu::host::plan_pays(smaller, big, o));
+  big.cycles = 97000;
+  CHECK(rtu::host::plan_pays(big, small, o));
+  CHECK(rtu::host::plan_passed_over(big, small, o).empty());
+  big.cycles = 99800;
+  o.min_gain_pct = 0.0;  // any saving pays
+  CHECK(rtu::host::plan_pays(big, small, o));
+  // Energy: 10% less per ray pays beyond 2%.
+  o.min_gain_pct = rtu::host::kDefaultMinGainPct;
+  o.minimise = "energy";
+  CHECK(rtu::host::plan_pays(big, small, o));
+  // Area: the smaller; no threshold (area is what it minimises).
+  o.minimise = "area";
+  CHECK_FALSE(rtu::host::plan_min_gain_applies(o));
+  CHECK(rtu::host::plan_cheaper(small, big, o));
+  CHECK_FALSE(rtu::host::plan_cheaper(big, small, o));
+  // Rays per clock per mm^2: small (0.01) over big (0.00895), however few its cycles; with 20% fewer cycles than
+  // small for 12% more area big has the better ratio and is taken, its gain the ratio's.
+  o.minimise = "perf-per-area";
+  CHECK_FALSE(rtu::host::plan_min_gain_applies(o));
+  CHECK(rtu::host::plan_cheaper(small, big, o));
+  big.cycles = 80000;
+  CHECK(rtu::host::plan_pays(big, small, o));
+  CHECK(rtu::host::plan_gain(big, small, o) == Approx(1.0 / 0.8 / 1.12 - 1.0));
+}
+
+TEST_CASE(
+    "plan --min-gain: with a budget 12 and 16 coordinate bits both meet, 16 bits that save less are not taken, "
+    "--minimise area takes 12",
+    "[jobs][plan]") {
+  rtu::host::PlanOptions o;
+  o.scene = "builtin:seed";
+  o.max_error = 1e-2;
+  o.widths = {4};
+  o.coord_bits = {12, 16};
+  o.child_bits = {8};
+  o.sweep.rays = 5000;
+  o.sweep.image_width = 0;
+  o.sweep.threads = 1;
+  std::vector<rtu::host::SweepRow> rows;
+  const auto collect = [&](const rtu::host::PlanStep& s) {
+    if (s.stage == rtu::host::PlanStage::kCandidate && s.row->p.format != "default") rows.push_back(*s.row);
+  };
+  // Any saving (--min-gain 0, the rule before the threshold): 16 bits, faster by fewer node visits.
+  o.min_gain_pct = 0.0;
+  const rtu::host::PlanResult any = rtu::host::plan_format(o, collect);
+  REQUIRE(any.found);
+  REQUIRE(rows.size() == 2);
+  const rtu::host::SweepRow &b12 = rows[0], &b16 = rows[1];
+  REQUIRE(rtu::host::plan_meets(b12, o));
+  REQUIRE(rtu::host::plan_meets(b16, o));
+  REQUIRE(b16.area_mm2 > b12.area_mm2);
+  const double gain = 1.0 - double(b16.cycles) / double(b12.cycles);
+  REQUIRE(gain > 0.0);
+  CHECK(any.format.coord_bits == 16);
+  // The default threshold is above this saving (1.4%, for 11% more area): 12 bits, and the step says why.
+  REQUIRE(100.0 * gain < rtu::host::kDefaultMinGainPct);
+  o.min_gain_pct = rtu::host::kDefaultMinGainPct;
+  const rtu::host::PlanResult def = rtu::host::plan_format(o);
+  REQUIRE(def.found);
+  CHECK(def.format.coord_bits == 12);
+  CHECK(def.best.cycles == b12.cycles);
+  CHECK(def.json["min_gain_pct"] == rtu::host::kDefaultMinGainPct);
+  const Json& step = def.json["widths"][0]["more_coord_bits"].at(0);
+  CHECK(step["taken"] == false);
+  CHECK(step["to_coord_bits"] == 16);
+  const std::string cause = step["cause"];
+  INFO(cause);
+  CHECK(cause.rfind(rtu::host::plan_passed_over(b16, b12, o), 0) == 0);
+  CHECK(cause.find("% fewer cycles for +1") != std::string::npos);  // +11% area
+  CHECK(cause.find("% area, below --min-gain 2%") != std::string::npos);
+  // Every candidate is listed with its rays per clock per mm^2.
+  const Json& listed = def.json["widths"][0]["candidates"];
+  REQUIRE(listed.size() == 2);
+  CHECK(listed[1]["perf_per_mm2"].get<double>() == rtu::host::plan_perf_per_area(b16));
+  // A threshold just below the saving takes 16 bits; one just above keeps 12.
+  o.min_gain_pct = 90.0 * gain;
+  CHECK(rtu::host::plan_format(o).format.coord_bits == 16);
+  o.min_gain_pct = 110.0 * gain;
+  CHECK(rtu::host::plan_format(o).format.coord_bits == 12);
+  // Minimising area, with any threshold: the fewest bits that meet the budget, and no walk up the bits.
+  o.minimise = "area";
+  o.min_gain_pct = 0.0;
+  const rtu::host::PlanResult area = rtu::host::plan_format(o);
+  CHECK(area.format.coord_bits == 12);
+  CHECK(area.json["widths"][0]["more_coord_bits"].empty());
+  CHECK(area.json["cost"].get<std::string>().rfind("area (area_mm2)", 0) == 0);
+}
+
+TEST_CASE("plan --minimise perf-per-area: the most rays per clock per mm^2 of the candidates within the budget",
+          "[jobs][plan]") {
+  rtu::host::PlanOptions o;
+  o.scene = "builtin:seed";
+  o.max_error = 1e-2;
+  o.widths = {2, 4, 8};
+  o.coord_bits = {12, 16};
+  o.child_bits = {4, 8};
+  o.sweep.rays = 1000;
+  o.sweep.image_width = 0;
+  o.sweep.threads = 1;
+  o.minimise = "perf-per-area";
+  std::vector<rtu::host::SweepRow> candidates;
+  bool comparison = false;  // after kDefault: the base format, measured for comparison, is no candidate
+  const rtu::host::PlanResult res = rtu::host::plan_format(o, [&](const rtu::host::PlanStep& s) {
+    comparison = comparison || s.stage == rtu::host::PlanStage::kDefault;
+    if (s.stage == rtu::host::PlanStage::kCandidate && s.meets && !comparison) candidates.push_back(*s.row);
+  });
+  REQUIRE(res.found);
+  REQUIRE(candidates.size() >= 6);
+  const double best = rtu::host::plan_perf_per_area(res.best);
+  CHECK(best == Approx(double(res.best.rays) / double(res.best.cycles) / res.best.area_mm2));
+  for (const rtu::host::SweepRow& r : candidates) {
+    CAPTURE(r.p.format, r.p.bvh_width);
+    CHECK(rtu::host::plan_perf_per_area(r) <= best);
+  }
+  CHECK(res.json["minimise"] == "perf-per-area");
+  CHECK(res.json["min_gain_applies"] == false);
+  CHECK(res.json["plan"]["perf_per_mm2"].get<double>() == best);
+  CHECK(res.json["default"]["perf_per_mm2"].get<double>() == rtu::host::plan_perf_per_area(res.reference));
+  // Its own choice: the smallest unit (--minimise area) is not the best ratio here, nor as large.
+  o.minimise = "area";
+  const rtu::host::PlanResult area = rtu::host::plan_format(o);
+  REQUIRE(area.found);
+  CHECK(area.best.area_mm2 < res.best.area_mm2);
+  CHECK(rtu::host::plan_perf_per_area(area.best) < best);
+  for (const rtu::host::SweepRow& r : candidates) CHECK(r.area_mm2 >= area.best.area_mm2);
 }
 
 TEST_CASE("plan and sweep: the poll hook is called between steps and stops the job when it throws",

@@ -172,7 +172,7 @@ TEST_CASE("plan --minimise bytes: no more bytes than the cycles plan, within the
 
   // A bad cost or base format is refused before the scene is loaded.
   o.scene = "no/such/scene.obj";
-  o.minimise = "area";
+  o.minimise = "foo";
   CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("--minimise"));
   o.minimise = "bytes";
   o.format = "nosuch";
@@ -194,7 +194,7 @@ TEST_CASE("plan on the command line: --minimise and its alias --minimize, --form
     CHECK(j["minimise"] == "bytes");
     CHECK(j["plan"]["format"].get<std::string>().rfind("packed:", 0) == 0);
   }
-  const Run bad = run_rtusim(base + "--minimise area");
+  const Run bad = run_rtusim(base + "--minimise foo");
   CHECK(bad.status == 2);
   CHECK(bad.output.find("--minimise") != std::string::npos);
   const Run help = run_rtusim("plan --help");

@@ -118,16 +118,22 @@ std::vector<std::string> timing_notes(const hw::TimingStats& s, const hw::Timing
   const auto pct = [](double a, double whole) { return whole > 0 ? 100.0 * a / whole : 0.0; };
   const double occ = b.slot_occupancy, full = double(s.cycles) > 0 ? occ / double(s.cycles) : 0.0;
   if (occ > 0 && b.mem_queue + b.unit_queue > 0.1 * occ) {
-    std::snprintf(
-        text, sizeof text,
-        "slot time: latency %.0f%%, queued for memory %.0f%% (L2 ports, DRAM banks and channels), queued "
-        "for units %.0f%%; the slots are full %.0f%% of the cycles",
-        pct(b.latency, occ), pct(b.mem_queue, occ), pct(b.unit_queue, occ), 100.0 * std::min(1.0, full));
+    // Name only the memory this configuration has: an L2's ports where it has one, banks where it has them.
+    const bool l2 = c.l2_kib > 0;
+    const char* where =
+        l2 ? (c.dram_banks > 0 ? "L2 ports, DRAM banks and channels" : "L2 ports and the DRAM channel")
+           : (c.dram_banks > 0 ? "DRAM banks and channels" : "the DRAM channel");
+    std::snprintf(text, sizeof text,
+                  "slot time: latency %.0f%%, queued for memory %.0f%% (%s), queued for units %.0f%%; the slots "
+                  "are full %.0f%% of the cycles",
+                  pct(b.latency, occ), pct(b.mem_queue, occ), where, pct(b.unit_queue, occ),
+                  100.0 * std::min(1.0, full));
     std::string line = text;
     if (b.mem_queue > 0.25 * occ && b.mem_queue >= b.unit_queue)
-      line +=
-          ": memory queueing holds the slots, so more L2 or DRAM bandwidth (l2_bytes_per_cycle, l2_slices, "
-          "dram_bytes_per_cycle) moves the cycles more than more ray slots do";
+      line += l2 ? ": memory queueing holds the slots, so more L2 or DRAM bandwidth (l2_bytes_per_cycle, "
+                   "l2_slices, dram_bytes_per_cycle) moves the cycles more than more ray slots do"
+                 : ": memory queueing holds the slots, so more DRAM bandwidth (dram_bytes_per_cycle) "
+                   "moves the cycles more than more ray slots do";
     else if (b.unit_queue > 0.25 * occ)
       line += ": rays queue for the units, so more or faster units move the cycles more than more ray slots do";
     notes.push_back(line);

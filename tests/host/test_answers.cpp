@@ -201,6 +201,10 @@ TEST_CASE("a timed run's notes: queueing, far above the bound, spills, short pac
   std::vector<std::string> n = rtu::host::timing_notes(s, c, nullptr);
   CHECK(has(n, "queued for memory 60%"));
   CHECK(has(n, "memory queueing holds the slots"));
+  // rdna2 has no L2: the note names the memory it has and the key that adds bandwidth there.
+  CHECK(has(n, "(the DRAM channel)"));
+  CHECK(has(n, "more DRAM bandwidth (dram_bytes_per_cycle)"));
+  CHECK_FALSE(has(n, "L2"));
   CHECK(has(n, "warning: the cycles are 3.00 times the lower bound"));
   CHECK_FALSE(has(n, "stack:"));
   CHECK_FALSE(has(n, "sampled"));
@@ -212,6 +216,8 @@ TEST_CASE("a timed run's notes: queueing, far above the bound, spills, short pac
   rtu::hw::TimingConfig chip = rtu::hw::timing_preset("rdna2-chip");
   CHECK(has(rtu::host::timing_notes(s, chip, nullptr), "12.5 a slot"));
   CHECK(has(rtu::host::timing_notes(s, chip, nullptr), "(through the L2)"));
+  CHECK(has(rtu::host::timing_notes(s, chip, nullptr), "(L2 ports, DRAM banks and channels)"));
+  CHECK(has(rtu::host::timing_notes(s, chip, nullptr), "more L2 or DRAM bandwidth"));
   // Sampled: the interval is printed; an estimate below its own bound by more than the interval warns, one
   // within it does not; a warm-up longer than the packet warns.
   rtu::hw::SampleStats ss;

@@ -422,271 +422,100 @@ void TimingConfig::validate() const {
 //     40 cycles; dram_latency 587 = 801 - 174 - 40.
 namespace {
 
-void intel_overrides(TimingConfig& c) {
-  c.format = "xe6";
-  c.bvh_width = 6;
-  c.clock_ghz = 2.1;
-  c.ray_slots = 64;
-  c.box_units = 2;
-  c.box_rate = 6;
-  c.tri_units = 1;
-  c.tri_rate = 1;
-  c.cache_kib = 192;
-  c.cache_ways = 16;
-  c.line_bytes = 64;
-  c.layout_align = 0;
-  c.dram_latency = 210;
-  c.dram_bytes_per_cycle = 64.0;
-  c.raster_setup_cycles = 4.0;
-  c.raster_samples_per_clock = 16.0;
-  c.raster_fragments_per_clock = 4.0;
-  c.raster_latency = 100;
-}
-
-void embedded_overrides(TimingConfig& c) {
-  c.format = "compact";
-  c.bvh_width = 4;
-  c.clock_ghz = 1.0;
-  c.ray_slots = 16;
-  c.stack_entries = 4;
-  c.box_units = 1;
-  c.box_rate = 2;
-  c.box_latency = 4;
-  c.tri_units = 1;
-  c.tri_rate = 1;
-  c.tri_latency = 10;
-  c.sphere_latency = 12;
-  c.plane_latency = 6;
-  c.queue_depth = 8;
-  c.cache_kib = 16;
-  c.cache_ways = 4;
-  c.line_bytes = 64;
-  c.layout_align = 0;
-  c.cache_latency = 2;
-  c.dram_latency = 100;
-  c.dram_bytes_per_cycle = 16.0;
-  c.memory_type = "lpddr5";  // a mobile SoC's
-  c.raster_setup_cycles = 8.0;
-  c.raster_samples_per_clock = 4.0;
-  c.raster_fragments_per_clock = 1.0;
-  c.raster_latency = 50;
-}
-
-void rdna2_mem_overrides(TimingConfig& c) {
-  // rdna2's datapath; only the memory below differs (sources above).
-  c.cache_kib = 16;
-  c.cache_ways = 4;
-  c.line_bytes = 64;
-  c.layout_align = 0;
-  c.cache_latency = 4;
-  c.dram_latency = 600;
-  c.dram_bytes_per_cycle = 3.2;
-}
-
-void intel_mem_overrides(TimingConfig& c) {
-  // intel's datapath; only the memory below differs (sources above).
-  c.cache_kib = 8;
-  c.cache_ways = 4;
-  c.line_bytes = 64;
-  c.layout_align = 0;
-  c.cache_latency = 4;
-  c.dram_latency = 630;
-  c.dram_bytes_per_cycle = 8.33;
-}
-
-void gpu_chip_overrides(TimingConfig& c, bool amd) {
-  // The chip's L2 and DRAM behind its -mem units (sources above).
-  c.units = amd ? 80 : 32;
-  c.ray_policy = "waves";
-  c.l2_kib = amd ? 4096 : 16384;
-  c.l2_slices = 16;
-  c.l2_ways = 16;
-  c.l2_latency = amd ? 130 : 136;
-  c.l2_bytes_per_cycle = 64.0;
-  c.dram_channels = 16;
-  c.dram_banks = 16;
-  c.dram_row_bytes = 2048;
-  c.dram_activate_cycles = amd ? 30 : 31;
-  c.dram_precharge_cycles = amd ? 30 : 31;
-  c.dram_bytes_per_cycle = amd ? 256.0 : 266.67;
-  c.dram_latency = amd ? 440 : 460;
-}
-
-void embedded_chip_overrides(TimingConfig& c) {
-  c.units = 4;
-  c.ray_policy = "waves";
-  c.l2_kib = 1024;
-  c.l2_slices = 4;
-  c.l2_ways = 16;
-  c.l2_latency = 30;
-  c.l2_bytes_per_cycle = 32.0;
-  c.dram_channels = 4;
-  c.dram_banks = 16;
-  c.dram_row_bytes = 2048;
-  c.dram_activate_cycles = 19;
-  c.dram_precharge_cycles = 19;
-  c.dram_bytes_per_cycle = 51.2;
-  c.dram_latency = 70;
-}
-
-void rdna4_overrides(TimingConfig& c) {
-  // rdna2's unit with RDNA4's two intersection engines and 8-wide nodes (sources above).
-  c.format = "rdna4";
-  c.bvh_width = 8;
-  c.clock_ghz = 2.4;
-  c.ray_slots = 64;
-  c.box_units = 1;
-  c.box_rate = 8;
-  c.tri_units = 2;
-  c.tri_rate = 1;
-  c.dram_latency = 240;
-  c.raster_setup_cycles = 16.0;
-  c.raster_samples_per_clock = 8.0;
-  c.raster_fragments_per_clock = 2.0;
-}
-
-void xe2_overrides(TimingConfig& c) {
-  // intel's unit with Xe2's three traversal pipelines, 18 box and 2 triangle tests per clock (sources above).
-  c.clock_ghz = 2.67;
-  c.ray_slots = 96;
-  c.box_units = 3;
-  c.box_rate = 6;
-  c.tri_units = 2;
-  c.tri_rate = 1;
-  c.cache_kib = 256;
-  c.cache_ways = 16;
-  c.dram_latency = 267;
-}
-
-void rdna4_mem_overrides(TimingConfig& c) {
-  // rdna4's datapath; only the memory below differs (sources above).
-  c.cache_kib = 32;
-  c.cache_ways = 4;
-  c.line_bytes = 64;
-  c.layout_align = 0;
-  c.cache_latency = 4;
-  c.dram_latency = 720;
-  c.dram_bytes_per_cycle = 4.19;
-}
-
-void xe2_mem_overrides(TimingConfig& c) {
-  // xe2's datapath; only the memory below differs (sources above).
-  c.cache_kib = 16;
-  c.cache_ways = 4;
-  c.line_bytes = 64;
-  c.layout_align = 0;
-  c.cache_latency = 4;
-  c.dram_latency = 801;
-  c.dram_bytes_per_cycle = 8.53;
-}
-
-void rdna4_chip_overrides(TimingConfig& c) {
-  c.units = 64;
-  c.ray_policy = "waves";
-  c.l2_kib = 8192;
-  c.l2_slices = 16;
-  c.l2_ways = 16;
-  c.l2_latency = 158;
-  c.l2_bytes_per_cycle = 64.0;
-  c.dram_channels = 16;
-  c.dram_banks = 16;
-  c.dram_row_bytes = 2048;
-  c.dram_activate_cycles = 36;
-  c.dram_precharge_cycles = 36;
-  c.dram_bytes_per_cycle = 268.58;
-  c.dram_latency = 526;
-}
-
-void xe2_chip_overrides(TimingConfig& c) {
-  c.units = 20;
-  c.ray_policy = "waves";
-  c.l2_kib = 18432;
-  c.l2_slices = 16;
-  c.l2_ways = 16;
-  c.l2_latency = 174;
-  c.l2_bytes_per_cycle = 64.0;
-  c.dram_channels = 12;
-  c.dram_banks = 16;
-  c.dram_row_bytes = 2048;
-  c.dram_activate_cycles = 40;
-  c.dram_precharge_cycles = 40;
-  c.dram_bytes_per_cycle = 170.79;
-  c.dram_latency = 587;
-}
+void assign_timing_key(TimingConfig& t, const std::string& key, const std::string& value);  // below
 
 // A preset: the preset it starts from (null: the defaults of TimingConfig, which are rdna2's figures), the line
-// `rtusim config --list` prints, and what it changes. A new key whose default in timing_config.h is neutral (it
-// changes nothing unless set) needs no line here.
+// `rtusim config --list` prints, and what it changes, as the `--set` keys it would take ("key=value ..."; the
+// figures' sources are above). A new key whose default in timing_config.h is neutral (it changes nothing unless
+// set) needs no entry here.
 struct Preset {
   const char* name;
   const char* base;
   const char* description;
-  void (*overrides)(TimingConfig& c);
+  const char* overrides;
 };
 
 const std::array<Preset, 15> kPresets = {{
     {"rdna2", nullptr,
-     "resembles one AMD RDNA2 Ray Accelerator: BVH4, 4 box tests or 1 triangle test per clock, 2.0 GHz",
-     [](TimingConfig&) {}},
+     "resembles one AMD RDNA2 Ray Accelerator: BVH4, 4 box tests or 1 triangle test per clock, 2.0 GHz", ""},
     {"intel", "rdna2",
      "resembles one Intel Xe-HPG (Arc A-series) RTU: BVH6, 12 box tests and 1 triangle test per clock, "
      "2.1 GHz",
-     intel_overrides},
+     "format=xe6 bvh_width=6 clock_ghz=2.1 ray_slots=64 box_units=2 box_rate=6 tri_units=1 tri_rate=1 "
+     "cache_kib=192 cache_ways=16 line_bytes=64 layout_align=0 dram_latency=210 dram_bytes_per_cycle=64.0 "
+     "raster_setup_cycles=4.0 raster_samples_per_clock=16.0 raster_fragments_per_clock=4.0 raster_latency=100"},
     {"embedded", "rdna2",
      "a small embedded unit: format compact (16-bit coordinates), BVH4, 2 box tests per clock, 16 KiB "
      "cache, 1.0 GHz",
-     embedded_overrides},
+     "format=compact bvh_width=4 clock_ghz=1.0 ray_slots=16 stack_entries=4 box_units=1 box_rate=2 box_latency=4 "
+     "tri_units=1 tri_rate=1 tri_latency=10 sphere_latency=12 plane_latency=6 queue_depth=8 cache_kib=16 "
+     "cache_ways=4 line_bytes=64 layout_align=0 cache_latency=2 dram_latency=100 dram_bytes_per_cycle=16.0 "
+     "memory_type=lpddr5 raster_setup_cycles=8.0 raster_samples_per_clock=4.0 raster_fragments_per_clock=1.0 "
+     "raster_latency=50"},
     {"rdna2-mem", "rdna2",
      "rdna2's datapath with one RX 6900 XT Ray Accelerator's memory: 16 KiB cache, 300 ns and 3.2 bytes per "
      "clock (512 GB/s over 80 units) to VRAM",
-     rdna2_mem_overrides},
+     "cache_kib=16 cache_ways=4 line_bytes=64 layout_align=0 cache_latency=4 dram_latency=600 "
+     "dram_bytes_per_cycle=3.2"},
     {"intel-mem", "intel",
      "intel's datapath with one Arc A770 RTU's memory: 8 KiB BVH cache, 300 ns and 8.33 bytes per clock "
      "(560 GB/s over 32 units) to VRAM",
-     intel_mem_overrides},
+     "cache_kib=8 cache_ways=4 line_bytes=64 layout_align=0 cache_latency=4 dram_latency=630 "
+     "dram_bytes_per_cycle=8.33"},
     {"rdna2-chip", "rdna2-mem",
      "an RX 6900 XT-class chip: 80 rdna2-mem units, a 4 MB L2 in 16 slices, 16 GDDR6 channels of 16 banks, "
      "512 GB/s (no Infinity Cache)",
-     [](TimingConfig& c) { gpu_chip_overrides(c, true); }},
+     "units=80 ray_policy=waves l2_kib=4096 l2_slices=16 l2_ways=16 l2_latency=130 l2_bytes_per_cycle=64.0 "
+     "dram_channels=16 dram_banks=16 dram_row_bytes=2048 dram_activate_cycles=30 dram_precharge_cycles=30 "
+     "dram_bytes_per_cycle=256.0 dram_latency=440"},
     {"intel-chip", "intel-mem",
      "an Arc A770-class chip: 32 intel-mem units, a 16 MB L2 in 16 slices, 16 GDDR6 channels of 16 banks, "
      "560 GB/s",
-     [](TimingConfig& c) { gpu_chip_overrides(c, false); }},
+     "units=32 ray_policy=waves l2_kib=16384 l2_slices=16 l2_ways=16 l2_latency=136 l2_bytes_per_cycle=64.0 "
+     "dram_channels=16 dram_banks=16 dram_row_bytes=2048 dram_activate_cycles=31 dram_precharge_cycles=31 "
+     "dram_bytes_per_cycle=266.67 dram_latency=460"},
     {"embedded-chip", "embedded",
      "a small SoC GPU: 4 embedded units, a 1 MiB L2, LPDDR5-6400 on 64 bits (4 channels of 16 banks), "
      "51.2 GB/s",
-     embedded_chip_overrides},
+     "units=4 ray_policy=waves l2_kib=1024 l2_slices=4 l2_ways=16 l2_latency=30 l2_bytes_per_cycle=32.0 "
+     "dram_channels=4 dram_banks=16 dram_row_bytes=2048 dram_activate_cycles=19 dram_precharge_cycles=19 "
+     "dram_bytes_per_cycle=51.2 dram_latency=70"},
     {"rdna4", "rdna2",
      "resembles one AMD RDNA4 Ray Accelerator: BVH8 (128-byte nodes, 12-bit child boxes), 8 box tests or 2 "
      "triangle tests per clock, 2.4 GHz",
-     rdna4_overrides},
+     "format=rdna4 bvh_width=8 clock_ghz=2.4 ray_slots=64 box_units=1 box_rate=8 tri_units=2 tri_rate=1 "
+     "dram_latency=240 raster_setup_cycles=16.0 raster_samples_per_clock=8.0 raster_fragments_per_clock=2.0"},
     {"xe2", "intel",
      "resembles one Intel Xe2 (Arc B580) RTU: BVH6, 3 traversal pipelines, 18 box tests and 2 triangle tests per "
      "clock, 2.67 GHz",
-     xe2_overrides},
+     "clock_ghz=2.67 ray_slots=96 box_units=3 box_rate=6 tri_units=2 tri_rate=1 cache_kib=256 cache_ways=16 "
+     "dram_latency=267"},
     {"rdna4-mem", "rdna4",
      "rdna4's datapath with one RX 9070 XT Ray Accelerator's memory: 32 KiB cache, 300 ns and 4.19 bytes per "
      "clock (644.6 GB/s over 64 units) to VRAM",
-     rdna4_mem_overrides},
+     "cache_kib=32 cache_ways=4 line_bytes=64 layout_align=0 cache_latency=4 dram_latency=720 "
+     "dram_bytes_per_cycle=4.19"},
     {"xe2-mem", "xe2",
      "xe2's datapath with one Arc B580 RTU's memory: 16 KiB BVH cache, 300 ns and 8.53 bytes per clock "
      "(456 GB/s over 20 units) to VRAM",
-     xe2_mem_overrides},
+     "cache_kib=16 cache_ways=4 line_bytes=64 layout_align=0 cache_latency=4 dram_latency=801 "
+     "dram_bytes_per_cycle=8.53"},
     {"rdna4-chip", "rdna4-mem",
      "an RX 9070 XT-class chip: 64 rdna4-mem units, an 8 MB L2 in 16 slices, 16 GDDR6 channels of 16 banks, "
      "644.6 GB/s (no Infinity Cache)",
-     rdna4_chip_overrides},
+     "units=64 ray_policy=waves l2_kib=8192 l2_slices=16 l2_ways=16 l2_latency=158 l2_bytes_per_cycle=64.0 "
+     "dram_channels=16 dram_banks=16 dram_row_bytes=2048 dram_activate_cycles=36 dram_precharge_cycles=36 "
+     "dram_bytes_per_cycle=268.58 dram_latency=526"},
     {"xe2-chip", "xe2-mem",
      "an Arc B580-class chip: 20 xe2-mem units, an 18 MB L2 in 16 slices, 12 GDDR6 channels of 16 banks, "
      "456 GB/s",
-     xe2_chip_overrides},
+     "units=20 ray_policy=waves l2_kib=18432 l2_slices=16 l2_ways=16 l2_latency=174 l2_bytes_per_cycle=64.0 "
+     "dram_channels=12 dram_banks=16 dram_row_bytes=2048 dram_activate_cycles=40 dram_precharge_cycles=40 "
+     "dram_bytes_per_cycle=170.79 dram_latency=587"},
     {"rdna4-lss", "rdna4-mem",
      "what-if: rdna4-mem with a curve unit testing one linear swept sphere a clock (20 clocks deep), as NVIDIA "
      "Blackwell's RT core adds for hair; rate and depth are estimates",
-     [](TimingConfig& c) {
-       c.curve_units = 1;
-       c.curve_rate = 1;
-     }},
+     "curve_units=1 curve_rate=1"},
 }};
 
 const Preset& find_preset(const std::string& name) {
@@ -712,7 +541,15 @@ TimingConfig timing_preset(const std::string& name) {
   const Preset& p = find_preset(name);
   TimingConfig c = p.base ? timing_preset(p.base) : TimingConfig{};
   c.name = p.name;
-  p.overrides(c);
+  // Each key=value as --set reads it; the whole preset is validated by the tests (a key alone may not be).
+  const std::string text = p.overrides;
+  for (size_t at = 0; at < text.size();) {
+    const size_t end = std::min(text.find(' ', at), text.size());
+    const std::string kv = text.substr(at, end - at);
+    const size_t eq = kv.find('=');
+    assign_timing_key(c, kv.substr(0, eq), kv.substr(eq + 1));
+    at = end + 1;
+  }
   return c;
 }
 
@@ -735,7 +572,11 @@ std::vector<TimingKey> timing_keys(const TimingConfig& c) {
   return keys;
 }
 
-void set_timing_key(TimingConfig& c, const std::string& key, const std::string& value) {
+namespace {
+
+// Sets one key of c from its text, as --set does, without validating the whole configuration (a preset's keys
+// are validated together); throws std::invalid_argument naming the key for an unknown key or a malformed value.
+void assign_timing_key(TimingConfig& t, const std::string& key, const std::string& value) {
   const KeyInfo* info = nullptr;
   for (const KeyInfo& k : key_table())
     if (key == k.key) info = &k;
@@ -744,7 +585,6 @@ void set_timing_key(TimingConfig& c, const std::string& key, const std::string& 
   auto bad = [&](const char* what) {
     throw std::invalid_argument("timing config key " + key + ": '" + value + "' is not " + what);
   };
-  TimingConfig t = c;
   const char* first = value.data();
   const char* last = value.data() + value.size();
   if (auto f = std::get_if<int TimingConfig::*>(&info->field)) {
@@ -761,6 +601,13 @@ void set_timing_key(TimingConfig& c, const std::string& key, const std::string& 
   } else {
     t.*std::get<std::string TimingConfig::*>(info->field) = value;
   }
+}
+
+}  // namespace
+
+void set_timing_key(TimingConfig& c, const std::string& key, const std::string& value) {
+  TimingConfig t = c;
+  assign_timing_key(t, key, value);
   t.validate();
   c = t;
 }

@@ -28,42 +28,33 @@ struct TraversalStats {
   uint64_t box_false_positives = 0;  // boxes the fixed test accepted and the exact test rejects (looseness)
   uint64_t watchdog_rays = 0;        // rays stopped by the traversal watchdog (step bound); traced as misses
 
-  void add(const TraversalStats& o) {
-    rays += o.rays;
-    hits += o.hits;
-    nodes_visited += o.nodes_visited;
-    leaves_visited += o.leaves_visited;
-    box_tests += o.box_tests;
-    prim_tests += o.prim_tests;
-    invalid_rays += o.invalid_rays;
-    for (size_t i = 0; i < invalid_by_reason.size(); ++i) invalid_by_reason[i] += o.invalid_by_reason[i];
-    any_hit_calls += o.any_hit_calls;
-    any_hit_ignored += o.any_hit_ignored;
-    if (o.first_invalid < first_invalid) {
-      first_invalid = o.first_invalid;
-      first_invalid_reason = o.first_invalid_reason;
-    }
-    saturations += o.saturations;
-    box_checks += o.box_checks;
-    box_false_negatives += o.box_false_negatives;
-    box_false_positives += o.box_false_positives;
-    watchdog_rays += o.watchdog_rays;
-  }
+  void add(const TraversalStats& o);
   // What a bottom level's trace counts inside a top level's (instancing): work, not rays, hits or rejected rays
   // (the instanced ray is one ray, counted once by the top level).
-  void add_work(const TraversalStats& o) {
-    nodes_visited += o.nodes_visited;
-    leaves_visited += o.leaves_visited;
-    box_tests += o.box_tests;
-    prim_tests += o.prim_tests;
-    any_hit_calls += o.any_hit_calls;
-    any_hit_ignored += o.any_hit_ignored;
-    saturations += o.saturations;
-    box_checks += o.box_checks;
-    box_false_negatives += o.box_false_negatives;
-    box_false_positives += o.box_false_positives;
-    watchdog_rays += o.watchdog_rays;
-  }
+  void add_work(const TraversalStats& o);
 };
+
+// The counters of work, which add() and add_work() sum; and those of rays, which add() sums too.
+inline constexpr uint64_t TraversalStats::*kTraversalWorkCounters[] = {
+    &TraversalStats::nodes_visited,       &TraversalStats::leaves_visited, &TraversalStats::box_tests,
+    &TraversalStats::prim_tests,          &TraversalStats::any_hit_calls,  &TraversalStats::any_hit_ignored,
+    &TraversalStats::saturations,         &TraversalStats::box_checks,     &TraversalStats::box_false_negatives,
+    &TraversalStats::box_false_positives, &TraversalStats::watchdog_rays};
+inline constexpr uint64_t TraversalStats::*kTraversalRayCounters[] = {&TraversalStats::rays, &TraversalStats::hits,
+                                                                      &TraversalStats::invalid_rays};
+
+inline void TraversalStats::add_work(const TraversalStats& o) {
+  for (uint64_t TraversalStats::*c : kTraversalWorkCounters) this->*c += o.*c;
+}
+
+inline void TraversalStats::add(const TraversalStats& o) {
+  for (uint64_t TraversalStats::*c : kTraversalRayCounters) this->*c += o.*c;
+  add_work(o);
+  for (size_t i = 0; i < invalid_by_reason.size(); ++i) invalid_by_reason[i] += o.invalid_by_reason[i];
+  if (o.first_invalid < first_invalid) {
+    first_invalid = o.first_invalid;
+    first_invalid_reason = o.first_invalid_reason;
+  }
+}
 
 }  // namespace rtu::hw

@@ -223,8 +223,8 @@ struct DeviceArgs {
       fail("accel: '" + accel + "' is not auto, bvh or brute");
     s.accel = accel;
     if (!format.is_none()) {
-      s.format = format.cast<std::string>();
-      hw::format_preset(s.format);  // an unknown preset is named now, as rtusim's option check does
+      s.format = arg<std::string>(format, "format", "a format spec such as 'default' or 'packed:coord_bits=16'");
+      hw::format_from_spec(s.format);  // a malformed spec is named now, as rtusim's option check does
     }
     if (!format_fields.is_none()) {
       if (!py::isinstance<py::dict>(format_fields)) fail("format_fields: expected a dict of field: bits");

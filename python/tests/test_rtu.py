@@ -504,3 +504,31 @@ def test_wrong_argument_types_name_the_argument(seed, tmp_path):
     # A directory is named with its path.
     with pytest.raises(rtu.Error, match=str(tmp_path)):
         rtu.read_rays(tmp_path)
+
+
+def test_format_specs_equal_the_per_field_options(tmp_path, seed, ray_file):
+    # A spec such as sweep's formats take is one design point with the per-field options, on every device that
+    # has a format, and the same as the CLI's --format SPEC.
+    path, rays = ray_file
+    for spec, preset, fields in (("packed:coord_bits=16", "packed", {"coord_bits": 16}),
+                                 ("rdna4:node_kind=0", "rdna4", {"node_kind": 0})):
+        by_fields = rtu.trace(seed, rays, "fixed", format=preset, format_fields=fields)
+        by_spec = rtu.trace(seed, rays, "fixed", format=spec)
+        assert np.array_equal(by_spec.hits, by_fields.hits)
+        timed = rtu.trace(seed, rays, "timed", format=preset, format_fields=fields)
+        assert np.array_equal(timed.hits, by_fields.hits)
+        for options in ({"format": spec}, {"set": {"format": spec}}, {"config": {"preset": "rdna2", "format": spec}}):
+            assert rtu.trace(seed, rays, "timed", **options).cycles == timed.cycles, options
+        cli("trace", "--scene", SEED, "--rays", path, "--device", "timed", "--format", spec, "--out",
+            tmp_path / "h.bin", "--stats", tmp_path / "s.json")
+        assert json.loads((tmp_path / "s.json").read_text())["timing"]["cycles"] == timed.cycles
+        assert np.array_equal(rtu.read_hits(tmp_path / "h.bin"), timed.hits)
+    message = cli_error("trace", "--scene", SEED, "--rays", path, "--device", "timed", "--set",
+                        "format=packed:coord_bits=x")
+    with pytest.raises(rtu.Error) as e:
+        rtu.trace(seed, rays, "timed", set={"format": "packed:coord_bits=x"})
+    assert str(e.value) == message
+    with pytest.raises(rtu.Error, match="format spec packed:frobs=3: 'frobs=3' is not key=value"):
+        rtu.trace(seed, rays, "fixed", format="packed:frobs=3")
+    with pytest.raises(TypeError, match="format: expected a format spec"):
+        rtu.trace(seed, rays, "fixed", format=3)

@@ -473,10 +473,52 @@ def _collect(results, out, manifest_text):
 
 def _sweep_frame(df):
     """The derived column every plot uses: hit disagreement = 1 - hit agreement. A PSNR not measured (no render,
-    an empty CSV cell) is NaN; flatten is a bool."""
+    an empty CSV cell) is NaN; flatten is a bool. The keys the rows' specs name get columns of their own
+    (_swept_columns)."""
     df["psnr_db"] = df["psnr_db"].astype(float)
     df["flatten"] = df["flatten"].astype(bool)
     df["hit_disagreement"] = 1.0 - df["hit_agreement"]
+    return _swept_columns(df)
+
+
+def _spec_keys(spec):
+    """The keys a spec "preset:key=value:..." changes, in its order."""
+    return [kv.split("=", 1)[0] for kv in str(spec).split(":")[1:] if "=" in kv]
+
+
+def _swept_columns(df):
+    """Each key a row's format spec (packed:coord_bits=16) or configuration spec (rdna2:cache_kib=64, as
+    rtusim sweep --set makes them) names, as a column of its own after "config": every row's value of the key,
+    its spec's where the spec names it and its preset's otherwise, so that a key swept is a column to group or
+    plot by. Keys the frame has a column for already (bvh_width; a format's width, which bvh_width replaces)
+    are left to it. A spec this rtu cannot read (a CSV of another version) gives None in its rows."""
+    if df.empty or "format" not in df.columns or "config" not in df.columns:
+        return df
+
+    def resolved(specs, resolve):
+        values = {}
+        for spec in specs.unique():
+            try:
+                values[spec] = resolve(spec)
+            except Error:
+                values[spec] = {}
+        return values
+
+    def config_of(spec):
+        preset, *sets = str(spec).split(":")
+        return _rtu.config(preset, sets)
+
+    after = list(df.columns).index("config") + 1
+    for column, resolve in (("format", lambda s: _rtu.format(str(s))), ("config", config_of)):
+        keys = []
+        for spec in df[column].unique():
+            keys += [k for k in _spec_keys(spec) if k not in keys and k not in df.columns and k != "width"]
+        if not keys:
+            continue
+        values = resolved(df[column], resolve)
+        for key in keys:
+            df.insert(after, key, [values[s].get(key) for s in df[column]])
+            after += 1
     return df
 
 

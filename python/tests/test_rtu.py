@@ -532,3 +532,35 @@ def test_format_specs_equal_the_per_field_options(tmp_path, seed, ray_file):
         rtu.trace(seed, rays, "fixed", format="packed:frobs=3")
     with pytest.raises(TypeError, match="format: expected a format spec"):
         rtu.trace(seed, rays, "fixed", format=3)
+
+
+def test_sweep_frames_carry_the_swept_keys(tmp_path):
+    # The keys the format and configuration specs name are columns of their own, after "config": each row's value,
+    # the spec's where it names the key and its preset's where not; in every frame of sweep rows.
+    formats = ["default", "default:coord_bits=16:child_bits=6"]
+    cli("sweep", "--scene", SEED, "--formats", ",".join(formats), "--config", "rdna2,intel", "--set",
+        "cache_kib=16,64", "--rays", 64, "--image-width", 0, "--out", tmp_path / "s.csv")
+    configs = ["rdna2:cache_kib=16", "rdna2:cache_kib=64", "intel:cache_kib=16", "intel:cache_kib=64", "embedded"]
+    df = rtu.sweep(SEED, formats=formats, configs=configs, rays=64, image_width=0)
+    columns = list(df.columns)
+    assert columns[columns.index("config") + 1:columns.index("config") + 4] == ["coord_bits", "child_bits",
+                                                                                  "cache_kib"]
+    for _, row in df.iterrows():
+        assert row["coord_bits"] == rtu.format(row["format"])["coord_bits"]
+        assert row["child_bits"] == rtu.format(row["format"])["child_bits"]
+        preset, *sets = row["config"].split(":")
+        assert row["cache_kib"] == rtu.config(preset, sets)["cache_kib"]
+    assert sorted(df["coord_bits"].unique()) == [16, 24]
+    assert set(df[df["config"] != "embedded"]["cache_kib"]) == {16, 64}
+    assert df[df["config"] == "embedded"]["cache_kib"].iloc[0] == rtu.config("embedded")["cache_kib"]
+    # rtusim sweep --set's rows read back, and the plan's candidates (their formats name the bits the plan varies).
+    ref = rtu.read_sweep(tmp_path / "s.csv")
+    assert set(ref["cache_kib"]) == {16, 64} and set(ref["coord_bits"]) == {16, 24}
+    measured = [c for c in ref.columns if c != "seconds"]
+    pd.testing.assert_frame_equal(ref[measured], df[df["config"] != "embedded"][measured].reset_index(drop=True))
+    p = rtu.plan(SEED, 0.05, bvh_widths=[4], coord_bits=[8, 12], child_bits=[8], rays=64, image_width=0)
+    assert {"coord_bits", "child_bits"} <= set(p["candidates"].columns)
+    # Keys without a column of their own: a sweep of presets adds none.
+    plain = rtu.read_sweep(tmp_path / "s.csv").iloc[:0]
+    assert rtu.sweep(SEED, rays=64, image_width=0).columns.tolist() == [c for c in plain.columns if c not in
+                                                                        ("coord_bits", "child_bits", "cache_kib")]

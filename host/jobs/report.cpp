@@ -12,6 +12,7 @@
 
 #include "host/devices/device_settings.h"
 #include "host/io/error.h"
+#include "host/io/files.h"
 #include "host/io/image.h"
 #include "host/jobs/image_diff.h"
 #include "host/jobs/pareto.h"
@@ -132,9 +133,9 @@ void make_out_dir(const std::string& out) {
 }
 
 void write_text(const std::string& path, const std::string& text) {
-  std::ofstream f(path, std::ios::trunc);
+  std::ofstream f = open_output(path);
   f << text;
-  if (!f.flush()) throw Error("cannot write " + path);
+  finish_output(f, path);
 }
 
 struct Html {

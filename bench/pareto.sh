@@ -5,9 +5,9 @@
 #     SWEEP.csv  a CSV of `rtusim sweep` (header scene,format,bvh_width,config,rays,seed,image_width,hit_agreement,...)
 #     OUTDIR     created if needed; gets per scene pareto_<scene>_hit.png (error = hit disagreement,
 #                1 - hit agreement, a zero drawn at 1 / rays) and pareto_<scene>_terr.png (error = mean relative
-#                t error, a zero drawn at 1e-10), up to four panels each: against cycles, bvh_bytes,
-#                dram_bytes_per_ray and rtl_cells (rows with rtl_cells = -1 have no area and are left out of that
-#                panel, a panel no row has is left out); every point labelled
+#                t error, a zero drawn at 1e-10), up to five panels each: against cycles, bvh_bytes,
+#                dram_bytes_per_ray, area_mm2 and pj_per_ray (rows without one, a 0 in the CSV, are left out of
+#                that panel, a panel no row has is left out); every point labelled
 #                format/width/config, the Pareto front (points not dominated in both error and cost) drawn as a
 #                staircase line; beside them the gnuplot scripts (.gp), their data (.dat, .front) and logs.
 #     RTUSIM     default build/default/rtusim

@@ -108,7 +108,7 @@ Result run_tracer(const std::string& mesh, const std::string& tracer, uint64_t n
     host::DeviceOptions o;
     o.kind = rtu::hw::DeviceKind::kTimed;
     o.timing = hw::timing_preset(kTimedPreset);
-    o.format = hw::format_preset(o.timing.format);
+    o.format = hw::format_from_spec(o.timing.format);
     o.format.width = o.timing.bvh_width;
     o.tracer.accel = hw::AccelMode::kBvh;
     o.tracer.bvh.width = o.format.width;

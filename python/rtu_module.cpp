@@ -30,8 +30,10 @@
 #include "host/cost/timing_json.h"
 #include "host/devices/device_settings.h"
 #include "host/io/error.h"
+#include "host/io/files.h"
 #include "host/io/image.h"
 #include "host/io/json_io.h"
+#include "host/io/limits.h"
 #include "host/io/ray_io.h"
 #include "host/io/stats_json.h"
 #include "host/jobs/ab.h"
@@ -225,8 +227,8 @@ struct DeviceArgs {
       fail("accel: '" + accel + "' is not auto, bvh or brute");
     s.accel = accel;
     if (!format.is_none()) {
-      s.format = format.cast<std::string>();
-      hw::format_preset(s.format);  // an unknown preset is named now, as rtusim's option check does
+      s.format = arg<std::string>(format, "format", "a format spec such as 'default' or 'packed:coord_bits=16'");
+      hw::format_from_spec(s.format);  // a malformed spec is named now, as rtusim's option check does
     }
     if (!format_fields.is_none()) {
       if (!py::isinstance<py::dict>(format_fields)) fail("format_fields: expected a dict of field: bits");
@@ -244,7 +246,7 @@ struct DeviceArgs {
       for (const auto& [key, value] : config.cast<py::dict>()) {
         const std::string k2 = py::str(key);
         if (k2 == "preset")
-          s.config = value.cast<std::string>();
+          s.config = arg<std::string>(value, "config[\"preset\"]", "a timing preset name such as 'rdna2'");
         else
           s.sets.push_back(k2 + "=" + value_text(value));
       }
@@ -255,7 +257,7 @@ struct DeviceArgs {
       for (const auto& [key, value] : set.cast<py::dict>())
         s.sets.push_back(std::string(py::str(key)) + "=" + value_text(value));
     } else if (py::isinstance<py::list>(set) || py::isinstance<py::tuple>(set)) {
-      for (const auto& item : set) s.sets.push_back(item.cast<std::string>());
+      for (const auto& item : set) s.sets.push_back(arg<std::string>(item, "set", "\"key=value\" strings"));
     } else if (!set.is_none()) {
       fail("set: expected a dict {key: value} or a list of \"key=value\"");
     }
@@ -494,7 +496,10 @@ py::tuple render(const PyScene& scene, const std::string& mode, int width, int h
 
 // rtusim diff's figures of two images.
 py::dict diff(const py::handle& a, const py::handle& b) {
-  const host::ImageDiff d = host::diff_images(image_from_numpy(a, "a"), image_from_numpy(b, "b"));
+  // One after the other, so that a bad `a` is named before `b` (argument order of evaluation is unspecified).
+  const host::Image ia = image_from_numpy(a, "a");
+  const host::Image ib = image_from_numpy(b, "b");
+  const host::ImageDiff d = host::diff_images(ia, ib);
   py::dict j;
   j["width"] = d.width;
   j["height"] = d.height;
@@ -572,9 +577,9 @@ py::tuple write_manifest(const std::string& path, const std::vector<std::string>
     static std::atomic<unsigned> counter{0};
     const std::string tmp = path + ".tmp-" + std::to_string(getpid()) + "-" + std::to_string(counter++);
     {
-      std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+      std::ofstream out = host::open_output(tmp, std::ios::binary | std::ios::trunc);
       out << text;
-      if (!out.flush()) throw host::Error("cannot write " + tmp);
+      host::finish_output(out, tmp);
     }
     const int linked = link(tmp.c_str(), path.c_str());
     const int err = errno;
@@ -631,7 +636,8 @@ PYBIND11_MODULE(_rtu, m) {
     } catch (const py::builtin_exception&) {
       throw;  // pybind11's own (type errors of arguments)
     } catch (const std::bad_alloc&) {
-      throw;  // MemoryError
+      // MemoryError, with what bounds memory instead of the bare "std::bad_alloc".
+      PyErr_SetString(PyExc_MemoryError, host::out_of_memory_message("rtu").c_str());
     } catch (const std::exception& e) {
       PyErr_SetString(g_error, e.what());
     }
@@ -728,6 +734,10 @@ PYBIND11_MODULE(_rtu, m) {
       },
       py::arg("preset"), py::arg("sets"));
   m.def("presets", &hw::timing_preset_names);
+  // The I/O layer's checks of a file name, for the files the Python layer reads and writes itself (rtu.Error
+  // naming the path: a directory, a missing file or folder).
+  m.def("check_input_file", &host::check_input_file, py::arg("path"));
+  m.def("check_output_file", &host::check_output_file, py::arg("path"));
   m.def("formats", [] {
     std::vector<std::string> names;
     for (const hw::FixedFormat& f : hw::format_presets()) names.push_back(f.name);

@@ -14,6 +14,7 @@
 
 #include "host/cli/common.h"
 #include "host/io/error.h"
+#include "host/io/files.h"
 #include "host/io/limits.h"
 #include "host/jobs/point_key.h"
 #include "host/jobs/suite.h"
@@ -105,10 +106,10 @@ std::pair<size_t, size_t> parse_shard(const std::string& s) {
 }
 
 void write_rows(const std::string& path, const std::vector<SweepRow>& rows) {
-  std::ofstream out(path, std::ios::trunc);
+  std::ofstream out = open_output(path);
   out << sweep_csv_header() << '\n';
   for (const SweepRow& r : rows) out << sweep_csv_line(r) << '\n';
-  if (!out.flush()) throw Error("cannot write " + path);
+  finish_output(out, path);
 }
 
 void run_merge(const SweepArgs& a) {
@@ -247,9 +248,9 @@ void write_manifest(const SweepArgs& a) {
   // The area table prices every point: its digest is part of each key, and the run must give the same table.
   const AreaTable area = a.area.empty() ? AreaTable::shipped() : AreaTable::load(a.area);
   const Manifest m = make_manifest(points, a.opt, area, &repeated);
-  std::ofstream out(a.write_manifest, std::ios::binary | std::ios::trunc);
+  std::ofstream out = open_output(a.write_manifest, std::ios::binary | std::ios::trunc);
   out << manifest_text(m);
-  if (!out.flush()) throw Error("cannot write " + a.write_manifest);
+  finish_output(out, a.write_manifest);
   std::printf("manifest: %zu points (%zu repeated points listed once) with %s -> %s\n", m.points.size(), repeated,
               m.params.c_str(), a.write_manifest.c_str());
 }
@@ -299,9 +300,9 @@ void collect_points(const SweepArgs& a) {
   const CollectedSweep c = collect_manifest(m, a.collect);
   write_rows(a.out, c.rows);
   const std::string prov_path = a.out + ".provenance.csv";
-  std::ofstream prov(prov_path, std::ios::binary | std::ios::trunc);
+  std::ofstream prov = open_output(prov_path, std::ios::binary | std::ios::trunc);
   prov << c.provenance_csv;
-  if (!prov.flush()) throw Error("cannot write " + prov_path);
+  finish_output(prov, prov_path);
   std::printf("collected %zu points -> %s (provenance: %s); %.1f s of point time, %.0f points per worker-hour\n",
               c.rows.size(), a.out.c_str(), prov_path.c_str(), c.seconds,
               c.seconds > 0 ? 3600.0 * c.rows.size() / c.seconds : 0.0);
@@ -320,7 +321,9 @@ void run_sweep_points(const SweepArgs& a) {
   // made with others stay in the file, beside the new ones. A last line without its newline is a row an interrupted sweep did not finish
   // writing: it is dropped (and run again).
   std::set<std::string> done;
-  bool exists = std::filesystem::exists(a.out) && std::filesystem::file_size(a.out) > 0;
+  check_output_file(a.out);
+  std::error_code ec;
+  bool exists = std::filesystem::exists(a.out, ec) && std::filesystem::file_size(a.out, ec) > 0 && !ec;
   if (exists) {
     const std::string text = read_text(a.out);
     if (text.back() != '\n') {
@@ -368,8 +371,7 @@ void run_sweep_points(const SweepArgs& a) {
                    "refuses such a file)\n",
                    a.out.c_str(), other_models, model_identity());
   }
-  std::ofstream out(a.out, std::ios::app);
-  if (!out) throw Error("cannot write " + a.out);
+  std::ofstream out = open_output(a.out, std::ios::app);
   if (!exists) out << sweep_csv_header() << '\n' << std::flush;
 
   size_t ran = 0, skipped = 0;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -83,13 +84,24 @@ void add_watchdog_args(CLI::App& app, DeviceArgs& o) {
 }
 
 void add_format_args(CLI::App& app, DeviceArgs& o) {
-  std::vector<std::string> presets;
-  for (const hw::FixedFormat& f : hw::format_presets()) presets.push_back(f.name);
+  // A format spec, as sweep --formats takes it: checked whole here, so that a malformed one is a usage error
+  // naming the option.
+  const CLI::Validator spec(
+      [](std::string& s) {
+        try {
+          (void)hw::format_from_spec(s);
+          return std::string();
+        } catch (const std::invalid_argument& e) {
+          return std::string(e.what());
+        }
+      },
+      "SPEC");
   app.add_option(
          "--format", o.format,
-         "fixed-point format preset (rtusim info --formats lists them; default: default, on the timed device "
-         "the --config's format, which this replaces as --set format=NAME does)")
-      ->check(CLI::IsMember(presets));
+         "fixed-point format: a preset (rtusim info --formats lists them), optionally with changes of its fields, "
+         "e.g. packed:coord_bits=16 (the same as --format packed --coord-bits 16); default: default, on the "
+         "timed device the --config's format, which this replaces as --set format=SPEC does")
+      ->check(spec);
   // One option per field of the format table (width has --bvh-width): --coord-bits for coord_bits, ...
   for (const hw::FormatField& f : hw::format_fields()) {
     if (f.member == &hw::FixedFormat::width) continue;

@@ -8,6 +8,7 @@
 
 #include "host/cli/common.h"
 #include "host/io/error.h"
+#include "host/io/limits.h"
 #include "host/jobs/model_identity.h"
 
 namespace {
@@ -62,10 +63,8 @@ int main(int argc, char** argv) {
     return 2;
   } catch (const std::bad_alloc&) {
     // A path no estimate covers took more than the machine gave: say so, and what bounds it.
-    std::fprintf(stderr,
-                 "rtusim: error: out of memory: the command's inputs need more memory than the machine gives (the "
-                 "budget: RTU_MEMORY_LIMIT, else the memory available; docs/guide/hardening.md); make them "
-                 "smaller\n");
+    std::fprintf(stderr, "rtusim: error: %s\n",
+                 rtu::host::out_of_memory_message(std::string("rtusim ") + (argc > 1 ? argv[1] : "")).c_str());
     return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "rtusim: error: %s\n", e.what());

@@ -1,21 +1,18 @@
 #include "host/cost/area_tables.h"
 
 #include <cmath>
-#include <fstream>
 #include <sstream>
 #include <vector>
 
 #include "host/io/csv.h"
 #include "host/io/error.h"
+#include "host/io/limits.h"
 
 namespace rtu::host {
 
 AreaTable AreaTable::load(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error("cannot read the area table " + path);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse(text.str(), path);
+  // The text and the table's strings, about as large again.
+  return parse(read_file_limited(path, 2), path);
 }
 
 AreaTable AreaTable::shipped() {

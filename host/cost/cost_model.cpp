@@ -194,7 +194,7 @@ hw::CostInputs cost_inputs(const hw::FixedFormat& f, const hw::TimingConfig& c) 
 }
 
 hw::CostInputs cost_inputs(const hw::TimingConfig& c) {
-  hw::FixedFormat f = hw::format_preset(c.format);
+  hw::FixedFormat f = hw::format_from_spec(c.format);
   f.width = c.bvh_width;
   return cost_inputs(f, c);
 }

@@ -7,7 +7,7 @@
 namespace rtu::host {
 
 hw::FixedFormat DeviceSettings::fixed_format() const {
-  hw::FixedFormat f = hw::format_preset(format.empty() ? "default" : format);
+  hw::FixedFormat f = hw::format_from_spec(format.empty() ? "default" : format);
   std::string changed;
   auto set = [&](int& field, int value, const char* key) {
     if (value < 0) return;

@@ -17,6 +17,7 @@
 
 #include "firmware/render_scene.h"
 #include "host/io/error.h"
+#include "host/io/files.h"
 #include "host/io/limits.h"
 
 // stb's implementations, compiled here without the warnings they raise.
@@ -45,11 +46,14 @@ namespace rtu::host {
 void write_png(const std::string& path, const Image& img) {
   if (img.width <= 0 || img.height <= 0 || img.rgb.size() != size_t(img.width) * size_t(img.height) * 3)
     throw Error(path + ": invalid image");
+  check_output_file(path);
+  errno = 0;
   if (!stbi_write_png(path.c_str(), img.width, img.height, 3, img.rgb.data(), img.width * 3))
-    throw Error(path + ": cannot write PNG");
+    throw Error(path + ": cannot write PNG" + (errno ? std::string(" (") + std::strerror(errno) + ")" : ""));
 }
 
 Image read_png(const std::string& path) {
+  check_input_file(path);
   const std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
   if (!f) throw Error(path + ": cannot open (" + std::strerror(errno) + ")");
   int w = 0, h = 0, channels = 0;
@@ -117,6 +121,7 @@ static void check_png_chunks(const uint8_t* data, size_t bytes, const std::strin
 
 Texture read_texture(const std::string& path) {
   // Read whole (textures are bounded by the memory limit at decoding), so that file and memory take one path.
+  check_input_file(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path + ": cannot open (" + std::strerror(errno) + ")");
   std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

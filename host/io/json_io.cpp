@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "host/io/error.h"
+#include "host/io/files.h"
 #include "host/io/limits.h"
 
 namespace rtu::host {
@@ -101,9 +102,8 @@ Json parse_json_limited(const std::string& text, const std::string& what) {
 }
 
 Json read_json_file(const std::string& path) {
+  check_input_file(path);
   std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw Error(path + ": file not found");
-  if (!std::filesystem::is_regular_file(path, ec)) throw Error(path + ": not a regular file");
   // A floor of the peak: the text is held while its values are built (which take more again).
   const uint64_t bytes = std::filesystem::file_size(path, ec);
   if (!ec) check_memory(path + ": reading a " + std::to_string(bytes >> 20) + " MiB JSON file", bytes);

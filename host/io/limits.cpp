@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "host/io/error.h"
+#include "host/io/files.h"
 
 namespace rtu::host {
 
@@ -84,12 +85,15 @@ void check_memory(const std::string& what, uint64_t bytes) {
               " (RTU_MEMORY_LIMIT, else the memory available)");
 }
 
+std::string out_of_memory_message(const std::string& what) {
+  return what +
+         ": out of memory: the input needs more memory than the machine gives (the budget: RTU_MEMORY_LIMIT, else "
+         "the memory available; docs/guide/hardening.md); make it smaller";
+}
+
 std::string read_file_limited(const std::string& path, uint64_t factor) {
+  check_input_file(path);
   std::error_code ec;
-  const std::filesystem::file_status st = std::filesystem::status(path, ec);
-  if (!std::filesystem::exists(st)) throw Error(path + ": file not found");
-  if (std::filesystem::is_directory(st)) throw Error(path + ": is a directory, not a file");
-  if (!std::filesystem::is_regular_file(st)) throw Error(path + ": not a regular file");
   const uint64_t bytes = std::filesystem::file_size(path, ec);
   if (ec) throw Error(path + ": cannot read the file (" + ec.message() + ")");
   const uint64_t need = factor > 0 && bytes > UINT64_MAX / factor ? UINT64_MAX : bytes * factor;

@@ -16,6 +16,11 @@ uint64_t memory_limit();
 // Throws Error("WHAT needs about N MiB ... above the memory limit of M MiB ...") when bytes > memory_limit().
 void check_memory(const std::string& what, uint64_t bytes);
 
+// The message for a std::bad_alloc no estimate foresaw, instead of its bare "std::bad_alloc": "WHAT: out of
+// memory: the input needs more memory than the machine gives (the budget: RTU_MEMORY_LIMIT, ...); make it
+// smaller". `what` names the input or the job.
+std::string out_of_memory_message(const std::string& what);
+
 // The whole text of the file at `path`, read after its size times `factor` (what its reader holds at once: the
 // text, a copy being split into lines, the values parsed from it) passes check_memory. Throws Error naming the
 // path for a missing file, a directory or anything else that is not a regular file, a file that cannot be read,

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "host/io/error.h"
+#include "host/io/files.h"
 #include "host/io/stats_json.h"
 
 namespace rtu::host {
@@ -30,8 +31,7 @@ void write_pipeline_trace(const std::string& path, const hw::PipelineTrace& trac
                           const hw::MemoryTimeline* timeline) {
   // Streamed, an event at a time: a JSON document of every span would take about a kilobyte per span (1.5 GB for
   // a million), where the spans themselves take 32 bytes (at most max_spans of them).
-  std::ofstream out(path);
-  if (!out) throw Error(path + ": cannot open for writing");
+  std::ofstream out = open_output(path);
   out << "{\n  \"traceEvents\": [";
   bool first = true;
   auto emit = [&](const Json& e) {
@@ -86,7 +86,7 @@ void write_pipeline_trace(const std::string& path, const hw::PipelineTrace& trac
                       {"window", {trace.from, trace.to}},
                       {"spans", trace.spans.size()}};
   out << "\n  ],\n  \"displayTimeUnit\": \"ns\",\n  \"otherData\": " << other.dump() << "\n}\n";
-  if (!out.flush()) throw Error(path + ": write error");
+  finish_output(out, path);
 }
 
 }  // namespace rtu::host

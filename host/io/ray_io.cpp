@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "host/io/error.h"
+#include "host/io/files.h"
 #include "host/io/limits.h"
 
 namespace rtu::host {
@@ -24,16 +25,16 @@ struct FileCloser {
 };
 using File = std::unique_ptr<std::FILE, FileCloser>;
 
-// A directory opens for reading on Linux and fails at the first read (EISDIR, "Is a directory"): named first.
-void refuse_directory(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw Error(path + ": is a directory, not a file");
-}
-
+// A file to read ("rb") or write ("wb"), checked first so that a directory or a missing folder is named as such.
 File open_file(const std::string& path, const char* mode) {
-  refuse_directory(path);
+  if (mode[0] == 'r')
+    check_input_file(path);
+  else
+    check_output_file(path);
   File f(std::fopen(path.c_str(), mode));
-  if (!f) throw Error(path + ": cannot open: " + std::strerror(errno));
+  if (!f)
+    throw Error(path + ": cannot open" + (mode[0] == 'r' ? "" : " for writing") + " (" + std::strerror(errno) +
+                ")");
   return f;
 }
 
@@ -103,9 +104,9 @@ std::string csv_float(float x) {
 // The shortest CSV line of a record ("0,0,0,0,0,0,0,0\n" for a ray) bounds the records a file can hold.
 template <class T, class F>
 void read_csv(const std::string& path, const char* header, uint64_t min_line, F&& on_line) {
-  refuse_directory(path);
+  check_input_file(path);
   std::ifstream in(path);
-  if (!in) throw Error(path + ": cannot open: " + std::strerror(errno));
+  if (!in) throw Error(path + ": cannot open (" + std::strerror(errno) + ")");
   std::error_code ec;
   const uint64_t size = std::filesystem::file_size(path, ec);
   if (!ec)
@@ -156,25 +157,23 @@ std::vector<hw::Hit> read_hits(const std::string& path) {
 
 void write_rays(const std::string& path, const std::vector<hw::Ray>& rays) {
   if (!is_csv_path(path)) return write_binary(path, rays);
-  std::ofstream out(path);
-  if (!out) throw Error(path + ": cannot open for writing");
+  std::ofstream out = open_output(path);
   out << kRayCsvHeader << '\n';
   for (const hw::Ray& r : rays) {
     out << csv_float(r.origin.x) << ',' << csv_float(r.origin.y) << ',' << csv_float(r.origin.z) << ','
         << csv_float(r.tmin) << ',' << csv_float(r.dir.x) << ',' << csv_float(r.dir.y) << ',' << csv_float(r.dir.z)
         << ',' << csv_float(r.tmax) << '\n';
   }
-  if (!out.flush()) throw Error(path + ": write error");
+  finish_output(out, path);
 }
 
 void write_hits(const std::string& path, const std::vector<hw::Hit>& hits) {
   if (!is_csv_path(path)) return write_binary(path, hits);
-  std::ofstream out(path);
-  if (!out) throw Error(path + ": cannot open for writing");
+  std::ofstream out = open_output(path);
   out << kHitCsvHeader << '\n';
   for (const hw::Hit& h : hits)
     out << csv_float(h.t) << ',' << h.prim << ',' << csv_float(h.u) << ',' << csv_float(h.v) << '\n';
-  if (!out.flush()) throw Error(path + ": write error");
+  finish_output(out, path);
 }
 
 }  // namespace rtu::host

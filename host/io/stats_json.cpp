@@ -10,6 +10,7 @@
 #include <variant>
 
 #include "host/io/error.h"
+#include "host/io/files.h"
 
 namespace rtu::host {
 
@@ -118,10 +119,9 @@ Json traversal_json(const hw::TraversalStats& s) {
 }
 
 void write_json(const std::string& path, const Json& j) {
-  std::ofstream out(path);
-  if (!out) throw Error(path + ": cannot open for writing");
+  std::ofstream out = open_output(path);
   out << j.dump(2) << '\n';
-  if (!out.flush()) throw Error(path + ": write error");
+  finish_output(out, path);
 }
 
 }  // namespace rtu::host

@@ -81,7 +81,7 @@ RenderOptions demo_render_options(const DemoOptions& o, hw::DeviceKind kind, boo
   ro.device.kind = kind;
   ro.device.timing = hw::timing_preset(o.config);
   if (kind != hw::DeviceKind::kFloat) {
-    ro.device.format = hw::format_preset(ro.device.timing.format);
+    ro.device.format = hw::format_from_spec(ro.device.timing.format);
     ro.device.format.width = ro.device.timing.bvh_width;
     ro.device.tracer.bvh.width = ro.device.format.width;
   }

@@ -119,9 +119,9 @@ const char* cost_axis(ParetoCost c) {
     case ParetoCost::kCycles:
       return "simulated cycles (timed device, the sweep's rays)";
     case ParetoCost::kBvhBytes:
-      return "memory: encoded image bytes (nodes, primitives in the format's layouts)";
-    case ParetoCost::kRtlCells:
-      return "area: RTL box unit cells (yosys)";
+      return "memory: encoded image bytes (nodes, primitives; the format's layouts)";
+    case ParetoCost::kAreaMm2:
+      return "area: mm^2 of the unit (45 nm estimate: units, caches, ray slots)";
     case ParetoCost::kDramBytesPerRay:
       return "memory traffic: DRAM bytes per ray (timed device)";
     case ParetoCost::kPjPerRay:
@@ -146,8 +146,8 @@ const char* pareto_cost_name(ParetoCost c) {
       return "cycles";
     case ParetoCost::kBvhBytes:
       return "bvh_bytes";
-    case ParetoCost::kRtlCells:
-      return "rtl_cells";
+    case ParetoCost::kAreaMm2:
+      return "area_mm2";
     case ParetoCost::kDramBytesPerRay:
       return "dram_bytes_per_ray";
     case ParetoCost::kPjPerRay:
@@ -170,8 +170,8 @@ double pareto_cost(const SweepRow& r, ParetoCost c) {
       return double(r.cycles);
     case ParetoCost::kBvhBytes:
       return double(r.bvh_bytes);
-    case ParetoCost::kRtlCells:
-      return r.rtl_cells >= 0 ? double(r.rtl_cells) : -1.0;
+    case ParetoCost::kAreaMm2:
+      return r.area_mm2 > 0.0 ? r.area_mm2 : -1.0;
     case ParetoCost::kDramBytesPerRay:
       return r.dram_bytes_per_ray > 0.0 ? r.dram_bytes_per_ray : -1.0;
     case ParetoCost::kPjPerRay:
@@ -207,6 +207,36 @@ std::string find_gnuplot() {
     if (::stat(f.c_str(), &st) == 0 && S_ISREG(st.st_mode) && ::access(f.c_str(), X_OK) == 0) return f;
   }
   return "";
+}
+
+std::vector<std::string> wrap_text(const std::string& text, size_t width) {
+  width = std::max<size_t>(width, 1);
+  std::vector<std::string> lines;
+  std::string line;
+  std::istringstream words(text);
+  for (std::string w; words >> w;) {
+    // A word longer than a line starts a line of its own and is cut after the last separator that fits.
+    while (w.size() > width) {
+      if (!line.empty()) lines.push_back(std::move(line));
+      line.clear();
+      const size_t at = w.find_last_of("/:,", width - 1);
+      const size_t cut = at != std::string::npos && at > 0 ? at + 1 : width;
+      lines.push_back(w.substr(0, cut));
+      w.erase(0, cut);
+    }
+    if (w.empty()) continue;
+    if (line.empty()) {
+      line = w;
+    } else if (line.size() + 1 + w.size() <= width) {
+      line += ' ';
+      line += w;
+    } else {
+      lines.push_back(std::move(line));
+      line = w;
+    }
+  }
+  if (!line.empty()) lines.push_back(std::move(line));
+  return lines;
 }
 
 bool boxes_overlap(const LabelBox& a, const LabelBox& b) {
@@ -297,12 +327,12 @@ void write_scene_data(const std::vector<SweepRow>& rows, const SceneRows& s, con
   const std::string data = s.base + ".dat";
   std::ofstream f(dir + "/" + data);
   f << "# " << s.scene
-    << ": cycles bvh_bytes rtl_cells dram_bytes_per_ray pj_per_ray hit_disagreement t_rel_error_mean label "
+    << ": cycles bvh_bytes area_mm2 dram_bytes_per_ray pj_per_ray hit_disagreement t_rel_error_mean label "
        "number "
        "bytes_per_prim (? = unknown)\n";
   for (size_t k = 0; k < s.idx.size(); ++k) {
     const SweepRow& r = rows[s.idx[k]];
-    f << r.cycles << ' ' << r.bvh_bytes << ' ' << (r.rtl_cells >= 0 ? std::to_string(r.rtl_cells) : "?") << ' '
+    f << r.cycles << ' ' << r.bvh_bytes << ' ' << (r.area_mm2 > 0.0 ? g(r.area_mm2) : "?") << ' '
       << (r.dram_bytes_per_ray > 0.0 ? g(r.dram_bytes_per_ray) : "?") << ' '
       << (r.pj_per_ray > 0.0 ? g(r.pj_per_ray) : "?") << ' ' << g(s.drawn_error(r, ParetoError::kHitDisagreement))
       << ' ' << g(s.drawn_error(r, ParetoError::kTRelErrorMean)) << ' ' << label_field(pareto_label(r.p)) << ' '
@@ -324,10 +354,10 @@ Panels scene_panels(const std::vector<SweepRow>& rows, const SceneRows& s) {
   };
   Panels p;
   p.dram = any_known(ParetoCost::kDramBytesPerRay);
-  p.area = any_known(ParetoCost::kRtlCells);
+  p.area = any_known(ParetoCost::kAreaMm2);
   p.energy = any_known(ParetoCost::kPjPerRay);
   if (p.dram) p.costs.push_back(ParetoCost::kDramBytesPerRay);
-  if (p.area) p.costs.push_back(ParetoCost::kRtlCells);
+  if (p.area) p.costs.push_back(ParetoCost::kAreaMm2);
   if (p.energy) p.costs.push_back(ParetoCost::kPjPerRay);
   return p;
 }
@@ -353,20 +383,55 @@ std::string script_header(const SceneRows& s, ParetoError e, const std::string& 
   return gp.str();
 }
 
-// The title lines: labels at fixed places, so that they cannot move the panels. Drawn with the first panel (each
-// panel starts with `unset label`).
-std::string title_labels(const SceneRows& s, ParetoError e, const Canvas& cv) {
-  std::string title =
+// Tags of the title's labels and of the zero axis's break: above any place's label or leader (tagged by its number
+// in the panel, 1, 2, ...), so that a crowded panel cannot replace them.
+constexpr int kTitleLabelTag = 100001;
+constexpr int kZeroBreakTag = 100000;
+
+// Pixels above the first line of the title and below its last.
+constexpr int kTitleTopPx = 6, kTitleBottomPx = 11;
+
+// The title above the panels: the scene and the error (11 pt), then how to read the plot (9 pt), each wrapped to
+// the image's width.
+struct TitleLines {
+  std::vector<std::string> title, legend;
+  int height() const {
+    return kTitleTopPx + int(title.size()) * kParetoTitleLinePx + int(legend.size()) * kParetoTextLinePx +
+           kTitleBottomPx;
+  }
+};
+
+TitleLines title_lines(const SceneRows& s, ParetoError e) {
+  const std::string title =
       s.scene + ": " + error_axis(e) + " against cost, " + std::to_string(s.idx.size()) + " points";
-  title += e == ParetoError::kHitDisagreement
-               ? " (one wrong ray is 1/rays = " + g(s.one_ray) + "; 0 is drawn apart, under the dashed line"
-               : " (0 is drawn at " + g(kZeroTError);
-  title += ")";
-  const std::string legend =
-      "numbers: the points (the scene's rows, format/width/config, in the table under the plots); blue: "
-      "sweep points; red staircase and circles: the Pareto front";
-  return "set label 101 " + gp_quote(title) + " at screen 0.5," + cv.sy(13) +
-         " center font ',11'\nset label 102 " + gp_quote(legend) + " at screen 0.5," + cv.sy(30) + " center\n";
+  std::string legend = e == ParetoError::kHitDisagreement ? "one wrong ray is 1/rays = " + g(s.one_ray) +
+                                                                ", 0 is drawn apart under the dashed line"
+                                                          : "0 is drawn at " + g(kZeroTError);
+  legend +=
+      "; numbers: the points (the scene's rows, format/width/config, in the table under the plots); blue: sweep "
+      "points; red staircase and circles: the Pareto front";
+  const double room = kParetoPlotWidth - 20.0;  // 10 px each side
+  return TitleLines{wrap_text(title, size_t(room / kParetoTitleCharPx)),
+                    wrap_text(legend, size_t(room / kParetoTextCharPx))};
+}
+
+// The title's lines as labels at fixed places, so that they cannot move the panels. Drawn with the first panel
+// (each panel starts with `unset label`).
+std::string title_labels(const TitleLines& t, const Canvas& cv) {
+  std::string gp;
+  int tag = kTitleLabelTag;
+  double y = kTitleTopPx;
+  for (const std::string& line : t.title) {
+    gp += "set label " + std::to_string(tag++) + ' ' + gp_quote(line) + " at screen 0.5," +
+          cv.sy(y + kParetoTitleLinePx / 2.0) + " center font ',11'\n";
+    y += kParetoTitleLinePx;
+  }
+  for (const std::string& line : t.legend) {
+    gp += "set label " + std::to_string(tag++) + ' ' + gp_quote(line) + " at screen 0.5," +
+          cv.sy(y + kParetoTextLinePx / 2.0) + " center\n";
+    y += kParetoTextLinePx;
+  }
+  return gp;
 }
 
 // With zeros on the hit axis: a dashed break between the zeros and one wrong ray (halfway on the log axis), a "0"
@@ -376,8 +441,8 @@ std::string zero_axis(const SceneRows& s, ParetoError e, double yhi) {
   const double brk = std::sqrt(s.hit_zero * s.one_ray);
   std::string z = "set ytics (\"0\" " + g(s.hit_zero);
   for (double dec = std::pow(10.0, std::ceil(std::log10(brk))); dec <= yhi; dec *= 10.0) z += ", " + g(dec);
-  z += ")\nset arrow 900 from graph 0, first " + g(brk) + " to graph 1, first " + g(brk) +
-       " nohead dt 2 lw 1.5 lc rgb '#606060' back\n";
+  z += ")\nset arrow " + std::to_string(kZeroBreakTag) + " from graph 0, first " + g(brk) + " to graph 1, first " +
+       g(brk) + " nohead dt 2 lw 1.5 lc rgb '#606060' back\n";
   return z;
 }
 
@@ -387,6 +452,7 @@ struct PlotFrame {
   ParetoError e;
   std::string ename;  // "hit" or "terr", in the file names
   Canvas cv;
+  int title_height = 0;         // pixels above the panels
   double ylo = 0.0, yhi = 0.0;  // the error axis
   std::string title, zero;      // title_labels, zero_axis
 };
@@ -440,7 +506,7 @@ struct PanelAxes {
 PanelAxes panel_axes(const PlotFrame& pf, size_t c, const Range& xr) {
   PanelAxes a;
   const double width = pf.cv.width;
-  const double cx = double(c % 2) * width / 2, cy = kParetoTitleHeight + double(c / 2) * kParetoPanelHeight;
+  const double cx = double(c % 2) * width / 2, cy = pf.title_height + double(c / 2) * kParetoPanelHeight;
   a.x0 = cx + 85;
   a.x1 = cx + width / 2 - 20;
   a.y0 = cy + 30;
@@ -534,8 +600,9 @@ std::string write_labels(const std::vector<Place>& places, const PanelAxes& a, c
   return labels_gp.str();
 }
 
-// The cost axis's ticks and their format.
-std::string cost_ticks(const PanelAxes& a) {
+// The cost axis's ticks and their format: SI prefixes for counts (12k, 3M); plain numbers where `plain` (mm^2: a
+// prefix would print half a square millimetre as 500m).
+std::string cost_ticks(const PanelAxes& a, bool plain) {
   std::ostringstream gp;
   if (a.logx) {
     // Ticks at 1, 2 and 5 times the powers of ten in range (gnuplot's own log ticks are decades only).
@@ -547,7 +614,10 @@ std::string cost_ticks(const PanelAxes& a) {
           gp << (first ? "" : ", ") << g(m * dec);
           first = false;
         }
-    gp << ")\nset format x '%.0s%c'\n";
+    gp << ")\nset format x '" << (plain ? "%g" : "%.0s%c") << "'\n";
+  } else if (plain) {
+    const int decimals = std::clamp(int(std::ceil(-std::log10((a.xhi - a.xlo) / 5.0))), 0, 4);
+    gp << "unset logscale x\nset xtics autofreq\nset format x '%." << decimals << "f'\n";
   } else {
     // Enough decimals of the mantissa (gnuplot's %s, scaled by the %c prefix) that ticks about a fifth of the
     // range apart print differently.
@@ -580,7 +650,7 @@ std::string write_panel(const std::vector<SweepRow>& rows, const PlotFrame& pf, 
      << "set xlabel " << gp_quote(pareto_cost_name(cost)) << "\n"
      << "set yrange [" << g(a.ylo) << ":" << g(a.yhi) << "]\n"
      << "set xrange [" << g(a.xlo) << ":" << g(a.xhi) << "]\n";
-  gp << cost_ticks(a) << labels_gp << pf.zero;
+  gp << cost_ticks(a, cost == ParetoCost::kAreaMm2) << labels_gp << pf.zero;
   const int ycol = pf.e == ParetoError::kHitDisagreement ? 6 : 7;
   gp << "plot " << gp_quote(pf.s.base + ".dat") << " using " << ci + 1 << ":" << ycol
      << " with points pt 7 ps 1.2 lc rgb '#3060c0', \\\n"
@@ -610,7 +680,8 @@ void run_gnuplot(const std::string& gnuplot, const std::string& dir, const std::
 ParetoPlot write_scene_plot(const std::vector<SweepRow>& rows, const SceneRows& s, const Panels& panels,
                             ParetoError e, const std::string& dir, const std::string& gnuplot) {
   const int panel_rows = int(panels.costs.size() + 1) / 2;
-  const Canvas cv{double(kParetoPlotWidth), double(kParetoTitleHeight + panel_rows * kParetoPanelHeight)};
+  const TitleLines title = title_lines(s, e);
+  const Canvas cv{double(kParetoPlotWidth), double(title.height() + panel_rows * kParetoPanelHeight)};
   Range yr;
   for (size_t i : s.idx) yr.add(s.drawn_error(rows[i], e));
   const double yhi = yr.hi * 3;
@@ -618,15 +689,17 @@ ParetoPlot write_scene_plot(const std::vector<SweepRow>& rows, const SceneRows& 
                      e,
                      e == ParetoError::kHitDisagreement ? "hit" : "terr",
                      cv,
+                     title.height(),
                      yr.lo / 3,
                      yhi,
-                     title_labels(s, e, cv),
+                     title_labels(title, cv),
                      zero_axis(s, e, yhi)};
   ParetoPlot plot;
   plot.scene = s.scene;
   plot.error = e;
   plot.points = s.idx.size();
   plot.rows = s.idx;
+  plot.title_height = title.height();
   plot.area_panel = panels.area;
   plot.dram_panel = panels.dram;
   plot.energy_panel = panels.energy;

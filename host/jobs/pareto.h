@@ -1,8 +1,8 @@
 // Pareto fronts of a design sweep (host/jobs/sweep.h) and their plots, drawn by gnuplot (PNG, pngcairo terminal).
-// For each scene of a sweep, error (log scale) against up to four costs: simulated cycles, encoded BVH bytes, the
-// timed run's DRAM bytes per ray and the RTL box unit's area in cells (rows without a synthesis result,
-// rtl_cells = -1, are left out of that panel, and rows without DRAM bytes out of theirs; when no row of the scene
-// has one, the panel is left out). Points are numbered per scene (1 = the scene's first row);
+// For each scene of a sweep, error (log scale) against up to five costs: simulated cycles, encoded BVH bytes, the
+// timed run's DRAM bytes per ray, the unit's area in mm^2 (area_mm2, the 45 nm estimate) and its energy per ray
+// (rows without DRAM bytes, an area or an energy, a 0 in the sweep, are left out of that panel; when no row of the
+// scene has one, the panel is left out). Points are numbered per scene (1 = the scene's first row);
 // the numbers are placed beside the points so that no two overlap (place_labels), and the page or the data
 // files say which point a number is.
 // Two error measures: hit disagreement (1 - hit agreement; one wrong ray is 1 / rays, the smallest error a
@@ -21,7 +21,7 @@
 namespace rtu::host {
 
 enum class ParetoError { kHitDisagreement, kTRelErrorMean };
-enum class ParetoCost { kCycles, kBvhBytes, kRtlCells, kDramBytesPerRay, kPjPerRay };
+enum class ParetoCost { kCycles, kBvhBytes, kAreaMm2, kDramBytesPerRay, kPjPerRay };
 inline constexpr int kParetoCostCount = 5;
 
 inline constexpr double kZeroTError = 1e-10;  // where a t error of exactly 0 is drawn on the log axis
@@ -30,12 +30,12 @@ inline constexpr double kZeroTError = 1e-10;  // where a t error of exactly 0 is
 inline constexpr double kHitZeroBelow = 10.0;
 
 const char* pareto_error_name(ParetoError e);  // "hit_disagreement" | "t_rel_error_mean"
-// "cycles" | "bvh_bytes" | "rtl_cells" | "dram_bytes_per_ray" | "pj_per_ray"
+// "cycles" | "bvh_bytes" | "area_mm2" | "dram_bytes_per_ray" | "pj_per_ray"
 const char* pareto_cost_name(ParetoCost c);
 
 // The row's error as drawn: > 0 (a zero drawn as above).
 double pareto_error(const SweepRow& r, ParetoError e);
-// The row's cost; < 0 when unknown (rtl_cells = -1, dram_bytes_per_ray = 0, pj_per_ray = 0).
+// The row's cost; < 0 when unknown (area_mm2 = 0, dram_bytes_per_ray = 0, pj_per_ray = 0).
 double pareto_cost(const SweepRow& r, ParetoCost c);
 
 // Indices of the points (cost, error) on the Pareto front (both minimized), by cost ascending. Of points equal
@@ -72,10 +72,20 @@ std::vector<LabelPlace> place_labels(const std::vector<LabelRequest>& labels,
                                      const std::vector<LabelBox>& obstacles, const LabelBox& bounds);
 
 // The size of the plot images: two panels per row, so a PNG is kParetoPlotWidth wide (it fits a 1280 px window
-// at its natural size) and kParetoPanelHeight per row of panels plus a title.
+// at its natural size) and kParetoPanelHeight per row of panels plus the title's lines (ParetoPlot::title_height).
 inline constexpr int kParetoPlotWidth = 1200;
 inline constexpr int kParetoPanelHeight = 480;
-inline constexpr int kParetoTitleHeight = 50;
+// The title above the panels is wrapped to the image's width: its lines of 11 pt text, then the legend's of
+// 9 pt. The widths are upper bounds of a character's advance in the sans font of the pngcairo terminal (measured:
+// about 7.4 px at 11 pt and 6.2 px at 9 pt on average), so that a wrapped line never runs off the image.
+inline constexpr double kParetoTitleCharPx = 9.0;
+inline constexpr double kParetoTextCharPx = 7.0;
+inline constexpr int kParetoTitleLinePx = 18, kParetoTextLinePx = 15;
+
+// `text` broken into lines of at most `width` characters: at spaces, a word longer than a line (a long path) after
+// one of "/:," inside it, else anywhere. No line is empty; the lines rejoined give the text but its spaces at the
+// breaks.
+std::vector<std::string> wrap_text(const std::string& text, size_t width);
 
 struct ParetoPlot {
   std::string scene;  // as in the sweep
@@ -87,6 +97,7 @@ struct ParetoPlot {
   // Per cost (ParetoCost: cycles, bytes, area, DRAM bytes per ray, energy per ray): the front, as row indices into
   // the rows given.
   std::vector<size_t> front[kParetoCostCount];
+  int title_height = 0;       // pixels above the panels: the title's lines
   bool area_panel = false;    // false: no row of the scene has an area, the panel is left out
   bool dram_panel = false;    // false: no row of the scene has DRAM bytes, the panel is left out
   bool energy_panel = false;  // false: no row of the scene has an energy estimate, the panel is left out
@@ -94,9 +105,10 @@ struct ParetoPlot {
 };
 
 // Writes, per scene of `rows`, the data, the gnuplot script and two PNGs (one per error measure, two to five
-// panels each: cycles, bytes, then DRAM bytes per ray, area and energy per ray where the scene has them) into
-// `dir` (which must exist), running `gnuplot`. Beside each panel's data, a `.labels` file lists every numbered
-// place with its box in pixels. Throws Error when there are no rows or gnuplot fails (naming its log file).
+// panels each: cycles, bytes, then DRAM bytes per ray, area in mm^2 and energy per ray where the scene has them)
+// into `dir` (which must exist), running `gnuplot`. Beside each panel's data, a `.labels` file lists every
+// numbered place with its box in pixels. Throws Error when there are no rows or gnuplot fails (naming its log
+// file).
 std::vector<ParetoPlot> write_pareto_plots(const std::vector<SweepRow>& rows, const std::string& dir,
                                            const std::string& gnuplot);
 

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "host/io/error.h"
+#include "host/io/files.h"
 #include "host/io/json_io.h"
 #include "host/io/limits.h"
 #include "host/io/stats_json.h"
@@ -346,9 +347,9 @@ void write_point_file(const std::string& dir, const std::string& key, const Swee
       std::filesystem::path(dir) /
       (".tmp-" + key + "-" + prov.host + "-" + std::to_string(getpid()) + "-" + std::to_string(counter++));
   {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    std::ofstream out = open_output(tmp.string(), std::ios::binary | std::ios::trunc);
     out << j.dump(1) << '\n';
-    if (!out.flush()) throw Error("cannot write " + tmp.string());
+    finish_output(out, tmp.string());
   }
   std::error_code ec;
   std::filesystem::rename(tmp, final_path, ec);

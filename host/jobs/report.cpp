@@ -13,6 +13,7 @@
 #include "host/cost/timing_json.h"
 #include "host/devices/device_settings.h"
 #include "host/io/error.h"
+#include "host/io/files.h"
 #include "host/io/image.h"
 #include "host/jobs/image_diff.h"
 #include "host/jobs/pareto.h"
@@ -133,9 +134,9 @@ void make_out_dir(const std::string& out) {
 }
 
 void write_text(const std::string& path, const std::string& text) {
-  std::ofstream f(path, std::ios::trunc);
+  std::ofstream f = open_output(path);
   f << text;
-  if (!f.flush()) throw Error("cannot write " + path);
+  finish_output(f, path);
 }
 
 struct Html {
@@ -336,25 +337,40 @@ Json section_cycles(const std::vector<std::unique_ptr<Scene>>& scenes, const std
   return rows;
 }
 
-// What the page says about the area panel of one scene: left out (no row has an area) or which points lack one.
+// What the page says about the areas of one scene: points without an area estimate (left out of the area panel,
+// which plots area_mm2), and points whose box unit the area table has not synthesized (no RTL cells in the table).
 void area_note(const std::vector<SweepRow>& rows, const std::vector<size_t>& idx, const std::string& area_source,
                Html& h) {
-  std::vector<std::string> missing;
-  for (size_t i : idx)
-    if (rows[i].rtl_cells < 0) missing.push_back(pareto_label(rows[i].p));
-  if (missing.empty()) return;
-  if (missing.size() == idx.size()) {
-    h.s << "<p class=\"note\">No point of this scene has an RTL area (rtl_cells = -1 in the sweep), so the area "
-           "panel is left out. Areas are yosys syntheses of the RTL box unit per parameter set: "
+  std::vector<std::string> no_area, no_cells;
+  for (size_t i : idx) {
+    if (rows[i].area_mm2 <= 0.0) no_area.push_back(pareto_label(rows[i].p));
+    if (rows[i].rtl_cells < 0) no_cells.push_back(pareto_label(rows[i].p));
+  }
+  const auto list = [&](const std::vector<std::string>& labels) {
+    for (size_t k = 0; k < labels.size(); ++k) h.s << (k ? ", " : "") << esc(labels[k]);
+  };
+  if (no_area.size() == idx.size()) {
+    h.s << "<p class=\"note\">No point of this scene has an area estimate (area_mm2 = 0 in the sweep), so the "
+           "area panel is left out.</p>\n";
+  } else if (!no_area.empty()) {
+    h.s << "<p class=\"note\">" << no_area.size() << " of " << idx.size()
+        << " points have no area estimate (area_mm2 = 0 in the sweep) and are left out of the area panel: ";
+    list(no_area);
+    h.s << ".</p>\n";
+  }
+  if (no_cells.empty()) return;
+  if (no_cells.size() == idx.size()) {
+    h.s << "<p class=\"note\">No point of this scene has RTL cells (rtl_cells = -1 in the sweep; their areas "
+           "are the model's estimate). Cells are yosys syntheses of the RTL box unit per parameter set: "
            "<code>RTL_AREA_CSV=FILE bench/rtl_area.sh</code> writes such a table (the project ships <code>"
         << kShippedAreaTable << "</code>), and <code>rtusim sweep --area FILE</code> or <code>rtusim report "
         << "--area FILE</code> (for the sweep it runs) puts it into a sweep.</p>\n";
     return;
   }
-  h.s << "<p class=\"note\">" << missing.size() << " of " << idx.size()
-      << " points have no RTL area and are left out of the area panel: the area table (" << esc(area_source)
+  h.s << "<p class=\"note\">" << no_cells.size() << " of " << idx.size()
+      << " points have no RTL cells (their areas are the model's estimate): the area table (" << esc(area_source)
       << ") has no synthesis of their box unit's parameters (";
-  for (size_t k = 0; k < missing.size(); ++k) h.s << (k ? ", " : "") << esc(missing[k]);
+  list(no_cells);
   h.s << "). <code>bench/rtl_area.sh</code> synthesizes more rows.</p>\n";
 }
 
@@ -369,7 +385,7 @@ Json section_pareto(const std::vector<SweepRow>& rows, const std::string& source
   h.s << "<h2>Run time against error: Pareto fronts</h2>\n<p>Sweep: " << esc(source) << ", " << rows.size()
       << " points (<a href=\"sweep.csv\">sweep.csv</a>); RTL areas: " << esc(area_source)
       << ". Error against cycles, memory (image bytes), DRAM traffic (bytes per ray, where the sweep has it) and "
-         "area per scene; the red staircase is the Pareto front (points no "
+         "area (mm^2, the 45 nm estimate) per scene; the red staircase is the Pareto front (points no "
          "other point beats in both error and cost). The numbers on the plots are the points of the table under "
          "them; points at the same place share one number list (\"3-5\").</p>\n";
   const std::string gnuplot = find_gnuplot();
@@ -415,7 +431,7 @@ Json section_pareto(const std::vector<SweepRow>& rows, const std::string& source
                  {"unlabelled", p.unlabelled}};
       // A cost's panel is drawn when some point has it: cycles and bytes always, DRAM and area where known.
       const auto drawn = [&](int c) {
-        return (c != int(ParetoCost::kRtlCells) || p.area_panel) &&
+        return (c != int(ParetoCost::kAreaMm2) || p.area_panel) &&
                (c != int(ParetoCost::kDramBytesPerRay) || p.dram_panel) &&
                (c != int(ParetoCost::kPjPerRay) || p.energy_panel);
       };

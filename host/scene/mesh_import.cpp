@@ -33,6 +33,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <new>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -41,6 +42,7 @@
 
 #include "firmware/render_scene.h"
 #include "host/io/error.h"
+#include "host/io/files.h"
 #include "host/io/image.h"
 #include "host/io/json_io.h"
 #include "host/io/limits.h"
@@ -345,9 +347,8 @@ static void check_gltf_accessors(const std::string& path) {
 }
 
 ImportedModel import_model(const std::string& path, uint64_t held) {
+  check_input_file(path);
   std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw Error(path + ": file not found");
-  if (!std::filesystem::is_regular_file(path, ec)) throw Error(path + ": not a regular file");
   // Assimp holds the file and its parsed meshes at once (several times the file's bytes for text formats), then
   // the triangles are copied out: refuse a file that cannot fit before reading it.
   const uint64_t file_bytes = std::filesystem::file_size(path, ec);
@@ -488,7 +489,12 @@ const aiScene* read_with_assimp(Assimp::Importer& importer, const std::string& p
     // has no triangles; read again without validation, the checks below cover what this code relies on.
     scene = importer.ReadFile(path, aiProcess_Triangulate);
   }
-  if (!scene) throw Error(path + ": " + importer.GetErrorString());
+  if (!scene) {
+    // Assimp reports what it caught as its error string: a std::bad_alloc as that bare name.
+    const std::string why = importer.GetErrorString();
+    if (why == std::bad_alloc().what()) throw Error(out_of_memory_message(path + ": importing the mesh"));
+    throw Error(path + ": " + why);
+  }
   return scene;
 }
 
@@ -809,6 +815,8 @@ struct ImportJob {
 void run_import(ImportJob& job) {
   try {
     job.blob = import_with_assimp(job.path);
+  } catch (const std::bad_alloc&) {
+    job.error = out_of_memory_message(job.path + ": importing the mesh");
   } catch (const std::exception& e) {
     job.error = e.what();
   }

@@ -1,6 +1,8 @@
 #include "hwmodel/device/command_processor.h"
 
 #include <exception>
+#include <new>
+#include <string>
 #include <vector>
 
 namespace rtu::hw {
@@ -175,7 +177,11 @@ bool CommandProcessor::execute(const cmd::Packet& p) {
       if (!check_buffer(p.addr0, p.value, 8)) return false;
       try {
         m_engine.bind(m_mem.data() + p.addr0, size_t(p.value));
-      } catch (const std::exception& e) {  // a malformed image (std::invalid_argument) or no memory for it
+      } catch (const std::bad_alloc&) {  // no memory for the decoded image: said so, not as "std::bad_alloc"
+        raise(ErrorCode::kBadScene, m_head);
+        m_error_detail = "out of memory binding the scene image of " + std::to_string(p.value) + " bytes";
+        return false;
+      } catch (const std::exception& e) {  // a malformed image (std::invalid_argument)
         raise(ErrorCode::kBadScene, m_head);
         m_error_detail = e.what();
         return false;

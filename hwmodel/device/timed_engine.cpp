@@ -138,7 +138,10 @@ void TimedEngine::make_models() {
   if (m_c.prefetcher == "treelet" && m_c.treelet_bytes == 0)
     throw std::invalid_argument("prefetcher = treelet needs treelet_bytes > 0 (the treelets it prefetches)");
   if (m_c.treelet_bytes > 0) {
-    if (m_two) throw std::invalid_argument("treelet_bytes: treelet layouts are for one-level scenes");
+    if (m_two)
+      throw std::invalid_argument(
+          "treelet_bytes: treelet layouts are for one-level scenes, and this scene is instanced (two levels): "
+          "trace it flattened (--flatten; flatten=True in Python) or leave treelet_bytes at 0");
     const uint64_t stride = l.node_stride ? l.node_stride : l.node_bytes;
     l.treelets = std::make_shared<const Treelets>(form_treelets(*m_image, uint64_t(m_c.treelet_bytes), stride));
   }

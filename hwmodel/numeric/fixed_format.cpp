@@ -263,9 +263,14 @@ int* format_field(FixedFormat& f, const std::string& key) {
 FixedFormat format_from_spec(const std::string& spec) {
   const size_t colon = spec.find(':');
   FixedFormat f = format_preset(spec.substr(0, colon));
-  if (colon != std::string::npos) apply_changes(f, spec.substr(colon + 1), spec);
+  if (colon == std::string::npos) return f;  // a preset, validated with the others
+  apply_changes(f, spec.substr(colon + 1), spec);
   f.name = spec;
-  f.validate();
+  try {
+    f.validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument("format spec " + spec + ": " + e.what());
+  }
   return f;
 }
 

@@ -27,7 +27,9 @@ constexpr double kNoRange = -1e300;  // lo of a key whose rule is not a range (b
 std::vector<KeyInfo> make_key_table() {
   using C = TimingConfig;
   std::vector<KeyInfo> table = {
-      {"format", &C::format, 0, 0, "fixed-point format preset of the datapath (rtusim info --formats)"},
+      {"format", &C::format, 0, 0,
+       "fixed-point format of the datapath: a preset (rtusim info --formats), optionally with changes of its "
+       "fields, e.g. packed:coord_bits=16"},
       {"bvh_width", &C::bvh_width, kNoRange, -kNoRange,
        "children per BVH node: 2, 4, 6 or 8 (overrides the format's width)"},
       {"clock_ghz", &C::clock_ghz, 0.001, 1000, "clock in GHz, for reporting seconds and GB/s only"},
@@ -188,13 +190,12 @@ void TimingConfig::validate() const {
     }
     const std::string key = k.key;
     if (key == "format") {
-      std::string names;
-      bool known = false;
-      for (const FixedFormat& p : format_presets()) {
-        known = known || p.name == format;
-        names += (names.empty() ? "" : ", ") + p.name;
+      // A format spec, as sweep --formats takes it: a preset, optionally with :key=value changes of its fields.
+      try {
+        (void)format_from_spec(format);
+      } catch (const std::invalid_argument& e) {
+        fail("format = '" + format + "' is not a fixed-point format spec: " + e.what());
       }
-      if (!known) fail("format = '" + format + "' is not a fixed-point format preset (known: " + names + ")");
     } else if (key == "box_unit") {
       if (box_unit != "cpp" && box_unit != "rtl") fail("box_unit = '" + box_unit + "' must be cpp or rtl");
     } else if (key == "tri_unit") {

@@ -8,7 +8,7 @@
 // of two in 16..4096; clock_ghz 0.001..1000; dram_bytes_per_cycle 0.001..65536 (finite); raster_setup_cycles
 // 0..100000; raster_samples_per_clock and raster_fragments_per_clock 0.001..4096; raster_latency 0..100000;
 // raster_prim_bytes 0..4096, raster_depth_bytes 1..64, raster_gbuffer_bytes 0..4096; bvh_width 2, 4, 6 or 8;
-// format the name of a fixed-point format preset; box_unit and tri_unit cpp or rtl; memory_type gddr6, hbm2
+// format a fixed-point format spec (a preset, optionally with :key=value changes); box_unit and tri_unit cpp or rtl; memory_type gddr6, hbm2
 // or lpddr5; prefetcher a name of prefetchers(), prefetch_degree 1..64; ray_sort a name of kRaySortKeys,
 // sort_key_cycles 0..100000, sort_keys_per_clock 0.001..4096, sort_radix_bits 1..16; watchdog_cycles 0..2^31-1 (0:
 // off). The default-constructed configuration is the "rdna2" preset: its figures are the defaults below, and every
@@ -25,7 +25,7 @@ namespace rtu::hw {
 
 struct TimingConfig {
   std::string name = "rdna2";      // preset it came from
-  std::string format = "default";  // fixed-point format preset of the datapath (fixed_format.h), e.g. compact
+  std::string format = "default";  // fixed-point format spec of the datapath (format_from_spec), e.g. compact
   int bvh_width = 4;               // children per node: 2, 4, 6 or 8 (overrides the format's width)
   double clock_ghz = 2.0;          // for reporting time and bandwidth in seconds and GB/s only
 

@@ -97,8 +97,7 @@ def rays(scene, spec="primary", seed=1):
 
 def make_rays(origin, direction, tmin=0.0, tmax=_math.inf):
     """An (N, 8) float32 ray array from origins and directions ((N, 3) each) and tmin/tmax (scalars or (N,))."""
-    o = _np.asarray(origin, dtype=_np.float32)
-    d = _np.asarray(direction, dtype=_np.float32)
+    o, d = _floats(origin, "origin"), _floats(direction, "direction")
     if o.ndim != 2 or o.shape[1] != 3 or d.shape != o.shape:
         raise Error(f"make_rays: origin and direction must both be (N, 3), got {o.shape} and {d.shape}")
     r = _np.empty((o.shape[0], 8), dtype=_np.float32)
@@ -164,12 +163,13 @@ def trace(scene, rays, device="float", *, any_hit=False, threads=0, hits=True, i
     """Traces rays on a device, as `rtusim trace`.
 
     device: "float", "fixed" or "timed". Device options (those of rtusim's tracing commands): config (a preset
-    name, or a dict {"preset": NAME, key: value}), set ({key: value} or ["key=value"]), format (a preset),
-    format_fields ({"coord_bits": 16, ...}), bvh_width, leaf_size, accel, sample, sample_unit, sample_warmup,
-    sample_seed, watchdog_steps, flatten. Options the device would ignore are refused, as the CLI refuses them.
-    hits=False: cycles only (timed with sample > 0). invalid: what to do when the device rejected rays (NaN/Inf,
-    zero direction, out of the frame): "raise" (rtu.Error), "warn" (InvalidRayWarning; the CLI's behaviour) or
-    "ignore"; the rejected rays are misses.
+    name, or a dict {"preset": NAME, key: value}), set ({key: value} or ["key=value"]), format (a spec: a
+    preset, or one with changes such as "packed:coord_bits=16"), format_fields ({"coord_bits": 16, ...}),
+    bvh_width, leaf_size, accel, sample, sample_unit, sample_warmup, sample_seed, watchdog_steps, flatten.
+    Options the device would ignore are refused, as the CLI refuses them. hits=False: cycles only (timed with
+    sample > 0). invalid: what to do when the device rejected rays (NaN/Inf, zero direction, out of the frame):
+    "raise" (rtu.Error), "warn" (InvalidRayWarning; the CLI's behaviour) or "ignore"; the rejected rays are
+    misses.
     """
     if invalid not in ("raise", "warn", "ignore"):
         raise Error(f"invalid: '{invalid}' is not raise, warn or ignore")
@@ -273,7 +273,13 @@ def config(preset="rdna2", set=None):
         d = dict(preset)
         preset = d.pop("preset", "rdna2")
         set = {**d, **(set or {})}
-    sets = [f"{k}={_value(v)}" for k, v in set.items()] if isinstance(set, dict) else list(set or [])
+    preset = _str(preset, "preset", "a timing preset name such as 'rdna2', or a dict {\"preset\": NAME, key: value}")
+    if isinstance(set, dict):
+        sets = [f"{k}={_value(v)}" for k, v in set.items()]
+    elif set is None or isinstance(set, (list, tuple)):
+        sets = [_str(s, "set", "\"key=value\" strings") for s in set or []]
+    else:
+        raise TypeError(f"set: expected a dict {{key: value}} or a list of \"key=value\", got {set!r}")
     return _rtu.config(preset, sets)
 
 
@@ -283,15 +289,48 @@ def _value(v):
 
 def format(spec="default"):  # noqa: A001 (the CLI's word)
     """A fixed-point format from a spec ("default", "packed:coord_bits=16"): every field, as a dict."""
-    return _rtu.format(spec)
+    return _rtu.format(_str(spec, "spec", "a format spec such as 'default' or 'packed:coord_bits=16'"))
 
 
-def _list(x, name):
-    """A list argument (a single str or int stands for a list of one); an empty one is refused naming it."""
-    items = [x] if isinstance(x, (str, int, _np.integer)) else list(x)
+def _list(x, name, expected=None):
+    """A list argument (a single str or int stands for a list of one); an empty one is refused naming it. With
+    `expected` ("str" or "int"), a TypeError naming it for an item of another type."""
+    if isinstance(x, (str, int, _np.integer, _os.PathLike)):
+        items = [x]
+    else:
+        try:
+            items = list(x)
+        except TypeError:
+            raise TypeError(f"{name}: expected a list, got {x!r}") from None
     if not items:
         raise Error(f"{name}: empty (give at least one)")
-    return [int(i) if isinstance(i, _np.integer) else i for i in items]
+    items = [int(i) if isinstance(i, _np.integer) else _os.fspath(i) if isinstance(i, _os.PathLike) else i
+             for i in items]
+    kind = {"str": str, "int": int}.get(expected)
+    for i in items:
+        if kind is not None and (not isinstance(i, kind) or isinstance(i, bool)):
+            raise TypeError(f"{name}: expected a list of {'strings' if kind is str else 'ints'}, got the item {i!r}")
+    return items
+
+
+def _str(value, name, expected):
+    """A string argument; a TypeError naming it and what it takes otherwise."""
+    if not isinstance(value, str):
+        raise TypeError(f"{name}: expected {expected}, got {value!r}")
+    return value
+
+
+def _optional_path(value, name):
+    """A file name argument that may be left out (None or ""): "" for none."""
+    return _path(value, name) if value is not None and value != "" else ""
+
+
+def _floats(value, name):
+    """An array of numbers as float32; a TypeError naming the argument when it holds anything else."""
+    try:
+        return _np.asarray(value, dtype=_np.float32)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name}: expected an array of numbers, got {value!r}") from None
 
 
 def _int(value, name):
@@ -350,10 +389,16 @@ def sweep(scenes, formats=("default",), bvh_widths=(4,), configs=("rdna2",), *, 
 def _sweep_csv(scenes, formats, bvh_widths, configs, *, rays, seed, image_width, threads, area, flatten, shard):
     """rtu.sweep's rows as the CSV text rtusim sweep writes (header and one line per point)."""
     k, n = _shard(shard)
-    return _rtu.sweep(_list(scenes, "scenes"), _list(formats, "formats"), _list(bvh_widths, "bvh_widths"),
-                      _list(configs, "configs"), _int(rays, "rays"), _int(seed, "seed"),
-                      _int(image_width, "image_width"), _int(threads, "threads"), _os.fspath(area) if area else "",
-                      bool(flatten), k, n)
+    scenes, formats, bvh_widths, configs = _grid(scenes, formats, bvh_widths, configs)
+    return _rtu.sweep(scenes, formats, bvh_widths, configs, _int(rays, "rays"), _int(seed, "seed"),
+                      _int(image_width, "image_width"), _int(threads, "threads"), _optional_path(area, "area"),
+                      _bool(flatten, "flatten"), k, n)
+
+
+def _grid(scenes, formats, bvh_widths, configs):
+    """A sweep's grid: the lists of scene specs, format specs, BVH widths and configuration specs, checked."""
+    return (_list(scenes, "scenes", "str"), _list(formats, "formats", "str"), _list(bvh_widths, "bvh_widths", "int"),
+            _list(configs, "configs", "str"))
 
 
 def _shard(shard):
@@ -420,17 +465,17 @@ def sweep_on(executor, scenes, formats=("default",), bvh_widths=(4,), configs=("
 
     import pandas as pd
 
-    grid = (_list(scenes, "scenes"), _list(formats, "formats"), _list(bvh_widths, "bvh_widths"),
-            _list(configs, "configs"))
+    grid = _grid(scenes, formats, bvh_widths, configs)
     points = len(grid[0]) * len(grid[1]) * len(grid[2]) * len(grid[3])
     shards = points if shards is None else _int(shards, "shards")
     if shards < 1:
         raise Error(f"shards: expected at least 1, got {shards}")
     shards = min(shards, points)  # a shard beyond the points would run none
     options = dict(rays=_int(rays, "rays"), seed=_int(seed, "seed"), image_width=_int(image_width, "image_width"),
-                   threads=_int(threads, "threads"), area=_os.fspath(area) if area else None, flatten=bool(flatten))
+                   threads=_int(threads, "threads"), area=_optional_path(area, "area") or None,
+                   flatten=_bool(flatten, "flatten"))
     if results is not None:
-        folder = _os.path.abspath(_os.fspath(results))
+        folder = _os.path.abspath(_path(results, "results"))
         _os.makedirs(folder, exist_ok=True)
         manifest = _os.path.join(folder, "manifest.txt")
         # The folder's manifest is created once, whole; a call with another grid is refused here, before any of
@@ -474,9 +519,9 @@ def _collect(results, out, manifest_text):
 
     import pandas as pd
 
-    folder = _os.fspath(results)
+    folder = _path(results, "results")
     manifest, points = _os.path.join(folder, "manifest.txt"), _os.path.join(folder, "points")
-    out = _os.fspath(out) if out is not None else _os.path.join(folder, "sweep.csv")
+    out = _path(out, "out") if out is not None else _os.path.join(folder, "sweep.csv")
     for path in (out, out + ".provenance.csv"):  # written below: never one of the sweep's inputs
         real = _os.path.realpath(path)
         if real == _os.path.realpath(manifest) or _os.path.dirname(real) == _os.path.realpath(points):
@@ -488,6 +533,7 @@ def _collect(results, out, manifest_text):
                             "folder?); use a results folder per sweep")
     csv, provenance = _rtu.collect(manifest, points)
     for path, text in ((out, csv), (out + ".provenance.csv", provenance)):
+        _rtu.check_output_file(path)  # a directory or a missing folder named as rtusim names them
         with open(path, "w", encoding="utf-8", newline="") as f:
             f.write(text)
     return _sweep_frame(pd.read_csv(io.StringIO(csv), dtype=_SWEEP_DTYPES))
@@ -499,10 +545,52 @@ _SWEEP_DTYPES = {"model": str}
 
 def _sweep_frame(df):
     """The derived column every plot uses: hit disagreement = 1 - hit agreement. A PSNR not measured (no render,
-    an empty CSV cell) is NaN; flatten is a bool."""
+    an empty CSV cell) is NaN; flatten is a bool. The keys the rows' specs name get columns of their own
+    (_swept_columns)."""
     df["psnr_db"] = df["psnr_db"].astype(float)
     df["flatten"] = df["flatten"].astype(bool)
     df["hit_disagreement"] = 1.0 - df["hit_agreement"]
+    return _swept_columns(df)
+
+
+def _spec_keys(spec):
+    """The keys a spec "preset:key=value:..." changes, in its order."""
+    return [kv.split("=", 1)[0] for kv in str(spec).split(":")[1:] if "=" in kv]
+
+
+def _swept_columns(df):
+    """Each key a row's format spec (packed:coord_bits=16) or configuration spec (rdna2:cache_kib=64, as
+    rtusim sweep --set makes them) names, as a column of its own after "config": every row's value of the key,
+    its spec's where the spec names it and its preset's otherwise, so that a key swept is a column to group or
+    plot by. Keys the frame has a column for already (bvh_width; a format's width, which bvh_width replaces)
+    are left to it. A spec this rtu cannot read (a CSV of another version) gives None in its rows."""
+    if df.empty or "format" not in df.columns or "config" not in df.columns:
+        return df
+
+    def resolved(specs, resolve):
+        values = {}
+        for spec in specs.unique():
+            try:
+                values[spec] = resolve(spec)
+            except Error:
+                values[spec] = {}
+        return values
+
+    def config_of(spec):
+        preset, *sets = str(spec).split(":")
+        return _rtu.config(preset, sets)
+
+    after = list(df.columns).index("config") + 1
+    for column, resolve in (("format", lambda s: _rtu.format(str(s))), ("config", config_of)):
+        keys = []
+        for spec in df[column].unique():
+            keys += [k for k in _spec_keys(spec) if k not in keys and k not in df.columns and k != "width"]
+        if not keys:
+            continue
+        values = resolved(df[column], resolve)
+        for key in keys:
+            df.insert(after, key, [values[s].get(key) for s in df[column]])
+            after += 1
     return df
 
 
@@ -510,8 +598,10 @@ def read_sweep(path):
     """A sweep CSV written by `rtusim sweep` as a DataFrame (the columns of rtu.sweep)."""
     import pandas as pd
 
+    path = _path(path, "path")
+    _rtu.check_input_file(path)  # a directory or a missing file named as rtusim names them
     # utf-8-sig: a byte order mark (a spreadsheet's) is not part of the first column's name.
-    return _sweep_frame(pd.read_csv(_os.fspath(path), encoding="utf-8-sig", dtype=_SWEEP_DTYPES))
+    return _sweep_frame(pd.read_csv(path, encoding="utf-8-sig", dtype=_SWEEP_DTYPES))
 
 
 def plan(scene, max_error, *, metric="hit", min_psnr=0.0, confidence=0.95, config="rdna2", format="",
@@ -529,13 +619,18 @@ def plan(scene, max_error, *, metric="hit", min_psnr=0.0, confidence=0.95, confi
 
     if isinstance(scene, Scene):
         scene = scene.name
-    j, csv, meets, perf = _rtu.plan(scene, _number(max_error, "max_error"), metric, _number(min_psnr, "min_psnr"),
-                                    _number(confidence, "confidence"), config, format, minimise,
-                                    _number(min_gain, "min_gain"), _number(area_budget, "area_budget"),
-                                    _list(bvh_widths, "bvh_widths"), _list(coord_bits, "coord_bits"),
-                                    _list(child_bits, "child_bits"), _int(rays, "rays"), _int(seed, "seed"),
-                                    _int(image_width, "image_width"), _int(threads, "threads"),
-                                    _os.fspath(area) if area else "", bool(flatten))
+    if isinstance(scene, _os.PathLike):
+        scene = _os.fspath(scene)
+    scene = _str(scene, "scene", "a scene spec or an rtu.Scene")
+    text = {name: _str(value, name, "a str") for name, value in
+            (("metric", metric), ("config", config), ("format", format), ("minimise", minimise))}
+    j, csv, meets, perf = _rtu.plan(scene, _number(max_error, "max_error"), text["metric"],
+                                    _number(min_psnr, "min_psnr"), _number(confidence, "confidence"),
+                                    text["config"], text["format"], text["minimise"], _number(min_gain, "min_gain"),
+                                    _number(area_budget, "area_budget"), _list(bvh_widths, "bvh_widths", "int"),
+                                    _list(coord_bits, "coord_bits", "int"), _list(child_bits, "child_bits", "int"),
+                                    _int(rays, "rays"), _int(seed, "seed"), _int(image_width, "image_width"),
+                                    _int(threads, "threads"), _optional_path(area, "area"), _bool(flatten, "flatten"))
     df = _sweep_frame(pd.read_csv(io.StringIO(csv), dtype=_SWEEP_DTYPES))
     df["meets"] = meets
     df["perf_per_mm2"] = perf
@@ -549,6 +644,11 @@ def pareto_front(df, cost="cycles", error="hit_disagreement"):
     (unknown, e.g. rtl_cells = -1) are never on it."""
     import pandas as pd
 
+    if not isinstance(df, pd.DataFrame):
+        raise TypeError(f"df: expected a DataFrame of sweep rows (rtu.sweep, rtu.read_sweep), got {type(df).__name__}")
+    for name, column in (("cost", cost), ("error", error)):
+        if column not in df.columns:
+            raise Error(f"{name}: the frame has no column {column!r} (columns: {', '.join(map(str, df.columns))})")
     known = df[df[cost] >= 0]
     idx = _rtu.pareto_front(list(zip(known[cost].astype(float), known[error].astype(float))))
     mask = pd.Series(False, index=df.index)

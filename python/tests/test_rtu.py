@@ -545,3 +545,124 @@ def test_wrong_argument_types_name_the_argument(seed, tmp_path):
     # A directory is named with its path.
     with pytest.raises(rtu.Error, match=str(tmp_path)):
         rtu.read_rays(tmp_path)
+
+
+def test_format_specs_equal_the_per_field_options(tmp_path, seed, ray_file):
+    # A spec such as sweep's formats take is one design point with the per-field options, on every device that
+    # has a format, and the same as the CLI's --format SPEC.
+    path, rays = ray_file
+    for spec, preset, fields in (("packed:coord_bits=16", "packed", {"coord_bits": 16}),
+                                 ("rdna4:node_kind=0", "rdna4", {"node_kind": 0})):
+        by_fields = rtu.trace(seed, rays, "fixed", format=preset, format_fields=fields)
+        by_spec = rtu.trace(seed, rays, "fixed", format=spec)
+        assert np.array_equal(by_spec.hits, by_fields.hits)
+        timed = rtu.trace(seed, rays, "timed", format=preset, format_fields=fields)
+        assert np.array_equal(timed.hits, by_fields.hits)
+        for options in ({"format": spec}, {"set": {"format": spec}}, {"config": {"preset": "rdna2", "format": spec}}):
+            assert rtu.trace(seed, rays, "timed", **options).cycles == timed.cycles, options
+        cli("trace", "--scene", SEED, "--rays", path, "--device", "timed", "--format", spec, "--out",
+            tmp_path / "h.bin", "--stats", tmp_path / "s.json")
+        assert json.loads((tmp_path / "s.json").read_text())["timing"]["cycles"] == timed.cycles
+        assert np.array_equal(rtu.read_hits(tmp_path / "h.bin"), timed.hits)
+    message = cli_error("trace", "--scene", SEED, "--rays", path, "--device", "timed", "--set",
+                        "format=packed:coord_bits=x")
+    with pytest.raises(rtu.Error) as e:
+        rtu.trace(seed, rays, "timed", set={"format": "packed:coord_bits=x"})
+    assert str(e.value) == message
+    with pytest.raises(rtu.Error, match="format spec packed:frobs=3: 'frobs=3' is not key=value"):
+        rtu.trace(seed, rays, "fixed", format="packed:frobs=3")
+    with pytest.raises(TypeError, match="format: expected a format spec"):
+        rtu.trace(seed, rays, "fixed", format=3)
+
+
+def test_sweep_frames_carry_the_swept_keys(tmp_path):
+    # The keys the format and configuration specs name are columns of their own, after "config": each row's value,
+    # the spec's where it names the key and its preset's where not; in every frame of sweep rows.
+    formats = ["default", "default:coord_bits=16:child_bits=6"]
+    cli("sweep", "--scene", SEED, "--formats", ",".join(formats), "--config", "rdna2,intel", "--set",
+        "cache_kib=16,64", "--rays", 64, "--image-width", 0, "--out", tmp_path / "s.csv")
+    configs = ["rdna2:cache_kib=16", "rdna2:cache_kib=64", "intel:cache_kib=16", "intel:cache_kib=64", "embedded"]
+    df = rtu.sweep(SEED, formats=formats, configs=configs, rays=64, image_width=0)
+    columns = list(df.columns)
+    assert columns[columns.index("config") + 1:columns.index("config") + 4] == ["coord_bits", "child_bits",
+                                                                                  "cache_kib"]
+    for _, row in df.iterrows():
+        assert row["coord_bits"] == rtu.format(row["format"])["coord_bits"]
+        assert row["child_bits"] == rtu.format(row["format"])["child_bits"]
+        preset, *sets = row["config"].split(":")
+        assert row["cache_kib"] == rtu.config(preset, sets)["cache_kib"]
+    assert sorted(df["coord_bits"].unique()) == [16, 24]
+    assert set(df[df["config"] != "embedded"]["cache_kib"]) == {16, 64}
+    assert df[df["config"] == "embedded"]["cache_kib"].iloc[0] == rtu.config("embedded")["cache_kib"]
+    # rtusim sweep --set's rows read back, and the plan's candidates (their formats name the bits the plan varies).
+    ref = rtu.read_sweep(tmp_path / "s.csv")
+    assert set(ref["cache_kib"]) == {16, 64} and set(ref["coord_bits"]) == {16, 24}
+    measured = [c for c in ref.columns if c != "seconds"]
+    pd.testing.assert_frame_equal(ref[measured], df[df["config"] != "embedded"][measured].reset_index(drop=True))
+    p = rtu.plan(SEED, 0.05, bvh_widths=[4], coord_bits=[8, 12], child_bits=[8], rays=64, image_width=0)
+    assert {"coord_bits", "child_bits"} <= set(p["candidates"].columns)
+    # Keys without a column of their own: a sweep of presets adds none.
+    plain = rtu.read_sweep(tmp_path / "s.csv").iloc[:0]
+    assert rtu.sweep(SEED, rays=64, image_width=0).columns.tolist() == [c for c in plain.columns if c not in
+                                                                        ("coord_bits", "child_bits", "cache_kib")]
+
+
+def test_wrong_types_and_paths_are_named_not_pybind11s(seed, tmp_path):
+    # Not pybind11's "incompatible function arguments" or "Unable to cast Python instance to C++ type", nor
+    # Python's "expected str, bytes or os.PathLike object": the argument and what it takes.
+    for call, match in (
+            (lambda: rtu.config(3), "preset: expected a timing preset name"),
+            (lambda: rtu.config("rdna2", [3]), "set: expected \"key=value\" strings, got 3"),
+            (lambda: rtu.format(3), "spec: expected a format spec"),
+            (lambda: rtu.sweep(3), "scenes: expected a list of strings, got the item 3"),
+            (lambda: rtu.sweep(SEED, formats=[3]), "formats: expected a list of strings, got the item 3"),
+            (lambda: rtu.sweep(SEED, bvh_widths=["4"]), "bvh_widths: expected a list of ints"),
+            (lambda: rtu.sweep(SEED, configs=[None]), "configs: expected a list of strings"),
+            (lambda: rtu.sweep(SEED, area=3), "area: expected a file name"),
+            (lambda: rtu.plan(3, 0.1), "scene: expected a scene spec"),
+            (lambda: rtu.plan(SEED, 0.1, config=4), "config: expected a str, got 4"),
+            (lambda: rtu.collect(3), "results: expected a file name"),
+            (lambda: rtu.read_sweep(3), "path: expected a file name"),
+            (lambda: rtu.make_rays("a", "b"), "origin: expected an array of numbers"),
+            (lambda: rtu.pareto_front(3), "df: expected a DataFrame"),
+            (lambda: rtu.trace(seed, "primary:4x4", "timed", config={"preset": 3}),
+             r"config\[\"preset\"\]: expected a timing preset name"),
+            (lambda: rtu.trace(seed, "primary:4x4", "timed", set=[3]), "set: expected \"key=value\" strings"),
+            (lambda: rtu.trace(seed, "primary:4x4", "fixed", format=3), "format: expected a format spec")):
+        with pytest.raises(TypeError, match=match):
+            call()
+    with pytest.raises(rtu.Error, match="a: expected a uint8 array"):  # the first bad argument, by its name
+        rtu.diff(3, 4)
+    with pytest.raises(rtu.Error, match="cost: the frame has no column 'no_such'"):
+        rtu.pareto_front(pd.DataFrame({"cycles": [1]}), "no_such")
+    # A directory where a file is named: rtu.Error with the path, as rtusim says it (not IsADirectoryError).
+    for call, words in (
+            (lambda: rtu.read_sweep(tmp_path), ": is a directory, not a file"),
+            (lambda: rtu.load_scene(str(tmp_path)), ": is a directory, not a file"),
+            (lambda: rtu.write_png(tmp_path, np.zeros((2, 2, 3), np.uint8)), ": is a directory, not a file"),
+            (lambda: rtu.write_rays(tmp_path / "none" / "r.rays", np.zeros((1, 8), np.float32)),
+             "/none does not exist"),
+            (lambda: rtu.sweep(SEED, rays=16, image_width=0, area=tmp_path), ": is a directory, not a file")):
+        with pytest.raises(rtu.Error) as e:
+            call()
+        assert str(tmp_path) in str(e.value) and words in str(e.value)
+
+
+def test_out_of_memory_says_what_bounds_it():
+    # A std::bad_alloc no estimate foresaw is a MemoryError naming the budget, not "std::bad_alloc". The address
+    # space is limited to 48 MiB above what the interpreter holds: the rays' estimate (48 bytes a ray) passes that
+    # limit, their 32 bytes a ray do not fit in what is left.
+    code = (
+        "import resource, rtu\n"
+        "vm = int([l.split()[1] for l in open('/proc/self/status') if l.startswith('VmSize:')][0]) * 1024\n"
+        "limit = vm + (48 << 20)\n"
+        "resource.setrlimit(resource.RLIMIT_AS, (limit, resource.RLIM_INFINITY))\n"
+        "try:\n"
+        "    rtu.rays('builtin:seed', 'incoherent:%d' % (limit // 48 - 1000))\n"
+        "    print('no error')\n"
+        "except MemoryError as e:\n"
+        "    print('MemoryError:', e)\n")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=os.environ)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.startswith("MemoryError: rtu: out of memory"), p.stdout
+    assert "RTU_MEMORY_LIMIT" in p.stdout and "std::bad_alloc" not in p.stdout

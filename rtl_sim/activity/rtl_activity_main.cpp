@@ -64,7 +64,7 @@ struct Row {
 
 hw::FixedFormat preset_format(const std::string& preset) {
   const hw::TimingConfig c = hw::timing_preset(preset);
-  hw::FixedFormat f = hw::format_preset(c.format);
+  hw::FixedFormat f = hw::format_from_spec(c.format);
   f.width = c.bvh_width;
   return f;
 }

@@ -60,7 +60,7 @@ inline BoxUnitParams box_unit_params(const hw::FixedFormat& f, int width, int ra
 
 // The unit of a timing preset: its format, its BVH width, its box rate and its box latency.
 inline BoxUnitParams box_unit_params(const hw::TimingConfig& c) {
-  return box_unit_params(hw::format_preset(c.format), c.bvh_width, c.box_rate, c.box_latency);
+  return box_unit_params(hw::format_from_spec(c.format), c.bvh_width, c.box_rate, c.box_latency);
 }
 
 // A unit's configuration from its spec: a timing preset ("intel") or a preset with keys changed as by `--set`

@@ -25,7 +25,7 @@ namespace {
 std::string chparam(int argc, char** argv, bool tri) {
   if (argc < 3) throw std::invalid_argument("--chparam needs a unit spec");
   const rtu::hw::TimingConfig c = rtu::rtl::unit_config(argv[2]);
-  rtu::hw::FixedFormat f = rtu::hw::format_preset(c.format);
+  rtu::hw::FixedFormat f = rtu::hw::format_from_spec(c.format);
   for (int i = 3; i < argc; ++i) {
     const std::string kv = argv[i];
     const size_t eq = kv.find('=');

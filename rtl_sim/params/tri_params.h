@@ -58,7 +58,7 @@ inline TriUnitParams tri_unit_params(const hw::TimingConfig& c) {
   if (c.tri_rate != 1)
     throw std::invalid_argument("tri_unit: tri_rate " + std::to_string(c.tri_rate) +
                                 ": the unit tests one triangle per clock");
-  return tri_unit_params(hw::format_preset(c.format), c.tri_latency);
+  return tri_unit_params(hw::format_from_spec(c.format), c.tri_latency);
 }
 
 // The unit's parameters by name, in tri_core.sv's order.

@@ -210,7 +210,7 @@ hw::TimingConfig config_of(const std::string& unit) {
 template <class Bench>
 hw::FixedFormat unit_format(const std::string& unit) {
   const hw::TimingConfig c = config_of<Bench>(unit);
-  hw::FixedFormat f = hw::format_preset(c.format);
+  hw::FixedFormat f = hw::format_from_spec(c.format);
   f.width = c.bvh_width;
   return f;
 }

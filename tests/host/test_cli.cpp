@@ -180,3 +180,46 @@ TEST_CASE("options that would be ignored are refused: diff, info, report, sweep 
     CHECK(r.output.find(words) != std::string::npos);
   }
 }
+
+TEST_CASE("a directory or a missing folder where a file is named: the path and the problem, exit 2", "[cli][io]") {
+  const fs::path d = temp_dir("cli_files");
+  const std::string dir = (d / "folder").string(), png = (d / "a.png").string();
+  fs::create_directories(dir);
+  REQUIRE(run_rtusim("render --scene builtin:seed --width 8 --height 8 --out " + png).status == 0);
+  const std::string trace = "trace --scene builtin:seed --rays primary:16 ";
+  struct Case {
+    std::string args, words;
+  };
+  const std::string input = dir + ": is a directory, not a file", output = input + " (name a file to write)";
+  const Case cases[] = {
+      // Files read.
+      {"trace --scene " + dir + " --rays primary:16", input},
+      {"trace --scene builtin:seed --rays " + dir, input},
+      {"diff " + png + " " + dir, input},
+      {"pareto --sweep " + dir + " --out " + (d / "p").string(), input},
+      // Files written.
+      {trace + "--out " + dir, output},
+      {trace + "--stats " + dir, output},
+      {trace + "--device timed --pipeline-trace " + dir, output},
+      {"rays --scene builtin:seed --count 5 --out " + dir, output},
+      {"render --scene builtin:seed --width 8 --height 8 --out " + dir, output},
+      {"diff " + png + " " + png + " --heatmap " + dir, output},
+      {"compare --scene builtin:seed --rays primary:16 --json " + dir, output},
+      {"info --scene builtin:seed --json " + dir, output},
+      {"sweep --scene builtin:seed --rays 16 --image-width 0 --out " + dir, output},
+      {"sweep --scene builtin:seed --rays 16 --image-width 0 --write-manifest " + dir, output},
+      // A file in a folder that is not there.
+      {trace + "--out " + dir + "/none/h.bin",
+       dir + "/none/h.bin: cannot write: the folder " + dir + "/none does not exist"},
+      {"rays --scene builtin:seed --count 5 --out " + png + "/r.bin", "cannot write: " + png + " is not a folder"},
+  };
+  for (const Case& c : cases) {
+    const Run r = run_rtusim(c.args);
+    INFO(c.args << "\n" << r.output);
+    CHECK(r.status == 2);
+    CHECK(r.output.find(c.words) != std::string::npos);
+    CHECK(r.output.find("Is a directory") == std::string::npos);  // the system's words, without the path
+    CHECK(r.output.find("filesystem error") == std::string::npos);
+  }
+  CHECK(run_rtusim(trace + "--out /dev/null").status == 0);  // a device is a fine place to write
+}

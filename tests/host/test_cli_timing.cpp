@@ -3,7 +3,11 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <fstream>
+#include <iterator>
 #include <set>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "hwmodel/timing/timing_config.h"
@@ -303,4 +307,80 @@ TEST_CASE("config --config as everywhere else (--preset still works), timing pre
                            (temp_dir("cli") / "presets.csv").string());
   CHECK(s.status == 2);
   CHECK(s.output.find("unknown timing preset 'amd' (known: rdna2, intel, embedded") != std::string::npos);
+}
+
+TEST_CASE("format specs: --format SPEC, --set format=SPEC and the per-field options are one design point",
+          "[cli][timing][format]") {
+  const fs::path d = temp_dir("cli_spec");
+  const std::string rays = (d / "r.rays").string(), hits = (d / "h.bin").string(), stats = (d / "s.json").string();
+  REQUIRE(run_rtusim("rays --scene builtin:seed --count 3000 --out " + rays).status == 0);
+  auto bytes = [](const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  };
+  // What a spelling traces: the hit file's bytes, the format's fields (its name aside: it records the spelling)
+  // and, timed, the cycles.
+  struct Traced {
+    std::string hits;
+    nlohmann::json format;
+    uint64_t cycles = 0;
+    bool operator==(const Traced&) const = default;
+  };
+  auto trace = [&](const std::string& device, const std::string& options) {
+    const Run r = run_rtusim("trace --scene builtin:seed --rays " + rays + " --device " + device + " --out " +
+                             hits + " --stats " + stats + " " + options);
+    INFO(options << "\n" << r.output);
+    REQUIRE(r.status == 0);
+    Traced t;
+    t.hits = bytes(hits);
+    const nlohmann::json j = read_json(stats);
+    t.format = j["format"];
+    t.format.erase("name");
+    if (device == "timed") t.cycles = j["timing"]["cycles"].get<uint64_t>();
+    return t;
+  };
+  for (const auto& [spec, fields] : std::vector<std::pair<std::string, std::string>>{
+           {"rdna4:node_kind=0", "--format rdna4 --node-kind 0"},
+           {"packed:coord_bits=16", "--format packed --coord-bits 16"}}) {
+    INFO(spec);
+    const Traced fixed = trace("fixed", fields);
+    CHECK(fixed.hits.size() == 3000 * 16);
+    CHECK(trace("fixed", "--format " + spec) == fixed);
+    const Traced timed = trace("timed", fields);
+    CHECK(timed.hits == fixed.hits);
+    CHECK(timed.cycles > 0);
+    CHECK(trace("timed", "--format " + spec) == timed);
+    CHECK(trace("timed", "--set format=" + spec) == timed);
+  }
+  // compare and render take the spec as trace does.
+  const std::string compare = "compare --scene builtin:seed --rays primary:2000 --device fixed --json ";
+  REQUIRE(run_rtusim(compare + (d / "c1.json").string() + " --format packed --coord-bits 12").status == 0);
+  REQUIRE(run_rtusim(compare + (d / "c2.json").string() + " --format packed:coord_bits=12").status == 0);
+  CHECK(read_json(d / "c1.json")["hit_agreement"] == read_json(d / "c2.json")["hit_agreement"]);
+  CHECK(read_json(d / "c2.json")["format"]["coord_bits"] == 12);
+  const std::string render = "render --scene builtin:seed --width 24 --height 16 --device timed --stats ";
+  REQUIRE(run_rtusim(render + (d / "r1.json").string() + " --out " + (d / "r1.png").string() +
+                     " --format packed --coord-bits 16")
+              .status == 0);
+  REQUIRE(run_rtusim(render + (d / "r2.json").string() + " --out " + (d / "r2.png").string() +
+                     " --set format=packed:coord_bits=16")
+              .status == 0);
+  CHECK(read_json(d / "r1.json")["timing"]["frame_cycles"] == read_json(d / "r2.json")["timing"]["frame_cycles"]);
+  CHECK(bytes(d / "r1.png") == bytes(d / "r2.png"));
+
+  // A malformed spec: exit 2 naming the spec and what is wrong with it.
+  const std::string run = "trace --scene builtin:seed --rays " + rays + " --out " + hits + " ";
+  for (const auto& [args, words] : std::vector<std::pair<std::string, std::string>>{
+           {"--device fixed --format packed:coord_bits=x", "'x' is not an integer"},
+           {"--device fixed --format packed:frobs=3", "frobs=3"},
+           {"--device fixed --format nosuch:coord_bits=16", "unknown format preset 'nosuch'"},
+           {"--device fixed --format clusters:cluster_tris=8", "cluster_tris = 8 outside"},
+           {"--device timed --set format=packed:coord_bits=x", "'x' is not an integer"},
+           {"--device timed --set format=packed:frobs=3", "frobs=3"},
+           {"--device timed --format packed:coord_bits=16 --set format=packed", "two values of one key"}}) {
+    const Run r = run_rtusim(run + args);
+    INFO(args << "\n" << r.output);
+    CHECK(r.status == 2);
+    CHECK(r.output.find(words) != std::string::npos);
+  }
 }

@@ -401,6 +401,14 @@ TEST_CASE("rtusim: two levels by default on instanced scenes, --flatten for one"
     const uint64_t transforms = host::read_json_file(stats)["timing"]["instance_transforms"].get<uint64_t>();
     CHECK((transforms == 0) == flatten);
   }
+  // Treelet layouts are one level's: refused over two, the refusal naming --flatten, which then runs.
+  const std::string treelets = "trace --scene builtin:city --device timed --set treelet_bytes=512 --rays " + rays;
+  const rtu::test::Run refused = rtu::test::run_rtusim(treelets);
+  INFO(refused.output);
+  CHECK(refused.status == 2);
+  CHECK(refused.output.find("instanced") != std::string::npos);
+  CHECK(refused.output.find("--flatten") != std::string::npos);
+  CHECK(rtu::test::run_rtusim(treelets + " --flatten").status == 0);
   const rtu::test::Run info = rtu::test::run_rtusim("info --scene builtin:city");
   REQUIRE(info.status == 0);
   CHECK(info.output.find("two levels   fixed: top ") != std::string::npos);

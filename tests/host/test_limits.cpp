@@ -708,3 +708,27 @@ TEST_CASE("memory limit: sweep's text inputs are held to the budget before they 
     CHECK(contains(r.output, dir.string() + ": is a directory, not a file"));
   }
 }
+
+TEST_CASE("memory: a mesh import that runs out of memory says so, not std::bad_alloc", "[limits][memory]") {
+  if (kSanitized) {
+    WARN("AddressSanitizer reserves more address space than the limit below: skipped");
+    return;
+  }
+  // A 14 MB OBJ passes the budget's estimate under a 200 MB address space (8 times the file) but Assimp takes
+  // more than that to import it: the child's std::bad_alloc, reported as Assimp's error or as the exception.
+  const fs::path dir = temp_dir("limits");
+  const std::string obj = (dir / "oom.obj").string();
+  {
+    std::ofstream f(obj);
+    const int n = 420000;
+    for (int i = 0; i < n; ++i) f << "v " << i % 1000 << ' ' << (i / 1000) % 1000 << ' ' << i % 7 << '\n';
+    for (int i = 1; i + 2 <= n; ++i) f << "f " << i << ' ' << i + 1 << ' ' << i + 2 << '\n';
+  }
+  const rtu::test::Run r =
+      rtu::test::run_process("ulimit -v 200000; " + std::string(RTUSIM_EXE) + " info --scene " + obj);
+  INFO(r.output);
+  CHECK(r.status == 2);
+  CHECK(contains(r.output, obj + ": importing the mesh: out of memory"));
+  CHECK(contains(r.output, "RTU_MEMORY_LIMIT"));
+  CHECK_FALSE(contains(r.output, "std::bad_alloc"));
+}

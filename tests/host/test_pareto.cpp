@@ -58,9 +58,12 @@ TEST_CASE("pareto: errors floored for the log axis, unknown area, labels", "[par
   r.t_rel_error_mean = 3e-6;
   CHECK(pareto_error(r, ParetoError::kHitDisagreement) == Approx(0.01));
   CHECK(pareto_error(r, ParetoError::kTRelErrorMean) == 3e-6);
-  CHECK(pareto_cost(r, ParetoCost::kRtlCells) < 0);
+  CHECK(pareto_cost(r, ParetoCost::kAreaMm2) < 0);  // a row without an area estimate
   r.rtl_cells = 1234;
-  CHECK(pareto_cost(r, ParetoCost::kRtlCells) == 1234);
+  CHECK(pareto_cost(r, ParetoCost::kAreaMm2) < 0);  // the area panel is in mm^2, not the RTL unit's cells
+  r.area_mm2 = 1.25;
+  CHECK(pareto_cost(r, ParetoCost::kAreaMm2) == 1.25);
+  CHECK(std::string(pareto_cost_name(ParetoCost::kAreaMm2)) == "area_mm2");
   CHECK(pareto_cost(r, ParetoCost::kDramBytesPerRay) < 0);  // a row without DRAM bytes
   r.dram_bytes_per_ray = 12.5;
   CHECK(pareto_cost(r, ParetoCost::kDramBytesPerRay) == 12.5);
@@ -202,7 +205,7 @@ TEST_CASE("pareto plots: gnuplot writes one PNG per scene and error measure", "[
     r.t_rel_error_mean = i == 2 ? 0.0 : 1e-3 / (i + 1);
     r.cycles = 1000 + 100 * uint64_t(i);
     r.bvh_bytes = 5000 + 1000 * uint64_t(i);
-    r.rtl_cells = i == 0 ? 50000 : -1;  // one point with area, then none
+    r.area_mm2 = i == 0 ? 0.5 : 0.0;  // one point with area, then none
     r.dram_bytes_per_ray =
         i < 3 ? 100.0 - 10.0 * i : 0.0;               // the seed scene's points have DRAM bytes, the mesh's not
     r.pj_per_ray = i < 3 ? 9000.0 + 500.0 * i : 0.0;  // and energy: the first point is the front's alone
@@ -217,7 +220,7 @@ TEST_CASE("pareto plots: gnuplot writes one PNG per scene and error measure", "[
     r.t_rel_error_mean = 1e-4 * (1 + i % 7);
     r.cycles = 10000 + 50 * uint64_t(i);
     r.bvh_bytes = 8000 + 20 * uint64_t(i % 6);
-    r.rtl_cells = 100000 + 1000 * i;
+    r.area_mm2 = 1.0 + 0.01 * i;
     rows.push_back(r);
   }
   const std::vector<ParetoPlot> plots = write_pareto_plots(rows, d.string(), gnuplot);
@@ -229,13 +232,13 @@ TEST_CASE("pareto plots: gnuplot writes one PNG per scene and error measure", "[
     CHECK(img.width == kParetoPlotWidth);
     CHECK(img.width <= 1200);
     const int panels = 2 + int(p.area_panel) + int(p.dram_panel) + int(p.energy_panel);
-    CHECK(img.height == kParetoTitleHeight + (panels + 1) / 2 * kParetoPanelHeight);
+    CHECK(img.height == p.title_height + (panels + 1) / 2 * kParetoPanelHeight);
     // Every panel's numbers: no two boxes overlap, each inside the image; crowding may leave a few out.
-    for (const char* cost : {"cycles", "bvh_bytes", "rtl_cells", "dram_bytes_per_ray", "pj_per_ray"}) {
+    for (const char* cost : {"cycles", "bvh_bytes", "area_mm2", "dram_bytes_per_ray", "pj_per_ray"}) {
       const std::string stem = p.png.substr(0, p.png.size() - 4);
       const fs::path f = d / (stem + "_" + cost + ".labels");
       INFO(f);
-      if ((std::string(cost) == "rtl_cells" && !p.area_panel) ||
+      if ((std::string(cost) == "area_mm2" && !p.area_panel) ||
           (std::string(cost) == "dram_bytes_per_ray" && !p.dram_panel) ||
           (std::string(cost) == "pj_per_ray" && !p.energy_panel)) {
         CHECK_FALSE(fs::exists(f));
@@ -280,4 +283,118 @@ TEST_CASE("pareto plots: gnuplot writes one PNG per scene and error measure", "[
   CHECK_THROWS_AS(write_pareto_plots(rows, d.string(), ""), Error);
   // A gnuplot that fails is reported, naming the script.
   CHECK_THROWS_WITH(write_pareto_plots(rows, d.string(), "false"), Catch::Contains("gnuplot failed"));
+}
+
+TEST_CASE("wrap_text: lines of at most the width, words kept, a long path cut after a separator", "[pareto]") {
+  const std::string text = "a b  ccc dddd /usr/share/some/very/long/path/to/a/mesh.glb: end";
+  for (size_t width : {1, 4, 10, 17, 200}) {
+    INFO(width);
+    const std::vector<std::string> lines = wrap_text(text, width);
+    std::string joined, plain;
+    for (const std::string& l : lines) {
+      CHECK_FALSE(l.empty());
+      CHECK(l.size() <= width);
+      joined += l;
+    }
+    for (char c : text)
+      if (c != ' ') plain += c;
+    joined.erase(std::remove(joined.begin(), joined.end(), ' '), joined.end());
+    CHECK(joined == plain);
+  }
+  CHECK(wrap_text(text, 200) ==
+        std::vector<std::string>{"a b ccc dddd /usr/share/some/very/long/path/to/a/mesh.glb: end"});
+  CHECK(wrap_text("/usr/share/models/x.glb", 12) == std::vector<std::string>{"/usr/share/", "models/x.glb"});
+  CHECK(wrap_text("", 10).empty());
+}
+
+namespace {
+
+// The single-quoted strings of a gnuplot line (gp_quote doubles a quote inside one).
+std::vector<std::string> gp_strings(const std::string& line) {
+  std::vector<std::string> out;
+  for (size_t i = line.find('\''); i != std::string::npos; i = line.find('\'', i + 1)) {
+    std::string s;
+    for (++i; i < line.size(); ++i) {
+      if (line[i] != '\'') {
+        s += line[i];
+      } else if (i + 1 < line.size() && line[i + 1] == '\'') {
+        s += '\'';
+        ++i;
+      } else {
+        break;
+      }
+    }
+    out.push_back(s);
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("pareto plots: the titles fit the image, the area panel is in mm^2", "[pareto]") {
+  const std::string gnuplot = find_gnuplot();
+  if (gnuplot.empty()) {
+    WARN("gnuplot not installed: plot test skipped");
+    return;
+  }
+  const rtu::test::TempDir dir("pareto_titles");
+  const std::string scene =
+      "/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/some/deeper/folder/2CylinderEngine.glb";
+  std::vector<SweepRow> rows;
+  for (int i = 0; i < 4; ++i) {
+    SweepRow r;
+    r.p = SweepPoint{scene, "default:coord_bits=" + std::to_string(12 + 4 * i), 4, i % 2 ? "rdna2" : "intel"};
+    r.rays = 20000;
+    r.hit_agreement = 1.0 - 0.01 / (i + 1);
+    r.t_rel_error_mean = 1e-3 / (i + 1);
+    r.cycles = 1000 + 100 * uint64_t(i);
+    r.bvh_bytes = 5000 + 1000 * uint64_t(i);
+    r.rtl_cells = 150000 + 10000 * i;
+    r.area_mm2 = 0.4 + 0.3 * i;
+    rows.push_back(r);
+  }
+  const std::vector<ParetoPlot> plots = write_pareto_plots(rows, dir.path.string(), gnuplot);
+  REQUIRE(plots.size() == 2);
+  for (const ParetoPlot& p : plots) {
+    INFO(p.png);
+    const std::string stem = p.png.substr(0, p.png.size() - 4);
+    std::ifstream script(dir.path / (stem + ".gp"));
+    std::string title, area_panel;
+    bool in_area = false;
+    for (std::string line; std::getline(script, line);) {
+      INFO(line);
+      if (line.rfind("set label ", 0) == 0 && line.find(" center") != std::string::npos) {
+        // The title's lines, centred on the image: 11 pt glyphs advance at most 9 px, 9 pt ones at most 7 px.
+        const std::string text = gp_strings(line).at(0);
+        const bool large = line.find("font ',11'") != std::string::npos;
+        CHECK(double(text.size()) * (large ? 9.0 : 7.0) <= kParetoPlotWidth);
+        if (large) title += text;
+      }
+      if (line.rfind("set title ", 0) == 0) {
+        // A panel's title, over its half of the image.
+        CHECK(gp_strings(line).at(0).size() * 7.0 <= kParetoPlotWidth / 2.0);
+        in_area = line.find("'area") != std::string::npos;
+      }
+      if (in_area) area_panel += line + "\n";
+    }
+    // The title names the whole scene, over as many lines as it takes; the image grows by them.
+    title.erase(std::remove(title.begin(), title.end(), ' '), title.end());
+    CHECK(title.find(scene) != std::string::npos);
+    CHECK(p.title_height >= 50);
+    CHECK(read_png((dir.path / p.png).string()).height == p.title_height + 2 * kParetoPanelHeight);  // 3 panels
+    // The area panel: mm^2 on its title and axis, plain numbers on its ticks (no SI prefix: 0.4, not 400m).
+    REQUIRE(p.area_panel);
+    CHECK(area_panel.find("mm^2") != std::string::npos);
+    CHECK(area_panel.find("cells") == std::string::npos);
+    CHECK(area_panel.find("set xlabel 'area_mm2'") != std::string::npos);
+    CHECK(area_panel.find("%c") == std::string::npos);
+    // Its front is drawn at the rows' area_mm2.
+    std::ifstream front(dir.path / (stem + "_area_mm2.front"));
+    std::vector<double> costs;
+    for (std::string line; std::getline(front, line);)
+      if (!line.empty() && line[0] != '#') costs.push_back(std::stod(line.substr(0, line.find(' '))));
+    REQUIRE_FALSE(costs.empty());
+    for (double c : costs)
+      CHECK(std::any_of(rows.begin(), rows.end(), [&](const SweepRow& r) { return r.area_mm2 == Approx(c); }));
+  }
 }

@@ -74,6 +74,17 @@ TEST_CASE("A/B: another preset drops A's overrides, another format counts the hi
   CHECK(f["ab"]["b"]["format"] == c["format"]["name"]);
 }
 
+TEST_CASE("A/B: --against-format takes a format spec, priced for B's own format", "[cli][timed]") {
+  // rdna4 without its oriented nodes: B is the same point as --format rdna4:node_kind=0 alone, and its area
+  // drops by the rotation stage.
+  const fs::path d = temp_dir("cli_ab");
+  const nlohmann::json alone = trace_stats(d, "alone", "--config rdna4 --format rdna4:node_kind=0");
+  const nlohmann::json j = trace_stats(d, "ab", "--config rdna4 --against-format rdna4:node_kind=0");
+  CHECK(j["ab"]["b"]["cycles"] == alone["timing"]["cycles"]);
+  CHECK(j["ab"]["b"]["area_mm2"] == alone["timing"]["energy"]["area"]["total_mm2"]);
+  CHECK(j["ab"]["area_ratio"].get<double>() < 1.0);
+}
+
 TEST_CASE("A/B: cycles only (--sample, no --out) compares no hits", "[cli][timed]") {
   const fs::path d = temp_dir("cli_ab");
   const std::string stats = (d / "s.json").string();

@@ -16,12 +16,8 @@ bench_rays_args 50000 "$@"
 mesh=${3:-$bench_house}
 read -r -a presets <<<"${PRESETS:-rdna2 intel embedded rdna2-mem intel-mem}"
 bench_need_python
-[ -r "$mesh" ] || { echo "$name: cannot read $mesh" >&2; exit 2; }
 bench_tmpdir
-
-for kind in primary incoherent; do
-  "$rtusim" rays --scene "$mesh" --kind "$kind" --count "$rays" --out "$tmp/$kind.bin" >/dev/null
-done
+bench_kind_rays "$mesh"
 
 echo "## Per preset: $(basename "$mesh"), $rays rays per kind"
 echo

@@ -67,6 +67,16 @@ bench_scene_args() {
   bench_need_rtusim "$rtusim"
 }
 
+# bench_kind_rays MESH: checks that MESH is readable (exits 2 when not) and writes $rays primary and as many
+# incoherent rays of it to $tmp/primary.bin and $tmp/incoherent.bin (bench_tmpdir).
+bench_kind_rays() {
+  [ -r "$1" ] || { echo "$name: cannot read $1" >&2; exit 2; }
+  local kind
+  for kind in primary incoherent; do
+    "$rtusim" rays --scene "$1" --kind "$kind" --count "$rays" --out "$tmp/$kind.bin" >/dev/null
+  done
+}
+
 # Sets reader to jq, or python3 when jq is missing; exits 2 when neither is there.
 bench_json_reader() {
   if command -v jq >/dev/null; then

@@ -1,5 +1,6 @@
-# Shared by the bench scripts (source it after setting `name` to the script's name): argument checks that exit 2
-# with a message naming the script, and a temporary directory removed on exit.
+# Shared by the bench scripts (source it after setting `name` to the script's name, or let it be the file's): argument
+# checks that exit 2 with a message naming the script, and a temporary directory removed on exit.
+name=${name:-${0##*/}}
 bench_need_rtusim() {  # bench_need_rtusim PATH
   [ -x "$1" ] || { echo "$name: $1 is not an executable (build the rtusim target, or pass its path)" >&2; exit 2; }
 }

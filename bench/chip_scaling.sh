@@ -15,12 +15,12 @@
 # rays per second on one host thread) against the single unit's in the same run. Prints Markdown; reads the stats
 # JSON with python3.
 set -euo pipefail
-read -r -a units <<<"${UNITS:-1 2 4 8 16 32 64 80}"
 name=chip_scaling.sh
 source "$(dirname "$0")/lib.sh"
 bench_mesh_args 200000 "$bench_house" "$bench_engine" -- "$@"
 bench_need_python
 bench_tmpdir
+read -r -a units <<<"${UNITS:-1 2 4 8 16 32 64 80}"
 plots=${PLOTS:-}
 if [ -n "$plots" ]; then
   command -v gnuplot >/dev/null || { echo "$name: PLOTS needs gnuplot (apt-get install gnuplot-nox)" >&2; exit 2; }
@@ -36,9 +36,8 @@ echo
 echo "| mesh | rays | units | cycles | rays/clock | speed-up | DRAM bytes/ray | L2 hit rate | row hit rate | DRAM utilization | limited by | knee (units) | sim rays/s vs 1 unit |"
 echo "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|"
 for mesh in "${meshes[@]}"; do
-  [ -r "$mesh" ] || { echo "$name: cannot read $mesh" >&2; exit 2; }
+  bench_kind_rays "$mesh"
   for kind in primary incoherent; do
-    "$rtusim" rays --scene "$mesh" --kind "$kind" --count "$rays" --out "$tmp/$kind.bin" >/dev/null
     for u in "${units[@]}"; do
       "$rtusim" trace --scene "$mesh" --rays "$tmp/$kind.bin" --out "$tmp/hits.bin" --device timed --threads 1 \
         "${chip[@]}" --set units="$u" --stats "$tmp/stats_$u.json" >/dev/null

@@ -10,21 +10,14 @@
 #     rdna2-mem intel-mem";  PLAN=0 leaves out the iso-area plan (the slow part: minutes).
 # Reads the stats JSON and the sweep CSV with python3.
 set -euo pipefail
-rtusim=${1:-build/default/rtusim}
-rays=${2:-50000}
-mesh=${3:-/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc}
-read -r -a presets <<<"${PRESETS:-rdna2 intel embedded rdna2-mem intel-mem}"
 name=energy.sh
 source "$(dirname "$0")/lib.sh"
-bench_need_rtusim "$rtusim"
-bench_need_count RAYS "$rays"
+bench_rays_args 50000 "$@"
+mesh=${3:-$bench_house}
+read -r -a presets <<<"${PRESETS:-rdna2 intel embedded rdna2-mem intel-mem}"
 bench_need_python
-[ -r "$mesh" ] || { echo "$name: cannot read $mesh" >&2; exit 2; }
 bench_tmpdir
-
-for kind in primary incoherent; do
-  "$rtusim" rays --scene "$mesh" --kind "$kind" --count "$rays" --out "$tmp/$kind.bin" >/dev/null
-done
+bench_kind_rays "$mesh"
 
 echo "## Per preset: $(basename "$mesh"), $rays rays per kind"
 echo

@@ -12,10 +12,7 @@
 set -euo pipefail
 name=hair.sh
 . "$(dirname "$0")/lib.sh"
-rtusim=${1:-build/default/rtusim}
-rays=${2:-32768}
-bench_need_rtusim "$rtusim"
-bench_need_count RAYS "$rays"
+bench_rays_args 32768 "$@"
 bench_need_python
 bench_tmpdir
 presets=(${PRESETS:-rdna4-mem rdna4-lss xe2-mem})

@@ -7,14 +7,11 @@
 # machine's.
 # Usage: bench/latency_hiding.sh [RTUSIM] [RAYS]      (RAYS per kind, default 32768)
 set -euo pipefail
+source "$(dirname "$0")/lib.sh"
+bench_tmpdir
 rtusim=${1:-build/default/rtusim}
 rays=${2:-32768}
-models=/usr/share/assimp/models
-scenes=(
-  "house=$models/IFC/AC14-FZK-Haus.ifc"
-  "engine=$models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb"
-  "city=builtin:city"
-)
+scenes=("house=$bench_house" "engine=$bench_engine" "city=builtin:city")
 kinds=(${KINDS:-primary incoherent path})
 path_size=${PATH_SIZE:-128}
 presets=(${PRESETS:-rdna2-mem rdna2-chip})
@@ -37,12 +34,10 @@ techniques=(
   "gather two_point|--set gather=two_point"
   "treelet 512, queue 64 + gather octant + restart|--set treelet_bytes=512 --set prefetcher=treelet --set prefetch_queue=64 --set gather=octant --set stack_mode=restart"
 )
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
 echo "| scene | rays | preset | format | technique | cycles | speed-up | misses | miss change | accuracy | coverage | DRAM B/ray | pJ/ray | area mm^2 |"
 echo "|---|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
 for s in "${scenes[@]}"; do
-  name=${s%%=*}
+  scene=${s%%=*}
   path=${s#*=}
   for kind in "${kinds[@]}"; do
     for preset in "${presets[@]}"; do
@@ -51,11 +46,11 @@ for s in "${scenes[@]}"; do
         for t in "${techniques[@]}"; do
           label=${t%%|*}
           args=${t#*|}
-          out=$work/out.json
+          out=$tmp/out.json
           if [ "$kind" = path ]; then
             # shellcheck disable=SC2086
             "$rtusim" render --flatten --scene "$path" --width "$path_size" --height "$path_size" --max-depth 3 \
-              --device timed --config "$preset" --format "$fmt" $args --out "$work/frame.png" --stats "$out" > /dev/null
+              --device timed --config "$preset" --format "$fmt" $args --out "$tmp/frame.png" --stats "$out" > /dev/null
           else
             # shellcheck disable=SC2086
             "$rtusim" trace --flatten --scene "$path" --rays "$kind:$rays" --device timed --config "$preset" \
@@ -76,7 +71,7 @@ print("%d,%d|%d | %.3f | %d | %+.1f%% | %.2f | %.2f | %.0f | %.0f | %.2f" % (t["
 PY
 )
           [ -z "$base" ] && base=${row%%|*}
-          echo "| $name | $kind | $preset | $fmt | $label | ${row#*|} |"
+          echo "| $scene | $kind | $preset | $fmt | $label | ${row#*|} |"
         done
       done
     done

@@ -5,9 +5,11 @@
 # Writes a Markdown table to stdout. Cycles are deterministic.
 # Usage: bench/latency_knee.sh [RTUSIM] [RAYS]      (default 65536 incoherent rays on the engine)
 set -euo pipefail
+source "$(dirname "$0")/lib.sh"
+bench_tmpdir
 rtusim=${1:-build/default/rtusim}
 rays=${2:-65536}
-scene=${SCENE:-/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb}
+scene=${SCENE:-$bench_engine}
 kind=${KIND:-incoherent}
 units_list=(${UNITS:-1 2 4 8 16 32 64 80})
 techniques=(
@@ -17,8 +19,6 @@ techniques=(
   "gather octant|--set gather=octant"
   "restart trail|--set stack_mode=restart"
 )
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
 echo "| technique | units | cycles | rays/clock | per unit | vs none | limited by | DRAM busy | slots busy |"
 echo "|---|---:|---:|---:|---:|---:|---|---:|---:|"
 declare -A base
@@ -28,8 +28,8 @@ for t in "${techniques[@]}"; do
   for u in "${units_list[@]}"; do
     # shellcheck disable=SC2086
     "$rtusim" trace --flatten --scene "$scene" --rays "$kind:$rays" --device timed --config rdna2-chip \
-      --set units="$u" $args --stats "$work/out.json" > /dev/null
-    row=$(/usr/bin/python3 - "$work/out.json" "$u" "${base[$u]:-}" <<'PY'
+      --set units="$u" $args --stats "$tmp/out.json" > /dev/null
+    row=$(/usr/bin/python3 - "$tmp/out.json" "$u" "${base[$u]:-}" <<'PY'
 import json, sys
 t = json.load(open(sys.argv[1]))["timing"]
 u = int(sys.argv[2])

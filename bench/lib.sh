@@ -1,5 +1,6 @@
-# Shared by the bench scripts (source it after setting `name` to the script's name): argument checks that exit 2
-# with a message naming the script, and a temporary directory removed on exit.
+# Shared by the bench scripts (source it after setting `name` to the script's name, or let it be the file's): argument
+# checks that exit 2 with a message naming the script, and a temporary directory removed on exit.
+name=${name:-${0##*/}}
 bench_need_rtusim() {  # bench_need_rtusim PATH
   [ -x "$1" ] || { echo "$name: $1 is not an executable (build the rtusim target, or pass its path)" >&2; exit 2; }
 }
@@ -23,24 +24,58 @@ bench_house=/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc
 bench_engine=/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb
 bench_suzanne=/usr/share/assimp/models/BLEND/SuzanneSubdiv_252.blend
 
-# bench_mesh_args DEFAULT_RAYS DEFAULT_MESH... -- [RTUSIM] [RAYS] [MESH...]: the arguments of a script that traces
-# meshes. Sets rtusim (default build/default/rtusim), rays and meshes, and checks rtusim and RAYS.
-bench_mesh_args() {
-  local default_rays=$1
+# bench_rays_args DEFAULT_RAYS [RTUSIM] [RAYS]: the first arguments of a script that traces rays. Sets rtusim
+# (default build/default/rtusim) and rays (default DEFAULT_RAYS), and checks them.
+bench_rays_args() {
+  rtusim=${2:-build/default/rtusim}
+  rays=${3:-$1}
+  bench_need_rtusim "$rtusim"
+  bench_need_count RAYS "$rays"
+}
+
+# bench_split_args N DEFAULT... -- ARG...: sets bench_lead to the first N ARGs (those given) and bench_list to the
+# ARGs after them, or to the DEFAULTs when there are none.
+bench_split_args() {
+  local n=$1 defaults=()
   shift
-  local defaults=()
   while [ "$1" != -- ]; do
     defaults+=("$1")
     shift
   done
   shift
-  rtusim=${1:-build/default/rtusim}
-  rays=${2:-$default_rays}
-  shift $(($# > 2 ? 2 : $#))
-  meshes=("$@")
-  [ ${#meshes[@]} -gt 0 ] || meshes=("${defaults[@]}")
+  bench_lead=("${@:1:n}")
+  shift $(($# > n ? n : $#))
+  bench_list=("$@")
+  [ ${#bench_list[@]} -gt 0 ] || bench_list=("${defaults[@]}")
+}
+
+# bench_mesh_args DEFAULT_RAYS DEFAULT_MESH... -- [RTUSIM] [RAYS] [MESH...]: the arguments of a script that traces
+# meshes. Sets rtusim (default build/default/rtusim), rays and meshes, and checks rtusim and RAYS.
+bench_mesh_args() {
+  local default_rays=$1
+  shift
+  bench_split_args 2 "$@"
+  meshes=("${bench_list[@]}")
+  bench_rays_args "$default_rays" "${bench_lead[@]}"
+}
+
+# bench_scene_args DEFAULT_SCENE... -- [RTUSIM] [SCENE...]: the arguments of a script that renders or traces
+# scenes. Sets rtusim (default build/default/rtusim) and scenes, and checks rtusim.
+bench_scene_args() {
+  bench_split_args 1 "$@"
+  scenes=("${bench_list[@]}")
+  rtusim=${bench_lead[0]:-build/default/rtusim}
   bench_need_rtusim "$rtusim"
-  bench_need_count RAYS "$rays"
+}
+
+# bench_kind_rays MESH: checks that MESH is readable (exits 2 when not) and writes $rays primary and as many
+# incoherent rays of it to $tmp/primary.bin and $tmp/incoherent.bin (bench_tmpdir).
+bench_kind_rays() {
+  [ -r "$1" ] || { echo "$name: cannot read $1" >&2; exit 2; }
+  local kind
+  for kind in primary incoherent; do
+    "$rtusim" rays --scene "$1" --kind "$kind" --count "$rays" --out "$tmp/$kind.bin" >/dev/null
+  done
 }
 
 # Sets reader to jq, or python3 when jq is missing; exits 2 when neither is there.

@@ -20,10 +20,7 @@ bench_tmpdir
 echo "| mesh | rays | preset | cycles | cycles/ray | limited by | cycles / bound | DRAM bytes/ray | DRAM utilization | cache hit rate |"
 echo "|---|---|---|---:|---:|---|---:|---:|---:|---:|"
 for mesh in "${meshes[@]}"; do
-  [ -r "$mesh" ] || { echo "memory_bound.sh: cannot read $mesh" >&2; exit 2; }
-  for kind in primary incoherent; do
-    "$rtusim" rays --scene "$mesh" --kind "$kind" --count "$rays" --out "$tmp/$kind.bin" >/dev/null
-  done
+  bench_kind_rays "$mesh"
   for kind in primary incoherent; do
     for preset in "${presets[@]}"; do
       "$rtusim" trace --scene "$mesh" --rays "$tmp/$kind.bin" --out "$tmp/hits.bin" --device timed \

@@ -10,10 +10,7 @@
 set -euo pipefail
 name=node_kinds.sh
 . "$(dirname "$0")/lib.sh"
-rtusim=${1:-build/default/rtusim}
-rays=${2:-32768}
-bench_need_rtusim "$rtusim"
-bench_need_count RAYS "$rays"
+bench_rays_args 32768 "$@"
 bench_tmpdir
 presets=(${PRESETS:-rdna4-mem xe2-mem})
 scenes=(

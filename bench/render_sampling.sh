@@ -17,19 +17,13 @@
 # Prints a Markdown table (bench/results/sampled-timing.md, "Renders").
 set -euo pipefail
 name=render_sampling.sh
-here=$(dirname "$0")
-. "$here/lib.sh"
-rtusim=${1:-build/default/rtusim}
-shift $(($# > 0 ? 1 : 0))
-scenes=("$@")
-[ ${#scenes[@]} -gt 0 ] ||
-  scenes=(builtin:atrium builtin:seed builtin:cornell "$bench_house" "$bench_engine")
+. "$(dirname "$0")/lib.sh"
+bench_scene_args builtin:atrium builtin:seed builtin:cornell "$bench_house" "$bench_engine" -- "$@"
 seeds=${SEEDS:-3}
 size=${SIZE:-512}
 spp=${SPP:-2}
 depth=${DEPTH:-3}
 read -r -a devices <<< "${DEVICES:-rdna2:0.01 rdna2-chip:0.1}"
-bench_need_rtusim "$rtusim"
 bench_need_count SEEDS "$seeds"
 bench_need_python
 bench_tmpdir

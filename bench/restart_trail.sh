@@ -5,31 +5,27 @@
 # restart section of bench/results/latency-hiding.md). Cycles and counts are deterministic.
 # Usage: bench/restart_trail.sh [RTUSIM] [RAYS]      (RAYS per kind, default 32768)
 set -euo pipefail
+source "$(dirname "$0")/lib.sh"
+bench_tmpdir
 rtusim=${1:-build/default/rtusim}
 rays=${2:-32768}
-models=/usr/share/assimp/models
-scenes=(
-  "house=$models/IFC/AC14-FZK-Haus.ifc"
-  "engine=$models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb"
-)
+scenes=("house=$bench_house" "engine=$bench_engine")
 preset=${PRESET:-rdna2-mem}
 widths=(${WIDTHS:-2 4 8})
 entries=(${ENTRIES:-1 2 3 4 5 8})
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
 echo "| scene | rays | width | stack entries | steps/ray, full stack | restarts/ray | steps vs full stack | cycles, spill | cycles, restart | restart vs spill | DRAM B/ray, spill | DRAM B/ray, restart |"
 echo "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
 for s in "${scenes[@]}"; do
-  name=${s%%=*}
+  scene=${s%%=*}
   path=${s#*=}
   for kind in primary incoherent; do
     for w in "${widths[@]}"; do
       for k in "${entries[@]}"; do
         for mode in spill restart; do
           "$rtusim" trace --flatten --scene "$path" --rays "$kind:$rays" --device timed --config "$preset" \
-            --set bvh_width="$w" --set stack_entries="$k" --set stack_mode=$mode --stats "$work/$mode.json" > /dev/null
+            --set bvh_width="$w" --set stack_entries="$k" --set stack_mode=$mode --stats "$tmp/$mode.json" > /dev/null
         done
-        row=$(/usr/bin/python3 - "$work/spill.json" "$work/restart.json" <<'PY'
+        row=$(/usr/bin/python3 - "$tmp/spill.json" "$tmp/restart.json" <<'PY'
 import json, sys
 a, b = (json.load(open(f)) for f in sys.argv[1:3])
 rays = max(1, a["rays"])
@@ -40,7 +36,7 @@ print("%.2f | %.3f | %.3f | %d | %d | %.3f | %.1f | %.1f" % (
     tb["cycles"] / ta["cycles"], ta["dram_bytes"] / rays, tb["dram_bytes"] / rays))
 PY
 )
-        echo "| $name | $kind | $w | $k | $row |"
+        echo "| $scene | $kind | $w | $k | $row |"
       done
     done
   done

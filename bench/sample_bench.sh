@@ -18,6 +18,7 @@
 #   estimator, the spread over many does (mean error, root mean square error, mean and largest |error|, how
 #   many lay beyond 2% and how many inside their 95% interval)
 set -euo pipefail
+source "$(dirname "$0")/lib.sh"  # the meshes, bench_tmpdir, num and least
 rtusim=${1:-build/default/rtusim}
 rays=${2:-1000000}
 shift $(( $# > 2 ? 2 : $# ))
@@ -27,24 +28,15 @@ read -r -a modes <<< "${MODES:-hits cycles-only}"
 repeat=${REPEAT:-3}
 threads=${THREADS:-1}
 seeds=${SEEDS:-1}
-if [ ${#meshes[@]} -eq 0 ]; then
-  m=/usr/share/assimp/models
-  meshes=("$m/IFC/AC14-FZK-Haus.ifc" "$m/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb"
-          "$m/BLEND/SuzanneSubdiv_252.blend")
-fi
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+[ ${#meshes[@]} -gt 0 ] || meshes=("$bench_house" "$bench_engine" "$bench_suzanne")
+bench_tmpdir
 
-num() {  # num PATH FILE: a number from the stats JSON, by a Python-style path
-  python3 -c "import json,sys; d=json.load(open(sys.argv[2])); print(eval('d'+sys.argv[1]))" "$1" "$2"
-}
 run() {  # run STATS ARGS...: one rtusim run; prints its trace_seconds
   local stats=$1
   shift
   "$rtusim" "$@" --threads "$threads" --stats "$stats" >/dev/null
   num "['trace_seconds']" "$stats"
 }
-least() { awk -v a="$1" -v b="$2" 'BEGIN{print (a == "" || b < a) ? b : a}'; }
 
 if [ "$seeds" -gt 1 ]; then
   printf '| mesh | rays | mode | sample | cycles (full) | estimate | error | 95%% interval | rays simulated | trace s (full / sampled) | speed-up | seeds | mean error | rms error | mean / max abs error | beyond 2%% | in interval |\n'

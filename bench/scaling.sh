@@ -19,17 +19,13 @@
 # 1 spp, direct light only) gives the rasterizer's cycles from its cost model (hwmodel/timing/raster_timing.h) and what
 # limits it; fitted like the ray tracing cycles. Reads the stats JSON with jq, or python3 when jq is missing.
 set -euo pipefail
-rtusim=${1:-build/default/rtusim}
-rays=${2:-100000}
+name=scaling.sh
+source "$(dirname "$0")/lib.sh"
+bench_rays_args 100000 "$@"
 out=${3:-out/scaling}
 read -r -a subdivs <<< "${SUBDIVS:-3 4 5 6 7 8}"
 read -r -a presets <<< "${PRESETS:-rdna2 intel embedded}"
 threads=${THREADS:-2}
-
-name=scaling.sh
-source "$(dirname "$0")/lib.sh"
-bench_need_rtusim "$rtusim"
-bench_need_count RAYS "$rays"
 for s in "${subdivs[@]}"; do
   [[ $s =~ ^[0-8]$ ]] || { echo "scaling.sh: SUBDIVS: '$s' is not a level 0..8" >&2; exit 2; }
 done

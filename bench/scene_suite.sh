@@ -23,16 +23,12 @@
 # (scripts/cgal_meshes.sh) when Debian's libcgal-demo is installed. If OUT exists, everything from its line
 # "## Notes" on is kept.
 set -euo pipefail
-rtusim=${1:-build/default/rtusim}
-rays=${2:-100000}
+name=scene_suite.sh
+source "$(dirname "$0")/lib.sh"
+bench_rays_args 100000 "$@"
 suite=${3:-scenes/suite.json}
 out=${OUT:-bench/results/scene-suite.md}
 threads=${THREADS:-1}
-
-name=scene_suite.sh
-source "$(dirname "$0")/lib.sh"
-bench_need_rtusim "$rtusim"
-bench_need_count RAYS "$rays"
 bench_need_python
 [ -r "$suite" ] || { echo "$name: cannot read the suite manifest $suite" >&2; exit 2; }
 agree="$(dirname "$rtusim")/suite_agree"

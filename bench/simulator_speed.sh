@@ -13,12 +13,8 @@
 #   SIZE=1920x1080 FRACTION=0.1 UNIT_FRACTION=0.01 THREADS=2 REPEAT=2 RAYS=1000000 MESH=<the house> (environment)
 set -euo pipefail
 name=simulator_speed.sh
-here=$(dirname "$0")
-. "$here/lib.sh"
-rtusim=${1:-build/default/rtusim}
-shift $(($# > 0 ? 1 : 0))
-scenes=("$@")
-[ ${#scenes[@]} -gt 0 ] || scenes=("$bench_house" builtin:atrium)
+. "$(dirname "$0")/lib.sh"
+bench_scene_args "$bench_house" builtin:atrium -- "$@"
 size=${SIZE:-1920x1080}
 fraction=${FRACTION:-0.1}
 unit_fraction=${UNIT_FRACTION:-0.01}
@@ -26,7 +22,6 @@ threads=${THREADS:-2}
 repeat=${REPEAT:-2}
 rays=${RAYS:-1000000}
 mesh=${MESH:-$bench_house}
-bench_need_rtusim "$rtusim"
 bench_need_count THREADS "$threads"
 bench_need_count REPEAT "$repeat"
 bench_need_count RAYS "$rays"

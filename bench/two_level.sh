@@ -11,17 +11,13 @@
 #     CONFIG default rdna2;  XFORM_SCENE default builtin:city;  XFORM_BITS default "24 20 16 12 8"
 # Prints Markdown tables. Reads the stats JSON with python3.
 set -euo pipefail
-rtusim=${1:-build/default/rtusim}
-rays=${2:-100000}
-models=/usr/share/assimp/models
-read -r -a scenes <<<"${SCENES:-builtin:city $models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb $models/IFC/AC14-FZK-Haus.ifc}"
+name=two_level.sh
+source "$(dirname "$0")/lib.sh"
+bench_rays_args 100000 "$@"
+read -r -a scenes <<<"${SCENES:-builtin:city $bench_engine $bench_house}"
 config=${CONFIG:-rdna2}
 xscene=${XFORM_SCENE:-builtin:city}
 read -r -a xbits <<<"${XFORM_BITS:-24 20 16 12 8}"
-name=two_level.sh
-source "$(dirname "$0")/lib.sh"
-bench_need_rtusim "$rtusim"
-bench_need_count RAYS "$rays"
 bench_need_python
 bench_tmpdir
 

@@ -40,20 +40,15 @@
 # and rdna4-mem. The table gives cycles per ray and the ratio to the older preset (> 1: faster), and the
 # geometric mean of the ratios over the scenes; the last column is also at each preset's own clock (ns per ray).
 set -euo pipefail
-rtusim=${1:-build/default/rtusim}
-rays=${2:-3000}
-shift $(($# > 2 ? 2 : $#))
-presets=("$@")
-[ ${#presets[@]} -gt 0 ] || presets=(rdna2 intel rdna4 xe2)
+name=unit_rates.sh
+source "$(dirname "$0")/lib.sh"
+bench_split_args 2 rdna2 intel rdna4 xe2 -- "$@"
+bench_rays_args 3000 "${bench_lead[@]}"
+presets=("${bench_list[@]}")
 suite_rays=${SUITE_RAYS:-20000}
 suite=${SUITE:-scenes/suite.json}
 out=${OUT:-bench/results/unit-rates.md}
 check=${CHECK:-0}
-
-name=unit_rates.sh
-source "$(dirname "$0")/lib.sh"
-bench_need_rtusim "$rtusim"
-bench_need_count RAYS "$rays"
 bench_need_python
 [[ $suite_rays =~ ^[0-9]+$ ]] || { echo "$name: SUITE_RAYS must be a whole number, not '$suite_rays'" >&2; exit 2; }
 root=$(cd "$(dirname "$0")/.." && pwd)

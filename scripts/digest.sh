@@ -18,16 +18,11 @@
 # zero or at its default) shows it changed nothing else when the digest without them equals the one before.
 # Usage: scripts/digest.sh [RTUSIM] [RAYS]     (RAYS per kind and mesh, default 20000; a few minutes)
 set -euo pipefail
+source "$(dirname "$0")/../bench/lib.sh"  # the meshes and bench_tmpdir
 rtusim=${1:-build/default/rtusim}
 rays=${2:-20000}
-models=/usr/share/assimp/models
-meshes=(
-  "$models/IFC/AC14-FZK-Haus.ifc"
-  "$models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb"
-  "$models/BLEND/SuzanneSubdiv_252.blend"
-)
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+meshes=("$bench_house" "$bench_engine" "$bench_suzanne")
+bench_tmpdir
 
 # The JSON without wall-clock figures and paths, keys sorted, as one line.
 strip_json() {
@@ -60,70 +55,70 @@ line() {  # name, files...: the name and a hash of the files' contents (JSON fil
   h=$(for f in "$@"; do
         if [[ $f == *.json ]]; then strip_json "$f"; else sha256sum <"$f"; fi
       done | sha256sum | cut -c1-16)
-  echo "$name $h" | tee -a "$work/all"
+  echo "$name $h" | tee -a "$tmp/all"
 }
 
 for mesh in "${meshes[@]}"; do
   m=$(basename "$mesh")
   for kind in primary incoherent; do
     if [[ $kind == primary ]]; then
-      "$rtusim" rays --scene "$mesh" --kind primary --width 160 --height $((rays / 160)) --out "$work/r.bin" >/dev/null
+      "$rtusim" rays --scene "$mesh" --kind primary --width 160 --height $((rays / 160)) --out "$tmp/r.bin" >/dev/null
     else
-      "$rtusim" rays --scene "$mesh" --kind incoherent --count "$rays" --seed 7 --out "$work/r.bin" >/dev/null
+      "$rtusim" rays --scene "$mesh" --kind incoherent --count "$rays" --seed 7 --out "$tmp/r.bin" >/dev/null
     fi
     for dev in float fixed; do
-      "$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device $dev --threads 2 --out "$work/h.bin" \
-        --stats "$work/s.json" >/dev/null 2>&1
-      line "$m/$kind/$dev" "$work/h.bin" "$work/s.json"
+      "$rtusim" trace --scene "$mesh" --rays "$tmp/r.bin" --device $dev --threads 2 --out "$tmp/h.bin" \
+        --stats "$tmp/s.json" >/dev/null 2>&1
+      line "$m/$kind/$dev" "$tmp/h.bin" "$tmp/s.json"
     done
     for preset in rdna2 intel embedded; do
-      "$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device timed --config $preset --threads 2 \
-        --out "$work/h.bin" --stats "$work/s.json" >/dev/null 2>&1
-      line "$m/$kind/timed-$preset" "$work/h.bin" "$work/s.json"
+      "$rtusim" trace --scene "$mesh" --rays "$tmp/r.bin" --device timed --config $preset --threads 2 \
+        --out "$tmp/h.bin" --stats "$tmp/s.json" >/dev/null 2>&1
+      line "$m/$kind/timed-$preset" "$tmp/h.bin" "$tmp/s.json"
     done
-    "$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device timed --config rdna2 --threads 2 \
-      --sample 0.05 --sample-seed 3 --out "$work/h.bin" --stats "$work/s.json" >/dev/null 2>&1
-    line "$m/$kind/timed-sampled" "$work/h.bin" "$work/s.json"
+    "$rtusim" trace --scene "$mesh" --rays "$tmp/r.bin" --device timed --config rdna2 --threads 2 \
+      --sample 0.05 --sample-seed 3 --out "$tmp/h.bin" --stats "$tmp/s.json" >/dev/null 2>&1
+    line "$m/$kind/timed-sampled" "$tmp/h.bin" "$tmp/s.json"
   done
 done
 
 # Sampled timing on a longer packet (strata, probe, walk, adaptive warm-up), with hits and cycles only; any-hit.
 mesh=${meshes[0]}
-"$rtusim" rays --scene "$mesh" --kind primary --width 400 --height 300 --out "$work/r.bin" >/dev/null
-"$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device timed --config rdna2 --threads 2 \
-  --sample 0.02 --sample-seed 5 --out "$work/h.bin" --stats "$work/s.json" >/dev/null 2>&1
-line "sampled-120k/hits" "$work/h.bin" "$work/s.json"
-"$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device timed --config intel --threads 2 \
-  --sample 0.02 --sample-seed 5 --stats "$work/s.json" >/dev/null 2>&1
-line "sampled-120k/cycles-only" "$work/s.json"
+"$rtusim" rays --scene "$mesh" --kind primary --width 400 --height 300 --out "$tmp/r.bin" >/dev/null
+"$rtusim" trace --scene "$mesh" --rays "$tmp/r.bin" --device timed --config rdna2 --threads 2 \
+  --sample 0.02 --sample-seed 5 --out "$tmp/h.bin" --stats "$tmp/s.json" >/dev/null 2>&1
+line "sampled-120k/hits" "$tmp/h.bin" "$tmp/s.json"
+"$rtusim" trace --scene "$mesh" --rays "$tmp/r.bin" --device timed --config intel --threads 2 \
+  --sample 0.02 --sample-seed 5 --stats "$tmp/s.json" >/dev/null 2>&1
+line "sampled-120k/cycles-only" "$tmp/s.json"
 for dev in fixed timed; do
-  "$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device $dev --any-hit --threads 2 --out "$work/h.bin" \
-    --stats "$work/s.json" >/dev/null 2>&1
-  line "any-hit/$dev" "$work/h.bin" "$work/s.json"
+  "$rtusim" trace --scene "$mesh" --rays "$tmp/r.bin" --device $dev --any-hit --threads 2 --out "$tmp/h.bin" \
+    --stats "$tmp/s.json" >/dev/null 2>&1
+  line "any-hit/$dev" "$tmp/h.bin" "$tmp/s.json"
 done
 
 for scene in seed cornell; do
   for dev in float timed; do
     for mode in raytrace hybrid; do
       "$rtusim" render --scene builtin:$scene --device $dev --mode $mode --width 96 --height 72 --spp 1 \
-        --max-depth 2 --threads 2 --out "$work/i.png" --stats "$work/s.json" >/dev/null 2>&1
-      line "render/$scene/$dev/$mode" "$work/i.png" "$work/s.json"
+        --max-depth 2 --threads 2 --out "$tmp/i.png" --stats "$tmp/s.json" >/dev/null 2>&1
+      line "render/$scene/$dev/$mode" "$tmp/i.png" "$tmp/s.json"
     done
   done
 done
 
 # Memory-bound presets and chips, incoherent rays on the house (two levels, as the CLI traces it).
 mesh=${meshes[0]}
-"$rtusim" rays --scene "$mesh" --kind incoherent --count "$rays" --seed 11 --out "$work/r.bin" >/dev/null
+"$rtusim" rays --scene "$mesh" --kind incoherent --count "$rays" --seed 11 --out "$tmp/r.bin" >/dev/null
 for cfg in rdna2-mem intel-mem rdna2-chip intel-chip embedded-chip; do
-  "$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device timed --config $cfg --threads 2 \
-    --out "$work/h.bin" --stats "$work/s.json" >/dev/null 2>&1
-  line "memory/$cfg" "$work/h.bin" "$work/s.json"
+  "$rtusim" trace --scene "$mesh" --rays "$tmp/r.bin" --device timed --config $cfg --threads 2 \
+    --out "$tmp/h.bin" --stats "$tmp/s.json" >/dev/null 2>&1
+  line "memory/$cfg" "$tmp/h.bin" "$tmp/s.json"
 done
 for policy in round_robin blocks; do
-  "$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device timed --config rdna2-chip --set ray_policy=$policy \
-    --threads 2 --out "$work/h.bin" --stats "$work/s.json" >/dev/null 2>&1
-  line "memory/rdna2-chip-$policy" "$work/h.bin" "$work/s.json"
+  "$rtusim" trace --scene "$mesh" --rays "$tmp/r.bin" --device timed --config rdna2-chip --set ray_policy=$policy \
+    --threads 2 --out "$tmp/h.bin" --stats "$tmp/s.json" >/dev/null 2>&1
+  line "memory/rdna2-chip-$policy" "$tmp/h.bin" "$tmp/s.json"
 done
 
 # Packed layouts on fixed and timed (rdna2-mem: the bytes are what the rays wait for), both levels and flattened.
@@ -131,45 +126,45 @@ for fmt in packed cwbvh xe6 "packed --coord-bits 16 --child-bits 6"; do
   for dev in fixed timed; do
     for flat in "" --flatten; do
       # shellcheck disable=SC2086
-      "$rtusim" trace --scene "$mesh" --rays "$work/r.bin" --device $dev --format $fmt $flat \
-        $([[ $dev == timed ]] && echo "--config rdna2-mem") --threads 2 --out "$work/h.bin" \
-        --stats "$work/s.json" >/dev/null 2>&1
-      line "layout/${fmt// /_}/$dev${flat:+/flat}" "$work/h.bin" "$work/s.json"
+      "$rtusim" trace --scene "$mesh" --rays "$tmp/r.bin" --device $dev --format $fmt $flat \
+        $([[ $dev == timed ]] && echo "--config rdna2-mem") --threads 2 --out "$tmp/h.bin" \
+        --stats "$tmp/s.json" >/dev/null 2>&1
+      line "layout/${fmt// /_}/$dev${flat:+/flat}" "$tmp/h.bin" "$tmp/s.json"
     done
   done
 done
 
 # Two levels (the city) and alpha-tested geometry (the forest): traced both ways and rendered on the timed device.
 for scene in city forest; do
-  "$rtusim" rays --scene builtin:$scene --kind incoherent --count "$rays" --seed 13 --out "$work/r.bin" >/dev/null
+  "$rtusim" rays --scene builtin:$scene --kind incoherent --count "$rays" --seed 13 --out "$tmp/r.bin" >/dev/null
   for dev in float fixed timed; do
     for flat in "" --flatten; do
       [[ $dev == float && -n $flat ]] && continue
       # shellcheck disable=SC2086
-      "$rtusim" trace --scene builtin:$scene --rays "$work/r.bin" --device $dev $flat --threads 2 \
-        --out "$work/h.bin" --stats "$work/s.json" >/dev/null 2>&1
-      line "$scene/$dev${flat:+/flat}" "$work/h.bin" "$work/s.json"
+      "$rtusim" trace --scene builtin:$scene --rays "$tmp/r.bin" --device $dev $flat --threads 2 \
+        --out "$tmp/h.bin" --stats "$tmp/s.json" >/dev/null 2>&1
+      line "$scene/$dev${flat:+/flat}" "$tmp/h.bin" "$tmp/s.json"
     done
   done
   "$rtusim" render --scene builtin:$scene --device timed --width 64 --height 48 --spp 1 --max-depth 2 --threads 2 \
-    --out "$work/i.png" --stats "$work/s.json" >/dev/null 2>&1
-  line "render/$scene/timed" "$work/i.png" "$work/s.json"
+    --out "$tmp/i.png" --stats "$tmp/s.json" >/dev/null 2>&1
+  line "render/$scene/timed" "$tmp/i.png" "$tmp/s.json"
 done
 
 # Co-simulated RTL units (builds without RTL refuse box_unit=rtl: those lines are left out, and say so).
-"$rtusim" rays --scene builtin:cornell --kind primary --width 64 --height 48 --out "$work/r.bin" >/dev/null
+"$rtusim" rays --scene builtin:cornell --kind primary --width 64 --height 48 --out "$tmp/r.bin" >/dev/null
 for unit in "box_unit=rtl" "tri_unit=rtl" "box_unit=rtl --set tri_unit=rtl"; do
   # shellcheck disable=SC2086
-  if "$rtusim" trace --scene builtin:cornell --rays "$work/r.bin" --device timed --set $unit --threads 2 \
-      --out "$work/h.bin" --stats "$work/s.json" >/dev/null 2>&1; then
-    line "rtl/${unit// --set /+}" "$work/h.bin" "$work/s.json"
+  if "$rtusim" trace --scene builtin:cornell --rays "$tmp/r.bin" --device timed --set $unit --threads 2 \
+      --out "$tmp/h.bin" --stats "$tmp/s.json" >/dev/null 2>&1; then
+    line "rtl/${unit// --set /+}" "$tmp/h.bin" "$tmp/s.json"
   else
-    echo "rtl/${unit// --set /+} (not in this build)" | tee -a "$work/all"
+    echo "rtl/${unit// --set /+} (not in this build)" | tee -a "$tmp/all"
   fi
 done
 if "$rtusim" render --scene builtin:cornell --device timed --set box_unit=rtl --set tri_unit=rtl --width 48 \
-    --height 36 --spp 1 --max-depth 2 --threads 2 --out "$work/i.png" --stats "$work/s.json" >/dev/null 2>&1; then
-  line "render/cornell/timed-rtl" "$work/i.png" "$work/s.json"
+    --height 36 --spp 1 --max-depth 2 --threads 2 --out "$tmp/i.png" --stats "$tmp/s.json" >/dev/null 2>&1; then
+  line "render/cornell/timed-rtl" "$tmp/i.png" "$tmp/s.json"
 fi
 
-echo "digest $(sha256sum <"$work/all" | cut -c1-16)"
+echo "digest $(sha256sum <"$tmp/all" | cut -c1-16)"

@@ -161,6 +161,10 @@ class TimedEngine final : public TraceEngine {
   // unit_work) to work[2w] and its warming rays' to work[2w + 1]. Returns the packet's cycles.
   uint64_t run_chip_dynamic(const std::vector<ChipWave>& waves, const Ray* rays, Hit* hits, bool any_hit,
                             TraversalStats& s, std::vector<TimingStats>& packet, std::vector<double>& work);
+  // Records the rays [cw.warm_first, cw.first) a wave at a time into warm_events, warming with them the chip's
+  // memory through unit u and the node caches of the units they would have gone to; returns their statistics.
+  TraversalStats warm_chip(size_t u, const ChipWave& cw, const Ray* rays, Hit* hits, bool any_hit,
+                           std::vector<std::vector<TraceEvent>>& warm_events);
   // The rays a chip's unit is given at a time (run_chip): at least two slots' worth.
   static size_t chip_chunk_rays(const TimingConfig& c) { return std::max<size_t>(256, 2 * size_t(c.ray_slots)); }
   // The rays of a packet of n rays each of the chip's units takes, in the order it takes them (ray_policy).
@@ -170,6 +174,12 @@ class TimedEngine final : public TraceEngine {
   uint64_t run_chip(const std::vector<TimingModel*>& units, const std::vector<std::vector<uint32_t>>& mine,
                     const Ray* rays, Hit* hits, bool any_hit, TraversalStats& s, std::vector<TimingStats>& packet,
                     std::vector<uint64_t>* ends = nullptr);
+  // A chunk of a unit's rays recorded for run_chip (timed_engine_chip.cpp). record_chip_chunk records into c the
+  // next chunk of the unit's rays `mine`, from `next` (advanced past it): at most `want` rays and, unless it is
+  // one ray, at most `cap` bytes of events; it sets `want` for the unit's next chunk (at most `chunk` rays).
+  struct ChipChunk;
+  void record_chip_chunk(const std::vector<uint32_t>& mine, const Ray* rays, bool any_hit, size_t chunk,
+                         uint64_t cap, size_t& next, size_t& want, ChipChunk& c) const;
   // One TRACE packet through the timing model, every ray simulated.
   uint64_t trace_cycles_full(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
                              TimingStats& ts);
@@ -185,6 +195,11 @@ class TimedEngine final : public TraceEngine {
                       double box_rate, double tri_rate);
   uint64_t trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
                                 TimingStats& ts, size_t k, SlotTimeAccount& slot_time);
+  // Functional warming of the cache before ray `end` for the `sim` rays simulated from there on (their events in
+  // events[0, sim)), walking rays backwards from it, recorded a chunk at a time into walk_events (at least 64
+  // lists). Returns the rays walked.
+  size_t warm_cache_before(const Ray* rays, bool any_hit, size_t end, const std::vector<TraceEvent>* events,
+                           size_t sim, std::vector<std::vector<TraceEvent>>& walk_events);
   // Traces rays [first, first + count) with recording; events[at + i] for ray first + i. Hits go to hits (or
   // nowhere when null).
   void record(const Ray* rays, Hit* hits, size_t first, size_t count, bool any_hit, TraversalStats& s,

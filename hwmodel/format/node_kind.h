@@ -9,7 +9,8 @@
 //   - a cost class (NodeCostClass), which the timing model prices (TimingModel::Layout::node_cost).
 // The image names its kind in header flags bits 8..11 (device_image.h); every dispatch goes through
 // with_node_kind (node_kinds.h), as the BVH width's does. The tree around the nodes (references, leaves, order,
-// depth) is the same for every kind and stays in device_image.cpp and traverse.h.
+// depth) is the same for every kind and stays in the image's encoder (device_image_encode.cpp, packed_tree.h), its
+// check (device_image.cpp) and traverse.h.
 // A new kind: its format header beside quantized_aabb.h, its test beside datapath/quantized_aabb_test.h, one
 // row in node_kinds.h and one include in datapath/node_test.h.
 #pragma once

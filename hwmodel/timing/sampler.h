@@ -28,8 +28,9 @@
 // full. Timing counters are those of the simulated rays scaled to the packet (timing_stats.h, SampleScale).
 //
 // This header holds the options, the statistics and the estimator's pure functions; TimedEngine
-// (timed_engine.cpp) runs the datapath and the timing model around them. docs/timing-model.md says how the
-// constants were chosen and what the estimator's error is on the benchmark meshes.
+// (timed_engine_sampled.cpp, timed_engine_chip.cpp) runs the datapath and the timing model around them.
+// docs/timing-model.md says how the constants were chosen and what the estimator's error is on the benchmark
+// meshes.
 #pragma once
 
 #include <algorithm>

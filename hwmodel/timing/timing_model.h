@@ -138,7 +138,7 @@ class TimingModel {
   void set_trace(PipelineTrace* trace) { m_trace = trace; }
   void feed(std::vector<TraceEvent>* events, size_t m);
   uint64_t finish();
-  // A chip's units run in step (TimedEngine::trace_cycles_chip, timed_engine.cpp): begin() as above; add_rays()
+  // A chip's units run in step (TimedEngine::run_chip, timed_engine_chip.cpp): begin() as above; add_rays()
   // gives the unit rays like feed() but does not simulate; run_until(t) does every action at a cycle <= t;
   // next_cycle() is the cycle of the next action (kNever when the packet's rays are all done), and starved() says
   // that action takes a ray not added yet (add rays first). end_packet(end) closes the packet at the chip's last

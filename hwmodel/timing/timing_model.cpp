@@ -1,12 +1,15 @@
+// The timing model (timing_model.h): construction, the prefetch observer's port, the walks that warm the cache
+// for sampled timing, and the event loop. simulate() admits rays into free slots and lets the earliest slot act,
+// event by event, until it waits: the events the units do not test (stack traffic, any-hit requests, ...), line
+// fetches through the node cache, unit requests served in the order of (cycle, slot); then the hit's write-back.
+// The units' pricing of a request is timing_model_units.cpp's, the watchdog's report timing_model_watchdog.cpp's,
+// the layout of an image in device memory timing_model_layout.cpp's.
 #include "hwmodel/timing/timing_model.h"
 
 #include <algorithm>
 #include <functional>
 #include <stdexcept>
 #include <string>
-
-#include "hwmodel/datapath/watchdog.h"
-#include "hwmodel/format/node_kinds.h"
 
 namespace rtu::hw {
 
@@ -124,86 +127,6 @@ void TimingModel::drain_prefetches(uint64_t t) {
   }
 }
 
-TimingModel::Layout TimingModel::layout_of(const DeviceImage& image, uint64_t align) {
-  const ImageHeader& h = image.header();
-  Layout l;
-  l.node_bytes = image.node_bytes();
-  l.node_cost = find_node_kind(uint32_t(node_kind(h)))->cost;  // the image check refused unknown kinds
-  l.record_spans = image.record_spans();
-  l.cluster_node_begin = h.node_count;
-  l.cluster_node_spans = image.cluster_node_spans();
-  l.cluster_record_flags = image.cluster_record_flags();
-  if (align == 0) {
-    l.node_offset = h.node_offset;
-    l.record_offset = h.record_offset;
-    l.plane_offset = h.plane_offset;
-    l.total_bytes = h.total_bytes;
-    return l;
-  }
-  auto up = [align](uint64_t v) { return (v + align - 1) / align * align; };
-  l.node_stride = up(l.node_bytes);
-  l.record_stride = up(kRecordBytes);
-  l.plane_stride = up(sizeof(PlaneRecord));
-  l.node_offset = up(h.node_offset);
-  l.record_offset = up(l.node_offset + uint64_t(h.node_count) * l.node_stride);
-  uint64_t record_end = l.record_offset + uint64_t(h.record_count) * l.record_stride;
-  if (!l.cluster_node_spans.empty()) {  // each cluster or block starts on the alignment, in the image's order
-    std::vector<DeviceImage::Span*> spans;
-    for (DeviceImage::Span& s : l.record_spans)
-      if (s.bytes > 0) spans.push_back(&s);
-    for (DeviceImage::Span& s : l.cluster_node_spans)
-      if (s.bytes > 0) spans.push_back(&s);
-    std::sort(spans.begin(), spans.end(), [](const auto* a, const auto* b) { return a->offset < b->offset; });
-    uint64_t at = l.record_offset;
-    for (DeviceImage::Span* s : spans) {
-      s->offset = at;
-      at = up(at + s->bytes);
-    }
-    record_end = at;
-  } else if (!l.record_spans.empty()) {  // each block starts on the alignment
-    uint64_t at = l.record_offset;
-    for (DeviceImage::Span& s : l.record_spans) {
-      if (s.bytes == 0) continue;
-      s.offset = at;
-      at = up(at + s.bytes);
-    }
-    record_end = at;
-  }
-  l.plane_offset = up(record_end);
-  l.total_bytes = l.plane_offset + uint64_t(h.plane_count) * l.plane_stride;
-  return l;
-}
-
-TimingModel::Layout TimingModel::layout_of(const InstancedFixedTracer& t, uint64_t align,
-                                           uint64_t instance_bytes) {
-  const uint64_t a = std::max<uint64_t>(64, align);
-  auto up = [](uint64_t v, uint64_t to) { return (v + to - 1) / to * to; };
-  Layout top = layout_of(t.top(), align);
-  const ImageHeader& h = t.top().header();
-  // The instance records grow by the stored transform and the bottom level's address; the planes move after.
-  top.instance_bytes = instance_bytes > 0
-                           ? instance_bytes
-                           : kRecordBytes + t.transform_bytes() / std::max<size_t>(1, t.instance_count());
-  top.record_stride = align ? up(top.instance_bytes, align) : top.instance_bytes;
-  const uint64_t planes = top.plane_stride ? top.plane_stride : sizeof(PlaneRecord);
-  top.plane_offset = up(top.record_offset + uint64_t(h.record_count) * top.record_stride, align ? align : 8);
-  uint64_t end = top.plane_offset + uint64_t(h.plane_count) * planes;
-  for (size_t m = 0; m < t.bottom_count(); ++m) {
-    Layout b = layout_of(t.bottom(uint32_t(m)), align);
-    const uint64_t base = up(end, a);
-    b.node_offset += base;
-    b.record_offset += base;
-    b.plane_offset += base;
-    for (DeviceImage::Span& sp : b.record_spans) sp.offset += base;
-    for (DeviceImage::Span& sp : b.cluster_node_spans) sp.offset += base;
-    end = base + b.total_bytes;
-    b.total_bytes = end;
-    top.bottoms.push_back(std::move(b));
-  }
-  top.total_bytes = end;
-  return top;
-}
-
 const TimingModel::Layout& TimingModel::bottom(uint32_t mesh) const {
   if (mesh >= m_layout.bottoms.size())
     throw std::logic_error("timing model: a bottom level (mesh " + std::to_string(mesh) + ") the layout lacks");
@@ -299,18 +222,6 @@ size_t TimingModel::walk_add(const std::vector<TraceEvent>* events, size_t m, si
   return m;
 }
 
-uint64_t TimingModel::unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t) {
-  size_t best = 0;
-  for (size_t j = 1; j < next_free.size(); ++j)
-    if (next_free[j] < next_free[best]) best = j;
-  const uint64_t start = std::max(t, next_free[best]);
-  next_free[best] = start + issue;
-  const uint64_t wait = start - t;
-  m_s->unit_wait_cycles += wait;
-  if (wait > uint64_t(m_c.queue_depth)) m_s->queue_stall_cycles += wait - uint64_t(m_c.queue_depth);
-  return start + latency + issue - 1;
-}
-
 void TimingModel::begin(size_t n, TimingStats& s) {
   m_s = &s;
   m_n = n;
@@ -388,100 +299,6 @@ uint64_t TimingModel::refill(Slot& sl, uint32_t k, uint64_t t) {
   return ready;
 }
 
-uint64_t TimingModel::unit_request(const TraceEvent& e, uint32_t k, uint64_t t) {
-  uint64_t done;
-  const Slot& sl = m_slots[k];
-  if (!m_cluster_box_free.empty() && cluster_node(*sl.layout, e)) {
-    // The cluster engine's box stage: the node's children at box_rate per clock.
-    done = unit(m_cluster_box_free, m_box_cost.issue[e.count], m_box_cost.latency, t);
-    if (m_trace) m_trace->add(m_unit, k, "cluster box", t, done);
-    m_s->cluster_box_tests += e.count;
-    ++m_s->cluster_requests;
-    return done;
-  }
-  if (!m_cluster_tri_free.empty() && cluster_tri(*sl.layout, e)) {
-    // The cluster engine's triangle stage: this triangle and those after it of its leaf (leaf_follower), as one
-    // request of ceil(n / cluster_tri_rate) clocks; the followers take no time of their own (simulate()).
-    uint64_t n = 1;
-    for (size_t j = sl.pos + 1; j < sl.ev.size() && leaf_follower(*sl.layout, sl.ev[j - 1], sl.ev[j]); ++j) ++n;
-    const uint64_t rate = uint64_t(m_c.cluster_tri_rate);
-    done = unit(m_cluster_tri_free, (n + rate - 1) / rate, uint64_t(m_c.tri_latency), t);
-    if (m_trace) m_trace->add(m_unit, k, "cluster triangles", t, done);
-    m_s->cluster_tri_tests += n;
-    ++m_s->cluster_requests;
-    return done;
-  }
-  if (e.kind == TraceEvent::kNode) {
-    // The configured rate and depth, or the clocks the box unit that tested the node reported (box_unit.h).
-    const uint64_t issue = e.unit_issue ? e.unit_issue : m_box_cost.issue[e.count];
-    const uint64_t latency = e.unit_issue ? uint64_t(e.unit_result) - issue + 1 : m_box_cost.latency;
-    done = unit(m_box_free, issue, latency, t);
-    if (m_trace) m_trace->add(m_unit, k, "box", t, done);
-    m_s->box_tests += e.count;
-    m_s->box_issue_cycles += issue;
-    m_s->obb_rotations += uint64_t(m_oriented);
-    return done;
-  }
-  if (e.kind == TraceEvent::kPrim && e.count == uint8_t(RecordKind::kInstance)) {
-    // The transform unit, pipelined: no unit to wait for.
-    done = t + uint64_t(m_c.xform_latency);
-    if (m_trace) m_trace->add(m_unit, k, "transform", t, done);
-    ++m_s->instance_transforms;
-    return done;
-  }
-  if (e.kind == TraceEvent::kPrim && e.count == kPrimCurve) {
-    // A curve unit's slot for one clock, or without curve units a triangle unit's for curve_issue clocks.
-    ++m_s->curve_tests;
-    if (m_c.curve_units > 0) {
-      done = unit(m_curve_free, 1, uint64_t(m_c.curve_latency), t);
-    } else {
-      done = unit(m_tri_free, uint64_t(m_c.curve_issue), uint64_t(m_c.curve_latency), t);
-      m_s->tri_issue_cycles += uint64_t(m_c.curve_issue);
-    }
-    if (m_trace) m_trace->add(m_unit, k, "curve", t, done);
-    return done;
-  }
-  uint64_t lat = uint64_t(m_c.plane_latency), issue = 1;
-  const char* what = "plane";
-  if (e.kind == TraceEvent::kPrim && e.count == uint8_t(RecordKind::kTrianglePair)) {
-    // One request of two triangle tests: two issue slots taken at once (one clock on a unit of tri_rate >= 2),
-    // the result when both are done; or the clocks the triangle unit reported for the two.
-    if (e.unit_issue) {
-      done = unit(m_tri_free, e.unit_issue, uint64_t(e.unit_result) - e.unit_issue + 1, t);
-      m_s->tri_issue_cycles += e.unit_issue;
-    } else {
-      done = std::max(unit(m_tri_free, 1, uint64_t(m_c.tri_latency), t),
-                      unit(m_tri_free, 1, uint64_t(m_c.tri_latency), t));
-      m_s->tri_issue_cycles += 2;
-    }
-    if (m_trace) m_trace->add(m_unit, k, "triangle pair", t, done);
-    m_s->tri_tests += 2;
-    ++m_s->tri_pairs;
-    return done;
-  }
-  if (e.kind == TraceEvent::kPrim && e.count == uint8_t(RecordKind::kTriangle)) {
-    // One clock and tri_latency, or the clocks the triangle unit that tested it reported (tri_unit.h).
-    if (e.unit_issue) {
-      issue = e.unit_issue;
-      lat = uint64_t(e.unit_result) - issue + 1;
-    } else {
-      lat = uint64_t(m_c.tri_latency);
-    }
-    what = "triangle";
-    ++m_s->tri_tests;
-  } else if (e.kind == TraceEvent::kPrim) {
-    lat = uint64_t(m_c.sphere_latency);
-    what = "sphere";
-    ++m_s->sphere_tests;
-  } else {
-    ++m_s->plane_tests;
-  }
-  done = unit(m_tri_free, issue, lat, t);
-  if (m_trace) m_trace->add(m_unit, k, what, t, done);
-  m_s->tri_issue_cycles += issue;
-  return done;
-}
-
 uint64_t TimingModel::pop_waiting() {
   const uint64_t key = m_waiting.front();
   std::pop_heap(m_waiting.begin(), m_waiting.end(), std::greater<>());
@@ -532,31 +349,8 @@ bool TimingModel::touches_memory(const Slot& sl) const {
 }
 
 void TimingModel::simulate(uint64_t limit, bool ahead) {
-  const uint64_t SE = uint64_t(m_c.stack_entries);
   for (;;) {
-    // Free slots take the next rays, earliest free first (ties: lowest slot). Taking a ray stays inside the unit
-    // (its ray fetch has its own port).
-    while (!m_free_slots.empty() && m_next < m_n) {
-      const auto [free_at, k] = m_free_slots.front();
-      if (!m_queue.empty() && m_queue.top_cycle() < free_at) break;  // a busy slot acts first
-      if (free_at > limit && !ahead) return;
-      if (m_gather) {
-        if (!gather_until(free_at)) return;  // an arrival up to free_at is a ray not fed yet
-      } else if (m_next >= m_feed_first + m_feed_count) {
-        return;  // its ray is not fed yet
-      }
-      std::pop_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
-      m_free_slots.pop_back();
-      if (m_gather && !m_gather->ready()) {
-        // No bin is issued yet: the slot looks again at the next arrival or timeout (both after free_at).
-        const uint64_t next = std::min(m_gather->next_arrival(), m_gather->next_timeout());
-        if (next == RayGather::kNever) throw std::logic_error("gather: rays left but none can arrive or issue");
-        m_free_slots.push_back({next, k});
-        std::push_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
-        continue;
-      }
-      admit(k, free_at);
-    }
+    if (!admit_rays(limit, ahead)) return;
     if (m_queue.empty()) return;
     // The earliest slot acts, until it knows its next cycle (replace_top: it waits again) or leaves (pop).
     const uint64_t t = m_queue.top_cycle();
@@ -570,82 +364,11 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
       // Ahead of the limit, the slot stops (still first in the queue, at t) before an event that reaches memory.
       if (t > limit && touches_memory(sl)) return;
       if (sl.pos == sl.ev.size()) {  // hit write-back; the slot is free the clock after
-        const uint64_t st = std::max(t, m_wb_free);
-        if (m_c.watchdog_cycles > 0 && st + 1 - sl.entered > uint64_t(m_c.watchdog_cycles))
-          fire(k, sl.entered + uint64_t(m_c.watchdog_cycles) + 1);
-        m_wb_free = st + 1;
-        sl.busy = false;
-        // Rays that left are dropped from the age queue's front (the watchdog skips them; this keeps it short).
-        while (!m_age.empty() && (!m_slots[m_age.front().second].busy ||
-                                  m_slots[m_age.front().second].entered != m_age.front().first))
-          m_age.pop_front();
-        m_end = std::max(m_end, st + uint64_t(m_c.writeback_latency));
-        if (m_done) {
-          m_done->push_back(st + uint64_t(m_c.writeback_latency));
-          if (m_entered) m_entered->push_back(sl.entered);
-        }
-        if (m_trace)
-          m_trace->add(m_unit, k, "write-back", st, st + 1);  // the slot hands its hit to the write-back pipe
-        m_s->stream_bytes += kHitBytesStream;
-        m_s->slot_busy_cycles += st + 1 - sl.entered;
-        m_free_slots.push_back({st + 1, k});
-        std::push_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
-        m_queue.pop();
+        write_back(sl, k, t);
         break;
       }
       const TraceEvent& e = sl.ev[sl.pos];
-      switch (e.kind) {
-        case TraceEvent::kPush:
-          for (int j = 0; j < e.count; ++j)
-            if (uint64_t(++sl.depth) > SE) spill(sl, k, t);
-          ++sl.pos;
-          continue;
-        case TraceEvent::kPop:
-          ++sl.pos;
-          if (uint64_t(sl.depth--) > SE) {
-            next_t = refill(sl, k, t);
-            waiting = true;
-          }
-          continue;
-        case TraceEvent::kSpill:  // the recorder left out the stack traffic within the short stack
-          for (int j = 0; j < e.count; ++j) spill(sl, k, t);
-          ++sl.pos;
-          continue;
-        case TraceEvent::kRefill:
-          ++sl.pos;
-          next_t = refill(sl, k, t);
-          waiting = true;
-          continue;
-        case TraceEvent::kAnyHit:  // the ray waits for the firmware's answer; the units serve other slots
-          ++sl.pos;
-          ++m_s->any_hit_requests;
-          next_t = t + uint64_t(m_c.any_hit_latency);
-          if (m_trace) m_trace->add(m_unit, k, "any-hit", t, next_t);
-          waiting = true;
-          continue;
-        case TraceEvent::kEnter:  // the following events address the mesh's bottom level
-          sl.layout = &bottom(e.index);
-          ++sl.pos;
-          continue;
-        case TraceEvent::kLeave:
-          sl.layout = &m_layout;
-          ++sl.pos;
-          continue;
-        case TraceEvent::kRestart:  // no time of its own: the node events that follow are the restart's cost
-          ++m_s->restarts;
-          m_s->restart_nodes += e.index;
-          ++sl.pos;
-          continue;
-        case TraceEvent::kRayKey:  // read by the gathering unit when the ray arrived
-          ++sl.pos;
-          continue;
-        case TraceEvent::kStackRef:  // no time: the push it follows is done
-          if (m_observer) observe_push(sl, k, e, t);
-          ++sl.pos;
-          continue;
-        default:
-          break;
-      }
+      if (control_event(sl, k, e, t, next_t, waiting)) continue;
       if (!m_cluster_tri_free.empty() && sl.pos > 0 && leaf_follower(*sl.layout, sl.ev[sl.pos - 1], e)) {
         ++sl.pos;  // tested in its leaf's request to the cluster engine
         continue;
@@ -705,74 +428,118 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
   }
 }
 
-void TimingModel::watchdog(uint64_t t) {
-  // Entry cycles rise with admission, so the oldest ray still in a slot is the first valid entry.
-  while (!m_age.empty()) {
-    const auto [entered, k] = m_age.front();
-    if (!m_slots[k].busy || m_slots[k].entered != entered) {
-      m_age.pop_front();
+// Free slots take the next rays, earliest free first (ties: lowest slot). Taking a ray stays inside the unit (its
+// ray fetch has its own port). False when simulate() stops here: the earliest free slot comes after `limit`
+// (and not `ahead`), or its ray is not fed yet.
+bool TimingModel::admit_rays(uint64_t limit, bool ahead) {
+  while (!m_free_slots.empty() && m_next < m_n) {
+    const auto [free_at, k] = m_free_slots.front();
+    if (!m_queue.empty() && m_queue.top_cycle() < free_at) break;  // a busy slot acts first
+    if (free_at > limit && !ahead) return false;
+    if (m_gather) {
+      if (!gather_until(free_at)) return false;  // an arrival up to free_at is a ray not fed yet
+    } else if (m_next >= m_feed_first + m_feed_count) {
+      return false;  // its ray is not fed yet
+    }
+    std::pop_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
+    m_free_slots.pop_back();
+    if (m_gather && !m_gather->ready()) {
+      // No bin is issued yet: the slot looks again at the next arrival or timeout (both after free_at).
+      const uint64_t next = std::min(m_gather->next_arrival(), m_gather->next_timeout());
+      if (next == RayGather::kNever) throw std::logic_error("gather: rays left but none can arrive or issue");
+      m_free_slots.push_back({next, k});
+      std::push_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
       continue;
     }
-    // Every event before t has been served, and this ray's own next event is at t or later: at cycle
-    // entered + watchdog_cycles + 1 it is still in its slot.
-    m_watch_deadline = entered + uint64_t(m_c.watchdog_cycles);
-    if (t > m_watch_deadline) fire(k, m_watch_deadline + 1);
-    return;
+    admit(k, free_at);
   }
-  m_watch_deadline = kNoDeadline;  // no ray in a slot; admit() sets the next
+  return true;
 }
 
-void TimingModel::fire(uint32_t k, uint64_t cycle) {
-  const Slot& stuck = m_slots[k];
-  auto u = [](uint64_t v) { return std::to_string(v); };
-  auto event_name = [](const Slot& sl) -> std::string {
-    if (sl.pos >= sl.ev.size()) return "hit write-back";
-    const TraceEvent& e = sl.ev[sl.pos];
-    const std::string what = e.kind == TraceEvent::kNode     ? "node "
-                             : e.kind == TraceEvent::kPrim   ? "record "
-                             : e.kind == TraceEvent::kPlane  ? "plane "
-                             : e.kind == TraceEvent::kAnyHit ? "any-hit answer for record "
-                                                             : "stack entry ";
-    // unit_phase: its fetch is under way and the unit's test comes next; else the previous step is finishing.
-    return (sl.unit_phase ? "waiting for the data of " : "next: ") + what + std::to_string(e.index);
-  };
-  auto backlog = [&](const std::vector<uint64_t>& next_free) {
-    uint64_t queued = 0;
-    for (uint64_t f : next_free) queued += f > cycle ? f - cycle : 0;
-    return queued;
-  };
-  std::string d = "timed device watchdog: ray " + u(stuck.ray) + " of " + u(m_n) + " has been in ray slot " +
-                  u(k) + " for more than watchdog_cycles = " + std::to_string(m_c.watchdog_cycles) +
-                  " cycles (entered at cycle " + u(stuck.entered) + ")\n";
-  d += "unit state at cycle " + u(cycle) + " since bind (" + u(cycle - m_base) + " into this TRACE):\n";
-  size_t busy = 0;
-  for (const Slot& sl : m_slots) busy += sl.busy;
-  const uint64_t remaining = uint64_t(m_n - m_next);
-  d += "  rays: " + u(m_next) + " of " + u(m_n) + " taken from the ray buffer, " + u(busy) + " in slots, " +
-       u(m_next - busy) +
-       " done; ray prefetch queue: " + u(std::min<uint64_t>(remaining, uint64_t(m_c.queue_depth))) + " of " +
-       std::to_string(m_c.queue_depth) + " rays\n";
-  d += "  ray slots: " + u(busy) + " busy of " + std::to_string(m_c.ray_slots) + "\n";
-  size_t listed = 0;
-  for (uint32_t j = 0; j < m_slots.size(); ++j) {
-    const Slot& sl = m_slots[j];
-    if (!sl.busy) continue;
-    if (++listed > 64) {
-      d += "    ... " + u(busy - 64) + " more busy slots\n";
-      break;
-    }
-    d += "    slot " + u(j) + ": ray " + u(sl.ray) + ", entered " + u(sl.entered) + ", event " + u(sl.pos) +
-         " of " + u(sl.ev.size()) + " (" + event_name(sl) + "), stack entries spilled to memory " +
-         std::to_string(sl.spilled) + "\n";
+// Slot k writes its ray's hit back from cycle t (or when the write-back pipe is free); the slot is free the clock
+// after and leaves the queue. The watchdog fires if the ray was in its slot too long.
+void TimingModel::write_back(Slot& sl, uint32_t k, uint64_t t) {
+  const uint64_t st = std::max(t, m_wb_free);
+  if (m_c.watchdog_cycles > 0 && st + 1 - sl.entered > uint64_t(m_c.watchdog_cycles))
+    fire(k, sl.entered + uint64_t(m_c.watchdog_cycles) + 1);
+  m_wb_free = st + 1;
+  sl.busy = false;
+  // Rays that left are dropped from the age queue's front (the watchdog skips them; this keeps it short).
+  while (!m_age.empty() &&
+         (!m_slots[m_age.front().second].busy || m_slots[m_age.front().second].entered != m_age.front().first))
+    m_age.pop_front();
+  m_end = std::max(m_end, st + uint64_t(m_c.writeback_latency));
+  if (m_done) {
+    m_done->push_back(st + uint64_t(m_c.writeback_latency));
+    if (m_entered) m_entered->push_back(sl.entered);
   }
-  d += "  box units: " + u(backlog(m_box_free)) +
-       " cycles of queued work; triangle units: " + u(backlog(m_tri_free)) + " cycles; DRAM channel busy for " +
-       u(m_mem->free_at() > cycle ? m_mem->free_at() - cycle : 0) + " more cycles; write-back free at " +
-       u(m_wb_free) + "\n";
-  d += "  this TRACE so far: cache hits " + u(m_s->cache_hits) + ", misses " + u(m_s->cache_misses) +
-       ", DRAM bytes " + u(m_s->dram_bytes) + ", stack spills " + u(m_s->stack_spills) + ", queue stall cycles " +
-       u(m_s->queue_stall_cycles);
-  throw WatchdogError(d, cycle - m_base);
+  if (m_trace) m_trace->add(m_unit, k, "write-back", st, st + 1);  // the slot hands its hit to the write-back pipe
+  m_s->stream_bytes += kHitBytesStream;
+  m_s->slot_busy_cycles += st + 1 - sl.entered;
+  m_free_slots.push_back({st + 1, k});
+  std::push_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
+  m_queue.pop();
+}
+
+// Event e of slot k at cycle t when the units do not test it (stack traffic, an any-hit request, entering or
+// leaving a bottom level, a restart, a ray key, a stack reference): true, the slot past it and, when it waits
+// for it, `waiting` set and next_t the cycle it waits for. False for any other event.
+bool TimingModel::control_event(Slot& sl, uint32_t k, const TraceEvent& e, uint64_t t, uint64_t& next_t,
+                                bool& waiting) {
+  const uint64_t SE = uint64_t(m_c.stack_entries);
+  switch (e.kind) {
+    case TraceEvent::kPush:
+      for (int j = 0; j < e.count; ++j)
+        if (uint64_t(++sl.depth) > SE) spill(sl, k, t);
+      ++sl.pos;
+      return true;
+    case TraceEvent::kPop:
+      ++sl.pos;
+      if (uint64_t(sl.depth--) > SE) {
+        next_t = refill(sl, k, t);
+        waiting = true;
+      }
+      return true;
+    case TraceEvent::kSpill:  // the recorder left out the stack traffic within the short stack
+      for (int j = 0; j < e.count; ++j) spill(sl, k, t);
+      ++sl.pos;
+      return true;
+    case TraceEvent::kRefill:
+      ++sl.pos;
+      next_t = refill(sl, k, t);
+      waiting = true;
+      return true;
+    case TraceEvent::kAnyHit:  // the ray waits for the firmware's answer; the units serve other slots
+      ++sl.pos;
+      ++m_s->any_hit_requests;
+      next_t = t + uint64_t(m_c.any_hit_latency);
+      if (m_trace) m_trace->add(m_unit, k, "any-hit", t, next_t);
+      waiting = true;
+      return true;
+    case TraceEvent::kEnter:  // the following events address the mesh's bottom level
+      sl.layout = &bottom(e.index);
+      ++sl.pos;
+      return true;
+    case TraceEvent::kLeave:
+      sl.layout = &m_layout;
+      ++sl.pos;
+      return true;
+    case TraceEvent::kRestart:  // no time of its own: the node events that follow are the restart's cost
+      ++m_s->restarts;
+      m_s->restart_nodes += e.index;
+      ++sl.pos;
+      return true;
+    case TraceEvent::kRayKey:  // read by the gathering unit when the ray arrived
+      ++sl.pos;
+      return true;
+    case TraceEvent::kStackRef:  // no time: the push it follows is done
+      if (m_observer) observe_push(sl, k, e, t);
+      ++sl.pos;
+      return true;
+    default:
+      break;
+  }
+  return false;
 }
 
 bool TimingModel::gather_until(uint64_t t) {

@@ -219,6 +219,12 @@ class TimingModel {
   // Until done, until a free slot needs a ray not fed yet, or until the next action is after `limit` (`ahead`:
   // the next action after `limit` that touches the shared memory).
   void simulate(uint64_t limit = kNever, bool ahead = false);
+  // simulate()'s steps (timing_model.cpp): free slots take rays, a slot's ray leaves, a slot passes an event the
+  // units do not test. Always inlined: they are simulate()'s loop, and cost what it cost as one function.
+  [[gnu::always_inline]] inline bool admit_rays(uint64_t limit, bool ahead);
+  [[gnu::always_inline]] inline void write_back(Slot& sl, uint32_t k, uint64_t t);
+  [[gnu::always_inline]] inline bool control_event(Slot& sl, uint32_t k, const TraceEvent& e, uint64_t t,
+                                                   uint64_t& next_t, bool& waiting);
   // Whether slot sl's next event reaches the memory behind the node cache (a line the cache does not hold, a
   // stack entry beyond the short stack).
   bool touches_memory(const Slot& sl) const;

@@ -89,7 +89,7 @@ struct BoxBench : BoxPorts {
     return rtl::random_cases(f, seed, n);
   }
   static const std::vector<RtlUnitInfo>& units() { return rtl_units(); }
-  // A node of `count` children keeps the input for max(1, ceil(count / box_rate)) clocks (timed_engine.cpp,
+  // A node of `count` children keeps the input for max(1, ceil(count / box_rate)) clocks (timing_model_units.cpp,
   // TimingModel::unit).
   static uint64_t issue(const hw::TimingConfig& c, const Inputs& in) {
     const uint64_t count = uint64_t(in.count), rate = uint64_t(c.box_rate);

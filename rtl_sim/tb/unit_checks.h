@@ -92,7 +92,7 @@ void check_stall_and_reset(Sim<Model>& sim, const typename Bench::Params& p, con
 }
 
 // With valid and ready always high, inputs go in back to back: each keeps the input for Bench::issue clocks and
-// leaves latency + issue - 1 clocks after it was taken, exactly the timing model's unit (timed_engine.cpp,
+// leaves latency + issue - 1 clocks after it was taken, exactly the timing model's unit (timing_model_units.cpp,
 // TimingModel::unit), with the latency (box_latency, tri_latency) and rate of the configuration the unit was
 // derived from. One input per clock when Bench::one_per_clock; otherwise some take several.
 template <class Bench, class Model>

@@ -16,9 +16,9 @@
 #include "host/io/error.h"
 #include "host/io/files.h"
 #include "host/io/limits.h"
+#include "host/jobs/model_identity.h"
 #include "host/jobs/point_key.h"
 #include "host/jobs/suite.h"
-#include "host/jobs/model_identity.h"
 #include "host/jobs/sweep.h"
 #include "host/jobs/sweep_manifest.h"
 #include "hwmodel/numeric/fixed_format.h"
@@ -318,8 +318,8 @@ void run_sweep_points(const SweepArgs& a) {
   const AreaTable area = a.area.empty() ? AreaTable::shipped() : AreaTable::load(a.area);
 
   // Resume: the points already in --out with this sweep's run parameters and this build's model are done; rows
-  // made with others stay in the file, beside the new ones. A last line without its newline is a row an interrupted sweep did not finish
-  // writing: it is dropped (and run again).
+  // made with others stay in the file, beside the new ones. A last line without its newline is a row an
+  // interrupted sweep did not finish writing: it is dropped (and run again).
   std::set<std::string> done;
   check_output_file(a.out);
   std::error_code ec;

@@ -19,10 +19,10 @@ struct DeviceSettings {
   int bvh_width = 0;  // 0: the format's width (4 in the default format)
   int leaf_size = 8;
   std::string accel = "auto";  // auto, bvh or brute
-  // Fixed-point format spec (hw::format_from_spec: a preset, optionally with :key=value changes, as sweep --formats
-  // takes it); empty: "default" on the fixed device, the timing configuration's own (key `format`) on the timed
-  // device. Named on the timed device it replaces the configuration's `format` key, as `--set format=SPEC` does:
-  // one design point, one set of cycles, whichever way it is named.
+  // Fixed-point format spec (hw::format_from_spec: a preset, optionally with :key=value changes, as sweep
+  // --formats takes it); empty: "default" on the fixed device, the timing configuration's own (key `format`) on
+  // the timed device. Named on the timed device it replaces the configuration's `format` key, as `--set
+  // format=SPEC` does: one design point, one set of cycles, whichever way it is named.
   std::string format;
   // Overrides of the format preset's fields (hw::format_fields() but width, which bvh_width sets), by key; a field
   // not named keeps the preset's value.

@@ -3,8 +3,8 @@
 // offsets from a common origin at a power-of-two scale per axis). A child's region is
 // { p : lo <= (M p) / 2^rot_bits <= hi } for the node's integer matrix M, so the encoder bounds a subtree by
 // exact integer products of its points, and the unit's test (datapath/oriented_aabb_test.h) rotates the ray with
-// the same integers. The encoder picks each node's rotation (device_image_encode.cpp: the least summed surface area of
-// the children, after DOBB-BVH, Kern et al., HPG 2025). Rotation 0 is the identity: such a node is the
+// the same integers. The encoder picks each node's rotation (device_image_encode.cpp: the least summed surface
+// area of the children, after DOBB-BVH, Kern et al., HPG 2025). Rotation 0 is the identity: such a node is the
 // axis-aligned node's boxes with 4 more bytes.
 #pragma once
 

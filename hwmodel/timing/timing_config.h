@@ -8,12 +8,12 @@
 // of two in 16..4096; clock_ghz 0.001..1000; dram_bytes_per_cycle 0.001..65536 (finite); raster_setup_cycles
 // 0..100000; raster_samples_per_clock and raster_fragments_per_clock 0.001..4096; raster_latency 0..100000;
 // raster_prim_bytes 0..4096, raster_depth_bytes 1..64, raster_gbuffer_bytes 0..4096; bvh_width 2, 4, 6 or 8;
-// format a fixed-point format spec (a preset, optionally with :key=value changes); box_unit and tri_unit cpp or rtl; memory_type gddr6, hbm2
-// or lpddr5; prefetcher a name of prefetchers(), prefetch_degree 1..64; ray_sort a name of kRaySortKeys,
-// sort_key_cycles 0..100000, sort_keys_per_clock 0.001..4096, sort_radix_bits 1..16; watchdog_cycles 0..2^31-1 (0:
-// off). The default-constructed configuration is the "rdna2" preset: its figures are the defaults below, and every
-// other preset is a base preset plus the keys it changes (timing_config.cpp), so a new key with a neutral default
-// needs no preset edited.
+// format a fixed-point format spec (a preset, optionally with :key=value changes); box_unit and tri_unit cpp or
+// rtl; memory_type gddr6, hbm2 or lpddr5; prefetcher a name of prefetchers(), prefetch_degree 1..64; ray_sort a
+// name of kRaySortKeys, sort_key_cycles 0..100000, sort_keys_per_clock 0.001..4096, sort_radix_bits 1..16;
+// watchdog_cycles 0..2^31-1 (0: off). The default-constructed configuration is the "rdna2" preset: its figures are
+// the defaults below, and every other preset is a base preset plus the keys it changes (timing_config.cpp), so a
+// new key with a neutral default needs no preset edited.
 #pragma once
 
 #include <cstdint>

@@ -55,42 +55,6 @@ inline bool parse_gather_key(const std::string& name, GatherKey& out) {
   return false;
 }
 
-// The gathering unit's keys, gathered into the timing key table (timing_config.cpp) after the prefetchers'.
-inline const std::vector<TimingKeyInfo>& gather_keys() {
-  using C = TimingConfig;
-  static const std::vector<TimingKeyInfo> keys = {
-      {"gather", &C::gather, 0, 0,
-       "ray coherence gathering (ray_gather.h): none, or the bin key: octant, origin, origin_octant, two_point",
-       [](const C& c) {
-         GatherKey k;
-         return parse_gather_key(c.gather, k)
-                    ? std::string()
-                    : "gather = '" + c.gather + "' must be none, octant, origin, origin_octant or two_point";
-       }},
-      {"gather_grid_bits", &C::gather_grid_bits, 1, 8,
-       "gathering: origin grid cells per axis = 2^bits over the scene's frame (origin and two_point keys)"},
-      {"gather_buffer", &C::gather_buffer, 1, 4096,
-       "gathering: rays the gather buffer holds (replaces queue_depth)"},
-      {"gather_rays", &C::gather_rays, 1, 4096, "gathering: a bin is issued when it holds this many rays"},
-      {"gather_timeout", &C::gather_timeout, 1, 1000000,
-       "gathering: a bin is issued this many cycles after its first ray arrived, full or not"},
-  };
-  return keys;
-}
-
-// The gathering unit's counters (TimingStats members), at the end of the statistics table (timing_stats.cpp).
-inline constexpr std::array<TimingCounter, 4> kGatherCounters = {{
-    {"gather_bins", &TimingStats::gather_bins, "bins", "bins the gathering unit issued to the ray slots",
-     SampleScale::kPerRay},
-    {"gather_bins_full", &TimingStats::gather_bins_full, "bins", "bins issued because they held gather_rays rays",
-     SampleScale::kPerRay},
-    {"gather_bins_timeout", &TimingStats::gather_bins_timeout, "bins",
-     "bins issued after gather_timeout cycles (the rest: the buffer full, or the packet's last ray arrived)",
-     SampleScale::kPerRay},
-    {"gather_wait_cycles", &TimingStats::gather_wait_cycles, "cycles",
-     "sum over rays of the cycles from arriving in the gather buffer to their bin's issue", SampleScale::kPerRay},
-}};
-
 // The bin key of a world ray: `lo` is the scene frame's low corner and `extent` its edge (a cube).
 inline uint32_t gather_key(GatherKey k, int grid_bits, const Ray& r, const double lo[3], double extent) {
   const uint32_t octant = uint32_t(std::signbit(r.dir[0])) | uint32_t(std::signbit(r.dir[1])) << 1 |

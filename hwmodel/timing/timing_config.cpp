@@ -8,10 +8,6 @@
 #include <variant>
 
 #include "hwmodel/numeric/fixed_format.h"
-#include "hwmodel/timing/prefetch/prefetchers.h"
-#include "hwmodel/timing/ray_gather.h"
-#include "hwmodel/timing/ray_scheduler.h"
-#include "hwmodel/timing/sort_timing.h"
 
 namespace rtu::hw {
 
@@ -19,126 +15,44 @@ namespace {
 
 using KeyInfo = TimingKeyInfo;
 
-constexpr int kMaxLatency = 100000;
-constexpr double kNoRange = -1e300;  // lo of a key whose rule is not a range (bvh_width: 2, 4, 6 or 8)
-
-// Every key, in the order of the struct: the unit's own rows here, a component's gathered from its header.
-// validate(), timing_keys() and set_timing_key() all read it.
-std::vector<KeyInfo> make_key_table() {
+// The datapath's own keys.
+const TimingKeyTable& own_keys() {
   using C = TimingConfig;
-  std::vector<KeyInfo> table = {
+  static const TimingKeyTable keys = {
       {"format", &C::format, 0, 0,
        "fixed-point format of the datapath: a preset (rtusim info --formats), optionally with changes of its "
-       "fields, e.g. packed:coord_bits=16"},
-      {"bvh_width", &C::bvh_width, kNoRange, -kNoRange,
-       "children per BVH node: 2, 4, 6 or 8 (overrides the format's width)"},
-      {"clock_ghz", &C::clock_ghz, 0.001, 1000, "clock in GHz, for reporting seconds and GB/s only"},
-      {"packet_latency", &C::packet_latency, 0, kMaxLatency,
-       "cycles from doorbell (or the previous packet) to a decoded packet"},
-      {"ray_fetch_latency", &C::ray_fetch_latency, 0, kMaxLatency,
-       "cycles to bring a ray from the ray buffer into setup (1 per clock)"},
-      {"setup_latency", &C::setup_latency, 0, kMaxLatency, "ray setup pipeline depth (float -> fixed, 1/d)"},
-      {"writeback_latency", &C::writeback_latency, 0, kMaxLatency, "hit write-back pipeline depth (1 per clock)"},
-      {"fence_latency", &C::fence_latency, 0, kMaxLatency, "cycles from the last earlier hit to the fence value"},
-      {"irq_latency", &C::irq_latency, 0, kMaxLatency,
-       "cycles from a FENCE's value write to its interrupt reaching the host"},
-      {"ray_slots", &C::ray_slots, 1, 4096, "rays in flight, each with its own traversal state"},
-      {"stack_entries", &C::stack_entries, 1, 64, "short stack per slot; deeper entries spill (8 bytes each)"},
-      {"stack_mode", &C::stack_mode, 0, 0,
-       "entries beyond the short stack: spill (to memory, read back at their pop) or restart (the oldest dropped; "
-       "its pop restarts from the root along a trail, re-fetching the nodes above it)",
-       [](const C& c) {
-         return c.stack_mode == "spill" || c.stack_mode == "restart"
-                    ? std::string()
-                    : "stack_mode = '" + c.stack_mode + "' must be spill or restart";
+       "fields, e.g. packed:coord_bits=16",
+       [](const C& c) -> std::string {
+         // A format spec, as sweep --formats takes it: a preset, optionally with :key=value changes of its fields.
+         try {
+           (void)format_from_spec(c.format);
+         } catch (const std::invalid_argument& e) {
+           return "format = '" + c.format + "' is not a fixed-point format spec: " + e.what();
+         }
+         return {};
        }},
-      {"traversal_latency", &C::traversal_latency, 0, kMaxLatency,
-       "scheduler: cycles from a unit result to the slot's next request"},
-      {"any_hit_latency", &C::any_hit_latency, 0, kMaxLatency,
-       "cycles a ray waits for the any-hit stage's answer on a non-opaque triangle's candidate hit"},
-      {"xform_latency", &C::xform_latency, 0, kMaxLatency,
-       "two-level scenes: cycles of the instance transform (an instance record to the object-space ray)"},
-      {"instance_bytes", &C::instance_bytes, 0, 4096,
-       "two-level scenes: bytes an instance visit fetches, at that stride (0: the record and its stored "
-       "transform, "
-       "96 at 24 bits; 64: a one-line instance leaf)"},
-      {"box_units", &C::box_units, 1, 64, "box test units"},
-      {"box_rate", &C::box_rate, 1, 64, "box tests per clock per unit (a node of width <= rate: one clock)"},
-      {"box_latency", &C::box_latency, 1, kMaxLatency, "box unit pipeline depth (issue to result)"},
-      {"obb_latency", &C::obb_latency, 0, kMaxLatency,
-       "oriented nodes: clocks the ray's rotation into the node's frame adds to a box test"},
-      {"box_unit", &C::box_unit, 0, 0,
-       "box tests by cpp (the C++ datapath) or rtl (the Verilated RTL unit: co-simulation, its clocks per node)"},
-      {"tri_units", &C::tri_units, 1, 64, "triangle units (spheres and planes use them too)"},
-      {"tri_rate", &C::tri_rate, 1, 64, "triangle tests per clock per unit"},
-      {"tri_latency", &C::tri_latency, 1, kMaxLatency, "triangle test pipeline depth"},
-      {"tri_unit", &C::tri_unit, 0, 0,
-       "triangle tests by cpp (the C++ datapath) or rtl (the Verilated RTL unit: co-simulation, its clocks)"},
-      {"sphere_latency", &C::sphere_latency, 1, kMaxLatency, "sphere test pipeline depth (triangle unit slot)"},
-      {"plane_latency", &C::plane_latency, 1, kMaxLatency, "plane test pipeline depth (triangle unit slot)"},
-      {"curve_units", &C::curve_units, 0, 64,
-       "curve (swept sphere) units; 0: curve tests use triangle unit slots"},
-      {"curve_rate", &C::curve_rate, 1, 64, "curve tests per clock per curve unit"},
-      {"curve_latency", &C::curve_latency, 1, kMaxLatency, "curve test pipeline depth (either unit)"},
-      {"curve_issue", &C::curve_issue, 1, 64,
-       "without curve units: clocks a curve test holds a triangle unit issue slot"},
-      {"cluster_tri_rate", &C::cluster_tri_rate, 0, 64,
-       "triangle clusters: the cluster engine's triangles per clock, a leaf per request, its nodes beside the box "
-       "units (0: off, the box and triangle units test clusters)"},
-      {"queue_depth", &C::queue_depth, 1, 4096,
-       "rays the prefetch queue holds; clocks a unit request waits before it counts as a stall"},
-      {"cache_kib", &C::cache_kib, 0, 65536, "node and primitive cache in KiB (0: no cache)"},
-      {"cache_ways", &C::cache_ways, 1, 64, "cache associativity"},
-      {"line_bytes", &C::line_bytes, 16, 4096, "cache line bytes, the unit of every fetch (a power of two)"},
-      {"layout_align", &C::layout_align, 0, 4096,
-       "fetch addresses: 0 packed as the image; a power of two >= 8 pads and aligns each node and record to it"},
-      {"cache_latency", &C::cache_latency, 0, kMaxLatency, "cache hit latency in cycles"},
-      {"dram_latency", &C::dram_latency, 0, kMaxLatency, "cycles from a miss to the first byte"},
-      {"dram_bytes_per_cycle", &C::dram_bytes_per_cycle, 0.001, 65536, "DRAM bandwidth in bytes per cycle"},
+      {"bvh_width", &C::bvh_width, kNoRange, -kNoRange,
+       "children per BVH node: 2, 4, 6 or 8 (overrides the format's width)",
+       [](const C& c) -> std::string {
+         if (c.bvh_width != 2 && c.bvh_width != 4 && c.bvh_width != 6 && c.bvh_width != 8)
+           return "bvh_width = " + std::to_string(c.bvh_width) + " must be 2, 4, 6 or 8";
+         return {};
+       }},
+      {"clock_ghz", &C::clock_ghz, 0.001, 1000, "clock in GHz, for reporting seconds and GB/s only"},
   };
-  const std::vector<KeyInfo>& prefetch = prefetch_keys();
-  table.insert(table.end(), prefetch.begin(), prefetch.end());
-  const std::vector<KeyInfo>& gather = gather_keys();
-  table.insert(table.end(), gather.begin(), gather.end());
-  const KeyInfo after_prefetch[] = {
-      {"units", &C::units, 1, 256, "ray-tracing units on the chip, sharing the L2 and DRAM (1: one unit)"},
-      {"ray_policy", &C::ray_policy, 0, 0,
-       "how a packet's rays go to the units: waves (ray_slots consecutive rays to each unit in turn), round_robin "
-       "(ray i to unit i mod units), blocks (the packet in units consecutive blocks) or dynamic (a wave to "
-       "whichever "
-       "unit asks first; the policy sampled timing runs on a chip with)"},
-      {"l2_kib", &C::l2_kib, 0, 1048576, "L2 behind the node cache in KiB (0: none; memory_system.h)"},
-      {"l2_slices", &C::l2_slices, 1, 256, "L2 slices (a line's slice: line number mod slices)"},
-      {"l2_ways", &C::l2_ways, 1, 64, "L2 associativity"},
-      {"l2_latency", &C::l2_latency, 0, kMaxLatency, "L2 latency in cycles (tag check to data)"},
-      {"l2_bytes_per_cycle", &C::l2_bytes_per_cycle, 0, 65536,
-       "bytes per clock of each L2 slice's port (0: unlimited)"},
-      {"dram_channels", &C::dram_channels, 1, 64,
-       "DRAM channels sharing dram_bytes_per_cycle (lines interleaved)"},
-      {"dram_banks", &C::dram_banks, 0, 64, "open-page banks per DRAM channel (0: no row model)"},
-      {"dram_row_bytes", &C::dram_row_bytes, 16, 65536, "DRAM row (page) bytes: a power of two >= line_bytes"},
-      {"dram_activate_cycles", &C::dram_activate_cycles, 0, kMaxLatency, "cycles to open a DRAM row (tRCD)"},
-      {"dram_precharge_cycles", &C::dram_precharge_cycles, 0, kMaxLatency, "cycles to close a DRAM row (tRP)"},
-      {"memory_type", &C::memory_type, 0, 0, "DRAM type, for its energy per bit: gddr6, hbm2 or lpddr5"},
-      {"raster_setup_cycles", &C::raster_setup_cycles, 0, kMaxLatency,
-       "hybrid rasterizer: cycles per primitive set up (triangle, sphere square, plane pass)"},
-      {"raster_samples_per_clock", &C::raster_samples_per_clock, 0.001, 4096,
-       "hybrid rasterizer: coverage tests per clock over each primitive's scan rectangle"},
-      {"raster_fragments_per_clock", &C::raster_fragments_per_clock, 0.001, 4096,
-       "hybrid rasterizer: covered samples per clock through interpolation and depth test"},
-      {"raster_latency", &C::raster_latency, 0, kMaxLatency, "hybrid rasterizer: pipeline depth, once per pass"},
-      {"raster_prim_bytes", &C::raster_prim_bytes, 0, 4096,
-       "hybrid rasterizer: bytes fetched per primitive per pass (DRAM channel)"},
-      {"raster_depth_bytes", &C::raster_depth_bytes, 1, 64,
-       "hybrid rasterizer: depth bytes read per fragment, written per pass and clear (DRAM channel)"},
-      {"raster_gbuffer_bytes", &C::raster_gbuffer_bytes, 0, 4096,
-       "hybrid rasterizer: G-buffer bytes written per depth pass besides depth (DRAM channel)"},
+  return keys;
+}
+
+// Every key, in the order of the parts: one row a part (its keys in parts/*.cpp). validate(), timing_keys() and
+// set_timing_key() all read it.
+std::vector<KeyInfo> make_key_table() {
+  const TimingKeyTable* const parts[] = {
+      &own_keys(),    &command_keys(),      &slot_keys(),     &stack_keys(),  &scheduler_keys(), &unit_keys(),
+      &fetch_keys(),  &dram_channel_keys(), &prefetch_keys(), &gather_keys(), &chip_keys(),      &l2_keys(),
+      &dram_bank_keys(), &raster_keys(),    &sort_keys(),     &watchdog_keys(),
   };
-  table.insert(table.end(), std::begin(after_prefetch), std::end(after_prefetch));
-  const std::vector<KeyInfo>& sort = sort_keys();
-  table.insert(table.end(), sort.begin(), sort.end());
-  table.push_back({"watchdog_cycles", &C::watchdog_cycles, 0, 2147483647,
-                   "most cycles a ray may stay in its slot before a watchdog error (0: off)"});
+  std::vector<KeyInfo> table;
+  for (const TimingKeyTable* part : parts) table.insert(table.end(), part->begin(), part->end());
   return table;
 }
 
@@ -187,50 +101,6 @@ void TimingConfig::validate() const {
     if (k.rule) {
       const std::string why = k.rule(*this);
       if (!why.empty()) fail(why);
-    }
-    const std::string key = k.key;
-    if (key == "format") {
-      // A format spec, as sweep --formats takes it: a preset, optionally with :key=value changes of its fields.
-      try {
-        (void)format_from_spec(format);
-      } catch (const std::invalid_argument& e) {
-        fail("format = '" + format + "' is not a fixed-point format spec: " + e.what());
-      }
-    } else if (key == "box_unit") {
-      if (box_unit != "cpp" && box_unit != "rtl") fail("box_unit = '" + box_unit + "' must be cpp or rtl");
-    } else if (key == "tri_unit") {
-      if (tri_unit != "cpp" && tri_unit != "rtl") fail("tri_unit = '" + tri_unit + "' must be cpp or rtl");
-    } else if (key == "ray_policy") {
-      RayPolicy policy;
-      if (!parse_ray_policy(ray_policy, policy))
-        fail("ray_policy = '" + ray_policy + "' must be waves, round_robin, blocks or dynamic");
-    } else if (key == "l2_kib") {
-      const long long set_bytes = static_cast<long long>(l2_slices) * l2_ways * line_bytes;
-      if (l2_kib > 0 && set_bytes > 0 && (static_cast<long long>(l2_kib) * 1024) % set_bytes != 0)
-        fail("l2_kib = " + std::to_string(l2_kib) + ": not a whole number of sets in each of " +
-             std::to_string(l2_slices) + " slices of l2_ways * line_bytes = " +
-             std::to_string(static_cast<long long>(l2_ways) * line_bytes) + " bytes");
-    } else if (key == "dram_row_bytes") {
-      if ((dram_row_bytes & (dram_row_bytes - 1)) != 0 || dram_row_bytes < line_bytes)
-        fail("dram_row_bytes = " + std::to_string(dram_row_bytes) + " must be a power of two >= line_bytes (" +
-             std::to_string(line_bytes) + ")");
-    } else if (key == "memory_type") {
-      if (memory_type != "gddr6" && memory_type != "hbm2" && memory_type != "lpddr5")
-        fail("memory_type = '" + memory_type + "' must be gddr6, hbm2 or lpddr5");
-    } else if (key == "bvh_width") {
-      if (bvh_width != 2 && bvh_width != 4 && bvh_width != 6 && bvh_width != 8)
-        fail("bvh_width = " + std::to_string(bvh_width) + " must be 2, 4, 6 or 8");
-    } else if (key == "layout_align") {
-      if (layout_align != 0 && (layout_align < 8 || (layout_align & (layout_align - 1)) != 0))
-        fail("layout_align = " + std::to_string(layout_align) + " must be 0 or a power of two in [8, 4096]");
-    } else if (key == "line_bytes") {
-      if ((line_bytes & (line_bytes - 1)) != 0)
-        fail("line_bytes = " + std::to_string(line_bytes) + " must be a power of two in [16, 4096]");
-      const long long set_bytes = static_cast<long long>(cache_ways) * line_bytes;
-      if (cache_kib > 0 && (static_cast<long long>(cache_kib) * 1024) % set_bytes != 0)
-        fail("cache_kib = " + std::to_string(cache_kib) + ": " + std::to_string(cache_kib) +
-             " KiB is not a whole number of sets of cache_ways * line_bytes = " + std::to_string(set_bytes) +
-             " bytes");
     }
   }
 }

@@ -3,109 +3,34 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-
-#include "hwmodel/timing/prefetch/prefetchers.h"
-#include "hwmodel/timing/ray_gather.h"
+#include <stdexcept>
 
 namespace rtu::hw {
 
 namespace {
 
 using S = TimingStats;
-constexpr SampleScale kPacket = SampleScale::kPacket, kPerRay = SampleScale::kPerRay;
-
-// The unit's own counters, in the order of the struct, with a component's gathered from its header where its
-// members sit.
-constexpr std::array<TimingCounter, 14> kBeforePrefetch = {{
-    {"packets", &S::packets, "packets", "TRACE packets simulated", kPacket},
-    {"cycles", &S::cycles, "cycles", "cycles of those packets, from decode to the last hit written", kPacket},
-    {"rays", &S::rays, "rays", "rays through the ray slots (rays rejected at setup included)", kPacket},
-    {"box_tests", &S::box_tests, "tests", "ray-box tests (one per child of a node visited)", kPerRay},
-    {"tri_tests", &S::tri_tests, "tests", "ray-triangle tests", kPerRay},
-    {"sphere_tests", &S::sphere_tests, "tests", "ray-sphere tests (in the triangle units' issue slots)", kPerRay},
-    {"plane_tests", &S::plane_tests, "tests", "ray-plane tests (in the triangle units' issue slots)", kPerRay},
-    {"curve_tests", &S::curve_tests, "tests",
-     "ray-curve segment tests (curve units, or curve_issue triangle unit clocks each without them)", kPerRay},
-    {"box_issue_cycles", &S::box_issue_cycles, "unit clocks",
-     "box unit issue clocks used, summed over the units (ceil(children / box_rate) per node)", kPerRay},
-    {"tri_issue_cycles", &S::tri_issue_cycles, "unit clocks",
-     "triangle unit issue slots used (one per triangle, sphere or plane test)", kPerRay},
-    {"node_fetches", &S::node_fetches, "fetches", "node fetches (each one or more cache lines)", kPerRay},
-    {"prim_fetches", &S::prim_fetches, "fetches", "primitive record and plane fetches", kPerRay},
-    {"cache_hits", &S::cache_hits, "lines", "cache line accesses that hit (a line in flight counts as a hit)",
-     kPerRay},
-    {"cache_misses", &S::cache_misses, "lines", "cache line accesses that missed and went to DRAM", kPerRay},
-}};
-constexpr std::array<TimingCounter, 26> kAfterPrefetch = {{
-    {"l2_hits", &S::l2_hits, "lines", "node cache fills found in the L2 (with l2_kib > 0)", kPerRay},
-    {"l2_misses", &S::l2_misses, "lines", "node cache fills the L2 missed (read from DRAM)", kPerRay},
-    {"l2_stack_hits", &S::l2_stack_hits, "words", "stack spills and refills whose line was in the L2", kPerRay},
-    {"l2_stack_misses", &S::l2_stack_misses, "words",
-     "stack spills that allocated their line in the L2, and refills that read it from DRAM", kPerRay},
-    {"l2_writebacks", &S::l2_writebacks, "lines", "dirty L2 lines (spilled stack words) written back to DRAM",
-     kPerRay},
-    {"l2_port_cycles", &S::l2_port_cycles, "port clocks",
-     "clocks the L2 slices' ports were held, summed over the slices (line and stack word accesses)", kPerRay},
-    {"dram_bytes", &S::dram_bytes, "bytes",
-     "bytes moved over the DRAM channel (line fills, stack spills and refills past any L2, L2 write-backs)",
-     kPerRay},
-    {"dram_busy_cycles", &S::dram_busy_cycles, "cycles", "cycles the DRAM channel spent transferring", kPerRay},
-    {"dram_row_hits", &S::dram_row_hits, "accesses", "DRAM accesses to the bank's open row (with dram_banks > 0)",
-     kPerRay},
-    {"dram_row_misses", &S::dram_row_misses, "accesses",
-     "DRAM accesses that opened a row (empty bank or another row open; with dram_banks > 0)", kPerRay},
-    {"stream_bytes", &S::stream_bytes, "bytes", "ray buffer reads and hit buffer writes (their own port)",
-     kPerRay},
-    {"stack_spills", &S::stack_spills, "entries", "stack entries beyond the short stack written to memory",
-     kPerRay},
-    {"stack_refills", &S::stack_refills, "entries", "spilled stack entries read back", kPerRay},
-    {"restarts", &S::restarts, "restarts",
-     "stack_mode restart: pops of a dropped entry, each a restart from the root along the trail", kPerRay},
-    {"restart_nodes", &S::restart_nodes, "nodes",
-     "stack_mode restart: nodes fetched and tested again by restarts (in node_fetches and box_tests too)",
-     kPerRay},
-    {"queue_stall_cycles", &S::queue_stall_cycles, "cycles",
-     "cycles unit requests waited beyond queue_depth for a free unit", kPerRay},
-    {"slot_busy_cycles", &S::slot_busy_cycles, "cycles",
-     "sum over rays of the cycles from entering a ray slot to leaving it", kPerRay},
-    {"any_hit_requests", &S::any_hit_requests, "requests",
-     "candidate hits on non-opaque triangles sent to the any-hit stage (each waits any_hit_latency)", kPerRay},
-    {"tri_pairs", &S::tri_pairs, "requests",
-     "triangle pairs (format tri_pairs) fetched and tested as one request; their two tests are in tri_tests",
-     kPerRay},
-    {"obb_rotations", &S::obb_rotations, "nodes",
-     "oriented nodes: rays turned into a node's frame, one per oriented node test (each adds obb_latency)",
-     kPerRay},
-    {"cluster_box_tests", &S::cluster_box_tests, "tests",
-     "triangle clusters: box tests of clusters' internal nodes by the cluster engine (not in box_tests)", kPerRay},
-    {"cluster_tri_tests", &S::cluster_tri_tests, "tests",
-     "triangle clusters: triangle tests by the cluster engine (not in tri_tests)", kPerRay},
-    {"cluster_requests", &S::cluster_requests, "requests",
-     "triangle clusters: requests to the cluster engine (an internal node, or a leaf's triangles)", kPerRay},
-    {"instance_transforms", &S::instance_transforms, "rays",
-     "two-level scenes: rays transformed into an instance's bottom level (each waits xform_latency)", kPerRay},
-    {"unit_wait_cycles", &S::unit_wait_cycles, "cycles",
-     "cycles box, triangle, sphere and plane requests waited for a free unit", kPerRay},
-    {"mem_wait_cycles", &S::mem_wait_cycles, "cycles",
-     "cycles line and stack reads waited for a busy L2 slice port, DRAM bank or channel (not rows opening, not "
-     "the latency itself)",
-     kPerRay},
-}};
-
-template <size_t... N>
-constexpr std::array<TimingCounter, (N + ...)> join(const std::array<TimingCounter, N>&... parts) {
-  std::array<TimingCounter, (N + ...)> out{};
-  size_t i = 0;
-  ((std::copy(parts.begin(), parts.end(), out.begin() + i), i += parts.size()), ...);
-  return out;
+// Every counter: one row a part, in the order of TimingStats's parts.
+std::vector<TimingCounter> make_counters() {
+  const std::span<const TimingCounter> parts[] = {
+      command_counters(), unit_counters(),  fetch_counters(), prefetch_counters(),  l2_counters(),
+      dram_counters(),    stack_counters(), slot_counters(),  scheduler_counters(), gather_counters(),
+  };
+  std::vector<TimingCounter> all;
+  for (std::span<const TimingCounter> part : parts) all.insert(all.end(), part.begin(), part.end());
+  if (all.size() * sizeof(uint64_t) != sizeof(TimingStats))
+    throw std::logic_error("a part of TimingStats is missing from the counter tables");
+  return all;
 }
-constexpr auto kCounters = join(kBeforePrefetch, kPrefetchCounters, kAfterPrefetch, kGatherCounters);
-static_assert(sizeof(TimingStats) == kCounters.size() * sizeof(uint64_t), "a counter is missing from the table");
+const std::vector<TimingCounter>& counters() {
+  static const std::vector<TimingCounter> all = make_counters();
+  return all;
+}
 
 const TimingCounter& counter(uint64_t S::*member) {
-  for (const TimingCounter& c : kCounters)
+  for (const TimingCounter& c : counters())
     if (c.member == member) return c;
-  return kCounters[0];  // unreachable: every member is in the table (the static_assert above)
+  throw std::logic_error("a TimingStats counter missing from its part's table");
 }
 
 double ratio(double a, double b) {
@@ -132,9 +57,10 @@ ReportEntry figure(const char* key, const char* unit, const char* description,
   return {key, nullptr, unit, description, f};
 }
 
-const std::vector<ReportEntry>& report_table() {
+// The packet: cycles, rays and their rates.
+std::vector<ReportEntry> report_rays() {
   using C = TimingConfig;
-  static const std::vector<ReportEntry> table = {
+  return {
       count("cycles", &S::cycles),
       count("packets", &S::packets),
       count("rays", &S::rays),
@@ -150,6 +76,13 @@ const std::vector<ReportEntry>& report_table() {
              [](const S& s, const C& c, const LowerBound&) -> Value {
                return double(s.cycles) / (c.clock_ghz * 1e9);
              }),
+  };
+}
+
+// The test units: tests and how busy the units, DRAM and slots were.
+std::vector<ReportEntry> report_units() {
+  using C = TimingConfig;
+  return {
       count("box_tests", &S::box_tests),
       count("triangle_tests", &S::tri_tests),
       count("sphere_tests", &S::sphere_tests),
@@ -174,6 +107,13 @@ const std::vector<ReportEntry>& report_table() {
              [](const S& s, const C& c, const LowerBound&) -> Value {
                return s.cycles > 0 ? double(s.slot_busy_cycles) / (double(s.cycles) * c.ray_slots * c.units) : 0.0;
              }),
+  };
+}
+
+// The node cache, its prefetcher and the L2.
+std::vector<ReportEntry> report_caches() {
+  using C = TimingConfig;
+  return {
       figure("cache.line_accesses", "lines", "cache line accesses (hits + misses)",
              [](const S& s, const C&, const LowerBound&) -> Value { return s.cache_hits + s.cache_misses; }),
       count("cache.hits", &S::cache_hits),
@@ -207,6 +147,13 @@ const std::vector<ReportEntry>& report_table() {
       count("l2.stack_misses", &S::l2_stack_misses),
       count("l2.writebacks", &S::l2_writebacks),
       count("l2.port_cycles", &S::l2_port_cycles),
+  };
+}
+
+// Fetches, DRAM, the stack and the waits of rays in their slots; gathering.
+std::vector<ReportEntry> report_memory() {
+  using C = TimingConfig;
+  return {
       count("node_fetches", &S::node_fetches),
       count("prim_fetches", &S::prim_fetches),
       count("dram_bytes", &S::dram_bytes),
@@ -250,6 +197,13 @@ const std::vector<ReportEntry>& report_table() {
              [](const S& s, const C&, const LowerBound&) -> Value {
                return s.gather_bins > 0 ? ratio(double(s.gather_wait_cycles), double(s.rays)) : 0.0;
              }),
+  };
+}
+
+// The lower bound and where the slots' time went.
+std::vector<ReportEntry> report_bounds() {
+  using C = TimingConfig;
+  return {
       figure("lower_bound.cycles", "cycles",
              "the largest of the ray fetch, box, triangle, curve, DRAM, L2 and latency bounds",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.cycles; }),
@@ -288,21 +242,33 @@ const std::vector<ReportEntry>& report_table() {
              "mem_wait_cycles / (ray_slots x units): slot time queued for busy L2 ports, DRAM banks and channels",
              [](const S&, const C&, const LowerBound& b) -> Value { return b.mem_queue; }),
   };
+}
+
+// The report: the sections in the stats JSON's order.
+const std::vector<ReportEntry>& report_table() {
+  static const std::vector<ReportEntry> table = [] {
+    std::vector<ReportEntry> all;
+    for (auto section : {report_rays, report_units, report_caches, report_memory, report_bounds}) {
+      const std::vector<ReportEntry> part = section();
+      all.insert(all.end(), part.begin(), part.end());
+    }
+    return all;
+  }();
   return table;
 }
 
 }  // namespace
 
 std::span<const TimingCounter> timing_counters() {
-  return kCounters;
+  return counters();
 }
 
 void TimingStats::add(const TimingStats& o) {
-  for (const TimingCounter& c : kCounters) this->*c.member += o.*c.member;
+  for (const TimingCounter& c : counters()) this->*c.member += o.*c.member;
 }
 
 void scale_sampled(TimingStats& s, double factor) {
-  for (const TimingCounter& c : kCounters)
+  for (const TimingCounter& c : counters())
     if (c.scale == SampleScale::kPerRay) s.*c.member = uint64_t(std::llround(double(s.*c.member) * factor));
 }
 

@@ -57,50 +57,6 @@ inline std::string prefetcher_names() {
   return names;
 }
 
-// The prefetchers' counters (TimingStats members, filled by NodeCache::prefetch), gathered into the statistics
-// table (timing_stats.cpp) after cache_misses.
-inline constexpr std::array<TimingCounter, 6> kPrefetchCounters = {{
-    {"prefetch_fills", &TimingStats::prefetch_fills, "lines", "lines a prefetcher brought into the node cache",
-     SampleScale::kPerRay},
-    {"prefetch_redundant", &TimingStats::prefetch_redundant, "lines",
-     "lines a prefetcher asked for that the node cache held or had on their way", SampleScale::kPerRay},
-    {"prefetch_useful", &TimingStats::prefetch_useful, "lines",
-     "prefetched lines a demand access hit before they were evicted (each counted once)", SampleScale::kPerRay},
-    {"prefetch_dropped", &TimingStats::prefetch_dropped, "lines",
-     "fills dropped from a full prefetch queue, oldest first (prefetch_queue > 0)", SampleScale::kPerRay},
-    {"prefetch_late", &TimingStats::prefetch_late, "lines",
-     "useful prefetched lines still on their way at the first demand hit (they saved part of the latency)",
-     SampleScale::kPerRay},
-    {"prefetch_unused", &TimingStats::prefetch_unused, "lines",
-     "prefetched lines evicted before a demand access hit them", SampleScale::kPerRay},
-}};
-
-// The prefetchers' keys, gathered into the timing key table (timing_config.cpp) after dram_bytes_per_cycle.
-inline const std::vector<TimingKeyInfo>& prefetch_keys() {
-  using C = TimingConfig;
-  static const std::vector<TimingKeyInfo> keys = {
-      {"prefetcher", &C::prefetcher, 0, 0,
-       "what fills the node cache besides demand fetches: none, next_line, treelet, stack or stack_pop "
-       "(prefetch/prefetchers.h)",
-       [](const C& c) {
-         return find_prefetcher(c.prefetcher) ? std::string()
-                                              : "prefetcher = '" + c.prefetcher +
-                                                    "' is not a prefetcher (known: " + prefetcher_names() + ")";
-       }},
-      {"prefetch_degree", &C::prefetch_degree, 1, 64, "lines a prefetcher fills per trigger"},
-      {"prefetch_queue", &C::prefetch_queue, 0, 4096,
-       "0: a prefetcher's fills go to memory at once; > 0: they wait in a queue of this many lines and go only "
-       "when the memory is idle at a fetch (demand first; a full queue drops its oldest)"},
-      {"prefetch_buffer", &C::prefetch_buffer, 0, 4096,
-       "0: a prefetcher's fills go into the node cache; > 0: into a fully associative buffer of this many lines "
-       "beside it, from which a demand hit moves the line into the cache (no pollution of the cache)"},
-      {"treelet_bytes", &C::treelet_bytes, 0, 65536,
-       "timing layout: 0 nodes in the image's order; > 0 nodes in treelets of at most this many bytes, each "
-       "contiguous (prefetch/treelets.h; prefetcher = treelet needs it > 0)"},
-  };
-  return keys;
-}
-
 // Whether the configured prefetcher needs the nodes rays push (the tracer records them only then).
 inline bool prefetcher_wants_stack_refs(const TimingConfig& c) {
   const PrefetcherInfo* p = find_prefetcher(c.prefetcher);

@@ -1,0 +1,31 @@
+// Ray coherence gathering (ray_gather.h), the in-unit ray scheduler seam: rays wait in a gather buffer, binned by
+// a key, and the slots take the rays of issued bins. Its keys and counters.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+
+#include "hwmodel/timing/timing_key.h"
+
+namespace rtu::hw {
+
+// "none" (the default) or the bin key; the origin grid's bits per axis, the gather buffer's rays, a bin's rays when
+// it is issued full, and the cycles after which it is issued anyway.
+struct GatherConfig {
+  std::string gather = "none";
+  int gather_grid_bits = 3;
+  int gather_buffer = 64;
+  int gather_rays = 16;
+  int gather_timeout = 200;
+};
+
+// Bins issued (full, by timeout), rays' waits in their bins.
+struct GatherCounters {
+  uint64_t gather_bins = 0, gather_bins_full = 0, gather_bins_timeout = 0, gather_wait_cycles = 0;
+};
+
+const TimingKeyTable& gather_keys();
+std::span<const TimingCounter> gather_counters();
+
+}  // namespace rtu::hw

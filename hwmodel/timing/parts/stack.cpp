@@ -1,0 +1,43 @@
+#include "hwmodel/timing/parts/stack.h"
+
+#include <array>
+
+#include "hwmodel/timing/timing_config.h"
+#include "hwmodel/timing/timing_stats.h"
+
+namespace rtu::hw {
+
+const TimingKeyTable& stack_keys() {
+  using C = TimingConfig;
+  static const TimingKeyTable keys = {
+      {"stack_entries", &C::stack_entries, 1, 64, "short stack per slot; deeper entries spill (8 bytes each)"},
+      {"stack_mode", &C::stack_mode, 0, 0,
+       "entries beyond the short stack: spill (to memory, read back at their pop) or restart (the oldest dropped; "
+       "its pop restarts from the root along a trail, re-fetching the nodes above it)",
+       [](const C& c) {
+         return c.stack_mode == "spill" || c.stack_mode == "restart"
+                    ? std::string()
+                    : "stack_mode = '" + c.stack_mode + "' must be spill or restart";
+       }},
+  };
+  return keys;
+}
+
+std::span<const TimingCounter> stack_counters() {
+  using S = TimingStats;
+  constexpr SampleScale kPerRay = SampleScale::kPerRay;
+  static constexpr std::array<TimingCounter, 4> counters = {{
+      {"stack_spills", &S::stack_spills, "entries", "stack entries beyond the short stack written to memory",
+       kPerRay},
+      {"stack_refills", &S::stack_refills, "entries", "spilled stack entries read back", kPerRay},
+      {"restarts", &S::restarts, "restarts",
+       "stack_mode restart: pops of a dropped entry, each a restart from the root along the trail", kPerRay},
+      {"restart_nodes", &S::restart_nodes, "nodes",
+       "stack_mode restart: nodes fetched and tested again by restarts (in node_fetches and box_tests too)",
+       kPerRay},
+  }};
+  static_assert(counters.size() * sizeof(uint64_t) == sizeof(StackCounters), "a counter is missing");
+  return counters;
+}
+
+}  // namespace rtu::hw

@@ -206,7 +206,7 @@ void print_render_summary(const RenderResult& r, const RenderOptions& o) {
   if (r.fw.sorted) {
     const fw::SortStats& ss = r.fw.sort;
     std::printf("  ray sorting by %s: %llu rays sorted in %llu sorts, %llu radix passes\n",
-                o.device.timing.ray_sort.c_str(), (unsigned long long)ss.rays, (unsigned long long)ss.sorts,
+                hw::name_of(o.device.timing.ray_sort), (unsigned long long)ss.rays, (unsigned long long)ss.sorts,
                 (unsigned long long)ss.passes);
   }
   if (o.hybrid) {

@@ -176,23 +176,23 @@ void print_timing_summary(const hw::TimingStats& s, const hw::TimingConfig& c, c
   // The latency levers that are on (docs/timing-model.md), each with what it did.
   std::string levers;
   char part[200];
-  if (c.prefetcher != "none") {
+  if (c.prefetcher != hw::PrefetcherId::kNone) {
     std::snprintf(part, sizeof part, "; prefetcher %s: %llu lines filled, accuracy %.3f, %llu dropped",
-                  c.prefetcher.c_str(), (unsigned long long)s.prefetch_fills,
+                  hw::name_of(c.prefetcher), (unsigned long long)s.prefetch_fills,
                   ratio(double(s.prefetch_useful), double(s.prefetch_fills)),
                   (unsigned long long)s.prefetch_dropped);
     levers += part;
   }
-  if (c.stack_mode == "restart") {
+  if (c.stack_mode == hw::StackMode::kRestart) {
     std::snprintf(part, sizeof part, "; restart trail (%d entries): %.3f restarts and %.2f nodes again per ray",
                   c.stack_entries, ratio(double(s.restarts), double(s.rays)),
                   ratio(double(s.restart_nodes), double(s.rays)));
     levers += part;
   }
-  if (c.gather != "none") {
+  if (c.gather != hw::GatherKey::kNone) {
     std::snprintf(part, sizeof part,
                   "; gather %s: %llu bins of %.1f rays (%llu full, %llu by timeout), %.0f cycles' wait per ray",
-                  c.gather.c_str(), (unsigned long long)s.gather_bins,
+                  hw::name_of(c.gather), (unsigned long long)s.gather_bins,
                   ratio(double(s.rays), double(s.gather_bins)), (unsigned long long)s.gather_bins_full,
                   (unsigned long long)s.gather_bins_timeout, ratio(double(s.gather_wait_cycles), double(s.rays)));
     levers += part;

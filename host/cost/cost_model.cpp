@@ -202,7 +202,7 @@ hw::CostInputs cost_inputs(const hw::TimingConfig& c) {
 Json energy_json(const hw::EnergyReport& e, const hw::TimingConfig& c, const hw::CostInputs& in) {
   Json j;
   j["technology"] = hw::nangate45().name;
-  j["memory_type"] = c.memory_type;
+  j["memory_type"] = hw::name_of(c.memory_type);
   j["area"] = {{"total_mm2", e.area.total_mm2},
                {"box_units_mm2", e.area.box_mm2},
                {"tri_units_mm2", e.area.tri_mm2},

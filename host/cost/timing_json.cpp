@@ -187,7 +187,7 @@ std::vector<std::string> timing_notes(const hw::TimingStats& s, const hw::Timing
                   pct(double(sampling->rays_simulated), double(sampling->rays)), sampling->ci95());
     std::string line = text;
     if (c.units > 1)
-      line += "; the estimate is of ray_policy " + c.ray_policy +
+      line += "; the estimate is of ray_policy " + std::string(hw::name_of(c.ray_policy)) +
               " (sampled chips need it): a full run under another policy (the chip presets' is waves) differs "
               "by its policy too";
     notes.push_back(line);

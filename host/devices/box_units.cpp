@@ -22,7 +22,7 @@ bool have_rtl_box_unit() {
 }
 
 std::unique_ptr<hw::BoxUnit> make_box_unit(const hw::TimingConfig& c) {
-  if (c.box_unit != "rtl") return nullptr;
+  if (c.box_unit != hw::UnitModel::kRtl) return nullptr;
   if (!g_make_rtl)
     throw Error(
         "box_unit = rtl: this build has no RTL box unit (rtl_sim/ needs Verilator: run scripts/setup.sh, "
@@ -43,7 +43,7 @@ bool have_rtl_tri_unit() {
 }
 
 std::unique_ptr<hw::TriUnit> make_tri_unit(const hw::TimingConfig& c) {
-  if (c.tri_unit != "rtl") return nullptr;
+  if (c.tri_unit != hw::UnitModel::kRtl) return nullptr;
   if (!g_make_rtl_tri)
     throw Error(
         "tri_unit = rtl: this build has no RTL triangle unit (rtl_sim/ needs Verilator: run scripts/setup.sh, "

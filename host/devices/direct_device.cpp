@@ -201,7 +201,7 @@ bool two_level(const DeviceOptions& o) {
   return o.instances && !o.instances->instances.empty() && !o.flatten;
 }
 bool timed_two_level(const DeviceOptions& o) {
-  return two_level(o) && o.timing.box_unit == "cpp" && o.timing.tri_unit == "cpp";
+  return two_level(o) && o.timing.box_unit == hw::UnitModel::kCpp && o.timing.tri_unit == hw::UnitModel::kCpp;
 }
 
 }  // namespace

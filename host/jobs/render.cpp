@@ -239,11 +239,9 @@ fw::RenderJob render_job(const Scene& scene, const RenderOptions& o, const Rende
 // Ray sorting's record (the job's kRenderRaySort): on the timed device, when the ray_sort key names a key.
 std::optional<fw::RaySortJob> ray_sort_job(const Scene& scene, const RenderOptions& o) {
   const hw::TimingConfig& c = o.device.timing;
-  if (o.device.kind != hw::DeviceKind::kTimed || c.ray_sort == "none") return std::nullopt;
-  const hw::RaySortKeyInfo* key = hw::find_ray_sort_key(c.ray_sort);
-  if (!key) throw Error("render: ray_sort = '" + c.ray_sort + "' is not a sort key");
+  if (o.device.kind != hw::DeviceKind::kTimed || c.ray_sort == hw::RaySort::kNone) return std::nullopt;
   fw::RaySortJob r{};
-  r.key = uint32_t(key - hw::kRaySortKeys.data());  // the table's order is fw::RaySortKey's
+  r.key = uint32_t(c.ray_sort);  // an index of kRaySortKeys, whose order is fw::RaySortKey's
   r.radix_bits = uint32_t(c.sort_radix_bits);
   const hw::Aabb b = scene.geometry.bounds();
   if (!b.empty()) {
@@ -403,7 +401,7 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   // unless flattened or co-simulated (the RTL units trace one image).
   const bool two_level = scene.instanced() && !o.device.flatten && o.device.kind != hw::DeviceKind::kFloat &&
                          (o.device.kind == hw::DeviceKind::kFixed ||
-                          (o.device.timing.box_unit == "cpp" && o.device.timing.tri_unit == "cpp"));
+                          (o.device.timing.box_unit == hw::UnitModel::kCpp && o.device.timing.tri_unit == hw::UnitModel::kCpp));
   add_scene_warnings(scene, o, two_level, res);
   hw::TracerOptions tracer = o.device.tracer;
   const std::vector<uint64_t> image_words = encode_scene_image(scene, o, two_level, tracer, res);
@@ -522,7 +520,7 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
     for (int t = 0; t < hw::cmd::kRayTypeCount; ++t)
       if (ss.by_type[t] > 0) by_type[hw::cmd::ray_type_name(RayType(t))] = ss.by_type[t];
     j["sort"] = {
-        {"key", o.device.timing.ray_sort}, {"sorts", ss.sorts},     {"rays", ss.rays}, {"passes", ss.passes},
+        {"key", hw::name_of(o.device.timing.ray_sort)}, {"sorts", ss.sorts},     {"rays", ss.rays}, {"passes", ss.passes},
         {"pass_rays", ss.pass_rays},       {"by_ray_type", by_type}};
   }
   j["paths"] = r.fw.paths;

@@ -24,10 +24,22 @@ constexpr std::array<MemoryType, 3> kMemoryTypes = {{
     {"lpddr5", 4.0, "assumption (no primary source found): between HBM2 3.9 and GDDR6 7.5 pJ/bit"},
 }};
 
+constexpr bool same_order() {  // kMemoryTypes prices the memory_type key's choices in their order
+  if (std::size(kMemoryTypes) != std::size(kDramTypes)) return false;
+  for (size_t i = 0; i < std::size(kMemoryTypes); ++i)
+    if (std::string_view(kMemoryTypes[i].name) != kDramTypes[i].name) return false;
+  return true;
+}
+static_assert(same_order(), "kMemoryTypes and kDramTypes (timing/parts/memory.h) must list the same types in order");
+
 }  // namespace
 
 std::span<const MemoryType> memory_types() {
   return kMemoryTypes;
+}
+
+const MemoryType& memory_type(DramType type) {
+  return kMemoryTypes[size_t(type)];
 }
 
 const MemoryType& memory_type(const std::string& name) {
@@ -69,12 +81,12 @@ double cache_sram_bits(const TimingConfig& c) {
 
 // The ray queue, or with gathering the gather buffer that takes its place (rays and their bin keys).
 static double ray_queue_bytes(const TimingConfig& c) {
-  return c.gather != "none" ? double(c.gather_buffer) * (kQueueRayBytes + kGatherKeyBytes)
+  return c.gather != GatherKey::kNone ? double(c.gather_buffer) * (kQueueRayBytes + kGatherKeyBytes)
                             : double(c.queue_depth) * kQueueRayBytes;
 }
 
 double slot_sram_bits(const TimingConfig& c) {
-  const double trail = c.stack_mode == "restart" ? kTrailBytes : 0.0;
+  const double trail = c.stack_mode == StackMode::kRestart ? kTrailBytes : 0.0;
   return 8.0 * (double(c.ray_slots) * (kSlotStateBytes + 8.0 * c.stack_entries + trail) + ray_queue_bytes(c) +
                 double(c.prefetch_queue) * kPrefetchEntryBytes);
 }
@@ -137,7 +149,7 @@ EnergyReport energy_report(const TimingStats& s, const TimingConfig& c, const Co
       {"stack", "accesses", "slot stack SRAM accesses (one per node fetch)", s.node_fetches,
        sram_access_pj(stack_bytes, 8, t)},
       {"gather", "rays", "gather buffer: each ray written and read once (ray and bin key)",
-       c.gather != "none" ? s.rays : 0,
+       c.gather != GatherKey::kNone ? s.rays : 0,
        2.0 * sram_access_pj(ray_queue_bytes(c), kQueueRayBytes + kGatherKeyBytes, t)},
       {"dram", "bytes", "DRAM bytes (line fills, stack spills, refills)", s.dram_bytes, dram_pj_per_byte},
       {"stream", "bytes", "ray and hit buffer bytes (in DRAM)", s.stream_bytes, dram_pj_per_byte},

@@ -63,6 +63,7 @@ struct MemoryType {
 std::span<const MemoryType> memory_types();
 // Throws std::invalid_argument for an unknown name.
 const MemoryType& memory_type(const std::string& name);
+const MemoryType& memory_type(DramType type);
 
 // One 64-bit read of an SRAM of `bytes` bytes (pJ): Horowitz's three points, interpolated log-log and extrapolated
 // with the nearest segment's slope.

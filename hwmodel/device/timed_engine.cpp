@@ -12,6 +12,7 @@
 #include <future>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 #include "hwmodel/datapath/batch.h"
 #include "hwmodel/interface/regs.h"
@@ -24,17 +25,17 @@ TimedEngine::TimedEngine(const EngineOptions& o, const TimingConfig& c, std::uni
                          std::unique_ptr<TriUnit> tri)
     : m_opt(o), m_c(c), m_box_unit(std::move(unit)), m_tri_unit(std::move(tri)) {
   m_c.validate();
-  if (m_c.box_unit == "rtl" && !m_box_unit)
+  if (m_c.box_unit == UnitModel::kRtl && !m_box_unit)
     throw std::invalid_argument("timing config " + m_c.name + ": box_unit = rtl, but no RTL box unit is attached");
-  if (m_c.box_unit != "rtl" && m_box_unit)
+  if (m_c.box_unit != UnitModel::kRtl && m_box_unit)
     throw std::invalid_argument("timing config " + m_c.name +
-                                ": a box unit is attached, but box_unit = " + m_c.box_unit);
-  if (m_c.tri_unit == "rtl" && !m_tri_unit)
+                                ": a box unit is attached, but box_unit = " + name_of(m_c.box_unit));
+  if (m_c.tri_unit == UnitModel::kRtl && !m_tri_unit)
     throw std::invalid_argument("timing config " + m_c.name +
                                 ": tri_unit = rtl, but no RTL triangle unit is attached");
-  if (m_c.tri_unit != "rtl" && m_tri_unit)
+  if (m_c.tri_unit != UnitModel::kRtl && m_tri_unit)
     throw std::invalid_argument("timing config " + m_c.name +
-                                ": a triangle unit is attached, but tri_unit = " + m_c.tri_unit);
+                                ": a triangle unit is attached, but tri_unit = " + name_of(m_c.tri_unit));
 }
 
 uint64_t TimedEngine::state_bytes(const TimingConfig& c, bool sampled) {
@@ -73,7 +74,7 @@ void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   to.max_steps = m_opt.max_steps;
   to.record_short_stack = m_c.stack_entries;  // the model charges only for entries beyond it
   to.record_stack_refs = prefetcher_wants_stack_refs(m_c);
-  to.record_restart = m_c.stack_mode == "restart";
+  to.record_restart = m_c.stack_mode == StackMode::kRestart;
   to.box_unit = m_box_unit.get();
   to.tri_unit = m_tri_unit.get();
   to.any_hit = m_any_hit;
@@ -89,7 +90,7 @@ FixedTraceOptions TimedEngine::two_level_options() const {
   to.max_steps = m_opt.max_steps;
   to.record_short_stack = m_c.stack_entries;  // the model charges only for entries beyond it
   to.record_stack_refs = prefetcher_wants_stack_refs(m_c);
-  to.record_restart = m_c.stack_mode == "restart";
+  to.record_restart = m_c.stack_mode == StackMode::kRestart;
   to.any_hit = m_any_hit;
   return to;
 }
@@ -105,7 +106,7 @@ void TimedEngine::bind_instanced(const InstanceSet& set, const Geometry& flat, c
 }
 
 void TimedEngine::make_models() {
-  parse_gather_key(m_c.gather, m_gather);
+  m_gather = m_c.gather;
   {
     const QuantFrame f = tracer().image().frame();
     const double step = f.step();
@@ -116,7 +117,7 @@ void TimedEngine::make_models() {
       m_two ? TimingModel::layout_of(*m_two, uint64_t(m_c.layout_align), uint64_t(m_c.instance_bytes))
             : TimingModel::layout_of(*m_image, uint64_t(m_c.layout_align));
   // Checked at bind rather than by validate(), so that --set order does not matter.
-  if (m_c.prefetcher == "treelet" && m_c.treelet_bytes == 0)
+  if (std::string_view(name_of(m_c.prefetcher)) == "treelet" && m_c.treelet_bytes == 0)
     throw std::invalid_argument("prefetcher = treelet needs treelet_bytes > 0 (the treelets it prefetches)");
   if (m_c.treelet_bytes > 0) {
     if (m_two)
@@ -231,12 +232,11 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
   const size_t per_unit = warmup_rays(stream, size_t(m_c.ray_slots), m_sample.warmup_rays) + m_sample.unit_rays +
                           2 * size_t(m_c.ray_slots);
   const size_t k = packet_step(n, m_sample.unit_rays, sample_step(m_sample.fraction), per_unit);
-  RayPolicy policy = RayPolicy::kWaves;
-  if (!parse_ray_policy(m_c.ray_policy, policy)) throw std::logic_error("ray_policy not validated");
+  const RayPolicy policy = m_c.ray_policy;
   const bool dynamic = chip() && policy == RayPolicy::kDynamic;
   if (chip() && !dynamic && sample_step(m_sample.fraction) >= 2)
     throw std::invalid_argument(
-        "sampled timing on a chip needs ray_policy = dynamic (--set ray_policy=dynamic): with " + m_c.ray_policy +
+        "sampled timing on a chip needs ray_policy = dynamic (--set ray_policy=dynamic): with " + std::string(name_of(m_c.ray_policy)) +
         " each unit's rays are fixed, the packet ends with its slowest unit, and no sample of them estimates that "
         "within the interval (docs/timing-model.md, sampled timing on a chip)");
   try {

@@ -43,8 +43,7 @@ struct WorkerJoiner {
 std::vector<std::vector<uint32_t>> TimedEngine::chip_rays(size_t n) const {
   const size_t U = size_t(m_c.units);
   std::vector<std::vector<uint32_t>> mine(U);
-  RayPolicy policy = RayPolicy::kWaves;
-  if (!parse_ray_policy(m_c.ray_policy, policy)) throw std::logic_error("ray_policy not validated");
+  const RayPolicy policy = m_c.ray_policy;
   for (size_t i = 0; i < n; ++i) mine[ray_unit(policy, i, n, U, size_t(m_c.ray_slots))].push_back(uint32_t(i));
   return mine;
 }
@@ -224,7 +223,7 @@ uint64_t TimedEngine::run_chip_dynamic(const std::vector<ChipWave>& waves, const
                                        std::vector<double>& work) {
   if (m_gather != GatherKey::kNone)
     throw std::invalid_argument("ray_policy = dynamic hands waves to the units; it does not model gather = " +
-                                m_c.gather);
+                                std::string(name_of(m_c.gather)));
   const size_t U = m_chip_units.size(), W = waves.size();
   const double box_rate = double(m_c.box_rate) * m_c.box_units, tri_rate = double(m_c.tri_rate) * m_c.tri_units;
   work.assign(2 * W, 0.0);

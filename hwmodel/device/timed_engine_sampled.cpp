@@ -29,13 +29,13 @@ void TimedEngine::set_sampling(const SampleOptions& o) {
   if (o.unit_rays == 0) throw std::invalid_argument("sampled timing: a unit needs at least one ray");
   // Functional warming brings in the demand lines only; a sampled unit with a prefetcher would start from a cache
   // without the prefetched lines, an estimate of a different unit.
-  if (sample_step(o.fraction) >= 2 && m_c.prefetcher != "none")
+  if (sample_step(o.fraction) >= 2 && m_c.prefetcher != PrefetcherId::kNone)
     throw std::invalid_argument("sampled timing: warming does not model prefetched lines; run prefetcher = " +
-                                m_c.prefetcher + " unsampled (no --sample)");
+                                std::string(name_of(m_c.prefetcher)) + " unsampled (no --sample)");
   // The gathering unit reorders a packet's rays across the units sampling measures one by one.
-  if (sample_step(o.fraction) >= 2 && m_c.gather != "none")
+  if (sample_step(o.fraction) >= 2 && m_c.gather != GatherKey::kNone)
     throw std::invalid_argument("sampled timing: the units it measures do not model ray gathering; run gather = " +
-                                m_c.gather + " unsampled (no --sample)");
+                                std::string(name_of(m_c.gather)) + " unsampled (no --sample)");
   m_sample = o;
 }
 

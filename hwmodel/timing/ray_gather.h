@@ -38,23 +38,6 @@
 
 namespace rtu::hw {
 
-enum class GatherKey : uint8_t { kNone, kOctant, kOrigin, kOriginOctant, kTwoPoint };
-
-inline constexpr std::pair<const char*, GatherKey> kGatherKeys[] = {
-    {"none", GatherKey::kNone},          {"octant", GatherKey::kOctant},
-    {"origin", GatherKey::kOrigin},      {"origin_octant", GatherKey::kOriginOctant},
-    {"two_point", GatherKey::kTwoPoint},
-};
-
-inline bool parse_gather_key(const std::string& name, GatherKey& out) {
-  for (const auto& [n, k] : kGatherKeys)
-    if (name == n) {
-      out = k;
-      return true;
-    }
-  return false;
-}
-
 // The bin key of a world ray: `lo` is the scene frame's low corner and `extent` its edge (a cube).
 inline uint32_t gather_key(GatherKey k, int grid_bits, const Ray& r, const double lo[3], double extent) {
   const uint32_t octant = uint32_t(std::signbit(r.dir[0])) | uint32_t(std::signbit(r.dir[1])) << 1 |

@@ -9,36 +9,18 @@
 //   compute units with room. The only policy under which sampled timing runs on a chip (sampler.h).
 // Within a unit, a free slot takes the unit's next ray in order (TimingModel::admit): rays arrive from the ray
 // buffer in order through a queue of queue_depth, so that is the order the ray fetch model (timing_model.h)
-// prices; or, with gathering (ray_gather.h), the first ray of the bins issued so far. To add a policy: a name in
-// kRayPolicies and a case in ray_unit(); the key's check and description follow from the list.
+// prices; or, with gathering (ray_gather.h), the first ray of the bins issued so far. To add a policy: a value of
+// RayPolicy and its row in kRayPolicies (parts/chip.h), and a case in ray_unit(); the key's check and description
+// follow from the list.
 #pragma once
 
 #include <array>
 #include <cstddef>
 #include <cstdint>
-#include <string_view>
-#include <utility>
+
+#include "hwmodel/timing/parts/chip.h"
 
 namespace rtu::hw {
-
-enum class RayPolicy : uint8_t { kWaves, kRoundRobin, kBlocks, kDynamic };
-
-inline constexpr std::array<std::pair<std::string_view, RayPolicy>, 4> kRayPolicies{{
-    {"waves", RayPolicy::kWaves},
-    {"round_robin", RayPolicy::kRoundRobin},
-    {"blocks", RayPolicy::kBlocks},
-    {"dynamic", RayPolicy::kDynamic},
-}};
-
-// The policy a ray_policy value names; false for none (TimingConfig::validate() refuses such a value).
-inline bool parse_ray_policy(std::string_view name, RayPolicy& out) {
-  for (const auto& [n, p] : kRayPolicies)
-    if (n == name) {
-      out = p;
-      return true;
-    }
-  return false;
-}
 
 // The unit of `units` that takes ray i of a packet of n rays, with `slots` ray slots per unit (dynamic: decided
 // while the packet runs, TimedEngine::run_chip_dynamic; the waves' unit here).

@@ -72,11 +72,9 @@ inline constexpr std::array<RaySortKeyInfo, 5> kRaySortKeys = {{
      "diagonal, 10 bits an axis in the scene's bounds"},
 }};
 
-// The key a ray_sort value names, or null.
-inline const RaySortKeyInfo* find_ray_sort_key(const std::string& name) {
-  for (const RaySortKeyInfo& k : kRaySortKeys)
-    if (name == k.name) return &k;
-  return nullptr;
+// The key a ray_sort value names.
+inline const RaySortKeyInfo& ray_sort_key(RaySort k) {
+  return kRaySortKeys[size_t(k)];
 }
 
 // Bytes the sort moves per ray or key (the phases above).

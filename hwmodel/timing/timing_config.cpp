@@ -53,6 +53,8 @@ std::vector<KeyInfo> make_key_table() {
   };
   std::vector<KeyInfo> table;
   for (const TimingKeyTable* part : parts) table.insert(table.end(), part->begin(), part->end());
+  for (KeyInfo& k : table)
+    if (auto c = std::get_if<ChoiceField>(&k.field)) k.description += ": " + choice_names(c->choices());
   return table;
 }
 
@@ -96,6 +98,11 @@ void TimingConfig::validate() const {
       const double v = this->*(*d);
       if (!std::isfinite(v) || v < k.lo || v > k.hi)
         fail(std::string(k.key) + " = " + double_text(v) + " outside " + range_text(k.lo, k.hi, false));
+    }
+    if (auto c = std::get_if<ChoiceField>(&k.field)) {
+      const int v = c->get(*this);
+      if (v < 0 || size_t(v) >= c->choices().size())
+        fail(std::string(k.key) + " = " + std::to_string(v) + " is not one of " + choice_names(c->choices()));
     }
     // Rules beyond a range, checked in key order so that the first bad key is the one named.
     if (k.rule) {
@@ -436,6 +443,9 @@ std::vector<TimingKey> timing_keys(const TimingConfig& c) {
       value = std::to_string(c.*(*f));
     else if (auto d = std::get_if<double TimingConfig::*>(&k.field))
       value = double_text(c.*(*d));
+    else if (auto ch = std::get_if<ChoiceField>(&k.field))
+      value = size_t(ch->get(c)) < ch->choices().size() ? ch->choices()[size_t(ch->get(c))].name
+                                                         : std::to_string(ch->get(c));
     else
       value = c.*std::get<std::string TimingConfig::*>(k.field);
     keys.push_back(TimingKey{k.key, value, k.description});
@@ -469,6 +479,13 @@ void assign_timing_key(TimingConfig& t, const std::string& key, const std::strin
     const auto r = std::from_chars(first, last, v);
     if (value.empty() || r.ec != std::errc() || r.ptr != last || !std::isfinite(v)) bad("a finite number");
     t.*(*d) = v;
+  } else if (auto c = std::get_if<ChoiceField>(&info->field)) {
+    const std::span<const TimingChoice> choices = c->choices();
+    size_t i = 0;
+    while (i < choices.size() && value != choices[i].name) ++i;
+    if (i == choices.size())
+      throw std::invalid_argument("timing config: " + key + " = '" + value + "' must be " + choice_names(choices));
+    c->set(t, int(i));
   } else {
     t.*std::get<std::string TimingConfig::*>(info->field) = value;
   }

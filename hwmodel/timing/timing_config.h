@@ -17,7 +17,10 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -61,6 +64,15 @@ struct TimingConfig : CommandConfig,
   // Checks every field; throws std::invalid_argument naming the first bad key and its allowed range.
   void validate() const;
 };
+
+// The field of a choice key (timing_key.h): `Member` an enum member of a part's struct whose values number the
+// entries of Choices().
+template <auto Member, std::span<const TimingChoice> (*Choices)()>
+ChoiceField choice_field() {
+  using E = std::remove_cvref_t<decltype(std::declval<TimingConfig&>().*Member)>;
+  return {[](const TimingConfig& c) { return int(c.*Member); }, [](TimingConfig& c, int v) { c.*Member = E(v); },
+          Choices};
+}
 
 // The presets: "rdna2" (resembling AMD RDNA2's ray accelerator: BVH4, 4 box tests or 1 triangle test per clock),
 // "intel" (resembling Intel's RTU: 6-wide nodes, 12 box tests (two units of 6) and 1 triangle test per

@@ -19,13 +19,38 @@ struct TimingStats;
 inline constexpr int kMaxLatency = 100000;    // the largest latency key in cycles
 inline constexpr double kNoRange = -1e300;    // lo of a key whose rule is not a range (bvh_width: 2, 4, 6 or 8)
 
-// A key's declaration: the field it names, its allowed range (ints and doubles), a one-line description, and a
-// rule beyond the range (null, or the problem as text, empty when the value is allowed).
+// One value of a key that takes one of a list (stack_mode, box_unit, prefetcher, ...): its text and what it does.
+struct TimingChoice {
+  const char* name;
+  const char* description;
+};
+// A key whose member is an enum numbering the entries of a list of choices (a part's own list, or a registry such
+// as the prefetchers'): the text is parsed once, when the key is set; the refusal of an unknown value and the
+// key's description are made from the list. Made by choice_field() (timing_config.h).
+struct ChoiceField {
+  int (*get)(const TimingConfig&);
+  void (*set)(TimingConfig&, int);
+  std::span<const TimingChoice> (*choices)();
+};
+
+// "a, b or c": the choices' names, for descriptions and refusals.
+inline std::string choice_names(std::span<const TimingChoice> choices) {
+  std::string s;
+  for (size_t i = 0; i < choices.size(); ++i) {
+    if (i > 0) s += i + 1 == choices.size() ? " or " : ", ";
+    s += choices[i].name;
+  }
+  return s;
+}
+
+// A key's declaration: the field it names, its allowed range (ints and doubles), a one-line description (of a
+// choice key: what it chooses; the list of choices is appended), and a rule beyond the range (null, or the
+// problem as text, empty when the value is allowed).
 struct TimingKeyInfo {
   const char* key;
-  std::variant<int TimingConfig::*, double TimingConfig::*, std::string TimingConfig::*> field;
-  double lo, hi;  // inclusive range of ints and doubles; unused for strings
-  const char* description;
+  std::variant<int TimingConfig::*, double TimingConfig::*, std::string TimingConfig::*, ChoiceField> field;
+  double lo, hi;  // inclusive range of ints and doubles; unused for strings and choices
+  std::string description;
   std::string (*rule)(const TimingConfig&) = nullptr;
 };
 using TimingKeyTable = std::vector<TimingKeyInfo>;

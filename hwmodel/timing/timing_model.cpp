@@ -44,7 +44,7 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
   }
   m_slots.resize(size_t(c.ray_slots));
   m_recent.assign(size_t(c.queue_depth), 0);
-  if (c.gather != "none") m_gather = std::make_unique<RayGather>(c);
+  if (c.gather != GatherKey::kNone) m_gather = std::make_unique<RayGather>(c);
   while ((uint64_t(1) << m_line_shift) < uint64_t(c.line_bytes)) ++m_line_shift;
   m_min_fetch = m_cache.enabled() ? m_cache.latency() : m_mem->min_line_cycles();
   m_stack_base = (layout.total_bytes + kStackRegion - 1) / kStackRegion * kStackRegion +

@@ -580,7 +580,7 @@ TEST_CASE("memory limit: a chip records its units' rays in bounded chunks, with 
     o.instances = &scene.instances;
     o.timing.units = 3;
     o.timing.ray_slots = 8;
-    o.timing.ray_policy = policy;
+    hw::set_timing_key(o.timing, "ray_policy", policy);
     const auto dev = host::make_device(scene.geometry, o);
     if (chunk_bytes) dev->timed()->set_chunk_event_bytes(chunk_bytes);
     std::vector<hw::Hit> hits(rays.size());

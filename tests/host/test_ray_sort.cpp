@@ -24,7 +24,7 @@ RenderOptions seed_options(const std::string& device, const std::string& key) {
   RenderOptions o;
   o.device.kind = rtu::hw::parse_device_kind(device);
   o.device.timing = rtu::hw::timing_preset("rdna2");
-  o.device.timing.ray_sort = key;
+  rtu::hw::set_timing_key(o.device.timing, "ray_sort", key);
   o.device.format = rtu::hw::format_preset(o.device.timing.format);
   o.device.format.width = o.device.timing.bvh_width;
   o.device.tracer.bvh.width = o.device.format.width;
@@ -97,7 +97,7 @@ TEST_CASE("ray sorting keeps occlusion rays' hits and hybrid mode's image", "[so
     o.ao = true;
     o.hybrid = hybrid;
     const RenderResult a = rtu::host::render(s, o);
-    o.device.timing.ray_sort = "origin_direction";
+    rtu::hw::set_timing_key(o.device.timing, "ray_sort", "origin_direction");
     const RenderResult b = rtu::host::render(s, o);
     CHECK(same_bits(a, b));
     CHECK(b.fw.sort.by_type[int(rtu::hw::cmd::RayType::kOcclusion)] > 0);

@@ -56,7 +56,7 @@ TEST_CASE("make_engine: the engine of each kind, and box and triangle units for 
   CHECK_THROWS_WITH(rtu::hw::make_engine(DeviceKind::kTimed, {}, c, nullptr, std::make_unique<NoTriUnit>()),
                     Catch::Contains("tri_unit = cpp"));
   rtu::hw::TimingConfig rtl = c;
-  rtl.tri_unit = "rtl";
+  rtl.tri_unit = rtu::hw::UnitModel::kRtl;
   CHECK_THROWS_WITH(rtu::hw::make_engine(DeviceKind::kTimed, {}, rtl),
                     Catch::Contains("no RTL triangle unit is attached"));
   CHECK(rtu::hw::make_engine(DeviceKind::kTimed, {}, rtl, nullptr, std::make_unique<NoTriUnit>()));

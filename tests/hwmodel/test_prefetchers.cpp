@@ -411,7 +411,7 @@ TEST_CASE("where nothing misses, a prefetcher or a restart trail changes no cycl
     TimingConfig c = base;
     const std::string kv = lever;
     set_timing_key(c, kv.substr(0, kv.find('=')), kv.substr(kv.find('=') + 1));
-    if (c.prefetcher == "treelet") set_timing_key(c, "treelet_bytes", "512");
+    if (kv == "prefetcher=treelet") set_timing_key(c, "treelet_bytes", "512");
     TimingStats s;
     CHECK(second_packet(c, s) == want);
     CHECK(s.cache_misses == 0);

@@ -63,13 +63,13 @@ TEST_CASE("ray sort cycles worked by hand", "[sort][timing]") {
 
 TEST_CASE("ray sort keys: defaults, ranges and an unknown key refused", "[sort][config]") {
   TimingConfig c;
-  CHECK(c.ray_sort == "none");  // off by default: every preset's cycles stay what they were
+  CHECK(c.ray_sort == rtu::hw::RaySort::kNone);  // off by default: every preset's cycles stay what they were
   rtu::hw::set_timing_key(c, "ray_sort", "origin_direction");
-  CHECK(c.ray_sort == "origin_direction");
+  CHECK(std::string(rtu::hw::name_of(c.ray_sort)) == "origin_direction");
   CHECK_THROWS_WITH(rtu::hw::set_timing_key(c, "ray_sort", "hilbert"),
-                    Catch::Contains("ray_sort = 'hilbert' is not a sort key (known: none, origin, direction, "
-                                    "origin_direction, termination)"));
-  CHECK(c.ray_sort == "origin_direction");  // unchanged by the refusal
+                    Catch::Contains("ray_sort = 'hilbert' must be none, origin, direction, origin_direction or "
+                                    "termination"));
+  CHECK(std::string(rtu::hw::name_of(c.ray_sort)) == "origin_direction");  // unchanged by the refusal
   CHECK_THROWS_WITH(rtu::hw::set_timing_key(c, "sort_radix_bits", "17"), Catch::Contains("sort_radix_bits = 17"));
   CHECK_THROWS_WITH(rtu::hw::set_timing_key(c, "sort_radix_bits", "0"), Catch::Contains("outside [1, 16]"));
   CHECK_THROWS_AS(rtu::hw::set_timing_key(c, "sort_keys_per_clock", "0"), std::invalid_argument);

@@ -496,7 +496,7 @@ TEST_CASE("a prefetcher changes when data is there, never what is fetched or tes
   CHECK_THROWS_WITH(
       rtu::hw::set_timing_key(c, "prefetcher", "stride"),
       Catch::Contains(
-          "prefetcher = 'stride' is not a prefetcher (known: none, next_line, treelet, stack, stack_pop)"));
+          "prefetcher = 'stride' must be none, next_line, treelet, stack or stack_pop"));
 }
 
 namespace {

@@ -11,14 +11,8 @@ namespace rtu::hw {
 const TimingKeyTable& gather_keys() {
   using C = TimingConfig;
   static const TimingKeyTable keys = {
-      {"gather", &C::gather, 0, 0,
-       "ray coherence gathering (ray_gather.h): none, or the bin key: octant, origin, origin_octant, two_point",
-       [](const C& c) {
-         GatherKey k;
-         return parse_gather_key(c.gather, k)
-                    ? std::string()
-                    : "gather = '" + c.gather + "' must be none, octant, origin, origin_octant or two_point";
-       }},
+      {"gather", choice_field<&C::gather, gather_keys_list>(), 0, 0,
+       "ray coherence gathering (ray_gather.h): none, or the key rays are binned by"},
       {"gather_grid_bits", &C::gather_grid_bits, 1, 8,
        "gathering: origin grid cells per axis = 2^bits over the scene's frame (origin and two_point keys)"},
       {"gather_buffer", &C::gather_buffer, 1, 4096,

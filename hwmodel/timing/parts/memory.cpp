@@ -52,12 +52,7 @@ const TimingKeyTable& dram_bank_keys() {
        }},
       {"dram_activate_cycles", &C::dram_activate_cycles, 0, kMaxLatency, "cycles to open a DRAM row (tRCD)"},
       {"dram_precharge_cycles", &C::dram_precharge_cycles, 0, kMaxLatency, "cycles to close a DRAM row (tRP)"},
-      {"memory_type", &C::memory_type, 0, 0, "DRAM type, for its energy per bit: gddr6, hbm2 or lpddr5",
-       [](const C& c) {
-         return c.memory_type == "gddr6" || c.memory_type == "hbm2" || c.memory_type == "lpddr5"
-                    ? std::string()
-                    : "memory_type = '" + c.memory_type + "' must be gddr6, hbm2 or lpddr5";
-       }},
+      {"memory_type", choice_field<&C::memory_type, dram_types>(), 0, 0, "DRAM type, for its energy per bit"},
   };
   return keys;
 }

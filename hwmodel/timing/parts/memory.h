@@ -5,11 +5,25 @@
 
 #include <cstdint>
 #include <span>
-#include <string>
 
 #include "hwmodel/timing/timing_key.h"
 
 namespace rtu::hw {
+
+// What the memory behind the cache is, for its energy per bit (the memory_type key; energy_model.h prices each, in
+// this order). Timing does not depend on it.
+enum class DramType : uint8_t { kGddr6, kHbm2, kLpddr5 };
+inline constexpr TimingChoice kDramTypes[] = {
+    {"gddr6", "GDDR6"},
+    {"hbm2", "HBM2"},
+    {"lpddr5", "LPDDR5"},
+};
+inline std::span<const TimingChoice> dram_types() {
+  return kDramTypes;
+}
+inline const char* name_of(DramType t) {
+  return kDramTypes[size_t(t)].name;
+}
 
 struct DramChannelConfig {
   int dram_latency = 200;              // cycles from request to the first byte
@@ -35,9 +49,7 @@ struct DramBankConfig {
   int dram_row_bytes = 2048;
   int dram_activate_cycles = 0;
   int dram_precharge_cycles = 0;
-  // What the memory behind the cache is, for its energy per bit (energy_model.h memory_types()): gddr6, hbm2 or
-  // lpddr5. Timing does not depend on it.
-  std::string memory_type = "gddr6";
+  DramType memory_type = DramType::kGddr6;
 };
 
 struct L2Counters {

@@ -1,6 +1,7 @@
 #include "hwmodel/timing/parts/prefetch.h"
 
 #include <array>
+#include <vector>
 
 #include "hwmodel/timing/prefetch/prefetchers.h"
 #include "hwmodel/timing/timing_config.h"
@@ -8,17 +9,24 @@
 
 namespace rtu::hw {
 
+std::span<const TimingChoice> prefetcher_choices() {
+  static const std::vector<TimingChoice> choices = [] {
+    std::vector<TimingChoice> out;
+    for (const PrefetcherInfo& p : prefetchers()) out.push_back({p.name, p.description});
+    return out;
+  }();
+  return choices;
+}
+
+const char* name_of(PrefetcherId p) {
+  return prefetchers()[size_t(p)].name;
+}
+
 const TimingKeyTable& prefetch_keys() {
   using C = TimingConfig;
   static const TimingKeyTable keys = {
-      {"prefetcher", &C::prefetcher, 0, 0,
-       "what fills the node cache besides demand fetches: none, next_line, treelet, stack or stack_pop "
-       "(prefetch/prefetchers.h)",
-       [](const C& c) {
-         return find_prefetcher(c.prefetcher) ? std::string()
-                                              : "prefetcher = '" + c.prefetcher +
-                                                    "' is not a prefetcher (known: " + prefetcher_names() + ")";
-       }},
+      {"prefetcher", choice_field<&C::prefetcher, prefetcher_choices>(), 0, 0,
+       "what fills the node cache besides demand fetches (prefetch/prefetchers.h)"},
       {"prefetch_degree", &C::prefetch_degree, 1, 64, "lines a prefetcher fills per trigger"},
       {"prefetch_queue", &C::prefetch_queue, 0, 4096,
        "0: a prefetcher's fills go to memory at once; > 0: they wait in a queue of this many lines and go only "

@@ -4,16 +4,20 @@
 
 #include <cstdint>
 #include <span>
-#include <string>
 
 #include "hwmodel/timing/timing_key.h"
 
 namespace rtu::hw {
 
+// A prefetcher (the prefetcher key): an index of prefetchers() (prefetch/prefetchers.h); 0 is none.
+enum class PrefetcherId : uint8_t { kNone = 0 };
+std::span<const TimingChoice> prefetcher_choices();  // prefetchers()' names and descriptions
+const char* name_of(PrefetcherId p);
+
 struct PrefetchConfig {
-  // A prefetcher watching the unit's fetches (prefetch/fetch_observer.h): "none" (the default) or a name of
-  // prefetchers() such as "next_line"; prefetch_degree lines per trigger.
-  std::string prefetcher = "none";
+  // A prefetcher watching the unit's fetches (prefetch/fetch_observer.h): none (the default) or one of
+  // prefetchers() such as next_line; prefetch_degree lines per trigger.
+  PrefetcherId prefetcher = PrefetcherId::kNone;
   int prefetch_degree = 1;
   // Lines a prefetcher's fills may wait for an idle memory (0: none wait, each goes at once).
   int prefetch_queue = 0;

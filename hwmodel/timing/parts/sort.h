@@ -2,14 +2,21 @@
 // their TRACE, and the controller's cost of the sort.
 #pragma once
 
-#include <string>
+#include <cstdint>
+#include <span>
 
 #include "hwmodel/timing/timing_key.h"
 
 namespace rtu::hw {
 
+// The key rays are sorted by (the ray_sort key): an index of kRaySortKeys (sort_timing.h), whose order is the
+// firmware's fw::RaySortKey; 0 is none (no sorting).
+enum class RaySort : uint8_t { kNone = 0 };
+std::span<const TimingChoice> ray_sort_choices();  // kRaySortKeys' names and descriptions
+const char* name_of(RaySort k);
+
 struct SortConfig {
-  std::string ray_sort = "none";     // "none": no sorting; a name of kRaySortKeys
+  RaySort ray_sort = RaySort::kNone;
   double sort_key_cycles = 1.0;      // cycles per key computed
   double sort_keys_per_clock = 1.0;  // keys a radix pass counts and scatters per clock
   int sort_radix_bits = 8;           // digit bits of the LSD radix sort

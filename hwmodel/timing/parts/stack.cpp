@@ -11,14 +11,9 @@ const TimingKeyTable& stack_keys() {
   using C = TimingConfig;
   static const TimingKeyTable keys = {
       {"stack_entries", &C::stack_entries, 1, 64, "short stack per slot; deeper entries spill (8 bytes each)"},
-      {"stack_mode", &C::stack_mode, 0, 0,
-       "entries beyond the short stack: spill (to memory, read back at their pop) or restart (the oldest dropped; "
-       "its pop restarts from the root along a trail, re-fetching the nodes above it)",
-       [](const C& c) {
-         return c.stack_mode == "spill" || c.stack_mode == "restart"
-                    ? std::string()
-                    : "stack_mode = '" + c.stack_mode + "' must be spill or restart";
-       }},
+      {"stack_mode", choice_field<&C::stack_mode, stack_modes>(), 0, 0,
+       "entries beyond the short stack: spilled to memory and read back at their pop, or the oldest dropped and "
+       "its pop a restart from the root along a trail that re-fetches the nodes above it"},
   };
   return keys;
 }

@@ -4,17 +4,30 @@
 
 #include <cstdint>
 #include <span>
-#include <string>
 
 #include "hwmodel/timing/timing_key.h"
 
 namespace rtu::hw {
 
+// What happens to entries beyond the short stack (the stack_mode key).
+enum class StackMode : uint8_t {
+  kSpill,    // to memory, read back when popped
+  kRestart,  // the oldest is dropped; popping a dropped entry restarts from the root along a trail
+};
+inline constexpr TimingChoice kStackModes[] = {
+    {"spill", "entries beyond the short stack go to memory and are read back at their pop"},
+    {"restart", "the oldest entry is dropped; its pop restarts from the root along a trail (restart_trail.h)"},
+};
+inline std::span<const TimingChoice> stack_modes() {
+  return kStackModes;
+}
+inline const char* name_of(StackMode m) {
+  return kStackModes[size_t(m)].name;
+}
+
 struct StackConfig {
   int stack_entries = 8;  // short stack per slot; deeper entries spill to memory (8 bytes each)
-  // What happens to entries beyond the short stack: "spill" (to memory, read back when popped) or "restart" (the
-  // oldest is dropped; popping a dropped entry restarts from the root along a trail, restart_trail.h).
-  std::string stack_mode = "spill";
+  StackMode stack_mode = StackMode::kSpill;
 };
 
 struct StackCounters {

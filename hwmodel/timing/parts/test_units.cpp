@@ -15,21 +15,15 @@ const TimingKeyTable& unit_keys() {
       {"box_latency", &C::box_latency, 1, kMaxLatency, "box unit pipeline depth (issue to result)"},
       {"obb_latency", &C::obb_latency, 0, kMaxLatency,
        "oriented nodes: clocks the ray's rotation into the node's frame adds to a box test"},
-      {"box_unit", &C::box_unit, 0, 0,
-       "box tests by cpp (the C++ datapath) or rtl (the Verilated RTL unit: co-simulation, its clocks per node)",
-       [](const C& c) {
-         return c.box_unit == "cpp" || c.box_unit == "rtl" ? std::string()
-                                                           : "box_unit = '" + c.box_unit + "' must be cpp or rtl";
-       }},
+      {"box_unit", choice_field<&C::box_unit, unit_models>(), 0, 0,
+       "which box unit answers the box tests: the C++ datapath, or the Verilated RTL unit (co-simulation, its "
+       "clocks per node)"},
       {"tri_units", &C::tri_units, 1, 64, "triangle units (spheres and planes use them too)"},
       {"tri_rate", &C::tri_rate, 1, 64, "triangle tests per clock per unit"},
       {"tri_latency", &C::tri_latency, 1, kMaxLatency, "triangle test pipeline depth"},
-      {"tri_unit", &C::tri_unit, 0, 0,
-       "triangle tests by cpp (the C++ datapath) or rtl (the Verilated RTL unit: co-simulation, its clocks)",
-       [](const C& c) {
-         return c.tri_unit == "cpp" || c.tri_unit == "rtl" ? std::string()
-                                                           : "tri_unit = '" + c.tri_unit + "' must be cpp or rtl";
-       }},
+      {"tri_unit", choice_field<&C::tri_unit, unit_models>(), 0, 0,
+       "which triangle unit answers the triangle tests: the C++ datapath, or the Verilated RTL unit "
+       "(co-simulation, its clocks)"},
       {"sphere_latency", &C::sphere_latency, 1, kMaxLatency, "sphere test pipeline depth (triangle unit slot)"},
       {"plane_latency", &C::plane_latency, 1, kMaxLatency, "plane test pipeline depth (triangle unit slot)"},
       {"curve_units", &C::curve_units, 0, 64,

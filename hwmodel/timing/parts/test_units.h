@@ -5,11 +5,26 @@
 
 #include <cstdint>
 #include <span>
-#include <string>
 
 #include "hwmodel/timing/timing_key.h"
 
 namespace rtu::hw {
+
+// Which unit answers a class of tests (the box_unit and tri_unit keys).
+enum class UnitModel : uint8_t {
+  kCpp,  // the C++ datapath, at the configured rate and depth
+  kRtl,  // the Verilated RTL of rtl_sim/ (co-simulation: its clocks; hits stay the C++ unit's, bit for bit)
+};
+inline constexpr TimingChoice kUnitModels[] = {
+    {"cpp", "the C++ datapath, at the configured rate and pipeline depth"},
+    {"rtl", "the Verilated RTL unit (co-simulation): its clocks per test; the hits stay the C++ unit's"},
+};
+inline std::span<const TimingChoice> unit_models() {
+  return kUnitModels;
+}
+inline const char* name_of(UnitModel m) {
+  return kUnitModels[size_t(m)].name;
+}
 
 // Units: count, tests per clock per unit, pipeline depth (cycles from issue to result).
 struct UnitConfig {
@@ -20,17 +35,15 @@ struct UnitConfig {
   // (a 3x3 integer product of origin and direction and the reciprocals of the rotated direction; an estimate,
   // timing-model.md). No effect on axis-aligned images.
   int obb_latency = 4;
-  // Which box unit answers the box tests: "cpp" (the C++ datapath, box_rate and box_latency) or "rtl" (the
-  // Verilated RTL of rtl_sim/, co-simulation: its clocks per node replace box_rate and box_latency; hits stay
-  // the C++ unit's, bit for bit). The host attaches the RTL unit (hwmodel never sees it).
-  std::string box_unit = "cpp";
+  // Which box unit answers the box tests: cpp (box_rate and box_latency) or rtl (its clocks per node replace
+  // them). The host attaches the RTL unit (hwmodel never sees it).
+  UnitModel box_unit = UnitModel::kCpp;
   int tri_units = 1;
   int tri_rate = 1;  // triangle tests per clock per unit
   int tri_latency = 12;
-  // Which triangle unit answers the triangle tests: "cpp" (the C++ datapath, one issue clock and tri_latency) or
-  // "rtl" (the Verilated RTL of rtl_sim/, co-simulation: its clocks per triangle replace them; hits stay the C++
-  // unit's, bit for bit). Spheres and planes stay C++. The host attaches the RTL unit (hwmodel never sees it).
-  std::string tri_unit = "cpp";
+  // Which triangle unit answers the triangle tests: cpp (one issue clock and tri_latency) or rtl (its clocks per
+  // triangle replace them). Spheres and planes stay C++. The host attaches the RTL unit.
+  UnitModel tri_unit = UnitModel::kCpp;
   int sphere_latency = 16;  // spheres and planes share the triangle units' issue slots (one test per clock)
   int plane_latency = 8;
   // Curve segments (linear swept spheres): a unit of their own, as NVIDIA Blackwell's RT core has, or none, and

@@ -43,30 +43,19 @@ inline const std::vector<PrefetcherInfo>& prefetchers() {
   return table;
 }
 
-// The entry a prefetcher key names; null for none (TimingConfig::validate() refuses such a name).
-inline const PrefetcherInfo* find_prefetcher(const std::string& name) {
-  for (const PrefetcherInfo& p : prefetchers())
-    if (name == p.name) return &p;
-  return nullptr;
-}
-
-// The prefetchers' names, comma separated (for the refusal of an unknown one).
-inline std::string prefetcher_names() {
-  std::string names;
-  for (const PrefetcherInfo& p : prefetchers()) names += (names.empty() ? "" : ", ") + std::string(p.name);
-  return names;
+// The entry the prefetcher key names.
+inline const PrefetcherInfo& prefetcher_info(PrefetcherId p) {
+  return prefetchers()[size_t(p)];
 }
 
 // Whether the configured prefetcher needs the nodes rays push (the tracer records them only then).
 inline bool prefetcher_wants_stack_refs(const TimingConfig& c) {
-  const PrefetcherInfo* p = find_prefetcher(c.prefetcher);
-  return p && p->stack_refs;
+  return prefetcher_info(c.prefetcher).stack_refs;
 }
 
 inline std::unique_ptr<FetchObserver> make_fetch_observer(const TimingConfig& c, const FetchContext& ctx) {
-  const PrefetcherInfo* p = find_prefetcher(c.prefetcher);
-  if (!p) throw std::invalid_argument("prefetcher = '" + c.prefetcher + "' is not a prefetcher");
-  return p->make ? p->make(c, ctx) : nullptr;
+  const PrefetcherInfo& p = prefetcher_info(c.prefetcher);
+  return p.make ? p.make(c, ctx) : nullptr;
 }
 
 }  // namespace rtu::hw

@@ -184,7 +184,7 @@ TEST_CASE("a PLY header Assimp would loop on is refused first", "[limits]") {
 TEST_CASE("a mesh file that crashes Assimp is an error, not a crash of rtu", "[limits]") {
   // Found by fuzz_mesh_import (regressions/mesh_import/assimp_ply_triangulate_assert_abort): a PLY body that
   // contradicts its header trips an assertion in Assimp's triangulation, which aborts. Assimp runs in a child
-  // process (host/scene/mesh_import.cpp), so the abort becomes an Error naming the file.
+  // process (host/scene/mesh_import_process.cpp), so the abort becomes an Error naming the file.
   const fs::path dir = temp_dir("limits");
   std::ifstream in(
       fs::path(RTU_SOURCE_DIR) / "tests/fuzz/regressions/mesh_import/assimp_ply_triangulate_assert_abort",

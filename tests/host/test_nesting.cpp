@@ -132,9 +132,9 @@ TEST_CASE("rtusim info on scene files of 10^6 nested arrays: a clear error, exit
   fs::remove_all(d);
 }
 
-// Assimp's parsers recurse per level (host/scene/mesh_import.cpp has the figures). Before the import ran on its
-// own stack, each of these was reported as "the mesh importer (Assimp) crashed (signal 11)": safe, but the message
-// did not say why. Now the overflow is recognized and named.
+// Assimp's parsers recurse per level (host/scene/mesh_import_process.cpp has the figures). Before the import ran
+// on its own stack, each of these was reported as "the mesh importer (Assimp) crashed (signal 11)": safe, but the
+// message did not say why. Now the overflow is recognized and named.
 TEST_CASE("mesh files nested too deeply for Assimp: a clear error, exit status 2", "[limits][scene]") {
   const fs::path d = temp_dir("nesting");
   const std::string overflow = "ran out of its 64 MiB stack: the file nests too deeply";

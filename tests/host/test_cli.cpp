@@ -2,7 +2,8 @@
 // and a non-zero exit (never a crash), and the device options each command takes or refuses. The subcommands
 // themselves: test_cli_trace.cpp (rays, trace, info), test_cli_compare.cpp (compare, stress),
 // test_cli_render.cpp (render, demo, diff), test_cli_timing.cpp (config, timed and sampled trace),
-// test_cli_sweep.cpp (sweep, plan), test_cli_report.cpp (report, pareto).
+// test_cli_sweep.cpp (sweep, plan), test_cli_manifest.cpp (sweep manifests), test_cli_report.cpp (report,
+// pareto).
 #include <catch2/catch.hpp>
 
 #include <fstream>

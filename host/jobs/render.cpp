@@ -518,8 +518,8 @@ Json sort_stats_json(const fw::SortStats& ss, const std::string& key) {
   Json by_type = Json::object();
   for (int t = 0; t < hw::cmd::kRayTypeCount; ++t)
     if (ss.by_type[t] > 0) by_type[hw::cmd::ray_type_name(RayType(t))] = ss.by_type[t];
-  return {{"key", key},          {"sorts", ss.sorts},          {"rays", ss.rays}, {"passes", ss.passes},
-          {"pass_rays", ss.pass_rays}, {"by_ray_type", by_type}};
+  return {{"key", key},          {"sorts", ss.sorts},         {"rays", ss.rays},
+          {"passes", ss.passes}, {"pass_rays", ss.pass_rays}, {"by_ray_type", by_type}};
 }
 
 // What the scene did not need, and why: decided before any ray was built.

@@ -26,16 +26,13 @@ using rtu::host::DeviceOptions;
 using rtu::hw::Hit;
 using rtu::hw::Ray;
 using rtu::hw::Vec3;
-using rtu::test::preset_options;
 
 namespace {
 
 // Camera rays, incoherent rays, and rays that probe the datapath's corners: axis-parallel with +-0 components,
 // through the bounds' corners, far origins, NaN and Inf components, empty intervals.
 std::vector<Ray> test_rays(const rtu::host::Scene& s, size_t n) {
-  std::vector<Ray> rays = rtu::host::primary_rays(s.camera, n);
-  const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), n, 7);
-  rays.insert(rays.end(), inc.begin(), inc.end());
+  std::vector<Ray> rays = camera_and_incoherent_rays(s, n, 7);
   const rtu::hw::Aabb b = s.geometry.bounds();
   const Vec3 c = 0.5f * (b.lo + b.hi);
   const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();

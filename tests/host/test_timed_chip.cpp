@@ -20,7 +20,6 @@
 using rtu::host::DeviceOptions;
 using rtu::hw::Hit;
 using rtu::hw::Ray;
-using rtu::test::preset_options;
 
 namespace {
 
@@ -29,9 +28,7 @@ rtu::hw::TimingStats timed_stats(const rtu::host::Scene& s, const std::string& p
                                  const std::vector<std::pair<std::string, std::string>>& sets, size_t n) {
   DeviceOptions o = preset_options("timed", preset);
   for (const auto& [k, v] : sets) rtu::hw::set_timing_key(o.timing, k, v);
-  std::vector<Ray> rays = rtu::host::primary_rays(s.camera, n);
-  const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), n, 5);
-  rays.insert(rays.end(), inc.begin(), inc.end());
+  std::vector<Ray> rays = camera_and_incoherent_rays(s, n, 5);
   const auto dev = rtu::host::make_device(s.geometry, o);
   std::vector<Hit> h(rays.size());
   rtu::hw::TraversalStats ts;
@@ -79,9 +76,7 @@ TEST_CASE("memory behind the cache: banks without row costs are the single chann
 TEST_CASE("chip: one unit through the chip's code path runs the single unit's cycles, counter for counter",
           "[timed][chip]") {
   const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
-  std::vector<Ray> rays = rtu::host::primary_rays(s.camera, 2000);
-  const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), 2000, 9);
-  rays.insert(rays.end(), inc.begin(), inc.end());
+  std::vector<Ray> rays = camera_and_incoherent_rays(s, 2000, 9);
   for (const std::string preset : {"rdna2", "embedded", "intel-mem"}) {
     CAPTURE(preset);
     DeviceOptions o = preset_options("timed", preset);
@@ -104,9 +99,7 @@ TEST_CASE("chip: one unit through the chip's code path runs the single unit's cy
 TEST_CASE("chip: several units give the fixed device's hits, and the same cycles on any number of threads",
           "[timed][chip]") {
   const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
-  std::vector<Ray> rays = rtu::host::primary_rays(s.camera, 3000);
-  const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), 3000, 4);
-  rays.insert(rays.end(), inc.begin(), inc.end());
+  std::vector<Ray> rays = camera_and_incoherent_rays(s, 3000, 4);
   const auto fixed = rtu::host::make_device(s.geometry, preset_options("fixed", "rdna2"));
   std::vector<Hit> hf(rays.size());
   rtu::hw::TraversalStats sf;
@@ -155,9 +148,7 @@ TEST_CASE("chip: units running ahead to their next memory access give the cycles
   // kind of shared access is there; two packets, the second finding the memory as the first left it. With a
   // prefetcher, its fills reach the shared memory too (fetch_observer.h: run-ahead stops before every fetch).
   const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
-  std::vector<Ray> rays = rtu::host::primary_rays(s.camera, 3000);
-  const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), 3000, 5);
-  rays.insert(rays.end(), inc.begin(), inc.end());
+  std::vector<Ray> rays = camera_and_incoherent_rays(s, 3000, 5);
   for (const auto& [preset, prefetcher] : {std::pair{"embedded-chip", "none"}, std::pair{"intel-chip", "none"},
                                            std::pair{"embedded-chip", "next_line"}}) {
     CAPTURE(preset, prefetcher);
@@ -205,9 +196,7 @@ DeviceOptions dynamic_chip(int units, double fraction, uint64_t seed = 1) {
 TEST_CASE("chip, dynamic dispatch: the fixed device's hits, the same cycles on any number of threads, sampled too",
           "[timed][chip][sample]") {
   const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
-  std::vector<Ray> rays = rtu::host::primary_rays(s.camera, 12000);
-  const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), 12000, 4);
-  rays.insert(rays.end(), inc.begin(), inc.end());
+  std::vector<Ray> rays = camera_and_incoherent_rays(s, 12000, 4);
   const size_t n = rays.size();
   const auto fixed = rtu::host::make_device(s.geometry, preset_options("fixed", "rdna2"));
   std::vector<Hit> hf(n);

@@ -1,13 +1,16 @@
-// Shared by the timed device's tests (test_timed.cpp, test_timed_chip.cpp): a device's options as a timing preset
-// sets them (its node format and BVH width).
+// Shared by the timed device's tests (test_timed.cpp, test_timed_chip.cpp, test_energy.cpp): a device's options as
+// a timing preset sets them (its node format and BVH width), and a scene's camera rays followed by incoherent
+// rays.
 #pragma once
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "host/devices/direct_device.h"
+#include "host/scene/ray_gen.h"
+#include "host/scene/scene.h"
 #include "hwmodel/timing/timing_config.h"
-
-namespace rtu::test {
 
 // The options of device `device` (float, fixed, timed) with timing preset `preset`, its format and BVH width.
 inline rtu::host::DeviceOptions preset_options(const std::string& device, const std::string& preset) {
@@ -20,4 +23,10 @@ inline rtu::host::DeviceOptions preset_options(const std::string& device, const 
   return o;
 }
 
-}  // namespace rtu::test
+// `n` camera rays of scene `s`, then `n` incoherent rays in its bounds (seed `seed`).
+inline std::vector<rtu::hw::Ray> camera_and_incoherent_rays(const rtu::host::Scene& s, size_t n, uint64_t seed) {
+  std::vector<rtu::hw::Ray> rays = rtu::host::primary_rays(s.camera, n);
+  const std::vector<rtu::hw::Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), n, seed);
+  rays.insert(rays.end(), inc.begin(), inc.end());
+  return rays;
+}

@@ -175,10 +175,7 @@ void read_materials(Builder& b, const Json& j) {
 
 void read_spheres(Builder& b, const Json& j) {
   const Reader& r = b.reader;
-  r.array(j, "spheres");
-  for (size_t i = 0; i < j.size(); ++i) {
-    const std::string path = join("spheres", i);
-    const Json& s = r.object(j[i], path);
+  r.each_object(j, "spheres", [&](const Json& s, const std::string& path) {
     r.check_keys(s, path, {"center", "radius", "material"});
     if (!s.contains("center")) r.fail(path, "missing key 'center'");
     if (!s.contains("radius")) r.fail(path, "missing key 'radius'");
@@ -186,17 +183,14 @@ void read_spheres(Builder& b, const Json& j) {
     const float radius = r.positive(s["radius"], join(path, "radius"));
     b.sphere_material.push_back(b.material(s, path));
     b.scene.geometry.spheres.push_back({center, radius});
-  }
+  });
 }
 
 // A curve set: points, a radius per point (or one for all) and segment starts (default: one strand through every
 // point), as Embree's round linear curves take them (curves.h).
 void read_curves(Builder& b, const Json& j) {
   const Reader& r = b.reader;
-  r.array(j, "curves");
-  for (size_t i = 0; i < j.size(); ++i) {
-    const std::string path = join("curves", i);
-    const Json& c = r.object(j[i], path);
+  r.each_object(j, "curves", [&](const Json& c, const std::string& path) {
     r.check_keys(c, path, {"points", "radius", "radii", "segments", "material"});
     if (!c.contains("points")) r.fail(path, "missing key 'points'");
     if (c.contains("radius") == c.contains("radii")) r.fail(path, "give either 'radius' or 'radii'");
@@ -233,15 +227,12 @@ void read_curves(Builder& b, const Json& j) {
       r.fail(path, e.what());
     }
     b.curve_material.insert(b.curve_material.end(), starts.size(), material);
-  }
+  });
 }
 
 void read_planes(Builder& b, const Json& j) {
   const Reader& r = b.reader;
-  r.array(j, "planes");
-  for (size_t i = 0; i < j.size(); ++i) {
-    const std::string path = join("planes", i);
-    const Json& p = r.object(j[i], path);
+  r.each_object(j, "planes", [&](const Json& p, const std::string& path) {
     r.check_keys(p, path, {"normal", "offset", "point", "material"});
     if (!p.contains("normal")) r.fail(path, "missing key 'normal'");
     const Vec3 normal = r.nonzero_vec3(p["normal"], join(path, "normal"));
@@ -255,16 +246,13 @@ void read_planes(Builder& b, const Json& j) {
     }
     b.plane_material.push_back(b.material(p, path));
     b.scene.geometry.planes.push_back({normal, offset});
-  }
+  });
 }
 
 // Point lights, and area lights with their two emissive triangles each (after every mesh triangle).
 void read_lights(Builder& b, const Json& j) {
   const Reader& r = b.reader;
-  r.array(j, "lights");
-  for (size_t i = 0; i < j.size(); ++i) {
-    const std::string path = join("lights", i);
-    const Json& l = r.object(j[i], path);
+  r.each_object(j, "lights", [&](const Json& l, const std::string& path) {
     if (!l.contains("type")) r.fail(path, "missing key 'type' (point or area)");
     const std::string type = r.string(l["type"], join(path, "type"));
     Light light;
@@ -305,7 +293,7 @@ void read_lights(Builder& b, const Json& j) {
       r.fail(join(path, "type"), "unknown light type '" + type + "' (valid: point, area)");
     }
     b.scene.lights.push_back(light);
-  }
+  });
 }
 
 }  // namespace

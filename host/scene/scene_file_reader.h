@@ -63,6 +63,15 @@ class Reader {
     if (!j.is_object()) fail(path, std::string("expected an object, got ") + j.type_name());
     return j;
   }
+  // Calls f(entry, path) for each entry of the array j at `where`, an object named by its key path.
+  template <class F>
+  void each_object(const Json& j, const std::string& where, F&& f) const {
+    array(j, where);
+    for (size_t i = 0; i < j.size(); ++i) {
+      const std::string path = join(where, i);
+      f(object(j[i], path), path);
+    }
+  }
   const Json& array(const Json& j, const std::string& path) const {
     if (!j.is_array()) fail(path, std::string("expected an array, got ") + j.type_name());
     return j;

@@ -16,6 +16,7 @@
 #include "host/io/json_io.h"
 #include "host/scene/scene.h"
 #include "tests/common/test_util.h"
+#include "tests/host/error_checks.h"
 #include "tests/host/run_process.h"
 
 using namespace rtu;
@@ -45,21 +46,11 @@ std::string write(const fs::path& p, const std::string& text) {
 }
 
 std::string error_of_parse(const std::string& text) {
-  try {
-    host::parse_json_limited(text, "in.json");
-  } catch (const host::Error& e) {
-    return e.what();
-  }
-  return "";
+  return error_of([&] { host::parse_json_limited(text, "in.json"); }, "");
 }
 
 std::string error_of_import(const std::string& path) {
-  try {
-    host::import_mesh(path);
-  } catch (const host::Error& e) {
-    return e.what();
-  }
-  return "";
+  return error_of([&] { host::import_mesh(path); }, "");
 }
 
 const std::string kDepthMessage = "nested deeper than 64 levels of arrays and objects";

@@ -316,12 +316,7 @@ TEST_CASE("layout_align: nodes and records padded to the line take one line per 
 
 TEST_CASE("a timed render equals the fixed render, the clock counts cycles", "[timed]") {
   const rtu::host::Scene s = rtu::host::load_scene("builtin:seed");
-  rtu::host::RenderOptions o;
-  o.width = 80;
-  o.height = 60;
-  o.spp = 1;
-  o.max_depth = 3;
-  o.threads = 2;
+  rtu::host::RenderOptions o = render_options(80, 60, 1, 3);
   o.device = preset_options("fixed", "rdna2");
   const rtu::host::RenderResult f = rtu::host::render(s, o);
   o.device = preset_options("timed", "rdna2");
@@ -428,8 +423,8 @@ TEST_CASE("sampled timing estimates a packet's cycles within its interval, hits 
     // a deterministic check of the estimator and its interval, not a coin toss), and the interval is narrow
     // enough to mean something: under 12% for 39 measured units of camera rays, whose cost varies tenfold
     // between sky and geometry (a jackknife interval: wider than the residual formula's, which held the truth
-    // too rarely with so few units; timed_engine.cpp), and under 5% for incoherent rays, whose units cost alike
-    // (there the estimate must also be within 3%).
+    // too rarely with so few units; hwmodel/timing/sampler.h), and under 5% for incoherent rays, whose units cost
+    // alike (there the estimate must also be within 3%).
     CHECK(std::abs(est - double(exact)) <= 2.0 * ci);
     CHECK(ci > 0.0);
     if (rays == &primary) {

@@ -291,12 +291,7 @@ TEST_CASE("chip sampling: a chip whose units' rays are fixed refuses it, naming 
 TEST_CASE("chip sampling: a render's image is the unsampled render's, its cycles the same on 1 and 2 threads",
           "[timed][chip][sample]") {
   const rtu::host::Scene s = rtu::host::load_scene("builtin:seed");
-  rtu::host::RenderOptions o;
-  o.width = 80;
-  o.height = 60;
-  o.spp = 2;
-  o.max_depth = 3;
-  o.threads = 2;
+  rtu::host::RenderOptions o = render_options(80, 60, 2, 3);
   // Two units of 8 slots: 9600 camera rays are 1200 waves, enough for every bounce's packet to be thinned.
   o.device = dynamic_chip(2, 0.0);
   rtu::hw::set_timing_key(o.device.timing, "ray_slots", "8");

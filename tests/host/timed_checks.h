@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "host/devices/direct_device.h"
+#include "host/jobs/render.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
 #include "hwmodel/timing/timing_config.h"
@@ -29,4 +30,15 @@ inline std::vector<rtu::hw::Ray> camera_and_incoherent_rays(const rtu::host::Sce
   const std::vector<rtu::hw::Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), n, seed);
   rays.insert(rays.end(), inc.begin(), inc.end());
   return rays;
+}
+
+// A render of a width x height image, spp samples per pixel, paths of up to max_depth bounces, on 2 threads.
+inline rtu::host::RenderOptions render_options(int width, int height, int spp, int max_depth) {
+  rtu::host::RenderOptions o;
+  o.width = width;
+  o.height = height;
+  o.spp = spp;
+  o.max_depth = max_depth;
+  o.threads = 2;
+  return o;
 }

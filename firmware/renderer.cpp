@@ -58,6 +58,9 @@ static_assert(sizeof(Pending) == 16);
 // Ray types of the bounce rays, in their TRACE order.
 constexpr RayType kBounceTypes[] = {RayType::kReflection, RayType::kRefraction, RayType::kDiffuse};
 constexpr int kNumBounceTypes = 3;
+// The segments of a bounce's ray buffer, in their TRACE order: primary rays, then the bounce types.
+constexpr RayType kSegmentTypes[kNumBounceTypes + 1] = {RayType::kPrimary, RayType::kReflection,
+                                                        RayType::kRefraction, RayType::kDiffuse};
 
 class Renderer {
  public:
@@ -68,7 +71,27 @@ class Renderer {
   Status run(Arena& arena);
 
  private:
+  // The batch's working buffers in the arena (device addresses), as allocate() sizes them.
+  struct Buffers {
+    uint64_t batch = 0;                   // paths per batch
+    bool hybrid = false, jitter = false;  // primary hits rasterized; with jittered samples' offsets
+    uint64_t paths = 0, next_paths = 0, rays = 0, next_rays = 0, hits = 0, types = 0, offsets = 0;
+  };
+  // The current ray buffer by type (kSegmentTypes): rays [begin[t], begin[t] + count[t]).
+  struct Segments {
+    uint32_t begin[kNumBounceTypes + 1];
+    uint32_t count[kNumBounceTypes + 1];
+  };
+
   void plan_ray_types();
+  Status allocate(Arena& arena, Buffers& buf);
+  void start_paths(const Buffers& buf, uint64_t first, uint32_t n);
+  Status render_batch(const Buffers& buf, uint64_t first);
+  Status trace_segments(const Buffers& buf, const Segments& seg, uint32_t depth);
+  uint32_t shade_bounce(const Buffers& buf, uint32_t n, uint32_t depth, uint32_t (&count)[kNumBounceTypes]);
+  Status trace_shadows(uint32_t depth);
+  uint32_t group_by_type(const Buffers& buf, uint32_t staged, const uint32_t (&count)[kNumBounceTypes],
+                         Segments& seg);
   Status trace(uint64_t rays, uint64_t hits, uint32_t n, bool any_hit, RayType type, uint32_t bounce) {
     if (n == 0) return Status::kOk;
     m_st.rays[uint32_t(type)] += n;
@@ -283,6 +306,180 @@ void Renderer::plan_ray_types() {
   m_shadow_slots = (m_st.need_shadow ? j.num_lights : 0) + (m_st.need_occlusion ? 1 : 0);
 }
 
+// The batch size: what the arena holds, per path: two path states, two ray buffers and a hit buffer, a type byte,
+// and per shadow slot a ray, a hit and a pending contribution; hybrid mode with jittered samples adds each
+// sample's offset in its pixel (the rasterizer's positions); ray sorting, per path, the sorted places of its
+// bounce ray or its shadow slots, whichever are more, and once the digit histogram. Then the batch's buffers, the
+// shadow queue and the sorter's in the arena; kNoMemory when they do not fit.
+Status Renderer::allocate(Arena& arena, Buffers& buf) {
+  const RenderJob& j = m_job;
+  const uint32_t light_slots = m_st.need_shadow ? j.num_lights : 0;
+  buf.jitter = buf.hybrid && j.spp > 1;
+  const uint64_t per_path = 2 * sizeof(Path) + 2 * sizeof(hw::Ray) + sizeof(hw::Hit) + 1 +
+                            uint64_t(m_shadow_slots) * (sizeof(hw::Ray) + sizeof(hw::Hit) + sizeof(Pending)) +
+                            (buf.jitter ? sizeof(SampleOffset) : 0);
+  const uint64_t sort_per_path = m_sort ? RaySorter::kBytesPerRay * (m_shadow_slots > 1 ? m_shadow_slots : 1) : 0;
+  const uint64_t reserve = 1024 + (m_sort ? RaySorter::fixed_bytes(m_sort->radix_bits) : 0);
+  const uint64_t room = arena.size() > arena.used() + reserve ? arena.size() - arena.used() - reserve : 0;
+  uint64_t batch = room / (per_path + sort_per_path);
+  if (batch > m_st.paths) batch = m_st.paths;
+  if (batch > (1u << 18)) batch = 1u << 18;
+  if (batch == 0) return Status::kNoMemory;
+  buf.batch = batch;
+  m_st.batch_paths = uint32_t(batch);
+  buf.paths = arena.alloc(batch * sizeof(Path));
+  buf.next_paths = arena.alloc(batch * sizeof(Path));
+  buf.rays = arena.alloc(batch * sizeof(hw::Ray));
+  buf.next_rays = arena.alloc(batch * sizeof(hw::Ray));
+  buf.hits = arena.alloc(batch * sizeof(hw::Hit));
+  buf.types = arena.alloc(batch, 1);
+  const uint64_t shadow_n = batch * m_shadow_slots;
+  m_occlusion_base = uint32_t(batch * light_slots);
+  m_shadow_rays = arena.alloc(shadow_n * sizeof(hw::Ray) + 16);
+  m_shadow_hits = arena.alloc(shadow_n * sizeof(hw::Hit) + 16);
+  m_pending = arena.alloc(shadow_n * sizeof(Pending) + 16);
+  buf.offsets = buf.jitter ? arena.alloc(batch * sizeof(SampleOffset)) : 0;
+  if (buf.offsets == Arena::kNull) return Status::kNoMemory;
+  if (buf.paths == Arena::kNull || buf.next_paths == Arena::kNull || buf.rays == Arena::kNull ||
+      buf.next_rays == Arena::kNull || buf.hits == Arena::kNull || buf.types == Arena::kNull ||
+      m_shadow_rays == Arena::kNull || m_shadow_hits == Arena::kNull || m_pending == Arena::kNull)
+    return Status::kNoMemory;
+  if (m_sort && !m_sorter.init(m_hal, arena, *m_sort, uint32_t(batch > shadow_n ? batch : shadow_n), m_st.sort))
+    return Status::kNoMemory;
+  m_st.sorted = m_sort != nullptr;
+  m_srays = at<hw::Ray>(m_hal, m_shadow_rays);
+  m_spend = at<Pending>(m_hal, m_pending);
+  return Status::kOk;
+}
+
+// The n paths of a batch from path `first`: their camera rays, and in hybrid mode their primary hits from the
+// rasterizer (the G-buffer is the primary hit buffer; the camera rays stay for shading, their origin and
+// direction, but are not traced).
+void Renderer::start_paths(const Buffers& buf, uint64_t first, uint32_t n) {
+  const RenderJob& j = m_job;
+  const uint32_t spp = j.spp ? j.spp : 1;
+  Path* paths = at<Path>(m_hal, buf.paths);
+  hw::Ray* rays = at<hw::Ray>(m_hal, buf.rays);
+  for (uint32_t i = 0; i < n; ++i) {
+    const uint64_t k = first + i;
+    paths[i] = Path{V(1.0f), uint32_t(k / spp), uint32_t(k % spp), 1};
+    rays[i] = camera_ray(paths[i].pixel, paths[i].sample);
+  }
+  if (!buf.hybrid) return;
+  SampleOffset* offsets = buf.jitter ? at<SampleOffset>(m_hal, buf.offsets) : nullptr;
+  if (offsets)
+    for (uint32_t i = 0; i < n; ++i) offsets[i] = sample_offset(j, paths[i].pixel, paths[i].sample);
+  rasterize(j, m_surf, offsets, first, n, at<hw::Hit>(m_hal, buf.hits), m_st.raster, m_stage);
+  m_st.primary_rasterized += n;
+}
+
+// A bounce's TRACEs, one per segment of the ray buffer, and the fence after them.
+Status Renderer::trace_segments(const Buffers& buf, const Segments& seg, uint32_t depth) {
+  Status s = Status::kOk;
+  uint32_t submitted = 0;
+  for (int t = 0; t < kNumBounceTypes + 1; ++t) {
+    s = trace_rays(buf.rays + uint64_t(seg.begin[t]) * sizeof(hw::Ray),
+                   buf.hits + uint64_t(seg.begin[t]) * sizeof(hw::Hit), seg.count[t], false, kSegmentTypes[t],
+                   depth, seg.begin[t]);
+    if (s != Status::kOk) return s;
+    submitted += seg.count[t];
+  }
+  if (submitted > 0 && (s = m_ring.sync()) != Status::kOk) return s;
+  unsort_hits();
+  return Status::kOk;
+}
+
+// Shades the n hits of a bounce: the bounce rays staged in next_rays / next_paths with their type, counted per
+// type in `count`; shadow and occlusion rays queued. Returns how many were staged.
+uint32_t Renderer::shade_bounce(const Buffers& buf, uint32_t n, uint32_t depth,
+                                uint32_t (&count)[kNumBounceTypes]) {
+  Path* paths = at<Path>(m_hal, buf.paths);
+  Path* next_paths = at<Path>(m_hal, buf.next_paths);
+  const hw::Ray* rays = at<const hw::Ray>(m_hal, buf.rays);
+  hw::Ray* next_rays = at<hw::Ray>(m_hal, buf.next_rays);
+  const hw::Hit* hits = at<const hw::Hit>(m_hal, buf.hits);
+  uint8_t* types = at<uint8_t>(m_hal, buf.types);
+  m_num_shadow = m_num_occlusion = 0;
+  uint32_t staged = 0;
+  for (uint32_t i = 0; i < n; ++i) {
+    hw::Ray next{};
+    const int t = shade(rays[i], hits[i], paths[i], depth, next);
+    if (t < 0) continue;
+    next_rays[staged] = next;
+    next_paths[staged] = paths[i];
+    types[staged] = uint8_t(t);
+    ++count[t];
+    ++staged;
+  }
+  return staged;
+}
+
+// Shadow and occlusion rays: any-hit TRACEs; the contributions of those that reach their target.
+Status Renderer::trace_shadows(uint32_t depth) {
+  if (m_num_shadow + m_num_occlusion == 0) return Status::kOk;
+  Status s = Status::kOk;
+  if ((s = trace_rays(m_shadow_rays, m_shadow_hits, m_num_shadow, true, RayType::kShadow, depth, 0)) !=
+          Status::kOk ||
+      (s = trace_rays(m_shadow_rays + uint64_t(m_occlusion_base) * sizeof(hw::Ray),
+                      m_shadow_hits + uint64_t(m_occlusion_base) * sizeof(hw::Hit), m_num_occlusion, true,
+                      RayType::kOcclusion, depth, m_occlusion_base)) != Status::kOk)
+    return s;
+  if ((s = m_ring.sync()) != Status::kOk) return s;
+  unsort_hits();
+  const hw::Hit* shits = at<const hw::Hit>(m_hal, m_shadow_hits);
+  for (uint32_t i = 0; i < m_num_shadow; ++i)
+    if (!shits[i].hit()) add(m_spend[i].pixel, m_spend[i].radiance);
+  for (uint32_t i = m_occlusion_base; i < m_occlusion_base + m_num_occlusion; ++i)
+    if (!shits[i].hit()) add(m_spend[i].pixel, m_spend[i].radiance);
+  return Status::kOk;
+}
+
+// The staged rays grouped by type into the ray buffer (stable), the paths likewise; `seg` becomes the next
+// bounce's segments (no primary rays). Returns the number of rays, `staged`.
+uint32_t Renderer::group_by_type(const Buffers& buf, uint32_t staged, const uint32_t (&count)[kNumBounceTypes],
+                                 Segments& seg) {
+  Path* paths = at<Path>(m_hal, buf.paths);
+  const Path* next_paths = at<const Path>(m_hal, buf.next_paths);
+  hw::Ray* rays = at<hw::Ray>(m_hal, buf.rays);
+  const hw::Ray* next_rays = at<const hw::Ray>(m_hal, buf.next_rays);
+  const uint8_t* types = at<const uint8_t>(m_hal, buf.types);
+  uint32_t begin[kNumBounceTypes] = {0, count[0], count[0] + count[1]};
+  for (int t = 0; t < kNumBounceTypes; ++t) {
+    seg.begin[t + 1] = begin[t];
+    seg.count[t + 1] = count[t];
+  }
+  seg.count[0] = 0;
+  for (uint32_t i = 0; i < staged; ++i) {
+    const uint32_t dst = begin[types[i]]++;
+    rays[dst] = next_rays[i];
+    paths[dst] = next_paths[i];
+  }
+  return staged;
+}
+
+// One batch of paths from path `first`, bounce after bounce until no path continues.
+Status Renderer::render_batch(const Buffers& buf, uint64_t first) {
+  ++m_st.batches;
+  uint32_t n = uint32_t(m_st.paths - first < buf.batch ? m_st.paths - first : buf.batch);
+  start_paths(buf, first, n);
+  Segments seg = {{0, 0, 0, 0}, {buf.hybrid ? 0u : n, 0, 0, 0}};
+  const hw::Hit* hits = at<const hw::Hit>(m_hal, buf.hits);
+  Status s = Status::kOk;
+  for (uint32_t depth = 0; n > 0; ++depth) {
+    ++m_st.bounces;
+    if ((s = trace_segments(buf, seg, depth)) != Status::kOk) return s;
+    if (depth == 0 && m_job.primary_hits != 0) {  // the primary hits, for comparing the two modes
+      hw::Hit* out = at<hw::Hit>(m_hal, m_job.primary_hits) + first;
+      for (uint32_t i = 0; i < n; ++i) out[i] = hits[i];
+    }
+    uint32_t count[kNumBounceTypes] = {0, 0, 0};
+    const uint32_t staged = shade_bounce(buf, n, depth, count);
+    if ((s = trace_shadows(depth)) != Status::kOk) return s;
+    n = group_by_type(buf, staged, count, seg);
+  }
+  return Status::kOk;
+}
+
 Status Renderer::run(Arena& arena) {
   const RenderJob& j = m_job;
   m_surf = at<const SurfaceRecord>(m_hal, j.surfaces);
@@ -292,145 +489,19 @@ Status Renderer::run(Arena& arena) {
   m_st.paths = uint64_t(j.width) * j.height * (j.spp ? j.spp : 1);
 
   plan_ray_types();
-  const uint32_t light_slots = m_st.need_shadow ? j.num_lights : 0;
-
   Status s = m_ring.submit(hw::cmd::bind_scene(j.scene_image, j.scene_bytes));
   if (s != Status::kOk) return s;
 
-  // Batch size: what the arena holds, per path: two path states, two ray buffers and a hit buffer, a type
-  // byte, and per shadow slot a ray, a hit and a pending contribution.
-  // Hybrid mode with jittered samples adds each sample's offset in its pixel (the rasterizer's positions).
-  const bool hybrid = (j.flags & kRenderHybrid) != 0;
-  m_st.hybrid = hybrid;
-  if (hybrid && (j.width > kMaxRasterSide || j.height > kMaxRasterSide)) return Status::kBadArgument;
-  const bool jitter_table = hybrid && j.spp > 1;
-  const uint64_t per_path = 2 * sizeof(Path) + 2 * sizeof(hw::Ray) + sizeof(hw::Hit) + 1 +
-                            uint64_t(m_shadow_slots) * (sizeof(hw::Ray) + sizeof(hw::Hit) + sizeof(Pending)) +
-                            (jitter_table ? sizeof(SampleOffset) : 0);
-  // Ray sorting: per path, the sorted places of its bounce ray or its shadow slots, whichever are more, and once
-  // the digit histogram.
-  const uint64_t sort_per_path = m_sort ? RaySorter::kBytesPerRay * (m_shadow_slots > 1 ? m_shadow_slots : 1) : 0;
-  const uint64_t reserve = 1024 + (m_sort ? RaySorter::fixed_bytes(m_sort->radix_bits) : 0);
-  const uint64_t room = arena.size() > arena.used() + reserve ? arena.size() - arena.used() - reserve : 0;
-  uint64_t batch = room / (per_path + sort_per_path);
-  if (batch > m_st.paths) batch = m_st.paths;
-  if (batch > (1u << 18)) batch = 1u << 18;
-  if (batch == 0) return Status::kNoMemory;
-  m_st.batch_paths = uint32_t(batch);
-  const uint64_t a_paths = arena.alloc(batch * sizeof(Path)), a_next_paths = arena.alloc(batch * sizeof(Path));
-  const uint64_t a_rays = arena.alloc(batch * sizeof(hw::Ray)), a_next_rays = arena.alloc(batch * sizeof(hw::Ray));
-  const uint64_t a_hits = arena.alloc(batch * sizeof(hw::Hit)), a_types = arena.alloc(batch, 1);
-  const uint64_t shadow_n = batch * m_shadow_slots;
-  m_occlusion_base = uint32_t(batch * light_slots);
-  m_shadow_rays = arena.alloc(shadow_n * sizeof(hw::Ray) + 16);
-  m_shadow_hits = arena.alloc(shadow_n * sizeof(hw::Hit) + 16);
-  m_pending = arena.alloc(shadow_n * sizeof(Pending) + 16);
-  const uint64_t a_offsets = jitter_table ? arena.alloc(batch * sizeof(SampleOffset)) : 0;
-  if (a_offsets == Arena::kNull) return Status::kNoMemory;
-  if (a_paths == Arena::kNull || a_next_paths == Arena::kNull || a_rays == Arena::kNull ||
-      a_next_rays == Arena::kNull || a_hits == Arena::kNull || a_types == Arena::kNull ||
-      m_shadow_rays == Arena::kNull || m_shadow_hits == Arena::kNull || m_pending == Arena::kNull)
-    return Status::kNoMemory;
-  if (m_sort && !m_sorter.init(m_hal, arena, *m_sort, uint32_t(batch > shadow_n ? batch : shadow_n), m_st.sort))
-    return Status::kNoMemory;
-  m_st.sorted = m_sort != nullptr;
-  m_srays = at<hw::Ray>(m_hal, m_shadow_rays);
-  m_spend = at<Pending>(m_hal, m_pending);
-  const hw::Hit* shits = at<const hw::Hit>(m_hal, m_shadow_hits);
+  Buffers buf;
+  buf.hybrid = (j.flags & kRenderHybrid) != 0;
+  m_st.hybrid = buf.hybrid;
+  if (buf.hybrid && (j.width > kMaxRasterSide || j.height > kMaxRasterSide)) return Status::kBadArgument;
+  if ((s = allocate(arena, buf)) != Status::kOk) return s;
 
   float* fb = at<float>(m_hal, j.framebuffer);
   for (uint64_t i = 0; i < uint64_t(j.width) * j.height * 3; ++i) fb[i] = 0.0f;
-
-  const uint32_t spp = j.spp ? j.spp : 1;
-  for (uint64_t first = 0; first < m_st.paths; first += batch) {
-    ++m_st.batches;
-    uint32_t n = uint32_t(m_st.paths - first < batch ? m_st.paths - first : batch);
-    Path* paths = at<Path>(m_hal, a_paths);
-    Path* next_paths = at<Path>(m_hal, a_next_paths);
-    hw::Ray* rays = at<hw::Ray>(m_hal, a_rays);
-    hw::Ray* next_rays = at<hw::Ray>(m_hal, a_next_rays);
-    const hw::Hit* hits = at<const hw::Hit>(m_hal, a_hits);
-    uint8_t* types = at<uint8_t>(m_hal, a_types);
-    const uint64_t ray_buf = a_rays;
-    for (uint32_t i = 0; i < n; ++i) {
-      const uint64_t k = first + i;
-      paths[i] = Path{V(1.0f), uint32_t(k / spp), uint32_t(k % spp), 1};
-      rays[i] = camera_ray(paths[i].pixel, paths[i].sample);
-    }
-    if (hybrid) {
-      // Primary visibility from the rasterizer: the G-buffer is the primary hit buffer, the camera rays stay
-      // for shading (their origin and direction) but are not traced.
-      SampleOffset* offsets = jitter_table ? at<SampleOffset>(m_hal, a_offsets) : nullptr;
-      if (offsets)
-        for (uint32_t i = 0; i < n; ++i) offsets[i] = sample_offset(j, paths[i].pixel, paths[i].sample);
-      rasterize(j, m_surf, offsets, first, n, at<hw::Hit>(m_hal, a_hits), m_st.raster, m_stage);
-      m_st.primary_rasterized += n;
-    }
-    // Segments of the current ray buffer by type: [seg_begin[t], seg_begin[t] + seg_count[t]).
-    uint32_t seg_begin[kNumBounceTypes + 1] = {0, 0, 0, 0};
-    uint32_t seg_count[kNumBounceTypes + 1] = {hybrid ? 0u : n, 0, 0, 0};
-    RayType seg_type[kNumBounceTypes + 1] = {RayType::kPrimary, RayType::kReflection, RayType::kRefraction,
-                                             RayType::kDiffuse};
-    for (uint32_t depth = 0; n > 0; ++depth) {
-      ++m_st.bounces;
-      uint32_t submitted = 0;
-      for (int t = 0; t < kNumBounceTypes + 1; ++t) {
-        s = trace_rays(ray_buf + uint64_t(seg_begin[t]) * sizeof(hw::Ray),
-                       a_hits + uint64_t(seg_begin[t]) * sizeof(hw::Hit), seg_count[t], false, seg_type[t], depth,
-                       seg_begin[t]);
-        if (s != Status::kOk) return s;
-        submitted += seg_count[t];
-      }
-      if (submitted > 0 && (s = m_ring.sync()) != Status::kOk) return s;
-      unsort_hits();
-
-      if (depth == 0 && j.primary_hits != 0) {  // the primary hits, for comparing the two modes
-        hw::Hit* out = at<hw::Hit>(m_hal, j.primary_hits) + first;
-        for (uint32_t i = 0; i < n; ++i) out[i] = hits[i];
-      }
-      // Shade: bounce rays staged in next_rays / next_paths with their type.
-      m_num_shadow = m_num_occlusion = 0;
-      uint32_t staged = 0, count[kNumBounceTypes] = {0, 0, 0};
-      for (uint32_t i = 0; i < n; ++i) {
-        hw::Ray next{};
-        const int t = shade(rays[i], hits[i], paths[i], depth, next);
-        if (t < 0) continue;
-        next_rays[staged] = next;
-        next_paths[staged] = paths[i];
-        types[staged] = uint8_t(t);
-        ++count[t];
-        ++staged;
-      }
-      // Shadow and occlusion rays: any-hit TRACEs; the contributions of those that reach their target.
-      if (m_num_shadow + m_num_occlusion > 0) {
-        if ((s = trace_rays(m_shadow_rays, m_shadow_hits, m_num_shadow, true, RayType::kShadow, depth, 0)) !=
-                Status::kOk ||
-            (s = trace_rays(m_shadow_rays + uint64_t(m_occlusion_base) * sizeof(hw::Ray),
-                            m_shadow_hits + uint64_t(m_occlusion_base) * sizeof(hw::Hit), m_num_occlusion, true,
-                            RayType::kOcclusion, depth, m_occlusion_base)) != Status::kOk)
-          return s;
-        if ((s = m_ring.sync()) != Status::kOk) return s;
-        unsort_hits();
-        for (uint32_t i = 0; i < m_num_shadow; ++i)
-          if (!shits[i].hit()) add(m_spend[i].pixel, m_spend[i].radiance);
-        for (uint32_t i = m_occlusion_base; i < m_occlusion_base + m_num_occlusion; ++i)
-          if (!shits[i].hit()) add(m_spend[i].pixel, m_spend[i].radiance);
-      }
-      // Group the staged rays by type into the ray buffer (stable), the paths likewise.
-      uint32_t begin[kNumBounceTypes] = {0, count[0], count[0] + count[1]};
-      for (int t = 0; t < kNumBounceTypes; ++t) {
-        seg_begin[t + 1] = begin[t];
-        seg_count[t + 1] = count[t];
-      }
-      seg_count[0] = 0;
-      for (uint32_t i = 0; i < staged; ++i) {
-        const uint32_t dst = begin[types[i]]++;
-        rays[dst] = next_rays[i];
-        paths[dst] = next_paths[i];
-      }
-      n = staged;
-    }
-  }
+  for (uint64_t first = 0; first < m_st.paths; first += buf.batch)
+    if ((s = render_batch(buf, first)) != Status::kOk) return s;
   return Status::kOk;
 }
 

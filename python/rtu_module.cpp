@@ -4,22 +4,16 @@
 // so its hits, cycles and statistics are the CLI's bit for bit; statistics are the CLI's JSON as Python dicts. The
 // GIL is released while a job runs; sweep and plan check for Ctrl-C between their steps (check_signals) and stop
 // with KeyboardInterrupt. Every error a job throws arrives as rtu.Error with the CLI's message; an argument of
-// the wrong type is a TypeError naming the parameter.
+// the wrong type is a TypeError naming the parameter. The sweep, manifest, plan and Pareto bindings are in
+// rtu_sweep.cpp (register_sweep); what the two files share in rtu_module.h.
 // python/rtu/__init__.py is the thin Python layer over it (keyword defaults, DataFrames).
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
-#include <unistd.h>
-
-#include <atomic>
-#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <exception>
-#include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <memory>
 #include <new>
 #include <string>
@@ -39,36 +33,22 @@
 #include "host/jobs/ab.h"
 #include "host/jobs/compare_job.h"
 #include "host/jobs/image_diff.h"
-#include "host/jobs/pareto.h"
-#include "host/jobs/plan.h"
 #include "host/jobs/render.h"
-#include "host/jobs/sweep.h"
-#include "host/jobs/sweep_manifest.h"
 #include "host/jobs/trace_job.h"
 #include "host/scene/ray_spec.h"
 #include "host/scene/scene.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/timing/timing_config.h"
+#include "python/rtu_module.h"
 
 namespace py = pybind11;
 using namespace rtu;
+using namespace rtu::pymod;
 
 namespace {
 
 PyObject* g_error = nullptr;  // rtu.Error, derived from RuntimeError and ValueError
-
-[[noreturn]] void fail(const std::string& message) {
-  throw host::Error(message);
-}
-
-// Ctrl-C during a long job: the host job calls this between its steps (SweepOptions::poll), on the calling thread
-// with the GIL released. A pending signal runs its Python handler (SIGINT's raises KeyboardInterrupt), whose
-// exception then unwinds the job and reaches the caller.
-void check_signals() {
-  py::gil_scoped_acquire gil;
-  if (PyErr_CheckSignals() != 0) throw py::error_already_set();
-}
 
 // A keyword argument cast to T, or a TypeError naming the parameter and what it takes (pybind11's own cast error
 // names neither).
@@ -87,11 +67,6 @@ T arg(const py::handle& v, const std::string& name, const char* expected) {
     throw py::type_error(name + ": expected " + expected + ", got " +
                          (v.is_none() ? std::string("None") : std::string(py::repr(v))));
   }
-}
-
-// JSON to Python through the json module: the dict equals json.loads of the file rtusim writes.
-py::object to_python(const host::Json& j) {
-  return py::module_::import("json").attr("loads")(j.dump());
 }
 
 // A loaded scene, shared by the jobs that use it (immutable once loaded).
@@ -322,11 +297,6 @@ DeviceArgs device_args(const py::dict& kw) {
   return d;
 }
 
-int check_threads(int threads) {
-  if (threads < 0) fail("threads: " + std::to_string(threads) + " is negative (0: all cores)");
-  return threads;
-}
-
 // --- the jobs ---
 
 // rtusim trace: (hits, stats dict, invalid-ray message or "").
@@ -513,109 +483,6 @@ py::dict diff(const py::handle& a, const py::handle& b) {
   return j;
 }
 
-host::SweepOptions sweep_options(uint64_t rays, uint64_t seed, int image_width, int threads, bool flatten) {
-  if (rays < 1 || rays > (uint64_t(1) << 26)) fail("rays: " + std::to_string(rays) + " is not in 1..67108864");
-  if (image_width < 0 || image_width > 4096) fail("image_width: not in 0..4096");
-  host::SweepOptions o;
-  o.rays = rays;
-  o.seed = seed;
-  o.image_width = image_width;
-  o.threads = check_threads(threads);
-  o.flatten = flatten;
-  o.poll = check_signals;  // Ctrl-C between points and their stages
-  return o;
-}
-
-// rtusim sweep: the CSV text of every point (the Python layer reads it into a DataFrame); with shards > 1, of
-// shard `shard` of them only (1-based), as rtusim sweep --shard shard/shards: every shards-th point of the grid's
-// order, starting at the shard-th.
-std::string sweep(const std::vector<std::string>& scenes, const std::vector<std::string>& formats,
-                  const std::vector<int>& widths, const std::vector<std::string>& configs, uint64_t rays,
-                  uint64_t seed, int image_width, int threads, const std::string& area_path, bool flatten,
-                  size_t shard, size_t shards) {
-  if (shards < 1 || shard < 1 || shard > shards)
-    fail("shard: expected (k, N) with 1 <= k <= N, got (" + std::to_string(shard) + ", " + std::to_string(shards) +
-         ")");
-  // An empty list would make an empty grid: no row, and no word of why.
-  if (scenes.empty()) fail("scenes: empty (give at least one scene)");
-  if (formats.empty()) fail("formats: empty (give at least one format spec)");
-  if (widths.empty()) fail("bvh_widths: empty (give at least one of 2, 4, 6, 8)");
-  if (configs.empty()) fail("configs: empty (give at least one timing preset)");
-  host::SweepGrid g{scenes, formats, configs, widths};
-  const host::SweepOptions o = sweep_options(rays, seed, image_width, threads, flatten);
-  host::check_sweep_grid(g);
-  py::gil_scoped_release nogil;
-  const host::AreaTable area = area_path.empty() ? host::AreaTable::shipped() : host::AreaTable::load(area_path);
-  std::string csv = host::sweep_csv_header() + "\n";
-  host::run_sweep_grid(
-      g, o, area, [&](size_t index, const host::SweepPoint&) { return index % shards == shard - 1; },
-      [&](const host::Scene&, const host::SweepRow& r) { csv += host::sweep_csv_line(r) + "\n"; });
-  return csv;
-}
-
-// rtusim sweep --write-manifest: the grid's manifest, priced with the area table at `area_path` (empty: the
-// shipped one), written to `path`; (points, repeated points listed once, the manifest's text). A file already
-// there listing other points is refused (a folder holds one sweep: resuming another's points would mix them).
-// Concurrent calls on one path create it once: each writes its text to a name of its own and hard-links it to
-// `path`, which fails when `path` exists, so exactly one call creates it, whole, and every other compares its own
-// text with that one.
-py::tuple write_manifest(const std::string& path, const std::vector<std::string>& scenes,
-                         const std::vector<std::string>& formats, const std::vector<int>& widths,
-                         const std::vector<std::string>& configs, uint64_t rays, uint64_t seed, int image_width,
-                         bool flatten, const std::string& area_path) {
-  const host::SweepGrid g{scenes, formats, configs, widths};
-  const host::SweepOptions o = sweep_options(rays, seed, image_width, 1, flatten);
-  host::check_sweep_grid(g);
-  size_t points = 0, repeated = 0;
-  std::string text;
-  {
-    py::gil_scoped_release nogil;
-    const host::AreaTable area = area_path.empty() ? host::AreaTable::shipped() : host::AreaTable::load(area_path);
-    const host::Manifest m = host::make_manifest(host::sweep_grid_points(g), o, area, &repeated);
-    points = m.points.size();
-    text = host::manifest_text(m);
-    static std::atomic<unsigned> counter{0};
-    const std::string tmp = path + ".tmp-" + std::to_string(getpid()) + "-" + std::to_string(counter++);
-    {
-      std::ofstream out = host::open_output(tmp, std::ios::binary | std::ios::trunc);
-      out << text;
-      host::finish_output(out, tmp);
-    }
-    const int linked = link(tmp.c_str(), path.c_str());
-    const int err = errno;
-    std::error_code ec;
-    std::filesystem::remove(tmp, ec);
-    if (linked != 0 && err != EEXIST) throw host::Error("cannot create " + path + ": " + std::strerror(err));
-    if (linked != 0) {
-      std::ifstream old(path, std::ios::binary);
-      if (std::string((std::istreambuf_iterator<char>(old)), std::istreambuf_iterator<char>()) != text)
-        throw host::Error(path +
-                          " lists other points (another grid, or a scene or rtu changed since it was written); "
-                          "use a new results folder");
-    }
-  }
-  return py::make_tuple(points, repeated, text);
-}
-
-// rtusim plan: (the --json dict, the CSV text of every candidate measured, whether each met the budget, each one's
-// rays per clock per mm^2).
-py::tuple plan(const host::PlanOptions& o) {
-  std::string csv = host::sweep_csv_header() + "\n";
-  std::vector<bool> meets;
-  std::vector<double> perf_per_mm2;
-  host::PlanResult res;
-  {
-    py::gil_scoped_release nogil;
-    res = host::plan_format(o, [&](const host::PlanStep& s) {
-      if (s.stage != host::PlanStage::kCandidate) return;
-      csv += host::sweep_csv_line(*s.row) + "\n";
-      meets.push_back(s.meets);
-      perf_per_mm2.push_back(host::plan_perf_per_area(*s.row));
-    });
-  }
-  return py::make_tuple(to_python(res.json), csv, meets, perf_per_mm2);
-}
-
 }  // namespace
 
 PYBIND11_MODULE(_rtu, m) {
@@ -747,89 +614,5 @@ PYBIND11_MODULE(_rtu, m) {
       "format", [](const std::string& spec) { return to_python(host::format_json(hw::format_from_spec(spec))); },
       py::arg("spec"));
 
-  m.def("sweep", &sweep, py::arg("scenes"), py::arg("formats"), py::arg("bvh_widths"), py::arg("configs"),
-        py::arg("rays"), py::arg("seed"), py::arg("image_width"), py::arg("threads"), py::arg("area"),
-        py::arg("flatten"), py::arg("shard") = 1, py::arg("shards") = 1);
-  m.def("write_manifest", &write_manifest, py::arg("path"), py::arg("scenes"), py::arg("formats"),
-        py::arg("bvh_widths"), py::arg("configs"), py::arg("rays"), py::arg("seed"), py::arg("image_width"),
-        py::arg("flatten"), py::arg("area"));
-  m.def(
-      "run_manifest",
-      [](const std::string& manifest, const std::string& results, size_t shard, size_t shards, int threads,
-         const std::string& area_path) {
-        if (shards < 1 || shard < 1 || shard > shards) fail("shard: expected 1 <= k <= N");
-        const int t = check_threads(threads);
-        py::gil_scoped_release nogil;
-        const host::Manifest m = host::read_manifest(manifest);
-        const host::AreaTable area =
-            area_path.empty() ? host::AreaTable::shipped() : host::AreaTable::load(area_path);
-        const host::ManifestRun r = host::run_manifest(m, results, shard, shards, t, area);
-        return std::make_tuple(r.mine, r.ran, r.done);
-      },
-      py::arg("manifest"), py::arg("results"), py::arg("shard"), py::arg("shards"), py::arg("threads"),
-      py::arg("area"), "Shard k/N of a manifest into a folder of point files: (points, run, already there)");
-  m.def(
-      "collect",
-      [](const std::string& manifest, const std::string& results) {
-        py::gil_scoped_release nogil;
-        const host::CollectedSweep c = host::collect_manifest(host::read_manifest(manifest), results);
-        std::string csv = host::sweep_csv_header() + "\n";
-        for (const host::SweepRow& r : c.rows) csv += host::sweep_csv_line(r) + "\n";
-        return std::make_pair(csv, c.provenance_csv);
-      },
-      py::arg("manifest"), py::arg("results"),
-      "A manifest's point files as (the sweep CSV's text, the provenance CSV's text), as rtusim sweep --collect");
-  m.def(
-      "plan",
-      [](const std::string& scene, double max_error, const std::string& metric, double min_psnr, double confidence,
-         const std::string& config, const std::string& format, const std::string& minimise, double min_gain,
-         double area_budget, const std::vector<int>& widths, const std::vector<int>& coord_bits,
-         const std::vector<int>& child_bits, uint64_t rays, uint64_t seed, int image_width, int threads,
-         const std::string& area, bool flatten) {
-        // NaN would pass the range checks below (every comparison with it is false): refused by name first.
-        for (const auto& [name, v] : {std::pair<const char*, double>{"max_error", max_error},
-                                      {"min_psnr", min_psnr},
-                                      {"confidence", confidence},
-                                      {"min_gain", min_gain},
-                                      {"area_budget", area_budget}})
-          if (!std::isfinite(v)) fail(std::string(name) + ": " + std::to_string(v) + " is not a finite number");
-        host::PlanOptions o;
-        o.scene = scene;
-        o.max_error = max_error;
-        o.metric = metric;
-        o.min_psnr = min_psnr;
-        if (!(confidence >= 0.5 && confidence <= 0.999999)) fail("confidence: not in [0.5, 0.999999]");
-        o.confidence = confidence;
-        o.config = config;
-        o.format = format;
-        o.minimise = minimise;
-        if (!(min_gain >= 0.0 && min_gain <= 100.0)) fail("min_gain: not in [0, 100] percent");
-        o.min_gain_pct = min_gain;
-        if (!(area_budget >= 0.0 && area_budget <= 1e6)) fail("area_budget: not in [0, 1e6] mm^2");
-        o.area_budget = area_budget;
-        for (int w : widths)
-          if (w != 2 && w != 4 && w != 6 && w != 8)
-            fail("bvh_widths: " + std::to_string(w) + " is not 2, 4, 6 or 8");
-        for (int b : coord_bits)
-          if (b < 2 || b > 30) fail("coord_bits: " + std::to_string(b) + " is not in 2..30");
-        for (int b : child_bits)
-          if (b < 1 || b > 16) fail("child_bits: " + std::to_string(b) + " is not in 1..16");
-        if (widths.empty()) fail("bvh_widths: empty (give at least one of 2, 4, 6, 8)");
-        if (coord_bits.empty()) fail("coord_bits: empty (give at least one width in 2..30)");
-        if (child_bits.empty()) fail("child_bits: empty (give at least one width in 1..16)");
-        o.widths = widths;
-        o.coord_bits = coord_bits;
-        o.child_bits = child_bits;
-        o.sweep = sweep_options(rays, seed, image_width, threads, flatten);
-        o.area = area;
-        return plan(o);
-      },
-      py::arg("scene"), py::arg("max_error"), py::arg("metric"), py::arg("min_psnr"), py::arg("confidence"),
-      py::arg("config"), py::arg("format"), py::arg("minimise"), py::arg("min_gain"), py::arg("area_budget"),
-      py::arg("bvh_widths"), py::arg("coord_bits"), py::arg("child_bits"), py::arg("rays"), py::arg("seed"),
-      py::arg("image_width"), py::arg("threads"), py::arg("area"), py::arg("flatten"));
-  m.def(
-      "pareto_front",
-      [](const std::vector<std::pair<double, double>>& points) { return host::pareto_front(points); },
-      py::arg("points"), "Indices of the (cost, error) points on the Pareto front, by cost ascending");
+  register_sweep(m);
 }

@@ -71,24 +71,27 @@ void list_formats() {
         "* bit-packed: at 2^20 nodes and primitive units; a scene's own: rtusim info --scene S --format F\n");
 }
 
-void run_info(const InfoOptions& o) {
-  if (!o.json.empty() && o.scene.empty() && o.suite.empty()) throw Error("info: --json needs --scene or --suite");
-  if (!o.suite.empty()) return list_suite(o);
-  if (o.formats) {
-    list_formats();
-    if (o.scene.empty()) return;
-  }
-  if (o.scene.empty()) throw Error("info: --scene is required (or --formats)");
-  Stopwatch load_timer;
-  const Scene scene = load_scene(o.scene);
-  const double load_s = load_timer.seconds();
-  Stopwatch build_timer;
-  const DeviceOptions dopt = o.dev.options(hw::DeviceKind::kFixed);
-  const std::unique_ptr<DirectDevice> device = make_device(scene.geometry, dopt);
-  const double build_s = build_timer.seconds();
+// Two levels (the float reference's): what instancing saves against the flattened scene, and the fixed images.
+Json instancing_json(const Scene& scene, const DeviceOptions& dopt) {
+  hw::TracerOptions topt = dopt.tracer;
+  topt.bvh.width = dopt.format.width;
+  const hw::InstancedFloatTracer two(scene.instances, scene.geometry, topt);
+  uint64_t mesh_tris = 0;
+  for (const hw::Geometry& m : scene.instances.meshes) mesh_tris += m.triangles.size();
+  const hw::InstancedFixedTracer fixed_two(scene.instances, scene.geometry, dopt.format, topt);
+  return {{"instances", scene.instances.instances.size()},
+          {"meshes", scene.instances.meshes.size()},
+          {"mesh_triangles", mesh_tris},
+          {"top_nodes_bytes", two.top().figures().node_bytes},
+          {"float_bytes", two.bytes()},
+          {"fixed", two_level_json(fixed_two)}};
+}
+
+// What --json writes: the scene's contents, bounds and camera, the load and build times, the BVH and the format.
+Json info_json(const Scene& scene, const DeviceOptions& dopt, const DirectDevice& device, double load_s,
+               double build_s) {
   const hw::Geometry& g = scene.geometry;
   const hw::Aabb b = g.bounds();
-
   Json j;
   j["scene"] = scene.name;
   j["triangles"] = g.triangles.size();
@@ -101,21 +104,7 @@ void run_info(const InfoOptions& o) {
   uint64_t non_opaque = 0;
   for (const uint8_t f : g.non_opaque) non_opaque += f;
   j["non_opaque_triangles"] = non_opaque;  // alpha-tested: their candidate hits go to the any-hit stage
-  if (scene.instanced()) {
-    // Two levels (the float reference's): what instancing saves against the flattened scene above.
-    hw::TracerOptions topt = dopt.tracer;
-    topt.bvh.width = dopt.format.width;
-    const hw::InstancedFloatTracer two(scene.instances, g, topt);
-    uint64_t mesh_tris = 0;
-    for (const hw::Geometry& m : scene.instances.meshes) mesh_tris += m.triangles.size();
-    const hw::InstancedFixedTracer fixed_two(scene.instances, g, dopt.format, topt);
-    j["instancing"] = {{"instances", scene.instances.instances.size()},
-                       {"meshes", scene.instances.meshes.size()},
-                       {"mesh_triangles", mesh_tris},
-                       {"top_nodes_bytes", two.top().figures().node_bytes},
-                       {"float_bytes", two.bytes()},
-                       {"fixed", two_level_json(fixed_two)}};
-  }
+  if (scene.instanced()) j["instancing"] = instancing_json(scene, dopt);
   j["bounds_lo"] = {b.lo.x, b.lo.y, b.lo.z};
   j["bounds_hi"] = {b.hi.x, b.hi.y, b.hi.z};
   j["camera"] = {{"position", {scene.camera.position.x, scene.camera.position.y, scene.camera.position.z}},
@@ -126,9 +115,15 @@ void run_info(const InfoOptions& o) {
                  {"framed_automatically", !scene.has_camera}};
   j["load_seconds"] = load_s;
   j["build_seconds"] = build_s;
-  j["bvh"] = bvh_json(*device);
+  j["bvh"] = bvh_json(device);
   j["format"] = format_json(dopt.format);
+  return j;
+}
 
+// The scene's lines of the report: its primitives, materials, alpha-tested triangles, instances and bounds.
+void print_scene(const Scene& scene, const Json& j) {
+  const hw::Geometry& g = scene.geometry;
+  const hw::Aabb b = g.bounds();
   std::printf("scene        %s\n", scene.name.c_str());
   std::printf("primitives   %zu triangles, %zu spheres, %zu planes", g.triangles.size(), g.spheres.size(),
               g.planes.size());
@@ -136,6 +131,7 @@ void run_info(const InfoOptions& o) {
   std::printf("\n");
   std::printf("materials    %zu, lights %zu, textures %zu\n", scene.materials.size(), scene.lights.size(),
               scene.textures.size());
+  const uint64_t non_opaque = j["non_opaque_triangles"].get<uint64_t>();
   if (non_opaque > 0)
     std::printf("alpha        %llu alpha-tested triangles (their candidate hits go to the any-hit stage)\n",
                 (unsigned long long)non_opaque);
@@ -158,15 +154,19 @@ void run_info(const InfoOptions& o) {
         (unsigned long long)fx["total_bytes"].get<uint64_t>());
   }
   std::printf("bounds       (%g, %g, %g) .. (%g, %g, %g)\n", b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
-  std::printf("load         %.3f s, accel build %.3f s\n", load_s, build_s);
-  if (const hw::Bvh* bvh = device->bvh()) {
+}
+
+// The device's lines of the report: the float BVH (or brute force), the format, its frame and layout, and the
+// fixed image's bytes against the float BVH's.
+void print_device(const DirectDevice& device, const DeviceOptions& dopt, const hw::Geometry& g) {
+  if (const hw::Bvh* bvh = device.bvh()) {
     const hw::BvhFigures f = bvh->figures();
     std::printf("bvh          width %d, %llu inner nodes, %llu leaves, depth %d\n", f.width,
                 (unsigned long long)f.inner_nodes, (unsigned long long)f.leaves, f.depth);
     std::printf("leaves       %d..%d primitives, mean %.2f; node fill %.0f%%\n", f.min_leaf, f.max_leaf,
                 f.mean_leaf, 100.0 * f.mean_fill);
     std::printf("sah cost     %.2f (brute force %.0f) in primitive tests per ray\n", f.sah_cost,
-                device->brute_cost());
+                device.brute_cost());
     std::printf("float bvh    nodes %llu + index %llu bytes = %.1f bytes per primitive\n",
                 (unsigned long long)f.node_bytes, (unsigned long long)f.index_bytes,
                 f.prims ? double(f.node_bytes + f.index_bytes) / double(f.prims) : 0.0);
@@ -174,7 +174,7 @@ void run_info(const InfoOptions& o) {
     std::printf("accel        brute force (%u bounded primitives: a BVH would cost more than it saves)\n",
                 g.num_bounded());
   }
-  const hw::DeviceImage& img = *device->image();
+  const hw::DeviceImage& img = *device.image();
   std::printf("format       %s\n", dopt.format.describe().c_str());
   std::printf("frame        2^%d grid steps of 2^%d world units per axis\n", dopt.format.coord_bits,
               img.header().step_exp);
@@ -186,12 +186,34 @@ void run_info(const InfoOptions& o) {
   std::printf("fixed image  %zu bytes per node: nodes %llu + primitives %llu + planes %llu = %llu bytes\n",
               img.node_bytes(), (unsigned long long)img.nodes_size(), (unsigned long long)img.records_size(),
               (unsigned long long)img.planes_size(), (unsigned long long)img.size());
-  if (const hw::Bvh* bvh = device->bvh()) {
+  if (const hw::Bvh* bvh = device.bvh()) {
     const hw::BvhFigures f = bvh->figures();
     std::printf("bvh bytes    fixed nodes / float nodes = %.1f%% (%.1f%% of float nodes + index)\n",
                 100.0 * double(img.nodes_size()) / double(f.node_bytes),
                 100.0 * double(img.nodes_size()) / double(f.node_bytes + f.index_bytes));
   }
+}
+
+void run_info(const InfoOptions& o) {
+  if (!o.json.empty() && o.scene.empty() && o.suite.empty()) throw Error("info: --json needs --scene or --suite");
+  if (!o.suite.empty()) return list_suite(o);
+  if (o.formats) {
+    list_formats();
+    if (o.scene.empty()) return;
+  }
+  if (o.scene.empty()) throw Error("info: --scene is required (or --formats)");
+  Stopwatch load_timer;
+  const Scene scene = load_scene(o.scene);
+  const double load_s = load_timer.seconds();
+  Stopwatch build_timer;
+  const DeviceOptions dopt = o.dev.options(hw::DeviceKind::kFixed);
+  const std::unique_ptr<DirectDevice> device = make_device(scene.geometry, dopt);
+  const double build_s = build_timer.seconds();
+
+  const Json j = info_json(scene, dopt, *device, load_s, build_s);
+  print_scene(scene, j);
+  std::printf("load         %.3f s, accel build %.3f s\n", load_s, build_s);
+  print_device(*device, dopt, scene.geometry);
   if (!o.json.empty()) write_json(o.json, j);
 }
 

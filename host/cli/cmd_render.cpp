@@ -142,13 +142,7 @@ void add_render(CLI::App& app) {
   sub->add_option("--scene", a->scene, "scene file, mesh file, or builtin:NAME")->required();
   sub->add_option("--out", a->out, "PNG to write")->required();
   sub->add_option("--stats", a->stats, "write statistics as JSON to this file");
-  add_pipeline_trace_args(*sub, a->pipeline);
-  add_device_args(*sub, a->dev,
-                  "device: float (the reference), fixed (bit-accurate fixed point) or timed (fixed point with the "
-                  "cycle-approximate timing model; --config, --set)");
-  add_timing_args(*sub, a->dev);
-  add_sampling_args(*sub, a->dev);
-  add_watchdog_args(*sub, a->dev);
+  add_any_device_args(*sub, a->dev, a->pipeline);
   sub->add_option(
          "--mode", a->mode,
          "raytrace: primary rays traced by the unit; hybrid: primary visibility rasterized by the firmware "

@@ -106,13 +106,7 @@ void add_trace(CLI::App& app) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   sub->add_option("--stats", o->stats, "write statistics as JSON to this file");
-  add_pipeline_trace_args(*sub, o->pipeline);
-  add_device_args(*sub, o->dev,
-                  "device: float (the reference), fixed (bit-accurate fixed point) or timed (fixed point with the "
-                  "cycle-approximate timing model; --config, --set)");
-  add_timing_args(*sub, o->dev);
-  add_sampling_args(*sub, o->dev);
-  add_watchdog_args(*sub, o->dev);
+  add_any_device_args(*sub, o->dev, o->pipeline);
   sub->add_option("--against-config", o->against.config,
                   "timed device, A/B: also trace with this timing preset (its own keys, without --set) and print "
                   "B against A: speed-up, rays per clock, limiter, area, energy, performance per mm^2, hits")

@@ -226,4 +226,14 @@ void add_pipeline_trace_args(CLI::App& app, PipelineTraceArgs& a) {
       ->capture_default_str();
 }
 
+void add_any_device_args(CLI::App& app, DeviceArgs& o, PipelineTraceArgs& pipeline) {
+  add_pipeline_trace_args(app, pipeline);
+  add_device_args(app, o,
+                  "device: float (the reference), fixed (bit-accurate fixed point) or timed (fixed point with the "
+                  "cycle-approximate timing model; --config, --set)");
+  add_timing_args(app, o);
+  add_sampling_args(app, o);
+  add_watchdog_args(app, o);
+}
+
 }  // namespace rtu::host::cli

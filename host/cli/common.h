@@ -66,6 +66,9 @@ struct PipelineTraceArgs {
   hw::PipelineTrace trace;
 };
 void add_pipeline_trace_args(CLI::App& app, PipelineTraceArgs& a);
+// Every device option of a command that runs its job on any of the three devices (trace, render): the pipeline
+// trace, --device and the options of add_device_args, add_timing_args, add_sampling_args and add_watchdog_args.
+void add_any_device_args(CLI::App& app, DeviceArgs& o, PipelineTraceArgs& pipeline);
 
 void add_info(CLI::App& app);
 void add_rays(CLI::App& app);

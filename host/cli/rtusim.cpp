@@ -36,19 +36,12 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   // The model identity names the build: sweep point keys hold it (host/jobs/model_identity.h).
   app.set_version_flag("--version", std::string("rtusim 0.1.0 (model ") + rtu::host::model_identity() + ")");
-  rtu::host::cli::add_info(app);
-  rtu::host::cli::add_rays(app);
-  rtu::host::cli::add_trace(app);
-  rtu::host::cli::add_compare(app);
-  rtu::host::cli::add_stress(app);
-  rtu::host::cli::add_render(app);
-  rtu::host::cli::add_diff(app);
-  rtu::host::cli::add_config(app);
-  rtu::host::cli::add_demo(app);
-  rtu::host::cli::add_sweep(app);
-  rtu::host::cli::add_plan(app);
-  rtu::host::cli::add_report(app);
-  rtu::host::cli::add_soak(app);
+  namespace cli = rtu::host::cli;
+  // The subcommands, in the order --help lists them.
+  for (void (*add)(CLI::App&) : {cli::add_info, cli::add_rays, cli::add_trace, cli::add_compare, cli::add_stress,
+                                 cli::add_render, cli::add_diff, cli::add_config, cli::add_demo, cli::add_sweep,
+                                 cli::add_plan, cli::add_report, cli::add_soak})
+    add(app);
   refuse_nan(app);
   try {
     app.parse(argc, argv);

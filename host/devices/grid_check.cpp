@@ -18,8 +18,8 @@ double largest_extent(const hw::Aabb& b) {
   return std::max({double(b.hi.x) - b.lo.x, double(b.hi.y) - b.lo.y, double(b.hi.z) - b.lo.z});
 }
 
-// One frame: the image's bounded primitives in the frame the encoder fits (hwmodel/format/device_image.cpp: the
-// geometry's bounds). Adds its primitives to `c` and keeps the frame that loses the most.
+// One frame: the image's bounded primitives in the frame the encoder fits (hwmodel/format/device_image_encode.cpp:
+// the geometry's bounds). Adds its primitives to `c` and keeps the frame that loses the most.
 void check_frame(const hw::Geometry& g, int bits, GridCheck& c, uint64_t& worst) {
   const hw::Aabb b = g.bounds();
   if (b.empty()) return;  // planes only: nothing quantized has an extent

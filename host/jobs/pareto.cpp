@@ -114,20 +114,21 @@ std::string number_list(std::vector<size_t> n) {
   return t;
 }
 
+// Each cost's name (its CSV column and JSON key) and its plot axis, in ParetoCost's order.
+struct CostText {
+  const char* name;
+  const char* axis;
+};
+constexpr CostText kCostText[kParetoCostCount] = {
+    {"cycles", "simulated cycles (timed device, the sweep's rays)"},
+    {"bvh_bytes", "memory: encoded image bytes (nodes, primitives; the format's layouts)"},
+    {"area_mm2", "area: mm^2 of the unit (45 nm estimate: units, caches, ray slots)"},
+    {"dram_bytes_per_ray", "memory traffic: DRAM bytes per ray (timed device)"},
+    {"pj_per_ray", "energy: pJ per ray (45 nm estimate, timed device)"}};
+static_assert(int(ParetoCost::kPjPerRay) == kParetoCostCount - 1);
+
 const char* cost_axis(ParetoCost c) {
-  switch (c) {
-    case ParetoCost::kCycles:
-      return "simulated cycles (timed device, the sweep's rays)";
-    case ParetoCost::kBvhBytes:
-      return "memory: encoded image bytes (nodes, primitives; the format's layouts)";
-    case ParetoCost::kAreaMm2:
-      return "area: mm^2 of the unit (45 nm estimate: units, caches, ray slots)";
-    case ParetoCost::kDramBytesPerRay:
-      return "memory traffic: DRAM bytes per ray (timed device)";
-    case ParetoCost::kPjPerRay:
-      return "energy: pJ per ray (45 nm estimate, timed device)";
-  }
-  return "";
+  return kCostText[int(c)].axis;
 }
 
 const char* error_axis(ParetoError e) {
@@ -141,19 +142,7 @@ const char* pareto_error_name(ParetoError e) {
 }
 
 const char* pareto_cost_name(ParetoCost c) {
-  switch (c) {
-    case ParetoCost::kCycles:
-      return "cycles";
-    case ParetoCost::kBvhBytes:
-      return "bvh_bytes";
-    case ParetoCost::kAreaMm2:
-      return "area_mm2";
-    case ParetoCost::kDramBytesPerRay:
-      return "dram_bytes_per_ray";
-    case ParetoCost::kPjPerRay:
-      return "pj_per_ray";
-  }
-  return "";
+  return kCostText[int(c)].name;
 }
 
 double pareto_error(const SweepRow& r, ParetoError e) {

@@ -501,40 +501,50 @@ SweepRow cheapest_child_bits(Planner& pl, const PlanOptions& a, const BaseFormat
   return chosen;
 }
 
+// A measured row's figures as the plan's JSON gives them, in its order: cycles to the error bound, the measured
+// PSNR (with `psnr`), the RTL cells and the configuration.
+void add_measured(Json& j, const SweepRow& r, const PlanOptions& a, bool psnr) {
+  j["cycles"] = r.cycles;
+  j["bytes"] = r.bvh_bytes;
+  j["bytes_per_prim"] = r.bytes_per_prim;
+  j["dram_bytes_per_ray"] = r.dram_bytes_per_ray;
+  j["error"] = plan_error(r, a.metric);
+  j["error_bound"] = plan_error_bound(r, a);
+  if (psnr) j["psnr_db"] = r.psnr_measured() ? Json(r.psnr_db) : Json(nullptr);
+  j["rtl_cells"] = r.rtl_cells;
+  j["config"] = r.p.config;
+}
+
+// A measured row's costs: area, energy per ray, rays per clock and per clock and mm^2.
+void add_costs(Json& j, const SweepRow& r) {
+  j["area_mm2"] = r.area_mm2;
+  j["pj_per_ray"] = r.pj_per_ray;
+  j["rays_per_clock"] = plan_rays_per_clock(r);
+  j["perf_per_mm2"] = plan_perf_per_area(r);
+}
+
 // A measured candidate, as the JSON's width's "candidates".
 Json candidate_json(const SweepRow& r, const PlanOptions& a, bool meets) {
   const hw::FixedFormat f = hw::format_from_spec(r.p.format);
-  return {{"format", r.p.format},
-          {"coord_bits", f.coord_bits},
-          {"child_bits", f.child_bits},
-          {"config", r.p.config},
-          {"cycles", r.cycles},
-          {"bytes", r.bvh_bytes},
-          {"error", plan_error(r, a.metric)},
-          {"error_bound", plan_error_bound(r, a)},
-          {"area_mm2", r.area_mm2},
-          {"pj_per_ray", r.pj_per_ray},
-          {"rays_per_clock", plan_rays_per_clock(r)},
-          {"perf_per_mm2", plan_perf_per_area(r)},
-          {"meets", meets}};
+  Json j = {{"format", r.p.format},
+            {"coord_bits", f.coord_bits},
+            {"child_bits", f.child_bits},
+            {"config", r.p.config},
+            {"cycles", r.cycles},
+            {"bytes", r.bvh_bytes},
+            {"error", plan_error(r, a.metric)},
+            {"error_bound", plan_error_bound(r, a)}};
+  add_costs(j, r);
+  j["meets"] = meets;
+  return j;
 }
 
 // The format chosen at a width, as the JSON's "chosen".
 Json chosen_json(const SweepRow& c, const PlanOptions& a) {
-  return {{"format", c.p.format},
-          {"cycles", c.cycles},
-          {"bytes", c.bvh_bytes},
-          {"bytes_per_prim", c.bytes_per_prim},
-          {"dram_bytes_per_ray", c.dram_bytes_per_ray},
-          {"error", plan_error(c, a.metric)},
-          {"error_bound", plan_error_bound(c, a)},
-          {"psnr_db", c.psnr_measured() ? Json(c.psnr_db) : Json(nullptr)},
-          {"rtl_cells", c.rtl_cells},
-          {"config", c.p.config},
-          {"area_mm2", c.area_mm2},
-          {"pj_per_ray", c.pj_per_ray},
-          {"rays_per_clock", plan_rays_per_clock(c)},
-          {"perf_per_mm2", plan_perf_per_area(c)}};
+  Json j = {{"format", c.p.format}};
+  add_measured(j, c, a, true);
+  add_costs(j, c);
+  return j;
 }
 
 // One width of the plan: its candidates into the JSON jw, and the format chosen there (none when no coordinate
@@ -582,42 +592,23 @@ std::unique_ptr<SweepRow> plan_width(Planner& pl, const PlanOptions& a, const Ba
 
 // The plan's format, as the JSON's "plan".
 Json plan_json(const SweepRow& best, const hw::FixedFormat& f, const PlanOptions& a) {
-  return {{"format", best.p.format},
-          {"bvh_width", best.p.bvh_width},
-          {"coord_bits", f.coord_bits},
-          {"child_bits", f.child_bits},
-          {"cycles", best.cycles},
-          {"bytes", best.bvh_bytes},
-          {"bytes_per_prim", best.bytes_per_prim},
-          {"dram_bytes_per_ray", best.dram_bytes_per_ray},
-          {"error", plan_error(best, a.metric)},
-          {"error_bound", plan_error_bound(best, a)},
-          {"psnr_db", best.psnr_measured() ? Json(best.psnr_db) : Json(nullptr)},
-          {"rtl_cells", best.rtl_cells},
-          {"config", best.p.config},
-          {"box_units", sweep_config(best.p.config).box_units},
-          {"tri_units", sweep_config(best.p.config).tri_units},
-          {"area_mm2", best.area_mm2},
-          {"pj_per_ray", best.pj_per_ray},
-          {"rays_per_clock", plan_rays_per_clock(best)},
-          {"perf_per_mm2", plan_perf_per_area(best)}};
+  Json j = {{"format", best.p.format},
+            {"bvh_width", best.p.bvh_width},
+            {"coord_bits", f.coord_bits},
+            {"child_bits", f.child_bits}};
+  add_measured(j, best, a, true);
+  j["box_units"] = sweep_config(best.p.config).box_units;
+  j["tri_units"] = sweep_config(best.p.config).tri_units;
+  add_costs(j, best);
+  return j;
 }
 
 // The base format at the plan's width, as the JSON's "default".
 Json default_json(const SweepRow& def, const std::string& base, const PlanOptions& a) {
-  return {{"format", base},
-          {"cycles", def.cycles},
-          {"bytes", def.bvh_bytes},
-          {"bytes_per_prim", def.bytes_per_prim},
-          {"dram_bytes_per_ray", def.dram_bytes_per_ray},
-          {"error", plan_error(def, a.metric)},
-          {"error_bound", plan_error_bound(def, a)},
-          {"rtl_cells", def.rtl_cells},
-          {"config", def.p.config},
-          {"area_mm2", def.area_mm2},
-          {"pj_per_ray", def.pj_per_ray},
-          {"rays_per_clock", plan_rays_per_clock(def)},
-          {"perf_per_mm2", plan_perf_per_area(def)}};
+  Json j = {{"format", base}};
+  add_measured(j, def, a, false);
+  add_costs(j, def);
+  return j;
 }
 
 }  // namespace

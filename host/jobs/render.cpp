@@ -478,18 +478,13 @@ std::vector<std::string> render_warnings(const RenderResult& r) {
   return out;
 }
 
-Json render_json(const RenderResult& r, const RenderOptions& o) {
-  using hw::cmd::RayType;
-  Json j;
-  j["device"] = hw::device_kind_name(o.device.kind);
-  j["width"] = r.width;
-  j["height"] = r.height;
-  j["spp"] = o.spp;
-  j["max_depth"] = o.max_depth;
-  j["seed"] = o.seed;
-  j["mode"] = o.ao ? "ambient_occlusion" : (o.indirect ? "path_tracing" : "direct_and_specular");
-  j["render_mode"] = o.hybrid ? "hybrid" : "raytrace";
-  j["seconds"] = r.seconds;
+namespace {
+
+using hw::cmd::RayType;
+
+// The rays the firmware traced by type, their total and rate, and the primary rays the rasterizer made
+// unnecessary (hybrid: every camera sample; raytrace: none).
+void add_rays_json(Json& j, const RenderResult& r) {
   Json rays;
   uint64_t total = 0;
   for (int t = 0; t < hw::cmd::kRayTypeCount; ++t) {
@@ -499,40 +494,34 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
   j["rays"] = rays;
   j["rays_total"] = total;
   j["rays_per_second"] = r.seconds > 0 ? double(total) / r.seconds : 0.0;
-  // Primary rays the rasterizer made unnecessary (hybrid: every camera sample; raytrace: none).
   j["rays_saved"] = {{"primary", r.fw.primary_rasterized}};
-  if (o.hybrid) {
-    const fw::RasterStats& rs = r.fw.raster;
-    j["raster"] = {{"passes", rs.passes},
-                   {"prims_read", rs.prims_read},
-                   {"setups", rs.setups},
-                   {"samples_tested", rs.samples_tested},
-                   {"fragments", rs.fragments},
-                   {"depth_writes", rs.depth_writes},
-                   {"clears", rs.clears},
-                   {"triangles_culled", rs.triangles_culled},
-                   {"triangles_clipped", rs.triangles_clipped},
-                   {"triangles_degenerate", rs.triangles_degenerate}};
-  }
-  if (r.fw.sorted) {  // ray sorting: what the firmware sorted (its cycles are under timing)
-    const fw::SortStats& ss = r.fw.sort;
-    Json by_type = Json::object();
-    for (int t = 0; t < hw::cmd::kRayTypeCount; ++t)
-      if (ss.by_type[t] > 0) by_type[hw::cmd::ray_type_name(RayType(t))] = ss.by_type[t];
-    j["sort"] = {
-        {"key", hw::name_of(o.device.timing.ray_sort)}, {"sorts", ss.sorts},     {"rays", ss.rays}, {"passes", ss.passes},
-        {"pass_rays", ss.pass_rays},       {"by_ray_type", by_type}};
-  }
-  j["paths"] = r.fw.paths;
-  j["batches"] = r.fw.batches;
-  j["batch_paths"] = r.fw.batch_paths;
-  j["bounces"] = r.fw.bounces;
-  j["commands"] = {{"packets", r.ring.packets},
-                   {"trace", r.fw.traces},
-                   {"fences", r.ring.fences},
-                   {"doorbells", r.ring.doorbells},
-                   {"ring_full", r.ring.full}};
-  // What the scene did not need, and why: decided before any ray was built.
+}
+
+// The rasterizer's work (hybrid mode).
+Json raster_stats_json(const fw::RasterStats& rs) {
+  return {{"passes", rs.passes},
+          {"prims_read", rs.prims_read},
+          {"setups", rs.setups},
+          {"samples_tested", rs.samples_tested},
+          {"fragments", rs.fragments},
+          {"depth_writes", rs.depth_writes},
+          {"clears", rs.clears},
+          {"triangles_culled", rs.triangles_culled},
+          {"triangles_clipped", rs.triangles_clipped},
+          {"triangles_degenerate", rs.triangles_degenerate}};
+}
+
+// Ray sorting: what the firmware sorted by key `key` (its cycles are under timing).
+Json sort_stats_json(const fw::SortStats& ss, const std::string& key) {
+  Json by_type = Json::object();
+  for (int t = 0; t < hw::cmd::kRayTypeCount; ++t)
+    if (ss.by_type[t] > 0) by_type[hw::cmd::ray_type_name(RayType(t))] = ss.by_type[t];
+  return {{"key", key},          {"sorts", ss.sorts},         {"rays", ss.rays},
+          {"passes", ss.passes}, {"pass_rays", ss.pass_rays}, {"by_ray_type", by_type}};
+}
+
+// What the scene did not need, and why: decided before any ray was built.
+Json skipped_json(const RenderResult& r, const RenderOptions& o) {
   Json skipped = Json::object();
   const bool any_diffuse = r.fw.need_shadow || r.fw.need_diffuse || r.fw.need_occlusion;
   if (!r.fw.need_shadow)
@@ -550,7 +539,11 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
   if (r.counts.spheres == 0) skipped["sphere_unit"] = "no spheres";
   if (r.counts.planes == 0) skipped["plane_unit"] = "no planes";
   if (!r.uses_bvh) skipped["bvh"] = "brute force is cheaper for this scene (hw::choose_accel)";
-  j["skipped"] = skipped;
+  return skipped;
+}
+
+// The unit: its primitives, acceleration structure, memory, packets and traversal statistics by ray type.
+Json unit_json(const RenderResult& r) {
   Json unit;
   unit["primitives"] = {
       {"triangles", r.counts.triangles}, {"spheres", r.counts.spheres}, {"planes", r.counts.planes}};
@@ -565,52 +558,89 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
   }
   unit["by_ray_type"] = by_type;
   unit["total"] = traversal_json(r.device.total());
-  j["unit"] = unit;
+  return unit;
+}
+
+Json raster_cycles_json(const hw::RasterCycles& rc) {
+  return {{"cycles", rc.cycles},
+          {"latency_cycles", rc.latency_cycles},
+          {"setup_cycles", rc.setup_cycles},
+          {"scan_cycles", rc.scan_cycles},
+          {"fragment_cycles", rc.fragment_cycles},
+          {"dram_cycles", rc.dram_cycles},
+          {"dram_bytes", rc.dram_bytes},
+          {"limit", rc.limit}};
+}
+
+Json sort_cycles_json(const hw::SortCycles& sc) {
+  return {{"cycles", sc.cycles},
+          {"latency_cycles", sc.latency_cycles},
+          {"key_cycles", sc.key_cycles},
+          {"pass_cycles", sc.pass_cycles},
+          {"permute_cycles", sc.permute_cycles},
+          {"return_cycles", sc.return_cycles},
+          {"compute_cycles", sc.compute_cycles},
+          {"dram_cycles", sc.dram_cycles},
+          {"dram_bytes", sc.dram_bytes},
+          {"limit", sc.limit}};
+}
+
+// The timed device's figures: the unit's breakdown, fence interrupts, sampling, per-unit figures, notes and
+// timeline, then the frame: the rasterizer's cycles (hybrid), the sort's (ray sorting) and the unit's (every
+// packet), which do not overlap.
+Json render_timing_json(const RenderResult& r, const RenderOptions& o) {
+  Json t = timing_breakdown_json(r.timing, r.timing_by_type, r.timing_by_bounce, o.device.timing, o.device.format);
+  t["device_clock"] = r.device_clock;
+  // Fence interrupts: the host sees the frame's last fence irq_latency after the device clock's end.
+  t["fence_irqs"] = r.device.fence_irqs;
+  t["last_irq_cycle"] = r.device.last_irq_cycle;
+  t["sample"] = sample_json(r.sampling);
+  if (!r.timing_by_unit.empty()) t["units"] = units_json(r.timing_by_unit, o.device.timing);
+  t["notes"] = timing_notes(r.timing, o.device.timing, &r.sampling);
+  add_timeline(t, &r.timeline, r.sampling);
+  t["raster"] = raster_cycles_json(r.raster_cycles);
+  t["raster_cycles"] = r.raster_cycles.cycles;
+  if (r.fw.sorted) {  // the controller's sorting, while the unit waits
+    t["sort"] = sort_cycles_json(r.sort_cycles);
+    t["sort_cycles"] = r.sort_cycles.cycles;
+  }
+  t["trace_cycles"] = r.device_clock;
+  t["frame_cycles"] = r.frame_cycles;
+  t["config"] = timing_json(o.device.timing);
+  return t;
+}
+
+}  // namespace
+
+Json render_json(const RenderResult& r, const RenderOptions& o) {
+  Json j;
+  j["device"] = hw::device_kind_name(o.device.kind);
+  j["width"] = r.width;
+  j["height"] = r.height;
+  j["spp"] = o.spp;
+  j["max_depth"] = o.max_depth;
+  j["seed"] = o.seed;
+  j["mode"] = o.ao ? "ambient_occlusion" : (o.indirect ? "path_tracing" : "direct_and_specular");
+  j["render_mode"] = o.hybrid ? "hybrid" : "raytrace";
+  j["seconds"] = r.seconds;
+  add_rays_json(j, r);
+  if (o.hybrid) j["raster"] = raster_stats_json(r.fw.raster);
+  if (r.fw.sorted) j["sort"] = sort_stats_json(r.fw.sort, hw::name_of(o.device.timing.ray_sort));
+  j["paths"] = r.fw.paths;
+  j["batches"] = r.fw.batches;
+  j["batch_paths"] = r.fw.batch_paths;
+  j["bounces"] = r.fw.bounces;
+  j["commands"] = {{"packets", r.ring.packets},
+                   {"trace", r.fw.traces},
+                   {"fences", r.ring.fences},
+                   {"doorbells", r.ring.doorbells},
+                   {"ring_full", r.ring.full}};
+  j["skipped"] = skipped_json(r, o);
+  j["unit"] = unit_json(r);
   j["spawn_offset"] = {{"abs", r.offset_abs}, {"rel", r.offset_rel}};
   j["warnings"] = render_warnings(r);
   if (o.device.kind != hw::DeviceKind::kFloat) j["format"] = format_json(o.device.format);
-  if (r.timed) {
-    Json t =
-        timing_breakdown_json(r.timing, r.timing_by_type, r.timing_by_bounce, o.device.timing, o.device.format);
-    t["device_clock"] = r.device_clock;
-    // Fence interrupts: the host sees the frame's last fence irq_latency after the device clock's end.
-    t["fence_irqs"] = r.device.fence_irqs;
-    t["last_irq_cycle"] = r.device.last_irq_cycle;
-    t["sample"] = sample_json(r.sampling);
-    if (!r.timing_by_unit.empty()) t["units"] = units_json(r.timing_by_unit, o.device.timing);
-    t["notes"] = timing_notes(r.timing, o.device.timing, &r.sampling);
-    add_timeline(t, &r.timeline, r.sampling);
-    // The frame: the rasterizer's cycles (hybrid), the sort's (ray sorting) and the unit's (every packet), which
-    // do not overlap.
-    const hw::RasterCycles& rc = r.raster_cycles;
-    t["raster"] = {{"cycles", rc.cycles},
-                   {"latency_cycles", rc.latency_cycles},
-                   {"setup_cycles", rc.setup_cycles},
-                   {"scan_cycles", rc.scan_cycles},
-                   {"fragment_cycles", rc.fragment_cycles},
-                   {"dram_cycles", rc.dram_cycles},
-                   {"dram_bytes", rc.dram_bytes},
-                   {"limit", rc.limit}};
-    t["raster_cycles"] = rc.cycles;
-    if (r.fw.sorted) {  // the controller's sorting, while the unit waits
-      const hw::SortCycles& sc = r.sort_cycles;
-      t["sort"] = {{"cycles", sc.cycles},
-                   {"latency_cycles", sc.latency_cycles},
-                   {"key_cycles", sc.key_cycles},
-                   {"pass_cycles", sc.pass_cycles},
-                   {"permute_cycles", sc.permute_cycles},
-                   {"return_cycles", sc.return_cycles},
-                   {"compute_cycles", sc.compute_cycles},
-                   {"dram_cycles", sc.dram_cycles},
-                   {"dram_bytes", sc.dram_bytes},
-                   {"limit", sc.limit}};
-      t["sort_cycles"] = sc.cycles;
-    }
-    t["trace_cycles"] = r.device_clock;
-    t["frame_cycles"] = r.frame_cycles;
-    t["config"] = timing_json(o.device.timing);
-    j["timing"] = t;
-  }
+  if (r.timed) j["timing"] = render_timing_json(r, o);
   return j;
 }
 

@@ -348,102 +348,94 @@ Prototype to_prototype(Builder&& b) {
   return p;
 }
 
-Scene build_city() {
-  Scene scene;
-  const uint32_t ground = add_material(scene, diffuse_material("street", Vec3(0.35f, 0.35f, 0.37f)));
-  const uint32_t concrete = add_material(scene, diffuse_material("concrete", Vec3(0.72f, 0.70f, 0.66f)));
-  const uint32_t glass = add_material(scene, diffuse_material("window", Vec3(0.25f, 0.35f, 0.45f)));
-  const uint32_t brick = add_material(scene, diffuse_material("brick", Vec3(0.62f, 0.32f, 0.22f)));
-  const uint32_t roof = add_material(scene, diffuse_material("roof", Vec3(0.30f, 0.22f, 0.20f)));
-  const uint32_t steel = add_material(scene, diffuse_material("steel", Vec3(0.55f, 0.60f, 0.66f)));
+// The city's prototypes, each on a footprint of about 1.6 x 1.6, standing on y = 0.
 
-  // Four prototypes on a footprint of about 1.6 x 1.6, standing on y = 0.
-  std::vector<Prototype> protos;
-  {  // a setback tower: three tiers with a ledge at every floor, an antenna
-    Builder b;
-    const double tiers[3][3] = {{0.80, 0.0, 3.0}, {0.60, 3.0, 5.0}, {0.35, 5.0, 6.5}};  // half width, y0, y1
-    for (const auto& t : tiers) {
-      b.add(box_between({-t[0], t[1], -t[0]}, {t[0], t[2], t[0]}), concrete);
-      for (double y = t[1] + 0.5; y < t[2] - 0.1; y += 0.5)
-        b.add(box_between({-t[0] - 0.04, y, -t[0] - 0.04}, {t[0] + 0.04, y + 0.06, t[0] + 0.04}), glass);
-    }
-    b.add(make_tube({DVec3(0, 6.5, 0), DVec3(0, 7.6, 0)}, {0.03, 0.015}, 6).mesh(), steel);
-    protos.push_back(to_prototype(std::move(b)));
+// A setback tower: three tiers with a ledge at every floor, an antenna.
+Prototype setback_tower(uint32_t concrete, uint32_t glass, uint32_t steel) {
+  Builder b;
+  const double tiers[3][3] = {{0.80, 0.0, 3.0}, {0.60, 3.0, 5.0}, {0.35, 5.0, 6.5}};  // half width, y0, y1
+  for (const auto& t : tiers) {
+    b.add(box_between({-t[0], t[1], -t[0]}, {t[0], t[2], t[0]}), concrete);
+    for (double y = t[1] + 0.5; y < t[2] - 0.1; y += 0.5)
+      b.add(box_between({-t[0] - 0.04, y, -t[0] - 0.04}, {t[0] + 0.04, y + 0.06, t[0] + 0.04}), glass);
   }
-  {  // an office block: a box with a grid of window frames on every side
-    Builder b;
-    b.add(box_between({-0.8, 0.0, -0.8}, {0.8, 2.4, 0.8}), brick);
-    for (int face = 0; face < 4; ++face)
-      for (int row = 0; row < 6; ++row)
-        for (int col = 0; col < 4; ++col) {
-          const double u0 = -0.65 + 0.35 * col, y0 = 0.25 + 0.35 * row;
-          DVec3 lo(u0, y0, 0.8), hi(u0 + 0.22, y0 + 0.22, 0.84);  // on the +z face, then turned
-          IndexedMesh w = box_between(lo, hi);
-          for (Vec3& p : w.vertices) {
-            const DVec3 q(p);
-            const double x[4] = {q.x, q.z, -q.x, -q.z}, z[4] = {q.z, -q.x, -q.z, q.x};
-            p = Vec3(DVec3(x[face], q.y, z[face]));
-          }
-          b.add(w, glass);
+  b.add(make_tube({DVec3(0, 6.5, 0), DVec3(0, 7.6, 0)}, {0.03, 0.015}, 6).mesh(), steel);
+  return to_prototype(std::move(b));
+}
+
+// An office block: a box with a grid of window frames on every side.
+Prototype office_block(uint32_t brick, uint32_t glass) {
+  Builder b;
+  b.add(box_between({-0.8, 0.0, -0.8}, {0.8, 2.4, 0.8}), brick);
+  for (int face = 0; face < 4; ++face)
+    for (int row = 0; row < 6; ++row)
+      for (int col = 0; col < 4; ++col) {
+        const double u0 = -0.65 + 0.35 * col, y0 = 0.25 + 0.35 * row;
+        DVec3 lo(u0, y0, 0.8), hi(u0 + 0.22, y0 + 0.22, 0.84);  // on the +z face, then turned
+        IndexedMesh w = box_between(lo, hi);
+        for (Vec3& p : w.vertices) {
+          const DVec3 q(p);
+          const double x[4] = {q.x, q.z, -q.x, -q.z}, z[4] = {q.z, -q.x, -q.z, q.x};
+          p = Vec3(DVec3(x[face], q.y, z[face]));
         }
-    protos.push_back(to_prototype(std::move(b)));
-  }
-  {  // a round tower: 32 sides, 8 storeys, a flat roof and a crown ring
-    Builder b;
-    std::vector<DVec3> path;
-    for (int i = 0; i <= 8; ++i) path.emplace_back(0.0, 0.5 * i, 0.0);
-    MeshD tower = make_tube(path, std::vector<double>(path.size(), 0.6), 32);
-    const uint32_t centre = tower.add(DVec3(0.0, 4.0, 0.0)), top = 8 * 32;
-    for (uint32_t j = 0; j < 32; ++j) tower.f.push_back({centre, top + (j + 1) % 32, top + j});
-    b.add(tower.mesh(), concrete);
-    IndexedMesh ring = make_torus(0.6f, 0.06f, 32, 6);
-    for (Vec3& p : ring.vertices) p = Vec3(DVec3(p) + DVec3(0.0, 4.0, 0.0));
-    b.add(ring, steel);
-    protos.push_back(to_prototype(std::move(b)));
-  }
-  {  // a house: an L of two blocks under gabled roofs
-    Builder b;
-    b.add(box_between({-0.8, 0.0, -0.8}, {0.8, 1.0, 0.0}), brick);
-    b.add(box_between({-0.8, 0.0, 0.0}, {0.0, 1.0, 0.8}), brick);
-    auto gable = [&](DVec3 lo, DVec3 hi, bool along_x) {  // a prism over the box lo..hi's top, ridge 0.5 higher
-      MeshD m;
-      const double y = hi.y, r = hi.y + 0.5;
-      if (along_x) {
-        const double zm = 0.5 * (lo.z + hi.z);
-        const uint32_t a = m.add({lo.x, y, lo.z}), b2 = m.add({hi.x, y, lo.z}), c = m.add({hi.x, r, zm}),
-                       d = m.add({lo.x, r, zm}), e = m.add({lo.x, y, hi.z}), f = m.add({hi.x, y, hi.z});
-        m.quad(a, d, c, b2);
-        m.quad(e, f, c, d);
-        m.f.push_back({a, e, d});
-        m.f.push_back({b2, c, f});
-      } else {
-        const double xm = 0.5 * (lo.x + hi.x);
-        const uint32_t a = m.add({lo.x, y, lo.z}), b2 = m.add({lo.x, y, hi.z}), c = m.add({xm, r, hi.z}),
-                       d = m.add({xm, r, lo.z}), e = m.add({hi.x, y, lo.z}), f = m.add({hi.x, y, hi.z});
-        m.quad(a, b2, c, d);
-        m.quad(e, d, c, f);
-        m.f.push_back({a, d, e});
-        m.f.push_back({b2, f, c});
+        b.add(w, glass);
       }
-      return m.mesh();
-    };
-    b.add(gable({-0.8, 0.0, -0.8}, {0.8, 1.0, 0.0}, true), roof);
-    b.add(gable({-0.8, 0.0, 0.0}, {0.0, 1.0, 0.8}, false), roof);
-    protos.push_back(to_prototype(std::move(b)));
+  return to_prototype(std::move(b));
+}
+
+// A round tower: 32 sides, 8 storeys, a flat roof and a crown ring.
+Prototype round_tower(uint32_t concrete, uint32_t steel) {
+  Builder b;
+  std::vector<DVec3> path;
+  for (int i = 0; i <= 8; ++i) path.emplace_back(0.0, 0.5 * i, 0.0);
+  MeshD tower = make_tube(path, std::vector<double>(path.size(), 0.6), 32);
+  const uint32_t centre = tower.add(DVec3(0.0, 4.0, 0.0)), top = 8 * 32;
+  for (uint32_t j = 0; j < 32; ++j) tower.f.push_back({centre, top + (j + 1) % 32, top + j});
+  b.add(tower.mesh(), concrete);
+  IndexedMesh ring = make_torus(0.6f, 0.06f, 32, 6);
+  for (Vec3& p : ring.vertices) p = Vec3(DVec3(p) + DVec3(0.0, 4.0, 0.0));
+  b.add(ring, steel);
+  return to_prototype(std::move(b));
+}
+
+// A gabled roof: a prism over the box lo..hi's top, its ridge 0.5 higher, along x or along z.
+IndexedMesh gable(DVec3 lo, DVec3 hi, bool along_x) {
+  MeshD m;
+  const double y = hi.y, r = hi.y + 0.5;
+  if (along_x) {
+    const double zm = 0.5 * (lo.z + hi.z);
+    const uint32_t a = m.add({lo.x, y, lo.z}), b2 = m.add({hi.x, y, lo.z}), c = m.add({hi.x, r, zm}),
+                   d = m.add({lo.x, r, zm}), e = m.add({lo.x, y, hi.z}), f = m.add({hi.x, y, hi.z});
+    m.quad(a, d, c, b2);
+    m.quad(e, f, c, d);
+    m.f.push_back({a, e, d});
+    m.f.push_back({b2, c, f});
+  } else {
+    const double xm = 0.5 * (lo.x + hi.x);
+    const uint32_t a = m.add({lo.x, y, lo.z}), b2 = m.add({lo.x, y, hi.z}), c = m.add({xm, r, hi.z}),
+                   d = m.add({xm, r, lo.z}), e = m.add({hi.x, y, lo.z}), f = m.add({hi.x, y, hi.z});
+    m.quad(a, b2, c, d);
+    m.quad(e, d, c, f);
+    m.f.push_back({a, d, e});
+    m.f.push_back({b2, f, c});
   }
+  return m.mesh();
+}
 
-  // Mesh 0 is the ground (placed once, under the identity), meshes 1..4 the prototypes.
-  hw::InstanceSet& set = scene.instances;
-  constexpr double kHalf = 21.0;
-  set.meshes.emplace_back();
-  Builder loose;
-  loose.add(box_between({-kHalf, -0.1, -kHalf}, {kHalf, 0.0, kHalf}), ground);
-  set.meshes[0].triangles = std::move(loose.tris);
-  std::vector<uint32_t> tri_material = std::move(loose.material);
-  for (Prototype& p : protos) set.meshes.push_back(p.geometry);
-  set.instances.push_back(hw::Instance{});
+// A house: an L of two blocks under gabled roofs.
+Prototype gabled_house(uint32_t brick, uint32_t roof) {
+  Builder b;
+  b.add(box_between({-0.8, 0.0, -0.8}, {0.8, 1.0, 0.0}), brick);
+  b.add(box_between({-0.8, 0.0, 0.0}, {0.0, 1.0, 0.8}), brick);
+  b.add(gable({-0.8, 0.0, -0.8}, {0.8, 1.0, 0.0}, true), roof);
+  b.add(gable({-0.8, 0.0, 0.0}, {0.0, 1.0, 0.8}, false), roof);
+  return to_prototype(std::move(b));
+}
 
-  // 16 x 16 blocks 2.5 apart: a prototype each, turned by a multiple of 90 degrees, scaled (heights 0.6-1.6x).
+// 16 x 16 blocks 2.5 apart: a prototype each (mesh 1 + its index), turned by a multiple of 90 degrees, scaled
+// (heights 0.6-1.6x); each instance's triangle materials appended to tri_material.
+void place_city_blocks(hw::InstanceSet& set, const std::vector<Prototype>& protos,
+                       std::vector<uint32_t>& tri_material) {
   Rng rng(0x43495459ull);  // "CITY"
   constexpr int kBlocks = 16;
   constexpr double kSpacing = 2.5;
@@ -464,6 +456,33 @@ Scene build_city() {
       set.instances.push_back(in);
       tri_material.insert(tri_material.end(), protos[proto].material.begin(), protos[proto].material.end());
     }
+}
+
+Scene build_city() {
+  Scene scene;
+  const uint32_t ground = add_material(scene, diffuse_material("street", Vec3(0.35f, 0.35f, 0.37f)));
+  const uint32_t concrete = add_material(scene, diffuse_material("concrete", Vec3(0.72f, 0.70f, 0.66f)));
+  const uint32_t glass = add_material(scene, diffuse_material("window", Vec3(0.25f, 0.35f, 0.45f)));
+  const uint32_t brick = add_material(scene, diffuse_material("brick", Vec3(0.62f, 0.32f, 0.22f)));
+  const uint32_t roof = add_material(scene, diffuse_material("roof", Vec3(0.30f, 0.22f, 0.20f)));
+  const uint32_t steel = add_material(scene, diffuse_material("steel", Vec3(0.55f, 0.60f, 0.66f)));
+  std::vector<Prototype> protos;
+  protos.push_back(setback_tower(concrete, glass, steel));
+  protos.push_back(office_block(brick, glass));
+  protos.push_back(round_tower(concrete, steel));
+  protos.push_back(gabled_house(brick, roof));
+
+  // Mesh 0 is the ground (placed once, under the identity), meshes 1..4 the prototypes.
+  hw::InstanceSet& set = scene.instances;
+  constexpr double kHalf = 21.0;
+  set.meshes.emplace_back();
+  Builder loose;
+  loose.add(box_between({-kHalf, -0.1, -kHalf}, {kHalf, 0.0, kHalf}), ground);
+  set.meshes[0].triangles = std::move(loose.tris);
+  std::vector<uint32_t> tri_material = std::move(loose.material);
+  for (Prototype& p : protos) set.meshes.push_back(p.geometry);
+  set.instances.push_back(hw::Instance{});
+  place_city_blocks(set, protos, tri_material);
   set.finish();
   scene.geometry = set.flatten({});
   scene.prim_material = std::move(tri_material);

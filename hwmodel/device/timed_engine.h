@@ -195,6 +195,11 @@ class TimedEngine final : public TraceEngine {
                       double box_rate, double tri_rate);
   uint64_t trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
                                 TimingStats& ts, size_t k, SlotTimeAccount& slot_time);
+  // The end of a sampled packet of n rays (a unit's or a chip's): its statistics ts, the `simulated` rays'
+  // counters scaled to the packet with the estimated `cycles`, and the sampling statistics (rays simulated and
+  // warmed, units measured, the estimate's variance).
+  void finish_sampled_packet(TimingStats& ts, uint64_t n, uint64_t simulated, uint64_t warmed, uint64_t units,
+                             uint64_t cycles, double variance);
   // Functional warming of the cache before ray `end` for the `sim` rays simulated from there on (their events in
   // events[0, sim)), walking rays backwards from it, recorded a chunk at a time into walk_events (at least 64
   // lists). Returns the rays walked.

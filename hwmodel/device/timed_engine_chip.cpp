@@ -428,15 +428,7 @@ uint64_t TimedEngine::trace_cycles_chip_dynamic(const Ray* rays, Hit* hits, size
   const CycleEstimate est = estimate_chip_cycles(cs, base);
   cycles = uint64_t(std::llround(est.cycles));
   for (const auto& unit : m_chip_units) unit->advance_to(base + cycles);
-  scale_sampled(ts, double(n) / double(simulated));
-  ts.packets = 1;
-  ts.cycles = cycles;
-  ts.rays = n;
-  ++m_sample_stats.packets_sampled;
-  m_sample_stats.rays_simulated += simulated;
-  m_sample_stats.rays_warmed += n - simulated;
-  m_sample_stats.units_measured += cs.measured_c.size();
-  m_sample_stats.variance += est.variance;
+  finish_sampled_packet(ts, n, simulated, n - simulated, cs.measured_c.size(), cycles, est.variance);
   return cycles;
 }
 

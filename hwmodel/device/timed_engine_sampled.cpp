@@ -199,6 +199,14 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
 
   // The packet's statistics: the simulated rays' counters scaled to the packet, the estimated cycles.
   ts = sim;
+  finish_sampled_packet(ts, n, simulated, warmed, order.size(), cycles, estimate.variance);
+  m_sample_stats.warmup_rays += warmup_total;
+  if (strata.size() > 1) ++m_sample_stats.packets_stratified;
+  return cycles;
+}
+
+void TimedEngine::finish_sampled_packet(TimingStats& ts, uint64_t n, uint64_t simulated, uint64_t warmed,
+                                        uint64_t units, uint64_t cycles, double variance) {
   scale_sampled(ts, double(n) / double(simulated));
   ts.packets = 1;
   ts.cycles = cycles;
@@ -206,11 +214,8 @@ uint64_t TimedEngine::trace_cycles_sampled(const Ray* rays, Hit* hits, size_t n,
   ++m_sample_stats.packets_sampled;
   m_sample_stats.rays_simulated += simulated;
   m_sample_stats.rays_warmed += warmed;
-  m_sample_stats.units_measured += order.size();
-  m_sample_stats.warmup_rays += warmup_total;
-  if (strata.size() > 1) ++m_sample_stats.packets_stratified;
-  m_sample_stats.variance += estimate.variance;
-  return cycles;
+  m_sample_stats.units_measured += units;
+  m_sample_stats.variance += variance;
 }
 
 }  // namespace rtu::hw

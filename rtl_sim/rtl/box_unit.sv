@@ -4,7 +4,7 @@
 //
 // LANES box tests per clock (1 <= LANES <= N): box_core is instantiated LANES wide and a node's occupied children
 // go through it LANES at a time, in ceil(count / LANES) clocks (one clock when count = 0). This is the timing
-// model's box unit with box_rate = LANES and box_latency = LATENCY (hwmodel/timing/timing_config.h, timed_engine.cpp: a
+// model's box unit with box_rate = LANES and box_latency = LATENCY (hwmodel/timing/timing_config.h, timing_model.h: a
 // node of `count` children issues in ceil(count / box_rate) clocks and its result leaves box_latency + issue - 1
 // clocks after it was taken). With LANES = N the sequencer is not built: box_unit is box_core.
 //

@@ -1,8 +1,8 @@
 // Mesh files through the importer rtu owns (host/scene/mesh_import.cpp over Assimp): the first byte picks the
 // format (byte % 8: OBJ, PLY, OFF, STL, glTF, Collada, DirectX .x, AC3D), the rest is the file. The flat formats
 // first; the last four nest (JSON arrays and node trees, XML elements, frames, kids) and reach Assimp's recursive
-// parsers, whose stack overflow on deep input mesh_import.cpp must report as an Error. Accepted meshes give finite
-// triangles; everything else an Error.
+// parsers, whose stack overflow on deep input mesh_import_process.cpp must report as an Error. Accepted meshes
+// give finite triangles; everything else an Error.
 #include <cmath>
 
 #include "host/io/error.h"

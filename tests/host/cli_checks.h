@@ -51,4 +51,31 @@ inline void check_same_rows(std::vector<std::string> a, std::vector<std::string>
   CHECK(a == b);
 }
 
+// A command line rtusim must refuse, and words its message must hold.
+struct Refusal {
+  std::string args, words;
+};
+
+// Each case: rtusim exits with status 2, the status of bad input, and its output holds the case's words.
+inline void check_refused(const std::vector<Refusal>& cases) {
+  for (const Refusal& c : cases) {
+    const Run r = run_rtusim(c.args);
+    INFO(c.args << "\n" << r.output);
+    CHECK(r.status == 2);
+    CHECK(r.output.find(c.words) != std::string::npos);
+  }
+}
+
+// Each case: rtusim fails (a status other than 0) by exiting, not killed by a signal, and its output holds the
+// case's words.
+inline void check_failed(const std::vector<Refusal>& cases) {
+  for (const Refusal& c : cases) {
+    const Run r = run_rtusim(c.args);
+    INFO(c.args << "\n" << r.output);
+    CHECK(r.status != 0);
+    CHECK(r.status < 128);  // not killed by a signal
+    CHECK(r.output.find(c.words) != std::string::npos);
+  }
+}
+
 }  // namespace rtu::test

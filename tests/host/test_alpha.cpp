@@ -19,6 +19,7 @@
 #include "hwmodel/device/timed_engine.h"
 #include "hwmodel/timing/timing_config.h"
 #include "tests/common/test_util.h"
+#include "tests/host/error_checks.h"
 #include "tests/host/run_process.h"
 
 #include <stb/stb_image_write.h>
@@ -39,22 +40,7 @@ std::string write_file(const std::string& name, const std::string& text) {
 }
 
 std::string load_error(const std::string& text) {
-  try {
-    host::load_scene(write_file("bad.json", text));
-  } catch (const host::Error& e) {
-    return e.what();
-  }
-  return "(loaded)";
-}
-
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const host::Error& e) {
-    return e.what();
-  }
-  return "(no error)";
+  return error_of([&] { host::load_scene(write_file("bad.json", text)); }, "(loaded)");
 }
 
 // The mask: 4 x 4 texels, bit (row * 4 + col) of kMask set where the leaf is there (alpha 255), clear where rays

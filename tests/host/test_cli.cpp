@@ -2,7 +2,8 @@
 // and a non-zero exit (never a crash), and the device options each command takes or refuses. The subcommands
 // themselves: test_cli_trace.cpp (rays, trace, info), test_cli_compare.cpp (compare, stress),
 // test_cli_render.cpp (render, demo, diff), test_cli_timing.cpp (config, timed and sampled trace),
-// test_cli_sweep.cpp (sweep, plan), test_cli_report.cpp (report, pareto).
+// test_cli_sweep.cpp (sweep, plan), test_cli_manifest.cpp (sweep manifests), test_cli_report.cpp (report,
+// pareto).
 #include <catch2/catch.hpp>
 
 #include <fstream>
@@ -32,10 +33,7 @@ TEST_CASE("bad input: clear error, non-zero exit, no crash", "[cli]") {
   std::ofstream(d / "broken.json") << "{ \"spheres\": [ {\"center\": [0,0,0], \"radius\": 1 ";
   std::ofstream(d / "unknown.json") << R"({"spheres": [{"center": [0,0,0], "radius": 1, "colour": 3}]})";
   const std::string out = (d / "h.bin").string();
-  struct Case {
-    std::string args, words;
-  };
-  const Case cases[] = {
+  const std::vector<Refusal> cases = {
       {"trace --scene builtin:seed --rays " + (d / "odd.rays").string() + " --out " + out, "multiple of 32"},
       {"trace --scene builtin:nosuch --rays " + (d / "odd.rays").string() + " --out " + out, "nosuch"},
       {"info --scene " + (d / "missing.obj").string(), "missing.obj"},
@@ -53,13 +51,7 @@ TEST_CASE("bad input: clear error, non-zero exit, no crash", "[cli]") {
       {"compare --scene builtin:seed --rays incoherent:x", "count"},
       {"stress --count 10 --category nosuch", "nosuch"},
   };
-  for (const Case& c : cases) {
-    const Run r = run_rtusim(c.args);
-    INFO(c.args << "\n" << r.output);
-    CHECK(r.status != 0);
-    CHECK(r.status < 128);  // not killed by a signal
-    CHECK(r.output.find(c.words) != std::string::npos);
-  }
+  check_failed(cases);
 }
 
 TEST_CASE("usage errors exit 2 with CLI11's message, --help and --version exit 0", "[cli]") {
@@ -132,10 +124,7 @@ TEST_CASE("device options: a command lists only those it uses, and refuses those
 
   // Given for a device that does not use them: a usage error naming the option and the device it applies to.
   const std::string trace = "trace --scene builtin:seed --rays " + rays + " --out " + hits + " ";
-  struct Case {
-    std::string args, words;
-  };
-  const Case cases[] = {
+  const std::vector<Refusal> cases = {
       {trace + "--device float --sample 0.1", "--sample applies to --device timed only"},
       {trace + "--device fixed --sample-seed 3", "--sample-seed applies to --device timed only"},
       {trace + "--device fixed --config intel", "--config applies to --device timed only"},
@@ -148,12 +137,7 @@ TEST_CASE("device options: a command lists only those it uses, and refuses those
            " --device float --sample 0.5",
        "--sample applies"},
   };
-  for (const Case& c : cases) {
-    const Run r = run_rtusim(c.args);
-    INFO(c.args << "\n" << r.output);
-    CHECK(r.status == 2);
-    CHECK(r.output.find(c.words) != std::string::npos);
-  }
+  check_refused(cases);
   // The same options where the device uses them, and defaults given on no device, are fine.
   CHECK(run_rtusim(trace + "--device timed --config intel --sample 0.5 --sample-seed 3").status == 0);
   CHECK(run_rtusim(trace + "--device fixed --watchdog-steps 100000 --coord-bits 16").status == 0);

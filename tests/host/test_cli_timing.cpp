@@ -66,10 +66,7 @@ TEST_CASE("config: a preset's every key, --set overrides, JSON keys, --list", "[
 
 TEST_CASE("config: unknown preset or key, bad values, malformed --set: exit 2 naming the problem",
           "[cli][timing][config]") {
-  struct Case {
-    std::string args, words;
-  };
-  const Case cases[] = {
+  const std::vector<Refusal> cases = {
       {"config --config amd", "amd"},
       {"config --config rdna2 --set ray_slot=4", "ray_slot"},
       {"config --config rdna2 --set ray_slots=12x", "ray_slots"},
@@ -80,12 +77,7 @@ TEST_CASE("config: unknown preset or key, bad values, malformed --set: exit 2 na
       {"config --config rdna2 --set format=nosuch", "nosuch"},
       {"config --config rdna2 --set ray_slots", "key=value"},
   };
-  for (const Case& c : cases) {
-    const Run r = run_rtusim(c.args);
-    INFO(c.args << "\n" << r.output);
-    CHECK(r.status == 2);
-    CHECK(r.output.find(c.words) != std::string::npos);
-  }
+  check_refused(cases);
 }
 
 namespace {

@@ -16,6 +16,8 @@
 #include "host/scene/scene.h"
 #include "hwmodel/cost/energy_model.h"
 #include "hwmodel/timing/timing_config.h"
+#include "tests/host/plan_checks.h"
+#include "tests/host/timed_checks.h"
 
 namespace {
 
@@ -31,9 +33,7 @@ TimingStats timed_run(const std::string& scene, const TimingConfig& c, size_t n 
   o.format = rtu::hw::format_preset(c.format);
   o.format.width = c.bvh_width;
   o.tracer.bvh.width = c.bvh_width;
-  std::vector<rtu::hw::Ray> rays = rtu::host::primary_rays(s.camera, n);
-  const std::vector<rtu::hw::Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), n, 3);
-  rays.insert(rays.end(), inc.begin(), inc.end());
+  std::vector<rtu::hw::Ray> rays = camera_and_incoherent_rays(s, n, 3);
   std::vector<rtu::hw::Hit> hits(rays.size());
   const auto dev = rtu::host::make_device(s.geometry, o);
   rtu::hw::TraversalStats ts;
@@ -264,12 +264,7 @@ TEST_CASE(
   for (const double min_gain : {o.min_gain_pct, 0.0}) {
     o.min_gain_pct = min_gain;
     CAPTURE(min_gain);
-    std::vector<rtu::host::SweepRow> candidates;
-    bool comparison = false;  // after kDefault: the base format, measured for comparison, is no candidate
-    const rtu::host::PlanResult res = rtu::host::plan_format(o, [&](const rtu::host::PlanStep& s) {
-      comparison = comparison || s.stage == rtu::host::PlanStage::kDefault;
-      if (s.stage == rtu::host::PlanStage::kCandidate && s.meets && !comparison) candidates.push_back(*s.row);
-    });
+    const auto [res, candidates] = plan_with_candidates(o);
     REQUIRE(res.found);
     REQUIRE(!candidates.empty());
     CHECK(res.json["min_gain_applies"] == true);

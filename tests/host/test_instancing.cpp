@@ -14,6 +14,7 @@
 #include "hwmodel/datapath/instancing.h"
 #include "hwmodel/numeric/rng.h"
 #include "tests/common/test_util.h"
+#include "tests/host/error_checks.h"
 
 using namespace rtu;
 
@@ -29,12 +30,7 @@ std::string write_scene(const std::string& name, const std::string& text) {
 }
 
 std::string load_error(const std::string& text) {
-  try {
-    host::load_scene(write_scene("bad", text));
-  } catch (const host::Error& e) {
-    return e.what();
-  }
-  return "(loaded)";
+  return error_of([&] { host::load_scene(write_scene("bad", text)); }, "(loaded)");
 }
 
 std::vector<hw::Hit> trace(const hw::InstancedFloatTracer& t, const std::vector<hw::Ray>& rays, bool any_hit) {

@@ -30,6 +30,7 @@
 #include "host/scene/scene.h"
 #include "hwmodel/timing/timing_config.h"
 #include "tests/common/test_util.h"
+#include "tests/host/plan_checks.h"
 
 namespace fs = std::filesystem;
 using rtu::host::Json;
@@ -457,12 +458,7 @@ TEST_CASE("plan --minimise perf-per-area: the most rays per clock per mm^2 of th
   o.sweep.image_width = 0;
   o.sweep.threads = 1;
   o.minimise = "perf-per-area";
-  std::vector<rtu::host::SweepRow> candidates;
-  bool comparison = false;  // after kDefault: the base format, measured for comparison, is no candidate
-  const rtu::host::PlanResult res = rtu::host::plan_format(o, [&](const rtu::host::PlanStep& s) {
-    comparison = comparison || s.stage == rtu::host::PlanStage::kDefault;
-    if (s.stage == rtu::host::PlanStage::kCandidate && s.meets && !comparison) candidates.push_back(*s.row);
-  });
+  const auto [res, candidates] = plan_with_candidates(o);
   REQUIRE(res.found);
   REQUIRE(candidates.size() >= 6);
   const double best = rtu::host::plan_perf_per_area(res.best);

@@ -11,7 +11,6 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <functional>
 #include <iterator>
 #include <string>
 #include <utility>
@@ -29,6 +28,7 @@
 #include "hwmodel/device/timed_engine.h"
 #include "hwmodel/scene/bvh.h"
 #include "tests/common/test_util.h"
+#include "tests/host/error_checks.h"
 #include "tests/host/run_process.h"
 
 using namespace rtu;
@@ -42,15 +42,6 @@ struct MemoryLimit {
   explicit MemoryLimit(const char* v) { ::setenv("RTU_MEMORY_LIMIT", v, 1); }
   ~MemoryLimit() { ::unsetenv("RTU_MEMORY_LIMIT"); }
 };
-
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const host::Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
 
 }  // namespace
 
@@ -184,7 +175,7 @@ TEST_CASE("a PLY header Assimp would loop on is refused first", "[limits]") {
 TEST_CASE("a mesh file that crashes Assimp is an error, not a crash of rtu", "[limits]") {
   // Found by fuzz_mesh_import (regressions/mesh_import/assimp_ply_triangulate_assert_abort): a PLY body that
   // contradicts its header trips an assertion in Assimp's triangulation, which aborts. Assimp runs in a child
-  // process (host/scene/mesh_import.cpp), so the abort becomes an Error naming the file.
+  // process (host/scene/mesh_import_process.cpp), so the abort becomes an Error naming the file.
   const fs::path dir = temp_dir("limits");
   std::ifstream in(
       fs::path(RTU_SOURCE_DIR) / "tests/fuzz/regressions/mesh_import/assimp_ply_triangulate_assert_abort",
@@ -268,6 +259,16 @@ rtu::test::Run measured_rtusim(const std::string& env, const std::string& args) 
   return rtu::test::run_measured(env + " " + std::string(RTUSIM_EXE) + " " + args);
 }
 
+// rtusim with `env` refuses the job `args`, exit status 2, saying `message`, before it holds 64 MiB: the refusal
+// comes before the memory is taken.
+void check_refused_early(const std::string& env, const std::string& args, const std::string& message) {
+  const rtu::test::Run r = measured_rtusim(env, args);
+  INFO(r.output);
+  CHECK(r.status == 2);
+  CHECK(contains(r.output, message));
+  CHECK(mib(r.peak_kib) < 64);
+}
+
 // A scene of `count` instances of one quad, all in the same place (nested prototypes of ten, so the file stays
 // small), seen from above: every camera ray passes through every instance.
 void write_coinciding_scene(const fs::path& path, int levels) {
@@ -317,19 +318,60 @@ std::pair<rtu::test::Run, rtu::test::Run> coinciding_peaks(const fs::path& dir, 
   return {f, t};
 }
 
+// The coinciding scene of 1000 instances (3 levels), written to `path` and loaded.
+host::Scene coinciding_scene(const fs::path& path) {
+  write_coinciding_scene(path, 3);
+  return host::load_scene(path.string());
+}
+
+// The rays of a coinciding scene through the timed device with options `o` (its kind and the scene's instances
+// set here) four times: whole packets on 1 thread, 64 KiB of events a chunk (a few rays) on 1 and 2 threads, and
+// every ray a chunk of its own on 2 threads. Each run's hits and cycles.
+struct ChunkedRuns {
+  std::vector<hw::Hit> hits[4];
+  uint64_t cycles[4] = {0, 0, 0, 0};
+  // Ray i's hits are the same in every run, bit for bit.
+  bool same_hits(size_t i) const {
+    return std::memcmp(&hits[0][i], &hits[1][i], sizeof(hw::Hit)) == 0 &&
+           std::memcmp(&hits[0][i], &hits[2][i], sizeof(hw::Hit)) == 0 &&
+           std::memcmp(&hits[0][i], &hits[3][i], sizeof(hw::Hit)) == 0;
+  }
+};
+
+ChunkedRuns run_chunked(const host::Scene& scene, const std::vector<hw::Ray>& rays, host::DeviceOptions o) {
+  o.kind = hw::DeviceKind::kTimed;
+  o.instances = &scene.instances;
+  const uint64_t chunk_bytes[4] = {0, 64 << 10, 64 << 10, 1};
+  const int threads[4] = {1, 1, 2, 2};
+  ChunkedRuns r;
+  for (int k = 0; k < 4; ++k) {
+    const auto dev = host::make_device(scene.geometry, o);
+    if (chunk_bytes[k]) dev->timed()->set_chunk_event_bytes(chunk_bytes[k]);
+    r.hits[k].resize(rays.size());
+    hw::TraversalStats s;
+    dev->trace_batch(rays.data(), r.hits[k].data(), rays.size(), false, threads[k], s);
+    r.cycles[k] = dev->timed()->timing().cycles;
+  }
+  return r;
+}
+
+// The four runs took the same cycles, and some.
+void check_same_cycles(const ChunkedRuns& r) {
+  CHECK(r.cycles[0] > 0);
+  CHECK(r.cycles[1] == r.cycles[0]);
+  CHECK(r.cycles[2] == r.cycles[0]);
+  CHECK(r.cycles[3] == r.cycles[0]);
+}
+
 }  // namespace
 
 TEST_CASE("memory limit: rays --count is refused before the rays are made", "[limits][memory]") {
   const fs::path dir = temp_dir("limits");
   for (const char* kind : {"primary", "incoherent"}) {
-    const rtu::test::Run r =
-        measured_rtusim("RTU_MEMORY_LIMIT=64M", std::string("rays --scene builtin:seed --kind ") + kind +
-                                                    " --count 4000000 --out " + (dir / "r.bin").string());
-    INFO(r.output);
-    CHECK(r.status == 2);
-    CHECK(contains(r.output,
-                   std::string("4000000 ") + kind + " rays needs about 123 MiB of memory, above the limit"));
-    CHECK(mib(r.peak_kib) < 64);
+    check_refused_early("RTU_MEMORY_LIMIT=64M",
+                        std::string("rays --scene builtin:seed --kind ") + kind + " --count 4000000 --out " +
+                            (dir / "r.bin").string(),
+                        std::string("4000000 ") + kind + " rays needs about 123 MiB of memory, above the limit");
   }
   // The generators themselves, whoever calls them.
   MemoryLimit m("1M");
@@ -343,14 +385,10 @@ TEST_CASE("memory limit: sweep --rays and plan --rays are refused before the ray
   const fs::path dir = temp_dir("limits");
   for (const std::string& job :
        {"sweep --out " + (dir / "s.csv").string(), std::string("plan --max-error 0.01")}) {
-    const rtu::test::Run r =
-        measured_rtusim("RTU_MEMORY_LIMIT=64M", job + " --scene builtin:seed --rays 1000000 --image-width 0");
-    INFO(r.output);
-    CHECK(r.status == 2);
-    CHECK(contains(r.output, job.substr(0, job.find(' ')) +
-                                 " --rays 1000000: 1000000 camera and as many incoherent rays with their hits "
-                                 "needs about 153 MiB of memory, above the limit of 64 MiB"));
-    CHECK(mib(r.peak_kib) < 64);
+    check_refused_early("RTU_MEMORY_LIMIT=64M", job + " --scene builtin:seed --rays 1000000 --image-width 0",
+                        job.substr(0, job.find(' ')) +
+                            " --rays 1000000: 1000000 camera and as many incoherent rays with their hits "
+                            "needs about 153 MiB of memory, above the limit of 64 MiB");
   }
 }
 
@@ -408,51 +446,25 @@ TEST_CASE("memory limit: instances are held to the budget as they are expanded",
                                    << R"(}, "p3": {"instances": )" << placements("p2", 16) << R"(}},
     "instances": )" << placements("p3", 4)
                                    << "}";
-  const rtu::test::Run r = measured_rtusim("RTU_MEMORY_LIMIT=64M", "info --scene " + (dir / "inst.json").string());
-  INFO(r.output);
-  CHECK(r.status == 2);
-  CHECK(contains(r.output,
-                 "inst.json: prototypes.p1.instances[3]: the instances so far: 266240 primitives needs "
-                 "about 65 MiB of memory, above the limit of 64 MiB"));
-  CHECK(mib(r.peak_kib) < 64);
+  check_refused_early("RTU_MEMORY_LIMIT=64M", "info --scene " + (dir / "inst.json").string(),
+                      "inst.json: prototypes.p1.instances[3]: the instances so far: 266240 primitives needs "
+                      "about 65 MiB of memory, above the limit of 64 MiB");
 }
 
 TEST_CASE("timed device: events are recorded in bounded chunks, with the same hits and cycles",
           "[limits][memory][scale]") {
   const fs::path dir = temp_dir("limits");
-  write_coinciding_scene(dir / "coin.json", 3);  // 1000 instances in one place
-  const host::Scene scene = host::load_scene((dir / "coin.json").string());
+  const host::Scene scene = coinciding_scene(dir / "coin.json");  // 1000 instances in one place
   const std::vector<hw::Ray> rays = host::primary_rays(scene.camera, uint64_t(300));
-  auto run = [&](uint64_t chunk_bytes, int threads, uint64_t& cycles) {
-    host::DeviceOptions o;
-    o.kind = hw::DeviceKind::kTimed;
-    o.instances = &scene.instances;
-    const auto dev = host::make_device(scene.geometry, o);
-    if (chunk_bytes) dev->timed()->set_chunk_event_bytes(chunk_bytes);
-    std::vector<hw::Hit> hits(rays.size());
-    hw::TraversalStats s;
-    dev->trace_batch(rays.data(), hits.data(), rays.size(), false, threads, s);
-    cycles = dev->timed()->timing().cycles;
-    return hits;
-  };
-  uint64_t c0 = 0, c1 = 0, c2 = 0, c3 = 0;
-  const std::vector<hw::Hit> h0 = run(0, 1, c0);
-  const std::vector<hw::Hit> h1 = run(64 << 10, 1, c1);  // a few rays per chunk
-  const std::vector<hw::Hit> h2 = run(64 << 10, 2, c2);
-  const std::vector<hw::Hit> h3 = run(1, 2, c3);  // every ray a chunk of its own
-  REQUIRE(h0.size() == rays.size());
+  const ChunkedRuns r = run_chunked(scene, rays, host::DeviceOptions{});
+  REQUIRE(r.hits[0].size() == rays.size());
   size_t hit = 0;
   for (size_t i = 0; i < rays.size(); ++i) {
-    hit += h0[i].hit();
-    CHECK((std::memcmp(&h0[i], &h1[i], sizeof(hw::Hit)) == 0 &&
-           std::memcmp(&h0[i], &h2[i], sizeof(hw::Hit)) == 0 &&
-           std::memcmp(&h0[i], &h3[i], sizeof(hw::Hit)) == 0));
+    hit += r.hits[0][i].hit();
+    CHECK(r.same_hits(i));
   }
   CHECK(hit == rays.size());
-  CHECK(c0 > 0);
-  CHECK(c1 == c0);
-  CHECK(c2 == c0);
-  CHECK(c3 == c0);
+  check_same_cycles(r);
 
   // From the command line, 10000 instances: the timed device holds a chunk's events (at most 32 MiB) and its ray
   // slots' (32 rays in flight), not every ray's (8 bytes an event, tens of thousands of events per ray here).
@@ -571,40 +583,18 @@ TEST_CASE("memory limit: timing keys whose caches and units pass the budget are 
 TEST_CASE("memory limit: a chip records its units' rays in bounded chunks, with the same hits and cycles",
           "[limits][memory]") {
   const fs::path dir = temp_dir("limits");
-  write_coinciding_scene(dir / "coin.json", 3);  // 1000 instances in one place
-  const host::Scene scene = host::load_scene((dir / "coin.json").string());
+  const host::Scene scene = coinciding_scene(dir / "coin.json");  // 1000 instances in one place
   const std::vector<hw::Ray> rays = host::primary_rays(scene.camera, uint64_t(300));
-  auto run = [&](const std::string& policy, uint64_t chunk_bytes, int threads, uint64_t& cycles) {
+  for (const char* policy : {"waves", "round_robin"}) {
     host::DeviceOptions o;
-    o.kind = hw::DeviceKind::kTimed;
-    o.instances = &scene.instances;
     o.timing.units = 3;
     o.timing.ray_slots = 8;
     hw::set_timing_key(o.timing, "ray_policy", policy);
-    const auto dev = host::make_device(scene.geometry, o);
-    if (chunk_bytes) dev->timed()->set_chunk_event_bytes(chunk_bytes);
-    std::vector<hw::Hit> hits(rays.size());
-    hw::TraversalStats s;
-    dev->trace_batch(rays.data(), hits.data(), rays.size(), false, threads, s);
-    cycles = dev->timed()->timing().cycles;
-    return hits;
-  };
-  for (const char* policy : {"waves", "round_robin"}) {
-    uint64_t c0 = 0, c1 = 0, c2 = 0, c3 = 0;
-    const std::vector<hw::Hit> h0 = run(policy, 0, 1, c0);
-    const std::vector<hw::Hit> h1 = run(policy, 64 << 10, 1, c1);  // a few rays per unit's chunk
-    const std::vector<hw::Hit> h2 = run(policy, 64 << 10, 2, c2);
-    const std::vector<hw::Hit> h3 = run(policy, 1, 2, c3);  // every ray a chunk of its own
+    const ChunkedRuns r = run_chunked(scene, rays, o);  // 64 KiB: a few rays per unit's chunk
     size_t same = 0;
-    for (size_t i = 0; i < rays.size(); ++i)
-      same += std::memcmp(&h0[i], &h1[i], sizeof(hw::Hit)) == 0 &&
-              std::memcmp(&h0[i], &h2[i], sizeof(hw::Hit)) == 0 &&
-              std::memcmp(&h0[i], &h3[i], sizeof(hw::Hit)) == 0;
+    for (size_t i = 0; i < rays.size(); ++i) same += r.same_hits(i);
     CHECK(same == rays.size());
-    CHECK(c0 > 0);
-    CHECK(c1 == c0);
-    CHECK(c2 == c0);
-    CHECK(c3 == c0);
+    check_same_cycles(r);
   }
 
   // From the command line, 10000 instances on 4 units of 8 slots: the chip holds its units' chunks (at most twice
@@ -627,23 +617,15 @@ TEST_CASE("memory limit: a mesh file's accessor counts are held to its buffers a
   std::ofstream(dir / "sparse.gltf") << head << R"({"componentType": 5126, "count": 100000000, "type": "VEC3",
     "min": [0, 0, 0], "max": [1, 0, 0], "sparse": {"count": 1,
     "indices": {"bufferView": 0, "componentType": 5125}, "values": {"bufferView": 1}}}]})";
-  rtu::test::Run r = measured_rtusim("RTU_MEMORY_LIMIT=1G", "info --scene " + (dir / "sparse.gltf").string());
-  INFO(r.output);
-  CHECK(r.status == 2);
-  CHECK(contains(r.output,
-                 "sparse.gltf: the glTF accessors' elements needs about 5723 MiB of memory, above the "
-                 "limit of 1024 MiB"));
-  CHECK(mib(r.peak_kib) < 64);
+  check_refused_early("RTU_MEMORY_LIMIT=1G", "info --scene " + (dir / "sparse.gltf").string(),
+                      "sparse.gltf: the glTF accessors' elements needs about 5723 MiB of memory, above the "
+                      "limit of 1024 MiB");
   // On a buffer view: the count against the view's bytes, whatever the budget.
   std::ofstream(dir / "lines.gltf") << head << R"({"bufferView": 2, "componentType": 5126, "count": 100000000,
     "type": "VEC3", "min": [0, 0, 0], "max": [1, 0, 0]}]})";
-  r = measured_rtusim("", "info --scene " + (dir / "lines.gltf").string());
-  INFO(r.output);
-  CHECK(r.status == 2);
-  CHECK(contains(r.output,
-                 "lines.gltf: glTF accessor 0: 100000000 elements of 12 bytes need 1200000000 bytes, "
-                 "more than its buffer view's 24"));
-  CHECK(mib(r.peak_kib) < 64);
+  check_refused_early("", "info --scene " + (dir / "lines.gltf").string(),
+                      "lines.gltf: glTF accessor 0: 100000000 elements of 12 bytes need 1200000000 bytes, "
+                      "more than its buffer view's 24");
   // The same file with the count its buffer holds imports: one line of two vertices.
   std::ofstream(dir / "ok.gltf") << head << R"({"bufferView": 2, "componentType": 5126, "count": 2,
     "type": "VEC3", "min": [0, 0, 0], "max": [1, 0, 0]}]})";

@@ -16,6 +16,7 @@
 #include "host/io/json_io.h"
 #include "host/scene/scene.h"
 #include "tests/common/test_util.h"
+#include "tests/host/error_checks.h"
 #include "tests/host/run_process.h"
 
 using namespace rtu;
@@ -45,21 +46,11 @@ std::string write(const fs::path& p, const std::string& text) {
 }
 
 std::string error_of_parse(const std::string& text) {
-  try {
-    host::parse_json_limited(text, "in.json");
-  } catch (const host::Error& e) {
-    return e.what();
-  }
-  return "";
+  return error_of([&] { host::parse_json_limited(text, "in.json"); }, "");
 }
 
 std::string error_of_import(const std::string& path) {
-  try {
-    host::import_mesh(path);
-  } catch (const host::Error& e) {
-    return e.what();
-  }
-  return "";
+  return error_of([&] { host::import_mesh(path); }, "");
 }
 
 const std::string kDepthMessage = "nested deeper than 64 levels of arrays and objects";
@@ -132,9 +123,9 @@ TEST_CASE("rtusim info on scene files of 10^6 nested arrays: a clear error, exit
   fs::remove_all(d);
 }
 
-// Assimp's parsers recurse per level (host/scene/mesh_import.cpp has the figures). Before the import ran on its
-// own stack, each of these was reported as "the mesh importer (Assimp) crashed (signal 11)": safe, but the message
-// did not say why. Now the overflow is recognized and named.
+// Assimp's parsers recurse per level (host/scene/mesh_import_process.cpp has the figures). Before the import ran
+// on its own stack, each of these was reported as "the mesh importer (Assimp) crashed (signal 11)": safe, but the
+// message did not say why. Now the overflow is recognized and named.
 TEST_CASE("mesh files nested too deeply for Assimp: a clear error, exit status 2", "[limits][scene]") {
   const fs::path d = temp_dir("nesting");
   const std::string overflow = "ran out of its 64 MiB stack: the file nests too deeply";

@@ -1,6 +1,7 @@
 // The timed device against the fixed device: identical hits, bit for bit (the fixed datapath decides what
 // happens), on built-in scenes, a real mesh and hostile rays; cycles that repeat across runs and thread counts;
-// renders through the command processor identical to the fixed device's, with a clock that counts cycles.
+// renders through the command processor identical to the fixed device's, with a clock that counts cycles; the
+// presets' bounds and notes, pipeline traces and sampled timing. Memory systems and chips: test_timed_chip.cpp.
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
@@ -18,6 +19,7 @@
 #include "host/scene/scene.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_stats.h"
+#include "tests/host/timed_checks.h"
 #include "tests/hwmodel/timing_checks.h"
 
 using rtu::host::DeviceOptions;
@@ -27,22 +29,10 @@ using rtu::hw::Vec3;
 
 namespace {
 
-DeviceOptions options(const std::string& device, const std::string& preset) {
-  DeviceOptions o;
-  o.kind = rtu::hw::parse_device_kind(device);
-  o.timing = rtu::hw::timing_preset(preset);
-  o.format = rtu::hw::format_preset(o.timing.format);
-  o.format.width = o.timing.bvh_width;
-  o.tracer.bvh.width = o.format.width;
-  return o;
-}
-
 // Camera rays, incoherent rays, and rays that probe the datapath's corners: axis-parallel with +-0 components,
 // through the bounds' corners, far origins, NaN and Inf components, empty intervals.
 std::vector<Ray> test_rays(const rtu::host::Scene& s, size_t n) {
-  std::vector<Ray> rays = rtu::host::primary_rays(s.camera, n);
-  const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), n, 7);
-  rays.insert(rays.end(), inc.begin(), inc.end());
+  std::vector<Ray> rays = camera_and_incoherent_rays(s, n, 7);
   const rtu::hw::Aabb b = s.geometry.bounds();
   const Vec3 c = 0.5f * (b.lo + b.hi);
   const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
@@ -95,15 +85,15 @@ TEST_CASE("timed hits equal the fixed device's bit for bit, cycles repeat", "[ti
     const std::vector<Ray> rays = test_rays(s, 20000);
     for (const std::string& preset : rtu::hw::timing_preset_names()) {
       CAPTURE(name, preset);
-      const auto fixed = rtu::host::make_device(s.geometry, options("fixed", preset));
-      const auto timed = rtu::host::make_device(s.geometry, options("timed", preset));
+      const auto fixed = rtu::host::make_device(s.geometry, preset_options("fixed", preset));
+      const auto timed = rtu::host::make_device(s.geometry, preset_options("timed", preset));
       check_timed_equals_fixed(*fixed, *timed, rays);
       REQUIRE(timed->timed() != nullptr);
       const rtu::hw::TimingStats& t = timed->timed()->timing();
       CHECK(t.rays == 2 * rays.size());
       CHECK(t.cycles > 0);
       // The same rays on a fresh device, one thread: the same cycles.
-      const auto again = rtu::host::make_device(s.geometry, options("timed", preset));
+      const auto again = rtu::host::make_device(s.geometry, preset_options("timed", preset));
       for (bool any_hit : {false, true}) {
         std::vector<Hit> h(rays.size());
         rtu::hw::TraversalStats st;
@@ -122,7 +112,7 @@ TEST_CASE("timed hits equal the fixed device's at every BVH width, 6 included", 
     const std::vector<Ray> rays = test_rays(s, 5000);
     for (int width : {2, 4, 6, 8}) {
       CAPTURE(name, width);
-      DeviceOptions of = options("fixed", "rdna2"), ot = options("timed", "rdna2");
+      DeviceOptions of = preset_options("fixed", "rdna2"), ot = preset_options("timed", "rdna2");
       for (DeviceOptions* o : {&of, &ot}) {
         o->timing.bvh_width = width;
         o->format.width = width;
@@ -167,7 +157,7 @@ TEST_CASE("memory-bound presets: incoherent rays on a real mesh are limited by D
     rtu::hw::TimingStats t;
   };
   auto run = [&](const std::string& device, const std::string& preset) {
-    const auto d = rtu::host::make_device(s.geometry, options(device, preset));
+    const auto d = rtu::host::make_device(s.geometry, preset_options(device, preset));
     Run r{std::vector<Hit>(rays.size()), {}};
     rtu::hw::TraversalStats st;
     d->trace_batch(rays.data(), r.hits.data(), rays.size(), false, 1, st);
@@ -215,7 +205,7 @@ TEST_CASE("the summary names latency where the ray slots bind, and the slots are
   REQUIRE(s.instanced());
   const std::vector<Ray> rays = rtu::host::incoherent_rays(s.geometry.bounds(), 20000, 7);
   auto cycles = [&](const std::string& key, const std::string& value, rtu::hw::LowerBound* bound) {
-    DeviceOptions o = options("timed", "rdna2");
+    DeviceOptions o = preset_options("timed", "rdna2");
     o.instances = &s.instances;
     if (!key.empty()) rtu::hw::set_timing_key(o.timing, key, value);
     const auto d = rtu::host::make_device(s.geometry, o);
@@ -250,7 +240,7 @@ TEST_CASE("a chip whose L2 ports queue: the bound and the notes name them, and L
       rtu::host::load_scene("/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb");
   const std::vector<Ray> rays = rtu::host::incoherent_rays(s.geometry.bounds(), 16384, 7);
   auto run = [&](const std::vector<std::pair<std::string, std::string>>& keys, rtu::hw::TimingStats* out) {
-    DeviceOptions o = options("timed", "rdna4-chip");
+    DeviceOptions o = preset_options("timed", "rdna4-chip");
     o.instances = &s.instances;
     rtu::hw::set_timing_key(o.timing, "units", "8");
     rtu::hw::set_timing_key(o.timing, "l2_slices", "2");
@@ -296,7 +286,7 @@ TEST_CASE("layout_align: nodes and records padded to the line take one line per 
     rtu::hw::TimingStats t;
   };
   auto run = [&](int align) {
-    DeviceOptions o = options("timed", "rdna2");  // 64-byte lines, 56-byte BVH4 nodes, 40-byte records
+    DeviceOptions o = preset_options("timed", "rdna2");  // 64-byte lines, 56-byte BVH4 nodes, 40-byte records
     o.timing.layout_align = align;
     const auto d = rtu::host::make_device(s.geometry, o);
     Run r{std::vector<Hit>(rays.size()), {}};
@@ -326,15 +316,10 @@ TEST_CASE("layout_align: nodes and records padded to the line take one line per 
 
 TEST_CASE("a timed render equals the fixed render, the clock counts cycles", "[timed]") {
   const rtu::host::Scene s = rtu::host::load_scene("builtin:seed");
-  rtu::host::RenderOptions o;
-  o.width = 80;
-  o.height = 60;
-  o.spp = 1;
-  o.max_depth = 3;
-  o.threads = 2;
-  o.device = options("fixed", "rdna2");
+  rtu::host::RenderOptions o = render_options(80, 60, 1, 3);
+  o.device = preset_options("fixed", "rdna2");
   const rtu::host::RenderResult f = rtu::host::render(s, o);
-  o.device = options("timed", "rdna2");
+  o.device = preset_options("timed", "rdna2");
   const rtu::host::RenderResult t = rtu::host::render(s, o);
   o.threads = 1;
   const rtu::host::RenderResult t1 = rtu::host::render(s, o);
@@ -381,7 +366,7 @@ TEST_CASE("the pipeline trace shows each slot's work in order, inside its window
   o.width = 40;
   o.height = 30;
   o.max_depth = 2;
-  o.device = options("timed", "rdna2");
+  o.device = preset_options("timed", "rdna2");
   rtu::hw::PipelineTrace trace;
   trace.from = 500;
   trace.to = 4000;
@@ -416,13 +401,13 @@ TEST_CASE("sampled timing estimates a packet's cycles within its interval, hits 
   for (const std::vector<Ray>* rays : {&primary, &incoherent}) {
     const size_t n = rays->size();
     CAPTURE(rays == &primary ? "primary" : "incoherent");
-    const auto full = rtu::host::make_device(s.geometry, options("timed", "rdna2"));
+    const auto full = rtu::host::make_device(s.geometry, preset_options("timed", "rdna2"));
     std::vector<Hit> hf(n), hs(n), hc(n);
     rtu::hw::TraversalStats sf, ss, sc;
     full->trace_batch(rays->data(), hf.data(), n, false, 2, sf);
     const uint64_t exact = full->timed()->timing().cycles;
 
-    DeviceOptions o = options("timed", "rdna2");
+    DeviceOptions o = preset_options("timed", "rdna2");
     o.sample.fraction = 0.05;
     const auto sampled = rtu::host::make_device(s.geometry, o);
     sampled->trace_batch(rays->data(), hs.data(), n, false, 2, ss);
@@ -438,8 +423,8 @@ TEST_CASE("sampled timing estimates a packet's cycles within its interval, hits 
     // a deterministic check of the estimator and its interval, not a coin toss), and the interval is narrow
     // enough to mean something: under 12% for 39 measured units of camera rays, whose cost varies tenfold
     // between sky and geometry (a jackknife interval: wider than the residual formula's, which held the truth
-    // too rarely with so few units; timed_engine.cpp), and under 5% for incoherent rays, whose units cost alike
-    // (there the estimate must also be within 3%).
+    // too rarely with so few units; hwmodel/timing/sampler.h), and under 5% for incoherent rays, whose units cost
+    // alike (there the estimate must also be within 3%).
     CHECK(std::abs(est - double(exact)) <= 2.0 * ci);
     CHECK(ci > 0.0);
     if (rays == &primary) {
@@ -478,11 +463,11 @@ TEST_CASE("sampled timing estimates a packet's cycles within its interval, hits 
   // A packet too short for 10 measured units at 1 in 100 (781 units) is sampled at 1 in 78: 10 units measured,
   // the estimate within its interval of the full simulation.
   {
-    DeviceOptions o = options("timed", "rdna2");
+    DeviceOptions o = preset_options("timed", "rdna2");
     o.sample.fraction = 0.01;
     o.sample.need_hits = false;
     const auto sparse = rtu::host::make_device(s.geometry, o);
-    const auto full = rtu::host::make_device(s.geometry, options("timed", "rdna2"));
+    const auto full = rtu::host::make_device(s.geometry, preset_options("timed", "rdna2"));
     std::vector<Hit> h(primary.size());
     rtu::hw::TraversalStats st;
     sparse->trace_batch(primary.data(), h.data(), primary.size(), false, 2, st);
@@ -495,10 +480,10 @@ TEST_CASE("sampled timing estimates a packet's cycles within its interval, hits 
     CHECK(std::abs(est - exact) <= 2.0 * ss.ci95());
   }
   // Fraction 0, or a packet too small for 10 sampled units: the full simulation, to the cycle.
-  DeviceOptions o = options("timed", "rdna2");
+  DeviceOptions o = preset_options("timed", "rdna2");
   o.sample.fraction = 0.5;
   const auto half = rtu::host::make_device(s.geometry, o);
-  const auto full = rtu::host::make_device(s.geometry, options("timed", "rdna2"));
+  const auto full = rtu::host::make_device(s.geometry, preset_options("timed", "rdna2"));
   std::vector<Hit> h(4000);
   rtu::hw::TraversalStats st;
   half->trace_batch(primary.data(), h.data(), 4000, false, 2, st);
@@ -522,7 +507,7 @@ TEST_CASE("sampled timing: the detailed warm-up is as long as the stream's slowe
   const std::vector<Ray> incoherent = rtu::host::incoherent_rays(s.geometry.bounds(), 200000, 5);
   const std::vector<Ray> primary = rtu::host::primary_rays(s.camera, 200000);
   auto run = [&](const std::vector<Ray>& rays, uint32_t warmup, double* mean_warmup) {
-    DeviceOptions o = options("timed", "rdna2");
+    DeviceOptions o = preset_options("timed", "rdna2");
     o.sample.fraction = 0.05;
     o.sample.need_hits = false;
     o.sample.warmup_rays = warmup;
@@ -535,7 +520,7 @@ TEST_CASE("sampled timing: the detailed warm-up is as long as the stream's slowe
     if (mean_warmup) *mean_warmup = double(ss.warmup_rays) / double(ss.units_measured);
     return double(d->timed()->timing().cycles);
   };
-  const int slots = options("timed", "rdna2").timing.ray_slots;
+  const int slots = preset_options("timed", "rdna2").timing.ray_slots;
   double chosen_warmup = 0.0, fixed_warmup = 0.0;
   const double short_w = run(incoherent, uint32_t(8 * slots), &fixed_warmup),
                long_w = run(incoherent, 1024, nullptr), chosen = run(incoherent, 0, &chosen_warmup);
@@ -568,13 +553,13 @@ TEST_CASE("sampled timing: an image whose rows hold a whole number of units is n
   const size_t n = rays.size();
   std::vector<Hit> h(n);
   rtu::hw::TraversalStats st;
-  const auto full = rtu::host::make_device(s.geometry, options("timed", "rdna2"));
+  const auto full = rtu::host::make_device(s.geometry, preset_options("timed", "rdna2"));
   full->trace_batch(rays.data(), h.data(), n, false, 2, st);
   const double exact = double(full->timed()->timing().cycles);
   double sum = 0.0;
   constexpr int kSeeds = 8;
   for (int seed = 1; seed <= kSeeds; ++seed) {
-    DeviceOptions o = options("timed", "rdna2");
+    DeviceOptions o = preset_options("timed", "rdna2");
     o.sample.fraction = 0.05;
     o.sample.need_hits = false;
     o.sample.seed = uint64_t(seed);
@@ -588,309 +573,4 @@ TEST_CASE("sampled timing: an image whose rows hold a whole number of units is n
   const double mean_error = sum / kSeeds / exact - 1.0;
   INFO("mean error over " << kSeeds << " seeds: " << 100.0 * mean_error << "%");
   CHECK(std::abs(mean_error) < 0.03);
-}
-
-namespace {
-
-// The timing of incoherent and camera rays of a scene on preset `preset` with `sets` applied (key, value).
-rtu::hw::TimingStats timed_stats(const rtu::host::Scene& s, const std::string& preset,
-                                 const std::vector<std::pair<std::string, std::string>>& sets, size_t n) {
-  DeviceOptions o = options("timed", preset);
-  for (const auto& [k, v] : sets) rtu::hw::set_timing_key(o.timing, k, v);
-  std::vector<Ray> rays = rtu::host::primary_rays(s.camera, n);
-  const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), n, 5);
-  rays.insert(rays.end(), inc.begin(), inc.end());
-  const auto dev = rtu::host::make_device(s.geometry, o);
-  std::vector<Hit> h(rays.size());
-  rtu::hw::TraversalStats ts;
-  dev->trace_batch(rays.data(), h.data(), rays.size(), false, 2, ts);
-  return dev->timed()->timing();
-}
-
-}  // namespace
-
-TEST_CASE("memory behind the cache: banks without row costs are the single channel, an L2 only helps",
-          "[timed][memory]") {
-  const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
-  for (const std::string preset : {"rdna2-mem", "embedded"}) {
-    CAPTURE(preset);
-    // A small stack, so that spills and refills (by address, on the banks) take part.
-    const std::vector<std::pair<std::string, std::string>> base = {{"stack_entries", "2"}};
-    const rtu::hw::TimingStats plain = timed_stats(s, preset, base, 3000);
-    REQUIRE(plain.stack_spills > 0);
-    // One channel of 8 banks with no activate or precharge cost: every transfer as on the single channel.
-    auto banks = base;
-    banks.insert(banks.end(), {{"dram_banks", "8"}, {"dram_row_bytes", "1024"}});
-    const rtu::hw::TimingStats b = timed_stats(s, preset, banks, 3000);
-    CHECK(b.cycles == plain.cycles);
-    CHECK(b.dram_bytes == plain.dram_bytes);
-    CHECK(b.dram_row_hits + b.dram_row_misses == plain.cache_misses + plain.stack_spills + plain.stack_refills);
-    // With row costs every row miss waits 30-60 cycles more. The slots then interleave differently, which moves
-    // the cache's hits by a fraction of a percent, but thousands of misses waiting longer cost cycles.
-    auto costly = banks;
-    costly.insert(costly.end(), {{"dram_activate_cycles", "30"}, {"dram_precharge_cycles", "30"}});
-    const rtu::hw::TimingStats c = timed_stats(s, preset, costly, 3000);
-    CHECK(c.dram_row_hits + c.dram_row_misses == c.cache_misses + c.stack_spills + c.stack_refills);
-    CHECK(c.cycles > plain.cycles);
-    CHECK(c.dram_row_hits > 0);
-    // An L2 of no latency and unlimited bandwidth in front of the same DRAM: what it holds costs nothing.
-    auto l2 = base;
-    l2.insert(l2.end(), {{"l2_kib", "1024"}, {"l2_latency", "0"}, {"l2_bytes_per_cycle", "0"}});
-    const rtu::hw::TimingStats z = timed_stats(s, preset, l2, 3000);
-    CHECK(z.l2_hits + z.l2_misses == z.cache_misses);  // every node cache fill goes through the L2
-    CHECK(z.l2_hits > 0);
-    CHECK(z.dram_bytes < plain.dram_bytes);
-    CHECK(z.cycles < plain.cycles);
-  }
-}
-
-TEST_CASE("chip: one unit through the chip's code path runs the single unit's cycles, counter for counter",
-          "[timed][chip]") {
-  const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
-  std::vector<Ray> rays = rtu::host::primary_rays(s.camera, 2000);
-  const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), 2000, 9);
-  rays.insert(rays.end(), inc.begin(), inc.end());
-  for (const std::string preset : {"rdna2", "embedded", "intel-mem"}) {
-    CAPTURE(preset);
-    DeviceOptions o = options("timed", preset);
-    rtu::hw::set_timing_key(o.timing, "stack_entries", "2");  // spills too
-    const auto single = rtu::host::make_device(s.geometry, o);
-    const auto chip = rtu::host::make_device(s.geometry, o);
-    chip->timed()->set_force_chip(true);
-    std::vector<Hit> h1(rays.size()), h2(rays.size());
-    rtu::hw::TraversalStats t1, t2;
-    // Two packets: the second starts where the first ended and finds the cache as the first left it.
-    for (int packet = 0; packet < 2; ++packet) {
-      single->trace_batch(rays.data(), h1.data(), rays.size(), packet == 1, 2, t1);
-      chip->trace_batch(rays.data(), h2.data(), rays.size(), packet == 1, 2, t2);
-      CHECK(std::memcmp(h1.data(), h2.data(), h1.size() * sizeof(Hit)) == 0);
-    }
-    check_same_timing(single->timed()->timing(), chip->timed()->timing());
-  }
-}
-
-TEST_CASE("chip: several units give the fixed device's hits, and the same cycles on any number of threads",
-          "[timed][chip]") {
-  const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
-  std::vector<Ray> rays = rtu::host::primary_rays(s.camera, 3000);
-  const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), 3000, 4);
-  rays.insert(rays.end(), inc.begin(), inc.end());
-  const auto fixed = rtu::host::make_device(s.geometry, options("fixed", "rdna2"));
-  std::vector<Hit> hf(rays.size());
-  rtu::hw::TraversalStats sf;
-  fixed->trace_batch(rays.data(), hf.data(), rays.size(), false, 2, sf);
-  for (const std::string policy : {"round_robin", "blocks", "waves"}) {
-    CAPTURE(policy);
-    DeviceOptions o = options("timed", "rdna2");
-    rtu::hw::set_timing_key(o.timing, "units", "4");
-    rtu::hw::set_timing_key(o.timing, "ray_policy", policy);
-    rtu::hw::set_timing_key(o.timing, "l2_kib", "256");
-    rtu::hw::set_timing_key(o.timing, "dram_banks", "8");
-    rtu::hw::set_timing_key(o.timing, "dram_channels", "2");
-    rtu::hw::set_timing_key(o.timing, "dram_activate_cycles", "20");
-    rtu::hw::set_timing_key(o.timing, "dram_precharge_cycles", "20");
-    std::vector<rtu::hw::TimingStats> runs;
-    for (int threads : {1, 2}) {
-      const auto chip = rtu::host::make_device(s.geometry, o);
-      std::vector<Hit> h(rays.size());
-      rtu::hw::TraversalStats st;
-      chip->trace_batch(rays.data(), h.data(), rays.size(), false, threads, st);
-      CHECK(std::memcmp(h.data(), hf.data(), h.size() * sizeof(Hit)) == 0);
-      CHECK(st.box_tests == sf.box_tests);
-      runs.push_back(chip->timed()->timing());
-      const auto& per_unit = chip->timed()->timing_by_unit();
-      REQUIRE(per_unit.size() == 4);
-      uint64_t unit_rays = 0;
-      for (const auto& u : per_unit) {
-        // round_robin and blocks split 6000 rays evenly; waves of 32 (rdna2's slots) give 188 waves, 47
-        // each, the last of 16 rays.
-        CHECK(u.rays == (policy == "waves" ? (&u - per_unit.data() < 3 ? 47 * 32 : 47 * 32 - 16) : 1500));
-        CHECK(u.cycles == runs.back().cycles);
-        unit_rays += u.rays;
-      }
-      CHECK(unit_rays == rays.size());
-    }
-    check_same_timing(runs[0], runs[1]);
-    CHECK(runs[0].l2_hits > 0);
-    CHECK(runs[0].dram_row_hits > 0);
-  }
-}
-
-TEST_CASE("chip: units running ahead to their next memory access give the cycles of units strictly in step",
-          "[timed][chip]") {
-  // Running ahead reorders only what stays inside a unit; the shared memory must see the same requests in the same
-  // order. Short stacks (spills and refills reach memory too), a small L2 and banks with row costs, so that every
-  // kind of shared access is there; two packets, the second finding the memory as the first left it. With a
-  // prefetcher, its fills reach the shared memory too (fetch_observer.h: run-ahead stops before every fetch).
-  const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
-  std::vector<Ray> rays = rtu::host::primary_rays(s.camera, 3000);
-  const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), 3000, 5);
-  rays.insert(rays.end(), inc.begin(), inc.end());
-  for (const auto& [preset, prefetcher] : {std::pair{"embedded-chip", "none"}, std::pair{"intel-chip", "none"},
-                                           std::pair{"embedded-chip", "next_line"}}) {
-    CAPTURE(preset, prefetcher);
-    DeviceOptions o = options("timed", preset);
-    rtu::hw::set_timing_key(o.timing, "prefetcher", prefetcher);
-    rtu::hw::set_timing_key(o.timing, "units", "6");
-    rtu::hw::set_timing_key(o.timing, "stack_entries", "2");
-    rtu::hw::set_timing_key(o.timing, "l2_kib", "256");
-    std::vector<rtu::hw::TimingStats> runs;
-    for (bool ahead : {true, false}) {
-      const auto chip = rtu::host::make_device(s.geometry, o);
-      chip->timed()->set_run_ahead(ahead);
-      std::vector<Hit> h(rays.size());
-      rtu::hw::TraversalStats st;
-      for (int packet = 0; packet < 2; ++packet)
-        chip->trace_batch(rays.data(), h.data(), rays.size(), packet == 1, 2, st);
-      runs.push_back(chip->timed()->timing());
-      REQUIRE(chip->timed()->timing_by_unit().size() == 6);
-    }
-    check_same_timing(runs[0], runs[1]);
-    CHECK(runs[0].stack_spills > 0);
-    CHECK(runs[0].l2_misses > 0);
-    CHECK(runs[0].dram_row_misses > 0);
-    CHECK((runs[0].prefetch_fills > 0) == (std::string(prefetcher) != "none"));
-  }
-}
-
-namespace {
-
-// A small chip: `units` units of rdna2 sharing an L2 and banked DRAM, waves handed to whichever unit asks first.
-DeviceOptions dynamic_chip(int units, double fraction, uint64_t seed = 1) {
-  DeviceOptions o = options("timed", "rdna2");
-  rtu::hw::set_timing_key(o.timing, "units", std::to_string(units));
-  rtu::hw::set_timing_key(o.timing, "ray_policy", "dynamic");
-  rtu::hw::set_timing_key(o.timing, "l2_kib", "256");
-  rtu::hw::set_timing_key(o.timing, "dram_banks", "8");
-  rtu::hw::set_timing_key(o.timing, "dram_channels", "2");
-  o.sample.fraction = fraction;
-  o.sample.seed = seed;
-  return o;
-}
-
-}  // namespace
-
-TEST_CASE("chip, dynamic dispatch: the fixed device's hits, the same cycles on any number of threads, sampled too",
-          "[timed][chip][sample]") {
-  const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
-  std::vector<Ray> rays = rtu::host::primary_rays(s.camera, 12000);
-  const std::vector<Ray> inc = rtu::host::incoherent_rays(s.geometry.bounds(), 12000, 4);
-  rays.insert(rays.end(), inc.begin(), inc.end());
-  const size_t n = rays.size();
-  const auto fixed = rtu::host::make_device(s.geometry, options("fixed", "rdna2"));
-  std::vector<Hit> hf(n);
-  rtu::hw::TraversalStats sf;
-  fixed->trace_batch(rays.data(), hf.data(), n, false, 2, sf);
-  for (double fraction : {0.0, 0.1}) {
-    CAPTURE(fraction);
-    std::vector<rtu::hw::TimingStats> runs;
-    for (int threads : {1, 2}) {
-      const auto chip = rtu::host::make_device(s.geometry, dynamic_chip(4, fraction));
-      std::vector<Hit> h(n);
-      rtu::hw::TraversalStats st;
-      chip->trace_batch(rays.data(), h.data(), n, false, threads, st);
-      // Sampled or not, every ray is traced: the hits and the datapath's counts are the fixed device's.
-      CHECK(std::memcmp(h.data(), hf.data(), n * sizeof(Hit)) == 0);
-      CHECK(st.box_tests == sf.box_tests);
-      CHECK(st.prim_tests == sf.prim_tests);
-      runs.push_back(chip->timed()->timing());
-      const rtu::hw::SampleStats& ss = chip->timed()->sampling();
-      if (fraction == 0.0) {
-        // Each unit took whole waves of 32 (the last of 0 rays here: 24000 = 750 x 32), all of them together.
-        uint64_t unit_rays = 0;
-        for (const auto& u : chip->timed()->timing_by_unit()) {
-          CHECK(u.rays % 32 == 0);
-          CHECK(u.rays > 0);
-          unit_rays += u.rays;
-        }
-        CHECK(unit_rays == n);
-        CHECK(ss.packets_sampled == 0);
-      } else {
-        // 750 waves: a lead and a trail of 16 waves, 44 bursts of 16 between, 4 or 5 of them measured, each with
-        // 12 waves more simulated around it.
-        CHECK(ss.packets_sampled == 1);
-        CHECK(ss.units_measured >= 4);
-        CHECK(ss.units_measured <= 5);
-        CHECK(ss.rays_simulated <= (32 + ss.units_measured * 28) * 32);
-        CHECK(ss.rays_simulated + ss.rays_warmed == n);
-        CHECK(runs.back().rays == n);
-      }
-    }
-    check_same_timing(runs[0], runs[1]);
-  }
-}
-
-TEST_CASE("chip sampling: the full simulation's cycles lie in the stated interval, seed after seed",
-          "[timed][chip][sample][scale]") {
-  // A packet of incoherent rays and one of camera rays on a small chip, sampled at 1 in 10 with five seeds against
-  // the full simulation; a fixed seed list makes this deterministic. Incoherent rays cost alike everywhere: the
-  // interval is narrow and holds the truth. Camera rays cross from sky to house once; each measured burst meets
-  // such a change as it follows waves from elsewhere, and the camera rays' interval is wide (bench/results/
-  // sampled-timing.md gives the error on renders).
-  const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
-  const std::vector<Ray> primary = rtu::host::primary_rays(s.camera, 40000);
-  const std::vector<Ray> incoherent = rtu::host::incoherent_rays(s.geometry.bounds(), 40000, 6);
-  for (const std::vector<Ray>* rays : {&incoherent, &primary}) {
-    CAPTURE(rays == &primary ? "primary" : "incoherent");
-    const size_t n = rays->size();
-    std::vector<Hit> h(n);
-    rtu::hw::TraversalStats st;
-    const auto full = rtu::host::make_device(s.geometry, dynamic_chip(4, 0.0));
-    full->trace_batch(rays->data(), h.data(), n, false, 2, st);
-    const double exact = double(full->timed()->timing().cycles);
-    int inside = 0;
-    for (uint64_t seed : {1, 2, 3, 6, 7}) {
-      const auto chip = rtu::host::make_device(s.geometry, dynamic_chip(4, 0.1, seed));
-      chip->trace_batch(rays->data(), h.data(), n, false, 2, st);
-      const double est = double(chip->timed()->timing().cycles), ci = chip->timed()->sampling().ci95();
-      INFO("seed " << seed << ": full " << exact << ", sampled " << est << " +- " << ci);
-      REQUIRE(chip->timed()->sampling().packets_sampled == 1);
-      CHECK(ci > 0.0);
-      CHECK(ci < (rays == &primary ? 0.6 : 0.06) * exact);
-      CHECK(std::abs(est - exact) <= 2.0 * ci);
-      inside += std::abs(est - exact) <= ci;
-    }
-    CHECK(inside >= 4);
-  }
-}
-
-TEST_CASE("chip sampling: a chip whose units' rays are fixed refuses it, naming the policy that samples",
-          "[timed][chip][sample]") {
-  const rtu::host::Scene s = rtu::host::load_scene("builtin:seed");
-  DeviceOptions o = dynamic_chip(4, 0.1);
-  rtu::hw::set_timing_key(o.timing, "ray_policy", "waves");
-  const auto chip = rtu::host::make_device(s.geometry, o);
-  const std::vector<Ray> rays = rtu::host::primary_rays(s.camera, 40000);
-  std::vector<Hit> h(rays.size());
-  rtu::hw::TraversalStats st;
-  REQUIRE_THROWS_WITH(chip->trace_batch(rays.data(), h.data(), rays.size(), false, 2, st),
-                      Catch::Contains("ray_policy = dynamic") && Catch::Contains("slowest unit"));
-}
-
-TEST_CASE("chip sampling: a render's image is the unsampled render's, its cycles the same on 1 and 2 threads",
-          "[timed][chip][sample]") {
-  const rtu::host::Scene s = rtu::host::load_scene("builtin:seed");
-  rtu::host::RenderOptions o;
-  o.width = 80;
-  o.height = 60;
-  o.spp = 2;
-  o.max_depth = 3;
-  o.threads = 2;
-  // Two units of 8 slots: 9600 camera rays are 1200 waves, enough for every bounce's packet to be thinned.
-  o.device = dynamic_chip(2, 0.0);
-  rtu::hw::set_timing_key(o.device.timing, "ray_slots", "8");
-  const rtu::host::RenderResult full = rtu::host::render(s, o);
-  o.device.sample.fraction = 0.2;
-  const rtu::host::RenderResult sampled = rtu::host::render(s, o);
-  o.threads = 1;
-  const rtu::host::RenderResult sampled1 = rtu::host::render(s, o);
-  REQUIRE(full.rgb.size() == sampled.rgb.size());
-  CHECK(std::memcmp(full.rgb.data(), sampled.rgb.data(), full.rgb.size() * sizeof(float)) == 0);
-  CHECK(std::memcmp(full.rgb.data(), sampled1.rgb.data(), full.rgb.size() * sizeof(float)) == 0);
-  CHECK(sampled.sampling.packets_sampled >= 3);  // camera rays and the larger bounces' packets
-  CHECK(sampled.timing.cycles == sampled1.timing.cycles);
-  CHECK(sampled.device_clock == sampled1.device_clock);
-  const double exact = double(full.timing.cycles), est = double(sampled.timing.cycles);
-  INFO("full " << exact << ", sampled " << est << " +- " << sampled.sampling.ci95());
-  CHECK(std::abs(est - exact) <= 2.0 * sampled.sampling.ci95());
 }

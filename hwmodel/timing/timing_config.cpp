@@ -8,6 +8,7 @@
 #include <variant>
 
 #include "hwmodel/numeric/fixed_format.h"
+#include "hwmodel/timing/memory/dram_scheduler.h"
 #include "hwmodel/timing/prefetch/prefetchers.h"
 #include "hwmodel/timing/ray_gather.h"
 #include "hwmodel/timing/ray_scheduler.h"
@@ -120,6 +121,11 @@ std::vector<KeyInfo> make_key_table() {
       {"dram_activate_cycles", &C::dram_activate_cycles, 0, kMaxLatency, "cycles to open a DRAM row (tRCD)"},
       {"dram_precharge_cycles", &C::dram_precharge_cycles, 0, kMaxLatency, "cycles to close a DRAM row (tRP)"},
       {"memory_type", &C::memory_type, 0, 0, "DRAM type, for its energy per bit: gddr6, hbm2 or lpddr5"},
+  };
+  table.insert(table.end(), std::begin(after_prefetch), std::end(after_prefetch));
+  const std::vector<KeyInfo>& dram_scheduler = dram_scheduler_keys();
+  table.insert(table.end(), dram_scheduler.begin(), dram_scheduler.end());
+  const KeyInfo raster[] = {
       {"raster_setup_cycles", &C::raster_setup_cycles, 0, kMaxLatency,
        "hybrid rasterizer: cycles per primitive set up (triangle, sphere square, plane pass)"},
       {"raster_samples_per_clock", &C::raster_samples_per_clock, 0.001, 4096,
@@ -134,7 +140,7 @@ std::vector<KeyInfo> make_key_table() {
       {"raster_gbuffer_bytes", &C::raster_gbuffer_bytes, 0, 4096,
        "hybrid rasterizer: G-buffer bytes written per depth pass besides depth (DRAM channel)"},
   };
-  table.insert(table.end(), std::begin(after_prefetch), std::end(after_prefetch));
+  table.insert(table.end(), std::begin(raster), std::end(raster));
   const std::vector<KeyInfo>& sort = sort_keys();
   table.insert(table.end(), sort.begin(), sort.end());
   table.push_back({"watchdog_cycles", &C::watchdog_cycles, 0, 2147483647,

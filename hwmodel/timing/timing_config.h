@@ -148,6 +148,11 @@ struct TimingConfig {
   // What the memory behind the cache is, for its energy per bit (energy_model.h memory_types()): gddr6, hbm2 or
   // lpddr5. Timing does not depend on it.
   std::string memory_type = "gddr6";
+  // The DRAM scheduler (memory/dram_scheduler.h, its keys declared there): "fcfs" (each request served at its own
+  // cycle, in order) or "frfcfs" (queued per bank, row hits first, then the oldest; needs dram_banks > 0), and the
+  // number of younger requests that may pass one over before it is served next.
+  std::string dram_scheduler = "fcfs";
+  int dram_frfcfs_cap = 16;
 
   // Rasterizer of hybrid mode (raster_timing.h): a raster pipeline beside the unit, sharing its DRAM channel.
   double raster_setup_cycles = 20.0;        // cycles per primitive set up

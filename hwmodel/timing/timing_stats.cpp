@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 
+#include "hwmodel/timing/memory/dram_scheduler.h"
 #include "hwmodel/timing/prefetch/prefetchers.h"
 #include "hwmodel/timing/ray_gather.h"
 
@@ -99,7 +100,8 @@ constexpr std::array<TimingCounter, (N + ...)> join(const std::array<TimingCount
   ((std::copy(parts.begin(), parts.end(), out.begin() + i), i += parts.size()), ...);
   return out;
 }
-constexpr auto kCounters = join(kBeforePrefetch, kPrefetchCounters, kAfterPrefetch, kGatherCounters);
+constexpr auto kCounters =
+    join(kBeforePrefetch, kPrefetchCounters, kAfterPrefetch, kGatherCounters, kDramSchedulerCounters);
 static_assert(sizeof(TimingStats) == kCounters.size() * sizeof(uint64_t), "a counter is missing from the table");
 
 const TimingCounter& counter(uint64_t S::*member) {
@@ -239,6 +241,8 @@ const std::vector<ReportEntry>& report_table() {
       count("instance_transforms", &S::instance_transforms),
       count("unit_wait_cycles", &S::unit_wait_cycles),
       count("mem_wait_cycles", &S::mem_wait_cycles),
+      count("dram_sched.reordered", &S::dram_reordered),
+      count("dram_sched.capped", &S::dram_capped),
       count("gather.bins", &S::gather_bins),
       count("gather.full", &S::gather_bins_full),
       count("gather.timeout", &S::gather_bins_timeout),

@@ -57,6 +57,9 @@ struct TimingStats {
   uint64_t unit_wait_cycles = 0, mem_wait_cycles = 0;
   // Ray coherence gathering (ray_gather.h): bins issued (full, by timeout), rays' waits in their bins.
   uint64_t gather_bins = 0, gather_bins_full = 0, gather_bins_timeout = 0, gather_wait_cycles = 0;
+  // The FR-FCFS DRAM scheduler (memory/dram_scheduler.h): requests served before an older arrived one of their
+  // bank, and requests the cap served where a row hit would have gone.
+  uint64_t dram_reordered = 0, dram_capped = 0;
 
   void add(const TimingStats& o);  // every counter summed (runs, packets, ray types merge this way)
 };

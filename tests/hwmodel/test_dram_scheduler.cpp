@@ -46,9 +46,10 @@ struct Collect final : rtu::hw::PendingWaiter {
 };
 
 // Line reads (line, cycle) in this order; the cycle each one's data is there. A synchronous memory answers at
-// once; a queued one is let decide after every request is in (the requests are the caller's actions at their
-// cycles, and no decision comes before the last of them: the first is at cycle 0, checked below).
-std::vector<uint64_t> reads(MemorySystem& m, const std::vector<std::pair<uint64_t, uint64_t>>& seq, TimingStats& s) {
+// once; a queued one decides once every request is in, which gives what deciding between them would: a decision
+// at cycle D takes only the requests that arrived by D (the next test case holds it to that).
+std::vector<uint64_t> reads(MemorySystem& m, const std::vector<std::pair<uint64_t, uint64_t>>& seq,
+                            TimingStats& s) {
   Collect col;
   std::vector<uint64_t> ready;
   for (uint32_t i = 0; i < seq.size(); ++i) {
@@ -62,7 +63,8 @@ std::vector<uint64_t> reads(MemorySystem& m, const std::vector<std::pair<uint64_
 
 }  // namespace
 
-TEST_CASE("dram scheduler: a row hit overtakes an older row miss under FR-FCFS, not under FCFS", "[memory][frfcfs]") {
+TEST_CASE("dram scheduler: a row hit overtakes an older row miss under FR-FCFS, not under FCFS",
+          "[memory][frfcfs]") {
   // A: line 0 (row 0) at 0; B: line 4 (row 1) at 1; C: line 1 (row 0) at 2.
   const std::vector<std::pair<uint64_t, uint64_t>> seq = {{0, 0}, {4, 1}, {1, 2}};
   SECTION("fcfs (the default, synchronous): in the order they come") {
@@ -168,7 +170,8 @@ TEST_CASE("dram scheduler: the cap stops a stream of row hits starving a row mis
   }
 }
 
-TEST_CASE("dram scheduler: keys are refused where the model is not built, naming them", "[memory][frfcfs][config]") {
+TEST_CASE("dram scheduler: keys are refused where the model is not built, naming them",
+          "[memory][frfcfs][config]") {
   TimingConfig c;
   CHECK(c.dram_scheduler == "fcfs");  // off by default
   CHECK(c.dram_frfcfs_cap == 16);
@@ -192,7 +195,8 @@ std::vector<std::vector<rtu::hw::TraceEvent>> random_rays(size_t n, uint32_t see
   std::mt19937 rng(seed);
   std::vector<std::vector<rtu::hw::TraceEvent>> rays(n);
   for (auto& r : rays)
-    for (int i = 0; i < 4; ++i) r.push_back(rtu::hw::TraceEvent{rtu::hw::TraceEvent::kNode, 4, 0, 0, uint32_t(rng() % 256)});
+    for (int i = 0; i < 4; ++i)
+      r.push_back(rtu::hw::TraceEvent{rtu::hw::TraceEvent::kNode, 4, 0, 0, uint32_t(rng() % 256)});
   return rays;
 }
 

@@ -11,9 +11,9 @@
 // ready, a row hit's column access, then by arrival): at the cycle D a bank is free (max(the bank's last transfer
 // start, its oldest request's arrival)), among the bank's requests that arrived by D, the oldest row hit, or the
 // oldest request if none hits the open row. The cap: a request passed over by dram_frfcfs_cap younger requests is
-// served next (the oldest such first), so a row miss behind a stream of hits waits for at most that many. Ramulator
-// (1)'s FRFCFS_Cap caps the hits a row serves since it opened (cap = 16 in its Scheduler.h); the cap here is the
-// starvation bound of Mutlu and Moscibroda's FR-FCFS+Cap (STFM, MICRO 2007), the same 16 by default.
+// served next (the oldest such first), so a row miss behind a stream of hits waits for at most that many.
+// Ramulator (1)'s FRFCFS_Cap caps the hits a row serves since it opened (cap = 16 in its Scheduler.h); the cap
+// here is the starvation bound of Mutlu and Moscibroda's FR-FCFS+Cap (STFM, MICRO 2007), the same 16 by default.
 // dram_frfcfs_cap = 0 is FCFS in the queued model (the oldest arrival first, decided when the bank is free).
 //
 // Once chosen, a request is served as banked_dram.h serves one: activate (and precharge) on a row miss, the

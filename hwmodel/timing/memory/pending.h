@@ -4,9 +4,9 @@
 // A ready cycle is a uint64_t; a pending one is kPending | id, where id names an entry of this table. An entry is
 // either a request's own completion (make(), resolved by the memory that serves it) or a cycle derived from
 // another entry, max(floor, parent + add) (after(): a cache hit on a line still on its way, a fetch's cache
-// latency on top). Cache lines that hold a pending cycle are watched (watch()): when the entry resolves, the line's
-// field is rewritten with the cycle, unless the line holds something else by then. A waiter (a timing model's
-// ray slot) is notified with the cycle (notify()). Resolution runs when the memory decides, never inside a
+// latency on top). Cache lines that hold a pending cycle are watched (watch()): when the entry resolves, the
+// line's field is rewritten with the cycle, unless the line holds something else by then. A waiter (a timing
+// model's ray slot) is notified with the cycle (notify()). Resolution runs when the memory decides, never inside a
 // request, so no caller sees its own request resolve. Entries are recycled once resolved: the table holds what
 // is in flight, not the history.
 #pragma once
@@ -48,7 +48,9 @@ class PendingTable {
     if (is_pending(*field)) subscribe(*field, Sub{Sub::kField, 0, field, nullptr});
   }
   // w->woken(tag, cycle) when the pending cycle resolves.
-  void notify(uint64_t ready, PendingWaiter* w, uint32_t tag) { subscribe(ready, Sub{Sub::kWaiter, tag, nullptr, w}); }
+  void notify(uint64_t ready, PendingWaiter* w, uint32_t tag) {
+    subscribe(ready, Sub{Sub::kWaiter, tag, nullptr, w});
+  }
   // Decides a make() entry: its subscribers (derived entries, fields, waiters) learn their cycles, in the order
   // they subscribed; derived entries pass theirs on in turn.
   void resolve(uint64_t ready, uint64_t cycle) {
@@ -82,7 +84,6 @@ class PendingTable {
       m_free_entry = id;
     }
   }
-  size_t in_flight() const { return m_entries.size() - free_count(); }
 
  private:
   static constexpr uint32_t kNone = ~uint32_t(0);
@@ -101,7 +102,8 @@ class PendingTable {
   uint32_t alloc(uint64_t floor, uint64_t add) {
     uint32_t id = m_free_entry;
     if (id == kNone) {
-      if (m_entries.size() >= (uint64_t(1) << 32) - 1) throw std::overflow_error("pending table: too many in flight");
+      if (m_entries.size() >= (uint64_t(1) << 32) - 1)
+        throw std::overflow_error("pending table: too many in flight");
       id = uint32_t(m_entries.size());
       m_entries.emplace_back();
     } else {
@@ -126,11 +128,6 @@ class PendingTable {
     else
       m_subs[e.last].next = s;
     e.last = s;
-  }
-  size_t free_count() const {
-    size_t n = 0;
-    for (uint32_t i = m_free_entry; i != kNone; i = m_entries[i].next_free) ++n;
-    return n;
   }
   std::vector<Entry> m_entries;
   std::vector<Sub> m_subs;

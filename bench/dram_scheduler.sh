@@ -7,7 +7,8 @@
 #
 #   bench/dram_scheduler.sh [RTUSIM] [RAYS] [MESH...]
 #     RTUSIM  default build/default/rtusim;  RAYS  incoherent rays per mesh, default 50000;  MESH  default two
-#     assimp-testmodels meshes;  PRESETS (environment) default "rdna2-chip embedded-chip"
+#     assimp-testmodels meshes;  PRESETS (environment) default "rdna2-chip embedded-chip", each a preset name
+#     optionally with key changes, e.g. rdna2-chip:dram_bytes_per_cycle=16 (the chip starved of bandwidth)
 # Each run is `rtusim trace --device timed --threads 1`, one TRACE packet, the same ray file for every scheduler.
 # Prints a Markdown table. Reads the stats JSON with python3.
 set -euo pipefail
@@ -23,11 +24,14 @@ for mesh in "${meshes[@]}"; do
   [ -r "$mesh" ] || { echo "$name: cannot read $mesh" >&2; exit 2; }
   "$rtusim" rays --scene "$mesh" --kind incoherent --count "$rays" --seed 7 --out "$tmp/rays.bin" >/dev/null
   for preset in "${presets[@]}"; do
+    IFS=: read -r -a spec <<<"$preset"
+    sets=()
+    for kv in "${spec[@]:1}"; do sets+=(--set "$kv"); done
     base=""
     for sched in fcfs "frfcfs cap 0" "frfcfs cap 16"; do
       read -r s _ cap <<<"$sched"
       "$rtusim" trace --scene "$mesh" --rays "$tmp/rays.bin" --out "$tmp/hits.bin" --device timed \
-        --config "$preset" --threads 1 --set dram_scheduler="$s" --set dram_frfcfs_cap="${cap:-16}" \
+        --config "${spec[0]}" "${sets[@]}" --threads 1 --set dram_scheduler="$s" --set dram_frfcfs_cap="${cap:-16}" \
         --stats "$tmp/stats.json" >/dev/null
       cycles=$(num '["timing"]["cycles"]' "$tmp/stats.json")
       base=${base:-$cycles}

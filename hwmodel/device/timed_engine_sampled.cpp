@@ -36,6 +36,11 @@ void TimedEngine::set_sampling(const SampleOptions& o) {
   if (sample_step(o.fraction) >= 2 && m_c.gather != GatherKey::kNone)
     throw std::invalid_argument("sampled timing: the units it measures do not model ray gathering; run gather = " +
                                 std::string(name_of(m_c.gather)) + " unsampled (no --sample)");
+  // A queued DRAM's decisions wait for every request up to their cycle; the units sampling measures are not
+  // the whole packet's (memory/dram_scheduler.h).
+  if (sample_step(o.fraction) >= 2 && m_c.dram_scheduler != DramScheduler::kFcfs)
+    throw std::invalid_argument("sampled timing: dram_scheduler = " + std::string(name_of(m_c.dram_scheduler)) +
+                                " is not built for it; run it unsampled (no --sample)");
   m_sample = o;
 }
 

@@ -47,9 +47,10 @@ const TimingKeyTable& own_keys() {
 // set_timing_key() all read it.
 std::vector<KeyInfo> make_key_table() {
   const TimingKeyTable* const parts[] = {
-      &own_keys(),    &command_keys(),      &slot_keys(),     &stack_keys(),  &scheduler_keys(), &unit_keys(),
-      &fetch_keys(),  &dram_channel_keys(), &prefetch_keys(), &gather_keys(), &chip_keys(),      &l2_keys(),
-      &dram_bank_keys(), &raster_keys(),    &sort_keys(),     &watchdog_keys(),
+      &own_keys(),       &command_keys(),        &slot_keys(),   &stack_keys(),    &scheduler_keys(),
+      &unit_keys(),      &fetch_keys(),          &dram_channel_keys(), &prefetch_keys(), &gather_keys(),
+      &chip_keys(),      &l2_keys(),             &dram_bank_keys(),    &dram_scheduler_keys(), &raster_keys(),
+      &sort_keys(),      &watchdog_keys(),
   };
   std::vector<KeyInfo> table;
   for (const TimingKeyTable* part : parts) table.insert(table.end(), part->begin(), part->end());

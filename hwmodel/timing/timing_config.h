@@ -26,6 +26,7 @@
 
 #include "hwmodel/timing/parts/chip.h"
 #include "hwmodel/timing/parts/command.h"
+#include "hwmodel/timing/parts/dram_scheduler.h"
 #include "hwmodel/timing/parts/fetch_port.h"
 #include "hwmodel/timing/parts/gather.h"
 #include "hwmodel/timing/parts/memory.h"
@@ -53,6 +54,7 @@ struct TimingConfig : CommandConfig,
                       ChipConfig,
                       L2Config,
                       DramBankConfig,
+                      DramSchedulerConfig,
                       RasterConfig,
                       SortConfig,
                       WatchdogConfig {

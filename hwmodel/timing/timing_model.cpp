@@ -11,6 +11,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "hwmodel/timing/memory/dram_scheduler.h"
+
 namespace rtu::hw {
 
 TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySystem* shared, uint32_t unit)
@@ -50,6 +52,11 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
   m_stack_base = (layout.total_bytes + kStackRegion - 1) / kStackRegion * kStackRegion +
                  uint64_t(unit) * uint64_t(c.ray_slots) * kStackRegion;
   m_waiting.reserve(size_t(c.ray_slots));
+  if (memory_is_queued(c)) {
+    m_queued = true;
+    m_early = false;
+    m_park.resize(size_t(c.ray_slots));
+  }
   // One format builds both levels of a two-level scene, so the top level's node kind prices every node.
   m_box_cost = box_cost(c, layout.node_cost);
   m_oriented = layout.node_cost == NodeCostClass::kOriented;
@@ -295,8 +302,30 @@ uint64_t TimingModel::refill(Slot& sl, uint32_t k, uint64_t t) {
   --sl.spilled;
   ++m_s->stack_refills;
   const uint64_t ready = m_mem->read_word(stack_addr(k, sl.spilled), t, *m_s);
+  if (is_pending(ready)) [[unlikely]] {
+    park(k, ready, t);
+    return ready;
+  }
   if (m_trace) m_trace->add(m_unit, k, "stack refill", t, ready);
   return ready;
+}
+
+void TimingModel::park(uint32_t k, uint64_t ready, uint64_t floor) {
+  Park& p = m_park[k];
+  if (p.count++ == 0) p.ready = floor;
+  m_mem->pending()->notify(ready, this, k);
+}
+
+void TimingModel::woken(uint32_t k, uint64_t cycle) {
+  Park& p = m_park[k];
+  p.ready = std::max(p.ready, cycle);
+  if (--p.count > 0) return;
+  // Its fetch's lines are all there: its unit request waits for its cycle as any other (simulate()).
+  if (m_slots[k].unit_phase) {
+    m_waiting.push_back(p.ready << SlotQueue::kSlotBits | k);
+    std::push_heap(m_waiting.begin(), m_waiting.end(), std::greater<>());
+  }
+  m_queue.push(p.ready, k);
 }
 
 uint64_t TimingModel::pop_waiting() {
@@ -350,11 +379,22 @@ bool TimingModel::touches_memory(const Slot& sl) const {
 
 void TimingModel::simulate(uint64_t limit, bool ahead) {
   for (;;) {
+    // A queued memory decides at a cycle once every action up to it is done: its own here, a chip's by
+    // run_units_in_step (the unit stops). A decision may wake slots at later cycles.
+    if (m_queued && m_mem->next_decision() < next_cycle()) [[unlikely]] {
+      if (!m_own) return;
+      m_mem->decide();
+      continue;
+    }
     if (!admit_rays(limit, ahead)) return;
-    if (m_queue.empty()) return;
+    if (m_queue.empty()) {
+      if (m_queued && m_mem->next_decision() != kNoDecision) continue;  // slots wait for its decisions
+      return;
+    }
     // The earliest slot acts, until it knows its next cycle (replace_top: it waits again) or leaves (pop).
     const uint64_t t = m_queue.top_cycle();
     if (t > limit && !ahead) return;
+    if (m_queued && m_mem->next_decision() < t) continue;
     const uint32_t k = m_queue.top_slot();
     if (t > m_watch_deadline) watchdog(t);
     Slot& sl = m_slots[k];
@@ -382,13 +422,27 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
         // not the sum over lines in parallel).
         const uint64_t waited = m_s->mem_wait_cycles;
         uint64_t unqueued = t;
+        uint64_t pending_wait = 0;  // waits on the way to a queued memory's lines (its own count at decisions)
         for_each_line<false>(*sl.layout, e, [&](uint64_t line) {
           const uint64_t before = m_s->mem_wait_cycles;
           const uint64_t ready = m_cache.access(line, t, *m_mem, *m_s);
+          if (is_pending(ready)) [[unlikely]] {
+            park(k, ready, t);
+            pending_wait += m_s->mem_wait_cycles - before;
+            return;
+          }
           next_t = std::max(next_t, ready);
           unqueued = std::max(unqueued, ready - (m_s->mem_wait_cycles - before));
         });
-        m_s->mem_wait_cycles = waited + (next_t - unqueued);
+        m_s->mem_wait_cycles = waited + (next_t - unqueued) + pending_wait;
+        if (m_queued && m_park[k].count > 0) [[unlikely]] {
+          // Some lines wait for the memory's decisions: the slot leaves the queue until woken() (no trace span).
+          m_park[k].ready = std::max(m_park[k].ready, next_t);
+          sl.unit_phase = true;
+          next_t = kPending;
+          waiting = true;
+          continue;
+        }
         if (m_observer) [[unlikely]]
           observe(sl, k, e, t, m_s->cache_misses != misses);
         if (m_trace)
@@ -421,6 +475,10 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
       waiting = true;
     }
     if (waiting) {
+      if (is_pending(next_t)) [[unlikely]] {
+        m_queue.pop();  // woken() queues it again
+        continue;
+      }
       m_queue.replace_top(next_t);
       // The slot's next event is read when it comes up again, after other slots' events: start the load now.
       __builtin_prefetch(sl.ev.data() + sl.pos);
@@ -436,6 +494,7 @@ bool TimingModel::admit_rays(uint64_t limit, bool ahead) {
     const auto [free_at, k] = m_free_slots.front();
     if (!m_queue.empty() && m_queue.top_cycle() < free_at) break;  // a busy slot acts first
     if (free_at > limit && !ahead) return false;
+    if (m_queued && m_mem->next_decision() < free_at) break;  // the memory decides first (simulate())
     if (m_gather) {
       if (!gather_until(free_at)) return false;  // an arrival up to free_at is a ray not fed yet
     } else if (m_next >= m_feed_first + m_feed_count) {
@@ -564,8 +623,55 @@ void TimingModel::feed(std::vector<TraceEvent>* events, size_t m) {
   m_feed = nullptr;
 }
 
+namespace {
+
+// run_units_in_step with a queued memory (memory/dram_scheduler.h): the memory is an actor too, deciding at its
+// next decision's cycle after every unit's actions at that cycle. A decision may wake any unit's slot, so the
+// earliest actor is looked for anew each time (a scan of the units), and a unit acts strictly in step: until the
+// next other unit's action or the memory's decision, whichever is first.
+uint64_t run_units_queued(const std::vector<TimingModel*>& units, uint64_t start,
+                          const std::function<void(size_t)>& give) {
+  MemorySystem& mem = units[0]->memory();
+  for (;;) {
+    size_t u = units.size();
+    uint64_t t = TimingModel::kNever;
+    for (size_t i = 0; i < units.size(); ++i) {
+      const uint64_t c = units[i]->next_cycle();
+      if (c < t) {
+        t = c;
+        u = i;
+      }
+    }
+    const uint64_t d = mem.next_decision();
+    if (u == units.size() && d == kNoDecision) break;
+    if (d < t) {
+      mem.decide();
+      continue;
+    }
+    TimingModel& unit = *units[u];
+    if (unit.starved()) {
+      give(u);  // its next action takes a ray: give it more, then let it act
+      continue;
+    }
+    uint64_t limit = d;  // the unit may act at d: requests arriving then are in before the decision
+    for (size_t i = 0; i < units.size(); ++i) {
+      const uint64_t c = units[i]->next_cycle();
+      if (i != u && c != TimingModel::kNever) limit = std::min(limit, i < u ? c - 1 : c);
+    }
+    unit.run_until(limit);
+  }
+  mem.drain();  // writes nobody waits for
+  uint64_t end = start;
+  for (const TimingModel* unit : units) end = std::max(end, unit->end_cycle());
+  for (TimingModel* unit : units) unit->end_packet(end);
+  return end;
+}
+
+}  // namespace
+
 uint64_t run_units_in_step(const std::vector<TimingModel*>& units, uint64_t start,
                            const std::function<void(size_t)>& give) {
+  if (!units.empty() && units[0]->queued()) return run_units_queued(units, start, give);
   using Next = std::pair<uint64_t, uint32_t>;  // (next action's cycle, unit): a min-heap
   std::vector<Next> heap;
   for (size_t u = 0; u < units.size(); ++u) heap.push_back({units[u]->next_cycle(), uint32_t(u)});

@@ -85,7 +85,7 @@ struct PipelineTrace {
   }
 };
 
-class TimingModel {
+class TimingModel final : private PendingWaiter {
  public:
   // Where the bound image keeps its sections (addresses are image offsets).
   // Where the fetched items lie: byte offsets of the sections and bytes from one item to the next. Each fetch
@@ -149,7 +149,7 @@ class TimingModel {
   // stopping before the first that reaches the shared memory (a miss, a stack spill or refill): the units'
   // requests still reach the memory in the order of (cycle, unit), and the unit's own state is what it would be
   // acting in step, so the cycles are the same; the units only change places less often.
-  void run_until(uint64_t limit) { simulate(limit, m_ahead); }
+  void run_until(uint64_t limit) { simulate(limit, m_ahead && !m_queued); }
   void set_run_ahead(bool on) { m_ahead = on; }  // off: strictly in step (the same cycles, slower; for tests)
   uint64_t next_cycle() const;
   bool starved() const;
@@ -194,11 +194,18 @@ class TimingModel {
   void advance_to(uint64_t cycle) { m_base = cycle > m_base ? cycle : m_base; }
   const Layout& layout() const { return m_layout; }
   const MemorySystem& memory() const { return *m_mem; }  // the unit's own, or the chip's it shares
+  MemorySystem& memory() { return *m_mem; }
+  // The memory is queued (dram_scheduler = frfcfs, memory/dram_scheduler.h): a line or stack read may answer a
+  // pending cycle; the slot then leaves the queue and woken() queues it again at the cycle the memory decides. The
+  // unit decides its own memory's requests in simulate() once its actions up to their cycle are done; a chip's
+  // are decided by run_units_in_step. Unit requests wait for their own cycle (no early service) and a chip's
+  // units run strictly in step (no run-ahead): a wake-up may come at any cycle after the decision.
+  bool queued() const { return m_queued; }
   // The fetch observer (prefetch/fetch_observer.h): the configuration's prefetcher, or this one (null: none).
   void set_fetch_observer(std::unique_ptr<FetchObserver> observer);
   // Off: every unit request waits for a wake-up of its slot at its own cycle, none is served at its fetch
   // (simulate()); the same cycles, slower. For tests.
-  void set_early_requests(bool on) { m_early = on; }
+  void set_early_requests(bool on) { m_early = on && !m_queued; }
 
  private:
   struct Slot {
@@ -242,6 +249,9 @@ class TimingModel {
     return m_stack_base + ((uint64_t(i) % (kStackRegion / 8)) * uint64_t(m_c.ray_slots) + k) * 8;
   }
   uint64_t unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t);
+  // A queued memory's answer for slot k: the last of `count` pending reads (pending.h), at the earliest `floor`.
+  void woken(uint32_t k, uint64_t cycle) override;
+  void park(uint32_t k, uint64_t ready, uint64_t floor);
   // Calls f(line) for every cache line the fetch of event e touches (none for stack events).
   template <bool Reverse, class F>
   void for_each_line(const Layout& l, const TraceEvent& e, F&& f) const;
@@ -301,6 +311,12 @@ class TimingModel {
   uint64_t m_min_fetch = 0;
   bool m_early = true;
   bool m_ahead = true;
+  bool m_queued = false;  // memory/dram_scheduler.h
+  struct Park {
+    uint32_t count = 0;  // pending reads the slot waits for
+    uint64_t ready = 0;  // the latest cycle known so far
+  };
+  std::vector<Park> m_park;  // per slot
   uint64_t m_base = 0;  // cycle the current packet started (resources carry absolute cycles)
 
   PipelineTrace* m_trace = nullptr;

@@ -15,6 +15,7 @@ std::vector<TimingCounter> make_counters() {
   const std::span<const TimingCounter> parts[] = {
       command_counters(), unit_counters(),  fetch_counters(), prefetch_counters(),  l2_counters(),
       dram_counters(),    stack_counters(), slot_counters(),  scheduler_counters(), gather_counters(),
+      dram_scheduler_counters(),
   };
   std::vector<TimingCounter> all;
   for (std::span<const TimingCounter> part : parts) all.insert(all.end(), part.begin(), part.end());
@@ -186,6 +187,8 @@ std::vector<ReportEntry> report_memory() {
       count("instance_transforms", &S::instance_transforms),
       count("unit_wait_cycles", &S::unit_wait_cycles),
       count("mem_wait_cycles", &S::mem_wait_cycles),
+      count("dram_sched.reordered", &S::dram_reordered),
+      count("dram_sched.capped", &S::dram_capped),
       count("gather.bins", &S::gather_bins),
       count("gather.full", &S::gather_bins_full),
       count("gather.timeout", &S::gather_bins_timeout),

@@ -28,7 +28,8 @@ struct TimingStats : CommandCounters,
                      StackCounters,
                      SlotCounters,
                      SchedulerCounters,
-                     GatherCounters {
+                     GatherCounters,
+                     DramSchedulerCounters {
   void add(const TimingStats& o);  // every counter summed (runs, packets, ray types merge this way)
 };
 

@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "hwmodel/timing/memory/pending.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_stats.h"
 
@@ -44,6 +45,8 @@ class L2Cache {
   void warm(uint64_t line);
   // The fewest cycles a line read takes, when DRAM takes at least `dram_min`.
   uint64_t min_cycles(uint64_t dram_min) const { return m_latency + (m_xfer < dram_min ? m_xfer : dram_min); }
+  // A queued DRAM behind it (dram_scheduler.h): a line's arrival may be a pending cycle of this table.
+  void set_pending(PendingTable* p) { m_pending = p; }
 
  private:
   struct Line {
@@ -63,6 +66,18 @@ class L2Cache {
   std::vector<Line> m_lines;          // slice, set, way
   std::vector<uint64_t> m_port_free;  // per slice
   uint64_t m_stamp = 0;
+  PendingTable* m_pending = nullptr;
+  // max(ready, a line's arrival), which may be pending; a line's arrival from DRAM, watched while pending.
+  uint64_t at_least(uint64_t ready, uint64_t arrival) {
+    if (is_pending(arrival)) [[unlikely]]
+      return m_pending->after(arrival, ready, 0);
+    return ready > arrival ? ready : arrival;
+  }
+  void arrives(Line& l, uint64_t ready) {
+    l.ready = ready;
+    if (is_pending(ready)) [[unlikely]]
+      m_pending->watch(&l.ready);
+  }
 };
 
 inline void L2Cache::warm(uint64_t line) {
@@ -118,11 +133,10 @@ uint64_t L2Cache::access(uint64_t line, uint64_t t, Dram&& dram, Writeback&& wri
   Line* victim = nullptr;
   if (Line* l = lookup(line, start, victim, writeback, s)) {
     ++s.l2_hits;
-    const uint64_t ready = start + m_xfer + m_latency;
-    return ready > l->ready ? ready : l->ready;
+    return at_least(start + m_xfer + m_latency, l->ready);
   }
   ++s.l2_misses;
-  victim->ready = dram(line, start + m_latency);
+  arrives(*victim, dram(line, start + m_latency));
   return victim->ready;
 }
 
@@ -138,11 +152,11 @@ uint64_t L2Cache::word(uint64_t line, bool write, uint64_t t, Dram&& dram, Write
     ++s.l2_stack_misses;
     l = victim;
     // A write allocates without a fill: its bytes are there when the port has moved them.
-    l->ready = write ? start + m_word_xfer : dram(line, start + m_latency);
+    arrives(*l, write ? start + m_word_xfer : dram(line, start + m_latency));
   }
   l->dirty |= write;
   const uint64_t ready = start + m_word_xfer + m_latency;
-  return write || ready > l->ready ? ready : l->ready;
+  return write ? ready : at_least(ready, l->ready);
 }
 
 }  // namespace rtu::hw

@@ -7,6 +7,9 @@
 // (timing_model.h): requests come in the order of their cycles and each is served at its own cycle, so the
 // result depends only on that order; min_line_cycles() is a lower bound of every line read's latency; free_at()
 // is only reported (the watchdog's dump), never a condition.
+// A queued backend (dram_scheduler.h) keeps a weaker one: a request is never asked at a cycle earlier than the
+// cycle of the caller's action that makes it; a read may answer a pending cycle (pending.h); the backend decides
+// at next_decision() and the caller calls decide() once every action at a cycle <= next_decision() is done.
 //
 // To add a memory model: a class with transfer(addr, bytes, t, s), min_line_cycles() and free_at() is a DRAM
 // (wrap it in DramLevel); one that implements MemoryBackend over a next level is a cache or buffer in front of
@@ -18,9 +21,12 @@
 #include <cstdint>
 #include <vector>
 
+#include "hwmodel/timing/memory/pending.h"
 #include "hwmodel/timing/timing_stats.h"
 
 namespace rtu::hw {
+
+inline constexpr uint64_t kNoDecision = ~uint64_t(0);  // a queued backend with nothing waiting
 
 class MemoryBackend {
  public:
@@ -40,6 +46,11 @@ class MemoryBackend {
   // Functional warming (sampled timing): a cache level takes the line as a read would, with its replacement
   // order updated, but no time passes and nothing is counted. A DRAM has nothing to warm.
   virtual void warm_line(uint64_t line) { (void)line; }
+  // A queued backend: the table its pending cycles live in, the cycle of its next decision (kNoDecision: none
+  // waiting) and that decision. A synchronous backend has none; a cache level forwards its next level's.
+  virtual PendingTable* pending() { return nullptr; }
+  virtual uint64_t next_decision() const { return kNoDecision; }
+  virtual void decide() {}
 };
 
 // Cycles a port of `bytes_per_cycle` is busy moving `bytes` (0 bytes per cycle: unlimited, no cycles).

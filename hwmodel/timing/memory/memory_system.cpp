@@ -6,6 +6,7 @@
 
 #include "hwmodel/timing/memory/banked_dram.h"
 #include "hwmodel/timing/memory/dram_channel.h"
+#include "hwmodel/timing/memory/dram_scheduler.h"
 #include "hwmodel/timing/memory/l2_cache.h"
 
 namespace rtu::hw {
@@ -55,7 +56,9 @@ class DramLevel final : public MemoryBackend {
 class L2Level final : public MemoryBackend {
  public:
   L2Level(const TimingConfig& c, std::unique_ptr<MemoryBackend> next, MemoryTimeline& timeline)
-      : m_l2(c), m_next(std::move(next)), m_line_bytes(uint64_t(c.line_bytes)), m_timeline(timeline) {}
+      : m_l2(c), m_next(std::move(next)), m_line_bytes(uint64_t(c.line_bytes)), m_timeline(timeline) {
+    m_l2.set_pending(m_next->pending());
+  }
   uint64_t read_line(uint64_t line, uint64_t t, TimingStats& s) override {
     m_timeline.add(m_timeline.l2_bytes, t, m_line_bytes);
     return m_l2.access(
@@ -68,6 +71,9 @@ class L2Level final : public MemoryBackend {
   uint64_t min_line_cycles() const override { return m_l2.min_cycles(m_next->min_line_cycles()); }
   uint64_t free_at() const override { return m_next->free_at(); }
   void warm_line(uint64_t line) override { m_l2.warm(line); }
+  PendingTable* pending() override { return m_next->pending(); }
+  uint64_t next_decision() const override { return m_next->next_decision(); }
+  void decide() override { m_next->decide(); }
 
  private:
   uint64_t word(uint64_t addr, bool write, uint64_t t, TimingStats& s) {
@@ -85,7 +91,9 @@ class L2Level final : public MemoryBackend {
 // The levels the configuration names, from the DRAM up; the first level a fill reaches is returned.
 std::unique_ptr<MemoryBackend> compose_memory(const TimingConfig& c, MemoryTimeline& timeline) {
   std::unique_ptr<MemoryBackend> m;
-  if (c.dram_banks > 0 || c.dram_channels > 1)
+  if (memory_is_queued(c))
+    m = std::make_unique<FrFcfsDram>(c, timeline);
+  else if (c.dram_banks > 0 || c.dram_channels > 1)
     m = std::make_unique<DramLevel<BankedDram>>(c, timeline);
   else
     m = std::make_unique<DramLevel<DramChannel>>(c, timeline);
@@ -110,7 +118,8 @@ void MemoryTimeline::add(std::vector<uint64_t>& series, uint64_t cycle, uint64_t
   series[size_t(bin)] += bytes;
 }
 
-MemorySystem::MemorySystem(const TimingConfig& c) : m_top(compose_memory(c, m_timeline)) {}
+MemorySystem::MemorySystem(const TimingConfig& c)
+    : m_top(compose_memory(c, m_timeline)), m_pending(m_top->pending()) {}
 
 uint64_t MemorySystem::state_bytes(const TimingConfig& c) {
   const uint64_t banks = uint64_t(c.dram_channels) * uint64_t(std::max(1, c.dram_banks));

@@ -7,7 +7,8 @@
 //   and refills go through it, its dirty lines back to the DRAM.
 // A new level or DRAM model is a backend (memory_backend.h) and one line of compose_memory().
 // Every request is served at its own cycle in the order the unit makes them (the unit's requests come in
-// cycle order), so the result is deterministic.
+// cycle order), so the result is deterministic. With dram_scheduler = frfcfs the DRAM is queued instead
+// (dram_scheduler.h): reads may answer pending cycles, decided when the caller lets simulated time pass.
 #pragma once
 
 #include <cstdint>
@@ -40,11 +41,21 @@ class MemorySystem {
   uint64_t min_line_cycles() const { return m_top->min_line_cycles(); }
   uint64_t free_at() const { return m_top->free_at(); }      // when the DRAM is free (the watchdog's dump)
   void warm_line(uint64_t line) { m_top->warm_line(line); }  // functional warming (memory_backend.h)
+  // A queued memory (dram_scheduler = frfcfs, memory_backend.h): reads may answer pending cycles of this table
+  // (null: every answer is a cycle); the cycle of its next decision, and that decision.
+  PendingTable* pending() { return m_pending; }
+  uint64_t next_decision() const { return m_top->next_decision(); }
+  void decide() { m_top->decide(); }
+  // Every decision still waiting (a packet's end: only writes are left, which nobody waits for).
+  void drain() {
+    while (m_top->next_decision() != kNoDecision) m_top->decide();
+  }
   const MemoryTimeline& timeline() const { return m_timeline; }
 
  private:
   MemoryTimeline m_timeline;
   std::unique_ptr<MemoryBackend> m_top;  // the first level a fill reaches
+  PendingTable* m_pending;               // the queued DRAM's, or null
 };
 
 }  // namespace rtu::hw

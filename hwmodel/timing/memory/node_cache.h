@@ -50,6 +50,8 @@ class NodeCache {
         s.prefetch_late += l.ready > t;  // on its way: it saves only the part of the latency it covered
         m_prefetched[size_t(&l - m_lines.data())] = 0;
       }
+      if (is_pending(l.ready)) [[unlikely]]
+        return mem.pending()->after(l.ready, t + m_latency, m_latency);
       return std::max(t, l.ready) + m_latency;
     }
     Line* victim = lru_way(ways);
@@ -61,6 +63,8 @@ class NodeCache {
     victim->tag = line;
     victim->stamp = ++m_stamp;
     victim->ready = mem.read_line(line, t + m_latency, s);
+    if (is_pending(victim->ready)) [[unlikely]]
+      mem.pending()->watch(&victim->ready);  // a queued DRAM decides it later (dram_scheduler.h)
     return victim->ready;
   }
 

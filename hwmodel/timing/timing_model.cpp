@@ -45,8 +45,7 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
     m_cluster_tri_free.assign(1, 0);
   }
   m_slots.resize(size_t(c.ray_slots));
-  m_recent.assign(size_t(c.queue_depth), 0);
-  if (c.gather != GatherKey::kNone) m_gather = std::make_unique<RayGather>(c);
+  m_admission = make_ray_admission(c);
   while ((uint64_t(1) << m_line_shift) < uint64_t(c.line_bytes)) ++m_line_shift;
   m_min_fetch = m_cache.enabled() ? m_cache.latency() : m_mem->min_line_cycles();
   m_stack_base = (layout.total_bytes + kStackRegion - 1) / kStackRegion * kStackRegion +
@@ -233,15 +232,13 @@ void TimingModel::begin(size_t n, TimingStats& s) {
   m_s = &s;
   m_n = n;
   m_next = 0;
-  m_feed = nullptr;  // no ray given yet (feed or add_rays)
-  m_feed_first = m_feed_count = 0;
+  m_feed = RayFeed{};  // no ray given yet (feed or add_rays)
   m_queue.reset(uint32_t(m_c.ray_slots));
   m_waiting.clear();
   m_t0 = m_base + uint64_t(m_c.packet_latency);
   m_setup_free = m_wb_free = 0;
   m_end = m_t0;
-  std::fill(m_recent.begin(), m_recent.end(), 0);
-  if (m_gather) m_gather->begin(n, m_t0);
+  m_admission->begin(n, m_t0);
   ++s.packets;
   // Every slot is free when the packet is decoded; they take rays as the rays are fed.
   m_free_slots.clear();
@@ -253,24 +250,9 @@ void TimingModel::begin(size_t n, TimingStats& s) {
 
 void TimingModel::admit(uint32_t k, uint64_t free_at) {
   Slot& sl = m_slots[k];
-  size_t i;
   uint64_t enter;
-  if (m_gather) {
-    uint64_t issued;
-    i = m_gather->take(sl.ev, issued);
-    enter = std::max({issued, free_at, m_setup_free});
-    m_gather->leave(enter);
-    ++m_next;
-  } else {
-    i = m_next++;
-    uint64_t fetch = m_t0 + i;
-    const size_t D = m_recent.size();
-    if (i >= D) fetch = std::max(fetch, m_recent[i % D]);  // the prefetch queue holds D rays
-    const uint64_t arrive = fetch + uint64_t(m_c.ray_fetch_latency);
-    enter = std::max({arrive, free_at, m_setup_free});
-    m_recent[i % D] = enter;
-    sl.ev.swap(m_feed[i - m_feed_first]);
-  }
+  const size_t i = m_admission->take(sl.ev, m_feed, free_at, m_setup_free, enter);
+  ++m_next;
   m_setup_free = enter + 1;
   m_s->stream_bytes += kRayBytesStream;
   ++m_s->rays;
@@ -495,18 +477,11 @@ bool TimingModel::admit_rays(uint64_t limit, bool ahead) {
     if (!m_queue.empty() && m_queue.top_cycle() < free_at) break;  // a busy slot acts first
     if (free_at > limit && !ahead) return false;
     if (m_queued && m_mem->next_decision() < free_at) break;  // the memory decides first (simulate())
-    if (m_gather) {
-      if (!gather_until(free_at)) return false;  // an arrival up to free_at is a ray not fed yet
-    } else if (m_next >= m_feed_first + m_feed_count) {
-      return false;  // its ray is not fed yet
-    }
+    if (!m_admission->reach(free_at, m_feed, *m_s)) return false;  // its ray is not fed yet
     std::pop_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
     m_free_slots.pop_back();
-    if (m_gather && !m_gather->ready()) {
-      // No bin is issued yet: the slot looks again at the next arrival or timeout (both after free_at).
-      const uint64_t next = std::min(m_gather->next_arrival(), m_gather->next_timeout());
-      if (next == RayGather::kNever) throw std::logic_error("gather: rays left but none can arrive or issue");
-      m_free_slots.push_back({next, k});
+    if (!m_admission->ready()) {  // no ray for a slot yet: it asks again when the admission says
+      m_free_slots.push_back({m_admission->retry_at(), k});
       std::push_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
       continue;
     }
@@ -601,26 +576,10 @@ bool TimingModel::control_event(Slot& sl, uint32_t k, const TraceEvent& e, uint6
   return false;
 }
 
-bool TimingModel::gather_until(uint64_t t) {
-  for (uint64_t a; (a = m_gather->next_arrival()) <= t;) {
-    if (m_gather->arrived() >= m_feed_first + m_feed_count) return false;
-    m_gather->expire(a, *m_s);
-    m_gather->arrive(m_feed[m_gather->arrived() - m_feed_first], *m_s);
-  }
-  m_gather->expire(t, *m_s);
-  return true;
-}
-
-size_t TimingModel::fed_up_to() const {
-  return m_gather ? m_gather->arrived() : m_next;
-}
-
 void TimingModel::feed(std::vector<TraceEvent>* events, size_t m) {
-  m_feed = events;
-  m_feed_first = fed_up_to();
-  m_feed_count = m;
+  m_feed = RayFeed{events, m_admission->fed_up_to(), m};
   simulate();
-  m_feed = nullptr;
+  m_feed.rays = nullptr;
 }
 
 namespace {
@@ -700,9 +659,7 @@ uint64_t run_units_in_step(const std::vector<TimingModel*>& units, uint64_t star
 }
 
 void TimingModel::add_rays(std::vector<TraceEvent>* events, size_t m) {
-  m_feed = events;
-  m_feed_first = fed_up_to();
-  m_feed_count = m;
+  m_feed = RayFeed{events, m_admission->fed_up_to(), m};
 }
 
 uint64_t TimingModel::next_cycle() const {
@@ -715,19 +672,16 @@ bool TimingModel::starved() const {
   if (m_free_slots.empty() || m_next >= m_n) return false;
   const uint64_t free_at = m_free_slots.front().first;
   if (!(m_queue.empty() || m_queue.top_cycle() >= free_at)) return false;  // a busy slot acts first
-  const size_t fed = m_feed_first + m_feed_count;
-  if (m_gather) return m_gather->arrived() >= fed && m_gather->next_arrival() <= free_at;
-  return m_next >= fed;
+  return m_admission->starved(m_feed, free_at);
 }
 
 void TimingModel::end_packet(uint64_t end) {
-  m_feed = nullptr;
+  m_feed.rays = nullptr;
   m_base = std::max(m_base, end);
 }
 
 uint64_t TimingModel::finish() {
-  m_feed_count = 0;
-  m_feed_first = fed_up_to();
+  m_feed = RayFeed{nullptr, m_admission->fed_up_to(), 0};
   simulate();
   const uint64_t cycles = m_end - m_base;
   m_base = m_end;

@@ -9,7 +9,7 @@
 // - ray fetch: rays stream from the ray buffer at one per clock with ray_fetch_latency, at most queue_depth rays
 //   ahead of the slots (a bounded prefetch queue); ray setup issues one ray per clock, setup_latency deep. With
 //   gathering (gather key, ray_gather.h) the rays wait in a gather buffer instead, binned by a key, and slots
-//   take the rays of issued bins.
+//   take the rays of issued bins. Both are admissions (ray_admission.h), the seam of an in-unit ray scheduler.
 // - ray slots: ray_slots rays in flight; a free slot takes the next ray (in order; lowest free slot first). Each
 //   slot has a stack of stack_entries; deeper pushes spill 8 bytes to memory (bandwidth only) and pops of spilled
 //   entries wait for a memory read (latency and bandwidth): through the L2 when there is one (l2_cache.h), else
@@ -58,7 +58,7 @@
 #include "hwmodel/timing/memory/node_cache.h"
 #include "hwmodel/timing/node_cost.h"
 #include "hwmodel/timing/prefetch/prefetchers.h"
-#include "hwmodel/timing/ray_gather.h"
+#include "hwmodel/timing/ray_admission.h"
 #include "hwmodel/timing/slot_queue.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_stats.h"
@@ -156,7 +156,7 @@ class TimingModel final : private PendingWaiter {
   uint64_t end_cycle() const { return m_end; }
   // The unit takes no rays beyond those added so far (begin() was given an upper bound: a chip that hands rays to
   // whichever unit asks, ray_policy dynamic).
-  void close_input() { m_n = std::min(m_n, m_feed_first + m_feed_count); }
+  void close_input() { m_n = std::min(m_n, m_feed.end()); }
   void end_packet(uint64_t end);
   // Functional warming: the cache takes the lines these rays' fetches touch, in order, with LRU updates, but no
   // time passes and nothing is counted. Sampled timing warms through the walk below (walk_install leaves the same
@@ -261,10 +261,6 @@ class TimingModel final : private PendingWaiter {
   // The first and last line event e fetches in layout l (first > last: none).
   std::pair<uint64_t, uint64_t> line_range(const Layout& l, const TraceEvent& e) const;
   void drain_prefetches(uint64_t t);
-  // Gathering: brings the gathering unit to cycle t (arrivals, timeouts); false when an arrival up to t is a ray
-  // not fed yet.
-  bool gather_until(uint64_t t);
-  size_t fed_up_to() const;  // rays taken from the feeds so far (into slots, or into the gather buffer)
   class Port;
   // The layout a kEnter or kLeave event's mesh index names (std::logic_error for one the layout lacks).
   const Layout& bottom(uint32_t mesh) const;
@@ -280,7 +276,7 @@ class TimingModel final : private PendingWaiter {
   MemorySystem* m_mem;                        // what the node cache fills from
   std::unique_ptr<FetchObserver> m_observer;  // null: none (the default)
   std::deque<uint64_t> m_pf_queue;            // lines a prefetcher asked for, waiting for idle memory
-  std::unique_ptr<RayGather> m_gather;        // the gathering unit (ray_gather.h); null: rays in order
+  std::unique_ptr<RayAdmission> m_admission;  // how free slots get their rays (ray_admission.h)
   uint32_t m_unit = 0;                        // index on the chip (pipeline trace spans, stack addresses)
   uint64_t m_stack_base = 0;  // where the unit's slots spill their stacks: after the image, kStackRegion a slot
   static constexpr uint64_t kStackRegion = 4096;
@@ -325,11 +321,9 @@ class TimingModel final : private PendingWaiter {
   // The packet in flight.
   TimingStats* m_s = nullptr;
   size_t m_n = 0, m_next = 0;                 // rays in the packet, next ray to admit
-  std::vector<TraceEvent>* m_feed = nullptr;  // the rays of the current feed() call
-  size_t m_feed_first = 0, m_feed_count = 0;  // their indices in the packet
+  RayFeed m_feed;                             // the rays given so far (feed, add_rays)
   std::vector<Slot> m_slots;
   SlotQueue m_queue;  // busy slots waiting for a cycle, served by (cycle, slot); ray_slots <= 4096 (validate())
-  std::vector<uint64_t> m_recent;                           // admission cycles of the last queue_depth rays
   std::vector<std::pair<uint64_t, uint32_t>> m_free_slots;  // (cycle free, slot): min-heap
   uint64_t m_t0 = 0, m_setup_free = 0, m_wb_free = 0, m_end = 0;
   std::deque<std::pair<uint64_t, uint32_t>> m_age;  // (entry cycle, slot) in admission order (entry cycles rise)

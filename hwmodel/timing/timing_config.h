@@ -68,12 +68,12 @@ struct TimingConfig : CommandConfig,
 };
 
 // The field of a choice key (timing_key.h): `Member` an enum member of a part's struct whose values number the
-// entries of Choices().
-template <auto Member, std::span<const TimingChoice> (*Choices)()>
+// entries of choices(E).
+template <auto Member>
 ChoiceField choice_field() {
   using E = std::remove_cvref_t<decltype(std::declval<TimingConfig&>().*Member)>;
   return {[](const TimingConfig& c) { return int(c.*Member); }, [](TimingConfig& c, int v) { c.*Member = E(v); },
-          Choices};
+          [] { return choices(E{}); }};
 }
 
 // The presets: "rdna2" (resembling AMD RDNA2's ray accelerator: BVH4, 4 box tests or 1 triangle test per clock),

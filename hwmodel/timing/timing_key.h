@@ -5,6 +5,8 @@
 // struct's members; timing_config.cpp and timing_stats.cpp gather the tables with one row a part.
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -32,6 +34,13 @@ struct ChoiceField {
   void (*set)(TimingConfig&, int);
   std::span<const TimingChoice> (*choices)();
 };
+
+// The text of an enum key's value. Each enum's part declares choices(E), its list in the enum's order, found by
+// argument-dependent lookup.
+template <class E>
+const char* name_of(E e) {
+  return choices(e)[size_t(e)].name;
+}
 
 // "a, b or c": the choices' names, for descriptions and refusals.
 inline std::string choice_names(std::span<const TimingChoice> choices) {
@@ -61,6 +70,8 @@ enum class SampleScale : uint8_t {
   kPerRay,  // simulated value x packet rays / simulated rays, rounded to nearest
 };
 
+inline constexpr SampleScale kPacket = SampleScale::kPacket, kPerRay = SampleScale::kPerRay;
+
 struct TimingCounter {
   const char* name;  // the member's name
   uint64_t TimingStats::*member;
@@ -68,5 +79,12 @@ struct TimingCounter {
   const char* description;
   SampleScale scale;
 };
+
+// A part's counter table, held to a row for every member of the part's counter struct.
+template <class Counters, size_t N>
+std::span<const TimingCounter> counter_table(const std::array<TimingCounter, N>& rows) {
+  static_assert(N * sizeof(uint64_t) == sizeof(Counters), "a counter of the part has no row in its table");
+  return rows;
+}
 
 }  // namespace rtu::hw

@@ -11,17 +11,14 @@ namespace rtu::hw {
 
 // How a packet's rays go to a chip's units (ray_scheduler.h: ray_unit()).
 enum class RayPolicy : uint8_t { kWaves, kRoundRobin, kBlocks, kDynamic };
-inline constexpr TimingChoice kRayPolicies[] = {
-    {"waves", "ray_slots consecutive rays (a wave) to each unit in turn"},
-    {"round_robin", "ray i to unit i mod units"},
-    {"blocks", "the packet cut into units consecutive blocks"},
-    {"dynamic", "a wave to whichever unit asks first; the policy sampled timing runs on a chip with"},
-};
-inline std::span<const TimingChoice> ray_policies() {
-  return kRayPolicies;
-}
-inline const char* name_of(RayPolicy p) {
-  return kRayPolicies[size_t(p)].name;
+inline std::span<const TimingChoice> choices(RayPolicy) {
+  static constexpr TimingChoice list[] = {
+      {"waves", "ray_slots consecutive rays (a wave) to each unit in turn"},
+      {"round_robin", "ray i to unit i mod units"},
+      {"blocks", "the packet cut into units consecutive blocks"},
+      {"dynamic", "a wave to whichever unit asks first; the policy sampled timing runs on a chip with"},
+  };
+  return list;
 }
 
 // A packet's rays go to the units by ray_policy: "waves" (ray_slots consecutive rays, a wave, to each unit in

@@ -25,7 +25,6 @@ const TimingKeyTable& command_keys() {
 
 std::span<const TimingCounter> command_counters() {
   using S = TimingStats;
-  constexpr SampleScale kPacket = SampleScale::kPacket, kPerRay = SampleScale::kPerRay;
   static constexpr std::array<TimingCounter, 4> counters = {{
       {"packets", &S::packets, "packets", "TRACE packets simulated", kPacket},
       {"cycles", &S::cycles, "cycles", "cycles of those packets, from decode to the last hit written", kPacket},
@@ -33,8 +32,7 @@ std::span<const TimingCounter> command_counters() {
       {"stream_bytes", &S::stream_bytes, "bytes", "ray buffer reads and hit buffer writes (their own port)",
        kPerRay},
   }};
-  static_assert(counters.size() * sizeof(uint64_t) == sizeof(CommandCounters), "a counter is missing");
-  return counters;
+  return counter_table<CommandCounters>(counters);
 }
 
 }  // namespace rtu::hw

@@ -11,7 +11,7 @@ namespace rtu::hw {
 const TimingKeyTable& dram_scheduler_keys() {
   using C = TimingConfig;
   static const TimingKeyTable keys = {
-      {"dram_scheduler", choice_field<&C::dram_scheduler, dram_schedulers>(), 0, 0,
+      {"dram_scheduler", choice_field<&C::dram_scheduler>(), 0, 0,
        "DRAM request order: each served at its cycle in the order they come, or queued per bank with row hits "
        "first, then the oldest (memory/dram_scheduler.h)",
        [](const C& c) -> std::string {
@@ -36,14 +36,13 @@ std::span<const TimingCounter> dram_scheduler_counters() {
       {"dram_reordered", &S::dram_reordered, "requests",
        "dram_scheduler frfcfs: requests served before an older one of their bank that had arrived (row hits "
        "first)",
-       SampleScale::kPerRay},
+       kPerRay},
       {"dram_capped", &S::dram_capped, "requests",
        "dram_scheduler frfcfs: requests served first because dram_frfcfs_cap younger ones had passed them over, "
        "where a row hit would have gone instead",
-       SampleScale::kPerRay},
+       kPerRay},
   }};
-  static_assert(counters.size() * sizeof(uint64_t) == sizeof(DramSchedulerCounters), "a counter is missing");
-  return counters;
+  return counter_table<DramSchedulerCounters>(counters);
 }
 
 }  // namespace rtu::hw

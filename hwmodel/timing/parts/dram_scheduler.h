@@ -13,15 +13,12 @@ enum class DramScheduler : uint8_t {
   kFcfs,    // each request served at its own cycle, in the order requests come (banked_dram.h)
   kFrFcfs,  // queued per bank: row hits first, then the oldest, with a cap on passing one over
 };
-inline constexpr TimingChoice kDramSchedulers[] = {
-    {"fcfs", "each request served at its own cycle, in the order requests come"},
-    {"frfcfs", "queued per bank: row hits first, then the oldest (memory/dram_scheduler.h)"},
-};
-inline std::span<const TimingChoice> dram_schedulers() {
-  return kDramSchedulers;
-}
-inline const char* name_of(DramScheduler s) {
-  return kDramSchedulers[size_t(s)].name;
+inline std::span<const TimingChoice> choices(DramScheduler) {
+  static constexpr TimingChoice list[] = {
+      {"fcfs", "each request served at its own cycle, in the order requests come"},
+      {"frfcfs", "queued per bank: row hits first, then the oldest (memory/dram_scheduler.h)"},
+  };
+  return list;
 }
 
 // The scheduler, and the number of younger requests that may pass one over before it is served next.

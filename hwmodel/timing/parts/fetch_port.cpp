@@ -37,7 +37,6 @@ const TimingKeyTable& fetch_keys() {
 
 std::span<const TimingCounter> fetch_counters() {
   using S = TimingStats;
-  constexpr SampleScale kPerRay = SampleScale::kPerRay;
   static constexpr std::array<TimingCounter, 4> counters = {{
       {"node_fetches", &S::node_fetches, "fetches", "node fetches (each one or more cache lines)", kPerRay},
       {"prim_fetches", &S::prim_fetches, "fetches", "primitive record and plane fetches", kPerRay},
@@ -45,8 +44,7 @@ std::span<const TimingCounter> fetch_counters() {
        kPerRay},
       {"cache_misses", &S::cache_misses, "lines", "cache line accesses that missed and went to DRAM", kPerRay},
   }};
-  static_assert(counters.size() * sizeof(uint64_t) == sizeof(FetchCounters), "a counter is missing");
-  return counters;
+  return counter_table<FetchCounters>(counters);
 }
 
 }  // namespace rtu::hw

@@ -11,7 +11,7 @@ namespace rtu::hw {
 const TimingKeyTable& gather_keys() {
   using C = TimingConfig;
   static const TimingKeyTable keys = {
-      {"gather", choice_field<&C::gather, gather_keys_list>(), 0, 0,
+      {"gather", choice_field<&C::gather>(), 0, 0,
        "ray coherence gathering (ray_gather.h): none, or the key rays are binned by"},
       {"gather_grid_bits", &C::gather_grid_bits, 1, 8,
        "gathering: origin grid cells per axis = 2^bits over the scene's frame (origin and two_point keys)"},
@@ -26,7 +26,6 @@ const TimingKeyTable& gather_keys() {
 
 std::span<const TimingCounter> gather_counters() {
   using S = TimingStats;
-  constexpr SampleScale kPerRay = SampleScale::kPerRay;
   static constexpr std::array<TimingCounter, 4> counters = {{
       {"gather_bins", &S::gather_bins, "bins", "bins the gathering unit issued to the ray slots", kPerRay},
       {"gather_bins_full", &S::gather_bins_full, "bins", "bins issued because they held gather_rays rays",
@@ -37,8 +36,7 @@ std::span<const TimingCounter> gather_counters() {
       {"gather_wait_cycles", &S::gather_wait_cycles, "cycles",
        "sum over rays of the cycles from arriving in the gather buffer to their bin's issue", kPerRay},
   }};
-  static_assert(counters.size() * sizeof(uint64_t) == sizeof(GatherCounters), "a counter is missing");
-  return counters;
+  return counter_table<GatherCounters>(counters);
 }
 
 }  // namespace rtu::hw

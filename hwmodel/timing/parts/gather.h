@@ -11,18 +11,15 @@ namespace rtu::hw {
 
 // The bin key of the gathering unit (ray_gather.h: gather_key()), or none.
 enum class GatherKey : uint8_t { kNone, kOctant, kOrigin, kOriginOctant, kTwoPoint };
-inline constexpr TimingChoice kGatherKeys[] = {
-    {"none", "no gathering: the slots take rays in order"},
-    {"octant", "the direction's three sign bits"},
-    {"origin", "the origin's cell in a grid over the scene's frame"},
-    {"origin_octant", "the origin's cell and the direction's octant"},
-    {"two_point", "the origin's cell and the cell of the point a quarter of the frame along the ray"},
-};
-inline std::span<const TimingChoice> gather_keys_list() {
-  return kGatherKeys;
-}
-inline const char* name_of(GatherKey k) {
-  return kGatherKeys[size_t(k)].name;
+inline std::span<const TimingChoice> choices(GatherKey) {
+  static constexpr TimingChoice list[] = {
+      {"none", "no gathering: the slots take rays in order"},
+      {"octant", "the direction's three sign bits"},
+      {"origin", "the origin's cell in a grid over the scene's frame"},
+      {"origin_octant", "the origin's cell and the direction's octant"},
+      {"two_point", "the origin's cell and the cell of the point a quarter of the frame along the ray"},
+  };
+  return list;
 }
 
 // none (the default) or the bin key; the origin grid's bits per axis, the gather buffer's rays, a bin's rays when

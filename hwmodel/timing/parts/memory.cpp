@@ -52,14 +52,13 @@ const TimingKeyTable& dram_bank_keys() {
        }},
       {"dram_activate_cycles", &C::dram_activate_cycles, 0, kMaxLatency, "cycles to open a DRAM row (tRCD)"},
       {"dram_precharge_cycles", &C::dram_precharge_cycles, 0, kMaxLatency, "cycles to close a DRAM row (tRP)"},
-      {"memory_type", choice_field<&C::memory_type, dram_types>(), 0, 0, "DRAM type, for its energy per bit"},
+      {"memory_type", choice_field<&C::memory_type>(), 0, 0, "DRAM type, for its energy per bit"},
   };
   return keys;
 }
 
 std::span<const TimingCounter> l2_counters() {
   using S = TimingStats;
-  constexpr SampleScale kPerRay = SampleScale::kPerRay;
   static constexpr std::array<TimingCounter, 6> counters = {{
       {"l2_hits", &S::l2_hits, "lines", "node cache fills found in the L2 (with l2_kib > 0)", kPerRay},
       {"l2_misses", &S::l2_misses, "lines", "node cache fills the L2 missed (read from DRAM)", kPerRay},
@@ -71,13 +70,11 @@ std::span<const TimingCounter> l2_counters() {
       {"l2_port_cycles", &S::l2_port_cycles, "port clocks",
        "clocks the L2 slices' ports were held, summed over the slices (line and stack word accesses)", kPerRay},
   }};
-  static_assert(counters.size() * sizeof(uint64_t) == sizeof(L2Counters), "a counter is missing");
-  return counters;
+  return counter_table<L2Counters>(counters);
 }
 
 std::span<const TimingCounter> dram_counters() {
   using S = TimingStats;
-  constexpr SampleScale kPerRay = SampleScale::kPerRay;
   static constexpr std::array<TimingCounter, 5> counters = {{
       {"dram_bytes", &S::dram_bytes, "bytes",
        "bytes moved over the DRAM channel (line fills, stack spills and refills past any L2, L2 write-backs)",
@@ -92,8 +89,7 @@ std::span<const TimingCounter> dram_counters() {
        "the latency itself)",
        kPerRay},
   }};
-  static_assert(counters.size() * sizeof(uint64_t) == sizeof(DramCounters), "a counter is missing");
-  return counters;
+  return counter_table<DramCounters>(counters);
 }
 
 }  // namespace rtu::hw

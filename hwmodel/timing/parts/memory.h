@@ -18,11 +18,8 @@ inline constexpr TimingChoice kDramTypes[] = {
     {"hbm2", "HBM2"},
     {"lpddr5", "LPDDR5"},
 };
-inline std::span<const TimingChoice> dram_types() {
+inline std::span<const TimingChoice> choices(DramType) {
   return kDramTypes;
-}
-inline const char* name_of(DramType t) {
-  return kDramTypes[size_t(t)].name;
 }
 
 struct DramChannelConfig {

@@ -9,7 +9,7 @@
 
 namespace rtu::hw {
 
-std::span<const TimingChoice> prefetcher_choices() {
+std::span<const TimingChoice> choices(PrefetcherId) {
   static const std::vector<TimingChoice> choices = [] {
     std::vector<TimingChoice> out;
     for (const PrefetcherInfo& p : prefetchers()) out.push_back({p.name, p.description});
@@ -18,14 +18,11 @@ std::span<const TimingChoice> prefetcher_choices() {
   return choices;
 }
 
-const char* name_of(PrefetcherId p) {
-  return prefetchers()[size_t(p)].name;
-}
 
 const TimingKeyTable& prefetch_keys() {
   using C = TimingConfig;
   static const TimingKeyTable keys = {
-      {"prefetcher", choice_field<&C::prefetcher, prefetcher_choices>(), 0, 0,
+      {"prefetcher", choice_field<&C::prefetcher>(), 0, 0,
        "what fills the node cache besides demand fetches (prefetch/prefetchers.h)"},
       {"prefetch_degree", &C::prefetch_degree, 1, 64, "lines a prefetcher fills per trigger"},
       {"prefetch_queue", &C::prefetch_queue, 0, 4096,
@@ -44,7 +41,6 @@ const TimingKeyTable& prefetch_keys() {
 // Filled by NodeCache::prefetch.
 std::span<const TimingCounter> prefetch_counters() {
   using S = TimingStats;
-  constexpr SampleScale kPerRay = SampleScale::kPerRay;
   static constexpr std::array<TimingCounter, 6> counters = {{
       {"prefetch_fills", &S::prefetch_fills, "lines", "lines a prefetcher brought into the node cache", kPerRay},
       {"prefetch_redundant", &S::prefetch_redundant, "lines",
@@ -59,8 +55,7 @@ std::span<const TimingCounter> prefetch_counters() {
       {"prefetch_unused", &S::prefetch_unused, "lines", "prefetched lines evicted before a demand access hit them",
        kPerRay},
   }};
-  static_assert(counters.size() * sizeof(uint64_t) == sizeof(PrefetchCounters), "a counter is missing");
-  return counters;
+  return counter_table<PrefetchCounters>(counters);
 }
 
 }  // namespace rtu::hw

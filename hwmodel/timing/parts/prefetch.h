@@ -11,8 +11,7 @@ namespace rtu::hw {
 
 // A prefetcher (the prefetcher key): an index of prefetchers() (prefetch/prefetchers.h); 0 is none.
 enum class PrefetcherId : uint8_t { kNone = 0 };
-std::span<const TimingChoice> prefetcher_choices();  // prefetchers()' names and descriptions
-const char* name_of(PrefetcherId p);
+std::span<const TimingChoice> choices(PrefetcherId);  // prefetchers()' names and descriptions
 
 struct PrefetchConfig {
   // A prefetcher watching the unit's fetches (prefetch/fetch_observer.h): none (the default) or one of

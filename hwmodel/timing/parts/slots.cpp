@@ -36,10 +36,9 @@ std::span<const TimingCounter> slot_counters() {
   using S = TimingStats;
   static constexpr std::array<TimingCounter, 1> counters = {{
       {"slot_busy_cycles", &S::slot_busy_cycles, "cycles",
-       "sum over rays of the cycles from entering a ray slot to leaving it", SampleScale::kPerRay},
+       "sum over rays of the cycles from entering a ray slot to leaving it", kPerRay},
   }};
-  static_assert(counters.size() * sizeof(uint64_t) == sizeof(SlotCounters), "a counter is missing");
-  return counters;
+  return counter_table<SlotCounters>(counters);
 }
 
 std::span<const TimingCounter> scheduler_counters() {
@@ -47,13 +46,12 @@ std::span<const TimingCounter> scheduler_counters() {
   static constexpr std::array<TimingCounter, 2> counters = {{
       {"any_hit_requests", &S::any_hit_requests, "requests",
        "candidate hits on non-opaque triangles sent to the any-hit stage (each waits any_hit_latency)",
-       SampleScale::kPerRay},
+       kPerRay},
       {"instance_transforms", &S::instance_transforms, "rays",
        "two-level scenes: rays transformed into an instance's bottom level (each waits xform_latency)",
-       SampleScale::kPerRay},
+       kPerRay},
   }};
-  static_assert(counters.size() * sizeof(uint64_t) == sizeof(SchedulerCounters), "a counter is missing");
-  return counters;
+  return counter_table<SchedulerCounters>(counters);
 }
 
 }  // namespace rtu::hw

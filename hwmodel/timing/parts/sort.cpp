@@ -7,7 +7,7 @@
 
 namespace rtu::hw {
 
-std::span<const TimingChoice> ray_sort_choices() {
+std::span<const TimingChoice> choices(RaySort) {
   static const std::vector<TimingChoice> choices = [] {
     std::vector<TimingChoice> out;
     for (const RaySortKeyInfo& k : kRaySortKeys) out.push_back({k.name, k.description});
@@ -16,14 +16,11 @@ std::span<const TimingChoice> ray_sort_choices() {
   return choices;
 }
 
-const char* name_of(RaySort k) {
-  return kRaySortKeys[size_t(k)].name;
-}
 
 const TimingKeyTable& sort_keys() {
   using C = TimingConfig;
   static const TimingKeyTable keys = {
-      {"ray_sort", choice_field<&C::ray_sort, ray_sort_choices>(), 0, 0,
+      {"ray_sort", choice_field<&C::ray_sort>(), 0, 0,
        "ray sorting in the firmware before each TRACE (sort_timing.h): none, or the key rays are sorted by"},
       {"sort_key_cycles", &C::sort_key_cycles, 0, 100000, "ray sorting: controller cycles per key computed"},
       {"sort_keys_per_clock", &C::sort_keys_per_clock, 0.001, 4096,

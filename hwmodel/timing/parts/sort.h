@@ -12,8 +12,7 @@ namespace rtu::hw {
 // The key rays are sorted by (the ray_sort key): an index of kRaySortKeys (sort_timing.h), whose order is the
 // firmware's fw::RaySortKey; 0 is none (no sorting).
 enum class RaySort : uint8_t { kNone = 0 };
-std::span<const TimingChoice> ray_sort_choices();  // kRaySortKeys' names and descriptions
-const char* name_of(RaySort k);
+std::span<const TimingChoice> choices(RaySort);  // kRaySortKeys' names and descriptions
 
 struct SortConfig {
   RaySort ray_sort = RaySort::kNone;

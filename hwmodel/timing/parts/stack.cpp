@@ -11,7 +11,7 @@ const TimingKeyTable& stack_keys() {
   using C = TimingConfig;
   static const TimingKeyTable keys = {
       {"stack_entries", &C::stack_entries, 1, 64, "short stack per slot; deeper entries spill (8 bytes each)"},
-      {"stack_mode", choice_field<&C::stack_mode, stack_modes>(), 0, 0,
+      {"stack_mode", choice_field<&C::stack_mode>(), 0, 0,
        "entries beyond the short stack: spilled to memory and read back at their pop, or the oldest dropped and "
        "its pop a restart from the root along a trail that re-fetches the nodes above it"},
   };
@@ -20,7 +20,6 @@ const TimingKeyTable& stack_keys() {
 
 std::span<const TimingCounter> stack_counters() {
   using S = TimingStats;
-  constexpr SampleScale kPerRay = SampleScale::kPerRay;
   static constexpr std::array<TimingCounter, 4> counters = {{
       {"stack_spills", &S::stack_spills, "entries", "stack entries beyond the short stack written to memory",
        kPerRay},
@@ -31,8 +30,7 @@ std::span<const TimingCounter> stack_counters() {
        "stack_mode restart: nodes fetched and tested again by restarts (in node_fetches and box_tests too)",
        kPerRay},
   }};
-  static_assert(counters.size() * sizeof(uint64_t) == sizeof(StackCounters), "a counter is missing");
-  return counters;
+  return counter_table<StackCounters>(counters);
 }
 
 }  // namespace rtu::hw

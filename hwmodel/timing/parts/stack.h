@@ -14,15 +14,12 @@ enum class StackMode : uint8_t {
   kSpill,    // to memory, read back when popped
   kRestart,  // the oldest is dropped; popping a dropped entry restarts from the root along a trail
 };
-inline constexpr TimingChoice kStackModes[] = {
-    {"spill", "entries beyond the short stack go to memory and are read back at their pop"},
-    {"restart", "the oldest entry is dropped; its pop restarts from the root along a trail (restart_trail.h)"},
-};
-inline std::span<const TimingChoice> stack_modes() {
-  return kStackModes;
-}
-inline const char* name_of(StackMode m) {
-  return kStackModes[size_t(m)].name;
+inline std::span<const TimingChoice> choices(StackMode) {
+  static constexpr TimingChoice list[] = {
+      {"spill", "entries beyond the short stack go to memory and are read back at their pop"},
+      {"restart", "the oldest entry is dropped; its pop restarts from the root along a trail (restart_trail.h)"},
+  };
+  return list;
 }
 
 struct StackConfig {

@@ -15,13 +15,13 @@ const TimingKeyTable& unit_keys() {
       {"box_latency", &C::box_latency, 1, kMaxLatency, "box unit pipeline depth (issue to result)"},
       {"obb_latency", &C::obb_latency, 0, kMaxLatency,
        "oriented nodes: clocks the ray's rotation into the node's frame adds to a box test"},
-      {"box_unit", choice_field<&C::box_unit, unit_models>(), 0, 0,
+      {"box_unit", choice_field<&C::box_unit>(), 0, 0,
        "which box unit answers the box tests: the C++ datapath, or the Verilated RTL unit (co-simulation, its "
        "clocks per node)"},
       {"tri_units", &C::tri_units, 1, 64, "triangle units (spheres and planes use them too)"},
       {"tri_rate", &C::tri_rate, 1, 64, "triangle tests per clock per unit"},
       {"tri_latency", &C::tri_latency, 1, kMaxLatency, "triangle test pipeline depth"},
-      {"tri_unit", choice_field<&C::tri_unit, unit_models>(), 0, 0,
+      {"tri_unit", choice_field<&C::tri_unit>(), 0, 0,
        "which triangle unit answers the triangle tests: the C++ datapath, or the Verilated RTL unit "
        "(co-simulation, its clocks)"},
       {"sphere_latency", &C::sphere_latency, 1, kMaxLatency, "sphere test pipeline depth (triangle unit slot)"},
@@ -43,7 +43,6 @@ const TimingKeyTable& unit_keys() {
 
 std::span<const TimingCounter> unit_counters() {
   using S = TimingStats;
-  constexpr SampleScale kPerRay = SampleScale::kPerRay;
   static constexpr std::array<TimingCounter, 14> counters = {{
       {"box_tests", &S::box_tests, "tests", "ray-box tests (one per child of a node visited)", kPerRay},
       {"tri_tests", &S::tri_tests, "tests", "ray-triangle tests", kPerRay},
@@ -73,8 +72,7 @@ std::span<const TimingCounter> unit_counters() {
       {"queue_stall_cycles", &S::queue_stall_cycles, "cycles",
        "cycles unit requests waited beyond queue_depth for a free unit", kPerRay},
   }};
-  static_assert(counters.size() * sizeof(uint64_t) == sizeof(UnitCounters), "a counter is missing");
-  return counters;
+  return counter_table<UnitCounters>(counters);
 }
 
 }  // namespace rtu::hw

@@ -15,15 +15,12 @@ enum class UnitModel : uint8_t {
   kCpp,  // the C++ datapath, at the configured rate and depth
   kRtl,  // the Verilated RTL of rtl_sim/ (co-simulation: its clocks; hits stay the C++ unit's, bit for bit)
 };
-inline constexpr TimingChoice kUnitModels[] = {
-    {"cpp", "the C++ datapath, at the configured rate and pipeline depth"},
-    {"rtl", "the Verilated RTL unit (co-simulation): its clocks per test; the hits stay the C++ unit's"},
-};
-inline std::span<const TimingChoice> unit_models() {
-  return kUnitModels;
-}
-inline const char* name_of(UnitModel m) {
-  return kUnitModels[size_t(m)].name;
+inline std::span<const TimingChoice> choices(UnitModel) {
+  static constexpr TimingChoice list[] = {
+      {"cpp", "the C++ datapath, at the configured rate and pipeline depth"},
+      {"rtl", "the Verilated RTL unit (co-simulation): its clocks per test; the hits stay the C++ unit's"},
+  };
+  return list;
 }
 
 // Units: count, tests per clock per unit, pipeline depth (cycles from issue to result).

@@ -17,9 +17,7 @@
 set -euo pipefail
 name=chip_scaling.sh
 source "$(dirname "$0")/lib.sh"
-bench_mesh_args 200000 "$bench_house" "$bench_engine" -- "$@"
-bench_need_python
-bench_tmpdir
+bench_mesh_setup 200000 "$bench_house" "$bench_engine" -- "$@"
 read -r -a units <<<"${UNITS:-1 2 4 8 16 32 64 80}"
 plots=${PLOTS:-}
 if [ -n "$plots" ]; then

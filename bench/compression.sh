@@ -19,9 +19,7 @@
 set -euo pipefail
 name=compression.sh
 source "$(dirname "$0")/lib.sh"
-bench_mesh_args 50000 "$bench_house" "$bench_engine" -- "$@"
-bench_need_python
-bench_tmpdir
+bench_mesh_setup 50000 "$bench_house" "$bench_engine" -- "$@"
 flat=()
 [ "${FLATTEN:-0}" = 1 ] && flat=(--flatten)
 

@@ -10,9 +10,7 @@
 set -euo pipefail
 name=layout_align.sh
 source "$(dirname "$0")/lib.sh"
-bench_mesh_args 50000 "$bench_house" "$bench_engine" -- "$@"
-bench_need_python
-bench_tmpdir
+bench_mesh_setup 50000 "$bench_house" "$bench_engine" -- "$@"
 echo "| mesh | rays | layout_align | cycles | lines per fetch | DRAM bytes | cache hit rate | cycles vs packed |"
 echo "|---|---|---|---|---|---|---|---|"
 for mesh in "${meshes[@]}"; do

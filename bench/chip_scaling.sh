@@ -15,8 +15,7 @@
 # rays per second on one host thread) against the single unit's in the same run. Prints Markdown; reads the stats
 # JSON with python3.
 set -euo pipefail
-name=chip_scaling.sh
-source "$(dirname "$0")/lib.sh"
+source "$(dirname "$0")/lib.sh"  # sets name to chip_scaling.sh
 bench_mesh_setup 200000 "$bench_house" "$bench_engine" -- "$@"
 read -r -a units <<<"${UNITS:-1 2 4 8 16 32 64 80}"
 plots=${PLOTS:-}

@@ -151,10 +151,7 @@ TEST_CASE("a prefetched line evicted before any demand hit counts as unused", "[
   // evicted and none used.
   TimingModel m(c, l);
   TimingStats s;
-  m.begin(1, s);
-  std::vector<TraceEvent> ray = {node(0), node(65), node(129), node(193), node(257)};
-  m.feed(&ray, 1);
-  m.finish();
+  run(m, {node(0), node(65), node(129), node(193), node(257)}, s);
   CHECK(s.cache_misses == 5);
   CHECK(s.prefetch_fills == 5);
   CHECK(s.prefetch_useful == 0);

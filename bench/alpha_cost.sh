@@ -14,8 +14,7 @@ scene=${2:-builtin:forest}
 width=${3:-320}
 read -r -a latencies <<<"${LATENCIES:-0 50 100 200 400 800 1600}"
 config=${CONFIG:-rdna2}
-name=alpha_cost.sh
-source "$(dirname "$0")/lib.sh"
+source "$(dirname "$0")/lib.sh"  # sets name to alpha_cost.sh
 bench_need_rtusim "$rtusim"
 bench_need_count WIDTH "$width"
 bench_need_python

@@ -15,11 +15,8 @@
 # rays per second on one host thread) against the single unit's in the same run. Prints Markdown; reads the stats
 # JSON with python3.
 set -euo pipefail
-name=chip_scaling.sh
-source "$(dirname "$0")/lib.sh"
-bench_mesh_args 200000 "$bench_house" "$bench_engine" -- "$@"
-bench_need_python
-bench_tmpdir
+source "$(dirname "$0")/lib.sh"  # sets name to chip_scaling.sh
+bench_mesh_setup 200000 "$bench_house" "$bench_engine" -- "$@"
 read -r -a units <<<"${UNITS:-1 2 4 8 16 32 64 80}"
 plots=${PLOTS:-}
 if [ -n "$plots" ]; then

@@ -12,8 +12,7 @@
 #     PRESET  (environment) the timing preset, default rdna4-mem (its format rdna4: BVH8 of oriented nodes padded
 #             to 128 bytes);  RATES  the cluster engine's triangles per clock of the cycle columns, default "4 16"
 set -euo pipefail
-name=clusters.sh
-source "$(dirname "$0")/lib.sh"
+source "$(dirname "$0")/lib.sh"  # sets name to clusters.sh
 bench_mesh_args 20000 "$bench_engine" "$bench_house" builtin:hairball builtin:cornell -- "$@"
 bench_json_reader
 bench_tmpdir

@@ -17,11 +17,8 @@
 # the two-level memory's bytes (top and bottom images and transforms) are a column of their own. Prints Markdown
 # tables; needs python3.
 set -euo pipefail
-name=compression.sh
-source "$(dirname "$0")/lib.sh"
-bench_mesh_args 50000 "$bench_house" "$bench_engine" -- "$@"
-bench_need_python
-bench_tmpdir
+source "$(dirname "$0")/lib.sh"  # sets name to compression.sh
+bench_mesh_setup 50000 "$bench_house" "$bench_engine" -- "$@"
 flat=()
 [ "${FLATTEN:-0}" = 1 ] && flat=(--flatten)
 

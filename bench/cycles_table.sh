@@ -23,8 +23,7 @@ threads=${THREADS:-1}
 presets=(rdna2 intel embedded)
 builtins=(builtin:seed builtin:cornell)
 
-name=cycles_table.sh
-source "$(dirname "$0")/lib.sh"
+source "$(dirname "$0")/lib.sh"  # sets name to cycles_table.sh
 bench_mesh_args 100000 "$bench_engine" "$bench_suzanne" "$bench_house" -- "$@"
 for mesh in "${meshes[@]}"; do
   [ -r "$mesh" ] || { echo "cycles_table.sh: cannot read $mesh" >&2; exit 2; }

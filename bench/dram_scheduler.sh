@@ -13,11 +13,8 @@
 # Prints a Markdown table. Reads the stats JSON with python3.
 set -euo pipefail
 read -r -a presets <<<"${PRESETS:-rdna2-chip embedded-chip}"
-name=dram_scheduler.sh
-source "$(dirname "$0")/lib.sh"
-bench_mesh_args 50000 "$bench_engine" "$bench_house" -- "$@"
-bench_need_python
-bench_tmpdir
+source "$(dirname "$0")/lib.sh"  # sets name to dram_scheduler.sh
+bench_mesh_setup 50000 "$bench_engine" "$bench_house" -- "$@"
 echo "| mesh | preset | scheduler | cycles | vs fcfs | limited by | DRAM utilization | row hit rate | mem wait/ray | reordered | capped | L2 hit rate |"
 echo "|---|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|"
 for mesh in "${meshes[@]}"; do

@@ -10,8 +10,7 @@
 #     rdna2-mem intel-mem";  PLAN=0 leaves out the iso-area plan (the slow part: minutes).
 # Reads the stats JSON and the sweep CSV with python3.
 set -euo pipefail
-name=energy.sh
-source "$(dirname "$0")/lib.sh"
+source "$(dirname "$0")/lib.sh"  # sets name to energy.sh
 bench_rays_args 50000 "$@"
 mesh=${3:-$bench_house}
 read -r -a presets <<<"${PRESETS:-rdna2 intel embedded rdna2-mem intel-mem}"

@@ -5,8 +5,7 @@
 #   bench/format_sweep.sh [RTUSIM] [RAYS] [MESH...]
 #     RTUSIM  default build/default/rtusim;  RAYS  rays per kind (primary and incoherent), default 1000000
 set -euo pipefail
-name=format_sweep.sh
-source "$(dirname "$0")/lib.sh"
+source "$(dirname "$0")/lib.sh"  # sets name to format_sweep.sh
 bench_mesh_args 1000000 "$bench_engine" "$bench_suzanne" -- "$@"
 bench_tmpdir
 

@@ -20,8 +20,7 @@ presets=("$@")
 threads=${THREADS:-2}
 suzanne=/usr/share/assimp/models/BLEND/SuzanneSubdiv_252.blend
 
-name=hybrid_table.sh
-source "$(dirname "$0")/lib.sh"
+source "$(dirname "$0")/lib.sh"  # sets name to hybrid_table.sh
 bench_need_rtusim "$rtusim"
 bench_need_python
 bench_tmpdir

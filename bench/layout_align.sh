@@ -8,16 +8,12 @@
 #     assimp-testmodels meshes
 # Prints a Markdown table. Reads the stats JSON with python3.
 set -euo pipefail
-name=layout_align.sh
-source "$(dirname "$0")/lib.sh"
-bench_mesh_args 50000 "$bench_house" "$bench_engine" -- "$@"
-bench_need_python
-bench_tmpdir
+source "$(dirname "$0")/lib.sh"  # sets name to layout_align.sh
+bench_mesh_setup 50000 "$bench_house" "$bench_engine" -- "$@"
 echo "| mesh | rays | layout_align | cycles | lines per fetch | DRAM bytes | cache hit rate | cycles vs packed |"
 echo "|---|---|---|---|---|---|---|---|"
 for mesh in "${meshes[@]}"; do
-  "$rtusim" rays --scene "$mesh" --kind primary --count "$rays" --out "$tmp/primary.bin" >/dev/null
-  "$rtusim" rays --scene "$mesh" --kind incoherent --count "$rays" --out "$tmp/incoherent.bin" >/dev/null
+  bench_kind_rays "$mesh"
   for kind in primary incoherent; do
     for align in 0 64; do
       "$rtusim" trace --scene "$mesh" --rays "$tmp/$kind.bin" --out "$tmp/hits.bin" --device timed \

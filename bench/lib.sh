@@ -59,6 +59,14 @@ bench_mesh_args() {
   bench_rays_args "$default_rays" "${bench_lead[@]}"
 }
 
+# bench_mesh_setup DEFAULT_RAYS DEFAULT_MESH... -- [RTUSIM] [RAYS] [MESH...]: bench_mesh_args, then what the
+# scripts that read the stats JSON with python3 need beside it: python3 (bench_need_python) and $tmp (bench_tmpdir).
+bench_mesh_setup() {
+  bench_mesh_args "$@"
+  bench_need_python
+  bench_tmpdir
+}
+
 # bench_scene_args DEFAULT_SCENE... -- [RTUSIM] [SCENE...]: the arguments of a script that renders or traces
 # scenes. Sets rtusim (default build/default/rtusim) and scenes, and checks rtusim.
 bench_scene_args() {
@@ -140,11 +148,8 @@ bench_synth_row() {
     echo "check -assert"
     echo "tee -o $tmp/stat.txt stat -tech cmos"
   } >"$tmp/s.ys"
-  yosys -q "$tmp/s.ys" >"$tmp/yosys.log" 2>&1 || { cat "$tmp/yosys.log" >&2; exit 1; }
-  local cells ffs trans
-  cells=$(sed -n 's/^ *Number of cells: *\([0-9]*\)/\1/p' "$tmp/stat.txt" | tail -1)
-  ffs=$(grep -E '^\s+\$_(S?DFF|DFF)[A-Z_0-9]*\s' "$tmp/stat.txt" | awk '{s+=$2} END{print s+0}')
-  trans=$(sed -n 's/^ *Estimated number of transistors: *\([0-9+]*\)/\1/p' "$tmp/stat.txt" | tail -1)
+  local secs cells ffs trans
+  bench_yosys_stat "$tmp/s.ys"
   grep -v -- "^$key," "$area" >"$tmp/area.csv" || true
   echo "$key,$cells,$ffs,${trans%+}" >>"$tmp/area.csv"
   cp "$tmp/area.csv" "$area"

@@ -12,11 +12,8 @@
 # with python3.
 set -euo pipefail
 read -r -a presets <<<"${PRESETS:-rdna2 rdna2-mem intel intel-mem embedded}"
-name=memory_bound.sh
-source "$(dirname "$0")/lib.sh"
-bench_mesh_args 50000 "$bench_house" "$bench_engine" -- "$@"
-bench_need_python
-bench_tmpdir
+source "$(dirname "$0")/lib.sh"  # sets name to memory_bound.sh
+bench_mesh_setup 50000 "$bench_house" "$bench_engine" -- "$@"
 echo "| mesh | rays | preset | cycles | cycles/ray | limited by | cycles / bound | DRAM bytes/ray | DRAM utilization | cache hit rate |"
 echo "|---|---|---|---:|---:|---|---:|---:|---:|---:|"
 for mesh in "${meshes[@]}"; do

@@ -19,8 +19,7 @@
 # 1 spp, direct light only) gives the rasterizer's cycles from its cost model (hwmodel/timing/raster_timing.h) and what
 # limits it; fitted like the ray tracing cycles. Reads the stats JSON with jq, or python3 when jq is missing.
 set -euo pipefail
-name=scaling.sh
-source "$(dirname "$0")/lib.sh"
+source "$(dirname "$0")/lib.sh"  # sets name to scaling.sh
 bench_rays_args 100000 "$@"
 out=${3:-out/scaling}
 read -r -a subdivs <<< "${SUBDIVS:-3 4 5 6 7 8}"

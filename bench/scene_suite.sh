@@ -23,8 +23,7 @@
 # (scripts/cgal_meshes.sh) when Debian's libcgal-demo is installed. If OUT exists, everything from its line
 # "## Notes" on is kept.
 set -euo pipefail
-name=scene_suite.sh
-source "$(dirname "$0")/lib.sh"
+source "$(dirname "$0")/lib.sh"  # sets name to scene_suite.sh
 bench_rays_args 100000 "$@"
 suite=${3:-scenes/suite.json}
 out=${OUT:-bench/results/scene-suite.md}

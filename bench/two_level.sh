@@ -11,8 +11,7 @@
 #     CONFIG default rdna2;  XFORM_SCENE default builtin:city;  XFORM_BITS default "24 20 16 12 8"
 # Prints Markdown tables. Reads the stats JSON with python3.
 set -euo pipefail
-name=two_level.sh
-source "$(dirname "$0")/lib.sh"
+source "$(dirname "$0")/lib.sh"  # sets name to two_level.sh
 bench_rays_args 100000 "$@"
 read -r -a scenes <<<"${SCENES:-builtin:city $bench_engine $bench_house}"
 config=${CONFIG:-rdna2}

@@ -40,8 +40,7 @@
 # and rdna4-mem. The table gives cycles per ray and the ratio to the older preset (> 1: faster), and the
 # geometric mean of the ratios over the scenes; the last column is also at each preset's own clock (ns per ray).
 set -euo pipefail
-name=unit_rates.sh
-source "$(dirname "$0")/lib.sh"
+source "$(dirname "$0")/lib.sh"  # sets name to unit_rates.sh
 bench_split_args 2 rdna2 intel rdna4 xe2 -- "$@"
 bench_rays_args 3000 "${bench_lead[@]}"
 presets=("${bench_list[@]}")

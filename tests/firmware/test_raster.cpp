@@ -12,11 +12,7 @@
 #include "firmware/sampling.h"
 #include "hwmodel/datapath/intersect_float.h"
 
-using rtu::fw::RasterStats;
-using rtu::fw::RenderJob;
-using rtu::fw::SampleOffset;
-using rtu::fw::SurfaceKind;
-using rtu::fw::SurfaceRecord;
+using namespace rtu::fw;
 using rtu::hw::Hit;
 using rtu::hw::Vec3;
 

@@ -14,8 +14,7 @@
 #include "hwmodel/timing/sort_timing.h"
 #include "tests/firmware/mock_hal.h"
 
-using rtu::fw::RaySortJob;
-using rtu::fw::RaySortKey;
+using namespace rtu::fw;
 using rtu::hw::Hit;
 using rtu::hw::Ray;
 using rtu::hw::Vec3;

@@ -51,6 +51,14 @@ inline void check_same_rows(std::vector<std::string> a, std::vector<std::string>
   CHECK(a == b);
 }
 
+// Runs rtusim with ARGS into the const Run named R and requires that it exits with status 0. R's output stays the
+// INFO of every assertion after it in the scope, so that a later failure shows what rtusim said: a macro, since
+// INFO lasts to the end of the scope it is written in.
+#define REQUIRE_RTUSIM_OK(R, ARGS)                          \
+  const ::rtu::test::Run R = ::rtu::test::run_rtusim(ARGS); \
+  INFO(R.output);                                           \
+  REQUIRE(R.status == 0)
+
 // A command line rtusim must refuse, and words its message must hold.
 struct Refusal {
   std::string args, words;

@@ -16,9 +16,7 @@ const std::string kScene = "trace --scene builtin:seed --rays primary:48x32 --de
 
 nlohmann::json trace_stats(const fs::path& d, const std::string& name, const std::string& args) {
   const std::string stats = (d / (name + ".json")).string();
-  const Run r = run_rtusim(kScene + args + " --stats " + stats + " --out " + (d / (name + ".hits")).string());
-  INFO(r.output);
-  REQUIRE(r.status == 0);
+  REQUIRE_RTUSIM_OK(r, kScene + args + " --stats " + stats + " --out " + (d / (name + ".hits")).string());
   return read_json(stats);
 }
 
@@ -88,10 +86,8 @@ TEST_CASE("A/B: --against-format takes a format spec, priced for B's own format"
 TEST_CASE("A/B: cycles only (--sample, no --out) compares no hits", "[cli][timed]") {
   const fs::path d = temp_dir("cli_ab");
   const std::string stats = (d / "s.json").string();
-  const Run r = run_rtusim(
-      kScene + "--config rdna4 --sample 0.5 --sample-unit 64 --against-set box_units=2 --stats " + stats);
-  INFO(r.output);
-  REQUIRE(r.status == 0);
+  REQUIRE_RTUSIM_OK(
+      r, kScene + "--config rdna4 --sample 0.5 --sample-unit 64 --against-set box_units=2 --stats " + stats);
   const nlohmann::json j = read_json(stats);
   CHECK(j["ab"]["hits_compared"] == 0);
   CHECK(j["ab"]["hits_differ"] == 0);

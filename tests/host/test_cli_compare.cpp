@@ -12,10 +12,8 @@ using namespace rtu::test;
 TEST_CASE("compare: the JSON report's keys, conservative boxes, agreement on the seed scene", "[cli][fixed]") {
   const fs::path d = temp_dir("cli");
   const std::string json = (d / "c.json").string(), replay = (d / "dis.rays").string();
-  const Run r = run_rtusim("compare --scene builtin:seed --rays incoherent:50000 --json " + json +
-                           " --disagreements " + replay);
-  INFO(r.output);
-  REQUIRE(r.status == 0);
+  REQUIRE_RTUSIM_OK(
+      r, "compare --scene builtin:seed --rays incoherent:50000 --json " + json + " --disagreements " + replay);
   const nlohmann::json j = read_json(json);
   for (const char* key : {"rays", "hit_agreement", "prim_agreement", "false_misses", "false_hits", "invalid_rays",
                           "t_rel_error_max", "t_rel_error_mean", "box_false_negatives", "node_visit_overhead",
@@ -120,9 +118,7 @@ TEST_CASE("stress: every category runs, no promise breaks at the default format"
 TEST_CASE("compare --rays: incoherent without a count, and a spec that is neither a kind nor a file", "[cli]") {
   const fs::path d = temp_dir("cli");
   const std::string json = (d / "c_inc.json").string();
-  const Run r = run_rtusim("compare --scene builtin:cornell --rays incoherent --json " + json);
-  INFO(r.output);
-  REQUIRE(r.status == 0);
+  REQUIRE_RTUSIM_OK(r, "compare --scene builtin:cornell --rays incoherent --json " + json);
   const Run p = run_rtusim("compare --scene builtin:cornell --rays primary --json " + json + "_p");
   REQUIRE(p.status == 0);
   // As many as the camera's image has.

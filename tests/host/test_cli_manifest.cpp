@@ -107,9 +107,7 @@ TEST_CASE("sweep point keys: a changed mesh or timing key changes exactly the po
   write_mesh(copy, "0");
   auto keys_of = [&](const std::string& args) {
     const std::string m = (d / "m.txt").string();
-    const Run r = run_rtusim("sweep " + args + " --rays 50 --image-width 0 --write-manifest " + m);
-    INFO(r.output);
-    REQUIRE(r.status == 0);
+    REQUIRE_RTUSIM_OK(r, "sweep " + args + " --rays 50 --image-width 0 --write-manifest " + m);
     return manifest_keys(m);
   };
   const std::string cfg = " --config rdna2 --set cache_kib=16,64";
@@ -147,10 +145,8 @@ TEST_CASE("sweep point keys: a changed mesh or timing key changes exactly the po
     f << "# scene,format,width,config\nbuiltin:seed,default,4,rdna2:cache_kib=16\n"
          "builtin:seed\tcompact\t8\trdna2-mem:ray_slots=8\nbuiltin:seed,default,4,rdna2:cache_kib=16\n";
   }
-  const Run pts = run_rtusim("sweep --points " + (d / "points.csv").string() +
+  REQUIRE_RTUSIM_OK(pts, "sweep --points " + (d / "points.csv").string() +
                              " --rays 50 --image-width 0 --write-manifest " + (d / "pm.txt").string());
-  INFO(pts.output);
-  REQUIRE(pts.status == 0);
   CHECK(manifest_keys(d / "pm.txt").size() == 2);
   CHECK(manifest_keys(d / "pm.txt")[0] == a[2]);  // the grid's builtin:seed, rdna2 with cache_kib 16
   {

@@ -13,9 +13,7 @@ using namespace rtu::test;
 
 TEST_CASE("demo writes an image, hits and a report", "[cli][scale]") {
   const fs::path d = temp_dir("cli") / "demo";
-  const Run r = run_rtusim("demo --out " + d.string());
-  INFO(r.output);
-  REQUIRE(r.status == 0);
+  REQUIRE_RTUSIM_OK(r, "demo --out " + d.string());
   CHECK(fs::file_size(d / "primary_float.png") > 1000);
   const nlohmann::json j = read_json(d / "report.json");
   CHECK(j["devices"]["float"]["hits"].get<uint64_t>() > 0);
@@ -37,9 +35,7 @@ TEST_CASE("diff: identical and differing PNGs, JSON keys, heatmap", "[cli][image
   rtu::host::write_png(pb, b);
 
   const std::string same_json = (d / "same.json").string();
-  const Run same = run_rtusim("diff " + pa + " " + pa2 + " --json " + same_json);
-  INFO(same.output);
-  REQUIRE(same.status == 0);
+  REQUIRE_RTUSIM_OK(same, "diff " + pa + " " + pa2 + " --json " + same_json);
   CHECK(same.output.find("8x4") != std::string::npos);
   CHECK(same.output.find("identical") != std::string::npos);
   const nlohmann::json js = read_json(same_json);
@@ -48,9 +44,7 @@ TEST_CASE("diff: identical and differing PNGs, JSON keys, heatmap", "[cli][image
   CHECK(js["pixels_differing"] == 0);
 
   const std::string json = (d / "diff.json").string(), heat = (d / "heat.png").string();
-  const Run r = run_rtusim("diff " + pa + " " + pb + " --heatmap " + heat + " --scale 20 --json " + json);
-  INFO(r.output);
-  REQUIRE(r.status == 0);
+  REQUIRE_RTUSIM_OK(r, "diff " + pa + " " + pb + " --heatmap " + heat + " --scale 20 --json " + json);
   CHECK(r.output.find("1 of 32 pixels differ") != std::string::npos);
   const nlohmann::json j = read_json(json);
   for (const char* key : {"a", "b", "width", "height", "identical", "mse", "psnr_db", "max_abs", "mean_abs",
@@ -95,12 +89,11 @@ TEST_CASE("render --mode hybrid on the timed device: raster and trace cycles, ra
           "[cli][hybrid]") {
   const fs::path d = temp_dir("cli");
   const std::string stats = (d / "hy.json").string();
-  const Run r = run_rtusim(
+  REQUIRE_RTUSIM_OK(
+      r,
       "render --scene builtin:seed --width 80 --height 60 --device timed --mode hybrid --max-depth 2 "
       "--compare-modes --threads 2 --out " +
-      (d / "hy.png").string() + " --stats " + stats);
-  INFO(r.output);
-  REQUIRE(r.status == 0);
+          (d / "hy.png").string() + " --stats " + stats);
   CHECK(r.output.find("rasterizer:") != std::string::npos);
   CHECK(r.output.find("(4800 primary rays saved)") != std::string::npos);
   const nlohmann::json j = read_json(stats);
@@ -147,9 +140,7 @@ TEST_CASE("render: a progress line on a terminal, none otherwise", "[cli]") {
   CHECK(tty.output.find("render: ") != std::string::npos);
   CHECK(tty.output.find("(batch 1/1, bounce 0)") != std::string::npos);
   CHECK(tty.output.find("\033[K") != std::string::npos);  // cleared before the summary
-  const Run pipe = run_rtusim(args);
-  INFO(pipe.output);
-  REQUIRE(pipe.status == 0);
+  REQUIRE_RTUSIM_OK(pipe, args);
   CHECK(pipe.output.find("batch 1/") == std::string::npos);
   CHECK(pipe.output.find('\r') == std::string::npos);
 }
@@ -158,12 +149,11 @@ TEST_CASE("render --set ray_sort: the sort's rays and cycles in the summary and 
           "[cli][sort]") {
   const fs::path d = temp_dir("cli");
   const std::string stats = (d / "sorted.json").string();
-  const Run r = run_rtusim(
+  REQUIRE_RTUSIM_OK(
+      r,
       "render --scene builtin:seed --width 40 --height 30 --device timed --max-depth 2 --threads 2 --set "
       "ray_sort=direction --out " +
-      (d / "sorted.png").string() + " --stats " + stats);
-  INFO(r.output);
-  REQUIRE(r.status == 0);
+          (d / "sorted.png").string() + " --stats " + stats);
   CHECK(r.output.find("ray sorting by direction:") != std::string::npos);
   CHECK(r.output.find("(sort + trace)") != std::string::npos);
   const nlohmann::json j = read_json(stats);

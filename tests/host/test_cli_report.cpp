@@ -40,9 +40,7 @@ std::string slurp(const fs::path& p) {
 TEST_CASE("report --quick: a static page, its images, consistent figures", "[cli][report][scale]") {
   const fs::path d = temp_dir("cli") / "report";
   fs::remove_all(d);
-  const Run r = run_rtusim("report --quick --threads 2 --out " + d.string());
-  INFO(r.output);
-  REQUIRE(r.status == 0);
+  REQUIRE_RTUSIM_OK(r, "report --quick --threads 2 --out " + d.string());
   for (const char* f :
        {"index.html", "report.json", "render_float.png", "render_fixed.png", "render_heatmap.png", "sweep.csv"})
     CHECK(fs::exists(d / f));

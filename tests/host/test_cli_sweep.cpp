@@ -94,12 +94,10 @@ TEST_CASE(
     "[cli][sweep]") {
   const fs::path d = temp_dir("cli");
   const std::string json = (d / "plan.json").string();
-  const Run r = run_rtusim(
-      "plan --scene builtin:cornell --max-error 2e-3 --bvh-width 4 --coord-bits 6,8,10,12,16 "
-      "--child-bits 6,8 --rays 3000 --image-width 0 --json " +
-      json);
-  INFO(r.output);
-  REQUIRE(r.status == 0);
+  REQUIRE_RTUSIM_OK(r,
+                    "plan --scene builtin:cornell --max-error 2e-3 --bvh-width 4 --coord-bits 6,8,10,12,16 "
+                    "--child-bits 6,8 --rays 3000 --image-width 0 --json " +
+                        json);
   const nlohmann::json j = read_json(json);
   const auto& w = j["widths"][0];
   REQUIRE(w["feasible"] == true);
@@ -160,9 +158,7 @@ TEST_CASE("plan --min-gain and --minimise area or perf-per-area on the command l
   const std::string base =
       "plan --scene builtin:seed --max-error 1e-2 --bvh-width 4 --coord-bits 12,16 --child-bits 8 --rays 1000 "
       "--image-width 0 --threads 1 ";
-  const Run r = run_rtusim(base + "--min-gain 5 --json " + json);
-  INFO(r.output);
-  REQUIRE(r.status == 0);
+  REQUIRE_RTUSIM_OK(r, base + "--min-gain 5 --json " + json);
   const nlohmann::json j = read_json(json);
   CHECK(j["plan"]["coord_bits"] == 12);
   CHECK(j["min_gain_pct"] == 5.0);
@@ -367,9 +363,7 @@ TEST_CASE("sweep, plan and report --flatten: one image for an instanced scene, r
   const std::string grid =
       "sweep --scene " RTU_SOURCE_DIR "/scenes/instances.json --rays 64 --image-width 0 --threads 2 --out " + csv;
   REQUIRE(run_rtusim(grid).status == 0);
-  const Run r = run_rtusim(grid + " --flatten");
-  INFO(r.output);
-  REQUIRE(r.status == 0);
+  REQUIRE_RTUSIM_OK(r, grid + " --flatten");
   CHECK(r.output.find("flattened") != std::string::npos);
   CHECK(r.output.find("1 run, 0 already") != std::string::npos);  // another run parameter: not resumed
   const std::vector<rtu::host::SweepRow> rows = rtu::host::read_sweep_csv(csv);
@@ -389,9 +383,7 @@ TEST_CASE("sweep, plan and report --flatten: one image for an instanced scene, r
                            "/scenes/instances.json --max-error 0.05 --bvh-width 4 --coord-bits 16 "
                            "--child-bits 8 --rays 64 --image-width 0 --threads 2 --json ";
   const std::string one = (d / "one.json").string(), two = (d / "two.json").string();
-  const Run p1 = run_rtusim(plan + one + " --flatten");
-  INFO(p1.output);
-  REQUIRE(p1.status == 0);
+  REQUIRE_RTUSIM_OK(p1, plan + one + " --flatten");
   CHECK(p1.output.find("instanced scene flattened") != std::string::npos);
   REQUIRE(run_rtusim(plan + two).status == 0);
   const nlohmann::json j1 = read_json(one), j2 = read_json(two);

@@ -17,9 +17,7 @@ namespace fs = std::filesystem;
 using namespace rtu::test;
 
 TEST_CASE("config: a preset's every key, --set overrides, JSON keys, --list", "[cli][timing][config]") {
-  const Run r = run_rtusim("config --config rdna2");
-  INFO(r.output);
-  REQUIRE(r.status == 0);
+  REQUIRE_RTUSIM_OK(r, "config --config rdna2");
   const std::vector<rtu::hw::TimingKey> keys = rtu::hw::timing_keys(rtu::hw::timing_preset("rdna2"));
   for (const rtu::hw::TimingKey& k : keys) {
     // A line "key<spaces> = value<spaces>   # description".
@@ -31,9 +29,7 @@ TEST_CASE("config: a preset's every key, --set overrides, JSON keys, --list", "[
     CHECK(line.find("# " + k.description) != std::string::npos);
   }
 
-  const Run s = run_rtusim("config --config intel --set ray_slots=64 --set box_latency=9");
-  INFO(s.output);
-  REQUIRE(s.status == 0);
+  REQUIRE_RTUSIM_OK(s, "config --config intel --set ray_slots=64 --set box_latency=9");
   CHECK(s.output.find("ray_slots") != std::string::npos);
   CHECK(s.output.find("= 64 ") != std::string::npos);
   CHECK(s.output.find("= 9 ") != std::string::npos);
@@ -57,9 +53,7 @@ TEST_CASE("config: a preset's every key, --set overrides, JSON keys, --list", "[
   CHECK(j["clock_ghz"].get<double>() == 0.8);
   CHECK(j["dram_bytes_per_cycle"].is_number());
 
-  const Run l = run_rtusim("config --list");
-  INFO(l.output);
-  REQUIRE(l.status == 0);
+  REQUIRE_RTUSIM_OK(l, "config --list");
   for (const std::string& n : rtu::hw::timing_preset_names()) CHECK(l.output.find(n + " ") != std::string::npos);
   CHECK(l.output.find("RDNA2") != std::string::npos);
 }
@@ -133,11 +127,9 @@ TEST_CASE("trace --device timed: timing stats, the lower bound, breakdowns, the 
   const std::string rays = (d / "t.rays").string(), stats = (d / "t.json").string(),
                     pipe = (d / "pipe.json").string();
   REQUIRE(run_rtusim("rays --scene builtin:seed --kind primary --count 3000 --out " + rays).status == 0);
-  const Run r = run_rtusim("trace --scene builtin:seed --rays " + rays + " --out " + (d / "t.hits").string() +
+  REQUIRE_RTUSIM_OK(r, "trace --scene builtin:seed --rays " + rays + " --out " + (d / "t.hits").string() +
                            " --device timed --config intel --stats " + stats + " --pipeline-trace " + pipe +
                            " --trace-window 100:1100");
-  INFO(r.output);
-  REQUIRE(r.status == 0);
   CHECK(r.output.find("timed (intel):") != std::string::npos);
   const nlohmann::json j = read_json(stats);
   const auto& t = j["timing"];
@@ -207,11 +199,9 @@ TEST_CASE("trace on a chip: per-unit statistics, the memory timeline, a pipeline
   const std::string rays = (d / "c.rays").string(), stats = (d / "c.json").string(),
                     pipe = (d / "c-pipe.json").string();
   REQUIRE(run_rtusim("rays --scene builtin:seed --kind primary --count 3000 --out " + rays).status == 0);
-  const Run r = run_rtusim("trace --scene builtin:seed --rays " + rays + " --out " + (d / "c.hits").string() +
+  REQUIRE_RTUSIM_OK(r, "trace --scene builtin:seed --rays " + rays + " --out " + (d / "c.hits").string() +
                            " --device timed --config embedded-chip --stats " + stats + " --pipeline-trace " +
                            pipe + " --trace-window 0:2000");
-  INFO(r.output);
-  REQUIRE(r.status == 0);
   const nlohmann::json j = read_json(stats);
   const auto& t = j["timing"];
   // embedded-chip: 4 units; waves of 16 rays (the embedded unit's slots) in turn: 3000 rays are 187.5 waves.

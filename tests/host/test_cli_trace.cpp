@@ -21,10 +21,8 @@ TEST_CASE("rays -> trace round trip on a built-in scene, CSV and binary give the
   REQUIRE(run_rtusim("rays --scene builtin:seed --kind primary --count 20000 --out " + rays).status == 0);
   REQUIRE(run_rtusim("rays --scene builtin:seed --kind primary --count 20000 --out " + rays_csv).status == 0);
   const std::string stats = (d / "s.json").string();
-  const Run t = run_rtusim("trace --scene builtin:seed --rays " + rays + " --out " + (d / "h.bin").string() +
+  REQUIRE_RTUSIM_OK(t, "trace --scene builtin:seed --rays " + rays + " --out " + (d / "h.bin").string() +
                            " --stats " + stats + " --bvh-width 8");
-  INFO(t.output);
-  REQUIRE(t.status == 0);
   REQUIRE(
       run_rtusim("trace --scene builtin:seed --rays " + rays_csv + " --out " + (d / "h.csv").string()).status ==
       0);
@@ -65,10 +63,8 @@ TEST_CASE("trace on the fixed device: formats, out-of-frame origins rejected wit
   const fs::path d = temp_dir("cli");
   std::ofstream(d / "far.csv") << "ox,oy,oz,tmin,dx,dy,dz,tmax\n0,1,8,0,0,-0.3,-1,inf\n1e12,0,0,0,-1,0,0,inf\n";
   const std::string stats = (d / "s.json").string();
-  const Run r = run_rtusim("trace --device fixed --format compact --scene builtin:seed --rays " +
+  REQUIRE_RTUSIM_OK(r, "trace --device fixed --format compact --scene builtin:seed --rays " +
                            (d / "far.csv").string() + " --out " + (d / "h.csv").string() + " --stats " + stats);
-  INFO(r.output);
-  REQUIRE(r.status == 0);
   CHECK(r.output.find("ray 1 (out_of_frame)") != std::string::npos);
   const nlohmann::json j = read_json(stats);
   CHECK(j["invalid_by_reason"]["out_of_frame"] == 1);
@@ -90,9 +86,7 @@ TEST_CASE("info reports the fixed image: bytes per node and footprint per format
        {std::pair{"default", 56}, std::pair{"wide6", 76}, std::pair{"wide8", 96}, std::pair{"binary", 36},
         std::pair{"precise", 80}, std::pair{"cwbvh", 80}, std::pair{"xe6", 64}, std::pair{"rdna4", 128}}) {
     const std::string json = (d / (std::string(format) + ".json")).string();
-    const Run r = run_rtusim(std::string("info --scene builtin:seed --format ") + format + " --json " + json);
-    INFO(r.output);
-    REQUIRE(r.status == 0);
+    REQUIRE_RTUSIM_OK(r, std::string("info --scene builtin:seed --format ") + format + " --json " + json);
     const nlohmann::json j = read_json(json);
     CHECK(j["bvh"]["image"]["bytes_per_node"] == node_bytes);
     CHECK(j["bvh"]["image"]["total_bytes"].get<uint64_t>() > j["bvh"]["image"]["node_bytes"].get<uint64_t>());
@@ -148,12 +142,10 @@ TEST_CASE("trace prices the run's format: its bits and node kind, as sweep price
   // sweep's area for the point of the default format (rdna2's) with coord_bits 12, to the digits its CSV prints.
   const std::string csv = (d / "s.csv").string();
   fs::remove(csv);
-  const Run s = run_rtusim(
-      "sweep --scene builtin:seed --formats default:coord_bits=12 --config rdna2 --rays 64 "
-      "--image-width 0 --out " +
-      csv);
-  INFO(s.output);
-  REQUIRE(s.status == 0);
+  REQUIRE_RTUSIM_OK(s,
+                    "sweep --scene builtin:seed --formats default:coord_bits=12 --config rdna2 --rays 64 "
+                    "--image-width 0 --out " +
+                        csv);
   const std::vector<std::string> lines = read_lines(csv);
   REQUIRE(lines.size() == 2);
   auto fields = [](const std::string& line) {

@@ -14,9 +14,7 @@
 #include "host/scene/scene.h"
 #include "hwmodel/timing/raster_timing.h"
 
-using rtu::host::RenderOptions;
-using rtu::host::RenderResult;
-using rtu::host::Scene;
+using namespace rtu::host;
 using rtu::hw::Vec3;
 using rtu::hw::cmd::RayType;
 

@@ -57,19 +57,28 @@ Json read_json(const fs::path& p) {
   return rtu::host::read_json_file(p.string());  // depth-limited, as rtu reads JSON (host/io/json_io.h)
 }
 
+// A plan of `scene` within `max_error` over the given widths and bits, measured on `rays` rays on one thread, with
+// no image.
+rtu::host::PlanOptions plan_options(const std::string& scene, double max_error, std::vector<int> widths,
+                                    std::vector<int> coord_bits, std::vector<int> child_bits, int rays) {
+  rtu::host::PlanOptions o;
+  o.scene = scene;
+  o.max_error = max_error;
+  o.widths = std::move(widths);
+  o.coord_bits = std::move(coord_bits);
+  o.child_bits = std::move(child_bits);
+  o.sweep.rays = rays;
+  o.sweep.image_width = 0;
+  o.sweep.threads = 1;
+  return o;
+}
+
 }  // namespace
 
 TEST_CASE("plan: the chosen format meets its budget on the sample it measured, with the fewest coordinate bits",
           "[jobs][plan]") {
-  rtu::host::PlanOptions o;
-  o.scene = "builtin:icosphere?subdiv=2";
-  o.max_error = 0.02;
-  o.widths = {4};
-  o.coord_bits = {3, 6, 10, 14, 18, 24};
-  o.child_bits = {4, 8};
-  o.sweep.rays = 300;
-  o.sweep.image_width = 0;
-  o.sweep.threads = 1;
+  rtu::host::PlanOptions o =
+      plan_options("builtin:icosphere?subdiv=2", 0.02, {4}, {3, 6, 10, 14, 18, 24}, {4, 8}, 300);
   std::vector<rtu::host::SweepRow> candidates;
   std::vector<rtu::host::PlanStage> stages;
   const rtu::host::PlanResult r = rtu::host::plan_format(o, [&](const rtu::host::PlanStep& s) {
@@ -166,16 +175,8 @@ TEST_CASE("plan: the confidence bounds hold their definitions", "[jobs][plan]") 
 
 TEST_CASE("plan: a seed, a stated bound that meets the budget, and the configuration's own format",
           "[jobs][plan]") {
-  rtu::host::PlanOptions o;
-  o.scene = "builtin:icosphere?subdiv=2";
+  rtu::host::PlanOptions o = plan_options("builtin:icosphere?subdiv=2", 0.05, {4}, {4, 8, 12, 16}, {4, 6}, 400);
   o.config = "embedded";  // its format is compact, not default
-  o.max_error = 0.05;
-  o.widths = {4};
-  o.coord_bits = {4, 8, 12, 16};
-  o.child_bits = {4, 6};
-  o.sweep.rays = 400;
-  o.sweep.image_width = 0;
-  o.sweep.threads = 1;
   o.sweep.seed = 7;
   const rtu::host::PlanResult a = rtu::host::plan_format(o);
   REQUIRE(a.found);
@@ -256,18 +257,18 @@ TEST_CASE("plan: budgets below the smallest showable bound and NaN options are r
     CHECK(rtu::host::plan_smallest_hit_budget(need, o.confidence) <= 1e-5);
     CHECK(rtu::host::plan_smallest_hit_budget(need - 1, o.confidence) > 1e-5);
   }
+  // NaN in any one of these options, the others valid, is refused with the option named.
   o.max_error = 0.1;
-  o.min_psnr = std::nan("");
-  CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("--min-psnr"));
-  o.min_psnr = 0.0;
-  o.confidence = std::nan("");
-  CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("--confidence"));
-  o.confidence = 0.95;
-  o.area_budget = std::nan("");
-  CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("--area-budget"));
-  o.area_budget = 0.0;
-  o.max_error = std::nan("");
-  CHECK_THROWS_WITH(rtu::host::plan_format(o), Catch::Contains("--max-error"));
+  using Field = double rtu::host::PlanOptions::*;
+  const std::pair<Field, const char*> nan_options[] = {{&rtu::host::PlanOptions::min_psnr, "--min-psnr"},
+                                                       {&rtu::host::PlanOptions::confidence, "--confidence"},
+                                                       {&rtu::host::PlanOptions::area_budget, "--area-budget"},
+                                                       {&rtu::host::PlanOptions::max_error, "--max-error"}};
+  for (const auto& [field, option] : nan_options) {
+    rtu::host::PlanOptions bad = o;
+    bad.*field = std::nan("");
+    CHECK_THROWS_WITH(rtu::host::plan_format(bad), Catch::Contains(option));
+  }
 }
 
 TEST_CASE(
@@ -387,15 +388,7 @@ TEST_CASE(
     "plan --min-gain: with a budget 12 and 16 coordinate bits both meet, 16 bits that save less are not taken, "
     "--minimise area takes 12",
     "[jobs][plan]") {
-  rtu::host::PlanOptions o;
-  o.scene = "builtin:seed";
-  o.max_error = 1e-2;
-  o.widths = {4};
-  o.coord_bits = {12, 16};
-  o.child_bits = {8};
-  o.sweep.rays = 5000;
-  o.sweep.image_width = 0;
-  o.sweep.threads = 1;
+  rtu::host::PlanOptions o = plan_options("builtin:seed", 1e-2, {4}, {12, 16}, {8}, 5000);
   std::vector<rtu::host::SweepRow> rows;
   const auto collect = [&](const rtu::host::PlanStep& s) {
     if (s.stage == rtu::host::PlanStage::kCandidate && s.row->p.format != "default") rows.push_back(*s.row);
@@ -448,15 +441,7 @@ TEST_CASE(
 
 TEST_CASE("plan --minimise perf-per-area: the most rays per clock per mm^2 of the candidates within the budget",
           "[jobs][plan]") {
-  rtu::host::PlanOptions o;
-  o.scene = "builtin:seed";
-  o.max_error = 1e-2;
-  o.widths = {2, 4, 8};
-  o.coord_bits = {12, 16};
-  o.child_bits = {4, 8};
-  o.sweep.rays = 1000;
-  o.sweep.image_width = 0;
-  o.sweep.threads = 1;
+  rtu::host::PlanOptions o = plan_options("builtin:seed", 1e-2, {2, 4, 8}, {12, 16}, {4, 8}, 1000);
   o.minimise = "perf-per-area";
   const auto [res, candidates] = plan_with_candidates(o);
   REQUIRE(res.found);
@@ -482,15 +467,7 @@ TEST_CASE("plan --minimise perf-per-area: the most rays per clock per mm^2 of th
 
 TEST_CASE("plan and sweep: the poll hook is called between steps and stops the job when it throws",
           "[jobs][plan]") {
-  rtu::host::PlanOptions o;
-  o.scene = "builtin:icosphere?subdiv=1";
-  o.max_error = 0.05;
-  o.widths = {4};
-  o.coord_bits = {10, 16};
-  o.child_bits = {8};
-  o.sweep.rays = 64;
-  o.sweep.image_width = 0;
-  o.sweep.threads = 1;
+  rtu::host::PlanOptions o = plan_options("builtin:icosphere?subdiv=1", 0.05, {4}, {10, 16}, {8}, 64);
   int polls = 0;
   o.sweep.poll = [&] {
     if (++polls == 3) throw std::runtime_error("interrupted");

@@ -12,13 +12,7 @@
 #include "host/scene/generators.h"
 #include "host/scene/scene.h"
 
-using rtu::host::Light;
-using rtu::host::LightType;
-using rtu::host::Material;
-using rtu::host::MaterialType;
-using rtu::host::RenderOptions;
-using rtu::host::RenderResult;
-using rtu::host::Scene;
+using namespace rtu::host;
 using rtu::hw::Vec3;
 using rtu::hw::cmd::RayType;
 

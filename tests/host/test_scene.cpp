@@ -22,9 +22,7 @@
 
 namespace fs = std::filesystem;
 using Catch::Matchers::Contains;
-using rtu::host::Error;
-using rtu::host::MaterialType;
-using rtu::host::Scene;
+using namespace rtu::host;
 using rtu::hw::Triangle;
 using rtu::hw::Vec3;
 

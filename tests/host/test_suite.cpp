@@ -22,11 +22,8 @@
 
 namespace fs = std::filesystem;
 using Catch::Matchers::Contains;
-using rtu::host::Error;
-using rtu::host::Scene;
-using rtu::test::run_rtusim;
-
-using rtu::test::TempDir;
+using namespace rtu::host;
+using namespace rtu::test;
 
 namespace {
 

@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <string>
 #include <vector>
 
@@ -83,14 +82,15 @@ TEST_CASE("sweep: bytes per primitive and DRAM bytes per ray in the CSV, through
 
   // A file of the previous version (no DRAM or per-primitive bytes) is refused by resume, merge and the plots,
   // saying what it lacks.
-  const fs::path old = t.path / "old.csv";
-  {
-    std::ofstream f(old);
-    f << "scene,format,bvh_width,config,rays,seed,image_width,hit_agreement,prim_agreement,false_misses,"
-         "false_hits,t_rel_error_mean,t_rel_error_max,node_visit_overhead,prim_test_overhead,box_false_negatives,"
-         "psnr_db,cycles,cycles_per_ray,bvh_bytes,float_bvh_bytes,rtl_cells,rtl_transistors,seconds\n"
-         "builtin:icosphere,default,4,rdna2-mem,1000,1,0,1,1,0,0,0,0,0,0,0,0,5000,5,281192,300000,-1,-1,0.1\n";
-  }
+  // The columns every earlier version began with.
+  const std::string first_columns =
+      "scene,format,bvh_width,config,rays,seed,image_width,hit_agreement,prim_agreement,false_misses,false_hits,"
+      "t_rel_error_mean,t_rel_error_max,node_visit_overhead,prim_test_overhead,box_false_negatives,psnr_db,cycles,"
+      "cycles_per_ray,";
+  const fs::path old = t.write("old.csv", first_columns +
+                                              "bvh_bytes,float_bvh_bytes,rtl_cells,rtl_transistors,seconds\n"
+                                              "builtin:icosphere,default,4,rdna2-mem,1000,1,0,1,1,0,0,0,0,0,0,0,0,"
+                                              "5000,5,281192,300000,-1,-1,0.1\n");
   for (const std::string& args :
        {grid + "--out " + old.string(), "sweep --merge " + old.string() + " --out " + (t.path / "m2.csv").string(),
         "pareto --sweep " + old.string() + " --out " + (t.path / "p").string()}) {
@@ -103,14 +103,10 @@ TEST_CASE("sweep: bytes per primitive and DRAM bytes per ray in the CSV, through
   CHECK(read_lines(old).size() == 2);  // left as it was
 
   // And one of the version before the area and energy columns.
-  const fs::path pre_energy = t.path / "pre_energy.csv";
-  {
-    std::ofstream f(pre_energy);
-    f << "scene,format,bvh_width,config,rays,seed,image_width,hit_agreement,prim_agreement,false_misses,"
-         "false_hits,t_rel_error_mean,t_rel_error_max,node_visit_overhead,prim_test_overhead,box_false_negatives,"
-         "psnr_db,cycles,cycles_per_ray,dram_bytes_per_ray,bvh_bytes,float_bvh_bytes,bytes_per_prim,rtl_cells,"
-         "rtl_transistors,seconds\n";
-  }
+  const fs::path pre_energy =
+      t.write("pre_energy.csv", first_columns +
+                                    "dram_bytes_per_ray,bvh_bytes,float_bvh_bytes,bytes_per_prim,rtl_cells,"
+                                    "rtl_transistors,seconds\n");
   const Run e = run_rtusim("sweep --merge " + pre_energy.string() + " --out " + (t.path / "m3.csv").string());
   INFO(e.output);
   CHECK(e.status == 2);
@@ -186,9 +182,7 @@ TEST_CASE("plan on the command line: --minimise and its alias --minimize, --form
       "--image-width 0 --config rdna2-mem --format packed ";
   for (const char* option : {"--minimise", "--minimize"}) {
     const fs::path json = t.path / (std::string(option + 2) + ".json");
-    const Run r = run_rtusim(base + option + " bytes --json " + json.string());
-    INFO(r.output);
-    REQUIRE(r.status == 0);
+    REQUIRE_RTUSIM_OK(r, base + option + " bytes --json " + json.string());
     CHECK(r.output.find("cheapest: image bytes (bvh_bytes), then cycles on rdna2-mem") != std::string::npos);
     const auto j = rtu::host::read_json_file(json.string());
     CHECK(j["minimise"] == "bytes");

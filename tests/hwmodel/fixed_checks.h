@@ -188,24 +188,24 @@ inline Frac plane_dist(const FixedRay& r, int a, int64_t plane) {
   return {p, q};
 }
 
-// The exact entry and exit of the slab intersection over [tmin, tlim] (zero axes left out).
-inline Frac exact_entry(const FixedRay& r, const int64_t lo[3], const int64_t hi[3], int64_t tmin) {
-  Frac best{tmin, 1};
+// The exact entry (the latest plane the ray enters, no earlier than `from`) or exit (the earliest plane it leaves,
+// no later than `from`) of the slab intersection, zero axes left out.
+inline Frac exact_slab_end(const FixedRay& r, const int64_t lo[3], const int64_t hi[3], int64_t from, bool entry) {
+  Frac best{from, 1};
   for (int a = 0; a < 3; ++a) {
     if (r.zero[a]) continue;
-    const Frac t = plane_dist(r, a, r.d[a] > 0 ? lo[a] : hi[a]);
-    if (frac_less(best, t)) best = t;
+    const Frac t = plane_dist(r, a, (r.d[a] > 0) == entry ? lo[a] : hi[a]);
+    if (entry ? frac_less(best, t) : frac_less(t, best)) best = t;
   }
   return best;
 }
+
+// The exact entry and exit of the slab intersection over [tmin, tlim] (zero axes left out).
+inline Frac exact_entry(const FixedRay& r, const int64_t lo[3], const int64_t hi[3], int64_t tmin) {
+  return exact_slab_end(r, lo, hi, tmin, true);
+}
 inline Frac exact_exit(const FixedRay& r, const int64_t lo[3], const int64_t hi[3], int64_t tlim) {
-  Frac best{tlim, 1};
-  for (int a = 0; a < 3; ++a) {
-    if (r.zero[a]) continue;
-    const Frac t = plane_dist(r, a, r.d[a] > 0 ? hi[a] : lo[a]);
-    if (frac_less(t, best)) best = t;
-  }
-  return best;
+  return exact_slab_end(r, lo, hi, tlim, false);
 }
 
 // The slab test in long double: +1 accept, -1 reject, 0 too close to call. Each distance is one rounding of an

@@ -148,25 +148,25 @@ TEST_CASE("dram scheduler: only requests that have arrived when the bank is free
 TEST_CASE("dram scheduler: the cap stops a stream of row hits starving a row miss", "[memory][frfcfs]") {
   // A: line 0 at 0; B: line 4 (row 1) at 1; C: line 1 at 2; E: line 2 at 3 (C and E hit row 0).
   const std::vector<std::pair<uint64_t, uint64_t>> seq = {{0, 0}, {4, 1}, {1, 2}, {2, 3}};
+  // seq on one bank under FR-FCFS with `cap`: the cycle each read's data is there, and the scheduler's counts.
+  const auto check = [&](int cap, const std::vector<uint64_t>& data, uint64_t reordered, uint64_t capped,
+                         uint64_t row_hits) {
+    MemorySystem m(one_bank("frfcfs", cap));
+    TimingStats s;
+    CHECK(reads(m, seq, s) == data);
+    CHECK(s.dram_reordered == reordered);
+    CHECK(s.dram_capped == capped);
+    CHECK(s.dram_row_hits == row_hits);
+  };
   SECTION("cap 16: both hits go first") {
     // 0: A (121). 20: C hits (bus at 21: data 122), B passed once. 21: E hits (bus at 22: data 123), B passed
     // twice. 22: B, 22 + 35 = 57, data 158.
-    MemorySystem m(one_bank("frfcfs", 16));
-    TimingStats s;
-    CHECK(reads(m, seq, s) == std::vector<uint64_t>{121, 158, 122, 123});
-    CHECK(s.dram_reordered == 2);
-    CHECK(s.dram_capped == 0);
-    CHECK(s.dram_row_hits == 2);
+    check(16, {121, 158, 122, 123}, 2, 0, 2);
   }
   SECTION("cap 1: B goes once it has been passed over once") {
     // 0: A (121). 20: C hits (122), B passed once. 21: B has been passed over 1 >= 1 times: served before E's
     // hit, 21 + 35 = 56, transfer 56-57, data 157. 56: E, row 1 now open: 56 + 35 = 91, data 192.
-    MemorySystem m(one_bank("frfcfs", 1));
-    TimingStats s;
-    CHECK(reads(m, seq, s) == std::vector<uint64_t>{121, 157, 122, 192});
-    CHECK(s.dram_reordered == 1);
-    CHECK(s.dram_capped == 1);
-    CHECK(s.dram_row_hits == 1);
+    check(1, {121, 157, 122, 192}, 1, 1, 1);
   }
 }
 

@@ -42,6 +42,19 @@ struct ExactSegment {
   LD p0[3], p1[3], r0, r1;
 };
 
+// Where f, convex on [lo, hi], is least, to `steps` steps of a ternary search: the middle of the last interval.
+template <class F>
+LD ternary_argmin(const F& f, LD lo, LD hi, int steps) {
+  for (int k = 0; k < steps; ++k) {
+    const LD m1 = lo + (hi - lo) / 3, m2 = hi - (hi - lo) / 3;
+    if (f(m1) < f(m2))
+      hi = m2;
+    else
+      lo = m1;
+  }
+  return (lo + hi) / 2;
+}
+
 // Signed distance (grid units) from x to the union of the spheres c(s), r(s), s in [0, 1]: min over s of
 // |x - c(s)| - r(s), convex in s, found by a ternary search.
 LD union_distance(const ExactSegment& sg, const LD x[3]) {
@@ -53,15 +66,7 @@ LD union_distance(const ExactSegment& sg, const LD x[3]) {
     }
     return std::sqrt(q) - (sg.r0 + s * (sg.r1 - sg.r0));
   };
-  LD lo = 0, hi = 1;
-  for (int k = 0; k < 80; ++k) {
-    const LD m1 = lo + (hi - lo) / 3, m2 = hi - (hi - lo) / 3;
-    if (g(m1) < g(m2))
-      hi = m2;
-    else
-      lo = m1;
-  }
-  return std::min({g(0), g(1), g((lo + hi) / 2)});
+  return std::min({g(0), g(1), g(ternary_argmin(g, 0, 1, 80))});
 }
 
 // The first t in [0, t_far] (ray units) where the ray's point comes within `level` of the union (distance <=
@@ -75,15 +80,7 @@ LD first_within(const ExactSegment& sg, const LD o[3], const LD d[3], LD level, 
     return union_distance(sg, x) - level;
   };
   if (at(0) <= 0) return 0;
-  LD lo = 0, hi = t_far;
-  for (int k = 0; k < 110; ++k) {
-    const LD m1 = lo + (hi - lo) / 3, m2 = hi - (hi - lo) / 3;
-    if (at(m1) < at(m2))
-      hi = m2;
-    else
-      lo = m1;
-  }
-  LD tm = (lo + hi) / 2;
+  LD tm = ternary_argmin(at, 0, t_far, 110);
   if (at(tm) > 0) return std::numeric_limits<LD>::infinity();
   LD a = 0;
   for (int k = 0; k < 100; ++k) {

@@ -11,12 +11,7 @@
 #include "hwmodel/timing/timing_model.h"
 #include "hwmodel/timing/timing_stats.h"
 
-using rtu::hw::BankedDram;
-using rtu::hw::DramChannel;
-using rtu::hw::L2Cache;
-using rtu::hw::MemorySystem;
-using rtu::hw::TimingConfig;
-using rtu::hw::TimingStats;
+using namespace rtu::hw;
 
 namespace {
 

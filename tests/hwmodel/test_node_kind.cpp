@@ -20,19 +20,15 @@
 #include "hwmodel/numeric/rng.h"
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/timing/node_cost.h"
+#include "image_checks.h"
 #include "tests/common/test_util.h"
 
 using namespace rtu::hw;
 using namespace rtu::hw::fixed_checks;
 
-namespace {
+using rtu::hw::image_checks::encode;
 
-DeviceImage encode(const Geometry& g, const FixedFormat& f) {
-  BvhBuildParams bp;
-  bp.width = f.width;
-  const Bvh bvh = Bvh::build(g, bp);
-  return encode_scene(g, f, &bvh);
-}
+namespace {
 
 // count random child boxes on a 2^B grid.
 std::vector<GridBox> random_boxes(Pcg32& rng, int count, int B) {

@@ -151,10 +151,7 @@ TEST_CASE("a prefetched line evicted before any demand hit counts as unused", "[
   // evicted and none used.
   TimingModel m(c, l);
   TimingStats s;
-  m.begin(1, s);
-  std::vector<TraceEvent> ray = {node(0), node(65), node(129), node(193), node(257)};
-  m.feed(&ray, 1);
-  m.finish();
+  run(m, {node(0), node(65), node(129), node(193), node(257)}, s);
   CHECK(s.cache_misses == 5);
   CHECK(s.prefetch_fills == 5);
   CHECK(s.prefetch_useful == 0);
@@ -166,10 +163,7 @@ TEST_CASE("treelets: a permutation of the nodes, connected pieces within the bud
   for (int width : {2, 4, 8}) {
     FixedFormat f = format_preset("default");
     f.width = width;
-    BvhBuildParams bp;
-    bp.width = width;
-    const Bvh bvh = Bvh::build(g, bp);
-    const DeviceImage img = encode_scene(g, f, &bvh);
+    const DeviceImage img = image_checks::encode(g, f);
     const ImageHeader& h = img.header();
     for (uint64_t budget : {uint64_t(1), uint64_t(256), uint64_t(4096)}) {
       CAPTURE(width, budget);
@@ -378,11 +372,7 @@ TEST_CASE("where nothing misses, a prefetcher or a restart trail changes no cycl
   // (no memory request), and a short stack deeper than any ray's stack never restarts: their overhead here is
   // zero, so the second packet's cycles must equal the baseline's exactly.
   const Geometry g = fixed_checks::random_scene(21, 150, 0);
-  const FixedFormat f = format_preset("default");
-  BvhBuildParams bp;
-  bp.width = f.width;
-  const Bvh bvh = Bvh::build(g, bp);
-  const DeviceImage img = encode_scene(g, f, &bvh);
+  const DeviceImage img = image_checks::encode(g, format_preset("default"));
   const std::vector<uint8_t> bytes(img.data(), img.data() + img.size());
   REQUIRE(bytes.size() < 16 * 1024);
   const std::vector<Ray> rays = random_box_rays(4, 2000);

@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/timing/timing_config.h"
@@ -23,6 +24,22 @@ std::string error_of(F&& f) {
     return e.what();
   }
   return "";
+}
+
+// Preset `name` has every key of preset `base` but those of `may_differ` at base's value; returns how many keys
+// differ.
+int check_keys_kept(const std::string& name, const std::string& base, const std::vector<std::string>& may_differ) {
+  INFO(name << " against " << base);
+  const auto a = timing_keys(timing_preset(name)), b = timing_keys(timing_preset(base));
+  REQUIRE(a.size() == b.size());
+  int differing = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    INFO(a[i].key);
+    if (std::find(may_differ.begin(), may_differ.end(), a[i].key) == may_differ.end())
+      CHECK(a[i].value == b[i].value);
+    differing += a[i].value != b[i].value;
+  }
+  return differing;
 }
 
 std::string value_of(const TimingConfig& c, const std::string& key) {
@@ -132,21 +149,11 @@ TEST_CASE("memory-bound presets keep their base's datapath and take one unit's s
   // that a difference in cycles between the two is the memory's alone.
   const std::vector<std::string> memory = {"cache_kib",     "cache_ways",   "line_bytes",          "layout_align",
                                            "cache_latency", "dram_latency", "dram_bytes_per_cycle"};
-  for (const auto& [mem, base] : {std::pair<std::string, std::string>{"rdna2-mem", "rdna2"},
-                                  {"intel-mem", "intel"},
-                                  {"rdna4-mem", "rdna4"},
-                                  {"xe2-mem", "xe2"}}) {
+  const std::pair<std::string, std::string> mem_presets[] = {
+      {"rdna2-mem", "rdna2"}, {"intel-mem", "intel"}, {"rdna4-mem", "rdna4"}, {"xe2-mem", "xe2"}};
+  for (const auto& [mem, base] : mem_presets) {
     INFO(mem << " against " << base);
-    const auto a = timing_keys(timing_preset(mem)), b = timing_keys(timing_preset(base));
-    REQUIRE(a.size() == b.size());
-    int differing = 0;
-    for (size_t i = 0; i < a.size(); ++i) {
-      INFO(a[i].key);
-      const bool is_memory = std::find(memory.begin(), memory.end(), a[i].key) != memory.end();
-      if (!is_memory) CHECK(a[i].value == b[i].value);
-      differing += a[i].value != b[i].value;
-    }
-    CHECK(differing >= 3);  // cache size, latency and bandwidth at least
+    CHECK(check_keys_kept(mem, base, memory) >= 3);  // cache size, latency and bandwidth at least
   }
   // The figures follow from the chips' published ones (timing_config.cpp): bandwidth / (units x clock), a small
   // first-level cache, 300 ns to VRAM at the unit's clock.
@@ -158,10 +165,7 @@ TEST_CASE("memory-bound presets keep their base's datapath and take one unit's s
   CHECK(r.dram_latency == Approx(300 * r.clock_ghz));
   CHECK(i.dram_latency == Approx(300 * i.clock_ghz));
   // Memory-bound against their bases: a smaller cache, slower and narrower memory behind it.
-  for (const auto& [mem, base] : {std::pair<std::string, std::string>{"rdna2-mem", "rdna2"},
-                                  {"intel-mem", "intel"},
-                                  {"rdna4-mem", "rdna4"},
-                                  {"xe2-mem", "xe2"}}) {
+  for (const auto& [mem, base] : mem_presets) {
     const TimingConfig m = timing_preset(mem), g = timing_preset(base);
     CHECK(m.cache_kib < g.cache_kib);
     CHECK(m.dram_latency > g.dram_latency);
@@ -190,13 +194,7 @@ TEST_CASE("chip presets keep their unit's preset and take the chip's published m
                                    {"embedded-chip", "embedded"},
                                    {"rdna4-chip", "rdna4-mem"},
                                    {"xe2-chip", "xe2-mem"}}) {
-    INFO(name << " against " << unit);
-    const auto a = timing_keys(timing_preset(name)), b = timing_keys(timing_preset(unit));
-    REQUIRE(a.size() == b.size());
-    for (size_t i = 0; i < a.size(); ++i) {
-      INFO(a[i].key);
-      if (std::find(chip.begin(), chip.end(), a[i].key) == chip.end()) CHECK(a[i].value == b[i].value);
-    }
+    check_keys_kept(name, unit, chip);
   }
   const TimingConfig r = timing_preset("rdna2-chip"), i = timing_preset("intel-chip"),
                      e = timing_preset("embedded-chip");

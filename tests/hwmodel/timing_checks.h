@@ -14,6 +14,7 @@
 #include "hwmodel/scene/bvh.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_stats.h"
+#include "image_checks.h"
 
 inline void check_same_timing(const rtu::hw::TimingStats& a, const rtu::hw::TimingStats& b) {
   for (const rtu::hw::TimingCounter& c : rtu::hw::timing_counters()) {
@@ -75,11 +76,7 @@ inline FixedReference fixed_reference(uint64_t seed, const std::vector<rtu::hw::
                                       const char* format = "default") {
   using namespace rtu::hw;
   const Geometry g = fixed_checks::random_scene(seed, 2000, 20);
-  const FixedFormat f = format_preset(format);
-  BvhBuildParams bp;
-  bp.width = f.width;
-  const Bvh bvh = Bvh::build(g, bp);
-  const DeviceImage img = encode_scene(g, f, &bvh);
+  const DeviceImage img = image_checks::encode(g, format_preset(format));
   FixedReference ref{std::vector<uint8_t>(img.data(), img.data() + img.size()), std::vector<Hit>(rays.size())};
   TraversalStats fs;
   FixedTracer(img).trace_batch(rays.data(), ref.hits.data(), rays.size(), false, 1, fs);

@@ -121,7 +121,9 @@ void check_sections(const ImageHeader& h, uint64_t bytes) {
   section(h.record_offset, rb, h.node_offset + nb, "record");
   section(h.plane_offset, pb, h.record_offset + rb, "plane");
   const uint64_t num_bounded = uint64_t(h.num_triangles) + h.num_spheres;
-  if (num_bounded + h.plane_count >= kRecordPrimMask) bad_image("too many primitives");
+  // A record's index holds 27 bits (prim_kind.h); a plane's index, in its own word, stays below 2^29 - 1.
+  if (num_bounded > kRecordPrimMask + 1 || num_bounded + h.plane_count >= (uint64_t(1) << 29) - 1)
+    bad_image("too many primitives");
   // A top level's records are its instances; its counts number the flattened scene's primitives.
   if ((h.flags & kImageTopLevel) ? h.record_count > kRecordPrimMask : h.record_count != num_bounded)
     bad_image("record count differs from the primitive counts");
@@ -309,24 +311,19 @@ void decode_packed_nodes(const uint8_t* image, const ImageHeader& h, const NodeF
   }
 }
 
-// Records: kind and index agree, coordinates inside the ranges validate() proves the datapath for.
+// Records: kind and index agree, each record's fields as its primitive kind checks them (prim_kinds.h).
 void check_records(const DeviceImage& img, const FixedFormat& f) {
   const ImageHeader& h = img.header();
   const bool top = h.flags & kImageTopLevel;
-  const uint64_t num_bounded = uint64_t(h.num_triangles) + h.num_spheres;
-  const int B = f.coord_bits, F = f.frac_bits;
-  const int64_t grid_max = (int64_t(1) << B) - 1;
-  const int64_t center_lim = int64_t(1) << (B + f.guard_bits + F);  // like a ray origin
+  const int64_t grid_max = (int64_t(1) << f.coord_bits) - 1;
   for (uint32_t i = 0; i < h.record_count; ++i) {
     const uint8_t* rec = img.record(i);
     uint32_t word;
     std::memcpy(&word, rec + 36, 4);
-    const uint32_t p = word & kRecordPrimMask;
-    const uint32_t kind = word >> 30;
-    const bool triangle = is_triangle(RecordKind(kind));
-    if ((word & kRecordNonOpaque) && !triangle)
+    const RecordKind kind = record_kind(rec);
+    if ((word & kRecordNonOpaque) && !is_triangle(kind))
       bad_image("record " + std::to_string(i) + ": a sphere or instance marked non-opaque");
-    if (top != (kind == uint32_t(RecordKind::kInstance)))
+    if (top != (kind == RecordKind::kInstance))
       bad_image("record " + std::to_string(i) +
                 (top ? ": a primitive in a top level" : ": an instance in a bottom level"));
     if (top) {
@@ -337,49 +334,18 @@ void check_records(const DeviceImage& img, const FixedFormat& f) {
           bad_image("record " + std::to_string(i) + ": instance bounds outside the grid");
       if (r.reserved[0] != 0 || r.reserved[1] != 0 || r.reserved[2] != 0)
         bad_image("record " + std::to_string(i) + ": reserved bits set");
-    } else if (triangle) {
-      if (p >= h.num_triangles) bad_image("record " + std::to_string(i) + ": triangle index out of range");
-      TriangleRecord t;
-      std::memcpy(&t, rec, sizeof t);
-      for (const auto& v : t.v)
-        for (int32_t c : v)
-          if (c < 0 || c > grid_max) bad_image("record " + std::to_string(i) + ": vertex outside the grid");
-      if (kind == uint32_t(RecordKind::kTrianglePair)) {
-        // Its second: the next record, a single triangle sharing an edge with it.
-        TriangleRecord second;
-        if (i + 1 >= h.record_count || record_kind(img.record(i + 1)) != RecordKind::kTriangle)
-          bad_image("record " + std::to_string(i) + ": a triangle pair without its second triangle");
-        std::memcpy(&second, img.record(i + 1), sizeof second);
-        if (!share_edge(t, second))
-          bad_image("record " + std::to_string(i) + ": a triangle pair whose triangles share no edge");
-      }
-    } else if (kind == uint32_t(RecordKind::kSphere) && is_curve_record(rec)) {
-      if (p < h.num_triangles || p >= num_bounded)
-        bad_image("record " + std::to_string(i) + ": curve segment index out of range");
-      if (!(h.flags & kImageCurveBitsMask))
-        bad_image("record " + std::to_string(i) + ": a curve segment in an image without curve_bits");
-      CurveRecord c;
-      std::memcpy(&c, rec, sizeof c);
-      for (int e = 0; e < 3; ++e)
-        if (c.p0[e] < 0 || c.p0[e] > grid_max || c.p1[e] < 0 || c.p1[e] > grid_max)
-          bad_image("record " + std::to_string(i) + ": curve end point outside the grid");
-      if (curve_radius(c.r0) > (int64_t(1) << (B + F + 1)) || curve_radius(c.r1) > (int64_t(1) << (B + F + 1)))
-        bad_image("record " + std::to_string(i) + ": curve radius out of range");
-      if (c.round & ~(kRoundCurve | kRoundCapStart))
-        bad_image("record " + std::to_string(i) + ": unknown round-primitive bits");
-    } else if (kind == uint32_t(RecordKind::kSphere)) {
-      if (p < h.num_triangles || p >= num_bounded)
-        bad_image("record " + std::to_string(i) + ": sphere index out of range");
-      SphereRecord s;
-      std::memcpy(&s, rec, sizeof s);
-      for (int64_t c : s.center)
-        if (c <= -center_lim || c >= center_lim)
-          bad_image("record " + std::to_string(i) + ": center out of range");
-      if (s.radius <= 0 || s.radius > (int64_t(1) << (B + F + 1)) || s.reserved != 0)
-        bad_image("record " + std::to_string(i) + ": radius out of range");
-    } else {
-      bad_image("record " + std::to_string(i) + ": unknown kind");
+      continue;
     }
+    const RecordCheck c{f,
+                        h.num_triangles,
+                        uint64_t(h.num_triangles) + h.num_spheres,
+                        (h.flags & kImageCurveBitsMask) != 0,
+                        i,
+                        i + 1 < h.record_count ? img.record(i + 1) : nullptr};
+    std::string why;
+    if (!with_record_prim(kind, [&](auto k) { why = decltype(k)::check(c, rec); }))
+      bad_image("record " + std::to_string(i) + ": unknown kind");
+    if (!why.empty()) bad_image(why);
   }
 }
 
@@ -387,19 +353,8 @@ void check_records(const DeviceImage& img, const FixedFormat& f) {
 void check_planes(const DeviceImage& img, const FixedFormat& f) {
   const ImageHeader& h = img.header();
   const uint64_t num_bounded = uint64_t(h.num_triangles) + h.num_spheres;
-  const PlaneRecord* pl = img.planes();
-  const int64_t wmax = int64_t(1) << f.translated_bits();
-  for (uint32_t i = 0; i < h.plane_count; ++i) {
-    bool zero = true;
-    for (int32_t c : pl[i].normal) {
-      if (c < -(int64_t(1) << f.dir_bits) || c > (int64_t(1) << f.dir_bits))
-        bad_image("plane normal out of range");
-      zero = zero && c == 0;
-    }
-    if (zero || pl[i].offset <= -wmax || pl[i].offset >= wmax)
-      bad_image("plane " + std::to_string(i) + " invalid");
-    if (pl[i].prim != num_bounded + i) bad_image("plane " + std::to_string(i) + ": index out of order");
-  }
+  for (uint32_t i = 0; i < h.plane_count; ++i)
+    if (const std::string why = PlanePrim::check(img.planes()[i], f, num_bounded, i); !why.empty()) bad_image(why);
 }
 
 bool leaf_in_records(uint32_t ref, const ImageHeader& h) {

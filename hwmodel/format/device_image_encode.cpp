@@ -23,13 +23,6 @@ namespace rtu::hw {
 
 namespace {
 
-int64_t floor_shift(int64_t x, int s) {
-  return int64_t(round_shift(x, s, Round::kDown));
-}
-int64_t ceil_shift(int64_t x, int s) {
-  return int64_t(round_shift(x, s, Round::kUp));
-}
-
 class Encoder {
  public:
   Encoder(const Geometry& g, const FixedFormat& f) : m_g(g), m_f(f) {
@@ -60,93 +53,18 @@ class Encoder {
         rec.hi[a] = int32_t(g.hi[a]);
       }
       box.extend(g);
-      rec.prim = (uint32_t(RecordKind::kInstance) << 30) | (*m_ids)[p];
-      std::memcpy(out, &rec, sizeof rec);
-    } else if (p < m_g.triangles.size()) {
-      const Triangle& t = m_g.triangles[p];
-      TriangleRecord rec{};
-      const Vec3* v[3] = {&t.v0, &t.v1, &t.v2};
-      for (int i = 0; i < 3; ++i) {
-        for (int a = 0; a < 3; ++a) {
-          const int64_t g = m_frame.to_grid((*v[i])[a], a, Round::kNearestEven);
-          rec.v[i][a] = int32_t(g);  // in [0, 2^B - 1]: the vertex lies inside the frame's bounds
-          box.lo[a] = std::min(box.lo[a], g);
-          box.hi[a] = std::max(box.hi[a], g);
-        }
-      }
-      rec.prim = (uint32_t(RecordKind::kTriangle) << 30) | (m_g.opaque(p) ? 0u : kRecordNonOpaque) | p;
-      std::memcpy(out, &rec, sizeof rec);
-    } else if (m_g.kind(p) == PrimKind::kCurve) {
-      const CurveSegment& cs = m_g.curve(p);
-      CurveRecord rec{};
-      const int F = m_f.frac_bits;
-      const Vec3* ends[2] = {&cs.p0, &cs.p1};
-      const float radii[2] = {cs.r0, cs.r1};
-      uint32_t* stored[2] = {&rec.r0, &rec.r1};
-      int32_t* points[2] = {rec.p0, rec.p1};
-      for (int i = 0; i < 2; ++i) {
-        // Radius in grid.F units, rounded up (exact in double, as a sphere's), then to the field's 27 significant
-        // bits, up. The frame holds the segment's spheres, so a radius is below 2^(B+F).
-        const double rs = std::ceil(std::ldexp(double(radii[i]), F - m_frame.step_exp));
-        if (!(rs < std::ldexp(1.0, 58)))
-          throw std::invalid_argument("curve segment " +
-                                      std::to_string(p - m_g.triangles.size() - m_g.spheres.size()) +
-                                      ": radius beyond the record's range");
-        *stored[i] = curve_radius_field(int64_t(rs));
-        const int64_t r = curve_radius(*stored[i]);
-        for (int a = 0; a < 3; ++a) {
-          const int64_t g = m_frame.to_grid((*ends[i])[a], a, Round::kNearestEven);
-          points[i][a] = int32_t(g);  // in [0, 2^B - 1]: the end point lies inside the frame's bounds
-          box.lo[a] = std::min(box.lo[a], floor_shift((g << F) - r, F));
-          box.hi[a] = std::max(box.hi[a], ceil_shift((g << F) + r, F));
-        }
-      }
-      rec.round = kRoundCurve | ((cs.flags & kCurveCapStart) ? kRoundCapStart : 0u);
-      rec.prim = (uint32_t(RecordKind::kSphere) << 30) | p;
+      rec.prim = record_word(RecordKind::kInstance, (*m_ids)[p]);
       std::memcpy(out, &rec, sizeof rec);
     } else {
-      const Sphere& s = m_g.spheres[p - m_g.triangles.size()];
-      SphereRecord rec{};
-      const int F = m_f.frac_bits;
-      // Radius in grid.F units, rounded up: r * 2^(F - step_exp) is exact in double (a float times a power of
-      // two), and at least one unit so a sphere never vanishes.
-      const double rs = std::ldexp(double(s.radius), F - m_frame.step_exp);
-      rec.radius = std::max<int64_t>(1, int64_t(std::ceil(rs)));
-      for (int a = 0; a < 3; ++a) {
-        rec.center[a] = m_frame.to_grid(s.center[a], a, Round::kNearestEven, F);
-        box.lo[a] = std::min(box.lo[a], floor_shift(rec.center[a] - rec.radius, F));
-        box.hi[a] = std::max(box.hi[a], ceil_shift(rec.center[a] + rec.radius, F));
-      }
-      rec.prim = (uint32_t(RecordKind::kSphere) << 30) | p;
-      std::memcpy(out, &rec, sizeof rec);
+      const RecordEncoding e{m_g, m_f, m_frame};
+      with_prim_kind(m_g.kind(p), [&](auto k) {
+        using K = decltype(k);
+        if constexpr (PrimitiveKind<K>) K::encode(e, p, out, box);
+      });
     }
   }
 
-  PlaneRecord make_plane(uint32_t i) const {
-    const Plane& pl = m_g.planes[i];
-    PlaneRecord rec{};
-    rec.prim = m_g.plane_prim(i);
-    // n . x_world = c with x_world = O + step * x_grid:  n . x_grid = (c - n . O) / step. Scale by 2^-(E+1)
-    // so the largest normal component is in [1/2, 1); D fraction bits for n, F for the offset, nearest.
-    const float m = std::max({std::abs(pl.normal.x), std::abs(pl.normal.y), std::abs(pl.normal.z)});
-    if (!(m > 0.0f) || !std::isfinite(m) || !std::isfinite(pl.offset))
-      throw std::invalid_argument("plane " + std::to_string(i) + ": zero or non-finite normal or offset");
-    const int E = std::ilogb(m);
-    double no = 0.0;
-    for (int a = 0; a < 3; ++a) {
-      rec.normal[a] = int32_t(std::nearbyint(std::ldexp(double(pl.normal[a]), m_f.dir_bits - E - 1)));
-      no += double(pl.normal[a]) * std::ldexp(double(m_frame.origin[a]), m_frame.step_exp);
-    }
-    const double w = std::ldexp(double(pl.offset) - no, m_f.frac_bits - m_frame.step_exp - E - 1);
-    const double wmax = std::ldexp(1.0, m_f.translated_bits());
-    if (std::abs(w) >= wmax) {
-      ++saturation_counter();  // a plane beyond the guard range: moved to its edge
-      rec.offset = w > 0 ? int64_t(wmax) - 1 : 1 - int64_t(wmax);
-    } else {
-      rec.offset = int64_t(std::nearbyint(w));
-    }
-    return rec;
-  }
+  PlaneRecord make_plane(uint32_t i) const { return PlanePrim::encode(RecordEncoding{m_g, m_f, m_frame}, i); }
 
   // Triangle pairs (FixedFormat::tri_pairs): in the records [first, first + count), each triangle that shares an
   // edge with the next (and is not the second of a pair) becomes a kTrianglePair; the order stays, so every ray
@@ -160,7 +78,7 @@ class Encoder {
       std::memcpy(&ta, a, sizeof ta);
       std::memcpy(&tb, b, sizeof tb);
       if (!share_edge(ta, tb)) continue;
-      ta.prim = (ta.prim & ~(3u << 30)) | (uint32_t(RecordKind::kTrianglePair) << 30);
+      ta.prim = with_record_kind(ta.prim, RecordKind::kTrianglePair);
       std::memcpy(a, &ta, sizeof ta);
       ++i;  // b is the pair's second
     }
@@ -394,6 +312,9 @@ DeviceImage encode_scene(const Geometry& g, const FixedFormat& f, const Bvh* bvh
   if (bvh && bvh->width() != f.width)
     throw std::invalid_argument("encode_scene: BVH width " + std::to_string(bvh->width()) +
                                 " differs from the format's width " + std::to_string(f.width));
+  if (g.num_bounded() > kRecordPrimMask + 1)
+    throw std::invalid_argument(
+        "encode_scene: more than 2^27 bounded primitives (a record's index holds 27 bits)");
   Encoder enc(g, f);
   return ImageWriter::write(enc, g, f, bvh, 0);
 }
@@ -406,7 +327,7 @@ DeviceImage encode_top_level(const std::vector<Aabb>& boxes, const std::vector<u
                                 " differs from the format's width " + std::to_string(format.width));
   if (ids.size() != boxes.size()) throw std::invalid_argument("encode_top_level: one instance index per box");
   for (const uint32_t id : ids)
-    if (id > kRecordPrimMask) throw std::invalid_argument("encode_top_level: instance index beyond 2^29 - 1");
+    if (id > kRecordPrimMask) throw std::invalid_argument("encode_top_level: instance index beyond 2^27 - 1");
   FixedFormat f = format;
   f.prim_layout = 0;
   Encoder enc(boxes, ids, flat, f);

@@ -236,7 +236,7 @@ uint32_t decode_block(const uint8_t* data, uint64_t bytes, int B, std::vector<ui
   std::vector<uint64_t> prims(static_cast<size_t>(count));
   for (uint64_t& p : prims) {
     p = pbase + r.get(pbits);
-    if (p > kRecordPrimMask) throw std::invalid_argument(at + ": primitive index beyond 29 bits");
+    if (p > kRecordPrimMask) throw std::invalid_argument(at + ": primitive index beyond 27 bits");
   }
   std::vector<std::array<int64_t, 3>> verts(static_cast<size_t>(nv));
   for (auto& v : verts)
@@ -255,7 +255,7 @@ uint32_t decode_block(const uint8_t* data, uint64_t bytes, int B, std::vector<ui
         t.v[k][a] = int32_t(c);
       }
     }
-    t.prim = (uint32_t(RecordKind::kTriangle) << 30) | uint32_t(prims[size_t(i)]);
+    t.prim = record_word(RecordKind::kTriangle, uint32_t(prims[size_t(i)]));
     std::memcpy(records.data() + first + size_t(i) * kRecordBytes, &t, sizeof t);
   }
   const uint32_t size = granules(r.pos());

@@ -28,8 +28,9 @@ NodeFields cluster_node_fields(const FixedFormat& f) {
 // give ([-2^B, 2^(B+1)], oriented nodes [-2^(B+2), 2^(B+2)]), and inside int32 (QNode's field).
 void origin_range(const FixedFormat& f, int64_t& lo, int64_t& hi) {
   const int B = f.coord_bits;
-  lo = f.node_kind == 1 ? -(int64_t(1) << (B + 2)) : -(int64_t(1) << B);
-  hi = f.node_kind == 1 ? int64_t(1) << (B + 2) : int64_t(1) << (B + 1);
+  const bool oriented = f.node_kind_id() == NodeKindId::kOrientedAabb;
+  lo = oriented ? -(int64_t(1) << (B + 2)) : -(int64_t(1) << B);
+  hi = oriented ? int64_t(1) << (B + 2) : int64_t(1) << (B + 1);
   lo = std::max<int64_t>(lo, INT32_MIN);
   hi = std::min<int64_t>(hi, INT32_MAX);
 }

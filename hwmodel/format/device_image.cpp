@@ -36,7 +36,7 @@ FixedFormat DeviceImage::format() const {
   f.node_align = h.node_align;
   if (const uint32_t cb = (h.flags & kImageCurveBitsMask) >> kImageCurveBitsShift) f.curve_bits = int(cb);
   if (node_kind(h) == NodeKindId::kOrientedAabb) {
-    f.node_kind = 1;
+    f.node_kind = int(NodeKindId::kOrientedAabb);
     f.rotations = int((h.flags & kImageRotationsMask) >> kImageRotationsShift) + 1;
     f.rot_bits = int((h.flags & kImageRotBitsMask) >> kImageRotBitsShift);
   }
@@ -90,10 +90,10 @@ void check_header(const ImageHeader& h, const FixedFormat& f, uint64_t bytes) {
 // the packed nodes' fields (default for struct nodes).
 NodeFields check_layouts(const ImageHeader& h, const FixedFormat& f, size_t struct_bytes) {
   NodeFields fields;
-  if (h.node_layout != 0) {
+  if (node_layout(h) != NodeLayout::kStructs) {
     if (h.base_bits > 32 || h.prim_bits > 32 || h.group_bits > 7)
       bad_image("node field widths out of range (base_bits, prim_bits <= 32, group_bits <= 7)");
-    if (h.node_layout == 2 && (h.base_bits | h.prim_bits | h.group_bits) != 0)
+    if (node_layout(h) == NodeLayout::kCompressedWide && (h.base_bits | h.prim_bits | h.group_bits) != 0)
       bad_image("node field widths given for compressed-wide nodes (their fields are bytes)");
     fields = node_fields(f, h.base_bits, h.prim_bits, h.group_bits);
     if (h.node_bytes != fields.bytes(f.node_align))
@@ -102,9 +102,9 @@ NodeFields check_layouts(const ImageHeader& h, const FixedFormat& f, size_t stru
   } else if (h.node_bytes != struct_bytes || (h.base_bits | h.prim_bits | h.group_bits) != 0) {
     bad_image("node_bytes or node field widths differ from the struct layout's");
   }
-  if (h.prim_layout == 0 && h.record_bytes != uint64_t(h.record_count) * kRecordBytes)
+  if (prim_layout(h) == PrimLayout::kRecords && h.record_bytes != uint64_t(h.record_count) * kRecordBytes)
     bad_image("record_bytes differs from record_count 40-byte records");
-  if (h.prim_layout == 2 && (h.record_offset % kClusterLineBytes != 0 || h.record_bytes % kClusterLineBytes != 0))
+  if (prim_layout(h) == PrimLayout::kClusters && (h.record_offset % kClusterLineBytes != 0 || h.record_bytes % kClusterLineBytes != 0))
     bad_image("record_offset or record_bytes of triangle clusters not on a 64-byte line");
   return fields;
 }
@@ -241,7 +241,7 @@ BlockStarts decode_blocks(const uint8_t* image, const ImageHeader& h, const Fixe
 uint32_t packed_leaf_ref(const ImageHeader& h, const BlockStarts& block_at, const ClusterDecode& cd,
                          const std::string& at, int i, uint64_t unit, uint64_t group) {
   uint64_t first = unit, count = group;
-  if (h.prim_layout == 2) {
+  if (prim_layout(h) == PrimLayout::kClusters) {
     const uint64_t end = h.record_bytes / kClusterLineBytes;
     const auto it = std::lower_bound(block_at.begin(), block_at.end(), std::make_pair(unit, uint32_t(0)));
     if (it == block_at.end() || it->first != unit)
@@ -250,7 +250,7 @@ uint32_t packed_leaf_ref(const ImageHeader& h, const BlockStarts& block_at, cons
       bad_image(at + ": leaf child " + std::to_string(i) + "'s group size differs from its cluster's");
     return cd.unit_ref[size_t(it - block_at.begin())];
   }
-  if (h.prim_layout != 0) {
+  if (prim_layout(h) != PrimLayout::kRecords) {
     const uint64_t block_end = h.record_bytes / kGranuleBytes;
     const auto it = std::lower_bound(block_at.begin(), block_at.end(), std::make_pair(unit, uint32_t(0)));
     if (it == block_at.end() || it->first != unit)
@@ -443,9 +443,9 @@ void DeviceImage::check() {
   m_record_flags.clear();
   BlockStarts block_at;
   ClusterDecode cd;
-  if (h.prim_layout == 2)
+  if (prim_layout(h) == PrimLayout::kClusters)
     block_at = decode_clusters(data(), h, f, m_records, m_spans, m_cluster_spans, m_record_flags, cd);
-  else if (h.prim_layout != 0)
+  else if (prim_layout(h) != PrimLayout::kRecords)
     block_at = decode_blocks(data(), h, f, m_records, m_spans);
   check_records(*this, f);
   check_planes(*this, f);
@@ -455,7 +455,7 @@ void DeviceImage::check() {
   }
   with_node_kind(kind, h.width, h.q_bytes, [&](auto k) {
     using K = decltype(k);
-    if (h.node_layout != 0) decode_packed_nodes<K>(data(), h, fields, block_at, cd, m_nodes);
+    if (node_layout(h) != NodeLayout::kStructs) decode_packed_nodes<K>(data(), h, fields, block_at, cd, m_nodes);
     check_tree<K>(reinterpret_cast<const uint8_t*>(this->nodes<uint8_t>()), node_total(), h, f);
   });
 }

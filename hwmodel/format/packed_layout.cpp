@@ -23,9 +23,9 @@ uint64_t NodeFields::bytes(int align) const {
 NodeFields node_fields(const FixedFormat& f, int base_bits, int prim_bits, int group_bits) {
   NodeFields n;
   n.width = f.width;
-  const bool oriented = f.node_kind == 1;
+  const bool oriented = f.node_kind_id() == NodeKindId::kOrientedAabb;
   n.origin_bias = oriented ? f.coord_bits + 2 : f.coord_bits;
-  if (f.node_layout == 2) {
+  if (f.node_layout_id() == NodeLayout::kCompressedWide) {
     n.origin = 32;
     n.exp = 8;
     n.count = 8;

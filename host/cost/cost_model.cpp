@@ -129,7 +129,7 @@ hw::CostInputs cost_inputs(const hw::FixedFormat& f, const hw::TimingConfig& c, 
   }
   in.box = unit_cost(Kind::kBox, box_key, box_feature(lanes, a, f.rcp_bits + 1), area, activity);
   in.tri = unit_cost(Kind::kTri, tri_key, tri_feature(a, f.dir_bits), area, activity);
-  if (f.node_kind == 1) {
+  if (f.node_kind_id() == hw::NodeKindId::kOrientedAabb) {
     // The rotation stage: 24 multiplies and 12 adds of the reference operators (synthesized and measured when
     // the tables have them, Horowitz's 45 nm figures else). A 32-bit operator bounds the stage's narrower ones
     // (origin x entry: B+G+F by rot_bits + 1 bits).

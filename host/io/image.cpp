@@ -19,6 +19,7 @@
 #include "host/io/error.h"
 #include "host/io/files.h"
 #include "host/io/limits.h"
+#include "hwmodel/format/prim_kinds.h"
 
 // stb's implementations, compiled here without the warnings they raise.
 #if defined(__GNUC__)
@@ -218,27 +219,7 @@ Texture read_texture_memory(const uint8_t* data, size_t bytes, const std::string
 }
 
 hw::Vec3 hit_normal(const hw::Geometry& g, const hw::Ray& ray, const hw::Hit& hit) {
-  hw::Vec3 n(0.0f, 0.0f, 1.0f);
-  switch (g.kind(hit.prim)) {
-    case hw::PrimKind::kTriangle: {
-      const hw::Triangle& t = g.triangles[hit.prim];
-      n = glm::cross(t.v1 - t.v0, t.v2 - t.v0);
-      break;
-    }
-    case hw::PrimKind::kSphere: {
-      const hw::Sphere& s = g.spheres[hit.prim - g.triangles.size()];
-      n = ray.origin + hit.t * ray.dir - s.center;
-      break;
-    }
-    case hw::PrimKind::kCurve: {
-      const hw::CurveSegment& c = g.curve(hit.prim);  // u of a curve hit: s of the sphere it lies on
-      n = ray.origin + hit.t * ray.dir - (c.p0 + hit.u * (c.p1 - c.p0));
-      break;
-    }
-    case hw::PrimKind::kPlane:
-      n = g.planes[hit.prim - g.num_bounded()].normal;
-      break;
-  }
+  const hw::Vec3 n = hw::prim_normal(g, hit.prim, ray.origin + hit.t * ray.dir, hit.u);
   const float len = glm::length(n);
   return len > 0.0f ? n / len : hw::Vec3(0.0f, 0.0f, 1.0f);
 }

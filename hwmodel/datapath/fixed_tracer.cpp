@@ -12,6 +12,7 @@
 #include "hwmodel/datapath/batch.h"
 #include "hwmodel/datapath/intersect_float.h"
 #include "hwmodel/datapath/node_test.h"
+#include "hwmodel/datapath/prim_test.h"
 #include "hwmodel/datapath/restart_trail.h"
 #include "hwmodel/datapath/traverse.h"
 
@@ -91,22 +92,24 @@ inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool 
     asked = false;
     return test_instance(rec, r, world, c, bottom, any_hit, s, events);
   }
-  if (is_triangle(record_kind(rec))) {
-    TriangleRecord t;
-    std::memcpy(&t, rec, sizeof t);
-    word = t.prim;
-    hit = unit ? unit_triangle(*unit, r, t.v, r.tmin, c.t, h, issue, result)
-               : triangle_test(r, t.v, r.tmin, c.t, h, short_edges);
-  } else if (is_curve_record(rec)) {
-    CurveRecord cr;
-    std::memcpy(&cr, rec, sizeof cr);
-    word = cr.prim;
-    hit = swept_sphere_test(r, cr, r.tmin, c.t, h);
-  } else {
-    SphereRecord sr;
-    std::memcpy(&sr, rec, sizeof sr);
-    word = sr.prim;
-    hit = sphere_test(r, sr, r.tmin, c.t, h);
+  switch (record_kind(rec)) {  // the kind's test inlined; the image check admits no other kind here
+    case RecordKind::kTriangle:
+    case RecordKind::kTrianglePair:
+      if (unit) {
+        TriangleRecord t;
+        std::memcpy(&t, rec, sizeof t);
+        word = t.prim;
+        hit = unit_triangle(*unit, r, t.v, r.tmin, c.t, h, issue, result);
+      } else {
+        hit = PrimTest<TrianglePrim>::test_fixed(r, rec, r.tmin, c.t, h, short_edges, word);
+      }
+      break;
+    case RecordKind::kCurve:
+      hit = PrimTest<CurvePrim>::test_fixed(r, rec, r.tmin, c.t, h, short_edges, word);
+      break;
+    default:
+      hit = PrimTest<SpherePrim>::test_fixed(r, rec, r.tmin, c.t, h, short_edges, word);
+      break;
   }
   asked = hit && (word & kRecordNonOpaque) && stage;
   if (asked) {
@@ -177,9 +180,7 @@ inline bool test_recorded(const uint8_t* record, uint32_t index, const FixedRay&
   const bool hit =
       test_record(record, r, c, short_edges, unit, issue, result, stage, s, asked, world, bottom, any_hit, rec);
   if (rec && !instance) {
-    rec->push_back(TraceEvent{TraceEvent::kPrim,
-                              is_curve_record(record) ? kPrimCurve : uint8_t(record_kind(record)), issue, result,
-                              index});
+    rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(record)), issue, result, index});
     if (asked) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, index});
   }
   return hit;
@@ -452,7 +453,7 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
     FixedPrimHit h;
     ++s.prim_tests;
     if (rec) rec->push_back(TraceEvent{TraceEvent::kPlane, 0, 0, 0, i});
-    if (plane_test(fr, planes[i], fr.tmin, c.t, h)) {
+    if (PrimTest<PlanePrim>::test_fixed(fr, planes[i], fr.tmin, c.t, h)) {
       c = Closest{h.t, planes[i].prim, 0.0f, 0.0f, nullptr};
       if (any_hit) break;
     }
@@ -484,7 +485,7 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
     h.t = c.world_t;  // the bottom level's t and u, v (of a sphere too)
     return h;
   }
-  if (r && c.record && record_kind(c.record) == RecordKind::kSphere && !is_curve_record(c.record)) {
+  if (r && c.record && record_kind(c.record) == RecordKind::kSphere) {
     // u, v of a sphere hit from its world center (a shading output, not part of the datapath).
     SphereRecord sr;
     std::memcpy(&sr, c.record, sizeof sr);

@@ -22,8 +22,9 @@ namespace rtu::hw {
 // The stack traffic comes in one of two forms (FixedTraceOptions::record_short_stack): every push and pop (kPush,
 // kPop), or only what passes a short stack of a given size (kSpill: entries pushed beyond it, kRefill: one entry
 // popped from beyond it), which is all the timing model charges for, in fewer events.
-// The count of a curve segment's kPrim event: its record is of kind kSphere, its test the curve unit's.
-inline constexpr uint8_t kPrimCurve = 4;
+// The count of a curve segment's kPrim event: its record kind (a round record with round word kRoundCurve), its
+// test the curve unit's.
+inline constexpr uint8_t kPrimCurve = uint8_t(RecordKind::kCurve);
 
 struct TraceEvent {
   // kAnyHit follows the kPrim of a non-opaque triangle whose hit went to the any-hit stage (any_hit.h): the ray
@@ -49,8 +50,9 @@ struct TraceEvent {
     kRayKey = 12  // first in a ray's events when the timing model gathers rays (ray_gather.h): index its bin key
   };
   uint8_t kind;
-  uint8_t count;  // kNode: child boxes tested; kPrim: RecordKind (kPrimCurve for a curve segment); kPush: entries
-                  // pushed; kSpill: entries spilled (pushed beyond the short stack); else 0
+  uint8_t
+      count;  // kNode: child boxes tested; kPrim: the record's RecordKind (record_kind; kPrimCurve for a curve
+              // segment); kPush: entries pushed; kSpill: entries spilled (pushed beyond the short stack); else 0
   // kNode tested by a BoxUnit (box_unit.h), or a triangle kPrim tested by a TriUnit (tri_unit.h): the clocks the
   // unit reported (issue, result); 0, 0 for the C++ tests, whose clocks the timing model takes from its
   // configuration.

@@ -2,6 +2,7 @@
 
 #include "hwmodel/datapath/batch.h"
 #include "hwmodel/datapath/intersect_float.h"
+#include "hwmodel/datapath/prim_test.h"
 #include "hwmodel/datapath/traverse.h"
 
 namespace rtu::hw {
@@ -20,11 +21,10 @@ inline bool test_leaf_prim(const LeafPrim& lp, uint32_t num_tris, const RayPreco
                            const AnyHitStage* stage, TraversalStats& s) {
   PrimHit h;
   const uint32_t prim = lp.prim & kLeafPrimMask;
-  const bool hit =
-      prim < num_tris ? intersect_triangle(lp.a, lp.b, lp.c, rp, tmin, c.tmax, h)
-      : (lp.prim & kLeafCurve)
-          ? intersect_swept_sphere(lp.a, lp.c.x, lp.b, lp.c.y, (lp.prim & kLeafCapStart) != 0, rp, tmin, c.tmax, h)
-          : intersect_sphere(lp.a, lp.b.x, rp, tmin, c.tmax, h);
+  // The kind from the leaf copy (index below num_tris, or kLeafCurve), each kind's test inlined.
+  const bool hit = prim < num_tris          ? PrimTest<TrianglePrim>::test_float(lp, rp, tmin, c.tmax, h)
+                   : (lp.prim & kLeafCurve) ? PrimTest<CurvePrim>::test_float(lp, rp, tmin, c.tmax, h)
+                                            : PrimTest<SpherePrim>::test_float(lp, rp, tmin, c.tmax, h);
   if (!hit) return false;
   if ((lp.prim & kLeafNonOpaque) && stage) {
     ++s.any_hit_calls;
@@ -115,25 +115,13 @@ FloatTracer::FloatTracer(const Geometry& g, const TracerOptions& opt) : m_geom(g
   m_bvh = choose_accel(g, opt, &m_bvh_cost, &m_brute_cost);
 
   auto record = [&](uint32_t p) {
-    LeafPrim lp{};
-    lp.prim = p | (g.opaque(p) ? 0u : kLeafNonOpaque);
-    if (p < g.triangles.size()) {
-      const Triangle& t = g.triangles[p];
-      lp.a = t.v0;
-      lp.b = t.v1;
-      lp.c = t.v2;
-    } else if (g.kind(p) == PrimKind::kSphere) {
-      const Sphere& s = g.spheres[p - g.triangles.size()];
-      lp.a = s.center;
-      lp.b = Vec3(s.radius, 0.0f, 0.0f);
-    } else {
-      const CurveSegment& cs = g.curve(p);
-      lp.a = cs.p0;
-      lp.b = cs.p1;
-      lp.c = Vec3(cs.r0, cs.r1, 0.0f);
-      lp.prim |= kLeafCurve | ((cs.flags & kCurveCapStart) ? kLeafCapStart : 0u);
-    }
-    return lp;
+    return with_prim_kind(g.kind(p), [&](auto k) {
+      using K = decltype(k);
+      if constexpr (PrimitiveKind<K>)
+        return PrimTest<K>::leaf(g, p);
+      else
+        return LeafPrim{};  // planes are not in the BVH
+    });
   };
   m_leaf_prims.resize(n);
   if (m_bvh) {
@@ -170,7 +158,7 @@ Hit FloatTracer::trace(const Ray& r, bool any_hit, TraversalStats& s, const AnyH
   for (uint32_t i = 0; i < m_geom.planes.size(); ++i) {
     PrimHit ph;
     ++s.prim_tests;
-    if (intersect_plane(m_geom.planes[i], rp, r.tmin, h.t, ph)) {
+    if (PrimTest<PlanePrim>::test_float(m_geom.planes[i], rp, r.tmin, h.t, ph)) {
       h = Hit{ph.t, m_geom.plane_prim(i), 0.0f, 0.0f};
       if (any_hit) break;
     }

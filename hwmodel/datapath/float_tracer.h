@@ -9,6 +9,7 @@
 #include <optional>
 #include <vector>
 
+#include "hwmodel/datapath/prim_test_base.h"  // LeafPrim
 #include "hwmodel/datapath/stats.h"
 #include "hwmodel/interface/any_hit.h"
 #include "hwmodel/interface/ray.h"
@@ -31,19 +32,6 @@ struct TracerOptions {
 // Writes both costs (in primitive tests per ray; bvh_cost 0 when none was built) when asked.
 std::optional<Bvh> choose_accel(const Geometry& g, const TracerOptions& opt, double* bvh_cost = nullptr,
                                 double* brute_cost = nullptr);
-
-// A leaf-ordered copy of a bounded primitive, so a leaf's primitives are contiguous in memory.
-struct LeafPrim {
-  Vec3 a, b, c;   // triangle vertices; a sphere has its center in a and its radius in b.x; a curve segment has
-                  // p0 in a, p1 in b, r0 and r1 in c.x and c.y
-  uint32_t prim;  // scene primitive index, with kLeafNonOpaque for a non-opaque triangle, kLeafCurve for a curve
-                  // segment (and kLeafCapStart for its start sphere)
-};
-inline constexpr uint32_t kLeafNonOpaque = 1u << 31;
-inline constexpr uint32_t kLeafCurve = 1u << 30;
-inline constexpr uint32_t kLeafCapStart = 1u << 29;
-inline constexpr uint32_t kLeafPrimMask = kLeafCapStart - 1;  // scene indices are below kMaxBvhPrims = 2^27
-static_assert(sizeof(LeafPrim) == 40);
 
 class FloatTracer {
  public:

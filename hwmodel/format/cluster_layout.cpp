@@ -28,8 +28,9 @@ NodeFields cluster_node_fields(const FixedFormat& f) {
 // give ([-2^B, 2^(B+1)], oriented nodes [-2^(B+2), 2^(B+2)]), and inside int32 (QNode's field).
 void origin_range(const FixedFormat& f, int64_t& lo, int64_t& hi) {
   const int B = f.coord_bits;
-  lo = f.node_kind == 1 ? -(int64_t(1) << (B + 2)) : -(int64_t(1) << B);
-  hi = f.node_kind == 1 ? int64_t(1) << (B + 2) : int64_t(1) << (B + 1);
+  const bool oriented = f.node_kind_id() == NodeKindId::kOrientedAabb;
+  lo = oriented ? -(int64_t(1) << (B + 2)) : -(int64_t(1) << B);
+  hi = oriented ? int64_t(1) << (B + 2) : int64_t(1) << (B + 1);
   lo = std::max<int64_t>(lo, INT32_MIN);
   hi = std::min<int64_t>(hi, INT32_MAX);
 }
@@ -156,7 +157,7 @@ uint32_t decode_cluster_unit(const uint8_t* data, uint64_t bytes, const FixedFor
   std::vector<uint32_t> prims(static_cast<size_t>(count));
   for (uint32_t& p : prims) {
     const uint64_t v = pbase + r.get(pbits);
-    if (v > kRecordPrimMask) throw std::invalid_argument(at + ": primitive index beyond 29 bits");
+    if (v > kRecordPrimMask) throw std::invalid_argument(at + ": primitive index beyond 27 bits");
     p = uint32_t(v);
   }
   const int64_t grid_max = (int64_t(1) << B) - 1;
@@ -176,7 +177,7 @@ uint32_t decode_cluster_unit(const uint8_t* data, uint64_t bytes, const FixedFor
       if (j >= uint64_t(nv)) throw std::invalid_argument(at + ": vertex index beyond its vertices");
       for (int a = 0; a < 3; ++a) t.v[k][a] = verts[j][size_t(a)];
     }
-    t.prim = (uint32_t(RecordKind::kTriangle) << 30) | prims[size_t(i)];
+    t.prim = record_word(RecordKind::kTriangle, prims[size_t(i)]);
     std::memcpy(out.records.data() + size_t(i) * kRecordBytes, &t, sizeof t);
   }
   int64_t olo, ohi;

@@ -36,7 +36,7 @@ FixedFormat DeviceImage::format() const {
   f.node_align = h.node_align;
   if (const uint32_t cb = (h.flags & kImageCurveBitsMask) >> kImageCurveBitsShift) f.curve_bits = int(cb);
   if (node_kind(h) == NodeKindId::kOrientedAabb) {
-    f.node_kind = 1;
+    f.node_kind = int(NodeKindId::kOrientedAabb);
     f.rotations = int((h.flags & kImageRotationsMask) >> kImageRotationsShift) + 1;
     f.rot_bits = int((h.flags & kImageRotBitsMask) >> kImageRotBitsShift);
   }
@@ -90,10 +90,10 @@ void check_header(const ImageHeader& h, const FixedFormat& f, uint64_t bytes) {
 // the packed nodes' fields (default for struct nodes).
 NodeFields check_layouts(const ImageHeader& h, const FixedFormat& f, size_t struct_bytes) {
   NodeFields fields;
-  if (h.node_layout != 0) {
+  if (node_layout(h) != NodeLayout::kStructs) {
     if (h.base_bits > 32 || h.prim_bits > 32 || h.group_bits > 7)
       bad_image("node field widths out of range (base_bits, prim_bits <= 32, group_bits <= 7)");
-    if (h.node_layout == 2 && (h.base_bits | h.prim_bits | h.group_bits) != 0)
+    if (node_layout(h) == NodeLayout::kCompressedWide && (h.base_bits | h.prim_bits | h.group_bits) != 0)
       bad_image("node field widths given for compressed-wide nodes (their fields are bytes)");
     fields = node_fields(f, h.base_bits, h.prim_bits, h.group_bits);
     if (h.node_bytes != fields.bytes(f.node_align))
@@ -102,9 +102,9 @@ NodeFields check_layouts(const ImageHeader& h, const FixedFormat& f, size_t stru
   } else if (h.node_bytes != struct_bytes || (h.base_bits | h.prim_bits | h.group_bits) != 0) {
     bad_image("node_bytes or node field widths differ from the struct layout's");
   }
-  if (h.prim_layout == 0 && h.record_bytes != uint64_t(h.record_count) * kRecordBytes)
+  if (prim_layout(h) == PrimLayout::kRecords && h.record_bytes != uint64_t(h.record_count) * kRecordBytes)
     bad_image("record_bytes differs from record_count 40-byte records");
-  if (h.prim_layout == 2 && (h.record_offset % kClusterLineBytes != 0 || h.record_bytes % kClusterLineBytes != 0))
+  if (prim_layout(h) == PrimLayout::kClusters && (h.record_offset % kClusterLineBytes != 0 || h.record_bytes % kClusterLineBytes != 0))
     bad_image("record_offset or record_bytes of triangle clusters not on a 64-byte line");
   return fields;
 }
@@ -121,7 +121,9 @@ void check_sections(const ImageHeader& h, uint64_t bytes) {
   section(h.record_offset, rb, h.node_offset + nb, "record");
   section(h.plane_offset, pb, h.record_offset + rb, "plane");
   const uint64_t num_bounded = uint64_t(h.num_triangles) + h.num_spheres;
-  if (num_bounded + h.plane_count >= kRecordPrimMask) bad_image("too many primitives");
+  // A record's index holds 27 bits (prim_kind.h); a plane's index, in its own word, stays below 2^29 - 1.
+  if (num_bounded > kRecordPrimMask + 1 || num_bounded + h.plane_count >= (uint64_t(1) << 29) - 1)
+    bad_image("too many primitives");
   // A top level's records are its instances; its counts number the flattened scene's primitives.
   if ((h.flags & kImageTopLevel) ? h.record_count > kRecordPrimMask : h.record_count != num_bounded)
     bad_image("record count differs from the primitive counts");
@@ -239,7 +241,7 @@ BlockStarts decode_blocks(const uint8_t* image, const ImageHeader& h, const Fixe
 uint32_t packed_leaf_ref(const ImageHeader& h, const BlockStarts& block_at, const ClusterDecode& cd,
                          const std::string& at, int i, uint64_t unit, uint64_t group) {
   uint64_t first = unit, count = group;
-  if (h.prim_layout == 2) {
+  if (prim_layout(h) == PrimLayout::kClusters) {
     const uint64_t end = h.record_bytes / kClusterLineBytes;
     const auto it = std::lower_bound(block_at.begin(), block_at.end(), std::make_pair(unit, uint32_t(0)));
     if (it == block_at.end() || it->first != unit)
@@ -248,7 +250,7 @@ uint32_t packed_leaf_ref(const ImageHeader& h, const BlockStarts& block_at, cons
       bad_image(at + ": leaf child " + std::to_string(i) + "'s group size differs from its cluster's");
     return cd.unit_ref[size_t(it - block_at.begin())];
   }
-  if (h.prim_layout != 0) {
+  if (prim_layout(h) != PrimLayout::kRecords) {
     const uint64_t block_end = h.record_bytes / kGranuleBytes;
     const auto it = std::lower_bound(block_at.begin(), block_at.end(), std::make_pair(unit, uint32_t(0)));
     if (it == block_at.end() || it->first != unit)
@@ -309,24 +311,19 @@ void decode_packed_nodes(const uint8_t* image, const ImageHeader& h, const NodeF
   }
 }
 
-// Records: kind and index agree, coordinates inside the ranges validate() proves the datapath for.
+// Records: kind and index agree, each record's fields as its primitive kind checks them (prim_kinds.h).
 void check_records(const DeviceImage& img, const FixedFormat& f) {
   const ImageHeader& h = img.header();
   const bool top = h.flags & kImageTopLevel;
-  const uint64_t num_bounded = uint64_t(h.num_triangles) + h.num_spheres;
-  const int B = f.coord_bits, F = f.frac_bits;
-  const int64_t grid_max = (int64_t(1) << B) - 1;
-  const int64_t center_lim = int64_t(1) << (B + f.guard_bits + F);  // like a ray origin
+  const int64_t grid_max = (int64_t(1) << f.coord_bits) - 1;
   for (uint32_t i = 0; i < h.record_count; ++i) {
     const uint8_t* rec = img.record(i);
     uint32_t word;
     std::memcpy(&word, rec + 36, 4);
-    const uint32_t p = word & kRecordPrimMask;
-    const uint32_t kind = word >> 30;
-    const bool triangle = is_triangle(RecordKind(kind));
-    if ((word & kRecordNonOpaque) && !triangle)
+    const RecordKind kind = record_kind(rec);
+    if ((word & kRecordNonOpaque) && !is_triangle(kind))
       bad_image("record " + std::to_string(i) + ": a sphere or instance marked non-opaque");
-    if (top != (kind == uint32_t(RecordKind::kInstance)))
+    if (top != (kind == RecordKind::kInstance))
       bad_image("record " + std::to_string(i) +
                 (top ? ": a primitive in a top level" : ": an instance in a bottom level"));
     if (top) {
@@ -337,49 +334,18 @@ void check_records(const DeviceImage& img, const FixedFormat& f) {
           bad_image("record " + std::to_string(i) + ": instance bounds outside the grid");
       if (r.reserved[0] != 0 || r.reserved[1] != 0 || r.reserved[2] != 0)
         bad_image("record " + std::to_string(i) + ": reserved bits set");
-    } else if (triangle) {
-      if (p >= h.num_triangles) bad_image("record " + std::to_string(i) + ": triangle index out of range");
-      TriangleRecord t;
-      std::memcpy(&t, rec, sizeof t);
-      for (const auto& v : t.v)
-        for (int32_t c : v)
-          if (c < 0 || c > grid_max) bad_image("record " + std::to_string(i) + ": vertex outside the grid");
-      if (kind == uint32_t(RecordKind::kTrianglePair)) {
-        // Its second: the next record, a single triangle sharing an edge with it.
-        TriangleRecord second;
-        if (i + 1 >= h.record_count || record_kind(img.record(i + 1)) != RecordKind::kTriangle)
-          bad_image("record " + std::to_string(i) + ": a triangle pair without its second triangle");
-        std::memcpy(&second, img.record(i + 1), sizeof second);
-        if (!share_edge(t, second))
-          bad_image("record " + std::to_string(i) + ": a triangle pair whose triangles share no edge");
-      }
-    } else if (kind == uint32_t(RecordKind::kSphere) && is_curve_record(rec)) {
-      if (p < h.num_triangles || p >= num_bounded)
-        bad_image("record " + std::to_string(i) + ": curve segment index out of range");
-      if (!(h.flags & kImageCurveBitsMask))
-        bad_image("record " + std::to_string(i) + ": a curve segment in an image without curve_bits");
-      CurveRecord c;
-      std::memcpy(&c, rec, sizeof c);
-      for (int e = 0; e < 3; ++e)
-        if (c.p0[e] < 0 || c.p0[e] > grid_max || c.p1[e] < 0 || c.p1[e] > grid_max)
-          bad_image("record " + std::to_string(i) + ": curve end point outside the grid");
-      if (curve_radius(c.r0) > (int64_t(1) << (B + F + 1)) || curve_radius(c.r1) > (int64_t(1) << (B + F + 1)))
-        bad_image("record " + std::to_string(i) + ": curve radius out of range");
-      if (c.round & ~(kRoundCurve | kRoundCapStart))
-        bad_image("record " + std::to_string(i) + ": unknown round-primitive bits");
-    } else if (kind == uint32_t(RecordKind::kSphere)) {
-      if (p < h.num_triangles || p >= num_bounded)
-        bad_image("record " + std::to_string(i) + ": sphere index out of range");
-      SphereRecord s;
-      std::memcpy(&s, rec, sizeof s);
-      for (int64_t c : s.center)
-        if (c <= -center_lim || c >= center_lim)
-          bad_image("record " + std::to_string(i) + ": center out of range");
-      if (s.radius <= 0 || s.radius > (int64_t(1) << (B + F + 1)) || s.reserved != 0)
-        bad_image("record " + std::to_string(i) + ": radius out of range");
-    } else {
-      bad_image("record " + std::to_string(i) + ": unknown kind");
+      continue;
     }
+    const RecordCheck c{f,
+                        h.num_triangles,
+                        uint64_t(h.num_triangles) + h.num_spheres,
+                        (h.flags & kImageCurveBitsMask) != 0,
+                        i,
+                        i + 1 < h.record_count ? img.record(i + 1) : nullptr};
+    std::string why;
+    if (!with_record_prim(kind, [&](auto k) { why = decltype(k)::check(c, rec); }))
+      bad_image("record " + std::to_string(i) + ": unknown kind");
+    if (!why.empty()) bad_image(why);
   }
 }
 
@@ -387,19 +353,8 @@ void check_records(const DeviceImage& img, const FixedFormat& f) {
 void check_planes(const DeviceImage& img, const FixedFormat& f) {
   const ImageHeader& h = img.header();
   const uint64_t num_bounded = uint64_t(h.num_triangles) + h.num_spheres;
-  const PlaneRecord* pl = img.planes();
-  const int64_t wmax = int64_t(1) << f.translated_bits();
-  for (uint32_t i = 0; i < h.plane_count; ++i) {
-    bool zero = true;
-    for (int32_t c : pl[i].normal) {
-      if (c < -(int64_t(1) << f.dir_bits) || c > (int64_t(1) << f.dir_bits))
-        bad_image("plane normal out of range");
-      zero = zero && c == 0;
-    }
-    if (zero || pl[i].offset <= -wmax || pl[i].offset >= wmax)
-      bad_image("plane " + std::to_string(i) + " invalid");
-    if (pl[i].prim != num_bounded + i) bad_image("plane " + std::to_string(i) + ": index out of order");
-  }
+  for (uint32_t i = 0; i < h.plane_count; ++i)
+    if (const std::string why = PlanePrim::check(img.planes()[i], f, num_bounded, i); !why.empty()) bad_image(why);
 }
 
 bool leaf_in_records(uint32_t ref, const ImageHeader& h) {
@@ -488,9 +443,9 @@ void DeviceImage::check() {
   m_record_flags.clear();
   BlockStarts block_at;
   ClusterDecode cd;
-  if (h.prim_layout == 2)
+  if (prim_layout(h) == PrimLayout::kClusters)
     block_at = decode_clusters(data(), h, f, m_records, m_spans, m_cluster_spans, m_record_flags, cd);
-  else if (h.prim_layout != 0)
+  else if (prim_layout(h) != PrimLayout::kRecords)
     block_at = decode_blocks(data(), h, f, m_records, m_spans);
   check_records(*this, f);
   check_planes(*this, f);
@@ -500,7 +455,7 @@ void DeviceImage::check() {
   }
   with_node_kind(kind, h.width, h.q_bytes, [&](auto k) {
     using K = decltype(k);
-    if (h.node_layout != 0) decode_packed_nodes<K>(data(), h, fields, block_at, cd, m_nodes);
+    if (node_layout(h) != NodeLayout::kStructs) decode_packed_nodes<K>(data(), h, fields, block_at, cd, m_nodes);
     check_tree<K>(reinterpret_cast<const uint8_t*>(this->nodes<uint8_t>()), node_total(), h, f);
   });
 }

@@ -73,6 +73,12 @@ static_assert(sizeof(ImageHeader) == 120);
 inline NodeKindId node_kind(const ImageHeader& h) {
   return NodeKindId((h.flags & kImageNodeKindMask) >> kImageNodeKindShift);
 }
+inline NodeLayout node_layout(const ImageHeader& h) {
+  return NodeLayout(h.node_layout);
+}
+inline PrimLayout prim_layout(const ImageHeader& h) {
+  return PrimLayout(h.prim_layout);
+}
 
 class DeviceImage {
  public:

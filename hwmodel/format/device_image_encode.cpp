@@ -17,18 +17,10 @@
 #include "hwmodel/format/node_kinds.h"
 #include "hwmodel/format/packed_layout.h"
 #include "hwmodel/format/packed_tree.h"
-#include "hwmodel/format/rotation_table.h"
 
 namespace rtu::hw {
 
 namespace {
-
-int64_t floor_shift(int64_t x, int s) {
-  return int64_t(round_shift(x, s, Round::kDown));
-}
-int64_t ceil_shift(int64_t x, int s) {
-  return int64_t(round_shift(x, s, Round::kUp));
-}
 
 class Encoder {
  public:
@@ -60,93 +52,18 @@ class Encoder {
         rec.hi[a] = int32_t(g.hi[a]);
       }
       box.extend(g);
-      rec.prim = (uint32_t(RecordKind::kInstance) << 30) | (*m_ids)[p];
-      std::memcpy(out, &rec, sizeof rec);
-    } else if (p < m_g.triangles.size()) {
-      const Triangle& t = m_g.triangles[p];
-      TriangleRecord rec{};
-      const Vec3* v[3] = {&t.v0, &t.v1, &t.v2};
-      for (int i = 0; i < 3; ++i) {
-        for (int a = 0; a < 3; ++a) {
-          const int64_t g = m_frame.to_grid((*v[i])[a], a, Round::kNearestEven);
-          rec.v[i][a] = int32_t(g);  // in [0, 2^B - 1]: the vertex lies inside the frame's bounds
-          box.lo[a] = std::min(box.lo[a], g);
-          box.hi[a] = std::max(box.hi[a], g);
-        }
-      }
-      rec.prim = (uint32_t(RecordKind::kTriangle) << 30) | (m_g.opaque(p) ? 0u : kRecordNonOpaque) | p;
-      std::memcpy(out, &rec, sizeof rec);
-    } else if (m_g.kind(p) == PrimKind::kCurve) {
-      const CurveSegment& cs = m_g.curve(p);
-      CurveRecord rec{};
-      const int F = m_f.frac_bits;
-      const Vec3* ends[2] = {&cs.p0, &cs.p1};
-      const float radii[2] = {cs.r0, cs.r1};
-      uint32_t* stored[2] = {&rec.r0, &rec.r1};
-      int32_t* points[2] = {rec.p0, rec.p1};
-      for (int i = 0; i < 2; ++i) {
-        // Radius in grid.F units, rounded up (exact in double, as a sphere's), then to the field's 27 significant
-        // bits, up. The frame holds the segment's spheres, so a radius is below 2^(B+F).
-        const double rs = std::ceil(std::ldexp(double(radii[i]), F - m_frame.step_exp));
-        if (!(rs < std::ldexp(1.0, 58)))
-          throw std::invalid_argument("curve segment " +
-                                      std::to_string(p - m_g.triangles.size() - m_g.spheres.size()) +
-                                      ": radius beyond the record's range");
-        *stored[i] = curve_radius_field(int64_t(rs));
-        const int64_t r = curve_radius(*stored[i]);
-        for (int a = 0; a < 3; ++a) {
-          const int64_t g = m_frame.to_grid((*ends[i])[a], a, Round::kNearestEven);
-          points[i][a] = int32_t(g);  // in [0, 2^B - 1]: the end point lies inside the frame's bounds
-          box.lo[a] = std::min(box.lo[a], floor_shift((g << F) - r, F));
-          box.hi[a] = std::max(box.hi[a], ceil_shift((g << F) + r, F));
-        }
-      }
-      rec.round = kRoundCurve | ((cs.flags & kCurveCapStart) ? kRoundCapStart : 0u);
-      rec.prim = (uint32_t(RecordKind::kSphere) << 30) | p;
+      rec.prim = record_word(RecordKind::kInstance, (*m_ids)[p]);
       std::memcpy(out, &rec, sizeof rec);
     } else {
-      const Sphere& s = m_g.spheres[p - m_g.triangles.size()];
-      SphereRecord rec{};
-      const int F = m_f.frac_bits;
-      // Radius in grid.F units, rounded up: r * 2^(F - step_exp) is exact in double (a float times a power of
-      // two), and at least one unit so a sphere never vanishes.
-      const double rs = std::ldexp(double(s.radius), F - m_frame.step_exp);
-      rec.radius = std::max<int64_t>(1, int64_t(std::ceil(rs)));
-      for (int a = 0; a < 3; ++a) {
-        rec.center[a] = m_frame.to_grid(s.center[a], a, Round::kNearestEven, F);
-        box.lo[a] = std::min(box.lo[a], floor_shift(rec.center[a] - rec.radius, F));
-        box.hi[a] = std::max(box.hi[a], ceil_shift(rec.center[a] + rec.radius, F));
-      }
-      rec.prim = (uint32_t(RecordKind::kSphere) << 30) | p;
-      std::memcpy(out, &rec, sizeof rec);
+      const RecordEncoding e{m_g, m_f, m_frame};
+      with_prim_kind(m_g.kind(p), [&](auto k) {
+        using K = decltype(k);
+        if constexpr (PrimitiveKind<K>) K::encode(e, p, out, box);
+      });
     }
   }
 
-  PlaneRecord make_plane(uint32_t i) const {
-    const Plane& pl = m_g.planes[i];
-    PlaneRecord rec{};
-    rec.prim = m_g.plane_prim(i);
-    // n . x_world = c with x_world = O + step * x_grid:  n . x_grid = (c - n . O) / step. Scale by 2^-(E+1)
-    // so the largest normal component is in [1/2, 1); D fraction bits for n, F for the offset, nearest.
-    const float m = std::max({std::abs(pl.normal.x), std::abs(pl.normal.y), std::abs(pl.normal.z)});
-    if (!(m > 0.0f) || !std::isfinite(m) || !std::isfinite(pl.offset))
-      throw std::invalid_argument("plane " + std::to_string(i) + ": zero or non-finite normal or offset");
-    const int E = std::ilogb(m);
-    double no = 0.0;
-    for (int a = 0; a < 3; ++a) {
-      rec.normal[a] = int32_t(std::nearbyint(std::ldexp(double(pl.normal[a]), m_f.dir_bits - E - 1)));
-      no += double(pl.normal[a]) * std::ldexp(double(m_frame.origin[a]), m_frame.step_exp);
-    }
-    const double w = std::ldexp(double(pl.offset) - no, m_f.frac_bits - m_frame.step_exp - E - 1);
-    const double wmax = std::ldexp(1.0, m_f.translated_bits());
-    if (std::abs(w) >= wmax) {
-      ++saturation_counter();  // a plane beyond the guard range: moved to its edge
-      rec.offset = w > 0 ? int64_t(wmax) - 1 : 1 - int64_t(wmax);
-    } else {
-      rec.offset = int64_t(std::nearbyint(w));
-    }
-    return rec;
-  }
+  PlaneRecord make_plane(uint32_t i) const { return PlanePrim::encode(RecordEncoding{m_g, m_f, m_frame}, i); }
 
   // Triangle pairs (FixedFormat::tri_pairs): in the records [first, first + count), each triangle that shares an
   // edge with the next (and is not the second of a pair) becomes a kTrianglePair; the order stays, so every ray
@@ -160,38 +77,13 @@ class Encoder {
       std::memcpy(&ta, a, sizeof ta);
       std::memcpy(&tb, b, sizeof tb);
       if (!share_edge(ta, tb)) continue;
-      ta.prim = (ta.prim & ~(3u << 30)) | (uint32_t(RecordKind::kTrianglePair) << 30);
+      ta.prim = with_record_kind(ta.prim, RecordKind::kTrianglePair);
       std::memcpy(a, &ta, sizeof ta);
       ++i;  // b is the pair's second
     }
   }
 
-  // Float box -> grid, rounded outward.
-  GridBox outward(const Aabb& b) const {
-    GridBox g;
-    for (int a = 0; a < 3; ++a) {
-      g.lo[a] = m_frame.to_grid(b.lo[a], a, Round::kDown);
-      g.hi[a] = m_frame.to_grid(b.hi[a], a, Round::kUp);
-    }
-    return g;
-  }
-
-  // Encodes one node of kind K and checks that every decoded child box contains its grid box and its float box.
-  template <NodeKind K>
-  void encode_node(typename K::Node& node, const GridBox* boxes, const Aabb* float_boxes, const uint32_t* refs,
-                   int count) const {
-    K::encode(node, boxes, refs, count, m_f);
-    for (int i = 0; i < count; ++i) {
-      int64_t dlo[3], dhi[3];
-      K::child_box(node, i, dlo, dhi);
-      for (int a = 0; a < 3; ++a) {
-        const bool ok = dlo[a] <= boxes[i].lo[a] && dhi[a] >= boxes[i].hi[a] &&
-                        m_frame.to_world(dlo[a], a) <= double(float_boxes[i].lo[a]) &&
-                        m_frame.to_world(dhi[a], a) >= double(float_boxes[i].hi[a]);
-        if (!ok) throw std::logic_error("encoder: a quantized child box does not contain its exact box");
-      }
-    }
-  }
+  GridBox outward(const Aabb& b) const { return NodeBuild{m_f, m_frame, nullptr, nullptr}.outward(b); }
 
   template <NodeKind K>
   void encode_tree(const WideBvh<K::kWidth>& t, std::vector<typename K::Node>& nodes,
@@ -200,7 +92,6 @@ class Encoder {
     m_record_boxes.assign(t.prim_ids.size(), GridBox{});
     for (size_t i = 0; i < t.prim_ids.size(); ++i)
       make_record(t.prim_ids[i], records.data() + i * kRecordBytes, m_record_boxes[i]);
-    m_records_bytes = records.data();
     if (m_f.tri_pairs) {
       if (is_leaf(t.root_ref) && t.root_ref != kEmptyChild)
         mark_pairs(records.data(), leaf_first(t.root_ref), leaf_count(t.root_ref));
@@ -210,169 +101,14 @@ class Encoder {
     }
     nodes.resize(t.nodes.size());
     if (is_leaf(t.root_ref) || t.root_ref == kEmptyChild) return;
-    if constexpr (K::kId == NodeKindId::kOrientedAabb) {
-      m_rot = &rotation_table(m_f.rotations, m_f.rot_bits);
-      subtree_oriented<K>(t, nodes, t.root_ref);
-    } else {
-      subtree<K>(t, nodes, t.root_ref);
-    }
+    K::build(NodeBuild{m_f, m_frame, records.data(), m_record_boxes.data()}, t, nodes.data());
   }
 
  private:
-  // Oriented kinds: what lies below a subtree, as the extents of its points along each rotation's axes: element
-  // 6k + 2a is the least (M_k p)_a over its points p (grid integers times the table's integers: exact), 6k + 2a +
-  // 1 the greatest. A triangle's points are its vertices (its hull lies within); a curve segment's its end points,
-  // widened by its larger radius times the row's length (both rounded up: the union of its spheres lies within);
-  // other records' the corners of their grid boxes.
-  using Extents = std::vector<int64_t>;
-
-  Extents record_extents(uint32_t i) const {
-    const std::vector<Rotation>& rot = *m_rot;
-    Extents e(6 * rot.size());
-    for (size_t k = 0; k < rot.size(); ++k)
-      for (int a = 0; a < 3; ++a) {
-        e[6 * k + 2 * a] = INT64_MAX;
-        e[6 * k + 2 * a + 1] = INT64_MIN;
-      }
-    int64_t pts[8][3];
-    int np = 0;
-    int64_t pad = 0;  // curve segments: the larger radius in grid units, rounded up
-    const uint8_t* rec = m_records_bytes + size_t(i) * kRecordBytes;
-    if (is_curve_record(rec)) {
-      CurveRecord cr;
-      std::memcpy(&cr, rec, sizeof cr);
-      for (int a = 0; a < 3; ++a) {
-        pts[0][a] = cr.p0[a];
-        pts[1][a] = cr.p1[a];
-      }
-      np = 2;
-      const int64_t r = std::max(curve_radius(cr.r0), curve_radius(cr.r1));
-      pad = ceil_shift(r, m_f.frac_bits);
-    } else if (is_triangle(record_kind(rec))) {
-      TriangleRecord tr;
-      std::memcpy(&tr, rec, sizeof tr);
-      for (; np < 3; ++np)
-        for (int a = 0; a < 3; ++a) pts[np][a] = tr.v[np][a];
-    } else {
-      const GridBox& b = m_record_boxes[i];
-      for (; np < 8; ++np)
-        for (int a = 0; a < 3; ++a) pts[np][a] = (np >> a) & 1 ? b.hi[a] : b.lo[a];
-    }
-    for (size_t k = 0; k < rot.size(); ++k)
-      for (int a = 0; a < 3; ++a) {
-        const int32_t* m = rot[k].m[a];
-        int64_t& lo = e[6 * k + 2 * a];
-        int64_t& hi = e[6 * k + 2 * a + 1];
-        // The row's length, rounded up: a sphere of radius r spans r |m| along it.
-        const int64_t len =
-            pad == 0 ? 0
-                     : int64_t(isqrt_round(Wide(m[0]) * m[0] + Wide(m[1]) * m[1] + Wide(m[2]) * m[2], Round::kUp));
-        for (int p = 0; p < np; ++p) {
-          const int64_t v = m[0] * pts[p][0] + m[1] * pts[p][1] + m[2] * pts[p][2];
-          lo = std::min(lo, v - pad * len);
-          hi = std::max(hi, v + pad * len);
-        }
-      }
-    return e;
-  }
-
-  static void merge(Extents& into, const Extents& e) {
-    for (size_t j = 0; j < into.size(); j += 2) {
-      into[j] = std::min(into[j], e[j]);
-      into[j + 1] = std::max(into[j + 1], e[j + 1]);
-    }
-  }
-
-  // Encodes the subtree's nodes, each in the rotation whose children's boxes have the least summed surface area
-  // (the first such: the identity on a tie with it), and returns the subtree's extents.
-  template <NodeKind K>
-  Extents subtree_oriented(const WideBvh<K::kWidth>& t, std::vector<typename K::Node>& nodes, uint32_t ref) {
-    constexpr int N = K::kWidth;
-    if (is_leaf(ref)) {
-      Extents all = record_extents(leaf_first(ref));
-      for (uint32_t i = leaf_first(ref) + 1; i < leaf_first(ref) + leaf_count(ref); ++i)
-        merge(all, record_extents(i));
-      return all;
-    }
-    const WideNode<N>& fn = t.nodes[ref];
-    Extents ext[N];
-    uint32_t refs[N];
-    int count = 0;
-    for (int i = 0; i < N; ++i) {
-      if (fn.child[i] == kEmptyChild) continue;
-      ext[count] = subtree_oriented<K>(t, nodes, fn.child[i]);
-      refs[count] = fn.child[i];
-      ++count;
-    }
-    const size_t R = m_rot->size();
-    size_t best = 0;
-    double best_area = 0.0;
-    for (size_t k = 0; k < R; ++k) {
-      double area = 0.0;
-      for (int i = 0; i < count; ++i) {
-        const int64_t* e = ext[i].data() + 6 * k;
-        const double dx = double(e[1] - e[0]), dy = double(e[3] - e[2]), dz = double(e[5] - e[4]);
-        area += dx * dy + dy * dz + dz * dx;
-      }
-      if (k == 0 || area < best_area) {
-        best = k;
-        best_area = area;
-      }
-    }
-    // The children's boxes in that frame, grid units: the extents divided by 2^rot_bits, outward.
-    const int rb = m_f.rot_bits;
-    GridBox boxes[N];
-    for (int i = 0; i < count; ++i)
-      for (int a = 0; a < 3; ++a) {
-        boxes[i].lo[a] = round_shift64(ext[i][6 * best + 2 * a], rb, Round::kDown);
-        boxes[i].hi[a] = round_shift64(ext[i][6 * best + 2 * a + 1], rb, Round::kUp);
-      }
-    typename K::Node& node = nodes[ref];
-    K::encode_rotated(node, int(best), boxes, refs, count, m_f);
-    for (int i = 0; i < count; ++i) {
-      int64_t lo[3], hi[3];
-      K::child_box(node, i, lo, hi);
-      for (int a = 0; a < 3; ++a)
-        if ((lo[a] << rb) > ext[i][6 * best + 2 * a] || (hi[a] << rb) < ext[i][6 * best + 2 * a + 1])
-          throw std::logic_error("encoder: an oriented child box does not contain its points");
-    }
-    Extents all = std::move(ext[0]);
-    for (int i = 1; i < count; ++i) merge(all, ext[i]);
-    return all;
-  }
-
-  template <NodeKind K>
-  GridBox subtree(const WideBvh<K::kWidth>& t, std::vector<typename K::Node>& nodes, uint32_t ref) {
-    constexpr int N = K::kWidth;
-    GridBox all;
-    if (is_leaf(ref)) {
-      for (uint32_t i = leaf_first(ref); i < leaf_first(ref) + leaf_count(ref); ++i) all.extend(m_record_boxes[i]);
-      return all;
-    }
-    const WideNode<N>& fn = t.nodes[ref];
-    GridBox boxes[N];
-    Aabb fboxes[N];
-    uint32_t refs[N];
-    int count = 0;
-    for (int i = 0; i < N; ++i) {
-      if (fn.child[i] == kEmptyChild) continue;
-      fboxes[count] = fn.child_box(i);
-      boxes[count] = subtree<K>(t, nodes, fn.child[i]);
-      boxes[count].extend(outward(fboxes[count]));
-      refs[count] = fn.child[i];
-      all.extend(boxes[count]);
-      ++count;
-    }
-    encode_node<K>(nodes[ref], boxes, fboxes, refs, count);
-    return all;
-  }
-
   const Geometry& m_g;
   const FixedFormat& m_f;
   QuantFrame m_frame;
   std::vector<GridBox> m_record_boxes;
-  const uint8_t* m_records_bytes = nullptr;  // encode_tree's records (oriented kinds read their vertices)
-  const std::vector<Rotation>* m_rot = nullptr;
   const std::vector<Aabb>* m_boxes = nullptr;  // top level: instance bounds, and their instance indices
   const std::vector<uint32_t>* m_ids = nullptr;
 };
@@ -394,6 +130,9 @@ DeviceImage encode_scene(const Geometry& g, const FixedFormat& f, const Bvh* bvh
   if (bvh && bvh->width() != f.width)
     throw std::invalid_argument("encode_scene: BVH width " + std::to_string(bvh->width()) +
                                 " differs from the format's width " + std::to_string(f.width));
+  if (g.num_bounded() > kRecordPrimMask + 1)
+    throw std::invalid_argument(
+        "encode_scene: more than 2^27 bounded primitives (a record's index holds 27 bits)");
   Encoder enc(g, f);
   return ImageWriter::write(enc, g, f, bvh, 0);
 }
@@ -406,9 +145,9 @@ DeviceImage encode_top_level(const std::vector<Aabb>& boxes, const std::vector<u
                                 " differs from the format's width " + std::to_string(format.width));
   if (ids.size() != boxes.size()) throw std::invalid_argument("encode_top_level: one instance index per box");
   for (const uint32_t id : ids)
-    if (id > kRecordPrimMask) throw std::invalid_argument("encode_top_level: instance index beyond 2^29 - 1");
+    if (id > kRecordPrimMask) throw std::invalid_argument("encode_top_level: instance index beyond 2^27 - 1");
   FixedFormat f = format;
-  f.prim_layout = 0;
+  f.prim_layout = int(PrimLayout::kRecords);
   Encoder enc(boxes, ids, flat, f);
   return ImageWriter::write(enc, flat, f, &bvh, kImageTopLevel);
 }
@@ -420,7 +159,7 @@ namespace {
 PackedTree tree_sections(Encoder& enc, const FixedFormat& f, const Bvh& bvh, NodeKindId kind) {
   PackedTree tree;
   const int q_bytes = f.offset_bytes();
-  const bool packed = f.node_layout != 0;
+  const bool packed = f.node_layout_id() != NodeLayout::kStructs;
   bvh.visit([&](const auto& t) {
     constexpr int N = std::decay_t<decltype(t)>::kWidth;
     with_node_kind(kind, N, q_bytes, [&](auto kind_tag) {
@@ -450,7 +189,7 @@ PackedTree tree_sections(Encoder& enc, const FixedFormat& f, const Bvh& bvh, Nod
 PackedTree record_sections(Encoder& enc, const FixedFormat& f, NodeKindId kind) {
   PackedTree tree;
   const int q_bytes = f.offset_bytes();
-  const bool packed = f.node_layout != 0;
+  const bool packed = f.node_layout_id() != NodeLayout::kStructs;
   const uint32_t n = enc.record_count();
   tree.records.assign(size_t(n) * kRecordBytes, 0);
   for (uint32_t p = 0; p < n; ++p) {
@@ -459,11 +198,11 @@ PackedTree record_sections(Encoder& enc, const FixedFormat& f, NodeKindId kind) 
   }
   if (f.tri_pairs) Encoder::mark_pairs(tree.records.data(), 0, n);
   // Blocks of up to 16 records (the group size a block holds), in order.
-  for (uint32_t p = 0; p < n && f.prim_layout == 1; p += uint32_t(kMaxLeafSize))
+  for (uint32_t p = 0; p < n && f.prim_layout_id() == PrimLayout::kBlocks; p += uint32_t(kMaxLeafSize))
     encode_block(tree.records.data() + size_t(p) * kRecordBytes, int(std::min<uint32_t>(kMaxLeafSize, n - p)),
                  f.coord_bits, tree.prims);
   // Clusters: leaves of up to 16 records without internal nodes, or raw blocks, in order.
-  for (uint32_t p = 0; p < n && f.prim_layout == 2; p += uint32_t(kMaxLeafSize)) {
+  for (uint32_t p = 0; p < n && f.prim_layout_id() == PrimLayout::kClusters; p += uint32_t(kMaxLeafSize)) {
     const uint8_t* rec = tree.records.data() + size_t(p) * kRecordBytes;
     const uint32_t count = std::min<uint32_t>(kMaxLeafSize, n - p);
     Cluster c;
@@ -473,7 +212,7 @@ PackedTree record_sections(Encoder& enc, const FixedFormat& f, NodeKindId kind) 
     else if (encode_cluster(c, f, tree.prims) == 0)
       throw std::logic_error("encoder: a leaf that fits no cluster");
   }
-  if (f.prim_layout == 0) tree.prims = tree.records;
+  if (f.prim_layout_id() == PrimLayout::kRecords) tree.prims = tree.records;
   tree.node_bytes =
       packed ? node_fields(f, 0, 0, 0).bytes(f.node_align) : node_struct_bytes(kind, f.width, q_bytes);
   return tree;
@@ -509,14 +248,15 @@ ImageHeader image_header(const Encoder& enc, const Geometry& g, const FixedForma
   h.node_layout = uint8_t(f.node_layout);
   h.prim_layout = uint8_t(f.prim_layout);
   h.node_bytes = uint16_t(tree.node_bytes);
-  h.base_bits = uint8_t(f.node_layout == 1 ? tree.base_bits : 0);
-  h.prim_bits = uint8_t(f.node_layout == 1 ? tree.prim_bits : 0);
-  h.group_bits = uint8_t(f.node_layout == 1 ? tree.group_bits : 0);
+  const bool bit_packed = f.node_layout_id() == NodeLayout::kBitPacked;
+  h.base_bits = uint8_t(bit_packed ? tree.base_bits : 0);
+  h.prim_bits = uint8_t(bit_packed ? tree.prim_bits : 0);
+  h.group_bits = uint8_t(bit_packed ? tree.group_bits : 0);
   h.node_align = uint8_t(f.node_align);
   h.record_bytes = tree.prims.size();
   h.node_offset = align8(sizeof(ImageHeader));
   h.record_offset = align8(h.node_offset + tree.nodes.size());
-  if (f.prim_layout == 2)  // clusters start on 64-byte lines of the image
+  if (f.prim_layout_id() == PrimLayout::kClusters)  // clusters start on 64-byte lines of the image
     h.record_offset = (h.record_offset + kClusterLineBytes - 1) / kClusterLineBytes * kClusterLineBytes;
   h.plane_offset = align8(h.record_offset + tree.prims.size());
   h.total_bytes = align8(h.plane_offset + plane_count * sizeof(PlaneRecord));
@@ -528,11 +268,10 @@ ImageHeader image_header(const Encoder& enc, const Geometry& g, const FixedForma
 DeviceImage ImageWriter::write(Encoder& enc, const Geometry& g, const FixedFormat& f, const Bvh* bvh,
                                uint32_t flags) {
   PackedTree tree;  // the node and primitive sections (and, packed, their expected decoding)
-  const bool packed = f.node_layout != 0;
-  const NodeKindId kind = f.node_kind == 1 ? NodeKindId::kOrientedAabb : NodeKindId::kQuantizedAabb;
+  const bool packed = f.node_layout_id() != NodeLayout::kStructs;
+  const NodeKindId kind = f.node_kind_id();
   flags |= uint32_t(kind) << kImageNodeKindShift;
-  if (kind == NodeKindId::kOrientedAabb)
-    flags |= (uint32_t(f.rotations - 1) << kImageRotationsShift) | (uint32_t(f.rot_bits) << kImageRotBitsShift);
+  flags |= with_node_kind(kind, f.width, f.offset_bytes(), [&](auto k) { return decltype(k)::image_flags(f); });
   if (!g.curves.empty()) {
     if (const std::string why = f.curve_limits(); !why.empty()) throw std::invalid_argument(why);
     flags |= uint32_t(f.curve_bits) << kImageCurveBitsShift;
@@ -555,7 +294,7 @@ DeviceImage ImageWriter::write(Encoder& enc, const Geometry& g, const FixedForma
   if (!tree.nodes.empty()) std::memcpy(base + h.node_offset, tree.nodes.data(), tree.nodes.size());
   if (!tree.prims.empty()) std::memcpy(base + h.record_offset, tree.prims.data(), tree.prims.size());
   if (!planes.empty()) std::memcpy(base + h.plane_offset, planes.data(), planes.size() * sizeof(PlaneRecord));
-  if (packed || f.prim_layout != 0) {
+  if (packed || f.prim_layout_id() != PrimLayout::kRecords) {
     // Decode as a bound image would, and hold the decoding to the values encoded.
     img.check();
     const auto* dn = reinterpret_cast<const uint8_t*>(img.m_nodes.data());

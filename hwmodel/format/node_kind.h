@@ -3,7 +3,8 @@
 //   - format/ (this room): the stored struct `Node` (trivially copyable, no padding, sizeof = its bytes), its
 //     child count and references, the encoder that quantizes the children's grid boxes into it, the check of one
 //     node's fields against the format (an image from device memory), and its fields in the packed layouts
-//     (packed_layout.h: to_packed, from_packed);
+//     (packed_layout.h: to_packed, from_packed), its image flags, and `build`, which encodes a BVH's nodes in the
+//     kind's fitting (node_build.h: axis-aligned, or oriented by the rotation of least surface area);
 //   - datapath/node_test.h: the fixed test of one node's children (a fast kernel, the reference path, the input of
 //     an attached box unit) and the exact oracle that checks it;
 //   - a cost class (NodeCostClass), which the timing model prices (TimingModel::Layout::node_cost).
@@ -21,11 +22,11 @@
 #include <string>
 
 #include "hwmodel/format/packed_layout.h"
+#include "hwmodel/format/quant_frame.h"
 #include "hwmodel/numeric/fixed_format.h"
+#include "hwmodel/scene/bvh.h"
 
 namespace rtu::hw {
-
-enum class NodeKindId : uint8_t { kQuantizedAabb = 0, kOrientedAabb = 1 };
 
 // Which of the timing model's box-test costs prices a node of the kind (node_cost.h): slab tests (box_rate,
 // box_latency), or slab tests after the ray's rotation into the node's frame (and obb_rotate_latency).
@@ -53,6 +54,24 @@ struct GridBox {
   }
 };
 
+// What the encoder hands a kind's build hook (node_build.h): the format, the quantization frame, the records in
+// leaf order and their grid boxes.
+struct NodeBuild {
+  const FixedFormat& f;
+  const QuantFrame& frame;
+  const uint8_t* records;
+  const GridBox* record_boxes;
+  // A float box on the grid, rounded outward.
+  GridBox outward(const Aabb& b) const {
+    GridBox g;
+    for (int a = 0; a < 3; ++a) {
+      g.lo[a] = frame.to_grid(b.lo[a], a, Round::kDown);
+      g.hi[a] = frame.to_grid(b.hi[a], a, Round::kUp);
+    }
+    return g;
+  }
+};
+
 // What a kind K provides in this room. Checks return an empty string or the problem (the image check prefixes
 // the node's index).
 template <class K>
@@ -70,6 +89,10 @@ concept NodeKind = requires(typename K::Node& n, const typename K::Node& cn, con
   { K::check(cn, f) } -> std::same_as<std::string>;
   K::to_packed(cn, pn);
   { K::from_packed(cpn, n) } -> std::same_as<std::string>;
+  // The image's flags for the kind's own fields (0 if none; DeviceImage::format reads them back).
+  { K::image_flags(f) } -> std::same_as<uint32_t>;
+  // Encodes every node of a BVH whose root is a node (the kind's fitting: node_build.h).
+  requires requires(const NodeBuild& b, const WideBvh<K::kWidth>& t, typename K::Node* out) { K::build(b, t, out); };
 };
 
 }  // namespace rtu::hw

@@ -3,8 +3,8 @@
 // offsets from a common origin at a power-of-two scale per axis). A child's region is
 // { p : lo <= (M p) / 2^rot_bits <= hi } for the node's integer matrix M, so the encoder bounds a subtree by
 // exact integer products of its points, and the unit's test (datapath/oriented_aabb_test.h) rotates the ray with
-// the same integers. The encoder picks each node's rotation (device_image_encode.cpp: the least summed surface
-// area of the children, after DOBB-BVH, Kern et al., HPG 2025). Rotation 0 is the identity: such a node is the
+// the same integers. The kind's build picks each node's rotation (node_build.h: the least summed surface area of
+// the children, after DOBB-BVH, Kern et al., HPG 2025). Rotation 0 is the identity: such a node is the
 // axis-aligned node's boxes with 4 more bytes.
 #pragma once
 
@@ -14,7 +14,9 @@
 #include <string>
 
 #include "hwmodel/format/hw_format.h"
+#include "hwmodel/format/node_build.h"
 #include "hwmodel/format/node_kind.h"
+#include "hwmodel/format/rotation_table.h"
 #include "hwmodel/format/quantized_aabb.h"
 
 namespace rtu::hw {
@@ -96,6 +98,15 @@ struct OrientedAabb {
   }
 
   // The packed layouts' fields of the node (packed_layout.h: the rotation index after the count).
+  // The rotation table's size and entries' bits (node_kind.h: kImageRotationsShift, kImageRotBitsShift).
+  static uint32_t image_flags(const FixedFormat& f) {
+    return (uint32_t(f.rotations - 1) << kImageRotationsShift) | (uint32_t(f.rot_bits) << kImageRotBitsShift);
+  }
+  // Each node in the rotation of the format's table whose children's boxes have the least summed surface area.
+  static void build(const NodeBuild& b, const WideBvh<N>& t, Node* nodes) {
+    build_oriented<OrientedAabb>(b, rotation_table(b.f.rotations, b.f.rot_bits), t, nodes, t.root_ref);
+  }
+
   static void to_packed(const Node& n, PackedNode& pn) {
     offset_fields_to_packed(n, pn);
     pn.rot = n.rot;

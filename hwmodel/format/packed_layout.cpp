@@ -23,9 +23,9 @@ uint64_t NodeFields::bytes(int align) const {
 NodeFields node_fields(const FixedFormat& f, int base_bits, int prim_bits, int group_bits) {
   NodeFields n;
   n.width = f.width;
-  const bool oriented = f.node_kind == 1;
+  const bool oriented = f.node_kind_id() == NodeKindId::kOrientedAabb;
   n.origin_bias = oriented ? f.coord_bits + 2 : f.coord_bits;
-  if (f.node_layout == 2) {
+  if (f.node_layout_id() == NodeLayout::kCompressedWide) {
     n.origin = 32;
     n.exp = 8;
     n.count = 8;
@@ -236,7 +236,7 @@ uint32_t decode_block(const uint8_t* data, uint64_t bytes, int B, std::vector<ui
   std::vector<uint64_t> prims(static_cast<size_t>(count));
   for (uint64_t& p : prims) {
     p = pbase + r.get(pbits);
-    if (p > kRecordPrimMask) throw std::invalid_argument(at + ": primitive index beyond 29 bits");
+    if (p > kRecordPrimMask) throw std::invalid_argument(at + ": primitive index beyond 27 bits");
   }
   std::vector<std::array<int64_t, 3>> verts(static_cast<size_t>(nv));
   for (auto& v : verts)
@@ -255,7 +255,7 @@ uint32_t decode_block(const uint8_t* data, uint64_t bytes, int B, std::vector<ui
         t.v[k][a] = int32_t(c);
       }
     }
-    t.prim = (uint32_t(RecordKind::kTriangle) << 30) | uint32_t(prims[size_t(i)]);
+    t.prim = record_word(RecordKind::kTriangle, uint32_t(prims[size_t(i)]));
     std::memcpy(records.data() + first + size_t(i) * kRecordBytes, &t, sizeof t);
   }
   const uint32_t size = granules(r.pos());

@@ -7,6 +7,7 @@
 #include <type_traits>
 
 #include "hwmodel/format/hw_format.h"
+#include "hwmodel/format/node_build.h"
 #include "hwmodel/format/node_kind.h"
 #include "hwmodel/numeric/fixed.h"
 #include "hwmodel/scene/bvh.h"
@@ -110,6 +111,12 @@ struct QuantizedAabb {
   }
 
   // The packed layouts' fields of the node (the children's leaf bits, groups and bases are the caller's).
+  static uint32_t image_flags(const FixedFormat&) { return 0; }
+  // Each child's box: the grid boxes below it joined with its float box rounded outward.
+  static void build(const NodeBuild& b, const WideBvh<N>& t, Node* nodes) {
+    build_axis_aligned<QuantizedAabb>(b, t, nodes, t.root_ref);
+  }
+
   static void to_packed(const Node& n, PackedNode& pn) { offset_fields_to_packed(n, pn); }
   static std::string from_packed(const PackedNode& pn, Node& n) { return offset_fields_from_packed(pn, n); }
 };

@@ -53,13 +53,13 @@ void FixedFormat::validate() const {
   for (const FormatField& f : format_fields())
     if (f.member != &FixedFormat::width) range(f.key, this->*f.member, f.lo, f.hi);
   if ((node_align & (node_align - 1)) != 0) fail("node_align must be a power of two");
-  if (node_layout == 0 && node_align != 1)
+  if (node_layout_id() == NodeLayout::kStructs && node_align != 1)
     fail("node_align applies to packed nodes (node_layout 1 or 2); node_layout 0 stores whole structs");
-  if (prim_layout == 1 && node_layout == 0)
+  if (prim_layout_id() == PrimLayout::kBlocks && node_layout_id() == NodeLayout::kStructs)
     fail("prim_layout 1 (triangle blocks) needs packed nodes (node_layout 1 or 2), which address blocks");
-  if (prim_layout == 2 && node_layout == 0)
+  if (prim_layout_id() == PrimLayout::kClusters && node_layout_id() == NodeLayout::kStructs)
     fail("prim_layout 2 (triangle clusters) needs packed nodes (node_layout 1 or 2), which address clusters");
-  if (prim_layout != 2 && cluster_tris != 256) fail("cluster_tris applies to triangle clusters (prim_layout 2)");
+  if (prim_layout_id() != PrimLayout::kClusters && cluster_tris != 256) fail("cluster_tris applies to triangle clusters (prim_layout 2)");
   constexpr int kLimit = 126;  // magnitude bits of the 128-bit intermediates, one spare
   auto fits = [&](const char* what, int bits) {
     if (bits > kLimit) fail(std::string(what) + " needs " + std::to_string(bits) + " bits (> 126)");
@@ -81,12 +81,12 @@ void FixedFormat::validate() const {
   fits("the sphere closest-approach vector", t_bits + dir_bits + 1);
   fits("the sphere distance", 2 * (a + 1) + 2);
   fits("the exact box checker (model only)", a + s + dir_bits + 1);
-  if (tri_pairs == 1 && prim_layout != 0)
+  if (tri_pairs == 1 && prim_layout_id() != PrimLayout::kRecords)
     fail("tri_pairs 1 (triangle pairs) marks 40-byte records (prim_layout 0); triangle blocks hold no pairs");
-  if (node_kind == 1) {
+  if (node_kind_id() == NodeKindId::kOrientedAabb) {
     // The oriented test: the ray rotated per node (o' = M o, d' = M d exactly), then the slab test in that frame
     // with the reciprocals of d' (|d'| < 2^(D+rb+1)) at R + 1 bits.
-    if (node_layout == 2 && coord_bits > 28)
+    if (node_layout_id() == NodeLayout::kCompressedWide && coord_bits > 28)
       fail(
           "node_kind 1 in compressed-wide nodes needs coord_bits <= 28 (the origin's 32-bit field holds "
           "[-2^(B+2), 2^(B+2)] plus 2^(B+2))");
@@ -124,14 +124,18 @@ std::string FixedFormat::describe() const {
     << guard_bits << ", frac " << frac_bits << ", dir " << dir_bits << ", rcp " << rcp_bits << ", t " << t_bits
     << "." << t_frac_bits;
   static const char* const kNodes[] = {"structs", "bit-packed", "compressed-wide"};
-  if (node_layout != 0 || prim_layout != 0) {
+  if (node_layout_id() != NodeLayout::kStructs || prim_layout_id() != PrimLayout::kRecords) {
     o << ", nodes " << kNodes[node_layout < 0 || node_layout > 2 ? 0 : node_layout];
     if (node_align > 1) o << " (" << node_align << "-byte aligned)";
-    o << ", " << (prim_layout == 2 ? "triangle clusters" : prim_layout ? "triangle blocks" : "40-byte records");
-    if (prim_layout == 2 && cluster_tris != 256) o << " of " << cluster_tris;
+    const PrimLayout pl = prim_layout_id();
+    o << ", "
+      << (pl == PrimLayout::kClusters ? "triangle clusters"
+          : pl != PrimLayout::kRecords ? "triangle blocks"
+                                       : "40-byte records");
+    if (pl == PrimLayout::kClusters && cluster_tris != 256) o << " of " << cluster_tris;
   }
   if (xform_bits != 24) o << ", transforms " << xform_bits << " bits";
-  if (node_kind == 1) o << ", oriented boxes (" << rotations << " rotations, " << rot_bits << " bits)";
+  if (node_kind_id() == NodeKindId::kOrientedAabb) o << ", oriented boxes (" << rotations << " rotations, " << rot_bits << " bits)";
   if (tri_pairs == 1) o << ", triangle pairs";
   return o.str();
 }

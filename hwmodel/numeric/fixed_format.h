@@ -8,11 +8,19 @@
 // a format breaks: those limits are also the bits real hardware would need for the same exactness.
 #pragma once
 
+#include <cstdint>
 #include <span>
 #include <string>
 #include <vector>
 
 namespace rtu::hw {
+
+// How nodes are stored (packed_layout.h): whole-byte structs, bit-packed, compressed-wide (CWBVH-like bytes).
+enum class NodeLayout : uint8_t { kStructs = 0, kBitPacked = 1, kCompressedWide = 2 };
+// How primitives are stored: 40-byte records, compressed triangle blocks, triangle clusters (cluster_layout.h).
+enum class PrimLayout : uint8_t { kRecords = 0, kBlocks = 1, kClusters = 2 };
+// The node kind (format/node_kinds.h): quantized axis-aligned boxes, oriented boxes.
+enum class NodeKindId : uint8_t { kQuantizedAabb = 0, kOrientedAabb = 1 };
 
 struct FixedFormat {
   std::string name = "custom";  // preset name, or "custom"
@@ -47,6 +55,11 @@ struct FixedFormat {
   int curve_bits = 24;
   // Triangle clusters (prim_layout 2, format/cluster_layout.h): the most triangles one cluster holds, 16..256.
   int cluster_tris = 256;
+
+  // The enumerated fields as their enums (the fields stay ints: their keys read and print them as numbers).
+  NodeLayout node_layout_id() const { return NodeLayout(node_layout); }
+  PrimLayout prim_layout_id() const { return PrimLayout(prim_layout); }
+  NodeKindId node_kind_id() const { return NodeKindId(node_kind); }
 
   // Throws std::invalid_argument with the rule a format breaks.
   void validate() const;

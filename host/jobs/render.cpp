@@ -399,9 +399,10 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   res.offset_abs = std::ldexp(extent, -20);
   // An instanced scene binds its two levels (hwmodel/datapath/instanced_fixed.h) on the fixed-point devices,
   // unless flattened or co-simulated (the RTL units trace one image).
-  const bool two_level = scene.instanced() && !o.device.flatten && o.device.kind != hw::DeviceKind::kFloat &&
-                         (o.device.kind == hw::DeviceKind::kFixed ||
-                          (o.device.timing.box_unit == hw::UnitModel::kCpp && o.device.timing.tri_unit == hw::UnitModel::kCpp));
+  const bool two_level =
+      scene.instanced() && !o.device.flatten && o.device.kind != hw::DeviceKind::kFloat &&
+      (o.device.kind == hw::DeviceKind::kFixed ||
+       (o.device.timing.box_unit == hw::UnitModel::kCpp && o.device.timing.tri_unit == hw::UnitModel::kCpp));
   add_scene_warnings(scene, o, two_level, res);
   hw::TracerOptions tracer = o.device.tracer;
   const std::vector<uint64_t> image_words = encode_scene_image(scene, o, two_level, tracer, res);

@@ -30,7 +30,8 @@ constexpr bool same_order() {  // kMemoryTypes prices the memory_type key's choi
     if (std::string_view(kMemoryTypes[i].name) != kDramTypes[i].name) return false;
   return true;
 }
-static_assert(same_order(), "kMemoryTypes and kDramTypes (timing/parts/memory.h) must list the same types in order");
+static_assert(same_order(),
+              "kMemoryTypes and kDramTypes (timing/parts/memory.h) must list the same types in order");
 
 }  // namespace
 
@@ -82,7 +83,7 @@ double cache_sram_bits(const TimingConfig& c) {
 // The ray queue, or with gathering the gather buffer that takes its place (rays and their bin keys).
 static double ray_queue_bytes(const TimingConfig& c) {
   return c.gather != GatherKey::kNone ? double(c.gather_buffer) * (kQueueRayBytes + kGatherKeyBytes)
-                            : double(c.queue_depth) * kQueueRayBytes;
+                                      : double(c.queue_depth) * kQueueRayBytes;
 }
 
 double slot_sram_bits(const TimingConfig& c) {

@@ -236,7 +236,8 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
   const bool dynamic = chip() && policy == RayPolicy::kDynamic;
   if (chip() && !dynamic && sample_step(m_sample.fraction) >= 2)
     throw std::invalid_argument(
-        "sampled timing on a chip needs ray_policy = dynamic (--set ray_policy=dynamic): with " + std::string(name_of(m_c.ray_policy)) +
+        "sampled timing on a chip needs ray_policy = dynamic (--set ray_policy=dynamic): with " +
+        std::string(name_of(m_c.ray_policy)) +
         " each unit's rays are fixed, the packet ends with its slowest unit, and no sample of them estimates that "
         "within the interval (docs/timing-model.md, sampled timing on a chip)");
   try {

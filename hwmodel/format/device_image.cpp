@@ -104,7 +104,8 @@ NodeFields check_layouts(const ImageHeader& h, const FixedFormat& f, size_t stru
   }
   if (prim_layout(h) == PrimLayout::kRecords && h.record_bytes != uint64_t(h.record_count) * kRecordBytes)
     bad_image("record_bytes differs from record_count 40-byte records");
-  if (prim_layout(h) == PrimLayout::kClusters && (h.record_offset % kClusterLineBytes != 0 || h.record_bytes % kClusterLineBytes != 0))
+  if (prim_layout(h) == PrimLayout::kClusters &&
+      (h.record_offset % kClusterLineBytes != 0 || h.record_bytes % kClusterLineBytes != 0))
     bad_image("record_offset or record_bytes of triangle clusters not on a 64-byte line");
   return fields;
 }

@@ -1,9 +1,9 @@
 // Building a kind's nodes over the float BVH (node_kind.h: each kind's `build` hook). The generic half: NodeBuild,
 // what the encoder hands a kind (the records in leaf order with their grid boxes, the format, the frame), with the
 // outward rounding of a float box and the encoding of one node checked to contain its children's boxes; and the
-// two builds the kinds so far use: axis-aligned (build_axis_aligned) and oriented (build_oriented: each node in the
-// rotation of the format's table whose children's boxes have the least summed surface area, after DOBB-BVH, Kern
-// et al., HPG 2025).
+// two builds the kinds so far use: axis-aligned (build_axis_aligned) and oriented (build_oriented: each node in
+// the rotation of the format's table whose children's boxes have the least summed surface area, after DOBB-BVH,
+// Kern et al., HPG 2025).
 #pragma once
 
 #include <cstdint>
@@ -38,7 +38,8 @@ void encode_checked(const NodeBuild& b, typename K::Node& node, const GridBox* b
 // Axis-aligned nodes: each child's box is the grid boxes of what lies below it joined with its float box rounded
 // outward. Encodes the subtree at ref into nodes and returns its grid box.
 template <class K>
-GridBox build_axis_aligned(const NodeBuild& b, const WideBvh<K::kWidth>& t, typename K::Node* nodes, uint32_t ref) {
+GridBox build_axis_aligned(const NodeBuild& b, const WideBvh<K::kWidth>& t, typename K::Node* nodes,
+                           uint32_t ref) {
   constexpr int N = K::kWidth;
   GridBox all;
   if (is_leaf(ref)) {
@@ -79,7 +80,8 @@ inline OrientExtents record_extents(const NodeBuild& b, const std::vector<Rotati
     }
   const uint8_t* rec = b.records + size_t(i) * kRecordBytes;
   OrientPoints pts;
-  if (!with_record_prim(record_kind(rec), [&](auto k) { decltype(k)::orient_points(rec, b.record_boxes[i], b.f, pts); }))
+  if (!with_record_prim(record_kind(rec),
+                        [&](auto k) { decltype(k)::orient_points(rec, b.record_boxes[i], b.f, pts); }))
     pts.corners(b.record_boxes[i]);
   for (size_t k = 0; k < rot.size(); ++k)
     for (int a = 0; a < 3; ++a) {
@@ -88,8 +90,9 @@ inline OrientExtents record_extents(const NodeBuild& b, const std::vector<Rotati
       int64_t& hi = e[6 * k + 2 * a + 1];
       // The row's length, rounded up: a sphere of radius r spans r |m| along it.
       const int64_t len =
-          pts.pad == 0 ? 0
-                       : int64_t(isqrt_round(Wide(m[0]) * m[0] + Wide(m[1]) * m[1] + Wide(m[2]) * m[2], Round::kUp));
+          pts.pad == 0
+              ? 0
+              : int64_t(isqrt_round(Wide(m[0]) * m[0] + Wide(m[1]) * m[1] + Wide(m[2]) * m[2], Round::kUp));
       for (int p = 0; p < pts.n; ++p) {
         const int64_t v = m[0] * pts.p[p][0] + m[1] * pts.p[p][1] + m[2] * pts.p[p][2];
         lo = std::min(lo, v - pts.pad * len);

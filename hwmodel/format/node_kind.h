@@ -92,7 +92,9 @@ concept NodeKind = requires(typename K::Node& n, const typename K::Node& cn, con
   // The image's flags for the kind's own fields (0 if none; DeviceImage::format reads them back).
   { K::image_flags(f) } -> std::same_as<uint32_t>;
   // Encodes every node of a BVH whose root is a node (the kind's fitting: node_build.h).
-  requires requires(const NodeBuild& b, const WideBvh<K::kWidth>& t, typename K::Node* out) { K::build(b, t, out); };
+  requires requires(const NodeBuild& b, const WideBvh<K::kWidth>& t, typename K::Node* out) {
+    K::build(b, t, out);
+  };
 };
 
 }  // namespace rtu::hw

@@ -16,8 +16,8 @@
 #include "hwmodel/format/hw_format.h"
 #include "hwmodel/format/node_build.h"
 #include "hwmodel/format/node_kind.h"
-#include "hwmodel/format/rotation_table.h"
 #include "hwmodel/format/quantized_aabb.h"
+#include "hwmodel/format/rotation_table.h"
 
 namespace rtu::hw {
 

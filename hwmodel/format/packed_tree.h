@@ -111,7 +111,8 @@ template <NodeKind K>
 PackedTree pack_tree(const FixedFormat& f, const std::vector<typename K::Node>& nodes,
                      const std::vector<uint8_t>& records, uint32_t root) {
   PackedTree p;
-  const bool blocks = f.prim_layout_id() == PrimLayout::kBlocks, clusters = f.prim_layout_id() == PrimLayout::kClusters;
+  const bool blocks = f.prim_layout_id() == PrimLayout::kBlocks,
+             clusters = f.prim_layout_id() == PrimLayout::kClusters;
   std::vector<std::vector<uint8_t>> cluster_bytes;  // clusters: a cluster root's encoded cluster, else empty
   if (clusters) cluster_bytes = choose_clusters<K>(f, nodes, records, root);
   auto cluster_root = [&](uint32_t ref) { return clusters && !is_leaf(ref) && !cluster_bytes[ref].empty(); };

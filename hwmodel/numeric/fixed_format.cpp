@@ -59,7 +59,8 @@ void FixedFormat::validate() const {
     fail("prim_layout 1 (triangle blocks) needs packed nodes (node_layout 1 or 2), which address blocks");
   if (prim_layout_id() == PrimLayout::kClusters && node_layout_id() == NodeLayout::kStructs)
     fail("prim_layout 2 (triangle clusters) needs packed nodes (node_layout 1 or 2), which address clusters");
-  if (prim_layout_id() != PrimLayout::kClusters && cluster_tris != 256) fail("cluster_tris applies to triangle clusters (prim_layout 2)");
+  if (prim_layout_id() != PrimLayout::kClusters && cluster_tris != 256)
+    fail("cluster_tris applies to triangle clusters (prim_layout 2)");
   constexpr int kLimit = 126;  // magnitude bits of the 128-bit intermediates, one spare
   auto fits = [&](const char* what, int bits) {
     if (bits > kLimit) fail(std::string(what) + " needs " + std::to_string(bits) + " bits (> 126)");
@@ -129,13 +130,14 @@ std::string FixedFormat::describe() const {
     if (node_align > 1) o << " (" << node_align << "-byte aligned)";
     const PrimLayout pl = prim_layout_id();
     o << ", "
-      << (pl == PrimLayout::kClusters ? "triangle clusters"
+      << (pl == PrimLayout::kClusters  ? "triangle clusters"
           : pl != PrimLayout::kRecords ? "triangle blocks"
                                        : "40-byte records");
     if (pl == PrimLayout::kClusters && cluster_tris != 256) o << " of " << cluster_tris;
   }
   if (xform_bits != 24) o << ", transforms " << xform_bits << " bits";
-  if (node_kind_id() == NodeKindId::kOrientedAabb) o << ", oriented boxes (" << rotations << " rotations, " << rot_bits << " bits)";
+  if (node_kind_id() == NodeKindId::kOrientedAabb)
+    o << ", oriented boxes (" << rotations << " rotations, " << rot_bits << " bits)";
   if (tri_pairs == 1) o << ", triangle pairs";
   return o.str();
 }

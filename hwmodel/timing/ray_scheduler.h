@@ -10,8 +10,8 @@
 // Within a unit, a free slot takes the unit's next ray in order (TimingModel::admit): rays arrive from the ray
 // buffer in order through a queue of queue_depth, so that is the order the ray fetch model (timing_model.h)
 // prices; or, with gathering (ray_gather.h), the first ray of the bins issued so far. To add a policy: a value of
-// RayPolicy and its row in choices(RayPolicy) (parts/chip.h), and a case in ray_unit(); the key's check and description
-// follow from the list.
+// RayPolicy and its row in choices(RayPolicy) (parts/chip.h), and a case in ray_unit(); the key's check and
+// description follow from the list.
 #pragma once
 
 #include <array>

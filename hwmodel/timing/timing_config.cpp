@@ -47,10 +47,9 @@ const TimingKeyTable& own_keys() {
 // set_timing_key() all read it.
 std::vector<KeyInfo> make_key_table() {
   const TimingKeyTable* const parts[] = {
-      &own_keys(),       &command_keys(),        &slot_keys(),   &stack_keys(),    &scheduler_keys(),
-      &unit_keys(),      &fetch_keys(),          &dram_channel_keys(), &prefetch_keys(), &gather_keys(),
-      &chip_keys(),      &l2_keys(),             &dram_bank_keys(),    &dram_scheduler_keys(), &raster_keys(),
-      &sort_keys(),      &watchdog_keys(),
+      &own_keys(),       &command_keys(),        &slot_keys(),     &stack_keys(),  &scheduler_keys(), &unit_keys(),
+      &fetch_keys(),     &dram_channel_keys(),   &prefetch_keys(), &gather_keys(), &chip_keys(),      &l2_keys(),
+      &dram_bank_keys(), &dram_scheduler_keys(), &raster_keys(),   &sort_keys(),   &watchdog_keys(),
   };
   std::vector<KeyInfo> table;
   for (const TimingKeyTable* part : parts) table.insert(table.end(), part->begin(), part->end());
@@ -446,7 +445,7 @@ std::vector<TimingKey> timing_keys(const TimingConfig& c) {
       value = double_text(c.*(*d));
     else if (auto ch = std::get_if<ChoiceField>(&k.field))
       value = size_t(ch->get(c)) < ch->choices().size() ? ch->choices()[size_t(ch->get(c))].name
-                                                         : std::to_string(ch->get(c));
+                                                        : std::to_string(ch->get(c));
     else
       value = c.*std::get<std::string TimingConfig::*>(k.field);
     keys.push_back(TimingKey{k.key, value, k.description});

@@ -18,8 +18,8 @@ namespace rtu::hw {
 struct TimingConfig;
 struct TimingStats;
 
-inline constexpr int kMaxLatency = 100000;    // the largest latency key in cycles
-inline constexpr double kNoRange = -1e300;    // lo of a key whose rule is not a range (bvh_width: 2, 4, 6 or 8)
+inline constexpr int kMaxLatency = 100000;  // the largest latency key in cycles
+inline constexpr double kNoRange = -1e300;  // lo of a key whose rule is not a range (bvh_width: 2, 4, 6 or 8)
 
 // One value of a key that takes one of a list (stack_mode, box_unit, prefetcher, ...): its text and what it does.
 struct TimingChoice {

@@ -476,7 +476,7 @@ bool TimingModel::admit_rays(uint64_t limit, bool ahead) {
     const auto [free_at, k] = m_free_slots.front();
     if (!m_queue.empty() && m_queue.top_cycle() < free_at) break;  // a busy slot acts first
     if (free_at > limit && !ahead) return false;
-    if (m_queued && m_mem->next_decision() < free_at) break;  // the memory decides first (simulate())
+    if (m_queued && m_mem->next_decision() < free_at) break;       // the memory decides first (simulate())
     if (!m_admission->reach(free_at, m_feed, *m_s)) return false;  // its ray is not fed yet
     std::pop_heap(m_free_slots.begin(), m_free_slots.end(), std::greater<>());
     m_free_slots.pop_back();

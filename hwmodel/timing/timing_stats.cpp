@@ -13,9 +13,9 @@ using S = TimingStats;
 // Every counter: one row a part, in the order of TimingStats's parts.
 std::vector<TimingCounter> make_counters() {
   const std::span<const TimingCounter> parts[] = {
-      command_counters(), unit_counters(),  fetch_counters(), prefetch_counters(),  l2_counters(),
-      dram_counters(),    stack_counters(), slot_counters(),  scheduler_counters(), gather_counters(),
-      dram_scheduler_counters(),
+      command_counters(),   unit_counters(),   fetch_counters(),          prefetch_counters(),
+      l2_counters(),        dram_counters(),   stack_counters(),          slot_counters(),
+      scheduler_counters(), gather_counters(), dram_scheduler_counters(),
   };
   std::vector<TimingCounter> all;
   for (std::span<const TimingCounter> part : parts) all.insert(all.end(), part.begin(), part.end());

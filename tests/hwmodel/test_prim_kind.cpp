@@ -55,8 +55,9 @@ TEST_CASE("prim kind: records of every kind encode, check and read back their ki
     uint32_t word;
     std::memcpy(&word, img.record(i) + 36, 4);
     const PrimKind want = g.kind(word & kRecordPrimMask);
-    CHECK(want == (k == RecordKind::kCurve ? PrimKind::kCurve : k == RecordKind::kSphere ? PrimKind::kSphere
-                                                                                         : PrimKind::kTriangle));
+    CHECK(want == (k == RecordKind::kCurve    ? PrimKind::kCurve
+                   : k == RecordKind::kSphere ? PrimKind::kSphere
+                                              : PrimKind::kTriangle));
   }
   CHECK(seen[uint8_t(RecordKind::kTriangle)] == 1);
   CHECK(seen[uint8_t(RecordKind::kSphere)] == 1);

@@ -18,7 +18,6 @@ std::span<const TimingChoice> choices(PrefetcherId) {
   return choices;
 }
 
-
 const TimingKeyTable& prefetch_keys() {
   using C = TimingConfig;
   static const TimingKeyTable keys = {

@@ -1,5 +1,5 @@
-// Prefetching (prefetch/prefetchers.h): which prefetcher watches the fetch port, how much it fills, where its fills
-// wait and land, and the treelet layout. Its keys and counters.
+// Prefetching (prefetch/prefetchers.h): which prefetcher watches the fetch port, how much it fills, where its
+// fills wait and land, and the treelet layout. Its keys and counters.
 #pragma once
 
 #include <cstdint>

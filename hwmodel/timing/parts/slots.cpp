@@ -45,11 +45,9 @@ std::span<const TimingCounter> scheduler_counters() {
   using S = TimingStats;
   static constexpr std::array<TimingCounter, 2> counters = {{
       {"any_hit_requests", &S::any_hit_requests, "requests",
-       "candidate hits on non-opaque triangles sent to the any-hit stage (each waits any_hit_latency)",
-       kPerRay},
+       "candidate hits on non-opaque triangles sent to the any-hit stage (each waits any_hit_latency)", kPerRay},
       {"instance_transforms", &S::instance_transforms, "rays",
-       "two-level scenes: rays transformed into an instance's bottom level (each waits xform_latency)",
-       kPerRay},
+       "two-level scenes: rays transformed into an instance's bottom level (each waits xform_latency)", kPerRay},
   }};
   return counter_table<SchedulerCounters>(counters);
 }

@@ -16,7 +16,6 @@ std::span<const TimingChoice> choices(RaySort) {
   return choices;
 }
 
-
 const TimingKeyTable& sort_keys() {
   using C = TimingConfig;
   static const TimingKeyTable keys = {

@@ -46,7 +46,8 @@ std::span<const TimingCounter> unit_counters() {
   static constexpr std::array<TimingCounter, 14> counters = {{
       {"box_tests", &S::box_tests, "tests", "ray-box tests (one per child of a node visited)", kPerRay},
       {"tri_tests", &S::tri_tests, "tests", "ray-triangle tests", kPerRay},
-      {"sphere_tests", &S::sphere_tests, "tests", "ray-sphere tests (in the triangle units' issue slots)", kPerRay},
+      {"sphere_tests", &S::sphere_tests, "tests", "ray-sphere tests (in the triangle units' issue slots)",
+       kPerRay},
       {"plane_tests", &S::plane_tests, "tests", "ray-plane tests (in the triangle units' issue slots)", kPerRay},
       {"curve_tests", &S::curve_tests, "tests",
        "ray-curve segment tests (curve units, or curve_issue triangle unit clocks each without them)", kPerRay},

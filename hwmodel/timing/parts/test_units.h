@@ -64,7 +64,7 @@ struct UnitCounters {
   uint64_t box_tests = 0, tri_tests = 0, sphere_tests = 0, plane_tests = 0;
   uint64_t curve_tests = 0;  // curve segment tests, in curve units or triangle unit slots (curve_units)
   uint64_t box_issue_cycles = 0, tri_issue_cycles = 0;  // unit issue slots used, summed over the units
-  uint64_t tri_pairs = 0;                               // triangle pairs tested as one request (in tri_tests twice)
+  uint64_t tri_pairs = 0;      // triangle pairs tested as one request (in tri_tests twice)
   uint64_t obb_rotations = 0;  // oriented nodes: rays turned into a node's frame (one per oriented node test)
   // Triangle clusters with the cluster engine on (cluster_tri_rate > 0): box tests of clusters' internal nodes and
   // triangle tests it did (not in box_tests, tri_tests), and its requests (a node, or a leaf's triangles).

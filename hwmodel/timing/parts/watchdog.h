@@ -1,5 +1,5 @@
-// The watchdog (timing_model_watchdog.cpp): the most cycles a ray may stay in its ray slot; a ray still there after
-// that stops the TRACE with a watchdog error and a dump of the unit's state.
+// The watchdog (timing_model_watchdog.cpp): the most cycles a ray may stay in its ray slot; a ray still there
+// after that stops the TRACE with a watchdog error and a dump of the unit's state.
 #pragma once
 
 #include "hwmodel/timing/timing_key.h"

@@ -1,25 +1,16 @@
 #include "firmware/ring.h"
 
+#include "hwmodel/interface/enum_names.h"
+
 namespace rtu::fw {
 
 namespace reg = hw::reg;
 
 const char* status_name(Status s) {
-  switch (s) {
-    case Status::kOk:
-      return "ok";
-    case Status::kNoDevice:
-      return "no_device";
-    case Status::kNoMemory:
-      return "no_memory";
-    case Status::kDeviceError:
-      return "device_error";
-    case Status::kTimeout:
-      return "timeout";
-    case Status::kBadArgument:
-      return "bad_argument";
-  }
-  return "unknown";
+  static constexpr const char* names[] = {"ok",           "no_device", "no_memory",
+                                          "device_error", "timeout",   "bad_argument"};
+  static_assert(hw::count_of(names) == std::size_t(Status::kBadArgument) + 1, "a name for every status");
+  return hw::enum_name(names, s);
 }
 
 Status Ring::init(Hal& hal, Arena& arena, uint32_t slots) {

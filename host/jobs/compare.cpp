@@ -3,18 +3,14 @@
 #include <algorithm>
 #include <cmath>
 
+#include "hwmodel/interface/enum_names.h"
+
 namespace rtu::host {
 
 const char* disagreement_name(Disagreement d) {
-  switch (d) {
-    case Disagreement::kFalseMiss:
-      return "false_miss";
-    case Disagreement::kFalseHit:
-      return "false_hit";
-    case Disagreement::kOtherPrimitive:
-      return "other_primitive";
-  }
-  return "?";
+  static constexpr const char* names[] = {"false_miss", "false_hit", "other_primitive"};
+  static_assert(hw::count_of(names) == std::size_t(Disagreement::kOtherPrimitive) + 1, "a name for every kind");
+  return hw::enum_name(names, d, "?");
 }
 
 HitComparison compare_hits(const std::vector<hw::Hit>& ref, const std::vector<hw::Hit>& dev,

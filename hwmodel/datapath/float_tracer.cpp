@@ -56,21 +56,7 @@ struct FloatPolicy {
   const AnyHitStage* stage;
 
   int expand(uint32_t node, uint32_t refs[N], float dists[N], int& tested) const {
-    const WideNode<N>& n = nodes[node];
-    int k = 0;
-    for (int i = 0; i < N; ++i) {
-      if (n.child[i] == kEmptyChild) continue;
-      ++tested;
-      const float lo[3] = {n.bounds[0][i], n.bounds[2][i], n.bounds[4][i]};
-      const float hi[3] = {n.bounds[1][i], n.bounds[3][i], n.bounds[5][i]};
-      float t;
-      if (intersect_box(lo, hi, rp, tmin, closest.tmax, t)) {
-        refs[k] = n.child[i];
-        dists[k] = t;
-        ++k;
-      }
-    }
-    return k;
+    return expand_wide_node(nodes[node], rp, tmin, closest.tmax, refs, dists, tested);
   }
 
   bool leaf(uint32_t ref) const {

@@ -207,21 +207,7 @@ struct TopPolicy {
   const AnyHitStage* stage;
 
   int expand(uint32_t node, uint32_t refs[N], float dists[N], int& tested) const {
-    const WideNode<N>& n = top.nodes[node];
-    int k = 0;
-    for (int i = 0; i < N; ++i) {
-      if (n.child[i] == kEmptyChild) continue;
-      ++tested;
-      const float lo[3] = {n.bounds[0][i], n.bounds[2][i], n.bounds[4][i]};
-      const float hi[3] = {n.bounds[1][i], n.bounds[3][i], n.bounds[5][i]};
-      float t;
-      if (intersect_box(lo, hi, rp, ray.tmin, closest.t, t)) {
-        refs[k] = n.child[i];
-        dists[k] = t;
-        ++k;
-      }
-    }
-    return k;
+    return expand_wide_node(top.nodes[node], rp, ray.tmin, closest.t, refs, dists, tested);
   }
 
   bool leaf(uint32_t ref) const {

@@ -195,6 +195,23 @@ inline void triangle_barycentrics(Wide e1, Wide e2, Wide det, float& u, float& v
   v = float(double(e2) / dd);
 }
 
+// The triangle's plane hit: t = (n . A0) / (n . d) with n = (v1 - v0) x (v2 - v0) and A0 = v0 - o (grid.F),
+// rounded to nearest in the ray's t register. False when the ray runs parallel to the plane (n . d = 0).
+inline bool triangle_plane_t(const FixedRay& r, const int32_t v[3][3], const int64_t A0[3], int64_t& t) {
+  int64_t ea[3], eb[3];
+  for (int a = 0; a < 3; ++a) {
+    ea[a] = int64_t(v[1][a]) - v[0][a];
+    eb[a] = int64_t(v[2][a]) - v[0][a];
+  }
+  const int64_t n[3] = {ea[1] * eb[2] - ea[2] * eb[1], ea[2] * eb[0] - ea[0] * eb[2],
+                        ea[0] * eb[1] - ea[1] * eb[0]};
+  const Wide num = Wide(n[0]) * A0[0] + Wide(n[1]) * A0[1] + Wide(n[2]) * A0[2];
+  const Wide den = Wide(n[0]) * r.d[0] + Wide(n[1]) * r.d[1] + Wide(n[2]) * r.d[2];
+  if (den == 0) return false;
+  t = div_shift(num, den, r.t_shift, Round::kNearestEven, r.t_limit);
+  return true;
+}
+
 // Watertight triangle test on grid vertices. The edge functions e_i = d . (A_j x A_k) of the translated
 // vertices A = v - o are exact integers, so a shared edge gives exactly opposite values on its two triangles and
 // a ray through it hits at least one of them (both when it passes exactly through the edge). A hit needs all
@@ -255,17 +272,8 @@ inline bool triangle_test(const FixedRay& r, const int32_t v[3][3], int64_t tmin
   if ((e0 < 0 || e1 < 0 || e2 < 0) && (e0 > 0 || e1 > 0 || e2 > 0)) return false;
   const Wide det = e0 + e1 + e2;
   if (det == 0) return false;
-  int64_t ea[3], eb[3];
-  for (int a = 0; a < 3; ++a) {
-    ea[a] = int64_t(v[1][a]) - v[0][a];
-    eb[a] = int64_t(v[2][a]) - v[0][a];
-  }
-  const int64_t n[3] = {ea[1] * eb[2] - ea[2] * eb[1], ea[2] * eb[0] - ea[0] * eb[2],
-                        ea[0] * eb[1] - ea[1] * eb[0]};
-  const Wide num = Wide(n[0]) * A[0][0] + Wide(n[1]) * A[0][1] + Wide(n[2]) * A[0][2];
-  const Wide den = Wide(n[0]) * r.d[0] + Wide(n[1]) * r.d[1] + Wide(n[2]) * r.d[2];
-  if (den == 0) return false;  // cannot happen when det != 0 (det = 2^2F den); kept for safety
-  const int64_t t = div_shift(num, den, r.t_shift, Round::kNearestEven, r.t_limit);
+  int64_t t;
+  if (!triangle_plane_t(r, v, A[0], t)) return false;  // cannot fail when det != 0 (det = 2^2F den)
   if (t < tmin || t > tlim || !in_register(t, r)) return false;
   out.t = t;
   triangle_barycentrics(e1, e2, det, out.u, out.v);

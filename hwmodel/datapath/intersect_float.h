@@ -19,6 +19,7 @@
 #include <limits>
 
 #include "hwmodel/interface/ray.h"
+#include "hwmodel/scene/bvh.h"
 #include "hwmodel/scene/geometry.h"
 
 namespace rtu::hw {
@@ -78,6 +79,27 @@ inline bool intersect_box(const Aabb& b, const RayPrecomp& r, float tmin, float 
   const float lo[3] = {b.lo.x, b.lo.y, b.lo.z};
   const float hi[3] = {b.hi.x, b.hi.y, b.hi.z};
   return intersect_box(lo, hi, r, tmin, tmax, t_enter);
+}
+
+// The children of a float wide node the ray enters within [tmin, tmax]: their refs and entry distances in child
+// order, their count returned; `tested` counts the non-empty children. The expand step of the float tracers.
+template <int N>
+inline int expand_wide_node(const WideNode<N>& n, const RayPrecomp& rp, float tmin, float tmax, uint32_t refs[N],
+                            float dists[N], int& tested) {
+  int k = 0;
+  for (int i = 0; i < N; ++i) {
+    if (n.child[i] == kEmptyChild) continue;
+    ++tested;
+    const float lo[3] = {n.bounds[0][i], n.bounds[2][i], n.bounds[4][i]};
+    const float hi[3] = {n.bounds[1][i], n.bounds[3][i], n.bounds[5][i]};
+    float t;
+    if (intersect_box(lo, hi, rp, tmin, tmax, t)) {
+      refs[k] = n.child[i];
+      dists[k] = t;
+      ++k;
+    }
+  }
+  return k;
 }
 
 struct PrimHit {

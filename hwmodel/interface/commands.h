@@ -6,6 +6,8 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "hwmodel/interface/enum_names.h"
+
 namespace rtu::hw::cmd {
 
 enum class Opcode : uint8_t {
@@ -23,24 +25,12 @@ inline constexpr uint8_t kFenceIrq = 1u << 0;     // FENCE: raise kIrqFence when
 // The kind of ray a TRACE carries: the device counts rays by type and bounce (no effect on results).
 enum class RayType : uint8_t { kPrimary = 0, kShadow, kReflection, kRefraction, kDiffuse, kOcclusion, kOther };
 inline constexpr uint8_t kRayTypeCount = 7;
+inline constexpr const char* kRayTypeNames[] = {"primary", "shadow",    "reflection", "refraction",
+                                                "diffuse", "occlusion", "other"};
+static_assert(count_of(kRayTypeNames) == kRayTypeCount && kRayTypeCount == std::size_t(RayType::kOther) + 1,
+              "a name for every ray type");
 constexpr const char* ray_type_name(RayType t) {
-  switch (t) {
-    case RayType::kPrimary:
-      return "primary";
-    case RayType::kShadow:
-      return "shadow";
-    case RayType::kReflection:
-      return "reflection";
-    case RayType::kRefraction:
-      return "refraction";
-    case RayType::kDiffuse:
-      return "diffuse";
-    case RayType::kOcclusion:
-      return "occlusion";
-    case RayType::kOther:
-      return "other";
-  }
-  return "unknown";
+  return enum_name(kRayTypeNames, t);
 }
 
 inline constexpr uint32_t kMaxTraceCount = 1u << 24;  // rays per TRACE

@@ -1,27 +1,15 @@
 #include "hwmodel/interface/ray.h"
 
+#include "hwmodel/interface/enum_names.h"
+
 namespace rtu::hw {
 
 const char* ray_status_name(RayStatus s) {
-  switch (s) {
-    case RayStatus::kOk:
-      return "ok";
-    case RayStatus::kNanOrigin:
-      return "nan_origin";
-    case RayStatus::kInfOrigin:
-      return "inf_origin";
-    case RayStatus::kNanDirection:
-      return "nan_direction";
-    case RayStatus::kInfDirection:
-      return "inf_direction";
-    case RayStatus::kZeroDirection:
-      return "zero_direction";
-    case RayStatus::kNanInterval:
-      return "bad_interval";
-    case RayStatus::kOutOfFrame:
-      return "out_of_frame";
-  }
-  return "unknown";
+  static constexpr const char* names[] = {
+      "ok",           "nan_origin",  "inf_origin", "nan_direction", "inf_direction", "zero_direction",
+      "bad_interval", "out_of_frame"};
+  static_assert(count_of(names) == std::size_t(RayStatus::kOutOfFrame) + 1, "a name for every ray status");
+  return enum_name(names, s);
 }
 
 }  // namespace rtu::hw

@@ -5,6 +5,8 @@
 
 #include <cstdint>
 
+#include "hwmodel/interface/enum_names.h"
+
 namespace rtu::hw::reg {
 
 // Offsets (bytes) in the MMIO window. RO: writes are errors; RW: read/write; W1C: write 1 to clear a bit.
@@ -84,36 +86,12 @@ enum class ErrorCode : uint32_t {
   kWatchdog = 12,     // the watchdog fired: a ray exceeded the cycle limit (timed) or the step bound (traversal)
 };
 
+inline constexpr const char* kErrorNames[] = {
+    "none",        "bad_opcode", "bad_address", "misaligned", "bad_count",    "reserved_bits", "bad_ring",
+    "ring_misuse", "no_scene",   "bad_scene",   "overlap",    "bad_register", "watchdog"};
+static_assert(count_of(kErrorNames) == std::size_t(ErrorCode::kWatchdog) + 1, "a name for every error code");
 constexpr const char* error_name(ErrorCode e) {
-  switch (e) {
-    case ErrorCode::kNone:
-      return "none";
-    case ErrorCode::kBadOpcode:
-      return "bad_opcode";
-    case ErrorCode::kBadAddress:
-      return "bad_address";
-    case ErrorCode::kMisaligned:
-      return "misaligned";
-    case ErrorCode::kBadCount:
-      return "bad_count";
-    case ErrorCode::kReservedBits:
-      return "reserved_bits";
-    case ErrorCode::kBadRing:
-      return "bad_ring";
-    case ErrorCode::kRingMisuse:
-      return "ring_misuse";
-    case ErrorCode::kNoScene:
-      return "no_scene";
-    case ErrorCode::kBadScene:
-      return "bad_scene";
-    case ErrorCode::kOverlap:
-      return "overlap";
-    case ErrorCode::kBadRegister:
-      return "bad_register";
-    case ErrorCode::kWatchdog:
-      return "watchdog";
-  }
-  return "unknown";
+  return enum_name(kErrorNames, e);
 }
 
 }  // namespace rtu::hw::reg

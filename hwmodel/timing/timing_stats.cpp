@@ -49,6 +49,16 @@ struct ReportEntry {
   Value (*figure)(const S&, const TimingConfig&, const LowerBound&);
 };
 
+// Figures of two counters: a / b, and hits / (hits + misses); 0 when the denominator is.
+template <auto A, auto B>  // pointers to counters (of TimingStats's parts)
+Value quotient(const S& s, const TimingConfig&, const LowerBound&) {
+  return ratio(double(s.*A), double(s.*B));
+}
+template <auto Hits, auto Misses>
+Value hit_rate(const S& s, const TimingConfig&, const LowerBound&) {
+  return ratio(double(s.*Hits), double(s.*Hits + s.*Misses));
+}
+
 ReportEntry count(const char* key, uint64_t S::*member) {
   const TimingCounter& c = counter(member);
   return {key, member, c.unit, c.description, nullptr};
@@ -65,14 +75,8 @@ std::vector<ReportEntry> report_rays() {
       count("cycles", &S::cycles),
       count("packets", &S::packets),
       count("rays", &S::rays),
-      figure("cycles_per_ray", "cycles/ray", "cycles / rays",
-             [](const S& s, const C&, const LowerBound&) -> Value {
-               return ratio(double(s.cycles), double(s.rays));
-             }),
-      figure("rays_per_clock", "rays/cycle", "rays / cycles",
-             [](const S& s, const C&, const LowerBound&) -> Value {
-               return ratio(double(s.rays), double(s.cycles));
-             }),
+      figure("cycles_per_ray", "cycles/ray", "cycles / rays", quotient<&S::cycles, &S::rays>),
+      figure("rays_per_clock", "rays/cycle", "rays / cycles", quotient<&S::rays, &S::cycles>),
       figure("seconds_at_clock", "s", "cycles at clock_ghz",
              [](const S& s, const C& c, const LowerBound&) -> Value {
                return double(s.cycles) / (c.clock_ghz * 1e9);
@@ -119,10 +123,7 @@ std::vector<ReportEntry> report_caches() {
              [](const S& s, const C&, const LowerBound&) -> Value { return s.cache_hits + s.cache_misses; }),
       count("cache.hits", &S::cache_hits),
       count("cache.misses", &S::cache_misses),
-      figure("cache.hit_rate", "1", "hits / line accesses",
-             [](const S& s, const C&, const LowerBound&) -> Value {
-               return ratio(double(s.cache_hits), double(s.cache_hits + s.cache_misses));
-             }),
+      figure("cache.hit_rate", "1", "hits / line accesses", hit_rate<&S::cache_hits, &S::cache_misses>),
       count("prefetch.fills", &S::prefetch_fills),
       count("prefetch.redundant", &S::prefetch_redundant),
       count("prefetch.useful", &S::prefetch_useful),
@@ -130,20 +131,14 @@ std::vector<ReportEntry> report_caches() {
       count("prefetch.late", &S::prefetch_late),
       count("prefetch.unused", &S::prefetch_unused),
       figure("prefetch.accuracy", "1", "useful / fills; 0 without fills",
-             [](const S& s, const C&, const LowerBound&) -> Value {
-               return ratio(double(s.prefetch_useful), double(s.prefetch_fills));
-             }),
+             quotient<&S::prefetch_useful, &S::prefetch_fills>),
       figure("prefetch.coverage", "1",
              "useful / (useful + cache misses): the share of would-be misses the prefetches removed",
-             [](const S& s, const C&, const LowerBound&) -> Value {
-               return ratio(double(s.prefetch_useful), double(s.prefetch_useful + s.cache_misses));
-             }),
+             hit_rate<&S::prefetch_useful, &S::cache_misses>),
       count("l2.hits", &S::l2_hits),
       count("l2.misses", &S::l2_misses),
       figure("l2.hit_rate", "1", "L2 hits / (hits + misses); 0 without an L2",
-             [](const S& s, const C&, const LowerBound&) -> Value {
-               return ratio(double(s.l2_hits), double(s.l2_hits + s.l2_misses));
-             }),
+             hit_rate<&S::l2_hits, &S::l2_misses>),
       count("l2.stack_hits", &S::l2_stack_hits),
       count("l2.stack_misses", &S::l2_stack_misses),
       count("l2.writebacks", &S::l2_writebacks),
@@ -158,10 +153,7 @@ std::vector<ReportEntry> report_memory() {
       count("node_fetches", &S::node_fetches),
       count("prim_fetches", &S::prim_fetches),
       count("dram_bytes", &S::dram_bytes),
-      figure("dram_bytes_per_cycle", "bytes/cycle", "DRAM bytes / cycles",
-             [](const S& s, const C&, const LowerBound&) -> Value {
-               return ratio(double(s.dram_bytes), double(s.cycles));
-             }),
+      figure("dram_bytes_per_cycle", "bytes/cycle", "DRAM bytes / cycles", quotient<&S::dram_bytes, &S::cycles>),
       figure("dram_gb_per_s", "GB/s", "DRAM bytes / cycles at clock_ghz",
              [](const S& s, const C& c, const LowerBound&) -> Value {
                return s.cycles > 0 ? double(s.dram_bytes) / double(s.cycles) * c.clock_ghz : 0.0;
@@ -169,9 +161,7 @@ std::vector<ReportEntry> report_memory() {
       count("dram_rows.hits", &S::dram_row_hits),
       count("dram_rows.misses", &S::dram_row_misses),
       figure("dram_rows.hit_rate", "1", "DRAM row hits / accesses; 0 without banks",
-             [](const S& s, const C&, const LowerBound&) -> Value {
-               return ratio(double(s.dram_row_hits), double(s.dram_row_hits + s.dram_row_misses));
-             }),
+             hit_rate<&S::dram_row_hits, &S::dram_row_misses>),
       count("stream_bytes", &S::stream_bytes),
       count("stack_spills", &S::stack_spills),
       count("stack_refills", &S::stack_refills),
@@ -193,9 +183,7 @@ std::vector<ReportEntry> report_memory() {
       count("gather.full", &S::gather_bins_full),
       count("gather.timeout", &S::gather_bins_timeout),
       figure("gather.rays_per_bin", "rays", "rays / bins issued; 0 without gathering",
-             [](const S& s, const C&, const LowerBound&) -> Value {
-               return ratio(double(s.rays), double(s.gather_bins));
-             }),
+             quotient<&S::rays, &S::gather_bins>),
       figure("gather.wait_per_ray", "cycles", "cycles a ray waited in its bin, mean; 0 without gathering",
              [](const S& s, const C&, const LowerBound&) -> Value {
                return s.gather_bins > 0 ? ratio(double(s.gather_wait_cycles), double(s.rays)) : 0.0;

@@ -148,22 +148,11 @@ bool triangle_test_ref(const FixedRay& r, const int32_t v[3][3], int64_t tmin, i
   if ((e0 < 0 || e1 < 0 || e2 < 0) && (e0 > 0 || e1 > 0 || e2 > 0)) return false;
   const Wide det = e0 + e1 + e2;
   if (det == 0) return false;
-  int64_t ea[3], eb[3];
-  for (int a = 0; a < 3; ++a) {
-    ea[a] = int64_t(v[1][a]) - v[0][a];
-    eb[a] = int64_t(v[2][a]) - v[0][a];
-  }
-  const int64_t n[3] = {ea[1] * eb[2] - ea[2] * eb[1], ea[2] * eb[0] - ea[0] * eb[2],
-                        ea[0] * eb[1] - ea[1] * eb[0]};
-  const Wide num = Wide(n[0]) * A[0][0] + Wide(n[1]) * A[0][1] + Wide(n[2]) * A[0][2];
-  const Wide den = Wide(n[0]) * r.d[0] + Wide(n[1]) * r.d[1] + Wide(n[2]) * r.d[2];
-  if (den == 0) return false;
-  const int64_t t = div_shift(num, den, r.t_shift, Round::kNearestEven, r.t_limit);
+  int64_t t;
+  if (!triangle_plane_t(r, v, A[0], t)) return false;
   if (t < tmin || t > tlim || !in_register(t, r)) return false;
   out.t = t;
-  const double dd = double(det);
-  out.u = float(double(e1) / dd);
-  out.v = float(double(e2) / dd);
+  triangle_barycentrics(e1, e2, det, out.u, out.v);
   return true;
 }
 

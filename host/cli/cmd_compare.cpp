@@ -103,10 +103,15 @@ void run_compare(const CompareOptions& o) {
 }  // namespace
 
 void add_compare(CLI::App& app) {
-  auto o = std::make_shared<CompareOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "compare",
-      "Trace identical rays on the float reference and a device; per-ray agreement, t error, overheads");
+  const auto [sub, o] = add_command<CompareOptions>(
+      app, "compare",
+      "Trace identical rays on the float reference and a device; per-ray agreement, t error, overheads",
+      [](CompareOptions& o, CLI::App& sub) {
+        check_device_args(sub, o.dev);
+        if (sub.count("--seed") > 0 && o.rays.rfind("incoherent", 0) != 0)
+          throw CLI::ValidationError("--seed applies to --rays incoherent[:N] only");
+        run_compare(o);
+      });
   sub->add_option("--scene", o->scene, "scene file, mesh file, or builtin:NAME")->required();
   sub->add_option("--rays", o->rays, kRaySpecHelp)->required();
   sub->add_option("--seed", o->seed, "seed of generated incoherent rays")->capture_default_str();
@@ -121,12 +126,6 @@ void add_compare(CLI::App& app) {
   sub->add_option("--json", o->json, "write the comparison as JSON to this file");
   sub->add_option("--max-list", o->max_list, "disagreeing rays listed in the JSON")->capture_default_str();
   sub->add_option("--disagreements", o->disagreements, "write the disagreeing rays to this ray file (replay)");
-  sub->callback([o, sub] {
-    check_device_args(*sub, o->dev);
-    if (sub->count("--seed") > 0 && o->rays.rfind("incoherent", 0) != 0)
-      throw CLI::ValidationError("--seed applies to --rays incoherent[:N] only");
-    run_compare(*o);
-  });
 }
 
 }  // namespace rtu::host::cli

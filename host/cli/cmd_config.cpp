@@ -113,11 +113,15 @@ void run_config(const ConfigOptions& o) {
 }  // namespace
 
 void add_config(CLI::App& app) {
-  auto o = std::make_shared<ConfigOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "config",
+  const auto [sub, o] = add_command<ConfigOptions>(
+      app, "config",
       "Print the timing model's configuration: a preset with --set overrides, every key with its value and "
-      "what it means; or --list the presets, or --stats the statistics a timed run reports");
+      "what it means; or --list the presets, or --stats the statistics a timed run reports",
+      [](ConfigOptions& o, CLI::App& sub) {
+        if (sub.count("--preset") > 0 && sub.count("--config") + sub.count("--list") + sub.count("--stats") > 0)
+          throw CLI::ValidationError("--preset (the old name of --config) excludes --config, --list and --stats");
+        run_config(o);
+      });
   CLI::Option* list = sub->add_flag("--list", o->list, "list the presets with what each resembles");
   CLI::Option* stats =
       sub->add_flag("--stats", o->stats, "list the timed device's statistics: key, unit and meaning")
@@ -140,11 +144,6 @@ void add_config(CLI::App& app) {
       "SRAM, DRAM and leakage energies, and the calibration against Horowitz's 45 nm figures");
   // --list and --stats print no configuration: the options of one are refused with them.
   for (CLI::Option* opt : {config, set, json, energy}) opt->excludes(list)->excludes(stats);
-  sub->callback([o, sub] {
-    if (sub->count("--preset") > 0 && sub->count("--config") + sub->count("--list") + sub->count("--stats") > 0)
-      throw CLI::ValidationError("--preset (the old name of --config) excludes --config, --list and --stats");
-    run_config(*o);
-  });
 }
 
 }  // namespace rtu::host::cli

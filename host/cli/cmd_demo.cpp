@@ -86,8 +86,9 @@ void run(const DemoOptions& o) {
 }  // namespace
 
 void add_demo(CLI::App& app) {
-  auto o = std::make_shared<DemoOptions>();
-  CLI::App* sub = app.add_subcommand("demo", "Run the main job on a built-in scene and write images and a report");
+  const auto [sub, o] =
+      add_command<DemoOptions>(app, "demo", "Run the main job on a built-in scene and write images and a report",
+                               [](DemoOptions& o, CLI::App&) { run(o); });
   sub->add_option("--scene", o->scene, "scene to run")->capture_default_str();
   sub->add_option("--out", o->out, "output directory")->capture_default_str();
   sub->add_option("--threads", o->threads, "worker threads (0 = all cores)")->capture_default_str();
@@ -98,7 +99,6 @@ void add_demo(CLI::App& app) {
   sub->add_option("--max-depth", o->max_depth, "render: bounces after the camera ray")
       ->check(CLI::Range(0, 64))
       ->capture_default_str();
-  sub->callback([o] { run(*o); });
 }
 
 }  // namespace rtu::host::cli

@@ -60,11 +60,11 @@ void run_diff(const DiffOptions& o) {
 }  // namespace
 
 void add_diff(CLI::App& app) {
-  auto o = std::make_shared<DiffOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "diff",
+  const auto [sub, o] = add_command<DiffOptions>(
+      app, "diff",
       "Compare two PNG images of the same size: PSNR, max and mean absolute error (0..255 per channel), pixels "
-      "that differ; optionally a heatmap of where they differ");
+      "that differ; optionally a heatmap of where they differ",
+      [](DiffOptions& o, CLI::App&) { run_diff(o); });
   sub->add_option("a", o->a, "first PNG")->required();
   sub->add_option("b", o->b, "second PNG")->required();
   CLI::Option* heatmap =
@@ -76,7 +76,6 @@ void add_diff(CLI::App& app) {
       ->check(CLI::PositiveNumber)
       ->needs(heatmap);  // the scale of the heatmap only
   sub->add_option("--json", o->json, "write the metrics as JSON (psnr_db is null when the images are identical)");
-  sub->callback([o] { run_diff(*o); });
 }
 
 }  // namespace rtu::host::cli

@@ -220,8 +220,9 @@ void run_info(const InfoOptions& o) {
 }  // namespace
 
 void add_info(CLI::App& app) {
-  auto o = std::make_shared<InfoOptions>();
-  CLI::App* sub = app.add_subcommand("info", "Describe a scene: primitive counts, bounds, BVH figures");
+  const auto [sub, o] =
+      add_command<InfoOptions>(app, "info", "Describe a scene: primitive counts, bounds, BVH figures",
+                               [](InfoOptions& o, CLI::App&) { run_info(o); });
   CLI::Option* scene = sub->add_option("--scene", o->scene, "scene file, mesh file, or builtin:NAME");
   sub->add_flag("--formats", o->formats, "list the fixed-point format presets");
   add_device_args(*sub, o->dev, "");
@@ -230,7 +231,6 @@ void add_info(CLI::App& app) {
       ->excludes(scene);
   sub->add_option("--json", o->json,
                   "also write the scene's figures (or the suite's entries) as JSON to this file");
-  sub->callback([o] { run_info(*o); });
 }
 
 }  // namespace rtu::host::cli

@@ -150,12 +150,12 @@ void run_plan(const PlanArgs& args) {
 }  // namespace
 
 void add_plan(CLI::App& app) {
-  auto a = std::make_shared<PlanArgs>();
-  CLI::App* sub = app.add_subcommand(
-      "plan",
+  const auto [sub, a] = add_command<PlanArgs>(
+      app, "plan",
       "The cheapest format (by --minimise: fewest cycles on --config, fewest image bytes, least energy, "
       "smallest area or most rays per clock per mm^2; coordinate bits, offset bits, BVH width; with "
-      "--area-budget the units it affords) whose error's upper confidence bound meets a budget on a scene");
+      "--area-budget the units it affords) whose error's upper confidence bound meets a budget on a scene",
+      [](PlanArgs& a, CLI::App&) { run_plan(a); });
   sub->add_option("--scene", a->o.scene, "scene file, mesh file or builtin:NAME")->required();
   sub->add_option("--max-error", a->o.max_error, "error budget of --metric")->required()->check(kFinite);
   sub->add_option("--metric", a->o.metric,
@@ -196,7 +196,7 @@ void add_plan(CLI::App& app) {
       ->check(kFinite & CLI::Range(0.0, 100.0))
       ->capture_default_str();
   sub->add_flag_callback(
-      "--energy", [a] { a->o.minimise = "energy"; }, "the same as --minimise energy");
+      "--energy", [a = a] { a->o.minimise = "energy"; }, "the same as --minimise energy");
   sub->add_option("--area-budget", a->o.area_budget,
                   "iso-area design: the unit's area budget in mm^2 (45 nm estimate); each candidate gets the box "
                   "and triangle units it affords, so a narrower format can buy more units (0: none)")
@@ -230,7 +230,6 @@ void add_plan(CLI::App& app) {
          "RTL area table for the rtl_cells and area figures (default: the shipped bench/data/rtl_area.csv)")
       ->check(CLI::ExistingFile);
   sub->add_option("--json", a->json, "write the plan and every candidate's figures as JSON");
-  sub->callback([a] { run_plan(*a); });
 }
 
 }  // namespace rtu::host::cli

@@ -47,11 +47,11 @@ void run_rays(const CLI::App& sub, const RaysOptions& o) {
 }  // namespace
 
 void add_rays(CLI::App& app) {
-  auto o = std::make_shared<RaysOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "rays",
+  const auto [sub, o] = add_command<RaysOptions>(
+      app, "rays",
       "Write a ray file: the scene camera's primary rays, or incoherent rays (random origins inside the "
-      "bounds, random directions)");
+      "bounds, random directions)",
+      [](RaysOptions& o, CLI::App& sub) { run_rays(sub, o); });
   sub->add_option("--scene", o->scene, "scene file, mesh file, or builtin:NAME")->required();
   sub->add_option("--kind", o->kind, "primary or incoherent")
       ->check(CLI::IsMember({"primary", "incoherent"}))
@@ -66,7 +66,6 @@ void add_rays(CLI::App& app) {
       ->check(CLI::PositiveNumber);
   sub->add_option("--seed", o->seed, "incoherent: seed of the PCG32 generator")->capture_default_str();
   sub->add_option("--out", o->out, "ray file to write (.csv for text)")->required();
-  sub->callback([o, sub] { run_rays(*sub, *o); });
 }
 
 }  // namespace rtu::host::cli

@@ -134,11 +134,14 @@ void run_render(const RenderArgs& a) {
 }  // namespace
 
 void add_render(CLI::App& app) {
-  auto a = std::make_shared<RenderArgs>();
-  CLI::App* sub = app.add_subcommand(
-      "render",
+  const auto [sub, a] = add_command<RenderArgs>(
+      app, "render",
       "Render a scene with the firmware renderer (wavefront path tracing: shadows, reflection, refraction, "
-      "diffuse light or ambient occlusion) on a device; PNG out");
+      "diffuse light or ambient occlusion) on a device; PNG out",
+      [](RenderArgs& a, CLI::App& sub) {
+        check_device_args(sub, a.dev);
+        run_render(a);
+      });
   sub->add_option("--scene", a->scene, "scene file, mesh file, or builtin:NAME")->required();
   sub->add_option("--out", a->out, "PNG to write")->required();
   sub->add_option("--stats", a->stats, "write statistics as JSON to this file");
@@ -176,10 +179,6 @@ void add_render(CLI::App& app) {
       ->expected(3)
       ->check(CLI::Range(0.0f, 1e6f))
       ->capture_default_str();
-  sub->callback([a, sub] {
-    check_device_args(*sub, a->dev);
-    run_render(*a);
-  });
 }
 
 void print_render_summary(const RenderResult& r, const RenderOptions& o) {

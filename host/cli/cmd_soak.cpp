@@ -46,9 +46,9 @@ void run_soak(const SoakArgs& a) {
 }  // namespace
 
 void add_soak(CLI::App& app) {
-  auto a = std::make_shared<SoakArgs>();
-  CLI::App* sub = app.add_subcommand(
-      "soak", "Random valid scenes and formats, traced and rendered twice each: identical bits and cycles");
+  const auto [sub, a] = add_command<SoakArgs>(
+      app, "soak", "Random valid scenes and formats, traced and rendered twice each: identical bits and cycles",
+      [](SoakArgs& a, CLI::App&) { run_soak(a); });
   sub->add_option("--seconds", a->o.seconds, "run new iterations until this much wall time has passed")
       ->check(CLI::Range(0.0, 1e6))
       ->capture_default_str();
@@ -57,7 +57,6 @@ void add_soak(CLI::App& app) {
   sub->add_option("--seed", a->o.seed, "iteration i uses seed + i")->capture_default_str();
   sub->add_flag("--verbose", a->o.verbose, "one line per iteration on stderr");
   sub->add_option("--json", a->json, "write the figures as JSON to this file");
-  sub->callback([a] { run_soak(*a); });
 }
 
 }  // namespace rtu::host::cli

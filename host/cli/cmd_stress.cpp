@@ -66,9 +66,9 @@ void run(const StressArgs& a) {
 }  // namespace
 
 void add_stress(CLI::App& app) {
-  auto a = std::make_shared<StressArgs>();
-  CLI::App* sub = app.add_subcommand(
-      "stress", "Numerical-stability suite on the float and fixed devices; exits 1 if a promise breaks");
+  const auto [sub, a] = add_command<StressArgs>(
+      app, "stress", "Numerical-stability suite on the float and fixed devices; exits 1 if a promise breaks",
+      [](StressArgs& a, CLI::App&) { run(a); });
   sub->add_option("--count", a->count, "rays per category and scene variant")
       ->check(CLI::Range(uint64_t(1), uint64_t(100000000)))
       ->capture_default_str();
@@ -80,7 +80,6 @@ void add_stress(CLI::App& app) {
       ->check(CLI::IsMember(stress_categories()));
   sub->add_option("--json", a->json, "write per-category results as JSON to this file");
   add_format_args(*sub, a->dev);
-  sub->callback([a] { run(*a); });
 }
 
 }  // namespace rtu::host::cli

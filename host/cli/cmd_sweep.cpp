@@ -404,10 +404,10 @@ void run_sweep_points(const SweepArgs& a) {
 }  // namespace
 
 void add_sweep(CLI::App& app) {
-  auto a = std::make_shared<SweepArgs>();
-  CLI::App* sub = app.add_subcommand(
-      "sweep",
-      "Run time against error over scenes x formats x BVH widths x timing presets; one CSV row per point");
+  const auto [sub, a] = add_command<SweepArgs>(
+      app, "sweep",
+      "Run time against error over scenes x formats x BVH widths x timing presets; one CSV row per point",
+      [](SweepArgs& a, CLI::App&) { run_sweep(a); });
   sub->add_option("--scene", a->grid.scenes, "scene file, mesh file or builtin:NAME (repeatable)");
   sub->add_option(
       "--suite", a->suite,
@@ -489,7 +489,6 @@ void add_sweep(CLI::App& app) {
   sub->add_option("--out", a->out,
                   "CSV to write; points already in it made with the same --rays, --seed and --image-width are "
                   "skipped (resume)");
-  sub->callback([a] { run_sweep(*a); });
 }
 
 }  // namespace rtu::host::cli

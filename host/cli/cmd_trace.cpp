@@ -93,8 +93,17 @@ void run_trace(const TraceOptions& o) {
 }  // namespace
 
 void add_trace(CLI::App& app) {
-  auto o = std::make_shared<TraceOptions>();
-  CLI::App* sub = app.add_subcommand("trace", "Trace a ray file on a device and write the hit file");
+  const auto [sub, o] = add_command<TraceOptions>(
+      app, "trace", "Trace a ray file on a device and write the hit file", [](TraceOptions& o, CLI::App& sub) {
+        check_device_args(sub, o.dev);
+        if (!o.against.empty() && o.dev.kind() != hw::DeviceKind::kTimed)
+          throw CLI::ValidationError(
+              "--against-config, --against-set and --against-format compare two runs of the "
+              "timed device (--device timed)");
+        if (sub.count("--seed") > 0 && o.rays.rfind("incoherent", 0) != 0)
+          throw CLI::ValidationError("--seed applies to --rays incoherent[:N] only");
+        run_trace(o);
+      });
   sub->add_option("--scene", o->scene, "scene file, mesh file, or builtin:NAME")->required();
   sub->add_option("--rays", o->rays, kRaySpecHelp)->required();
   sub->add_option("--seed", o->seed, "seed of generated incoherent rays")->capture_default_str();
@@ -115,16 +124,6 @@ void add_trace(CLI::App& app) {
                   "timed device, A/B: a timing key of B, KEY=VALUE (repeatable; on --against-config's preset, or "
                   "else on A's configuration)");
   sub->add_option("--against-format", o->against.format, "timed device, A/B: B's format preset");
-  sub->callback([o, sub] {
-    check_device_args(*sub, o->dev);
-    if (!o->against.empty() && o->dev.kind() != hw::DeviceKind::kTimed)
-      throw CLI::ValidationError(
-          "--against-config, --against-set and --against-format compare two runs of the "
-          "timed device (--device timed)");
-    if (sub->count("--seed") > 0 && o->rays.rfind("incoherent", 0) != 0)
-      throw CLI::ValidationError("--seed applies to --rays incoherent[:N] only");
-    run_trace(*o);
-  });
 }
 
 }  // namespace rtu::host::cli

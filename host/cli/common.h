@@ -3,7 +3,9 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <memory>
 #include <string>
+#include <utility>
 
 #include "host/devices/device_settings.h"
 #include "host/devices/direct_device.h"
@@ -69,6 +71,21 @@ void add_pipeline_trace_args(CLI::App& app, PipelineTraceArgs& a);
 // Every device option of a command that runs its job on any of the three devices (trace, render): the pipeline
 // trace, --device and the options of add_device_args, add_timing_args, add_sampling_args and add_watchdog_args.
 void add_any_device_args(CLI::App& app, DeviceArgs& o, PipelineTraceArgs& pipeline);
+
+// Adds the subcommand `name` and the Options its `run(Options&, CLI::App& subcommand)` callback reads. CLI11 fills
+// the options while it parses, after add_X has returned, so they live on the heap, owned by the callback.
+template <class Options>
+struct Command {
+  CLI::App* sub;
+  Options* o;
+};
+template <class Options, class Run>
+Command<Options> add_command(CLI::App& app, std::string name, std::string description, Run run) {
+  auto o = std::make_shared<Options>();
+  CLI::App* sub = app.add_subcommand(std::move(name), std::move(description));
+  sub->callback([o, sub, run] { run(*o, *sub); });
+  return {sub, o.get()};
+}
 
 void add_info(CLI::App& app);
 void add_rays(CLI::App& app);

@@ -33,26 +33,14 @@ Scene random_scene(hw::Pcg32& rng) {
   auto point = [&] { return offset + scale * hw::Vec3(uni(-1, 1), uni(-1, 1), uni(-1, 1)); };
   Scene s;
   s.name = "soak";
-  s.materials = {Material{.name = "diffuse",
-                          .type = MaterialType::kDiffuse,
-                          .color = hw::Vec3(0.7f),
-                          .ior = 1.5f,
-                          .emission = hw::Vec3(0.0f)},
-                 Material{.name = "mirror",
-                          .type = MaterialType::kMirror,
-                          .color = hw::Vec3(0.9f),
-                          .ior = 1.5f,
-                          .emission = hw::Vec3(0.0f)},
-                 Material{.name = "glass",
-                          .type = MaterialType::kGlass,
-                          .color = hw::Vec3(1.0f),
-                          .ior = 1.45f,
-                          .emission = hw::Vec3(0.0f)},
-                 Material{.name = "light",
-                          .type = MaterialType::kEmissive,
-                          .color = hw::Vec3(0.0f),
-                          .ior = 1.5f,
-                          .emission = hw::Vec3(4.0f)}};
+  auto material = [](const char* name, MaterialType type, float color, float ior, float emission) {
+    return Material{
+        .name = name, .type = type, .color = hw::Vec3(color), .ior = ior, .emission = hw::Vec3(emission)};
+  };
+  s.materials = {material("diffuse", MaterialType::kDiffuse, 0.7f, 1.5f, 0.0f),
+                 material("mirror", MaterialType::kMirror, 0.9f, 1.5f, 0.0f),
+                 material("glass", MaterialType::kGlass, 1.0f, 1.45f, 0.0f),
+                 material("light", MaterialType::kEmissive, 0.0f, 1.5f, 4.0f)};
   hw::Geometry& g = s.geometry;
   const uint32_t nt = pick(301), ns = pick(9), np = pick(3);
   const float size = uni(0.01f, 0.5f);  // triangle size relative to the scene

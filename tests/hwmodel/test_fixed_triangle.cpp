@@ -21,6 +21,26 @@
 using namespace rtu::hw;
 using namespace rtu::hw::fixed_checks;
 
+namespace {
+
+// A corner P in the middle of the grid (coordinates in [cmax / 4, cmax / 2]) and two integer edge vectors a and b
+// (components in [-spread, spread]) that are not parallel (neither zero); z = a x b. Drawn per axis in that order.
+void random_corner(Pcg32& rng, int64_t cmax, int64_t spread, int64_t P[3], int64_t a[3], int64_t b[3],
+                   int64_t z[3]) {
+  do {
+    for (int i = 0; i < 3; ++i) {
+      P[i] = rand_int(rng, cmax / 4, cmax / 2);
+      a[i] = rand_int(rng, -spread, spread);
+      b[i] = rand_int(rng, -spread, spread);
+    }
+    z[0] = a[1] * b[2] - a[2] * b[1];
+    z[1] = a[2] * b[0] - a[0] * b[2];
+    z[2] = a[0] * b[1] - a[1] * b[0];
+  } while (z[0] == 0 && z[1] == 0 && z[2] == 0);
+}
+
+}  // namespace
+
 TEST_CASE("triangle test: rays exactly through a shared edge or vertex hit (watertight)",
           "[fixed][triangle][watertight]") {
   const uint64_t seed = 1234567;
@@ -37,16 +57,7 @@ TEST_CASE("triangle test: rays exactly through a shared edge or vertex hit (wate
       // Two triangles sharing the edge P-Q = P + n w, on either side of it (coplanar, or folded along it).
       int64_t P[3], Q[3], w[3], u[3], R1[3], R2[3], z[3];
       const int64_t n = rand_int(rng, 1, 8);
-      do {
-        for (int a = 0; a < 3; ++a) {
-          P[a] = rand_int(rng, cmax / 4, cmax / 2);
-          w[a] = rand_int(rng, -16, 16);
-          u[a] = rand_int(rng, -16, 16);
-        }
-        z[0] = w[1] * u[2] - w[2] * u[1];
-        z[1] = w[2] * u[0] - w[0] * u[2];
-        z[2] = w[0] * u[1] - w[1] * u[0];
-      } while (z[0] == 0 && z[1] == 0 && z[2] == 0);  // w and u not parallel (and neither zero)
+      random_corner(rng, cmax, 16, P, w, u, z);
       const bool folded = one_in(rng, 3);
       const int64_t a1 = rand_int(rng, 0, n), a2 = rand_int(rng, 0, n), b1 = rand_int(rng, 1, 4),
                     b2 = rand_int(rng, 1, 4), c2 = folded ? rand_int(rng, -2, 2) : 0;
@@ -138,16 +149,7 @@ TEST_CASE("triangle test: rays exactly through a shared edge or vertex hit (wate
     // A fan of triangles (V, W_i, W_i+1) around V: planar, or a cone (W_i lifted off the plane).
     for (int it = 0; it < 200; ++it) {
       int64_t V[3], u[3], w[3], z[3];
-      do {
-        for (int a = 0; a < 3; ++a) {
-          V[a] = rand_int(rng, cmax / 4, cmax / 2);
-          u[a] = rand_int(rng, -8, 8);
-          w[a] = rand_int(rng, -8, 8);
-        }
-        z[0] = u[1] * w[2] - u[2] * w[1];
-        z[1] = u[2] * w[0] - u[0] * w[2];
-        z[2] = u[0] * w[1] - u[1] * w[0];
-      } while (z[0] == 0 && z[1] == 0 && z[2] == 0);
+      random_corner(rng, cmax, 8, V, u, w, z);
       const int count = int(rand_int(rng, 3, 10));
       const double radius = std::ldexp(1.0, int(rand_int(rng, 5, 9)));
       const bool cone = one_in(rng, 2);

@@ -49,6 +49,7 @@ struct CurvePrim {
   static constexpr PrimKind kId = PrimKind::kCurve;
   static constexpr RecordKind kRecord = RecordKind::kCurve;
   static constexpr const char* kName = "curve segment";
+  static constexpr TestCost kCost = TestCost::kCurve;
 
   static void encode(const RecordEncoding& e, uint32_t p, uint8_t* out, GridBox& box) {
     const CurveSegment& cs = e.g.curve(p);

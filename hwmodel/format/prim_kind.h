@@ -46,6 +46,15 @@ enum class RecordKind : uint8_t {
   kUnknown = 0xFF,    // a kind field no row has: the image check refuses it
 };
 
+// How the timing model prices one test of a kind (timing_model_units.cpp): the unit it occupies and its keys.
+//   kTriangle      a triangle unit issue slot, tri_latency (or the clocks an attached RTL triangle unit reports)
+//   kTrianglePair  two triangle unit issue slots at once, the result when both are done
+//   kSphere        a triangle unit issue slot, sphere_latency
+//   kPlane         a triangle unit issue slot, plane_latency
+//   kCurve         a curve unit for one clock, or a triangle unit for curve_issue clocks; curve_latency
+//   kTransform     the pipelined transform unit (an instance record of a top level), xform_latency
+enum class TestCost : uint8_t { kTriangle, kTrianglePair, kSphere, kPlane, kCurve, kTransform };
+
 inline constexpr uint32_t kRecordKindLowShift = 30, kRecordKindHighShift = 27;
 inline constexpr uint32_t kRecordKindMask = (3u << kRecordKindLowShift) | (3u << kRecordKindHighShift);
 inline constexpr uint32_t kRecordNonOpaque = 1u << 29;
@@ -156,7 +165,8 @@ concept PrimitiveKind = requires(const RecordEncoding& e, const RecordCheck& c, 
   { K::kId } -> std::convertible_to<PrimKind>;
   { K::kRecord } -> std::convertible_to<RecordKind>;
   { K::kName } -> std::convertible_to<const char*>;
-  K::encode(e, p, out, box);  // the record of scene primitive p, and its grid box (extended)
+  { K::kCost } -> std::convertible_to<TestCost>;  // how the timing model prices its test
+  K::encode(e, p, out, box);                      // the record of scene primitive p, and its grid box (extended)
   { K::check(c, rec) } -> std::same_as<std::string>;
   K::orient_points(rec, box, c.f, pts);
   { K::normal(g, p, at, u) } -> std::same_as<Vec3>;  // not normalized; u as the hit's

@@ -26,6 +26,7 @@ struct PlanePrim {
   using Record = PlaneRecord;
   static constexpr PrimKind kId = PrimKind::kPlane;
   static constexpr const char* kName = "plane";
+  static constexpr TestCost kCost = TestCost::kPlane;
 
   // The record of the scene's plane i.
   static PlaneRecord encode(const RecordEncoding& e, uint32_t i) {

@@ -25,6 +25,7 @@ struct SpherePrim {
   static constexpr PrimKind kId = PrimKind::kSphere;
   static constexpr RecordKind kRecord = RecordKind::kSphere;
   static constexpr const char* kName = "sphere";
+  static constexpr TestCost kCost = TestCost::kSphere;
 
   static void encode(const RecordEncoding& e, uint32_t p, uint8_t* out, GridBox& box) {
     const Sphere& s = e.g.spheres[p - e.g.triangles.size()];

@@ -31,6 +31,7 @@ struct TrianglePrim {
   static constexpr PrimKind kId = PrimKind::kTriangle;
   static constexpr RecordKind kRecord = RecordKind::kTriangle;
   static constexpr const char* kName = "triangle";
+  static constexpr TestCost kCost = TestCost::kTriangle;
 
   static void encode(const RecordEncoding& e, uint32_t p, uint8_t* out, GridBox& box) {
     const Triangle& t = e.g.triangles[p];

@@ -237,6 +237,12 @@ class TimingModel final : private PendingWaiter {
   bool touches_memory(const Slot& sl) const;
   // The unit request of event e of slot k at cycle t: when its result is there.
   uint64_t unit_request(const TraceEvent& e, uint32_t k, uint64_t t);
+  // Its four kinds (timing_model_units.cpp): the cluster engine's stages, a node's box tests, and a primitive's
+  // test priced by its kind's cost class (TestCost, prim_kind.h).
+  uint64_t cluster_box_request(const TraceEvent& e, uint32_t k, uint64_t t);
+  uint64_t cluster_tri_request(uint32_t k, uint64_t t);
+  uint64_t box_request(const TraceEvent& e, uint32_t k, uint64_t t);
+  uint64_t test_request(TestCost cost, const TraceEvent& e, uint32_t k, uint64_t t);
   void serve_waiting();    // serves the earliest waiting request now (its slot wakes after the result)
   uint64_t pop_waiting();  // removes and returns the earliest waiting request's key
   void spill(Slot& sl, uint32_t k, uint64_t t);       // one stack entry written to memory at t

@@ -51,17 +51,18 @@ void list_suite(const InfoOptions& o) {
 void list_formats() {
   std::printf("%-9s %5s %5s %5s %5s %5s %5s %5s %7s  %-22s %s\n", "preset", "width", "coord", "child", "guard",
               "frac", "dir", "rcp", "t", "layout", "node bytes");
-  static const char* const kNodes[] = {"structs", "bit-packed", "compressed-wide"};
   bool scene_sized = false;
   for (const hw::FixedFormat& f : hw::format_presets()) {
     // Bit-packed nodes size their bases by the scene: here at 2^20 nodes and primitive units, groups of 128.
-    const bool sized = f.node_layout == 1 && f.node_align < 64;
+    const bool sized = f.node_layout_id() == hw::NodeLayout::kBitPacked && f.node_align < 64;
     scene_sized = scene_sized || sized;
-    const uint64_t bytes = f.node_layout == 0 ? hw::qnode_bytes(f.width, f.offset_bytes())
-                                              : hw::node_fields(f, 20, 20, 7).bytes(f.node_align);
-    const std::string layout = std::string(kNodes[f.node_layout]) + (f.prim_layout == 2 ? "+clusters"
-                                                                     : f.prim_layout    ? "+blocks"
-                                                                                        : "");
+    const uint64_t bytes = f.node_layout_id() == hw::NodeLayout::kStructs
+                               ? hw::qnode_bytes(f.width, f.offset_bytes())
+                               : hw::node_fields(f, 20, 20, 7).bytes(f.node_align);
+    const std::string layout =
+        std::string(node_layout_name(f.node_layout)) +
+        (f.prim_layout_id() == hw::PrimLayout::kRecords ? "" : "+") +
+        (f.prim_layout_id() == hw::PrimLayout::kRecords ? "" : prim_layout_name(f.prim_layout));
     std::printf("%-9s %5d %5d %5d %5d %5d %5d %5d %4d.%-2d  %-22s %llu%s\n", f.name.c_str(), f.width, f.coord_bits,
                 f.child_bits, f.guard_bits, f.frac_bits, f.dir_bits, f.rcp_bits, f.t_bits, f.t_frac_bits,
                 layout.c_str(), (unsigned long long)bytes, sized ? " *" : "");

@@ -11,6 +11,7 @@
 
 #include "host/io/error.h"
 #include "host/io/files.h"
+#include "hwmodel/interface/enum_names.h"
 
 namespace rtu::host {
 
@@ -38,13 +39,15 @@ Json format_json(const hw::FixedFormat& f) {
 }
 
 const char* node_layout_name(int layout) {
-  static const char* const kNames[] = {"structs", "bit-packed", "compressed-wide"};
-  return layout >= 0 && layout < 3 ? kNames[layout] : "unknown";
+  static constexpr const char* names[] = {"structs", "bit-packed", "compressed-wide"};
+  static_assert(hw::count_of(names) == size_t(hw::NodeLayout::kCompressedWide) + 1, "a name for every layout");
+  return hw::enum_name(names, layout);  // a negative int converts to a huge index: "unknown"
 }
 
 const char* prim_layout_name(int layout) {
-  static const char* const kNames[] = {"records", "blocks", "clusters"};
-  return layout >= 0 && layout < 3 ? kNames[layout] : "unknown";
+  static constexpr const char* names[] = {"records", "blocks", "clusters"};
+  static_assert(hw::count_of(names) == size_t(hw::PrimLayout::kClusters) + 1, "a name for every layout");
+  return hw::enum_name(names, layout);
 }
 
 double image_bytes_per_prim(const hw::DeviceImage& img) {
@@ -66,7 +69,7 @@ Json image_json(const hw::DeviceImage& img, const hw::Bvh* bvh) {
   j["plane_bytes"] = img.planes_size();
   j["total_bytes"] = img.size();
   j["bytes_per_prim"] = image_bytes_per_prim(img);
-  if (h.prim_layout == 2) {
+  if (hw::PrimLayout(h.prim_layout) == hw::PrimLayout::kClusters) {
     // Triangle clusters: their internal nodes (in record_bytes, not in nodes) and the clusters that have some.
     uint64_t clusters = 0;
     for (const hw::DeviceImage::Span& s : img.cluster_node_spans()) clusters += s.bytes > 0;

@@ -35,10 +35,9 @@ FixedFormat DeviceImage::format() const {
   f.prim_layout = h.prim_layout;
   f.node_align = h.node_align;
   if (const uint32_t cb = (h.flags & kImageCurveBitsMask) >> kImageCurveBitsShift) f.curve_bits = int(cb);
-  if (node_kind(h) == NodeKindId::kOrientedAabb) {
-    f.node_kind = int(NodeKindId::kOrientedAabb);
-    f.rotations = int((h.flags & kImageRotationsMask) >> kImageRotationsShift) + 1;
-    f.rot_bits = int((h.flags & kImageRotBitsMask) >> kImageRotBitsShift);
+  if (const NodeKindInfo* kind = find_node_kind(uint32_t(node_kind(h)))) {
+    f.node_kind = int(kind->id);
+    if (kind->from_image_flags) kind->from_image_flags(h.flags, f);
   }
   return f;
 }
@@ -75,9 +74,11 @@ void check_header(const ImageHeader& h, const FixedFormat& f, uint64_t bytes) {
   if (h.flags & kImageCurveBitsMask) {
     if (const std::string why = f.curve_limits(); !why.empty()) bad_image(why);
   }
-  if (!find_node_kind(uint32_t(node_kind(h)))) bad_image("unknown node kind " + std::to_string(int(node_kind(h))));
-  if (node_kind(h) != NodeKindId::kOrientedAabb && (h.flags & (kImageRotationsMask | kImageRotBitsMask)))
-    bad_image("rotation table fields in an image of axis-aligned nodes");
+  const NodeKindInfo* kind = find_node_kind(uint32_t(node_kind(h)));
+  if (!kind) bad_image("unknown node kind " + std::to_string(int(node_kind(h))));
+  for (const NodeKindInfo& other : kNodeKinds)  // another kind's fields (the rotation table's of oriented nodes)
+    if (other.id != kind->id && (h.flags & other.image_flags & ~kind->image_flags))
+      bad_image(std::string(other.flag_fields) + " fields in an image of " + kind->name + " nodes");
   if ((h.flags & kImageTopLevel) && h.prim_layout != 0) bad_image("a top level in triangle blocks");
   // The frame: grid -> world must stay exact in double (quant_frame.h) and finite.
   if (h.step_exp < -1000 || h.step_exp > 1000) bad_image("frame step exponent out of range");

@@ -18,10 +18,14 @@ struct NodeKindInfo {
   NodeKindId id;
   const char* name;  // as reports and errors name it
   NodeCostClass cost;
+  uint32_t image_flags;                                    // the header flag bits of the kind's own (image_flags)
+  void (*from_image_flags)(uint32_t flags, FixedFormat&);  // the format fields they hold; null: none
+  const char* flag_fields;                                 // what those bits are, as errors name them
 };
 inline constexpr NodeKindInfo kNodeKinds[] = {
-    {NodeKindId::kQuantizedAabb, "quantized-aabb", NodeCostClass::kAxisAligned},
-    {NodeKindId::kOrientedAabb, "oriented-aabb", NodeCostClass::kOriented},
+    {NodeKindId::kQuantizedAabb, "quantized-aabb", NodeCostClass::kAxisAligned, 0, nullptr, ""},
+    {NodeKindId::kOrientedAabb, "oriented-aabb", NodeCostClass::kOriented, kOrientedImageFlags,
+     oriented_from_image_flags, "rotation table"},
 };
 
 // The kind's row, or null for an id no kind has.

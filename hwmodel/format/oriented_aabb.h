@@ -39,6 +39,14 @@ static_assert(sizeof(ONode<2, uint8_t>) == onode_bytes(2, 1) && sizeof(ONode<4, 
               sizeof(ONode<2, uint16_t>) == onode_bytes(2, 2) && sizeof(ONode<4, uint16_t>) == onode_bytes(4, 2) &&
               sizeof(ONode<6, uint16_t>) == onode_bytes(6, 2) && sizeof(ONode<8, uint16_t>) == onode_bytes(8, 2));
 
+// The image header's flag bits of the kind: the rotation table's size and its entries' bits (node_kind.h), and the
+// format fields they give back to a bound image (DeviceImage::format, through kNodeKinds).
+inline constexpr uint32_t kOrientedImageFlags = kImageRotationsMask | kImageRotBitsMask;
+inline void oriented_from_image_flags(uint32_t flags, FixedFormat& f) {
+  f.rotations = int((flags & kImageRotationsMask) >> kImageRotationsShift) + 1;
+  f.rot_bits = int((flags & kImageRotBitsMask) >> kImageRotBitsShift);
+}
+
 template <int N, class Q>
 struct OrientedAabb {
   using Node = ONode<N, Q>;

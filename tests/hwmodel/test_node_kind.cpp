@@ -75,7 +75,7 @@ TEST_CASE("node kind: images name the quantized AABB, unknown kinds are refused"
     bh.flags |= 12u << kImageRotBitsShift;
     std::memcpy(bad.data(), &bh, sizeof bh);
     CHECK_THROWS_WITH(DeviceImage::from_bytes(bad.data(), bad.size()),
-                      "scene image: rotation table fields in an image of axis-aligned nodes");
+                      "scene image: rotation table fields in an image of quantized-aabb nodes");
   }
 }
 

@@ -11,6 +11,9 @@
 //   rtu_rtl_params ... --tri NAME=SPEC...
 //                                  after --tri: "tri:NAME: -GB=.. -GA=.. ..." per triangle unit (rtl/tri_core.sv,
 //                                  params/tri_params.h: the format's widths and the preset's tri_latency)
+//   rtu_rtl_params ... --trav NAME=SPEC...
+//                                  after --trav: "trav:NAME: -GSLOTS=.. ..." per traversal unit (trav/trav_unit.sv,
+//                                  trav/trav_params.h)
 //   rtu_rtl_params --chparam-tri SPEC [FORMAT_KEY=VALUE...]
 //                                  the same as --chparam for the triangle unit (bench/rtl_area.sh)
 #include <cstdio>
@@ -19,6 +22,7 @@
 
 #include "rtl_sim/params/rtl_params.h"
 #include "rtl_sim/params/tri_params.h"
+#include "rtl_sim/trav/trav_params.h"
 
 namespace {
 
@@ -57,17 +61,20 @@ int main(int argc, char** argv) {
       std::printf("%s\n", chparam(argc, argv, std::string(argv[1]) == "--chparam-tri").c_str());
       return 0;
     }
-    bool tri = false;
+    bool tri = false, trav = false;
     for (int i = 1; i < argc; ++i) {
       const std::string arg = argv[i];
-      if (arg == "--tri") {
-        tri = true;
+      if (arg == "--tri" || arg == "--trav") {
+        tri = arg == "--tri";
+        trav = arg == "--trav";
         continue;
       }
       const size_t eq = arg.find('=');
       const std::string name = arg.substr(0, eq), spec = eq == std::string::npos ? arg : arg.substr(eq + 1);
       const rtu::hw::TimingConfig c = rtu::rtl::unit_config(spec);
-      if (tri)
+      if (trav)
+        std::printf("trav:%s: %s\n", name.c_str(), rtu::rtl::verilator_args(rtu::rtl::trav_params(c)).c_str());
+      else if (tri)
         std::printf("tri:%s: %s\n", name.c_str(), rtu::rtl::verilator_args(rtu::rtl::tri_unit_params(c)).c_str());
       else
         std::printf("%s: %s\n", name.c_str(), rtu::rtl::verilator_args(rtu::rtl::box_unit_params(c)).c_str());

@@ -21,11 +21,35 @@ struct Case {
   std::vector<hw::Ray> rays;
 };
 
-Case soup(uint64_t seed, const char* format, int n_rays) {
-  hw::Geometry g = hw::fixed_checks::random_scene(seed, 600, 0);
+// A soup of `tris` triangles in [-10, 10]^3 and its rays: `kind` 0 a camera's (a 12 x 8 grid from z = -30 toward
+// the soup), 1 incoherent (random origins and directions in the soup's box), 2 shadow rays (from points on the
+// camera rays' way through the soup toward a light above it, t up to the light).
+Case soup(uint64_t seed, const char* format, int tris, int kind) {
+  hw::Geometry g = hw::fixed_checks::random_scene(seed, tris, 0);
   g.planes.clear();  // triangles only: the unit has no plane test
   const hw::DeviceImage img = hw::image_checks::encode(g, hw::format_preset(format));
-  return {std::vector<uint8_t>(img.data(), img.data() + img.size()), random_box_rays(seed + 1, n_rays)};
+  Case cs{std::vector<uint8_t>(img.data(), img.data() + img.size()), {}};
+  if (kind == 1) {
+    cs.rays = random_box_rays(seed + 1, 96);
+    return cs;
+  }
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 12; ++x) {
+      hw::Ray r;
+      r.origin = hw::Vec3(0.0f, 0.0f, -30.0f);
+      r.dir = hw::Vec3(-0.3f + 0.6f * float(x) / 11.0f, -0.2f + 0.4f * float(y) / 7.0f, 1.0f);
+      r.tmin = 0.0f;
+      r.tmax = 1e30f;
+      if (kind == 2) {  // from 30 units along the camera ray toward the light at (0, 40, 0)
+        const hw::Vec3 p = r.origin + 30.0f * r.dir, l(0.0f, 40.0f, 0.0f);
+        r.origin = p;
+        r.dir = l - p;
+        r.tmin = 1e-3f;
+        r.tmax = 1.0f;
+      }
+      cs.rays.push_back(r);
+    }
+  return cs;
 }
 
 // Runs the packet on the Verilated unit `Model` of spec and on the fixed device; requires equal hits; returns the
@@ -71,17 +95,27 @@ TravRun run_both(const char* spec, const Case& cs, bool any_hit, uint64_t& model
 }  // namespace
 
 TEST_CASE("trav unit: hits equal the fixed device's, width 4", "[trav]") {
-  const Case cs = soup(11, "default", 96);
-  for (bool any_hit : {false, true}) {
-    uint64_t model = 0;
-    run_both<Vtrav_unit_rdna2_s4>("rdna2:ray_slots=4", cs, any_hit, model);
+  for (int kind : {0, 1, 2}) {
+    const Case cs = soup(11, "default", 3000, kind);
+    for (bool any_hit : {false, true}) {
+      uint64_t model = 0;
+      run_both<Vtrav_unit_rdna2_s4>("rdna2:ray_slots=4", cs, any_hit || kind == 2, model);
+    }
   }
 }
 
 TEST_CASE("trav unit: hits equal the fixed device's, width 8", "[trav]") {
-  const Case cs = soup(12, "wide8", 96);
-  for (bool any_hit : {false, true}) {
+  for (int kind : {0, 1, 2}) {
+    const Case cs = soup(12, "wide8", 3000, kind);
     uint64_t model = 0;
-    run_both<Vtrav_unit_wide8_s4>("rdna2:format=wide8:bvh_width=8:ray_slots=4", cs, any_hit, model);
+    run_both<Vtrav_unit_wide8_s4>("rdna2:format=wide8:bvh_width=8:ray_slots=4", cs, kind == 2, model);
   }
+}
+
+TEST_CASE("trav unit: a short stack spills and refills through the memory port", "[trav]") {
+  const Case cs = soup(13, "default", 3000, 1);
+  uint64_t model = 0;
+  const TravRun run = run_both<Vtrav_unit_rdna2_s16_st2>("rdna2:ray_slots=16:stack_entries=2", cs, false, model);
+  CHECK(run.spills > 0);
+  CHECK(run.refills > 0);
 }

@@ -314,7 +314,9 @@ module trav_unit #(
   assign tri_win = oldest(tri_req, unit_ts);
 
   logic box_in_ready, box_out_valid;
+  /* verilator lint_off UNUSEDSIGNAL */  // the tags' bits above the slot index stay 0
   logic [15:0] box_out_tag;
+  /* verilator lint_on UNUSEDSIGNAL */
   logic [N-1:0] box_out_hit;
   logic [N*NDW-1:0] box_out_tnear;
   logic [3*(A+1)-1:0] box_base;
@@ -327,7 +329,9 @@ module trav_unit #(
     w = box_win[SW-1:0];
     nd = view[w];
     for (int a = 0; a < 3; a++) begin
+      /* verilator lint_off UNUSEDSIGNAL */  // base fits A + 1 bits (the unit's contract)
       logic signed [63:0] org, base;
+      /* verilator lint_on UNUSEDSIGNAL */
       logic signed [7:0] ex;
       org = 64'($signed(nd[32*a+:32]));
       ex = $signed(nd[8*(12+a)+:8]);
@@ -356,7 +360,9 @@ module trav_unit #(
   wire box_take = !box_win[SW] && box_in_ready;
 
   logic tri_in_ready, tri_out_valid, tri_out_hit;
+  /* verilator lint_off UNUSEDSIGNAL */  // as box_out_tag
   logic [15:0] tri_out_tag;
+  /* verilator lint_on UNUSEDSIGNAL */
   logic [TB:0] tri_out_t;
   logic [EW-1:0] tri_out_e1, tri_out_e2, tri_out_det;
   logic [9*B-1:0] tri_v;
@@ -453,7 +459,7 @@ module trav_unit #(
       end
       // A new ray.
       if (ray_take) begin
-        automatic int k = int'(free_win[SW-1:0]);
+        automatic logic [SW-1:0] k = free_win[SW-1:0];
         st[k] <= ACT;
         cnt[k] <= CNTW'(SETUP_LAT - 1);
         ts[k] <= now + 32'(SETUP_LAT) - 32'd1;
@@ -482,7 +488,7 @@ module trav_unit #(
       end
       // A read issued: the pop it made, the leaf it starts.
       if (mem_take && !mem_req_write) begin
-        automatic int k = int'(mem_req_id);
+        automatic logic [SW-1:0] k = mem_req_id;
         st[k] <= MEM;
         rd[k] <= act_rd[k];
         if (act_pop[k]) depth[k] <= act_depth[k];
@@ -509,7 +515,7 @@ module trav_unit #(
       end
       // Data arrives: kept; an entry read back is popped or dropped.
       if (mem_resp_valid) begin
-        automatic int k = int'(mem_resp_id);
+        automatic logic [SW-1:0] k = mem_resp_id;
         if (rd[k] == RD_ENTRY) begin
           automatic logic signed [NDW-1:0] edist = $signed(mem_resp_data[32+:NDW]);
           st[k] <= ACT;
@@ -529,7 +535,7 @@ module trav_unit #(
       if (tri_take) st[tri_win[SW-1:0]] <= UNIT;
       // A node's result.
       if (box_out_valid) begin
-        automatic int k = int'(bk);
+        automatic logic [SW-1:0] k = bk;
         st[k] <= ACT;
         cnt[k] <= CNTW'(TRAV_LAT - 1);
         ts[k] <= now + 32'(TRAV_LAT) - 32'd1;
@@ -544,7 +550,9 @@ module trav_unit #(
                 sref[k][pos[STW-1:0]] <= word(data[k], 16 + 6 * N + 4 * i);
                 sdist[k][pos[STW-1:0]] <= $signed(box_out_tnear[NDW*i+:NDW]);
               end else begin
+                /* verilator lint_off UNUSEDSIGNAL */  // off < N - 1
                 automatic logic [DEPW-1:0] off = pos - (depth[k] > DEPW'(STACK) ? depth[k] : DEPW'(STACK));
+                /* verilator lint_on UNUSEDSIGNAL */
                 sp_ent[k][off[SPW-1:0]] <=
                     {box_out_tnear[NDW*i+:NDW], word(data[k], 16 + 6 * N + 4 * i)};
               end
@@ -560,7 +568,7 @@ module trav_unit #(
       end
       // A triangle's result.
       if (tri_out_valid) begin
-        automatic int k = int'(tri_out_tag[SW-1:0]);
+        automatic logic [SW-1:0] k = tri_out_tag[SW-1:0];
         st[k] <= ACT;
         cnt[k] <= CNTW'(TRAV_LAT - 1);
         ts[k] <= now + 32'(TRAV_LAT) - 32'd1;

@@ -19,6 +19,7 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
     : m_c((c.validate(), c)),
       m_layout(layout),
       m_cache(c),
+      m_port(c.fetch_port_rate),
       m_own(shared ? nullptr : std::make_unique<MemorySystem>(c)),
       m_mem(shared ? shared : m_own.get()),
       m_unit(unit) {
@@ -107,7 +108,7 @@ std::pair<uint64_t, uint64_t> TimingModel::line_range(const Layout& l, const Tra
 
 void TimingModel::observe(const Slot& sl, uint32_t k, const TraceEvent& e, uint64_t t, bool missed) {
   const auto [first, last] = line_range(*sl.layout, e);
-  if (first > last) return;  // a block's later record: nothing fetched
+  if (first > last) return;                      // a block's later record: nothing fetched
   const uint64_t waited = m_s->mem_wait_cycles;  // a prefetcher's fills wait for nobody's ray
   Port port(*this, t);
   m_observer->on_fetch(LineFetch{t, k, uint8_t(e.kind), e.index, first, last, missed}, port);
@@ -275,7 +276,8 @@ void TimingModel::admit(uint32_t k, uint64_t free_at) {
 }
 
 void TimingModel::spill(Slot& sl, uint32_t k, uint64_t t) {
-  m_mem->write_word(stack_addr(k, sl.spilled), t, *m_s);  // bandwidth only: the write leaves the slot
+  m_mem->write_word(stack_addr(k, sl.spilled), m_port.request(t, m_s->port_request_waits),
+                    *m_s);  // bandwidth only: the write leaves the slot
   ++sl.spilled;
   ++m_s->stack_spills;
 }
@@ -283,11 +285,13 @@ void TimingModel::spill(Slot& sl, uint32_t k, uint64_t t) {
 uint64_t TimingModel::refill(Slot& sl, uint32_t k, uint64_t t) {
   --sl.spilled;
   ++m_s->stack_refills;
-  const uint64_t ready = m_mem->read_word(stack_addr(k, sl.spilled), t, *m_s);
+  uint64_t ready = m_mem->read_word(stack_addr(k, sl.spilled), m_port.request(t, m_s->port_request_waits), *m_s);
   if (is_pending(ready)) [[unlikely]] {
     park(k, ready, t);
     return ready;
   }
+  // Through a one-a-clock port the entry is compared with the closest hit the clock after its data.
+  if (m_port.on()) ready = m_port.response(ready, m_s->port_response_waits) + 1;
   if (m_trace) m_trace->add(m_unit, k, "stack refill", t, ready);
   return ready;
 }
@@ -405,9 +409,10 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
         const uint64_t waited = m_s->mem_wait_cycles;
         uint64_t unqueued = t;
         uint64_t pending_wait = 0;  // waits on the way to a queued memory's lines (its own count at decisions)
+        const uint64_t tr = m_port.request(t, m_s->port_request_waits);
         for_each_line<false>(*sl.layout, e, [&](uint64_t line) {
           const uint64_t before = m_s->mem_wait_cycles;
-          const uint64_t ready = m_cache.access(line, t, *m_mem, *m_s);
+          const uint64_t ready = m_cache.access(line, tr, *m_mem, *m_s);
           if (is_pending(ready)) [[unlikely]] {
             park(k, ready, t);
             pending_wait += m_s->mem_wait_cycles - before;
@@ -417,6 +422,7 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
           unqueued = std::max(unqueued, ready - (m_s->mem_wait_cycles - before));
         });
         m_s->mem_wait_cycles = waited + (next_t - unqueued) + pending_wait;
+        next_t = m_port.response(next_t, m_s->port_response_waits);
         if (m_queued && m_park[k].count > 0) [[unlikely]] {
           // Some lines wait for the memory's decisions: the slot leaves the queue until woken() (no trace span).
           m_park[k].ready = std::max(m_park[k].ready, next_t);

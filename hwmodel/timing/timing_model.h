@@ -56,6 +56,7 @@
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/timing/memory/memory_system.h"
 #include "hwmodel/timing/memory/node_cache.h"
+#include "hwmodel/timing/memory/port_limit.h"
 #include "hwmodel/timing/node_cost.h"
 #include "hwmodel/timing/prefetch/prefetchers.h"
 #include "hwmodel/timing/ray_admission.h"
@@ -278,6 +279,7 @@ class TimingModel final : private PendingWaiter {
   TimingConfig m_c;
   Layout m_layout;
   NodeCache m_cache;
+  PortLimit m_port;  // fetch_port_rate: one request and one answer a clock, or no limit
   std::unique_ptr<MemorySystem> m_own;        // the unit's own memory (null on a chip)
   MemorySystem* m_mem;                        // what the node cache fills from
   std::unique_ptr<FetchObserver> m_observer;  // null: none (the default)

@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <functional>
 #include <stdexcept>
 #include <string>
@@ -30,6 +31,7 @@ namespace {
 
 using namespace rtu;
 using Clock = std::chrono::steady_clock;
+int g_port = 1;  // the model's fetch_port_rate: 1, the unit's port (RTU_TRAV_PORT=0: the model without the limit)
 
 struct Unit {
   const char* name;
@@ -167,7 +169,9 @@ Point one(const Unit& u, const hw::TimingConfig& c, const hw::DeviceImage& img, 
   const auto t0 = Clock::now();
   const rtl::TravRun run = u.run(c, img, rays, any_hit);
   const auto t1 = Clock::now();
-  const uint64_t model = run_model(c, img, rays, any_hit);
+  hw::TimingConfig mc = c;
+  mc.fetch_port_rate = g_port;
+  const uint64_t model = run_model(mc, img, rays, any_hit);
   const auto t2 = Clock::now();
   sp.rtl_s += std::chrono::duration<double>(t1 - t0).count();
   sp.model_s += std::chrono::duration<double>(t2 - t1).count();
@@ -253,6 +257,7 @@ int rank(size_t n, const std::string& path) {
 int main(int argc, char** argv) {
   try {
     const std::string cmd = argc > 1 ? argv[1] : "";
+    if (const char* e = std::getenv("RTU_TRAV_PORT")) g_port = std::atoi(e);
     if (cmd == "correlate" && argc >= 5) {
       return correlate(std::stoul(argv[2]), std::stoi(argv[3]), std::vector<std::string>(argv + 4, argv + argc));
     }

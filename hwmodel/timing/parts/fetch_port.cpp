@@ -31,18 +31,30 @@ const TimingKeyTable& fetch_keys() {
          return {};
        }},
       {"cache_latency", &C::cache_latency, 0, kMaxLatency, "cache hit latency in cycles"},
+      {"fetch_port_rate", &C::fetch_port_rate, 0, 1,
+       "requests and read answers the memory port takes a clock: 0 no limit; 1 one of each, as the RTL traversal "
+       "unit (rtl_sim/trav), whose refilled stack entries are decided the clock after their data",
+       [](const C& c) -> std::string {
+         if (c.fetch_port_rate > 0 && c.dram_scheduler != DramScheduler::kFcfs)
+           return "fetch_port_rate = 1 needs dram_scheduler = fcfs (the queued memory answers later)";
+         return {};
+       }},
   };
   return keys;
 }
 
 std::span<const TimingCounter> fetch_counters() {
   using S = TimingStats;
-  static constexpr std::array<TimingCounter, 4> counters = {{
+  static constexpr std::array<TimingCounter, 6> counters = {{
       {"node_fetches", &S::node_fetches, "fetches", "node fetches (each one or more cache lines)", kPerRay},
       {"prim_fetches", &S::prim_fetches, "fetches", "primitive record and plane fetches", kPerRay},
       {"cache_hits", &S::cache_hits, "lines", "cache line accesses that hit (a line in flight counts as a hit)",
        kPerRay},
       {"cache_misses", &S::cache_misses, "lines", "cache line accesses that missed and went to DRAM", kPerRay},
+      {"port_request_waits", &S::port_request_waits, "cycles",
+       "fetch_port_rate 1: cycles requests waited for the memory port behind others", kPerRay},
+      {"port_response_waits", &S::port_response_waits, "cycles",
+       "fetch_port_rate 1: cycles read answers waited for the port behind others", kPerRay},
   }};
   return counter_table<FetchCounters>(counters);
 }

@@ -20,11 +20,15 @@ struct FetchConfig {
   // functional image is unchanged; only the timing model's addresses and the padded footprint differ.
   int layout_align = 0;
   int cache_latency = 4;  // hit latency
+  // Requests and read answers the unit's memory port takes a clock (memory/port_limit.h): 0 no limit, 1 one of
+  // each, as the RTL traversal unit's port (a refilled stack entry is then decided the clock after its data).
+  int fetch_port_rate = 0;
 };
 
 struct FetchCounters {
   uint64_t node_fetches = 0, prim_fetches = 0;
-  uint64_t cache_hits = 0, cache_misses = 0;  // line accesses
+  uint64_t cache_hits = 0, cache_misses = 0;                 // line accesses
+  uint64_t port_request_waits = 0, port_response_waits = 0;  // fetch_port_rate 1: cycles behind other requests
 };
 
 const TimingKeyTable& fetch_keys();

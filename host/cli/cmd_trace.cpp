@@ -1,9 +1,13 @@
 // rtusim trace: ray file in, hit file out, on a device.
 #include <cstdio>
+#include <cstring>
 #include <memory>
+#include <span>
+#include <string>
 #include <vector>
 
 #include "host/cli/common.h"
+#include "host/devices/trav_units.h"
 #include "host/io/error.h"
 #include "host/io/ray_io.h"
 #include "host/jobs/ab.h"
@@ -18,11 +22,34 @@ struct TraceOptions {
   std::string scene, rays, out, stats;
   uint64_t seed = 1;
   bool any_hit = false;
+  bool rtl_unit = false;  // --rtl-unit: the packet on the RTL traversal unit too
   int threads = 0;
   DeviceArgs dev;
   PipelineTraceArgs pipeline;
   AgainstSpec against;  // --against-*: design point B of an A/B
 };
+
+// --rtl-unit: the same rays in one packet on the Verilated traversal unit of the timed device's configuration,
+// its cycles beside the model's and its hits against the device's; a line on stdout and the JSON section.
+Json rtl_unit_run(const hw::TimedEngine& te, const std::vector<hw::Ray>& rays, bool any_hit,
+                  std::span<const hw::Hit> hits, bool cycles_only) {
+  if (!te.image()) throw Error("--rtl-unit: the RTL traversal unit traces one level (add --flatten)");
+  const RtlTravRun r = run_rtl_trav_unit(te.config(), *te.image(), rays.data(), rays.size(), any_hit);
+  const hw::TimingStats& s = te.timing();
+  uint64_t differ = 0;
+  if (!cycles_only)
+    for (size_t i = 0; i < rays.size(); ++i) differ += std::memcmp(&r.hits[i], &hits[i], sizeof(hw::Hit)) != 0;
+  const double error = r.cycles ? (double(s.cycles) - double(r.cycles)) / double(r.cycles) : 0.0;
+  std::printf(
+      "RTL traversal unit %s: %llu cycles; the model %llu in %llu packet(s) (%+.3f%%); %s\n", r.unit.c_str(),
+      (unsigned long long)r.cycles, (unsigned long long)s.cycles, (unsigned long long)s.packets, 100.0 * error,
+      cycles_only
+          ? "hits not compared (no --out)"
+          : (differ ? std::to_string(differ) + " hits differ from the device's" : "the same hits").c_str());
+  return Json{{"unit", r.unit},           {"cycles", r.cycles},
+              {"model_cycles", s.cycles}, {"model_packets", s.packets},
+              {"error", error},           {"hits_differing", cycles_only ? Json(nullptr) : Json(differ)}};
+}
 
 void run_trace(const TraceOptions& o) {
   Stopwatch load_timer;
@@ -72,6 +99,7 @@ void run_trace(const TraceOptions& o) {
 
   Json json;
   if (!o.stats.empty() || !o.against.empty()) json = trace_stats_json(req, run, o.rays, o.dev.device, load_s);
+  if (o.rtl_unit) json["rtl_unit"] = rtl_unit_run(*run.device->timed(), rays, o.any_hit, run.hits, cycles_only);
   if (!o.against.empty()) {
     // B: the same scene, rays and options but the configuration and format --against-* name.
     TraceRequest breq = req;
@@ -102,6 +130,10 @@ void add_trace(CLI::App& app) {
               "timed device (--device timed)");
         if (sub.count("--seed") > 0 && o.rays.rfind("incoherent", 0) != 0)
           throw CLI::ValidationError("--seed applies to --rays incoherent[:N] only");
+        if (o.rtl_unit && (o.dev.kind() != hw::DeviceKind::kTimed || o.dev.sample > 0.0))
+          throw CLI::ValidationError(
+              "--rtl-unit runs the timed device's packet on the RTL traversal unit: "
+              "--device timed, without --sample");
         run_trace(o);
       });
   sub->add_option("--scene", o->scene, "scene file, mesh file, or builtin:NAME")->required();
@@ -111,6 +143,9 @@ void add_trace(CLI::App& app) {
                   "hit file to write (16-byte binary records, or .csv); without it only the statistics (with "
                   "--sample on the timed device, only the sampled rays are traced)");
   sub->add_flag("--any-hit", o->any_hit, "any-hit queries (stop at the first hit, as shadow rays do)");
+  sub->add_flag("--rtl-unit", o->rtl_unit,
+                "timed device: also run the rays in one packet on the Verilated RTL traversal unit of the "
+                "configuration (rtl_sim/trav/; builds with Verilator) and print its cycles beside the model's");
   sub->add_option("--threads", o->threads, "worker threads (0 = all cores); results do not depend on it")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();

@@ -74,6 +74,8 @@ class TimedEngine final : public TraceEngine {
   // The bound image's format (a two-level scene's top level's; both levels share it): what the unit is built
   // for. Requires bound().
   FixedFormat format() const { return tracer().image().format(); }
+  // The bound one-level image (null before a bind, or with two levels).
+  const DeviceImage* image() const { return m_image.get(); }
   void set_threads(int threads) { m_opt.threads = threads; }
   // Sampled timing of later TRACE packets (SampleOptions); throws std::invalid_argument for a fraction outside
   // [0, 1] or a unit of 0 rays.

@@ -86,12 +86,13 @@ TravRun run_both(const char* spec, const Case& cs, bool any_hit, uint64_t& model
   timed.assign(cs.rays.size(), hw::Hit{});
   hw::TraversalStats ts;
   model_cycles = engine.trace_cycles(cs.rays.data(), timed.data(), cs.rays.size(), any_hit, ts, 0, 0);
-  std::printf("%s %s: rtl %llu cycles, model %llu (%+.2f%%); reads %llu nodes %llu records, %llu spills, %llu "
-              "late responses\n",
-              spec, any_hit ? "any-hit" : "closest", (unsigned long long)run.cycles, (unsigned long long)model_cycles,
-              100.0 * (double(model_cycles) / double(run.cycles) - 1.0), (unsigned long long)run.node_reads,
-              (unsigned long long)run.record_reads, (unsigned long long)run.spills,
-              (unsigned long long)run.response_delays);
+  std::printf(
+      "%s %s: rtl %llu cycles, model %llu (%+.2f%%); reads %llu nodes %llu records, %llu spills, %llu "
+      "late responses\n",
+      spec, any_hit ? "any-hit" : "closest", (unsigned long long)run.cycles, (unsigned long long)model_cycles,
+      100.0 * (double(model_cycles) / double(run.cycles) - 1.0), (unsigned long long)run.node_reads,
+      (unsigned long long)run.record_reads, (unsigned long long)run.spills,
+      (unsigned long long)run.response_delays);
   // The bound bench/results/rtl-correlation.md measures (largest packet error 2%, at 32 slots behind a 16 KiB
   // cache): the model claims a read's answer clock in request order, the unit's memory in order of readiness.
   CHECK(std::abs(double(model_cycles) - double(run.cycles)) <= 0.02 * double(run.cycles));
@@ -127,11 +128,11 @@ TEST_CASE("trav unit: a short stack spills and refills through the memory port",
 }
 
 // One triangle (the BVH's root is its leaf) and one ray that hits it, worked by hand for rdna2 with 4 slots: the
-// packet is decoded at cycle 0 (after packet_latency P); the ray leaves the ray fetch at ray_fetch_latency (10) and
-// enters slot 0; setup_latency (8) later the slot asks for the record; the cold cache looks (cache_latency 4) and
-// misses to DRAM, which moves the 64-byte line in ceil(64 / 64) = 1 clock and then waits dram_latency (200); the
-// triangle unit answers tri_latency (12) after taking the data; traversal_latency (2) later the slot finds its stack
-// empty and hands the hit to the write-back, which ends writeback_latency (4) after. So
+// packet is decoded at cycle 0 (after packet_latency P); the ray leaves the ray fetch at ray_fetch_latency (10)
+// and enters slot 0; setup_latency (8) later the slot asks for the record; the cold cache looks (cache_latency 4)
+// and misses to DRAM, which moves the 64-byte line in ceil(64 / 64) = 1 clock and then waits dram_latency (200);
+// the triangle unit answers tri_latency (12) after taking the data; traversal_latency (2) later the slot finds its
+// stack empty and hands the hit to the write-back, which ends writeback_latency (4) after. So
 //   cycles = P + 10 + 8 + (4 + 1 + 200) + 12 + 2 + 4 = 20 + 241 = 261,
 // on the unit and in the timing model alike.
 TEST_CASE("trav unit: a one-ray packet's cycles worked by hand", "[trav]") {

@@ -37,7 +37,8 @@ struct Unit {
   const char* name;
   const char* spec;
   const char* args;
-  std::function<rtl::TravRun(const hw::TimingConfig&, const hw::DeviceImage&, const std::vector<hw::Ray>&, bool)> run;
+  std::function<rtl::TravRun(const hw::TimingConfig&, const hw::DeviceImage&, const std::vector<hw::Ray>&, bool)>
+      run;
 };
 
 template <class Model>
@@ -183,7 +184,8 @@ int correlate(size_t n, int packets, const std::vector<std::string>& meshes) {
   static const char* kKinds[] = {"camera", "incoherent", "shadow"};
   std::vector<Point> all;
   Speed sp;
-  std::printf("| mesh | rays | unit | memory | packets | RTL cycles | model cycles | mean abs error | largest |\n");
+  std::printf(
+      "| mesh | rays | unit | memory | packets | RTL cycles | model cycles | mean abs error | largest |\n");
   std::printf("|---|---|---|---|---:|---:|---:|---:|---:|\n");
   for (const std::string& path : meshes) {
     const Mesh m = load(path);
@@ -246,8 +248,8 @@ int rank(size_t n, const std::string& path) {
     std::printf("| %s | %.0f | %.0f | %+.3f%% | %.4f | %.4f | %.2f pp |\n", names[i].c_str(), pts[i].rtl,
                 pts[i].model, 100 * err(pts[i]), su_rtl, su_model, 100 * (su_model - su_rtl));
   }
-  std::printf("\n%zu designs: Kendall's tau %.4f; largest speed-up difference %.3f percentage points\n", pts.size(),
-              kendall(pts), worst_pp);
+  std::printf("\n%zu designs: Kendall's tau %.4f; largest speed-up difference %.3f percentage points\n",
+              pts.size(), kendall(pts), worst_pp);
   sp.print();
   return 0;
 }

@@ -10,8 +10,8 @@
 #pragma once
 
 #include <algorithm>
-#include <cstring>
 #include <cstdint>
+#include <cstring>
 #include <map>
 #include <queue>
 #include <stdexcept>
@@ -44,16 +44,17 @@ inline std::string trav_image_refusal(const hw::DeviceImage& img, const TravPara
   const hw::ImageHeader& h = img.header();
   if (h.flags & hw::kImageNoBvh) return "an image without a BVH";
   if (h.flags & hw::kImageTopLevel) return "a two-level (instanced) image";
-  if (h.width != p.box.n) return "nodes of width " + std::to_string(h.width) + " (the unit's: " +
-                                 std::to_string(p.box.n) + ")";
-  if (h.q_bytes != 1 || h.node_layout != 0 || h.prim_layout != 0 || hw::node_kind(h) != hw::NodeKindId::kQuantizedAabb)
+  if (h.width != p.box.n)
+    return "nodes of width " + std::to_string(h.width) + " (the unit's: " + std::to_string(p.box.n) + ")";
+  if (h.q_bytes != 1 || h.node_layout != 0 || h.prim_layout != 0 ||
+      hw::node_kind(h) != hw::NodeKindId::kQuantizedAabb)
     return "nodes other than struct-layout axis-aligned boxes with 8-bit offsets";
   if (h.plane_count != 0) return "planes";
   if (h.root_ref == hw::kEmptyChild) return "an empty BVH";
   for (uint32_t i = 0; i < h.record_count; ++i) {
     const uint8_t* r = img.record(i);
-    if (hw::record_kind(r) != hw::RecordKind::kTriangle) return "records other than triangles (record " +
-                                                                std::to_string(i) + ")";
+    if (hw::record_kind(r) != hw::RecordKind::kTriangle)
+      return "records other than triangles (record " + std::to_string(i) + ")";
     uint32_t word;
     std::memcpy(&word, r + 36, 4);
     if (word & hw::kRecordNonOpaque) return "non-opaque triangles (record " + std::to_string(i) + ")";
@@ -81,8 +82,8 @@ class TravDriver {
       hits[i] = hw::Hit{};
       if (hw::setup_ray(rays[i], m_frame, m_f, fr[i]) != hw::RayStatus::kOk || fr[i].tmin > fr[i].tmax) continue;
       if (!fr[i].narrow)
-        throw std::invalid_argument("the RTL traversal unit has the 64-bit datapath only: ray " + std::to_string(i) +
-                                    " needs the wide one");
+        throw std::invalid_argument("the RTL traversal unit has the 64-bit datapath only: ray " +
+                                    std::to_string(i) + " needs the wide one");
       sent.push_back(i);
     }
     Sim<Model> sim;
@@ -144,7 +145,8 @@ class TravDriver {
           ++s.stack_spills;
           m_mem.write_word(addr, c, s);
           std::vector<uint8_t> e(16);
-          for (int b = 0; b < 16; ++b) e[size_t(b)] = uint8_t(get_bits(m.mem_req_wdata, 8 * b, std::min(8, entry_bits() - 8 * b)));
+          for (int b = 0; b < 16; ++b)
+            e[size_t(b)] = uint8_t(get_bits(m.mem_req_wdata, 8 * b, std::min(8, entry_bits() - 8 * b)));
           m_entries[addr] = e;
         } else {
           Due d{c, order++, uint32_t(m.mem_req_id), {}};
@@ -153,7 +155,8 @@ class TravDriver {
             ++s.stack_refills;
             d.at = m_mem.read_word(addr, c, s);
             auto it = m_entries.find(addr);
-            if (it == m_entries.end()) throw std::logic_error("trav_unit: a refill of a stack entry never written");
+            if (it == m_entries.end())
+              throw std::logic_error("trav_unit: a refill of a stack entry never written");
             d.bytes = it->second;
           } else {
             ++(bytes == 40 ? run.record_reads : run.node_reads);

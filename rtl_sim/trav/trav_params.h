@@ -1,7 +1,7 @@
 // The traversal unit's parameters (trav/trav_unit.sv) from a timing configuration: its box unit's (rtl_params.h),
-// its triangle unit's (tri_params.h), and the slots, short stack and latencies the timing model reads from the same
-// keys. What the unit does not have (a second box or triangle unit, another node kind or layout, a prefetcher, a
-// ray scheduler, FR-FCFS memory) is refused by name: trav_refusal().
+// its triangle unit's (tri_params.h), and the slots, short stack and latencies the timing model reads from the
+// same keys. What the unit does not have (a second box or triangle unit, another node kind or layout, a
+// prefetcher, a ray scheduler, FR-FCFS memory) is refused by name: trav_refusal().
 #pragma once
 
 #include <stdexcept>
@@ -76,7 +76,8 @@ inline std::vector<std::pair<std::string, int>> param_list(const TravParams& p) 
 
 inline std::string verilator_args(const TravParams& p) {
   std::string s;
-  for (const auto& [name, value] : param_list(p)) s += (s.empty() ? "-G" : " -G") + name + '=' + std::to_string(value);
+  for (const auto& [name, value] : param_list(p))
+    s += (s.empty() ? "-G" : " -G") + name + '=' + std::to_string(value);
   return s;
 }
 

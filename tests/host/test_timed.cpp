@@ -13,6 +13,8 @@
 
 #include "host/cost/timing_json.h"
 #include "host/devices/direct_device.h"
+#include "host/devices/trav_units.h"
+#include "host/io/error.h"
 #include "host/io/stats_json.h"
 #include "host/jobs/render.h"
 #include "host/scene/ray_gen.h"
@@ -573,4 +575,15 @@ TEST_CASE("sampled timing: an image whose rows hold a whole number of units is n
   const double mean_error = sum / kSeeds / exact - 1.0;
   INFO("mean error over " << kSeeds << " seeds: " << 100.0 * mean_error << "%");
   CHECK(std::abs(mean_error) < 0.03);
+}
+
+TEST_CASE("without the RTL traversal unit registered, --rtl-unit's runner says the build has none", "[timed]") {
+  // test_host does not link rtu_host_rtl: no runner is registered, as in a build without Verilator.
+  REQUIRE_FALSE(rtu::host::have_rtl_trav_unit());
+  const rtu::hw::Geometry g = rtu::hw::fixed_checks::random_scene(5, 50, 0);
+  const rtu::hw::DeviceImage img = rtu::hw::image_checks::encode(g, rtu::hw::format_preset("default"));
+  const std::vector<rtu::hw::Ray> rays = random_box_rays(6, 4);
+  REQUIRE_THROWS_WITH(
+      rtu::host::run_rtl_trav_unit(rtu::hw::timing_preset("rdna2"), img, rays.data(), rays.size(), false),
+      Catch::Contains("this build has no RTL traversal unit"));
 }

@@ -1,0 +1,40 @@
+#include "rtl_sim/trav/rtl_trav_unit.h"
+
+#include <stdexcept>
+#include <string>
+
+#include "rtl_models.h"
+#include "rtl_sim/trav/trav_driver.h"
+
+namespace rtu::rtl {
+
+namespace {
+
+template <class Model>
+host::RtlTravRun run(const char* name, const hw::TimingConfig& c, const hw::DeviceImage& img, const hw::Ray* rays,
+                     size_t n, bool any_hit) {
+  TravDriver<Model> drv(trav_params(c), c, img);
+  host::RtlTravRun r;
+  r.unit = name;
+  r.hits.resize(n);
+  hw::TimingStats s;
+  r.cycles = drv.trace(rays, r.hits.data(), n, any_hit, s).cycles;
+  return r;
+}
+
+}  // namespace
+
+host::RtlTravRun run_rtl_trav_unit(const hw::TimingConfig& c, const hw::DeviceImage& img, const hw::Ray* rays,
+                                   size_t n, bool any_hit) {
+  const std::string args = verilator_args(trav_params(c));  // throws what c lacks
+  std::string built;
+#define RTU_TRAV_RUN(cls, name, spec, unit_args)                          \
+  if (args == unit_args) return run<cls>(name, c, img, rays, n, any_hit); \
+  built += std::string(built.empty() ? "" : ", ") + name + " (" + spec + ")";
+  RTU_RTL_TRAV_MODELS(RTU_TRAV_RUN)
+#undef RTU_TRAV_RUN
+  throw std::invalid_argument("no verilated traversal unit has this configuration's parameters (" + args +
+                              "); this build has " + built);
+}
+
+}  // namespace rtu::rtl

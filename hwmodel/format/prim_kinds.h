@@ -67,22 +67,13 @@ bool with_record_prim(RecordKind k, F&& f) {
 // The shading normal of a hit on scene primitive p at `at` (not normalized; u as the hit's).
 // The cost class of a record (its kind field and round word, record_kind): its primitive kind's, but a triangle
 // pair's two tests are one request and an instance record is a transform.
-constexpr TestCost record_cost(RecordKind k) {
-  switch (k) {
-    case RecordKind::kTriangle:
-      return TrianglePrim::kCost;
-    case RecordKind::kTrianglePair:
-      return TestCost::kTrianglePair;
-    case RecordKind::kSphere:
-      return SpherePrim::kCost;
-    case RecordKind::kCurve:
-      return CurvePrim::kCost;
-    case RecordKind::kInstance:
-      return TestCost::kTransform;
-    case RecordKind::kUnknown:
-      break;
-  }
-  throw std::logic_error("record_cost: a record of no kind (the image check refuses it)");
+inline TestCost record_cost(RecordKind k) {
+  if (k == RecordKind::kTrianglePair) return TestCost::kTrianglePair;
+  if (k == RecordKind::kInstance) return TestCost::kTransform;
+  TestCost cost{};
+  if (!with_record_prim(k, [&](auto kind) { cost = decltype(kind)::kCost; }))
+    throw std::logic_error("record_cost: a record of no kind (the image check refuses it)");
+  return cost;
 }
 
 inline Vec3 prim_normal(const Geometry& g, uint32_t p, const Vec3& at, float u) {

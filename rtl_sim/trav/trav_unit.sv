@@ -534,11 +534,15 @@ module trav_unit #(
       if (box_take) st[box_win[SW-1:0]] <= UNIT;
       if (tri_take) st[tri_win[SW-1:0]] <= UNIT;
       // A node's result.
+      // A unit's result: the slot's next step TRAV_LAT clocks on.
+      for (int k = 0; k < SLOTS; k++)
+        if ((box_out_valid && bk == SW'(k)) || (tri_out_valid && tri_out_tag[SW-1:0] == SW'(k))) begin
+          st[k] <= ACT;
+          cnt[k] <= CNTW'(TRAV_LAT - 1);
+          ts[k] <= now + 32'(TRAV_LAT) - 32'd1;
+        end
       if (box_out_valid) begin
         automatic logic [SW-1:0] k = bk;
-        st[k] <= ACT;
-        cnt[k] <= CNTW'(TRAV_LAT - 1);
-        ts[k] <= now + 32'(TRAV_LAT) - 32'd1;
         have_cur[k] <= bhits != 0;
         for (int i = 0; i < N; i++)
           if (box_out_hit[i]) begin
@@ -569,9 +573,6 @@ module trav_unit #(
       // A triangle's result.
       if (tri_out_valid) begin
         automatic logic [SW-1:0] k = tri_out_tag[SW-1:0];
-        st[k] <= ACT;
-        cnt[k] <= CNTW'(TRAV_LAT - 1);
-        ts[k] <= now + 32'(TRAV_LAT) - 32'd1;
         rec_idx[k] <= rec_idx[k] + 1'b1;
         rec_left[k] <= rec_left[k] - 1'b1;
         if (tri_out_hit) begin

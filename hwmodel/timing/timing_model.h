@@ -279,7 +279,7 @@ class TimingModel final : private PendingWaiter {
   TimingConfig m_c;
   Layout m_layout;
   NodeCache m_cache;
-  PortLimit m_port;  // fetch_port_rate: one request and one answer a clock, or no limit
+  PortLimit m_port;                           // fetch_port_rate: one request and one answer a clock, or no limit
   std::unique_ptr<MemorySystem> m_own;        // the unit's own memory (null on a chip)
   MemorySystem* m_mem;                        // what the node cache fills from
   std::unique_ptr<FetchObserver> m_observer;  // null: none (the default)

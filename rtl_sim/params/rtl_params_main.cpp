@@ -12,8 +12,8 @@
 //                                  after --tri: "tri:NAME: -GB=.. -GA=.. ..." per triangle unit (rtl/tri_core.sv,
 //                                  params/tri_params.h: the format's widths and the preset's tri_latency)
 //   rtu_rtl_params ... --trav NAME=SPEC...
-//                                  after --trav: "trav:NAME: -GSLOTS=.. ..." per traversal unit (trav/trav_unit.sv,
-//                                  trav/trav_params.h)
+//                                  after --trav: "trav:NAME: -GSLOTS=.. ..." per traversal unit
+//                                  (trav/trav_unit.sv, trav/trav_params.h)
 //   rtu_rtl_params --chparam-tri SPEC [FORMAT_KEY=VALUE...]
 //                                  the same as --chparam for the triangle unit (bench/rtl_area.sh)
 #include <cstdio>

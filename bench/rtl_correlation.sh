@@ -8,7 +8,8 @@
 # fetch_port_rate=1 (the unit's port), and once more with RTU_TRAV_PORT=0 (no port limit) for comparison.
 #
 #   bench/rtl_correlation.sh [BENCH] [RAYS] [MESH...]
-#     BENCH  default build/default/rtl_sim/rtu_rtl_trav_bench;  RAYS  rays per packet, default 256 (3 packets a
+#     BENCH  default build/default/rtl_sim/rtu_rtl_trav_bench (not built by default: cmake --build --preset
+#     default --target rtu_rtl_trav_bench);  RAYS  rays per packet, default 256 (3 packets a
 #     group);  MESH  default the house and engine assimp-testmodels meshes (the sweep: the first)
 # Prints Markdown.
 set -euo pipefail
@@ -16,7 +17,7 @@ source "$(dirname "$0")/lib.sh"  # sets name to rtl_correlation.sh
 bench_split_args 2 "$bench_house" "$bench_engine" -- "$@"
 bench=${bench_lead[0]:-build/default/rtl_sim/rtu_rtl_trav_bench}
 rays=${bench_lead[1]:-256}
-[ -x "$bench" ] || { echo "$name: $bench is not an executable (build the rtu_rtl_trav_bench target)" >&2; exit 2; }
+[ -x "$bench" ] || { echo "$name: $bench is not an executable (build it: cmake --build --preset default --target rtu_rtl_trav_bench)" >&2; exit 2; }
 bench_need_count RAYS "$rays"
 for mesh in "${bench_list[@]}"; do [ -r "$mesh" ] || { echo "$name: cannot read $mesh" >&2; exit 2; }; done
 echo "## Per packet (model with fetch_port_rate=1)"

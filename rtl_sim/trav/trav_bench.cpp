@@ -24,6 +24,7 @@
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/scene/bvh.h"
 #include "rtl_models.h"
+#include "rtl_trav_bench_models.h"
 #include "rtl_sim/params/rtl_params.h"
 #include "rtl_sim/trav/trav_driver.h"
 
@@ -54,6 +55,7 @@ std::vector<Unit> units() {
   std::vector<Unit> u;
 #define RTU_TRAV_UNIT(cls, name, spec, args) u.push_back({name, spec, args, run_unit<cls>});
   RTU_RTL_TRAV_MODELS(RTU_TRAV_UNIT)
+  RTU_RTL_TRAVB_MODELS(RTU_TRAV_UNIT)
 #undef RTU_TRAV_UNIT
   return u;
 }

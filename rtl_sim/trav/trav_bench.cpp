@@ -24,9 +24,9 @@
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/scene/bvh.h"
 #include "rtl_models.h"
-#include "rtl_trav_bench_models.h"
 #include "rtl_sim/params/rtl_params.h"
 #include "rtl_sim/trav/trav_driver.h"
+#include "rtl_trav_bench_models.h"
 
 namespace {
 

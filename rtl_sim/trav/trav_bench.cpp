@@ -60,13 +60,17 @@ std::vector<Unit> units() {
   return u;
 }
 
+uint64_t g_model_misses = 0, g_model_fetches = 0;  // the last model run's cache misses and fetches
 uint64_t run_model(const hw::TimingConfig& c, const hw::DeviceImage& img, const std::vector<hw::Ray>& rays,
                    bool any_hit) {
   hw::TimedEngine engine(hw::EngineOptions{}, c);
   engine.bind(img.data(), img.size());
   std::vector<hw::Hit> hits(rays.size());
   hw::TraversalStats ts;
-  return engine.trace_cycles(rays.data(), hits.data(), rays.size(), any_hit, ts, 0, 0);
+  const uint64_t cycles = engine.trace_cycles(rays.data(), hits.data(), rays.size(), any_hit, ts, 0, 0);
+  g_model_misses = engine.timing().cache_misses;
+  g_model_fetches = engine.timing().node_fetches + engine.timing().prim_fetches;
+  return cycles;
 }
 
 // The unit's configuration with a memory: "cache" keeps the preset's, "dram" takes rdna2-mem's.
@@ -179,6 +183,11 @@ Point one(const Unit& u, const hw::TimingConfig& c, const hw::DeviceImage& img, 
   sp.rtl_s += std::chrono::duration<double>(t1 - t0).count();
   sp.model_s += std::chrono::duration<double>(t2 - t1).count();
   sp.rays += rays.size();
+  if (std::abs(double(model) - double(run.cycles)) > 0.05 * double(run.cycles))  // the outliers' cache behaviour
+    std::fprintf(stderr, "%s: RTL %llu cycles, %llu fetches, %llu cache misses; model %llu, %llu, %llu\n", u.name,
+                 (unsigned long long)run.cycles, (unsigned long long)(run.node_reads + run.record_reads),
+                 (unsigned long long)run.cache_misses, (unsigned long long)model,
+                 (unsigned long long)g_model_fetches, (unsigned long long)g_model_misses);
   return {double(run.cycles), double(model)};
 }
 

@@ -36,6 +36,7 @@ struct TravRun {
   uint64_t cycles = 0;  // packet_latency + the last hit's write-back edge + writeback_latency
   uint64_t node_reads = 0, record_reads = 0, spills = 0, refills = 0;
   uint64_t response_delays = 0;  // responses moved an edge later because another was due at the same edge
+  uint64_t cache_misses = 0;     // line accesses the node cache missed
 };
 
 // Empty when the image is one the unit traverses: a BVH of struct-layout axis-aligned nodes of the unit's width
@@ -76,6 +77,7 @@ class TravDriver {
   // Traces rays[0, n) in one packet: their hits (as the fixed device's: t in world units, primitive, u, v).
   TravRun trace(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, hw::TimingStats& s) {
     TravRun run;
+    const uint64_t misses0 = s.cache_misses;
     std::vector<hw::FixedRay> fr(n);
     std::vector<size_t> sent;  // rays the unit traverses (set up, with an interval)
     for (size_t i = 0; i < n; ++i) {
@@ -184,6 +186,7 @@ class TravDriver {
       }
       sim.tick();
     }
+    run.cache_misses = s.cache_misses - misses0;
     run.cycles = uint64_t(m_c.packet_latency) + (sent.empty() ? 0 : last_wb + uint64_t(m_c.writeback_latency));
     s.rays += n;
     ++s.packets;

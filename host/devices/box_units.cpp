@@ -17,9 +17,7 @@ template <class Unit>
 std::unique_ptr<Unit> make_unit(std::unique_ptr<Unit> (*make)(const hw::TimingConfig&), hw::UnitModel model,
                                 const hw::TimingConfig& c, const char* key, const char* unit) {
   if (model != hw::UnitModel::kRtl) return nullptr;
-  if (!make)
-    throw Error(std::string(key) + " = rtl: this build has no RTL " + unit +
-                " (rtl_sim/ needs Verilator: run scripts/setup.sh, then configure and build again)");
+  if (!make) throw Error(std::string(key) + " = rtl: this build has no RTL " + unit + " " + kNoVerilatorHint);
   try {
     return make(c);
   } catch (const std::invalid_argument& e) {

@@ -12,6 +12,10 @@
 
 namespace rtu::host {
 
+// Why a build has no RTL unit, and what to do: the end of every such refusal.
+inline constexpr const char* kNoVerilatorHint =
+    "(rtl_sim/ needs Verilator: run scripts/setup.sh, then configure and build again)";
+
 // Makes the RTL unit of a configuration; throws std::invalid_argument when none matches it.
 using BoxUnitFactory = std::unique_ptr<hw::BoxUnit> (*)(const hw::TimingConfig& c);
 void register_rtl_box_unit(BoxUnitFactory make);

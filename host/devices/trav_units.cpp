@@ -2,6 +2,7 @@
 
 #include <stdexcept>
 
+#include "host/devices/box_units.h"
 #include "host/io/error.h"
 
 namespace rtu::host {
@@ -20,10 +21,7 @@ bool have_rtl_trav_unit() {
 
 RtlTravRun run_rtl_trav_unit(const hw::TimingConfig& c, const hw::DeviceImage& img, const hw::Ray* rays, size_t n,
                              bool any_hit) {
-  if (!g_run)
-    throw Error(
-        "--rtl-unit: this build has no RTL traversal unit (rtl_sim/ needs Verilator: run scripts/setup.sh, then "
-        "configure and build again)");
+  if (!g_run) throw Error(std::string("--rtl-unit: this build has no RTL traversal unit ") + kNoVerilatorHint);
   try {
     return g_run(c, img, rays, n, any_hit);
   } catch (const std::invalid_argument& e) {

@@ -49,8 +49,7 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
   m_admission = make_ray_admission(c);
   while ((uint64_t(1) << m_line_shift) < uint64_t(c.line_bytes)) ++m_line_shift;
   m_min_fetch = m_cache.enabled() ? m_cache.latency() : m_mem->min_line_cycles();
-  m_stack_base = (layout.total_bytes + kStackRegion - 1) / kStackRegion * kStackRegion +
-                 uint64_t(unit) * uint64_t(c.ray_slots) * kStackRegion;
+  m_stack_base = stack_base(layout.total_bytes, unit, c.ray_slots);
   m_waiting.reserve(size_t(c.ray_slots));
   if (memory_is_queued(c)) {
     m_queued = true;

@@ -88,6 +88,13 @@ struct PipelineTrace {
 
 class TimingModel final : private PendingWaiter {
  public:
+  // Where unit `unit` of a chip of `slots`-slot units spills its stacks: after `footprint` bytes of image (the
+  // layout's total_bytes), kStackRegion bytes a slot (stack_addr). Shared with the RTL unit's testbench.
+  static constexpr uint64_t kStackRegion = 4096;
+  static uint64_t stack_base(uint64_t footprint, uint32_t unit, int slots) {
+    return (footprint + kStackRegion - 1) / kStackRegion * kStackRegion +
+           uint64_t(unit) * uint64_t(slots) * kStackRegion;
+  }
   // Where the bound image keeps its sections (addresses are image offsets).
   // Where the fetched items lie: byte offsets of the sections and bytes from one item to the next. Each fetch
   // touches the lines of [offset + index * stride, + the item's size).
@@ -286,9 +293,8 @@ class TimingModel final : private PendingWaiter {
   std::deque<uint64_t> m_pf_queue;            // lines a prefetcher asked for, waiting for idle memory
   std::unique_ptr<RayAdmission> m_admission;  // how free slots get their rays (ray_admission.h)
   uint32_t m_unit = 0;                        // index on the chip (pipeline trace spans, stack addresses)
-  uint64_t m_stack_base = 0;  // where the unit's slots spill their stacks: after the image, kStackRegion a slot
-  static constexpr uint64_t kStackRegion = 4096;
-  int m_line_shift = 0;     // log2(line_bytes)
+  uint64_t m_stack_base = 0;                  // stack_base(): where the unit's slots spill their stacks
+  int m_line_shift = 0;                       // log2(line_bytes)
   BoxCost m_box_cost;       // issue clocks and latency of a node test, by the node kind's cost class
   bool m_oriented = false;  // the image's nodes are oriented: each node test turns the ray (obb_rotations)
   std::vector<uint64_t> m_box_free, m_tri_free, m_curve_free;
@@ -321,15 +327,15 @@ class TimingModel final : private PendingWaiter {
     uint64_t ready = 0;  // the latest cycle known so far
   };
   std::vector<Park> m_park;  // per slot
-  uint64_t m_base = 0;  // cycle the current packet started (resources carry absolute cycles)
+  uint64_t m_base = 0;       // cycle the current packet started (resources carry absolute cycles)
 
   PipelineTrace* m_trace = nullptr;
   std::vector<uint64_t>* m_done = nullptr;
   std::vector<uint64_t>* m_entered = nullptr;
   // The packet in flight.
   TimingStats* m_s = nullptr;
-  size_t m_n = 0, m_next = 0;                 // rays in the packet, next ray to admit
-  RayFeed m_feed;                             // the rays given so far (feed, add_rays)
+  size_t m_n = 0, m_next = 0;  // rays in the packet, next ray to admit
+  RayFeed m_feed;              // the rays given so far (feed, add_rays)
   std::vector<Slot> m_slots;
   SlotQueue m_queue;  // busy slots waiting for a cycle, served by (cycle, slot); ray_slots <= 4096 (validate())
   std::vector<std::pair<uint64_t, uint32_t>> m_free_slots;  // (cycle free, slot): min-heap

@@ -67,8 +67,8 @@ uint64_t TimingModel::box_request(const TraceEvent& e, uint32_t k, uint64_t t) {
 }
 
 uint64_t TimingModel::test_request(TestCost cost, const TraceEvent& e, uint32_t k, uint64_t t) {
-  uint64_t done, issue = 1, lat;
-  const char* what;
+  uint64_t done, issue = 1, lat = 0;
+  const char* what = nullptr;  // every case sets both (no default: -Wswitch names a new cost class)
   switch (cost) {
     case TestCost::kTransform:
       // The transform unit, pipelined: no unit to wait for.
@@ -119,7 +119,6 @@ uint64_t TimingModel::test_request(TestCost cost, const TraceEvent& e, uint32_t 
       ++m_s->sphere_tests;
       break;
     case TestCost::kPlane:
-    default:
       lat = uint64_t(m_c.plane_latency);
       what = "plane";
       ++m_s->plane_tests;

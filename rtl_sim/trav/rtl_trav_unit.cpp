@@ -13,12 +13,10 @@ namespace {
 template <class Model>
 host::RtlTravRun run(const char* name, const hw::TimingConfig& c, const hw::DeviceImage& img, const hw::Ray* rays,
                      size_t n, bool any_hit) {
-  TravDriver<Model> drv(trav_params(c), c, img);
   host::RtlTravRun r;
   r.unit = name;
   r.hits.resize(n);
-  hw::TimingStats s;
-  r.cycles = drv.trace(rays, r.hits.data(), n, any_hit, s).cycles;
+  r.cycles = run_trav_packet<Model>(c, img, rays, n, any_hit, r.hits.data()).cycles;
   return r;
 }
 

@@ -45,10 +45,8 @@ struct Unit {
 template <class Model>
 rtl::TravRun run_unit(const hw::TimingConfig& c, const hw::DeviceImage& img, const std::vector<hw::Ray>& rays,
                       bool any_hit) {
-  rtl::TravDriver<Model> drv(rtl::trav_params(c), c, img);
   std::vector<hw::Hit> hits(rays.size());
-  hw::TimingStats s;
-  return drv.trace(rays.data(), hits.data(), rays.size(), any_hit, s);
+  return rtl::run_trav_packet<Model>(c, img, rays.data(), rays.size(), any_hit, hits.data());
 }
 
 std::vector<Unit> units() {
@@ -60,17 +58,19 @@ std::vector<Unit> units() {
   return u;
 }
 
-uint64_t g_model_misses = 0, g_model_fetches = 0;  // the last model run's cache misses and fetches
-uint64_t run_model(const hw::TimingConfig& c, const hw::DeviceImage& img, const std::vector<hw::Ray>& rays,
+// The model's cycles, fetches and cache misses of one packet.
+struct ModelRun {
+  uint64_t cycles, fetches, misses;
+};
+ModelRun run_model(const hw::TimingConfig& c, const hw::DeviceImage& img, const std::vector<hw::Ray>& rays,
                    bool any_hit) {
   hw::TimedEngine engine(hw::EngineOptions{}, c);
   engine.bind(img.data(), img.size());
   std::vector<hw::Hit> hits(rays.size());
   hw::TraversalStats ts;
   const uint64_t cycles = engine.trace_cycles(rays.data(), hits.data(), rays.size(), any_hit, ts, 0, 0);
-  g_model_misses = engine.timing().cache_misses;
-  g_model_fetches = engine.timing().node_fetches + engine.timing().prim_fetches;
-  return cycles;
+  const hw::TimingStats& s = engine.timing();
+  return {cycles, s.node_fetches + s.prim_fetches, s.cache_misses};
 }
 
 // The unit's configuration with a memory: "cache" keeps the preset's, "dram" takes rdna2-mem's.
@@ -178,17 +178,18 @@ Point one(const Unit& u, const hw::TimingConfig& c, const hw::DeviceImage& img, 
   const auto t1 = Clock::now();
   hw::TimingConfig mc = c;
   mc.fetch_port_rate = g_port;
-  const uint64_t model = run_model(mc, img, rays, any_hit);
+  const ModelRun model = run_model(mc, img, rays, any_hit);
   const auto t2 = Clock::now();
   sp.rtl_s += std::chrono::duration<double>(t1 - t0).count();
   sp.model_s += std::chrono::duration<double>(t2 - t1).count();
   sp.rays += rays.size();
-  if (std::abs(double(model) - double(run.cycles)) > 0.05 * double(run.cycles))  // the outliers' cache behaviour
+  // A packet off by more than 5%: both sides' work and cache behaviour, to trace it.
+  if (std::abs(double(model.cycles) - double(run.cycles)) > 0.05 * double(run.cycles))
     std::fprintf(stderr, "%s: RTL %llu cycles, %llu fetches, %llu cache misses; model %llu, %llu, %llu\n", u.name,
                  (unsigned long long)run.cycles, (unsigned long long)(run.node_reads + run.record_reads),
-                 (unsigned long long)run.cache_misses, (unsigned long long)model,
-                 (unsigned long long)g_model_fetches, (unsigned long long)g_model_misses);
-  return {double(run.cycles), double(model)};
+                 (unsigned long long)run.cache_misses, (unsigned long long)model.cycles,
+                 (unsigned long long)model.fetches, (unsigned long long)model.misses);
+  return {double(run.cycles), double(model.cycles)};
 }
 
 int correlate(size_t n, int packets, const std::vector<std::string>& meshes) {

@@ -25,6 +25,7 @@
 #include "hwmodel/timing/memory/memory_system.h"
 #include "hwmodel/timing/memory/node_cache.h"
 #include "hwmodel/timing/timing_config.h"
+#include "hwmodel/timing/timing_model.h"
 #include "hwmodel/timing/timing_stats.h"
 #include "rtl_sim/cosim/sim.h"
 #include "rtl_sim/trav/trav_params.h"
@@ -71,7 +72,7 @@ class TravDriver {
     if (const std::string why = trav_image_refusal(img, p); !why.empty())
       throw std::invalid_argument("the RTL traversal unit cannot run " + why);
     while ((uint64_t(1) << m_line_shift) < uint64_t(c.line_bytes)) ++m_line_shift;
-    m_stack_base = (img.size() + kStackRegion - 1) / kStackRegion * kStackRegion;
+    m_stack_base = hw::TimingModel::stack_base(img.size(), 0, p.slots);  // layout_align 0: the image's bytes
   }
 
   // Traces rays[0, n) in one packet: their hits (as the fixed device's: t in world units, primitive, u, v).
@@ -195,7 +196,6 @@ class TravDriver {
   }
 
  private:
-  static constexpr uint64_t kStackRegion = 4096;  // as the timing model's stack_addr
   int entry_bits() const { return 32 + m_p.box.tb + 2; }
   int ew() const { return m_p.tri.ew(); }
   template <class Port>
@@ -233,5 +233,14 @@ class TravDriver {
   uint64_t m_stack_base = 0;
   std::map<uint64_t, std::vector<uint8_t>> m_entries;  // what spills wrote
 };
+
+// One packet on the Verilated unit `Model` (which must have configuration c's parameters): hits into `hits`.
+template <class Model>
+TravRun run_trav_packet(const hw::TimingConfig& c, const hw::DeviceImage& img, const hw::Ray* rays, size_t n,
+                        bool any_hit, hw::Hit* hits) {
+  TravDriver<Model> drv(trav_params(c), c, img);
+  hw::TimingStats s;
+  return drv.trace(rays, hits, n, any_hit, s);
+}
 
 }  // namespace rtu::rtl

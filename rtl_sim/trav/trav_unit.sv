@@ -168,13 +168,13 @@ module trav_unit #(
   logic   [     SEW-1:0] sp_ent   [SLOTS][N];
 
   // ---- Field access ----
-  function automatic logic [31:0] word(input logic [MDW-1:0] bytes, input int at);
-    return bytes[8*at+:32];
+  function automatic logic [31:0] word(input logic [MDW-1:0] bytes, input integer at);
+    word = bytes[8*at+:32];
   endfunction
-  function automatic logic [63:0] entry_addr(input logic [DEPW-1:0] pos, input int slot);
+  function automatic logic [63:0] entry_addr(input logic [DEPW-1:0] pos, input logic [SW-1:0] slot);
     logic [63:0] i;
     i = (64'(pos) - 64'(STACK)) & 64'h1FF;
-    return cfg_stack_base + ((i * 64'(SLOTS) + 64'(slot)) << 3);
+    entry_addr = cfg_stack_base + ((i * 64'(SLOTS) + 64'(slot)) << 3);
   endfunction
 
   // ---- What each slot asks for this cycle ----
@@ -218,7 +218,7 @@ module trav_unit #(
         end else if (depth[k] > DEPW'(STACK)) begin
           want_rd[k] = 1'b1;
           act_rd[k] = RD_ENTRY;
-          act_addr[k] = entry_addr(depth[k] - 1'b1, k);
+          act_addr[k] = entry_addr(depth[k] - 1'b1, SW'(k));
           act_bytes[k] = 8'd8;
         end else begin
           nd = '0;
@@ -254,8 +254,8 @@ module trav_unit #(
     logic [SW:0] w;
     w = {1'b1, SW'(0)};  // none
     for (int k = 0; k < SLOTS; k++)
-      if (req[k] && (w[SW] || t[32*k+:32] < t[32*int'(w[SW-1:0])+:32])) w = {1'b0, SW'(k)};
-    return w;
+      if (req[k] && (w[SW] || t[32*k+:32] < t[32*w[SW-1:0]+:32])) w = {1'b0, SW'(k)};
+    oldest = w;
   endfunction
 
   // Memory port: reads first, then spill writes.
@@ -287,7 +287,7 @@ module trav_unit #(
       mem_req_valid = 1'b1;
       mem_req_id = wr_win[SW-1:0];
       mem_req_write = 1'b1;
-      mem_req_addr = entry_addr(sp_from[wr_win[SW-1:0]], int'(wr_win[SW-1:0]));
+      mem_req_addr = entry_addr(sp_from[wr_win[SW-1:0]], wr_win[SW-1:0]);
       mem_req_bytes = 8'd8;
       mem_req_wdata = sp_ent[wr_win[SW-1:0]][0];
     end
@@ -419,9 +419,15 @@ module trav_unit #(
   end
 
   // ---- The box result: hit children sorted by distance (stable), the nearest next, the others pushed ----
+  // Rank r (1..hits-1) goes to stack position depth + hits - 1 - r (the nearest of them on top); a position at
+  // or beyond STACK is the pending spill boff = position - max(depth, STACK), below N - 1.
   logic [SW-1:0] bk;
   logic [CW-1:0] bhits;
   logic [CW-1:0] brank [N];
+  logic [DEPW-1:0] bpos [N];
+  /* verilator lint_off UNUSEDSIGNAL */  // boff < N - 1
+  logic [DEPW-1:0] boff [N];
+  /* verilator lint_on UNUSEDSIGNAL */
   always_comb begin
     bk = box_out_tag[SW-1:0];
     bhits = '0;
@@ -432,8 +438,16 @@ module trav_unit #(
         if (box_out_hit[j] && ($signed(box_out_tnear[NDW*j+:NDW]) < $signed(box_out_tnear[NDW*i+:NDW]) ||
                                (box_out_tnear[NDW*j+:NDW] == box_out_tnear[NDW*i+:NDW] && j < i)))
           brank[i] = brank[i] + 1'b1;
+      bpos[i] = depth[bk] + DEPW'(bhits) - 1'b1 - DEPW'(brank[i]);
+      boff[i] = bpos[i] - (depth[bk] > DEPW'(STACK) ? depth[bk] : DEPW'(STACK));
     end
   end
+  // The slot each event of this clock names: a new ray's, an issued read's, a response's, a triangle result's.
+  wire [SW-1:0] nk = free_win[SW-1:0];
+  wire [SW-1:0] mk = mem_req_id;
+  wire [SW-1:0] rk = mem_resp_id;
+  wire [SW-1:0] tk = tri_out_tag[SW-1:0];
+  wire signed [NDW-1:0] edist = $signed(mem_resp_data[32+:NDW]);  // a read-back entry's distance
 
   always_ff @(posedge clk) begin
     if (rst) begin
@@ -459,45 +473,43 @@ module trav_unit #(
       end
       // A new ray.
       if (ray_take) begin
-        automatic logic [SW-1:0] k = free_win[SW-1:0];
-        st[k] <= ACT;
-        cnt[k] <= CNTW'(SETUP_LAT - 1);
-        ts[k] <= now + 32'(SETUP_LAT) - 32'd1;
-        rid[k] <= ray_id;
-        any_hit[k] <= ray_any_hit;
-        for (int a = 0; a < 3; a++) o[k][a] <= ray_o[A*a+:A];
-        dvec[k] <= ray_d;
-        rcpm_dn[k] <= ray_rcpm_dn;
-        rcpm_up[k] <= ray_rcpm_up;
-        rcp_sh[k] <= ray_rcp_sh;
-        zero[k] <= ray_zero;
-        neg[k] <= ray_neg;
-        tmin[k] <= ray_tmin;
-        ct[k] <= ray_tmax;
-        found[k] <= 1'b0;
-        prim[k] <= '0;
-        e1[k] <= '0;
-        e2[k] <= '0;
-        det[k] <= '0;
-        have_cur[k] <= 1'b1;
-        cur[k] <= cfg_root;
-        rec_left[k] <= '0;
-        done[k] <= 1'b0;
-        depth[k] <= '0;
-        sp_n[k] <= '0;
+        st[nk] <= ACT;
+        cnt[nk] <= CNTW'(SETUP_LAT - 1);
+        ts[nk] <= now + 32'(SETUP_LAT) - 32'd1;
+        rid[nk] <= ray_id;
+        any_hit[nk] <= ray_any_hit;
+        for (int a = 0; a < 3; a++) o[nk][a] <= ray_o[A*a+:A];
+        dvec[nk] <= ray_d;
+        rcpm_dn[nk] <= ray_rcpm_dn;
+        rcpm_up[nk] <= ray_rcpm_up;
+        rcp_sh[nk] <= ray_rcp_sh;
+        zero[nk] <= ray_zero;
+        neg[nk] <= ray_neg;
+        tmin[nk] <= ray_tmin;
+        ct[nk] <= ray_tmax;
+        found[nk] <= 1'b0;
+        prim[nk] <= '0;
+        e1[nk] <= '0;
+        e2[nk] <= '0;
+        det[nk] <= '0;
+        have_cur[nk] <= 1'b1;
+        cur[nk] <= cfg_root;
+        rec_left[nk] <= '0;
+        done[nk] <= 1'b0;
+        depth[nk] <= '0;
+        sp_n[nk] <= '0;
       end
       // A read issued: the pop it made, the leaf it starts.
       if (mem_take && !mem_req_write) begin
-        automatic logic [SW-1:0] k = mem_req_id;
-        st[k] <= MEM;
-        rd[k] <= act_rd[k];
-        if (act_pop[k]) depth[k] <= act_depth[k];
-        if (act_rd[k] == RD_ENTRY) depth[k] <= depth[k] - 1'b1;
-        if (act_rd[k] != RD_ENTRY && rec_left[k] == 0) begin
-          have_cur[k] <= 1'b0;
-          if (act_ref[k][31]) begin  // a leaf: its records from the first
-            rec_idx[k] <= {5'b0, act_ref[k][26:0]};
-            rec_left[k] <= 5'(act_ref[k][30:27]) + 1'b1;
+        st[mk] <= MEM;
+        rd[mk] <= act_rd[mk];
+        if (act_pop[mk]) depth[mk] <= act_depth[mk];
+        if (act_rd[mk] == RD_ENTRY) depth[mk] <= depth[mk] - 1'b1;
+        if (act_rd[mk] != RD_ENTRY && rec_left[mk] == 0) begin
+          have_cur[mk] <= 1'b0;
+          if (act_ref[mk][31]) begin  // a leaf: its records from the first
+            rec_idx[mk] <= {5'b0, act_ref[mk][26:0]};
+            rec_left[mk] <= 5'(act_ref[mk][30:27]) + 1'b1;
           end
         end
       end
@@ -515,20 +527,18 @@ module trav_unit #(
       end
       // Data arrives: kept; an entry read back is popped or dropped.
       if (mem_resp_valid) begin
-        automatic logic [SW-1:0] k = mem_resp_id;
-        if (rd[k] == RD_ENTRY) begin
-          automatic logic signed [NDW-1:0] edist = $signed(mem_resp_data[32+:NDW]);
-          st[k] <= ACT;
-          cnt[k] <= '0;
-          ts[k] <= now + 1'b1;
-          if (!($signed({ct[k][TB], ct[k]}) < edist)) begin
-            have_cur[k] <= 1'b1;
-            cur[k] <= mem_resp_data[31:0];
+        if (rd[rk] == RD_ENTRY) begin
+          st[rk] <= ACT;
+          cnt[rk] <= '0;
+          ts[rk] <= now + 1'b1;
+          if (!($signed({ct[rk][TB], ct[rk]}) < edist)) begin
+            have_cur[rk] <= 1'b1;
+            cur[rk] <= mem_resp_data[31:0];
           end
         end else begin
-          data[k] <= mem_resp_data;
-          st[k] <= rd[k] == RD_NODE ? BOX : TRI;
-          ts[k] <= now;
+          data[rk] <= mem_resp_data;
+          st[rk] <= rd[rk] == RD_NODE ? BOX : TRI;
+          ts[rk] <= now;
         end
       end
       if (box_take) st[box_win[SW-1:0]] <= UNIT;
@@ -542,49 +552,42 @@ module trav_unit #(
           ts[k] <= now + 32'(TRAV_LAT) - 32'd1;
         end
       if (box_out_valid) begin
-        automatic logic [SW-1:0] k = bk;
-        have_cur[k] <= bhits != 0;
+        have_cur[bk] <= bhits != 0;
         for (int i = 0; i < N; i++)
           if (box_out_hit[i]) begin
-            if (brank[i] == 0) cur[k] <= word(data[k], 16 + 6 * N + 4 * i);
+            if (brank[i] == 0) cur[bk] <= word(data[bk], 16 + 6 * N + 4 * i);
             else begin
-              // Rank r (1..hits-1) goes to position depth + hits - 1 - r: the nearest of them on top.
-              automatic logic [DEPW-1:0] pos = depth[k] + DEPW'(bhits) - 1'b1 - DEPW'(brank[i]);
-              if (pos < DEPW'(STACK)) begin
-                sref[k][pos[STW-1:0]] <= word(data[k], 16 + 6 * N + 4 * i);
-                sdist[k][pos[STW-1:0]] <= $signed(box_out_tnear[NDW*i+:NDW]);
+              if (bpos[i] < DEPW'(STACK)) begin
+                sref[bk][bpos[i][STW-1:0]] <= word(data[bk], 16 + 6 * N + 4 * i);
+                sdist[bk][bpos[i][STW-1:0]] <= $signed(box_out_tnear[NDW*i+:NDW]);
               end else begin
-                /* verilator lint_off UNUSEDSIGNAL */  // off < N - 1
-                automatic logic [DEPW-1:0] off = pos - (depth[k] > DEPW'(STACK) ? depth[k] : DEPW'(STACK));
-                /* verilator lint_on UNUSEDSIGNAL */
-                sp_ent[k][off[SPW-1:0]] <=
-                    {box_out_tnear[NDW*i+:NDW], word(data[k], 16 + 6 * N + 4 * i)};
+                sp_ent[bk][boff[i][SPW-1:0]] <=
+                    {box_out_tnear[NDW*i+:NDW], word(data[bk], 16 + 6 * N + 4 * i)};
               end
             end
           end
         if (bhits > 1) begin
-          depth[k] <= depth[k] + DEPW'(bhits) - 1'b1;
-          if (depth[k] + DEPW'(bhits) - 1'b1 > DEPW'(STACK)) begin
-            sp_from[k] <= depth[k] > DEPW'(STACK) ? depth[k] : DEPW'(STACK);
-            sp_n[k] <= 4'(depth[k] + DEPW'(bhits) - 1'b1 - (depth[k] > DEPW'(STACK) ? depth[k] : DEPW'(STACK)));
+          depth[bk] <= depth[bk] + DEPW'(bhits) - 1'b1;
+          if (depth[bk] + DEPW'(bhits) - 1'b1 > DEPW'(STACK)) begin
+            sp_from[bk] <= depth[bk] > DEPW'(STACK) ? depth[bk] : DEPW'(STACK);
+            sp_n[bk] <= 4'(depth[bk] + DEPW'(bhits) - 1'b1 - (depth[bk] > DEPW'(STACK) ? depth[bk] : DEPW'(STACK)));
           end
         end
       end
       // A triangle's result.
       if (tri_out_valid) begin
-        automatic logic [SW-1:0] k = tri_out_tag[SW-1:0];
-        rec_idx[k] <= rec_idx[k] + 1'b1;
-        rec_left[k] <= rec_left[k] - 1'b1;
+        rec_idx[tk] <= rec_idx[tk] + 1'b1;
+        rec_left[tk] <= rec_left[tk] - 1'b1;
         if (tri_out_hit) begin
-          found[k] <= 1'b1;
-          ct[k] <= tri_out_t;
-          prim[k] <= word(data[k], 36);
-          e1[k] <= tri_out_e1;
-          e2[k] <= tri_out_e2;
-          det[k] <= tri_out_det;
-          if (any_hit[k]) begin
-            done[k] <= 1'b1;
-            rec_left[k] <= '0;
+          found[tk] <= 1'b1;
+          ct[tk] <= tri_out_t;
+          prim[tk] <= word(data[tk], 36);
+          e1[tk] <= tri_out_e1;
+          e2[tk] <= tri_out_e2;
+          det[tk] <= tri_out_det;
+          if (any_hit[tk]) begin
+            done[tk] <= 1'b1;
+            rec_left[tk] <= '0;
           end
         end
       end

@@ -249,15 +249,6 @@ module trav_unit #(
     end
   end
 
-  // ---- Oldest-first choice among requests (ts, then the lowest slot) ----
-  function automatic logic [SW:0] oldest(input logic [SLOTS-1:0] req, input logic [SLOTS*32-1:0] t);
-    logic [SW:0] w;
-    w = {1'b1, SW'(0)};  // none
-    for (int k = 0; k < SLOTS; k++)
-      if (req[k] && (w[SW] || t[32*k+:32] < t[32*w[SW-1:0]+:32])) w = {1'b0, SW'(k)};
-    oldest = w;
-  endfunction
-
   // Memory port: reads first, then spill writes.
   logic [SLOTS-1:0] rd_req, wr_req;
   logic [SLOTS*32-1:0] act_ts;
@@ -269,8 +260,8 @@ module trav_unit #(
       act_ts[32*k+:32] = ts[k];
     end
   end
-  assign rd_win = oldest(rd_req, act_ts);
-  assign wr_win = oldest(wr_req, act_ts);
+  trav_oldest #(.SLOTS(SLOTS)) u_rd_arb (.req(rd_req), .t(act_ts), .win(rd_win));
+  trav_oldest #(.SLOTS(SLOTS)) u_wr_arb (.req(wr_req), .t(act_ts), .win(wr_win));
   always_comb begin
     mem_req_valid = 1'b0;
     mem_req_id = '0;
@@ -310,8 +301,8 @@ module trav_unit #(
     end
   end
   logic [SW:0] box_win, tri_win;
-  assign box_win = oldest(box_req, unit_ts);
-  assign tri_win = oldest(tri_req, unit_ts);
+  trav_oldest #(.SLOTS(SLOTS)) u_box_arb (.req(box_req), .t(unit_ts), .win(box_win));
+  trav_oldest #(.SLOTS(SLOTS)) u_tri_arb (.req(tri_req), .t(unit_ts), .win(tri_win));
 
   logic box_in_ready, box_out_valid;
   /* verilator lint_off UNUSEDSIGNAL */  // the tags' bits above the slot index stay 0
@@ -323,26 +314,13 @@ module trav_unit #(
   logic [3*SHW-1:0] box_sh;
   logic [6*N*K-1:0] box_q;
   logic [CW-1:0] box_count;
-  always_comb begin
-    logic [SW-1:0] w;
-    logic [MDW-1:0] nd;
-    w = box_win[SW-1:0];
-    nd = view[w];
-    for (int a = 0; a < 3; a++) begin
-      /* verilator lint_off UNUSEDSIGNAL */  // base fits A + 1 bits (the unit's contract)
-      logic signed [63:0] org, base;
-      /* verilator lint_on UNUSEDSIGNAL */
-      logic signed [7:0] ex;
-      org = 64'($signed(nd[32*a+:32]));
-      ex = $signed(nd[8*(12+a)+:8]);
-      base = (org <<< F) - 64'(o[w][a]);
-      box_base[(A+1)*a+:(A+1)] = base[A:0];
-      box_sh[SHW*a+:SHW] = SHW'(32'(ex) + F);
-    end
-    for (int r = 0; r < 6; r++)
-      for (int i = 0; i < N; i++) box_q[(r*N+i)*K+:K] = nd[8*(16+r*N+i)+:K];
-    box_count = CW'(nd[8*15+:8]);
-  end
+  logic [3*A-1:0] box_o;
+  always_comb for (int a = 0; a < 3; a++) box_o[A*a+:A] = o[box_win[SW-1:0]][a];
+  trav_decode #(
+      .N(N), .K(K), .A(A), .F(F), .SHW(SHW), .MDW(MDW)
+  ) u_decode (
+      .node(view[box_win[SW-1:0]]), .org(box_o), .base(box_base), .sh(box_sh), .q(box_q), .count(box_count)
+  );
 
   box_unit #(
       .N(N), .LANES(LANES), .K(K), .A(A), .M(M), .TB(TB), .SHW(SHW), .RSH(RSH), .LSH(LSH), .TAGW(16),
@@ -396,8 +374,8 @@ module trav_unit #(
     end
   end
   logic [SW:0] wb_win, free_win;
-  assign wb_win = oldest(wb_req, wb_ts);
-  assign free_win = oldest(idle, wb_ts);  // the slot free longest
+  trav_oldest #(.SLOTS(SLOTS)) u_wb_arb (.req(wb_req), .t(wb_ts), .win(wb_win));
+  trav_oldest #(.SLOTS(SLOTS)) u_free_arb (.req(idle), .t(wb_ts), .win(free_win));  // the slot free longest
   always_comb begin
     logic [SW-1:0] w;
     w = wb_win[SW-1:0];

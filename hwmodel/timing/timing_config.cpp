@@ -298,6 +298,35 @@ void TimingConfig::validate() const {
 //     174 cycles: intel-chip's 65 ns at 2.67 GHz (estimate). DRAM: 192-bit GDDR6, 6 devices of 2 x16 channels = 12
 //     channels of 16 banks with 2 KB pages, 456 GB/s = 170.79 bytes per clock at 2.67 GHz, tRCD = tRP = 14.8 ns =
 //     40 cycles; dram_latency 587 = 801 - 174 - 40.
+// The papers' baseline, vksim-mobile and vksim-rtx2060 with their -chip presets: the GPUs that Vulkan-Sim 2.0
+// (ubc-aamodt-group/vulkan-sim, tag v2.0.0) simulates, as its configuration files give them, for the latency papers
+// measured on it (bench/results/latency-hiding.md): treelet prefetching (Chou et al., MICRO 2023) ships the mobile
+// one with its code (ubc-aamodt-group/treelet-prefetching-for-rt, configs/tested-cfgs/treelet_prefetching/
+// gpgpusim.config); TTP's code (yavuz650/vulkan-sim, branch traversal_trend_prefetcher, configs/updated-config/)
+// ships both, and which one its paper reports is not published. Vulkan-Sim's figures, in its config options:
+//   - clock 1365 MHz for the cores, interconnect and L2 (-gpgpu_clock_domains 1365:1365:1365:3500); one RT unit
+//     per SM (-gpgpu_num_rt_core_units 1); a unit holds -gpgpu_rt_max_warps warps of 32 rays: 16 on the mobile
+//     SoC (512 ray slots), 4 on the RTX 2060 (128).
+//   - the RT unit's node cache is the SM's L1D (-gpgpu_rt_use_l1 1): 64 KB, fully associative, 128-byte lines of
+//     32-byte sectors, 20 cycles (-gpgpu_cache:dl1 S:1:128:512, -gpgpu_l1_latency 20). The model has at most 64
+//     ways (16 sets of 64 here) and fills whole lines, so its lines are 64 bytes: a node's two sectors.
+//   - nodes: Mesa's BVH6 of 64-byte internal nodes (Vulkan-Sim's vulkan_acceleration_structure_util.h): format xe6,
+//     bvh_width 6. Node test latencies (-gpgpu_rt_intersection_latency, internal node and quad leaf): 4 and 4
+//     cycles on the mobile SoC, 8 and 8 on the RTX 2060. A node per clock (box_rate 6) is our estimate: Vulkan-Sim
+//     gives no test rate.
+//   - mobile SoC: 8 SMs (-gpgpu_n_clusters 8); L2 64 sets x 16 ways x 128 bytes per channel, 4 channels (-gpgpu_n_mem
+//     4): 512 KB (the file's "3MB" comment is the RTX 2060's); DRAM 4 channels of 16 bits, burst 8 at ratio 2 from
+//     3500 MHz: 14 GB/s each, 56 GB/s = 41.03 bytes per clock at 1.365 GHz.
+//   - RTX 2060: 30 SMs; L2 the same per sub-partition, 12 channels x 2 sub-partitions: 3 MB in 24 slices; 12
+//     GDDR6 channels, burst 16 at ratio 4: 28 GB/s each, 336 GB/s = 246.15 bytes per clock.
+//   - both: L2 latency 160 (-gpgpu_l2_rop_latency), 100 more to DRAM (-dram_latency), 16 banks per channel, tRCD
+//     = tRP = tCL = 20 DRAM clocks at 3.5 GHz = 5.7 ns = 8 cycles: dram_latency 108 (100 + tCL),
+//     dram_activate_cycles = dram_precharge_cycles = 8. Our estimates: 2 KB rows, an L2 slice's 32 bytes per
+//     clock (one sector), 16-way slices of 128 KB (the config's sets x ways x line per sub-partition).
+//   - the unit presets take, as the -mem presets do, one unit's share of the DRAM bandwidth (5.12 and 8.2 bytes
+//     per clock, rounded down) and an L2 miss that opens a row for every miss: 160 + 8 + 108 = 276 cycles.
+//   Not modelled: Vulkan-Sim's RT unit sends one 32-byte request a clock (a 64-byte node takes two), its warps'
+//   rays move through the unit together, and its interconnect; the pipeline depths not named above are rdna2's.
 namespace {
 
 void assign_timing_key(TimingConfig& t, const std::string& key, const std::string& value);  // below
@@ -313,7 +342,7 @@ struct Preset {
   const char* overrides;
 };
 
-const std::array<Preset, 15> kPresets = {{
+const std::array<Preset, 19> kPresets = {{
     {"rdna2", nullptr,
      "resembles one AMD RDNA2 Ray Accelerator: BVH4, 4 box tests or 1 triangle test per clock, 2.0 GHz", ""},
     {"intel", "rdna2",
@@ -394,6 +423,26 @@ const std::array<Preset, 15> kPresets = {{
      "what-if: rdna4-mem with a curve unit testing one linear swept sphere a clock (20 clocks deep), as NVIDIA "
      "Blackwell's RT core adds for hair; rate and depth are estimates",
      "curve_units=1 curve_rate=1"},
+    {"vksim-mobile", "rdna2",
+     "the papers' baseline: one RT unit of Vulkan-Sim's mobile SoC (treelet prefetching, MICRO 2023): BVH6, 512 "
+     "rays, 64 KB L1 at 20 cycles, 1.365 GHz",
+     "format=xe6 bvh_width=6 clock_ghz=1.365 ray_slots=512 box_units=1 box_rate=6 box_latency=4 tri_units=1 "
+     "tri_rate=1 tri_latency=4 cache_kib=64 cache_ways=64 line_bytes=64 layout_align=0 cache_latency=20 "
+     "dram_latency=276 dram_bytes_per_cycle=5.12"},
+    {"vksim-mobile-chip", "vksim-mobile",
+     "the papers' baseline chip: Vulkan-Sim's mobile SoC, 8 RT units, a 512 KB L2 in 4 slices, 4 DRAM channels, "
+     "56 GB/s",
+     "units=8 ray_policy=waves l2_kib=512 l2_slices=4 l2_ways=16 l2_latency=160 l2_bytes_per_cycle=32.0 "
+     "dram_channels=4 dram_banks=16 dram_row_bytes=2048 dram_activate_cycles=8 dram_precharge_cycles=8 "
+     "dram_bytes_per_cycle=41.03 dram_latency=108"},
+    {"vksim-rtx2060", "vksim-mobile",
+     "one RT unit of Vulkan-Sim's RTX 2060 configuration: BVH6, 128 rays, 64 KB L1 at 20 cycles, 1.365 GHz",
+     "ray_slots=128 box_latency=8 tri_latency=8 dram_bytes_per_cycle=8.2"},
+    {"vksim-rtx2060-chip", "vksim-rtx2060",
+     "Vulkan-Sim's RTX 2060: 30 RT units, a 3 MB L2 in 24 slices, 12 GDDR6 channels, 336 GB/s",
+     "units=30 ray_policy=waves l2_kib=3072 l2_slices=24 l2_ways=16 l2_latency=160 l2_bytes_per_cycle=32.0 "
+     "dram_channels=12 dram_banks=16 dram_row_bytes=2048 dram_activate_cycles=8 dram_precharge_cycles=8 "
+     "dram_bytes_per_cycle=246.15 dram_latency=108"},
 }};
 
 const Preset& find_preset(const std::string& name) {

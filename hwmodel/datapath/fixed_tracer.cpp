@@ -225,6 +225,7 @@ struct FixedPolicy {
   bool short_edges;               // short_edges_known for the ray
   int short_stack = -1;           // FixedTraceOptions::record_short_stack
   bool stack_refs = false;        // FixedTraceOptions::record_stack_refs
+  bool leaf_refs = false;         // FixedTraceOptions::record_leaf_refs
   mutable int rec_depth = 0;      // stack entries, as the recorder counts them (every push and pop)
   RestartTrail* trail = nullptr;  // recording with FixedTraceOptions::record_restart: the restarts' costs
 
@@ -352,8 +353,13 @@ struct FixedPolicy {
       }
       rec_depth += n;
       if (stack_refs)
-        for (int j = 0; j < n; ++j)
-          if (!is_leaf(refs[j])) rec->push_back(TraceEvent{TraceEvent::kStackRef, uint8_t(j), 0, 0, refs[j]});
+        for (int j = 0; j < n; ++j) {
+          if (!is_leaf(refs[j]))
+            rec->push_back(TraceEvent{TraceEvent::kStackRef, uint8_t(j), 0, 0, refs[j]});
+          else if (leaf_refs)
+            rec->push_back(TraceEvent{TraceEvent::kStackRef, uint8_t(j), uint8_t(leaf_count(refs[j])), 0,
+                                      leaf_first(refs[j])});
+        }
     }
   }
   void popped() const {
@@ -471,6 +477,7 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
                          m_opt.box_unit, m_opt.tri_unit, m_opt.any_hit, r, m_opt.bottom, watch, m_step_limit,
                          m_format, m_opt.record_short_stack);
         p.stack_refs = m_opt.record_stack_refs;
+        p.leaf_refs = m_opt.record_leaf_refs;
         std::optional<RestartTrail> trail;
         if (rec && m_opt.record_restart && m_opt.record_short_stack >= 0)
           p.trail = &trail.emplace(m_opt.record_short_stack);

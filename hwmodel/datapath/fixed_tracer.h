@@ -44,7 +44,8 @@ struct TraceEvent {
     kEnter = 8,
     kLeave = 9,
     kStackRef = 10,  // a node pushed on the stack (FixedTraceOptions::record_stack_refs): count its rank in pop
-                     // order (0: popped first), index the node
+                     // order (0: popped first), index the node; a leaf (record_leaf_refs): unit_issue its
+                     // records (>= 1, 0 for a node), index its first record
     kRestart = 11,   // a restart from the root (FixedTraceOptions::record_restart, restart_trail.h): index the
                      // nodes re-visited, whose kNode events follow
     kRayKey = 12  // first in a ray's events when the timing model gathers rays (ray_gather.h): index its bin key
@@ -98,6 +99,8 @@ struct FixedTraceOptions {
   // Recording: after a push's stack event, one kStackRef per inner node pushed, nearest first (what a stack
   // prefetcher sees, prefetch/stack.h). Off: no such events.
   bool record_stack_refs = false;
+  // With record_stack_refs: leaves pushed are recorded too (kStackRef with unit_issue = its record count).
+  bool record_leaf_refs = false;
   // Recording with record_short_stack = N >= 0: the short stack drops its oldest entry instead of spilling it, and
   // a pop of a dropped entry restarts from the root with a trail (restart_trail.h): a kRestart event and the kNode
   // events of the nodes re-visited, no kSpill or kRefill. The hits are the same.

@@ -74,6 +74,7 @@ void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   to.max_steps = m_opt.max_steps;
   to.record_short_stack = m_c.stack_entries;  // the model charges only for entries beyond it
   to.record_stack_refs = prefetcher_wants_stack_refs(m_c);
+  to.record_leaf_refs = prefetcher_wants_leaf_refs(m_c);
   to.record_restart = m_c.stack_mode == StackMode::kRestart;
   to.box_unit = m_box_unit.get();
   to.tri_unit = m_tri_unit.get();
@@ -90,6 +91,7 @@ FixedTraceOptions TimedEngine::two_level_options() const {
   to.max_steps = m_opt.max_steps;
   to.record_short_stack = m_c.stack_entries;  // the model charges only for entries beyond it
   to.record_stack_refs = prefetcher_wants_stack_refs(m_c);
+  to.record_leaf_refs = prefetcher_wants_leaf_refs(m_c);
   to.record_restart = m_c.stack_mode == StackMode::kRestart;
   to.any_hit = m_any_hit;
   return to;

@@ -10,6 +10,7 @@
 #include <functional>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 
 #include "hwmodel/timing/memory/dram_scheduler.h"
 
@@ -116,10 +117,21 @@ void TimingModel::observe(const Slot& sl, uint32_t k, const TraceEvent& e, uint6
 }
 
 void TimingModel::observe_push(const Slot& sl, uint32_t k, const TraceEvent& e, uint64_t t) {
-  const auto [first, last] = line_range(*sl.layout, TraceEvent{TraceEvent::kNode, 0, 0, 0, e.index});
+  // A node's lines, or a leaf's records' (unit_issue of them from index, FixedTraceOptions::record_leaf_refs).
+  uint64_t first = ~uint64_t(0), last = 0;
+  if (e.unit_issue == 0) {
+    std::tie(first, last) = line_range(*sl.layout, TraceEvent{TraceEvent::kNode, 0, 0, 0, e.index});
+  } else {
+    for (uint32_t i = e.index; i < e.index + e.unit_issue; ++i) {
+      const auto [f, l] = line_range(*sl.layout, TraceEvent{TraceEvent::kPrim, 0, 0, 0, i});
+      first = std::min(first, f);
+      last = std::max(last, l);
+    }
+  }
+  if (e.unit_issue > 0 && first > last) return;  // a leaf whose records lie in an earlier record's block fetch
   const uint64_t waited = m_s->mem_wait_cycles;
   Port port(*this, t);
-  m_observer->on_push(StackPush{t, k, e.count, first, last, e.index}, port);
+  m_observer->on_push(StackPush{t, k, e.count, first, last, e.index, e.unit_issue > 0}, port);
   drain_prefetches(t);
   m_s->mem_wait_cycles = waited;
 }

@@ -217,7 +217,7 @@ TEST_CASE("treelet layouts and prefetchers never change a hit, and refuse what t
     const FixedReference ref = fixed_reference(10, rays, format);
     const std::vector<Hit>& want = ref.hits;
     uint64_t cycles[2] = {0, 0};
-    for (const char* pf : {"none", "treelet", "next_line", "stack", "stack_pop"})
+    for (const char* pf : {"none", "treelet", "next_line", "stack", "stack_pop", "ttp"})
       for (int q : {0, 16}) {
         CAPTURE(format, pf, q);
         TimingConfig c = timing_preset("rdna2-mem");
@@ -324,6 +324,55 @@ TEST_CASE("a stack prefetch on the second of two pops fills the entry then on to
   CHECK(s2.prefetch_fills == 0);
 }
 
+TEST_CASE("TTP fills 1, 2, 16 entries at consecutive pops, leaves included, each entry once", "[timing]") {
+  TimingConfig c = test_config();
+  const uint64_t enter = c.packet_latency + c.ray_fetch_latency + c.setup_latency;  // 38
+  const uint64_t miss = c.cache_latency + 64 / 8 + c.dram_latency;                 // 110
+  const uint64_t per_node = c.box_latency + c.traversal_latency;                   // 9
+  // Node 0 pushes nodes 5, 6, 7 (popped in that order); the ray descends to node 1, then pops 5, 6 and 7.
+  const std::vector<TraceEvent> ray = {node(0),
+                                       TraceEvent{TraceEvent::kStackRef, 0, 0, 0, 5},
+                                       TraceEvent{TraceEvent::kStackRef, 1, 0, 0, 6},
+                                       TraceEvent{TraceEvent::kStackRef, 2, 0, 0, 7},
+                                       node(1),
+                                       node(5),
+                                       node(6),
+                                       node(7)};
+  TimingModel::Layout l = layout();
+  l.treelets.reset();
+  set_timing_key(c, "prefetcher", "ttp");
+  TimingModel m(c, l);
+  TimingStats s;
+  // Node 0 at 38, a miss: nothing on the stack yet. Node 1 at 38 + 119 = 157 is a descent (counter 1): it fills
+  // the top entry, node 5, behind its own miss on the channel: ready at 157 + 2 + 16 + 100 = 275; node 1's data at
+  // 267, node 5's fetch at 276 hits (data 278). That pop is the second (counter 2): it fills nodes 6 and 7, the
+  // channel idle: ready at 276 + 110 = 386 and 394. Node 6 at 278 + 9 = 287, the third pop (16 entries: node 7,
+  // already filled, is skipped), waits for its fill: data at 386 + 2 = 388. Node 7 at 397 hits; its result at
+  // 399 + 9, the write-back 5 more: 413, against 38 + 5 x 119 + 5 = 638 without.
+  CHECK(run(m, ray, s) == 413);
+  CHECK(enter + 5 * (miss + per_node) + c.writeback_latency == 638);
+  CHECK(s.prefetch_fills == 3);
+  CHECK(s.prefetch_useful == 3);
+  CHECK(s.prefetch_late == 1);
+  CHECK(s.cache_misses == 2);
+  // A leaf on the stack: node 0 pushes node 5 and the leaf of records 2 and 3 (popped second). Node 5's visit
+  // from the stack is a second pop: it fills the entry then on top, the leaf's record lines; the leaf's first
+  // record then hits, and its second record is no visit (no further fill).
+  TimingModel::Layout lr = l;
+  const std::vector<TraceEvent> leafy = {node(0),
+                                         TraceEvent{TraceEvent::kStackRef, 0, 0, 0, 5},
+                                         TraceEvent{TraceEvent::kStackRef, 1, 2, 0, 2},
+                                         node(5),
+                                         TraceEvent{TraceEvent::kPrim, 0, 0, 0, 2},
+                                         TraceEvent{TraceEvent::kPrim, 0, 0, 0, 3}};
+  TimingModel ml(c, lr);
+  TimingStats sl;
+  run(ml, leafy, sl);
+  // Records 2 and 3 are 40 bytes each at record_offset (2^20): bytes 80..159 of it, lines 16385 and 16386.
+  CHECK(sl.prefetch_fills == 2);
+  CHECK(sl.prefetch_useful == 2);
+}
+
 TEST_CASE("a prefetch buffer keeps fills out of the cache: no pollution, a hit moves the line in", "[timing]") {
   TimingConfig c = test_config();
   c.cache_kib = 1;   // 16 lines of 64 bytes,
@@ -395,7 +444,7 @@ TEST_CASE("where nothing misses, a prefetcher or a restart trail changes no cycl
   TimingStats sb;
   const uint64_t want = second_packet(base, sb);
   REQUIRE(sb.cache_misses == 0);
-  for (const char* lever : {"prefetcher=next_line", "prefetcher=stack", "prefetcher=stack_pop",
+  for (const char* lever : {"prefetcher=next_line", "prefetcher=stack", "prefetcher=stack_pop", "prefetcher=ttp",
                             "prefetcher=treelet", "stack_mode=restart"}) {
     CAPTURE(lever);
     TimingConfig c = base;

@@ -51,8 +51,9 @@ struct StackPush {
   uint64_t cycle;
   uint32_t slot;
   uint32_t rank;                   // in pop order: 0 is popped first
-  uint64_t first_line, last_line;  // the node's lines
-  uint32_t index;                  // the node
+  uint64_t first_line, last_line;  // the node's lines, or the leaf's records'
+  uint32_t index;                  // the node, or the leaf's first record
+  bool leaf = false;               // a leaf (PrefetcherInfo::leaf_refs)
 };
 
 class FetchObserver {
@@ -77,6 +78,7 @@ struct PrefetcherInfo {
   const char* description;
   std::unique_ptr<FetchObserver> (*make)(const TimingConfig& c, const FetchContext& ctx);  // null for "none"
   bool stack_refs = false;  // the tracer records the nodes rays push (on_push), which costs trace bytes
+  bool leaf_refs = false;   // with stack_refs: the leaves they push too
 };
 
 }  // namespace rtu::hw

@@ -13,6 +13,7 @@
 #include "hwmodel/timing/prefetch/next_line.h"
 #include "hwmodel/timing/prefetch/stack.h"
 #include "hwmodel/timing/prefetch/treelet.h"
+#include "hwmodel/timing/prefetch/ttp.h"
 #include "hwmodel/timing/timing_stats.h"
 
 namespace rtu::hw {
@@ -39,6 +40,10 @@ inline const std::vector<PrefetcherInfo>& prefetchers() {
        "on the second of two consecutive pops, the lines of the prefetch_degree entries then on the stack (TTP's "
        "trigger)",
        detail::make_prefetcher<StackPopPrefetcher>, true},
+      {"ttp",
+       "TTP as published: at every visit and pop, the entries then on top of the stack, leaves included (1, 2 or 16 "
+       "as the visit is the first, second or a later of consecutive pops), each not among the slot's 16 last",
+       detail::make_prefetcher<TtpPrefetcher>, true, true},
   };
   return table;
 }
@@ -51,6 +56,10 @@ inline const PrefetcherInfo& prefetcher_info(PrefetcherId p) {
 // Whether the configured prefetcher needs the nodes rays push (the tracer records them only then).
 inline bool prefetcher_wants_stack_refs(const TimingConfig& c) {
   return prefetcher_info(c.prefetcher).stack_refs;
+}
+// Whether it needs the leaves they push as well.
+inline bool prefetcher_wants_leaf_refs(const TimingConfig& c) {
+  return prefetcher_info(c.prefetcher).leaf_refs;
 }
 
 inline std::unique_ptr<FetchObserver> make_fetch_observer(const TimingConfig& c, const FetchContext& ctx) {

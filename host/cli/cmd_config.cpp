@@ -37,6 +37,8 @@ void print_energy(const hw::TimingConfig& c) {
                 mm2, u.toggles_per_test * t.pj_per_transition(), u.source.c_str());
   std::printf("SRAM: cache %.3f mm^2, slots/stacks/queue %.3f mm^2; total area %.3f mm^2\n", e.area.cache_mm2,
               e.area.slots_mm2, e.area.total_mm2);
+  std::printf("a ray slot: %.0f bits of state, %.0f bits a stack entry (%s)\n", in.slot_state_bits,
+              in.stack_entry_bits, in.slot_source.c_str());
   for (const hw::EnergyEvent& ev : e.events)
     std::printf("%-12s %10.3f pJ each, counted in %-11s %s\n", ev.key, ev.pj_each, ev.unit, ev.description);
   const hw::MemoryType& m = hw::memory_type(c.memory_type);

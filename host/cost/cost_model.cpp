@@ -7,6 +7,7 @@
 
 #include "rtl_sim/params/rtl_params.h"
 #include "rtl_sim/params/tri_params.h"
+#include "rtl_sim/trav/trav_params.h"
 
 namespace rtu::host {
 
@@ -127,6 +128,15 @@ hw::CostInputs cost_inputs(const hw::FixedFormat& f, const hw::TimingConfig& c, 
     tri_key = rtl::verilator_args(rtl::tri_unit_params(f, c.tri_latency));
   } catch (const std::invalid_argument&) {
   }
+  try {
+    // The RTL traversal unit's slot registers at this format's widths (a slot's storage, as SRAM bits).
+    const rtl::TravSlotBits sb = rtl::trav_slot_bits(rtl::box_unit_params(f, c.bvh_width, c.box_rate, c.box_latency),
+                                                     rtl::tri_unit_params(f, c.tri_latency));
+    in.slot_state_bits = double(sb.state + sb.buffer + sb.spill * sb.entry);
+    in.stack_entry_bits = double(sb.entry);
+    in.slot_source = "RTL traversal unit's registers (rtl_sim/trav)";
+  } catch (const std::invalid_argument&) {
+  }
   in.box = unit_cost(Kind::kBox, box_key, box_feature(lanes, a, f.rcp_bits + 1), area, activity);
   in.tri = unit_cost(Kind::kTri, tri_key, tri_feature(a, f.dir_bits), area, activity);
   if (f.node_kind_id() == hw::NodeKindId::kOrientedAabb) {
@@ -208,6 +218,9 @@ Json energy_json(const hw::EnergyReport& e, const hw::TimingConfig& c, const hw:
                {"tri_units_mm2", e.area.tri_mm2},
                {"cache_mm2", e.area.cache_mm2},
                {"slots_mm2", e.area.slots_mm2},
+               {"slot", {{"state_bits", in.slot_state_bits},
+                         {"stack_entry_bits", in.stack_entry_bits},
+                         {"source", in.slot_source}}},
                {"l2_mm2", e.area.l2_mm2},
                {"logic_nand2_eq", e.area.logic_nand2_eq},
                {"sram_bits", e.area.sram_bits},
@@ -254,6 +267,9 @@ std::vector<EnergyKey> energy_json_keys() {
       {"energy.area.tri_units_mm2", "mm^2", "triangle units"},
       {"energy.area.cache_mm2", "mm^2", "cache data and tag SRAM"},
       {"energy.area.slots_mm2", "mm^2", "ray slot state, short stacks and trails, ray and prefetch queue SRAM"},
+      {"energy.area.slot", "-",
+       "one ray slot's storage: state_bits (registers and buffers beside the stack), stack_entry_bits, and "
+       "where they come from"},
       {"energy.area.l2_mm2", "mm^2", "the L2's data and tag SRAM (a chip's shared L2)"},
       {"energy.area.logic_nand2_eq", "NAND2", "NAND2 equivalents of all units"},
       {"energy.area.sram_bits", "bits", "SRAM bits of cache and slots"},

@@ -86,10 +86,10 @@ static double ray_queue_bytes(const TimingConfig& c) {
                                       : double(c.queue_depth) * kQueueRayBytes;
 }
 
-double slot_sram_bits(const TimingConfig& c) {
-  const double trail = c.stack_mode == StackMode::kRestart ? kTrailBytes : 0.0;
-  return 8.0 * (double(c.ray_slots) * (kSlotStateBytes + 8.0 * c.stack_entries + trail) + ray_queue_bytes(c) +
-                double(c.prefetch_queue) * kPrefetchEntryBytes);
+double slot_sram_bits(const TimingConfig& c, const CostInputs& in) {
+  const double trail = c.stack_mode == StackMode::kRestart ? 8.0 * kTrailBytes : 0.0;
+  return double(c.ray_slots) * (in.slot_state_bits + in.stack_entry_bits * c.stack_entries + trail) +
+         8.0 * (ray_queue_bytes(c) + double(c.prefetch_queue) * kPrefetchEntryBytes);
 }
 
 double l2_sram_bits(const TimingConfig& c) {
@@ -107,7 +107,7 @@ AreaReport area_report(const TimingConfig& c, const CostInputs& in, const Techno
   a.box_mm2 = logic_area_mm2(units * c.box_units * box_ge, t);
   a.tri_mm2 = logic_area_mm2(units * c.tri_units * in.tri.nand2_eq, t);
   a.curve_mm2 = logic_area_mm2(units * c.curve_units * c.curve_rate * in.curve.nand2_eq, t);
-  const double cache_bits = units * cache_sram_bits(c), slot_bits = units * slot_sram_bits(c);
+  const double cache_bits = units * cache_sram_bits(c), slot_bits = units * slot_sram_bits(c, in);
   const double l2_bits = l2_sram_bits(c);
   a.sram_bits = cache_bits + slot_bits + l2_bits;
   a.cache_mm2 = sram_area_mm2(cache_bits, t);
@@ -123,7 +123,8 @@ EnergyReport energy_report(const TimingStats& s, const TimingConfig& c, const Co
   r.area = area_report(c, in, t);
   const double e_gate = t.pj_per_transition();
   const double line = c.cache_kib > 0 ? sram_access_pj(double(c.cache_kib) * 1024.0, c.line_bytes, t) : 0.0;
-  const double stack_bytes = double(c.ray_slots) * c.stack_entries * 8.0;
+  const double stack_bytes = double(c.ray_slots) * c.stack_entries * in.stack_entry_bits / 8.0;
+  const int entry_bytes = int(std::ceil(in.stack_entry_bits / 8.0));
   // An L2 line is read from its slice: an SRAM of l2_kib / l2_slices.
   const double l2_line =
       c.l2_kib > 0 ? sram_access_pj(double(c.l2_kib) * 1024.0 / c.l2_slices, c.line_bytes, t) : 0.0;
@@ -147,8 +148,8 @@ EnergyReport energy_report(const TimingStats& s, const TimingConfig& c, const Co
       {"l2_stack", "words", "stack spills and refills through the L2: an 8-byte access of a slice's SRAM",
        s.l2_stack_hits + s.l2_stack_misses,
        c.l2_kib > 0 ? sram_access_pj(double(c.l2_kib) * 1024.0 / c.l2_slices, 8, t) : 0.0},
-      {"stack", "accesses", "slot stack SRAM accesses (one per node fetch)", s.node_fetches,
-       sram_access_pj(stack_bytes, 8, t)},
+      {"stack", "accesses", "slot stack SRAM accesses (one entry per node fetch)", s.node_fetches,
+       sram_access_pj(stack_bytes, entry_bytes, t)},
       {"gather", "rays", "gather buffer: each ray written and read once (ray and bin key)",
        c.gather != GatherKey::kNone ? s.rays : 0,
        2.0 * sram_access_pj(ray_queue_bytes(c), kQueueRayBytes + kGatherKeyBytes, t)},

@@ -73,6 +73,17 @@ double sram_access_pj(double bytes, int access_bytes, const Technology& t = nang
 double sram_area_mm2(double bits, const Technology& t = nangate45());
 double logic_area_mm2(double nand2_eq, const Technology& t = nangate45());
 
+// The unit's SRAM: cache data and tags, ray slot state (CostInputs::slot_state_bits per slot), short stacks
+// (stack_entry_bits an entry) and trails, ray queue, prefetch queue.
+inline constexpr int kSlotStateBytes = 64;   // estimate of a slot's ray, hit and traversal registers
+inline constexpr int kStackEntryBytes = 8;   // estimate of a stack entry: a reference and a float32 distance
+inline constexpr int kQueueRayBytes = 32;   // a queued ray (origin, direction, t range as floats)
+// stack_mode restart: a slot's trail, a 4-bit counter (children taken, up to 8) for each of 64 levels.
+inline constexpr int kTrailBytes = 32;
+// prefetch_queue: a queued prefetch is a line address.
+inline constexpr int kPrefetchEntryBytes = 8;
+// gather (ray_gather.h): a buffered ray's bin key beside the ray.
+inline constexpr int kGatherKeyBytes = 4;
 // What the area and energy need beyond the configuration: each unit's size and switching activity.
 struct UnitCost {
   double nand2_eq = 0.0;          // NAND2 equivalents (yosys CMOS transistors / 4)
@@ -81,6 +92,12 @@ struct UnitCost {
 };
 struct CostInputs {
   UnitCost box, tri;  // one box unit, one triangle unit
+  // A ray slot's storage: its registers beside the stack, and one short-stack entry. The defaults are the
+  // estimates used where the RTL traversal unit has no widths for the format; host/cost/cost_model.cpp takes
+  // the RTL's (rtl_sim/trav/trav_params.h trav_slot_bits) where it has.
+  double slot_state_bits = 8.0 * kSlotStateBytes;
+  double stack_entry_bits = 8.0 * kStackEntryBytes;
+  std::string slot_source = "estimate";
   // Oriented nodes: the rotation stage in front of each box unit (24 multiplies: the origin's and direction's
   // 3x3 products and a Newton step per reciprocal; 12 adds), its size and its energy per rotation as gate
   // transitions; zero for axis-aligned nodes.
@@ -91,16 +108,6 @@ struct CostInputs {
   UnitCost curve;
 };
 
-// The unit's SRAM: cache data and tags, ray slot state (kSlotStateBytes per slot), short stacks and trails, ray
-// queue, prefetch queue.
-inline constexpr int kSlotStateBytes = 64;  // a slot's ray, hit and traversal registers (fixed ray + hit record)
-inline constexpr int kQueueRayBytes = 32;   // a queued ray (origin, direction, t range as floats)
-// stack_mode restart: a slot's trail, a 4-bit counter (children taken, up to 8) for each of 64 levels.
-inline constexpr int kTrailBytes = 32;
-// prefetch_queue: a queued prefetch is a line address.
-inline constexpr int kPrefetchEntryBytes = 8;
-// gather (ray_gather.h): a buffered ray's bin key beside the ray.
-inline constexpr int kGatherKeyBytes = 4;
 struct AreaReport {
   double box_mm2 = 0, tri_mm2 = 0;      // all units of the kind
   double curve_mm2 = 0;                 // curve units (curve_units, 0 without)
@@ -111,7 +118,7 @@ struct AreaReport {
 };
 AreaReport area_report(const TimingConfig& c, const CostInputs& in, const Technology& t = nangate45());
 double cache_sram_bits(const TimingConfig& c);  // data + tags (a 32-bit tag and a valid bit per line)
-double slot_sram_bits(const TimingConfig& c);   // slot state, stacks and trails, ray and prefetch queues
+double slot_sram_bits(const TimingConfig& c, const CostInputs& in);  // slot state, stacks, trails, queues
 double l2_sram_bits(const TimingConfig& c);     // the L2's data + tags (0 without one)
 
 struct EnergyEvent {

@@ -4,6 +4,7 @@
 // prefetcher, a ray scheduler, FR-FCFS memory) is refused by name: trav_refusal().
 #pragma once
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -62,6 +63,27 @@ inline TravParams trav_params(const hw::TimingConfig& c) {
   p.setup_lat = c.setup_latency;
   p.trav_lat = c.traversal_latency;
   return p;
+}
+
+// A slot's registers in trav_unit.sv, as its declarations size them (the area and energy model's slot storage,
+// docs/energy-model.md; bench/rtl_trav_area.sh counts the synthesized flip-flops, which yosys may trim by a bit).
+struct TravSlotBits {
+  int state = 0;   // the set-up ray, the closest hit and its record, the traversal registers
+  int buffer = 0;  // the fetched node or record (the widest read)
+  int entry = 0;   // one short-stack entry: a 32-bit reference and the entry distance (TB + 2 bits)
+  int spill = 0;   // entries waiting to be spilled, per slot (N, a node's children)
+};
+inline TravSlotBits trav_slot_bits(const BoxUnitParams& b, const TriUnitParams& t) {
+  constexpr int kState = 3, kCount = 8, kStamp = 32, kRead = 2, kRayId = 24, kDepth = 10, kSpillCount = 4;
+  TravSlotBits r;
+  r.state = kState + kCount + kStamp + kRead + kRayId + 1 /*any_hit*/ + 3 * b.a /*origin*/ + 3 * t.dw() +
+            2 * 3 * (b.m + 2) /*reciprocals, both roundings*/ + 3 * b.rsw() + 3 + 3 /*zero, neg*/ +
+            2 * (b.tb + 1) /*tmin, closest t*/ + 1 /*found*/ + 32 /*primitive*/ + 3 * t.ew() /*e1, e2, det*/ +
+            1 + 32 /*next node*/ + 32 + 5 + 1 /*leaf records, done*/ + kDepth + kDepth + kSpillCount;
+  r.buffer = 8 * std::max(16 + 10 * b.n, 40);
+  r.entry = 32 + b.tb + 2;
+  r.spill = b.n;
+  return r;
 }
 
 // trav_unit.sv's parameters by name.

@@ -3,6 +3,8 @@
 // the estimates respond to the keys that should move them and to nothing else.
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <fstream>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -16,6 +18,7 @@
 #include "host/scene/scene.h"
 #include "hwmodel/cost/energy_model.h"
 #include "hwmodel/timing/timing_config.h"
+#include "rtl_sim/trav/trav_params.h"
 #include "tests/host/plan_checks.h"
 #include "tests/host/timed_checks.h"
 
@@ -330,4 +333,64 @@ TEST_CASE("energy: oriented nodes pay a rotation per node test and the stage's a
     for (const auto& ev : e.events)
       if (std::string(ev.key) == "rotate") CHECK(ev.pj() == Approx(double(s.obb_rotations) * (kind ? pj : 0.0)));
   }
+}
+
+TEST_CASE("energy: a ray slot's storage is the RTL traversal unit's registers, as yosys synthesized them",
+          "[energy]") {
+  // bench/data/rtl_trav_area.csv (bench/rtl_trav_area.sh): per synthesized design its Verilator parameters and the
+  // flip-flops of the slots' state, node/record buffers and stacks. trav_slot_bits sizes them from trav_unit.sv's
+  // declarations; the cost model prices them (cost_inputs below).
+  std::ifstream in(std::string(RTU_SOURCE_DIR) + "/bench/data/rtl_trav_area.csv");
+  REQUIRE(in);
+  std::string line;
+  std::getline(in, line);
+  REQUIRE(line == "params,control_cells,control_transistors,state_bits,buffer_bits,stack_bits");
+  int rows = 0;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    INFO(line);
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
+    REQUIRE(f.size() == 6);
+    auto g = [&](const std::string& name) {
+      const size_t at = f[0].find("-G" + name + "=");
+      REQUIRE(at != std::string::npos);
+      return std::stoi(f[0].substr(at + name.size() + 3));
+    };
+    rtu::rtl::BoxUnitParams b;
+    b.n = g("N");
+    b.a = g("A");
+    b.m = g("M");
+    b.tb = g("TB");
+    b.rsh = g("RSH");
+    b.lsh = g("LSH");
+    rtu::rtl::TriUnitParams t;
+    t.a = b.a;
+    t.d = g("D");
+    t.tb = b.tb;
+    const rtu::rtl::TravSlotBits sb = rtu::rtl::trav_slot_bits(b, t);
+    const long slots = g("SLOTS"), stack = g("STACK");
+    // Buffers and stacks are plain registers: every declared bit is a flip-flop.
+    CHECK(std::stol(f[4]) == slots * sb.buffer);
+    CHECK(std::stol(f[5]) == slots * (stack + sb.spill) * sb.entry);
+    // The state: each slot's registers and the unit's 32-bit clock counter; yosys trims a register bit it proves
+    // constant (at these parameters one of sp_from's, a slot), never adds one.
+    const long state = std::stol(f[3]) - 32;
+    CHECK(state <= slots * sb.state);
+    CHECK(state >= slots * (sb.state - 1));
+    // The cost model's slot: the registers, the buffer and the pending spills beside the stack.
+    TimingConfig c = rtu::hw::timing_preset("rdna2");
+    if (b.n == 8) {
+      c.format = "wide8";
+      c.bvh_width = 8;
+    }
+    const rtu::hw::CostInputs ci = rtu::host::cost_inputs(c);
+    if (b.a == 39 && b.tb == 56) {  // the rows of the default format's widths
+      CHECK(ci.slot_state_bits == double(sb.state + sb.buffer + sb.spill * sb.entry));
+      CHECK(ci.stack_entry_bits == double(sb.entry));
+    }
+    ++rows;
+  }
+  CHECK(rows >= 2);
 }

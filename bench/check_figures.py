@@ -309,18 +309,12 @@ def check_speed_embree(row, ctx, full):
             i += 2
     r.band("peak memory min", min(mem), g[8], *MEMORY_BAND)
     r.band("max", max(mem), g[9], *MEMORY_BAND)
-    r.note("band", "speed x0.5-2, memory +-15%")
-    return r
-
-
-def check_timed_speed(row, ctx, full):
-    lo, hi = stated(row, r"([\d.]+)-([\d.]+) M primary rays/s")
-    by = trace_bench(ctx)
+    # The same row's timed device: its simulation speed on camera rays (the same trace_bench run).
+    lo, hi = stated(row, r"timed device ([\d.]+)-([\d.]+) M primary rays/s")
     v = [m["rtu-timed"]["primary_mrays_per_s"] for m in by.values()]
-    r = Result()
-    r.band("min", min(v), lo, *SPEED_BAND)
+    r.band("timed M primary rays/s min", min(v), lo, *SPEED_BAND)
     r.band("max", max(v), hi, *SPEED_BAND)
-    r.note("band", "x0.5-2 (wall time)")
+    r.note("band", "speed x0.5-2, memory +-15%")
     return r
 
 
@@ -579,6 +573,27 @@ def check_rtl_box(row, ctx, full):
     return r
 
 
+def check_rtl_trav(row, ctx, full):
+    # README: N packets: mean error M%, largest L%, r R; D designs ranked alike. bench/rtl_correlation.sh on
+    # rtu_rtl_trav_bench (Verilator and the timing model: deterministic cycles, exact to the printed digits).
+    g = stated(row, r"(\d+) packets: mean error ([\d.]+)%, largest ([\d.]+)%, r ([\d.]+); (\d+) designs ranked alike")
+    subprocess.run(["cmake", "--build", ctx.build, "--target", "rtu_rtl_trav_bench", "-j2"], cwd=ROOT, check=True,
+                   stdout=subprocess.DEVNULL)
+    out = ctx.run(["bench/rtl_correlation.sh", os.path.join(ctx.build, "rtl_sim/rtu_rtl_trav_bench")])
+    m = re.search(r"All (\d+) packets: mean absolute error ([\d.]+)%, largest ([\d.]+)%, correlation ([\d.]+)", out)
+    d = re.search(r"(\d+) designs: Kendall's tau ([\d.]+)", out)
+    if not m or not d:
+        raise CommandFailed("no summary line in rtl_correlation.sh's output")
+    r = Result()
+    r.exact("packets", int(m.group(1)), g[0])
+    r.exact("mean error %", float(m.group(2)), g[1])
+    r.exact("largest %", float(m.group(3)), g[2])
+    r.exact("r", float(m.group(4)), g[3])
+    r.exact("designs", int(d.group(1)), g[4])
+    r.equal("ranked alike (Kendall's tau 1)", d.group(2), "1.0000")
+    return r
+
+
 def check_rtl_tri(row, ctx, full):
     # README: `rdna2` unit C cells, `embedded` D. test_rtl_tri must pass; bench/rtl_tri_area.sh gives the cells
     # (yosys; deterministic, exact).
@@ -598,7 +613,6 @@ CHECKS = [
     ("watertight", "Watertightness, conservative boxes", None, check_watertight),
     ("embree", "Float reference against Embree", None, check_embree),
     ("speed-embree", "Speed against Embree (one thread)", None, check_speed_embree),
-    ("timed-speed", "Timed device's simulation speed", None, check_timed_speed),
     ("cycles", "Cycles per ray, `rdna2`, three meshes", None, check_cycles),
     ("sampled", "Sampled timing, 4M rays, F = 0.01", None, check_sampled),  # 4.5 min
     ("coord-bits", "Coordinate bits", None, check_coord_bits),
@@ -606,6 +620,8 @@ CHECKS = [
     ("coord-bits-packed", "Coordinate bits, packed, `rdna2-mem`", None, check_coord_bits_packed),
     ("rtl-box", "RTL box unit", "yosys synthesizes one unit per row: about 18 minutes", check_rtl_box),
     ("rtl-tri", "RTL triangle unit", "yosys synthesizes each preset's unit: minutes per row", check_rtl_tri),
+    ("rtl-trav", "Model against the RTL traversal unit", "Verilator runs 180 packets twice and 40 designs: about 10 minutes",
+     check_rtl_trav),
     ("energy", "Area and energy (45 nm)", None, check_energy),
     ("chip", "Chip of units sharing L2 and DRAM", None, check_chip),
     ("two-level", "Two levels against flattened", None, check_two_level),

@@ -6,6 +6,7 @@
 # (the rows of bench/results/latency-hiding.md). Cycles and counts are deterministic; only the run time is the
 # machine's.
 # Usage: bench/latency_hiding.sh [RTUSIM] [RAYS]      (RAYS per kind, default 32768)
+# Environment: KINDS, PATH_SIZE, PRESETS, FORMATS (lists), TECHNIQUES (a regex of technique labels to run).
 set -euo pipefail
 source "$(dirname "$0")/lib.sh"
 bench_tmpdir
@@ -27,6 +28,8 @@ techniques=(
   "stack, degree 1|--set prefetcher=stack"
   "stack, degree 2, queue 64|--set prefetcher=stack --set prefetch_degree=2 --set prefetch_queue=64"
   "stack_pop, degree 2, queue 64|--set prefetcher=stack_pop --set prefetch_degree=2 --set prefetch_queue=64"
+  "ttp|--set prefetcher=ttp"
+  "ttp, queue 64|--set prefetcher=ttp --set prefetch_queue=64"
   "next_line, buffer 16|--set prefetcher=next_line --set prefetch_buffer=16"
   "treelet 512, queue 64, buffer 32|--set treelet_bytes=512 --set prefetcher=treelet --set prefetch_queue=64 --set prefetch_buffer=32"
   "restart trail|--set stack_mode=restart"
@@ -46,6 +49,8 @@ for s in "${scenes[@]}"; do
         for t in "${techniques[@]}"; do
           label=${t%%|*}
           args=${t#*|}
+          # TECHNIQUES=REGEX: only the techniques whose label matches (and the baseline, "none").
+          [ "$label" != none ] && [ -n "${TECHNIQUES:-}" ] && ! [[ $label =~ $TECHNIQUES ]] && continue
           out=$tmp/out.json
           if [ "$kind" = path ]; then
             # shellcheck disable=SC2086

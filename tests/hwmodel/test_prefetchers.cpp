@@ -39,6 +39,18 @@ TraceEvent node(uint32_t index) {
   return TraceEvent{TraceEvent::kNode, 4, 0, 0, index};
 }
 
+// Node 0 pushes nodes 5, 6, 7 (popped in that order); the ray descends to node 1, then pops 5, 6 and 7.
+std::vector<TraceEvent> push_then_pop() {
+  return {node(0),
+          TraceEvent{TraceEvent::kStackRef, 0, 0, 0, 5},
+          TraceEvent{TraceEvent::kStackRef, 1, 0, 0, 6},
+          TraceEvent{TraceEvent::kStackRef, 2, 0, 0, 7},
+          node(1),
+          node(5),
+          node(6),
+          node(7)};
+}
+
 uint64_t run(TimingModel& m, std::vector<TraceEvent> ev, TimingStats& s) {
   m.begin(1, s);
   m.feed(&ev, 1);
@@ -283,15 +295,7 @@ TEST_CASE("a stack prefetch on the second of two pops fills the entry then on to
   const uint64_t enter = c.packet_latency + c.ray_fetch_latency + c.setup_latency;
   const uint64_t miss = c.cache_latency + 64 / 8 + c.dram_latency;
   const uint64_t per_node = c.box_latency + c.traversal_latency;
-  // Node 0 pushes nodes 5, 6, 7 (popped in that order); the ray descends to node 1, then pops 5, 6 and 7.
-  const std::vector<TraceEvent> ray = {node(0),
-                                       TraceEvent{TraceEvent::kStackRef, 0, 0, 0, 5},
-                                       TraceEvent{TraceEvent::kStackRef, 1, 0, 0, 6},
-                                       TraceEvent{TraceEvent::kStackRef, 2, 0, 0, 7},
-                                       node(1),
-                                       node(5),
-                                       node(6),
-                                       node(7)};
+  const std::vector<TraceEvent> ray = push_then_pop();
   TimingModel::Layout l = layout();
   l.treelets.reset();
   TimingStats so;
@@ -329,15 +333,7 @@ TEST_CASE("TTP fills 1, 2, 16 entries at consecutive pops, leaves included, each
   const uint64_t enter = c.packet_latency + c.ray_fetch_latency + c.setup_latency;  // 38
   const uint64_t miss = c.cache_latency + 64 / 8 + c.dram_latency;                 // 110
   const uint64_t per_node = c.box_latency + c.traversal_latency;                   // 9
-  // Node 0 pushes nodes 5, 6, 7 (popped in that order); the ray descends to node 1, then pops 5, 6 and 7.
-  const std::vector<TraceEvent> ray = {node(0),
-                                       TraceEvent{TraceEvent::kStackRef, 0, 0, 0, 5},
-                                       TraceEvent{TraceEvent::kStackRef, 1, 0, 0, 6},
-                                       TraceEvent{TraceEvent::kStackRef, 2, 0, 0, 7},
-                                       node(1),
-                                       node(5),
-                                       node(6),
-                                       node(7)};
+  const std::vector<TraceEvent> ray = push_then_pop();
   TimingModel::Layout l = layout();
   l.treelets.reset();
   set_timing_key(c, "prefetcher", "ttp");

@@ -130,8 +130,8 @@ hw::CostInputs cost_inputs(const hw::FixedFormat& f, const hw::TimingConfig& c, 
   }
   try {
     // The RTL traversal unit's slot registers at this format's widths (a slot's storage, as SRAM bits).
-    const rtl::TravSlotBits sb = rtl::trav_slot_bits(rtl::box_unit_params(f, c.bvh_width, c.box_rate, c.box_latency),
-                                                     rtl::tri_unit_params(f, c.tri_latency));
+    const rtl::TravSlotBits sb = rtl::trav_slot_bits(
+        rtl::box_unit_params(f, c.bvh_width, c.box_rate, c.box_latency), rtl::tri_unit_params(f, c.tri_latency));
     in.slot_state_bits = double(sb.state + sb.buffer + sb.spill * sb.entry);
     in.stack_entry_bits = double(sb.entry);
     in.slot_source = "RTL traversal unit's registers (rtl_sim/trav)";
@@ -218,9 +218,10 @@ Json energy_json(const hw::EnergyReport& e, const hw::TimingConfig& c, const hw:
                {"tri_units_mm2", e.area.tri_mm2},
                {"cache_mm2", e.area.cache_mm2},
                {"slots_mm2", e.area.slots_mm2},
-               {"slot", {{"state_bits", in.slot_state_bits},
-                         {"stack_entry_bits", in.stack_entry_bits},
-                         {"source", in.slot_source}}},
+               {"slot",
+                {{"state_bits", in.slot_state_bits},
+                 {"stack_entry_bits", in.stack_entry_bits},
+                 {"source", in.slot_source}}},
                {"l2_mm2", e.area.l2_mm2},
                {"logic_nand2_eq", e.area.logic_nand2_eq},
                {"sram_bits", e.area.sram_bits},

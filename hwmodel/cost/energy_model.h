@@ -75,8 +75,8 @@ double logic_area_mm2(double nand2_eq, const Technology& t = nangate45());
 
 // The unit's SRAM: cache data and tags, ray slot state (CostInputs::slot_state_bits per slot), short stacks
 // (stack_entry_bits an entry) and trails, ray queue, prefetch queue.
-inline constexpr int kSlotStateBytes = 64;   // estimate of a slot's ray, hit and traversal registers
-inline constexpr int kStackEntryBytes = 8;   // estimate of a stack entry: a reference and a float32 distance
+inline constexpr int kSlotStateBytes = 64;  // estimate of a slot's ray, hit and traversal registers
+inline constexpr int kStackEntryBytes = 8;  // estimate of a stack entry: a reference and a float32 distance
 inline constexpr int kQueueRayBytes = 32;   // a queued ray (origin, direction, t range as floats)
 // stack_mode restart: a slot's trail, a 4-bit counter (children taken, up to 8) for each of 64 levels.
 inline constexpr int kTrailBytes = 32;

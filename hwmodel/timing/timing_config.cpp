@@ -299,9 +299,9 @@ void TimingConfig::validate() const {
 //     channels of 16 banks with 2 KB pages, 456 GB/s = 170.79 bytes per clock at 2.67 GHz, tRCD = tRP = 14.8 ns =
 //     40 cycles; dram_latency 587 = 801 - 174 - 40.
 // The papers' baseline, vksim-mobile and vksim-rtx2060 with their -chip presets: the GPUs that Vulkan-Sim 2.0
-// (ubc-aamodt-group/vulkan-sim, tag v2.0.0) simulates, as its configuration files give them, for the latency papers
-// measured on it (bench/results/latency-hiding.md): treelet prefetching (Chou et al., MICRO 2023) ships the mobile
-// one with its code (ubc-aamodt-group/treelet-prefetching-for-rt, configs/tested-cfgs/treelet_prefetching/
+// (ubc-aamodt-group/vulkan-sim, tag v2.0.0) simulates, as its configuration files give them, for the latency
+// papers measured on it (bench/results/latency-hiding.md): treelet prefetching (Chou et al., MICRO 2023) ships the
+// mobile one with its code (ubc-aamodt-group/treelet-prefetching-for-rt, configs/tested-cfgs/treelet_prefetching/
 // gpgpusim.config); TTP's code (yavuz650/vulkan-sim, branch traversal_trend_prefetcher, configs/updated-config/)
 // ships both, and which one its paper reports is not published. Vulkan-Sim's figures, in its config options:
 //   - clock 1365 MHz for the cores, interconnect and L2 (-gpgpu_clock_domains 1365:1365:1365:3500); one RT unit
@@ -310,11 +310,13 @@ void TimingConfig::validate() const {
 //   - the RT unit's node cache is the SM's L1D (-gpgpu_rt_use_l1 1): 64 KB, fully associative, 128-byte lines of
 //     32-byte sectors, 20 cycles (-gpgpu_cache:dl1 S:1:128:512, -gpgpu_l1_latency 20). The model has at most 64
 //     ways (16 sets of 64 here) and fills whole lines, so its lines are 64 bytes: a node's two sectors.
-//   - nodes: Mesa's BVH6 of 64-byte internal nodes (Vulkan-Sim's vulkan_acceleration_structure_util.h): format xe6,
+//   - nodes: Mesa's BVH6 of 64-byte internal nodes (Vulkan-Sim's vulkan_acceleration_structure_util.h): format
+//   xe6,
 //     bvh_width 6. Node test latencies (-gpgpu_rt_intersection_latency, internal node and quad leaf): 4 and 4
 //     cycles on the mobile SoC, 8 and 8 on the RTX 2060. A node per clock (box_rate 6) is our estimate: Vulkan-Sim
 //     gives no test rate.
-//   - mobile SoC: 8 SMs (-gpgpu_n_clusters 8); L2 64 sets x 16 ways x 128 bytes per channel, 4 channels (-gpgpu_n_mem
+//   - mobile SoC: 8 SMs (-gpgpu_n_clusters 8); L2 64 sets x 16 ways x 128 bytes per channel, 4 channels
+//   (-gpgpu_n_mem
 //     4): 512 KB (the file's "3MB" comment is the RTX 2060's); DRAM 4 channels of 16 bits, burst 8 at ratio 2 from
 //     3500 MHz: 14 GB/s each, 56 GB/s = 41.03 bytes per clock at 1.365 GHz.
 //   - RTX 2060: 30 SMs; L2 the same per sub-partition, 12 channels x 2 sub-partitions: 3 MB in 24 slices; 12

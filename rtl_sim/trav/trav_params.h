@@ -78,8 +78,8 @@ inline TravSlotBits trav_slot_bits(const BoxUnitParams& b, const TriUnitParams& 
   TravSlotBits r;
   r.state = kState + kCount + kStamp + kRead + kRayId + 1 /*any_hit*/ + 3 * b.a /*origin*/ + 3 * t.dw() +
             2 * 3 * (b.m + 2) /*reciprocals, both roundings*/ + 3 * b.rsw() + 3 + 3 /*zero, neg*/ +
-            2 * (b.tb + 1) /*tmin, closest t*/ + 1 /*found*/ + 32 /*primitive*/ + 3 * t.ew() /*e1, e2, det*/ +
-            1 + 32 /*next node*/ + 32 + 5 + 1 /*leaf records, done*/ + kDepth + kDepth + kSpillCount;
+            2 * (b.tb + 1) /*tmin, closest t*/ + 1 /*found*/ + 32 /*primitive*/ + 3 * t.ew() /*e1, e2, det*/ + 1 +
+            32 /*next node*/ + 32 + 5 + 1 /*leaf records, done*/ + kDepth + kDepth + kSpillCount;
   r.buffer = 8 * std::max(16 + 10 * b.n, 40);
   r.entry = 32 + b.tb + 2;
   r.spill = b.n;

@@ -331,8 +331,8 @@ TEST_CASE("a stack prefetch on the second of two pops fills the entry then on to
 TEST_CASE("TTP fills 1, 2, 16 entries at consecutive pops, leaves included, each entry once", "[timing]") {
   TimingConfig c = test_config();
   const uint64_t enter = c.packet_latency + c.ray_fetch_latency + c.setup_latency;  // 38
-  const uint64_t miss = c.cache_latency + 64 / 8 + c.dram_latency;                 // 110
-  const uint64_t per_node = c.box_latency + c.traversal_latency;                   // 9
+  const uint64_t miss = c.cache_latency + 64 / 8 + c.dram_latency;                  // 110
+  const uint64_t per_node = c.box_latency + c.traversal_latency;                    // 9
   const std::vector<TraceEvent> ray = push_then_pop();
   TimingModel::Layout l = layout();
   l.treelets.reset();
@@ -355,12 +355,9 @@ TEST_CASE("TTP fills 1, 2, 16 entries at consecutive pops, leaves included, each
   // from the stack is a second pop: it fills the entry then on top, the leaf's record lines; the leaf's first
   // record then hits, and its second record is no visit (no further fill).
   TimingModel::Layout lr = l;
-  const std::vector<TraceEvent> leafy = {node(0),
-                                         TraceEvent{TraceEvent::kStackRef, 0, 0, 0, 5},
-                                         TraceEvent{TraceEvent::kStackRef, 1, 2, 0, 2},
-                                         node(5),
-                                         TraceEvent{TraceEvent::kPrim, 0, 0, 0, 2},
-                                         TraceEvent{TraceEvent::kPrim, 0, 0, 0, 3}};
+  const std::vector<TraceEvent> leafy = {
+      node(0), TraceEvent{TraceEvent::kStackRef, 0, 0, 0, 5}, TraceEvent{TraceEvent::kStackRef, 1, 2, 0, 2},
+      node(5), TraceEvent{TraceEvent::kPrim, 0, 0, 0, 2},     TraceEvent{TraceEvent::kPrim, 0, 0, 0, 3}};
   TimingModel ml(c, lr);
   TimingStats sl;
   run(ml, leafy, sl);

@@ -493,8 +493,9 @@ TEST_CASE("a prefetcher changes when data is there, never what is fetched or tes
   CHECK(sp.prefetch_useful <= sp.prefetch_fills);
   CHECK(sp.dram_bytes == 64 * (sp.cache_misses + sp.prefetch_fills));  // line reads only: no stack events
   CHECK(so.dram_bytes == 64 * so.cache_misses);
-  CHECK_THROWS_WITH(rtu::hw::set_timing_key(c, "prefetcher", "stride"),
-                    Catch::Contains("prefetcher = 'stride' must be none, next_line, treelet, stack, stack_pop or ttp"));
+  CHECK_THROWS_WITH(
+      rtu::hw::set_timing_key(c, "prefetcher", "stride"),
+      Catch::Contains("prefetcher = 'stride' must be none, next_line, treelet, stack, stack_pop or ttp"));
 }
 
 namespace {

@@ -52,12 +52,11 @@ std::string value_of(const TimingConfig& c, const std::string& key) {
 }  // namespace
 
 TEST_CASE("every timing preset validates and lists every key", "[timing][config]") {
-  REQUIRE(timing_preset_names() == std::vector<std::string>{"rdna2", "intel", "embedded", "rdna2-mem", "intel-mem",
-                                                            "rdna2-chip", "intel-chip", "embedded-chip", "rdna4",
-                                                            "xe2", "rdna4-mem", "xe2-mem", "rdna4-chip",
-                                                            "xe2-chip", "rdna4-lss", "vksim-mobile",
-                                                            "vksim-mobile-chip", "vksim-rtx2060",
-                                                            "vksim-rtx2060-chip"});
+  REQUIRE(timing_preset_names() ==
+          std::vector<std::string>{"rdna2", "intel", "embedded", "rdna2-mem", "intel-mem", "rdna2-chip",
+                                   "intel-chip", "embedded-chip", "rdna4", "xe2", "rdna4-mem", "xe2-mem",
+                                   "rdna4-chip", "xe2-chip", "rdna4-lss", "vksim-mobile", "vksim-mobile-chip",
+                                   "vksim-rtx2060", "vksim-rtx2060-chip"});
   for (const std::string& name : timing_preset_names()) {
     INFO(name);
     const TimingConfig c = timing_preset(name);
@@ -220,39 +219,41 @@ TEST_CASE("chip presets keep their unit's preset and take the chip's published m
   CHECK(r.dram_bytes_per_cycle / r.units == Approx(timing_preset("rdna2-mem").dram_bytes_per_cycle));
 }
 
-TEST_CASE("the papers' baseline presets take Vulkan-Sim's configuration files' figures", "[timing][config][chip]") {
+TEST_CASE("the papers' baseline presets take Vulkan-Sim's configuration files' figures",
+          "[timing][config][chip]") {
   // Vulkan-Sim 2.0's gpgpusim.config options (timing_config.cpp names the files): the mobile SoC of treelet
   // prefetching's code and the RTX 2060.
   const TimingConfig m = timing_preset("vksim-mobile-chip"), r = timing_preset("vksim-rtx2060-chip");
   for (const TimingConfig* c : {&m, &r}) {
     INFO(c->name);
-    CHECK(c->clock_ghz == 1.365);                           // -gpgpu_clock_domains 1365:...
-    CHECK(c->format == "xe6");                              // Mesa's BVH6 of 64-byte nodes
+    CHECK(c->clock_ghz == 1.365);  // -gpgpu_clock_domains 1365:...
+    CHECK(c->format == "xe6");     // Mesa's BVH6 of 64-byte nodes
     CHECK(c->bvh_width == 6);
-    CHECK(c->cache_kib == 64);                              // -gpgpu_cache:dl1 S:1:128:512: 512 x 128 B
-    CHECK(c->cache_latency == 20);                          // -gpgpu_l1_latency 20
-    CHECK(c->l2_latency == 160);                            // -gpgpu_l2_rop_latency 160
-    CHECK(c->dram_latency == 100 + 8);                      // -dram_latency 100, tCL 20 at 3.5 GHz
-    CHECK(c->dram_activate_cycles == 8);                    // tRCD 20 at 3.5 GHz: 5.7 ns at 1.365 GHz
-    CHECK(c->dram_banks == 16);                             // nbk=16
+    CHECK(c->cache_kib == 64);                                // -gpgpu_cache:dl1 S:1:128:512: 512 x 128 B
+    CHECK(c->cache_latency == 20);                            // -gpgpu_l1_latency 20
+    CHECK(c->l2_latency == 160);                              // -gpgpu_l2_rop_latency 160
+    CHECK(c->dram_latency == 100 + 8);                        // -dram_latency 100, tCL 20 at 3.5 GHz
+    CHECK(c->dram_activate_cycles == 8);                      // tRCD 20 at 3.5 GHz: 5.7 ns at 1.365 GHz
+    CHECK(c->dram_banks == 16);                               // nbk=16
     CHECK(c->l2_kib / c->l2_slices == 64 * 16 * 128 / 1024);  // S:64:128:16 per sub-partition
   }
-  CHECK(m.units == 8);         // -gpgpu_n_clusters 8
+  CHECK(m.units == 8);            // -gpgpu_n_clusters 8
   CHECK(m.ray_slots == 16 * 32);  // -gpgpu_rt_max_warps 16
-  CHECK(m.l2_kib == 512);      // 4 channels of one sub-partition
+  CHECK(m.l2_kib == 512);         // 4 channels of one sub-partition
   CHECK(m.dram_channels == 4);
   CHECK(m.dram_bytes_per_cycle * m.clock_ghz == Approx(56.0).epsilon(0.001));  // 4 x 14 GB/s
   CHECK(m.box_latency == 4);  // -gpgpu_rt_intersection_latency 2,4,4,2,4,4,4
   CHECK(m.tri_latency == 4);
   CHECK(r.units == 30);
   CHECK(r.ray_slots == 4 * 32);  // -gpgpu_rt_max_warps 4
-  CHECK(r.l2_kib == 3072);      // 12 channels x 2 sub-partitions
+  CHECK(r.l2_kib == 3072);       // 12 channels x 2 sub-partitions
   CHECK(r.dram_channels == 12);
   CHECK(r.dram_bytes_per_cycle * r.clock_ghz == Approx(336.0).epsilon(0.001));  // 12 x 28 GB/s
-  CHECK(r.box_latency == 8);  // 4,8,8,4,8,8,8
+  CHECK(r.box_latency == 8);                                                    // 4,8,8,4,8,8,8
   CHECK(r.tri_latency == 8);
   // The unit presets: one unit's share of the DRAM, and an L2 miss opening a row for every miss.
-  for (const auto& [chip, unit] : {std::pair{m, timing_preset("vksim-mobile")}, {r, timing_preset("vksim-rtx2060")}}) {
+  for (const auto& [chip, unit] :
+       {std::pair{m, timing_preset("vksim-mobile")}, {r, timing_preset("vksim-rtx2060")}}) {
     INFO(unit.name);
     CHECK(unit.dram_bytes_per_cycle == Approx(chip.dram_bytes_per_cycle / chip.units).margin(0.01));
     CHECK(unit.dram_bytes_per_cycle <= chip.dram_bytes_per_cycle / chip.units);

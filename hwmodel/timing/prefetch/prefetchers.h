@@ -41,8 +41,8 @@ inline const std::vector<PrefetcherInfo>& prefetchers() {
        "trigger)",
        detail::make_prefetcher<StackPopPrefetcher>, true},
       {"ttp",
-       "TTP as published: at every visit and pop, the entries then on top of the stack, leaves included (1, 2 or 16 "
-       "as the visit is the first, second or a later of consecutive pops), each not among the slot's 16 last",
+       "TTP as published: at each visit, 1, 2 or 16 entries from the top of the stack, leaves included, as the "
+       "visit is the first, second or a later of consecutive pops; none among the slot's 16 last",
        detail::make_prefetcher<TtpPrefetcher>, true, true},
   };
   return table;

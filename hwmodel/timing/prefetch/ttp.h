@@ -25,7 +25,7 @@ namespace rtu::hw {
 class TtpPrefetcher final : public FetchObserver {
  public:
   static constexpr std::array<uint32_t, 3> kDegree = {1, 2, 16};  // after the first, second, later pops
-  static constexpr size_t kRecent = 16;                            // unique prefetch addresses remembered
+  static constexpr size_t kRecent = 16;                           // unique prefetch addresses remembered
 
   TtpPrefetcher(const TimingConfig& c, const FetchContext&) : m_slots(size_t(c.ray_slots)) {}
   void on_ray(uint32_t slot) override { m_slots[slot] = Slot{}; }
@@ -78,7 +78,7 @@ class TtpPrefetcher final : public FetchObserver {
     uint64_t first_line, last_line;
   };
   struct Slot {
-    std::vector<Entry> stack;     // bottom first
+    std::vector<Entry> stack;      // bottom first
     std::vector<uint64_t> recent;  // the last kRecent entries prefetched (index << 1 | leaf), oldest first
     size_t group = 0;              // where the current push's entries go
     bool new_push = true;          // the next pushed entry starts a push

@@ -364,6 +364,23 @@ TEST_CASE("TTP fills 1, 2, 16 entries at consecutive pops, leaves included, each
   // Records 2 and 3 are 40 bytes each at record_offset (2^20): bytes 80..159 of it, lines 16385 and 16386.
   CHECK(sl.prefetch_fills == 2);
   CHECK(sl.prefetch_useful == 2);
+  // One part switched off at a time (ttp_off). Without leaves the leaf is not on the stack: nothing to fill.
+  set_timing_key(c, "ttp_off", "leaves");
+  TimingModel ml2(c, lr);
+  TimingStats sl2;
+  run(ml2, leafy, sl2);
+  CHECK(sl2.prefetch_fills == 0);
+  // Without descents node 1's visit fills nothing and starts no run: node 5 is the first pop (node 6), node 6
+  // the second (node 7, the last entry).
+  set_timing_key(c, "ttp_off", "descents");
+  TimingModel md(c, l);
+  TimingStats sd;
+  run(md, ray, sd);
+  CHECK(sd.prefetch_fills == 2);
+  CHECK(sd.cache_misses == 3);  // nodes 0, 1 and 5
+  // The key applies to ttp only: another prefetcher beside it is refused.
+  CHECK_THROWS_WITH(set_timing_key(c, "prefetcher", "stack_pop"),
+                    Catch::Contains("ttp_off applies to prefetcher ttp only"));
 }
 
 TEST_CASE("a prefetch buffer keeps fills out of the cache: no pollution, a hit moves the line in", "[timing]") {

@@ -1,6 +1,7 @@
 #include "hwmodel/timing/parts/prefetch.h"
 
 #include <array>
+#include <string>
 #include <vector>
 
 #include "hwmodel/timing/prefetch/prefetchers.h"
@@ -33,6 +34,14 @@ const TimingKeyTable& prefetch_keys() {
       {"treelet_bytes", &C::treelet_bytes, 0, 65536,
        "timing layout: 0 nodes in the image's order; > 0 nodes in treelets of at most this many bytes, each "
        "contiguous (prefetch/treelets.h; prefetcher = treelet needs it > 0)"},
+      {"ttp_off", choice_field<&C::ttp_off>(), 0, 0,
+       "prefetcher ttp: one part of the published mechanism switched off, to measure what it brings",
+       [](const C& c) -> std::string {
+         if (c.ttp_off != TtpOff::kNone && std::string(prefetcher_info(c.prefetcher).name) != "ttp")
+           return "ttp_off applies to prefetcher ttp only (prefetcher = " +
+                  std::string(prefetcher_info(c.prefetcher).name) + ")";
+         return {};
+       }},
   };
   return keys;
 }

@@ -13,6 +13,25 @@ namespace rtu::hw {
 enum class PrefetcherId : uint8_t { kNone = 0 };
 std::span<const TimingChoice> choices(PrefetcherId);  // prefetchers()' names and descriptions
 
+// prefetcher ttp (prefetch/ttp.h): one part of the published mechanism switched off, to measure what it brings.
+enum class TtpOff : uint8_t {
+  kNone,      // as published
+  kLeaves,    // the stack view holds inner nodes only; leaves are neither filled nor seen popped
+  kDescents,  // a visit not taken from the stack is no pop: it fills nothing and ends a run of pops
+  kFilter,    // no filter of the slot's recent prefetches
+  kFill16,    // a third or later consecutive pop fills 2 entries, not 16
+};
+inline std::span<const TimingChoice> choices(TtpOff) {
+  static constexpr TimingChoice list[] = {
+      {"none", "TTP as published"},
+      {"leaves", "inner nodes only: leaves are neither filled nor seen popped"},
+      {"descents", "a visit not taken from the stack is no pop: it fills nothing and ends a run of pops"},
+      {"filter", "no filter of the slot's 16 recent prefetches"},
+      {"fill16", "a third or later consecutive pop fills 2 entries, not 16"},
+  };
+  return list;
+}
+
 struct PrefetchConfig {
   // A prefetcher watching the unit's fetches (prefetch/fetch_observer.h): none (the default) or one of
   // prefetchers() such as next_line; prefetch_degree lines per trigger.
@@ -25,6 +44,8 @@ struct PrefetchConfig {
   int prefetch_buffer = 0;
   // Bytes of a treelet in the timing layout (prefetch/treelets.h): 0 places nodes in the image's order.
   int treelet_bytes = 0;
+  // prefetcher ttp: a part of its mechanism switched off (none: as published).
+  TtpOff ttp_off = TtpOff::kNone;
 };
 
 // Prefetcher fills (prefetch/fetch_observer.h): lines brought in, asked for but already there, and brought in and

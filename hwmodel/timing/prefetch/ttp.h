@@ -27,9 +27,10 @@ class TtpPrefetcher final : public FetchObserver {
   static constexpr std::array<uint32_t, 3> kDegree = {1, 2, 16};  // after the first, second, later pops
   static constexpr size_t kRecent = 16;                           // unique prefetch addresses remembered
 
-  TtpPrefetcher(const TimingConfig& c, const FetchContext&) : m_slots(size_t(c.ray_slots)) {}
+  TtpPrefetcher(const TimingConfig& c, const FetchContext&) : m_off(c.ttp_off), m_slots(size_t(c.ray_slots)) {}
   void on_ray(uint32_t slot) override { m_slots[slot] = Slot{}; }
   void on_push(const StackPush& p, LinePort&) override {
+    if (p.leaf && m_off == TtpOff::kLeaves) return;
     Slot& s = m_slots[p.slot];
     if (s.new_push) s.group = s.stack.size();
     s.new_push = false;
@@ -38,7 +39,7 @@ class TtpPrefetcher final : public FetchObserver {
   void on_fetch(const LineFetch& f, LinePort& port) override {
     Slot& s = m_slots[f.slot];
     const bool leaf = f.kind == TraceEvent::kPrim;
-    if (f.kind != TraceEvent::kNode && !leaf) return;
+    if (f.kind != TraceEvent::kNode && (!leaf || m_off == TtpOff::kLeaves)) return;
     size_t i = s.stack.size();
     while (i > 0 && !(s.stack[i - 1].index == f.index && s.stack[i - 1].leaf == leaf)) --i;
     if (i == 0 && leaf) {
@@ -53,17 +54,19 @@ class TtpPrefetcher final : public FetchObserver {
     s.in_leaf = leaf;
     s.next_record = f.index + 1;
     if (i == 0) {
-      s.trend = 1;  // a descent: Vulkan-Sim's push and pop of the nearest child
+      s.trend = m_off == TtpOff::kDescents ? 0 : 1;  // a descent: Vulkan-Sim's push and pop of the nearest child
+      if (s.trend == 0) return;
     } else {
       s.stack.resize(i - 1);  // the entry and what was above it leave the stack
       s.trend = std::min<uint32_t>(s.trend + 1, 3);
     }
-    uint32_t n = kDegree[s.trend - 1];
+    uint32_t n = s.trend == 3 && m_off == TtpOff::kFill16 ? 2 : kDegree[s.trend - 1];
     for (size_t j = s.stack.size(); j > 0 && n > 0; --j, --n) {
       const Entry& e = s.stack[j - 1];
       const uint64_t key = (uint64_t(e.index) << 1) | uint64_t(e.leaf);
       bool seen = false;
-      for (uint64_t r : s.recent) seen = seen || r == key;
+      if (m_off != TtpOff::kFilter)
+        for (uint64_t r : s.recent) seen = seen || r == key;
       if (seen) continue;
       if (s.recent.size() == kRecent) s.recent.erase(s.recent.begin());
       s.recent.push_back(key);
@@ -86,6 +89,7 @@ class TtpPrefetcher final : public FetchObserver {
     bool in_leaf = false;          // the last visit was a leaf's first record
     uint32_t next_record = 0;      // then, the record after the last one fetched
   };
+  TtpOff m_off;
   std::vector<Slot> m_slots;
 };
 

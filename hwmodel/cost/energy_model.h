@@ -119,7 +119,7 @@ struct AreaReport {
 AreaReport area_report(const TimingConfig& c, const CostInputs& in, const Technology& t = nangate45());
 double cache_sram_bits(const TimingConfig& c);  // data + tags (a 32-bit tag and a valid bit per line)
 double slot_sram_bits(const TimingConfig& c, const CostInputs& in);  // slot state, stacks, trails, queues
-double l2_sram_bits(const TimingConfig& c);     // the L2's data + tags (0 without one)
+double l2_sram_bits(const TimingConfig& c);                          // the L2's data + tags (0 without one)
 
 struct EnergyEvent {
   const char* key;

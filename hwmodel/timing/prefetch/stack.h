@@ -21,6 +21,29 @@
 
 namespace rtu::hw {
 
+// A ray's stack as its pushes show it, bottom first (stack_pop, ttp.h): a push's entries arrive nearest first and
+// each later one goes below the ones before it; a fetch between pushes (fetched()) starts a new push.
+template <class E>
+struct PushedStack {
+  std::vector<E> entries;
+  size_t group = 0;      // where the current push's entries go
+  bool new_push = true;  // the next pushed entry starts a push
+
+  void push(const E& e) {
+    if (new_push) group = entries.size();
+    new_push = false;
+    entries.insert(entries.begin() + ptrdiff_t(group), e);
+  }
+  void fetched() { new_push = true; }
+  // One past the topmost entry `match` accepts (0: none); a pop to it is resize(find(...) - 1).
+  template <class F>
+  size_t find(F match) const {
+    size_t i = entries.size();
+    while (i > 0 && !match(entries[i - 1])) --i;
+    return i;
+  }
+};
+
 class StackPrefetcher final : public FetchObserver {
  public:
   StackPrefetcher(const TimingConfig& c, const FetchContext&) : m_degree(uint32_t(c.prefetch_degree)) {}
@@ -38,35 +61,26 @@ class StackPopPrefetcher final : public FetchObserver {
  public:
   StackPopPrefetcher(const TimingConfig& c, const FetchContext&)
       : m_degree(uint32_t(c.prefetch_degree)), m_slots(size_t(c.ray_slots)) {}
-  void on_ray(uint32_t slot) override {
-    Slot& s = m_slots[slot];
-    s.stack.clear();
-    s.popped = false;
-    s.new_push = true;
-  }
+  void on_ray(uint32_t slot) override { m_slots[slot] = Slot{}; }
   void on_push(const StackPush& p, LinePort&) override {
-    Slot& s = m_slots[p.slot];
     // A push's entries come together, after the fetch of the node whose test pushed them (leaves are not shown,
     // so the first may have any rank).
-    if (s.new_push) s.group = s.stack.size();
-    s.new_push = false;
-    // The nearest entry of a push is on top: each later rank goes below the ones before it.
-    s.stack.insert(s.stack.begin() + ptrdiff_t(s.group), Entry{p.index, p.first_line, p.last_line});
+    m_slots[p.slot].stack.push(Entry{p.index, p.first_line, p.last_line});
   }
   void on_fetch(const LineFetch& f, LinePort& port) override {
     Slot& s = m_slots[f.slot];
-    s.new_push = true;
+    s.stack.fetched();
     if (f.kind != TraceEvent::kNode) return;
-    size_t i = s.stack.size();
-    while (i > 0 && s.stack[i - 1].index != f.index) --i;
+    const size_t i = s.stack.find([&](const Entry& e) { return e.index == f.index; });
     if (i == 0) {  // a descent
       s.popped = false;
       return;
     }
-    s.stack.resize(i - 1);  // the node and what was above it leave the stack
+    std::vector<Entry>& st = s.stack.entries;
+    st.resize(i - 1);  // the node and what was above it leave the stack
     if (s.popped) {
-      for (size_t j = 0; j < m_degree && j < s.stack.size(); ++j) {
-        const Entry& e = s.stack[s.stack.size() - 1 - j];
+      for (size_t j = 0; j < m_degree && j < st.size(); ++j) {
+        const Entry& e = st[st.size() - 1 - j];
         for (uint64_t line = e.first_line; line <= e.last_line; ++line) port.fill(line);
       }
     }
@@ -79,10 +93,8 @@ class StackPopPrefetcher final : public FetchObserver {
     uint64_t first_line, last_line;
   };
   struct Slot {
-    std::vector<Entry> stack;  // bottom first
-    size_t group = 0;          // where the current push's entries go
-    bool popped = false;       // the slot's last node fetch was a pop
-    bool new_push = true;      // the next pushed entry starts a push (a fetch came since the last)
+    PushedStack<Entry> stack;
+    bool popped = false;  // the slot's last node fetch was a pop
   };
   uint32_t m_degree;
   std::vector<Slot> m_slots;

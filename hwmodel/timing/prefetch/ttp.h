@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "hwmodel/timing/prefetch/fetch_observer.h"
+#include "hwmodel/timing/prefetch/stack.h"
 
 namespace rtu::hw {
 
@@ -31,17 +32,13 @@ class TtpPrefetcher final : public FetchObserver {
   void on_ray(uint32_t slot) override { m_slots[slot] = Slot{}; }
   void on_push(const StackPush& p, LinePort&) override {
     if (p.leaf && m_off == TtpOff::kLeaves) return;
-    Slot& s = m_slots[p.slot];
-    if (s.new_push) s.group = s.stack.size();
-    s.new_push = false;
-    s.stack.insert(s.stack.begin() + ptrdiff_t(s.group), Entry{p.index, p.leaf, p.first_line, p.last_line});
+    m_slots[p.slot].stack.push(Entry{p.index, p.leaf, p.first_line, p.last_line});
   }
   void on_fetch(const LineFetch& f, LinePort& port) override {
     Slot& s = m_slots[f.slot];
     const bool leaf = f.kind == TraceEvent::kPrim;
     if (f.kind != TraceEvent::kNode && (!leaf || m_off == TtpOff::kLeaves)) return;
-    size_t i = s.stack.size();
-    while (i > 0 && !(s.stack[i - 1].index == f.index && s.stack[i - 1].leaf == leaf)) --i;
+    const size_t i = s.stack.find([&](const Entry& e) { return e.index == f.index && e.leaf == leaf; });
     if (i == 0 && leaf) {
       // A leaf visited directly (the nearest child) counts as a visit only at its first record: the records
       // after it follow their predecessor in the same leaf.
@@ -50,19 +47,19 @@ class TtpPrefetcher final : public FetchObserver {
         return;
       }
     }
-    s.new_push = true;
+    s.stack.fetched();
     s.in_leaf = leaf;
     s.next_record = f.index + 1;
     if (i == 0) {
       s.trend = m_off == TtpOff::kDescents ? 0 : 1;  // a descent: Vulkan-Sim's push and pop of the nearest child
       if (s.trend == 0) return;
     } else {
-      s.stack.resize(i - 1);  // the entry and what was above it leave the stack
+      s.stack.entries.resize(i - 1);  // the entry and what was above it leave the stack
       s.trend = std::min<uint32_t>(s.trend + 1, 3);
     }
     uint32_t n = s.trend == 3 && m_off == TtpOff::kFill16 ? 2 : kDegree[s.trend - 1];
-    for (size_t j = s.stack.size(); j > 0 && n > 0; --j, --n) {
-      const Entry& e = s.stack[j - 1];
+    for (size_t j = s.stack.entries.size(); j > 0 && n > 0; --j, --n) {
+      const Entry& e = s.stack.entries[j - 1];
       const uint64_t key = (uint64_t(e.index) << 1) | uint64_t(e.leaf);
       bool seen = false;
       if (m_off != TtpOff::kFilter)
@@ -81,10 +78,8 @@ class TtpPrefetcher final : public FetchObserver {
     uint64_t first_line, last_line;
   };
   struct Slot {
-    std::vector<Entry> stack;      // bottom first
+    PushedStack<Entry> stack;
     std::vector<uint64_t> recent;  // the last kRecent entries prefetched (index << 1 | leaf), oldest first
-    size_t group = 0;              // where the current push's entries go
-    bool new_push = true;          // the next pushed entry starts a push
     uint32_t trend = 0;            // TTP's counter: consecutive pops, up to 3
     bool in_leaf = false;          // the last visit was a leaf's first record
     uint32_t next_record = 0;      // then, the record after the last one fetched

@@ -221,13 +221,13 @@ struct FixedPolicy {
     return true;
   }
 
-  typename Test::RayState nr;     // the node kernels' constants for the ray
-  bool short_edges;               // short_edges_known for the ray
-  int short_stack = -1;           // FixedTraceOptions::record_short_stack
-  bool stack_refs = false;        // FixedTraceOptions::record_stack_refs
-  bool leaf_refs = false;         // FixedTraceOptions::record_leaf_refs
-  mutable int rec_depth = 0;      // stack entries, as the recorder counts them (every push and pop)
-  RestartTrail* trail = nullptr;  // recording with FixedTraceOptions::record_restart: the restarts' costs
+  typename Test::RayState nr;         // the node kernels' constants for the ray
+  bool short_edges;                   // short_edges_known for the ray
+  int short_stack = -1;               // FixedTraceOptions::record_short_stack
+  bool stack_refs = false;            // FixedTraceOptions::record_stack_refs
+  bool leaf_refs = false;             // FixedTraceOptions::record_leaf_refs
+  mutable int rec_depth[2] = {0, 0};  // each stack's entries, as the recorder counts them (traverse.h)
+  RestartTrail* trail = nullptr;      // recording with FixedTraceOptions::record_restart: the restarts' costs
 
   // A constructor, not aggregate initialization: GCC 12 clears the whole object before an aggregate's fields
   // (rep stos, a stall once per ray).
@@ -339,19 +339,23 @@ struct FixedPolicy {
   }
 
   int64_t limit() const { return watch.fired ? INT64_MIN : closest.t; }
-  void pushed(const uint32_t* refs, int n) const {
+  // Stack b's traffic (traverse.h: 0, or 1 for treelet-first order's other treelets). Each stack is a short
+  // stack of its own in treelet-first order; their spills go to the slot's one spill area (the timing model
+  // counts entries spilled, not which stack they came from).
+  void pushed(const uint32_t* refs, int n, int b) const {
     if (!watch.fired) watch.depth += n;
     if (rec) {
+      int& depth = rec_depth[b];
       if (trail) {
         trail->pushed(n);
       } else if (short_stack < 0) {
         rec->push_back(TraceEvent{TraceEvent::kPush, uint8_t(n), 0, 0, 0});
       } else {
         // Entries beyond the short stack after the push, less those beyond it before.
-        const int over = std::max(0, rec_depth + n - short_stack) - std::max(0, rec_depth - short_stack);
+        const int over = std::max(0, depth + n - short_stack) - std::max(0, depth - short_stack);
         if (over > 0) rec->push_back(TraceEvent{TraceEvent::kSpill, uint8_t(over), 0, 0, 0});
       }
-      rec_depth += n;
+      depth += n;
       if (stack_refs)
         for (int j = 0; j < n; ++j) {
           if (!is_leaf(refs[j]))
@@ -362,16 +366,17 @@ struct FixedPolicy {
         }
     }
   }
-  void popped() const {
+  void popped(int b) const {
     if (!watch.fired) --watch.depth;
     if (rec) {
+      int& depth = rec_depth[b];
       if (trail) {
         if (!watch.fired) trail->popped(*rec);  // a stopped ray ends: no restart
       } else if (short_stack < 0)
         rec->push_back(TraceEvent{TraceEvent::kPop, 0, 0, 0, 0});
-      else if (rec_depth > short_stack)
+      else if (depth > short_stack)
         rec->push_back(TraceEvent{TraceEvent::kRefill, 0, 0, 0, 0});
-      --rec_depth;
+      --depth;
     }
   }
 };
@@ -383,6 +388,13 @@ FixedTracer::FixedTracer(const DeviceImage& image, const FixedTraceOptions& opt)
   if (m_opt.box_unit && !(image.header().flags & kImageNoBvh))
     m_opt.box_unit->check_format(m_format, int(image.header().width));
   if (m_opt.tri_unit) m_opt.tri_unit->check_format(m_format);
+  if (m_opt.treelets.of && (m_opt.record_restart || m_opt.record_stack_refs))
+    throw std::invalid_argument(
+        "treelet-first traversal keeps two stacks; the restart trail and the stack prefetchers see one");
+  if (m_opt.treelets.of && m_opt.treelets.count != image.header().node_count)
+    throw std::invalid_argument("treelet-first traversal: the treelet map has " +
+                                std::to_string(m_opt.treelets.count) + " nodes, the image " +
+                                std::to_string(image.header().node_count));
   m_step_limit = opt.max_steps > 0 ? opt.max_steps : uint64_t(image.node_total()) * image.header().width + 1;
 }
 
@@ -481,7 +493,10 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
         std::optional<RestartTrail> trail;
         if (rec && m_opt.record_restart && m_opt.record_short_stack >= 0)
           p.trail = &trail.emplace(m_opt.record_short_stack);
-        traverse(p, hd.root_ref, any_hit, s);
+        if (m_opt.treelets.of)
+          traverse_treelet_first(p, hd.root_ref, any_hit, s, m_opt.treelets);
+        else
+          traverse(p, hd.root_ref, any_hit, s);
       });
     }
   }

@@ -10,6 +10,7 @@
 #include "hwmodel/datapath/box_unit.h"
 #include "hwmodel/datapath/intersect_fixed.h"
 #include "hwmodel/datapath/stats.h"
+#include "hwmodel/datapath/traverse.h"
 #include "hwmodel/datapath/tri_unit.h"
 #include "hwmodel/format/device_image.h"
 #include "hwmodel/interface/any_hit.h"
@@ -105,6 +106,11 @@ struct FixedTraceOptions {
   // a pop of a dropped entry restarts from the root with a trail (restart_trail.h): a kRestart event and the kNode
   // events of the nodes re-visited, no kSpill or kRefill. The hits are the same.
   bool record_restart = false;
+  // Treelet-first order (traverse.h, traverse_treelet_first) over these treelets, or (null map) the default
+  // depth-first, nearest-first order. Of two primitives hit at the same t it may report the other. Not with
+  // record_restart or record_stack_refs (their trail and stack view are of one stack); one-level images only.
+  // Not owned; must outlive the tracer's use.
+  TreeletMap treelets = {};
   // The any-hit stage of non-opaque triangles (records with kRecordNonOpaque), or null: they are opaque. Not
   // owned; must outlive the tracer's use.
   const AnyHitStage* any_hit = nullptr;

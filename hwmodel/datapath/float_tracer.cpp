@@ -71,8 +71,8 @@ struct FloatPolicy {
   }
 
   float limit() const { return closest.tmax; }
-  void pushed(const uint32_t*, int) const {}
-  void popped() const {}
+  void pushed(const uint32_t*, int, int) const {}
+  void popped(int) const {}
 };
 
 }  // namespace

@@ -231,8 +231,8 @@ struct TopPolicy {
   }
 
   float limit() const { return closest.t; }
-  void pushed(const uint32_t*, int) const {}
-  void popped() const {}
+  void pushed(const uint32_t*, int, int) const {}
+  void popped(int) const {}
 };
 
 }  // namespace

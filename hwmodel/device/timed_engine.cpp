@@ -21,6 +21,17 @@
 
 namespace rtu::hw {
 
+namespace {
+
+// The treelets of a one-level image in the timing layout's node stride (treelet_bytes > 0).
+std::shared_ptr<const Treelets> layout_treelets(const DeviceImage& image, const TimingConfig& c) {
+  const TimingModel::Layout l = TimingModel::layout_of(image, uint64_t(c.layout_align));
+  const uint64_t stride = l.node_stride ? l.node_stride : l.node_bytes;
+  return std::make_shared<const Treelets>(form_treelets(image, uint64_t(c.treelet_bytes), stride));
+}
+
+}  // namespace
+
 TimedEngine::TimedEngine(const EngineOptions& o, const TimingConfig& c, std::unique_ptr<BoxUnit> unit,
                          std::unique_ptr<TriUnit> tri)
     : m_opt(o), m_c(c), m_box_unit(std::move(unit)), m_tri_unit(std::move(tri)) {
@@ -70,7 +81,10 @@ void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   if (img.header().flags & kImageTopLevel)  // its bottom levels are not in the image
     throw std::invalid_argument("scene image: a top level, whose bottom levels this engine does not hold");
   auto image = std::make_unique<DeviceImage>(std::move(img));
+  if (m_c.treelet_bytes > 0) m_treelets = layout_treelets(*image, m_c);
   FixedTraceOptions to;
+  if (m_c.traversal == TraversalOrder::kTreeletFirst && m_treelets && !m_treelets->id.empty())
+    to.treelets = TreeletMap{m_treelets->id.data(), uint32_t(m_treelets->id.size())};
   to.max_steps = m_opt.max_steps;
   to.record_short_stack = m_c.stack_entries;  // the model charges only for entries beyond it
   to.record_stack_refs = prefetcher_wants_stack_refs(m_c);
@@ -121,13 +135,14 @@ void TimedEngine::make_models() {
   // Checked at bind rather than by validate(), so that --set order does not matter.
   if (std::string_view(name_of(m_c.prefetcher)) == "treelet" && m_c.treelet_bytes == 0)
     throw std::invalid_argument("prefetcher = treelet needs treelet_bytes > 0 (the treelets it prefetches)");
+  if (m_c.traversal == TraversalOrder::kTreeletFirst && m_c.treelet_bytes == 0)
+    throw std::invalid_argument("traversal = treelet_first needs treelet_bytes > 0 (the treelets it finishes)");
   if (m_c.treelet_bytes > 0) {
     if (m_two)
       throw std::invalid_argument(
           "treelet_bytes: treelet layouts are for one-level scenes, and this scene is instanced (two levels): "
           "trace it flattened (--flatten; flatten=True in Python) or leave treelet_bytes at 0");
-    const uint64_t stride = l.node_stride ? l.node_stride : l.node_bytes;
-    l.treelets = std::make_shared<const Treelets>(form_treelets(*m_image, uint64_t(m_c.treelet_bytes), stride));
+    l.treelets = m_treelets;
   }
   m_model.reset();
   m_chip_units.clear();
@@ -148,6 +163,7 @@ void TimedEngine::make_models() {
 }
 
 void TimedEngine::unbind() {
+  m_treelets.reset();
   m_model.reset();
   m_chip_units.clear();
   m_chip_memory.reset();

@@ -122,6 +122,7 @@ class TimedEngine final : public TraceEngine {
   std::unique_ptr<BoxUnit> m_box_unit;  // null: the C++ box test
   std::unique_ptr<TriUnit> m_tri_unit;  // null: the C++ triangle test
   std::unique_ptr<DeviceImage> m_image;
+  std::shared_ptr<const Treelets> m_treelets;  // treelet_bytes > 0, one level: the layout's (and traversal's)
   std::unique_ptr<FixedTracer> m_tracer;
   std::unique_ptr<InstancedFixedTracer> m_two;  // bind_instanced: two levels (m_image and m_tracer are then null)
   const FixedTracer& tracer() const { return m_two ? m_two->top_tracer() : *m_tracer; }

@@ -1,7 +1,9 @@
 #include "hwmodel/timing/parts/stack.h"
 
 #include <array>
+#include <string>
 
+#include "hwmodel/timing/prefetch/prefetchers.h"
 #include "hwmodel/timing/timing_config.h"
 #include "hwmodel/timing/timing_stats.h"
 
@@ -14,6 +16,19 @@ const TimingKeyTable& stack_keys() {
       {"stack_mode", choice_field<&C::stack_mode>(), 0, 0,
        "entries beyond the short stack: spilled to memory and read back at their pop, or the oldest dropped and "
        "its pop a restart from the root along a trail that re-fetches the nodes above it"},
+      {"traversal", choice_field<&C::traversal>(), 0, 0,
+       "the order of the stacked entries: depth_first (one stack, nearest child first) or treelet_first (two "
+       "stacks: a ray finishes its treelet, treelet_bytes > 0, before it leaves it; each stack stack_entries "
+       "deep; may report the other of two primitives hit at the same t)",
+       [](const C& c) -> std::string {
+         if (c.traversal != TraversalOrder::kTreeletFirst) return {};
+         if (c.stack_mode == StackMode::kRestart)
+           return "traversal treelet_first keeps two stacks; stack_mode restart's trail is of one";
+         if (prefetcher_wants_stack_refs(c))
+           return std::string("traversal treelet_first keeps two stacks; prefetcher ") +
+                  prefetcher_info(c.prefetcher).name + " watches one";
+         return {};
+       }},
   };
   return keys;
 }

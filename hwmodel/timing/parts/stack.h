@@ -1,5 +1,6 @@
 // A ray slot's traversal stack (timing_model.h): a short stack in the slot, and what happens to the entries
-// beyond it (spilled to memory, or dropped and found again by a restart along a trail, restart_trail.h).
+// beyond it (spilled to memory, or dropped and found again by a restart along a trail, restart_trail.h), and the
+// order the ray takes its entries in (one stack, or two for treelet-first order).
 #pragma once
 
 #include <cstdint>
@@ -22,9 +23,26 @@ inline std::span<const TimingChoice> choices(StackMode) {
   return list;
 }
 
+// The order a ray takes its stacked entries in (the traversal key; hwmodel/datapath/traverse.h).
+enum class TraversalOrder : uint8_t {
+  kDepthFirst,    // one stack, nearest child first
+  kTreeletFirst,  // two stacks: the ray finishes its treelet before it leaves it (Chou et al., MICRO 2023)
+};
+inline std::span<const TimingChoice> choices(TraversalOrder) {
+  static constexpr TimingChoice list[] = {
+      {"depth_first", "one stack, nearest child first"},
+      {"treelet_first",
+       "two stacks, one for the ray's treelet and one for other treelets: a ray finishes its treelet before it "
+       "leaves it (Chou et al., MICRO 2023; needs treelet_bytes > 0). Each stack is stack_entries deep. Of two "
+       "primitives hit at the same t it may report the other"},
+  };
+  return list;
+}
+
 struct StackConfig {
   int stack_entries = 8;  // short stack per slot; deeper entries spill to memory (8 bytes each)
   StackMode stack_mode = StackMode::kSpill;
+  TraversalOrder traversal = TraversalOrder::kDepthFirst;
 };
 
 struct StackCounters {

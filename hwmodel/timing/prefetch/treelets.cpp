@@ -13,6 +13,7 @@ Treelets form_treelets(const DeviceImage& image, uint64_t budget_bytes, uint64_t
   const uint64_t per_treelet = std::max<uint64_t>(1, budget_bytes / std::max<uint64_t>(1, node_stride));
   t.position.assign(h.node_count, 0);
   t.size.assign(h.node_count, 0);
+  t.id.assign(h.node_count, 0);
   with_node_kind(node_kind(h), h.width, h.q_bytes, [&](auto kind) {
     using K = decltype(kind);
     const typename K::Node* nodes = image.nodes<typename K::Node>();
@@ -32,6 +33,7 @@ Treelets form_treelets(const DeviceImage& image, uint64_t budget_bytes, uint64_t
           continue;
         }
         t.position[n] = next++;
+        t.id[n] = t.count - 1;
         ++taken;
         const typename K::Node& nd = nodes[n];
         for (int i = 0; i < K::count(nd); ++i)

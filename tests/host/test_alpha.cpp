@@ -39,7 +39,7 @@ std::string write_file(const std::string& name, const std::string& text) {
   return path;
 }
 
-std::string load_error(const std::string& text) {
+std::string alpha_load_error(const std::string& text) {
   return error_of([&] { host::load_scene(write_file("bad.json", text)); }, "(loaded)");
 }
 
@@ -121,13 +121,13 @@ TexelRays texel_rays(bool downward) {
 
 const hw::DeviceKind kKinds[] = {hw::DeviceKind::kFloat, hw::DeviceKind::kFixed, hw::DeviceKind::kTimed};
 
-struct Traced {
+struct AlphaTraced {
   std::vector<hw::Hit> hits;
   hw::TraversalStats stats;
   hw::TimingStats timing;
 };
 
-Traced trace(const host::Scene& scene, hw::DeviceKind kind, const std::vector<hw::Ray>& rays, bool any_hit,
+AlphaTraced alpha_trace(const host::Scene& scene, hw::DeviceKind kind, const std::vector<hw::Ray>& rays, bool any_hit,
              const hw::TimingConfig* timing = nullptr) {
   const host::SceneAnyHit alpha(scene);
   host::DeviceOptions o;
@@ -135,7 +135,7 @@ Traced trace(const host::Scene& scene, hw::DeviceKind kind, const std::vector<hw
   o.any_hit = alpha.stage();
   if (timing) o.timing = *timing;
   const auto dev = host::make_device(scene.geometry, o);
-  Traced out;
+  AlphaTraced out;
   out.hits.resize(rays.size());
   dev->trace_batch(rays.data(), out.hits.data(), rays.size(), any_hit, 1, out.stats);
   if (const hw::TimedEngine* te = dev->timed()) out.timing = te->timing();
@@ -167,7 +167,7 @@ TEST_CASE("primary rays pass through exactly the masked texels on every device",
   const uint64_t n = tr.rays.size();
   for (const hw::DeviceKind kind : kKinds) {
     INFO(hw::device_kind_name(kind));
-    const Traced r = trace(s, kind, tr.rays, false);
+    const AlphaTraced r = alpha_trace(s, kind, tr.rays, false);
     uint64_t leaf = 0;
     for (size_t i = 0; i < n; ++i) {
       INFO("ray " << i);
@@ -191,7 +191,7 @@ TEST_CASE("shadow rays are occluded exactly by the texels that are there", "[alp
   const TexelRays tr = texel_rays(false);
   for (const hw::DeviceKind kind : kKinds) {
     INFO(hw::device_kind_name(kind));
-    const Traced r = trace(s, kind, tr.rays, true);
+    const AlphaTraced r = alpha_trace(s, kind, tr.rays, true);
     uint64_t occluded = 0;
     for (size_t i = 0; i < tr.rays.size(); ++i) {
       INFO("ray " << i);
@@ -210,8 +210,8 @@ TEST_CASE("without masks nothing asks the any-hit stage and its latency costs no
   hw::TimingConfig fast = hw::timing_preset("rdna2"), slow = fast;
   fast.any_hit_latency = 1;
   slow.any_hit_latency = 5000;
-  const Traced a = trace(s, hw::DeviceKind::kTimed, tr.rays, false, &fast);
-  const Traced b = trace(s, hw::DeviceKind::kTimed, tr.rays, false, &slow);
+  const AlphaTraced a = alpha_trace(s, hw::DeviceKind::kTimed, tr.rays, false, &fast);
+  const AlphaTraced b = alpha_trace(s, hw::DeviceKind::kTimed, tr.rays, false, &slow);
   for (size_t i = 0; i < tr.rays.size(); ++i) CHECK(a.hits[i].prim < 2);  // every ray stops at the opaque leaf
   CHECK(a.stats.any_hit_calls == 0);
   CHECK(a.timing.any_hit_requests == 0);
@@ -236,15 +236,15 @@ TEST_CASE("each any-hit request holds its ray slot for the stage's latency", "[a
   a.any_hit_latency = 10;
   hw::TimingConfig b = a;
   b.any_hit_latency = 1010;
-  const Traced ta = trace(s, hw::DeviceKind::kTimed, tr.rays, false, &a);
-  const Traced tb = trace(s, hw::DeviceKind::kTimed, tr.rays, false, &b);
+  const AlphaTraced ta = alpha_trace(s, hw::DeviceKind::kTimed, tr.rays, false, &a);
+  const AlphaTraced tb = alpha_trace(s, hw::DeviceKind::kTimed, tr.rays, false, &b);
   REQUIRE(ta.timing.any_hit_requests == tr.rays.size());
   CHECK(tb.timing.cycles - ta.timing.cycles == tr.rays.size() * 1000);
   for (size_t i = 0; i < tr.rays.size(); ++i) CHECK(ta.hits[i].prim == tb.hits[i].prim);
   // With many slots the latency overlaps other rays' work: less than the serial sum, more than one latency.
   a.ray_slots = b.ray_slots = 32;
-  const Traced pa = trace(s, hw::DeviceKind::kTimed, tr.rays, false, &a);
-  const Traced pb = trace(s, hw::DeviceKind::kTimed, tr.rays, false, &b);
+  const AlphaTraced pa = alpha_trace(s, hw::DeviceKind::kTimed, tr.rays, false, &a);
+  const AlphaTraced pb = alpha_trace(s, hw::DeviceKind::kTimed, tr.rays, false, &b);
   CHECK(pb.timing.cycles - pa.timing.cycles >= 1000);
   CHECK(pb.timing.cycles - pa.timing.cycles < tr.rays.size() * 1000);
 }
@@ -312,25 +312,25 @@ TEST_CASE("bad textures and masks get clear errors", "[alpha][scene][errors]") {
            R"(}, "meshes": [{"generate": "quad", "material": "leaf"}]})";
   };
   const std::string tex = R"({"t": {"width": 1, "height": 1, "texels": [[1, 2, 3, 4]]}})";
-  CHECK_THAT(load_error(scene_with(tex, R"({"texture": "nope"})")), Contains("unknown texture 'nope'"));
-  CHECK_THAT(load_error(scene_with(tex, R"({"texture": "t", "alpha_cutoff": 1.5})")), Contains("alpha_cutoff"));
-  CHECK_THAT(load_error(scene_with(tex, R"({"texture": "t", "alpha": -0.1})")), Contains("alpha"));
-  CHECK_THAT(load_error(scene_with(tex, R"({"alpha_mode": "blend"})")), Contains("unknown alpha mode 'blend'"));
-  CHECK_THAT(load_error(scene_with(R"({"t": {"width": 2, "height": 1, "texels": [[1, 2, 3, 4]]}})", "{}")),
+  CHECK_THAT(alpha_load_error(scene_with(tex, R"({"texture": "nope"})")), Contains("unknown texture 'nope'"));
+  CHECK_THAT(alpha_load_error(scene_with(tex, R"({"texture": "t", "alpha_cutoff": 1.5})")), Contains("alpha_cutoff"));
+  CHECK_THAT(alpha_load_error(scene_with(tex, R"({"texture": "t", "alpha": -0.1})")), Contains("alpha"));
+  CHECK_THAT(alpha_load_error(scene_with(tex, R"({"alpha_mode": "blend"})")), Contains("unknown alpha mode 'blend'"));
+  CHECK_THAT(alpha_load_error(scene_with(R"({"t": {"width": 2, "height": 1, "texels": [[1, 2, 3, 4]]}})", "{}")),
              Contains("texels"));
-  CHECK_THAT(load_error(scene_with(R"({"t": {"width": 1, "height": 1, "texels": [[1, 2, 300, 4]]}})", "{}")),
+  CHECK_THAT(alpha_load_error(scene_with(R"({"t": {"width": 1, "height": 1, "texels": [[1, 2, 300, 4]]}})", "{}")),
              Contains("texels"));
-  CHECK_THAT(load_error(scene_with(R"({"t": {"width": 0, "height": 1, "texels": []}})", "{}")), Contains("width"));
-  CHECK_THAT(load_error(scene_with(R"({"t": {"width": 1, "height": 1, "texels": [[1, 2, 3, 4]], "x": 1}})", "{}")),
+  CHECK_THAT(alpha_load_error(scene_with(R"({"t": {"width": 0, "height": 1, "texels": []}})", "{}")), Contains("width"));
+  CHECK_THAT(alpha_load_error(scene_with(R"({"t": {"width": 1, "height": 1, "texels": [[1, 2, 3, 4]], "x": 1}})", "{}")),
              Contains("x"));
   // Texture files: missing, not an image, and an image truncated after its header.
   const std::string missing = (test_dir() / "missing.png").string();
-  CHECK_THAT(load_error(scene_with(R"({"t": {"file": ")" + missing + R"("}})", "{}")), Contains("missing.png"));
+  CHECK_THAT(alpha_load_error(scene_with(R"({"t": {"file": ")" + missing + R"("}})", "{}")), Contains("missing.png"));
   const std::string garbage = write_file("garbage.png", "this is not a PNG file at all");
-  CHECK_THAT(load_error(scene_with(R"({"t": {"file": ")" + garbage + R"("}})", "{}")), Contains("garbage.png"));
+  CHECK_THAT(alpha_load_error(scene_with(R"({"t": {"file": ")" + garbage + R"("}})", "{}")), Contains("garbage.png"));
   const std::string truncated =
       write_file("truncated.png", std::string("\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR\0\0\x10\0\0\0\x10\0\x08\x06", 24));
-  CHECK_THAT(load_error(scene_with(R"({"t": {"file": ")" + truncated + R"("}})", "{}")),
+  CHECK_THAT(alpha_load_error(scene_with(R"({"t": {"file": ")" + truncated + R"("}})", "{}")),
              Contains("truncated.png"));
   // A chunk whose declared length runs past the file's end (the fuzzer's 262-byte PNG declared a 2 GiB IDAT, and
   // stb allocated that much before reading): refused before stb sees it, whichever chunk it is.
@@ -431,7 +431,7 @@ TEST_CASE("glTF materials: base colour, metal, emission, and alpha masks with th
     }
   for (const hw::DeviceKind kind : kKinds) {
     INFO(hw::device_kind_name(kind));
-    const Traced r = trace(s, kind, rays, false);
+    const AlphaTraced r = alpha_trace(s, kind, rays, false);
     for (size_t i = 0; i < rays.size(); ++i) {
       INFO("ray " << i);
       CHECK(r.hits[i].hit() == there[i]);
@@ -478,7 +478,7 @@ TEST_CASE("scenes/alpha.json: its fences and leaf let light through their masked
   const std::vector<hw::Ray> rays = {ray_at(hole_x, hole_y), ray_at(hole_x, bar_y)};
   for (const hw::DeviceKind kind : kKinds) {
     INFO(hw::device_kind_name(kind));
-    const Traced r = trace(s, kind, rays, true);
+    const AlphaTraced r = alpha_trace(s, kind, rays, true);
     CHECK(!r.hits[0].hit());
     CHECK(r.hits[1].hit());
   }

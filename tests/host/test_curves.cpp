@@ -52,7 +52,7 @@ hw::Geometry strand_torus(double R, double a, int rings, int sides, double rho) 
   return g;
 }
 
-std::vector<hw::Hit> trace(const hw::Geometry& g, const host::DeviceOptions& o, const std::vector<hw::Ray>& rays,
+std::vector<hw::Hit> curve_trace(const hw::Geometry& g, const host::DeviceOptions& o, const std::vector<hw::Ray>& rays,
                            bool any = false, hw::TimingStats* ts = nullptr) {
   std::vector<hw::Hit> hits(rays.size());
   hw::TraversalStats s;
@@ -99,11 +99,11 @@ TEST_CASE("a torus of strands leaks no ray, on every device and format", "[curve
       o.kind = kind;
       o.format = hw::format_preset(fmt);
       o.timing = hw::timing_preset("rdna2");
-      const std::vector<hw::Hit> hits = trace(g, o, rays);
+      const std::vector<hw::Hit> hits = curve_trace(g, o, rays);
       uint64_t leaks = 0;
       for (const hw::Hit& h : hits) leaks += !h.hit();
       CHECK(leaks == 0);
-      const std::vector<hw::Hit> shadow = trace(g, o, rays, true);
+      const std::vector<hw::Hit> shadow = curve_trace(g, o, rays, true);
       uint64_t shadow_leaks = 0;
       for (const hw::Hit& h : shadow) shadow_leaks += !h.hit();
       CHECK(shadow_leaks == 0);
@@ -119,13 +119,13 @@ TEST_CASE("curves: timed hits are the fixed device's, curve units change cycles 
   host::DeviceOptions o;
   o.kind = hw::DeviceKind::kFixed;
   o.format = hw::format_preset("default");
-  const std::vector<hw::Hit> fixed = trace(scene.geometry, o, rays);
+  const std::vector<hw::Hit> fixed = curve_trace(scene.geometry, o, rays);
   o.kind = hw::DeviceKind::kTimed;
   hw::TimingStats ts[2];
   for (int units = 0; units < 2; ++units) {
     o.timing = hw::timing_preset("rdna2");
     o.timing.curve_units = units;
-    const std::vector<hw::Hit> timed = trace(scene.geometry, o, rays, false, &ts[units]);
+    const std::vector<hw::Hit> timed = curve_trace(scene.geometry, o, rays, false, &ts[units]);
     CHECK(std::memcmp(timed.data(), fixed.data(), rays.size() * sizeof(hw::Hit)) == 0);
   }
   CHECK(ts[0].curve_tests > rays.size());
@@ -143,10 +143,10 @@ TEST_CASE("curves: the fixed device agrees with the float reference on builtin:h
   const std::vector<hw::Ray> inc = host::incoherent_rays(scene.geometry.bounds(), 20000, 9);
   rays.insert(rays.end(), inc.begin(), inc.end());
   host::DeviceOptions o;
-  const std::vector<hw::Hit> ref = trace(scene.geometry, o, rays);
+  const std::vector<hw::Hit> ref = curve_trace(scene.geometry, o, rays);
   o.kind = hw::DeviceKind::kFixed;
   o.format = hw::format_preset("default");
-  const std::vector<hw::Hit> fx = trace(scene.geometry, o, rays);
+  const std::vector<hw::Hit> fx = curve_trace(scene.geometry, o, rays);
   // The fixed shape is the float one's with end points rounded to the grid (half a step) and radii rounded up
   // (2^-F steps), moved by at most eps of the test (tests/hwmodel/test_fixed_curve.cpp): a few grid steps. A ray
   // may disagree only where it passes within that of a silhouette, which random rays seldom do.

@@ -33,7 +33,7 @@ std::string load_error(const std::string& text) {
   return error_of([&] { host::load_scene(write_scene("bad", text)); }, "(loaded)");
 }
 
-std::vector<hw::Hit> trace(const hw::InstancedFloatTracer& t, const std::vector<hw::Ray>& rays, bool any_hit) {
+std::vector<hw::Hit> instanced_trace(const hw::InstancedFloatTracer& t, const std::vector<hw::Ray>& rays, bool any_hit) {
   std::vector<hw::Hit> hits(rays.size());
   hw::TraversalStats s;
   t.trace_batch(rays.data(), hits.data(), rays.size(), any_hit, 0, s);
@@ -81,7 +81,7 @@ TEST_CASE("the two-level float reference finds the flattened scene's hits", "[fl
                                           ? host::primary_rays(s.camera, 40000)
                                           : host::incoherent_rays(s.geometry.bounds(), 40000, 5);
     for (bool any_hit : {false, true}) {
-      const std::vector<hw::Hit> a = trace(two, rays, any_hit);
+      const std::vector<hw::Hit> a = instanced_trace(two, rays, any_hit);
       std::vector<hw::Hit> b(rays.size());
       hw::TraversalStats st;
       flat.trace_batch(rays.data(), b.data(), rays.size(), any_hit, 0, st);
@@ -169,7 +169,7 @@ TEST_CASE("no ray leaks through instances of the closed icosphere at offsets, ro
       for (int a = 0; a < 3; ++a) o[a] = center[a] + (rng.next_float() - 0.5f) * reach;
       rays.push_back(hw::Ray{o, 0.0f, target - o, std::numeric_limits<float>::infinity()});
     }
-    const std::vector<hw::Hit> a = trace(two, rays, false);
+    const std::vector<hw::Hit> a = instanced_trace(two, rays, false);
     std::vector<hw::Hit> b(rays.size());
     hw::TraversalStats st;
     fixed->trace_batch(rays.data(), b.data(), rays.size(), false, 0, st);
@@ -356,7 +356,7 @@ TEST_CASE("a mesh file's node tree that places a mesh more than once becomes ins
                                std::numeric_limits<float>::infinity()});
       }
   const hw::InstancedFloatTracer two(s.instances, s.geometry);
-  const std::vector<hw::Hit> a = trace(two, rays, false);
+  const std::vector<hw::Hit> a = instanced_trace(two, rays, false);
   host::DeviceOptions fo;
   fo.kind = hw::DeviceKind::kFixed;
   const auto fixed = host::make_device(s.geometry, fo);
@@ -408,7 +408,7 @@ TEST_CASE("a scene file's mesh entry keeps the file's placements as instances, u
   }
   const hw::InstancedFloatTracer two(s.instances, s.geometry);
   const hw::FloatTracer flat(s.geometry);
-  const std::vector<hw::Hit> a = trace(two, rays, false);
+  const std::vector<hw::Hit> a = instanced_trace(two, rays, false);
   for (size_t i = 0; i < rays.size(); ++i) {
     hw::TraversalStats st;
     const hw::Hit b = flat.trace(rays[i], false, st);

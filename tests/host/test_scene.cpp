@@ -34,7 +34,7 @@ const std::string kModels = "/usr/share/assimp/models";
 const std::string kScenes = std::string(RTU_SOURCE_DIR) + "/scenes";
 
 // The message of the Error that f throws; fails the test if it throws none.
-std::string error_of(const std::function<void()>& f) {
+std::string scene_error_of(const std::function<void()>& f) {
   try {
     f();
   } catch (const Error& e) {
@@ -46,7 +46,7 @@ std::string error_of(const std::function<void()>& f) {
 
 // load_scene(spec) throws an Error whose message contains every one of `words` (the file name among them).
 void check_load_error(const std::string& spec, const std::vector<std::string>& words) {
-  const std::string message = error_of([&] { rtu::host::load_scene(spec); });
+  const std::string message = scene_error_of([&] { rtu::host::load_scene(spec); });
   INFO("spec: " << spec << "\nmessage: " << message);
   for (const std::string& w : words) CHECK_THAT(message, Contains(w));
 }
@@ -634,22 +634,22 @@ TEST_CASE("validate_scene names the scene and the first problem", "[scene]") {
 
   Scene bad = s;
   bad.geometry.spheres[1].center.y = std::nanf("");
-  CHECK_THAT(error_of([&] { rtu::host::validate_scene(bad); }), Contains("my-scene") && Contains("sphere 1"));
+  CHECK_THAT(scene_error_of([&] { rtu::host::validate_scene(bad); }), Contains("my-scene") && Contains("sphere 1"));
   bad = s;
   bad.geometry.spheres[0].radius = 0.0f;
-  CHECK_THAT(error_of([&] { rtu::host::validate_scene(bad); }), Contains("radius"));
+  CHECK_THAT(scene_error_of([&] { rtu::host::validate_scene(bad); }), Contains("radius"));
   bad = s;
   bad.geometry.planes[0].normal = Vec3(0.0f);
-  CHECK_THAT(error_of([&] { rtu::host::validate_scene(bad); }), Contains("zero normal"));
+  CHECK_THAT(scene_error_of([&] { rtu::host::validate_scene(bad); }), Contains("zero normal"));
   bad = s;
   bad.geometry.triangles[7].v1.z = INFINITY;
-  CHECK_THAT(error_of([&] { rtu::host::validate_scene(bad); }), Contains("triangle 7") && Contains("NaN/Inf"));
+  CHECK_THAT(scene_error_of([&] { rtu::host::validate_scene(bad); }), Contains("triangle 7") && Contains("NaN/Inf"));
   bad = s;
   bad.prim_material.back() = uint32_t(bad.materials.size());
-  CHECK_THAT(error_of([&] { rtu::host::validate_scene(bad); }), Contains("material index out of range"));
+  CHECK_THAT(scene_error_of([&] { rtu::host::validate_scene(bad); }), Contains("material index out of range"));
   bad = s;
   bad.prim_material.pop_back();
-  CHECK_THAT(error_of([&] { rtu::host::validate_scene(bad); }), Contains("prim_material"));
+  CHECK_THAT(scene_error_of([&] { rtu::host::validate_scene(bad); }), Contains("prim_material"));
 }
 
 TEST_CASE("frame_camera", "[scene]") {

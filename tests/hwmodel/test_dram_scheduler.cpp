@@ -190,7 +190,7 @@ TEST_CASE("dram scheduler: keys are refused where the model is not built, naming
 namespace {
 
 // Random rays over 256 nodes of a line each (one line per fetch), four node fetches a ray.
-std::vector<std::vector<rtu::hw::TraceEvent>> random_rays(size_t n, uint32_t seed) {
+std::vector<std::vector<rtu::hw::TraceEvent>> random_event_rays(size_t n, uint32_t seed) {
   std::mt19937 rng(seed);
   std::vector<std::vector<rtu::hw::TraceEvent>> rays(n);
   for (auto& r : rays)
@@ -267,7 +267,7 @@ TEST_CASE("dram scheduler: queued FCFS (cap 0) gives the default's cycles throug
   for (int units : {1, 2}) {
     CAPTURE(units);
     const bool l2 = units > 1;
-    const auto rays = random_rays(200, 11);
+    const auto rays = random_event_rays(200, 11);
     const TimingStats a = run(small_unit("fcfs", 16, l2), units, rays);
     const TimingStats b = run(small_unit("frfcfs", 0, l2), units, rays);
     CHECK(a.cycles > 0);

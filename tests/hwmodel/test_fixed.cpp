@@ -13,7 +13,7 @@ using namespace rtu::hw;
 
 namespace {
 
-constexpr Round kModes[] = {Round::kDown, Round::kUp, Round::kNearestEven};
+constexpr Round kRoundModes[] = {Round::kDown, Round::kUp, Round::kNearestEven};
 
 // The integer q that rounds n / d (d > 0) by r: start from the truncated quotient, move to the floor, which is
 // checked exactly as the q with q d <= n < (q + 1) d, then round from the remainder.
@@ -65,7 +65,7 @@ void exhaustive() {
       INFO("a " << a << " b " << b);
       REQUIRE((x + y).raw == clamp_expect<T>(Wide(a) + b, expected));
       REQUIRE((x - y).raw == clamp_expect<T>(Wide(a) - b, expected));
-      for (Round r : kModes) {
+      for (Round r : kRoundModes) {
         INFO("round " << int(r));
         REQUIRE(T::mul(x, y, r).raw == clamp_expect<T>(ref_div(Wide(a) * b, Wide(1) << F, r), expected));
         if (b != 0) {
@@ -78,20 +78,20 @@ void exhaustive() {
     }
     REQUIRE((-x).raw == clamp_expect<T>(-Wide(a), expected));
     if (a >= 0) {
-      for (Round r : kModes) REQUIRE(T::sqrt(x, r).raw == clamp_expect<T>(ref_sqrt(Wide(a) << F, r), expected));
+      for (Round r : kRoundModes) REQUIRE(T::sqrt(x, r).raw == clamp_expect<T>(ref_sqrt(Wide(a) << F, r), expected));
     }
     REQUIRE(saturation_count() == expected);
   }
   // from_double on a grid finer than the format, beyond its range on both sides, and tiny values near 0.
   const double step = std::ldexp(1.0, -F - 3);
   for (double v = std::ldexp(double(T::kMinRaw) - 5, -F); v <= std::ldexp(double(T::kMaxRaw) + 5, -F); v += step) {
-    for (Round r : kModes) {
+    for (Round r : kRoundModes) {
       const Wide n = Wide(std::llround(v / step));  // v = n * 2^(-F-3) exactly
       INFO("v " << v << " round " << int(r));
       REQUIRE(T::from_double(v, r).raw == clamp_expect<T>(ref_div(n, 8, r), expected));
     }
   }
-  for (Round r : kModes) {
+  for (Round r : kRoundModes) {
     CHECK(T::from_double(-1e-300, r).raw == (r == Round::kDown ? -1 : 0));
     CHECK(T::from_double(1e-300, r).raw == (r == Round::kUp ? 1 : 0));
   }
@@ -115,7 +115,7 @@ void randomized(uint32_t seed, int count) {
     const int64_t a = operand(), b = operand();
     const T x{a}, y{b};
     INFO("a " << a << " b " << b);
-    for (Round r : kModes) {
+    for (Round r : kRoundModes) {
       REQUIRE(T::mul(x, y, r).raw == clamp_expect<T>(ref_div(Wide(a) * b, Wide(1) << F, r), expected));
       if (b != 0) {
         const Wide n = Wide(a) << F;

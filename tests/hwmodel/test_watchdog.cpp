@@ -45,7 +45,7 @@ Geometry soup(int n = 200, uint32_t seed = 7) {
   return g;
 }
 
-DeviceImage encode(const Geometry& g, int width = 2) {
+DeviceImage soup_image(const Geometry& g, int width = 2) {
   TracerOptions opt;
   opt.accel = AccelMode::kBvh;
   opt.bvh.width = width;
@@ -116,7 +116,7 @@ std::unique_ptr<TraceEngine> timed(int watchdog_cycles, uint64_t max_steps = 0) 
 TEST_CASE("timed watchdog: a ray longer in its slot than watchdog_cycles stops the TRACE with a state dump",
           "[watchdog]") {
   const Geometry g = soup();
-  const DeviceImage img = encode(g);
+  const DeviceImage img = soup_image(g);
   const std::vector<Ray> rays = rays_at_cube(500);
 
   // The reference: fixed engine, and the timed engine with the watchdog off and at its default.
@@ -164,7 +164,7 @@ TEST_CASE("timed watchdog: a ray longer in its slot than watchdog_cycles stops t
 }
 
 TEST_CASE("timed watchdog: the limit is exact for a single ray", "[watchdog]") {
-  const DeviceImage img = encode(soup());
+  const DeviceImage img = soup_image(soup());
   const std::vector<Ray> one = rays_at_cube(1);
   TimingConfig c = timing_preset("rdna2");
   c.format = "binary";
@@ -210,7 +210,7 @@ TEST_CASE("timed watchdog: the limit is exact for a single ray", "[watchdog]") {
 }
 
 TEST_CASE("traversal watchdog: a step bound stops fixed and timed TRACEs with kWatchdog", "[watchdog]") {
-  const DeviceImage img = encode(soup());
+  const DeviceImage img = soup_image(soup());
   const std::vector<Ray> rays = rays_at_cube(64);
   for (const char* which : {"fixed", "timed"}) {
     INFO(which);
@@ -236,7 +236,7 @@ TEST_CASE("traversal watchdog in a later chunk: the same error whether chunks ar
   // 4100 rays that miss the scene (one node visit each), then rays into it: the bound of 2 visits is first
   // exceeded in the second chunk of 4096 rays, which the timed engine records in the background while it
   // replays the first when it has more than one thread.
-  const DeviceImage img = encode(soup());
+  const DeviceImage img = soup_image(soup());
   std::vector<Ray> rays(4100, Ray{Vec3(5.0f), 0.0f, Vec3(1.0f), 1e30f});
   const std::vector<Ray> into = rays_at_cube(4000);
   rays.insert(rays.end(), into.begin(), into.end());
@@ -287,7 +287,7 @@ void make_dag(uint8_t* image, uint32_t nodes) {
 }  // namespace
 
 TEST_CASE("from_bytes refuses shared subtrees, the automatic step bound stops them anyway", "[watchdog]") {
-  const DeviceImage good = encode(soup(), 4);
+  const DeviceImage good = soup_image(soup(), 4);
   REQUIRE(good.header().node_count >= 20);
   std::vector<uint64_t> words(good.size() / 8);
   std::memcpy(words.data(), good.data(), good.size());
@@ -308,7 +308,7 @@ TEST_CASE("from_bytes refuses shared subtrees, the automatic step bound stops th
 
   // Defence in depth: the same DAG behind from_bytes' back (the image's bytes changed after encoding) is stopped
   // by the automatic step bound (node_count * width + 1 visits) instead of running for ever.
-  DeviceImage img = encode(soup(), 4);
+  DeviceImage img = soup_image(soup(), 4);
   make_dag<4>(const_cast<uint8_t*>(img.data()), 20);
   FixedTracer t(img);
   CHECK(t.step_limit() == uint64_t(img.header().node_count) * 4 + 1);
@@ -324,7 +324,7 @@ TEST_CASE("from_bytes refuses shared subtrees, the automatic step bound stops th
 TEST_CASE("from_bytes refuses a BVH deeper than the traversal stack", "[watchdog][limits]") {
   // A chain of width-2 nodes: node i holds node i + 1 and a leaf. The stack holds kTraversalStackSize entries,
   // one per level at width 2, so a chain of that many levels must be refused and a shorter one accepted.
-  const DeviceImage base = encode(soup(3), 2);
+  const DeviceImage base = soup_image(soup(3), 2);
   auto chain = [&](uint32_t levels) {
     const ImageHeader& h0 = base.header();
     using Node = QNode<2, uint8_t>;

@@ -127,8 +127,8 @@ struct AlphaTraced {
   hw::TimingStats timing;
 };
 
-AlphaTraced alpha_trace(const host::Scene& scene, hw::DeviceKind kind, const std::vector<hw::Ray>& rays, bool any_hit,
-             const hw::TimingConfig* timing = nullptr) {
+AlphaTraced alpha_trace(const host::Scene& scene, hw::DeviceKind kind, const std::vector<hw::Ray>& rays,
+                        bool any_hit, const hw::TimingConfig* timing = nullptr) {
   const host::SceneAnyHit alpha(scene);
   host::DeviceOptions o;
   o.kind = kind;
@@ -313,21 +313,27 @@ TEST_CASE("bad textures and masks get clear errors", "[alpha][scene][errors]") {
   };
   const std::string tex = R"({"t": {"width": 1, "height": 1, "texels": [[1, 2, 3, 4]]}})";
   CHECK_THAT(alpha_load_error(scene_with(tex, R"({"texture": "nope"})")), Contains("unknown texture 'nope'"));
-  CHECK_THAT(alpha_load_error(scene_with(tex, R"({"texture": "t", "alpha_cutoff": 1.5})")), Contains("alpha_cutoff"));
+  CHECK_THAT(alpha_load_error(scene_with(tex, R"({"texture": "t", "alpha_cutoff": 1.5})")),
+             Contains("alpha_cutoff"));
   CHECK_THAT(alpha_load_error(scene_with(tex, R"({"texture": "t", "alpha": -0.1})")), Contains("alpha"));
-  CHECK_THAT(alpha_load_error(scene_with(tex, R"({"alpha_mode": "blend"})")), Contains("unknown alpha mode 'blend'"));
+  CHECK_THAT(alpha_load_error(scene_with(tex, R"({"alpha_mode": "blend"})")),
+             Contains("unknown alpha mode 'blend'"));
   CHECK_THAT(alpha_load_error(scene_with(R"({"t": {"width": 2, "height": 1, "texels": [[1, 2, 3, 4]]}})", "{}")),
              Contains("texels"));
   CHECK_THAT(alpha_load_error(scene_with(R"({"t": {"width": 1, "height": 1, "texels": [[1, 2, 300, 4]]}})", "{}")),
              Contains("texels"));
-  CHECK_THAT(alpha_load_error(scene_with(R"({"t": {"width": 0, "height": 1, "texels": []}})", "{}")), Contains("width"));
-  CHECK_THAT(alpha_load_error(scene_with(R"({"t": {"width": 1, "height": 1, "texels": [[1, 2, 3, 4]], "x": 1}})", "{}")),
-             Contains("x"));
+  CHECK_THAT(alpha_load_error(scene_with(R"({"t": {"width": 0, "height": 1, "texels": []}})", "{}")),
+             Contains("width"));
+  CHECK_THAT(
+      alpha_load_error(scene_with(R"({"t": {"width": 1, "height": 1, "texels": [[1, 2, 3, 4]], "x": 1}})", "{}")),
+      Contains("x"));
   // Texture files: missing, not an image, and an image truncated after its header.
   const std::string missing = (test_dir() / "missing.png").string();
-  CHECK_THAT(alpha_load_error(scene_with(R"({"t": {"file": ")" + missing + R"("}})", "{}")), Contains("missing.png"));
+  CHECK_THAT(alpha_load_error(scene_with(R"({"t": {"file": ")" + missing + R"("}})", "{}")),
+             Contains("missing.png"));
   const std::string garbage = write_file("garbage.png", "this is not a PNG file at all");
-  CHECK_THAT(alpha_load_error(scene_with(R"({"t": {"file": ")" + garbage + R"("}})", "{}")), Contains("garbage.png"));
+  CHECK_THAT(alpha_load_error(scene_with(R"({"t": {"file": ")" + garbage + R"("}})", "{}")),
+             Contains("garbage.png"));
   const std::string truncated =
       write_file("truncated.png", std::string("\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR\0\0\x10\0\0\0\x10\0\x08\x06", 24));
   CHECK_THAT(alpha_load_error(scene_with(R"({"t": {"file": ")" + truncated + R"("}})", "{}")),

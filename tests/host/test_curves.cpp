@@ -52,8 +52,9 @@ hw::Geometry strand_torus(double R, double a, int rings, int sides, double rho) 
   return g;
 }
 
-std::vector<hw::Hit> curve_trace(const hw::Geometry& g, const host::DeviceOptions& o, const std::vector<hw::Ray>& rays,
-                           bool any = false, hw::TimingStats* ts = nullptr) {
+std::vector<hw::Hit> curve_trace(const hw::Geometry& g, const host::DeviceOptions& o,
+                                 const std::vector<hw::Ray>& rays, bool any = false,
+                                 hw::TimingStats* ts = nullptr) {
   std::vector<hw::Hit> hits(rays.size());
   hw::TraversalStats s;
   const auto dev = host::make_device(g, o);

@@ -33,7 +33,8 @@ std::string load_error(const std::string& text) {
   return error_of([&] { host::load_scene(write_scene("bad", text)); }, "(loaded)");
 }
 
-std::vector<hw::Hit> instanced_trace(const hw::InstancedFloatTracer& t, const std::vector<hw::Ray>& rays, bool any_hit) {
+std::vector<hw::Hit> instanced_trace(const hw::InstancedFloatTracer& t, const std::vector<hw::Ray>& rays,
+                                     bool any_hit) {
   std::vector<hw::Hit> hits(rays.size());
   hw::TraversalStats s;
   t.trace_batch(rays.data(), hits.data(), rays.size(), any_hit, 0, s);

@@ -634,7 +634,8 @@ TEST_CASE("validate_scene names the scene and the first problem", "[scene]") {
 
   Scene bad = s;
   bad.geometry.spheres[1].center.y = std::nanf("");
-  CHECK_THAT(scene_error_of([&] { rtu::host::validate_scene(bad); }), Contains("my-scene") && Contains("sphere 1"));
+  CHECK_THAT(scene_error_of([&] { rtu::host::validate_scene(bad); }),
+             Contains("my-scene") && Contains("sphere 1"));
   bad = s;
   bad.geometry.spheres[0].radius = 0.0f;
   CHECK_THAT(scene_error_of([&] { rtu::host::validate_scene(bad); }), Contains("radius"));
@@ -643,7 +644,8 @@ TEST_CASE("validate_scene names the scene and the first problem", "[scene]") {
   CHECK_THAT(scene_error_of([&] { rtu::host::validate_scene(bad); }), Contains("zero normal"));
   bad = s;
   bad.geometry.triangles[7].v1.z = INFINITY;
-  CHECK_THAT(scene_error_of([&] { rtu::host::validate_scene(bad); }), Contains("triangle 7") && Contains("NaN/Inf"));
+  CHECK_THAT(scene_error_of([&] { rtu::host::validate_scene(bad); }),
+             Contains("triangle 7") && Contains("NaN/Inf"));
   bad = s;
   bad.prim_material.back() = uint32_t(bad.materials.size());
   CHECK_THAT(scene_error_of([&] { rtu::host::validate_scene(bad); }), Contains("material index out of range"));

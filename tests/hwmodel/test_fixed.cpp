@@ -78,7 +78,8 @@ void exhaustive() {
     }
     REQUIRE((-x).raw == clamp_expect<T>(-Wide(a), expected));
     if (a >= 0) {
-      for (Round r : kRoundModes) REQUIRE(T::sqrt(x, r).raw == clamp_expect<T>(ref_sqrt(Wide(a) << F, r), expected));
+      for (Round r : kRoundModes)
+        REQUIRE(T::sqrt(x, r).raw == clamp_expect<T>(ref_sqrt(Wide(a) << F, r), expected));
     }
     REQUIRE(saturation_count() == expected);
   }

@@ -5,7 +5,8 @@
 # time is the machine's.
 # Usage: bench/ray_sorting.sh [RTUSIM] [WIDTH] [HEIGHT] [SPP]      (default 128 128 1; 3 bounces)
 # Environment: PRESETS (default "rdna2-mem rdna2-chip"), SCENES (names of the list below, default all),
-# DEPTH (bounces, default 3).
+# DEPTH (bounces, default 3), GATHER (sort_gather: copy, the default, or index: the sort's cost without moving rays
+# or hits, as Meister et al.'s tracer counts it).
 set -euo pipefail
 name=ray_sorting.sh
 here=$(cd "$(dirname "$0")" && pwd)
@@ -16,6 +17,7 @@ width=${2:-128}
 height=${3:-128}
 spp=${4:-1}
 depth=${DEPTH:-3}
+gather=${GATHER:-copy}
 bench_need_rtusim "$rtusim"
 bench_need_count WIDTH "$width"
 bench_need_count HEIGHT "$height"
@@ -44,7 +46,7 @@ for w in "${want[@]}"; do
       out=$tmp/out.json
       # shellcheck disable=SC2086
       "$rtusim" render --scene $scene --device timed --config "$preset" --width "$width" --height "$height" \
-        --spp "$spp" --max-depth "$depth" --threads 2 --set ray_sort="$key" --out "$tmp/out.png" \
+        --spp "$spp" --max-depth "$depth" --threads 2 --set ray_sort="$key" --set sort_gather="$gather" --out "$tmp/out.png" \
         --stats "$out" > /dev/null 2>&1
       row=$(python3 - "$out" "$base" <<'PY'
 import json, sys

@@ -26,6 +26,10 @@
 //                   + max(rays / rate, 68 rays / bw) + max(rays / rate, 36 rays / bw))
 // with pass_rays = the sum over sorts of passes * n, rate = sort_keys_per_clock * units, bw =
 // dram_bytes_per_cycle.
+// With sort_gather = index (Meister, Boksansky, Guthe and Bittner's tracer: its trace kernel reads the rays
+// through the sorted index array and no kernel moves them) there is no permute and no return phase: the frame
+// pays the keys and the radix passes, and (sorts + passes) latencies. The unit's 4-byte index read beside each
+// ray (whose own read the model does not charge either) is left out.
 // Segments of fewer than 2 rays are not sorted. The frame's cycles are raster + sort + the unit's device clock:
 // the controllers sort while the unit waits, and the unit traces while they wait.
 //

@@ -53,6 +53,18 @@ TEST_CASE("ray sort cycles worked by hand", "[sort][timing]") {
     // keys 30 / 2 = 15; passes 40 / (2 x 2) + 8 x 16 = 138; permute and return 10 / 4 = 2.5 each: 158.
     CHECK(rtu::hw::sort_cycles(w, c).cycles == 1400 + 158);
   }
+  SECTION("sort_gather index: keys and radix passes only, as Meister et al.'s tracer counts them") {
+    c.dram_bytes_per_cycle = 4;
+    rtu::hw::set_timing_key(c, "sort_gather", "index");
+    const SortCycles r = rtu::hw::sort_cycles(w, c);
+    // keys 100 and passes 200 as above; no permute, no return; latency (2 sorts + 8 passes) x 100 = 1000.
+    CHECK(r.permute_cycles == 0.0);
+    CHECK(r.return_cycles == 0.0);
+    CHECK(r.latency_cycles == 1000);
+    CHECK(r.cycles == 1000 + 100 + 200);
+    CHECK(r.dram_bytes == 400 + 800);
+    CHECK(r.compute_cycles == 30.0 + 148.0);
+  }
   SECTION("no sort, no cycles") {
     const SortCycles r = rtu::hw::sort_cycles(SortWork{}, c);
     CHECK(r.cycles == 0);

@@ -26,6 +26,10 @@ const TimingKeyTable& sort_keys() {
        "ray sorting: keys a radix pass counts and scatters per clock (rays gathered, hits returned likewise)"},
       {"sort_radix_bits", &C::sort_radix_bits, 1, 16,
        "ray sorting: digit bits of the LSD radix sort (passes = ceil(key bits / this))"},
+      {"sort_gather", choice_field<&C::sort_gather>(), 0, 0,
+       "ray sorting: copy (rays permuted into sorted order, hits returned: four phases) or index (the unit reads "
+       "rays through the sorted index and writes hits in place, as Meister et al.'s tracer: keys and radix "
+       "passes only)"},
   };
   return keys;
 }

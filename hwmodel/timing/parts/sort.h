@@ -14,11 +14,27 @@ namespace rtu::hw {
 enum class RaySort : uint8_t { kNone = 0 };
 std::span<const TimingChoice> choices(RaySort);  // kRaySortKeys' names and descriptions
 
+// Where the sorted order goes (the sort_gather key).
+enum class SortGather : uint8_t {
+  kCopy,   // the rays are copied into sorted order, the hits back into the rays' (permute and return phases)
+  kIndex,  // the unit reads each ray through the sorted index and writes its hit in place (Meister et al.'s code)
+};
+inline std::span<const TimingChoice> choices(SortGather) {
+  static constexpr TimingChoice list[] = {
+      {"copy", "the firmware copies the rays into sorted order and the hits back into the rays' order"},
+      {"index",
+       "no copies: the unit reads each ray through the sorted index and writes its hit in the ray's place, as "
+       "Meister et al.'s tracer does; the sort costs its keys and radix passes only"},
+  };
+  return list;
+}
+
 struct SortConfig {
   RaySort ray_sort = RaySort::kNone;
   double sort_key_cycles = 1.0;      // cycles per key computed
   double sort_keys_per_clock = 1.0;  // keys a radix pass counts and scatters per clock
   int sort_radix_bits = 8;           // digit bits of the LSD radix sort
+  SortGather sort_gather = SortGather::kCopy;
 };
 
 const TimingKeyTable& sort_keys();

@@ -8,6 +8,7 @@
 
 #include "host/cli/common.h"
 #include "host/io/error.h"
+#include "host/io/files.h"
 #include "host/io/ray_io.h"
 #include "host/jobs/compare_job.h"
 
@@ -25,6 +26,7 @@ struct CompareOptions {
 };
 
 void run_compare(const CompareOptions& o) {
+  check_output_files({o.json, o.disagreements});
   const Scene scene = load_scene(o.scene);
   const std::vector<hw::Ray> rays = rays_from_spec(o.rays, scene, o.seed);
   CompareRequest req;

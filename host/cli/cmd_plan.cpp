@@ -7,6 +7,7 @@
 
 #include "host/cli/common.h"
 #include "host/io/error.h"
+#include "host/io/files.h"
 #include "host/jobs/plan.h"
 #include "hwmodel/cost/energy_model.h"
 #include "hwmodel/numeric/fixed_format.h"
@@ -75,6 +76,7 @@ void print_step(const PlanStep& s, const PlanOptions& a) {
 }
 
 void run_plan(const PlanArgs& args) {
+  check_output_files({args.json});
   const PlanOptions& a = args.o;
   const PlanResult res = plan_format(a, [&](const PlanStep& s) { print_step(s, a); });
   const Json& j = res.json;

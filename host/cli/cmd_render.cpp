@@ -4,6 +4,7 @@
 
 #include "host/cli/common.h"
 #include "host/io/error.h"
+#include "host/io/files.h"
 #include "host/jobs/image_diff.h"
 #include "host/jobs/render.h"
 
@@ -41,6 +42,7 @@ RenderOptions options_from(const RenderArgs& a, hw::DeviceKind device) {
 }
 
 void run_render(const RenderArgs& a) {
+  check_output_files({a.out, a.stats, a.pipeline.path});
   const Scene scene = load_scene(a.scene);
   RenderOptions o = options_from(a, a.dev.kind());
   o.progress = true;  // on stderr, when it is a terminal (as trace's)

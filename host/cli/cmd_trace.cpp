@@ -9,6 +9,7 @@
 #include "host/cli/common.h"
 #include "host/devices/trav_units.h"
 #include "host/io/error.h"
+#include "host/io/files.h"
 #include "host/io/ray_io.h"
 #include "host/jobs/ab.h"
 #include "host/jobs/trace_job.h"
@@ -52,6 +53,7 @@ Json rtl_unit_run(const hw::TimedEngine& te, const std::vector<hw::Ray>& rays, b
 }
 
 void run_trace(const TraceOptions& o) {
+  check_output_files({o.out, o.stats, o.pipeline.path});
   Stopwatch load_timer;
   const Scene scene = load_scene(o.scene);
   const double load_s = load_timer.seconds();

@@ -38,6 +38,11 @@ void check_output_file(const std::string& path) {
   if (!fs::is_directory(st)) throw Error(path + ": cannot write: " + folder.string() + " is not a folder");
 }
 
+void check_output_files(std::initializer_list<std::string> paths) {
+  for (const std::string& p : paths)
+    if (!p.empty()) check_output_file(p);
+}
+
 std::ofstream open_output(const std::string& path, std::ios::openmode mode) {
   check_output_file(path);
   errno = 0;

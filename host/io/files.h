@@ -6,6 +6,7 @@
 #pragma once
 
 #include <fstream>
+#include <initializer_list>
 #include <string>
 
 namespace rtu::host {
@@ -18,6 +19,9 @@ void check_input_file(const std::string& path);
 // "PATH: cannot write: the folder DIR does not exist" or "PATH: cannot write: DIR is not a folder". Devices such
 // as /dev/null pass.
 void check_output_file(const std::string& path);
+// check_output_file for each path given (empty ones skipped): a command that writes several files checks them all
+// before its job runs, so a bad path is refused at once, not after minutes of work.
+void check_output_files(std::initializer_list<std::string> paths);
 
 // check_output_file, then the file opened for writing with `mode` (std::ios::out is added; trunc unless app);
 // throws Error "PATH: cannot open for writing (REASON)" when it does not open.

@@ -192,6 +192,9 @@ TEST_CASE("a directory or a missing folder where a file is named: the path and t
       {"info --scene builtin:seed --json " + dir, output},
       {"sweep --scene builtin:seed --rays 16 --image-width 0 --out " + dir, output},
       {"sweep --scene builtin:seed --rays 16 --image-width 0 --write-manifest " + dir, output},
+      {"render --scene builtin:seed --width 8 --height 8 --out " + png + " --stats " + dir, output},
+      {"compare --scene builtin:seed --rays primary:16 --disagreements " + dir, output},
+      {"plan --scene builtin:seed --max-error 0.5 --rays 64 --json " + dir, output},
       // A file in a folder that is not there.
       {trace + "--out " + dir + "/none/h.bin",
        dir + "/none/h.bin: cannot write: the folder " + dir + "/none does not exist"},
@@ -204,6 +207,10 @@ TEST_CASE("a directory or a missing folder where a file is named: the path and t
     CHECK(r.output.find(c.words) != std::string::npos);
     CHECK(r.output.find("Is a directory") == std::string::npos);  // the system's words, without the path
     CHECK(r.output.find("filesystem error") == std::string::npos);
+    // Refused before the job: nothing traced, rendered or written first.
+    CHECK(r.output.find("traced ") == std::string::npos);
+    CHECK(r.output.find(" rays (primary") == std::string::npos);
+    CHECK(r.output.find("wrote ") == std::string::npos);
   }
   CHECK(run_rtusim(trace + "--out /dev/null").status == 0);  // a device is a fine place to write
 }

@@ -494,9 +494,9 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
         if (rec && m_opt.record_restart && m_opt.record_short_stack >= 0)
           p.trail = &trail.emplace(m_opt.record_short_stack);
         if (m_opt.treelets.of)
-          traverse_treelet_first(p, hd.root_ref, any_hit, s, m_opt.treelets);
+          traverse_treelet_first(p, hd.root_ref, any_hit, s, m_opt.treelets, !m_opt.slot_order);
         else
-          traverse(p, hd.root_ref, any_hit, s);
+          traverse(p, hd.root_ref, any_hit, s, !m_opt.slot_order);
       });
     }
   }

@@ -111,6 +111,9 @@ struct FixedTraceOptions {
   // record_restart or record_stack_refs (their trail and stack view are of one stack); one-level images only.
   // Not owned; must outlive the tracer's use.
   TreeletMap treelets = {};
+  // A node's accepted children in slot order instead of nearest first (traverse.h): Vulkan-Sim's order. Of two
+  // primitives hit at the same t it may report the other.
+  bool slot_order = false;
   // The any-hit stage of non-opaque triangles (records with kRecordNonOpaque), or null: they are opaque. Not
   // owned; must outlive the tracer's use.
   const AnyHitStage* any_hit = nullptr;

@@ -20,8 +20,10 @@
 
 namespace rtu::hw {
 
+// nearest_first false: a node's accepted children are taken in slot order, not sorted by entry distance (the
+// order of Vulkan-Sim's traversal loop, which the papers measured against); ties aside, the same hits.
 template <class Policy>
-void traverse(Policy& p, uint32_t root, bool any_hit, TraversalStats& s) {
+void traverse(Policy& p, uint32_t root, bool any_hit, TraversalStats& s, bool nearest_first = true) {
   using Dist = typename Policy::Dist;
   constexpr int N = Policy::kWidth;
   struct Entry {
@@ -44,7 +46,7 @@ void traverse(Policy& p, uint32_t root, bool any_hit, TraversalStats& s) {
       s.box_tests += uint64_t(tested);
       if (k > 0) {
         // Insertion sort by distance, nearest first; ties keep slot order (deterministic).
-        for (int i = 1; i < k; ++i) {
+        for (int i = 1; i < k && nearest_first; ++i) {
           for (int j = i; j > 0 && dists[j] < dists[j - 1]; --j) {
             std::swap(dists[j], dists[j - 1]);
             std::swap(refs[j], refs[j - 1]);
@@ -82,10 +84,12 @@ struct TreeletMap {
 // whose treelet it is in from then on. So a ray finishes a treelet before it leaves it, and a prefetched treelet
 // is used while it is in the cache. Within a treelet the order is traverse()'s: nearest child first, the
 // nearest child in the treelet taken without a push, entries farther than the closest hit skipped at their
-// pop. The same nodes can be visited in another order, so of two primitives hit at the same t the other may be
-// reported (a tie; any other hit is the same, as every entry is still tested against the closest hit).
+// pop (nearest_first false: slot order, as traverse()). The same nodes can be visited in another order, so of two
+// primitives hit at the same t the other may be reported (a tie; any other hit is the same, as every entry is
+// still tested against the closest hit).
 template <class Policy>
-void traverse_treelet_first(Policy& p, uint32_t root, bool any_hit, TraversalStats& s, TreeletMap map) {
+void traverse_treelet_first(Policy& p, uint32_t root, bool any_hit, TraversalStats& s, TreeletMap map,
+                            bool nearest_first = true) {
   using Dist = typename Policy::Dist;
   constexpr int N = Policy::kWidth;
   struct Entry {
@@ -112,7 +116,7 @@ void traverse_treelet_first(Policy& p, uint32_t root, bool any_hit, TraversalSta
       const int k = p.expand(cur, refs, dists, tested);
       s.box_tests += uint64_t(tested);
       if (k > 0) {
-        for (int i = 1; i < k; ++i) {
+        for (int i = 1; i < k && nearest_first; ++i) {
           for (int j = i; j > 0 && dists[j] < dists[j - 1]; --j) {
             std::swap(dists[j], dists[j - 1]);
             std::swap(refs[j], refs[j - 1]);

@@ -85,6 +85,7 @@ void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   FixedTraceOptions to;
   if (m_c.traversal == TraversalOrder::kTreeletFirst && m_treelets && !m_treelets->id.empty())
     to.treelets = TreeletMap{m_treelets->id.data(), uint32_t(m_treelets->id.size())};
+  to.slot_order = m_c.child_order == ChildOrder::kSlot;
   to.max_steps = m_opt.max_steps;
   to.record_short_stack = m_c.stack_entries;  // the model charges only for entries beyond it
   to.record_stack_refs = prefetcher_wants_stack_refs(m_c);
@@ -135,6 +136,10 @@ void TimedEngine::make_models() {
   // Checked at bind rather than by validate(), so that --set order does not matter.
   if (std::string_view(name_of(m_c.prefetcher)) == "treelet" && m_c.treelet_bytes == 0)
     throw std::invalid_argument("prefetcher = treelet needs treelet_bytes > 0 (the treelets it prefetches)");
+  if (m_c.child_order == ChildOrder::kSlot && m_two)
+    throw std::invalid_argument(
+        "child_order = slot: one-level scenes only, and this scene is instanced (two levels): trace it flattened "
+        "(--flatten; flatten=True in Python)");
   if (m_c.traversal == TraversalOrder::kTreeletFirst && m_c.treelet_bytes == 0)
     throw std::invalid_argument("traversal = treelet_first needs treelet_bytes > 0 (the treelets it finishes)");
   if (m_c.treelet_bytes > 0) {

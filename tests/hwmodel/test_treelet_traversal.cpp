@@ -203,3 +203,69 @@ TEST_CASE("traversal treelet_first on the timed device: the fixed hits but for t
                       Catch::Contains("treelet_first keeps two stacks"));
   }
 }
+
+TEST_CASE("child_order slot: a node's children in slot order, the same t as nearest-first", "[fixed][timing]") {
+  // The four-triangle tree above (A over x = 0 and 10, B over 20 and 30), rays along +x and along -x through every
+  // box, missing every triangle.
+  Geometry g;
+  for (float x : {0.0f, 10.0f, 20.0f, 30.0f})
+    g.triangles.push_back({Vec3(x, 0.0f, 0.0f), Vec3(x, 1.0f, 0.0f), Vec3(x, 0.0f, 1.0f)});
+  FixedFormat f = format_preset("default");
+  f.width = 2;
+  const DeviceImage img = image_checks::encode(g, f, 1);
+  REQUIRE(img.header().node_count == 3);
+  uint32_t slot[2] = {0, 0};
+  with_node_kind(node_kind(img.header()), 2, img.header().q_bytes, [&](auto kind) {
+    using K = decltype(kind);
+    const auto& root = img.nodes<typename K::Node>()[img.header().root_ref];
+    for (int i = 0; i < 2; ++i) slot[i] = K::child(root, i);
+  });
+  auto nodes = [&](bool slot_order, float from, float dx) {
+    Ray r;
+    r.origin = Vec3(from, 0.9f, 0.9f);
+    r.dir = Vec3(dx, 0.0f, 0.0f);
+    r.tmin = 0.0f;
+    r.tmax = 1e30f;
+    FixedTraceOptions o;
+    o.slot_order = slot_order;
+    std::vector<TraceEvent> ev;
+    TraversalStats s;
+    (void)FixedTracer(img, o).trace_recorded(r, false, s, ev);
+    std::vector<uint32_t> n;
+    for (const TraceEvent& e : ev)
+      if (e.kind == TraceEvent::kNode) n.push_back(e.index);
+    return n;
+  };
+  const uint32_t root = img.header().root_ref;
+  const std::vector<uint32_t> slots = {root, slot[0], slot[1]};
+  // Nearest first: the forward ray (from x = -5) takes A first, the reversed ray (from x = 35) takes B first.
+  const std::vector<uint32_t> fwd = nodes(false, -5.0f, 1.0f), rev = nodes(false, 35.0f, -1.0f);
+  REQUIRE(fwd.size() == 3);
+  REQUIRE(rev.size() == 3);
+  CHECK(fwd[1] == rev[2]);
+  CHECK(fwd[2] == rev[1]);
+  CHECK(fwd[1] != fwd[2]);
+  // Slot order: the same for both rays, the root's slots in order, so different from one of the two above.
+  CHECK(nodes(true, -5.0f, 1.0f) == slots);
+  CHECK(nodes(true, 35.0f, -1.0f) == slots);
+  CHECK((fwd != slots || rev != slots));
+  // On the soup: every t the same, in both traversal orders.
+  const Geometry soup = fixed_checks::random_scene(31, 3000, 8);
+  const std::vector<Ray> rays = image_checks::rays(35, 2000);
+  const DeviceImage simg = image_checks::encode(soup, format_preset("default"));
+  const Treelets t = form_treelets(simg, 512, simg.node_bytes());
+  FixedTraceOptions so;
+  so.slot_order = true;
+  FixedTraceOptions tso = treelet_order(t, 8);
+  tso.slot_order = true;
+  const FixedTracer a(simg), b(simg, so), c(simg, tso);
+  size_t differ = 0;
+  for (const Ray& ray : rays) {
+    TraversalStats s1, s2, s3;
+    const Hit h1 = a.trace(ray, false, s1), h2 = b.trace(ray, false, s2), h3 = c.trace(ray, false, s3);
+    REQUIRE(h1.t == h2.t);
+    REQUIRE(h1.t == h3.t);
+    differ += h1.prim != h2.prim || h1.prim != h3.prim;
+  }
+  CHECK(differ == 0);  // no two soup triangles hit at the same t
+}

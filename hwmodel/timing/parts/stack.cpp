@@ -29,6 +29,9 @@ const TimingKeyTable& stack_keys() {
                   prefetcher_info(c.prefetcher).name + " watches one";
          return {};
        }},
+      {"child_order", choice_field<&C::child_order>(), 0, 0,
+       "a node's accepted children: nearest (sorted by entry distance) or slot (unsorted, Vulkan-Sim's order; may "
+       "report the other of two primitives hit at the same t)"},
   };
   return keys;
 }

@@ -39,10 +39,26 @@ inline std::span<const TimingChoice> choices(TraversalOrder) {
   return list;
 }
 
+// The order a node's accepted children are taken in (the child_order key).
+enum class ChildOrder : uint8_t {
+  kNearest,  // sorted by entry distance, nearest first
+  kSlot,     // in the node's slot order (Vulkan-Sim's traversal)
+};
+inline std::span<const TimingChoice> choices(ChildOrder) {
+  static constexpr TimingChoice list[] = {
+      {"nearest", "a node's accepted children sorted by entry distance, nearest first"},
+      {"slot",
+       "a node's accepted children in slot order, unsorted, as Vulkan-Sim's traversal loop takes them; may report "
+       "the other of two primitives hit at the same t"},
+  };
+  return list;
+}
+
 struct StackConfig {
   int stack_entries = 8;  // short stack per slot; deeper entries spill to memory (8 bytes each)
   StackMode stack_mode = StackMode::kSpill;
   TraversalOrder traversal = TraversalOrder::kDepthFirst;
+  ChildOrder child_order = ChildOrder::kNearest;
 };
 
 struct StackCounters {

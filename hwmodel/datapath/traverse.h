@@ -20,6 +20,24 @@
 
 namespace rtu::hw {
 
+// A node's visit: its accepted children in refs and dists (k of them, returned), nearest first unless
+// nearest_first is false (then in slot order); insertion sort, ties keep slot order (deterministic).
+template <class Policy>
+int expand_ordered(Policy& p, uint32_t node, uint32_t* refs, typename Policy::Dist* dists, TraversalStats& s,
+                   bool nearest_first) {
+  ++s.nodes_visited;
+  int tested = 0;
+  const int k = p.expand(node, refs, dists, tested);
+  s.box_tests += uint64_t(tested);
+  for (int i = 1; i < k && nearest_first; ++i) {
+    for (int j = i; j > 0 && dists[j] < dists[j - 1]; --j) {
+      std::swap(dists[j], dists[j - 1]);
+      std::swap(refs[j], refs[j - 1]);
+    }
+  }
+  return k;
+}
+
 // nearest_first false: a node's accepted children are taken in slot order, not sorted by entry distance (the
 // order of Vulkan-Sim's traversal loop, which the papers measured against); ties aside, the same hits.
 template <class Policy>
@@ -38,20 +56,10 @@ void traverse(Policy& p, uint32_t root, bool any_hit, TraversalStats& s, bool ne
       ++s.leaves_visited;
       if (p.leaf(cur) && any_hit) return;
     } else {
-      ++s.nodes_visited;
       uint32_t refs[N];
       Dist dists[N];
-      int tested = 0;
-      const int k = p.expand(cur, refs, dists, tested);
-      s.box_tests += uint64_t(tested);
+      const int k = expand_ordered(p, cur, refs, dists, s, nearest_first);
       if (k > 0) {
-        // Insertion sort by distance, nearest first; ties keep slot order (deterministic).
-        for (int i = 1; i < k && nearest_first; ++i) {
-          for (int j = i; j > 0 && dists[j] < dists[j - 1]; --j) {
-            std::swap(dists[j], dists[j - 1]);
-            std::swap(refs[j], refs[j - 1]);
-          }
-        }
         for (int i = k - 1; i > 0; --i) stack[sp++] = Entry{refs[i], dists[i]};
         if (k > 1) p.pushed(&refs[1], k - 1, 0);  // refs[1] is popped first
         cur = refs[0];
@@ -109,19 +117,10 @@ void traverse_treelet_first(Policy& p, uint32_t root, bool any_hit, TraversalSta
       ++s.leaves_visited;
       if (p.leaf(cur) && any_hit) return;
     } else {
-      ++s.nodes_visited;
       uint32_t refs[N];
       Dist dists[N];
-      int tested = 0;
-      const int k = p.expand(cur, refs, dists, tested);
-      s.box_tests += uint64_t(tested);
+      const int k = expand_ordered(p, cur, refs, dists, s, nearest_first);
       if (k > 0) {
-        for (int i = 1; i < k && nearest_first; ++i) {
-          for (int j = i; j > 0 && dists[j] < dists[j - 1]; --j) {
-            std::swap(dists[j], dists[j - 1]);
-            std::swap(refs[j], refs[j - 1]);
-          }
-        }
         int next = -1;  // the nearest child in the current treelet, taken without a push
         for (int i = 0; i < k && next < 0; ++i)
           if (treelet(refs[i], current) == current) next = i;

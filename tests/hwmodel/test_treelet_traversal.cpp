@@ -30,6 +30,17 @@ FixedTraceOptions treelet_order(const Treelets& t, int short_stack) {
   return o;
 }
 
+// Four triangles in the planes x = 0, 10, 20, 30, one a leaf, in a binary tree (the root, A over the first two, B
+// over the last two; the tests REQUIRE its three nodes).
+DeviceImage four_triangle_tree() {
+  Geometry g;
+  for (float x : {0.0f, 10.0f, 20.0f, 30.0f})
+    g.triangles.push_back({Vec3(x, 0.0f, 0.0f), Vec3(x, 1.0f, 0.0f), Vec3(x, 0.0f, 1.0f)});
+  FixedFormat f = format_preset("default");
+  f.width = 2;
+  return image_checks::encode(g, f, 1);
+}
+
 std::vector<uint8_t> kinds(const std::vector<TraceEvent>& ev) {
   std::vector<uint8_t> out;
   for (const TraceEvent& e : ev) out.push_back(e.kind);
@@ -43,12 +54,7 @@ TEST_CASE("treelet-first order on a tree worked by hand: the other treelets' sta
   // Four triangles in the planes x = 0, 10, 20, 30, one a leaf; a binary tree: the root, node A over the first
   // two, node B over the last two. The ray runs along x inside every box and misses every triangle (y + z > 1),
   // so nothing is culled and both orders visit everything.
-  Geometry g;
-  for (float x : {0.0f, 10.0f, 20.0f, 30.0f})
-    g.triangles.push_back({Vec3(x, 0.0f, 0.0f), Vec3(x, 1.0f, 0.0f), Vec3(x, 0.0f, 1.0f)});
-  FixedFormat f = format_preset("default");
-  f.width = 2;
-  const DeviceImage img = image_checks::encode(g, f, 1);
+  const DeviceImage img = four_triangle_tree();
   REQUIRE(img.header().node_count == 3);
   Ray r;
   r.origin = Vec3(-5.0f, 0.9f, 0.9f);
@@ -207,12 +213,7 @@ TEST_CASE("traversal treelet_first on the timed device: the fixed hits but for t
 TEST_CASE("child_order slot: a node's children in slot order, the same t as nearest-first", "[fixed][timing]") {
   // The four-triangle tree above (A over x = 0 and 10, B over 20 and 30), rays along +x and along -x through every
   // box, missing every triangle.
-  Geometry g;
-  for (float x : {0.0f, 10.0f, 20.0f, 30.0f})
-    g.triangles.push_back({Vec3(x, 0.0f, 0.0f), Vec3(x, 1.0f, 0.0f), Vec3(x, 0.0f, 1.0f)});
-  FixedFormat f = format_preset("default");
-  f.width = 2;
-  const DeviceImage img = image_checks::encode(g, f, 1);
+  const DeviceImage img = four_triangle_tree();
   REQUIRE(img.header().node_count == 3);
   uint32_t slot[2] = {0, 0};
   with_node_kind(node_kind(img.header()), 2, img.header().q_bytes, [&](auto kind) {

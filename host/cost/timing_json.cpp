@@ -180,6 +180,13 @@ std::vector<std::string> timing_notes(const hw::TimingStats& s, const hw::Timing
                   per_packet, slots, per_packet / slots, lifetime, 100.0 * std::min(1.0, fill_drain), enough);
     notes.push_back(text);
   }
+  if (sampling != nullptr && sampling->packets_unthinned > 0) {
+    std::snprintf(text, sizeof text,
+                  "sampled: %llu of %llu packets could not be thinned and were simulated in full (their cycles "
+                  "exact, not estimated); the first: ",
+                  (unsigned long long)sampling->packets_unthinned, (unsigned long long)sampling->packets);
+    notes.push_back(text + sampling->unthinned_why);
+  }
   if (sampling != nullptr && sampling->packets_sampled > 0) {
     std::snprintf(text, sizeof text,
                   "sampled: %llu of %llu packets estimated from %.1f%% of their rays; cycles +- %.0f (95%%)",
@@ -233,6 +240,8 @@ Json sample_json(const hw::SampleStats& s) {
   j["units_measured"] = s.units_measured;
   j["warmup_rays_mean"] = s.units_measured > 0 ? double(s.warmup_rays) / double(s.units_measured) : 0.0;
   j["packets_stratified"] = s.packets_stratified;
+  j["packets_unthinned"] = s.packets_unthinned;
+  j["unthinned_why"] = s.unthinned_why;
   j["cycles_ci95"] = s.ci95();
   return j;
 }

@@ -164,10 +164,9 @@ class TimedEngine final : public TraceEngine {
   // unit_work) to work[2w] and its warming rays' to work[2w + 1]. Returns the packet's cycles.
   uint64_t run_chip_dynamic(const std::vector<ChipWave>& waves, const Ray* rays, Hit* hits, bool any_hit,
                             TraversalStats& s, std::vector<TimingStats>& packet, std::vector<double>& work);
-  // Records the rays [cw.warm_first, cw.first) a wave at a time into warm_events, warming with them the chip's
-  // memory through unit u and the node caches of the units they would have gone to; returns their statistics.
-  TraversalStats warm_chip(size_t u, const ChipWave& cw, const Ray* rays, Hit* hits, bool any_hit,
-                           std::vector<std::vector<TraceEvent>>& warm_events);
+  // Warms with the rays [cw.warm_first, cw.first) (their recorded events), a wave at a time, the chip's memory
+  // through unit u and the node caches of the units they would have gone to.
+  void warm_chip(size_t u, const ChipWave& cw, const std::vector<std::vector<TraceEvent>>& events);
   // The rays a chip's unit is given at a time (run_chip): at least two slots' worth.
   static size_t chip_chunk_rays(const TimingConfig& c) { return std::max<size_t>(256, 2 * size_t(c.ray_slots)); }
   // The rays of a packet of n rays each of the chip's units takes, in the order it takes them (ray_policy).
@@ -203,6 +202,8 @@ class TimedEngine final : public TraceEngine {
   // warmed, units measured, the estimate's variance).
   void finish_sampled_packet(TimingStats& ts, uint64_t n, uint64_t simulated, uint64_t warmed, uint64_t units,
                              uint64_t cycles, double variance);
+  // A packet sampling was asked for but that was simulated in full, and why (SampleStats::unthinned_why).
+  void unthinned(const std::string& why);
   // Functional warming of the cache before ray `end` for the `sim` rays simulated from there on (their events in
   // events[0, sim)), walking rays backwards from it, recorded a chunk at a time into walk_events (at least 64
   // lists). Returns the rays walked.

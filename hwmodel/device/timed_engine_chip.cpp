@@ -199,23 +199,19 @@ uint64_t TimedEngine::run_chip(const std::vector<TimingModel*>& units,
   return end - base;
 }
 
-// The skipped waves before wave cw, a wave at a time (the events of thousands of waves need not fit at once): each
-// warms the chip's memory (the L2), and the node cache of the unit it would have gone to in turn (its number mod
-// the units), each unit's share under dynamic dispatch (sampler.h). The memory and the node caches are apart, so
-// each sees its lines in the order warming them all at once would.
-TraversalStats TimedEngine::warm_chip(size_t u, const ChipWave& cw, const Ray* rays, Hit* hits, bool any_hit,
-                                      std::vector<std::vector<TraceEvent>>& warm_events) {
+// The skipped waves before wave cw (its warming rays, recorded by the datapath into `events`, one per ray from
+// cw.warm_first), a wave at a time: each warms the chip's memory (the L2), and the node cache of the unit it would
+// have gone to in turn (its number mod the units), each unit's share under dynamic dispatch (sampler.h). The memory
+// and the node caches are apart, so each sees its lines in the order warming them all at once would.
+void TimedEngine::warm_chip(size_t u, const ChipWave& cw, const std::vector<std::vector<TraceEvent>>& events) {
   const size_t U = m_chip_units.size();
-  TraversalStats warm_stats;
   for (size_t f = cw.warm_first; f < cw.first;) {
     const size_t S = size_t(m_c.ray_slots), wave_no = f / S, c = std::min(cw.first, (wave_no + 1) * S) - f;
-    warm_events.resize(std::max(warm_events.size(), c));
-    record(rays, hits, f, c, any_hit, warm_stats, warm_events, 0);
-    m_chip_units[u]->warm_memory(warm_events.data(), c);
-    m_chip_units[wave_no % U]->warm(warm_events.data(), c);
+    const std::vector<TraceEvent>* ev = events.data() + (f - cw.warm_first);
+    m_chip_units[u]->warm_memory(ev, c);
+    m_chip_units[wave_no % U]->warm(ev, c);
     f += c;
   }
-  return warm_stats;
 }
 
 uint64_t TimedEngine::run_chip_dynamic(const std::vector<ChipWave>& waves, const Ray* rays, Hit* hits,
@@ -227,28 +223,29 @@ uint64_t TimedEngine::run_chip_dynamic(const std::vector<ChipWave>& waves, const
   const size_t U = m_chip_units.size(), W = waves.size();
   const double box_rate = double(m_c.box_rate) * m_c.box_units, tri_rate = double(m_c.tri_rate) * m_c.tri_units;
   work.assign(2 * W, 0.0);
-  // A wave recorded (traced by the datapath): its events. Its warming rays are recorded when it is given, a
-  // wave's worth at a time (below).
+  // A wave recorded (traced by the datapath): its events, and those of its warming rays (the skipped waves before
+  // it, sampled: kept until the wave is given, then freed; only the first wave after each skip has them).
   struct Recorded {
-    std::vector<std::vector<TraceEvent>> events;
-    TraversalStats stats;
+    std::vector<std::vector<TraceEvent>> events, warm;
+    TraversalStats stats, warm_stats;
     std::exception_ptr error;
   };
   auto record_wave = [&](size_t w, Recorded& r) {
     const ChipWave& cw = waves[w];
-    r.stats = TraversalStats{};
+    r.stats = r.warm_stats = TraversalStats{};
     r.error = nullptr;
     r.events.resize(std::max(r.events.size(), cw.count));
+    r.warm.resize(cw.first - cw.warm_first);
     try {
+      if (!r.warm.empty()) record(rays, hits, cw.warm_first, r.warm.size(), any_hit, r.warm_stats, r.warm, 0);
       record(rays, hits, cw.first, cw.count, any_hit, r.stats, r.events, 0);
     } catch (...) {
       r.error = std::current_exception();
     }
   };
-  std::vector<std::vector<TraceEvent>> warm_events;  // one skipped wave's events at a time
-  // Waves are recorded in order, on a worker thread up to `ahead` waves before the model (with more than one host
-  // thread and no attached RTL unit), or when a unit asks. Either way every ray's events are the same, and so is
-  // every cycle: which unit takes a wave depends on the model alone.
+  // Waves are recorded in order, with their warming rays, on a worker thread up to `ahead` waves before the model
+  // (with more than one host thread and no attached RTL unit), or when a unit asks. Either way every ray's events
+  // are the same, and so is every cycle: which unit takes a wave depends on the model alone.
   const bool background = m_opt.threads != 1 && !has_units();
   const size_t ahead = 2 * U + 2;
   std::mutex mutex;
@@ -304,7 +301,9 @@ uint64_t TimedEngine::run_chip_dynamic(const std::vector<ChipWave>& waves, const
     const size_t w = given++;
     if (r->error) std::rethrow_exception(r->error);
     const ChipWave& cw = waves[w];
-    const TraversalStats warm_stats = warm_chip(u, cw, rays, hits, any_hit, warm_events);
+    warm_chip(u, cw, r->warm);
+    std::vector<std::vector<TraceEvent>>().swap(r->warm);
+    const TraversalStats& warm_stats = r->warm_stats;
     s.add(warm_stats);
     s.add(r->stats);
     work[2 * w] =
@@ -391,6 +390,7 @@ uint64_t TimedEngine::trace_cycles_chip_dynamic(const Ray* rays, Hit* hits, size
     ts.packets = 1;
     ts.cycles = cycles;
     m_sample_stats.rays_simulated += n;
+    if (k >= 2) unthinned(th.why_not);
     return cycles;
   }
   for (const auto& unit : m_chip_units) unit->record_done(nullptr);

@@ -223,4 +223,9 @@ void TimedEngine::finish_sampled_packet(TimingStats& ts, uint64_t n, uint64_t si
   m_sample_stats.variance += variance;
 }
 
+void TimedEngine::unthinned(const std::string& why) {
+  ++m_sample_stats.packets_unthinned;
+  if (m_sample_stats.unthinned_why.empty()) m_sample_stats.unthinned_why = why;
+}
+
 }  // namespace rtu::hw

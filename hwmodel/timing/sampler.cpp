@@ -133,12 +133,33 @@ ChipThinning chip_thinning(size_t waves, size_t units, size_t k, size_t burst_tu
   t.lead = kChipLeadTurns * units;
   t.trail = kChipTrailTurns * units;
   t.burst = burst_turns;
-  t.warm = kChipWarmTurns;
   t.tail = kChipTailTurns;
-  if (waves <= t.lead + t.trail) return t;
+  t.warm = kChipWarmTurns;
+  const std::string packet = "a packet of " + std::to_string(waves) + " waves on " + std::to_string(units) +
+                             " units (a turn: a wave for each unit)";
+  if (burst_turns < t.warm + t.tail) {
+    t.why_not = "a burst of " + std::to_string(burst_turns) + " turns has no room for its warm-up and tail";
+    return t;
+  }
+  if (waves <= t.lead + t.trail) {
+    t.why_not = packet + " is no longer than its fill and drain (" + std::to_string(kChipLeadTurns) + " + " +
+                std::to_string(kChipTrailTurns) + " turns), all of which are simulated";
+    return t;
+  }
   const size_t B = burst_turns * units, bursts = (waves - t.lead - t.trail) / B, measured = bursts / k;
   const size_t simulated = t.lead + t.trail + measured * (B + (t.warm + t.tail) * units);
-  if (measured < kChipMinBursts || 2 * simulated > waves) return t;
+  if (measured < kChipMinBursts) {
+    t.why_not = packet + " holds " + std::to_string(bursts) + " bursts of " + std::to_string(burst_turns) +
+                " turns between its fill and drain; at 1 in " + std::to_string(k) + " that measures " +
+                std::to_string(measured) + ", fewer than the " + std::to_string(kChipMinBursts) +
+                " an interval needs: a larger --sample, or longer packets";
+    return t;
+  }
+  if (2 * simulated > waves) {
+    t.why_not = packet + " at 1 in " + std::to_string(k) + " would simulate " + std::to_string(simulated) +
+                " waves with the fill, drain, warm-ups and tails, over half of it: a smaller --sample thins it";
+    return t;
+  }
   t.sampled = true;
   return t;
 }

@@ -241,6 +241,29 @@ TEST_CASE("chip, dynamic dispatch: the fixed device's hits, the same cycles on a
   }
 }
 
+TEST_CASE("chip sampling: a packet too short to thin is simulated in full, and the stats say why",
+          "[timed][chip][sample]") {
+  // 3000 rays on 4 units of 32 slots: 94 waves, 62 between the fill and the drain: 3 bursts of 4 turns (16 waves),
+  // at 1 in 10 none measured. The packet runs in full: its cycles are the unsampled run's, and the statistics and
+  // the notes name the packet and why.
+  const rtu::host::Scene s = rtu::host::load_scene("/usr/share/assimp/models/IFC/AC14-FZK-Haus.ifc");
+  const std::vector<Ray> rays = rtu::host::incoherent_rays(s.geometry.bounds(), 3000, 6);
+  std::vector<Hit> h(rays.size());
+  rtu::hw::TraversalStats st;
+  const auto full = rtu::host::make_device(s.geometry, dynamic_chip(4, 0.0));
+  full->trace_batch(rays.data(), h.data(), rays.size(), false, 1, st);
+  const auto chip = rtu::host::make_device(s.geometry, dynamic_chip(4, 0.1));
+  chip->trace_batch(rays.data(), h.data(), rays.size(), false, 1, st);
+  const rtu::hw::SampleStats& ss = chip->timed()->sampling();
+  CHECK(ss.packets_sampled == 0);
+  CHECK(ss.packets_unthinned == 1);
+  CHECK(ss.rays_simulated == rays.size());
+  CHECK(ss.unthinned_why.find("94 waves on 4 units") != std::string::npos);
+  CHECK(ss.unthinned_why.find("fewer than the 4") != std::string::npos);
+  CHECK(chip->timed()->timing().cycles == full->timed()->timing().cycles);
+  CHECK(full->timed()->sampling().packets_unthinned == 0);  // nothing asked, nothing to say
+}
+
 TEST_CASE("chip sampling: the full simulation's cycles lie in the stated interval, seed after seed",
           "[timed][chip][sample][scale]") {
   // A packet of incoherent rays and one of camera rays on a small chip, sampled at 1 in 10 with five seeds against

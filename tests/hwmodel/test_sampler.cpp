@@ -142,6 +142,17 @@ TEST_CASE("sampler: a chip's thinned packet, its estimate and its t interval", "
   CHECK_FALSE(chip_thinning(200, 4, 10).sampled);
   CHECK_FALSE(chip_thinning(1000, 4, 1).sampled);
   CHECK_FALSE(chip_thinning(1000, 4, 2).sampled);  // 30 measured bursts of 28 waves: 872 of 1000
+  CHECK(chip_thinning(200, 4, 10).why_not.find("fewer than the 4") != std::string::npos);
+  CHECK(chip_thinning(1000, 4, 2).why_not.find("over half") != std::string::npos);
+  CHECK(chip_thinning(20, 4, 10).why_not.find("fill and drain") != std::string::npos);
+  CHECK(chip_thinning(1000, 4, 1).why_not.empty());  // none asked
+  // A chip's 262,144-ray packet (8192 waves of 32 on 80 units) at 1 in 10: 23 bursts of 4 turns between the fill
+  // and the drain, 2 measured: simulated in full, and said why; at 1 in 5 it is thinned.
+  CHECK_FALSE(chip_thinning(8192, 80, 10).sampled);
+  CHECK(chip_thinning(8192, 80, 10).why_not.find("holds 23 bursts of 4 turns") != std::string::npos);
+  CHECK(chip_thinning(8192, 80, 5).sampled);
+  // Bursts with no room for their warm-up and tail thin nothing.
+  CHECK(chip_thinning(100000, 4, 10, 2).why_not.find("no room") != std::string::npos);
   // Student's t: 12.706 for 1 degree of freedom, 2.042 for 30, 1.96 beyond.
   CHECK(rtu::hw::student_t975(1) == 12.706);
   CHECK(rtu::hw::student_t975(30) == 2.042);

@@ -1,5 +1,7 @@
 #include "hwmodel/datapath/box_node.h"
 
+#include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 
@@ -10,21 +12,53 @@
 
 namespace rtu::hw {
 
-bool node_simd_available() {
+uint8_t node_simd_level() {
 #ifdef RTU_NODE_SIMD
-  // RTU_NO_SIMD=1 in the environment keeps the scalar kernel (to compare the two).
-  static const bool ok = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
-                         !(std::getenv("RTU_NO_SIMD") && std::getenv("RTU_NO_SIMD")[0] == '1');
-  return ok;
+  static const uint8_t level = [] {
+    const char* no = std::getenv("RTU_NO_SIMD");
+    if (no && no[0] == '1') return uint8_t(kNodeScalar);
+    uint8_t cap = kNodeAvx512;
+    if (const char* want = std::getenv("RTU_SIMD")) {
+      if (std::strcmp(want, "scalar") == 0) cap = kNodeScalar;
+      else if (std::strcmp(want, "avx2") == 0) cap = kNodeAvx2;
+      else if (std::strcmp(want, "avx512") != 0)
+        std::fprintf(stderr, "rtusim: warning: RTU_SIMD=%s is none of scalar, avx2, avx512: ignored\n", want);
+    }
+    uint8_t have = kNodeScalar;
+    if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq")) have = kNodeAvx512;
+    else if (__builtin_cpu_supports("avx2")) have = kNodeAvx2;
+    return std::min(cap, have);
+  }();
+  return level;
 #else
-  return false;
+  return kNodeScalar;
 #endif
 }
 
+// Explicit instantiations of kernel K for the eight node types, inside K's target region (GCC compiles an
+// instantiation for the target in force where it is instantiated).
+#define RTU_BOX_NODE_INSTANCES(K)                                                                       \
+  template int K<2, uint8_t>(const NodeRay&, const QNode<2, uint8_t>&, int64_t, int64_t, uint32_t[2],   \
+                             int64_t[2]);                                                               \
+  template int K<4, uint8_t>(const NodeRay&, const QNode<4, uint8_t>&, int64_t, int64_t, uint32_t[4],   \
+                             int64_t[4]);                                                               \
+  template int K<6, uint8_t>(const NodeRay&, const QNode<6, uint8_t>&, int64_t, int64_t, uint32_t[6],   \
+                             int64_t[6]);                                                               \
+  template int K<8, uint8_t>(const NodeRay&, const QNode<8, uint8_t>&, int64_t, int64_t, uint32_t[8],   \
+                             int64_t[8]);                                                               \
+  template int K<2, uint16_t>(const NodeRay&, const QNode<2, uint16_t>&, int64_t, int64_t, uint32_t[2], \
+                              int64_t[2]);                                                              \
+  template int K<4, uint16_t>(const NodeRay&, const QNode<4, uint16_t>&, int64_t, int64_t, uint32_t[4], \
+                              int64_t[4]);                                                              \
+  template int K<6, uint16_t>(const NodeRay&, const QNode<6, uint16_t>&, int64_t, int64_t, uint32_t[6], \
+                              int64_t[6]);                                                              \
+  template int K<8, uint16_t>(const NodeRay&, const QNode<8, uint16_t>&, int64_t, int64_t, uint32_t[8], \
+                              int64_t[8]);
+
 #ifdef RTU_NODE_SIMD
 
-// Everything from here to the instantiations is compiled for AVX-512F/DQ; it runs only when
-// node_simd_available() (make_node_ray sets NodeRay::simd by it).
+// Everything from here to the AVX2 kernel is compiled for AVX-512F/DQ, the AVX2 kernel for AVX2; each runs only
+// where node_simd_level() is at least its level (make_node_ray sets NodeRay::simd by it).
 #if defined(__clang__)
 #pragma clang attribute push(__attribute__((target("avx512f,avx512dq"))), apply_to = function)
 #else
@@ -112,36 +146,121 @@ int box_node_simd(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin, int64_t
   }
   return k;
 }
+RTU_BOX_NODE_INSTANCES(box_node_simd)
 
-#else  // no AVX-512 kernel on this target: never chosen (node_simd_available() is false)
-
-template <int N, class Q>
-int box_node_simd(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin, int64_t tlim, uint32_t refs[N],
-                  int64_t dists[N]) {
-  return box_node_scalar<N, Q>(nr, n, tmin, tlim, refs, dists);
-}
-
-#endif
-
-#define RTU_BOX_NODE_SIMD(N, Q) \
-  template int box_node_simd<N, Q>(const NodeRay&, const QNode<N, Q>&, int64_t, int64_t, uint32_t[N], int64_t[N]);
-RTU_BOX_NODE_SIMD(2, uint8_t)
-RTU_BOX_NODE_SIMD(4, uint8_t)
-RTU_BOX_NODE_SIMD(6, uint8_t)
-RTU_BOX_NODE_SIMD(8, uint8_t)
-RTU_BOX_NODE_SIMD(2, uint16_t)
-RTU_BOX_NODE_SIMD(4, uint16_t)
-RTU_BOX_NODE_SIMD(6, uint16_t)
-RTU_BOX_NODE_SIMD(8, uint16_t)
-#undef RTU_BOX_NODE_SIMD
-
-#ifdef RTU_NODE_SIMD
 #if defined(__clang__)
 #pragma clang attribute pop
 #else
 #pragma GCC diagnostic pop
 #pragma GCC pop_options
 #endif
+
+// The AVX2 kernel: the AVX-512 one's arithmetic, four children a vector (one or two vectors a node). AVX2 has no
+// 64-bit min, max or arithmetic shift: min and max select by a compare, and x >> s (floor) is ~(~x >>> s) for
+// negative x, (x ^ m) >>> s ^ m with m the sign mask: the same values.
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx2")
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #endif
+
+namespace {
+
+// Offsets [4g, 4g + 4) of a row of N, zero-extended to four 64-bit lanes (those >= N are 0); reads only the row.
+template <int N, class Q>
+inline __m256i load_quad(const Q* row, int g) {
+  const int first = 4 * g, count = std::min(4, N - first);
+  uint64_t x = 0;
+  std::memcpy(&x, row + first, size_t(count) * sizeof(Q));
+  const __m128i v = _mm_cvtsi64_si128(int64_t(x));
+  if constexpr (sizeof(Q) == 1) return _mm256_cvtepu8_epi64(v);
+  return _mm256_cvtepu16_epi64(v);
+}
+
+inline __m256i min64(__m256i a, __m256i b) { return _mm256_blendv_epi8(a, b, _mm256_cmpgt_epi64(a, b)); }
+inline __m256i max64(__m256i a, __m256i b) { return _mm256_blendv_epi8(b, a, _mm256_cmpgt_epi64(a, b)); }
+inline __m256i sra64(__m256i x, __m128i s) {
+  const __m256i m = _mm256_cmpgt_epi64(_mm256_setzero_si256(), x);
+  return _mm256_xor_si256(_mm256_srl_epi64(_mm256_xor_si256(x, m), s), m);
+}
+
+}  // namespace
+
+template <int N, class Q>
+int box_node_avx2(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin, int64_t tlim, uint32_t refs[N],
+                  int64_t dists[N]) {
+  constexpr int G = (N + 3) / 4;
+  __m256i t0[G], t1[G];
+  for (int g = 0; g < G; ++g) {
+    t0[g] = _mm256_set1_epi64x(tmin);
+    t1[g] = _mm256_set1_epi64x(tlim);
+  }
+  for (int a = 0; a < 3; ++a) {
+    const int64_t base = (int64_t(n.origin[a]) << nr.frac) - nr.o[a];
+    const int s = n.exp[a] + nr.frac;
+    if (s > nr.smax || base >= nr.blim || base <= -nr.blim) return -1;
+    const __m256i blo = _mm256_set1_epi64x(base * nr.mlo[a]), bhi = _mm256_set1_epi64x(base * nr.mhi[a]);
+    const __m256i mlo = _mm256_set1_epi64x(nr.mlo[a]), mhi = _mm256_set1_epi64x(nr.mhi[a]);
+    const __m256i rnd = _mm256_set1_epi64x(nr.rnd[a]);
+    const __m128i ss = _mm_cvtsi32_si128(s), sh = _mm_cvtsi32_si128(nr.sh[a]);
+    for (int g = 0; g < G; ++g) {
+      const __m256i qn = load_quad<N, Q>(n.q[nr.near[a]], g), qf = load_quad<N, Q>(n.q[nr.near[a] ^ 1], g);
+      const __m256i pn = min64(_mm256_add_epi64(blo, _mm256_sll_epi64(_mm256_mul_epi32(qn, mlo), ss)),
+                               _mm256_add_epi64(bhi, _mm256_sll_epi64(_mm256_mul_epi32(qn, mhi), ss)));
+      const __m256i pf = max64(_mm256_add_epi64(blo, _mm256_sll_epi64(_mm256_mul_epi32(qf, mlo), ss)),
+                               _mm256_add_epi64(bhi, _mm256_sll_epi64(_mm256_mul_epi32(qf, mhi), ss)));
+      t0[g] = max64(t0[g], sra64(pn, sh));
+      t1[g] = min64(t1[g], sra64(_mm256_add_epi64(pf, rnd), sh));
+    }
+  }
+  constexpr unsigned kLanes = (1u << N) - 1u;
+  alignas(32) int64_t tv[4 * G];
+  unsigned hit = 0;
+  for (int g = 0; g < G; ++g) {
+    const __m256i out = _mm256_cmpgt_epi64(t0[g], t1[g]);  // t0 > t1: missed
+    hit |= (unsigned(~_mm256_movemask_pd(_mm256_castsi256_pd(out))) & 0xFu) << (4 * g);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(tv + 4 * g), t0[g]);
+  }
+  hit &= ((1u << n.count) - 1u) & kLanes;
+  int k = 0;
+  while (hit) {
+    const int i = __builtin_ctz(hit);
+    hit &= hit - 1;
+    refs[k] = n.child[i];
+    dists[k] = tv[i];
+    ++k;
+  }
+  return k;
+}
+RTU_BOX_NODE_INSTANCES(box_node_avx2)
+
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC diagnostic pop
+#pragma GCC pop_options
+#endif
+
+#else  // no vector kernel on this target: never chosen (node_simd_level() is kNodeScalar)
+
+template <int N, class Q>
+int box_node_simd(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin, int64_t tlim, uint32_t refs[N],
+                  int64_t dists[N]) {
+  return box_node_scalar<N, Q>(nr, n, tmin, tlim, refs, dists);
+}
+template <int N, class Q>
+int box_node_avx2(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin, int64_t tlim, uint32_t refs[N],
+                  int64_t dists[N]) {
+  return box_node_scalar<N, Q>(nr, n, tmin, tlim, refs, dists);
+}
+RTU_BOX_NODE_INSTANCES(box_node_simd)
+RTU_BOX_NODE_INSTANCES(box_node_avx2)
+
+#endif
+#undef RTU_BOX_NODE_INSTANCES
+
 
 }  // namespace rtu::hw

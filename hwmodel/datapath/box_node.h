@@ -11,10 +11,11 @@
 // format is narrow and the node passes two checks (node shift, |base|); a node that does not is left to the
 // reference path (the kernels return -1).
 //
-// Two kernels: portable scalar code, and AVX-512F/DQ (all children and both planes of an axis in one vector;
-// chosen at run time when the CPU has it, x86-64 only).
+// Three kernels: portable scalar code; AVX-512F/DQ (all children and both planes of an axis in one vector); AVX2
+// (four children a vector, for CPUs without AVX-512). The best the CPU has is chosen at run time (x86-64 only).
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 
 #include "hwmodel/datapath/intersect_fixed.h"
@@ -26,7 +27,7 @@ namespace rtu::hw {
 // The ray's constants for the node kernels.
 struct NodeRay {
   bool fast = false;       // the kernels apply: narrow format, every rcp_sh >= 0
-  bool simd = false;       // and the AVX-512 kernel is used: the CPU has it and no direction component is 0
+  uint8_t simd = 0;        // and a vector kernel is used (a NodeSimd level): the CPU has it, no component d is 0
   bool zero[3];            // d[a] == 0
   int frac;                // F
   int smax;                // largest node shift s = exp + F with q * (m << s) below 2^62
@@ -38,12 +39,17 @@ struct NodeRay {
   int64_t rnd[3];          // 2^sh - 1: ceil of the far planes' shift
 };
 
-// True when the CPU runs the AVX-512 kernel (x86-64 with AVX-512F and DQ).
-bool node_simd_available();
+// The node kernels' vector levels.
+enum NodeSimd : uint8_t { kNodeScalar = 0, kNodeAvx2 = 1, kNodeAvx512 = 2 };
 
-// q_bytes: 1 or 2 (the node's offset type). simd = false forces the scalar kernel (for tests). Inline: built once
-// per ray, in place.
-inline NodeRay make_node_ray(const FixedRay& r, const FixedFormat& f, int q_bytes, bool simd = true) {
+// The best level the CPU runs: AVX-512 with AVX-512F and DQ, AVX2 with AVX2, else scalar (any other target).
+// RTU_NO_SIMD=1 in the environment keeps the scalar kernel, RTU_SIMD=avx2 at most the AVX2 one (to compare them).
+uint8_t node_simd_level();
+inline bool node_simd_available() { return node_simd_level() != kNodeScalar; }
+
+// q_bytes: 1 or 2 (the node's offset type). max_simd caps the kernel (kNodeScalar forces the scalar one, for
+// tests). Inline: built once per ray, in place.
+inline NodeRay make_node_ray(const FixedRay& r, const FixedFormat& f, int q_bytes, uint8_t max_simd = kNodeAvx512) {
   NodeRay nr;
   nr.fast = r.narrow;
   bool any_zero = false;
@@ -63,8 +69,8 @@ inline NodeRay make_node_ray(const FixedRay& r, const FixedFormat& f, int q_byte
   // when |base| < 2^(61 - R).
   nr.smax = 61 - 8 * q_bytes - f.rcp_bits;
   nr.blim = int64_t(1) << (61 - f.rcp_bits);
-  // The AVX-512 kernel multiplies 32-bit halves: |m| <= 2^(R+1) must fit 32 signed bits.
-  nr.simd = nr.fast && simd && !any_zero && f.rcp_bits <= 30 && node_simd_available();
+  // The vector kernels multiply 32-bit halves: |m| <= 2^(R+1) must fit 32 signed bits.
+  nr.simd = nr.fast && !any_zero && f.rcp_bits <= 30 ? std::min(max_simd, node_simd_level()) : uint8_t(kNodeScalar);
   return nr;
 }
 
@@ -116,17 +122,21 @@ inline int box_node_scalar(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin
   return k;
 }
 
-// The AVX-512 kernel (nr.simd must be set); explicitly instantiated for the eight node types (widths 2, 4, 6, 8;
-// 8- and 16-bit offsets).
+// The vector kernels (nr.simd at least their level); explicitly instantiated for the eight node types (widths 2,
+// 4, 6, 8; 8- and 16-bit offsets).
 template <int N, class Q>
 int box_node_simd(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin, int64_t tlim, uint32_t refs[N],
+                  int64_t dists[N]);
+template <int N, class Q>
+int box_node_avx2(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin, int64_t tlim, uint32_t refs[N],
                   int64_t dists[N]);
 
 template <int N, class Q>
 inline int box_node(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin, int64_t tlim, uint32_t refs[N],
                     int64_t dists[N]) {
-  return nr.simd ? box_node_simd<N, Q>(nr, n, tmin, tlim, refs, dists)
-                 : box_node_scalar<N, Q>(nr, n, tmin, tlim, refs, dists);
+  if (nr.simd == kNodeAvx512) return box_node_simd<N, Q>(nr, n, tmin, tlim, refs, dists);
+  if (nr.simd == kNodeAvx2) return box_node_avx2<N, Q>(nr, n, tmin, tlim, refs, dists);
+  return box_node_scalar<N, Q>(nr, n, tmin, tlim, refs, dists);
 }
 
 }  // namespace rtu::hw

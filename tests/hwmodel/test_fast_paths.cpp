@@ -378,11 +378,11 @@ TEST_CASE("quantization frame: to_grid's 64-bit path equals the 128-bit code, ev
 
 namespace {
 
-// A random node of N children with offsets of type Q and a ray in format f; checks both kernels against
+// A random node of N children with offsets of type Q and a ray in format f; checks each kernel the CPU runs against
 // box_test child by child. Returns false when the kernels declined the node (-1).
 template <int N, class Q>
 void check_node_kernels(const FixedFormat& f, std::mt19937_64& rng, uint64_t& nodes, uint64_t& declined,
-                        uint64_t& accepted, uint64_t& simd_nodes) {
+                        uint64_t& accepted, uint64_t (&simd_nodes)[3]) {
   const int B = f.coord_bits, k = std::min<int>(f.child_bits, 8 * int(sizeof(Q)));
   const int64_t qmax = (int64_t(1) << k) - 1;
   auto rint = [&](int64_t lo, int64_t hi) { return lo + int64_t(rng() % uint64_t(hi - lo + 1)); };
@@ -471,23 +471,23 @@ void check_node_kernels(const FixedFormat& f, std::mt19937_64& rng, uint64_t& no
   }
   ++nodes;
   accepted += uint64_t(want);
-  for (int simd = 0; simd < 2; ++simd) {
-    const NodeRay nr = make_node_ray(r, f, int(sizeof(Q)), simd == 1);
+  // Each kernel the CPU runs: scalar, AVX2, AVX-512 (box_node() picks the one NodeRay::simd names).
+  for (uint8_t level : {rtu::hw::kNodeScalar, rtu::hw::kNodeAvx2, rtu::hw::kNodeAvx512}) {
+    const NodeRay nr = make_node_ray(r, f, int(sizeof(Q)), level);
     if (!nr.fast) {
       ++declined;
       return;
     }
-    if (simd == 1 && !nr.simd) continue;
+    if (nr.simd != level) continue;  // the CPU lacks it, or the ray is not for the vector kernels
     uint32_t refs[N];
     int64_t dists[N];
-    const int got = nr.simd ? box_node_simd<N, Q>(nr, n, tmin, tlim, refs, dists)
-                            : box_node_scalar<N, Q>(nr, n, tmin, tlim, refs, dists);
-    if (got < 0) {
-      ++declined;
+    const int got = box_node<N, Q>(nr, n, tmin, tlim, refs, dists);
+    if (got < 0) {  // every kernel declines the same nodes: counted once
+      declined += uint64_t(level == rtu::hw::kNodeScalar);
       continue;
     }
-    simd_nodes += uint64_t(nr.simd);
-    INFO(f.name << " N " << N << " q bytes " << sizeof(Q) << (nr.simd ? " simd" : " scalar") << " d " << d[0]
+    simd_nodes[level] += 1;
+    INFO(f.name << " N " << N << " q bytes " << sizeof(Q) << " kernel " << int(level) << " d " << d[0]
                 << " " << d[1] << " " << d[2] << " o " << r.o[0] << " " << r.o[1] << " " << r.o[2] << " t " << tmin
                 << " " << tlim);
     REQUIRE(got == want);
@@ -500,10 +500,10 @@ void check_node_kernels(const FixedFormat& f, std::mt19937_64& rng, uint64_t& no
 
 }  // namespace
 
-TEST_CASE("node kernels: scalar and AVX-512 equal box_test child by child (random nodes, every width)",
+TEST_CASE("node kernels: scalar, AVX2 and AVX-512 equal box_test child by child (random nodes, every width)",
           "[fixed][fast][box][scale]") {
   std::mt19937_64 rng(19);
-  uint64_t nodes = 0, declined = 0, accepted = 0, simd_nodes = 0;
+  uint64_t nodes = 0, declined = 0, accepted = 0, simd_nodes[3] = {0, 0, 0};
   std::vector<FixedFormat> formats;
   for (const FixedFormat& f : format_presets())
     if (f.translated_bits() + f.rcp_bits + 2 <= 63) formats.push_back(f);  // the narrow ones
@@ -521,10 +521,12 @@ TEST_CASE("node kernels: scalar and AVX-512 equal box_test child by child (rando
     }
   }
   INFO("nodes " << nodes << " declined " << declined << " accepted children " << accepted << " simd "
-                << simd_nodes);
+                << simd_nodes[1] << " avx2, " << simd_nodes[2] << " avx512");
   CHECK(accepted > nodes / 4);  // the random nodes are hit often enough to compare distances
   CHECK(declined < nodes / 2);
-  if (node_simd_available()) CHECK(simd_nodes > nodes / 4);
+  // Each vector kernel the CPU has took most nodes (the others' rays have a zero direction component).
+  if (rtu::hw::node_simd_level() >= rtu::hw::kNodeAvx2) CHECK(simd_nodes[1] > nodes / 4);
+  if (rtu::hw::node_simd_level() >= rtu::hw::kNodeAvx512) CHECK(simd_nodes[2] > nodes / 4);
 }
 
 TEST_CASE("triangle test: the 64-bit q x d edge functions equal the 128-bit code, through vertices and edges",

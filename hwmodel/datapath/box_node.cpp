@@ -19,14 +19,18 @@ uint8_t node_simd_level() {
     if (no && no[0] == '1') return uint8_t(kNodeScalar);
     uint8_t cap = kNodeAvx512;
     if (const char* want = std::getenv("RTU_SIMD")) {
-      if (std::strcmp(want, "scalar") == 0) cap = kNodeScalar;
-      else if (std::strcmp(want, "avx2") == 0) cap = kNodeAvx2;
+      if (std::strcmp(want, "scalar") == 0)
+        cap = kNodeScalar;
+      else if (std::strcmp(want, "avx2") == 0)
+        cap = kNodeAvx2;
       else if (std::strcmp(want, "avx512") != 0)
         std::fprintf(stderr, "rtusim: warning: RTU_SIMD=%s is none of scalar, avx2, avx512: ignored\n", want);
     }
     uint8_t have = kNodeScalar;
-    if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq")) have = kNodeAvx512;
-    else if (__builtin_cpu_supports("avx2")) have = kNodeAvx2;
+    if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq"))
+      have = kNodeAvx512;
+    else if (__builtin_cpu_supports("avx2"))
+      have = kNodeAvx2;
     return std::min(cap, have);
   }();
   return level;
@@ -180,8 +184,12 @@ inline __m256i load_quad(const Q* row, int g) {
   return _mm256_cvtepu16_epi64(v);
 }
 
-inline __m256i min64(__m256i a, __m256i b) { return _mm256_blendv_epi8(a, b, _mm256_cmpgt_epi64(a, b)); }
-inline __m256i max64(__m256i a, __m256i b) { return _mm256_blendv_epi8(b, a, _mm256_cmpgt_epi64(a, b)); }
+inline __m256i min64(__m256i a, __m256i b) {
+  return _mm256_blendv_epi8(a, b, _mm256_cmpgt_epi64(a, b));
+}
+inline __m256i max64(__m256i a, __m256i b) {
+  return _mm256_blendv_epi8(b, a, _mm256_cmpgt_epi64(a, b));
+}
 inline __m256i sra64(__m256i x, __m128i s) {
   const __m256i m = _mm256_cmpgt_epi64(_mm256_setzero_si256(), x);
   return _mm256_xor_si256(_mm256_srl_epi64(_mm256_xor_si256(x, m), s), m);
@@ -261,6 +269,5 @@ RTU_BOX_NODE_INSTANCES(box_node_avx2)
 
 #endif
 #undef RTU_BOX_NODE_INSTANCES
-
 
 }  // namespace rtu::hw

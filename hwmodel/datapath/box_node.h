@@ -45,11 +45,14 @@ enum NodeSimd : uint8_t { kNodeScalar = 0, kNodeAvx2 = 1, kNodeAvx512 = 2 };
 // The best level the CPU runs: AVX-512 with AVX-512F and DQ, AVX2 with AVX2, else scalar (any other target).
 // RTU_NO_SIMD=1 in the environment keeps the scalar kernel, RTU_SIMD=avx2 at most the AVX2 one (to compare them).
 uint8_t node_simd_level();
-inline bool node_simd_available() { return node_simd_level() != kNodeScalar; }
+inline bool node_simd_available() {
+  return node_simd_level() != kNodeScalar;
+}
 
 // q_bytes: 1 or 2 (the node's offset type). max_simd caps the kernel (kNodeScalar forces the scalar one, for
 // tests). Inline: built once per ray, in place.
-inline NodeRay make_node_ray(const FixedRay& r, const FixedFormat& f, int q_bytes, uint8_t max_simd = kNodeAvx512) {
+inline NodeRay make_node_ray(const FixedRay& r, const FixedFormat& f, int q_bytes,
+                             uint8_t max_simd = kNodeAvx512) {
   NodeRay nr;
   nr.fast = r.narrow;
   bool any_zero = false;
@@ -70,7 +73,8 @@ inline NodeRay make_node_ray(const FixedRay& r, const FixedFormat& f, int q_byte
   nr.smax = 61 - 8 * q_bytes - f.rcp_bits;
   nr.blim = int64_t(1) << (61 - f.rcp_bits);
   // The vector kernels multiply 32-bit halves: |m| <= 2^(R+1) must fit 32 signed bits.
-  nr.simd = nr.fast && !any_zero && f.rcp_bits <= 30 ? std::min(max_simd, node_simd_level()) : uint8_t(kNodeScalar);
+  nr.simd =
+      nr.fast && !any_zero && f.rcp_bits <= 30 ? std::min(max_simd, node_simd_level()) : uint8_t(kNodeScalar);
   return nr;
 }
 

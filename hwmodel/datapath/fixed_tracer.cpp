@@ -6,9 +6,9 @@
 #include <cstdio>
 #include <cstring>
 #include <new>
-#include <type_traits>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 #include "hwmodel/datapath/batch.h"
 #include "hwmodel/datapath/intersect_float.h"

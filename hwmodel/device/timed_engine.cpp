@@ -265,11 +265,12 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
         "within the interval (docs/timing-model.md, sampled timing on a chip)");
   const size_t asked = sample_step(m_sample.fraction);
   if (!chip() && asked >= 2 && k < 2)
-    unthinned("a packet of " + std::to_string(n) + " rays holds " + std::to_string(n / m_sample.unit_rays) +
-              " units of " + std::to_string(m_sample.unit_rays) + " rays; at 1 in " + std::to_string(asked) +
-              " that measures fewer than 10, and at a higher rate the measured units with their warm-up and tail (" +
-              std::to_string(per_unit) + " rays each) would be over half the packet: use longer packets, a " +
-              "shorter --sample-unit or no --sample");
+    unthinned(
+        "a packet of " + std::to_string(n) + " rays holds " + std::to_string(n / m_sample.unit_rays) +
+        " units of " + std::to_string(m_sample.unit_rays) + " rays; at 1 in " + std::to_string(asked) +
+        " that measures fewer than 10, and at a higher rate the measured units with their warm-up and tail (" +
+        std::to_string(per_unit) + " rays each) would be over half the packet: use longer packets, a " +
+        "shorter --sample-unit or no --sample");
   try {
     cycles = dynamic  ? trace_cycles_chip_dynamic(rays, hits, n, any_hit, s, ts, sample_step(m_sample.fraction))
              : chip() ? trace_cycles_chip(rays, hits, n, any_hit, s, ts)

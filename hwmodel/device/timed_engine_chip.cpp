@@ -201,8 +201,8 @@ uint64_t TimedEngine::run_chip(const std::vector<TimingModel*>& units,
 
 // The skipped waves before wave cw (its warming rays, recorded by the datapath into `events`, one per ray from
 // cw.warm_first), a wave at a time: each warms the chip's memory (the L2), and the node cache of the unit it would
-// have gone to in turn (its number mod the units), each unit's share under dynamic dispatch (sampler.h). The memory
-// and the node caches are apart, so each sees its lines in the order warming them all at once would.
+// have gone to in turn (its number mod the units), each unit's share under dynamic dispatch (sampler.h). The
+// memory and the node caches are apart, so each sees its lines in the order warming them all at once would.
 void TimedEngine::warm_chip(size_t u, const ChipWave& cw, const std::vector<std::vector<TraceEvent>>& events) {
   const size_t U = m_chip_units.size();
   for (size_t f = cw.warm_first; f < cw.first;) {

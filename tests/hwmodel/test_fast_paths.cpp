@@ -378,8 +378,8 @@ TEST_CASE("quantization frame: to_grid's 64-bit path equals the 128-bit code, ev
 
 namespace {
 
-// A random node of N children with offsets of type Q and a ray in format f; checks each kernel the CPU runs against
-// box_test child by child. Returns false when the kernels declined the node (-1).
+// A random node of N children with offsets of type Q and a ray in format f; checks each kernel the CPU runs
+// against box_test child by child. Returns false when the kernels declined the node (-1).
 template <int N, class Q>
 void check_node_kernels(const FixedFormat& f, std::mt19937_64& rng, uint64_t& nodes, uint64_t& declined,
                         uint64_t& accepted, uint64_t (&simd_nodes)[3]) {
@@ -487,9 +487,9 @@ void check_node_kernels(const FixedFormat& f, std::mt19937_64& rng, uint64_t& no
       continue;
     }
     simd_nodes[level] += 1;
-    INFO(f.name << " N " << N << " q bytes " << sizeof(Q) << " kernel " << int(level) << " d " << d[0]
-                << " " << d[1] << " " << d[2] << " o " << r.o[0] << " " << r.o[1] << " " << r.o[2] << " t " << tmin
-                << " " << tlim);
+    INFO(f.name << " N " << N << " q bytes " << sizeof(Q) << " kernel " << int(level) << " d " << d[0] << " "
+                << d[1] << " " << d[2] << " o " << r.o[0] << " " << r.o[1] << " " << r.o[2] << " t " << tmin << " "
+                << tlim);
     REQUIRE(got == want);
     for (int j = 0; j < got; ++j) {
       REQUIRE(refs[j] == want_refs[j]);

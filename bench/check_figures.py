@@ -608,11 +608,31 @@ def check_rtl_tri(row, ctx, full):
     return r
 
 
+def check_sim_speed(row, ctx, full):
+    # README: the atrium's 1080p frame (33M rays) on `rdna2-chip`: A s in full, B s sampled (E%); the fixed device
+    # alone C s. bench/simulator_speed.sh on the atrium (about 5 minutes). The seconds are wall time: x0.5-2. The
+    # sampled frame's error against the full one is deterministic (cycles, seed 1): exact.
+    g = stated(row, r"atrium at 1080p on `rdna2-chip`: ([\d.]+) s in full, ([\d.]+) s sampled at 1 in 10 "
+                    r"\(([+-][\d.]+)%\); the fixed device alone ([\d.]+) s")
+    out = ctx.run(["bench/simulator_speed.sh", ctx.rtusim, "builtin:atrium"])
+    t = table_with(out, "simulated rays / s / core")
+    by = {x["device"]: x for x in t if x["scene"] == "builtin:atrium"}
+    r = Result()
+    r.band("full s", num(by["rdna2-chip"]["render s"]), g[0], *SPEED_BAND)
+    sampled = by["rdna2-chip, dynamic, --sample 0.1"]
+    r.band("sampled s", num(sampled["render s"]), g[1], *SPEED_BAND)
+    r.equal("sampled error", sampled["error"].rstrip("%"), g[2])
+    r.band("fixed s", num(by["fixed"]["render s"]), g[3], *SPEED_BAND)
+    return r
+
+
 CHECKS = [
     ("fixed-float", "Fixed (default format) against float", None, check_fixed_float),
     ("watertight", "Watertightness, conservative boxes", None, check_watertight),
     ("embree", "Float reference against Embree", None, check_embree),
     ("speed-embree", "Speed against Embree (one thread)", None, check_speed_embree),
+    ("sim-speed", "Simulator speed, a chip frame (2 threads)", "bench/simulator_speed.sh: about 5 minutes",
+     check_sim_speed),
     ("cycles", "Cycles per ray, `rdna2`, three meshes", None, check_cycles),
     ("sampled", "Sampled timing, 4M rays, F = 0.01", None, check_sampled),  # 4.5 min
     ("coord-bits", "Coordinate bits", None, check_coord_bits),

@@ -61,6 +61,25 @@ uint8_t node_simd_level() {
 
 #ifdef RTU_NODE_SIMD
 
+namespace {
+
+// Both vector kernels' last step: the children whose bits are set in `hit`, in slot order, with their entry
+// distances tv[i]. Plain code, inlined into either kernel's target.
+template <int N>
+inline int take_hits(unsigned hit, const uint32_t* child, const int64_t* tv, uint32_t refs[N], int64_t dists[N]) {
+  int k = 0;
+  while (hit) {
+    const int i = __builtin_ctz(hit);
+    hit &= hit - 1;
+    refs[k] = child[i];
+    dists[k] = tv[i];
+    ++k;
+  }
+  return k;
+}
+
+}  // namespace
+
 // Everything from here to the AVX2 kernel is compiled for AVX-512F/DQ, the AVX2 kernel for AVX2; each runs only
 // where node_simd_level() is at least its level (make_node_ray sets NodeRay::simd by it).
 #if defined(__clang__)
@@ -140,15 +159,7 @@ int box_node_simd(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin, int64_t
   unsigned hit = unsigned(_mm512_cmple_epi64_mask(t0, t1)) & ((1u << n.count) - 1u) & kLanes;
   alignas(64) int64_t tv[8];
   _mm512_store_si512(tv, t0);
-  int k = 0;
-  while (hit) {
-    const int i = __builtin_ctz(hit);
-    hit &= hit - 1;
-    refs[k] = n.child[i];
-    dists[k] = tv[i];
-    ++k;
-  }
-  return k;
+  return take_hits<N>(hit, n.child, tv, refs, dists);
 }
 RTU_BOX_NODE_INSTANCES(box_node_simd)
 
@@ -233,15 +244,7 @@ int box_node_avx2(const NodeRay& nr, const QNode<N, Q>& n, int64_t tmin, int64_t
     _mm256_store_si256(reinterpret_cast<__m256i*>(tv + 4 * g), t0[g]);
   }
   hit &= ((1u << n.count) - 1u) & kLanes;
-  int k = 0;
-  while (hit) {
-    const int i = __builtin_ctz(hit);
-    hit &= hit - 1;
-    refs[k] = n.child[i];
-    dists[k] = tv[i];
-    ++k;
-  }
-  return k;
+  return take_hits<N>(hit, n.child, tv, refs, dists);
 }
 RTU_BOX_NODE_INSTANCES(box_node_avx2)
 

@@ -254,16 +254,16 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
       m_slot_time[uint32_t(ray_type) << 8 | bounce];  // what this stream's rays showed so far
   const size_t per_unit = warmup_rays(stream, size_t(m_c.ray_slots), m_sample.warmup_rays) + m_sample.unit_rays +
                           2 * size_t(m_c.ray_slots);
-  const size_t k = packet_step(n, m_sample.unit_rays, sample_step(m_sample.fraction), per_unit);
+  const size_t asked = sample_step(m_sample.fraction);  // every asked-th unit; k: this packet's step
+  const size_t k = packet_step(n, m_sample.unit_rays, asked, per_unit);
   const RayPolicy policy = m_c.ray_policy;
   const bool dynamic = chip() && policy == RayPolicy::kDynamic;
-  if (chip() && !dynamic && sample_step(m_sample.fraction) >= 2)
+  if (chip() && !dynamic && asked >= 2)
     throw std::invalid_argument(
         "sampled timing on a chip needs ray_policy = dynamic (--set ray_policy=dynamic): with " +
         std::string(name_of(m_c.ray_policy)) +
         " each unit's rays are fixed, the packet ends with its slowest unit, and no sample of them estimates that "
         "within the interval (docs/timing-model.md, sampled timing on a chip)");
-  const size_t asked = sample_step(m_sample.fraction);
   if (!chip() && asked >= 2 && k < 2)
     unthinned(
         "a packet of " + std::to_string(n) + " rays holds " + std::to_string(n / m_sample.unit_rays) +
@@ -272,7 +272,7 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
         std::to_string(per_unit) + " rays each) would be over half the packet: use longer packets, a " +
         "shorter --sample-unit or no --sample");
   try {
-    cycles = dynamic  ? trace_cycles_chip_dynamic(rays, hits, n, any_hit, s, ts, sample_step(m_sample.fraction))
+    cycles = dynamic  ? trace_cycles_chip_dynamic(rays, hits, n, any_hit, s, ts, asked)
              : chip() ? trace_cycles_chip(rays, hits, n, any_hit, s, ts)
              : k >= 2 ? trace_cycles_sampled(rays, hits, n, any_hit, s, ts, k, stream)
                       : trace_cycles_full(rays, hits, n, any_hit, s, ts);

@@ -76,6 +76,8 @@ class TimedEngine final : public TraceEngine {
   FixedFormat format() const { return tracer().image().format(); }
   // The bound one-level image (null before a bind, or with two levels).
   const DeviceImage* image() const { return m_image.get(); }
+  // Host threads for recording rays and, on a chip, for its units (run_units_in_step): 0 = all cores. Results do
+  // not depend on it.
   void set_threads(int threads) { m_opt.threads = threads; }
   // Sampled timing of later TRACE packets (SampleOptions); throws std::invalid_argument for a fraction outside
   // [0, 1] or a unit of 0 rays.
@@ -146,7 +148,12 @@ class TimedEngine final : public TraceEngine {
   std::map<uint32_t, SlotTimeAccount> m_slot_time;
   // One TRACE packet on a chip of c.units units sharing one memory (units > 1, or `force_chip`): every ray
   // simulated, the units in step (timing_model.h, add_rays and run_until), each action in the order of its cycle
-  // (ties: lower unit first), so the cycles do not depend on the host's threads.
+  // (ties: lower unit first), so the cycles do not depend on the host's threads: of the engine's threads, the
+  // units act on chip_threads().units (run_units_in_step) and rays are recorded on the others.
+  struct ChipThreads {
+    int units, recording;
+  };
+  ChipThreads chip_threads() const;
   uint64_t trace_cycles_chip(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
                              TimingStats& ts);
   // A chip whose dispatcher hands each wave to whichever unit asks first (ray_policy dynamic): one TRACE packet,

@@ -22,19 +22,21 @@ namespace rtu::hw {
 
 namespace {
 
-// Stops and joins a recording worker however the function that started it ends (it uses that frame's buffers).
+// Stops and joins the recording workers however the function that started them ends (they use that frame's
+// buffers).
 struct WorkerJoiner {
   std::mutex& m;
   std::condition_variable& cv;
   bool& stop;
-  std::thread& t;
+  std::vector<std::thread>& t;
   ~WorkerJoiner() {
     {
       const std::lock_guard<std::mutex> lock(m);
       stop = true;
     }
     cv.notify_all();
-    if (t.joinable()) t.join();
+    for (std::thread& w : t)
+      if (w.joinable()) w.join();
   }
 };
 
@@ -46,6 +48,18 @@ std::vector<std::vector<uint32_t>> TimedEngine::chip_rays(size_t n) const {
   const RayPolicy policy = m_c.ray_policy;
   for (size_t i = 0; i < n; ++i) mine[ray_unit(policy, i, n, U, size_t(m_c.ray_slots))].push_back(uint32_t(i));
   return mine;
+}
+
+TimedEngine::ChipThreads TimedEngine::chip_threads() const {
+  static const int hw = std::max(1, int(std::thread::hardware_concurrency()));
+  const int T = m_opt.threads > 0 ? m_opt.threads : hw;
+  if (T == 1 || has_units()) return {1, 0};  // an attached unit is not thread-safe (box_unit.h, tri_unit.h)
+  // Recording a ray takes about half of what replaying it does on a unit (rdna2-chip, the atrium: 1.6 s against
+  // 3.4 s of one thread, bench/results/simulator-speed.md): two threads of three replay, one records. Two host
+  // threads keep one unit thread: deferring the units' memory requests costs more than a second unit thread
+  // gains while the recording thread shares the two cores.
+  const int units = std::max(1, 2 * T / 3);
+  return {units, T - units};
 }
 
 uint64_t TimedEngine::trace_cycles_chip(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
@@ -132,7 +146,7 @@ uint64_t TimedEngine::run_chip(const std::vector<TimingModel*>& units,
   std::deque<size_t> jobs;
   std::vector<uint8_t> done(U, 0);
   bool stop = false;
-  std::thread worker;
+  std::vector<std::thread> workers;
   auto enqueue = [&](size_t u) {
     if (next[u] >= mine[u].size()) return;  // no rays left for it
     {
@@ -142,26 +156,30 @@ uint64_t TimedEngine::run_chip(const std::vector<TimingModel*>& units,
     }
     cv.notify_all();
   };
-  const WorkerJoiner joiner{mutex, cv, stop, worker};
+  const WorkerJoiner joiner{mutex, cv, stop, workers};
+  const ChipThreads threads = chip_threads();
   if (background) {
-    worker = std::thread([&] {
-      for (;;) {
-        size_t u;
-        {
-          std::unique_lock<std::mutex> lock(mutex);
-          cv.wait(lock, [&] { return stop || !jobs.empty(); });
-          if (stop) return;
-          u = jobs.front();
-          jobs.pop_front();
+    // A unit has at most one chunk asked for at a time (enqueue after its spare is taken), so the workers never
+    // record for the same unit at once.
+    for (int w = 0; w < std::max(1, threads.recording); ++w)
+      workers.emplace_back([&] {
+        for (;;) {
+          size_t u;
+          {
+            std::unique_lock<std::mutex> lock(mutex);
+            cv.wait(lock, [&] { return stop || !jobs.empty(); });
+            if (stop) return;
+            u = jobs.front();
+            jobs.pop_front();
+          }
+          fill(u, spare[u]);
+          {
+            const std::lock_guard<std::mutex> lock(mutex);
+            done[u] = 1;
+          }
+          cv.notify_all();
         }
-        fill(u, spare[u]);
-        {
-          const std::lock_guard<std::mutex> lock(mutex);
-          done[u] = 1;
-        }
-        cv.notify_all();
-      }
-    });
+      });
     for (size_t u = 0; u < U; ++u) enqueue(u);
   }
   auto give = [&](size_t u) {
@@ -190,7 +208,7 @@ uint64_t TimedEngine::run_chip(const std::vector<TimingModel*>& units,
     units[u]->advance_to(base);
     units[u]->begin(mine[u].size(), packet[u]);
   }
-  const uint64_t end = run_units_in_step(units, base, give);
+  const uint64_t end = run_units_in_step(units, base, give, threads.units);
   for (size_t u = 0; u < U; ++u) packet[u].cycles = end - base;
   if (ends) {
     ends->resize(U);
@@ -254,10 +272,10 @@ uint64_t TimedEngine::run_chip_dynamic(const std::vector<ChipWave>& waves, const
   std::vector<std::unique_ptr<Recorded>> pool;  // storage to record into
   size_t recorded = 0;
   bool stop = false;
-  std::thread worker;
+  std::vector<std::thread> worker;  // one: the waves come out in order
   const WorkerJoiner joiner{mutex, cv, stop, worker};
   if (background)
-    worker = std::thread([&] {
+    worker.emplace_back([&] {
       for (;;) {
         std::unique_ptr<Recorded> r;
         size_t w;
@@ -329,7 +347,9 @@ uint64_t TimedEngine::run_chip_dynamic(const std::vector<ChipWave>& waves, const
     units[u]->advance_to(base);
     units[u]->begin(total, packet[u]);  // an upper bound: close_input() when the waves run out
   }
-  const uint64_t end = run_units_in_step(units, base, give);
+  // Warming rays warm other units' caches when their wave is given: the units then act on one thread.
+  const bool warms = std::any_of(waves.begin(), waves.end(), [](const ChipWave& cw) { return cw.warm_first < cw.first; });
+  const uint64_t end = run_units_in_step(units, base, give, warms ? 1 : chip_threads().units);
   for (size_t u = 0; u < U; ++u) packet[u].cycles = end - base;
   return end - base;
 }

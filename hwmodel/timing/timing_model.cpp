@@ -309,16 +309,19 @@ uint64_t TimingModel::refill(Slot& sl, uint32_t k, uint64_t t) {
 
 void TimingModel::park(uint32_t k, uint64_t ready, uint64_t floor) {
   Park& p = m_park[k];
-  if (p.count++ == 0) p.ready = floor;
+  if (p.count++ == 0) p.ready = p.unqueued = floor;
   m_mem->pending()->notify(ready, this, k);
 }
 
-void TimingModel::woken(uint32_t k, uint64_t cycle) {
+void TimingModel::woken(uint32_t k, uint64_t cycle, uint64_t wait) {
   Park& p = m_park[k];
   p.ready = std::max(p.ready, cycle);
+  p.unqueued = std::max(p.unqueued, cycle - wait);
   if (--p.count > 0) return;
   // Its fetch's lines are all there: its unit request waits for its cycle as any other (simulate()).
   if (m_slots[k].unit_phase) {
+    // Deferred, the ray's wait is counted now, as simulate() counts it acting on the memory itself.
+    if (m_defer) m_s->mem_wait_cycles += p.ready - p.unqueued;
     m_waiting.push_back(p.ready << SlotQueue::kSlotBits | k);
     std::push_heap(m_waiting.begin(), m_waiting.end(), std::greater<>());
   }
@@ -393,6 +396,7 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
     if (t > limit && !ahead) return;
     if (m_queued && m_mem->next_decision() < t) continue;
     const uint32_t k = m_queue.top_slot();
+    m_now = t;
     if (t > m_watch_deadline) watchdog(t);
     Slot& sl = m_slots[k];
     uint64_t next_t = 0;
@@ -432,9 +436,15 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
           next_t = std::max(next_t, ready);
           unqueued = std::max(unqueued, ready - (m_s->mem_wait_cycles - before));
         });
-        m_s->mem_wait_cycles = waited + (next_t - unqueued) + pending_wait;
+        const bool parked = (m_queued || m_defer) && m_park[k].count > 0;
+        if (parked && m_defer) {  // the wait is counted when the last line is known (woken())
+          m_s->mem_wait_cycles = waited;
+          m_park[k].unqueued = std::max(m_park[k].unqueued, unqueued);
+        } else {
+          m_s->mem_wait_cycles = waited + (next_t - unqueued) + pending_wait;
+        }
         next_t = m_port.response(next_t, m_s->port_response_waits);
-        if (m_queued && m_park[k].count > 0) [[unlikely]] {
+        if (parked) [[unlikely]] {
           // Some lines wait for the memory's decisions: the slot leaves the queue until woken() (no trace span).
           m_park[k].ready = std::max(m_park[k].ready, next_t);
           sl.unit_phase = true;
@@ -453,7 +463,8 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
         // so does every request still waiting once those before it (m_waiting, earliest first) are served: all
         // are served now and the slot skips a wake-up, with every cycle as if each had waited for its own.
         const uint64_t key = next_t << SlotQueue::kSlotBits | k;
-        if (!m_early || next_t != t + m_min_fetch) {
+        // Deferred, a parked slot's request comes after `limit` (its answer does): early only up to it.
+        if (!m_early || next_t != t + m_min_fetch || (m_defer && next_t > limit)) {
           m_waiting.push_back(key);
           std::push_heap(m_waiting.begin(), m_waiting.end(), std::greater<>());
           sl.unit_phase = true;
@@ -645,9 +656,37 @@ uint64_t run_units_queued(const std::vector<TimingModel*>& units, uint64_t start
 
 }  // namespace
 
+// run_units_in_step on several host threads (timing_model_threads.cpp).
+uint64_t run_units_threaded(const std::vector<TimingModel*>& units, uint64_t start,
+                            const std::function<void(size_t)>& give, int threads);
+
+bool TimingModel::can_defer() const {
+  return m_own == nullptr && !m_queued && !m_observer && !m_trace && !m_port.on() && lookahead() > 0;
+}
+
+void TimingModel::defer(bool on) {
+  if (on == (m_defer != nullptr)) return;
+  if (on) {
+    if (!can_defer()) throw std::logic_error("timing model: this unit cannot defer its memory requests");
+    auto held = std::make_unique<DeferredMemory>(*m_mem, m_now);
+    m_defer = held.get();
+    m_held_memory = std::make_unique<MemorySystem>(std::move(held));
+    m_shared = m_mem;
+    m_mem = m_held_memory.get();
+    m_park.resize(size_t(m_c.ray_slots));
+  } else {
+    m_mem = m_shared;
+    m_defer = nullptr;
+    m_held_memory.reset();
+  }
+}
+
 uint64_t run_units_in_step(const std::vector<TimingModel*>& units, uint64_t start,
-                           const std::function<void(size_t)>& give) {
+                           const std::function<void(size_t)>& give, int threads) {
   if (!units.empty() && units[0]->queued()) return run_units_queued(units, start, give);
+  if (threads > 1 && units.size() > 1 &&
+      std::all_of(units.begin(), units.end(), [](const TimingModel* u) { return u->can_defer(); }))
+    return run_units_threaded(units, start, give, threads);
   using Next = std::pair<uint64_t, uint32_t>;  // (next action's cycle, unit): a min-heap
   std::vector<Next> heap;
   for (size_t u = 0; u < units.size(); ++u) heap.push_back({units[u]->next_cycle(), uint32_t(u)});

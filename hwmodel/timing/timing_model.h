@@ -54,6 +54,7 @@
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/instanced_fixed.h"
 #include "hwmodel/format/device_image.h"
+#include "hwmodel/timing/memory/deferred_memory.h"
 #include "hwmodel/timing/memory/memory_system.h"
 #include "hwmodel/timing/memory/node_cache.h"
 #include "hwmodel/timing/memory/port_limit.h"
@@ -157,7 +158,7 @@ class TimingModel final : private PendingWaiter {
   // stopping before the first that reaches the shared memory (a miss, a stack spill or refill): the units'
   // requests still reach the memory in the order of (cycle, unit), and the unit's own state is what it would be
   // acting in step, so the cycles are the same; the units only change places less often.
-  void run_until(uint64_t limit) { simulate(limit, m_ahead && !m_queued); }
+  void run_until(uint64_t limit) { simulate(limit, m_ahead && !m_queued && !m_defer); }
   void set_run_ahead(bool on) { m_ahead = on; }  // off: strictly in step (the same cycles, slower; for tests)
   uint64_t next_cycle() const;
   bool starved() const;
@@ -214,6 +215,19 @@ class TimingModel final : private PendingWaiter {
   // Off: every unit request waits for a wake-up of its slot at its own cycle, none is served at its fetch
   // (simulate()); the same cycles, slower. For tests.
   void set_early_requests(bool on) { m_early = on && !m_queued; }
+  // A chip's unit on a host thread of its own (run_units_in_step with threads > 1): while deferred, its requests
+  // to the shared memory are held (memory/deferred_memory.h) and answered with pending cycles, its slots wait for
+  // them as for a queued memory's (parked, woken), and it acts strictly in step, unit requests early only within the window (the
+  // same cycles). can_defer(): the unit shares a memory with a known lookahead, and has no fetch observer, no
+  // pipeline trace, no one-a-clock port and no queued memory, whose timing depends on the order it is asked in.
+  bool can_defer() const;
+  uint64_t lookahead() const { return m_mem->min_answer_cycles(); }
+  void defer(bool on);
+  // The held requests (deferred_memory.h): serving one by the shared memory (its data cycle), and settling them
+  // all once served (their answers wake the slots that wait for them).
+  const std::vector<DeferredMemory::Request>& held() const { return m_defer->held(); }
+  uint64_t serve_held(size_t i) { return m_defer->serve(i, *m_s); }
+  void settle_held() { m_defer->settle(); }
 
  private:
   struct Slot {
@@ -264,7 +278,7 @@ class TimingModel final : private PendingWaiter {
   }
   uint64_t unit(std::vector<uint64_t>& next_free, uint64_t issue, uint64_t latency, uint64_t t);
   // A queued memory's answer for slot k: the last of `count` pending reads (pending.h), at the earliest `floor`.
-  void woken(uint32_t k, uint64_t cycle) override;
+  void woken(uint32_t k, uint64_t cycle, uint64_t wait) override;
   void park(uint32_t k, uint64_t ready, uint64_t floor);
   // Calls f(line) for every cache line the fetch of event e touches (none for stack events).
   template <bool Reverse, class F>
@@ -323,11 +337,18 @@ class TimingModel final : private PendingWaiter {
   bool m_ahead = true;
   bool m_queued = false;  // memory/dram_scheduler.h
   struct Park {
-    uint32_t count = 0;  // pending reads the slot waits for
-    uint64_t ready = 0;  // the latest cycle known so far
+    uint32_t count = 0;     // pending reads the slot waits for
+    uint64_t ready = 0;     // the latest cycle known so far
+    uint64_t unqueued = 0;  // deferred: the latest a line would have come without its wait (mem_wait_cycles)
   };
   std::vector<Park> m_park;  // per slot
   uint64_t m_base = 0;       // cycle the current packet started (resources carry absolute cycles)
+  // Deferred (defer()): the shared memory, the unit's holding memory in front of which m_mem then points, and the
+  // cycle of the action being taken (each held request's order).
+  MemorySystem* m_shared = nullptr;
+  std::unique_ptr<MemorySystem> m_held_memory;
+  DeferredMemory* m_defer = nullptr;  // non-null while deferred
+  uint64_t m_now = 0;
 
   PipelineTrace* m_trace = nullptr;
   std::vector<uint64_t>* m_done = nullptr;
@@ -352,7 +373,13 @@ class TimingModel final : private PendingWaiter {
 // (cycle, unit index). `give(u)` is called when unit u's next action takes a ray it has not been given: it must
 // call add_rays on that unit with at least one more ray. Returns the cycle of the last action (the latest
 // end_cycle), at least `start`; then closes the packet on every unit (end_packet).
+//
+// threads > 1: the units act on that many host threads (timing_model_threads.cpp) when every unit can_defer():
+// windows of the shared memory's lookahead, the units in parallel inside each, their memory requests served
+// after it in the order above; the same cycles and statistics as on one thread. `give` is then called on the
+// calling thread only, between windows, earliest (cycle, unit) first, and must touch no unit but u and not the
+// shared memory (a sampled chip's warming of other units' caches does: it runs on one thread).
 uint64_t run_units_in_step(const std::vector<TimingModel*>& units, uint64_t start,
-                           const std::function<void(size_t)>& give);
+                           const std::function<void(size_t)>& give, int threads = 1);
 
 }  // namespace rtu::hw

@@ -42,7 +42,7 @@ TimingConfig one_bank(const std::string& scheduler, int cap = 16) {
 // Collects the cycles a queued memory resolves its reads to, by tag.
 struct Collect final : rtu::hw::PendingWaiter {
   std::map<uint32_t, uint64_t> at;
-  void woken(uint32_t tag, uint64_t cycle) override { at[tag] = cycle; }
+  void woken(uint32_t tag, uint64_t cycle, uint64_t /*wait*/) override { at[tag] = cycle; }
 };
 
 // Line reads (line, cycle) in this order; the cycle each one's data is there. A synchronous memory answers at

@@ -45,6 +45,7 @@ class L2Cache {
   void warm(uint64_t line);
   // The fewest cycles a line read takes, when DRAM takes at least `dram_min`.
   uint64_t min_cycles(uint64_t dram_min) const { return m_latency + (m_xfer < dram_min ? m_xfer : dram_min); }
+  uint64_t latency() const { return m_latency; }  // l2_latency
   // A queued DRAM behind it (dram_scheduler.h): a line's arrival may be a pending cycle of this table.
   void set_pending(PendingTable* p) { m_pending = p; }
 

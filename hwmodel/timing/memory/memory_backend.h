@@ -41,6 +41,10 @@ class MemoryBackend {
   virtual void write_line(uint64_t line, uint64_t t, TimingStats& s) = 0;
   // The fewest cycles a line read takes, from its request to its data.
   virtual uint64_t min_line_cycles() const = 0;
+  // The fewest cycles any read (a line or a stack word) takes from its request to its data, whatever came before:
+  // the lookahead of a chip whose units run on several host threads (timing_model.h). 0: no bound is known (the
+  // units then run on one).
+  virtual uint64_t min_answer_cycles() const { return 0; }
   // The latest cycle the backend's transfers keep it busy until.
   virtual uint64_t free_at() const = 0;
   // Functional warming (sampled timing): a cache level takes the line as a read would, with its replacement

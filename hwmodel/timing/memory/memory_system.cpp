@@ -32,6 +32,8 @@ class DramLevel final : public MemoryBackend {
     write(line * m_line_bytes, m_line_bytes, t, s);
   }
   uint64_t min_line_cycles() const override { return m_dram.min_line_cycles(); }
+  // A transfer starts no earlier than its request and its data comes dram_latency after it ends.
+  uint64_t min_answer_cycles() const override { return m_latency; }
   uint64_t free_at() const override { return m_dram.free_at(); }
 
  private:
@@ -69,6 +71,9 @@ class L2Level final : public MemoryBackend {
   void write_word(uint64_t addr, uint64_t t, TimingStats& s) override { word(addr, true, t, s); }
   void write_line(uint64_t line, uint64_t t, TimingStats& s) override { m_next->write_line(line, t, s); }
   uint64_t min_line_cycles() const override { return m_l2.min_cycles(m_next->min_line_cycles()); }
+  // Every access, hit or miss, line or word, starts at its request or later and answers l2_latency after that at
+  // the earliest (a miss asks the next level then).
+  uint64_t min_answer_cycles() const override { return m_l2.latency(); }
   uint64_t free_at() const override { return m_next->free_at(); }
   void warm_line(uint64_t line) override { m_l2.warm(line); }
   PendingTable* pending() override { return m_next->pending(); }
@@ -120,6 +125,9 @@ void MemoryTimeline::add(std::vector<uint64_t>& series, uint64_t cycle, uint64_t
 
 MemorySystem::MemorySystem(const TimingConfig& c)
     : m_top(compose_memory(c, m_timeline)), m_pending(m_top->pending()) {}
+
+MemorySystem::MemorySystem(std::unique_ptr<MemoryBackend> top)
+    : m_top(std::move(top)), m_pending(m_top->pending()) {}
 
 uint64_t MemorySystem::state_bytes(const TimingConfig& c) {
   const uint64_t banks = uint64_t(c.dram_channels) * uint64_t(std::max(1, c.dram_banks));

@@ -27,6 +27,8 @@ namespace rtu::hw {
 class MemorySystem {
  public:
   explicit MemorySystem(const TimingConfig& c);
+  // One backend alone (a chip unit's deferred requests, deferred_memory.h).
+  explicit MemorySystem(std::unique_ptr<MemoryBackend> top);
   // Bytes a memory system of configuration c holds: the L2's lines, the DRAM's banks and the timeline.
   static uint64_t state_bytes(const TimingConfig& c);
   // Its levels refer to its timeline: it stays where it was made.
@@ -39,6 +41,7 @@ class MemorySystem {
   uint64_t read_word(uint64_t addr, uint64_t t, TimingStats& s) { return m_top->read_word(addr, t, s); }
   // The fewest cycles a line read takes (a lower bound the timing model's early requests rely on).
   uint64_t min_line_cycles() const { return m_top->min_line_cycles(); }
+  uint64_t min_answer_cycles() const { return m_top->min_answer_cycles(); }  // memory_backend.h
   uint64_t free_at() const { return m_top->free_at(); }      // when the DRAM is free (the watchdog's dump)
   void warm_line(uint64_t line) { m_top->warm_line(line); }  // functional warming (memory_backend.h)
   // A queued memory (dram_scheduler = frfcfs, memory_backend.h): reads may answer pending cycles of this table

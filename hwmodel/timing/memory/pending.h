@@ -22,10 +22,11 @@ inline bool is_pending(uint64_t ready) {
   return (ready & kPending) != 0;
 }
 
-// Who waits for a pending cycle: told `tag` (a ray slot) and the cycle when it resolves.
+// Who waits for a pending cycle: told `tag` (a ray slot) and the cycle when it resolves, and `wait`: the cycles of
+// it the request spent queued in the memory, as the resolver said (0 for a derived entry's waiters).
 class PendingWaiter {
  public:
-  virtual void woken(uint32_t tag, uint64_t cycle) = 0;
+  virtual void woken(uint32_t tag, uint64_t cycle, uint64_t wait) = 0;
 
  protected:
   ~PendingWaiter() = default;
@@ -47,14 +48,17 @@ class PendingTable {
   void watch(uint64_t* field) {
     if (is_pending(*field)) subscribe(*field, Sub{Sub::kField, 0, field, nullptr});
   }
-  // w->woken(tag, cycle) when the pending cycle resolves.
+  // w->woken(tag, cycle, wait) when the pending cycle resolves.
   void notify(uint64_t ready, PendingWaiter* w, uint32_t tag) {
     subscribe(ready, Sub{Sub::kWaiter, tag, nullptr, w});
   }
   // Decides a make() entry: its subscribers (derived entries, fields, waiters) learn their cycles, in the order
-  // they subscribed; derived entries pass theirs on in turn.
-  void resolve(uint64_t ready, uint64_t cycle) {
-    std::vector<std::pair<uint32_t, uint64_t>> work{{uint32_t(ready & ~kPending), cycle}};
+  // they subscribed; derived entries pass theirs on in turn. `wait`: what the entry's own waiters are told of the
+  // request's queueing (derived entries' waiters did not queue: 0).
+  void resolve(uint64_t ready, uint64_t cycle, uint64_t wait = 0) {
+    std::vector<std::pair<uint32_t, uint64_t>>& work = m_work;  // empty between calls (no allocation per call)
+    const uint32_t root = uint32_t(ready & ~kPending);
+    work.push_back({root, cycle});
     while (!work.empty()) {
       const auto [id, c] = work.back();
       work.pop_back();
@@ -71,7 +75,7 @@ class PendingTable {
             if (*sub.field == (kPending | id)) *sub.field = c;
             break;
           case Sub::kWaiter:
-            sub.waiter->woken(sub.id, c);
+            sub.waiter->woken(sub.id, c, id == root ? wait : 0);
             break;
         }
         const uint32_t next = sub.next;
@@ -131,6 +135,7 @@ class PendingTable {
   }
   std::vector<Entry> m_entries;
   std::vector<Sub> m_subs;
+  std::vector<std::pair<uint32_t, uint64_t>> m_work;  // resolve()'s entries still to pass their cycles on
   uint32_t m_free_entry = kNone, m_free_sub = kNone;
 };
 

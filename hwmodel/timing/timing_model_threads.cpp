@@ -1,0 +1,194 @@
+// run_units_in_step on several host threads (timing_model.h): a conservative parallel simulation of a chip's
+// units, whose only shared part is the memory behind their caches. Every read of it answers at least the memory's
+// lookahead (MemoryBackend::min_answer_cycles) after its request, so in a window of that many cycles no unit acts on
+// anything another unit did in it: the units act on their threads to the window's end with their requests held
+// (defer(), memory/deferred_memory.h), then the calling thread serves the held requests in the order of (action
+// cycle, unit, request), which is the order in which the units acting in step on one thread make them, and their
+// answers wake the slots that wait for them, after the window. Units that need rays inside a window are given them
+// on the calling thread, earliest (cycle, unit) first as on one thread, and finish the window there. So the cycles
+// and every statistic are those of the units acting in step on one thread, whatever the number of threads.
+#include <algorithm>
+#include <atomic>
+#include <cstdint>
+#include <exception>
+#include <functional>
+#include <stdexcept>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "hwmodel/timing/timing_model.h"
+
+namespace rtu::hw {
+
+namespace {
+
+// Waits until done(a's value), spinning briefly (a window's work on the other threads is short) and then
+// sleeping in the kernel (a host thread may be busy recording rays, or the host has fewer cores than threads).
+template <class T, class Done>
+void await(const std::atomic<T>& a, Done done) {
+  for (int i = 0; i < 512; ++i) {
+    if (done(a.load(std::memory_order_acquire))) return;
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_ia32_pause();
+#endif
+  }
+  for (;;) {
+    const T v = a.load(std::memory_order_acquire);
+    if (done(v)) return;
+    a.wait(v, std::memory_order_acquire);
+  }
+}
+
+// The calling thread and n - 1 workers: round() has every thread j run work(j) once, the caller's share (j = 0)
+// on the calling thread, and returns when all are done.
+class Crew {
+ public:
+  Crew(int n, std::function<void(int)> work) : m_n(n), m_work(std::move(work)) {
+    for (int j = 1; j < n; ++j) m_threads.emplace_back([this, j] { serve(j); });
+  }
+  ~Crew() {
+    m_stop.store(true, std::memory_order_release);
+    m_round.fetch_add(1, std::memory_order_acq_rel);
+    m_round.notify_all();
+    for (std::thread& t : m_threads) t.join();
+  }
+  Crew(const Crew&) = delete;
+  Crew& operator=(const Crew&) = delete;
+  void round() {
+    m_left.store(m_n - 1, std::memory_order_release);
+    m_round.fetch_add(1, std::memory_order_acq_rel);
+    m_round.notify_all();
+    m_work(0);
+    await(m_left, [](int left) { return left == 0; });
+  }
+
+ private:
+  void serve(int j) {
+    uint32_t seen = 0;
+    for (;;) {
+      await(m_round, [&](uint32_t r) { return r != seen; });
+      seen = m_round.load(std::memory_order_acquire);
+      if (m_stop.load(std::memory_order_acquire)) return;
+      m_work(j);
+      if (m_left.fetch_sub(1, std::memory_order_acq_rel) == 1) m_left.notify_one();
+    }
+  }
+  int m_n;
+  std::function<void(int)> m_work;
+  std::atomic<uint32_t> m_round{0};
+  std::atomic<int> m_left{0};
+  std::atomic<bool> m_stop{false};
+  std::vector<std::thread> m_threads;
+};
+
+}  // namespace
+
+uint64_t run_units_threaded(const std::vector<TimingModel*>& units, uint64_t start,
+                            const std::function<void(size_t)>& give, int threads) {
+  const size_t U = units.size();
+  const size_t n = std::min(size_t(threads), U);
+  uint64_t lookahead = TimingModel::kNever;
+  for (const TimingModel* unit : units) lookahead = std::min(lookahead, unit->lookahead());
+  std::vector<std::exception_ptr> errors(U);
+  uint64_t limit = 0;  // the window's last cycle
+  auto run = [&](size_t u) {
+    try {
+      units[u]->run_until(limit);
+    } catch (...) {
+      errors[u] = std::current_exception();
+    }
+  };
+  auto rethrow = [&] {
+    for (const std::exception_ptr& e : errors)
+      if (e) std::rethrow_exception(e);
+  };
+  // The held requests of every unit, served in the order of (action cycle, unit, request): a counting sort by the
+  // action's cycle in the window, taking the units in order and each unit's requests in order. Returns the
+  // earliest data cycle of a read served (no slot wakes before it once the units settle them).
+  uint64_t from = 0;  // the window's first cycle
+  std::vector<uint32_t> count;
+  std::vector<std::pair<uint32_t, uint32_t>> order;  // (unit, request)
+  auto serve_window = [&] {
+    const uint64_t span = limit - from + 1;
+    if (span > (uint64_t(1) << 20)) throw std::logic_error("timing model: a window too long to sort");
+    count.assign(size_t(span) + 1, 0);
+    size_t total = 0;
+    for (const TimingModel* unit : units) {
+      for (const DeferredMemory::Request& r : unit->held()) {
+        if (r.action < from || r.action > limit) throw std::logic_error("timing model: a request outside its window");
+        ++count[size_t(r.action - from) + 1];
+      }
+      total += unit->held().size();
+    }
+    for (size_t i = 1; i < count.size(); ++i) count[i] += count[i - 1];
+    order.resize(total);
+    for (size_t u = 0; u < U; ++u) {
+      const std::vector<DeferredMemory::Request>& held = units[u]->held();
+      for (size_t i = 0; i < held.size(); ++i) order[count[size_t(held[i].action - from)]++] = {uint32_t(u), uint32_t(i)};
+    }
+    uint64_t first = TimingModel::kNever;
+    for (const auto& [u, i] : order) first = std::min(first, units[u]->serve_held(i));
+    return first;
+  };
+  // Every unit goes back to the shared memory however this ends, its held requests served and settled (after an
+  // error too, so that no pending cycle is left in a cache).
+  struct Undefer {
+    const std::vector<TimingModel*>& units;
+    const std::function<uint64_t()>& serve;
+    ~Undefer() {
+      try {
+        serve();
+        for (TimingModel* unit : units) unit->settle_held();
+      } catch (...) {
+      }
+      for (TimingModel* unit : units) unit->defer(false);
+    }
+  };
+  const std::function<uint64_t()> serve_all = serve_window;
+  for (TimingModel* unit : units) unit->defer(true);
+  const Undefer undefer{units, serve_all};
+  // A round: each unit settles the answers served after the last window, then acts to this window's end.
+  // A round: each unit settles the answers served after the last window, then acts to this window's end. Thread
+  // j runs units j, j + n, ...: the same units every round, whose state stays in its core's caches (units handed
+  // to whichever thread is free ran no faster here, their state moving between cores).
+  Crew crew(int(n), [&](int j) {
+    for (size_t u = size_t(j); u < U; u += n) {
+      units[u]->settle_held();
+      run(u);
+    }
+  });
+  uint64_t answered = TimingModel::kNever;  // the earliest answer not settled yet
+  for (;;) {
+    // The window starts at the earliest action: of a unit, or of a slot its settling will wake (a lower bound).
+    uint64_t t = answered;
+    for (const TimingModel* unit : units) t = std::min(t, unit->next_cycle());
+    if (t == TimingModel::kNever) break;
+    from = t;
+    limit = t < TimingModel::kNever - lookahead ? t + lookahead - 1 : TimingModel::kNever - 1;
+    crew.round();
+    rethrow();
+    // Units whose next action in the window takes a ray they lack: given it, earliest (cycle, unit) first, each
+    // then acting to the window's end (it may need rays again).
+    for (;;) {
+      size_t u = U;
+      uint64_t at = limit + 1;
+      for (size_t i = 0; i < U; ++i)
+        if (units[i]->next_cycle() < at && units[i]->starved()) {
+          at = units[i]->next_cycle();
+          u = i;
+        }
+      if (u == U) break;
+      give(u);
+      run(u);
+      rethrow();
+    }
+    answered = serve_window();
+  }
+  uint64_t end = start;
+  for (const TimingModel* unit : units) end = std::max(end, unit->end_cycle());
+  for (TimingModel* unit : units) unit->end_packet(end);
+  return end;
+}
+
+}  // namespace rtu::hw

@@ -348,7 +348,8 @@ uint64_t TimedEngine::run_chip_dynamic(const std::vector<ChipWave>& waves, const
     units[u]->begin(total, packet[u]);  // an upper bound: close_input() when the waves run out
   }
   // Warming rays warm other units' caches when their wave is given: the units then act on one thread.
-  const bool warms = std::any_of(waves.begin(), waves.end(), [](const ChipWave& cw) { return cw.warm_first < cw.first; });
+  const bool warms =
+      std::any_of(waves.begin(), waves.end(), [](const ChipWave& cw) { return cw.warm_first < cw.first; });
   const uint64_t end = run_units_in_step(units, base, give, warms ? 1 : chip_threads().units);
   for (size_t u = 0; u < U; ++u) packet[u].cycles = end - base;
   return end - base;

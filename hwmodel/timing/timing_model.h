@@ -217,9 +217,10 @@ class TimingModel final : private PendingWaiter {
   void set_early_requests(bool on) { m_early = on && !m_queued; }
   // A chip's unit on a host thread of its own (run_units_in_step with threads > 1): while deferred, its requests
   // to the shared memory are held (memory/deferred_memory.h) and answered with pending cycles, its slots wait for
-  // them as for a queued memory's (parked, woken), and it acts strictly in step, unit requests early only within the window (the
-  // same cycles). can_defer(): the unit shares a memory with a known lookahead, and has no fetch observer, no
-  // pipeline trace, no one-a-clock port and no queued memory, whose timing depends on the order it is asked in.
+  // them as for a queued memory's (parked, woken), and it acts strictly in step, unit requests early only within
+  // the window (the same cycles). can_defer(): the unit shares a memory with a known lookahead, and has no fetch
+  // observer, no pipeline trace, no one-a-clock port and no queued memory, whose timing depends on the order it is
+  // asked in.
   bool can_defer() const;
   uint64_t lookahead() const { return m_mem->min_answer_cycles(); }
   void defer(bool on);

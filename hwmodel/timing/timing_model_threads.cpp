@@ -1,7 +1,7 @@
 // run_units_in_step on several host threads (timing_model.h): a conservative parallel simulation of a chip's
 // units, whose only shared part is the memory behind their caches. Every read of it answers at least the memory's
-// lookahead (MemoryBackend::min_answer_cycles) after its request, so in a window of that many cycles no unit acts on
-// anything another unit did in it: the units act on their threads to the window's end with their requests held
+// lookahead (MemoryBackend::min_answer_cycles) after its request, so in a window of that many cycles no unit acts
+// on anything another unit did in it: the units act on their threads to the window's end with their requests held
 // (defer(), memory/deferred_memory.h), then the calling thread serves the held requests in the order of (action
 // cycle, unit, request), which is the order in which the units acting in step on one thread make them, and their
 // answers wake the slots that wait for them, after the window. Units that need rays inside a window are given them
@@ -116,7 +116,8 @@ uint64_t run_units_threaded(const std::vector<TimingModel*>& units, uint64_t sta
     size_t total = 0;
     for (const TimingModel* unit : units) {
       for (const DeferredMemory::Request& r : unit->held()) {
-        if (r.action < from || r.action > limit) throw std::logic_error("timing model: a request outside its window");
+        if (r.action < from || r.action > limit)
+          throw std::logic_error("timing model: a request outside its window");
         ++count[size_t(r.action - from) + 1];
       }
       total += unit->held().size();
@@ -125,7 +126,8 @@ uint64_t run_units_threaded(const std::vector<TimingModel*>& units, uint64_t sta
     order.resize(total);
     for (size_t u = 0; u < U; ++u) {
       const std::vector<DeferredMemory::Request>& held = units[u]->held();
-      for (size_t i = 0; i < held.size(); ++i) order[count[size_t(held[i].action - from)]++] = {uint32_t(u), uint32_t(i)};
+      for (size_t i = 0; i < held.size(); ++i)
+        order[count[size_t(held[i].action - from)]++] = {uint32_t(u), uint32_t(i)};
     }
     uint64_t first = TimingModel::kNever;
     for (const auto& [u, i] : order) first = std::min(first, units[u]->serve_held(i));

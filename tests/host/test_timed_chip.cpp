@@ -115,7 +115,10 @@ TEST_CASE("chip: several units give the fixed device's hits, and the same cycles
     rtu::hw::set_timing_key(o.timing, "dram_activate_cycles", "20");
     rtu::hw::set_timing_key(o.timing, "dram_precharge_cycles", "20");
     std::vector<rtu::hw::TimingStats> runs;
-    for (int threads : {1, 2}) {
+    // 1 thread; 2: the units on one, rays recorded on the other; 3 and 7: the units on 2 and 4 threads
+    // (run_units_in_step's windows), rays recorded on 1 and 3.
+    for (int threads : {1, 2, 3, 7}) {
+      CAPTURE(threads);
       const auto chip = rtu::host::make_device(s.geometry, o);
       std::vector<Hit> h(rays.size());
       rtu::hw::TraversalStats st;
@@ -135,7 +138,7 @@ TEST_CASE("chip: several units give the fixed device's hits, and the same cycles
       }
       CHECK(unit_rays == rays.size());
     }
-    check_same_timing(runs[0], runs[1]);
+    for (size_t r = 1; r < runs.size(); ++r) check_same_timing(runs[0], runs[r]);
     CHECK(runs[0].l2_hits > 0);
     CHECK(runs[0].dram_row_hits > 0);
   }
@@ -158,17 +161,22 @@ TEST_CASE("chip: units running ahead to their next memory access give the cycles
     rtu::hw::set_timing_key(o.timing, "stack_entries", "2");
     rtu::hw::set_timing_key(o.timing, "l2_kib", "256");
     std::vector<rtu::hw::TimingStats> runs;
-    for (bool ahead : {true, false}) {
+    // Ahead and in step on one unit thread; then the units on 3 threads (5 host threads), in windows of the
+    // shared memory's lookahead with their requests held (no run-ahead there; without a prefetcher only).
+    for (int threads : {2, 2, 5}) {
+      const bool ahead = runs.empty();
       const auto chip = rtu::host::make_device(s.geometry, o);
       chip->timed()->set_run_ahead(ahead);
       std::vector<Hit> h(rays.size());
       rtu::hw::TraversalStats st;
       for (int packet = 0; packet < 2; ++packet)
-        chip->trace_batch(rays.data(), h.data(), rays.size(), packet == 1, 2, st);
+        chip->trace_batch(rays.data(), h.data(), rays.size(), packet == 1, threads, st);
       runs.push_back(chip->timed()->timing());
       REQUIRE(chip->timed()->timing_by_unit().size() == 6);
     }
     check_same_timing(runs[0], runs[1]);
+    check_same_timing(runs[0], runs[2]);
+    CHECK(runs[0].stack_refills > 0);
     CHECK(runs[0].stack_spills > 0);
     CHECK(runs[0].l2_misses > 0);
     CHECK(runs[0].dram_row_misses > 0);
@@ -205,7 +213,7 @@ TEST_CASE("chip, dynamic dispatch: the fixed device's hits, the same cycles on a
   for (double fraction : {0.0, 0.1}) {
     CAPTURE(fraction);
     std::vector<rtu::hw::TimingStats> runs;
-    for (int threads : {1, 2}) {
+    for (int threads : {1, 2, 4}) {  // 4: the units on 2 threads unless sampled (warming touches other units)
       const auto chip = rtu::host::make_device(s.geometry, dynamic_chip(4, fraction));
       std::vector<Hit> h(n);
       rtu::hw::TraversalStats st;
@@ -237,7 +245,7 @@ TEST_CASE("chip, dynamic dispatch: the fixed device's hits, the same cycles on a
         CHECK(runs.back().rays == n);
       }
     }
-    check_same_timing(runs[0], runs[1]);
+    for (size_t r = 1; r < runs.size(); ++r) check_same_timing(runs[0], runs[r]);
   }
 }
 

@@ -548,3 +548,100 @@ TEST_CASE("chip: a fetch observer's fills keep run-ahead exact (units stop befor
   CHECK(ahead.prefetch_fills > 0);
   CHECK(ahead.prefetch_redundant > 0);
 }
+
+namespace {
+
+// Four units sharing one memory (with an L2 of 8 KiB, or the DRAM channel alone) run a packet of swept rays each,
+// given in chunks of 40, on `threads` host threads; 2-entry stacks, so that spills and refills reach the shared
+// memory too. Returns the chip's cycles; the units' statistics summed in `s`, their memory's timeline in
+// `l2_bytes`.
+uint64_t run_chip_on(int threads, bool l2, bool observed, TimingStats& s, std::vector<uint64_t>& l2_bytes) {
+  TimingConfig c = test_config();
+  c.cache_kib = 4;
+  c.ray_slots = 8;
+  c.stack_entries = 2;
+  if (l2) {
+    c.l2_kib = 8;
+    c.l2_slices = 2;
+    c.l2_latency = 25;
+  }
+  rtu::hw::MemorySystem mem(c);
+  std::vector<std::unique_ptr<TimingModel>> units;
+  std::vector<std::vector<std::vector<TraceEvent>>> rays(4);
+  std::vector<TimingStats> stats(4);
+  std::vector<size_t> given(4, 0);
+  for (uint32_t u = 0; u < 4; ++u) {
+    units.push_back(std::make_unique<TimingModel>(c, layout(), &mem, u));
+    if (observed) units.back()->set_fetch_observer(std::make_unique<FillAfterEveryFetch>());
+    uint32_t x = 4242 + u;
+    for (int i = 0; i < 250; ++i) {
+      // A sweep's ray whose traversal pushes 4 entries after its first node (2 spill) and pops them at its end.
+      std::vector<TraceEvent> ev = sweep_ray(x, i + 70 * int(u));
+      ev.insert(ev.begin() + 1, TraceEvent{TraceEvent::kPush, 4, 0, 0, 0});
+      for (int j = 0; j < 4; ++j) ev.insert(ev.end() - 1, TraceEvent{TraceEvent::kPop, 0, 0, 0, 0});
+      rays[u].push_back(std::move(ev));
+    }
+    units.back()->begin(rays[u].size(), stats[u]);
+  }
+  std::vector<TimingModel*> ptrs;
+  for (const auto& u : units) ptrs.push_back(u.get());
+  const uint64_t end = rtu::hw::run_units_in_step(
+      ptrs, 0,
+      [&](size_t u) {
+        const size_t m = std::min<size_t>(40, rays[u].size() - given[u]);
+        units[u]->add_rays(rays[u].data() + given[u], m);
+        given[u] += m;
+      },
+      threads);
+  for (const TimingStats& us : stats) s.add(us);
+  l2_bytes = mem.timeline().l2_bytes;
+  return end;
+}
+
+}  // namespace
+
+TEST_CASE("chip: units on several host threads give the cycles and counters of units in step on one",
+          "[timing][chip]") {
+  for (const bool l2 : {true, false}) {
+    CAPTURE(l2);
+    TimingStats one;
+    std::vector<uint64_t> one_l2;
+    const uint64_t cycles = run_chip_on(1, l2, false, one, one_l2);
+    CHECK(one.stack_spills > 0);
+    CHECK(one.stack_refills > 0);
+    CHECK(one.mem_wait_cycles > 0);  // queueing in the shared memory, counted per fetch
+    CHECK((one.l2_misses > 0) == l2);
+    for (const int threads : {2, 3, 4, 9}) {
+      CAPTURE(threads);
+      TimingStats many;
+      std::vector<uint64_t> many_l2;
+      CHECK(run_chip_on(threads, l2, false, many, many_l2) == cycles);
+      check_same_timing(one, many);
+      CHECK(many_l2 == one_l2);
+    }
+  }
+  // The lookahead is the memory's fewest answer cycles: l2_latency in front of the DRAM, or dram_latency alone.
+  TimingConfig c = test_config();
+  CHECK(rtu::hw::MemorySystem(c).min_answer_cycles() == 100);
+  c.l2_kib = 8;
+  c.l2_latency = 25;
+  CHECK(rtu::hw::MemorySystem(c).min_answer_cycles() == 25);
+}
+
+TEST_CASE("chip: units with a fetch observer stay on one host thread, with the same cycles", "[timing][chip]") {
+  // A prefetcher's fills depend on the shared memory's state at each fetch (drain_prefetches): such units cannot
+  // hold their requests for a window (can_defer), so run_units_in_step keeps them in step on the calling thread.
+  TimingStats one, two;
+  std::vector<uint64_t> a, b;
+  CHECK(run_chip_on(1, true, true, one, a) == run_chip_on(3, true, true, two, b));
+  check_same_timing(one, two);
+  CHECK(one.prefetch_fills > 0);
+  TimingConfig c = test_config();
+  rtu::hw::MemorySystem mem(c);
+  TimingModel alone(c, layout()), shared(c, layout(), &mem, 0);
+  CHECK_FALSE(alone.can_defer());  // its own memory: nothing to share
+  CHECK(shared.can_defer());
+  shared.set_fetch_observer(std::make_unique<FillAfterEveryFetch>());
+  CHECK_FALSE(shared.can_defer());
+  CHECK_THROWS_WITH(shared.defer(true), Catch::Contains("cannot defer"));
+}

@@ -9,6 +9,7 @@
 // and every statistic are those of the units acting in step on one thread, whatever the number of threads.
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <exception>
 #include <functional>
@@ -150,16 +151,38 @@ uint64_t run_units_threaded(const std::vector<TimingModel*>& units, uint64_t sta
   const std::function<uint64_t()> serve_all = serve_window;
   for (TimingModel* unit : units) unit->defer(true);
   const Undefer undefer{units, serve_all};
-  // A round: each unit settles the answers served after the last window, then acts to this window's end.
   // A round: each unit settles the answers served after the last window, then acts to this window's end. Thread
-  // j runs units j, j + n, ...: the same units every round, whose state stays in its core's caches (units handed
-  // to whichever thread is free ran no faster here, their state moving between cores).
+  // j runs the units [first[j], first[j + 1]), the same units round after round, whose state then stays in its
+  // core's caches (units handed to whichever thread was free ran no faster here, their state moving between
+  // cores). Every kBalance rounds the split follows the time each thread took (host cores may differ in speed or
+  // share with recording threads); which thread runs a unit changes no result.
+  constexpr uint64_t kBalance = 64;
+  std::vector<size_t> first(n + 1);
+  for (size_t j = 0; j <= n; ++j) first[j] = j * U / n;
+  std::vector<double> busy(n, 0.0);
   Crew crew(int(n), [&](int j) {
-    for (size_t u = size_t(j); u < U; u += n) {
+    const auto t0 = std::chrono::steady_clock::now();
+    for (size_t u = first[size_t(j)]; u < first[size_t(j) + 1]; ++u) {
       units[u]->settle_held();
       run(u);
     }
+    busy[size_t(j)] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   });
+  // Each thread's share of the units moves halfway to what its speed (units per second of its rounds) earns.
+  auto balance = [&] {
+    std::vector<double> rate(n);
+    double total = 0;
+    for (size_t j = 0; j < n; ++j) total += rate[j] = double(first[j + 1] - first[j]) / std::max(busy[j], 1e-9);
+    double cum = 0;
+    for (size_t j = 1; j < n; ++j) {
+      cum += rate[j - 1];
+      const double target = double(U) * cum / total;
+      size_t b = size_t(0.5 * double(first[j]) + 0.5 * target + 0.5);
+      first[j] = std::clamp(b, first[j - 1] + 1, U - (n - j));
+    }
+    std::fill(busy.begin(), busy.end(), 0.0);
+  };
+  uint64_t rounds = 0;
   uint64_t answered = TimingModel::kNever;  // the earliest answer not settled yet
   for (;;) {
     // The window starts at the earliest action: of a unit, or of a slot its settling will wake (a lower bound).
@@ -170,6 +193,7 @@ uint64_t run_units_threaded(const std::vector<TimingModel*>& units, uint64_t sta
     limit = t < TimingModel::kNever - lookahead ? t + lookahead - 1 : TimingModel::kNever - 1;
     crew.round();
     rethrow();
+    if (++rounds % kBalance == 0) balance();
     // Units whose next action in the window takes a ray they lack: given it, earliest (cycle, unit) first, each
     // then acting to the window's end (it may need rays again).
     for (;;) {

@@ -609,11 +609,13 @@ def check_rtl_tri(row, ctx, full):
 
 
 def check_sim_speed(row, ctx, full):
-    # README: the atrium's 1080p frame (33M rays) on `rdna2-chip`: A s in full, B s sampled (E%); the fixed device
-    # alone C s. bench/simulator_speed.sh on the atrium (about 5 minutes). The seconds are wall time: x0.5-2. The
-    # sampled frame's error against the full one is deterministic (cycles, seed 1): exact.
-    g = stated(row, r"atrium at 1080p on `rdna2-chip`: ([\d.]+) s in full, ([\d.]+) s sampled at 1 in 10 "
-                    r"\(([+-][\d.]+)%\); the fixed device alone ([\d.]+) s")
+    # README: the atrium's 1080p frame (33M rays) on `rdna2-chip`: A s full, B s sampled (E%); the fixed device
+    # C s; the units' replay R x on 2 threads. bench/simulator_speed.sh on the atrium (about 5 minutes), and
+    # chip_threads_bench on 1M rays (half a minute). The seconds are wall time and the replay's speed-up a
+    # same-run ratio: x0.5-2. The sampled frame's error against the full one is deterministic (cycles, seed 1):
+    # exact. Every counter of the replay on 2 threads must equal one thread's.
+    g = stated(row, r"atrium at 1080p on `rdna2-chip`: ([\d.]+) s full, ([\d.]+) s sampled at 1 in 10 "
+                    r"\(([+-][\d.]+)%\); fixed device ([\d.]+) s; units' replay ([\d.]+)x on 2 threads")
     out = ctx.run(["bench/simulator_speed.sh", ctx.rtusim, "builtin:atrium"])
     t = table_with(out, "simulated rays / s / core")
     by = {x["device"]: x for x in t if x["scene"] == "builtin:atrium"}
@@ -623,6 +625,11 @@ def check_sim_speed(row, ctx, full):
     r.band("sampled s", num(sampled["render s"]), g[1], *SPEED_BAND)
     r.equal("sampled error", sampled["error"].rstrip("%"), g[2])
     r.band("fixed s", num(by["fixed"]["render s"]), g[3], *SPEED_BAND)
+    out = ctx.run([os.path.join(os.path.dirname(ctx.rtusim), "chip_threads_bench"), "--rays", "1000000",
+                   "--threads", "1,2", "--runs", "2"])
+    t = table_with(out, "same counters")
+    r.equal("replay counters on 2 threads", t[-1]["same counters"], "yes")
+    r.band("replay speed-up", num(t[-1]["speed-up"].rstrip("x")), g[4], *SPEED_BAND)
     return r
 
 

@@ -94,6 +94,7 @@ class Raster {
   }
   void triangle(const SurfaceRecord& s, uint32_t prim);
   void sphere(const SurfaceRecord& s, uint32_t prim);
+  void curve(const SurfaceRecord& s, uint32_t prim);
   void plane(const SurfaceRecord& s, uint32_t prim);
 
  private:
@@ -122,6 +123,11 @@ class Raster {
     const double py = (1.0 - c.y / c.z) * 0.5 * double(m_job.height);
     return SVert{round_i64(px * double(kOne)), round_i64(py * double(kOne)), c.z, c.u, c.v};
   }
+  // The pixels [x0, x1] x [y0, y1] that the projection of a view-space box (z along forward, x and y scaled as
+  // CVert's) may cover, with a pixel of margin; the whole image when the box reaches the near plane. False when
+  // it is behind the eye, off the image or outside the pass's rows.
+  bool bounds(double zlo, double zhi, double xlo, double xhi, double ylo, double yhi, int64_t& x0, int64_t& x1,
+              int64_t& y0, int64_t& y1) const;
   // Calls f(x, y, local index, offset) for every sample of the pass in pixels [x0, x1] x [y0, y1] (clamped to
   // the image and the pass's rows), counting coverage tests.
   template <class F>
@@ -326,23 +332,23 @@ void Raster::triangle(const SurfaceRecord& s, uint32_t prim) {
   if (m_st.setups == setups && m_st.triangles_degenerate == degenerate) ++m_st.triangles_culled;
 }
 
-void Raster::sphere(const SurfaceRecord& s, uint32_t prim) {
-  if (!usable(s.a) || !(s.b.x > 0.0f && usable(double(s.b.x)))) return;  // not a sphere the host would write
-  const CVert c = to_view(s.a, 0.0, 0.0);
-  const double r = double(s.b.x);
-  if (c.z + r <= 0.0) return;  // behind the eye
-  int64_t x0 = 0, x1 = int64_t(m_job.width) - 1, y0 = 0, y1 = int64_t(m_job.height) - 1;
-  if (c.z - r > m_near) {
-    // The sphere lies in its view-space box, whose projection is bounded by its corners' (x / z is monotone in
-    // x and in z for z > 0); a pixel of margin covers the rounding of the bounds.
-    const double rx = r / m_rlen, ry = r / m_ulen;  // the radius in the scaled x and y of CVert
+bool Raster::bounds(double zlo, double zhi, double xlo, double xhi, double ylo, double yhi, int64_t& x0,
+                    int64_t& x1, int64_t& y0, int64_t& y1) const {
+  if (zhi <= 0.0) return false;  // behind the eye
+  x0 = 0;
+  x1 = int64_t(m_job.width) - 1;
+  y0 = 0;
+  y1 = int64_t(m_job.height) - 1;
+  if (zlo > m_near) {
+    // The projection of the view-space box is bounded by its corners' (x / z is monotone in x and in z for
+    // z > 0); a pixel of margin covers the rounding of the bounds.
     double sx0 = 1e300, sx1 = -1e300, sy0 = 1e300, sy1 = -1e300;
-    for (double z : {c.z - r, c.z + r}) {
-      for (double x : {c.x - rx, c.x + rx}) {
+    for (double z : {zlo, zhi}) {
+      for (double x : {xlo, xhi}) {
         sx0 = dmin(sx0, x / z);
         sx1 = dmax(sx1, x / z);
       }
-      for (double y : {c.y - ry, c.y + ry}) {
+      for (double y : {ylo, yhi}) {
         sy0 = dmin(sy0, y / z);
         sy1 = dmax(sy1, y / z);
       }
@@ -350,13 +356,22 @@ void Raster::sphere(const SurfaceRecord& s, uint32_t prim) {
     const double w = double(m_job.width), h = double(m_job.height);
     const double px0 = (sx0 + 1.0) * 0.5 * w, px1 = (sx1 + 1.0) * 0.5 * w;
     const double py0 = (1.0 - sy1) * 0.5 * h, py1 = (1.0 - sy0) * 0.5 * h;
-    if (px1 < -1.0 || px0 > w + 1.0 || py1 < -1.0 || py0 > h + 1.0) return;
+    if (px1 < -1.0 || px0 > w + 1.0 || py1 < -1.0 || py0 > h + 1.0) return false;
     x0 = int64_t(dmax(px0, -1.0)) - 1;
     x1 = int64_t(dmin(px1, w + 1.0)) + 1;
     y0 = int64_t(dmax(py0, -1.0)) - 1;
     y1 = int64_t(dmin(py1, h + 1.0)) + 1;
   }
-  if (y1 < m_y0 || y0 > m_y1) return;
+  return !(y1 < m_y0 || y0 > m_y1);
+}
+
+void Raster::sphere(const SurfaceRecord& s, uint32_t prim) {
+  if (!usable(s.a) || !(s.b.x > 0.0f && usable(double(s.b.x)))) return;  // not a sphere the host would write
+  const CVert c = to_view(s.a, 0.0, 0.0);
+  const double r = double(s.b.x);
+  const double rx = r / m_rlen, ry = r / m_ulen;  // the radius in the scaled x and y of CVert
+  int64_t x0, x1, y0, y1;
+  if (!bounds(c.z - r, c.z + r, c.x - rx, c.x + rx, c.y - ry, c.y + ry, x0, x1, y0, y1)) return;
   ++m_st.setups;
   const V center = vec(s.a), eye = vec(m_job.eye);
   const float radius = s.b.x;
@@ -386,6 +401,83 @@ void Raster::sphere(const SurfaceRecord& s, uint32_t prim) {
     const float t = t0 >= 0.0f ? t0 : t1;
     if (!(t >= 0.0f && t <= kInf)) return;
     depth_test(i, t, prim, 0.0f, 0.0f);
+  });
+}
+
+void Raster::curve(const SurfaceRecord& s, uint32_t prim) {
+  const float r0 = s.c.x, r1 = s.c.y;
+  if (!usable(s.a) || !usable(s.b) || !usable(double(r0)) || !usable(double(r1)) || !(r0 >= 0.0f && r1 >= 0.0f) ||
+      !(r0 > 0.0f || r1 > 0.0f))
+    return;  // not a segment the host would write
+  // The segment lies in the view-space box of its end spheres.
+  const CVert c0 = to_view(s.a, 0.0, 0.0), c1 = to_view(s.b, 0.0, 0.0);
+  const double R0 = double(r0), R1 = double(r1);
+  int64_t x0, x1, y0, y1;
+  if (!bounds(dmin(c0.z - R0, c1.z - R1), dmax(c0.z + R0, c1.z + R1), dmin(c0.x - R0 / m_rlen, c1.x - R1 / m_rlen),
+              dmax(c0.x + R0 / m_rlen, c1.x + R1 / m_rlen), dmin(c0.y - R0 / m_ulen, c1.y - R1 / m_ulen),
+              dmax(c0.y + R0 / m_ulen, c1.y + R1 / m_ulen), x0, x1, y0, y1))
+    return;
+  ++m_st.setups;
+  // Per sample, the camera ray against the segment as the float reference computes it
+  // (hwmodel/datapath/intersect_float.h, intersect_swept_sphere, in [0, inf]): the cone between the end spheres'
+  // circles of tangency, the sphere at p1, and the sphere at p0 for a strand's first segment (c.z = 1) or when
+  // one end sphere holds the other. In double, relative to p0.
+  using D3 = glm::dvec3;
+  const D3 p0 = D3(double(s.a.x), double(s.a.y), double(s.a.z));
+  const D3 o = D3(double(m_job.eye.x), double(m_job.eye.y), double(m_job.eye.z)) - p0;
+  const D3 ba = D3(double(s.b.x), double(s.b.y), double(s.b.z)) - p0;
+  const double dr = R1 - R0, L2 = glm::dot(ba, ba), K = L2 - dr * dr;
+  const bool start_cap = s.c.z != 0.0f || L2 <= dr * dr;
+  scan(x0, x1, y0, y1, [&](uint32_t x, uint32_t y, uint32_t i, SampleOffset so) {
+    const V df = glm::normalize(direction(x, y, so));
+    const D3 d(double(df.x), double(df.y), double(df.z));
+    const double a = glm::dot(d, d);
+    double best = double(kInf), best_s = 0.0;
+    const auto consider = [&](double t, double sv) {
+      if (t >= 0.0 && t <= double(kInf) && t < best) {
+        best = t;
+        best_s = sv;
+      }
+    };
+    const auto sphere_at = [&](const D3& c, double R, double sv) {
+      if (!(R > 0.0)) return;
+      const D3 f = o - c;
+      const double b = -glm::dot(f, d);
+      const D3 l = f + (b / a) * d;
+      const double disc = a * (R * R - glm::dot(l, l));
+      if (!(disc >= 0.0)) return;
+      const double q = b + __builtin_copysign(__builtin_sqrt(disc), b);
+      if (q == 0.0) return consider(0.0, sv);
+      consider((glm::dot(f, f) - R * R) / q, sv);
+      consider(q / a, sv);
+    };
+    sphere_at(ba, R1, 1.0);
+    if (start_cap) sphere_at(D3(0.0), R0, 0.0);
+    if (K > 0.0) {
+      const double alpha = (glm::dot(o, ba) + R0 * dr) / K, beta = glm::dot(d, ba) / K;
+      const D3 u = o - alpha * ba, w = d - beta * ba;
+      const double rho = R0 + alpha * dr, sigma = beta * dr;
+      const double A = glm::dot(w, w) - sigma * sigma, B = glm::dot(u, w) - rho * sigma,
+                   C = glm::dot(u, u) - rho * rho;
+      const auto lateral = [&](double t) {
+        const double sv = alpha + beta * t;
+        if (sv >= 0.0 && sv <= 1.0) consider(t, sv);
+      };
+      if (A != 0.0) {
+        const double disc = B * B - A * C;
+        if (disc >= 0.0) {
+          const double q = -(B + __builtin_copysign(__builtin_sqrt(disc), B));
+          if (q != 0.0) lateral(C / q);
+          lateral(q / A);
+        }
+      } else if (B != 0.0) {
+        lateral(-C / (2.0 * B));
+      }
+    }
+    if (!(best < double(kInf))) return;
+    const float t = float(best);
+    if (!(t >= 0.0f && t <= kInf)) return;
+    depth_test(i, t, prim, float(best_s), 0.0f);
   });
 }
 
@@ -421,7 +513,8 @@ void rasterize(const RenderJob& job, const SurfaceRecord* surfaces, const Sample
       r.sphere(s, p);
     else if (s.kind == uint32_t(SurfaceKind::kPlane))
       r.plane(s, p);
-    // Curve segments are not rasterized: the host refuses hybrid renders of scenes with curves.
+    else if (s.kind == uint32_t(SurfaceKind::kCurve))
+      r.curve(s, p);
   }
 }
 

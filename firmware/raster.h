@@ -1,4 +1,4 @@
-// The rasterizer of hybrid mode: primary visibility of triangles, spheres and planes into a G-buffer, at the
+// The rasterizer of hybrid mode: primary visibility of triangles, spheres, curves and planes into a G-buffer, at the
 // same sample positions as the ray tracer's camera rays (firmware/sampling.h), so that its texels can stand in
 // for the primary hits.
 //
@@ -15,6 +15,9 @@
 // - Spheres: a bounding rectangle of the projected sphere (the projection of its view-space bounding box's
 //   corners, or the whole band when the sphere reaches the near plane), then per sample the camera ray against
 //   the sphere, the float reference's stable quadratic (an impostor, as GPUs draw spheres).
+// - Curve segments (round linear curves): a bounding rectangle of the view-space box of the segment's end spheres
+//   (as a sphere's), then per sample the camera ray against the segment, the float reference's swept-sphere test
+//   in double (intersect_swept_sphere), u the hit's position along the segment.
 // - Planes: a full-screen pass, per sample the camera ray against the plane.
 // Depth: the distance along the normalized camera ray (t), which orders a pixel's fragments as view z does; a
 // fragment replaces the texel when it is strictly nearer, so a tie keeps the lower primitive index.

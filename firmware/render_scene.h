@@ -54,7 +54,8 @@ struct SurfaceRecord {
   uint32_t material;  // index into the material table
   F3 a;               // triangle v0; sphere center; curve p0; plane normal (any length)
   F3 b;               // triangle v1; sphere (radius, 0, 0); curve p1; plane (offset, 0, 0)
-  F3 c;               // triangle v2; curve (r0, r1, 0); otherwise 0
+  F3 c;               // triangle v2; curve (r0, r1, 1 for a strand's first segment, which has its start cap,
+                      // else 0); otherwise 0
 };
 static_assert(sizeof(SurfaceRecord) == 44);
 

@@ -386,8 +386,6 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
   res.width = o.width > 0 ? o.width : scene.camera.width;
   res.height = o.height > 0 ? o.height : scene.camera.height;
   check_render_size(res, o);
-  if (o.hybrid && !scene.geometry.curves.empty())
-    throw Error("render: hybrid mode does not rasterize curve segments; render this scene ray traced");
 
   // The offsets spawned rays need on this device. Float: each coordinate of the hit point o + t d carries a few
   // float ulps of the larger of |o_i| and |p_i| (the product t d_i and the sum round once each, and t's own error

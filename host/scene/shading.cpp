@@ -39,7 +39,7 @@ ShadingRecords shading_records(const Scene& scene) {
         s.kind = uint32_t(fw::SurfaceKind::kCurve);
         s.a = f3(c.p0);
         s.b = f3(c.p1);
-        s.c = fw::F3{c.r0, c.r1, 0.0f};
+        s.c = fw::F3{c.r0, c.r1, (c.flags & hw::kCurveCapStart) ? 1.0f : 0.0f};
         break;
       }
       case hw::PrimKind::kPlane: {

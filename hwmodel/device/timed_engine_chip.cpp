@@ -232,6 +232,16 @@ void TimedEngine::warm_chip(size_t u, const ChipWave& cw, const std::vector<std:
   }
 }
 
+namespace {
+
+// Whether a wave has warming rays: given, they warm other units' caches (warm_chip), so the units act on one thread.
+template <class Waves>
+bool warms_units(const Waves& waves) {
+  return std::any_of(waves.begin(), waves.end(), [](const auto& cw) { return cw.warm_first < cw.first; });
+}
+
+}  // namespace
+
 uint64_t TimedEngine::run_chip_dynamic(const std::vector<ChipWave>& waves, const Ray* rays, Hit* hits,
                                        bool any_hit, TraversalStats& s, std::vector<TimingStats>& packet,
                                        std::vector<double>& work) {
@@ -347,10 +357,7 @@ uint64_t TimedEngine::run_chip_dynamic(const std::vector<ChipWave>& waves, const
     units[u]->advance_to(base);
     units[u]->begin(total, packet[u]);  // an upper bound: close_input() when the waves run out
   }
-  // Warming rays warm other units' caches when their wave is given: the units then act on one thread.
-  const bool warms =
-      std::any_of(waves.begin(), waves.end(), [](const ChipWave& cw) { return cw.warm_first < cw.first; });
-  const uint64_t end = run_units_in_step(units, base, give, warms ? 1 : chip_threads().units);
+  const uint64_t end = run_units_in_step(units, base, give, warms_units(waves) ? 1 : chip_threads().units);
   for (size_t u = 0; u < U; ++u) packet[u].cycles = end - base;
   return end - base;
 }

@@ -83,6 +83,97 @@ class Crew {
   std::vector<std::thread> m_threads;
 };
 
+// The held requests of every unit in the window [from, limit], served in the order of (action cycle, unit,
+// request): a counting sort by the action's cycle in the window, taking the units in order and each unit's
+// requests in order. Returns the earliest data cycle of a read served (no slot wakes before it once the units
+// settle them).
+class Server {
+ public:
+  uint64_t serve(const std::vector<TimingModel*>& units, uint64_t from, uint64_t limit) {
+    const uint64_t span = limit - from + 1;
+    if (span > (uint64_t(1) << 20)) throw std::logic_error("timing model: a window too long to sort");
+    m_count.assign(size_t(span) + 1, 0);
+    size_t total = 0;
+    for (const TimingModel* unit : units) {
+      for (const DeferredMemory::Request& r : unit->held()) {
+        if (r.action < from || r.action > limit)
+          throw std::logic_error("timing model: a request outside its window");
+        ++m_count[size_t(r.action - from) + 1];
+      }
+      total += unit->held().size();
+    }
+    for (size_t i = 1; i < m_count.size(); ++i) m_count[i] += m_count[i - 1];
+    m_order.resize(total);
+    for (size_t u = 0; u < units.size(); ++u) {
+      const std::vector<DeferredMemory::Request>& held = units[u]->held();
+      for (size_t i = 0; i < held.size(); ++i)
+        m_order[m_count[size_t(held[i].action - from)]++] = {uint32_t(u), uint32_t(i)};
+    }
+    uint64_t first = TimingModel::kNever;
+    for (const auto& [u, i] : m_order) first = std::min(first, units[u]->serve_held(i));
+    return first;
+  }
+
+ private:
+  std::vector<uint32_t> m_count;
+  std::vector<std::pair<uint32_t, uint32_t>> m_order;  // (unit, request)
+};
+
+// Which units each thread runs: thread j the units [first(j), first(j + 1)), the same units round after round,
+// whose state then stays in its core's caches (units handed to whichever thread was free ran no faster here,
+// their state moving between cores). Every kBalance rounds the split follows the time each thread took (host
+// cores may differ in speed or share with recording threads): each thread's share moves halfway to what its
+// speed (units per second of its rounds) earns. Which thread runs a unit changes no result.
+class Split {
+ public:
+  static constexpr uint64_t kBalance = 64;
+  Split(size_t units, size_t threads) : m_units(units), m_first(threads + 1), m_busy(threads, 0.0) {
+    for (size_t j = 0; j <= threads; ++j) m_first[j] = j * units / threads;
+  }
+  size_t first(size_t j) const { return m_first[j]; }
+  void add_busy(size_t j, double seconds) { m_busy[j] += seconds; }  // on thread j
+  void round_done() {
+    if (++m_rounds % kBalance != 0) return;
+    const size_t n = m_busy.size();
+    std::vector<double> rate(n);
+    double total = 0;
+    for (size_t j = 0; j < n; ++j)
+      total += rate[j] = double(m_first[j + 1] - m_first[j]) / std::max(m_busy[j], 1e-9);
+    double cum = 0;
+    for (size_t j = 1; j < n; ++j) {
+      cum += rate[j - 1];
+      const double target = double(m_units) * cum / total;
+      const size_t b = size_t(0.5 * double(m_first[j]) + 0.5 * target + 0.5);
+      m_first[j] = std::clamp(b, m_first[j - 1] + 1, m_units - (n - j));
+    }
+    std::fill(m_busy.begin(), m_busy.end(), 0.0);
+  }
+
+ private:
+  size_t m_units;
+  std::vector<size_t> m_first;
+  std::vector<double> m_busy;
+  uint64_t m_rounds = 0;
+};
+
+// Every unit goes back to the shared memory however run_units_threaded ends, its held requests served (unless
+// they were) and settled (after an error too, so that no pending cycle is left in a cache).
+struct Undefer {
+  const std::vector<TimingModel*>& units;
+  Server& server;
+  const uint64_t& from;
+  const uint64_t& limit;
+  const bool& unserved;
+  ~Undefer() {
+    try {
+      if (unserved) server.serve(units, from, limit);
+      for (TimingModel* unit : units) unit->settle_held();
+    } catch (...) {
+    }
+    for (TimingModel* unit : units) unit->defer(false);
+  }
+};
+
 }  // namespace
 
 uint64_t run_units_threaded(const std::vector<TimingModel*>& units, uint64_t start,
@@ -92,7 +183,8 @@ uint64_t run_units_threaded(const std::vector<TimingModel*>& units, uint64_t sta
   uint64_t lookahead = TimingModel::kNever;
   for (const TimingModel* unit : units) lookahead = std::min(lookahead, unit->lookahead());
   std::vector<std::exception_ptr> errors(U);
-  uint64_t limit = 0;  // the window's last cycle
+  uint64_t from = 0, limit = 0;  // the window's first and last cycle
+  bool unserved = false;         // requests held since the last serve
   auto run = [&](size_t u) {
     try {
       units[u]->run_until(limit);
@@ -104,85 +196,19 @@ uint64_t run_units_threaded(const std::vector<TimingModel*>& units, uint64_t sta
     for (const std::exception_ptr& e : errors)
       if (e) std::rethrow_exception(e);
   };
-  // The held requests of every unit, served in the order of (action cycle, unit, request): a counting sort by the
-  // action's cycle in the window, taking the units in order and each unit's requests in order. Returns the
-  // earliest data cycle of a read served (no slot wakes before it once the units settle them).
-  uint64_t from = 0;  // the window's first cycle
-  std::vector<uint32_t> count;
-  std::vector<std::pair<uint32_t, uint32_t>> order;  // (unit, request)
-  auto serve_window = [&] {
-    const uint64_t span = limit - from + 1;
-    if (span > (uint64_t(1) << 20)) throw std::logic_error("timing model: a window too long to sort");
-    count.assign(size_t(span) + 1, 0);
-    size_t total = 0;
-    for (const TimingModel* unit : units) {
-      for (const DeferredMemory::Request& r : unit->held()) {
-        if (r.action < from || r.action > limit)
-          throw std::logic_error("timing model: a request outside its window");
-        ++count[size_t(r.action - from) + 1];
-      }
-      total += unit->held().size();
-    }
-    for (size_t i = 1; i < count.size(); ++i) count[i] += count[i - 1];
-    order.resize(total);
-    for (size_t u = 0; u < U; ++u) {
-      const std::vector<DeferredMemory::Request>& held = units[u]->held();
-      for (size_t i = 0; i < held.size(); ++i)
-        order[count[size_t(held[i].action - from)]++] = {uint32_t(u), uint32_t(i)};
-    }
-    uint64_t first = TimingModel::kNever;
-    for (const auto& [u, i] : order) first = std::min(first, units[u]->serve_held(i));
-    return first;
-  };
-  // Every unit goes back to the shared memory however this ends, its held requests served and settled (after an
-  // error too, so that no pending cycle is left in a cache).
-  struct Undefer {
-    const std::vector<TimingModel*>& units;
-    const std::function<uint64_t()>& serve;
-    ~Undefer() {
-      try {
-        serve();
-        for (TimingModel* unit : units) unit->settle_held();
-      } catch (...) {
-      }
-      for (TimingModel* unit : units) unit->defer(false);
-    }
-  };
-  const std::function<uint64_t()> serve_all = serve_window;
+  Server server;
   for (TimingModel* unit : units) unit->defer(true);
-  const Undefer undefer{units, serve_all};
-  // A round: each unit settles the answers served after the last window, then acts to this window's end. Thread
-  // j runs the units [first[j], first[j + 1]), the same units round after round, whose state then stays in its
-  // core's caches (units handed to whichever thread was free ran no faster here, their state moving between
-  // cores). Every kBalance rounds the split follows the time each thread took (host cores may differ in speed or
-  // share with recording threads); which thread runs a unit changes no result.
-  constexpr uint64_t kBalance = 64;
-  std::vector<size_t> first(n + 1);
-  for (size_t j = 0; j <= n; ++j) first[j] = j * U / n;
-  std::vector<double> busy(n, 0.0);
+  const Undefer undefer{units, server, from, limit, unserved};
+  // A round: each unit settles the answers served after the last window, then acts to this window's end.
+  Split split(U, n);
   Crew crew(int(n), [&](int j) {
     const auto t0 = std::chrono::steady_clock::now();
-    for (size_t u = first[size_t(j)]; u < first[size_t(j) + 1]; ++u) {
+    for (size_t u = split.first(size_t(j)); u < split.first(size_t(j) + 1); ++u) {
       units[u]->settle_held();
       run(u);
     }
-    busy[size_t(j)] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    split.add_busy(size_t(j), std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   });
-  // Each thread's share of the units moves halfway to what its speed (units per second of its rounds) earns.
-  auto balance = [&] {
-    std::vector<double> rate(n);
-    double total = 0;
-    for (size_t j = 0; j < n; ++j) total += rate[j] = double(first[j + 1] - first[j]) / std::max(busy[j], 1e-9);
-    double cum = 0;
-    for (size_t j = 1; j < n; ++j) {
-      cum += rate[j - 1];
-      const double target = double(U) * cum / total;
-      size_t b = size_t(0.5 * double(first[j]) + 0.5 * target + 0.5);
-      first[j] = std::clamp(b, first[j - 1] + 1, U - (n - j));
-    }
-    std::fill(busy.begin(), busy.end(), 0.0);
-  };
-  uint64_t rounds = 0;
   uint64_t answered = TimingModel::kNever;  // the earliest answer not settled yet
   for (;;) {
     // The window starts at the earliest action: of a unit, or of a slot its settling will wake (a lower bound).
@@ -191,9 +217,10 @@ uint64_t run_units_threaded(const std::vector<TimingModel*>& units, uint64_t sta
     if (t == TimingModel::kNever) break;
     from = t;
     limit = t < TimingModel::kNever - lookahead ? t + lookahead - 1 : TimingModel::kNever - 1;
+    unserved = true;
     crew.round();
     rethrow();
-    if (++rounds % kBalance == 0) balance();
+    split.round_done();
     // Units whose next action in the window takes a ray they lack: given it, earliest (cycle, unit) first, each
     // then acting to the window's end (it may need rays again).
     for (;;) {
@@ -209,7 +236,8 @@ uint64_t run_units_threaded(const std::vector<TimingModel*>& units, uint64_t sta
       run(u);
       rethrow();
     }
-    answered = serve_window();
+    answered = server.serve(units, from, limit);
+    unserved = false;
   }
   uint64_t end = start;
   for (const TimingModel* unit : units) end = std::max(end, unit->end_cycle());

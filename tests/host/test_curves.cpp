@@ -184,10 +184,6 @@ TEST_CASE("curves: scene files, and what is refused", "[curve][scene]") {
                     Catch::Contains("curves[0].segments[0]"));
   CHECK_THROWS_WITH(bad(R"({"curves": [{"points": [[0,0,0],[1,0,0]], "radius": 1, "width": 2}]})"),
                     Catch::Contains("unknown key"));
-  host::RenderOptions ro;
-  ro.hybrid = true;
-  ro.width = ro.height = 8;
-  CHECK_THROWS_WITH(host::render(s, ro), Catch::Contains("hybrid mode does not rasterize curve segments"));
 }
 
 TEST_CASE("curves: the image check refuses malformed curve records", "[curve][image]") {

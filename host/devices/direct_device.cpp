@@ -58,6 +58,7 @@ class ImageDevice : public DirectDevice {
         m_image(hw::encode_scene(g, o.format, m_bvh ? &*m_bvh : nullptr)),
         m_tracer(m_image, hw::FixedTraceOptions{o.check_boxes, o.max_steps}) {
     m_tracer.set_any_hit(o.any_hit);
+    m_tracer.set_micromaps(o.micromaps);
   }
   hw::RayStatus ray_status(const hw::Ray& r) const override {
     hw::FixedRay fr;
@@ -143,6 +144,7 @@ class TimedDevice final : public ImageDevice {
         m_engine(engine_options(o), o.timing, make_box_unit(o.timing), make_tri_unit(o.timing)) {
     m_engine.set_sampling(o.sample);
     m_engine.set_any_hit(o.any_hit);
+    m_engine.set_micromaps(o.micromaps);
     m_engine.bind(m_image.data(), m_image.size());
   }
   hw::DeviceKind kind() const override { return hw::DeviceKind::kTimed; }

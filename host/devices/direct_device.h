@@ -40,6 +40,9 @@ struct DeviceOptions {
   // The any-hit stage for the geometry's non-opaque triangles (alpha-tested materials: host/scene/shading.h), or
   // null: they are then opaque. Not owned: must outlive the device.
   const hw::AnyHitStage* any_hit = nullptr;
+  // Fixed and timed devices, one level: the non-opaque triangles' opacity micromaps (hwmodel/format/micromap.h,
+  // host/scene/micromap_bake.h), which the unit reads before asking the stage; null: none. Not owned.
+  const hw::MicromapSet* micromaps = nullptr;
 };
 
 class DirectDevice {

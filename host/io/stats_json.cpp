@@ -109,6 +109,10 @@ Json traversal_json(const hw::TraversalStats& s) {
   // Candidate hits on alpha-tested (non-opaque) triangles sent to the any-hit stage, and those it ignored.
   j["any_hit_calls"] = s.any_hit_calls;
   j["any_hit_ignored"] = s.any_hit_ignored;
+  if (s.omm_opaque + s.omm_transparent) {  // opacity micromaps resolved these without the stage
+    j["omm_opaque"] = s.omm_opaque;
+    j["omm_transparent"] = s.omm_transparent;
+  }
   if (s.box_checks) {
     j["box_checks"] = s.box_checks;
     j["box_false_negatives"] = s.box_false_negatives;

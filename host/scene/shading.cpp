@@ -102,6 +102,7 @@ SceneAnyHit::SceneAnyHit(const Scene& scene) : m_rec(shading_records(scene)) {
   st.num_textures = uint32_t(m_rec.textures.size());
   st.mem = m_rec.texels.data();
   st.mem_size = m_rec.texels.size();
+  m_tables = st;
   m_stage.emplace(st);
 }
 

@@ -35,9 +35,12 @@ class SceneAnyHit {
   // The stage, or null when no material is alpha-masked (every triangle is opaque).
   const hw::AnyHitStage* stage() const { return m_stage ? &*m_stage : nullptr; }
   const ShadingRecords& records() const { return m_rec; }
+  // The tables the stage reads (null when no material is alpha-masked): what micromaps are baked from.
+  const fw::ShadingTables* tables() const { return m_stage ? &m_tables : nullptr; }
 
  private:
   ShadingRecords m_rec;
+  fw::ShadingTables m_tables;
   std::optional<fw::AlphaStage> m_stage;
 };
 

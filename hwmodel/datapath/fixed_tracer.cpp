@@ -21,6 +21,31 @@ namespace rtu::hw {
 
 namespace {
 
+// The alpha test of a candidate hit on a non-opaque triangle: the triangle's opacity micromap (micromap.h) where
+// it knows the micro-triangle's state, else the any-hit stage (`asked`; any_hit.h). True when the hit counts.
+struct AlphaTest {
+  const AnyHitStage* stage;
+  const MicromapSet* maps;
+  bool accept(uint32_t prim, float u, float v, TraversalStats& s, bool& asked) const {
+    if (maps) {
+      const MicroState ms = maps->lookup(prim, u, v);
+      if (ms == MicroState::kOpaque) {
+        ++s.omm_opaque;
+        return true;
+      }
+      if (ms == MicroState::kTransparent) {
+        ++s.omm_transparent;
+        return false;
+      }
+    }
+    asked = true;
+    ++s.any_hit_calls;
+    if (stage->accept(prim, u, v)) return true;
+    ++s.any_hit_ignored;
+    return false;
+  }
+};
+
 struct Closest {
   int64_t t;  // t raw; starts at the ray's tmax
   uint32_t prim = kMissPrim;
@@ -82,7 +107,7 @@ inline bool unit_triangle(TriUnit& unit, const FixedRay& r, const int32_t v[3][3
 // accepts (any_hit.h).
 // An instance record goes to the bottom levels (test_instance).
 inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool short_edges, TriUnit* unit,
-                        uint8_t& issue, uint8_t& result, const AnyHitStage* stage, TraversalStats& s, bool& asked,
+                        uint8_t& issue, uint8_t& result, AlphaTest stage, TraversalStats& s, bool& asked,
                         const Ray* world, const BottomLevels* bottom, bool any_hit,
                         std::vector<TraceEvent>* events) {
   uint32_t word;
@@ -112,14 +137,9 @@ inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool 
       hit = PrimTest<SpherePrim>::test_fixed(r, rec, r.tmin, c.t, h, short_edges, word);
       break;
   }
-  asked = hit && (word & kRecordNonOpaque) && stage;
-  if (asked) {
-    ++s.any_hit_calls;
-    if (!stage->accept(word & kRecordPrimMask, h.u, h.v)) {
-      ++s.any_hit_ignored;
-      hit = false;
-    }
-  }
+  asked = false;
+  if (hit && (word & kRecordNonOpaque) && stage.stage)
+    hit = stage.accept(word & kRecordPrimMask, h.u, h.v, s, asked);
   if (hit) {
     c.t = h.t;
     c.prim = word & kRecordPrimMask;
@@ -133,7 +153,7 @@ inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool 
 // Tests record `index` and appends its events to rec (when not null): kPrim, and kAnyHit when the stage was
 // asked; an instance's kPrim comes before its bottom level's events.
 inline bool test_recorded(const uint8_t* record, uint32_t index, const FixedRay& r, Closest& c, bool short_edges,
-                          TriUnit* unit, const AnyHitStage* stage, TraversalStats& s, const Ray* world,
+                          TriUnit* unit, AlphaTest stage, TraversalStats& s, const Ray* world,
                           const BottomLevels* bottom, bool any_hit, std::vector<TraceEvent>* rec);
 
 // Records [first, first + count) of a leaf (or of an image without a BVH) in order. A triangle pair with its
@@ -141,9 +161,8 @@ inline bool test_recorded(const uint8_t* record, uint32_t index, const FixedRay&
 // hit, as without pairs), one kPrim event of kind kTrianglePair whose clocks are the two tests'; a pair's first
 // at the range's end is tested alone.
 inline bool test_records(const DeviceImage& image, uint32_t first, uint32_t count, const FixedRay& r, Closest& c,
-                         bool short_edges, TriUnit* unit, const AnyHitStage* stage, TraversalStats& s,
-                         const Ray* world, const BottomLevels* bottom, bool any_hit,
-                         std::vector<TraceEvent>* rec) {
+                         bool short_edges, TriUnit* unit, AlphaTest stage, TraversalStats& s, const Ray* world,
+                         const BottomLevels* bottom, bool any_hit, std::vector<TraceEvent>* rec) {
   bool found = false;
   for (uint32_t i = first; i < first + count; ++i) {
     const uint8_t* a = image.record(i);
@@ -172,7 +191,7 @@ inline bool test_records(const DeviceImage& image, uint32_t first, uint32_t coun
 }
 
 inline bool test_recorded(const uint8_t* record, uint32_t index, const FixedRay& r, Closest& c, bool short_edges,
-                          TriUnit* unit, const AnyHitStage* stage, TraversalStats& s, const Ray* world,
+                          TriUnit* unit, AlphaTest stage, TraversalStats& s, const Ray* world,
                           const BottomLevels* bottom, bool any_hit, std::vector<TraceEvent>* rec) {
   uint8_t issue, result;
   bool asked;
@@ -206,7 +225,7 @@ struct FixedPolicy {
   std::vector<TraceEvent>* rec;  // the timing model's recorder, or null
   BoxUnit* unit;                 // box tests by this unit instead of box_test_delta, or null
   TriUnit* tri_unit;             // triangle tests by this unit instead of triangle_test, or null
-  const AnyHitStage* stage;      // the any-hit stage of non-opaque triangles, or null
+  AlphaTest stage;               // the any-hit stage and micromaps of non-opaque triangles
   const Ray* world;              // the world ray (null when traced from a FixedRay)
   const BottomLevels* bottom;    // a top level's instances, or null
   FixedTracer::WatchState& watch;
@@ -234,7 +253,7 @@ struct FixedPolicy {
   // (rep stos, a stall once per ray).
   FixedPolicy(const Node* nodes_, const DeviceImage& image_, const FixedRay& r_, bool any_hit_, bool check_,
               Closest& closest_, TraversalStats& s_, std::vector<TraceEvent>* rec_, BoxUnit* unit_,
-              TriUnit* tri_unit_, const AnyHitStage* stage_, const Ray* world_, const BottomLevels* bottom_,
+              TriUnit* tri_unit_, AlphaTest stage_, const Ray* world_, const BottomLevels* bottom_,
               FixedTracer::WatchState& watch_, uint64_t step_limit_, const FixedFormat& f, int short_stack_)
       : nodes(nodes_),
         image(image_),
@@ -481,14 +500,14 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
     if (hd.flags & kImageNoBvh) {
       const bool short_brute = short_edges_known(fr, m_format.coord_bits);
       if (!m_opt.bottom) s.prim_tests += hd.record_count;
-      test_records(m_image, 0, hd.record_count, fr, c, short_brute, m_opt.tri_unit, m_opt.any_hit, s, r,
-                   m_opt.bottom, any_hit, rec);
+      test_records(m_image, 0, hd.record_count, fr, c, short_brute, m_opt.tri_unit,
+                   AlphaTest{m_opt.any_hit, m_opt.micromaps}, s, r, m_opt.bottom, any_hit, rec);
     } else {
       with_node_kind(node_kind(hd), hd.width, hd.q_bytes, [&](auto kind) {
         using K = decltype(kind);
         FixedPolicy<K> p(m_image.nodes<typename K::Node>(), m_image, fr, any_hit, m_opt.check_boxes, c, s, rec,
-                         m_opt.box_unit, m_opt.tri_unit, m_opt.any_hit, r, m_opt.bottom, watch, m_step_limit,
-                         m_format, m_opt.record_short_stack);
+                         m_opt.box_unit, m_opt.tri_unit, AlphaTest{m_opt.any_hit, m_opt.micromaps}, r,
+                         m_opt.bottom, watch, m_step_limit, m_format, m_opt.record_short_stack);
         p.stack_refs = m_opt.record_stack_refs;
         p.leaf_refs = m_opt.record_leaf_refs;
         // Built in place only when recorded: GCC 12 zeroes a std::optional's 6 KB payload on every ray (a

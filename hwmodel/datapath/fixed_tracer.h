@@ -13,6 +13,7 @@
 #include "hwmodel/datapath/traverse.h"
 #include "hwmodel/datapath/tri_unit.h"
 #include "hwmodel/format/device_image.h"
+#include "hwmodel/format/micromap.h"
 #include "hwmodel/interface/any_hit.h"
 #include "hwmodel/interface/ray.h"
 
@@ -117,6 +118,10 @@ struct FixedTraceOptions {
   // The any-hit stage of non-opaque triangles (records with kRecordNonOpaque), or null: they are opaque. Not
   // owned; must outlive the tracer's use.
   const AnyHitStage* any_hit = nullptr;
+  // Opacity micromaps of the non-opaque triangles (micromap.h), indexed by their primitive index, or null: a
+  // candidate hit in a known micro-triangle is resolved without the stage (one-level images; a top level's
+  // bottom levels get none). Not owned.
+  const MicromapSet* micromaps = nullptr;
   // A top-level image's bottom levels; required by one (its instance records miss without it). Not owned.
   const BottomLevels* bottom = nullptr;
 };
@@ -152,6 +157,7 @@ class FixedTracer {
 
   // Attaches (or with null detaches) the any-hit stage (FixedTraceOptions::any_hit).
   void set_any_hit(const AnyHitStage* stage) { m_opt.any_hit = stage; }
+  void set_micromaps(const MicromapSet* maps) { m_opt.micromaps = maps; }
 
   const DeviceImage& image() const { return m_image; }
   const FixedFormat& format() const { return m_format; }

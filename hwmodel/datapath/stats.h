@@ -19,6 +19,9 @@ struct TraversalStats {
   std::array<uint64_t, 8> invalid_by_reason{};  // indexed by RayStatus
   uint64_t any_hit_calls = 0;    // candidate hits on non-opaque triangles handed to the any-hit stage (any_hit.h)
   uint64_t any_hit_ignored = 0;  // of those, the ones the stage ignored
+  // Candidate hits on non-opaque triangles the unit resolved from their opacity micromap (micromap.h) without the
+  // stage: an opaque micro-triangle (a hit) and a transparent one (no hit).
+  uint64_t omm_opaque = 0, omm_transparent = 0;
   uint64_t first_invalid = UINT64_MAX;  // index of the first invalid ray of a batch (run_batch)
   RayStatus first_invalid_reason = RayStatus::kOk;
   // Fixed-point devices only (0 on the float device):
@@ -39,7 +42,8 @@ inline constexpr uint64_t TraversalStats::*kTraversalWorkCounters[] = {
     &TraversalStats::nodes_visited,       &TraversalStats::leaves_visited, &TraversalStats::box_tests,
     &TraversalStats::prim_tests,          &TraversalStats::any_hit_calls,  &TraversalStats::any_hit_ignored,
     &TraversalStats::saturations,         &TraversalStats::box_checks,     &TraversalStats::box_false_negatives,
-    &TraversalStats::box_false_positives, &TraversalStats::watchdog_rays};
+    &TraversalStats::box_false_positives, &TraversalStats::watchdog_rays,  &TraversalStats::omm_opaque,
+    &TraversalStats::omm_transparent};
 inline constexpr uint64_t TraversalStats::*kTraversalRayCounters[] = {&TraversalStats::rays, &TraversalStats::hits,
                                                                       &TraversalStats::invalid_rays};
 

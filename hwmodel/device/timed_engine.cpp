@@ -94,6 +94,7 @@ void TimedEngine::bind(const uint8_t* data, size_t bytes) {
   to.box_unit = m_box_unit.get();
   to.tri_unit = m_tri_unit.get();
   to.any_hit = m_any_hit;
+  to.micromaps = m_micromaps;
   auto tracer = std::make_unique<FixedTracer>(*image, to);  // throws when a unit cannot take the format
   m_image = std::move(image);
   m_tracer = std::move(tracer);

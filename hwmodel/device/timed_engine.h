@@ -51,6 +51,11 @@ class TimedEngine final : public TraceEngine {
   const InstancedFixedTracer* instanced() const { return m_two.get(); }
   void unbind() override;
   void trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const override;
+  // One level: the non-opaque triangles' opacity micromaps (fixed_tracer.h, FixedTraceOptions::micromaps).
+  void set_micromaps(const MicromapSet* maps) {
+    m_micromaps = maps;
+    if (m_tracer) m_tracer->set_micromaps(maps);
+  }
   void set_any_hit(const AnyHitStage* stage) override {
     m_any_hit = stage;
     if (m_tracer) m_tracer->set_any_hit(stage);
@@ -130,6 +135,7 @@ class TimedEngine final : public TraceEngine {
   const FixedTracer& tracer() const { return m_two ? m_two->top_tracer() : *m_tracer; }
   FixedTraceOptions two_level_options() const;  // the options two levels are traced with
   const AnyHitStage* m_any_hit = nullptr;       // set_any_hit
+  const MicromapSet* m_micromaps = nullptr;     // set_micromaps
   std::unique_ptr<TimingModel> m_model;
   // A chip (units > 1): the memory the units share and the units (m_model is then null).
   std::unique_ptr<MemorySystem> m_chip_memory;

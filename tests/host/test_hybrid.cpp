@@ -2,9 +2,9 @@
 // the built-in scenes and a real mesh (same primitive on >= 99.9% of the samples, every disagreement on an
 // edge), the images of the two modes within a PSNR bound, the rays hybrid mode saves, and the rasterizer's cost
 // model (exact cycles from the configuration on a tiny case).
+#include <algorithm>
 #include <bit>
 #include <catch2/catch.hpp>
-#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>

@@ -1,0 +1,123 @@
+// Opacity micromaps baked from builtin:forest's leaf texture (host/scene/micromap_bake.h): every known
+// micro-triangle state is the any-hit stage's answer wherever it is asked in it; with the maps the fixed and timed
+// devices give the same hits while the unit resolves candidates without the stage.
+#include <catch2/catch.hpp>
+
+#include <cstdio>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "host/devices/direct_device.h"
+#include "host/scene/micromap_bake.h"
+#include "host/scene/ray_gen.h"
+#include "host/scene/scene.h"
+#include "host/scene/shading.h"
+#include "hwmodel/timing/timing_config.h"
+
+using namespace rtu;
+
+namespace {
+
+// The forest: 64 trees of 72 alpha-masked leaf cards.
+const host::Scene& forest() {
+  static const host::Scene s = host::load_scene("builtin:forest");
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("micromaps: a known micro-triangle state is the any-hit stage's answer everywhere in it",
+          "[micromap][alpha]") {
+  const host::Scene& s = forest();
+  const host::SceneAnyHit alpha(s);
+  REQUIRE(alpha.stage() != nullptr);
+  const std::vector<uint8_t>& non_opaque = s.geometry.non_opaque;
+  REQUIRE(!non_opaque.empty());
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> d(0.0f, 1.0f);
+  uint64_t previous_unknown = ~uint64_t(0);
+  for (int level = 0; level <= 5; ++level) {
+    CAPTURE(level);
+    host::MicromapStats st;
+    const hw::MicromapSet maps = host::bake_micromaps(*alpha.tables(), non_opaque, level, &st);
+    REQUIRE(maps.check().empty());
+    CHECK(st.triangles > 0);
+    uint64_t asked = 0, known = 0, wrong = 0;
+    for (uint32_t prim = 0; prim < non_opaque.size(); prim += 37) {  // every 37th triangle: a few hundred
+      if (!non_opaque[prim]) continue;
+      for (int k = 0; k < 200; ++k) {
+        // Random points, and points on the grid's lines and corners (the edges the lookup splits).
+        float u = d(rng), v = d(rng);
+        if (k % 4 == 1) u = float(int(u * 64.0f)) / 64.0f;
+        if (k % 4 == 2) u = float(int(u * 64.0f)) / 64.0f, v = float(int(v * 64.0f)) / 64.0f;
+        if (u + v > 1.0f) u = 1.0f - u, v = 1.0f - v;
+        const hw::MicroState m = maps.lookup(prim, u, v);
+        ++asked;
+        if (!hw::known(m)) continue;
+        ++known;
+        const bool stage = alpha.stage()->accept(prim, u, v);
+        if (stage != (m == hw::MicroState::kOpaque)) {
+          ++wrong;
+          UNSCOPED_INFO("triangle " << prim << " at (" << u << ", " << v << "): map says "
+                                    << (m == hw::MicroState::kOpaque ? "opaque" : "transparent"));
+        }
+      }
+    }
+    const uint64_t unknown = st.micro_triangles - st.opaque - st.transparent;
+    std::printf(
+        "micromaps level %d: %llu maps (%llu 2-state), %llu micro-triangles, %.1f%% known; %llu of %llu "
+        "points known, %llu wrong\n",
+        level, (unsigned long long)st.triangles, (unsigned long long)st.two_state,
+        (unsigned long long)st.micro_triangles,
+        100.0 * double(st.opaque + st.transparent) / double(st.micro_triangles), (unsigned long long)known,
+        (unsigned long long)asked, (unsigned long long)wrong);
+    CHECK(wrong == 0);
+    if (level >= 4) CHECK(known > asked / 2);  // finer maps resolve most of the leaf (57% at 4, 74% at 5)
+    // The unknown area shrinks as the micro-triangles do (the unknown ones straddle the mask's edges); at levels
+    // 0 and 1 every micro-triangle holds both kinds of texel.
+    const double unknown_share = double(unknown) / double(st.micro_triangles);
+    if (level > 1) CHECK(unknown_share * 1e6 < double(previous_unknown));
+    previous_unknown = uint64_t(unknown_share * 1e6);
+  }
+}
+
+TEST_CASE("micromaps: the same hits, fewer any-hit requests, on the fixed and timed devices",
+          "[micromap][alpha][timed]") {
+  const host::Scene& s = forest();
+  const host::SceneAnyHit alpha(s);
+  const hw::MicromapSet maps = host::bake_micromaps(*alpha.tables(), s.geometry.non_opaque, 5);
+  const std::vector<hw::Ray> rays = host::primary_rays(s.camera, 96, 72);
+  for (const char* kind : {"fixed", "timed"}) {
+    CAPTURE(kind);
+    host::DeviceOptions o;
+    o.kind = hw::parse_device_kind(kind);
+    o.timing = hw::timing_preset("rdna2");
+    o.any_hit = alpha.stage();
+    hw::TraversalStats plain, mapped;
+    std::vector<hw::Hit> a(rays.size()), b(rays.size());
+    const auto without = host::make_device(s.geometry, o);
+    without->trace_batch(rays.data(), a.data(), rays.size(), false, 2, plain);
+    o.micromaps = &maps;
+    const auto with = host::make_device(s.geometry, o);
+    with->trace_batch(rays.data(), b.data(), rays.size(), false, 2, mapped);
+    CHECK(std::memcmp(a.data(), b.data(), a.size() * sizeof(hw::Hit)) == 0);
+    // Each candidate is resolved once, by the map or by the stage; the stage's ignored ones and the map's
+    // transparent ones are the same candidates' answers.
+    CHECK(mapped.any_hit_calls + mapped.omm_opaque + mapped.omm_transparent == plain.any_hit_calls);
+    CHECK(mapped.any_hit_ignored + mapped.omm_transparent == plain.any_hit_ignored);
+    CHECK(mapped.omm_opaque > 0);
+    CHECK(mapped.omm_transparent > 0);
+    std::printf(
+        "micromaps level 5, %s: %llu any-hit calls without, %llu with (%llu opaque, %llu transparent by "
+        "the map)\n",
+        kind, (unsigned long long)plain.any_hit_calls, (unsigned long long)mapped.any_hit_calls,
+        (unsigned long long)mapped.omm_opaque, (unsigned long long)mapped.omm_transparent);
+    CHECK(mapped.any_hit_calls < plain.any_hit_calls / 2);
+    if (with->timed()) {
+      // The unit asks the stage only for the unknown ones: its requests are the calls, and the frame is faster.
+      CHECK(with->timed()->timing().any_hit_requests == mapped.any_hit_calls);
+      CHECK(with->timed()->timing().cycles < without->timed()->timing().cycles);
+    }
+  }
+}

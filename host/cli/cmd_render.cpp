@@ -16,7 +16,7 @@ struct RenderArgs {
   std::string scene, out, stats, mode = "raytrace";
   DeviceArgs dev;
   int threads = 0;
-  int width = 0, height = 0, spp = 1, max_depth = 4;
+  int width = 0, height = 0, spp = 1, max_depth = 4, omm_level = -1;
   uint32_t seed = 1;
   bool ao = false, no_indirect = false, compare_modes = false;
   float ao_distance = 0.0f;
@@ -28,6 +28,7 @@ RenderOptions options_from(const RenderArgs& a, hw::DeviceKind device) {
   RenderOptions o;
   o.device = a.dev.options(device);
   o.hybrid = a.mode == "hybrid";
+  o.omm_level = a.omm_level;
   o.threads = a.threads;
   o.width = a.width;
   o.height = a.height;
@@ -170,6 +171,12 @@ void add_render(CLI::App& app) {
       ->check(CLI::Range(0, 64))
       ->capture_default_str();
   sub->add_option("--seed", a->seed, "seed of the sampling generator")->capture_default_str();
+  sub->add_option("--omm-level", a->omm_level,
+                  "fixed and timed devices: opacity micromaps of this subdivision level (0..10: 4^level "
+                  "micro-triangles) for alpha-masked triangles, resolved in the unit without the any-hit stage "
+                  "where their state is known; the image is the same (-1: none)")
+      ->check(CLI::Range(-1, hw::kMaxMicromapLevel))
+      ->capture_default_str();
   CLI::Option* ao =
       sub->add_flag("--ao", a->ao, "ambient occlusion at diffuse hits instead of diffuse indirect light");
   sub->add_option("--ao-distance", a->ao_distance, "occlusion ray length (default: 1/4 of the scene diagonal)")

@@ -30,6 +30,7 @@ class FirmwareDevice final : public fw::Hal {
   uint8_t* mem() override { return m_mem.data(); }
   uint64_t mem_size() override { return m_mem.size(); }
   void set_any_hit(const hw::AnyHitStage* stage) override { m_engine->set_any_hit(stage); }
+  void set_micromaps(const hw::MicromapSet* maps) { m_engine->set_micromaps(maps); }
 
   hw::DeviceKind kind() const { return m_kind; }
   hw::DeviceMemory& memory() { return m_mem; }

@@ -422,6 +422,16 @@ RenderResult render(const Scene& scene, const RenderOptions& o) {
     check_timing_memory(o.device.timing, hw::sample_step(o.device.sample.fraction) >= 2, res.device_memory_bytes);
   }
   FirmwareDevice dev(o.device.kind, res.device_memory_bytes, eopt, o.device.timing);
+  // Opacity micromaps, baked over the same tables the firmware's any-hit stage reads (as a driver builds them).
+  hw::MicromapSet maps;
+  if (o.omm_level >= 0 && o.device.kind != hw::DeviceKind::kFloat && !scene.instanced()) {
+    const SceneAnyHit alpha(scene);
+    if (alpha.tables()) {
+      maps = bake_micromaps(*alpha.tables(), scene.geometry.non_opaque, o.omm_level, &res.micromaps);
+      res.micromap_bytes = maps.bytes();
+      dev.set_micromaps(&maps);
+    }
+  }
   if (hw::TimedEngine* te = dev.timed()) {
     te->set_trace(o.pipeline_trace);
     te->set_sampling(o.device.sample);  // the firmware needs every hit: only the timing model is sampled
@@ -624,6 +634,15 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
   j["seconds"] = r.seconds;
   add_rays_json(j, r);
   if (o.hybrid) j["raster"] = raster_stats_json(r.fw.raster);
+  if (r.micromaps.triangles > 0) {
+    const MicromapStats& m = r.micromaps;
+    j["micromaps"] = {{"level", o.omm_level},
+                      {"triangles", m.triangles},
+                      {"micro_triangles", m.micro_triangles},
+                      {"known", double(m.opaque + m.transparent) / double(m.micro_triangles)},
+                      {"two_state", m.two_state},
+                      {"bytes", r.micromap_bytes}};
+  }
   if (r.fw.sorted) j["sort"] = sort_stats_json(r.fw.sort, hw::name_of(o.device.timing.ray_sort));
   j["paths"] = r.fw.paths;
   j["batches"] = r.fw.batches;

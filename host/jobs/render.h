@@ -14,6 +14,7 @@
 #include "host/devices/direct_device.h"
 #include "host/io/image.h"
 #include "host/io/stats_json.h"
+#include "host/scene/micromap_bake.h"
 #include "host/scene/scene.h"
 #include "hwmodel/device/command_processor.h"
 #include "hwmodel/device/timed_engine.h"
@@ -35,6 +36,10 @@ struct RenderOptions {
   float ao_distance = 0.0f;   // 0: a quarter of the scene's bounding-box diagonal
   Vec3 background{0.0f};      // radiance of escaping rays (the ambient light of occlusion)
   bool keep_primary = false;  // return every camera sample's primary hit (RenderResult::primary)
+  // Fixed and timed devices, one-level scenes with alpha-masked materials: opacity micromaps of this subdivision
+  // level (0..10) baked for the non-opaque triangles (host/scene/micromap_bake.h), which the unit reads before it
+  // asks the any-hit stage. -1: none. The image does not depend on it.
+  int omm_level = -1;
   hw::PipelineTrace* pipeline_trace = nullptr;  // timed device: pipeline spans of a cycle window (or null)
   bool progress = false;  // a progress line on stderr while rendering, when stderr is a terminal (host::Progress)
   // Called at every doorbell the firmware rings; an exception it throws stops the render (the unit reports an
@@ -72,6 +77,9 @@ struct RenderResult {
   // while the unit waits.
   hw::SortCycles sort_cycles;
   uint64_t frame_cycles = 0;  // timed: raster + sort + device clock (raytrace mode without sorting: the clock)
+  // Opacity micromaps (RenderOptions::omm_level): what was baked and their bytes (0 maps: none).
+  MicromapStats micromaps;
+  uint64_t micromap_bytes = 0;
   // What the job saw before it rendered (render_warnings adds the device's): primitives below the fixed-point
   // grid step (grid_check.h), nothing to light the scene.
   std::vector<std::string> warnings;

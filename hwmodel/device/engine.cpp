@@ -192,7 +192,8 @@ class FixedEngine final : public TraceEngine {
     unbind();
     FixedTraceOptions to{m_opt.check_boxes, m_opt.max_steps};
     to.any_hit = m_any_hit;
-    if (is_two_level(data, bytes)) {  // an instanced scene's two levels (instanced_fixed.h)
+    if (is_two_level(
+            data, bytes)) {  // (micromaps: one level only)  // an instanced scene's two levels (instanced_fixed.h)
       m_two = InstancedFixedTracer::from_bytes(data, bytes, to);
       return;
     }
@@ -200,12 +201,17 @@ class FixedEngine final : public TraceEngine {
     if (img.header().flags & kImageTopLevel)                 // its bottom levels are not in the image
       throw std::invalid_argument("scene image: a top level, whose bottom levels this engine does not hold");
     m_image = std::make_unique<DeviceImage>(std::move(img));
+    to.micromaps = m_micromaps;
     m_tracer = std::make_unique<FixedTracer>(*m_image, to);
   }
   void set_any_hit(const AnyHitStage* stage) override {
     m_any_hit = stage;
     if (m_tracer) m_tracer->set_any_hit(stage);
     if (m_two) m_two->set_any_hit(stage);
+  }
+  void set_micromaps(const MicromapSet* maps) override {
+    m_micromaps = maps;
+    if (m_tracer) m_tracer->set_micromaps(maps);
   }
   bool bound() const override { return m_tracer != nullptr || m_two != nullptr; }
   void unbind() override {
@@ -234,6 +240,7 @@ class FixedEngine final : public TraceEngine {
   std::unique_ptr<FixedTracer> m_tracer;
   std::unique_ptr<InstancedFixedTracer> m_two;
   const AnyHitStage* m_any_hit = nullptr;
+  const MicromapSet* m_micromaps = nullptr;
 };
 
 }  // namespace

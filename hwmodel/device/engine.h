@@ -24,6 +24,7 @@
 #include "hwmodel/datapath/tri_unit.h"
 #include "hwmodel/datapath/watchdog.h"
 #include "hwmodel/device/device_kind.h"
+#include "hwmodel/format/micromap.h"
 #include "hwmodel/interface/any_hit.h"
 #include "hwmodel/interface/ray.h"
 #include "hwmodel/scene/geometry.h"
@@ -79,6 +80,10 @@ class TraceEngine {
   // Attaches the any-hit stage that answers candidate hits on non-opaque triangles (any_hit.h), or with null
   // detaches it (they are then opaque); kept across bind and unbind. Not owned: must outlive its use.
   virtual void set_any_hit(const AnyHitStage* stage) = 0;
+  // The fixed datapath (fixed and timed engines, one-level images): the non-opaque triangles' opacity micromaps
+  // (micromap.h), read before the stage is asked; null: none. The float reference ignores them (it always asks).
+  // Kept across bind and unbind. Not owned.
+  virtual void set_micromaps(const MicromapSet* maps) { (void)maps; }
   // Traces n rays of the bound scene (rays and hits do not overlap).
   virtual void trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const = 0;
   // Timing. Functional engines count one clock per packet; the timed engine returns simulated cycles.

@@ -52,7 +52,7 @@ class TimedEngine final : public TraceEngine {
   void unbind() override;
   void trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const override;
   // One level: the non-opaque triangles' opacity micromaps (fixed_tracer.h, FixedTraceOptions::micromaps).
-  void set_micromaps(const MicromapSet* maps) {
+  void set_micromaps(const MicromapSet* maps) override {
     m_micromaps = maps;
     if (m_tracer) m_tracer->set_micromaps(maps);
   }

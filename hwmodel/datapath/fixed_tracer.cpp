@@ -26,9 +26,11 @@ namespace {
 struct AlphaTest {
   const AnyHitStage* stage;
   const MicromapSet* maps;
-  bool accept(uint32_t prim, float u, float v, TraversalStats& s, bool& asked) const {
-    if (maps) {
+  // `looked`: the map's state (MicroState) + 1 when the triangle has a map, else 0.
+  bool accept(uint32_t prim, float u, float v, TraversalStats& s, bool& asked, uint8_t& looked) const {
+    if (maps && prim < maps->map_of.size() && maps->map_of[prim] != MicromapSet::kNoMap) {
       const MicroState ms = maps->lookup(prim, u, v);
+      looked = uint8_t(uint8_t(ms) + 1);
       if (ms == MicroState::kOpaque) {
         ++s.omm_opaque;
         return true;
@@ -108,7 +110,7 @@ inline bool unit_triangle(TriUnit& unit, const FixedRay& r, const int32_t v[3][3
 // An instance record goes to the bottom levels (test_instance).
 inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool short_edges, TriUnit* unit,
                         uint8_t& issue, uint8_t& result, AlphaTest stage, TraversalStats& s, bool& asked,
-                        const Ray* world, const BottomLevels* bottom, bool any_hit,
+                        uint8_t& looked, const Ray* world, const BottomLevels* bottom, bool any_hit,
                         std::vector<TraceEvent>* events) {
   uint32_t word;
   FixedPrimHit h;
@@ -116,6 +118,7 @@ inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool 
   issue = result = 0;
   if (record_kind(rec) == RecordKind::kInstance) {
     asked = false;
+    looked = 0;
     return test_instance(rec, r, world, c, bottom, any_hit, s, events);
   }
   switch (record_kind(rec)) {  // the kind's test inlined; the image check admits no other kind here
@@ -138,8 +141,9 @@ inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool 
       break;
   }
   asked = false;
+  looked = 0;
   if (hit && (word & kRecordNonOpaque) && stage.stage)
-    hit = stage.accept(word & kRecordPrimMask, h.u, h.v, s, asked);
+    hit = stage.accept(word & kRecordPrimMask, h.u, h.v, s, asked, looked);
   if (hit) {
     c.t = h.t;
     c.prim = word & kRecordPrimMask;
@@ -173,15 +177,19 @@ inline bool test_records(const DeviceImage& image, uint32_t first, uint32_t coun
     }
     uint8_t issue = 0, result = 0, issue2 = 0, result2 = 0;
     bool asked = false, asked2 = false;
-    found |= test_record(a, r, c, short_edges, unit, issue, result, stage, s, asked, world, bottom, any_hit, rec);
+    uint8_t looked = 0, looked2 = 0;
+    found |= test_record(a, r, c, short_edges, unit, issue, result, stage, s, asked, looked, world, bottom,
+                         any_hit, rec);
     if (!(found && any_hit))
-      found |= test_record(image.record(i + 1), r, c, short_edges, unit, issue2, result2, stage, s, asked2, world,
-                           bottom, any_hit, rec);
+      found |= test_record(image.record(i + 1), r, c, short_edges, unit, issue2, result2, stage, s, asked2,
+                           looked2, world, bottom, any_hit, rec);
     if (rec) {
       const uint8_t is = uint8_t(std::min(255, issue + issue2)),
                     res = uint8_t(std::min(255, std::max<int>(result, issue + result2)));
       rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(RecordKind::kTrianglePair), is, res, i});
+      if (looked) rec->push_back(TraceEvent{TraceEvent::kOmm, uint8_t(looked - 1), 0, 0, i});
       if (asked) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, i});
+      if (looked2) rec->push_back(TraceEvent{TraceEvent::kOmm, uint8_t(looked2 - 1), 0, 0, i + 1});
       if (asked2) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, i + 1});
     }
     if (found && any_hit) return true;
@@ -193,14 +201,15 @@ inline bool test_records(const DeviceImage& image, uint32_t first, uint32_t coun
 inline bool test_recorded(const uint8_t* record, uint32_t index, const FixedRay& r, Closest& c, bool short_edges,
                           TriUnit* unit, AlphaTest stage, TraversalStats& s, const Ray* world,
                           const BottomLevels* bottom, bool any_hit, std::vector<TraceEvent>* rec) {
-  uint8_t issue, result;
+  uint8_t issue, result, looked;
   bool asked;
   const bool instance = record_kind(record) == RecordKind::kInstance;
   if (rec && instance) rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(RecordKind::kInstance), 0, 0, index});
-  const bool hit =
-      test_record(record, r, c, short_edges, unit, issue, result, stage, s, asked, world, bottom, any_hit, rec);
+  const bool hit = test_record(record, r, c, short_edges, unit, issue, result, stage, s, asked, looked, world,
+                               bottom, any_hit, rec);
   if (rec && !instance) {
     rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(record)), issue, result, index});
+    if (looked) rec->push_back(TraceEvent{TraceEvent::kOmm, uint8_t(looked - 1), 0, 0, index});
     if (asked) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, index});
   }
   return hit;

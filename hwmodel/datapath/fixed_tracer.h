@@ -50,7 +50,9 @@ struct TraceEvent {
                      // records (>= 1, 0 for a node), index its first record
     kRestart = 11,   // a restart from the root (FixedTraceOptions::record_restart, restart_trail.h): index the
                      // nodes re-visited, whose kNode events follow
-    kRayKey = 12  // first in a ray's events when the timing model gathers rays (ray_gather.h): index its bin key
+    kRayKey = 12,  // first in a ray's events when the timing model gathers rays (ray_gather.h): index its bin key
+    kOmm = 13      // the unit's opacity micromap lookup for a non-opaque triangle's candidate hit (micromap.h),
+                   // after its kPrim: count the state found (MicroState), index the record
   };
   uint8_t kind;
   uint8_t

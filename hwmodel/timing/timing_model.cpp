@@ -359,6 +359,7 @@ bool TimingModel::touches_memory(const Slot& sl) const {
     case TraceEvent::kRefill:
       return true;
     case TraceEvent::kAnyHit:
+    case TraceEvent::kOmm:
     case TraceEvent::kEnter:
     case TraceEvent::kLeave:
       return false;
@@ -576,6 +577,13 @@ bool TimingModel::control_event(Slot& sl, uint32_t k, const TraceEvent& e, uint6
       ++m_s->any_hit_requests;
       next_t = t + uint64_t(m_c.any_hit_latency);
       if (m_trace) m_trace->add(m_unit, k, "any-hit", t, next_t);
+      waiting = true;
+      return true;
+    case TraceEvent::kOmm:  // the micromap lookup: the ray waits for the state before its hit counts or not
+      ++sl.pos;
+      ++m_s->omm_lookups;
+      next_t = t + uint64_t(m_c.omm_latency);
+      if (m_trace) m_trace->add(m_unit, k, "omm", t, next_t);
       waiting = true;
       return true;
     case TraceEvent::kEnter:  // the following events address the mesh's bottom level

@@ -38,6 +38,7 @@ void TimingModel::fire(uint32_t k, uint64_t cycle) {
                              : e.kind == TraceEvent::kPrim   ? "record "
                              : e.kind == TraceEvent::kPlane  ? "plane "
                              : e.kind == TraceEvent::kAnyHit ? "any-hit answer for record "
+                             : e.kind == TraceEvent::kOmm    ? "micromap state for record "
                                                              : "stack entry ";
     // unit_phase: its fetch is under way and the unit's test comes next; else the previous step is finishing.
     return (sl.unit_phase ? "waiting for the data of " : "next: ") + what + std::to_string(e.index);

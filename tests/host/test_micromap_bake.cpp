@@ -117,6 +117,11 @@ TEST_CASE("micromaps: the same hits, fewer any-hit requests, on the fixed and ti
     if (with->timed()) {
       // The unit asks the stage only for the unknown ones: its requests are the calls, and the frame is faster.
       CHECK(with->timed()->timing().any_hit_requests == mapped.any_hit_calls);
+      // Every non-opaque triangle of the forest has a map: each candidate was looked up (omm_latency each), the
+      // unknown ones then asked.
+      CHECK(with->timed()->timing().omm_lookups ==
+            mapped.omm_opaque + mapped.omm_transparent + mapped.any_hit_calls);
+      CHECK(without->timed()->timing().omm_lookups == 0);
       CHECK(with->timed()->timing().cycles < without->timed()->timing().cycles);
     }
   }

@@ -22,6 +22,9 @@ const TimingKeyTable& scheduler_keys() {
        "scheduler: cycles from a unit result to the slot's next request"},
       {"any_hit_latency", &C::any_hit_latency, 0, kMaxLatency,
        "cycles a ray waits for the any-hit stage's answer on a non-opaque triangle's candidate hit"},
+      {"omm_latency", &C::omm_latency, 0, kMaxLatency,
+       "cycles a ray waits for the opacity micromap lookup of a non-opaque triangle's candidate hit (scenes "
+       "traced with micromaps)"},
       {"xform_latency", &C::xform_latency, 0, kMaxLatency,
        "two-level scenes: cycles of the instance transform (an instance record to the object-space ray)"},
       {"instance_bytes", &C::instance_bytes, 0, 4096,
@@ -43,9 +46,12 @@ std::span<const TimingCounter> slot_counters() {
 
 std::span<const TimingCounter> scheduler_counters() {
   using S = TimingStats;
-  static constexpr std::array<TimingCounter, 2> counters = {{
+  static constexpr std::array<TimingCounter, 3> counters = {{
       {"any_hit_requests", &S::any_hit_requests, "requests",
        "candidate hits on non-opaque triangles sent to the any-hit stage (each waits any_hit_latency)", kPerRay},
+      {"omm_lookups", &S::omm_lookups, "lookups",
+       "candidate hits on non-opaque triangles looked up in their opacity micromap (each waits omm_latency)",
+       kPerRay},
       {"instance_transforms", &S::instance_transforms, "rays",
        "two-level scenes: rays transformed into an instance's bottom level (each waits xform_latency)", kPerRay},
   }};

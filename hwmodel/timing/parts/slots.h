@@ -19,6 +19,10 @@ struct SchedulerConfig {
   // Cycles a ray waits in its slot for the any-hit stage's answer on a candidate hit of a non-opaque triangle
   // (any_hit.h): the request to the firmware, its mask lookup (a texture read from memory) and the answer.
   int any_hit_latency = 400;
+  // Cycles a ray waits in its slot for the opacity micromap lookup of a non-opaque triangle's candidate hit
+  // (micromap.h): the micro-triangle's index from the hit's barycentrics and the read of its state bits, before
+  // the hit counts, is dropped, or goes to the any-hit stage. Only rays of scenes traced with micromaps look up.
+  int omm_latency = 4;
   // Two-level scenes (instanced_fixed.h): cycles from an instance record's arrival to the ray's object-space
   // origin and direction (the transform unit, pipelined: one ray per clock).
   int xform_latency = 12;
@@ -34,6 +38,7 @@ struct SlotCounters {
 
 struct SchedulerCounters {
   uint64_t any_hit_requests = 0;     // candidate hits on non-opaque triangles sent to the firmware's any-hit stage
+  uint64_t omm_lookups = 0;          // candidate hits on non-opaque triangles looked up in their opacity micromap
   uint64_t instance_transforms = 0;  // two-level scenes: rays transformed into an instance's bottom level
 };
 

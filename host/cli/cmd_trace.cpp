@@ -25,6 +25,7 @@ struct TraceOptions {
   bool any_hit = false;
   bool rtl_unit = false;  // --rtl-unit: the packet on the RTL traversal unit too
   int threads = 0;
+  int omm_level = -1;  // --omm-level: opacity micromaps of this level (-1: none)
   DeviceArgs dev;
   PipelineTraceArgs pipeline;
   AgainstSpec against;  // --against-*: design point B of an A/B
@@ -70,6 +71,7 @@ void run_trace(const TraceOptions& o) {
   req.kind = kind;
   req.any_hit = o.any_hit;
   req.threads = o.threads;
+  req.omm_level = o.omm_level;
   req.need_hits = !cycles_only;
   req.pipeline = pt.make();
   const TraceRun run = host::run_trace(req);
@@ -94,6 +96,10 @@ void run_trace(const TraceOptions& o) {
   if (stats.any_hit_calls > 0)
     std::printf("any-hit: %llu candidate hits on alpha-tested triangles, %llu ignored\n",
                 (unsigned long long)stats.any_hit_calls, (unsigned long long)stats.any_hit_ignored);
+  if (stats.omm_opaque + stats.omm_transparent > 0)
+    std::printf("micromaps: %llu candidate hits resolved in the unit (%llu opaque, %llu transparent)\n",
+                (unsigned long long)(stats.omm_opaque + stats.omm_transparent),
+                (unsigned long long)stats.omm_opaque, (unsigned long long)stats.omm_transparent);
   if (const hw::TimedEngine* te = run.device->timed()) {
     print_timing_summary(te->timing(), te->config(), te->format(), &te->sampling());
     pt.write(te->timeline());
@@ -145,6 +151,12 @@ void add_trace(CLI::App& app) {
                   "hit file to write (16-byte binary records, or .csv); without it only the statistics (with "
                   "--sample on the timed device, only the sampled rays are traced)");
   sub->add_flag("--any-hit", o->any_hit, "any-hit queries (stop at the first hit, as shadow rays do)");
+  sub->add_option("--omm-level", o->omm_level,
+                  "fixed and timed devices, one-level scenes: opacity micromaps of this subdivision level (0..10) "
+                  "for alpha-masked triangles, resolved in the unit where their state is known; the hits are the "
+                  "same (-1: none)")
+      ->check(CLI::Range(-1, hw::kMaxMicromapLevel))
+      ->capture_default_str();
   sub->add_flag("--rtl-unit", o->rtl_unit,
                 "timed device: also run the rays in one packet on the Verilated RTL traversal unit of the "
                 "configuration (rtl_sim/trav/; builds with Verilator) and print its cycles beside the model's");

@@ -8,6 +8,7 @@
 
 #include "host/cost/timing_json.h"
 #include "host/devices/device_json.h"
+#include "host/scene/micromap_bake.h"
 
 namespace rtu::host {
 
@@ -76,6 +77,12 @@ TraceRun run_trace(const TraceRequest& req) {
   run.options.instances = &req.scene->instances;
   run.alpha = std::make_unique<SceneAnyHit>(*req.scene);
   run.options.any_hit = run.alpha->stage();
+  const bool one_level = req.scene->instances.instances.empty() || run.options.flatten;
+  if (req.omm_level >= 0 && req.kind != hw::DeviceKind::kFloat && one_level && run.alpha->tables()) {
+    run.micromaps = std::make_unique<hw::MicromapSet>(
+        bake_micromaps(*run.alpha->tables(), req.scene->geometry.non_opaque, req.omm_level));
+    run.options.micromaps = run.micromaps.get();
+  }
   run.grid_warning = grid_warning(device_grid_check(req.scene->geometry, run.options));
   run.device = make_device(req.scene->geometry, run.options);
   run.device->set_pipeline_trace(req.pipeline);

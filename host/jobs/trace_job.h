@@ -14,6 +14,7 @@
 #include "host/io/stats_json.h"
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"
+#include "hwmodel/format/micromap.h"
 
 namespace rtu::host {
 
@@ -54,6 +55,7 @@ struct TraceRequest {
   hw::DeviceKind kind = hw::DeviceKind::kFloat;
   bool any_hit = false;
   int threads = 0;
+  int omm_level = -1;     // fixed and timed devices, one level: opacity micromaps of this level (-1: none)
   bool need_hits = true;  // false: sampled timing traces only the sampled rays (cycles only; hits not meaningful)
   hw::PipelineTrace* pipeline = nullptr;  // timed device: record pipeline spans here (or null)
   // Called between chunks of rays (trace_with_progress); an exception it throws stops the job (Python: Ctrl-C).
@@ -62,6 +64,7 @@ struct TraceRequest {
 struct TraceRun {
   DeviceOptions options;
   std::unique_ptr<SceneAnyHit> alpha;  // alpha-tested materials: the any-hit stage the device asks (outlives it)
+  std::unique_ptr<hw::MicromapSet> micromaps;  // TraceRequest::omm_level: the maps the device reads (outlive it)
   std::unique_ptr<DirectDevice> device;
   std::vector<hw::Hit> hits;
   hw::TraversalStats stats;

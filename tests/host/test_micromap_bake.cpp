@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "host/devices/direct_device.h"
+#include "host/jobs/trace_job.h"
 #include "host/scene/micromap_bake.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
@@ -123,6 +124,32 @@ TEST_CASE("micromaps: the same hits, fewer any-hit requests, on the fixed and ti
             mapped.omm_opaque + mapped.omm_transparent + mapped.any_hit_calls);
       CHECK(without->timed()->timing().omm_lookups == 0);
       CHECK(with->timed()->timing().cycles < without->timed()->timing().cycles);
+    }
+  }
+}
+
+TEST_CASE("micromaps: trace --omm-level bakes them for the fixed device, not the float reference",
+          "[micromap][alpha]") {
+  const host::Scene& s = forest();
+  const std::vector<hw::Ray> rays = host::primary_rays(s.camera, 64, 48);
+  for (const hw::DeviceKind kind : {hw::DeviceKind::kFixed, hw::DeviceKind::kFloat}) {
+    host::TraceRequest req;
+    req.scene = &s;
+    req.rays = rays;
+    req.kind = kind;
+    req.threads = 2;
+    const host::TraceRun plain = host::run_trace(req);
+    req.omm_level = 4;
+    const host::TraceRun mapped = host::run_trace(req);
+    CHECK(std::memcmp(plain.hits.data(), mapped.hits.data(), rays.size() * sizeof(hw::Hit)) == 0);
+    CHECK(plain.stats.omm_opaque + plain.stats.omm_transparent == 0);
+    if (kind == hw::DeviceKind::kFixed) {
+      CHECK(mapped.micromaps != nullptr);
+      CHECK(mapped.stats.omm_opaque + mapped.stats.omm_transparent > 0);
+      CHECK(mapped.stats.any_hit_calls < plain.stats.any_hit_calls);
+    } else {
+      CHECK(mapped.micromaps == nullptr);  // the reference always asks the stage
+      CHECK(mapped.stats.any_hit_calls == plain.stats.any_hit_calls);
     }
   }
 }

@@ -2,8 +2,8 @@
 # What opacity micromaps save the unit: a render of a scene with alpha-masked materials on the timed device,
 # without maps and with maps of each subdivision level (render --omm-level), with the maps' share of known
 # micro-triangles and bytes, the any-hit requests the unit still makes, the candidates the maps resolved, and the
-# cycles. The image must not change with the maps (the script checks it). Each lookup is priced (omm_latency);
-# the map bytes' memory traffic is not: the cycles saved are an upper bound of the gain.
+# cycles. The image must not change with the maps (the script checks it). Each lookup reads its state's line
+# through the node cache and waits omm_latency.
 #
 #   bench/omm_cost.sh [RTUSIM] [SCENE] [WIDTH]
 #     RTUSIM  default build/default/rtusim;  SCENE  default builtin:forest;  WIDTH  default 320 (4:3, 1 spp,

@@ -156,6 +156,7 @@ hw::MicromapSet bake_micromaps(const fw::ShadingTables& st, const std::vector<ui
     set.maps.push_back(std::move(map));
   }
   if (stats) *stats = local;
+  set.place();
   return set;
 }
 

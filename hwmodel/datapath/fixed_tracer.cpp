@@ -26,11 +26,15 @@ namespace {
 struct AlphaTest {
   const AnyHitStage* stage;
   const MicromapSet* maps;
-  // `looked`: the map's state (MicroState) + 1 when the triangle has a map, else 0.
-  bool accept(uint32_t prim, float u, float v, TraversalStats& s, bool& asked, uint8_t& looked) const {
+  // `looked`: the map's state (MicroState) + 1 when the triangle has a map, else 0; `at`: the state's byte in the
+  // maps' section (MicromapSet::state_byte).
+  bool accept(uint32_t prim, float u, float v, TraversalStats& s, bool& asked, uint8_t& looked,
+              uint32_t& at) const {
     if (maps && prim < maps->map_of.size() && maps->map_of[prim] != MicromapSet::kNoMap) {
-      const MicroState ms = maps->lookup(prim, u, v);
+      const uint32_t index = micro_index(maps->maps[maps->map_of[prim]].level, u, v);
+      const MicroState ms = maps->maps[maps->map_of[prim]].state(index);
       looked = uint8_t(uint8_t(ms) + 1);
+      at = uint32_t(maps->state_byte(prim, index));
       if (ms == MicroState::kOpaque) {
         ++s.omm_opaque;
         return true;
@@ -110,8 +114,8 @@ inline bool unit_triangle(TriUnit& unit, const FixedRay& r, const int32_t v[3][3
 // An instance record goes to the bottom levels (test_instance).
 inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool short_edges, TriUnit* unit,
                         uint8_t& issue, uint8_t& result, AlphaTest stage, TraversalStats& s, bool& asked,
-                        uint8_t& looked, const Ray* world, const BottomLevels* bottom, bool any_hit,
-                        std::vector<TraceEvent>* events) {
+                        uint8_t& looked, uint32_t& omm_at, const Ray* world, const BottomLevels* bottom,
+                        bool any_hit, std::vector<TraceEvent>* events) {
   uint32_t word;
   FixedPrimHit h;
   bool hit;
@@ -143,7 +147,7 @@ inline bool test_record(const uint8_t* rec, const FixedRay& r, Closest& c, bool 
   asked = false;
   looked = 0;
   if (hit && (word & kRecordNonOpaque) && stage.stage)
-    hit = stage.accept(word & kRecordPrimMask, h.u, h.v, s, asked, looked);
+    hit = stage.accept(word & kRecordPrimMask, h.u, h.v, s, asked, looked, omm_at);
   if (hit) {
     c.t = h.t;
     c.prim = word & kRecordPrimMask;
@@ -178,18 +182,19 @@ inline bool test_records(const DeviceImage& image, uint32_t first, uint32_t coun
     uint8_t issue = 0, result = 0, issue2 = 0, result2 = 0;
     bool asked = false, asked2 = false;
     uint8_t looked = 0, looked2 = 0;
-    found |= test_record(a, r, c, short_edges, unit, issue, result, stage, s, asked, looked, world, bottom,
+    uint32_t at = 0, at2 = 0;
+    found |= test_record(a, r, c, short_edges, unit, issue, result, stage, s, asked, looked, at, world, bottom,
                          any_hit, rec);
     if (!(found && any_hit))
       found |= test_record(image.record(i + 1), r, c, short_edges, unit, issue2, result2, stage, s, asked2,
-                           looked2, world, bottom, any_hit, rec);
+                           looked2, at2, world, bottom, any_hit, rec);
     if (rec) {
       const uint8_t is = uint8_t(std::min(255, issue + issue2)),
                     res = uint8_t(std::min(255, std::max<int>(result, issue + result2)));
       rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(RecordKind::kTrianglePair), is, res, i});
-      if (looked) rec->push_back(TraceEvent{TraceEvent::kOmm, uint8_t(looked - 1), 0, 0, i});
+      if (looked) rec->push_back(TraceEvent{TraceEvent::kOmm, uint8_t(looked - 1), 0, 0, at});
       if (asked) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, i});
-      if (looked2) rec->push_back(TraceEvent{TraceEvent::kOmm, uint8_t(looked2 - 1), 0, 0, i + 1});
+      if (looked2) rec->push_back(TraceEvent{TraceEvent::kOmm, uint8_t(looked2 - 1), 0, 0, at2});
       if (asked2) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, i + 1});
     }
     if (found && any_hit) return true;
@@ -202,14 +207,15 @@ inline bool test_recorded(const uint8_t* record, uint32_t index, const FixedRay&
                           TriUnit* unit, AlphaTest stage, TraversalStats& s, const Ray* world,
                           const BottomLevels* bottom, bool any_hit, std::vector<TraceEvent>* rec) {
   uint8_t issue, result, looked;
+  uint32_t at = 0;
   bool asked;
   const bool instance = record_kind(record) == RecordKind::kInstance;
   if (rec && instance) rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(RecordKind::kInstance), 0, 0, index});
-  const bool hit = test_record(record, r, c, short_edges, unit, issue, result, stage, s, asked, looked, world,
+  const bool hit = test_record(record, r, c, short_edges, unit, issue, result, stage, s, asked, looked, at, world,
                                bottom, any_hit, rec);
   if (rec && !instance) {
     rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(record_kind(record)), issue, result, index});
-    if (looked) rec->push_back(TraceEvent{TraceEvent::kOmm, uint8_t(looked - 1), 0, 0, index});
+    if (looked) rec->push_back(TraceEvent{TraceEvent::kOmm, uint8_t(looked - 1), 0, 0, at});
     if (asked) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, index});
   }
   return hit;

@@ -52,7 +52,8 @@ struct TraceEvent {
                      // nodes re-visited, whose kNode events follow
     kRayKey = 12,  // first in a ray's events when the timing model gathers rays (ray_gather.h): index its bin key
     kOmm = 13      // the unit's opacity micromap lookup for a non-opaque triangle's candidate hit (micromap.h),
-                   // after its kPrim: count the state found (MicroState), index the record
+                   // after its kPrim: count the state found (MicroState), index the state's byte in the maps'
+                   // section (MicromapSet::state_byte)
   };
   uint8_t kind;
   uint8_t

@@ -123,6 +123,13 @@ void TimedEngine::bind_instanced(const InstanceSet& set, const Geometry& flat, c
   m_slot_time.clear();
 }
 
+void TimedEngine::set_micromaps(const MicromapSet* maps) {
+  m_micromaps = maps;
+  if (!m_tracer) return;
+  m_tracer->set_micromaps(maps);
+  if (!m_two) make_models();
+}
+
 void TimedEngine::make_models() {
   m_gather = m_c.gather;
   {
@@ -134,6 +141,12 @@ void TimedEngine::make_models() {
   TimingModel::Layout l =
       m_two ? TimingModel::layout_of(*m_two, uint64_t(m_c.layout_align), uint64_t(m_c.instance_bytes))
             : TimingModel::layout_of(*m_image, uint64_t(m_c.layout_align));
+  if (m_micromaps && !m_two) {  // the maps' states after the image, on a line of their own
+    l.micromap_offset = (l.total_bytes + 63) / 64 * 64;
+    uint64_t states = 0;
+    for (const Micromap& m : m_micromaps->maps) states += m.bytes();
+    l.total_bytes = l.micromap_offset + states;
+  }
   // Checked at bind rather than by validate(), so that --set order does not matter.
   if (std::string_view(name_of(m_c.prefetcher)) == "treelet" && m_c.treelet_bytes == 0)
     throw std::invalid_argument("prefetcher = treelet needs treelet_bytes > 0 (the treelets it prefetches)");

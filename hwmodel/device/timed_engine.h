@@ -51,11 +51,10 @@ class TimedEngine final : public TraceEngine {
   const InstancedFixedTracer* instanced() const { return m_two.get(); }
   void unbind() override;
   void trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const override;
-  // One level: the non-opaque triangles' opacity micromaps (fixed_tracer.h, FixedTraceOptions::micromaps).
-  void set_micromaps(const MicromapSet* maps) override {
-    m_micromaps = maps;
-    if (m_tracer) m_tracer->set_micromaps(maps);
-  }
+  // One level: the non-opaque triangles' opacity micromaps (fixed_tracer.h, FixedTraceOptions::micromaps). Their
+  // states lie after the image in the timing layout (TimingModel::Layout::micromap_offset), so set them before
+  // bind: set on a bound one-level engine, its timing models are made anew (their caches start cold).
+  void set_micromaps(const MicromapSet* maps) override;
   void set_any_hit(const AnyHitStage* stage) override {
     m_any_hit = stage;
     if (m_tracer) m_tracer->set_any_hit(stage);

@@ -55,6 +55,15 @@ uint64_t MicromapSet::bytes() const {
   return b;
 }
 
+void MicromapSet::place() {
+  m_start.resize(maps.size());
+  uint64_t at = 0;
+  for (size_t k = 0; k < maps.size(); ++k) {
+    m_start[k] = at;
+    at += maps[k].bytes();
+  }
+}
+
 std::string MicromapSet::check() const {
   for (size_t k = 0; k < maps.size(); ++k) {
     const Micromap& m = maps[k];
@@ -63,6 +72,9 @@ std::string MicromapSet::check() const {
     if (m.data.size() != (uint64_t(m.count()) * m.bits + 7) / 8)
       return "micromap " + std::to_string(k) + ": its states do not fill it";
   }
+  uint64_t states = 0;
+  for (const Micromap& m : maps) states += m.bytes();
+  if (states >= (uint64_t(1) << 32)) return "the maps' states pass 4 GiB";
   for (size_t p = 0; p < map_of.size(); ++p)
     if (map_of[p] != kNoMap && map_of[p] >= maps.size())
       return "triangle " + std::to_string(p) + ": micromap index out of range";

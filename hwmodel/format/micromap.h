@@ -68,8 +68,21 @@ struct MicromapSet {
     return maps[map_of[prim]].lookup(u, v);
   }
   uint64_t bytes() const;  // the maps' states and a 4-byte index per mapped triangle
+  // Where the state of micro-triangle `index` of `prim`'s map lies in the maps' section of device memory: the
+  // maps' states packed one after another in map order (the triangles' 4-byte indices are in their records' side
+  // table, not in this section). Requires a map for prim.
+  uint64_t state_byte(uint32_t prim, uint32_t index) const {
+    const uint32_t k = map_of[prim];
+    return map_start(k) + (uint64_t(index) * maps[k].bits >> 3);
+  }
+  uint64_t map_start(uint32_t k) const { return k < m_start.size() ? m_start[k] : 0; }
+  // Sets each map's start (after filling maps; bake_micromaps calls it).
+  void place();
   // Empty when the maps are well formed (levels, sizes, indices), else the first problem.
   std::string check() const;
+
+ private:
+  std::vector<uint64_t> m_start;  // per map: its first byte in the section (place())
 };
 
 }  // namespace rtu::hw

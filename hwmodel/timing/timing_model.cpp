@@ -191,6 +191,9 @@ void TimingModel::for_each_line(const Layout& l, const TraceEvent& e, F&& f) con
   } else if (e.kind == TraceEvent::kPlane) {
     bytes = sizeof(PlaneRecord);
     addr = l.plane_offset + uint64_t(e.index) * l.plane_stride;
+  } else if (e.kind == TraceEvent::kOmm) {
+    bytes = 1;
+    addr = l.micromap_offset + e.index;
   } else {
     return;
   }
@@ -359,7 +362,6 @@ bool TimingModel::touches_memory(const Slot& sl) const {
     case TraceEvent::kRefill:
       return true;
     case TraceEvent::kAnyHit:
-    case TraceEvent::kOmm:
     case TraceEvent::kEnter:
     case TraceEvent::kLeave:
       return false;
@@ -416,7 +418,7 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
         continue;
       }
       if (!sl.unit_phase) {  // fetch the data the unit needs: ready when its last line is
-        ++(e.kind == TraceEvent::kNode ? m_s->node_fetches : m_s->prim_fetches);
+        if (e.kind != TraceEvent::kOmm) ++(e.kind == TraceEvent::kNode ? m_s->node_fetches : m_s->prim_fetches);
         next_t = t;
         const uint64_t misses = m_s->cache_misses;
         // The lines are asked for together, so the ray waits for the last to arrive: its queueing is how much
@@ -577,13 +579,6 @@ bool TimingModel::control_event(Slot& sl, uint32_t k, const TraceEvent& e, uint6
       ++m_s->any_hit_requests;
       next_t = t + uint64_t(m_c.any_hit_latency);
       if (m_trace) m_trace->add(m_unit, k, "any-hit", t, next_t);
-      waiting = true;
-      return true;
-    case TraceEvent::kOmm:  // the micromap lookup: the ray waits for the state before its hit counts or not
-      ++sl.pos;
-      ++m_s->omm_lookups;
-      next_t = t + uint64_t(m_c.omm_latency);
-      if (m_trace) m_trace->add(m_unit, k, "omm", t, next_t);
       waiting = true;
       return true;
     case TraceEvent::kEnter:  // the following events address the mesh's bottom level

@@ -121,6 +121,9 @@ class TimingModel final : private PendingWaiter {
     // m's image after the top level's sections (total_bytes then covers them all). Empty: one level.
     uint64_t instance_bytes = 0;
     std::vector<Layout> bottoms;
+    // Opacity micromaps (one level, TimedEngine::set_micromaps): their states' section (MicromapSet::state_byte)
+    // starts here, after the image's sections (total_bytes then covers it). A kOmm event fetches its state's line.
+    uint64_t micromap_offset = 0;
   };
   // The image's own layout (packed), or with `align` > 0 every item padded to a multiple of it and every section
   // start aligned to it (TimingConfig::layout_align).

@@ -25,6 +25,11 @@ uint64_t TimingModel::unit(std::vector<uint64_t>& next_free, uint64_t issue, uin
 
 uint64_t TimingModel::unit_request(const TraceEvent& e, uint32_t k, uint64_t t) {
   const Slot& sl = m_slots[k];
+  if (e.kind == TraceEvent::kOmm) {  // the micromap lookup: its state's byte is there; index and decision
+    ++m_s->omm_lookups;
+    if (m_trace) m_trace->add(m_unit, k, "omm", t, t + uint64_t(m_c.omm_latency));
+    return t + uint64_t(m_c.omm_latency);
+  }
   if (!m_cluster_box_free.empty() && cluster_node(*sl.layout, e)) return cluster_box_request(e, k, t);
   if (!m_cluster_tri_free.empty() && cluster_tri(*sl.layout, e)) return cluster_tri_request(k, t);
   if (e.kind == TraceEvent::kNode) return box_request(e, k, t);

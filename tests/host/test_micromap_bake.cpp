@@ -123,7 +123,13 @@ TEST_CASE("micromaps: the same hits, fewer any-hit requests, on the fixed and ti
       CHECK(with->timed()->timing().omm_lookups ==
             mapped.omm_opaque + mapped.omm_transparent + mapped.any_hit_calls);
       CHECK(without->timed()->timing().omm_lookups == 0);
-      CHECK(with->timed()->timing().cycles < without->timed()->timing().cycles);
+      // Each lookup reads its state's line through the node cache: the accesses are the plain run's and one a
+      // lookup, the node and record fetches the same.
+      const hw::TimingStats &tw = with->timed()->timing(), &tp = without->timed()->timing();
+      CHECK(tw.cache_hits + tw.cache_misses == tp.cache_hits + tp.cache_misses + tw.omm_lookups);
+      CHECK(tw.node_fetches == tp.node_fetches);
+      CHECK(tw.prim_fetches == tp.prim_fetches);
+      CHECK(with->timed()->timing().cycles < without->timed()->timing().cycles);  // level 5: 0.93x on the frame
     }
   }
 }

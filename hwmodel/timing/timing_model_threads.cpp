@@ -185,8 +185,11 @@ uint64_t run_units_threaded(const std::vector<TimingModel*>& units, uint64_t sta
   std::vector<std::exception_ptr> errors(U);
   uint64_t from = 0, limit = 0;  // the window's first and last cycle
   bool unserved = false;         // requests held since the last serve
-  auto run = [&](size_t u) {
+  // A unit settles the answers served after the last window (on a round; given units have) and acts to the
+  // window's end; what it throws is kept for the calling thread.
+  auto run = [&](size_t u, bool settle) {
     try {
+      if (settle) units[u]->settle_held();
       units[u]->run_until(limit);
     } catch (...) {
       errors[u] = std::current_exception();
@@ -203,10 +206,7 @@ uint64_t run_units_threaded(const std::vector<TimingModel*>& units, uint64_t sta
   Split split(U, n);
   Crew crew(int(n), [&](int j) {
     const auto t0 = std::chrono::steady_clock::now();
-    for (size_t u = split.first(size_t(j)); u < split.first(size_t(j) + 1); ++u) {
-      units[u]->settle_held();
-      run(u);
-    }
+    for (size_t u = split.first(size_t(j)); u < split.first(size_t(j) + 1); ++u) run(u, true);
     split.add_busy(size_t(j), std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   });
   uint64_t answered = TimingModel::kNever;  // the earliest answer not settled yet
@@ -233,7 +233,7 @@ uint64_t run_units_threaded(const std::vector<TimingModel*>& units, uint64_t sta
         }
       if (u == U) break;
       give(u);
-      run(u);
+      run(u, false);
       rethrow();
     }
     answered = server.serve(units, from, limit);

@@ -173,6 +173,7 @@ struct DeviceArgs {
   uint32_t sample_unit = 256, sample_warmup = 0;
   uint64_t sample_seed = 1, watchdog_steps = 0;
   bool flatten = false;  // fixed, timed: an instanced scene in one image
+  int omm_level = -1;    // trace, render on fixed and timed devices: opacity micromaps of this level (-1: none)
 
   hw::DeviceKind kind() const { return hw::parse_device_kind(device); }
 
@@ -289,10 +290,14 @@ DeviceArgs device_args(const py::dict& kw) {
       d.watchdog_steps = arg<uint64_t>(value, k, "a non-negative int");
     else if (k == "flatten")
       d.flatten = arg<bool>(value, k, "True or False");
-    else
+    else if (k == "omm_level") {
+      d.omm_level = arg<int>(value, k, "an int in -1..10");
+      if (d.omm_level < -1 || d.omm_level > hw::kMaxMicromapLevel)
+        fail("omm_level: " + std::to_string(d.omm_level) + " is not in -1..10 (-1: no micromaps)");
+    } else
       fail("unknown keyword argument '" + k +
            "' (device options: device, config, set, format, format_fields, bvh_width, leaf_size, accel, sample, "
-           "sample_unit, sample_warmup, sample_seed, watchdog_steps, flatten)");
+           "sample_unit, sample_warmup, sample_seed, watchdog_steps, flatten, omm_level)");
   }
   return d;
 }
@@ -309,6 +314,7 @@ py::tuple trace(const PyScene& scene, const py::handle& rays_obj, bool any_hit, 
   req.kind = d.kind();
   req.any_hit = any_hit;
   req.threads = check_threads(threads);
+  req.omm_level = d.omm_level;
   req.need_hits = need_hits;
   if (!need_hits && !(req.kind == hw::DeviceKind::kTimed && d.sample > 0.0))
     fail("hits=False is allowed only with device='timed' and sample > 0 (cycles only)");
@@ -333,6 +339,7 @@ py::tuple trace(const PyScene& scene, const py::handle& rays_obj, bool any_hit, 
 py::tuple ab(const PyScene& scene, const py::handle& rays_obj, bool any_hit, int threads, bool need_hits,
              const std::string& rays_name, const py::dict& a_kw, const py::dict& b_kw) {
   const DeviceArgs da = device_args(a_kw), db = device_args(b_kw);
+  if (da.omm_level >= 0 || db.omm_level >= 0) fail("omm_level applies to trace and render only");
   if (da.kind() != hw::DeviceKind::kTimed || db.kind() != hw::DeviceKind::kTimed)
     fail("ab: compares two runs of the timed device (device='timed')");
   if (!need_hits && !(da.sample > 0.0 && db.sample > 0.0))
@@ -368,6 +375,7 @@ py::tuple ab(const PyScene& scene, const py::handle& rays_obj, bool any_hit, int
 py::tuple compare(const PyScene& scene, const py::handle& rays_obj, const std::string& rays_name, bool any_hit,
                   int threads, size_t max_list, const py::kwargs& kw) {
   DeviceArgs d = device_args(kw);
+  if (d.omm_level >= 0) fail("omm_level applies to trace and render only");
   if (!kw.contains("device")) d.device = "fixed";
   host::CompareRequest req;
   req.scene = scene.scene.get();
@@ -423,6 +431,7 @@ py::tuple render(const PyScene& scene, const std::string& mode, int width, int h
   o.device = d.settings().options(d.kind());
   if (mode != "raytrace" && mode != "hybrid") fail("mode: '" + mode + "' is not raytrace or hybrid");
   o.hybrid = mode == "hybrid";
+  o.omm_level = d.omm_level;
   if (width < 0 || width > 16384 || height < 0 || height > 16384)
     fail("width, height: not in 1..16384 (0: the scene camera's)");
   if (spp < 1 || spp > 65536) fail("spp: " + std::to_string(spp) + " is not in 1..65536");

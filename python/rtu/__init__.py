@@ -165,7 +165,8 @@ def trace(scene, rays, device="float", *, any_hit=False, threads=0, hits=True, i
     device: "float", "fixed" or "timed". Device options (those of rtusim's tracing commands): config (a preset
     name, or a dict {"preset": NAME, key: value}), set ({key: value} or ["key=value"]), format (a spec: a
     preset, or one with changes such as "packed:coord_bits=16"), format_fields ({"coord_bits": 16, ...}),
-    bvh_width, leaf_size, accel, sample, sample_unit, sample_warmup, sample_seed, watchdog_steps, flatten.
+    bvh_width, leaf_size, accel, sample, sample_unit, sample_warmup, sample_seed, watchdog_steps, flatten, and
+    omm_level (trace and render, fixed and timed devices: opacity micromaps of that level, -1 none).
     Options the device would ignore are refused, as the CLI refuses them. hits=False: cycles only (timed with
     sample > 0). invalid: what to do when the device rejected rays (NaN/Inf, zero direction, out of the frame):
     "raise" (rtu.Error), "warn" (InvalidRayWarning; the CLI's behaviour) or "ignore"; the rejected rays are

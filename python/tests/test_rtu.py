@@ -263,6 +263,21 @@ def test_render_equals_the_cli(tmp_path, seed):
         rtu.diff(f.image, f.image[:10])
 
 
+def test_render_with_micromaps_equals_the_cli(tmp_path):
+    cli("render", "--scene", "builtin:forest", "--device", "timed", "--width", 64, "--height", 48, "--max-depth", 1,
+        "--omm-level", 4, "--out", tmp_path / "m.png", "--stats", tmp_path / "m.json")
+    s = json.loads((tmp_path / "m.json").read_text())
+    r = rtu.render("builtin:forest", "timed", width=64, height=48, max_depth=1, omm_level=4)
+    plain = rtu.render("builtin:forest", "timed", width=64, height=48, max_depth=1)
+    assert np.array_equal(r.image, rtu.read_png(tmp_path / "m.png"))
+    assert np.array_equal(r.image, plain.image)  # the maps change no pixel
+    assert r.stats["micromaps"] == s["micromaps"] and s["micromaps"]["level"] == 4
+    assert r.cycles == s["timing"]["frame_cycles"]
+    assert r.stats["timing"]["any_hit_requests"] < plain.stats["timing"]["any_hit_requests"]
+    with pytest.raises(rtu.Error, match="omm_level"):
+        rtu.render("builtin:forest", "timed", width=8, height=6, omm_level=11)
+
+
 def test_sweep_equals_the_cli(tmp_path):
     args = dict(formats=["default", "default:coord_bits=12"], bvh_widths=[4, 8], configs=["rdna2"], rays=1500,
                 image_width=0)

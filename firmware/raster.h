@@ -1,6 +1,6 @@
-// The rasterizer of hybrid mode: primary visibility of triangles, spheres, curves and planes into a G-buffer, at the
-// same sample positions as the ray tracer's camera rays (firmware/sampling.h), so that its texels can stand in
-// for the primary hits.
+// The rasterizer of hybrid mode: primary visibility of triangles, spheres, curves and planes into a G-buffer, at
+// the same sample positions as the ray tracer's camera rays (firmware/sampling.h), so that its texels can stand
+// in for the primary hits.
 //
 // - Triangles: vertices to view space (double), clipped in homogeneous view space (w = view z) against the near
 //   plane z = RenderJob::raster_near and a guard band of kGuardPixels around the image (Sutherland-Hodgman; the

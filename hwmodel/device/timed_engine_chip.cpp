@@ -234,7 +234,8 @@ void TimedEngine::warm_chip(size_t u, const ChipWave& cw, const std::vector<std:
 
 namespace {
 
-// Whether a wave has warming rays: given, they warm other units' caches (warm_chip), so the units act on one thread.
+// Whether a wave has warming rays: given, they warm other units' caches (warm_chip), so the units act on one
+// thread.
 template <class Waves>
 bool warms_units(const Waves& waves) {
   return std::any_of(waves.begin(), waves.end(), [](const auto& cw) { return cw.warm_first < cw.first; });

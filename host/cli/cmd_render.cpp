@@ -171,12 +171,7 @@ void add_render(CLI::App& app) {
       ->check(CLI::Range(0, 64))
       ->capture_default_str();
   sub->add_option("--seed", a->seed, "seed of the sampling generator")->capture_default_str();
-  sub->add_option("--omm-level", a->omm_level,
-                  "fixed and timed devices: opacity micromaps of this subdivision level (0..10: 4^level "
-                  "micro-triangles) for alpha-masked triangles, resolved in the unit without the any-hit stage "
-                  "where their state is known; the image is the same (-1: none)")
-      ->check(CLI::Range(-1, hw::kMaxMicromapLevel))
-      ->capture_default_str();
+  add_omm_level_arg(*sub, a->omm_level, "image is");
   CLI::Option* ao =
       sub->add_flag("--ao", a->ao, "ambient occlusion at diffuse hits instead of diffuse indirect light");
   sub->add_option("--ao-distance", a->ao_distance, "occlusion ray length (default: 1/4 of the scene diagonal)")

@@ -151,12 +151,7 @@ void add_trace(CLI::App& app) {
                   "hit file to write (16-byte binary records, or .csv); without it only the statistics (with "
                   "--sample on the timed device, only the sampled rays are traced)");
   sub->add_flag("--any-hit", o->any_hit, "any-hit queries (stop at the first hit, as shadow rays do)");
-  sub->add_option("--omm-level", o->omm_level,
-                  "fixed and timed devices, one-level scenes: opacity micromaps of this subdivision level (0..10) "
-                  "for alpha-masked triangles, resolved in the unit where their state is known; the hits are the "
-                  "same (-1: none)")
-      ->check(CLI::Range(-1, hw::kMaxMicromapLevel))
-      ->capture_default_str();
+  add_omm_level_arg(*sub, o->omm_level, "hits are");
   sub->add_flag("--rtl-unit", o->rtl_unit,
                 "timed device: also run the rays in one packet on the Verilated RTL traversal unit of the "
                 "configuration (rtl_sim/trav/; builds with Verilator) and print its cycles beside the model's");

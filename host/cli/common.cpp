@@ -9,6 +9,7 @@
 #include "host/cost/cost_model.h"
 #include "host/cost/timing_json.h"
 #include "hwmodel/cost/energy_model.h"
+#include "hwmodel/format/micromap.h"
 #include "hwmodel/timing/timing_stats.h"
 
 namespace rtu::host::cli {
@@ -69,6 +70,16 @@ void add_sampling_args(CLI::App& app, DeviceArgs& o) {
   app.add_option("--sample-seed", o.sample_seed,
                  "timed device, --sample: seed of the measured units' offsets (another seed, another sample: "
                  "how far the estimate moves from seed to seed is its error)")
+      ->capture_default_str();
+}
+
+void add_omm_level_arg(CLI::App& app, int& level, const std::string& unchanged) {
+  app.add_option("--omm-level", level,
+                 "fixed and timed devices, one-level scenes: opacity micromaps of this subdivision level (0..10: "
+                 "4^level micro-triangles) for alpha-masked triangles, resolved in the unit without the any-hit "
+                 "stage where their state is known; the " +
+                     unchanged + " the same (-1: none)")
+      ->check(CLI::Range(-1, hw::kMaxMicromapLevel))
       ->capture_default_str();
 }
 

@@ -39,6 +39,9 @@ void add_format_args(CLI::App& app, DeviceArgs& o);
 void add_timing_args(CLI::App& app, DeviceArgs& o);
 void add_sampling_args(CLI::App& app, DeviceArgs& o);
 void add_watchdog_args(CLI::App& app, DeviceArgs& o);
+// --omm-level (trace, render): opacity micromaps of a subdivision level, -1 none; `unchanged` names what the maps
+// leave as it is ("hits", "image").
+void add_omm_level_arg(CLI::App& app, int& level, const std::string& unchanged);
 
 // For a command with --device: refuses (CLI::ValidationError, a usage error) each device option of `app` that was
 // given on the command line (not left at its default) while the chosen device does not use it: the timing,

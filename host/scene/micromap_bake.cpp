@@ -81,7 +81,7 @@ hw::Micromap uniform(hw::MicroState s) {
 
 hw::MicromapSet bake_micromaps(const fw::ShadingTables& st, const std::vector<uint8_t>& non_opaque, int level,
                                MicromapStats* stats) {
-  if (level < 0 || level > hw::kMaxMicromapLevel) level = std::clamp(level, 0, hw::kMaxMicromapLevel);
+  level = std::clamp(level, 0, hw::kMaxMicromapLevel);
   hw::MicromapSet set;
   set.map_of.assign(non_opaque.size(), hw::MicromapSet::kNoMap);
   std::map<const fw::TextureRecord*, AlphaPyramid> pyramids;

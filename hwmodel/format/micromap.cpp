@@ -1,5 +1,6 @@
 #include "hwmodel/format/micromap.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace rtu::hw {
@@ -19,9 +20,13 @@ uint32_t micro_index(int level, float u, float v) {
 
 void micro_corners(int level, uint32_t index, double uv[3][2]) {
   const int64_t N = int64_t(1) << level;
-  // Row j starts at j (2N - j): the largest j with that start <= index.
-  int64_t j = 0;
-  while (j + 1 < N && (j + 1) * (2 * N - (j + 1)) <= int64_t(index)) ++j;
+  // Row j starts at j (2N - j) = N^2 - (N - j)^2: the largest such j <= index is N - ceil(sqrt(N^2 - index)),
+  // taken in double and corrected by a step either way.
+  auto start = [&](int64_t r) { return r * (2 * N - r); };
+  int64_t j = N - int64_t(std::ceil(std::sqrt(double(N * N - int64_t(index)))));
+  j = std::clamp<int64_t>(j, 0, N - 1);
+  while (j > 0 && start(j) > int64_t(index)) --j;
+  while (j + 1 < N && start(j + 1) <= int64_t(index)) ++j;
   const int64_t k = int64_t(index) - j * (2 * N - j), i = k / 2;
   const double s = std::ldexp(1.0, -level);
   if (k % 2 == 0) {

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "host/io/image.h"
@@ -74,6 +75,16 @@ RenderOptions options(const std::string& device, bool hybrid, int w, int h) {
   return o;
 }
 
+// A ray-traced and a hybrid render of `scene` at depth 0 without indirect light (only the primary hits matter).
+std::pair<RenderResult, RenderResult> both_modes(const Scene& scene, const std::string& device, int w, int h) {
+  RenderOptions o = options(device, false, w, h);
+  o.max_depth = 0;
+  o.indirect = false;
+  RenderResult rt = rtu::host::render(scene, o);
+  o.hybrid = true;
+  return {std::move(rt), rtu::host::render(scene, o)};
+}
+
 }  // namespace
 
 TEST_CASE("hybrid: rasterized primary visibility agrees with ray-traced primary hits", "[hybrid][scale]") {
@@ -95,12 +106,7 @@ TEST_CASE("hybrid: rasterized primary visibility agrees with ray-traced primary 
     const Scene scene = rtu::host::load_scene(c.scene);
     for (const char* dev : {"float", "fixed"}) {
       CAPTURE(c.scene, dev);
-      RenderOptions o = options(dev, false, c.w, c.h);
-      o.max_depth = 0;
-      o.indirect = false;
-      const RenderResult rt = rtu::host::render(scene, o);
-      o.hybrid = true;
-      const RenderResult hy = rtu::host::render(scene, o);
+      const auto [rt, hy] = both_modes(scene, dev, c.w, c.h);
       const Visibility v = compare_visibility(rt, hy);
       std::printf(
           "hybrid visibility %s on %s: %llu samples (%llu hit), %llu disagree (%.4f%%), %llu off an edge\n",
@@ -323,12 +329,7 @@ TEST_CASE("hybrid: curve segments rasterized as the float reference's swept sphe
   // the same computation on the same ray: equal. Triangle hits (the head) agree as in the test above.
   const Scene scene = rtu::host::load_scene("builtin:hair?strands=1500");
   REQUIRE(!scene.geometry.curves.empty());
-  RenderOptions o = options("float", false, 200, 150);
-  o.max_depth = 0;
-  o.indirect = false;
-  const RenderResult rt = rtu::host::render(scene, o);
-  o.hybrid = true;
-  const RenderResult hy = rtu::host::render(scene, o);
+  const auto [rt, hy] = both_modes(scene, "float", 200, 150);
   const Visibility v = compare_visibility(rt, hy);
   uint64_t curve_hits = 0, worst_ulps = 0;
   for (size_t i = 0; i < rt.primary.size(); ++i) {

@@ -507,6 +507,26 @@ class FillAfterEveryFetch final : public rtu::hw::FetchObserver {
   void on_fetch(const rtu::hw::LineFetch& f, rtu::hw::LinePort& port) override { port.fill(f.last_line + 1); }
 };
 
+// Runs a chip's units, each begun on its rays (rays[u]) with its statistics in stats[u], in step on `threads` host
+// threads, giving each unit its rays `chunk` at a time. Returns the chip's cycles; the statistics summed in `s`.
+uint64_t run_given(const std::vector<std::unique_ptr<TimingModel>>& units,
+                   std::vector<std::vector<std::vector<TraceEvent>>>& rays, const std::vector<TimingStats>& stats,
+                   size_t chunk, int threads, TimingStats& s) {
+  std::vector<TimingModel*> ptrs;
+  for (const auto& u : units) ptrs.push_back(u.get());
+  std::vector<size_t> given(units.size(), 0);
+  const uint64_t end = rtu::hw::run_units_in_step(
+      ptrs, 0,
+      [&](size_t u) {
+        const size_t m = std::min(chunk, rays[u].size() - given[u]);
+        units[u]->add_rays(rays[u].data() + given[u], m);
+        given[u] += m;
+      },
+      threads);
+  for (const TimingStats& us : stats) s.add(us);
+  return end;
+}
+
 // Three units sharing one memory run a packet of swept rays each, given in chunks of 50; every unit has a
 // FillAfterEveryFetch observer. Returns the chip's cycles; the units' statistics summed in `s`.
 uint64_t run_observed_chip(bool ahead, TimingStats& s) {
@@ -517,7 +537,6 @@ uint64_t run_observed_chip(bool ahead, TimingStats& s) {
   std::vector<std::unique_ptr<TimingModel>> units;
   std::vector<std::vector<std::vector<TraceEvent>>> rays(3);
   std::vector<TimingStats> stats(3);
-  std::vector<size_t> given(3, 0);
   for (uint32_t u = 0; u < 3; ++u) {
     units.push_back(std::make_unique<TimingModel>(c, layout(), &mem, u));
     units.back()->set_fetch_observer(std::make_unique<FillAfterEveryFetch>());
@@ -526,15 +545,7 @@ uint64_t run_observed_chip(bool ahead, TimingStats& s) {
     for (int i = 0; i < 300; ++i) rays[u].push_back(sweep_ray(x, i + 100 * int(u)));
     units.back()->begin(rays[u].size(), stats[u]);
   }
-  std::vector<TimingModel*> ptrs;
-  for (const auto& u : units) ptrs.push_back(u.get());
-  const uint64_t end = rtu::hw::run_units_in_step(ptrs, 0, [&](size_t u) {
-    const size_t m = std::min<size_t>(50, rays[u].size() - given[u]);
-    units[u]->add_rays(rays[u].data() + given[u], m);
-    given[u] += m;
-  });
-  for (const TimingStats& us : stats) s.add(us);
-  return end;
+  return run_given(units, rays, stats, 50, 1, s);
 }
 
 }  // namespace
@@ -569,7 +580,6 @@ uint64_t run_chip_on(int threads, bool l2, bool observed, TimingStats& s, std::v
   std::vector<std::unique_ptr<TimingModel>> units;
   std::vector<std::vector<std::vector<TraceEvent>>> rays(4);
   std::vector<TimingStats> stats(4);
-  std::vector<size_t> given(4, 0);
   for (uint32_t u = 0; u < 4; ++u) {
     units.push_back(std::make_unique<TimingModel>(c, layout(), &mem, u));
     if (observed) units.back()->set_fetch_observer(std::make_unique<FillAfterEveryFetch>());
@@ -583,17 +593,7 @@ uint64_t run_chip_on(int threads, bool l2, bool observed, TimingStats& s, std::v
     }
     units.back()->begin(rays[u].size(), stats[u]);
   }
-  std::vector<TimingModel*> ptrs;
-  for (const auto& u : units) ptrs.push_back(u.get());
-  const uint64_t end = rtu::hw::run_units_in_step(
-      ptrs, 0,
-      [&](size_t u) {
-        const size_t m = std::min<size_t>(40, rays[u].size() - given[u]);
-        units[u]->add_rays(rays[u].data() + given[u], m);
-        given[u] += m;
-      },
-      threads);
-  for (const TimingStats& us : stats) s.add(us);
+  const uint64_t end = run_given(units, rays, stats, 40, threads, s);
   l2_bytes = mem.timeline().l2_bytes;
   return end;
 }

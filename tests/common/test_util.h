@@ -7,6 +7,8 @@
 #include <atomic>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
+#include <set>
 #include <string>
 #include <system_error>
 
@@ -17,11 +19,17 @@ inline bool contains(const std::string& s, const std::string& part) {
   return s.find(part) != std::string::npos;
 }
 
-// The folder rtu_test_NAME_PID under the system's temporary folder, created when missing and left in place: the
-// process's own (PID), shared by the tests of one NAME, which give their files distinct names.
+// The folder rtu_test_NAME_PID under the system's temporary folder, left in place: the process's own (PID), shared
+// by the tests of one NAME, which give their files distinct names. The first call for a NAME in a process empties
+// it, since a folder of the same name may survive from an earlier process that had the same PID (a CI machine
+// reuses PIDs across runs), and a test appending to or resuming from a stale file would then fail by luck.
 inline std::filesystem::path temp_dir(const std::string& name) {
+  static std::mutex lock;
+  static std::set<std::string> seen;
   const std::filesystem::path d =
       std::filesystem::temp_directory_path() / ("rtu_test_" + name + "_" + std::to_string(::getpid()));
+  const std::lock_guard<std::mutex> hold(lock);
+  if (seen.insert(name).second) std::filesystem::remove_all(d);
   std::filesystem::create_directories(d);
   return d;
 }

@@ -1,0 +1,78 @@
+#include "host/oracle/embree_motion.h"
+
+#include <stdexcept>
+
+namespace rtu::oracle {
+
+namespace {
+
+RTCRay embree_ray(const hw::Ray& r, float time) {
+  RTCRay ray{};
+  ray.org_x = r.origin.x;
+  ray.org_y = r.origin.y;
+  ray.org_z = r.origin.z;
+  ray.tnear = r.tmin;
+  ray.dir_x = r.dir.x;
+  ray.dir_y = r.dir.y;
+  ray.dir_z = r.dir.z;
+  ray.time = time;
+  ray.tfar = r.tmax;
+  ray.mask = 0xFFFFFFFFu;
+  return ray;
+}
+
+}  // namespace
+
+EmbreeMotionScene::EmbreeMotionScene(const hw::MotionGeometry& g, const char* config) {
+  m_device = rtcNewDevice(config);
+  if (!m_device) throw std::runtime_error("Embree: rtcNewDevice failed");
+  m_scene = rtcNewScene(m_device);
+  RTCGeometry geom = rtcNewGeometry(m_device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  rtcSetGeometryTimeStepCount(geom, 2);
+  const size_t n = g.triangles.size();
+  for (unsigned k = 0; k < 2; ++k) {
+    auto* v = static_cast<float*>(
+        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, k, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3 * n));
+    for (size_t i = 0; i < n; ++i) {
+      const hw::Triangle& t = g.triangles[i].key[k];
+      const hw::Vec3* p[3] = {&t.v0, &t.v1, &t.v2};
+      for (int j = 0; j < 3; ++j)
+        for (int a = 0; a < 3; ++a) v[9 * i + size_t(3 * j + a)] = (*p[j])[a];
+    }
+  }
+  auto* idx = static_cast<unsigned*>(
+      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), n));
+  for (size_t i = 0; i < 3 * n; ++i) idx[i] = unsigned(i);
+  rtcCommitGeometry(geom);
+  rtcAttachGeometry(m_scene, geom);
+  rtcReleaseGeometry(geom);
+  rtcSetSceneFlags(m_scene, RTC_SCENE_FLAG_ROBUST);
+  rtcCommitScene(m_scene);
+}
+
+EmbreeMotionScene::~EmbreeMotionScene() {
+  rtcReleaseScene(m_scene);
+  rtcReleaseDevice(m_device);
+}
+
+hw::Hit EmbreeMotionScene::intersect(const hw::Ray& r, float time) const {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  RTCRayHit rh{};
+  rh.ray = embree_ray(r, time);
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(m_scene, &ctx, &rh);
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hw::Hit{};
+  return hw::Hit{rh.ray.tfar, rh.hit.primID, rh.hit.u, rh.hit.v};
+}
+
+bool EmbreeMotionScene::occluded(const hw::Ray& r, float time) const {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  RTCRay ray = embree_ray(r, time);
+  rtcOccluded1(m_scene, &ctx, &ray);
+  return ray.tfar < 0.0f;  // Embree sets tfar to -inf on a hit
+}
+
+}  // namespace rtu::oracle

@@ -1,0 +1,42 @@
+// The built-in moving scene (builtin motion blur scene, docs/guide/motion-blur.md): closed balls that move, grow
+// or stay, over a static floor, seen by a camera whose shutter stays open from time 0 to 1; and the rays of its
+// motion-blurred frame, each pixel sampled at stratified shutter times.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "host/scene/scene.h"
+#include "hwmodel/interface/ray.h"
+#include "hwmodel/scene/motion.h"
+
+namespace rtu::host {
+
+struct MotionScene {
+  hw::MotionGeometry geometry;
+  Camera camera;
+  // Triangles [first, first + count) of each ball: a closed mesh whose vertices are shared (watertight at every
+  // time), with its center and radius at both key frames.
+  struct Ball {
+    uint32_t first = 0, count = 0;
+    hw::Vec3 center[2];
+    float radius[2] = {0.0f, 0.0f};
+  };
+  std::vector<Ball> balls;
+};
+
+// Nine balls (an octahedron subdivided `level` times and pushed onto the sphere: 8 * 4^level triangles each):
+// three move sideways fast, three slowly, two grow and one stays, none touching another at any time; a floor of
+// 2 triangles. Deterministic.
+MotionScene builtin_motion_scene(int level = 4);
+
+// Rays of a width x height frame with `samples` per pixel: pixel-center primary rays (primary_rays), pixel by
+// pixel, and per sample a shutter time stratified in [s / samples, (s + 1) / samples) with a jitter from `seed`.
+struct MotionRays {
+  std::vector<hw::Ray> rays;
+  std::vector<float> times;
+};
+MotionRays motion_frame_rays(const Camera& cam, int width, int height, int samples, uint64_t seed);
+
+}  // namespace rtu::host

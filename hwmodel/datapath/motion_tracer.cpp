@@ -1,0 +1,357 @@
+#include "hwmodel/datapath/motion_tracer.h"
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <stdexcept>
+#include <type_traits>
+
+#include "hwmodel/datapath/batch.h"
+#include "hwmodel/datapath/intersect_float.h"
+#include "hwmodel/datapath/traverse.h"
+
+namespace rtu::hw {
+
+void MotionFormat::validate() const {
+  if (time_bits < 1 || time_bits > 24)
+    throw std::invalid_argument("time_bits must be in 1..24 (got " + std::to_string(time_bits) + ")");
+  if (box_time_bits < 0 || box_time_bits > time_bits)
+    throw std::invalid_argument("box_time_bits must be in 0..time_bits (got " + std::to_string(box_time_bits) +
+                                ")");
+}
+
+std::string MotionFormat::describe() const {
+  return "time_bits=" + std::to_string(time_bits) + " box_time_bits=" + std::to_string(box_time_bits);
+}
+
+uint32_t quantize_time(float time, int time_bits) {
+  // time * 2^time_bits is exact in double (a float times a power of two); + 1/2 and floor: nearest, ties up.
+  return uint32_t(std::floor(double(time) * double(int64_t(1) << time_bits) + 0.5));
+}
+
+BoxTime box_time(uint32_t tq, const MotionFormat& m) {
+  const int64_t s0 = int64_t(tq) >> (m.time_bits - m.box_time_bits);
+  const int64_t end = int64_t(1) << m.box_time_bits;
+  return BoxTime{s0, s0 < end ? s0 + 1 : s0, m.box_time_bits};
+}
+
+void validate_shutter_times(const std::vector<float>& times, size_t rays) {
+  if (!times.empty() && times.size() != rays)
+    throw std::invalid_argument(std::to_string(times.size()) + " shutter times for " + std::to_string(rays) +
+                                " rays");
+  for (size_t i = 0; i < times.size(); ++i)
+    if (!valid_shutter_time(times[i]))
+      throw std::invalid_argument("ray " + std::to_string(i) + ": shutter time " + std::to_string(times[i]) +
+                                  " is not in [0, 1]");
+}
+
+MotionImage MotionImage::encode(const MotionGeometry& g, const MotionBvh& bvh, const FixedFormat& f,
+                                const MotionFormat& m) {
+  f.validate();
+  m.validate();
+  MotionImage im;
+  im.format = f;
+  im.motion = m;
+  Aabb all = bvh.key_bounds[0];
+  all.extend(bvh.key_bounds[1]);
+  im.frame = QuantFrame::fit(all, f.coord_bits);
+  im.width = bvh.width;
+  im.root_ref = bvh.root_ref;
+  im.child = bvh.child;
+  im.prim_ids = bvh.prim_ids;
+  const int64_t top = im.frame.grid_max();
+  im.vertices.resize(g.triangles.size() * 18);
+  for (size_t i = 0; i < g.triangles.size(); ++i)
+    for (int k = 0; k < 2; ++k) {
+      const Triangle& t = g.triangles[i].key[k];
+      const Vec3* v[3] = {&t.v0, &t.v1, &t.v2};
+      for (int j = 0; j < 3; ++j)
+        for (int a = 0; a < 3; ++a) {
+          const int64_t q = im.frame.to_grid((*v[j])[a], a, Round::kNearestEven);
+          if (q < 0 || q > top) throw std::invalid_argument("a moving triangle lies outside the frame");
+          im.vertices[i * 18 + size_t(9 * k + 3 * j + a)] = int32_t(q);
+        }
+    }
+  // Each slot's boxes: the integer bounds of the grid vertices below it, bottom up (children have larger indices
+  // than their parent in the builder's order, so a reverse sweep sees every child first).
+  const size_t slots = bvh.child.size(), W = size_t(bvh.width);
+  im.boxes.assign(slots * 12, 0);
+  const auto bounds_of_leaf = [&](uint32_t ref, int32_t out[12]) {
+    for (int k = 0; k < 2; ++k)
+      for (int a = 0; a < 3; ++a) {
+        out[6 * k + a] = INT32_MAX;
+        out[6 * k + 3 + a] = INT32_MIN;
+      }
+    for (uint32_t i = leaf_first(ref); i < leaf_first(ref) + leaf_count(ref); ++i) {
+      const int32_t* v = &im.vertices[size_t(im.prim_ids[i]) * 18];
+      for (int k = 0; k < 2; ++k)
+        for (int j = 0; j < 3; ++j)
+          for (int a = 0; a < 3; ++a) {
+            out[6 * k + a] = std::min(out[6 * k + a], v[9 * k + 3 * j + a]);
+            out[6 * k + 3 + a] = std::max(out[6 * k + 3 + a], v[9 * k + 3 * j + a]);
+          }
+    }
+  };
+  for (size_t node = slots / W; node-- > 0;) {
+    for (size_t s = 0; s < W; ++s) {
+      const uint32_t ref = bvh.child[node * W + s];
+      int32_t* out = &im.boxes[(node * W + s) * 12];
+      if (ref == kEmptyChild) continue;
+      if (is_leaf(ref)) {
+        bounds_of_leaf(ref, out);
+        continue;
+      }
+      if (size_t(ref) <= node) throw std::logic_error("motion BVH: a child node before its parent");
+      for (int k = 0; k < 2; ++k)
+        for (int a = 0; a < 3; ++a) {
+          out[6 * k + a] = INT32_MAX;
+          out[6 * k + 3 + a] = INT32_MIN;
+        }
+      for (size_t c = 0; c < W; ++c) {
+        if (bvh.child[size_t(ref) * W + c] == kEmptyChild) continue;
+        const int32_t* in = &im.boxes[(size_t(ref) * W + c) * 12];
+        for (int k = 0; k < 2; ++k)
+          for (int a = 0; a < 3; ++a) {
+            out[6 * k + a] = std::min(out[6 * k + a], in[6 * k + a]);
+            out[6 * k + 3 + a] = std::max(out[6 * k + 3 + a], in[6 * k + 3 + a]);
+          }
+      }
+    }
+  }
+  return im;
+}
+
+namespace {
+
+// Rounds a double to a float no greater (down) or no smaller (up) than it.
+float round_out(double x, bool up) {
+  float f = float(x);
+  if (up ? double(f) < x : double(f) > x) f = std::nextafter(f, up ? INFINITY : -INFINITY);
+  return f;
+}
+
+struct FloatClosest {
+  float tmax;
+  uint32_t prim = kMissPrim;
+  float u = 0.0f, v = 0.0f;
+};
+
+template <int N>
+struct MotionFloatPolicy {
+  using Dist = float;
+  static constexpr int kWidth = N;
+  const MotionGeometry& g;
+  const MotionBvh& b;
+  const RayPrecomp& rp;
+  float time, tmin;
+  bool any_hit;
+  FloatClosest& c;
+  TraversalStats& s;
+
+  int expand(uint32_t node, uint32_t refs[N], float dists[N], int& tested) const {
+    int k = 0;
+    const double w = time, r = 1.0 - w;
+    for (int i = 0; i < N; ++i) {
+      const size_t slot = size_t(node) * N + size_t(i);
+      if (b.child[slot] == kEmptyChild) continue;
+      ++tested;
+      const Aabb& b0 = b.key_box[0][slot];
+      const Aabb& b1 = b.key_box[1][slot];
+      float lo[3], hi[3];
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = round_out(r * b0.lo[a] + w * b1.lo[a], false);
+        hi[a] = round_out(r * b0.hi[a] + w * b1.hi[a], true);
+      }
+      float t;
+      if (intersect_box(lo, hi, rp, tmin, c.tmax, t)) {
+        refs[k] = b.child[slot];
+        dists[k] = t;
+        ++k;
+      }
+    }
+    return k;
+  }
+  bool leaf(uint32_t ref) const {
+    bool found = false;
+    for (uint32_t i = leaf_first(ref); i < leaf_first(ref) + leaf_count(ref); ++i) {
+      ++s.prim_tests;
+      const uint32_t p = b.prim_ids[i];
+      PrimHit h;
+      if (!intersect_triangle(g.triangles[p].at(time), rp, tmin, c.tmax, h)) continue;
+      c = FloatClosest{h.t, p, h.u, h.v};
+      found = true;
+      if (any_hit) return true;
+    }
+    return found;
+  }
+  float limit() const { return c.tmax; }
+  void pushed(const uint32_t*, int, int) const {}
+  void popped(int) const {}
+};
+
+struct FixedClosest {
+  int64_t t;
+  uint32_t prim = kMissPrim;
+  float u = 0.0f, v = 0.0f;
+};
+
+template <int N>
+struct MotionFixedPolicy {
+  using Dist = int64_t;
+  static constexpr int kWidth = N;
+  const MotionImage& im;
+  const FixedRay& r;
+  BoxTime bt;
+  uint32_t tq;
+  bool check, any_hit;
+  FixedClosest& c;
+  TraversalStats& s;
+
+  int expand(uint32_t node, uint32_t refs[N], int64_t dists[N], int& tested) const {
+    int k = 0;
+    for (int i = 0; i < N; ++i) {
+      const size_t slot = size_t(node) * N + size_t(i);
+      if (im.child[slot] == kEmptyChild) continue;
+      ++tested;
+      int64_t lo[3], hi[3], tn = 0;
+      motion_box(&im.boxes[slot * 12], bt, lo, hi);
+      const bool accepted = box_test(r, lo, hi, r.tmin, c.t, tn);
+      if (check) {
+        ++s.box_checks;
+        const bool exact = box_test_exact(r, lo, hi, r.tmin, c.t);
+        s.box_false_negatives += exact && !accepted;
+        s.box_false_positives += accepted && !exact;
+      }
+      if (accepted) {
+        refs[k] = im.child[slot];
+        dists[k] = tn;
+        ++k;
+      }
+    }
+    return k;
+  }
+  bool leaf(uint32_t ref) const {
+    bool found = false;
+    for (uint32_t i = leaf_first(ref); i < leaf_first(ref) + leaf_count(ref); ++i) {
+      ++s.prim_tests;
+      const uint32_t p = im.prim_ids[i];
+      int32_t v[3][3];
+      motion_vertices(&im.vertices[size_t(p) * 18], tq, im.motion.time_bits, v);
+      FixedPrimHit h;
+      if (!triangle_test(r, v, r.tmin, c.t, h)) continue;
+      c = FixedClosest{h.t, p, h.u, h.v};
+      found = true;
+      if (any_hit) return true;
+    }
+    return found;
+  }
+  int64_t limit() const { return c.t; }
+  void pushed(const uint32_t*, int, int) const {}
+  void popped(int) const {}
+};
+
+// Calls f(std::integral_constant<int, N>) for the image's width.
+template <class F>
+void with_width(int width, F&& f) {
+  switch (width) {
+    case 2:
+      return f(std::integral_constant<int, 2>{});
+    case 4:
+      return f(std::integral_constant<int, 4>{});
+    case 6:
+      return f(std::integral_constant<int, 6>{});
+    case 8:
+      return f(std::integral_constant<int, 8>{});
+    default:
+      throw std::invalid_argument("motion BVH width must be 2, 4, 6 or 8");
+  }
+}
+
+bool count_invalid(const Ray& r, float time, TraversalStats& s) {
+  RayStatus status = validate_ray(r);
+  if (status == RayStatus::kOk && !valid_shutter_time(time)) status = RayStatus::kNanInterval;
+  if (status == RayStatus::kOk) return false;
+  ++s.invalid_rays;
+  ++s.invalid_by_reason[size_t(status)];
+  return true;
+}
+
+}  // namespace
+
+Hit MotionFloatTracer::trace(const Ray& r, float time, bool any_hit, TraversalStats& s) const {
+  if (count_invalid(r, time, s)) return Hit{};
+  ++s.rays;
+  const RayPrecomp rp(r);
+  FloatClosest c{r.tmax};
+  with_width(m_bvh.width, [&](auto n) {
+    MotionFloatPolicy<decltype(n)::value> p{m_geom, m_bvh, rp, time, r.tmin, any_hit, c, s};
+    traverse(p, m_bvh.root_ref, any_hit, s);
+  });
+  if (c.prim == kMissPrim) return Hit{};
+  ++s.hits;
+  return Hit{c.tmax, c.prim, c.u, c.v};
+}
+
+void MotionFloatTracer::trace_batch(const std::vector<Ray>& rays, const std::vector<float>& times,
+                                    std::vector<Hit>& hits, bool any_hit, int threads, TraversalStats& s) const {
+  validate_shutter_times(times, rays.size());
+  hits.assign(rays.size(), Hit{});
+  run_batch(rays.size(), threads, s, [&](size_t i, TraversalStats& ls) {
+    hits[i] = trace(rays[i], times.empty() ? 0.0f : times[i], any_hit, ls);
+  });
+}
+
+MotionFixedTracer::MotionFixedTracer(const MotionImage& image, bool check_boxes)
+    : m_image(image), m_check(check_boxes) {
+  image.motion.validate();
+}
+
+Hit MotionFixedTracer::trace(const Ray& r, float time, bool any_hit, TraversalStats& s) const {
+  if (count_invalid(r, time, s)) return Hit{};
+  FixedRay fr;
+  const RayStatus status = setup_ray(r, m_image.frame, m_image.format, fr);
+  if (status != RayStatus::kOk) {
+    ++s.invalid_rays;
+    ++s.invalid_by_reason[size_t(status)];
+    return Hit{};
+  }
+  ++s.rays;
+  const uint32_t tq = quantize_time(time, m_image.motion.time_bits);
+  FixedClosest c{fr.tmax};
+  with_width(m_image.width, [&](auto n) {
+    MotionFixedPolicy<decltype(n)::value> p{m_image, fr, box_time(tq, m_image.motion), tq, m_check, any_hit, c, s};
+    traverse(p, m_image.root_ref, any_hit, s);
+  });
+  if (c.prim == kMissPrim) return Hit{};
+  ++s.hits;
+  return Hit{t_to_world(c.t, fr), c.prim, c.u, c.v};
+}
+
+void MotionFixedTracer::trace_batch(const std::vector<Ray>& rays, const std::vector<float>& times,
+                                    std::vector<Hit>& hits, bool any_hit, int threads, TraversalStats& s) const {
+  validate_shutter_times(times, rays.size());
+  hits.assign(rays.size(), Hit{});
+  run_batch(rays.size(), threads, s, [&](size_t i, TraversalStats& ls) {
+    hits[i] = trace(rays[i], times.empty() ? 0.0f : times[i], any_hit, ls);
+  });
+}
+
+Hit MotionFixedTracer::trace_all(const Ray& r, float time) const {
+  FixedRay fr;
+  if (validate_ray(r) != RayStatus::kOk || !valid_shutter_time(time) ||
+      setup_ray(r, m_image.frame, m_image.format, fr) != RayStatus::kOk)
+    return Hit{};
+  const uint32_t tq = quantize_time(time, m_image.motion.time_bits);
+  FixedClosest c{fr.tmax};
+  for (uint32_t p = 0; p < m_image.vertices.size() / 18; ++p) {
+    int32_t v[3][3];
+    motion_vertices(&m_image.vertices[size_t(p) * 18], tq, m_image.motion.time_bits, v);
+    FixedPrimHit h;
+    if (triangle_test(fr, v, fr.tmin, c.t, h) && (h.t < c.t || c.prim == kMissPrim))
+      c = FixedClosest{h.t, p, h.u, h.v};
+  }
+  if (c.prim == kMissPrim) return Hit{};
+  return Hit{t_to_world(c.t, fr), c.prim, c.u, c.v};
+}
+
+}  // namespace rtu::hw

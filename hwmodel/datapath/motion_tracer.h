@@ -1,0 +1,118 @@
+// Motion blur in the unit: rays with a shutter time through moving triangles (scene/motion.h), on the float
+// reference and on the fixed-point datapath. The fixed unit quantizes the ray's time to MotionFormat::time_bits,
+// interpolates each triangle's grid vertices at that time (the triangle unit), and each node's key-frame grid
+// boxes at the top box_time_bits of it, widened to the whole interval those bits stand for (the box unit): so a
+// box contains every primitive below it at every time the box unit cannot tell apart, and no hit is lost
+// (docs/numerics.md, "Motion blur"). box_time_bits = 0 is a unit that does not interpolate boxes at all: it tests
+// the box over the whole shutter (the time-oblivious unit of docs/timing-model.md, "Motion blur").
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "hwmodel/datapath/intersect_fixed.h"
+#include "hwmodel/datapath/stats.h"
+#include "hwmodel/format/quant_frame.h"
+#include "hwmodel/interface/ray.h"
+#include "hwmodel/numeric/fixed_format.h"
+#include "hwmodel/scene/motion.h"
+
+namespace rtu::hw {
+
+struct MotionFormat {
+  int time_bits = 16;     // the ray's time register: round(time * 2^time_bits), 1..24
+  int box_time_bits = 6;  // the box unit's time: the top box_time_bits of the register, 0..time_bits
+  // Throws std::invalid_argument naming the rule broken.
+  void validate() const;
+  std::string describe() const;  // "time_bits=16 box_time_bits=6"
+};
+
+// The ray's time register: round(time * 2^time_bits) to nearest (ties up), in [0, 2^time_bits]. time must be
+// valid (valid_shutter_time).
+uint32_t quantize_time(float time, int time_bits);
+
+// The box unit's interval for a time register value: [s0, s1] in units of 2^-box_time_bits, s0 = tq >>
+// (time_bits - box_time_bits), s1 = s0 + 1 (s0 at the end of the shutter). It holds tq / 2^time_bits.
+struct BoxTime {
+  int64_t s0, s1;
+  int bits;
+};
+BoxTime box_time(uint32_t tq, const MotionFormat& m);
+
+// A child's grid box over the interval t: each plane the extreme of its key-frame interpolation over [s0, s1],
+// floor for lo and ceil for hi. key: lo0[3], hi0[3], lo1[3], hi1[3].
+inline void motion_box(const int32_t key[12], const BoxTime& t, int64_t lo[3], int64_t hi[3]) {
+  for (int a = 0; a < 3; ++a) {
+    const int64_t dl = int64_t(key[6 + a]) - key[a], dh = int64_t(key[9 + a]) - key[3 + a];
+    lo[a] = key[a] + ((dl * (dl < 0 ? t.s1 : t.s0)) >> t.bits);       // floor: arithmetic shift
+    hi[a] = key[3 + a] - ((-dh * (dh > 0 ? t.s1 : t.s0)) >> t.bits);  // ceil(x) = -floor(-x)
+  }
+}
+
+// A triangle's grid vertices at time register tq: v0 + round((v1 - v0) tq / 2^time_bits), ties up. key: the
+// three vertices' xyz at key frame 0, then at key frame 1.
+inline void motion_vertices(const int32_t key[18], uint32_t tq, int time_bits, int32_t v[3][3]) {
+  const int64_t half = int64_t(1) << (time_bits - 1);
+  for (int i = 0; i < 3; ++i)
+    for (int a = 0; a < 3; ++a) {
+      const int64_t k0 = key[3 * i + a], d = int64_t(key[9 + 3 * i + a]) - k0;
+      v[i][a] = int32_t(k0 + ((d * int64_t(tq) + half) >> time_bits));
+    }
+}
+
+// The fixed-point image of a moving scene: the frame over both key frames, grid vertices and grid boxes at both.
+struct MotionImage {
+  FixedFormat format;
+  MotionFormat motion;
+  QuantFrame frame;
+  int width = 4;
+  uint32_t root_ref = kEmptyChild;
+  std::vector<uint32_t> child;     // as MotionBvh::child
+  std::vector<int32_t> boxes;      // 12 per child slot (motion_box's key)
+  std::vector<uint32_t> prim_ids;  // leaf order -> triangle index
+  std::vector<int32_t> vertices;   // 18 per triangle (motion_vertices' key)
+
+  // Vertices rounded to the nearest grid point; each box the integer bounds of its primitives' grid vertices at
+  // that key frame. Throws std::invalid_argument for an invalid format or a scene the frame cannot hold.
+  static MotionImage encode(const MotionGeometry& g, const MotionBvh& bvh, const FixedFormat& f,
+                            const MotionFormat& m);
+  uint64_t node_count() const { return child.size() / uint64_t(width); }
+};
+
+// Shutter times of a batch: empty (every ray at time 0) or one per ray. Throws std::invalid_argument naming the
+// first ray whose time is not in [0, 1].
+void validate_shutter_times(const std::vector<float>& times, size_t rays);
+
+// The float reference: boxes interpolated at the ray's time (in double, rounded outward), triangles at it
+// (lerp_point), the watertight float test.
+class MotionFloatTracer {
+ public:
+  MotionFloatTracer(const MotionGeometry& g, const MotionBvh& bvh) : m_geom(g), m_bvh(bvh) {}
+  Hit trace(const Ray& r, float time, bool any_hit, TraversalStats& s) const;
+  void trace_batch(const std::vector<Ray>& rays, const std::vector<float>& times, std::vector<Hit>& hits,
+                   bool any_hit, int threads, TraversalStats& s) const;
+
+ private:
+  const MotionGeometry& m_geom;
+  const MotionBvh& m_bvh;
+};
+
+// The fixed-point unit over a MotionImage (see the top of this file).
+class MotionFixedTracer {
+ public:
+  // check_boxes: repeat every box test with box_test_exact (box_false_negatives must stay 0), as FixedTracer.
+  explicit MotionFixedTracer(const MotionImage& image, bool check_boxes = false);
+  Hit trace(const Ray& r, float time, bool any_hit, TraversalStats& s) const;
+  void trace_batch(const std::vector<Ray>& rays, const std::vector<float>& times, std::vector<Hit>& hits,
+                   bool any_hit, int threads, TraversalStats& s) const;
+  // Every triangle tested at the ray's time without the BVH: the closest hit (the smallest t, then the smallest
+  // index) the datapath can find. What the tree must give: tests check that traversal loses none.
+  Hit trace_all(const Ray& r, float time) const;
+
+ private:
+  const MotionImage& m_image;
+  bool m_check;
+};
+
+}  // namespace rtu::hw

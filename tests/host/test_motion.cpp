@@ -1,0 +1,231 @@
+// Motion blur on the unit (hwmodel/datapath/motion_tracer.h): the fixed datapath's interpolated boxes contain
+// what its triangle unit tests at every time they stand for, traversal loses no hit the triangle unit finds,
+// moving watertight balls do not leak, and a scene that does not move traces as the static tracer does.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "host/scene/motion_scene.h"
+#include "host/scene/ray_gen.h"
+#include "hwmodel/datapath/float_tracer.h"
+#include "hwmodel/datapath/motion_tracer.h"
+#include "hwmodel/numeric/rng.h"
+
+using namespace rtu;
+using hw::MotionFormat;
+
+namespace {
+
+// Random rays through the scene's bounds at random shutter times (PCG32 from seed).
+host::MotionRays random_motion_rays(const hw::MotionGeometry& g, size_t n, uint64_t seed) {
+  const hw::MotionBvh b = hw::MotionBvh::build(g);
+  hw::Aabb all = b.key_bounds[0];
+  all.extend(b.key_bounds[1]);
+  host::MotionRays out;
+  out.rays = host::incoherent_rays(all, n, seed);
+  hw::Pcg32 rng(seed + 1);
+  for (size_t i = 0; i < n; ++i) out.times.push_back(i % 97 == 0 ? float(i % 2) : rng.next_float());
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("motion: a box at the box unit's time holds the triangle unit's vertices at every time it stands for",
+          "[motion]") {
+  // Random grid boxes of random triangles at both key frames, every time register value of small formats.
+  hw::Pcg32 rng(5);
+  for (int trial = 0; trial < 200; ++trial) {
+    int32_t key[18];
+    for (int32_t& k : key) k = int32_t(rng.next_u32() % 4096);
+    int32_t box[12];
+    for (int k = 0; k < 2; ++k)
+      for (int a = 0; a < 3; ++a) {
+        box[6 * k + a] = std::min({key[9 * k + a], key[9 * k + 3 + a], key[9 * k + 6 + a]});
+        box[6 * k + 3 + a] = std::max({key[9 * k + a], key[9 * k + 3 + a], key[9 * k + 6 + a]});
+      }
+    for (const MotionFormat m : {MotionFormat{8, 0}, MotionFormat{8, 3}, MotionFormat{8, 8}, MotionFormat{5, 2}}) {
+      for (uint32_t tq = 0; tq <= (1u << m.time_bits); ++tq) {
+        const hw::BoxTime bt = hw::box_time(tq, m);
+        // The interval holds tq: s0 <= tq / 2^time_bits <= s1 in units of 2^-box_time_bits.
+        REQUIRE(bt.s0 << (m.time_bits - m.box_time_bits) <= int64_t(tq));
+        REQUIRE(int64_t(tq) <= bt.s1 << (m.time_bits - m.box_time_bits));
+        int64_t lo[3], hi[3];
+        hw::motion_box(box, bt, lo, hi);
+        int32_t v[3][3];
+        hw::motion_vertices(key, tq, m.time_bits, v);
+        for (int i = 0; i < 3; ++i)
+          for (int a = 0; a < 3; ++a) {
+            INFO("trial " << trial << " tq " << tq << " " << m.describe());
+            REQUIRE(lo[a] <= v[i][a]);
+            REQUIRE(v[i][a] <= hi[a]);
+          }
+      }
+    }
+  }
+  // Without box time bits the box is the whole shutter's: the key frames' union.
+  const int32_t key[12] = {0, 10, 20, 5, 15, 25, 4, 2, 30, 9, 12, 40};
+  int64_t lo[3], hi[3];
+  hw::motion_box(key, hw::box_time(77, MotionFormat{8, 0}), lo, hi);
+  CHECK((lo[0] == 0 && lo[1] == 2 && lo[2] == 20 && hi[0] == 9 && hi[1] == 15 && hi[2] == 40));
+  // With all of them, at time 1 exactly the key frame 1 box.
+  hw::motion_box(key, hw::box_time(256, MotionFormat{8, 8}), lo, hi);
+  CHECK((lo[0] == 4 && lo[1] == 2 && lo[2] == 30 && hi[0] == 9 && hi[1] == 12 && hi[2] == 40));
+}
+
+TEST_CASE("motion: the fixed unit's traversal loses no hit its triangle unit finds, at any box time bits",
+          "[motion][fixed]") {
+  const host::MotionScene scene = host::builtin_motion_scene(2);
+  const hw::MotionBvh bvh = hw::MotionBvh::build(scene.geometry);
+  const host::MotionRays rays = random_motion_rays(scene.geometry, 3000, 17);
+  for (const MotionFormat m :
+       {MotionFormat{16, 0}, MotionFormat{16, 3}, MotionFormat{16, 6}, MotionFormat{16, 16}, MotionFormat{4, 2}}) {
+    const hw::MotionImage img = hw::MotionImage::encode(scene.geometry, bvh, hw::format_preset("default"), m);
+    const hw::MotionFixedTracer tracer(img, true);
+    std::vector<hw::Hit> hits;
+    hw::TraversalStats s;
+    tracer.trace_batch(rays.rays, rays.times, hits, false, 1, s);
+    size_t hit = 0;
+    for (size_t i = 0; i < rays.rays.size(); ++i) {
+      const hw::Hit want = tracer.trace_all(rays.rays[i], rays.times[i]);
+      INFO(m.describe() << " ray " << i << " time " << rays.times[i]);
+      REQUIRE(hits[i].hit() == want.hit());
+      if (want.hit()) REQUIRE(hits[i].t == want.t);  // a tie may report another triangle at the same t
+      hit += want.hit();
+    }
+    CHECK(hit > rays.rays.size() / 4);
+    CHECK(s.box_checks == s.box_tests);
+    CHECK(s.box_false_negatives == 0);
+    // Any hit finds a hit exactly when closest hit does.
+    std::vector<hw::Hit> any;
+    hw::TraversalStats sa;
+    tracer.trace_batch(rays.rays, rays.times, any, true, 1, sa);
+    for (size_t i = 0; i < hits.size(); ++i) REQUIRE(any[i].hit() == hits[i].hit());
+  }
+}
+
+TEST_CASE("motion: finer box time bits test fewer boxes, and the same hits on 1 and 3 threads", "[motion]") {
+  const host::MotionScene scene = host::builtin_motion_scene(3);
+  const hw::MotionBvh bvh = hw::MotionBvh::build(scene.geometry);
+  const host::MotionRays rays = host::motion_frame_rays(scene.camera, 64, 48, 2, 3);
+  uint64_t previous = UINT64_MAX;
+  std::vector<hw::Hit> first;
+  for (int bits : {0, 2, 4, 8}) {
+    const hw::MotionImage img =
+        hw::MotionImage::encode(scene.geometry, bvh, hw::format_preset("default"), MotionFormat{16, bits});
+    const hw::MotionFixedTracer tracer(img);
+    std::vector<hw::Hit> h1, h3;
+    hw::TraversalStats s1, s3;
+    tracer.trace_batch(rays.rays, rays.times, h1, false, 1, s1);
+    tracer.trace_batch(rays.rays, rays.times, h3, false, 3, s3);
+    for (size_t i = 0; i < h1.size(); ++i) {
+      REQUIRE(h1[i].t == h3[i].t);
+      REQUIRE(h1[i].prim == h3[i].prim);
+    }
+    CHECK(s1.box_tests == s3.box_tests);
+    // The boxes only shrink with more bits (each interval inside the coarser one). The work need not fall at
+    // every step (a tighter box may enter later and change the order of the closest-hit search), but the whole
+    // shutter's boxes (0 bits) must cost clearly more than 8 bits' on a scene where a third of the balls move
+    // fast.
+    INFO("box_time_bits " << bits << ": " << s1.nodes_visited << " nodes, " << s1.prim_tests << " triangles");
+    if (bits == 0) previous = s1.nodes_visited + s1.prim_tests;
+    if (bits == 8) CHECK(double(s1.nodes_visited + s1.prim_tests) < 0.95 * double(previous));
+    if (first.empty()) first = h1;
+    for (size_t i = 0; i < h1.size(); ++i) REQUIRE(h1[i].t == first[i].t);  // the hits never depend on them
+  }
+}
+
+TEST_CASE("motion: rays from inside a moving closed ball never leak, fixed and float, at any time",
+          "[motion][watertight]") {
+  const host::MotionScene scene = host::builtin_motion_scene(3);
+  const hw::MotionBvh bvh = hw::MotionBvh::build(scene.geometry);
+  const hw::MotionImage img = hw::MotionImage::encode(scene.geometry, bvh, hw::format_preset("default"), {});
+  const hw::MotionFixedTracer fixed(img);
+  const hw::MotionFloatTracer flt(scene.geometry, bvh);
+  hw::Pcg32 rng(9);
+  uint64_t leaks_fixed = 0, leaks_float = 0, rays = 0;
+  for (const host::MotionScene::Ball& b : scene.balls) {
+    for (int i = 0; i < 20000; ++i) {
+      const float time = i % 50 == 0 ? float(i % 100 == 0) : rng.next_float();
+      // The ball's center at that time; directions uniform on the sphere, some along axes and diagonals (rays
+      // through vertices and edges of the octahedron's subdivision).
+      const hw::Vec3 c = hw::lerp_point(b.center[0], b.center[1], time);
+      hw::Vec3 d;
+      if (i % 8 == 0) {
+        d = hw::Vec3(float(int(rng.next_u32() % 3) - 1), float(int(rng.next_u32() % 3) - 1), 1.0f);
+      } else {
+        const float z = 2.0f * rng.next_float() - 1.0f, phi = 6.2831853f * rng.next_float();
+        const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+        d = hw::Vec3(r * std::cos(phi), r * std::sin(phi), z);
+      }
+      const hw::Ray ray{c, 0.0f, d, INFINITY};
+      hw::TraversalStats s;
+      const hw::Hit hx = fixed.trace(ray, time, false, s), hf = flt.trace(ray, time, false, s);
+      ++rays;
+      const auto inside = [&](const hw::Hit& h) {
+        return h.hit() && h.prim >= b.first && h.prim < b.first + b.count;
+      };
+      leaks_fixed += !inside(hx);
+      leaks_float += !inside(hf);
+    }
+  }
+  INFO(rays << " rays");
+  CHECK(leaks_fixed == 0);
+  CHECK(leaks_float == 0);
+}
+
+TEST_CASE("motion: a scene that does not move traces as the static float tracer does", "[motion]") {
+  host::MotionScene scene = host::builtin_motion_scene(2);
+  for (hw::MotionTriangle& t : scene.geometry.triangles) t.key[1] = t.key[0];
+  const hw::MotionBvh bvh = hw::MotionBvh::build(scene.geometry);
+  const hw::MotionFloatTracer moving(scene.geometry, bvh);
+  const hw::Geometry still = scene.geometry.at(0.0f);
+  hw::TracerOptions opt;
+  opt.accel = hw::AccelMode::kBvh;
+  const hw::FloatTracer ref(still, opt);
+  const host::MotionRays rays = random_motion_rays(scene.geometry, 4000, 23);
+  std::vector<hw::Hit> got, want(rays.rays.size());
+  hw::TraversalStats s1, s2;
+  moving.trace_batch(rays.rays, rays.times, got, false, 1, s1);
+  ref.trace_batch(rays.rays.data(), want.data(), want.size(), false, 1, s2);
+  size_t hits = 0;
+  for (size_t i = 0; i < got.size(); ++i) {
+    INFO("ray " << i);
+    REQUIRE(got[i].hit() == want[i].hit());
+    REQUIRE(got[i].t == want[i].t);  // the same float test on the same vertices; ties may name another triangle
+    hits += got[i].hit();
+  }
+  CHECK(hits > got.size() / 4);
+}
+
+TEST_CASE("motion: shutter times outside [0, 1] are refused, and NaN rays and times are counted misses",
+          "[motion][errors]") {
+  const host::MotionScene scene = host::builtin_motion_scene(1);
+  const hw::MotionBvh bvh = hw::MotionBvh::build(scene.geometry);
+  const hw::MotionFloatTracer flt(scene.geometry, bvh);
+  const hw::MotionImage img = hw::MotionImage::encode(scene.geometry, bvh, hw::format_preset("default"), {});
+  const hw::MotionFixedTracer fixed(img);
+  const std::vector<hw::Ray> rays(3, hw::Ray{{0, 1, 10}, 0.0f, {0, 0, -1}, INFINITY});
+  std::vector<hw::Hit> hits;
+  hw::TraversalStats s;
+  for (const std::vector<float>& bad : {std::vector<float>{0.0f, 1.5f, 0.0f}, std::vector<float>{0.0f, NAN, 0.0f},
+                                        std::vector<float>{-0.0001f, 0.0f, 0.0f}, std::vector<float>{0.5f}}) {
+    CHECK_THROWS_WITH(flt.trace_batch(rays, bad, hits, false, 1, s),
+                      Catch::Contains(bad.size() == 1 ? "1 shutter times for 3 rays" : "is not in [0, 1]"));
+    CHECK_THROWS_AS(fixed.trace_batch(rays, bad, hits, false, 1, s), std::invalid_argument);
+  }
+  hw::TraversalStats c;
+  CHECK(!fixed.trace(rays[0], NAN, false, c).hit());
+  CHECK(!flt.trace(hw::Ray{{NAN, 0, 0}, 0.0f, {0, 0, 1}, 1.0f}, 0.5f, false, c).hit());
+  CHECK(c.invalid_rays == 2);
+  CHECK(fixed.trace(rays[0], 0.5f, false, c).hit());
+  CHECK_THROWS_WITH(
+      hw::MotionImage::encode(scene.geometry, bvh, hw::format_preset("default"), MotionFormat{16, 17}),
+      Catch::Contains("box_time_bits"));
+  CHECK_THROWS_WITH(
+      hw::MotionImage::encode(scene.geometry, bvh, hw::format_preset("default"), MotionFormat{25, 1}),
+      Catch::Contains("time_bits"));
+  hw::MotionGeometry nan_scene = scene.geometry;
+  nan_scene.triangles[3].key[1].v2.y = NAN;
+  CHECK_THROWS_WITH(hw::MotionBvh::build(nan_scene), Catch::Contains("moving triangle 3"));
+  CHECK_THROWS_WITH(hw::MotionBvh::build(hw::MotionGeometry{}), Catch::Contains("at least one triangle"));
+}

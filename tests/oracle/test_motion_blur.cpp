@@ -1,0 +1,143 @@
+// Motion blur against Embree 3's (two time steps, the ray's time): the float reference agrees with Embree as on
+// static scenes (tests/oracle/test_embree.cpp: hit/miss on >= 99.999% of rays, t within 32 eps S / cos), and the
+// fixed unit agrees with the float reference within the bound its roundings give (below).
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "host/oracle/embree_motion.h"
+#include "host/scene/motion_scene.h"
+#include "host/scene/ray_gen.h"
+#include "hwmodel/datapath/motion_tracer.h"
+#include "hwmodel/numeric/rng.h"
+
+using namespace rtu;
+
+namespace {
+
+constexpr double kEps = 0x1p-24;
+
+// The rays of the test: the camera's frame at 4 samples per pixel (stratified times) and incoherent rays at
+// uniform times, some exactly at 0 and 1.
+host::MotionRays test_rays(const host::MotionScene& scene, const hw::MotionBvh& bvh, uint64_t incoherent) {
+  host::MotionRays r = host::motion_frame_rays(scene.camera, 320, 240, 4, 11);
+  hw::Aabb all = bvh.key_bounds[0];
+  all.extend(bvh.key_bounds[1]);
+  const std::vector<hw::Ray> inc = host::incoherent_rays(all, incoherent, 12);
+  hw::Pcg32 rng(13);
+  for (size_t i = 0; i < inc.size(); ++i) {
+    r.rays.push_back(inc[i]);
+    r.times.push_back(i % 101 == 0 ? float(i % 2) : rng.next_float());
+  }
+  return r;
+}
+
+// |cos| of the angle between the ray and the hit triangle's normal at the ray's time.
+double cos_theta(const hw::MotionGeometry& g, const hw::Ray& r, const hw::Hit& h, float time) {
+  const hw::Triangle t = g.triangles[h.prim].at(time);
+  const hw::DVec3 n = glm::cross(hw::DVec3(t.v1) - hw::DVec3(t.v0), hw::DVec3(t.v2) - hw::DVec3(t.v0));
+  return std::abs(glm::dot(glm::normalize(n), glm::normalize(hw::DVec3(r.dir))));
+}
+
+double scale_of(const hw::Ray& r, const hw::Hit& h) {
+  const hw::Vec3 p = r.origin + h.t * r.dir;
+  return std::max({std::abs(r.origin.x), std::abs(r.origin.y), std::abs(r.origin.z), std::abs(p.x), std::abs(p.y),
+                   std::abs(p.z)});
+}
+
+}  // namespace
+
+TEST_CASE("motion: the float reference agrees with Embree's motion blur at every ray time", "[motion][embree]") {
+  const host::MotionScene scene = host::builtin_motion_scene(4);
+  const hw::MotionBvh bvh = hw::MotionBvh::build(scene.geometry);
+  const hw::MotionFloatTracer ours(scene.geometry, bvh);
+  const oracle::EmbreeMotionScene embree(scene.geometry);
+  const host::MotionRays rays = test_rays(scene, bvh, 200000);
+  std::vector<hw::Hit> hits;
+  hw::TraversalStats s;
+  ours.trace_batch(rays.rays, rays.times, hits, false, 0, s);
+  uint64_t hit_miss = 0, t_off = 0, both = 0, occluded_diff = 0;
+  double worst = 0.0;
+  for (size_t i = 0; i < hits.size(); ++i) {
+    const hw::Ray& r = rays.rays[i];
+    const hw::Hit e = embree.intersect(r, rays.times[i]);
+    occluded_diff += (i % 4 == 0) && embree.occluded(r, rays.times[i]) != e.hit();
+    if (e.hit() != hits[i].hit()) {
+      ++hit_miss;
+      continue;
+    }
+    if (!e.hit()) continue;
+    ++both;
+    // As for static scenes: 24 eps S / cos for the two tracers' roundings, 32 used. Embree interpolates the
+    // vertices in float ((1 - t) v0 + t v1, two roundings per coordinate), ours in double rounded once: a
+    // perturbation of 2 eps S per coordinate more, which 32 - 24 = 8 covers.
+    const double unit = kEps * scale_of(r, hits[i]) / cos_theta(scene.geometry, r, hits[i], rays.times[i]);
+    const double err = std::abs(double(hits[i].t) - double(e.t)) * glm::length(hw::DVec3(r.dir));
+    if (err > 32.0 * unit)
+      ++t_off;
+    else
+      worst = std::max(worst, err / unit);
+  }
+  std::printf(
+      "motion blur, float against Embree: %zu rays, %llu both hit, %llu hit/miss, %llu t beyond bound (worst "
+      "%.2f eps S/cos)\n",
+      hits.size(), (unsigned long long)both, (unsigned long long)hit_miss, (unsigned long long)t_off, worst);
+  INFO(hits.size() << " rays, " << both << " both hit, " << hit_miss << " hit/miss, " << t_off << " t off");
+  CHECK(double(hit_miss) <= 1e-5 * double(hits.size()));
+  CHECK(double(t_off) <= 1e-5 * double(hits.size()));
+  CHECK(occluded_diff == 0);
+  CHECK(both > hits.size() / 4);
+}
+
+TEST_CASE("motion: the fixed unit agrees with the float reference within its roundings",
+          "[motion][fixed][embree]") {
+  const host::MotionScene scene = host::builtin_motion_scene(4);
+  const hw::MotionBvh bvh = hw::MotionBvh::build(scene.geometry);
+  const hw::MotionFloatTracer flt(scene.geometry, bvh);
+  const host::MotionRays rays = test_rays(scene, bvh, 100000);
+  // The largest key-frame move of any vertex coordinate (world units).
+  double vmax = 0.0;
+  for (const hw::MotionTriangle& t : scene.geometry.triangles)
+    for (int a = 0; a < 3; ++a)
+      vmax = std::max({vmax, double(std::abs(t.key[1].v0[a] - t.key[0].v0[a])),
+                       double(std::abs(t.key[1].v1[a] - t.key[0].v1[a])),
+                       double(std::abs(t.key[1].v2[a] - t.key[0].v2[a]))});
+  std::vector<hw::Hit> want;
+  hw::TraversalStats fs;
+  flt.trace_batch(rays.rays, rays.times, want, false, 0, fs);
+  for (const int time_bits : {8, 16}) {
+    const hw::MotionFormat m{time_bits, 6};
+    const hw::MotionImage img = hw::MotionImage::encode(scene.geometry, bvh, hw::format_preset("default"), m);
+    const hw::MotionFixedTracer fixed(img);
+    std::vector<hw::Hit> got;
+    hw::TraversalStats s;
+    fixed.trace_batch(rays.rays, rays.times, got, false, 0, s);
+    // Each vertex coordinate of the fixed unit differs from the float reference's by at most: half a grid step
+    // from rounding each key frame (their interpolation keeps that bound), half a step from rounding the
+    // interpolation, and the move times the time register's error, vmax 2^-(time_bits + 1). A displacement of
+    // delta per coordinate moves the surface by at most sqrt(3) delta along its normal, so the hit by
+    // sqrt(3) delta / cos along the ray; twice that is used, plus the float bound of the static test.
+    const double delta = img.frame.step() + vmax * std::ldexp(1.0, -(time_bits + 1));
+    uint64_t agree = 0, t_off = 0, both = 0;
+    for (size_t i = 0; i < got.size(); ++i) {
+      agree += got[i].hit() == want[i].hit();
+      if (!(got[i].hit() && want[i].hit())) continue;
+      ++both;
+      const hw::Ray& r = rays.rays[i];
+      const double c = cos_theta(scene.geometry, r, want[i], rays.times[i]);
+      const double bound = (2.0 * std::sqrt(3.0) * delta + 32.0 * kEps * scale_of(r, want[i])) / c;
+      t_off += std::abs(double(got[i].t) - double(want[i].t)) * glm::length(hw::DVec3(r.dir)) > bound;
+    }
+    std::printf("motion blur, fixed (%s) against float: %zu rays, %llu agree on hit/miss, %llu t beyond bound\n",
+                m.describe().c_str(), got.size(), (unsigned long long)agree, (unsigned long long)t_off);
+    INFO(m.describe() << ": " << agree << " of " << got.size() << " agree, " << t_off << " t off of " << both);
+    // As for static scenes (tests/hwmodel/test_fixed_tracer.cpp): hit/miss changes only for rays within delta of
+    // a silhouette, 99.9% leaves a wide margin. A hit at a different primitive (behind a silhouette) is also
+    // outside the t bound: 0.1% of the rays.
+    CHECK(double(agree) >= 0.999 * double(got.size()));
+    CHECK(double(t_off) <= 1e-3 * double(got.size()));
+    CHECK(both > got.size() / 4);
+  }
+}

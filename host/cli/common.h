@@ -103,5 +103,6 @@ void add_render(CLI::App& app);
 void add_diff(CLI::App& app);
 void add_config(CLI::App& app);
 void add_soak(CLI::App& app);
+void add_motion(CLI::App& app);
 
 }  // namespace rtu::host::cli

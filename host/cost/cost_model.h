@@ -29,6 +29,16 @@ hw::CostInputs cost_inputs(const hw::FixedFormat& f, const hw::TimingConfig& c);
 // The configuration's own format (its `format` preset at its bvh_width): what `rtusim config` prices.
 hw::CostInputs cost_inputs(const hw::TimingConfig& c);
 
+// The time-aware motion unit's interpolators (hwmodel/timing/motion_timing.h), fitted from the reference operators
+// as the curve test is (a product of m by n bits costs m n / 32^2 reference 32-bit multiplies, a sum of m bits
+// m / 32 reference adds): `box` is one child box's interpolation (6 planes: a (B+1) x box_time_bits product and a
+// B+1-bit sum each), box_rate of them in each box unit; `tri` is one triangle's (9 coordinates: (B+1) x time_bits
+// and a B+1-bit sum each), one in each triangle unit. toggles_per_test: per box and per triangle interpolated.
+struct MotionInterpolators {
+  hw::UnitCost box, tri;
+};
+MotionInterpolators motion_interpolators(const hw::FixedFormat& f, int time_bits, int box_time_bits);
+
 // {technology, memory_type, area: {...mm^2, units: {box, tri}}, events: [{key, count, pj_each, pj}], total_pj,
 // pj_per_ray, rays_per_joule, watts}
 Json energy_json(const hw::EnergyReport& e, const hw::TimingConfig& c, const hw::CostInputs& in);

@@ -42,8 +42,10 @@ void unit_ball(int level, std::vector<hw::Vec3>& verts, std::vector<std::array<u
 
 }  // namespace
 
-MotionScene builtin_motion_scene(int level) {
+MotionScene builtin_motion_scene(int level, float motion_scale) {
   if (level < 0 || level > 7) throw std::invalid_argument("motion scene level must be in 0..7");
+  if (!(motion_scale >= 0.0f && motion_scale <= 1.0f))
+    throw std::invalid_argument("motion scene motion_scale must be in [0, 1]");
   MotionScene s;
   s.camera.position = hw::Vec3(0.0f, 4.0f, 14.0f);
   s.camera.look_at = hw::Vec3(0.0f, 1.0f, 0.0f);
@@ -66,7 +68,9 @@ MotionScene builtin_motion_scene(int level) {
                           {{-2.0f, 0.5f, 4.5f}, {-2.0f, 0.8f, 4.5f}, 0.5f, 0.8f},
                           {{2.0f, 0.8f, 4.5f}, {2.0f, 0.5f, 4.5f}, 0.8f, 0.5f},
                           {{0.0f, 2.5f, -8.0f}, {0.0f, 2.5f, -8.0f}, 2.5f, 2.5f}};
-  for (const Motion& m : balls) {
+  for (Motion m : balls) {
+    m.c1 = m.c0 + motion_scale * (m.c1 - m.c0);
+    m.r1 = m.r0 + motion_scale * (m.r1 - m.r0);
     MotionScene::Ball b;
     b.first = uint32_t(s.geometry.triangles.size());
     b.count = uint32_t(idx.size());

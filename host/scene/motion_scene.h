@@ -29,7 +29,8 @@ struct MotionScene {
 // Nine balls (an octahedron subdivided `level` times and pushed onto the sphere: 8 * 4^level triangles each):
 // three move sideways fast, three slowly, two grow and one stays, none touching another at any time; a floor of
 // 2 triangles. Deterministic.
-MotionScene builtin_motion_scene(int level = 4);
+// motion_scale (0..1) scales every ball's move and growth between the key frames (1: as listed in the source).
+MotionScene builtin_motion_scene(int level = 4, float motion_scale = 1.0f);
 
 // Rays of a width x height frame with `samples` per pixel: pixel-center primary rays (primary_rays), pixel by
 // pixel, and per sample a shutter time stratified in [s / samples, (s + 1) / samples) with a jitter from `seed`.

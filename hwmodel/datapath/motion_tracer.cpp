@@ -61,6 +61,7 @@ MotionImage MotionImage::encode(const MotionGeometry& g, const MotionBvh& bvh, c
   im.prim_ids = bvh.prim_ids;
   const int64_t top = im.frame.grid_max();
   im.vertices.resize(g.triangles.size() * 18);
+  im.moving.assign(g.triangles.size(), 0);
   for (size_t i = 0; i < g.triangles.size(); ++i)
     for (int k = 0; k < 2; ++k) {
       const Triangle& t = g.triangles[i].key[k];
@@ -72,6 +73,9 @@ MotionImage MotionImage::encode(const MotionGeometry& g, const MotionBvh& bvh, c
           im.vertices[i * 18 + size_t(9 * k + 3 * j + a)] = int32_t(q);
         }
     }
+  for (size_t i = 0; i < g.triangles.size(); ++i)
+    for (int j = 0; j < 9; ++j)
+      im.moving[i] |= uint8_t(im.vertices[i * 18 + size_t(j)] != im.vertices[i * 18 + 9 + size_t(j)]);
   // Each slot's boxes: the integer bounds of the grid vertices below it, bottom up (children have larger indices
   // than their parent in the builder's order, so a reverse sweep sees every child first).
   const size_t slots = bvh.child.size(), W = size_t(bvh.width);
@@ -206,6 +210,8 @@ struct MotionFixedPolicy {
   bool check, any_hit;
   FixedClosest& c;
   TraversalStats& s;
+  std::vector<TraceEvent>* rec;
+  bool shader;
 
   int expand(uint32_t node, uint32_t refs[N], int64_t dists[N], int& tested) const {
     int k = 0;
@@ -228,6 +234,7 @@ struct MotionFixedPolicy {
         ++k;
       }
     }
+    if (rec) rec->push_back(TraceEvent{TraceEvent::kNode, uint8_t(tested), 0, 0, node});
     return k;
   }
   bool leaf(uint32_t ref) const {
@@ -235,6 +242,10 @@ struct MotionFixedPolicy {
     for (uint32_t i = leaf_first(ref); i < leaf_first(ref) + leaf_count(ref); ++i) {
       ++s.prim_tests;
       const uint32_t p = im.prim_ids[i];
+      if (rec) {
+        rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(RecordKind::kTriangle), 0, 0, i});
+        if (shader && im.moving[p]) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, i});
+      }
       int32_t v[3][3];
       motion_vertices(&im.vertices[size_t(p) * 18], tq, im.motion.time_bits, v);
       FixedPrimHit h;
@@ -246,8 +257,12 @@ struct MotionFixedPolicy {
     return found;
   }
   int64_t limit() const { return c.t; }
-  void pushed(const uint32_t*, int, int) const {}
-  void popped(int) const {}
+  void pushed(const uint32_t*, int n, int) const {
+    if (rec) rec->push_back(TraceEvent{TraceEvent::kPush, uint8_t(n), 0, 0, 0});
+  }
+  void popped(int) const {
+    if (rec) rec->push_back(TraceEvent{TraceEvent::kPop, 0, 0, 0, 0});
+  }
 };
 
 // Calls f(std::integral_constant<int, N>) for the image's width.
@@ -307,6 +322,16 @@ MotionFixedTracer::MotionFixedTracer(const MotionImage& image, bool check_boxes)
 }
 
 Hit MotionFixedTracer::trace(const Ray& r, float time, bool any_hit, TraversalStats& s) const {
+  return trace_impl(r, time, any_hit, s, nullptr, false);
+}
+
+Hit MotionFixedTracer::trace_recorded(const Ray& r, float time, bool any_hit, TraversalStats& s,
+                                      std::vector<TraceEvent>& events, bool moving_to_shader) const {
+  return trace_impl(r, time, any_hit, s, &events, moving_to_shader);
+}
+
+Hit MotionFixedTracer::trace_impl(const Ray& r, float time, bool any_hit, TraversalStats& s,
+                                  std::vector<TraceEvent>* rec, bool shader) const {
   if (count_invalid(r, time, s)) return Hit{};
   FixedRay fr;
   const RayStatus status = setup_ray(r, m_image.frame, m_image.format, fr);
@@ -319,7 +344,8 @@ Hit MotionFixedTracer::trace(const Ray& r, float time, bool any_hit, TraversalSt
   const uint32_t tq = quantize_time(time, m_image.motion.time_bits);
   FixedClosest c{fr.tmax};
   with_width(m_image.width, [&](auto n) {
-    MotionFixedPolicy<decltype(n)::value> p{m_image, fr, box_time(tq, m_image.motion), tq, m_check, any_hit, c, s};
+    MotionFixedPolicy<decltype(n)::value> p{
+        m_image, fr, box_time(tq, m_image.motion), tq, m_check, any_hit, c, s, rec, shader};
     traverse(p, m_image.root_ref, any_hit, s);
   });
   if (c.prim == kMissPrim) return Hit{};

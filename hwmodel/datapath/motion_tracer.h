@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/intersect_fixed.h"
 #include "hwmodel/datapath/stats.h"
 #include "hwmodel/format/quant_frame.h"
@@ -72,6 +73,7 @@ struct MotionImage {
   std::vector<int32_t> boxes;      // 12 per child slot (motion_box's key)
   std::vector<uint32_t> prim_ids;  // leaf order -> triangle index
   std::vector<int32_t> vertices;   // 18 per triangle (motion_vertices' key)
+  std::vector<uint8_t> moving;     // per triangle: 1 when its grid vertices differ between the key frames
 
   // Vertices rounded to the nearest grid point; each box the integer bounds of its primitives' grid vertices at
   // that key frame. Throws std::invalid_argument for an invalid format or a scene the frame cannot hold.
@@ -106,11 +108,19 @@ class MotionFixedTracer {
   Hit trace(const Ray& r, float time, bool any_hit, TraversalStats& s) const;
   void trace_batch(const std::vector<Ray>& rays, const std::vector<float>& times, std::vector<Hit>& hits,
                    bool any_hit, int threads, TraversalStats& s) const;
+  // trace() that also appends the ray's events for the timing model (fixed_tracer.h's TraceEvent: kNode with the
+  // node index, kPrim with the record index in leaf order, every kPush and kPop). moving_to_shader: a moving
+  // triangle's kPrim is followed by kAnyHit, the round trip to the shader of a unit that cannot interpolate
+  // (docs/timing-model.md, "Motion blur"); the hit is the same.
+  Hit trace_recorded(const Ray& r, float time, bool any_hit, TraversalStats& s, std::vector<TraceEvent>& events,
+                     bool moving_to_shader = false) const;
   // Every triangle tested at the ray's time without the BVH: the closest hit (the smallest t, then the smallest
   // index) the datapath can find. What the tree must give: tests check that traversal loses none.
   Hit trace_all(const Ray& r, float time) const;
 
  private:
+  Hit trace_impl(const Ray& r, float time, bool any_hit, TraversalStats& s, std::vector<TraceEvent>* rec,
+                 bool shader) const;
   const MotionImage& m_image;
   bool m_check;
 };

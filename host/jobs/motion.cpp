@@ -1,0 +1,147 @@
+#include "host/jobs/motion.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "host/cost/cost_model.h"
+#include "host/scene/motion_scene.h"
+
+namespace rtu::host {
+
+namespace {
+
+// A sample's color: its ball's color (the floor grey) times (0.2 + 0.8 |n . l|), sky blue on a miss.
+hw::Vec3 shade(const MotionScene& s, const hw::Ray& r, const hw::Hit& h, float time) {
+  if (!h.hit()) return hw::Vec3(0.55f, 0.7f, 0.9f);
+  static const hw::Vec3 kColors[] = {{0.9f, 0.3f, 0.2f}, {0.2f, 0.7f, 0.3f}, {0.2f, 0.4f, 0.9f},
+                                     {0.9f, 0.8f, 0.2f}, {0.8f, 0.3f, 0.8f}, {0.2f, 0.8f, 0.8f},
+                                     {0.95f, 0.6f, 0.3f}, {0.6f, 0.6f, 0.95f}, {0.85f, 0.85f, 0.85f}};
+  hw::Vec3 color(0.5f);
+  for (size_t b = 0; b < s.balls.size(); ++b)
+    if (h.prim >= s.balls[b].first && h.prim < s.balls[b].first + s.balls[b].count) color = kColors[b % 9];
+  const hw::Triangle t = s.geometry.triangles[h.prim].at(time);
+  const hw::Vec3 n = glm::normalize(glm::cross(t.v1 - t.v0, t.v2 - t.v0));
+  (void)r;
+  return color * (0.2f + 0.8f * std::abs(glm::dot(n, glm::normalize(hw::Vec3(0.4f, 1.0f, 0.6f)))));
+}
+
+Image frame_image(const MotionScene& s, const MotionRays& rays, const std::vector<hw::Hit>& hits, int w, int h,
+                  int spp) {
+  Image img;
+  img.width = w;
+  img.height = h;
+  img.rgb.resize(size_t(w) * size_t(h) * 3);
+  for (size_t p = 0; p < size_t(w) * size_t(h); ++p) {
+    hw::Vec3 sum(0.0f);
+    for (int k = 0; k < spp; ++k) {
+      const size_t i = p * size_t(spp) + size_t(k);
+      sum += shade(s, rays.rays[i], hits[i], rays.times[i]);
+    }
+    for (int c = 0; c < 3; ++c)
+      img.rgb[3 * p + size_t(c)] = uint8_t(std::lround(std::clamp(sum[c] / float(spp), 0.0f, 1.0f) * 255.0f));
+  }
+  return img;
+}
+
+}  // namespace
+
+MotionJobResult run_motion_job(const MotionJobOptions& o) {
+  if (o.width < 1 || o.height < 1 || o.width > 8192 || o.height > 8192)
+    throw std::invalid_argument("motion: width and height must be in 1..8192");
+  o.format.validate();
+  o.motion.validate();
+  o.timing.validate();
+  const MotionScene scene = builtin_motion_scene(o.level, o.motion_scale);
+  const MotionRays rays = motion_frame_rays(scene.camera, o.width, o.height, o.samples, o.seed);
+  hw::BvhBuildParams bp;
+  bp.width = o.format.width;
+  const hw::MotionBvh bvh = hw::MotionBvh::build(scene.geometry, bp);
+  MotionJobResult r;
+  r.triangles = scene.geometry.triangles.size();
+  r.rays = rays.rays.size();
+  // Float and fixed frames.
+  const hw::MotionFloatTracer flt(scene.geometry, bvh);
+  const hw::MotionImage aware = hw::MotionImage::encode(scene.geometry, bvh, o.format, o.motion);
+  r.moving = uint64_t(std::count(aware.moving.begin(), aware.moving.end(), 1));
+  std::vector<hw::Hit> fh, xh;
+  hw::TraversalStats fs, xs;
+  flt.trace_batch(rays.rays, rays.times, fh, false, o.threads, fs);
+  hw::MotionFixedTracer(aware).trace_batch(rays.rays, rays.times, xh, false, o.threads, xs);
+  for (size_t i = 0; i < fh.size(); ++i) {
+    r.hits_agree += fh[i].hit() == xh[i].hit();
+    r.both_hit += fh[i].hit() && xh[i].hit();
+    r.same_prim += fh[i].hit() && xh[i].hit() && fh[i].prim == xh[i].prim;
+  }
+  r.float_image = frame_image(scene, rays, fh, o.width, o.height, o.samples);
+  r.fixed_image = frame_image(scene, rays, xh, o.width, o.height, o.samples);
+  // The three units. The static one sees the scene frozen at mid-shutter.
+  hw::MotionGeometry frozen;
+  for (const hw::MotionTriangle& t : scene.geometry.triangles) {
+    const hw::Triangle m = t.at(0.5f);
+    frozen.triangles.push_back(hw::MotionTriangle{{m, m}});
+  }
+  const hw::MotionBvh frozen_bvh = hw::MotionBvh::build(frozen, bp);
+  const hw::MotionImage still = hw::MotionImage::encode(frozen, frozen_bvh, o.format, o.motion);
+  hw::MotionFormat whole = o.motion;
+  whole.box_time_bits = 0;
+  const hw::MotionImage oblivious = hw::MotionImage::encode(scene.geometry, bvh, o.format, whole);
+  const hw::MotionImage* images[3] = {&still, &aware, &oblivious};
+  const MotionInterpolators ip = motion_interpolators(o.format, o.motion.time_bits, o.motion.box_time_bits);
+  const hw::Technology& tech = hw::nangate45();
+  for (int d = 0; d < 3; ++d) {
+    MotionDesign& m = r.designs[d];
+    m.unit = hw::MotionUnit(d);
+    const hw::MotionTiming t = hw::time_motion_rays(*images[d], m.unit, o.timing, rays.rays, rays.times);
+    for (size_t i = 0; i < t.hits.size() && d > 0; ++i)
+      if (t.hits[i].t != xh[i].t)  // the same triangle tests at the same times: the same closest t
+        throw std::logic_error("motion: a timed unit's hit differs from the fixed unit's");
+    m.cycles = t.cycles;
+    m.timing = t.timing;
+    m.traversal = t.traversal;
+    const hw::TimingModel::Layout l = hw::motion_layout(*images[d], m.unit);
+    m.node_bytes = l.node_bytes;
+    m.image_bytes = l.total_bytes;
+    if (m.unit == hw::MotionUnit::kTimeAware) {
+      m.interp_mm2 = hw::logic_area_mm2(ip.box.nand2_eq * o.timing.box_rate * o.timing.box_units +
+                                        ip.tri.nand2_eq * o.timing.tri_units, tech);
+      m.interp_pj = (double(t.traversal.box_tests) * ip.box.toggles_per_test +
+                     double(t.traversal.prim_tests) * ip.tri.toggles_per_test) *
+                    tech.pj_per_transition();
+    }
+  }
+  for (MotionDesign& m : r.designs) m.ratio = double(m.cycles) / double(std::max<uint64_t>(1, r.designs[0].cycles));
+  return r;
+}
+
+Json motion_json(const MotionJobOptions& o, const MotionJobResult& r) {
+  Json j;
+  j["scene"] = "builtin motion (level " + std::to_string(o.level) + ")";
+  j["width"] = o.width;
+  j["height"] = o.height;
+  j["samples"] = o.samples;
+  j["format"] = o.format.describe();
+  j["motion_format"] = o.motion.describe();
+  j["motion_scale"] = o.motion_scale;
+  j["triangles"] = r.triangles;
+  j["moving_triangles"] = r.moving;
+  j["rays"] = r.rays;
+  j["fixed_vs_float"] = {{"hit_miss_agree", r.hits_agree}, {"both_hit", r.both_hit}, {"same_triangle", r.same_prim}};
+  j["designs"] = Json::array();
+  for (const MotionDesign& m : r.designs)
+    j["designs"].push_back({{"unit", hw::motion_unit_name(m.unit)},
+                            {"cycles", m.cycles},
+                            {"ratio_to_static", m.ratio},
+                            {"nodes_visited", m.traversal.nodes_visited},
+                            {"box_tests", m.traversal.box_tests},
+                            {"triangle_tests", m.traversal.prim_tests},
+                            {"shader_calls", m.timing.any_hit_requests},
+                            {"node_bytes", m.node_bytes},
+                            {"image_bytes", m.image_bytes},
+                            {"dram_bytes", m.timing.dram_bytes},
+                            {"interpolators_mm2", m.interp_mm2},
+                            {"interpolation_pj", m.interp_pj}});
+  return j;
+}
+
+}  // namespace rtu::host

@@ -1,0 +1,54 @@
+// The motion blur job behind `rtusim motion` (docs/guide/motion-blur.md): the built-in moving scene's frame, each
+// pixel sampled at stratified shutter times, rendered on the float reference and the fixed unit (images, their
+// difference, hit agreement), and timed on three units (hwmodel/timing/motion_timing.h): the scene frozen at
+// mid-shutter on a static unit, and the moving scene on the time-aware and on the time-oblivious unit, with the
+// ratios to the static frame that the field's measurements compare (Ampere against Turing).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "host/io/image.h"
+#include "host/io/stats_json.h"
+#include "hwmodel/datapath/motion_tracer.h"
+#include "hwmodel/timing/motion_timing.h"
+#include "hwmodel/timing/timing_config.h"
+
+namespace rtu::host {
+
+struct MotionJobOptions {
+  int width = 320, height = 240;
+  int samples = 4;  // shutter times per pixel
+  int level = 4;    // the balls' subdivision (builtin_motion_scene)
+  float motion_scale = 1.0f;  // the balls' moves scaled (builtin_motion_scene)
+  uint64_t seed = 1;
+  hw::FixedFormat format;  // the default format
+  hw::MotionFormat motion;
+  hw::TimingConfig timing;  // the default configuration
+  int threads = 0;          // float and fixed frames' host threads (0: all); hits do not depend on it
+};
+
+struct MotionDesign {
+  hw::MotionUnit unit = hw::MotionUnit::kStatic;
+  uint64_t cycles = 0;
+  double ratio = 1.0;  // cycles / the static frame's
+  hw::TimingStats timing;
+  hw::TraversalStats traversal;
+  uint64_t node_bytes = 0, image_bytes = 0;
+  double interp_mm2 = 0.0, interp_pj = 0.0;  // the interpolators' area (all units) and energy over the frame
+};
+
+struct MotionJobResult {
+  uint64_t triangles = 0, moving = 0, rays = 0;
+  uint64_t hits_agree = 0;   // rays on which float and fixed agree on hit or miss
+  uint64_t both_hit = 0;     // rays that hit on both
+  uint64_t same_prim = 0;    // of those, the same triangle
+  Image float_image, fixed_image;
+  MotionDesign designs[3];  // static, time-aware, time-oblivious
+};
+
+// Throws std::invalid_argument for bad options (sizes, samples, formats).
+MotionJobResult run_motion_job(const MotionJobOptions& o);
+Json motion_json(const MotionJobOptions& o, const MotionJobResult& r);
+
+}  // namespace rtu::host

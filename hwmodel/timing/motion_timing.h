@@ -1,0 +1,58 @@
+// The cycles of motion blur on two unit designs, as the field compares them (docs/timing-model.md, "Motion
+// blur"): the rays' events from MotionFixedTracer replayed in the timing model (timing_model.h) over the layout of
+// a motion image.
+// - time-aware (NVIDIA's Ampere RT core, Apple's 2025 patent): each node holds its child boxes at both key frames
+//   and the box unit interpolates them at the ray's time (MotionFormat::box_time_bits); each moving triangle's
+//   record holds both key frames and the triangle unit interpolates its vertices. Priced: the second key frame's
+//   bytes in every node and moving record, and the interpolations' clocks in the box and triangle units' latency.
+// - time-oblivious (Turing, which has no such block): the unit tests the boxes over the whole shutter (the image
+//   encoded with box_time_bits 0) and hands every moving triangle to the shader, which interpolates and tests it:
+//   a round trip of any_hit_latency, as an any-hit call (any_hit.h). Static triangles stay in the unit.
+// - static: the same scene frozen (every triangle at one key frame), a static unit: the frame the others are
+//   measured against.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "hwmodel/datapath/motion_tracer.h"
+#include "hwmodel/timing/timing_model.h"
+
+namespace rtu::hw {
+
+enum class MotionUnit : uint8_t { kStatic = 0, kTimeAware = 1, kTimeOblivious = 2 };
+const char* motion_unit_name(MotionUnit u);  // "static", "time-aware", "time-oblivious"
+
+// What the time-aware unit's interpolation adds to a pipeline: one multiply-add per plane or coordinate (a
+// (B+1) x box_time_bits product for a box plane, (B+1) x time_bits for a vertex), one clock each at the units'
+// clock, the triangle unit's a clock more for its wider product.
+struct MotionInterpolationClocks {
+  int box = 1;
+  int triangle = 2;
+};
+
+// The configuration of unit u: c itself, or for the time-aware unit its box and triangle latencies plus the
+// interpolation's clocks.
+TimingConfig motion_timing_config(const TimingConfig& c, MotionUnit u, const MotionInterpolationClocks& k = {});
+
+// Bytes of one node and of one record in the image of unit u: a static node (the format's struct layout, as
+// node_struct_bytes) and 40-byte records; the time-aware unit's nodes add the second key frame's child boxes
+// (6 planes per child at the format's offset bytes), its moving records the second key frame's 9 grid
+// coordinates, 36 bytes.
+uint64_t motion_node_bytes(const FixedFormat& f, MotionUnit u);
+// The image's layout for unit u: nodes, then records in leaf order (moving ones 76 bytes on the time-aware unit).
+TimingModel::Layout motion_layout(const MotionImage& im, MotionUnit u);
+
+struct MotionTiming {
+  uint64_t cycles = 0;
+  TimingStats timing;
+  TraversalStats traversal;
+  std::vector<Hit> hits;
+};
+// Traces and times rays (and their shutter times, validate_shutter_times) on unit u of configuration c (before
+// motion_timing_config). im must be encoded for u: box_time_bits 0 for the time-oblivious unit; key frames equal
+// for the static one. Events are recorded and replayed in chunks, so memory does not grow with the rays.
+MotionTiming time_motion_rays(const MotionImage& im, MotionUnit u, const TimingConfig& c,
+                              const std::vector<Ray>& rays, const std::vector<float>& times, bool any_hit = false);
+
+}  // namespace rtu::hw

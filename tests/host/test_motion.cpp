@@ -1,15 +1,19 @@
 // Motion blur on the unit (hwmodel/datapath/motion_tracer.h): the fixed datapath's interpolated boxes contain
 // what its triangle unit tests at every time they stand for, traversal loses no hit the triangle unit finds,
-// moving watertight balls do not leak, and a scene that does not move traces as the static tracer does.
+// moving watertight balls do not leak, a scene that does not move traces as the static tracer does; the timed
+// units (hwmodel/timing/motion_timing.h) and rtusim motion.
 #include <catch2/catch.hpp>
 
 #include <cmath>
 
+#include "host/io/image.h"
 #include "host/scene/motion_scene.h"
 #include "host/scene/ray_gen.h"
 #include "hwmodel/datapath/float_tracer.h"
 #include "hwmodel/datapath/motion_tracer.h"
 #include "hwmodel/numeric/rng.h"
+#include "hwmodel/timing/motion_timing.h"
+#include "tests/host/cli_checks.h"
 
 using namespace rtu;
 using hw::MotionFormat;
@@ -228,4 +232,65 @@ TEST_CASE("motion: shutter times outside [0, 1] are refused, and NaN rays and ti
   nan_scene.triangles[3].key[1].v2.y = NAN;
   CHECK_THROWS_WITH(hw::MotionBvh::build(nan_scene), Catch::Contains("moving triangle 3"));
   CHECK_THROWS_WITH(hw::MotionBvh::build(hw::MotionGeometry{}), Catch::Contains("at least one triangle"));
+}
+
+TEST_CASE("motion: timing never changes a hit, and each unit is priced as it is built", "[motion][timing]") {
+  const host::MotionScene scene = host::builtin_motion_scene(2);
+  const hw::MotionBvh bvh = hw::MotionBvh::build(scene.geometry);
+  const host::MotionRays rays = host::motion_frame_rays(scene.camera, 48, 36, 2, 5);
+  const hw::FixedFormat f = hw::format_preset("default");
+  const hw::MotionImage aware = hw::MotionImage::encode(scene.geometry, bvh, f, MotionFormat{16, 6});
+  const hw::MotionImage whole = hw::MotionImage::encode(scene.geometry, bvh, f, MotionFormat{16, 0});
+  const hw::TimingConfig c = hw::timing_preset("rdna2");
+  std::vector<hw::Hit> want;
+  hw::TraversalStats s;
+  hw::MotionFixedTracer(aware).trace_batch(rays.rays, rays.times, want, false, 1, s);
+  const hw::MotionTiming a = hw::time_motion_rays(aware, hw::MotionUnit::kTimeAware, c, rays.rays, rays.times);
+  const hw::MotionTiming a2 = hw::time_motion_rays(aware, hw::MotionUnit::kTimeAware, c, rays.rays, rays.times);
+  const hw::MotionTiming o = hw::time_motion_rays(whole, hw::MotionUnit::kTimeOblivious, c, rays.rays, rays.times);
+  for (size_t i = 0; i < want.size(); ++i) {
+    REQUIRE(a.hits[i].t == want[i].t);
+    REQUIRE(o.hits[i].t == want[i].t);
+  }
+  CHECK(a.cycles == a2.cycles);
+  CHECK(a.traversal.prim_tests == s.prim_tests);
+  // The time-oblivious unit calls the shader once per moving triangle it tests, never for the floor; the
+  // time-aware unit never does.
+  CHECK(a.timing.any_hit_requests == 0);
+  CHECK(o.timing.any_hit_requests > 0);
+  CHECK(o.timing.any_hit_requests < o.traversal.prim_tests);
+  // Bytes: the second key frame's child boxes (6 planes of 4 children at 1 byte) and a moving record's 9 grid
+  // coordinates.
+  CHECK(hw::motion_node_bytes(f, hw::MotionUnit::kStatic) == 56);
+  CHECK(hw::motion_node_bytes(f, hw::MotionUnit::kTimeAware) == 80);
+  const hw::TimingModel::Layout la = hw::motion_layout(aware, hw::MotionUnit::kTimeAware);
+  for (size_t i = 0; i < aware.prim_ids.size(); ++i)
+    REQUIRE(la.record_spans[i].bytes == (aware.moving[aware.prim_ids[i]] ? 76u : 40u));
+  CHECK(hw::motion_timing_config(c, hw::MotionUnit::kTimeAware).box_latency == c.box_latency + 1);
+  // Each unit needs its image.
+  CHECK_THROWS_WITH(hw::time_motion_rays(aware, hw::MotionUnit::kTimeOblivious, c, rays.rays, rays.times),
+                    Catch::Contains("box_time_bits 0"));
+  CHECK_THROWS_WITH(hw::time_motion_rays(aware, hw::MotionUnit::kStatic, c, rays.rays, rays.times),
+                    Catch::Contains("must not move"));
+}
+
+TEST_CASE("rtusim motion: images, figures and refusals", "[motion][cli]") {
+  const test::TempDir d("motion");
+  const std::string prefix = (d.path / "mb").string(), json = (d.path / "mb.json").string();
+  const test::Run r = test::run_rtusim("motion --width 40 --height 30 --samples 2 --level 2 --image " + prefix +
+                                       " --json " + json);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(test::contains(r.output, "time-oblivious"));
+  const host::Image fl = host::read_png(prefix + "_float.png"), fx = host::read_png(prefix + "_fixed.png");
+  CHECK((fl.width == 40 && fl.height == 30 && fx.width == 40));
+  const nlohmann::json j = test::read_json(json);
+  REQUIRE(j["designs"].size() == 3);
+  CHECK(j["rays"] == 2400);
+  CHECK(j["designs"][0]["ratio_to_static"] == 1.0);
+  CHECK(j["designs"][2]["shader_calls"].get<uint64_t>() > 0);
+  test::check_refused({{"motion --samples 0", "samples"},
+                       {"motion --box-time-bits 20 --time-bits 16", "box_time_bits"},
+                       {"motion --motion-scale 2", "motion-scale"},
+                       {"motion --set nosuchkey=1", "nosuchkey"}});
 }

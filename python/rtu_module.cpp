@@ -33,6 +33,7 @@
 #include "host/jobs/ab.h"
 #include "host/jobs/compare_job.h"
 #include "host/jobs/image_diff.h"
+#include "host/jobs/motion.h"
 #include "host/jobs/render.h"
 #include "host/jobs/trace_job.h"
 #include "host/scene/ray_spec.h"
@@ -492,6 +493,45 @@ py::dict diff(const py::handle& a, const py::handle& b) {
   return j;
 }
 
+// rtu.motion: the job of rtusim motion; scene None is the built-in moving scene.
+py::tuple motion(const py::object& scene, std::vector<float> move, int width, int height, int samples, int level,
+                 float motion_scale, int time_bits, int box_time_bits, uint64_t seed, int threads,
+                 const std::string& format, const std::string& config, const std::vector<std::string>& sets) {
+  host::MotionJobOptions o;
+  std::shared_ptr<const host::Scene> keep;
+  if (!scene.is_none()) {
+    keep = scene.cast<PyScene>().scene;
+    o.loaded = keep.get();
+  } else if (move != std::vector<float>{0.0f, 0.0f, 0.0f}) {
+    fail("move applies to a scene only (scene=None is the built-in moving scene)");
+  }
+  if (!scene.is_none() && (level != 4 || motion_scale != 1.0f))
+    fail("level and motion_scale apply to the built-in scene only (scene=None)");
+  if (move.size() != 3) fail("move: expected 3 numbers (x, y, z)");
+  if (width < 1 || height < 1 || width > 8192 || height > 8192) fail("width, height: must be in 1..8192");
+  if (samples < 1 || samples > 1024) fail("samples: must be in 1..1024");
+  if (level < 0 || level > 7) fail("level: must be in 0..7");
+  if (!(motion_scale >= 0.0f && motion_scale <= 1.0f)) fail("motion_scale: must be in [0, 1]");
+  o.move = hw::Vec3(move[0], move[1], move[2]);
+  o.width = width;
+  o.height = height;
+  o.samples = samples;
+  o.level = level;
+  o.motion_scale = motion_scale;
+  o.motion = hw::MotionFormat{time_bits, box_time_bits};
+  o.seed = seed;
+  o.threads = check_threads(threads);
+  o.format = hw::format_from_spec(format);
+  o.timing = host::timing_config_from(config, sets);
+  host::MotionJobResult r;
+  {
+    py::gil_scoped_release nogil;
+    r = host::run_motion_job(o);
+  }
+  return py::make_tuple(image_to_numpy(std::move(r.float_image)), image_to_numpy(std::move(r.fixed_image)),
+                        to_python(host::motion_json(o, r)));
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_rtu, m) {
@@ -594,6 +634,10 @@ PYBIND11_MODULE(_rtu, m) {
         py::arg("max_depth"), py::arg("seed"), py::arg("indirect"), py::arg("ao"), py::arg("ao_distance"),
         py::arg("background"), py::arg("threads"));
   m.def("diff", &diff, py::arg("a"), py::arg("b"));
+  m.def("motion", &motion, py::arg("scene"), py::arg("move"), py::arg("width"), py::arg("height"),
+        py::arg("samples"), py::arg("level"), py::arg("motion_scale"), py::arg("time_bits"),
+        py::arg("box_time_bits"), py::arg("seed"), py::arg("threads"), py::arg("format"), py::arg("config"),
+        py::arg("sets"));
   m.def(
       "read_png", [](const std::string& path) { return image_to_numpy(host::read_png(path)); }, py::arg("path"));
   m.def(

@@ -16,6 +16,8 @@ struct MotionArgs {
   DeviceArgs dev;
   int width = 320, height = 240, samples = 4, level = 4;
   float motion_scale = 1.0f;
+  std::string scene;
+  std::vector<float> move;
   int time_bits = 16, box_time_bits = 6;
   uint64_t seed = 1;
   int threads = 0;
@@ -29,6 +31,8 @@ void run_motion(const MotionArgs& a) {
   o.samples = a.samples;
   o.level = a.level;
   o.motion_scale = a.motion_scale;
+  o.scene = a.scene;
+  if (!a.move.empty()) o.move = hw::Vec3(a.move[0], a.move[1], a.move[2]);
   o.seed = a.seed;
   o.threads = a.threads;
   o.format = a.dev.fixed_format();
@@ -36,14 +40,15 @@ void run_motion(const MotionArgs& a) {
   o.timing = timing_config_from(a.dev.config, a.dev.sets);
   const MotionJobResult r = run_motion_job(o);
   const ImageDiff d = diff_images(r.float_image, r.fixed_image);
-  std::printf("scene        builtin motion: %llu triangles, %llu moving; %dx%d, %d shutter times per pixel\n",
-              (unsigned long long)r.triangles, (unsigned long long)r.moving, o.width, o.height, o.samples);
+  std::printf("scene        %s: %llu triangles, %llu moving; %dx%d, %d shutter times per pixel\n",
+              o.scene.empty() ? "builtin motion" : o.scene.c_str(), (unsigned long long)r.triangles,
+              (unsigned long long)r.moving, o.width, o.height, o.samples);
   std::printf("format       %s, %s\n", o.format.describe().c_str(), o.motion.describe().c_str());
-  std::printf("fixed/float  %llu of %llu rays agree on hit/miss; of %llu hits on both, %llu on the same triangle; "
-              "image PSNR %.2f dB, %llu pixels differ\n",
-              (unsigned long long)r.hits_agree, (unsigned long long)r.rays, (unsigned long long)r.both_hit,
-              (unsigned long long)r.same_prim,
-              d.psnr_db, (unsigned long long)d.pixels_differing);
+  std::printf(
+      "fixed/float  %llu of %llu rays agree on hit/miss; of %llu hits on both, %llu on the same triangle; "
+      "image PSNR %.2f dB, %llu pixels differ\n",
+      (unsigned long long)r.hits_agree, (unsigned long long)r.rays, (unsigned long long)r.both_hit,
+      (unsigned long long)r.same_prim, d.psnr_db, (unsigned long long)d.pixels_differing);
   std::printf("%-15s %12s %8s %10s %10s %10s %12s %10s\n", "unit", "cycles", "ratio", "nodes/ray", "tris/ray",
               "shader", "node bytes", "interp mm2");
   for (const MotionDesign& m : r.designs)
@@ -71,7 +76,21 @@ void add_motion(CLI::App& app) {
       app, "motion",
       "Motion blur: the built-in moving scene on the float and fixed devices (images, agreement), and its cycles "
       "on a static, a time-aware and a time-oblivious unit",
-      [](MotionArgs& a, CLI::App&) { run_motion(a); });
+      [](MotionArgs& a, CLI::App& sub) {
+        if (a.scene.empty() && sub.count("--move") > 0)
+          throw CLI::ValidationError("--move applies to --scene only");
+        if (!a.scene.empty() && sub.count("--motion-scale") > 0)
+          throw CLI::ValidationError(
+              "--motion-scale applies to the built-in scene only (use --move with --scene)");
+        if (!a.scene.empty() && sub.count("--level") > 0)
+          throw CLI::ValidationError("--level applies to the built-in scene only");
+        run_motion(a);
+      });
+  sub->add_option("--scene", a->scene,
+                  "a scene of triangles to set in motion (scene file, mesh file or builtin:NAME; default: the "
+                  "built-in moving scene)");
+  sub->add_option("--move", a->move, "with --scene: every triangle's move between the key frames, X Y Z (world)")
+      ->expected(3);
   add_format_args(*sub, a->dev);
   add_timing_args(*sub, a->dev);
   sub->add_option("--width", a->width, "image width")->check(CLI::Range(1, 8192))->capture_default_str();

@@ -14,8 +14,8 @@ namespace {
 // A sample's color: its ball's color (the floor grey) times (0.2 + 0.8 |n . l|), sky blue on a miss.
 hw::Vec3 shade(const MotionScene& s, const hw::Ray& r, const hw::Hit& h, float time) {
   if (!h.hit()) return hw::Vec3(0.55f, 0.7f, 0.9f);
-  static const hw::Vec3 kColors[] = {{0.9f, 0.3f, 0.2f}, {0.2f, 0.7f, 0.3f}, {0.2f, 0.4f, 0.9f},
-                                     {0.9f, 0.8f, 0.2f}, {0.8f, 0.3f, 0.8f}, {0.2f, 0.8f, 0.8f},
+  static const hw::Vec3 kColors[] = {{0.9f, 0.3f, 0.2f},  {0.2f, 0.7f, 0.3f},  {0.2f, 0.4f, 0.9f},
+                                     {0.9f, 0.8f, 0.2f},  {0.8f, 0.3f, 0.8f},  {0.2f, 0.8f, 0.8f},
                                      {0.95f, 0.6f, 0.3f}, {0.6f, 0.6f, 0.95f}, {0.85f, 0.85f, 0.85f}};
   hw::Vec3 color(0.5f);
   for (size_t b = 0; b < s.balls.size(); ++b)
@@ -52,7 +52,9 @@ MotionJobResult run_motion_job(const MotionJobOptions& o) {
   o.format.validate();
   o.motion.validate();
   o.timing.validate();
-  const MotionScene scene = builtin_motion_scene(o.level, o.motion_scale);
+  const MotionScene scene = o.loaded          ? moving_scene(*o.loaded, o.move)
+                            : o.scene.empty() ? builtin_motion_scene(o.level, o.motion_scale)
+                                              : moving_scene(load_scene(o.scene), o.move);
   const MotionRays rays = motion_frame_rays(scene.camera, o.width, o.height, o.samples, o.seed);
   hw::BvhBuildParams bp;
   bp.width = o.format.width;
@@ -103,30 +105,36 @@ MotionJobResult run_motion_job(const MotionJobOptions& o) {
     m.node_bytes = l.node_bytes;
     m.image_bytes = l.total_bytes;
     if (m.unit == hw::MotionUnit::kTimeAware) {
-      m.interp_mm2 = hw::logic_area_mm2(ip.box.nand2_eq * o.timing.box_rate * o.timing.box_units +
-                                        ip.tri.nand2_eq * o.timing.tri_units, tech);
+      m.interp_mm2 = hw::logic_area_mm2(
+          ip.box.nand2_eq * o.timing.box_rate * o.timing.box_units + ip.tri.nand2_eq * o.timing.tri_units, tech);
       m.interp_pj = (double(t.traversal.box_tests) * ip.box.toggles_per_test +
                      double(t.traversal.prim_tests) * ip.tri.toggles_per_test) *
                     tech.pj_per_transition();
     }
   }
-  for (MotionDesign& m : r.designs) m.ratio = double(m.cycles) / double(std::max<uint64_t>(1, r.designs[0].cycles));
+  for (MotionDesign& m : r.designs)
+    m.ratio = double(m.cycles) / double(std::max<uint64_t>(1, r.designs[0].cycles));
   return r;
 }
 
 Json motion_json(const MotionJobOptions& o, const MotionJobResult& r) {
   Json j;
-  j["scene"] = "builtin motion (level " + std::to_string(o.level) + ")";
+  const bool builtin = o.scene.empty() && !o.loaded;
+  j["scene"] = o.loaded  ? o.loaded->name
+               : builtin ? "builtin motion (level " + std::to_string(o.level) + ")"
+                         : o.scene;
+  if (!builtin) j["move"] = {o.move.x, o.move.y, o.move.z};
   j["width"] = o.width;
   j["height"] = o.height;
   j["samples"] = o.samples;
   j["format"] = o.format.describe();
   j["motion_format"] = o.motion.describe();
-  j["motion_scale"] = o.motion_scale;
+  if (builtin) j["motion_scale"] = o.motion_scale;
   j["triangles"] = r.triangles;
   j["moving_triangles"] = r.moving;
   j["rays"] = r.rays;
-  j["fixed_vs_float"] = {{"hit_miss_agree", r.hits_agree}, {"both_hit", r.both_hit}, {"same_triangle", r.same_prim}};
+  j["fixed_vs_float"] = {
+      {"hit_miss_agree", r.hits_agree}, {"both_hit", r.both_hit}, {"same_triangle", r.same_prim}};
   j["designs"] = Json::array();
   for (const MotionDesign& m : r.designs)
     j["designs"].push_back({{"unit", hw::motion_unit_name(m.unit)},

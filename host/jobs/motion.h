@@ -10,6 +10,7 @@
 
 #include "host/io/image.h"
 #include "host/io/stats_json.h"
+#include "host/scene/scene.h"
 #include "hwmodel/datapath/motion_tracer.h"
 #include "hwmodel/timing/motion_timing.h"
 #include "hwmodel/timing/timing_config.h"
@@ -18,9 +19,14 @@ namespace rtu::host {
 
 struct MotionJobOptions {
   int width = 320, height = 240;
-  int samples = 4;  // shutter times per pixel
-  int level = 4;    // the balls' subdivision (builtin_motion_scene)
+  int samples = 4;            // shutter times per pixel
+  int level = 4;              // the balls' subdivision (builtin_motion_scene)
   float motion_scale = 1.0f;  // the balls' moves scaled (builtin_motion_scene)
+  // A scene to set in motion instead (load_scene's spec; empty: the built-in one): every triangle moved by `move`
+  // between the key frames (moving_scene), seen by the scene's camera.
+  std::string scene;
+  const Scene* loaded = nullptr;  // or a scene already loaded (the Python module's); not owned
+  hw::Vec3 move{0.0f};
   uint64_t seed = 1;
   hw::FixedFormat format;  // the default format
   hw::MotionFormat motion;
@@ -40,9 +46,9 @@ struct MotionDesign {
 
 struct MotionJobResult {
   uint64_t triangles = 0, moving = 0, rays = 0;
-  uint64_t hits_agree = 0;   // rays on which float and fixed agree on hit or miss
-  uint64_t both_hit = 0;     // rays that hit on both
-  uint64_t same_prim = 0;    // of those, the same triangle
+  uint64_t hits_agree = 0;  // rays on which float and fixed agree on hit or miss
+  uint64_t both_hit = 0;    // rays that hit on both
+  uint64_t same_prim = 0;   // of those, the same triangle
   Image float_image, fixed_image;
   MotionDesign designs[3];  // static, time-aware, time-oblivious
 };

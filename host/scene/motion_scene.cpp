@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "host/io/error.h"
 #include "host/scene/ray_gen.h"
 #include "hwmodel/numeric/rng.h"
 
@@ -94,6 +95,25 @@ MotionScene builtin_motion_scene(int level, float motion_scale) {
   const hw::Vec3 f[4] = {{-12.0f, y, -12.0f}, {12.0f, y, -12.0f}, {12.0f, y, 10.0f}, {-12.0f, y, 10.0f}};
   for (const hw::Triangle& t : {hw::Triangle{f[0], f[1], f[2]}, hw::Triangle{f[0], f[2], f[3]}})
     s.geometry.triangles.push_back(hw::MotionTriangle{{t, t}});
+  return s;
+}
+
+MotionScene moving_scene(const Scene& scene, const hw::Vec3& move) {
+  const hw::Geometry& g = scene.geometry;
+  if (!g.spheres.empty() || !g.curves.empty() || !g.planes.empty())
+    throw Error(scene.name + ": a moving scene holds triangles only (this one has " +
+                std::to_string(g.spheres.size()) + " spheres, " + std::to_string(g.curves.size()) +
+                " curve segments, " + std::to_string(g.planes.size()) + " planes)");
+  MotionScene s;
+  s.camera = scene.camera;
+  s.geometry.triangles.reserve(g.triangles.size());
+  for (const hw::Triangle& t : g.triangles)
+    s.geometry.triangles.push_back(hw::MotionTriangle{{t, hw::Triangle{t.v0 + move, t.v1 + move, t.v2 + move}}});
+  try {
+    s.geometry.validate();
+  } catch (const std::invalid_argument& e) {
+    throw Error(scene.name + " moved: " + e.what());
+  }
   return s;
 }
 

@@ -268,6 +268,28 @@ def render(scene, device="float", *, mode="raytrace", width=0, height=0, spp=1, 
     return RenderResult(img, rad, stats, list(warns))
 
 
+def motion(scene=None, *, move=(0.0, 0.0, 0.0), width=320, height=240, samples=4, level=4, motion_scale=1.0,
+           time_bits=16, box_time_bits=6, seed=1, threads=0, format="default", config="rdna2", set=None):  # noqa: A002
+    """Motion blur, as `rtusim motion`: the built-in moving scene (scene None; level, motion_scale) or a scene of
+    triangles moved by `move` between the key frames, on the float and fixed devices and timed on a static, a
+    time-aware and a time-oblivious unit. Returns (float image, fixed image, figures dict)."""
+    if scene is not None:
+        scene = load_scene(scene)
+    try:
+        move = [_number(c, "move") for c in move]
+    except TypeError:
+        raise TypeError(f"move: expected three numbers (x, y, z), got {move!r}") from None
+    if isinstance(set, dict):
+        sets = [f"{k}={_value(v)}" for k, v in set.items()]
+    else:
+        sets = [_str(s, "set", "\"key=value\" strings") for s in set or []]
+    return _rtu.motion(scene, move, _int(width, "width"), _int(height, "height"), _int(samples, "samples"),
+                       _int(level, "level"), _number(motion_scale, "motion_scale"), _int(time_bits, "time_bits"),
+                       _int(box_time_bits, "box_time_bits"), _int(seed, "seed"), _int(threads, "threads"),
+                       _str(format, "format", "a format spec such as 'default'"),
+                       _str(config, "config", "a timing preset name such as 'rdna2'"), sets)
+
+
 def config(preset="rdna2", set=None):
     """A timing configuration, every key (rtusim config --config P --set k=v): a dict."""
     if isinstance(preset, dict):

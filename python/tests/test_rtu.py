@@ -278,6 +278,29 @@ def test_render_with_micromaps_equals_the_cli(tmp_path):
         rtu.render("builtin:forest", "timed", width=8, height=6, omm_level=11)
 
 
+def test_motion_equals_the_cli(tmp_path):
+    cli("motion", "--width", 40, "--height", 30, "--samples", 2, "--level", 2, "--image", tmp_path / "m",
+        "--json", tmp_path / "m.json")
+    s = json.loads((tmp_path / "m.json").read_text())
+    f, x, j = rtu.motion(width=40, height=30, samples=2, level=2)
+    assert f.shape == (30, 40, 3) and x.dtype == np.uint8
+    assert np.array_equal(f, rtu.read_png(tmp_path / "m_float.png"))
+    assert np.array_equal(x, rtu.read_png(tmp_path / "m_fixed.png"))
+    assert [d["cycles"] for d in j["designs"]] == [d["cycles"] for d in s["designs"]]
+    assert [d["unit"] for d in j["designs"]] == ["static", "time-aware", "time-oblivious"]
+    # A loaded scene of triangles, set in motion.
+    _, _, c = rtu.motion("builtin:cornell", move=(0.2, 0, 0), width=16, height=12, samples=1)
+    assert c["moving_triangles"] == c["triangles"] > 0
+    with pytest.raises(rtu.Error, match="triangles only"):
+        rtu.motion(SEED, move=(1, 0, 0), width=8, height=6)
+    with pytest.raises(rtu.Error, match="scene only"):
+        rtu.motion(move=(1, 0, 0))
+    with pytest.raises(rtu.Error, match="box_time_bits"):
+        rtu.motion(width=8, height=6, time_bits=8, box_time_bits=9)
+    with pytest.raises(rtu.Error, match="not a finite"):
+        rtu.motion("builtin:cornell", move=(float("nan"), 0, 0))
+
+
 def test_sweep_equals_the_cli(tmp_path):
     args = dict(formats=["default", "default:coord_bits=12"], bvh_widths=[4, 8], configs=["rdna2"], rays=1500,
                 image_width=0)

@@ -292,5 +292,17 @@ TEST_CASE("rtusim motion: images, figures and refusals", "[motion][cli]") {
   test::check_refused({{"motion --samples 0", "samples"},
                        {"motion --box-time-bits 20 --time-bits 16", "box_time_bits"},
                        {"motion --motion-scale 2", "motion-scale"},
-                       {"motion --set nosuchkey=1", "nosuchkey"}});
+                       {"motion --set nosuchkey=1", "nosuchkey"},
+                       {"motion --move 1 0 0", "--scene only"},
+                       {"motion --scene builtin:cornell --move 1 0 0 --motion-scale 0.5", "built-in scene only"},
+                       {"motion --scene builtin:seed --move 1 0 0", "triangles only (this one has 2 spheres"},
+                       {"motion --scene builtin:cornell --move 1e38 0 0", "not finite or beyond 2^62"}});
+  // A loaded scene set in motion: its triangles, all moving; a move of 0 costs the time-aware unit only its larger
+  // nodes and latency, and the time-oblivious unit a shader call per triangle it tests.
+  const std::string j2 = (d.path / "cornell.json").string();
+  REQUIRE(test::run_rtusim("motion --scene builtin:cornell --move 0.2 0 0 --width 32 --height 24 --json " + j2)
+              .status == 0);
+  const nlohmann::json c = test::read_json(j2);
+  CHECK(c["triangles"] == c["moving_triangles"]);
+  CHECK(c["designs"][2]["shader_calls"] == c["designs"][2]["triangle_tests"]);
 }

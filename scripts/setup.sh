@@ -12,6 +12,7 @@ packages=(
   assimp-testmodels                              # the real meshes used by tests and benchmarks
   libcgal-demo                                   # CGAL's demo meshes (bunny, armadillo, elephant in OFF) of the
                                                  # benchmark suite; scripts/cgal_meshes.sh extracts them
+  libnanoflann-dev libgmp-dev                    # the query tests' oracles: a k-d tree, exact rationals
   verilator yosys                                # the RTL box unit: simulation and tests (rtl_sim/), synthesis
   gnuplot-nox                                    # Pareto and scaling plots (rtusim pareto|report, bench/)
   chromium                                       # headless browser: the report page test (report_browser)

@@ -156,7 +156,7 @@ TEST_CASE("queries: the exact distance check agrees with GMP rationals at and ar
 TEST_CASE("queries: radius, count and k nearest equal the exact oracle on hard inputs, every format",
           "[queries]") {
   const std::vector<Vec3> u = uniform(1, 20000, 100.0f), c = clustered(2, 20000);
-  const std::vector<Vec3> qu = uniform(3, 3000, 100.0f), qc = clustered(4, 3000);
+  const std::vector<Vec3> qu = uniform(3, 3000, 100.0f), qc = clustered(4, 300);
   for (const char* spec : {"default", "compact", "default:coord_bits=8:frac_bits=2"}) {
     const hw::FixedFormat f = hw::format_from_spec(spec);
     check_queries(u, qu, 2.5f, "uniform", f);

@@ -104,5 +104,6 @@ void add_diff(CLI::App& app);
 void add_config(CLI::App& app);
 void add_soak(CLI::App& app);
 void add_motion(CLI::App& app);
+void add_query(CLI::App& app);
 
 }  // namespace rtu::host::cli

@@ -1,0 +1,43 @@
+// The neighbour-query job behind `rtusim query` and `rtu.query` (docs/guide/queries.md): points and queries from
+// files or generators, fixed-radius neighbours, counts or k nearest on the fixed unit (hwmodel/datapath/
+// point_query.h), exact whatever the format, and on the timed device the cycles (hwmodel/timing/query_timing.h).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "host/io/stats_json.h"
+#include "hwmodel/datapath/point_query.h"
+#include "hwmodel/timing/query_timing.h"
+
+namespace rtu::host {
+
+// Points from a spec: a .ply or .csv file (read_points), or "uniform:N" (N points uniform in the cube [0, 100]^3)
+// or "clustered:N" (N points in 16 clusters of random sizes in that cube), from `seed`. Throws Error.
+std::vector<hw::Vec3> points_from_spec(const std::string& spec, uint64_t seed);
+
+struct QueryJobOptions {
+  std::vector<hw::Vec3> points, queries;  // queries empty: the points themselves
+  float radius = 1.0f;
+  hw::PointQuery what;
+  hw::FixedFormat format;
+  bool timed = false;  // also the cycles on one unit of `timing`
+  hw::TimingConfig timing;
+  int threads = 0;
+};
+
+struct QueryJobResult {
+  std::vector<hw::PointAnswer> answers;
+  hw::QueryStats stats;
+  uint64_t cycles = 0;  // timed only
+  hw::TimingStats timing;
+  uint64_t index_bytes = 0;
+};
+
+QueryJobResult run_query_job(const QueryJobOptions& o);
+Json query_json(const QueryJobOptions& o, const QueryJobResult& r);
+// The answers as CSV: "query,id" a neighbour a line (kNearest nearest first), or "query,count".
+void write_answers_csv(const std::string& path, const QueryJobOptions& o, const QueryJobResult& r);
+
+}  // namespace rtu::host

@@ -34,6 +34,7 @@
 #include "host/jobs/compare_job.h"
 #include "host/jobs/image_diff.h"
 #include "host/jobs/motion.h"
+#include "host/jobs/query.h"
 #include "host/jobs/render.h"
 #include "host/jobs/trace_job.h"
 #include "host/scene/ray_spec.h"
@@ -493,6 +494,61 @@ py::dict diff(const py::handle& a, const py::handle& b) {
   return j;
 }
 
+// Points as an (N, 3) float array (copied to float32).
+std::vector<hw::Vec3> points_from_numpy(const py::handle& obj, const char* name) {
+  py::array a = py::array::ensure(obj);
+  if (!a || a.ndim() != 2 || a.shape(1) != 3 || a.dtype().kind() != 'f')
+    fail(std::string(name) + ": expected a float array of shape (N, 3)");
+  using F32 = py::array_t<float, py::array::c_style | py::array::forcecast>;
+  const F32 f = F32::ensure(a);
+  std::vector<hw::Vec3> v(size_t(f.shape(0)));
+  if (!v.empty()) std::memcpy(v.data(), f.data(), v.size() * sizeof(hw::Vec3));
+  return v;
+}
+
+// rtu.query: the job of rtusim query on numpy points; the answers as arrays.
+py::dict query(const py::handle& points, const py::handle& queries, float radius, const std::string& kind,
+               uint32_t bound, bool timed, const std::string& format, const std::string& config,
+               const std::vector<std::string>& sets, int threads) {
+  host::QueryJobOptions o;
+  o.points = points_from_numpy(points, "points");
+  if (!queries.is_none()) o.queries = points_from_numpy(queries, "queries");
+  if (kind != "radius" && kind != "count" && kind != "nearest")
+    fail("kind: '" + kind + "' is not radius, count or nearest");
+  o.what.kind = kind == "radius"  ? hw::PointQuery::kRadius
+                : kind == "count" ? hw::PointQuery::kCount
+                                  : hw::PointQuery::kNearest;
+  o.what.max_results = bound;
+  o.radius = radius;
+  o.format = hw::format_from_spec(format);
+  o.timed = timed;
+  if (timed) o.timing = host::timing_config_from(config, sets);
+  o.threads = check_threads(threads);
+  host::QueryJobResult r;
+  {
+    py::gil_scoped_release nogil;
+    r = host::run_query_job(o);
+  }
+  const size_t n = r.answers.size();
+  std::vector<uint64_t> offsets(n + 1, 0), counts(n);
+  std::vector<uint32_t> ids;
+  std::vector<uint8_t> overflow(n);
+  for (size_t i = 0; i < n; ++i) {
+    counts[i] = r.answers[i].count;
+    overflow[i] = r.answers[i].overflow;
+    ids.insert(ids.end(), r.answers[i].ids.begin(), r.answers[i].ids.end());
+    offsets[i + 1] = ids.size();
+  }
+  py::dict d;
+  const py::ssize_t m = py::ssize_t(ids.size()), nn = py::ssize_t(n);
+  d["ids"] = give(std::move(ids), py::dtype::of<uint32_t>(), {m}, {4});
+  d["offsets"] = give(std::move(offsets), py::dtype::of<uint64_t>(), {nn + 1}, {8});
+  d["counts"] = give(std::move(counts), py::dtype::of<uint64_t>(), {nn}, {8});
+  d["overflow"] = give(std::move(overflow), py::dtype::of<bool>(), {nn}, {1});
+  d["stats"] = to_python(host::query_json(o, r));
+  return d;
+}
+
 // rtu.motion: the job of rtusim motion; scene None is the built-in moving scene.
 py::tuple motion(const py::object& scene, std::vector<float> move, int width, int height, int samples, int level,
                  float motion_scale, int time_bits, int box_time_bits, uint64_t seed, int threads,
@@ -634,6 +690,9 @@ PYBIND11_MODULE(_rtu, m) {
         py::arg("max_depth"), py::arg("seed"), py::arg("indirect"), py::arg("ao"), py::arg("ao_distance"),
         py::arg("background"), py::arg("threads"));
   m.def("diff", &diff, py::arg("a"), py::arg("b"));
+  m.def("query", &query, py::arg("points"), py::arg("queries"), py::arg("radius"), py::arg("kind"),
+        py::arg("bound"), py::arg("timed"), py::arg("format"), py::arg("config"), py::arg("sets"),
+        py::arg("threads"));
   m.def("motion", &motion, py::arg("scene"), py::arg("move"), py::arg("width"), py::arg("height"),
         py::arg("samples"), py::arg("level"), py::arg("motion_scale"), py::arg("time_bits"),
         py::arg("box_time_bits"), py::arg("seed"), py::arg("threads"), py::arg("format"), py::arg("config"),

@@ -290,6 +290,37 @@ def motion(scene=None, *, move=(0.0, 0.0, 0.0), width=320, height=240, samples=4
                        _str(config, "config", "a timing preset name such as 'rdna2'"), sets)
 
 
+def query(points, queries=None, *, radius, kind="radius", k=None, max_results=64, device="fixed", format="default",
+          config="rdna2", set=None, threads=0):  # noqa: A002
+    """Neighbour queries on the unit, as `rtusim query`: every point of `points` ((N, 3) floats) within `radius`
+    of each query point (`queries`, (M, 3); None: the points), exactly; kind "count" only their numbers,
+    "nearest" the k nearest within the radius. device "timed" adds the cycles. Returns a dict: "ids" (the answers
+    of all queries, concatenated), "offsets" (query i's are ids[offsets[i]:offsets[i+1]]), "counts" (every
+    neighbour's count, also beyond the bound), "overflow" (more than max_results), "stats" (the --json dict)."""
+    kind = _str(kind, "kind", "radius, count or nearest")
+    if kind == "nearest":
+        if k is None:
+            raise Error("kind='nearest' needs k")
+        bound = _int(k, "k")
+    else:
+        if k is not None:
+            raise Error("k applies to kind='nearest' only")
+        bound = _int(max_results, "max_results")
+    if bound < 1:
+        raise Error("k and max_results must be at least 1")
+    device = _str(device, "device", "'fixed' or 'timed'")
+    if device not in ("fixed", "timed"):
+        raise Error(f"device: queries run on 'fixed' or 'timed', not {device!r}")
+    if isinstance(set, dict):
+        sets = [f"{key}={_value(v)}" for key, v in set.items()]
+    else:
+        sets = [_str(x, "set", "\"key=value\" strings") for x in set or []]
+    return _rtu.query(_np.asarray(points), None if queries is None else _np.asarray(queries),
+                      _number(radius, "radius"), kind, bound, device == "timed",
+                      _str(format, "format", "a format spec such as 'default'"),
+                      _str(config, "config", "a timing preset name such as 'rdna2'"), sets, _int(threads, "threads"))
+
+
 def config(preset="rdna2", set=None):
     """A timing configuration, every key (rtusim config --config P --set k=v): a dict."""
     if isinstance(preset, dict):

@@ -301,6 +301,39 @@ def test_motion_equals_the_cli(tmp_path):
         rtu.motion("builtin:cornell", move=(float("nan"), 0, 0))
 
 
+def test_query_equals_the_cli_and_brute_force(tmp_path):
+    rng = np.random.default_rng(5)
+    pts = rng.random((3000, 3), dtype=np.float32) * 20
+    qs = rng.random((400, 3)).astype(np.float32) * 20
+    r = rtu.query(pts, qs, radius=1.5, max_results=1000)
+    assert r["offsets"].shape == (401,) and r["ids"].dtype == np.uint32
+    d2 = ((qs[:, None, :].astype(np.float64) - pts[None, :, :]) ** 2).sum(axis=2)
+    for i in range(len(qs)):
+        want = np.flatnonzero(d2[i] <= 1.5 ** 2)  # no distance within 1e-9 of the radius here: double decides
+        assert np.array_equal(r["ids"][r["offsets"][i]:r["offsets"][i + 1]], want)
+    assert np.array_equal(r["counts"], (d2 <= 2.25).sum(axis=1))
+    near = rtu.query(pts, qs, radius=1.5, kind="nearest", k=2)
+    for i in range(0, len(qs), 37):
+        got = near["ids"][near["offsets"][i]:near["offsets"][i + 1]]
+        assert np.array_equal(got, np.argsort(d2[i], kind="stable")[:len(got)])
+    # The CLI on the same points, as a PLY file; the timed unit's figures.
+    with open(tmp_path / "p.csv", "w") as f:
+        f.write("x,y,z\n" + "".join(f"{x!r},{y!r},{z!r}\n" for x, y, z in pts.astype(float)))
+    with open(tmp_path / "q.csv", "w") as f:
+        f.write("x,y,z\n" + "".join(f"{x!r},{y!r},{z!r}\n" for x, y, z in qs.astype(float)))
+    cli("query", "--points", tmp_path / "p.csv", "--queries", tmp_path / "q.csv", "--radius", 1.5, "--device",
+        "timed", "--json", tmp_path / "q.json")
+    s = json.loads((tmp_path / "q.json").read_text())
+    t = rtu.query(pts, qs, radius=1.5, device="timed")
+    assert t["stats"]["cycles"] == s["cycles"] > 0 and t["stats"]["results"] == s["results"]
+    with pytest.raises(rtu.Error, match="shape"):
+        rtu.query(pts[:, :2], radius=1)
+    with pytest.raises(rtu.Error, match="needs k"):
+        rtu.query(pts, radius=1, kind="nearest")
+    with pytest.raises(rtu.Error, match="radius"):
+        rtu.query(pts, radius=0)
+
+
 def test_sweep_equals_the_cli(tmp_path):
     args = dict(formats=["default", "default:coord_bits=12"], bvh_widths=[4, 8], configs=["rdna2"], rays=1500,
                 image_width=0)

@@ -1,0 +1,116 @@
+// A BVH over float boxes on the unit, for queries that want every box a probe meets rather than a closest hit:
+// box overlap, and the candidates of spatial joins (spatial_join.h). Boxes are rounded outward to floats' and then
+// the grid's planes (lo down, hi up), node boxes are the integer bounds of the boxes below them, and a traversal
+// visits every node whose box the probe meets, so it finds every box the exact probe meets:
+// - a ray over [tmin, tmax] by the fixed datapath's conservative slab test (intersect_fixed.h), as RayJoin casts
+//   segments and point-in-polygon rays;
+// - a query box by integer comparison of its grid box (rounded outward the same way) with each child's, six
+//   comparators a child, as a box unit could hold beside its slab test.
+// Candidates are then decided exactly by the caller. Leaves hold at most `width` boxes and are tested as a node's
+// children are.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "hwmodel/datapath/fixed_tracer.h"
+#include "hwmodel/datapath/point_query.h"
+#include "hwmodel/format/quant_frame.h"
+#include "hwmodel/numeric/fixed_format.h"
+#include "hwmodel/scene/aabb.h"
+#include "hwmodel/scene/bvh.h"
+
+namespace rtu::hw {
+
+class BoxIndex {
+ public:
+  // Throws std::invalid_argument for no boxes, more than 2^27, an empty box (lo > hi) or a coordinate that is not
+  // finite or beyond kMaxCoordinate (naming the box), or a bad format. `frame` (if not empty) is fitted instead of
+  // the boxes' bounds: probes far outside the boxes then still fit the frame.
+  BoxIndex(const std::vector<Aabb>& boxes, const FixedFormat& f, const Aabb& frame = Aabb{});
+
+  // The probes. on_candidate(id) is called for every box the probe may meet (every one it meets exactly), in
+  // traversal order. Statistics: nodes_visited, box_tests, candidates. `rec`: kNode for each node and leaf block
+  // tested, kPush and kPop (the caller adds what it does with a candidate).
+  template <class F>
+  void ray_candidates(const FixedRay& r, F&& on_candidate, QueryStats& s, std::vector<TraceEvent>* rec) const {
+    walk([&](const int64_t* b) { return ray_meets(r, b); }, on_candidate, s, rec);
+  }
+  template <class F>
+  void box_candidates(const Aabb& q, F&& on_candidate, QueryStats& s, std::vector<TraceEvent>* rec) const {
+    int64_t g[6];
+    grid_box(q, g);
+    walk([&](const int64_t* b) { return overlaps(g, b); }, on_candidate, s, rec);
+  }
+  // Ray setup in the index's frame and format (setup_ray).
+  RayStatus setup(const Ray& r, FixedRay& out) const { return setup_ray(r, m_frame, m_format, out); }
+
+  const QuantFrame& frame() const { return m_frame; }
+  int width() const { return m_width; }
+  uint64_t inner_nodes() const { return m_child.size() / uint64_t(m_width); }
+  uint64_t leaves() const { return m_leaf_count; }
+  size_t size() const { return m_ids.size(); }
+
+ private:
+  // A float box's grid planes, rounded outward (saturating beyond the frame, which only widens it).
+  void grid_box(const Aabb& b, int64_t g[6]) const;
+  static bool ray_meets(const FixedRay& r, const int64_t* b) {
+    int64_t tn = 0;
+    return box_test(r, b, b + 3, r.tmin, r.tmax, tn);
+  }
+  static bool overlaps(const int64_t* a, const int64_t* b) {
+    return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
+  }
+  template <class Test, class F>
+  void walk(Test&& meets, F&& on_candidate, QueryStats& s, std::vector<TraceEvent>* rec) const {
+    uint32_t stack[kTraversalStackSize];
+    int sp = 0;
+    uint32_t cur = m_root;
+    const size_t W = size_t(m_width);
+    for (;;) {
+      ++s.nodes_visited;
+      if (is_leaf(cur)) {
+        if (rec) rec->push_back(TraceEvent{TraceEvent::kNode, uint8_t(leaf_count(cur)), 0, 0, leaf_block(cur)});
+        s.box_tests += leaf_count(cur);
+        for (uint32_t i = leaf_first(cur); i < leaf_first(cur) + leaf_count(cur); ++i)
+          if (meets(&m_box[6 * size_t(i)])) {
+            ++s.candidates;
+            on_candidate(m_ids[i]);
+          }
+      } else {
+        int tested = 0, pushed = 0;
+        for (size_t c = 0; c < W; ++c) {
+          const uint32_t ref = m_child[size_t(cur) * W + c];
+          if (ref == kEmptyChild) continue;
+          ++tested;
+          if (meets(&m_child_box[(size_t(cur) * W + c) * 6])) {
+            stack[sp++] = ref;
+            ++pushed;
+          }
+        }
+        s.box_tests += uint64_t(tested);
+        if (rec) {
+          rec->push_back(TraceEvent{TraceEvent::kNode, uint8_t(tested), 0, 0, cur});
+          if (pushed > 0) rec->push_back(TraceEvent{TraceEvent::kPush, uint8_t(pushed), 0, 0, 0});
+        }
+      }
+      if (sp == 0) return;
+      cur = stack[--sp];
+      if (rec) rec->push_back(TraceEvent{TraceEvent::kPop, 0, 0, 0, 0});
+    }
+  }
+  uint32_t leaf_block(uint32_t ref) const { return uint32_t(inner_nodes()) + m_leaf_ordinal[leaf_first(ref)]; }
+
+  FixedFormat m_format;
+  QuantFrame m_frame;
+  int m_width = 4;
+  uint32_t m_root = kEmptyChild;
+  std::vector<uint32_t> m_child;     // node * width + slot
+  std::vector<int64_t> m_child_box;  // 6 per slot: grid lo xyz, hi xyz
+  std::vector<uint32_t> m_ids;       // leaf order -> box index
+  std::vector<int64_t> m_box;        // 6 per box, in leaf order
+  uint64_t m_leaf_count = 0;
+  std::vector<uint32_t> m_leaf_ordinal;  // by leaf_first: its ordinal among the leaves
+};
+
+}  // namespace rtu::hw

@@ -21,6 +21,15 @@ bool finite_box(const Aabb& b) {
 
 }  // namespace
 
+void QueryStats::add(const QueryStats& o) {
+  queries += o.queries;
+  nodes_visited += o.nodes_visited;
+  box_tests += o.box_tests;
+  candidates += o.candidates;
+  results += o.results;
+  overflows += o.overflows;
+}
+
 void BoxIndex::grid_box(const Aabb& b, int64_t g[6]) const {
   for (int a = 0; a < 3; ++a) {
     g[a] = m_frame.to_grid(b.lo[a], a, Round::kDown);

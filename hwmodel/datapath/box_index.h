@@ -14,13 +14,23 @@
 #include <vector>
 
 #include "hwmodel/datapath/fixed_tracer.h"
-#include "hwmodel/datapath/point_query.h"
+#include "hwmodel/datapath/stats.h"
 #include "hwmodel/format/quant_frame.h"
 #include "hwmodel/numeric/fixed_format.h"
 #include "hwmodel/scene/aabb.h"
 #include "hwmodel/scene/bvh.h"
 
 namespace rtu::hw {
+
+struct QueryStats {
+  uint64_t queries = 0;
+  uint64_t nodes_visited = 0;  // inner nodes and leaf blocks tested
+  uint64_t box_tests = 0;      // child boxes and indexed boxes tested
+  uint64_t candidates = 0;     // indexed boxes the probe met: each decided exactly (point queries: in the shader)
+  uint64_t results = 0;        // candidates that are answers (for k nearest: the k reported)
+  uint64_t overflows = 0;      // queries with more results than their bound (the rest not reported)
+  void add(const QueryStats& o);
+};
 
 class BoxIndex {
  public:

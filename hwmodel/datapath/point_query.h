@@ -4,13 +4,13 @@
 // candidates), and a shader checks each candidate's distance. Here the boxes are quantized outward to the grid and
 // tested by the fixed datapath's conservative slab test (intersect_fixed.h), so every true neighbour is a
 // candidate, and the distance check is exact (exact_compare.h): the answer is the exact one, whatever the format
-// (docs/numerics.md, "Neighbour queries"). Leaves hold at most `width` points, stored and tested as a node's
-// child boxes are.
+// (docs/numerics.md, "Neighbour queries"). The points' boxes are a BoxIndex (box_index.h).
 #pragma once
 
 #include <cstdint>
 #include <vector>
 
+#include "hwmodel/datapath/box_index.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/stats.h"
 #include "hwmodel/format/quant_frame.h"
@@ -18,16 +18,6 @@
 #include "hwmodel/scene/bvh.h"
 
 namespace rtu::hw {
-
-struct QueryStats {
-  uint64_t queries = 0;
-  uint64_t nodes_visited = 0;  // inner nodes and leaf blocks tested
-  uint64_t box_tests = 0;      // child boxes and point boxes tested
-  uint64_t candidates = 0;     // point boxes that held the query: distance checks in the shader
-  uint64_t results = 0;        // candidates within the radius (for k nearest: the k reported)
-  uint64_t overflows = 0;      // queries with more results than their bound (the rest not reported)
-  void add(const QueryStats& o);
-};
 
 // What a query asks.
 struct PointQuery {
@@ -63,26 +53,14 @@ class PointIndex {
 
   const std::vector<Vec3>& points() const { return m_points; }
   float radius() const { return m_radius; }
-  int width() const { return m_width; }
-  uint64_t inner_nodes() const { return m_child.size() / uint64_t(m_width); }
-  uint64_t leaves() const { return m_leaf_count; }
-  const QuantFrame& frame() const { return m_frame; }
-  // The kNode index of the leaf block of leaf reference `ref` (inner_nodes() + its leaf ordinal).
-  uint32_t leaf_block(uint32_t ref) const;
+  int width() const { return m_index.width(); }
+  uint64_t inner_nodes() const { return m_index.inner_nodes(); }
+  uint64_t leaves() const { return m_index.leaves(); }
 
  private:
   std::vector<Vec3> m_points;
   float m_radius;
-  FixedFormat m_format;
-  QuantFrame m_frame;
-  int m_width = 4;
-  uint32_t m_root = kEmptyChild;
-  std::vector<uint32_t> m_child;     // node * width + slot
-  std::vector<int64_t> m_child_box;  // 6 per slot: grid lo xyz, hi xyz
-  std::vector<uint32_t> m_ids;       // leaf order -> point index
-  std::vector<int64_t> m_point_box;  // 6 per point, in leaf order
-  uint64_t m_leaf_count = 0;
-  std::vector<uint32_t> m_leaf_ordinal;  // by leaf_first: its ordinal among the leaves
+  BoxIndex m_index;  // the points' boxes of the radius
 };
 
 }  // namespace rtu::hw

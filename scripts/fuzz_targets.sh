@@ -5,14 +5,14 @@
 #    AC3D node chains deep enough (~4 * 10^4 levels under ASan) to overflow the importer's 64 MiB stack;
 #  - device_image: 256 KiB, a BVH of thousands of nodes, up to the traversal stack's depth bound;
 #  - texture: 64 KiB, images of up to a few hundred texels a side (PNG compresses far more);
-#  - ray_file, command_processor, config: 64 KiB, 2048 rays (each traced on three devices), programs of thousands
+#  - ray_file, command_processor, config, point_file: 64 KiB, 2048 rays (each traced on three devices), programs of thousands
 #    of packets, lines of thousands of keys: larger only makes each run slower, the formats are flat.
 # CI (scripts/test.sh) runs each target for a fixed number of inputs from a fixed seed, RTU_FUZZ_SEED, so that a
 # commit's verdict does not depend on luck; the counts give each target about 5-8 s under ASan on one core of the
 # CI machine (2 cores), measured from build/asan/fuzz-summary.txt. RTU_FUZZ_RUNS overrides every count.
 # shellcheck shell=bash
 RTU_FUZZ_SEED=${RTU_FUZZ_SEED:-20261204}
-RTU_FUZZ_TARGETS=(scene_file mesh_import ray_file command_processor device_image config texture)
+RTU_FUZZ_TARGETS=(scene_file mesh_import ray_file command_processor device_image config texture point_file)
 rtu_fuzz_max_len() {
   case $1 in
     scene_file | mesh_import) echo 1048576 ;;
@@ -37,6 +37,7 @@ rtu_fuzz_runs() {
     device_image) echo 75000 ;;
     config) echo 7500 ;;
     texture) echo 75000 ;;
+    point_file) echo 10000 ;;
     *) echo 5000 ;;
   esac
 }

@@ -24,19 +24,17 @@ int ray_file(const uint8_t* data, size_t size);           // ray and hit files, 
 int command_processor(const uint8_t* data, size_t size);  // packets and register writes on the model unit
 int device_image(const uint8_t* data, size_t size);       // scene images bound by BIND_SCENE (fixed and float)
 int config(const uint8_t* data, size_t size);             // timing keys (--set), fixed-point format fields
-int texture(const uint8_t* data, size_t size);  // PNG and JPEG textures, then alpha-tested on every device
+int texture(const uint8_t* data, size_t size);     // PNG and JPEG textures, then alpha-tested on every device
+int point_file(const uint8_t* data, size_t size);  // PLY and CSV point files of rtusim query, then queried
 
 struct Target {
   const char* name;
   int (*run)(const uint8_t*, size_t);
 };
-inline constexpr Target kTargets[] = {{"scene_file", scene_file},
-                                      {"mesh_import", mesh_import},
-                                      {"ray_file", ray_file},
-                                      {"command_processor", command_processor},
-                                      {"device_image", device_image},
-                                      {"config", config},
-                                      {"texture", texture}};
+inline constexpr Target kTargets[] = {{"scene_file", scene_file},     {"mesh_import", mesh_import},
+                                      {"ray_file", ray_file},         {"command_processor", command_processor},
+                                      {"device_image", device_image}, {"config", config},
+                                      {"texture", texture},           {"point_file", point_file}};
 
 // Once per process: RTU_MEMORY_LIMIT=256M and RTU_IMPORT_TIMEOUT=10 unless set (inputs asking for more are
 // refused, as on a small machine), and a scratch directory for targets that read files.

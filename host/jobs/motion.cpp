@@ -20,9 +20,14 @@ hw::Vec3 shade(const MotionScene& s, const hw::Ray& r, const hw::Hit& h, float t
   hw::Vec3 color(0.5f);
   for (size_t b = 0; b < s.balls.size(); ++b)
     if (h.prim >= s.balls[b].first && h.prim < s.balls[b].first + s.balls[b].count) color = kColors[b % 9];
-  const hw::Triangle t = s.geometry.triangles[h.prim].at(time);
-  const hw::Vec3 n = glm::normalize(glm::cross(t.v1 - t.v0, t.v2 - t.v0));
-  (void)r;
+  hw::Vec3 n;
+  if (h.prim < s.geometry.triangles.size()) {
+    const hw::Triangle t = s.geometry.triangles[h.prim].at(time);
+    n = glm::normalize(glm::cross(t.v1 - t.v0, t.v2 - t.v0));
+  } else {
+    const hw::Sphere sp = s.geometry.spheres[h.prim - s.geometry.triangles.size()].at(time);
+    n = glm::normalize(r.origin + h.t * r.dir - sp.center);
+  }
   return color * (0.2f + 0.8f * std::abs(glm::dot(n, glm::normalize(hw::Vec3(0.4f, 1.0f, 0.6f)))));
 }
 
@@ -61,6 +66,7 @@ MotionJobResult run_motion_job(const MotionJobOptions& o) {
   const hw::MotionBvh bvh = hw::MotionBvh::build(scene.geometry, bp);
   MotionJobResult r;
   r.triangles = scene.geometry.triangles.size();
+  r.spheres = scene.geometry.spheres.size();
   r.rays = rays.rays.size();
   // Float and fixed frames.
   const hw::MotionFloatTracer flt(scene.geometry, bvh);
@@ -82,6 +88,10 @@ MotionJobResult run_motion_job(const MotionJobOptions& o) {
   for (const hw::MotionTriangle& t : scene.geometry.triangles) {
     const hw::Triangle m = t.at(0.5f);
     frozen.triangles.push_back(hw::MotionTriangle{{m, m}});
+  }
+  for (const hw::MotionSphere& t : scene.geometry.spheres) {
+    const hw::Sphere m = t.at(0.5f);
+    frozen.spheres.push_back(hw::MotionSphere{{m.center, m.center}, {m.radius, m.radius}});
   }
   const hw::MotionBvh frozen_bvh = hw::MotionBvh::build(frozen, bp);
   const hw::MotionImage still = hw::MotionImage::encode(frozen, frozen_bvh, o.format, o.motion);
@@ -131,7 +141,8 @@ Json motion_json(const MotionJobOptions& o, const MotionJobResult& r) {
   j["motion_format"] = o.motion.describe();
   if (builtin) j["motion_scale"] = o.motion_scale;
   j["triangles"] = r.triangles;
-  j["moving_triangles"] = r.moving;
+  j["spheres"] = r.spheres;
+  j["moving_primitives"] = r.moving;
   j["rays"] = r.rays;
   j["fixed_vs_float"] = {
       {"hit_miss_agree", r.hits_agree}, {"both_hit", r.both_hit}, {"same_triangle", r.same_prim}};

@@ -44,8 +44,24 @@ EmbreeMotionScene::EmbreeMotionScene(const hw::MotionGeometry& g, const char* co
       rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), n));
   for (size_t i = 0; i < 3 * n; ++i) idx[i] = unsigned(i);
   rtcCommitGeometry(geom);
-  rtcAttachGeometry(m_scene, geom);
+  rtcAttachGeometryByID(m_scene, geom, 0);
   rtcReleaseGeometry(geom);
+  if (!g.spheres.empty()) {  // geometry 1: sphere points (center, radius) at two time steps
+    RTCGeometry sph = rtcNewGeometry(m_device, RTC_GEOMETRY_TYPE_SPHERE_POINT);
+    rtcSetGeometryTimeStepCount(sph, 2);
+    for (unsigned k = 0; k < 2; ++k) {
+      auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(sph, RTC_BUFFER_TYPE_VERTEX, k, RTC_FORMAT_FLOAT4,
+                                                            4 * sizeof(float), g.spheres.size()));
+      for (size_t i = 0; i < g.spheres.size(); ++i) {
+        for (int a = 0; a < 3; ++a) v[4 * i + size_t(a)] = g.spheres[i].center[k][a];
+        v[4 * i + 3] = g.spheres[i].radius[k];
+      }
+    }
+    rtcCommitGeometry(sph);
+    rtcAttachGeometryByID(m_scene, sph, 1);
+    rtcReleaseGeometry(sph);
+    m_triangles = unsigned(n);
+  }
   rtcSetSceneFlags(m_scene, RTC_SCENE_FLAG_ROBUST);
   rtcCommitScene(m_scene);
 }
@@ -64,6 +80,7 @@ hw::Hit EmbreeMotionScene::intersect(const hw::Ray& r, float time) const {
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(m_scene, &ctx, &rh);
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hw::Hit{};
+  if (rh.hit.geomID == 1) return hw::Hit{rh.ray.tfar, m_triangles + rh.hit.primID, 0.0f, 0.0f};
   return hw::Hit{rh.ray.tfar, rh.hit.primID, rh.hit.u, rh.hit.v};
 }
 

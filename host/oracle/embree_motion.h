@@ -1,6 +1,7 @@
-// Embree 3's motion blur as the oracle of rtu's moving triangles (hwmodel/scene/motion.h): one triangle mesh with
-// two time steps (rtcSetGeometryTimeStepCount), the ray's time in RTCRay::time; Embree interpolates the vertices
-// linearly between the steps, as rtu does. Tests and benchmarks only.
+// Embree 3's motion blur as the oracle of rtu's moving triangles and spheres (hwmodel/scene/motion.h): a triangle
+// mesh and sphere points with two time steps (rtcSetGeometryTimeStepCount), the ray's time in RTCRay::time; Embree
+// interpolates vertices, centers and radii linearly between the steps, as rtu does. Hits in rtu's numbering
+// (triangles, then spheres; a sphere's u, v are 0). Tests and benchmarks only.
 #pragma once
 
 #include <embree3/rtcore.h>
@@ -23,6 +24,7 @@ class EmbreeMotionScene {
  private:
   RTCDevice m_device = nullptr;
   RTCScene m_scene = nullptr;
+  unsigned m_triangles = 0;
 };
 
 }  // namespace rtu::oracle

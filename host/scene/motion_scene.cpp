@@ -100,15 +100,17 @@ MotionScene builtin_motion_scene(int level, float motion_scale) {
 
 MotionScene moving_scene(const Scene& scene, const hw::Vec3& move) {
   const hw::Geometry& g = scene.geometry;
-  if (!g.spheres.empty() || !g.curves.empty() || !g.planes.empty())
-    throw Error(scene.name + ": a moving scene holds triangles only (this one has " +
-                std::to_string(g.spheres.size()) + " spheres, " + std::to_string(g.curves.size()) +
-                " curve segments, " + std::to_string(g.planes.size()) + " planes)");
+  if (!g.curves.empty() || !g.planes.empty())
+    throw Error(scene.name + ": a moving scene holds triangles and spheres only (this one has " +
+                std::to_string(g.curves.size()) + " curve segments, " + std::to_string(g.planes.size()) +
+                " planes)");
   MotionScene s;
   s.camera = scene.camera;
   s.geometry.triangles.reserve(g.triangles.size());
   for (const hw::Triangle& t : g.triangles)
     s.geometry.triangles.push_back(hw::MotionTriangle{{t, hw::Triangle{t.v0 + move, t.v1 + move, t.v2 + move}}});
+  for (const hw::Sphere& p : g.spheres)
+    s.geometry.spheres.push_back(hw::MotionSphere{{p.center, p.center + move}, {p.radius, p.radius}});
   try {
     s.geometry.validate();
   } catch (const std::invalid_argument& e) {

@@ -32,9 +32,9 @@ struct MotionScene {
 // motion_scale (0..1) scales every ball's move and growth between the key frames (1: as listed in the source).
 MotionScene builtin_motion_scene(int level = 4, float motion_scale = 1.0f);
 
-// A loaded scene set in motion: every triangle at key frame 0 as loaded and at key frame 1 moved by `move` (world
-// units), with the scene's camera. Throws Error when the scene holds spheres, curves or planes (moving geometry is
-// triangles only) or when a moved vertex leaves the coordinate range.
+// A loaded scene set in motion: every triangle and sphere at key frame 0 as loaded and at key frame 1 moved by
+// `move` (world units), with the scene's camera. Throws Error when the scene holds curves or planes (moving
+// geometry is triangles and spheres) or when a moved coordinate leaves the range.
 MotionScene moving_scene(const Scene& scene, const hw::Vec3& move);
 
 // Rays of a width x height frame with `samples` per pixel: pixel-center primary rays (primary_rays), pixel by

@@ -60,9 +60,11 @@ MotionImage MotionImage::encode(const MotionGeometry& g, const MotionBvh& bvh, c
   im.child = bvh.child;
   im.prim_ids = bvh.prim_ids;
   const int64_t top = im.frame.grid_max();
-  im.vertices.resize(g.triangles.size() * 18);
-  im.moving.assign(g.triangles.size(), 0);
-  for (size_t i = 0; i < g.triangles.size(); ++i)
+  const int F = f.frac_bits;
+  const size_t nt = g.triangles.size();
+  im.vertices.resize(nt * 18);
+  im.moving.assign(g.num_prims(), 0);
+  for (size_t i = 0; i < nt; ++i)
     for (int k = 0; k < 2; ++k) {
       const Triangle& t = g.triangles[i].key[k];
       const Vec3* v[3] = {&t.v0, &t.v1, &t.v2};
@@ -73,10 +75,22 @@ MotionImage MotionImage::encode(const MotionGeometry& g, const MotionBvh& bvh, c
           im.vertices[i * 18 + size_t(9 * k + 3 * j + a)] = int32_t(q);
         }
     }
-  for (size_t i = 0; i < g.triangles.size(); ++i)
+  for (size_t i = 0; i < nt; ++i)
     for (int j = 0; j < 9; ++j)
       im.moving[i] |= uint8_t(im.vertices[i * 18 + size_t(j)] != im.vertices[i * 18 + 9 + size_t(j)]);
-  // Each slot's boxes: the integer bounds of the grid vertices below it, bottom up (children have larger indices
+  im.spheres.resize(g.spheres.size() * 8);
+  for (size_t i = 0; i < g.spheres.size(); ++i) {
+    for (int k = 0; k < 2; ++k) {
+      const MotionSphere& m = g.spheres[i];
+      int64_t* out = &im.spheres[8 * i + size_t(4 * k)];
+      for (int a = 0; a < 3; ++a) out[a] = im.frame.to_grid(m.center[k][a], a, Round::kNearestEven, F);
+      // As a static sphere's record: grid.F units, rounded up, at least one.
+      out[3] = std::max<int64_t>(1, int64_t(std::ceil(std::ldexp(double(m.radius[k]), F - im.frame.step_exp))));
+    }
+    for (int j = 0; j < 4; ++j)
+      im.moving[nt + i] |= uint8_t(im.spheres[8 * i + size_t(j)] != im.spheres[8 * i + 4 + size_t(j)]);
+  }
+  // Each slot's boxes: the integer bounds of the primitives below it, bottom up (children have larger indices
   // than their parent in the builder's order, so a reverse sweep sees every child first).
   const size_t slots = bvh.child.size(), W = size_t(bvh.width);
   im.boxes.assign(slots * 12, 0);
@@ -87,13 +101,25 @@ MotionImage MotionImage::encode(const MotionGeometry& g, const MotionBvh& bvh, c
         out[6 * k + 3 + a] = INT32_MIN;
       }
     for (uint32_t i = leaf_first(ref); i < leaf_first(ref) + leaf_count(ref); ++i) {
-      const int32_t* v = &im.vertices[size_t(im.prim_ids[i]) * 18];
-      for (int k = 0; k < 2; ++k)
-        for (int j = 0; j < 3; ++j)
-          for (int a = 0; a < 3; ++a) {
-            out[6 * k + a] = std::min(out[6 * k + a], v[9 * k + 3 * j + a]);
-            out[6 * k + 3 + a] = std::max(out[6 * k + 3 + a], v[9 * k + 3 * j + a]);
-          }
+      const uint32_t p = im.prim_ids[i];
+      for (int k = 0; k < 2; ++k) {
+        if (p < nt) {
+          const int32_t* v = &im.vertices[size_t(p) * 18 + size_t(9 * k)];
+          for (int j = 0; j < 3; ++j)
+            for (int a = 0; a < 3; ++a) {
+              out[6 * k + a] = std::min(out[6 * k + a], v[3 * j + a]);
+              out[6 * k + 3 + a] = std::max(out[6 * k + 3 + a], v[3 * j + a]);
+            }
+          continue;
+        }
+        const int64_t* sp = &im.spheres[8 * size_t(p - nt) + size_t(4 * k)];
+        for (int a = 0; a < 3; ++a) {
+          // Within a step of the frame (the slack may pass its edge): int32 holds it.
+          const int64_t lo = floor_shift(sp[a] - sp[3] - 2, F), hi = ceil_shift(sp[a] + sp[3] + 2, F);
+          out[6 * k + a] = std::min(out[6 * k + a], int32_t(lo));
+          out[6 * k + 3 + a] = std::max(out[6 * k + 3 + a], int32_t(hi));
+        }
+      }
     }
   };
   for (size_t node = slots / W; node-- > 0;) {
@@ -181,7 +207,12 @@ struct MotionFloatPolicy {
       ++s.prim_tests;
       const uint32_t p = b.prim_ids[i];
       PrimHit h;
-      if (!intersect_triangle(g.triangles[p].at(time), rp, tmin, c.tmax, h)) continue;
+      const bool hit =
+          p < g.triangles.size() ? intersect_triangle(g.triangles[p].at(time), rp, tmin, c.tmax, h) : [&] {
+            const Sphere sp = g.spheres[p - g.triangles.size()].at(time);
+            return intersect_sphere(sp.center, sp.radius, rp, tmin, c.tmax, h);
+          }();
+      if (!hit) continue;
       c = FloatClosest{h.t, p, h.u, h.v};
       found = true;
       if (any_hit) return true;
@@ -198,6 +229,17 @@ struct FixedClosest {
   uint32_t prim = kMissPrim;
   float u = 0.0f, v = 0.0f;
 };
+
+// Primitive p of the image at time register tq: a triangle's grid vertices or a sphere's record interpolated.
+bool test_prim(const MotionImage& im, uint32_t p, const FixedRay& r, uint32_t tq, int64_t tlim, FixedPrimHit& h) {
+  const uint32_t nt = im.triangles();
+  if (p < nt) {
+    int32_t v[3][3];
+    motion_vertices(&im.vertices[size_t(p) * 18], tq, im.motion.time_bits, v);
+    return triangle_test(r, v, r.tmin, tlim, h);
+  }
+  return sphere_test(r, motion_sphere(&im.spheres[8 * size_t(p - nt)], tq, im.motion.time_bits), r.tmin, tlim, h);
+}
 
 template <int N>
 struct MotionFixedPolicy {
@@ -242,14 +284,14 @@ struct MotionFixedPolicy {
     for (uint32_t i = leaf_first(ref); i < leaf_first(ref) + leaf_count(ref); ++i) {
       ++s.prim_tests;
       const uint32_t p = im.prim_ids[i];
+      const uint32_t nt = im.triangles();
       if (rec) {
-        rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(RecordKind::kTriangle), 0, 0, i});
+        rec->push_back(
+            TraceEvent{TraceEvent::kPrim, uint8_t(p < nt ? RecordKind::kTriangle : RecordKind::kSphere), 0, 0, i});
         if (shader && im.moving[p]) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, i});
       }
-      int32_t v[3][3];
-      motion_vertices(&im.vertices[size_t(p) * 18], tq, im.motion.time_bits, v);
       FixedPrimHit h;
-      if (!triangle_test(r, v, r.tmin, c.t, h)) continue;
+      if (!test_prim(im, p, r, tq, c.t, h)) continue;
       c = FixedClosest{h.t, p, h.u, h.v};
       found = true;
       if (any_hit) return true;
@@ -369,11 +411,9 @@ Hit MotionFixedTracer::trace_all(const Ray& r, float time) const {
     return Hit{};
   const uint32_t tq = quantize_time(time, m_image.motion.time_bits);
   FixedClosest c{fr.tmax};
-  for (uint32_t p = 0; p < m_image.vertices.size() / 18; ++p) {
-    int32_t v[3][3];
-    motion_vertices(&m_image.vertices[size_t(p) * 18], tq, m_image.motion.time_bits, v);
+  for (uint32_t p = 0; p < m_image.moving.size(); ++p) {
     FixedPrimHit h;
-    if (triangle_test(fr, v, fr.tmin, c.t, h) && (h.t < c.t || c.prim == kMissPrim))
+    if (test_prim(m_image, p, fr, tq, c.t, h) && (h.t < c.t || c.prim == kMissPrim))
       c = FixedClosest{h.t, p, h.u, h.v};
   }
   if (c.prim == kMissPrim) return Hit{};

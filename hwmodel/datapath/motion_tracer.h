@@ -14,6 +14,7 @@
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/intersect_fixed.h"
 #include "hwmodel/datapath/stats.h"
+#include "hwmodel/format/prim_sphere.h"
 #include "hwmodel/format/quant_frame.h"
 #include "hwmodel/interface/ray.h"
 #include "hwmodel/numeric/fixed_format.h"
@@ -62,6 +63,17 @@ inline void motion_vertices(const int32_t key[18], uint32_t tq, int time_bits, i
     }
 }
 
+// A sphere's record at time register tq: center c0 + round((c1 - c0) tq / 2^time_bits) (nearest, ties up) and
+// radius r0 + ceil((r1 - r0) tq / 2^time_bits), in grid.F units. key: center xyz and radius at key frame 0,
+// then 1.
+inline SphereRecord motion_sphere(const int64_t key[8], uint32_t tq, int time_bits) {
+  SphereRecord s{};
+  const int64_t half = int64_t(1) << (time_bits - 1);
+  for (int a = 0; a < 3; ++a) s.center[a] = key[a] + (((key[4 + a] - key[a]) * int64_t(tq) + half) >> time_bits);
+  s.radius = key[3] - ((-(key[7] - key[3]) * int64_t(tq)) >> time_bits);
+  return s;
+}
+
 // The fixed-point image of a moving scene: the frame over both key frames, grid vertices and grid boxes at both.
 struct MotionImage {
   FixedFormat format;
@@ -73,10 +85,14 @@ struct MotionImage {
   std::vector<int32_t> boxes;      // 12 per child slot (motion_box's key)
   std::vector<uint32_t> prim_ids;  // leaf order -> triangle index
   std::vector<int32_t> vertices;   // 18 per triangle (motion_vertices' key)
-  std::vector<uint8_t> moving;     // per triangle: 1 when its grid vertices differ between the key frames
+  std::vector<int64_t> spheres;    // 8 per sphere (motion_sphere's key): center to nearest, radius up, grid.F
+  std::vector<uint8_t> moving;     // per primitive: 1 when its grid key frames differ
+  uint32_t triangles() const { return uint32_t(vertices.size() / 18); }
 
   // Vertices rounded to the nearest grid point; each box the integer bounds of its primitives' grid vertices at
-  // that key frame. Throws std::invalid_argument for an invalid format or a scene the frame cannot hold.
+  // that key frame, a sphere's box its grid center -+ (radius + 2 grid.F units: the slack of its interpolation's
+  // roundings, docs/numerics.md "Motion blur"). Throws std::invalid_argument for an invalid format or a scene the
+  // frame cannot hold.
   static MotionImage encode(const MotionGeometry& g, const MotionBvh& bvh, const FixedFormat& f,
                             const MotionFormat& m);
   uint64_t node_count() const { return child.size() / uint64_t(width); }

@@ -10,6 +10,7 @@ Geometry MotionGeometry::at(float time) const {
   Geometry g;
   g.triangles.reserve(triangles.size());
   for (const MotionTriangle& t : triangles) g.triangles.push_back(t.at(time));
+  for (const MotionSphere& s : spheres) g.spheres.push_back(s.at(time));
   return g;
 }
 
@@ -24,6 +25,12 @@ void MotionGeometry::validate() const {
       if (bad(t.v0) || bad(t.v1) || bad(t.v2))
         throw std::invalid_argument("moving triangle " + std::to_string(i) +
                                     ": a key-frame vertex is not finite or beyond 2^62");
+  for (size_t i = 0; i < spheres.size(); ++i)
+    for (int k = 0; k < 2; ++k)
+      if (bad(spheres[i].center[k]) || !(spheres[i].radius[k] > 0.0f && spheres[i].radius[k] <= kMaxCoordinate))
+        throw std::invalid_argument(
+            "moving sphere " + std::to_string(i) +
+            ": a key-frame center is not finite or beyond 2^62, or a radius not in (0, 2^62]");
 }
 
 namespace {
@@ -40,7 +47,7 @@ void key_boxes(const WideBvh<N>& t, const MotionGeometry& g, uint32_t node, Moti
     Aabb box[2];
     if (is_leaf(ref)) {
       for (uint32_t i = leaf_first(ref); i < leaf_first(ref) + leaf_count(ref); ++i)
-        for (int k = 0; k < 2; ++k) box[k].extend(g.triangles[t.prim_ids[i]].key[k].bounds());
+        for (int k = 0; k < 2; ++k) box[k].extend(g.key_bounds(t.prim_ids[i], k));
     } else {
       key_boxes(t, g, ref, out, box);
     }
@@ -54,11 +61,12 @@ void key_boxes(const WideBvh<N>& t, const MotionGeometry& g, uint32_t node, Moti
 }  // namespace
 
 MotionBvh MotionBvh::build(const MotionGeometry& g, const BvhBuildParams& params) {
-  if (g.triangles.empty()) throw std::invalid_argument("a moving scene needs at least one triangle");
+  if (g.num_prims() == 0) throw std::invalid_argument("a moving scene needs at least one primitive");
   g.validate();
   std::vector<Aabb> swept;
-  swept.reserve(g.triangles.size());
+  swept.reserve(g.num_prims());
   for (const MotionTriangle& t : g.triangles) swept.push_back(t.swept_bounds());
+  for (const MotionSphere& s : g.spheres) swept.push_back(s.swept_bounds());
   const Bvh topology = Bvh::build(swept, params);
   MotionBvh m;
   topology.visit([&](const auto& t) {
@@ -72,7 +80,7 @@ MotionBvh MotionBvh::build(const MotionGeometry& g, const BvhBuildParams& params
       key_boxes(t, g, 0, m, m.key_bounds);
     } else {
       for (uint32_t i = 0; i < leaf_count(t.root_ref); ++i)
-        for (int k = 0; k < 2; ++k) m.key_bounds[k].extend(g.triangles[m.prim_ids[i]].key[k].bounds());
+        for (int k = 0; k < 2; ++k) m.key_bounds[k].extend(g.key_bounds(m.prim_ids[i], k));
     }
   });
   return m;

@@ -4,6 +4,7 @@
 // interpolation, which contains every primitive below it at that time (docs/numerics.md, "Motion blur").
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -40,13 +41,48 @@ struct MotionTriangle {
   }
 };
 
-// A moving scene: its triangles are primitives 0 .. n-1. A static triangle has key[0] == key[1].
+// A sphere whose center and radius move linearly between the key frames (Embree's moving sphere points).
+struct MotionSphere {
+  Vec3 center[2];
+  float radius[2];  // > 0 at both key frames
+
+  Sphere at(float time) const {
+    return Sphere{lerp_point(center[0], center[1], time),
+                  float((1.0 - double(time)) * double(radius[0]) + double(time) * double(radius[1]))};
+  }
+  // center -+ radius in double, rounded outward to floats (a float sum rounded to nearest could cut into the
+  // sphere by half an ulp, and a ray leaving the sphere there would miss its box).
+  Aabb key_bounds(int k) const {
+    Aabb b;
+    for (int a = 0; a < 3; ++a) {
+      const double lo = double(center[k][a]) - double(radius[k]), hi = double(center[k][a]) + double(radius[k]);
+      b.lo[a] = float(lo);
+      if (double(b.lo[a]) > lo) b.lo[a] = std::nextafter(b.lo[a], -INFINITY);
+      b.hi[a] = float(hi);
+      if (double(b.hi[a]) < hi) b.hi[a] = std::nextafter(b.hi[a], INFINITY);
+    }
+    return b;
+  }
+  Aabb swept_bounds() const {
+    Aabb b = key_bounds(0);
+    b.extend(key_bounds(1));
+    return b;
+  }
+};
+
+// A moving scene: triangles are primitives 0 .. n-1, spheres n .. n+m-1. A static primitive has equal key frames.
 struct MotionGeometry {
   std::vector<MotionTriangle> triangles;
+  std::vector<MotionSphere> spheres;
+  uint32_t num_prims() const { return uint32_t(triangles.size() + spheres.size()); }
+  // Primitive p's box at key frame k, and over the whole shutter.
+  Aabb key_bounds(uint32_t p, int k) const {
+    return p < triangles.size() ? triangles[p].key[k].bounds() : spheres[p - triangles.size()].key_bounds(k);
+  }
   // The scene at one shutter time, as static geometry (for a static frame beside the moving one).
   Geometry at(float time) const;
-  // Throws std::invalid_argument naming the first triangle with a coordinate that is not finite or beyond
-  // kMaxCoordinate.
+  // Throws std::invalid_argument naming the first triangle or sphere with a coordinate that is not finite or
+  // beyond kMaxCoordinate, or a sphere whose radius is not positive.
   void validate() const;
 };
 
@@ -61,7 +97,7 @@ struct MotionBvh {
   Aabb key_bounds[2];              // the whole scene at each key frame
   uint64_t nodes() const { return child.size() / uint64_t(width); }
 
-  // Throws std::invalid_argument for an empty scene or bad parameters.
+  // Throws std::invalid_argument for an empty scene, an invalid one (validate) or bad parameters.
   static MotionBvh build(const MotionGeometry& g, const BvhBuildParams& params = {});
 };
 

@@ -43,7 +43,7 @@ TimingModel::Layout motion_layout(const MotionImage& im, MotionUnit u) {
   uint64_t at = l.record_offset;
   l.record_spans.reserve(im.prim_ids.size());
   for (const uint32_t p : im.prim_ids) {
-    const uint32_t bytes = u == MotionUnit::kTimeAware && im.moving[p] ? 76u : 40u;
+    const uint32_t bytes = u == MotionUnit::kTimeAware && im.moving[p] ? (p < im.triangles() ? 76u : 72u) : 40u;
     l.record_spans.push_back(DeviceImage::Span{at, bytes});
     at += bytes;
   }

@@ -290,8 +290,8 @@ def test_motion_equals_the_cli(tmp_path):
     assert [d["unit"] for d in j["designs"]] == ["static", "time-aware", "time-oblivious"]
     # A loaded scene of triangles, set in motion.
     _, _, c = rtu.motion("builtin:cornell", move=(0.2, 0, 0), width=16, height=12, samples=1)
-    assert c["moving_triangles"] == c["triangles"] > 0
-    with pytest.raises(rtu.Error, match="triangles only"):
+    assert c["moving_primitives"] == c["triangles"] > 0
+    with pytest.raises(rtu.Error, match="triangles and spheres only"):
         rtu.motion(SEED, move=(1, 0, 0), width=8, height=6)
     with pytest.raises(rtu.Error, match="scene only"):
         rtu.motion(move=(1, 0, 0))

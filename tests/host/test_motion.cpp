@@ -231,7 +231,7 @@ TEST_CASE("motion: shutter times outside [0, 1] are refused, and NaN rays and ti
   hw::MotionGeometry nan_scene = scene.geometry;
   nan_scene.triangles[3].key[1].v2.y = NAN;
   CHECK_THROWS_WITH(hw::MotionBvh::build(nan_scene), Catch::Contains("moving triangle 3"));
-  CHECK_THROWS_WITH(hw::MotionBvh::build(hw::MotionGeometry{}), Catch::Contains("at least one triangle"));
+  CHECK_THROWS_WITH(hw::MotionBvh::build(hw::MotionGeometry{}), Catch::Contains("at least one primitive"));
 }
 
 TEST_CASE("motion: timing never changes a hit, and each unit is priced as it is built", "[motion][timing]") {
@@ -295,7 +295,8 @@ TEST_CASE("rtusim motion: images, figures and refusals", "[motion][cli]") {
                        {"motion --set nosuchkey=1", "nosuchkey"},
                        {"motion --move 1 0 0", "--scene only"},
                        {"motion --scene builtin:cornell --move 1 0 0 --motion-scale 0.5", "built-in scene only"},
-                       {"motion --scene builtin:seed --move 1 0 0", "triangles only (this one has 2 spheres"},
+                       {"motion --scene builtin:seed --move 1 0 0",
+                        "triangles and spheres only (this one has 0 curve segments, 1 planes)"},
                        {"motion --scene builtin:cornell --move 1e38 0 0", "not finite or beyond 2^62"}});
   // A loaded scene set in motion: its triangles, all moving; a move of 0 costs the time-aware unit only its larger
   // nodes and latency, and the time-oblivious unit a shader call per triangle it tests.
@@ -303,6 +304,82 @@ TEST_CASE("rtusim motion: images, figures and refusals", "[motion][cli]") {
   REQUIRE(test::run_rtusim("motion --scene builtin:cornell --move 0.2 0 0 --width 32 --height 24 --json " + j2)
               .status == 0);
   const nlohmann::json c = test::read_json(j2);
-  CHECK(c["triangles"] == c["moving_triangles"]);
+  CHECK(c["triangles"] == c["moving_primitives"]);
   CHECK(c["designs"][2]["shader_calls"] == c["designs"][2]["triangle_tests"]);
+}
+
+namespace {
+
+// 400 spheres of radii 0.05-0.5 in a 20-unit cube, a third still, the rest moving up to 3 units and some changing
+// radius; a floor of two triangles below them (no sphere reaches it).
+hw::MotionGeometry sphere_scene(uint64_t seed) {
+  hw::Pcg32 rng(seed);
+  hw::MotionGeometry g;
+  const auto v3 = [&](float s) { return hw::Vec3(rng.next_float(), rng.next_float(), rng.next_float()) * s; };
+  for (int i = 0; i < 400; ++i) {
+    hw::MotionSphere s;
+    s.center[0] = v3(20.0f) - hw::Vec3(10.0f);
+    s.center[1] = i % 3 == 0 ? s.center[0] : s.center[0] + v3(6.0f) - hw::Vec3(3.0f);
+    s.radius[0] = 0.05f + 0.45f * rng.next_float();
+    s.radius[1] = i % 4 == 0 ? 0.05f + 0.45f * rng.next_float() : s.radius[0];
+    g.spheres.push_back(s);
+  }
+  const hw::Vec3 f[4] = {{-15, -14, -15}, {15, -14, -15}, {15, -14, 15}, {-15, -14, 15}};
+  for (const hw::Triangle& t : {hw::Triangle{f[0], f[1], f[2]}, hw::Triangle{f[0], f[2], f[3]}})
+    g.triangles.push_back(hw::MotionTriangle{{t, t}});
+  return g;
+}
+
+}  // namespace
+
+TEST_CASE("motion: moving spheres lose no hit and do not leak, at any box time bits", "[motion][fixed]") {
+  const hw::MotionGeometry g = sphere_scene(4);
+  const hw::MotionBvh bvh = hw::MotionBvh::build(g);
+  const host::MotionRays rays = random_motion_rays(g, 4000, 19);
+  for (const MotionFormat m :
+       {MotionFormat{16, 0}, MotionFormat{16, 4}, MotionFormat{16, 16}, MotionFormat{3, 1}}) {
+    for (const char* spec : {"default", "compact"}) {
+      const hw::MotionImage img = hw::MotionImage::encode(g, bvh, hw::format_from_spec(spec), m);
+      const hw::MotionFixedTracer tracer(img, true);
+      std::vector<hw::Hit> hits;
+      hw::TraversalStats s;
+      tracer.trace_batch(rays.rays, rays.times, hits, false, 1, s);
+      size_t sphere_hits = 0;
+      for (size_t i = 0; i < hits.size(); ++i) {
+        const hw::Hit want = tracer.trace_all(rays.rays[i], rays.times[i]);
+        INFO(spec << " " << m.describe() << " ray " << i);
+        REQUIRE(hits[i].hit() == want.hit());
+        if (want.hit()) REQUIRE(hits[i].t == want.t);
+        sphere_hits += want.hit() && want.prim >= 2;
+      }
+      CHECK(sphere_hits > 200);
+      CHECK(s.box_false_negatives == 0);
+    }
+  }
+  // From the center of each sphere at a random time, every ray leaves through that sphere: fixed and float.
+  const hw::MotionImage img = hw::MotionImage::encode(g, bvh, hw::format_preset("default"), {});
+  const hw::MotionFixedTracer fixed(img);
+  const hw::MotionFloatTracer flt(g, bvh);
+  hw::Pcg32 rng(8);
+  uint64_t leaks = 0, inside_other = 0;
+  for (uint32_t k = 0; k < g.spheres.size(); ++k)
+    for (int i = 0; i < 50; ++i) {
+      const float time = i == 0 ? 0.0f : i == 1 ? 1.0f : rng.next_float();
+      const hw::Sphere s = g.spheres[k].at(time);
+      const hw::Vec3 d(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f);
+      const hw::Ray ray{s.center, 0.0f, d, INFINITY};
+      hw::TraversalStats st;
+      for (const hw::Hit& h : {fixed.trace(ray, time, false, st), flt.trace(ray, time, false, st)}) {
+        if (!h.hit() || h.prim < 2) {  // a miss, or the floor: out of the sphere
+          ++leaks;
+        } else if (h.prim != 2 + k) {
+          // Another sphere met first: only if it overlaps this one at that time (the spheres may intersect).
+          const hw::Sphere o = g.spheres[h.prim - 2].at(time);
+          inside_other += glm::length(o.center - s.center) < o.radius + s.radius + 1e-3f;
+          leaks += !(glm::length(o.center - s.center) < o.radius + s.radius + 1e-3f);
+        }
+      }
+    }
+  INFO(inside_other << " rays met an overlapping sphere first");
+  CHECK(leaks == 0);
 }

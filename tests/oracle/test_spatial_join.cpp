@@ -12,6 +12,7 @@
 #include <cmath>
 #include <vector>
 
+#include "hwmodel/datapath/box_index.h"
 #include "hwmodel/datapath/spatial_join.h"
 #include "hwmodel/numeric/rng.h"
 
@@ -141,4 +142,50 @@ TEST_CASE("spatial join: point in polygon equals CGAL's, boundaries and vertex l
   CHECK_THROWS_WITH(hw::segment_join({Segment2{{0, 0}, {NAN, 1}}}, {Segment2{{0, 0}, {1, 1}}},
                                      hw::format_preset("default"), 1, s),
                     Catch::Contains("segment 0"));
+}
+
+TEST_CASE("box overlap: every indexed box a query box meets, and only candidates that can meet",
+          "[queries][join]") {
+  hw::Pcg32 rng(11);
+  const auto box = [&](float size) {
+    const hw::Vec3 c = hw::Vec3(rng.next_float(), rng.next_float(), rng.next_float()) * 50.0f;
+    const hw::Vec3 e = hw::Vec3(rng.next_float(), rng.next_float(), rng.next_float()) * size;
+    // Some boxes flat on an axis, some sharing a face with a lattice plane.
+    hw::Aabb b{c - e, c + e};
+    if (rng.next_u32() % 4 == 0) b.hi.y = b.lo.y;
+    if (rng.next_u32() % 4 == 0) b.lo.x = std::floor(b.lo.x), b.hi.x = std::floor(b.hi.x) + 1.0f;
+    return b;
+  };
+  std::vector<hw::Aabb> boxes, queries;
+  for (int i = 0; i < 5000; ++i) boxes.push_back(box(2.0f));
+  for (int i = 0; i < 2000; ++i) queries.push_back(box(4.0f));
+  for (int i = 0; i < 200; ++i) queries.push_back(boxes[size_t(i) * 7]);  // exactly an indexed box
+  const auto meet = [](const hw::Aabb& a, const hw::Aabb& b) {
+    for (int k = 0; k < 3; ++k)
+      if (a.lo[k] > b.hi[k] || b.lo[k] > a.hi[k]) return false;
+    return true;
+  };
+  for (const char* spec : {"default", "default:coord_bits=8"}) {
+    const hw::BoxIndex index(boxes, hw::format_from_spec(spec));
+    hw::QueryStats s;
+    uint64_t found = 0;
+    for (const hw::Aabb& q : queries) {
+      std::vector<uint32_t> got;
+      index.box_candidates(
+          q,
+          [&](uint32_t i) {
+            if (meet(boxes[i], q)) got.push_back(i);
+          },
+          s, nullptr);
+      std::sort(got.begin(), got.end());
+      std::vector<uint32_t> want;
+      for (uint32_t i = 0; i < boxes.size(); ++i)
+        if (meet(boxes[i], q)) want.push_back(i);
+      REQUIRE(got == want);
+      found += want.size();
+    }
+    INFO(spec << ": " << found << " overlaps, " << s.candidates << " candidates");
+    CHECK(found > queries.size());
+    CHECK(s.candidates < 2 * found + queries.size() * 2);  // the grid rounding adds few candidates
+  }
 }

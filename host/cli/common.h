@@ -105,5 +105,6 @@ void add_config(CLI::App& app);
 void add_soak(CLI::App& app);
 void add_motion(CLI::App& app);
 void add_query(CLI::App& app);
+void add_join(CLI::App& app);
 
 }  // namespace rtu::host::cli

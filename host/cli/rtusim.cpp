@@ -40,7 +40,8 @@ int main(int argc, char** argv) {
   // The subcommands, in the order --help lists them.
   for (void (*add)(CLI::App&) : {cli::add_info, cli::add_rays, cli::add_trace, cli::add_compare, cli::add_stress,
                                  cli::add_render, cli::add_diff, cli::add_config, cli::add_demo, cli::add_sweep,
-                                 cli::add_plan, cli::add_report, cli::add_soak, cli::add_motion, cli::add_query})
+                                 cli::add_plan, cli::add_report, cli::add_soak, cli::add_motion, cli::add_query,
+                                 cli::add_join})
     add(app);
   refuse_nan(app);
   try {

@@ -56,6 +56,7 @@ class PointIndex {
   int width() const { return m_index.width(); }
   uint64_t inner_nodes() const { return m_index.inner_nodes(); }
   uint64_t leaves() const { return m_index.leaves(); }
+  const BoxIndex& index() const { return m_index; }
 
  private:
   std::vector<Vec3> m_points;

@@ -87,34 +87,109 @@ bool exact_segments_meet(const Segment2& s, const Segment2& t) {
          (o4 == 0 && in_box(t, s.b));
 }
 
+namespace {
+
+std::vector<Aabb> segment_boxes(const std::vector<Segment2>& segs, const char* what) {
+  if (segs.empty()) throw std::invalid_argument(std::string("no ") + what + "s");
+  std::vector<Aabb> boxes(segs.size());
+  for (size_t i = 0; i < segs.size(); ++i) {
+    check_point(segs[i].a, what, i);
+    check_point(segs[i].b, what, i);
+    boxes[i] = box_of(segs[i]);
+  }
+  return boxes;
+}
+
+// The polygons' edges, and each edge's polygon.
+std::vector<Segment2> polygon_edges(const std::vector<Polygon2>& polygons, std::vector<uint32_t>& owner) {
+  if (polygons.empty()) throw std::invalid_argument("point in polygon needs at least one polygon");
+  std::vector<Segment2> edges;
+  for (size_t k = 0; k < polygons.size(); ++k) {
+    const Polygon2& p = polygons[k];
+    if (p.size() < 3) throw std::invalid_argument("polygon " + std::to_string(k) + " has fewer than 3 vertices");
+    for (size_t v = 0; v < p.size(); ++v) {
+      check_point(p[v], "polygon vertex of polygon", k);
+      edges.push_back(Segment2{p[v], p[(v + 1) % p.size()]});
+      owner.push_back(uint32_t(k));
+    }
+  }
+  return edges;
+}
+
+}  // namespace
+
+SegmentIndex::SegmentIndex(std::vector<Segment2> segments, const FixedFormat& f, const Aabb& frame)
+    : m_segments(std::move(segments)), m_index(segment_boxes(m_segments, "segment"), f, frame) {}
+
+std::vector<uint32_t> SegmentIndex::probe(const Segment2& b, QueryStats& s, std::vector<TraceEvent>* rec) const {
+  check_point(b.a, "probe segment", 0);
+  check_point(b.b, "probe segment", 0);
+  ++s.queries;
+  std::vector<uint32_t> out;
+  m_index.box_candidates(
+      box_of(b),
+      [&](uint32_t i) {
+        if (rec) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, i});
+        if (exact_segments_meet(m_segments[i], b)) out.push_back(i);
+      },
+      s, rec);
+  std::sort(out.begin(), out.end());
+  s.results += out.size();
+  return out;
+}
+
+PolygonIndex::PolygonIndex(const std::vector<Polygon2>& polygons, const FixedFormat& f, const Aabb& frame)
+    : m_edges(polygon_edges(polygons, m_owner)), m_index(segment_boxes(m_edges, "polygon edge"), f, frame) {}
+
+std::vector<uint32_t> PolygonIndex::probe(const Point2& q, QueryStats& s, std::vector<TraceEvent>* rec) const {
+  check_point(q, "point", 0);
+  ++s.queries;
+  std::vector<uint32_t> in;
+  FixedRay r;
+  if (m_index.setup(Ray{Vec3(q.x, q.y, 0.0f), 0.0f, Vec3(1.0f, 0.0f, 0.0f), INFINITY}, r) != RayStatus::kOk)
+    return in;
+  // Crossings per polygon (parity), and polygons whose boundary holds q.
+  std::vector<uint32_t> crossed, boundary;
+  m_index.ray_candidates(
+      r,
+      [&](uint32_t i) {
+        if (rec) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, i});
+        const Segment2& e = m_edges[i];
+        const int o = exact_orient2d(e.a, e.b, q);
+        if (o == 0 && in_box(e, q)) {
+          boundary.push_back(m_owner[i]);
+          return;
+        }
+        // Half-open: the edge counts when exactly one end lies above q's line; it crosses the +x half-line when
+        // q lies on the side of the edge that faces -x (left of an upward edge, right of a downward one).
+        const bool up = e.b.y > q.y, was_up = e.a.y > q.y;
+        if (up == was_up) return;
+        if (up ? o > 0 : o < 0) crossed.push_back(m_owner[i]);
+      },
+      s, rec);
+  std::sort(crossed.begin(), crossed.end());
+  for (size_t a = 0; a < crossed.size();) {
+    size_t b = a;
+    while (b < crossed.size() && crossed[b] == crossed[a]) ++b;
+    if ((b - a) % 2 == 1) in.push_back(crossed[a]);
+    a = b;
+  }
+  in.insert(in.end(), boundary.begin(), boundary.end());
+  std::sort(in.begin(), in.end());
+  in.erase(std::unique(in.begin(), in.end()), in.end());
+  s.results += in.size();
+  return in;
+}
+
 std::vector<std::pair<uint32_t, uint32_t>> segment_join(const std::vector<Segment2>& A,
                                                         const std::vector<Segment2>& B, const FixedFormat& f,
                                                         int threads, QueryStats& s) {
-  if (A.empty() || B.empty()) throw std::invalid_argument("a segment join needs segments on both sides");
-  std::vector<Aabb> boxes(A.size());
-  for (size_t i = 0; i < A.size(); ++i) {
-    check_point(A[i].a, "segment", i);
-    check_point(A[i].b, "segment", i);
-    boxes[i] = box_of(A[i]);
-  }
+  const std::vector<Aabb> probes = segment_boxes(B, "probe segment");
   Aabb frame;
-  for (size_t j = 0; j < B.size(); ++j) {
-    check_point(B[j].a, "probe segment", j);
-    check_point(B[j].b, "probe segment", j);
-    frame.extend(box_of(B[j]));
-  }
-  const BoxIndex index(boxes, f, frame);
+  for (const Aabb& b : probes) frame.extend(b);
+  const SegmentIndex index(A, f, frame);
   std::vector<std::vector<uint32_t>> hits(B.size());
-  for_chunks(B.size(), threads, s, [&](size_t j, QueryStats& st) {
-    ++st.queries;
-    index.box_candidates(
-        box_of(B[j]),
-        [&](uint32_t i) {
-          if (exact_segments_meet(A[i], B[j])) hits[j].push_back(i);
-        },
-        st, nullptr);
-    st.results += hits[j].size();
-  });
+  for_chunks(B.size(), threads, s, [&](size_t j, QueryStats& st) { hits[j] = index.probe(B[j], st); });
   std::vector<std::pair<uint32_t, uint32_t>> out;
   for (size_t j = 0; j < B.size(); ++j)
     for (uint32_t i : hits[j]) out.emplace_back(i, uint32_t(j));
@@ -125,64 +200,14 @@ std::vector<std::pair<uint32_t, uint32_t>> segment_join(const std::vector<Segmen
 std::vector<std::vector<uint32_t>> point_in_polygons(const std::vector<Polygon2>& polygons,
                                                      const std::vector<Point2>& points, const FixedFormat& f,
                                                      int threads, QueryStats& s) {
-  if (polygons.empty()) throw std::invalid_argument("point in polygon needs at least one polygon");
-  std::vector<Segment2> edges;
-  std::vector<uint32_t> owner;
-  for (size_t k = 0; k < polygons.size(); ++k) {
-    const Polygon2& p = polygons[k];
-    if (p.size() < 3) throw std::invalid_argument("polygon " + std::to_string(k) + " has fewer than 3 vertices");
-    for (size_t v = 0; v < p.size(); ++v) {
-      check_point(p[v], "polygon vertex of polygon", k);
-      edges.push_back(Segment2{p[v], p[(v + 1) % p.size()]});
-      owner.push_back(uint32_t(k));
-    }
-  }
-  std::vector<Aabb> boxes(edges.size());
-  for (size_t i = 0; i < edges.size(); ++i) boxes[i] = box_of(edges[i]);
   Aabb frame;
   for (size_t j = 0; j < points.size(); ++j) {
     check_point(points[j], "point", j);
     frame.extend(Vec3(points[j].x, points[j].y, 0.0f));
   }
-  const BoxIndex index(boxes, f, frame);
+  const PolygonIndex index(polygons, f, frame);
   std::vector<std::vector<uint32_t>> out(points.size());
-  for_chunks(points.size(), threads, s, [&](size_t j, QueryStats& st) {
-    ++st.queries;
-    const Point2 q = points[j];
-    FixedRay r;
-    if (index.setup(Ray{Vec3(q.x, q.y, 0.0f), 0.0f, Vec3(1.0f, 0.0f, 0.0f), INFINITY}, r) != RayStatus::kOk)
-      return;
-    // Crossings per polygon (parity), and polygons whose boundary holds q.
-    std::vector<uint32_t> crossed, boundary;
-    index.ray_candidates(
-        r,
-        [&](uint32_t i) {
-          const Segment2& e = edges[i];
-          const int o = exact_orient2d(e.a, e.b, q);
-          if (o == 0 && in_box(e, q)) {
-            boundary.push_back(owner[i]);
-            return;
-          }
-          // Half-open: the edge counts when exactly one end lies above q's line; it crosses the +x half-line
-          // when q lies on the side of the edge that faces -x (left of an upward edge, right of a downward one).
-          const bool up = e.b.y > q.y, was_up = e.a.y > q.y;
-          if (up == was_up) return;
-          if (up ? o > 0 : o < 0) crossed.push_back(owner[i]);
-        },
-        st, nullptr);
-    std::sort(crossed.begin(), crossed.end());
-    std::vector<uint32_t>& in = out[j];
-    for (size_t a = 0; a < crossed.size();) {
-      size_t b = a;
-      while (b < crossed.size() && crossed[b] == crossed[a]) ++b;
-      if ((b - a) % 2 == 1) in.push_back(crossed[a]);
-      a = b;
-    }
-    in.insert(in.end(), boundary.begin(), boundary.end());
-    std::sort(in.begin(), in.end());
-    in.erase(std::unique(in.begin(), in.end()), in.end());
-    st.results += in.size();
-  });
+  for_chunks(points.size(), threads, s, [&](size_t j, QueryStats& st) { out[j] = index.probe(points[j], st); });
   return out;
 }
 

@@ -12,7 +12,7 @@
 #include <utility>
 #include <vector>
 
-#include "hwmodel/datapath/point_query.h"
+#include "hwmodel/datapath/box_index.h"
 #include "hwmodel/numeric/fixed_format.h"
 
 namespace rtu::hw {
@@ -30,6 +30,38 @@ using Polygon2 = std::vector<Point2>;  // a simple polygon's vertices in order (
 int exact_orient2d(const Point2& a, const Point2& b, const Point2& c);
 // Closed segments a and b meet (touching and collinear overlap included), exactly.
 bool exact_segments_meet(const Segment2& a, const Segment2& b);
+
+// The edges of map A in a box index, probed by segments: every A segment that meets a probe (closed segments).
+// `frame` (if not empty) is fitted besides the segments' boxes, so that probes within it fit the frame.
+class SegmentIndex {
+ public:
+  // Throws std::invalid_argument for no segments or a coordinate that is not finite or beyond 2^62.
+  SegmentIndex(std::vector<Segment2> segments, const FixedFormat& f, const Aabb& frame = Aabb{});
+  // The ids of the segments b meets, in increasing order. `rec`: the index's events (box_index.h) and a kAnyHit
+  // for each candidate's exact test in the shader.
+  std::vector<uint32_t> probe(const Segment2& b, QueryStats& s, std::vector<TraceEvent>* rec = nullptr) const;
+  const BoxIndex& index() const { return m_index; }
+
+ private:
+  std::vector<Segment2> m_segments;
+  BoxIndex m_index;
+};
+
+// Polygons' edges in a box index, probed by points: the polygons that hold a point (boundary included).
+class PolygonIndex {
+ public:
+  // Throws std::invalid_argument for no polygons, one of fewer than 3 vertices, or a coordinate out of range.
+  PolygonIndex(const std::vector<Polygon2>& polygons, const FixedFormat& f, const Aabb& frame = Aabb{});
+  // The polygons that hold q, in increasing order; `rec` as SegmentIndex::probe. A point beyond the frame's guard
+  // range (ray setup refuses it) is in no polygon.
+  std::vector<uint32_t> probe(const Point2& q, QueryStats& s, std::vector<TraceEvent>* rec = nullptr) const;
+  const BoxIndex& index() const { return m_index; }
+
+ private:
+  std::vector<uint32_t> m_owner;  // edge -> polygon (before m_edges: their initializer fills it)
+  std::vector<Segment2> m_edges;
+  BoxIndex m_index;
+};
 
 // Every (i, j) with segment A[i] meeting B[j], sorted. Throws std::invalid_argument for a coordinate that is not
 // finite or beyond 2^62, or empty inputs.

@@ -6,7 +6,7 @@
 
 namespace rtu::hw {
 
-TimingModel::Layout query_layout(const PointIndex& index, const FixedFormat& f) {
+TimingModel::Layout box_index_layout(const BoxIndex& index, const FixedFormat& f) {
   TimingModel::Layout l;
   l.node_bytes = node_struct_bytes(NodeKindId::kQuantizedAabb, index.width(), f.offset_bytes());
   l.node_offset = 0;
@@ -14,23 +14,39 @@ TimingModel::Layout query_layout(const PointIndex& index, const FixedFormat& f) 
   return l;
 }
 
-QueryTiming time_point_queries(const PointIndex& index, const FixedFormat& f, const std::vector<Vec3>& qs,
-                               const PointQuery& what, const TimingConfig& c) {
-  TimingModel model(c, query_layout(index, f));
-  QueryTiming out;
-  out.answers.resize(qs.size());
+ProbeTiming time_probes(const BoxIndex& index, const FixedFormat& f, size_t n,
+                        const std::function<void(size_t, QueryStats&, std::vector<TraceEvent>*)>& probe,
+                        const TimingConfig& c) {
+  TimingModel model(c, box_index_layout(index, f));
+  ProbeTiming out;
   constexpr size_t kChunk = 4096;
   std::vector<std::vector<TraceEvent>> events(kChunk);
-  model.begin(qs.size(), out.timing);
-  for (size_t first = 0; first < qs.size(); first += kChunk) {
-    const size_t m = std::min(kChunk, qs.size() - first);
+  model.begin(n, out.timing);
+  for (size_t first = 0; first < n; first += kChunk) {
+    const size_t m = std::min(kChunk, n - first);
     for (size_t i = 0; i < m; ++i) {
       events[i].clear();
-      out.answers[first + i] = index.query(qs[first + i], what, out.queries, &events[i]);
+      probe(first + i, out.queries, &events[i]);
     }
     model.feed(events.data(), m);
   }
   out.cycles = model.finish();
+  return out;
+}
+
+QueryTiming time_point_queries(const PointIndex& index, const FixedFormat& f, const std::vector<Vec3>& qs,
+                               const PointQuery& what, const TimingConfig& c) {
+  QueryTiming out;
+  out.answers.resize(qs.size());
+  ProbeTiming t = time_probes(
+      index.index(), f, qs.size(),
+      [&](size_t i, QueryStats& s, std::vector<TraceEvent>* rec) {
+        out.answers[i] = index.query(qs[i], what, s, rec);
+      },
+      c);
+  out.cycles = t.cycles;
+  out.timing = t.timing;
+  out.queries = t.queries;
   return out;
 }
 

@@ -6,14 +6,33 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
+#include "hwmodel/datapath/box_index.h"
 #include "hwmodel/datapath/point_query.h"
 #include "hwmodel/timing/timing_model.h"
 
 namespace rtu::hw {
 
-TimingModel::Layout query_layout(const PointIndex& index, const FixedFormat& f);
+// A box index (datapath/box_index.h) laid out as nodes: its inner nodes, then its leaf blocks, each the format's
+// node bytes.
+TimingModel::Layout box_index_layout(const BoxIndex& index, const FixedFormat& f);
+inline TimingModel::Layout query_layout(const PointIndex& index, const FixedFormat& f) {
+  return box_index_layout(index.index(), f);
+}
+
+// n probes of a box index on one unit: probe(i, stats, events) runs probe i, adding its statistics and recording
+// its events (the index's, and a kAnyHit for each candidate's exact check in the shader); the events are replayed
+// in the timing model in chunks.
+struct ProbeTiming {
+  uint64_t cycles = 0;
+  TimingStats timing;
+  QueryStats queries;
+};
+ProbeTiming time_probes(const BoxIndex& index, const FixedFormat& f, size_t n,
+                        const std::function<void(size_t, QueryStats&, std::vector<TraceEvent>*)>& probe,
+                        const TimingConfig& c);
 
 struct QueryTiming {
   uint64_t cycles = 0;

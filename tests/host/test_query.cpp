@@ -7,6 +7,7 @@
 
 #include "host/io/error.h"
 #include "host/io/point_io.h"
+#include "host/jobs/join.h"
 #include "host/jobs/query.h"
 #include "tests/host/cli_checks.h"
 
@@ -122,4 +123,56 @@ TEST_CASE("rtusim query: answers, figures and refusals", "[queries][cli]") {
                        {"query --points uniform:10 --radius 1 --device float", "float"},
                        {"query --points nosuch.ply --radius 1", "not found"},
                        {"query --points uniform:10 --radius 1 --set nosuchkey=1 --device timed", "nosuchkey"}});
+}
+
+TEST_CASE("rtusim join: pairs from CSV files equal the join functions' on both units, and refusals",
+          "[queries][join][cli]") {
+  const test::TempDir d("join");
+  const std::string segs = (d.path / "a.csv").string(), probes = (d.path / "b.csv").string(),
+                    polys = (d.path / "p.csv").string(), pts = (d.path / "q.csv").string(),
+                    out = (d.path / "pairs.csv").string(), json = (d.path / "j.json").string();
+  const std::vector<hw::Segment2> a = host::segments_from_spec("random:3000", 1),
+                                  b = host::segments_from_spec("random:500", 2);
+  {
+    std::ofstream fa(segs), fb(probes);
+    fa << "x0,y0,x1,y1\n";
+    for (const hw::Segment2& s : a) fa << s.a.x << ',' << s.a.y << ',' << s.b.x << ',' << s.b.y << '\n';
+    for (const hw::Segment2& s : b) fb << s.a.x << ',' << s.a.y << ',' << s.b.x << ',' << s.b.y << '\n';
+  }
+  // The files as written (6 significant digits) are what rtusim reads: read them back for the expected pairs.
+  const std::vector<hw::Segment2> ra = host::segments_from_spec(segs, 0), rb = host::segments_from_spec(probes, 0);
+  hw::QueryStats s;
+  const auto want = hw::segment_join(ra, rb, hw::format_preset("default"), 1, s);
+  REQUIRE(!want.empty());
+  for (const char* device : {"fixed", "timed"}) {
+    REQUIRE_RTUSIM_OK(r, "join --segments " + segs + " --probes " + probes + " --device " + device + " --out " +
+                             out + " --json " + json);
+    const std::vector<std::string> lines = test::read_lines(out);
+    REQUIRE(lines.size() == want.size() + 1);
+    for (size_t i = 0; i < want.size(); ++i)
+      REQUIRE(lines[i + 1] == std::to_string(want[i].first) + "," + std::to_string(want[i].second));
+    CHECK(test::read_json(json)["pairs"] == want.size());
+  }
+  CHECK(test::read_json(json)["cycles"].get<uint64_t>() > 0);
+  {
+    std::ofstream fp(polys), fq(pts);
+    fp << "polygon,x,y\n0,0,0\n0,4,0\n0,4,4\n0,0,4\n1,2,2\n1,6,2\n1,6,6\n";
+    fq << "x,y\n1,1\n3,3\n5,5\n4,1\n9,9\n";
+  }
+  REQUIRE_RTUSIM_OK(p, "join --polygons " + polys + " --points " + pts + " --out " + out);
+  // (1,1) in the square; (3,3) in the square and on the triangle's edge y = x; (5,5) on that edge too; (4,1) on
+  // the square's edge; (9,9) in neither: boundaries count as inside.
+  CHECK(test::read_lines(out) == std::vector<std::string>{"point,polygon", "0,0", "1,0", "1,1", "2,1", "3,0"});
+  {
+    std::ofstream bad((d.path / "bad.csv").string());
+    bad << "x0,y0,x1,y1\n1,2,3,4\n1,2,3\n";
+    std::ofstream two((d.path / "two.csv").string());
+    two << "0,0,0\n0,1,1\n";
+  }
+  test::check_refused(
+      {{"join --segments random:10", "both --segments and --probes"},
+       {"join --segments random:10 --probes random:10 --points uniform:3", "or --polygons"},
+       {"join --segments " + (d.path / "bad.csv").string() + " --probes random:3", "bad.csv:3"},
+       {"join --polygons " + (d.path / "two.csv").string() + " --points uniform:3", "fewer than 3"},
+       {"join --segments random:0 --probes random:3", "random:N"}});
 }

@@ -6,6 +6,7 @@
 
 #include "host/io/error.h"
 #include "host/io/files.h"
+#include "host/jobs/query.h"
 #include "hwmodel/numeric/rng.h"
 #include "hwmodel/timing/query_timing.h"
 
@@ -187,14 +188,7 @@ Json join_json(const JoinJobOptions& o, const JoinJobResult& r) {
   j["nodes_visited"] = r.stats.nodes_visited;
   j["box_tests"] = r.stats.box_tests;
   j["index_bytes"] = r.index_bytes;
-  if (o.timed) {
-    const double q = double(std::max<uint64_t>(1, r.stats.queries));
-    j["cycles"] = r.cycles;
-    j["cycles_per_probe"] = double(r.cycles) / q;
-    j["probes_per_clock"] = q / double(std::max<uint64_t>(1, r.cycles));
-    j["shader_calls"] = r.timing.any_hit_requests;
-    j["dram_bytes"] = r.timing.dram_bytes;
-  }
+  if (o.timed) probe_timing_json(j, "cycles_per_probe", "probes_per_clock", r.stats.queries, r.cycles, r.timing);
   return j;
 }
 

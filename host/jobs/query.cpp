@@ -76,15 +76,18 @@ Json query_json(const QueryJobOptions& o, const QueryJobResult& r) {
   j["nodes_visited"] = r.stats.nodes_visited;
   j["box_tests"] = r.stats.box_tests;
   j["index_bytes"] = r.index_bytes;
-  if (o.timed) {
-    const double q = double(std::max<uint64_t>(1, r.stats.queries));
-    j["cycles"] = r.cycles;
-    j["cycles_per_query"] = double(r.cycles) / q;
-    j["queries_per_clock"] = q / double(std::max<uint64_t>(1, r.cycles));
-    j["shader_calls"] = r.timing.any_hit_requests;
-    j["dram_bytes"] = r.timing.dram_bytes;
-  }
+  if (o.timed) probe_timing_json(j, "cycles_per_query", "queries_per_clock", r.stats.queries, r.cycles, r.timing);
   return j;
+}
+
+void probe_timing_json(Json& j, const char* per_key, const char* rate_key, uint64_t probes, uint64_t cycles,
+                       const hw::TimingStats& t) {
+  const double q = double(std::max<uint64_t>(1, probes));
+  j["cycles"] = cycles;
+  j[per_key] = double(cycles) / q;
+  j[rate_key] = q / double(std::max<uint64_t>(1, cycles));
+  j["shader_calls"] = t.any_hit_requests;
+  j["dram_bytes"] = t.dram_bytes;
 }
 
 void write_answers_csv(const std::string& path, const QueryJobOptions& o, const QueryJobResult& r) {

@@ -10,7 +10,10 @@
 // children are.
 #pragma once
 
+#include <algorithm>
+#include <atomic>
 #include <cstdint>
+#include <thread>
 #include <vector>
 
 #include "hwmodel/datapath/fixed_tracer.h"
@@ -31,6 +34,27 @@ struct QueryStats {
   uint64_t overflows = 0;      // queries with more results than their bound (the rest not reported)
   void add(const QueryStats& o);
 };
+
+// Runs fn(i, stats) for probes i in [0, n) on `threads` threads (0: all cores) in chunks, summing each chunk's
+// statistics in chunk order: the same totals on any number of threads.
+template <class Fn>
+void run_probes(size_t n, int threads, QueryStats& s, Fn&& fn) {
+  constexpr size_t kChunk = 512;
+  const size_t chunks = (n + kChunk - 1) / kChunk;
+  std::vector<QueryStats> per(chunks);
+  std::atomic<size_t> next{0};
+  const auto work = [&] {
+    for (size_t c; (c = next.fetch_add(1)) < chunks;)
+      for (size_t i = c * kChunk; i < std::min(n, (c + 1) * kChunk); ++i) fn(i, per[c]);
+  };
+  const int hw = std::max(1, int(std::thread::hardware_concurrency()));
+  const int nt = std::max(1, std::min<int>(threads > 0 ? threads : hw, int(chunks)));
+  std::vector<std::thread> pool;
+  for (int t = 1; t < nt; ++t) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+  for (const QueryStats& p : per) s.add(p);
+}
 
 class BoxIndex {
  public:

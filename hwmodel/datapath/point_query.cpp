@@ -1,11 +1,9 @@
 #include "hwmodel/datapath/point_query.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <stdexcept>
 #include <string>
-#include <thread>
 
 #include "hwmodel/datapath/exact_compare.h"
 #include "hwmodel/datapath/intersect_fixed.h"
@@ -102,22 +100,7 @@ std::vector<PointAnswer> PointIndex::query_batch(const std::vector<Vec3>& qs, co
     if (!finite_point(qs[i]))
       throw std::invalid_argument("query " + std::to_string(i) + " is not finite or beyond 2^62");
   std::vector<PointAnswer> out(qs.size());
-  constexpr size_t kChunk = 1024;
-  const size_t chunks = (qs.size() + kChunk - 1) / kChunk;
-  std::vector<QueryStats> per(chunks);  // summed in chunk order: the same totals on any number of threads
-  std::atomic<size_t> next{0};
-  const auto work = [&] {
-    for (size_t c; (c = next.fetch_add(1)) < chunks;)
-      for (size_t i = c * kChunk; i < std::min(qs.size(), (c + 1) * kChunk); ++i)
-        out[i] = query(qs[i], what, per[c]);
-  };
-  const int hw = std::max(1, int(std::thread::hardware_concurrency()));
-  const int nt = std::max(1, std::min<int>(threads > 0 ? threads : hw, int(chunks)));
-  std::vector<std::thread> pool;
-  for (int t = 1; t < nt; ++t) pool.emplace_back(work);
-  work();
-  for (std::thread& t : pool) t.join();
-  for (const QueryStats& p : per) s.add(p);
+  run_probes(qs.size(), threads, s, [&](size_t i, QueryStats& st) { out[i] = query(qs[i], what, st); });
   return out;
 }
 

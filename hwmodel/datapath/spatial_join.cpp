@@ -1,11 +1,9 @@
 #include "hwmodel/datapath/spatial_join.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <stdexcept>
 #include <string>
-#include <thread>
 
 #include "hwmodel/datapath/box_index.h"
 #include "hwmodel/datapath/exact_compare.h"
@@ -55,26 +53,6 @@ Aabb box_of(const Segment2& s) {
   b.extend(Vec3(s.a.x, s.a.y, 0.0f));
   b.extend(Vec3(s.b.x, s.b.y, 0.0f));
   return b;
-}
-
-// Runs fn(i, stats) for i in [0, n) on threads, statistics summed in chunk order (the same on any thread count).
-template <class Fn>
-void for_chunks(size_t n, int threads, QueryStats& s, Fn&& fn) {
-  constexpr size_t kChunk = 512;
-  const size_t chunks = (n + kChunk - 1) / kChunk;
-  std::vector<QueryStats> per(chunks);
-  std::atomic<size_t> next{0};
-  const auto work = [&] {
-    for (size_t c; (c = next.fetch_add(1)) < chunks;)
-      for (size_t i = c * kChunk; i < std::min(n, (c + 1) * kChunk); ++i) fn(i, per[c]);
-  };
-  const int hw = std::max(1, int(std::thread::hardware_concurrency()));
-  const int nt = std::max(1, std::min<int>(threads > 0 ? threads : hw, int(chunks)));
-  std::vector<std::thread> pool;
-  for (int t = 1; t < nt; ++t) pool.emplace_back(work);
-  work();
-  for (std::thread& t : pool) t.join();
-  for (const QueryStats& p : per) s.add(p);
 }
 
 }  // namespace
@@ -189,7 +167,7 @@ std::vector<std::pair<uint32_t, uint32_t>> segment_join(const std::vector<Segmen
   for (const Aabb& b : probes) frame.extend(b);
   const SegmentIndex index(A, f, frame);
   std::vector<std::vector<uint32_t>> hits(B.size());
-  for_chunks(B.size(), threads, s, [&](size_t j, QueryStats& st) { hits[j] = index.probe(B[j], st); });
+  run_probes(B.size(), threads, s, [&](size_t j, QueryStats& st) { hits[j] = index.probe(B[j], st); });
   std::vector<std::pair<uint32_t, uint32_t>> out;
   for (size_t j = 0; j < B.size(); ++j)
     for (uint32_t i : hits[j]) out.emplace_back(i, uint32_t(j));
@@ -207,7 +185,7 @@ std::vector<std::vector<uint32_t>> point_in_polygons(const std::vector<Polygon2>
   }
   const PolygonIndex index(polygons, f, frame);
   std::vector<std::vector<uint32_t>> out(points.size());
-  for_chunks(points.size(), threads, s, [&](size_t j, QueryStats& st) { out[j] = index.probe(points[j], st); });
+  run_probes(points.size(), threads, s, [&](size_t j, QueryStats& st) { out[j] = index.probe(points[j], st); });
   return out;
 }
 

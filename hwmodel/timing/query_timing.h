@@ -1,8 +1,8 @@
-// The cycles of neighbour queries (datapath/point_query.h) on one unit: each query's events replayed in the timing
-// model (timing_model.h) as a ray's are. The index is laid out as nodes: its inner nodes, then one block per leaf
-// holding the leaf's point boxes as a node holds its children's, each the format's node bytes (leaves hold at most
-// width points); a candidate's distance check is a round trip to the shader (kAnyHit, any_hit_latency), as RTNN's
-// intersection program.
+// The cycles of neighbour queries (datapath/point_query.h) and joins on one unit or a chip: each query's events
+// replayed in the timing model (timing_model.h) as a ray's are. The index is laid out as nodes: its inner nodes,
+// then one block per leaf holding the leaf's point boxes as a node holds its children's, each the format's node
+// bytes (leaves hold at most width points); a candidate's distance check is a round trip to the shader (kAnyHit,
+// any_hit_latency), as RTNN's intersection program.
 #pragma once
 
 #include <cstdint>
@@ -24,7 +24,8 @@ inline TimingModel::Layout query_layout(const PointIndex& index, const FixedForm
 
 // n probes of a box index on one unit: probe(i, stats, events) runs probe i, adding its statistics and recording
 // its events (the index's, and a kAnyHit for each candidate's exact check in the shader); the events are replayed
-// in the timing model in chunks.
+// in the timing model in chunks. On a chip (c.units > 1) the probes go to the units by ray_policy (dynamic taken
+// as waves) and the units replay them in step over their shared memory.
 struct ProbeTiming {
   uint64_t cycles = 0;
   TimingStats timing;

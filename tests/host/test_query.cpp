@@ -5,6 +5,7 @@
 
 #include <fstream>
 
+#include "host/devices/device_settings.h"
 #include "host/io/error.h"
 #include "host/io/point_io.h"
 #include "host/jobs/join.h"
@@ -175,4 +176,25 @@ TEST_CASE("rtusim join: pairs from CSV files equal the join functions' on both u
        {"join --segments " + (d.path / "bad.csv").string() + " --probes random:3", "bad.csv:3"},
        {"join --polygons " + (d.path / "two.csv").string() + " --points uniform:3", "fewer than 3"},
        {"join --segments random:0 --probes random:3", "random:N"}});
+}
+
+TEST_CASE("query job on a chip: the same answers, the units share the work and the memory",
+          "[queries][timing][chip]") {
+  host::QueryJobOptions o;
+  o.points = host::points_from_spec("uniform:20000", 1);
+  o.queries = host::points_from_spec("uniform:20000", 2);
+  o.radius = 2.0f;
+  o.format = hw::format_preset("default");
+  o.timed = true;
+  o.timing = hw::timing_preset("rdna2");
+  const host::QueryJobResult one = host::run_query_job(o);
+  o.timing = host::timing_config_from("rdna2-chip", {"units=8"});
+  const host::QueryJobResult chip = host::run_query_job(o), again = host::run_query_job(o);
+  for (size_t i = 0; i < one.answers.size(); ++i) REQUIRE(chip.answers[i].ids == one.answers[i].ids);
+  CHECK(chip.stats.candidates == one.stats.candidates);
+  CHECK(chip.timing.any_hit_requests == one.timing.any_hit_requests);
+  CHECK(chip.cycles == again.cycles);
+  // Eight units finish far sooner than one, but not eight times as soon (waves, the shared L2 and DRAM).
+  CHECK(chip.cycles * 2 < one.cycles);
+  CHECK(chip.cycles * 8 > one.cycles);
 }

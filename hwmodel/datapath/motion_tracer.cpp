@@ -49,6 +49,9 @@ MotionImage MotionImage::encode(const MotionGeometry& g, const MotionBvh& bvh, c
                                 const MotionFormat& m) {
   f.validate();
   m.validate();
+  if (bvh.width != f.width)
+    throw std::invalid_argument("motion image: the BVH is " + std::to_string(bvh.width) + " wide, the format " +
+                                std::to_string(f.width));
   MotionImage im;
   im.format = f;
   im.motion = m;

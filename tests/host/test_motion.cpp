@@ -228,6 +228,8 @@ TEST_CASE("motion: shutter times outside [0, 1] are refused, and NaN rays and ti
   CHECK_THROWS_WITH(
       hw::MotionImage::encode(scene.geometry, bvh, hw::format_preset("default"), MotionFormat{25, 1}),
       Catch::Contains("time_bits"));
+  CHECK_THROWS_WITH(hw::MotionImage::encode(scene.geometry, bvh, hw::format_from_spec("default:width=8"), {}),
+                    Catch::Contains("4 wide, the format 8"));
   hw::MotionGeometry nan_scene = scene.geometry;
   nan_scene.triangles[3].key[1].v2.y = NAN;
   CHECK_THROWS_WITH(hw::MotionBvh::build(nan_scene), Catch::Contains("moving triangle 3"));

@@ -33,6 +33,7 @@
 #include "host/jobs/ab.h"
 #include "host/jobs/compare_job.h"
 #include "host/jobs/image_diff.h"
+#include "host/jobs/join.h"
 #include "host/jobs/motion.h"
 #include "host/jobs/query.h"
 #include "host/jobs/render.h"
@@ -549,6 +550,59 @@ py::dict query(const py::handle& points, const py::handle& queries, float radius
   return d;
 }
 
+// An (N, K) float array as float32 rows.
+std::vector<float> rows_from_numpy(const py::handle& obj, const char* name, py::ssize_t k) {
+  py::array a = py::array::ensure(obj);
+  if (!a || a.ndim() != 2 || a.shape(1) != k || a.dtype().kind() != 'f')
+    fail(std::string(name) + ": expected a float array of shape (N, " + std::to_string(k) + ")");
+  using F32 = py::array_t<float, py::array::c_style | py::array::forcecast>;
+  const F32 f = F32::ensure(a);
+  return std::vector<float>(f.data(), f.data() + f.size());
+}
+
+// rtu.join: the job of rtusim join on numpy arrays; the pairs as an (P, 2) array.
+py::dict join(const py::object& segments, const py::object& probes, const py::object& polygons,
+              const py::object& points, bool timed, const std::string& format, const std::string& config,
+              const std::vector<std::string>& sets, int threads) {
+  host::JoinJobOptions o;
+  o.polygons = !polygons.is_none();
+  if (o.polygons) {
+    for (const py::handle& p : polygons) {
+      const std::vector<float> v = rows_from_numpy(p, "polygons[i]", 2);
+      hw::Polygon2 poly;
+      for (size_t i = 0; i + 1 < v.size(); i += 2) poly.push_back(hw::Point2{v[i], v[i + 1]});
+      o.polys.push_back(std::move(poly));
+    }
+    const std::vector<float> q = rows_from_numpy(points, "points", 2);
+    for (size_t i = 0; i + 1 < q.size(); i += 2) o.points.push_back(hw::Point2{q[i], q[i + 1]});
+  } else {
+    for (const auto& [obj, out] : {std::pair{&segments, &o.a}, std::pair{&probes, &o.b}}) {
+      const std::vector<float> v = rows_from_numpy(*obj, obj == &segments ? "segments" : "probes", 4);
+      for (size_t i = 0; i + 3 < v.size(); i += 4)
+        out->push_back(hw::Segment2{{v[i], v[i + 1]}, {v[i + 2], v[i + 3]}});
+    }
+  }
+  o.format = hw::format_from_spec(format);
+  o.timed = timed;
+  if (timed) o.timing = host::timing_config_from(config, sets);
+  o.threads = check_threads(threads);
+  host::JoinJobResult r;
+  {
+    py::gil_scoped_release nogil;
+    r = host::run_join_job(o);
+  }
+  std::vector<uint32_t> flat;
+  for (const auto& [x, y] : r.pairs) {
+    flat.push_back(x);
+    flat.push_back(y);
+  }
+  py::dict d;
+  const py::ssize_t n = py::ssize_t(r.pairs.size());
+  d["pairs"] = give(std::move(flat), py::dtype::of<uint32_t>(), {n, 2}, {8, 4});
+  d["stats"] = to_python(host::join_json(o, r));
+  return d;
+}
+
 // rtu.motion: the job of rtusim motion; scene None is the built-in moving scene.
 py::tuple motion(const py::object& scene, std::vector<float> move, int width, int height, int samples, int level,
                  float motion_scale, int time_bits, int box_time_bits, uint64_t seed, int threads,
@@ -693,6 +747,8 @@ PYBIND11_MODULE(_rtu, m) {
   m.def("query", &query, py::arg("points"), py::arg("queries"), py::arg("radius"), py::arg("kind"),
         py::arg("bound"), py::arg("timed"), py::arg("format"), py::arg("config"), py::arg("sets"),
         py::arg("threads"));
+  m.def("join", &join, py::arg("segments"), py::arg("probes"), py::arg("polygons"), py::arg("points"),
+        py::arg("timed"), py::arg("format"), py::arg("config"), py::arg("sets"), py::arg("threads"));
   m.def("motion", &motion, py::arg("scene"), py::arg("move"), py::arg("width"), py::arg("height"),
         py::arg("samples"), py::arg("level"), py::arg("motion_scale"), py::arg("time_bits"),
         py::arg("box_time_bits"), py::arg("seed"), py::arg("threads"), py::arg("format"), py::arg("config"),

@@ -321,6 +321,35 @@ def query(points, queries=None, *, radius, kind="radius", k=None, max_results=64
                       _str(config, "config", "a timing preset name such as 'rdna2'"), sets, _int(threads, "threads"))
 
 
+def join(segments=None, probes=None, *, polygons=None, points=None, device="fixed", format="default",
+         config="rdna2", set=None, threads=0):  # noqa: A002
+    """A spatial join on the unit, exact, as `rtusim join`: segments (N, 4) x0 y0 x1 y1 against probes (M, 4), every
+    pair that meets; or polygons (a list of (K, 2) vertex arrays) and points (M, 2), the polygons that hold each
+    point (boundary included). Returns a dict: "pairs" ((P, 2) uint32: segment, probe or point, polygon; sorted),
+    "stats" (the --json dict; cycles with device "timed")."""
+    seg = segments is not None or probes is not None
+    poly = polygons is not None or points is not None
+    if seg == poly:
+        raise Error("give segments and probes, or polygons and points")
+    if seg and (segments is None or probes is None):
+        raise Error("a segment join needs both segments and probes")
+    if poly and (polygons is None or points is None):
+        raise Error("point in polygon needs both polygons and points")
+    device = _str(device, "device", "'fixed' or 'timed'")
+    if device not in ("fixed", "timed"):
+        raise Error(f"device: joins run on 'fixed' or 'timed', not {device!r}")
+    if isinstance(set, dict):
+        sets = [f"{key}={_value(v)}" for key, v in set.items()]
+    else:
+        sets = [_str(x, "set", "\"key=value\" strings") for x in set or []]
+    return _rtu.join(None if segments is None else _np.asarray(segments),
+                     None if probes is None else _np.asarray(probes),
+                     None if polygons is None else [_np.asarray(p) for p in polygons],
+                     None if points is None else _np.asarray(points), device == "timed",
+                     _str(format, "format", "a format spec such as 'default'"),
+                     _str(config, "config", "a timing preset name such as 'rdna2'"), sets, _int(threads, "threads"))
+
+
 def config(preset="rdna2", set=None):
     """A timing configuration, every key (rtusim config --config P --set k=v): a dict."""
     if isinstance(preset, dict):

@@ -334,6 +334,34 @@ def test_query_equals_the_cli_and_brute_force(tmp_path):
         rtu.query(pts, radius=0)
 
 
+def test_join_exact_and_equal_to_the_cli(tmp_path):
+    # A square and a triangle; points inside, on edges and outside (boundaries count as inside).
+    polys = [np.array([[0, 0], [4, 0], [4, 4], [0, 4]], np.float32), np.array([[2, 2], [6, 2], [6, 6]], np.float32)]
+    pts = np.array([[1, 1], [3, 3], [5, 5], [4, 1], [9, 9]], np.float32)
+    r = rtu.join(polygons=polys, points=pts)
+    assert r["pairs"].tolist() == [[0, 0], [1, 0], [1, 1], [2, 1], [3, 0]]
+    # Segments: a crossing, a touching end point, a collinear overlap, a miss.
+    a = np.array([[0, 0, 2, 2], [3, 0, 3, 2], [5, 5, 7, 5]], np.float32)
+    b = np.array([[0, 2, 2, 0], [3, 2, 4, 3], [6, 5, 8, 5], [10, 10, 11, 11]], np.float32)
+    s = rtu.join(a, b)
+    assert s["pairs"].tolist() == [[0, 0], [1, 1], [2, 2]]
+    with open(tmp_path / "a.csv", "w") as f:
+        f.write("".join(",".join(str(x) for x in row) + "\n" for row in a.tolist()))
+    with open(tmp_path / "b.csv", "w") as f:
+        f.write("".join(",".join(str(x) for x in row) + "\n" for row in b.tolist()))
+    cli("join", "--segments", tmp_path / "a.csv", "--probes", tmp_path / "b.csv", "--device", "timed", "--json",
+        tmp_path / "j.json")
+    j = json.loads((tmp_path / "j.json").read_text())
+    t = rtu.join(a, b, device="timed")
+    assert t["stats"]["cycles"] == j["cycles"] > 0 and t["pairs"].tolist() == s["pairs"].tolist()
+    with pytest.raises(rtu.Error, match="segments and probes, or polygons"):
+        rtu.join(a, b, points=pts)
+    with pytest.raises(rtu.Error, match="shape"):
+        rtu.join(a[:, :3], b)
+    with pytest.raises(rtu.Error, match="fewer than 3"):
+        rtu.join(polygons=[polys[0][:2]], points=pts)
+
+
 def test_sweep_equals_the_cli(tmp_path):
     args = dict(formats=["default", "default:coord_bits=12"], bvh_widths=[4, 8], configs=["rdna2"], rays=1500,
                 image_width=0)

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <new>
 #include <stdexcept>
 #include <string>
@@ -263,6 +264,9 @@ struct FixedPolicy {
   bool leaf_refs = false;             // FixedTraceOptions::record_leaf_refs
   mutable int rec_depth[2] = {0, 0};  // each stack's entries, as the recorder counts them (traverse.h)
   RestartTrail* trail = nullptr;      // recording with FixedTraceOptions::record_restart: the restarts' costs
+  // All-hit traversal: each record's hit is collected with its own interval, the closest never narrowed; called
+  // with the hit's Closest. Null otherwise.
+  const std::function<void(const Closest&)>* all = nullptr;
 
   // A constructor, not aggregate initialization: GCC 12 clears the whole object before an aggregate's fields
   // (rep stos, a stall once per ray).
@@ -369,6 +373,14 @@ struct FixedPolicy {
     if (stopped(ref)) return false;
     const uint32_t first = leaf_first(ref), count = leaf_count(ref);
     if (!bottom) s.prim_tests += count;  // an instance record is not a test: its bottom level counts its own
+    if (all) {
+      for (uint32_t i = first; i < first + count; ++i) {
+        Closest c{closest.t};
+        if (test_recorded(image.record(i), i, r, c, short_edges, tri_unit, stage, s, world, bottom, false, rec))
+          (*all)(c);
+      }
+      return false;
+    }
     return test_records(image, first, count, r, closest, short_edges, tri_unit, stage, s, world, bottom, any_hit,
                         rec);
   }
@@ -540,21 +552,76 @@ Hit FixedTracer::trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, Tra
   }
   if (c.prim == kMissPrim) return Hit{};
   ++s.hits;
-  Hit h{t_to_world(c.t, fr), c.prim, c.u, c.v};
-  if (c.record && record_kind(c.record) == RecordKind::kInstance) {
-    h.t = c.world_t;  // the bottom level's t and u, v (of a sphere too)
-    return h;
-  }
-  if (r && c.record && record_kind(c.record) == RecordKind::kSphere) {
+  if (c.record && record_kind(c.record) == RecordKind::kInstance)
+    return Hit{c.world_t, c.prim, c.u, c.v};  // the bottom level's t and u, v (of a sphere too)
+  return world_hit(c.t, c.prim, c.u, c.v, c.record, fr, r);
+}
+
+Hit FixedTracer::world_hit(int64_t t, uint32_t prim, float u, float v, const uint8_t* record, const FixedRay& fr,
+                           const Ray* r) const {
+  Hit h{t_to_world(t, fr), prim, u, v};
+  if (r && record && record_kind(record) == RecordKind::kSphere) {
     // u, v of a sphere hit from its world center (a shading output, not part of the datapath).
     SphereRecord sr;
-    std::memcpy(&sr, c.record, sizeof sr);
+    std::memcpy(&sr, record, sizeof sr);
     Vec3 center;
     for (int a = 0; a < 3; ++a)
       center[a] = float(m_frame.to_world(0, a) + std::ldexp(double(sr.center[a]), m_frame.step_exp - fr.frac));
     sphere_uv(center, r->origin + h.t * r->dir, h.u, h.v);
   }
   return h;
+}
+
+uint64_t FixedTracer::trace_all(const Ray& r, HitList& all, TraversalStats& s,
+                                std::vector<TraceEvent>* rec) const {
+  if (m_opt.bottom || (m_image.header().flags & kImageTopLevel))
+    throw std::invalid_argument("all-hit traversal runs on one-level images (this one is a top level)");
+  FixedRay fr;
+  const RayStatus status = m_setup(r, fr);
+  if (status != RayStatus::kOk) {
+    ++s.invalid_rays;
+    ++s.invalid_by_reason[size_t(status)];
+    return all.count;
+  }
+  ++s.rays;
+  const uint64_t before = all.count;
+  const ImageHeader& hd = m_image.header();
+  if (fr.tmin > fr.tmax) return all.count;
+  const std::function<void(const Closest&)> collect = [&](const Closest& c) {
+    all.add(world_hit(c.t, c.prim, c.u, c.v, c.record, fr, &r));
+  };
+  const PlaneRecord* planes = m_image.planes();
+  for (uint32_t i = 0; i < hd.plane_count; ++i) {
+    FixedPrimHit h;
+    ++s.prim_tests;
+    if (rec) rec->push_back(TraceEvent{TraceEvent::kPlane, 0, 0, 0, i});
+    if (PrimTest<PlanePrim>::test_fixed(fr, planes[i], fr.tmin, fr.tmax, h))
+      collect(Closest{h.t, planes[i].prim, 0.0f, 0.0f, nullptr});
+  }
+  const AlphaTest stage{m_opt.any_hit, m_opt.micromaps};
+  const bool short_edges = short_edges_known(fr, m_format.coord_bits);
+  if (hd.record_count > 0 && (hd.flags & kImageNoBvh)) {
+    s.prim_tests += hd.record_count;
+    for (uint32_t i = 0; i < hd.record_count; ++i) {
+      Closest c{fr.tmax};
+      if (test_recorded(m_image.record(i), i, fr, c, short_edges, m_opt.tri_unit, stage, s, &r, nullptr, false,
+                        rec))
+        collect(c);
+    }
+  } else if (hd.record_count > 0) {
+    WatchState watch;
+    Closest interval{fr.tmax};  // never narrowed: every subtree the ray enters in [tmin, tmax] is visited
+    with_node_kind(node_kind(hd), hd.width, hd.q_bytes, [&](auto kind) {
+      using K = decltype(kind);
+      FixedPolicy<K> p(m_image.nodes<typename K::Node>(), m_image, fr, false, m_opt.check_boxes, interval, s, rec,
+                       m_opt.box_unit, m_opt.tri_unit, stage, &r, nullptr, watch, m_step_limit, m_format, -1);
+      p.all = &collect;
+      traverse(p, hd.root_ref, false, s, !m_opt.slot_order);
+    });
+    if (watch.fired) ++s.watchdog_rays;
+  }
+  s.hits += all.count > before;
+  return all.count;
 }
 
 void FixedTracer::trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads,

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "hwmodel/datapath/box_unit.h"
+#include "hwmodel/datapath/hit_list.h"
 #include "hwmodel/datapath/intersect_fixed.h"
 #include "hwmodel/datapath/stats.h"
 #include "hwmodel/datapath/traverse.h"
@@ -142,6 +143,12 @@ class FixedTracer {
   // Traces a ray already set up in the image's format and frame (setup_ray, or built on the grid). The hit's t
   // is world t (t_to_world); u, v of spheres are not filled (they need the float ray).
   Hit trace_fixed(const FixedRay& r, bool any_hit, TraversalStats& s) const;
+  // All-hit traversal (hit_list.h): every intersection in [tmin, tmax] into `all`, in traversal order, one per
+  // record (its first crossing in the interval); the interval is never narrowed. The any-hit stage and micromaps
+  // still decide non-opaque triangles. `events` (if not null) gets the datapath's events, as trace_recorded's.
+  // One-level images only (std::invalid_argument for a top level). Returns all.count.
+  uint64_t trace_all(const Ray& r, HitList& all, TraversalStats& s,
+                     std::vector<TraceEvent>* events = nullptr) const;
   // trace() that also appends the ray's datapath events to `events` (nothing for a ray rejected at setup).
   Hit trace_recorded(const Ray& r, bool any_hit, TraversalStats& s, std::vector<TraceEvent>& events) const;
 
@@ -175,6 +182,9 @@ class FixedTracer {
                     std::vector<TraceEvent>* rec = nullptr, WatchState* ws = nullptr) const;
   Hit trace_valid(const Ray* r, const FixedRay& fr, bool any_hit, TraversalStats& s, std::vector<TraceEvent>* rec,
                   WatchState& ws) const;
+  // The hit of a record's test (t raw, prim, u, v, the record): world t, and a sphere's u, v from the world ray.
+  Hit world_hit(int64_t t, uint32_t prim, float u, float v, const uint8_t* record, const FixedRay& fr,
+                const Ray* r) const;
 
   const DeviceImage& m_image;
   FixedFormat m_format;

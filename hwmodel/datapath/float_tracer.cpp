@@ -54,6 +54,7 @@ struct FloatPolicy {
   Closest& closest;
   TraversalStats& s;
   const AnyHitStage* stage;
+  HitList* all;  // all-hit traversal: every hit goes here and the closest is never narrowed; null otherwise
 
   int expand(uint32_t node, uint32_t refs[N], float dists[N], int& tested) const {
     return expand_wide_node(nodes[node], rp, tmin, closest.tmax, refs, dists, tested);
@@ -62,6 +63,14 @@ struct FloatPolicy {
   bool leaf(uint32_t ref) const {
     const uint32_t first = leaf_first(ref), count = leaf_count(ref);
     s.prim_tests += count;
+    if (all) {
+      for (uint32_t i = 0; i < count; ++i) {
+        Closest c{closest.tmax};
+        if (test_leaf_prim(prims[first + i], num_tris, rp, tmin, c, stage, s))
+          all->add(Hit{c.tmax, c.prim, c.u, c.v});
+      }
+      return false;
+    }
     bool found = false;
     for (uint32_t i = 0; i < count; ++i) {
       found |= test_leaf_prim(prims[first + i], num_tris, rp, tmin, closest, stage, s);
@@ -121,10 +130,10 @@ FloatTracer::FloatTracer(const Geometry& g, const TracerOptions& opt) : m_geom(g
 
 template <int N>
 void FloatTracer::trace_bvh(const WideBvh<N>& t, const RayPrecomp& rp, float tmin, bool any_hit, Hit& h,
-                            TraversalStats& s, const AnyHitStage* stage) const {
+                            TraversalStats& s, const AnyHitStage* stage, HitList* all) const {
   Closest c{h.t, h.prim, h.u, h.v};
   FloatPolicy<N> policy{
-      t.nodes.data(), m_leaf_prims.data(), uint32_t(m_geom.triangles.size()), rp, tmin, any_hit, c, s, stage};
+      t.nodes.data(), m_leaf_prims.data(), uint32_t(m_geom.triangles.size()), rp, tmin, any_hit, c, s, stage, all};
   traverse(policy, t.root_ref, any_hit, s);
   h = Hit{c.tmax, c.prim, c.u, c.v};
 }
@@ -169,6 +178,45 @@ Hit FloatTracer::trace(const Ray& r, bool any_hit, TraversalStats& s, const AnyH
     sphere_uv(sp.center, r.origin + h.t * r.dir, h.u, h.v);
   }
   return h;
+}
+
+uint64_t FloatTracer::trace_all(const Ray& r, HitList& all, TraversalStats& s) const {
+  const RayStatus status = validate_ray(r);
+  if (status != RayStatus::kOk) {
+    ++s.invalid_rays;
+    ++s.invalid_by_reason[size_t(status)];
+    return all.count;
+  }
+  ++s.rays;
+  const uint64_t before = all.count;
+  const RayPrecomp rp(r);
+  for (uint32_t i = 0; i < m_geom.planes.size(); ++i) {
+    PrimHit ph;
+    ++s.prim_tests;
+    if (PrimTest<PlanePrim>::test_float(m_geom.planes[i], rp, r.tmin, r.tmax, ph))
+      all.add(Hit{ph.t, m_geom.plane_prim(i), 0.0f, 0.0f});
+  }
+  if (!m_leaf_prims.empty()) {
+    if (m_bvh) {
+      Hit h{r.tmax};
+      m_bvh->visit([&](const auto& t) { trace_bvh(t, rp, r.tmin, false, h, s, m_any_hit, &all); });
+    } else {
+      const uint32_t num_tris = uint32_t(m_geom.triangles.size());
+      s.prim_tests += m_leaf_prims.size();
+      for (const LeafPrim& lp : m_leaf_prims) {
+        Closest c{r.tmax};
+        if (test_leaf_prim(lp, num_tris, rp, r.tmin, c, m_any_hit, s)) all.add(Hit{c.tmax, c.prim, c.u, c.v});
+      }
+    }
+  }
+  // Spheres' u, v as trace() gives them (a shading output).
+  for (uint64_t i = before; i < std::min<uint64_t>(all.count, all.max); ++i)
+    if (m_geom.kind(all.out[i].prim) == PrimKind::kSphere) {
+      const Sphere& sp = m_geom.spheres[all.out[i].prim - m_geom.triangles.size()];
+      sphere_uv(sp.center, r.origin + all.out[i].t * r.dir, all.out[i].u, all.out[i].v);
+    }
+  s.hits += all.count > before;
+  return all.count;
 }
 
 void FloatTracer::trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads,

@@ -9,6 +9,7 @@
 #include <optional>
 #include <vector>
 
+#include "hwmodel/datapath/hit_list.h"
 #include "hwmodel/datapath/prim_test_base.h"  // LeafPrim
 #include "hwmodel/datapath/stats.h"
 #include "hwmodel/interface/any_hit.h"
@@ -45,6 +46,10 @@ class FloatTracer {
   // Traces rays[0, n) into hits with `threads` threads (0 = all cores). Results and summed statistics do not
   // depend on the thread count.
   void trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads, TraversalStats& s) const;
+  // All-hit traversal (hit_list.h): every intersection in [tmin, tmax] into `all`, in traversal order, one per
+  // primitive (its first crossing in the interval); the interval is never narrowed, so no subtree is skipped. The
+  // any-hit stage still decides non-opaque triangles. Returns the number found (all.count).
+  uint64_t trace_all(const Ray& r, HitList& all, TraversalStats& s) const;
 
   // The any-hit stage for non-opaque triangles (Geometry::non_opaque), or null: they are opaque. Not owned.
   void set_any_hit(const AnyHitStage* stage) { m_any_hit = stage; }
@@ -60,7 +65,7 @@ class FloatTracer {
  private:
   template <int N>
   void trace_bvh(const WideBvh<N>& t, const RayPrecomp& rp, float tmin, bool any_hit, Hit& h, TraversalStats& s,
-                 const AnyHitStage* stage) const;
+                 const AnyHitStage* stage, HitList* all = nullptr) const;
 
   const Geometry& m_geom;
   std::optional<Bvh> m_bvh;            // present exactly when the tracer uses it

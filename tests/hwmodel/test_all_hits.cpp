@@ -97,7 +97,7 @@ TEST_CASE("all-hit traversal: the BVH finds every hit testing each primitive fin
   CHECK(double(differ_float_fixed) <= 0.005 * double(rays.size()));
 }
 
-TEST_CASE("all-hit traversal: the bound keeps the first hits and counts them all; counting only; bad rays",
+TEST_CASE("all-hit traversal: the bound keeps the first hits and counts them all, counts alone, bad rays",
           "[tracer][allhits]") {
   const Geometry g = random_scene(33, 8000, 0);
   const std::vector<Ray> rays = crossing_rays(34, 500);

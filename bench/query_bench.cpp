@@ -87,7 +87,8 @@ void run(const char* name, const std::vector<hw::Vec3>& pts, const std::vector<h
     o.format.width = o.timing.bvh_width;
     const host::QueryJobResult t = host::run_query_job(o);
     const double qps = double(qs.size()) / (double(t.cycles) / (o.timing.clock_ghz * 1e9));
-    std::printf(" %.1f | %.0f (%.2fx) |", double(t.cycles) / double(qs.size()), qps, qps * best / double(qs.size()));
+    std::printf(" %.1f | %.0f (%.2fx) |", double(t.cycles) / double(qs.size()), qps,
+                qps * best / double(qs.size()));
     if (t.stats.results != f.stats.results) {
       std::fprintf(stderr, "query_bench: the timed unit's answers differ from the fixed unit's\n");
       std::exit(1);
@@ -111,23 +112,30 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (a == "--points") n = std::stoull(next());
-    else if (a == "--queries") m = std::stoull(next());
-    else if (a == "--runs") runs = std::stoi(next());
-    else if (a == "--any-hit-latency") any_hit_latency = std::stoi(next());
+    if (a == "--points")
+      n = std::stoull(next());
+    else if (a == "--queries")
+      m = std::stoull(next());
+    else if (a == "--runs")
+      runs = std::stoi(next());
+    else if (a == "--any-hit-latency")
+      any_hit_latency = std::stoi(next());
     else if (a == "--configs") {
       configs.clear();
       std::stringstream ss(next());
       for (std::string c; std::getline(ss, c, ',');) configs.push_back(c);
     } else {
-      std::fprintf(stderr, "usage: query_bench [--points N] [--queries M] [--configs A,B] [--runs R] "
-                           "[--any-hit-latency L]\n");
+      std::fprintf(stderr,
+                   "usage: query_bench [--points N] [--queries M] [--configs A,B] [--runs R] "
+                   "[--any-hit-latency L]\n");
       return 2;
     }
   }
-  std::printf("| points | count | radius | neighbours/query | candidates/query | nodes/query | nanoflann found | "
-              "nanoflann queries/s |");
-  for (const std::string& c : configs) std::printf(" %s cycles/query | %s queries/s (x nanoflann) |", c.c_str(), c.c_str());
+  std::printf(
+      "| points | count | radius | neighbours/query | candidates/query | nodes/query | nanoflann found | "
+      "nanoflann queries/s |");
+  for (const std::string& c : configs)
+    std::printf(" %s cycles/query | %s queries/s (x nanoflann) |", c.c_str(), c.c_str());
   std::printf("\n|---|---:|---:|---:|---:|---:|---:|---:|");
   for (size_t i = 0; i < configs.size(); ++i) std::printf("---:|---:|");
   std::printf("\n");

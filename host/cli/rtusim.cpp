@@ -38,10 +38,10 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("rtusim 0.1.0 (model ") + rtu::host::model_identity() + ")");
   namespace cli = rtu::host::cli;
   // The subcommands, in the order --help lists them.
-  for (void (*add)(CLI::App&) : {cli::add_info, cli::add_rays, cli::add_trace, cli::add_compare, cli::add_stress,
-                                 cli::add_render, cli::add_diff, cli::add_config, cli::add_demo, cli::add_sweep,
-                                 cli::add_plan, cli::add_report, cli::add_soak, cli::add_motion, cli::add_query,
-                                 cli::add_join})
+  for (void (*add)(CLI::App&) :
+       {cli::add_info, cli::add_rays, cli::add_trace, cli::add_compare, cli::add_stress, cli::add_render,
+        cli::add_diff, cli::add_config, cli::add_demo, cli::add_sweep, cli::add_plan, cli::add_report,
+        cli::add_soak, cli::add_motion, cli::add_query, cli::add_join})
     add(app);
   refuse_nan(app);
   try {

@@ -378,25 +378,6 @@ def check_coord_bits(row, ctx, full):
     return r
 
 
-def check_coord_bits_packed(row, ctx, full):
-    # README: 16 instead of 24 bits: a-b% fewer cycles on two meshes (mean t error up to E -> F).
-    # The packed sweep of bench/results/pareto-and-scaling.md, rdna2-mem points: cycles of packed:coord_bits=16
-    # against packed (24 bits) per mesh; the largest mean relative t error over the meshes at 24 and at 16 bits.
-    # Tolerance: deterministic, exact to the printed digits.
-    a, b, e, f = stated(row, r"16 instead of 24 bits: ([\d.]+)-([\d.]+)% fewer cycles on two meshes \(mean t error "
-                             r"up to ([\d.e-]+) -> ([\d.e-]+)\)")
-    rows = sweep(ctx, SWEEP_PACKED, "sweep_packed.csv")
-    pts = {(x["scene"], x["format"]): x for x in rows if x["config"] == "rdna2-mem"}
-    gain = [100 * (1 - int(pts[(s, "packed:coord_bits=16")]["cycles"]) / int(pts[(s, "packed")]["cycles"]))
-            for s in (HOUSE, ENGINE)]
-    r = Result()
-    r.exact("fewer cycles min %", min(gain), a)
-    r.exact("max %", max(gain), b)
-    r.exact("t error 24 bits", max(float(pts[(s, "packed")]["t_rel_error_mean"]) for s in (HOUSE, ENGINE)), e)
-    r.exact("16 bits", max(float(pts[(s, "packed:coord_bits=16")]["t_rel_error_mean"]) for s in (HOUSE, ENGINE)), f)
-    return r
-
-
 def check_packed(row, ctx, full):
     # README: CWBVH-like BVH8 nodes a-b% of the float BVH2's; 16-bit packed grid -c to -d% DRAM bytes per ray,
     # e-fx fewer cycles on rdna2-mem; both against the widest structs (16-bit offsets), bench/compression.sh.
@@ -473,6 +454,44 @@ def check_two_level(row, ctx, full):
     return r
 
 
+def check_motion(row, ctx, full):
+    # README: time-aware A-Bx; time-oblivious Cx (small moves) to Dx. bench/results/motion-blur.md: the time-aware
+    # unit's ratio to the static frame at motion scale 0 and 1 (its least and largest), the time-oblivious unit's
+    # at scale 0.1 with a 100-clock shader round trip and at scale 1 (rdna2's 400). `rtusim motion --json`, 320x240
+    # at 4 shutter times. Tolerance: deterministic cycles, exact to the printed digits.
+    a, b, c, d = stated(row, r"time-aware ([\d.]+)-([\d.]+)x; time-oblivious ([\d.]+)x \(small moves\) to (\d+)x")
+
+    def ratios(name, *args):
+        f = ctx.path(name)
+        ctx.run([ctx.rtusim, "motion", "--json", f, *args], key=name)
+        return [x["ratio_to_static"] for x in json.load(open(f))["designs"]]
+
+    still, full_moves = ratios("motion0.json", "--motion-scale", "0"), ratios("motion1.json")
+    small = ratios("motion01.json", "--motion-scale", "0.1", "--set", "any_hit_latency=100")
+    r = Result()
+    r.exact("time-aware at no motion", still[1], a)
+    r.exact("at full moves", full_moves[1], b)
+    r.exact("time-oblivious, small moves, 100-clock shader", small[2], c)
+    r.exact("full moves", full_moves[2], d)
+    return r
+
+
+def check_queries(row, ctx, full):
+    # README: one rdna2 unit A-Bx a nanoflann thread. build/default/query_bench (about a minute): the rdna2 column's
+    # ratios against nanoflann measured in the same run, the least and the largest. Tolerance: wall time (x0.5-2).
+    a, b = stated(row, r"one `rdna2` unit ([\d.]+)-([\d.]+)x a nanoflann thread")
+    out = ctx.run([os.path.join(ctx.build, "query_bench")], key="query_bench")
+    # Each row: `| rdna2 cycles | rdna2 queries/s (ratio) | rdna4 ... |`; the rdna2 ratios are every other match.
+    ratios = [float(m) for m in re.findall(r"\| [\d.]+ \| \d+ \(([\d.]+)x\) (?=\|)", out)[0::2]]
+    if not ratios:
+        raise CommandFailed("query_bench printed no rdna2 ratios")
+    r = Result()
+    r.band("least", min(ratios), a, *SPEED_BAND)
+    r.band("largest", max(ratios), b, *SPEED_BAND)
+    r.note("band", "speed x0.5-2")
+    return r
+
+
 def check_stress(row, ctx, full):
     # README: F failures in N M hostile cases on both devices. `rtusim stress --count 100000 --json`: its total
     # cases and failures. Tolerance: failures exactly, cases to the printed digits.
@@ -530,14 +549,12 @@ def check_sampled(row, ctx, full):
 
 
 def check_chip(row, ctx, full):
-    # README: `rdna2-chip` at 16 B/clock: flat from F units, first principles say c-d; simulator e-fx the single
-    # unit's speed at 80 units. BANDWIDTH=16 bench/chip_scaling.sh 200000 (about 20 s): c-d are the engine's
-    # first-principles knees (its camera and incoherent rows; the house's lie beyond 80 units), deterministic,
-    # exact. "Flat from F" reads the engine's speed-up curves: the first unit count from which the speed-up grows
-    # by less than 10% to the next count, the same for both ray kinds; deterministic, exact. The simulator's speed
-    # at 80 units is wall time: x0.5-2.
-    g = stated(row, r"flat from (\d+) units, first principles say (\d+)-(\d+); simulator ([\d.]+)-([\d.]+)x "
-                    r"the single unit's speed at 80")
+    # README: `rdna2-chip` (80 units) at 16 B/clock: flat from F units (first principles: c-d).
+    # BANDWIDTH=16 bench/chip_scaling.sh 200000 (about 20 s): c-d are the engine's first-principles knees (its
+    # camera and incoherent rows; the house's lie beyond 80 units), deterministic, exact. "Flat from F" reads the
+    # engine's speed-up curves: the first unit count from which the speed-up grows by less than 10% to the next
+    # count, the same for both ray kinds; deterministic, exact.
+    g = stated(row, r"flat from (\d+) units \(first principles: (\d+)-(\d+)\)")
     out = ctx.run(["bench/chip_scaling.sh", ctx.rtusim, "200000"], env={"BANDWIDTH": "16"})
     t = table_with(out, "knee (units)")
     eng = [x for x in t if x["mesh"].startswith("2CylinderEngine")]
@@ -546,7 +563,6 @@ def check_chip(row, ctx, full):
     for kind in ("primary", "incoherent"):
         rows = sorted(((int(x["units"]), num(x["speed-up"])) for x in eng if x["rays"] == kind))
         flat.append(next((u for (u, s), (_, s2) in zip(rows, rows[1:]) if s2 < 1.1 * s), rows[-1][0]))
-    speed = [num(x["sim rays/s vs 1 unit"]) for x in t if x["units"] == "80"]
     r = Result()
     if len(set(flat)) != 1:
         r.note("flat from", f"camera {flat[0]}, incoherent {flat[1]} units differ")
@@ -555,8 +571,6 @@ def check_chip(row, ctx, full):
         r.exact("flat from", flat[0], g[0])
     r.exact("knee min", min(knees), g[1])
     r.exact("max", max(knees), g[2])
-    r.band("sim speed at 80 min", min(speed), g[3], *SPEED_BAND)
-    r.band("max", max(speed), g[4], *SPEED_BAND)
     return r
 
 
@@ -644,7 +658,6 @@ CHECKS = [
     ("sampled", "Sampled timing, 4M rays, F = 0.01", None, check_sampled),  # 4.5 min
     ("coord-bits", "Coordinate bits", None, check_coord_bits),
     ("packed", "Packed nodes and triangle blocks", None, check_packed),
-    ("coord-bits-packed", "Coordinate bits, packed, `rdna2-mem`", None, check_coord_bits_packed),
     ("rtl-box", "RTL box unit", "yosys synthesizes one unit per row: about 18 minutes", check_rtl_box),
     ("rtl-tri", "RTL triangle unit", "yosys synthesizes each preset's unit: minutes per row", check_rtl_tri),
     ("rtl-trav", "Model against the RTL traversal unit", "Verilator runs 180 packets twice and 40 designs: about 10 minutes",
@@ -653,6 +666,8 @@ CHECKS = [
     ("chip", "Chip of units sharing L2 and DRAM", None, check_chip),
     ("two-level", "Two levels against flattened", None, check_two_level),
     ("hybrid", "Hybrid against ray-traced frames", None, check_hybrid),
+    ("motion", "Motion blur against the static frame", None, check_motion),
+    ("queries", "Neighbour queries against a CPU k-d tree", None, check_queries),
     ("stress", "Stress suite", None, check_stress),
 ]
 

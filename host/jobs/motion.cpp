@@ -57,6 +57,7 @@ MotionJobResult run_motion_job(const MotionJobOptions& o) {
   o.format.validate();
   o.motion.validate();
   o.timing.validate();
+  hw::check_motion_config(o.timing);  // before the frames are traced
   const MotionScene scene = o.loaded          ? moving_scene(*o.loaded, o.move)
                             : o.scene.empty() ? builtin_motion_scene(o.level, o.motion_scale)
                                               : moving_scene(load_scene(o.scene), o.move);

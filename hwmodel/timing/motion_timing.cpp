@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <string>
 
 #include "hwmodel/format/node_kinds.h"
 
@@ -51,9 +52,18 @@ TimingModel::Layout motion_layout(const MotionImage& im, MotionUnit u) {
   return l;
 }
 
+void check_motion_config(const TimingConfig& c) {
+  if (c.units > 1)
+    throw std::invalid_argument("motion blur is timed on one unit; the configuration has " +
+                                std::to_string(c.units) + " units (set units=1, or a one-unit preset)");
+}
+
 MotionTiming time_motion_rays(const MotionImage& im, MotionUnit u, const TimingConfig& c,
                               const std::vector<Ray>& rays, const std::vector<float>& times, bool any_hit) {
   validate_shutter_times(times, rays.size());
+  if (c.units > 1)
+    throw std::invalid_argument("motion blur is timed on one unit; the configuration has " +
+                                std::to_string(c.units) + " units (set units=1, or a one-unit preset)");
   if (u == MotionUnit::kTimeOblivious && im.motion.box_time_bits != 0)
     throw std::invalid_argument("the time-oblivious unit tests boxes over the whole shutter: box_time_bits 0");
   if (u == MotionUnit::kStatic && std::find(im.moving.begin(), im.moving.end(), 1) != im.moving.end())

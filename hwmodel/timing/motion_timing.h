@@ -44,6 +44,9 @@ uint64_t motion_node_bytes(const FixedFormat& f, MotionUnit u);
 // unit).
 TimingModel::Layout motion_layout(const MotionImage& im, MotionUnit u);
 
+// Throws std::invalid_argument for a configuration motion blur cannot be timed on (a chip: c.units > 1).
+void check_motion_config(const TimingConfig& c);
+
 struct MotionTiming {
   uint64_t cycles = 0;
   TimingStats timing;
@@ -52,7 +55,8 @@ struct MotionTiming {
 };
 // Traces and times rays (and their shutter times, validate_shutter_times) on unit u of configuration c (before
 // motion_timing_config). im must be encoded for u: box_time_bits 0 for the time-oblivious unit; key frames equal
-// for the static one. Events are recorded and replayed in chunks, so memory does not grow with the rays.
+// for the static one; c one unit (std::invalid_argument for a chip: motion is not timed on chips yet). Events are
+// recorded and replayed in chunks, so memory does not grow with the rays.
 MotionTiming time_motion_rays(const MotionImage& im, MotionUnit u, const TimingConfig& c,
                               const std::vector<Ray>& rays, const std::vector<float>& times, bool any_hit = false);
 

@@ -295,6 +295,7 @@ TEST_CASE("rtusim motion: images, figures and refusals", "[motion][cli]") {
                        {"motion --box-time-bits 20 --time-bits 16", "box_time_bits"},
                        {"motion --motion-scale 2", "motion-scale"},
                        {"motion --set nosuchkey=1", "nosuchkey"},
+                       {"motion --config rdna2-chip", "timed on one unit; the configuration has 80 units"},
                        {"motion --move 1 0 0", "--scene only"},
                        {"motion --scene builtin:cornell --move 1 0 0 --motion-scale 0.5", "built-in scene only"},
                        {"motion --scene builtin:seed --move 1 0 0",

@@ -495,16 +495,22 @@ py::dict diff(const py::handle& a, const py::handle& b) {
   return j;
 }
 
-// Points as an (N, 3) float array (copied to float32).
-std::vector<hw::Vec3> points_from_numpy(const py::handle& obj, const char* name) {
+// An (N, K) float array as float32 rows.
+std::vector<float> rows_from_numpy(const py::handle& obj, const char* name, py::ssize_t k) {
   py::array a = py::array::ensure(obj);
-  if (!a || a.ndim() != 2 || a.shape(1) != 3 || a.dtype().kind() != 'f')
-    fail(std::string(name) + ": expected a float array of shape (N, 3)");
+  if (!a || a.ndim() != 2 || a.shape(1) != k || a.dtype().kind() != 'f')
+    fail(std::string(name) + ": expected a float array of shape (N, " + std::to_string(k) + ")");
   using F32 = py::array_t<float, py::array::c_style | py::array::forcecast>;
   const F32 f = F32::ensure(a);
-  std::vector<hw::Vec3> v(size_t(f.shape(0)));
-  if (!v.empty()) std::memcpy(v.data(), f.data(), v.size() * sizeof(hw::Vec3));
-  return v;
+  return std::vector<float>(f.data(), f.data() + f.size());
+}
+
+// Points as an (N, 3) float array (copied to float32).
+std::vector<hw::Vec3> points_from_numpy(const py::handle& obj, const char* name) {
+  const std::vector<float> v = rows_from_numpy(obj, name, 3);
+  std::vector<hw::Vec3> p(v.size() / 3);
+  if (!p.empty()) std::memcpy(p.data(), v.data(), p.size() * sizeof(hw::Vec3));
+  return p;
 }
 
 // rtu.query: the job of rtusim query on numpy points; the answers as arrays.
@@ -548,16 +554,6 @@ py::dict query(const py::handle& points, const py::handle& queries, float radius
   d["overflow"] = give(std::move(overflow), py::dtype::of<bool>(), {nn}, {1});
   d["stats"] = to_python(host::query_json(o, r));
   return d;
-}
-
-// An (N, K) float array as float32 rows.
-std::vector<float> rows_from_numpy(const py::handle& obj, const char* name, py::ssize_t k) {
-  py::array a = py::array::ensure(obj);
-  if (!a || a.ndim() != 2 || a.shape(1) != k || a.dtype().kind() != 'f')
-    fail(std::string(name) + ": expected a float array of shape (N, " + std::to_string(k) + ")");
-  using F32 = py::array_t<float, py::array::c_style | py::array::forcecast>;
-  const F32 f = F32::ensure(a);
-  return std::vector<float>(f.data(), f.data() + f.size());
 }
 
 // rtu.join: the job of rtusim join on numpy arrays; the pairs as an (P, 2) array.

@@ -1,5 +1,6 @@
 #include "host/jobs/join.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -119,56 +120,52 @@ std::vector<hw::Point2> points2_from_spec(const std::string& spec, uint64_t seed
   return v;
 }
 
+namespace {
+
+// The probes of an index (a PolygonIndex or SegmentIndex) on the fixed unit over threads, or timed; each probe's
+// answer into answers[j].
+template <class Index, class Probe>
+void run_index(const Index& index, const std::vector<Probe>& probes, const JoinJobOptions& o, JoinJobResult& r,
+               std::vector<std::vector<uint32_t>>& answers) {
+  answers.assign(probes.size(), {});
+  r.index_bytes = hw::box_index_layout(index.index(), o.format).total_bytes;
+  if (!o.timed) {
+    hw::run_probes(probes.size(), o.threads, r.stats,
+                   [&](size_t j, hw::QueryStats& s) { answers[j] = index.probe(probes[j], s); });
+    return;
+  }
+  const hw::ProbeTiming t = hw::time_probes(
+      index.index(), o.format, probes.size(),
+      [&](size_t j, hw::QueryStats& s, std::vector<hw::TraceEvent>* rec) {
+        answers[j] = index.probe(probes[j], s, rec);
+      },
+      o.timing);
+  r.cycles = t.cycles;
+  r.timing = t.timing;
+  r.stats = t.queries;
+}
+
+}  // namespace
+
 JoinJobResult run_join_job(const JoinJobOptions& o) {
   JoinJobResult r;
+  std::vector<std::vector<uint32_t>> answers;
+  hw::Aabb frame;  // the probes' extent, fitted beside the index's boxes
   if (o.polygons) {
-    hw::Aabb frame;
     for (const hw::Point2& p : o.points) frame.extend(hw::Vec3(p.x, p.y, 0.0f));
-    const hw::PolygonIndex index(o.polys, o.format, frame);
-    r.index_bytes = hw::box_index_layout(index.index(), o.format).total_bytes;
-    std::vector<std::vector<uint32_t>> in(o.points.size());
-    if (o.timed) {
-      const hw::ProbeTiming t = hw::time_probes(
-          index.index(), o.format, o.points.size(),
-          [&](size_t j, hw::QueryStats& s, std::vector<hw::TraceEvent>* rec) {
-            in[j] = index.probe(o.points[j], s, rec);
-          },
-          o.timing);
-      r.cycles = t.cycles;
-      r.timing = t.timing;
-      r.stats = t.queries;
-    } else {
-      in = hw::point_in_polygons(o.polys, o.points, o.format, o.threads, r.stats);
-    }
-    for (size_t j = 0; j < in.size(); ++j)
-      for (uint32_t k : in[j]) r.pairs.emplace_back(uint32_t(j), k);
+    run_index(hw::PolygonIndex(o.polys, o.format, frame), o.points, o, r, answers);
+    for (size_t j = 0; j < answers.size(); ++j)
+      for (uint32_t k : answers[j]) r.pairs.emplace_back(uint32_t(j), k);
     return r;
   }
-  if (o.timed) {
-    hw::Aabb frame;
-    for (const hw::Segment2& s : o.b) {
-      frame.extend(hw::Vec3(s.a.x, s.a.y, 0.0f));
-      frame.extend(hw::Vec3(s.b.x, s.b.y, 0.0f));
-    }
-    const hw::SegmentIndex index(o.a, o.format, frame);
-    r.index_bytes = hw::box_index_layout(index.index(), o.format).total_bytes;
-    std::vector<std::vector<uint32_t>> hits(o.b.size());
-    const hw::ProbeTiming t = hw::time_probes(
-        index.index(), o.format, o.b.size(),
-        [&](size_t j, hw::QueryStats& s, std::vector<hw::TraceEvent>* rec) {
-          hits[j] = index.probe(o.b[j], s, rec);
-        },
-        o.timing);
-    r.cycles = t.cycles;
-    r.timing = t.timing;
-    r.stats = t.queries;
-    for (size_t j = 0; j < hits.size(); ++j)
-      for (uint32_t i : hits[j]) r.pairs.emplace_back(i, uint32_t(j));
-    std::sort(r.pairs.begin(), r.pairs.end());
-    return r;
+  for (const hw::Segment2& s : o.b) {
+    frame.extend(hw::Vec3(s.a.x, s.a.y, 0.0f));
+    frame.extend(hw::Vec3(s.b.x, s.b.y, 0.0f));
   }
-  r.pairs = hw::segment_join(o.a, o.b, o.format, o.threads, r.stats);
-  r.index_bytes = hw::box_index_layout(hw::SegmentIndex(o.a, o.format).index(), o.format).total_bytes;
+  run_index(hw::SegmentIndex(o.a, o.format, frame), o.b, o, r, answers);
+  for (size_t j = 0; j < answers.size(); ++j)
+    for (uint32_t i : answers[j]) r.pairs.emplace_back(i, uint32_t(j));
+  std::sort(r.pairs.begin(), r.pairs.end());
   return r;
 }
 

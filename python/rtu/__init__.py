@@ -279,10 +279,7 @@ def motion(scene=None, *, move=(0.0, 0.0, 0.0), width=320, height=240, samples=4
         move = [_number(c, "move") for c in move]
     except TypeError:
         raise TypeError(f"move: expected three numbers (x, y, z), got {move!r}") from None
-    if isinstance(set, dict):
-        sets = [f"{k}={_value(v)}" for k, v in set.items()]
-    else:
-        sets = [_str(s, "set", "\"key=value\" strings") for s in set or []]
+    sets = _sets(set)
     return _rtu.motion(scene, move, _int(width, "width"), _int(height, "height"), _int(samples, "samples"),
                        _int(level, "level"), _number(motion_scale, "motion_scale"), _int(time_bits, "time_bits"),
                        _int(box_time_bits, "box_time_bits"), _int(seed, "seed"), _int(threads, "threads"),
@@ -311,10 +308,7 @@ def query(points, queries=None, *, radius, kind="radius", k=None, max_results=64
     device = _str(device, "device", "'fixed' or 'timed'")
     if device not in ("fixed", "timed"):
         raise Error(f"device: queries run on 'fixed' or 'timed', not {device!r}")
-    if isinstance(set, dict):
-        sets = [f"{key}={_value(v)}" for key, v in set.items()]
-    else:
-        sets = [_str(x, "set", "\"key=value\" strings") for x in set or []]
+    sets = _sets(set)
     return _rtu.query(_np.asarray(points), None if queries is None else _np.asarray(queries),
                       _number(radius, "radius"), kind, bound, device == "timed",
                       _str(format, "format", "a format spec such as 'default'"),
@@ -338,10 +332,7 @@ def join(segments=None, probes=None, *, polygons=None, points=None, device="fixe
     device = _str(device, "device", "'fixed' or 'timed'")
     if device not in ("fixed", "timed"):
         raise Error(f"device: joins run on 'fixed' or 'timed', not {device!r}")
-    if isinstance(set, dict):
-        sets = [f"{key}={_value(v)}" for key, v in set.items()]
-    else:
-        sets = [_str(x, "set", "\"key=value\" strings") for x in set or []]
+    sets = _sets(set)
     return _rtu.join(None if segments is None else _np.asarray(segments),
                      None if probes is None else _np.asarray(probes),
                      None if polygons is None else [_np.asarray(p) for p in polygons],
@@ -357,13 +348,16 @@ def config(preset="rdna2", set=None):
         preset = d.pop("preset", "rdna2")
         set = {**d, **(set or {})}
     preset = _str(preset, "preset", "a timing preset name such as 'rdna2', or a dict {\"preset\": NAME, key: value}")
+    return _rtu.config(preset, _sets(set))
+
+
+def _sets(set):  # noqa: A002
+    """Timing overrides as "key=value" strings, from a dict {key: value} or a list of such strings."""
     if isinstance(set, dict):
-        sets = [f"{k}={_value(v)}" for k, v in set.items()]
-    elif set is None or isinstance(set, (list, tuple)):
-        sets = [_str(s, "set", "\"key=value\" strings") for s in set or []]
-    else:
-        raise TypeError(f"set: expected a dict {{key: value}} or a list of \"key=value\", got {set!r}")
-    return _rtu.config(preset, sets)
+        return [f"{key}={_value(v)}" for key, v in set.items()]
+    if set is None or isinstance(set, (list, tuple)):
+        return [_str(x, "set", "\"key=value\" strings") for x in set or []]
+    raise TypeError(f"set: expected a dict {{key: value}} or a list of \"key=value\", got {set!r}")
 
 
 def _value(v):

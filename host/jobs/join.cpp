@@ -122,6 +122,13 @@ std::vector<hw::Point2> points2_from_spec(const std::string& spec, uint64_t seed
 
 namespace {
 
+// A probe's coordinates, named by its index (the probes' own checks cannot know it).
+void check_probe(const hw::Point2& p, const char* what, size_t j) {
+  if (!(std::fabs(p.x) <= 0x1p62f && std::fabs(p.y) <= 0x1p62f))
+    throw Error(std::string(what) + " " + std::to_string(j) +
+                " has a coordinate that is not finite or beyond 2^62");
+}
+
 // The probes of an index (a PolygonIndex or SegmentIndex) on the fixed unit over threads, or timed; each probe's
 // answer into answers[j].
 template <class Index, class Probe>
@@ -152,16 +159,20 @@ JoinJobResult run_join_job(const JoinJobOptions& o) {
   std::vector<std::vector<uint32_t>> answers;
   hw::Aabb frame;  // the probes' extent, fitted beside the index's boxes
   if (o.polygons) {
-    for (const hw::Point2& p : o.points) frame.extend(hw::Vec3(p.x, p.y, 0.0f));
+    for (size_t j = 0; j < o.points.size(); ++j) {
+      check_probe(o.points[j], "point", j);
+      frame.extend(hw::Vec3(o.points[j].x, o.points[j].y, 0.0f));
+    }
     run_index(hw::PolygonIndex(o.polys, o.format, frame), o.points, o, r, answers);
     for (size_t j = 0; j < answers.size(); ++j)
       for (uint32_t k : answers[j]) r.pairs.emplace_back(uint32_t(j), k);
     return r;
   }
-  for (const hw::Segment2& s : o.b) {
-    frame.extend(hw::Vec3(s.a.x, s.a.y, 0.0f));
-    frame.extend(hw::Vec3(s.b.x, s.b.y, 0.0f));
-  }
+  for (size_t j = 0; j < o.b.size(); ++j)
+    for (const hw::Point2& p : {o.b[j].a, o.b[j].b}) {
+      check_probe(p, "probe segment", j);
+      frame.extend(hw::Vec3(p.x, p.y, 0.0f));
+    }
   run_index(hw::SegmentIndex(o.a, o.format, frame), o.b, o, r, answers);
   for (size_t j = 0; j < answers.size(); ++j)
     for (uint32_t i : answers[j]) r.pairs.emplace_back(i, uint32_t(j));

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 
@@ -42,9 +43,10 @@ bool in_box(const Segment2& s, const Point2& c) {
          c.y <= std::max(s.a.y, s.b.y);
 }
 
+// Throws naming `what` and its index i (SIZE_MAX: a single probe, no index) when p is not finite or beyond 2^62.
 void check_point(const Point2& p, const char* what, size_t i) {
   if (!(std::fabs(p.x) <= kMaxCoordinate && std::fabs(p.y) <= kMaxCoordinate))
-    throw std::invalid_argument(std::string(what) + " " + std::to_string(i) +
+    throw std::invalid_argument(std::string(what) + (i == SIZE_MAX ? "" : " " + std::to_string(i)) +
                                 " has a coordinate that is not finite or beyond 2^62");
 }
 
@@ -100,8 +102,8 @@ SegmentIndex::SegmentIndex(std::vector<Segment2> segments, const FixedFormat& f,
     : m_segments(std::move(segments)), m_index(segment_boxes(m_segments, "segment"), f, frame) {}
 
 std::vector<uint32_t> SegmentIndex::probe(const Segment2& b, QueryStats& s, std::vector<TraceEvent>* rec) const {
-  check_point(b.a, "probe segment", 0);
-  check_point(b.b, "probe segment", 0);
+  check_point(b.a, "a probe segment", SIZE_MAX);
+  check_point(b.b, "a probe segment", SIZE_MAX);
   ++s.queries;
   std::vector<uint32_t> out;
   m_index.box_candidates(
@@ -120,7 +122,7 @@ PolygonIndex::PolygonIndex(const std::vector<Polygon2>& polygons, const FixedFor
     : m_edges(polygon_edges(polygons, m_owner)), m_index(segment_boxes(m_edges, "polygon edge"), f, frame) {}
 
 std::vector<uint32_t> PolygonIndex::probe(const Point2& q, QueryStats& s, std::vector<TraceEvent>* rec) const {
-  check_point(q, "point", 0);
+  check_point(q, "a point", SIZE_MAX);
   ++s.queries;
   std::vector<uint32_t> in;
   FixedRay r;

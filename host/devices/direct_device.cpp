@@ -23,6 +23,12 @@ class FloatDeviceOf : public DirectDevice {
                    hw::TraversalStats& s) const override {
     m_tracer.trace_batch(rays, hits, n, any_hit, threads, s);
   }
+  void trace_all_batch(const hw::Ray* rays, size_t n, const hw::AllHitsOut& out, int threads,
+                       hw::TraversalStats& s) const override {
+    hw::all_hits_batch(n, threads, out, s, [&](size_t i, hw::HitList& l, hw::TraversalStats& st) {
+      return m_tracer.trace_all(rays[i], l, st);
+    });
+  }
   hw::RayStatus ray_status(const hw::Ray& r) const override { return hw::validate_ray(r); }
 
  protected:
@@ -88,6 +94,18 @@ void trace_watched(const Tracer& t, const hw::Ray* rays, hw::Hit* hits, size_t n
   s.add(local);
 }
 
+// A fixed tracer's all-hit batch, watched as trace_watched.
+template <class Tracer>
+void trace_all_watched(const Tracer& t, const hw::Ray* rays, size_t n, const hw::AllHitsOut& out, int threads,
+                       hw::TraversalStats& s) {
+  hw::TraversalStats local;
+  hw::all_hits_batch(n, threads, out, local, [&](size_t i, hw::HitList& l, hw::TraversalStats& st) {
+    return t.trace_all(rays[i], l, st);
+  });
+  if (local.watchdog_rays > 0) throw hw::WatchdogError(t.watchdog_report(rays, n, false, local.watchdog_rays), 0);
+  s.add(local);
+}
+
 class FixedDevice final : public ImageDevice {
  public:
   using ImageDevice::ImageDevice;
@@ -95,6 +113,10 @@ class FixedDevice final : public ImageDevice {
   void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
                    hw::TraversalStats& s) const override {
     trace_watched(m_tracer, rays, hits, n, any_hit, threads, s);
+  }
+  void trace_all_batch(const hw::Ray* rays, size_t n, const hw::AllHitsOut& out, int threads,
+                       hw::TraversalStats& s) const override {
+    trace_all_watched(m_tracer, rays, n, out, threads, s);
   }
 };
 
@@ -113,6 +135,10 @@ class InstancedFixedDevice final : public DirectDevice {
   void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
                    hw::TraversalStats& s) const override {
     trace_watched(m_tracer, rays, hits, n, any_hit, threads, s);
+  }
+  void trace_all_batch(const hw::Ray* rays, size_t n, const hw::AllHitsOut& out, int threads,
+                       hw::TraversalStats& s) const override {
+    trace_all_watched(m_tracer.top_tracer(), rays, n, out, threads, s);
   }
   hw::RayStatus ray_status(const hw::Ray& r) const override {
     hw::FixedRay fr;
@@ -153,6 +179,11 @@ class TimedDevice final : public ImageDevice {
     m_engine.set_threads(threads);
     if (n > 0) m_engine.trace_cycles(rays, hits, n, any_hit, s, uint8_t(hw::cmd::RayType::kOther), 0);
   }
+  void trace_all_batch(const hw::Ray* rays, size_t n, const hw::AllHitsOut& out, int threads,
+                       hw::TraversalStats& s) const override {
+    m_engine.set_threads(threads);
+    if (n > 0) m_engine.trace_all_cycles(rays, n, out, s, uint8_t(hw::cmd::RayType::kOther), 0);
+  }
   const hw::TimedEngine* timed() const override { return &m_engine; }
   void set_pipeline_trace(hw::PipelineTrace* trace) override { m_engine.set_trace(trace); }
 
@@ -179,6 +210,11 @@ class InstancedTimedDevice final : public DirectDevice {
                    hw::TraversalStats& s) const override {
     m_engine.set_threads(threads);
     if (n > 0) m_engine.trace_cycles(rays, hits, n, any_hit, s, uint8_t(hw::cmd::RayType::kOther), 0);
+  }
+  void trace_all_batch(const hw::Ray* rays, size_t n, const hw::AllHitsOut& out, int threads,
+                       hw::TraversalStats& s) const override {
+    m_engine.set_threads(threads);
+    if (n > 0) m_engine.trace_all_cycles(rays, n, out, s, uint8_t(hw::cmd::RayType::kOther), 0);
   }
   hw::RayStatus ray_status(const hw::Ray& r) const override {
     const hw::FixedTracer& t = m_engine.instanced()->top_tracer();

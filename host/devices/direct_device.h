@@ -52,6 +52,10 @@ class DirectDevice {
   const char* name() const { return hw::device_kind_name(kind()); }
   virtual void trace_batch(const hw::Ray* rays, hw::Hit* hits, size_t n, bool any_hit, int threads,
                            hw::TraversalStats& s) const = 0;
+  // All-hit traversal (hit_list.h): every intersection of each ray in [tmin, tmax], up to out.k kept per ray. The
+  // timed device times it as a TRACE with kTraceAllHits (never sampled).
+  virtual void trace_all_batch(const hw::Ray* rays, size_t n, const hw::AllHitsOut& out, int threads,
+                               hw::TraversalStats& s) const = 0;
   // What the device's ray setup says of r (a rejected ray is traced as a miss and counted by this reason).
   virtual hw::RayStatus ray_status(const hw::Ray& r) const = 0;
   // The BVH the device traverses (null: brute force), with its SAH and brute-force costs.

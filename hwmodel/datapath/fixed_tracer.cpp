@@ -266,7 +266,7 @@ struct FixedPolicy {
   RestartTrail* trail = nullptr;      // recording with FixedTraceOptions::record_restart: the restarts' costs
   // All-hit traversal: each record's hit is collected with its own interval, the closest never narrowed; called
   // with the hit's Closest. Null otherwise.
-  const std::function<void(const Closest&)>* all = nullptr;
+  const std::function<void(uint32_t)>* all = nullptr;  // all-hit traversal: tests record i and keeps its hits
 
   // A constructor, not aggregate initialization: GCC 12 clears the whole object before an aggregate's fields
   // (rep stos, a stall once per ray).
@@ -374,11 +374,7 @@ struct FixedPolicy {
     const uint32_t first = leaf_first(ref), count = leaf_count(ref);
     if (!bottom) s.prim_tests += count;  // an instance record is not a test: its bottom level counts its own
     if (all) {
-      for (uint32_t i = first; i < first + count; ++i) {
-        Closest c{closest.t};
-        if (test_recorded(image.record(i), i, r, c, short_edges, tri_unit, stage, s, world, bottom, false, rec))
-          (*all)(c);
-      }
+      for (uint32_t i = first; i < first + count; ++i) (*all)(i);
       return false;
     }
     return test_records(image, first, count, r, closest, short_edges, tri_unit, stage, s, world, bottom, any_hit,
@@ -574,8 +570,8 @@ Hit FixedTracer::world_hit(int64_t t, uint32_t prim, float u, float v, const uin
 
 uint64_t FixedTracer::trace_all(const Ray& r, HitList& all, TraversalStats& s,
                                 std::vector<TraceEvent>* rec) const {
-  if (m_opt.bottom || (m_image.header().flags & kImageTopLevel))
-    throw std::invalid_argument("all-hit traversal runs on one-level images (this one is a top level)");
+  if ((m_image.header().flags & kImageTopLevel) && !m_opt.bottom)
+    throw std::invalid_argument("all-hit traversal of a top level needs its bottom levels");
   FixedRay fr;
   const RayStatus status = m_setup(r, fr);
   if (status != RayStatus::kOk) {
@@ -588,6 +584,7 @@ uint64_t FixedTracer::trace_all(const Ray& r, HitList& all, TraversalStats& s,
   const ImageHeader& hd = m_image.header();
   if (fr.tmin > fr.tmax) return all.count;
   const std::function<void(const Closest&)> collect = [&](const Closest& c) {
+    if (rec) rec->push_back(TraceEvent{TraceEvent::kHitOut, uint8_t(all.count < all.max), 0, 0, c.prim});
     all.add(world_hit(c.t, c.prim, c.u, c.v, c.record, fr, &r));
   };
   const PlaneRecord* planes = m_image.planes();
@@ -600,22 +597,31 @@ uint64_t FixedTracer::trace_all(const Ray& r, HitList& all, TraversalStats& s,
   }
   const AlphaTest stage{m_opt.any_hit, m_opt.micromaps};
   const bool short_edges = short_edges_known(fr, m_format.coord_bits);
-  if (hd.record_count > 0 && (hd.flags & kImageNoBvh)) {
-    s.prim_tests += hd.record_count;
-    for (uint32_t i = 0; i < hd.record_count; ++i) {
-      Closest c{fr.tmax};
-      if (test_recorded(m_image.record(i), i, fr, c, short_edges, m_opt.tri_unit, stage, s, &r, nullptr, false,
-                        rec))
-        collect(c);
+  // Record i: a primitive's hit kept, or an instance's bottom level traced for all of its own.
+  const std::function<void(uint32_t)> one = [&](uint32_t i) {
+    const uint8_t* record = m_image.record(i);
+    if (record_kind(record) == RecordKind::kInstance) {
+      if (rec) rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(RecordKind::kInstance), 0, 0, i});
+      uint32_t word;
+      std::memcpy(&word, record + 36, 4);
+      if (m_opt.bottom) m_opt.bottom->trace_instance_all(word & kRecordPrimMask, r, all, s, rec);
+      return;
     }
+    Closest c{fr.tmax};
+    if (test_recorded(record, i, fr, c, short_edges, m_opt.tri_unit, stage, s, &r, nullptr, false, rec))
+      collect(c);
+  };
+  if (hd.record_count > 0 && (hd.flags & kImageNoBvh)) {
+    if (!m_opt.bottom) s.prim_tests += hd.record_count;
+    for (uint32_t i = 0; i < hd.record_count; ++i) one(i);
   } else if (hd.record_count > 0) {
     WatchState watch;
     Closest interval{fr.tmax};  // never narrowed: every subtree the ray enters in [tmin, tmax] is visited
     with_node_kind(node_kind(hd), hd.width, hd.q_bytes, [&](auto kind) {
       using K = decltype(kind);
       FixedPolicy<K> p(m_image.nodes<typename K::Node>(), m_image, fr, false, m_opt.check_boxes, interval, s, rec,
-                       m_opt.box_unit, m_opt.tri_unit, stage, &r, nullptr, watch, m_step_limit, m_format, -1);
-      p.all = &collect;
+                       m_opt.box_unit, m_opt.tri_unit, stage, &r, m_opt.bottom, watch, m_step_limit, m_format, -1);
+      p.all = &one;
       traverse(p, hd.root_ref, false, s, !m_opt.slot_order);
     });
     if (watch.fired) ++s.watchdog_rays;

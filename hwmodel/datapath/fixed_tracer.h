@@ -52,9 +52,11 @@ struct TraceEvent {
     kRestart = 11,   // a restart from the root (FixedTraceOptions::record_restart, restart_trail.h): index the
                      // nodes re-visited, whose kNode events follow
     kRayKey = 12,  // first in a ray's events when the timing model gathers rays (ray_gather.h): index its bin key
-    kOmm = 13      // the unit's opacity micromap lookup for a non-opaque triangle's candidate hit (micromap.h),
+    kOmm = 13,     // the unit's opacity micromap lookup for a non-opaque triangle's candidate hit (micromap.h),
                    // after its kPrim: count the state found (MicroState), index the state's byte in the maps'
                    // section (MicromapSet::state_byte)
+    kHitOut = 14   // all-hit traversal (trace_all): a hit found, after its test; count 1 when it is kept (written
+                   // to the ray's hit list), 0 when only counted (the list is full); index its primitive
   };
   uint8_t kind;
   uint8_t
@@ -78,6 +80,10 @@ class BottomLevels {
   // the work (not a ray) to s, and when `rec` is not null the bottom level's events (kEnter ... kLeave).
   virtual bool trace_instance(uint32_t inst, const Ray& r, float tmax, bool any_hit, Hit& h, TraversalStats& s,
                               std::vector<TraceEvent>* rec) const = 0;
+  // All-hit traversal (FixedTracer::trace_all) of world ray r through instance `inst` over [r.tmin, r.tmax]: its
+  // bottom level's hits (world t, flattened primitive indices) into `all`; the work and events as above.
+  virtual void trace_instance_all(uint32_t inst, const Ray& r, HitList& all, TraversalStats& s,
+                                  std::vector<TraceEvent>* rec) const = 0;
 
  protected:
   ~BottomLevels() = default;
@@ -146,7 +152,8 @@ class FixedTracer {
   // All-hit traversal (hit_list.h): every intersection in [tmin, tmax] into `all`, in traversal order, one per
   // record (its first crossing in the interval); the interval is never narrowed. The any-hit stage and micromaps
   // still decide non-opaque triangles. `events` (if not null) gets the datapath's events, as trace_recorded's.
-  // One-level images only (std::invalid_argument for a top level). Returns all.count.
+  // A top level traces every instance the ray enters through its bottom level's all-hit traversal. Returns
+  // all.count.
   uint64_t trace_all(const Ray& r, HitList& all, TraversalStats& s,
                      std::vector<TraceEvent>* events = nullptr) const;
   // trace() that also appends the ray's datapath events to `events` (nothing for a ray rejected at setup).

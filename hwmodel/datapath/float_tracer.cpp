@@ -180,7 +180,7 @@ Hit FloatTracer::trace(const Ray& r, bool any_hit, TraversalStats& s, const AnyH
   return h;
 }
 
-uint64_t FloatTracer::trace_all(const Ray& r, HitList& all, TraversalStats& s) const {
+uint64_t FloatTracer::trace_all(const Ray& r, HitList& all, TraversalStats& s, const AnyHitStage* stage) const {
   const RayStatus status = validate_ray(r);
   if (status != RayStatus::kOk) {
     ++s.invalid_rays;
@@ -199,13 +199,13 @@ uint64_t FloatTracer::trace_all(const Ray& r, HitList& all, TraversalStats& s) c
   if (!m_leaf_prims.empty()) {
     if (m_bvh) {
       Hit h{r.tmax};
-      m_bvh->visit([&](const auto& t) { trace_bvh(t, rp, r.tmin, false, h, s, m_any_hit, &all); });
+      m_bvh->visit([&](const auto& t) { trace_bvh(t, rp, r.tmin, false, h, s, stage, &all); });
     } else {
       const uint32_t num_tris = uint32_t(m_geom.triangles.size());
       s.prim_tests += m_leaf_prims.size();
       for (const LeafPrim& lp : m_leaf_prims) {
         Closest c{r.tmax};
-        if (test_leaf_prim(lp, num_tris, rp, r.tmin, c, m_any_hit, s)) all.add(Hit{c.tmax, c.prim, c.u, c.v});
+        if (test_leaf_prim(lp, num_tris, rp, r.tmin, c, stage, s)) all.add(Hit{c.tmax, c.prim, c.u, c.v});
       }
     }
   }

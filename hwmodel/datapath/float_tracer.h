@@ -49,7 +49,11 @@ class FloatTracer {
   // All-hit traversal (hit_list.h): every intersection in [tmin, tmax] into `all`, in traversal order, one per
   // primitive (its first crossing in the interval); the interval is never narrowed, so no subtree is skipped. The
   // any-hit stage still decides non-opaque triangles. Returns the number found (all.count).
-  uint64_t trace_all(const Ray& r, HitList& all, TraversalStats& s) const;
+  uint64_t trace_all(const Ray& r, HitList& all, TraversalStats& s) const {
+    return trace_all(r, all, s, m_any_hit);
+  }
+  // trace_all with this any-hit stage (null: opaque).
+  uint64_t trace_all(const Ray& r, HitList& all, TraversalStats& s, const AnyHitStage* stage) const;
 
   // The any-hit stage for non-opaque triangles (Geometry::non_opaque), or null: they are opaque. Not owned.
   void set_any_hit(const AnyHitStage* stage) { m_any_hit = stage; }

@@ -274,6 +274,30 @@ uint64_t InstancedFixedTracer::rebased() const {
   return m_rebased->load();
 }
 
+bool InstancedFixedTracer::rebase(const Ray& o, uint32_t mesh, Ray& m, float& t0) const {
+  const Aabb& b = m_mesh_bounds[mesh];
+  double t_in = double(o.tmin), t_out = double(o.tmax);
+  for (int a = 0; a < 3; ++a) {
+    const double d = double(o.dir[a]);
+    if (d == 0.0) {
+      if (o.origin[a] < b.lo[a] || o.origin[a] > b.hi[a]) return false;
+      continue;
+    }
+    double ta = (double(b.lo[a]) - double(o.origin[a])) / d, tb = (double(b.hi[a]) - double(o.origin[a])) / d;
+    if (ta > tb) std::swap(ta, tb);
+    t_in = std::max(t_in, ta);
+    t_out = std::min(t_out, tb);
+  }
+  if (!(t_in <= t_out)) return false;
+  ++*m_rebased;
+  t0 = float(t_in);
+  m = o;
+  for (int a = 0; a < 3; ++a) m.origin[a] = float(double(o.origin[a]) + double(t0) * double(o.dir[a]));
+  m.tmin = std::max(0.0f, float(double(o.tmin) - double(t0)));
+  m.tmax = float(double(o.tmax) - double(t0));
+  return true;
+}
+
 bool InstancedFixedTracer::trace_instance(uint32_t inst, const Ray& r, float tmax, bool any_hit, Hit& h,
                                           TraversalStats& s, std::vector<TraceEvent>* rec) const {
   if (inst >= m_xforms.size()) return false;  // cannot come from an image this tracer encoded
@@ -298,26 +322,9 @@ bool InstancedFixedTracer::trace_instance(uint32_t inst, const Ray& r, float tma
     return h.hit();
   }
   // The origin is beyond the mesh frame's guard range: start the ray where it enters the mesh's bounds.
-  const Aabb& b = m_mesh_bounds[mesh];
-  double t_in = double(o.tmin), t_out = double(tmax);
-  for (int a = 0; a < 3; ++a) {
-    const double d = double(o.dir[a]);
-    if (d == 0.0) {
-      if (o.origin[a] < b.lo[a] || o.origin[a] > b.hi[a]) return false;
-      continue;
-    }
-    double t0 = (double(b.lo[a]) - double(o.origin[a])) / d, t1 = (double(b.hi[a]) - double(o.origin[a])) / d;
-    if (t0 > t1) std::swap(t0, t1);
-    t_in = std::max(t_in, t0);
-    t_out = std::min(t_out, t1);
-  }
-  if (!(t_in <= t_out)) return false;
-  ++*m_rebased;
-  const float t0 = float(t_in);
-  Ray m = o;
-  for (int a = 0; a < 3; ++a) m.origin[a] = float(double(o.origin[a]) + double(t0) * double(o.dir[a]));
-  m.tmin = std::max(0.0f, float(double(o.tmin) - double(t0)));
-  m.tmax = float(double(tmax) - double(t0));
+  Ray m;
+  float t0;
+  if (!rebase(o, mesh, m, t0)) return false;
   TraversalStats again;
   h = trace(m, again);
   s.add_work(again);
@@ -325,6 +332,32 @@ bool InstancedFixedTracer::trace_instance(uint32_t inst, const Ray& r, float tma
   h.t = float(double(t0) + double(h.t));
   h.prim = global_prim(inst, h.prim);
   return true;
+}
+
+void InstancedFixedTracer::trace_instance_all(uint32_t inst, const Ray& r, HitList& all, TraversalStats& s,
+                                              std::vector<TraceEvent>* rec) const {
+  if (inst >= m_xforms.size()) return;  // cannot come from an image this tracer encoded
+  const Ray o = m_xforms[inst].apply(r);
+  const FixedTracer& tracer = *m_tracers[inst];
+  const uint32_t mesh = m_info[inst].mesh;
+  // The bottom level's hits, renumbered into the flattened scene and (a rebased ray's) moved back by t0.
+  auto trace = [&](const Ray& ray, float t0) {
+    const uint64_t from = all.count;
+    TraversalStats st;
+    if (rec) rec->push_back(TraceEvent{TraceEvent::kEnter, 0, 0, 0, mesh});
+    tracer.trace_all(ray, all, st, rec);
+    if (rec) rec->push_back(TraceEvent{TraceEvent::kLeave, 0, 0, 0, mesh});
+    s.add_work(st);
+    for (uint64_t j = from; j < all.kept(); ++j) {
+      all.out[j].prim = global_prim(inst, all.out[j].prim);
+      if (t0 != 0.0f) all.out[j].t = float(double(t0) + double(all.out[j].t));
+    }
+    return st.invalid_by_reason[size_t(RayStatus::kOutOfFrame)] > 0;
+  };
+  if (!trace(o, 0.0f)) return;
+  Ray m;
+  float t0;
+  if (rebase(o, mesh, m, t0)) trace(m, t0);
 }
 
 }  // namespace rtu::hw

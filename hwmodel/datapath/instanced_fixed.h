@@ -149,8 +149,13 @@ class InstancedFixedTracer final : public BottomLevels {
 
   bool trace_instance(uint32_t inst, const Ray& r, float tmax, bool any_hit, Hit& h, TraversalStats& s,
                       std::vector<TraceEvent>* rec) const override;
+  void trace_instance_all(uint32_t inst, const Ray& r, HitList& all, TraversalStats& s,
+                          std::vector<TraceEvent>* rec) const override;
 
  private:
+  // A ray o (object space) whose origin is beyond mesh's frame guard range, started where it enters the mesh's
+  // bounds: m, t0 (o's t of m's origin); false when it misses the bounds.
+  bool rebase(const Ray& o, uint32_t mesh, Ray& m, float& t0) const;
   InstancedFixedTracer() = default;
   // The tracers over the images (after m_top, m_bottoms, m_xforms and m_info are set).
   void make_tracers(const FixedTraceOptions& trace_opt);

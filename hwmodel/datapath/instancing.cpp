@@ -205,6 +205,7 @@ struct TopPolicy {
   Hit& closest;
   TraversalStats& s;
   const AnyHitStage* stage;
+  HitList* all;  // all-hit traversal: every instance's hits go here and the closest is never narrowed
 
   int expand(uint32_t node, uint32_t refs[N], float dists[N], int& tested) const {
     return expand_wide_node(top.nodes[node], rp, ray.tmin, closest.t, refs, dists, tested);
@@ -219,7 +220,15 @@ struct TopPolicy {
       TraversalStats inner;
       std::optional<InstanceAnyHit> local;
       if (stage) local.emplace(*stage, set, inst);
-      const Hit h = tracers[set.instances[inst].mesh]->trace(o, any_hit, inner, local ? &*local : nullptr);
+      const FloatTracer& mesh = *tracers[set.instances[inst].mesh];
+      if (all) {
+        const uint64_t from = all->count;
+        mesh.trace_all(o, *all, inner, local ? &*local : nullptr);
+        s.add_work(inner);
+        for (uint64_t j = from; j < all->kept(); ++j) all->out[j].prim = set.global_prim(inst, all->out[j].prim);
+        continue;
+      }
+      const Hit h = mesh.trace(o, any_hit, inner, local ? &*local : nullptr);
       s.add_work(inner);
       if (h.hit() && h.t <= closest.t) {
         closest = Hit{h.t, set.global_prim(inst, h.prim), h.u, h.v};
@@ -276,11 +285,11 @@ uint64_t InstancedFloatTracer::bytes() const {
 }
 
 template <int N>
-void InstancedFloatTracer::trace_top(const WideBvh<N>& t, const Ray& r, bool any_hit, Hit& h,
-                                     TraversalStats& s) const {
+void InstancedFloatTracer::trace_top(const WideBvh<N>& t, const Ray& r, bool any_hit, Hit& h, TraversalStats& s,
+                                     HitList* all) const {
   if (t.root_ref == kEmptyChild) return;
   const RayPrecomp rp(r);
-  TopPolicy<N> policy{t, m_top_ids, m_set, m_mesh_tracers, m_to_object, r, rp, any_hit, h, s, m_any_hit};
+  TopPolicy<N> policy{t, m_top_ids, m_set, m_mesh_tracers, m_to_object, r, rp, any_hit, h, s, m_any_hit, all};
   traverse(policy, t.root_ref, any_hit, s);
 }
 
@@ -302,6 +311,19 @@ Hit InstancedFloatTracer::trace(const Ray& r, bool any_hit, TraversalStats& s) c
   if (!h.hit()) return Hit{};
   ++s.hits;
   return h;
+}
+
+uint64_t InstancedFloatTracer::trace_all(const Ray& r, HitList& all, TraversalStats& s) const {
+  // Planes (and the ray's validity, and its hit if a plane is hit) by the plane tracer.
+  const uint64_t before = all.count;
+  m_plane_tracer->trace_all(r, all, s);
+  if (validate_ray(r) != RayStatus::kOk) return all.count;
+  for (uint64_t j = before; j < all.kept(); ++j) all.out[j].prim = m_flat.plane_prim(all.out[j].prim);
+  const bool counted = all.count > before;
+  Hit h{r.tmax};
+  m_top.visit([&](const auto& t) { trace_top(t, r, false, h, s, &all); });
+  if (!counted && all.count > before) ++s.hits;
+  return all.count;
 }
 
 void InstancedFloatTracer::trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads,

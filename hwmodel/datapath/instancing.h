@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "hwmodel/datapath/float_tracer.h"
+#include "hwmodel/datapath/hit_list.h"
 #include "hwmodel/datapath/stats.h"
 #include "hwmodel/interface/any_hit.h"
 #include "hwmodel/interface/ray.h"
@@ -114,6 +115,9 @@ class InstancedFloatTracer {
 
   Hit trace(const Ray& r, bool any_hit, TraversalStats& s) const;
   void trace_batch(const Ray* rays, Hit* hits, size_t n, bool any_hit, int threads, TraversalStats& s) const;
+  // All-hit traversal (FloatTracer::trace_all) over both levels: every instance the ray enters traced for all of
+  // its mesh's hits (flattened primitive indices). Returns all.count.
+  uint64_t trace_all(const Ray& r, HitList& all, TraversalStats& s) const;
 
   // The any-hit stage for non-opaque triangles (the meshes' Geometry::non_opaque; the stage sees flattened
   // primitive indices), or null: they are opaque. Not owned.
@@ -126,7 +130,8 @@ class InstancedFloatTracer {
 
  private:
   template <int N>
-  void trace_top(const WideBvh<N>& t, const Ray& r, bool any_hit, Hit& h, TraversalStats& s) const;
+  void trace_top(const WideBvh<N>& t, const Ray& r, bool any_hit, Hit& h, TraversalStats& s,
+                 HitList* all = nullptr) const;
 
   const InstanceSet& m_set;
   const Geometry& m_flat;

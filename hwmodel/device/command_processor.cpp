@@ -1,5 +1,6 @@
 #include "hwmodel/device/command_processor.h"
 
+#include <algorithm>
 #include <exception>
 #include <new>
 #include <string>
@@ -159,6 +160,71 @@ bool CommandProcessor::check_buffer(uint64_t addr, uint64_t bytes, uint64_t alig
   return true;
 }
 
+bool CommandProcessor::execute_trace(const cmd::Packet& p) {
+  const bool any_hit = (p.flags & cmd::kTraceAnyHit) != 0, all_hits = (p.flags & cmd::kTraceAllHits) != 0;
+  if ((p.flags & ~(cmd::kTraceAnyHit | cmd::kTraceAllHits)) || (any_hit && all_hits) ||
+      p.ray_type >= cmd::kRayTypeCount || (!all_hits && p.value)) {
+    raise(ErrorCode::kReservedBits, m_head);
+    return false;
+  }
+  if (p.count == 0 || p.count > cmd::kMaxTraceCount || (all_hits && p.value > cmd::kMaxAllHits)) {
+    raise(ErrorCode::kBadCount, m_head);
+    return false;
+  }
+  const uint64_t per_ray = all_hits ? cmd::all_hits_list_bytes(p.value) : cmd::kHitBytes;
+  const uint64_t rb = uint64_t(p.count) * cmd::kRayBytes, hb = uint64_t(p.count) * per_ray;
+  if (!check_buffer(p.addr0, rb, 16) || !check_buffer(p.addr1, hb, 16)) return false;
+  if (p.addr0 < p.addr1 + hb && p.addr1 < p.addr0 + rb) {
+    raise(ErrorCode::kOverlap, m_head);
+    return false;
+  }
+  if (!m_engine.bound()) {
+    raise(ErrorCode::kNoScene, m_head);
+    return false;
+  }
+  std::vector<Ray> rays(p.count);
+  m_mem.read(p.addr0, rays.data(), rb);
+  TraversalStats s;
+  std::vector<Hit> hits(all_hits ? size_t(p.count) * p.value : p.count);
+  std::vector<uint64_t> counts(all_hits ? p.count : 0);
+  try {
+    if (all_hits)
+      m_trace_cycles = m_engine.trace_all_cycles(rays.data(), p.count,
+                                                 AllHitsOut{uint32_t(p.value), hits.data(), counts.data()}, s,
+                                                 p.ray_type, p.bounce);
+    else
+      m_trace_cycles = m_engine.trace_cycles(rays.data(), hits.data(), p.count, any_hit, s, p.ray_type, p.bounce);
+  } catch (const WatchdogError& e) {
+    raise(ErrorCode::kWatchdog, m_head);
+    m_error_detail = e.what();
+    m_clock += e.cycles();
+    return false;
+  }
+  if (all_hits)
+    write_hit_lists(p.addr1, uint32_t(p.value), hits, counts);
+  else
+    m_mem.write(p.addr1, hits.data(), hb);
+  m_counters.stats_by_type[p.ray_type].add(s);
+  m_counters.rays_by_type[p.ray_type] += p.count;
+  if (any_hit) m_counters.any_hit_rays += p.count;
+  if (all_hits) m_counters.all_hit_rays += p.count;
+  if (p.bounce > m_counters.max_bounce) m_counters.max_bounce = p.bounce;
+  return true;
+}
+
+void CommandProcessor::write_hit_lists(uint64_t at, uint32_t k, const std::vector<Hit>& hits,
+                                       const std::vector<uint64_t>& counts) {
+  for (size_t i = 0; i < counts.size(); ++i, at += cmd::all_hits_list_bytes(k)) {
+    const uint64_t n = counts[i];
+    cmd::HitListHeader h{uint32_t(std::min<uint64_t>(n, UINT32_MAX)), uint32_t(std::min<uint64_t>(n, k)),
+                         n > k ? cmd::kHitListOverflow : 0u, 0u};
+    m_mem.write(at, &h, sizeof h);
+    if (h.kept) m_mem.write(at + sizeof h, hits.data() + i * k, uint64_t(h.kept) * cmd::kHitBytes);
+    m_counters.all_hits_found += n;
+    m_counters.all_hit_overflows += n > k;
+  }
+}
+
 bool CommandProcessor::execute(const cmd::Packet& p) {
   using cmd::Opcode;
   auto reserved = [&](bool bad) {
@@ -188,43 +254,8 @@ bool CommandProcessor::execute(const cmd::Packet& p) {
       }
       return true;
     }
-    case Opcode::kTrace: {
-      if (reserved((p.flags & ~cmd::kTraceAnyHit) || p.ray_type >= cmd::kRayTypeCount || p.value)) return false;
-      if (p.count == 0 || p.count > cmd::kMaxTraceCount) {
-        raise(ErrorCode::kBadCount, m_head);
-        return false;
-      }
-      const uint64_t rb = uint64_t(p.count) * cmd::kRayBytes, hb = uint64_t(p.count) * cmd::kHitBytes;
-      if (!check_buffer(p.addr0, rb, 16) || !check_buffer(p.addr1, hb, 16)) return false;
-      if (p.addr0 < p.addr1 + hb && p.addr1 < p.addr0 + rb) {
-        raise(ErrorCode::kOverlap, m_head);
-        return false;
-      }
-      if (!m_engine.bound()) {
-        raise(ErrorCode::kNoScene, m_head);
-        return false;
-      }
-      std::vector<Ray> rays(p.count);
-      std::vector<Hit> hits(p.count);
-      m_mem.read(p.addr0, rays.data(), rb);
-      const bool any_hit = (p.flags & cmd::kTraceAnyHit) != 0;
-      TraversalStats s;
-      try {
-        m_trace_cycles =
-            m_engine.trace_cycles(rays.data(), hits.data(), p.count, any_hit, s, p.ray_type, p.bounce);
-      } catch (const WatchdogError& e) {
-        raise(ErrorCode::kWatchdog, m_head);
-        m_error_detail = e.what();
-        m_clock += e.cycles();
-        return false;
-      }
-      m_mem.write(p.addr1, hits.data(), hb);
-      m_counters.stats_by_type[p.ray_type].add(s);
-      m_counters.rays_by_type[p.ray_type] += p.count;
-      if (any_hit) m_counters.any_hit_rays += p.count;
-      if (p.bounce > m_counters.max_bounce) m_counters.max_bounce = p.bounce;
-      return true;
-    }
+    case Opcode::kTrace:
+      return execute_trace(p);
     case Opcode::kFence: {
       if (reserved((p.flags & ~cmd::kFenceIrq) || p.ray_type || p.bounce || p.count || p.addr1)) return false;
       if (!check_buffer(p.addr0, 8, 8)) return false;

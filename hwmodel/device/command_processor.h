@@ -13,6 +13,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "hwmodel/datapath/stats.h"
 #include "hwmodel/device/engine.h"
@@ -29,6 +30,9 @@ struct DeviceCounters {
   std::array<uint64_t, cmd::kRayTypeCount> rays_by_type{};         // rays traced, by the TRACE's ray type
   std::array<TraversalStats, cmd::kRayTypeCount> stats_by_type{};  // traversal statistics, by ray type
   uint64_t any_hit_rays = 0;                                       // rays traced with kTraceAnyHit
+  uint64_t all_hit_rays = 0;                                       // rays traced with kTraceAllHits
+  uint64_t all_hits_found = 0;                                     // intersections they found
+  uint64_t all_hit_overflows = 0;                                  // of them, rays whose list overflowed
   uint64_t max_bounce = 0;                                         // deepest bounce seen in a TRACE
   uint64_t errors = 0;                                             // errors raised
   uint64_t irqs = 0;                                               // interrupts raised (fence and error)
@@ -70,6 +74,9 @@ class CommandProcessor {
   void consume();
   // Runs one packet; returns false (after raise) when it is malformed.
   bool execute(const cmd::Packet& p);
+  bool execute_trace(const cmd::Packet& p);
+  // An all-hit TRACE's lists (commands.h HitListHeader): ray i's header and kept hits at `at` + i list bytes.
+  void write_hit_lists(uint64_t at, uint32_t k, const std::vector<Hit>& hits, const std::vector<uint64_t>& counts);
   bool check_buffer(uint64_t addr, uint64_t bytes, uint64_t align);
 
   DeviceMemory& m_mem;

@@ -7,6 +7,7 @@
 #include <string>
 #include <utility>
 
+#include "hwmodel/datapath/hit_list.h"
 #include "hwmodel/datapath/instanced_fixed.h"
 #include "hwmodel/device/timed_engine.h"
 #include "hwmodel/interface/regs.h"
@@ -150,7 +151,7 @@ class FloatEngine final : public TraceEngine {
   explicit FloatEngine(const EngineOptions& o) : m_opt(o) {}
   const char* name() const override { return "float"; }
   uint32_t caps() const override {
-    return reg::kCapTriangles | reg::kCapSpheres | reg::kCapPlanes | reg::kCapAnyHit;
+    return reg::kCapTriangles | reg::kCapSpheres | reg::kCapPlanes | reg::kCapAnyHit | reg::kCapAllHits;
   }
   void bind(const uint8_t* data, size_t bytes) override {
     unbind();
@@ -171,6 +172,12 @@ class FloatEngine final : public TraceEngine {
   void trace(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s) const override {
     m_tracer->trace_batch(rays, hits, n, any_hit, m_opt.threads, s);
   }
+  uint64_t trace_all_cycles(const Ray* rays, size_t n, const AllHitsOut& out, TraversalStats& s, uint8_t,
+                            uint8_t) override {
+    all_hits_batch(n, m_opt.threads, out, s,
+                   [&](size_t i, HitList& l, TraversalStats& st) { return m_tracer->trace_all(rays[i], l, st); });
+    return 1;
+  }
   Geometry::Counts counts() const override { return m_geom ? m_geom->counts() : Geometry::Counts{}; }
   bool uses_bvh() const override { return m_tracer && m_tracer->uses_bvh(); }
 
@@ -186,7 +193,8 @@ class FixedEngine final : public TraceEngine {
   explicit FixedEngine(const EngineOptions& o) : m_opt(o) {}
   const char* name() const override { return "fixed"; }
   uint32_t caps() const override {
-    return reg::kCapTriangles | reg::kCapSpheres | reg::kCapPlanes | reg::kCapAnyHit | reg::kCapFixed;
+    return reg::kCapTriangles | reg::kCapSpheres | reg::kCapPlanes | reg::kCapAnyHit | reg::kCapFixed |
+           reg::kCapAllHits;
   }
   void bind(const uint8_t* data, size_t bytes) override {
     unbind();
@@ -225,6 +233,16 @@ class FixedEngine final : public TraceEngine {
     t.trace_batch(rays, hits, n, any_hit, m_opt.threads, local);
     if (local.watchdog_rays > 0) throw WatchdogError(t.watchdog_report(rays, n, any_hit, local.watchdog_rays), 0);
     s.add(local);
+  }
+  uint64_t trace_all_cycles(const Ray* rays, size_t n, const AllHitsOut& out, TraversalStats& s, uint8_t,
+                            uint8_t) override {
+    TraversalStats local;
+    const FixedTracer& t = m_two ? m_two->top_tracer() : *m_tracer;
+    all_hits_batch(n, m_opt.threads, out, local,
+                   [&](size_t i, HitList& l, TraversalStats& st) { return t.trace_all(rays[i], l, st); });
+    if (local.watchdog_rays > 0) throw WatchdogError(t.watchdog_report(rays, n, false, local.watchdog_rays), 0);
+    s.add(local);
+    return 1;
   }
   Geometry::Counts counts() const override {
     if (!bound()) return {};

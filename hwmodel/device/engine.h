@@ -102,6 +102,12 @@ class TraceEngine {
     trace(rays, hits, n, any_hit, s);
     return 1;
   }
+  // All-hit traversal of n rays (commands.h kTraceAllHits; FloatTracer::trace_all, FixedTracer::trace_all): every
+  // intersection in [tmin, tmax], the any-hit stage and micromaps deciding non-opaque triangles as for closest
+  // hits; one level or two. Returns the packet's cycles (functional engines: 1). Throws WatchdogError as trace
+  // does.
+  virtual uint64_t trace_all_cycles(const Ray* rays, size_t n, const AllHitsOut& out, TraversalStats& s,
+                                    uint8_t ray_type, uint8_t bounce) = 0;
   // What the bound scene holds, for stats: primitive counts by kind, whether a BVH is used.
   virtual Geometry::Counts counts() const = 0;
   virtual bool uses_bvh() const = 0;

@@ -64,7 +64,7 @@ uint64_t TimedEngine::state_bytes(const TimingConfig& c, bool sampled) {
 
 uint32_t TimedEngine::caps() const {
   return reg::kCapTriangles | reg::kCapSpheres | reg::kCapPlanes | reg::kCapAnyHit | reg::kCapFixed |
-         reg::kCapTimed;
+         reg::kCapTimed | reg::kCapAllHits;
 }
 
 void TimedEngine::bind(const uint8_t* data, size_t bytes) {
@@ -211,6 +211,14 @@ void TimedEngine::begin_events(const Ray& r, std::vector<TraceEvent>& ev) const 
                             gather_key(m_gather, m_c.gather_grid_bits, r, m_gather_lo, m_gather_extent)});
 }
 
+Hit TimedEngine::record_ray(const Ray* rays, size_t i, bool any_hit, TraversalStats& st,
+                            std::vector<TraceEvent>& ev, const AllHitsOut* all) const {
+  if (!all) return tracer().trace_recorded(rays[i], any_hit, st, ev);
+  HitList list = all->list(i);
+  all->counts[i] = tracer().trace_all(rays[i], list, st, &ev);
+  return Hit{};
+}
+
 void TimedEngine::record(const Ray* rays, Hit* hits, size_t first, size_t count, bool any_hit, TraversalStats& s,
                          std::vector<std::vector<TraceEvent>>& events, size_t at) const {
   TraversalStats local;
@@ -218,7 +226,7 @@ void TimedEngine::record(const Ray* rays, Hit* hits, size_t first, size_t count,
   run_batch(count, threads, local, [&](size_t i, TraversalStats& st) {
     std::vector<TraceEvent>& ev = events[at + i];
     begin_events(rays[first + i], ev);
-    const Hit h = tracer().trace_recorded(rays[first + i], any_hit, st, ev);
+    const Hit h = record_ray(rays, first + i, any_hit, st, ev, m_all);
     if (ev.size() == 1 && m_gather != GatherKey::kNone) ev.clear();
     if (hits) hits[first + i] = h;
   });
@@ -230,7 +238,7 @@ void TimedEngine::record(const Ray* rays, Hit* hits, size_t first, size_t count,
 
 bool TimedEngine::record_within(const Ray* rays, Hit* hits, size_t first, size_t count, bool any_hit,
                                 TraversalStats& s, std::vector<std::vector<TraceEvent>>& events, uint64_t cap,
-                                uint64_t& bytes) const {
+                                uint64_t& bytes, const AllHitsOut* all) const {
   TraversalStats local;
   std::atomic<uint64_t> total{0};
   std::atomic<bool> over{false};
@@ -240,7 +248,7 @@ bool TimedEngine::record_within(const Ray* rays, Hit* hits, size_t first, size_t
     ev.clear();
     if (over.load(std::memory_order_relaxed)) return;  // this attempt is lost anyway
     begin_events(rays[first + i], ev);
-    const Hit h = tracer().trace_recorded(rays[first + i], any_hit, st, ev);
+    const Hit h = record_ray(rays, first + i, any_hit, st, ev, all);
     if (ev.size() == 1 && m_gather != GatherKey::kNone) ev.clear();
     if (hits) hits[first + i] = h;
     // A list keeps the capacity of the longest ray it held (lists are swapped with the model's slots): trimmed,
@@ -260,6 +268,21 @@ bool TimedEngine::record_within(const Ray* rays, Hit* hits, size_t first, size_t
 
 uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
                                    uint8_t ray_type, uint8_t bounce) {
+  return run_packet(rays, hits, n, any_hit, s, ray_type, bounce);
+}
+
+uint64_t TimedEngine::trace_all_cycles(const Ray* rays, size_t n, const AllHitsOut& out, TraversalStats& s,
+                                       uint8_t ray_type, uint8_t bounce) {
+  struct Clear {
+    const AllHitsOut*& p;
+    ~Clear() { p = nullptr; }
+  } clear{m_all};
+  m_all = &out;
+  return run_packet(rays, nullptr, n, false, s, ray_type, bounce);
+}
+
+uint64_t TimedEngine::run_packet(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s,
+                                 uint8_t ray_type, uint8_t bounce) {
   TimingStats ts;
   uint64_t cycles;
   ++m_sample_stats.packets;
@@ -268,7 +291,11 @@ uint64_t TimedEngine::trace_cycles(const Ray* rays, Hit* hits, size_t n, bool an
       m_slot_time[uint32_t(ray_type) << 8 | bounce];  // what this stream's rays showed so far
   const size_t per_unit = warmup_rays(stream, size_t(m_c.ray_slots), m_sample.warmup_rays) + m_sample.unit_rays +
                           2 * size_t(m_c.ray_slots);
-  const size_t asked = sample_step(m_sample.fraction);  // every asked-th unit; k: this packet's step
+  size_t asked = sample_step(m_sample.fraction);  // every asked-th unit; k: this packet's step
+  if (m_all && asked >= 2) {
+    unthinned("an all-hit packet is simulated in full (its rays' lists are not estimated)");
+    asked = 1;
+  }
   const size_t k = packet_step(n, m_sample.unit_rays, asked, per_unit);
   const RayPolicy policy = m_c.ray_policy;
   const bool dynamic = chip() && policy == RayPolicy::kDynamic;
@@ -323,7 +350,8 @@ uint64_t TimedEngine::trace_cycles_full(const Ray* rays, Hit* hits, size_t n, bo
   auto record_chunk = [&](size_t first, std::vector<std::vector<TraceEvent>>& ev, TraversalStats& st) {
     size_t count = std::min(want, n - first);
     uint64_t bytes = 0;
-    while (!record_within(rays, hits, first, count, any_hit, st, ev, count == 1 ? UINT64_MAX : cap, bytes)) {
+    while (
+        !record_within(rays, hits, first, count, any_hit, st, ev, count == 1 ? UINT64_MAX : cap, bytes, m_all)) {
       for (size_t i = count / 2; i < count; ++i) std::vector<TraceEvent>().swap(ev[i]);  // not in the retry
       count /= 2;
     }

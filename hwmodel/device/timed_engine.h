@@ -64,6 +64,10 @@ class TimedEngine final : public TraceEngine {
   uint64_t irq_latency() const override { return uint64_t(m_c.irq_latency); }
   uint64_t trace_cycles(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s, uint8_t ray_type,
                         uint8_t bounce) override;
+  // All-hit packets (FixedTracer::trace_all's events, kHitOut a kept hit's write) are timed as closest-hit packets
+  // are, on one unit or a chip, but never sampled: every ray simulated (SampleStats::unthinned_why says so).
+  uint64_t trace_all_cycles(const Ray* rays, size_t n, const AllHitsOut& out, TraversalStats& s, uint8_t ray_type,
+                            uint8_t bounce) override;
   Geometry::Counts counts() const override;
   bool uses_bvh() const override;
 
@@ -223,13 +227,23 @@ class TimedEngine final : public TraceEngine {
                            size_t sim, std::vector<std::vector<TraceEvent>>& walk_events);
   // Traces rays [first, first + count) with recording; events[at + i] for ray first + i. Hits go to hits (or
   // nowhere when null).
+  // During an all-hit packet (m_all) ray i's list goes to `all` at i (hits are then not written).
   void record(const Ray* rays, Hit* hits, size_t first, size_t count, bool any_hit, TraversalStats& s,
               std::vector<std::vector<TraceEvent>>& events, size_t at = 0) const;
   // As record() with at = 0, unless the rays' events pass `cap` bytes in all: then it stops early and returns
   // false, leaving statistics alone (the hits it wrote are the rays' own; the events are to be recorded again).
   // Whether it returns true depends on the rays alone, not on the threads. `bytes`: the events' bytes.
   bool record_within(const Ray* rays, Hit* hits, size_t first, size_t count, bool any_hit, TraversalStats& s,
-                     std::vector<std::vector<TraceEvent>>& events, uint64_t cap, uint64_t& bytes) const;
+                     std::vector<std::vector<TraceEvent>>& events, uint64_t cap, uint64_t& bytes,
+                     const AllHitsOut* all) const;
+  // Ray i of rays, recorded: its closest (or any) hit, or with `all` its hit list into all at i (a miss returned).
+  Hit record_ray(const Ray* rays, size_t i, bool any_hit, TraversalStats& st, std::vector<TraceEvent>& ev,
+                 const AllHitsOut* all) const;
+  // The all-hit packet being traced (trace_all_cycles), else null: where record() puts the lists.
+  const AllHitsOut* m_all = nullptr;
+  // trace_cycles and trace_all_cycles: one packet, sampled when asked unless it is all-hit (m_all).
+  uint64_t run_packet(const Ray* rays, Hit* hits, size_t n, bool any_hit, TraversalStats& s, uint8_t ray_type,
+                      uint8_t bounce);
   uint64_t m_chunk_event_bytes = kChunkEventBytes;
   // True when a unit other than the C++ datapath is attached (the engine then traces on one thread).
   bool has_units() const { return m_box_unit || m_tri_unit; }

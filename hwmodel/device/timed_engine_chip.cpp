@@ -86,6 +86,8 @@ struct TimedEngine::ChipChunk {
   std::vector<std::vector<TraceEvent>> events;
   std::vector<Ray> rays;
   std::vector<Hit> hits;
+  std::vector<Hit> lists;  // an all-hit packet's lists (k per ray), counts below
+  std::vector<uint64_t> counts;
   TraversalStats stats;
   size_t first = 0, count = 0;  // its rays: mine[u][first, first + count)
   std::exception_ptr error;
@@ -101,10 +103,16 @@ void TimedEngine::record_chip_chunk(const std::vector<uint32_t>& mine, const Ray
   c.events.resize(std::max(c.events.size(), c.count));
   c.stats = TraversalStats{};
   c.error = nullptr;
+  AllHitsOut all;
+  if (m_all) {
+    c.lists.resize(c.count * size_t(m_all->k));
+    c.counts.resize(c.count);
+    all = AllHitsOut{m_all->k, c.lists.data(), c.counts.data()};
+  }
   try {
     uint64_t bytes = 0;
     while (!record_within(c.rays.data(), c.hits.data(), 0, c.count, any_hit, c.stats, c.events,
-                          c.count == 1 ? UINT64_MAX : cap, bytes)) {
+                          c.count == 1 ? UINT64_MAX : cap, bytes, m_all ? &all : nullptr)) {
       for (size_t i = c.count / 2; i < c.count; ++i) std::vector<TraceEvent>().swap(c.events[i]);
       c.count /= 2;
     }
@@ -199,6 +207,12 @@ uint64_t TimedEngine::run_chip(const std::vector<TimingModel*>& units,
     s.add(c.stats);
     if (hits)
       for (size_t j = 0; j < c.count; ++j) hits[mine[u][c.first + j]] = c.hits[j];
+    if (m_all)
+      for (size_t j = 0; j < c.count; ++j) {
+        const size_t i = mine[u][c.first + j], k = m_all->k;
+        m_all->counts[i] = c.counts[j];
+        std::copy_n(c.lists.data() + j * k, k, m_all->lists + i * k);
+      }
     units[u]->add_rays(c.events.data(), c.count);
   };
   // Every unit starts the packet at the chip's clock; they act in the order of (cycle, unit).

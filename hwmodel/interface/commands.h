@@ -13,14 +13,18 @@ namespace rtu::hw::cmd {
 enum class Opcode : uint8_t {
   kNop = 0,        // nothing; advances the clock
   kBindScene = 1,  // addr0 = scene image, value = its bytes (8-byte aligned)
-  kTrace = 2,      // addr0 = rays (count x 32 B), addr1 = hits (count x 16 B), 16-byte aligned; flags kTrace*
+  kTrace = 2,      // addr0 = rays (count x 32 B), addr1 = hits (count x 16 B, or with kTraceAllHits count hit
+                   // lists of all_hits_list_bytes(value) each), 16-byte aligned; flags kTrace*
   kFence = 3,      // writes the 64-bit value at addr0 (8-byte aligned) once every earlier packet is done
   kTimestamp = 4,  // writes the 64-bit device clock at addr0 (8-byte aligned)
 };
 inline constexpr uint8_t kOpcodeCount = 5;
 
 inline constexpr uint8_t kTraceAnyHit = 1u << 0;  // TRACE: stop at the first hit (shadow rays)
-inline constexpr uint8_t kFenceIrq = 1u << 0;     // FENCE: raise kIrqFence when written
+// TRACE: every intersection in [tmin, tmax], up to `value` (0..kMaxAllHits) kept per ray, all counted: each ray's
+// hit list is a HitListHeader and `value` hit records (below). Not with kTraceAnyHit (kReservedBits).
+inline constexpr uint8_t kTraceAllHits = 1u << 1;
+inline constexpr uint8_t kFenceIrq = 1u << 0;  // FENCE: raise kIrqFence when written
 
 // The kind of ray a TRACE carries: the device counts rays by type and bounce (no effect on results).
 enum class RayType : uint8_t { kPrimary = 0, kShadow, kReflection, kRefraction, kDiffuse, kOcclusion, kOther };
@@ -37,6 +41,21 @@ inline constexpr uint32_t kMaxTraceCount = 1u << 24;  // rays per TRACE
 inline constexpr uint64_t kRayBytes = 32;             // hw::Ray
 inline constexpr uint64_t kHitBytes = 16;             // hw::Hit
 
+// An all-hit TRACE's hit list per ray, at addr1 + ray * all_hits_list_bytes(k): this header, then the first
+// `kept` hits in the order the unit found them (16 B each, hw::Hit); the slots after them are not written.
+inline constexpr uint32_t kMaxAllHits = 256;           // hits kept per ray (the hit list's bound)
+inline constexpr uint32_t kHitListOverflow = 1u << 0;  // HitListHeader::flags: more hits than kept
+struct HitListHeader {
+  uint32_t count;     // intersections found (saturates at 2^32 - 1)
+  uint32_t kept;      // hit records written after the header: min(count, k)
+  uint32_t flags;     // kHitListOverflow
+  uint32_t reserved;  // 0
+};
+static_assert(sizeof(HitListHeader) == 16);
+constexpr uint64_t all_hits_list_bytes(uint64_t k) {
+  return (k + 1) * 16;
+}
+
 struct Packet {
   uint8_t opcode;    // Opcode
   uint8_t flags;     // per opcode: kTrace*, kFence*
@@ -45,7 +64,7 @@ struct Packet {
   uint32_t count;    // TRACE: rays; else 0
   uint64_t addr0;    // see Opcode
   uint64_t addr1;    // TRACE: hit buffer; else 0
-  uint64_t value;    // BIND_SCENE: image bytes; FENCE: value written; else 0
+  uint64_t value;    // BIND_SCENE: image bytes; FENCE: value written; TRACE with kTraceAllHits: hits kept; else 0
 };
 static_assert(sizeof(Packet) == 32);
 static_assert(offsetof(Packet, count) == 4 && offsetof(Packet, addr0) == 8 && offsetof(Packet, addr1) == 16 &&
@@ -61,6 +80,11 @@ constexpr Packet bind_scene(uint64_t image, uint64_t bytes) {
 constexpr Packet trace(uint64_t rays, uint64_t hits, uint32_t count, bool any_hit, RayType type, uint8_t bounce) {
   return Packet{
       uint8_t(Opcode::kTrace), uint8_t(any_hit ? kTraceAnyHit : 0), uint8_t(type), bounce, count, rays, hits, 0};
+}
+// An all-hit TRACE keeping up to k hits per ray (k <= kMaxAllHits; 0: count only).
+constexpr Packet trace_all_hits(uint64_t rays, uint64_t lists, uint32_t count, uint32_t k, RayType type,
+                                uint8_t bounce) {
+  return Packet{uint8_t(Opcode::kTrace), kTraceAllHits, uint8_t(type), bounce, count, rays, lists, k};
 }
 constexpr Packet fence(uint64_t addr, uint64_t value, bool irq) {
   return Packet{uint8_t(Opcode::kFence), uint8_t(irq ? kFenceIrq : 0), 0, 0, 0, addr, 0, value};

@@ -46,8 +46,8 @@ constexpr bool dense() {
 }  // namespace detail
 static_assert(detail::dense(), "register offsets must be 0, 4, 8, ... in the order above, filling the window");
 
-inline constexpr uint32_t kIdValue = 0x31555452u;  // "RTU1" little-endian
-inline constexpr uint32_t kVersionValue = (1u << 16) | 0u;
+inline constexpr uint32_t kIdValue = 0x31555452u;           // "RTU1" little-endian
+inline constexpr uint32_t kVersionValue = (1u << 16) | 1u;  // 1.1: all-hit TRACE
 
 inline constexpr uint32_t kCapTriangles = 1u << 0;  // triangle unit
 inline constexpr uint32_t kCapSpheres = 1u << 1;    // sphere unit
@@ -55,6 +55,7 @@ inline constexpr uint32_t kCapPlanes = 1u << 2;     // plane unit
 inline constexpr uint32_t kCapAnyHit = 1u << 3;     // any-hit TRACE
 inline constexpr uint32_t kCapFixed = 1u << 4;      // fixed-point datapath (else float)
 inline constexpr uint32_t kCapTimed = 1u << 5;      // the clock counts cycles (else packets)
+inline constexpr uint32_t kCapAllHits = 1u << 6;    // all-hit TRACE (commands.h kTraceAllHits)
 
 inline constexpr uint32_t kCtrlEnable = 1u << 0;  // consume the ring; setting it checks the ring registers
 inline constexpr uint32_t kCtrlReset = 1u << 1;   // clear error, IRQ status, ring, fence, bound scene

@@ -597,6 +597,15 @@ bool TimingModel::control_event(Slot& sl, uint32_t k, const TraceEvent& e, uint6
     case TraceEvent::kRayKey:  // read by the gathering unit when the ray arrived
       ++sl.pos;
       return true;
+    case TraceEvent::kHitOut:  // all-hit: a kept hit is a posted write through the write-back pipe
+      ++sl.pos;
+      if (e.count) {
+        const uint64_t st = std::max(t, m_wb_free);
+        m_wb_free = st + 1;
+        m_s->stream_bytes += kHitBytesStream;
+        if (m_trace) m_trace->add(m_unit, k, "hit-out", st, st + 1);
+      }
+      return true;
     case TraceEvent::kStackRef:  // no time: the push it follows is done
       if (m_observer) observe_push(sl, k, e, t);
       ++sl.pos;

@@ -125,7 +125,7 @@ TEST_CASE("all-hit traversal: the bound keeps the first hits and counts them all
     overflowed += small.overflow();
   }
   CHECK(overflowed > 20);
-  // Rejected rays count as invalid and find nothing; a top level is refused.
+  // Rejected rays count as invalid and find nothing.
   TraversalStats s;
   HitList l{all.data(), 4096};
   CHECK(xt.trace_all(Ray{{NAN, 0, 0}, 0.0f, {0, 0, 1}, 1.0f}, l, s) == 0);

@@ -308,8 +308,10 @@ DeviceArgs device_args(const py::dict& kw) {
 // --- the jobs ---
 
 // rtusim trace: (hits, stats dict, invalid-ray message or "").
+// rtusim trace: (hits, stats, invalid message); with all_hits >= 0 (rtusim trace --all-hits) the hits are the
+// (N, all_hits) lists, unkept slots misses, and a fourth item the (N,) uint64 counts.
 py::tuple trace(const PyScene& scene, const py::handle& rays_obj, bool any_hit, int threads, bool need_hits,
-                const std::string& rays_name, const py::kwargs& kw) {
+                const std::string& rays_name, int all_hits, const py::kwargs& kw) {
   const DeviceArgs d = device_args(kw);
   host::TraceRequest req;
   req.scene = scene.scene.get();
@@ -319,12 +321,15 @@ py::tuple trace(const PyScene& scene, const py::handle& rays_obj, bool any_hit, 
   req.threads = check_threads(threads);
   req.omm_level = d.omm_level;
   req.need_hits = need_hits;
+  req.all_hits = all_hits;
+  if (all_hits >= 0 && !need_hits) fail("hits=False does not apply to all_hits");
   if (!need_hits && !(req.kind == hw::DeviceKind::kTimed && d.sample > 0.0))
     fail("hits=False is allowed only with device='timed' and sample > 0 (cycles only)");
   const RaysIn in = rays_from_numpy(rays_obj);
   req.rays = in.rays;
   host::Json stats;
   std::vector<hw::Hit> hits;
+  std::vector<uint64_t> counts;
   std::string invalid;
   req.poll = check_signals;  // Ctrl-C between chunks of rays
   {
@@ -332,9 +337,15 @@ py::tuple trace(const PyScene& scene, const py::handle& rays_obj, bool any_hit, 
     host::TraceRun run = host::run_trace(req);
     stats = host::trace_stats_json(req, run, rays_name, d.device, 0.0);
     invalid = host::invalid_rays_message(run.stats);
-    hits = std::move(run.hits);
+    hits = std::move(all_hits >= 0 ? run.lists : run.hits);
+    counts = std::move(run.counts);
   }
-  return py::make_tuple(hits_to_numpy(std::move(hits)), to_python(stats), invalid);
+  if (all_hits < 0) return py::make_tuple(hits_to_numpy(std::move(hits)), to_python(stats), invalid);
+  const py::ssize_t n = py::ssize_t(counts.size()), k = all_hits;
+  const py::ssize_t hb = py::ssize_t(sizeof(hw::Hit));
+  py::array lists = give(std::move(hits), py::dtype::of<hw::Hit>(), {n, k}, {k * hb, hb});
+  py::array c = give(std::move(counts), py::dtype::of<uint64_t>(), {n}, {py::ssize_t(sizeof(uint64_t))});
+  return py::make_tuple(lists, to_python(stats), invalid, c);
 }
 
 // rtusim trace --against-*: two timed runs of one ray set and host::ab_json of them: (A/B dict, A's stats, B's
@@ -731,7 +742,7 @@ PYBIND11_MODULE(_rtu, m) {
       py::arg("path"), py::arg("hits"));
 
   m.def("trace", &trace, py::arg("scene"), py::arg("rays"), py::arg("any_hit"), py::arg("threads"),
-        py::arg("need_hits"), py::arg("rays_name"));
+        py::arg("need_hits"), py::arg("rays_name"), py::arg("all_hits"));
   m.def("ab", &ab, py::arg("scene"), py::arg("rays"), py::arg("any_hit"), py::arg("threads"), py::arg("need_hits"),
         py::arg("rays_name"), py::arg("a"), py::arg("b"));
   m.def("compare", &compare, py::arg("scene"), py::arg("rays"), py::arg("rays_name"), py::arg("any_hit"),

@@ -14,6 +14,7 @@
 #include "host/jobs/ab.h"
 #include "host/jobs/trace_job.h"
 #include "host/scene/ray_spec.h"
+#include "hwmodel/interface/commands.h"
 
 namespace rtu::host::cli {
 
@@ -26,6 +27,7 @@ struct TraceOptions {
   bool rtl_unit = false;  // --rtl-unit: the packet on the RTL traversal unit too
   int threads = 0;
   int omm_level = -1;  // --omm-level: opacity micromaps of this level (-1: none)
+  int all_hits = -1;   // --all-hits K: every intersection, K kept a ray (-1: closest or any hit)
   DeviceArgs dev;
   PipelineTraceArgs pipeline;
   AgainstSpec against;  // --against-*: design point B of an A/B
@@ -72,13 +74,17 @@ void run_trace(const TraceOptions& o) {
   req.any_hit = o.any_hit;
   req.threads = o.threads;
   req.omm_level = o.omm_level;
+  req.all_hits = o.all_hits;
   req.need_hits = !cycles_only;
   req.pipeline = pt.make();
   const TraceRun run = host::run_trace(req);
   if (!run.grid_warning.empty()) std::fprintf(stderr, "rtusim: warning: %s\n", run.grid_warning.c_str());
   const hw::TraversalStats& stats = run.stats;
   const double trace_s = run.trace_seconds;
-  if (!o.out.empty()) write_hits(o.out, run.hits);
+  if (!o.out.empty() && o.all_hits >= 0)
+    write_hit_lists(o.out, uint32_t(o.all_hits), run.lists, run.counts);
+  else if (!o.out.empty())
+    write_hits(o.out, run.hits);
 
   report_invalid_rays(stats, stderr);
   const uint64_t n = rays.size();
@@ -89,6 +95,15 @@ void run_trace(const TraceOptions& o) {
   std::printf("traced %llu rays on %s: %llu hits, %llu invalid, %.3f s, %.2f MRays/s\n", (unsigned long long)n,
               o.dev.device.c_str(), (unsigned long long)stats.hits, (unsigned long long)stats.invalid_rays,
               trace_s, trace_s > 0 ? double(n) / trace_s * 1e-6 : 0.0);
+  if (o.all_hits >= 0) {
+    const Json a = all_hits_json(uint32_t(o.all_hits), run.counts);
+    std::printf(
+        "all hits: %llu intersections (%.2f a ray, at most %llu), %llu kept (at most %d a ray), %llu rays "
+        "overflowed\n",
+        (unsigned long long)a["found"].get<uint64_t>(), a["mean_per_ray"].get<double>(),
+        (unsigned long long)a["max_per_ray"].get<uint64_t>(), (unsigned long long)a["kept"].get<uint64_t>(),
+        o.all_hits, (unsigned long long)a["rays_overflowed"].get<uint64_t>());
+  }
   std::printf("per ray: %.2f nodes, %.2f box tests, %.2f primitive tests\n",
               stats.rays ? double(stats.nodes_visited) / double(stats.rays) : 0.0,
               stats.rays ? double(stats.box_tests) / double(stats.rays) : 0.0,
@@ -138,6 +153,8 @@ void add_trace(CLI::App& app) {
               "timed device (--device timed)");
         if (sub.count("--seed") > 0 && o.rays.rfind("incoherent", 0) != 0)
           throw CLI::ValidationError("--seed applies to --rays incoherent[:N] only");
+        if (o.all_hits >= 0 && (o.any_hit || o.rtl_unit || !o.against.empty()))
+          throw CLI::ValidationError("--all-hits is not with --any-hit, --rtl-unit or --against-*");
         if (o.rtl_unit && (o.dev.kind() != hw::DeviceKind::kTimed || o.dev.sample > 0.0))
           throw CLI::ValidationError(
               "--rtl-unit runs the timed device's packet on the RTL traversal unit: "
@@ -151,6 +168,10 @@ void add_trace(CLI::App& app) {
                   "hit file to write (16-byte binary records, or .csv); without it only the statistics (with "
                   "--sample on the timed device, only the sampled rays are traced)");
   sub->add_flag("--any-hit", o->any_hit, "any-hit queries (stop at the first hit, as shadow rays do)");
+  sub->add_option("--all-hits", o->all_hits,
+                  "all-hit queries: every intersection in [tmin, tmax] counted, the first K a ray (in the unit's "
+                  "order) kept; --out then writes hit lists (docs/file-formats.md); 0: counts only")
+      ->check(CLI::Range(0, int(hw::cmd::kMaxAllHits)));
   add_omm_level_arg(*sub, o->omm_level, "hits are");
   sub->add_flag("--rtl-unit", o->rtl_unit,
                 "timed device: also run the rays in one packet on the Verilated RTL traversal unit of the "

@@ -13,6 +13,7 @@
 #include "host/io/error.h"
 #include "host/io/files.h"
 #include "host/io/limits.h"
+#include "hwmodel/interface/commands.h"
 
 namespace rtu::host {
 
@@ -173,6 +174,42 @@ void write_hits(const std::string& path, const std::vector<hw::Hit>& hits) {
   out << kHitCsvHeader << '\n';
   for (const hw::Hit& h : hits)
     out << csv_float(h.t) << ',' << h.prim << ',' << csv_float(h.u) << ',' << csv_float(h.v) << '\n';
+  finish_output(out, path);
+}
+
+void write_hit_lists(const std::string& path, uint32_t k, const std::vector<hw::Hit>& lists,
+                     const std::vector<uint64_t>& counts) {
+  auto header = [&](size_t i) {
+    const uint64_t n = counts[i];
+    return hw::cmd::HitListHeader{uint32_t(std::min<uint64_t>(n, UINT32_MAX)), uint32_t(std::min<uint64_t>(n, k)),
+                                  n > k ? hw::cmd::kHitListOverflow : 0u, 0u};
+  };
+  if (!is_csv_path(path)) {
+    const size_t stride = size_t(hw::cmd::all_hits_list_bytes(k));
+    std::vector<uint8_t> out(counts.size() * stride);
+    const hw::Hit miss;
+    for (size_t i = 0; i < counts.size(); ++i) {
+      const hw::cmd::HitListHeader h = header(i);
+      uint8_t* at = out.data() + i * stride;
+      std::memcpy(at, &h, sizeof h);
+      for (uint32_t j = 0; j < k; ++j)
+        std::memcpy(at + 16 * (j + 1), j < h.kept ? &lists[i * k + j] : &miss, sizeof(hw::Hit));
+    }
+    return write_binary(path, out);
+  }
+  std::ofstream out = open_output(path);
+  out << kHitListCsvHeader << '\n';
+  for (size_t i = 0; i < counts.size(); ++i) {
+    const hw::cmd::HitListHeader h = header(i);
+    const std::string lead = std::to_string(i) + ',' + std::to_string(counts[i]) + ',' + std::to_string(h.kept) +
+                             ',' + (h.flags ? "1" : "0") + ',';
+    if (h.kept == 0) out << lead << ",,,,\n";
+    for (uint32_t j = 0; j < h.kept; ++j) {
+      const hw::Hit& x = lists[i * k + j];
+      out << lead << j << ',' << csv_float(x.t) << ',' << x.prim << ',' << csv_float(x.u) << ',' << csv_float(x.v)
+          << '\n';
+    }
+  }
   finish_output(out, path);
 }
 

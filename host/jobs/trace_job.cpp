@@ -8,7 +8,10 @@
 
 #include "host/cost/timing_json.h"
 #include "host/devices/device_json.h"
+#include "host/io/error.h"
+#include "host/io/limits.h"
 #include "host/scene/micromap_bake.h"
+#include "hwmodel/interface/commands.h"
 
 namespace rtu::host {
 
@@ -37,23 +40,49 @@ int resolved_threads(int threads) {
   return threads > 0 ? threads : std::max(1, int(std::thread::hardware_concurrency()));
 }
 
-double trace_with_progress(const DirectDevice& device, std::span<const hw::Ray> rays, std::vector<hw::Hit>& hits,
-                           bool any_hit, int threads, hw::TraversalStats& stats,
-                           const std::function<void()>& poll) {
-  hits.resize(rays.size());
+namespace {
+
+// Rays in chunks of 2^18 with a progress line: trace(begin, n, stats) for each, poll() before it. Returns the
+// seconds of tracing.
+template <class Fn>
+double in_chunks(size_t rays, hw::TraversalStats& stats, const std::function<void()>& poll, Fn&& trace) {
   constexpr size_t kChunk = size_t(1) << 18;
-  Progress progress("trace", rays.size());
+  Progress progress("trace", rays);
   const auto start = std::chrono::steady_clock::now();
-  for (size_t begin = 0; begin < rays.size(); begin += kChunk) {
-    const size_t n = std::min(kChunk, rays.size() - begin);
+  for (size_t begin = 0; begin < rays; begin += kChunk) {
+    const size_t n = std::min(kChunk, rays - begin);
     if (poll) poll();
     hw::TraversalStats chunk;
-    device.trace_batch(rays.data() + begin, hits.data() + begin, n, any_hit, resolved_threads(threads), chunk);
+    trace(begin, n, chunk);
     if (chunk.first_invalid != UINT64_MAX) chunk.first_invalid += begin;
     stats.add(chunk);
     progress.update(begin + n);
   }
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+double trace_with_progress(const DirectDevice& device, std::span<const hw::Ray> rays, std::vector<hw::Hit>& hits,
+                           bool any_hit, int threads, hw::TraversalStats& stats,
+                           const std::function<void()>& poll) {
+  hits.resize(rays.size());
+  return in_chunks(rays.size(), stats, poll, [&](size_t begin, size_t n, hw::TraversalStats& chunk) {
+    device.trace_batch(rays.data() + begin, hits.data() + begin, n, any_hit, resolved_threads(threads), chunk);
+  });
+}
+
+double trace_all_with_progress(const DirectDevice& device, std::span<const hw::Ray> rays, uint32_t k,
+                               std::vector<hw::Hit>& lists, std::vector<uint64_t>& counts, int threads,
+                               hw::TraversalStats& stats, const std::function<void()>& poll) {
+  check_memory("all-hit lists of " + std::to_string(rays.size()) + " rays keeping " + std::to_string(k),
+               uint64_t(rays.size()) * (uint64_t(k) * sizeof(hw::Hit) + sizeof(uint64_t)));
+  lists.assign(rays.size() * size_t(k), hw::Hit{});
+  counts.assign(rays.size(), 0);
+  return in_chunks(rays.size(), stats, poll, [&](size_t begin, size_t n, hw::TraversalStats& chunk) {
+    const hw::AllHitsOut out{k, lists.data() + begin * size_t(k), counts.data() + begin};
+    device.trace_all_batch(rays.data() + begin, n, out, resolved_threads(threads), chunk);
+  });
 }
 
 std::string invalid_rays_message(const hw::TraversalStats& stats) {
@@ -70,6 +99,10 @@ void report_invalid_rays(const hw::TraversalStats& stats, std::FILE* out) {
 }
 
 TraceRun run_trace(const TraceRequest& req) {
+  if (req.all_hits > int(hw::cmd::kMaxAllHits))
+    throw Error("all-hit traversal keeps at most " + std::to_string(hw::cmd::kMaxAllHits) + " hits a ray, not " +
+                std::to_string(req.all_hits));
+  if (req.all_hits >= 0 && req.any_hit) throw Error("all-hit traversal and any-hit queries exclude each other");
   TraceRun run;
   const auto build_start = std::chrono::steady_clock::now();
   run.options = req.settings.options(req.kind);
@@ -87,9 +120,31 @@ TraceRun run_trace(const TraceRequest& req) {
   run.device = make_device(req.scene->geometry, run.options);
   run.device->set_pipeline_trace(req.pipeline);
   run.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - build_start).count();
-  run.trace_seconds =
-      trace_with_progress(*run.device, req.rays, run.hits, req.any_hit, req.threads, run.stats, req.poll);
+  if (req.all_hits >= 0)
+    run.trace_seconds = trace_all_with_progress(*run.device, req.rays, uint32_t(req.all_hits), run.lists,
+                                                run.counts, req.threads, run.stats, req.poll);
+  else
+    run.trace_seconds =
+        trace_with_progress(*run.device, req.rays, run.hits, req.any_hit, req.threads, run.stats, req.poll);
   return run;
+}
+
+Json all_hits_json(uint32_t k, const std::vector<uint64_t>& counts) {
+  uint64_t found = 0, kept = 0, overflowed = 0, most = 0, with = 0;
+  for (const uint64_t c : counts) {
+    found += c;
+    kept += std::min<uint64_t>(c, k);
+    overflowed += c > k;
+    most = std::max(most, c);
+    with += c > 0;
+  }
+  return Json{{"k", k},
+              {"found", found},
+              {"kept", kept},
+              {"rays_with_hits", with},
+              {"rays_overflowed", overflowed},
+              {"max_per_ray", most},
+              {"mean_per_ray", counts.empty() ? 0.0 : double(found) / double(counts.size())}};
 }
 
 Json trace_stats_json(const TraceRequest& req, const TraceRun& run, const std::string& rays_name,
@@ -100,7 +155,8 @@ Json trace_stats_json(const TraceRequest& req, const TraceRun& run, const std::s
   j["rays_file"] = rays_name;
   j["device"] = device_name;
   if (req.kind != hw::DeviceKind::kFloat) j["format"] = format_json(run.options.format);
-  j["mode"] = req.any_hit ? "any_hit" : "closest_hit";
+  j["mode"] = req.all_hits >= 0 ? "all_hits" : req.any_hit ? "any_hit" : "closest_hit";
+  if (req.all_hits >= 0) j["all_hits"] = all_hits_json(uint32_t(req.all_hits), run.counts);
   j["threads"] = resolved_threads(req.threads);
   j.update(traversal_json(run.stats));
   j["trace_seconds"] = run.trace_seconds;

@@ -40,6 +40,11 @@ double trace_with_progress(const DirectDevice& device, std::span<const hw::Ray> 
                            bool any_hit, int threads, hw::TraversalStats& stats,
                            const std::function<void()>& poll = nullptr);
 
+// trace_with_progress for all-hit traversal keeping k hits a ray: lists (rays * k) and counts (rays).
+double trace_all_with_progress(const DirectDevice& device, std::span<const hw::Ray> rays, uint32_t k,
+                               std::vector<hw::Hit>& lists, std::vector<uint64_t>& counts, int threads,
+                               hw::TraversalStats& stats, const std::function<void()>& poll = nullptr);
+
 // "N invalid rays reported as misses; the first is ray i (reason). Invalid: ..." when the device rejected any ray;
 // empty otherwise.
 std::string invalid_rays_message(const hw::TraversalStats& stats);
@@ -55,7 +60,10 @@ struct TraceRequest {
   hw::DeviceKind kind = hw::DeviceKind::kFloat;
   bool any_hit = false;
   int threads = 0;
-  int omm_level = -1;     // fixed and timed devices, one level: opacity micromaps of this level (-1: none)
+  int omm_level = -1;  // fixed and timed devices, one level: opacity micromaps of this level (-1: none)
+  // >= 0: all-hit traversal keeping up to this many hits a ray (at most hw::cmd::kMaxAllHits; 0: counts only);
+  // the lists go to TraceRun::lists and counts, not hits. Not with any_hit.
+  int all_hits = -1;
   bool need_hits = true;  // false: sampled timing traces only the sampled rays (cycles only; hits not meaningful)
   hw::PipelineTrace* pipeline = nullptr;  // timed device: record pipeline spans here (or null)
   // Called between chunks of rays (trace_with_progress); an exception it throws stops the job (Python: Ctrl-C).
@@ -67,12 +75,19 @@ struct TraceRun {
   std::unique_ptr<hw::MicromapSet> micromaps;  // TraceRequest::omm_level: the maps the device reads (outlive it)
   std::unique_ptr<DirectDevice> device;
   std::vector<hw::Hit> hits;
+  std::vector<hw::Hit> lists;    // all_hits: ray i's kept hits at lists[i * all_hits ...]
+  std::vector<uint64_t> counts;  // all_hits: ray i's intersections found
   hw::TraversalStats stats;
   double build_seconds = 0.0, trace_seconds = 0.0;
   std::string grid_warning;  // primitives below the fixed-point grid step (grid_check.h), or ""
 };
-// Throws as make_device and DirectDevice::trace_batch do.
+// Throws as make_device and DirectDevice::trace_batch do, and Error for an all_hits bound above kMaxAllHits or
+// with any_hit.
 TraceRun run_trace(const TraceRequest& req);
+
+// An all-hit trace's figures (counts per ray, k kept): k, found, kept, rays_with_hits, rays_overflowed,
+// max_per_ray, mean_per_ray.
+Json all_hits_json(uint32_t k, const std::vector<uint64_t>& counts);
 
 // The statistics of a trace as `rtusim trace --stats` writes them: scene, rays, device, format, mode, threads,
 // traversal counters, seconds, the BVH and on the timed device its timing. `rays_name` names the ray set (the

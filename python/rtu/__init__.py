@@ -151,6 +151,7 @@ class TraceResult:
     hits: _np.ndarray  # HIT_DTYPE, one per ray (t, prim, u, v)
     stats: dict  # rtusim trace --stats
     invalid: str = ""  # the invalid-ray message ("" when every ray was valid)
+    counts: _np.ndarray = None  # all_hits: intersections found per ray (uint64); more than K: the list overflowed
 
     @property
     def cycles(self):
@@ -159,7 +160,8 @@ class TraceResult:
         return timing["cycles"] if timing else None
 
 
-def trace(scene, rays, device="float", *, any_hit=False, threads=0, hits=True, invalid="raise", seed=1, **device_options):
+def trace(scene, rays, device="float", *, any_hit=False, all_hits=None, threads=0, hits=True, invalid="raise", seed=1,
+          **device_options):
     """Traces rays on a device, as `rtusim trace`.
 
     device: "float", "fixed" or "timed". Device options (those of rtusim's tracing commands): config (a preset
@@ -170,14 +172,19 @@ def trace(scene, rays, device="float", *, any_hit=False, threads=0, hits=True, i
     Options the device would ignore are refused, as the CLI refuses them. hits=False: cycles only (timed with
     sample > 0). invalid: what to do when the device rejected rays (NaN/Inf, zero direction, out of the frame):
     "raise" (rtu.Error), "warn" (InvalidRayWarning; the CLI's behaviour) or "ignore"; the rejected rays are
-    misses.
+    misses. all_hits=K (0..256): every intersection in [tmin, tmax] counted (result.counts) and the first K a ray
+    kept, in the unit's order: result.hits is then an (N, K) array, misses after each ray's kept hits.
     """
     if invalid not in ("raise", "warn", "ignore"):
         raise Error(f"invalid: '{invalid}' is not raise, warn or ignore")
     scene = load_scene(scene)
     rays, name = _rays_arg(scene, rays, seed)
-    h, stats, message = _rtu.trace(scene, rays, _bool(any_hit, "any_hit"), _int(threads, "threads"),
-                                   _bool(hits, "hits"), name, device=device, **device_options)
+    k = -1 if all_hits is None else _int(all_hits, "all_hits")
+    if all_hits is not None and not 0 <= k <= 256:
+        raise Error(f"all_hits: {k} is not in 0..256")
+    out = _rtu.trace(scene, rays, _bool(any_hit, "any_hit"), _int(threads, "threads"), _bool(hits, "hits"), name, k,
+                     device=device, **device_options)
+    h, stats, message = out[:3]
     for w in stats.get("warnings", []):
         _warnings.warn(w, AccuracyWarning, stacklevel=2)
     if message:
@@ -185,7 +192,7 @@ def trace(scene, rays, device="float", *, any_hit=False, threads=0, hits=True, i
             raise Error(message)
         if invalid == "warn":
             _warnings.warn(message, InvalidRayWarning, stacklevel=2)
-    return TraceResult(h, stats, message)
+    return TraceResult(h, stats, message, out[3] if len(out) > 3 else None)
 
 
 def ab(scene, rays="primary", *, a=None, b=None, any_hit=False, threads=0, hits=True, seed=1, **device_options):

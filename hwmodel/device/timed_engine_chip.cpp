@@ -211,7 +211,7 @@ uint64_t TimedEngine::run_chip(const std::vector<TimingModel*>& units,
       for (size_t j = 0; j < c.count; ++j) {
         const size_t i = mine[u][c.first + j], k = m_all->k;
         m_all->counts[i] = c.counts[j];
-        std::copy_n(c.lists.data() + j * k, k, m_all->lists + i * k);
+        std::copy_n(c.lists.data() + j * k, std::min<uint64_t>(c.counts[j], k), m_all->lists + i * k);
       }
     units[u]->add_rays(c.events.data(), c.count);
   };

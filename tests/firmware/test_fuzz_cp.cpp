@@ -228,6 +228,11 @@ class CpFuzzer {
     if (k < 55) {
       const uint32_t n = 1 + uint32_t(chance(80) ? below(16) : below(kMaxCount));
       const uint64_t rays = kRaysAt + 32 * below((kRaysEnd - kRaysAt) / 32 - n + 1);
+      if (chance(20)) {  // all hits: a list of k + 1 records a ray
+        const uint32_t k = uint32_t(below(5));
+        const uint64_t lists = kHitsAt + 16 * below((kMem - kHitsAt) / 16 - uint64_t(n) * (k + 1) + 1);
+        return cmd::trace_all_hits(rays, lists, n, k, cmd::RayType(below(cmd::kRayTypeCount)), uint8_t(below(8)));
+      }
       const uint64_t hits = kHitsAt + 16 * below((kMem - kHitsAt) / 16 - n + 1);
       return cmd::trace(rays, hits, n, chance(30), cmd::RayType(below(cmd::kRayTypeCount)), uint8_t(below(8)));
     }

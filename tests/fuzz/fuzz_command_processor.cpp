@@ -100,7 +100,10 @@ int command_processor(const uint8_t* data, size_t size) {
             p = cmd::bind_scene(kImageAt, (flags & 1) ? image_bytes : (uint64_t(count) * 8) % (image_bytes + 64));
             break;
           case 2:
-            p = cmd::trace(kRaysAt, kHitsAt, 1 + count % kMaxRays, flags & 1, cmd::RayType(flags % 7), flags >> 3);
+            p = (flags & 2) ? cmd::trace_all_hits(kRaysAt, kHitsAt, 1 + count % kMaxRays, (flags >> 2) % 9,
+                                                  cmd::RayType(flags % 7), flags >> 3)
+                            : cmd::trace(kRaysAt, kHitsAt, 1 + count % kMaxRays, flags & 1,
+                                         cmd::RayType(flags % 7), flags >> 3);
             break;
           case 3:
             p = cmd::fence(kHitsAt + 8 * (count % 64), count, flags & 1);

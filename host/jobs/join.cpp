@@ -196,7 +196,9 @@ Json join_json(const JoinJobOptions& o, const JoinJobResult& r) {
   j["nodes_visited"] = r.stats.nodes_visited;
   j["box_tests"] = r.stats.box_tests;
   j["index_bytes"] = r.index_bytes;
-  if (o.timed) probe_timing_json(j, "cycles_per_probe", "probes_per_clock", r.stats.queries, r.cycles, r.timing);
+  if (o.timed)
+    probe_timing_json(j, "cycles_per_probe", "probes_per_clock", r.stats.queries, r.cycles, r.timing, o.timing,
+                      o.format);
   return j;
 }
 

@@ -2,6 +2,7 @@
 
 #include <string>
 
+#include "host/cost/timing_json.h"
 #include "host/io/error.h"
 #include "host/io/files.h"
 #include "host/io/point_io.h"
@@ -76,18 +77,23 @@ Json query_json(const QueryJobOptions& o, const QueryJobResult& r) {
   j["nodes_visited"] = r.stats.nodes_visited;
   j["box_tests"] = r.stats.box_tests;
   j["index_bytes"] = r.index_bytes;
-  if (o.timed) probe_timing_json(j, "cycles_per_query", "queries_per_clock", r.stats.queries, r.cycles, r.timing);
+  if (o.timed)
+    probe_timing_json(j, "cycles_per_query", "queries_per_clock", r.stats.queries, r.cycles, r.timing, o.timing,
+                      o.format);
   return j;
 }
 
 void probe_timing_json(Json& j, const char* per_key, const char* rate_key, uint64_t probes, uint64_t cycles,
-                       const hw::TimingStats& t) {
+                       const hw::TimingStats& t, const hw::TimingConfig& c, const hw::FixedFormat& f) {
   const double q = double(std::max<uint64_t>(1, probes));
   j["cycles"] = cycles;
   j[per_key] = double(cycles) / q;
   j[rate_key] = q / double(std::max<uint64_t>(1, cycles));
   j["shader_calls"] = t.any_hit_requests;
   j["dram_bytes"] = t.dram_bytes;
+  hw::TimingStats whole = t;
+  whole.cycles = cycles;
+  j["timing"] = timing_stats_json(whole, c, f);
 }
 
 void write_answers_csv(const std::string& path, const QueryJobOptions& o, const QueryJobResult& r) {

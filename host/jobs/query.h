@@ -37,9 +37,10 @@ struct QueryJobResult {
 
 QueryJobResult run_query_job(const QueryJobOptions& o);
 // The figures of probes on the timed unit into j: cycles, cycles a probe (per_key), probes a clock (rate_key),
-// shader_calls (each candidate's exact check), dram_bytes.
+// shader_calls (each candidate's exact check), dram_bytes, and "timing": the timing statistics of configuration c
+// and format f as `rtusim trace --stats` gives them (slot time, caches, L2, DRAM, energy).
 void probe_timing_json(Json& j, const char* per_key, const char* rate_key, uint64_t probes, uint64_t cycles,
-                       const hw::TimingStats& t);
+                       const hw::TimingStats& t, const hw::TimingConfig& c, const hw::FixedFormat& f);
 Json query_json(const QueryJobOptions& o, const QueryJobResult& r);
 // The answers as CSV: "query,id" a neighbour a line (kNearest nearest first), or "query,count".
 void write_answers_csv(const std::string& path, const QueryJobOptions& o, const QueryJobResult& r);

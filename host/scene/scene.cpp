@@ -172,7 +172,6 @@ void validate_scene(const Scene& scene) {
   for (size_t i = 0; i < g.curves.size(); ++i)
     if (const std::string why = hw::check_curve_segment(g.curves[i]); !why.empty())
       fail("curve segment " + std::to_string(i) + ": " + why);
-  if (scene.instanced() && !g.curves.empty()) fail("curve segments in a two-level scene are not supported");
   for (size_t i = 0; i < g.planes.size(); ++i) {
     const hw::Plane& p = g.planes[i];
     if (!finite(p.normal) || !std::isfinite(p.offset)) fail("plane " + std::to_string(i) + ": NaN/Inf value");

@@ -344,12 +344,12 @@ Scene load_scene_json(const nlohmann::ordered_json& root, const std::string& pat
       r.fail("instances", "no instance has triangles (its prototypes have no meshes)");
     scene.instances = {};
   } else {
-    if (!scene.geometry.curves.empty()) r.fail("curves", "curves in a scene with instances are not supported");
-    // Two levels: the loose triangles and spheres become mesh 0 under the identity, instance 0; the geometry is
-    // the flattened scene (loose triangles, instance triangles, spheres, planes).
+    // Two levels: the loose triangles, spheres and curves become mesh 0 under the identity, instance 0; the
+    // geometry is the flattened scene (loose triangles, instance triangles, spheres, curves, planes).
     hw::InstanceSet& set = scene.instances;
     set.meshes[0].triangles = std::move(scene.geometry.triangles);
     set.meshes[0].spheres = std::move(scene.geometry.spheres);
+    set.meshes[0].curves = std::move(scene.geometry.curves);
     set.instances.insert(set.instances.begin(), hw::Instance{});
     set.finish();
     scene.geometry = set.flatten(scene.geometry.planes);

@@ -110,6 +110,8 @@ void InstanceSet::validate() const {
     const Geometry& g = meshes[in.mesh];
     if (!g.spheres.empty() && !in.to_world.is_identity())
       throw std::invalid_argument(who + ": spheres may only be instanced with the identity transform");
+    if (!g.curves.empty() && !in.to_world.is_identity())
+      throw std::invalid_argument(who + ": curve segments may only be instanced with the identity transform");
     prims += g.num_bounded();
     if (prims >= kMaxBvhPrims) throw std::invalid_argument("instances hold more than 2^27 - 1 primitives in all");
     if (g.num_bounded() == 0) continue;
@@ -123,6 +125,17 @@ void InstanceSet::validate() const {
     if (in.tri_base != tri) throw std::invalid_argument("instance bases not set (InstanceSet::finish)");
     tri += uint32_t(meshes[in.mesh].triangles.size());
   }
+  // Curves follow every instance's spheres in the flattened scene, and an instance's round primitives are
+  // numbered from its sphere_base on (global_prim): so one instance alone may hold curves, and then spheres.
+  size_t with_curves = 0, with_round = 0;
+  for (const Instance& in : instances) {
+    with_curves += !meshes[in.mesh].curves.empty();
+    with_round += !meshes[in.mesh].curves.empty() || !meshes[in.mesh].spheres.empty();
+  }
+  if (with_curves > 0 && with_round > 1)
+    throw std::invalid_argument(
+        "curve segments in an instance beside another instance's curves or spheres (curves and spheres are the "
+        "loose geometry of one instance)");
 }
 
 Aabb InstanceSet::world_bounds(uint32_t inst) const {
@@ -174,6 +187,8 @@ Geometry InstanceSet::flatten(const std::vector<Plane>& planes) const {
   }
   for (const Instance& in : instances)
     for (const Sphere& s : meshes[in.mesh].spheres) g.spheres.push_back(s);  // identity transforms only
+  for (const Instance& in : instances)
+    for (const CurveSegment& c : meshes[in.mesh].curves) g.curves.push_back(c);  // likewise
   g.planes = planes;
   return g;
 }

@@ -56,20 +56,22 @@ struct Instance {
 };
 
 struct InstanceSet {
-  std::vector<Geometry> meshes;  // object space; triangles and spheres, no planes
+  std::vector<Geometry> meshes;  // object space; triangles, spheres and curve segments, no planes
   std::vector<Instance> instances;
 
   // Sets every instance's tri_base and sphere_base (triangles of instance 0, 1, ..., then spheres in the same
   // order). Call after filling meshes and instances.
   void finish();
   // Throws std::invalid_argument naming the first problem: a mesh index out of range, a mesh with planes, a
-  // transform that is not finite or singular (invert), a sphere under a transform other than the identity (it
-  // would be an ellipsoid), a world coordinate beyond kMaxCoordinate, more than kMaxBvhPrims primitives.
+  // transform that is not finite or singular (invert), a sphere or curve segment under a transform other than the
+  // identity (it would be an ellipsoid), curve segments in an instance beside another instance's spheres or curves
+  // (the numbering below), a world coordinate beyond kMaxCoordinate, more than kMaxBvhPrims primitives.
   void validate() const;
 
   uint32_t num_triangles() const;
   uint32_t num_spheres() const;
-  // Flattened index of instance i's primitive `local` (its mesh's index space: triangles, then spheres).
+  // Flattened index of instance i's primitive `local` (its mesh's index space: triangles, then spheres, then curve
+  // segments, which follow every sphere and so its own when it is the one instance with round primitives).
   uint32_t global_prim(uint32_t inst, uint32_t local) const {
     const Instance& in = instances[inst];
     const uint32_t nt = uint32_t(meshes[in.mesh].triangles.size());
@@ -79,8 +81,8 @@ struct InstanceSet {
   // then widened by 2^-20 of its largest coordinate magnitude, for the rounding of transformed rays (each of
   // their coordinates within a few ulps of float, far below 2^-20).
   Aabb world_bounds(uint32_t inst) const;
-  // The flattened scene: every instance's primitives in world space (Affine::point), in the order above, then
-  // `planes`.
+  // The flattened scene: every instance's primitives in world space (Affine::point), in the order above (curve
+  // segments after the spheres), then `planes`.
   Geometry flatten(const std::vector<Plane>& planes) const;
 };
 

@@ -40,9 +40,13 @@ void run_motion(const MotionArgs& a) {
   o.timing = timing_config_from(a.dev.config, a.dev.sets);
   const MotionJobResult r = run_motion_job(o);
   const ImageDiff d = diff_images(r.float_image, r.fixed_image);
-  std::printf("scene        %s: %llu triangles, %llu spheres, %llu moving; %dx%d, %d shutter times per pixel\n",
-              o.scene.empty() ? "builtin motion" : o.scene.c_str(), (unsigned long long)r.triangles,
-              (unsigned long long)r.spheres, (unsigned long long)r.moving, o.width, o.height, o.samples);
+  std::printf(
+      "scene        %s: %llu triangles, %llu spheres, %llu curve segments, %llu moving; %dx%d, %d shutter times "
+      "per "
+      "pixel\n",
+      o.scene.empty() ? "builtin motion" : o.scene.c_str(), (unsigned long long)r.triangles,
+      (unsigned long long)r.spheres, (unsigned long long)r.curves, (unsigned long long)r.moving, o.width, o.height,
+      o.samples);
   std::printf("format       %s, %s\n", o.format.describe().c_str(), o.motion.describe().c_str());
   std::printf(
       "fixed/float  %llu of %llu rays agree on hit/miss; of %llu hits on both, %llu on the same triangle; "

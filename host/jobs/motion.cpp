@@ -24,9 +24,13 @@ hw::Vec3 shade(const MotionScene& s, const hw::Ray& r, const hw::Hit& h, float t
   if (h.prim < s.geometry.triangles.size()) {
     const hw::Triangle t = s.geometry.triangles[h.prim].at(time);
     n = glm::normalize(glm::cross(t.v1 - t.v0, t.v2 - t.v0));
-  } else {
+  } else if (h.prim < s.geometry.triangles.size() + s.geometry.spheres.size()) {
     const hw::Sphere sp = s.geometry.spheres[h.prim - s.geometry.triangles.size()].at(time);
     n = glm::normalize(r.origin + h.t * r.dir - sp.center);
+  } else {  // from the axis point of the sphere the hit lies on (u: its s)
+    const hw::CurveSegment c =
+        s.geometry.curves[h.prim - s.geometry.triangles.size() - s.geometry.spheres.size()].at(time);
+    n = glm::normalize(r.origin + h.t * r.dir - (c.p0 + h.u * (c.p1 - c.p0)));
   }
   return color * (0.2f + 0.8f * std::abs(glm::dot(n, glm::normalize(hw::Vec3(0.4f, 1.0f, 0.6f)))));
 }
@@ -68,6 +72,7 @@ MotionJobResult run_motion_job(const MotionJobOptions& o) {
   MotionJobResult r;
   r.triangles = scene.geometry.triangles.size();
   r.spheres = scene.geometry.spheres.size();
+  r.curves = scene.geometry.curves.size();
   r.rays = rays.rays.size();
   // Float and fixed frames.
   const hw::MotionFloatTracer flt(scene.geometry, bvh);
@@ -93,6 +98,10 @@ MotionJobResult run_motion_job(const MotionJobOptions& o) {
   for (const hw::MotionSphere& t : scene.geometry.spheres) {
     const hw::Sphere m = t.at(0.5f);
     frozen.spheres.push_back(hw::MotionSphere{{m.center, m.center}, {m.radius, m.radius}});
+  }
+  for (const hw::MotionCurve& t : scene.geometry.curves) {
+    const hw::CurveSegment m = t.at(0.5f);
+    frozen.curves.push_back(hw::MotionCurve{{m, m}});
   }
   const hw::MotionBvh frozen_bvh = hw::MotionBvh::build(frozen, bp);
   const hw::MotionImage still = hw::MotionImage::encode(frozen, frozen_bvh, o.format, o.motion);
@@ -143,6 +152,7 @@ Json motion_json(const MotionJobOptions& o, const MotionJobResult& r) {
   if (builtin) j["motion_scale"] = o.motion_scale;
   j["triangles"] = r.triangles;
   j["spheres"] = r.spheres;
+  j["curve_segments"] = r.curves;
   j["moving_primitives"] = r.moving;
   j["rays"] = r.rays;
   j["fixed_vs_float"] = {

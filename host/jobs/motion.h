@@ -45,10 +45,10 @@ struct MotionDesign {
 };
 
 struct MotionJobResult {
-  uint64_t triangles = 0, spheres = 0, moving = 0, rays = 0;  // moving: primitives whose key frames differ
-  uint64_t hits_agree = 0;                                    // rays on which float and fixed agree on hit or miss
-  uint64_t both_hit = 0;                                      // rays that hit on both
-  uint64_t same_prim = 0;                                     // of those, the same triangle
+  uint64_t triangles = 0, spheres = 0, curves = 0, moving = 0, rays = 0;  // moving: key frames that differ
+  uint64_t hits_agree = 0;  // rays on which float and fixed agree on hit or miss
+  uint64_t both_hit = 0;    // rays that hit on both
+  uint64_t same_prim = 0;   // of those, the same triangle
   Image float_image, fixed_image;
   MotionDesign designs[3];  // static, time-aware, time-oblivious
 };

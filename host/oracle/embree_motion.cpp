@@ -60,7 +60,28 @@ EmbreeMotionScene::EmbreeMotionScene(const hw::MotionGeometry& g, const char* co
     rtcCommitGeometry(sph);
     rtcAttachGeometryByID(m_scene, sph, 1);
     rtcReleaseGeometry(sph);
-    m_triangles = unsigned(n);
+  }
+  m_triangles = unsigned(n);
+  m_round = unsigned(n + g.spheres.size());
+  if (!g.curves.empty()) {  // geometry 2: round linear curves, two vertices a segment, at two time steps
+    const size_t nc = g.curves.size();
+    RTCGeometry cur = rtcNewGeometry(m_device, RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE);
+    rtcSetGeometryTimeStepCount(cur, 2);
+    for (unsigned k = 0; k < 2; ++k) {
+      auto* v = static_cast<float*>(
+          rtcSetNewGeometryBuffer(cur, RTC_BUFFER_TYPE_VERTEX, k, RTC_FORMAT_FLOAT4, 4 * sizeof(float), 2 * nc));
+      for (size_t i = 0; i < nc; ++i) {
+        const hw::CurveSegment& c = g.curves[i].key[k];
+        const float pts[8] = {c.p0.x, c.p0.y, c.p0.z, c.r0, c.p1.x, c.p1.y, c.p1.z, c.r1};
+        for (int j = 0; j < 8; ++j) v[8 * i + size_t(j)] = pts[j];
+      }
+    }
+    auto* idx = static_cast<unsigned*>(
+        rtcSetNewGeometryBuffer(cur, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, sizeof(unsigned), nc));
+    for (size_t i = 0; i < nc; ++i) idx[i] = unsigned(2 * i);
+    rtcCommitGeometry(cur);
+    rtcAttachGeometryByID(m_scene, cur, 2);
+    rtcReleaseGeometry(cur);
   }
   rtcSetSceneFlags(m_scene, RTC_SCENE_FLAG_ROBUST);
   rtcCommitScene(m_scene);
@@ -81,6 +102,7 @@ hw::Hit EmbreeMotionScene::intersect(const hw::Ray& r, float time) const {
   rtcIntersect1(m_scene, &ctx, &rh);
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hw::Hit{};
   if (rh.hit.geomID == 1) return hw::Hit{rh.ray.tfar, m_triangles + rh.hit.primID, 0.0f, 0.0f};
+  if (rh.hit.geomID == 2) return hw::Hit{rh.ray.tfar, m_round + rh.hit.primID, rh.hit.u, 0.0f};
   return hw::Hit{rh.ray.tfar, rh.hit.primID, rh.hit.u, rh.hit.v};
 }
 

@@ -1,7 +1,10 @@
-// Embree 3's motion blur as the oracle of rtu's moving triangles and spheres (hwmodel/scene/motion.h): a triangle
-// mesh and sphere points with two time steps (rtcSetGeometryTimeStepCount), the ray's time in RTCRay::time; Embree
-// interpolates vertices, centers and radii linearly between the steps, as rtu does. Hits in rtu's numbering
-// (triangles, then spheres; a sphere's u, v are 0). Tests and benchmarks only.
+// Embree 3's motion blur as the oracle of rtu's moving triangles, spheres and curve segments (hwmodel/scene/
+// motion.h): a triangle mesh, sphere points and round linear curves with two time steps
+// (rtcSetGeometryTimeStepCount), the ray's time in RTCRay::time; Embree interpolates vertices, centers and radii
+// linearly between the steps, as rtu does. Each curve segment is its own Embree segment with both end spheres (no
+// neighbours): rtu's segments with kCurveCapStart; a strand's joints may name the neighbouring segment. Hits in
+// rtu's numbering (triangles, spheres, curve segments; a sphere's u, v are 0, a curve's u is Embree's curve
+// parameter). Tests and benchmarks only.
 #pragma once
 
 #include <embree3/rtcore.h>
@@ -24,7 +27,7 @@ class EmbreeMotionScene {
  private:
   RTCDevice m_device = nullptr;
   RTCScene m_scene = nullptr;
-  unsigned m_triangles = 0;
+  unsigned m_triangles = 0, m_round = 0;  // triangles; triangles and spheres
 };
 
 }  // namespace rtu::oracle

@@ -100,10 +100,9 @@ MotionScene builtin_motion_scene(int level, float motion_scale) {
 
 MotionScene moving_scene(const Scene& scene, const hw::Vec3& move) {
   const hw::Geometry& g = scene.geometry;
-  if (!g.curves.empty() || !g.planes.empty())
-    throw Error(scene.name + ": a moving scene holds triangles and spheres only (this one has " +
-                std::to_string(g.curves.size()) + " curve segments, " + std::to_string(g.planes.size()) +
-                " planes)");
+  if (!g.planes.empty())
+    throw Error(scene.name + ": a moving scene holds triangles, spheres and curve segments only (this one has " +
+                std::to_string(g.planes.size()) + " planes)");
   MotionScene s;
   s.camera = scene.camera;
   s.geometry.triangles.reserve(g.triangles.size());
@@ -111,6 +110,9 @@ MotionScene moving_scene(const Scene& scene, const hw::Vec3& move) {
     s.geometry.triangles.push_back(hw::MotionTriangle{{t, hw::Triangle{t.v0 + move, t.v1 + move, t.v2 + move}}});
   for (const hw::Sphere& p : g.spheres)
     s.geometry.spheres.push_back(hw::MotionSphere{{p.center, p.center + move}, {p.radius, p.radius}});
+  for (const hw::CurveSegment& c : g.curves)
+    s.geometry.curves.push_back(
+        hw::MotionCurve{{c, hw::CurveSegment{c.p0 + move, c.r0, c.p1 + move, c.r1, c.flags}}});
   try {
     s.geometry.validate();
   } catch (const std::invalid_argument& e) {

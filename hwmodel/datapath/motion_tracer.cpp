@@ -93,6 +93,34 @@ MotionImage MotionImage::encode(const MotionGeometry& g, const MotionBvh& bvh, c
     for (int j = 0; j < 4; ++j)
       im.moving[nt + i] |= uint8_t(im.spheres[8 * i + size_t(j)] != im.spheres[8 * i + 4 + size_t(j)]);
   }
+  const size_t ns = g.spheres.size();
+  if (!g.curves.empty())
+    if (const std::string why = f.curve_limits(); !why.empty()) throw std::invalid_argument(why);
+  im.curves.resize(g.curves.size() * 16);
+  for (size_t i = 0; i < g.curves.size(); ++i) {
+    for (int k = 0; k < 2; ++k) {
+      const CurveSegment& c = g.curves[i].key[k];
+      int64_t* out = &im.curves[16 * i + size_t(8 * k)];
+      const Vec3* ends[2] = {&c.p0, &c.p1};
+      for (int e = 0; e < 2; ++e)
+        for (int a = 0; a < 3; ++a) {
+          const int64_t q = im.frame.to_grid((*ends[e])[a], a, Round::kNearestEven);
+          if (q < 0 || q > top) throw std::invalid_argument("a moving curve segment lies outside the frame");
+          out[3 * e + a] = q;
+        }
+      // As a static curve record's radii: grid.F units, rounded up, then to the field's significant bits, up.
+      const float radii[2] = {c.r0, c.r1};
+      for (int e = 0; e < 2; ++e) {
+        const double rs = std::ceil(std::ldexp(double(radii[e]), F - im.frame.step_exp));
+        if (!(rs < std::ldexp(1.0, 58)))
+          throw std::invalid_argument("moving curve segment " + std::to_string(i) + ": radius beyond the record");
+        out[6 + e] = curve_radius(curve_radius_field(int64_t(rs)));
+      }
+    }
+    im.curve_round.push_back(kRoundCurve | ((g.curves[i].key[0].flags & kCurveCapStart) ? kRoundCapStart : 0u));
+    for (int j = 0; j < 8; ++j)
+      im.moving[nt + ns + i] |= uint8_t(im.curves[16 * i + size_t(j)] != im.curves[16 * i + 8 + size_t(j)]);
+  }
   // Each slot's boxes: the integer bounds of the primitives below it, bottom up (children have larger indices
   // than their parent in the builder's order, so a reverse sweep sees every child first).
   const size_t slots = bvh.child.size(), W = size_t(bvh.width);
@@ -112,6 +140,17 @@ MotionImage MotionImage::encode(const MotionGeometry& g, const MotionBvh& bvh, c
             for (int a = 0; a < 3; ++a) {
               out[6 * k + a] = std::min(out[6 * k + a], v[3 * j + a]);
               out[6 * k + 3 + a] = std::max(out[6 * k + 3 + a], v[3 * j + a]);
+            }
+          continue;
+        }
+        if (p >= nt + ns) {
+          const int64_t* cv = &im.curves[16 * size_t(p - nt - ns) + size_t(8 * k)];
+          for (int e = 0; e < 2; ++e)
+            for (int a = 0; a < 3; ++a) {
+              const int64_t lo = floor_shift((cv[3 * e + a] << F) - cv[6 + e], F) - 2;
+              const int64_t hi = ceil_shift((cv[3 * e + a] << F) + cv[6 + e], F) + 2;
+              out[6 * k + a] = std::min(out[6 * k + a], int32_t(lo));
+              out[6 * k + 3 + a] = std::max(out[6 * k + 3 + a], int32_t(hi));
             }
           continue;
         }
@@ -210,11 +249,18 @@ struct MotionFloatPolicy {
       ++s.prim_tests;
       const uint32_t p = b.prim_ids[i];
       PrimHit h;
-      const bool hit =
-          p < g.triangles.size() ? intersect_triangle(g.triangles[p].at(time), rp, tmin, c.tmax, h) : [&] {
-            const Sphere sp = g.spheres[p - g.triangles.size()].at(time);
-            return intersect_sphere(sp.center, sp.radius, rp, tmin, c.tmax, h);
-          }();
+      const size_t nt = g.triangles.size(), ns = g.spheres.size();
+      bool hit;
+      if (p < nt) {
+        hit = intersect_triangle(g.triangles[p].at(time), rp, tmin, c.tmax, h);
+      } else if (p < nt + ns) {
+        const Sphere sp = g.spheres[p - nt].at(time);
+        hit = intersect_sphere(sp.center, sp.radius, rp, tmin, c.tmax, h);
+      } else {
+        const CurveSegment cs = g.curves[p - nt - ns].at(time);
+        hit = intersect_swept_sphere(cs.p0, cs.r0, cs.p1, cs.r1, (cs.flags & kCurveCapStart) != 0, rp, tmin,
+                                     c.tmax, h);
+      }
       if (!hit) continue;
       c = FloatClosest{h.t, p, h.u, h.v};
       found = true;
@@ -235,11 +281,16 @@ struct FixedClosest {
 
 // Primitive p of the image at time register tq: a triangle's grid vertices or a sphere's record interpolated.
 bool test_prim(const MotionImage& im, uint32_t p, const FixedRay& r, uint32_t tq, int64_t tlim, FixedPrimHit& h) {
-  const uint32_t nt = im.triangles();
+  const uint32_t nt = im.triangles(), ns = im.round_prims();
   if (p < nt) {
     int32_t v[3][3];
     motion_vertices(&im.vertices[size_t(p) * 18], tq, im.motion.time_bits, v);
     return triangle_test(r, v, r.tmin, tlim, h);
+  }
+  if (p >= nt + ns) {
+    const size_t c = p - nt - ns;
+    return swept_sphere_test(r, motion_curve(&im.curves[16 * c], im.curve_round[c], p, tq, im.motion.time_bits),
+                             r.tmin, tlim, h);
   }
   return sphere_test(r, motion_sphere(&im.spheres[8 * size_t(p - nt)], tq, im.motion.time_bits), r.tmin, tlim, h);
 }
@@ -287,10 +338,12 @@ struct MotionFixedPolicy {
     for (uint32_t i = leaf_first(ref); i < leaf_first(ref) + leaf_count(ref); ++i) {
       ++s.prim_tests;
       const uint32_t p = im.prim_ids[i];
-      const uint32_t nt = im.triangles();
+      const uint32_t nt = im.triangles(), ns = im.round_prims();
       if (rec) {
-        rec->push_back(
-            TraceEvent{TraceEvent::kPrim, uint8_t(p < nt ? RecordKind::kTriangle : RecordKind::kSphere), 0, 0, i});
+        const uint8_t kind = p < nt        ? uint8_t(RecordKind::kTriangle)
+                             : p < nt + ns ? uint8_t(RecordKind::kSphere)
+                                           : kPrimCurve;
+        rec->push_back(TraceEvent{TraceEvent::kPrim, kind, 0, 0, i});
         if (shader && im.moving[p]) rec->push_back(TraceEvent{TraceEvent::kAnyHit, 0, 0, 0, i});
       }
       FixedPrimHit h;

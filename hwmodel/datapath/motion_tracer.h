@@ -1,5 +1,5 @@
-// Motion blur in the unit: rays with a shutter time through moving triangles (scene/motion.h), on the float
-// reference and on the fixed-point datapath. The fixed unit quantizes the ray's time to MotionFormat::time_bits,
+// Motion blur in the unit: rays with a shutter time through moving triangles, spheres and curve segments
+// (scene/motion.h), on the float reference and on the fixed-point datapath. The fixed unit quantizes the ray's time to MotionFormat::time_bits,
 // interpolates each triangle's grid vertices at that time (the triangle unit), and each node's key-frame grid
 // boxes at the top box_time_bits of it, widened to the whole interval those bits stand for (the box unit): so a
 // box contains every primitive below it at every time the box unit cannot tell apart, and no hit is lost
@@ -14,6 +14,7 @@
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/intersect_fixed.h"
 #include "hwmodel/datapath/stats.h"
+#include "hwmodel/format/prim_curve.h"
 #include "hwmodel/format/prim_sphere.h"
 #include "hwmodel/format/quant_frame.h"
 #include "hwmodel/interface/ray.h"
@@ -74,6 +75,25 @@ inline SphereRecord motion_sphere(const int64_t key[8], uint32_t tq, int time_bi
   return s;
 }
 
+// A curve segment's record at time register tq: end points k0 + round((k1 - k0) tq / 2^time_bits) (nearest,
+// ties up) on the grid, radii r0 + ceil((r1 - r0) tq / 2^time_bits) in grid.F units, stored as the record's
+// radius fields (rounded up). key: p0 xyz, p1 xyz, r0, r1 at key frame 0, then 1; round: the record's round word.
+inline CurveRecord motion_curve(const int64_t key[16], uint32_t round, uint32_t prim, uint32_t tq, int time_bits) {
+  CurveRecord c{};
+  const int64_t half = int64_t(1) << (time_bits - 1);
+  auto near = [&](int i) { return key[i] + (((key[8 + i] - key[i]) * int64_t(tq) + half) >> time_bits); };
+  auto up = [&](int i) { return key[i] - ((-(key[8 + i] - key[i]) * int64_t(tq)) >> time_bits); };
+  for (int a = 0; a < 3; ++a) {
+    c.p0[a] = int32_t(near(a));
+    c.p1[a] = int32_t(near(3 + a));
+  }
+  c.r0 = curve_radius_field(up(6));
+  c.r1 = curve_radius_field(up(7));
+  c.round = round;
+  c.prim = record_word(RecordKind::kCurve, prim);
+  return c;
+}
+
 // The fixed-point image of a moving scene: the frame over both key frames, grid vertices and grid boxes at both.
 struct MotionImage {
   FixedFormat format;
@@ -81,18 +101,24 @@ struct MotionImage {
   QuantFrame frame;
   int width = 4;
   uint32_t root_ref = kEmptyChild;
-  std::vector<uint32_t> child;     // as MotionBvh::child
-  std::vector<int32_t> boxes;      // 12 per child slot (motion_box's key)
-  std::vector<uint32_t> prim_ids;  // leaf order -> triangle index
-  std::vector<int32_t> vertices;   // 18 per triangle (motion_vertices' key)
-  std::vector<int64_t> spheres;    // 8 per sphere (motion_sphere's key): center to nearest, radius up, grid.F
-  std::vector<uint8_t> moving;     // per primitive: 1 when its grid key frames differ
+  std::vector<uint32_t> child;        // as MotionBvh::child
+  std::vector<int32_t> boxes;         // 12 per child slot (motion_box's key)
+  std::vector<uint32_t> prim_ids;     // leaf order -> triangle index
+  std::vector<int32_t> vertices;      // 18 per triangle (motion_vertices' key)
+  std::vector<int64_t> spheres;       // 8 per sphere (motion_sphere's key): center to nearest, radius up, grid.F
+  std::vector<int64_t> curves;        // 16 per curve segment (motion_curve's key): end points nearest, radii up
+  std::vector<uint32_t> curve_round;  // per curve segment: its record's round word (kRoundCurve, kRoundCapStart)
+  std::vector<uint8_t> moving;        // per primitive: 1 when its grid key frames differ
   uint32_t triangles() const { return uint32_t(vertices.size() / 18); }
+  uint32_t round_prims() const { return uint32_t(spheres.size() / 8); }  // spheres; curve segments follow them
 
   // Vertices rounded to the nearest grid point; each box the integer bounds of its primitives' grid vertices at
   // that key frame, a sphere's box its grid center -+ (radius + 2 grid.F units: the slack of its interpolation's
-  // roundings, docs/numerics.md "Motion blur"). Throws std::invalid_argument for an invalid format or a scene the
-  // frame cannot hold.
+  // roundings, docs/numerics.md "Motion blur"), a curve segment's its grid end points -+ (radius, up to grid
+  // units,
+  // + 2: the end points' rounding at a time in between, half a unit, and the radius's). Throws
+  // std::invalid_argument for an invalid format, curves the format cannot hold (curve_limits) or a scene the frame
+  // cannot hold.
   static MotionImage encode(const MotionGeometry& g, const MotionBvh& bvh, const FixedFormat& f,
                             const MotionFormat& m);
   uint64_t node_count() const { return child.size() / uint64_t(width); }

@@ -11,6 +11,7 @@ Geometry MotionGeometry::at(float time) const {
   g.triangles.reserve(triangles.size());
   for (const MotionTriangle& t : triangles) g.triangles.push_back(t.at(time));
   for (const MotionSphere& s : spheres) g.spheres.push_back(s.at(time));
+  for (const MotionCurve& c : curves) g.curves.push_back(c.at(time));
   return g;
 }
 
@@ -31,6 +32,14 @@ void MotionGeometry::validate() const {
         throw std::invalid_argument(
             "moving sphere " + std::to_string(i) +
             ": a key-frame center is not finite or beyond 2^62, or a radius not in (0, 2^62]");
+  for (size_t i = 0; i < curves.size(); ++i) {
+    for (int k = 0; k < 2; ++k)
+      if (const std::string why = check_curve_segment(curves[i].key[k]); !why.empty())
+        throw std::invalid_argument("moving curve segment " + std::to_string(i) + ": key frame " +
+                                    std::to_string(k) + ": " + why);
+    if (curves[i].key[0].flags != curves[i].key[1].flags)
+      throw std::invalid_argument("moving curve segment " + std::to_string(i) + ": key frames of different flags");
+  }
 }
 
 namespace {
@@ -67,6 +76,7 @@ MotionBvh MotionBvh::build(const MotionGeometry& g, const BvhBuildParams& params
   swept.reserve(g.num_prims());
   for (const MotionTriangle& t : g.triangles) swept.push_back(t.swept_bounds());
   for (const MotionSphere& s : g.spheres) swept.push_back(s.swept_bounds());
+  for (const MotionCurve& c : g.curves) swept.push_back(c.swept_bounds());
   const Bvh topology = Bvh::build(swept, params);
   MotionBvh m;
   topology.visit([&](const auto& t) {

@@ -70,19 +70,48 @@ struct MotionSphere {
   }
 };
 
-// A moving scene: triangles are primitives 0 .. n-1, spheres n .. n+m-1. A static primitive has equal key frames.
+// A segment of a round linear curve whose end points and radii move linearly between the key frames (Embree's
+// round linear curves with two time steps). Its cap flag is the first key frame's (both must agree).
+struct MotionCurve {
+  CurveSegment key[2];
+
+  CurveSegment at(float time) const {
+    const double s = time, r = 1.0 - s;
+    return CurveSegment{lerp_point(key[0].p0, key[1].p0, time), float(r * key[0].r0 + s * key[1].r0),
+                        lerp_point(key[0].p1, key[1].p1, time), float(r * key[0].r1 + s * key[1].r1),
+                        key[0].flags};
+  }
+  // Both end spheres' boxes, rounded outward as MotionSphere's.
+  Aabb key_bounds(int k) const {
+    Aabb b = MotionSphere{{key[k].p0, key[k].p0}, {key[k].r0, key[k].r0}}.key_bounds(0);
+    b.extend(MotionSphere{{key[k].p1, key[k].p1}, {key[k].r1, key[k].r1}}.key_bounds(0));
+    return b;
+  }
+  Aabb swept_bounds() const {
+    Aabb b = key_bounds(0);
+    b.extend(key_bounds(1));
+    return b;
+  }
+};
+
+// A moving scene: triangles are primitives 0 .. n-1, spheres n .. n+m-1, curve segments after them. A static
+// primitive has equal key frames.
 struct MotionGeometry {
   std::vector<MotionTriangle> triangles;
   std::vector<MotionSphere> spheres;
-  uint32_t num_prims() const { return uint32_t(triangles.size() + spheres.size()); }
+  std::vector<MotionCurve> curves;
+  uint32_t num_prims() const { return uint32_t(triangles.size() + spheres.size() + curves.size()); }
   // Primitive p's box at key frame k, and over the whole shutter.
   Aabb key_bounds(uint32_t p, int k) const {
-    return p < triangles.size() ? triangles[p].key[k].bounds() : spheres[p - triangles.size()].key_bounds(k);
+    if (p < triangles.size()) return triangles[p].key[k].bounds();
+    if (p < triangles.size() + spheres.size()) return spheres[p - triangles.size()].key_bounds(k);
+    return curves[p - triangles.size() - spheres.size()].key_bounds(k);
   }
   // The scene at one shutter time, as static geometry (for a static frame beside the moving one).
   Geometry at(float time) const;
   // Throws std::invalid_argument naming the first triangle or sphere with a coordinate that is not finite or
-  // beyond kMaxCoordinate, or a sphere whose radius is not positive.
+  // beyond kMaxCoordinate, a sphere whose radius is not positive, or a curve segment invalid at a key frame
+  // (check_curve_segment) or with key frames of different flags.
   void validate() const;
 };
 

@@ -38,7 +38,9 @@ TimingConfig motion_timing_config(const TimingConfig& c, MotionUnit u, const Mot
 // Bytes of one node and of one record in the image of unit u: a static node (the format's struct layout, as
 // node_struct_bytes) and 40-byte records; the time-aware unit's nodes add the second key frame's child boxes
 // (6 planes per child at the format's offset bytes), its moving records the second key frame: a triangle's 9 grid
-// coordinates (36 bytes), a sphere's center and radius (32).
+// coordinates (36 bytes), a sphere's center and radius (32), a curve segment's end points and radii (32). The
+// interpolation's clocks are priced in the box and triangle units (MotionInterpolationClocks), not yet in the
+// sphere and curve units.
 uint64_t motion_node_bytes(const FixedFormat& f, MotionUnit u);
 // The image's layout for unit u: nodes, then records in leaf order (moving ones 76 or 72 bytes on the time-aware
 // unit).

@@ -299,7 +299,7 @@ TEST_CASE("rtusim motion: images, figures and refusals", "[motion][cli]") {
                        {"motion --move 1 0 0", "--scene only"},
                        {"motion --scene builtin:cornell --move 1 0 0 --motion-scale 0.5", "built-in scene only"},
                        {"motion --scene builtin:seed --move 1 0 0",
-                        "triangles and spheres only (this one has 0 curve segments, 1 planes)"},
+                        "triangles, spheres and curve segments only (this one has 1 planes)"},
                        {"motion --scene builtin:cornell --move 1e38 0 0", "not finite or beyond 2^62"}});
   // A loaded scene set in motion: its triangles, all moving; a move of 0 costs the time-aware unit only its larger
   // nodes and latency, and the time-oblivious unit a shader call per triangle it tests.
@@ -309,6 +309,14 @@ TEST_CASE("rtusim motion: images, figures and refusals", "[motion][cli]") {
   const nlohmann::json c = test::read_json(j2);
   CHECK(c["triangles"] == c["moving_primitives"]);
   CHECK(c["designs"][2]["shader_calls"] == c["designs"][2]["triangle_tests"]);
+  // Strands set in motion: every segment moves, the time-aware unit interpolates them.
+  const std::string j3 = (d.path / "hair.json").string();
+  REQUIRE(test::run_rtusim(
+              "motion --scene builtin:hair?strands=100 --move 0.05 0 0 --width 32 --height 24 --json " + j3)
+              .status == 0);
+  const nlohmann::json h = test::read_json(j3);
+  CHECK(h["curve_segments"].get<uint64_t>() > 0);
+  CHECK(h["moving_primitives"] == h["triangles"].get<uint64_t>() + h["curve_segments"].get<uint64_t>());
 }
 
 namespace {
@@ -385,4 +393,77 @@ TEST_CASE("motion: moving spheres lose no hit and do not leak, at any box time b
     }
   INFO(inside_other << " rays met an overlapping sphere first");
   CHECK(leaks == 0);
+}
+
+namespace {
+
+// 300 moving curve segments (strands of 3 segments: the first with its start cap), some still, some with growing
+// radii, over a floor.
+hw::MotionGeometry curve_scene(uint64_t seed) {
+  hw::Pcg32 rng(seed);
+  hw::MotionGeometry g;
+  const auto v3 = [&](float s) { return hw::Vec3(rng.next_float(), rng.next_float(), rng.next_float()) * s; };
+  for (int i = 0; i < 100; ++i) {
+    hw::Vec3 p = v3(20.0f) - hw::Vec3(10.0f);
+    const hw::Vec3 move = i % 3 == 0 ? hw::Vec3(0.0f) : v3(6.0f) - hw::Vec3(3.0f);
+    float r = 0.05f + 0.3f * rng.next_float();
+    for (int k = 0; k < 3; ++k) {
+      const hw::Vec3 q = p + v3(4.0f) - hw::Vec3(2.0f);
+      const float rq = 0.02f + 0.3f * rng.next_float();
+      hw::MotionCurve c;
+      c.key[0] = hw::CurveSegment{p, r, q, rq, k == 0 ? hw::kCurveCapStart : 0u};
+      c.key[1] = hw::CurveSegment{p + move, i % 4 == 0 ? 1.5f * r : r, q + move, rq, c.key[0].flags};
+      g.curves.push_back(c);
+      p = q;
+      r = rq;
+    }
+  }
+  const hw::Vec3 f[4] = {{-15, -14, -15}, {15, -14, -15}, {15, -14, 15}, {-15, -14, 15}};
+  for (const hw::Triangle& t : {hw::Triangle{f[0], f[1], f[2]}, hw::Triangle{f[0], f[2], f[3]}})
+    g.triangles.push_back(hw::MotionTriangle{{t, t}});
+  return g;
+}
+
+}  // namespace
+
+TEST_CASE("motion: moving curve segments lose no hit, at any box time bits", "[motion][fixed][curve]") {
+  const hw::MotionGeometry g = curve_scene(6);
+  const hw::MotionBvh bvh = hw::MotionBvh::build(g);
+  const host::MotionRays rays = random_motion_rays(g, 4000, 23);
+  for (const MotionFormat m :
+       {MotionFormat{16, 0}, MotionFormat{16, 4}, MotionFormat{16, 16}, MotionFormat{3, 1}}) {
+    const hw::MotionImage img = hw::MotionImage::encode(g, bvh, hw::format_preset("default"), m);
+    const hw::MotionFixedTracer tracer(img, true);
+    std::vector<hw::Hit> hits;
+    hw::TraversalStats s;
+    tracer.trace_batch(rays.rays, rays.times, hits, false, 1, s);
+    size_t curve_hits = 0;
+    for (size_t i = 0; i < hits.size(); ++i) {
+      const hw::Hit want = tracer.trace_all(rays.rays[i], rays.times[i]);
+      INFO(m.describe() << " ray " << i);
+      REQUIRE(hits[i].hit() == want.hit());
+      if (want.hit()) REQUIRE(hits[i].t == want.t);
+      curve_hits += want.hit() && want.prim >= 2;
+    }
+    CHECK(curve_hits > 300);  // the test needs rays that hit the strands
+    CHECK(s.box_false_negatives == 0);
+  }
+  // A still scene's curves trace as the static float tracer's (the same float test at the same segment).
+  hw::MotionGeometry still = g;
+  for (hw::MotionCurve& c : still.curves) c.key[1] = c.key[0];
+  const hw::MotionBvh sb = hw::MotionBvh::build(still);
+  const hw::Geometry frozen = still.at(0.5f);
+  const hw::FloatTracer ref(frozen);
+  const hw::MotionFloatTracer flt(still, sb);
+  uint64_t differ = 0;
+  for (size_t i = 0; i < rays.rays.size(); ++i) {
+    hw::TraversalStats st;
+    const hw::Hit a = flt.trace(rays.rays[i], rays.times[i], false, st), b = ref.trace(rays.rays[i], false, st);
+    differ += a.hit() != b.hit() || (a.hit() && (a.prim != b.prim || a.t != b.t));
+  }
+  CHECK(differ == 0);
+  // Key frames of different flags are refused by name.
+  hw::MotionGeometry bad = g;
+  bad.curves[1].key[1].flags = hw::kCurveCapStart;
+  CHECK_THROWS_WITH(hw::MotionBvh::build(bad), Catch::Contains("moving curve segment 1"));
 }

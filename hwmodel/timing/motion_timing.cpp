@@ -25,6 +25,8 @@ TimingConfig motion_timing_config(const TimingConfig& c, MotionUnit u, const Mot
   if (u == MotionUnit::kTimeAware) {
     out.box_latency += k.box;
     out.tri_latency += k.triangle;
+    out.sphere_latency += k.round;
+    out.curve_latency += k.round;
   }
   out.validate();
   return out;

@@ -26,21 +26,22 @@ const char* motion_unit_name(MotionUnit u);  // "static", "time-aware", "time-ob
 // What the time-aware unit's interpolation adds to a pipeline: one multiply-add per plane or coordinate (a
 // (B+1) x box_time_bits product for a box plane, (B+1) x time_bits for a vertex), one clock each at the units'
 // clock, the triangle unit's a clock more for its wider product.
+// A sphere's center and radius and a curve segment's end points and radii are interpolated as a vertex is: the
+// triangle's clocks in the sphere and curve units.
 struct MotionInterpolationClocks {
   int box = 1;
   int triangle = 2;
+  int round = 2;
 };
 
-// The configuration of unit u: c itself, or for the time-aware unit its box and triangle latencies plus the
-// interpolation's clocks.
+// The configuration of unit u: c itself, or for the time-aware unit its box, triangle, sphere and curve latencies
+// plus the interpolation's clocks.
 TimingConfig motion_timing_config(const TimingConfig& c, MotionUnit u, const MotionInterpolationClocks& k = {});
 
 // Bytes of one node and of one record in the image of unit u: a static node (the format's struct layout, as
 // node_struct_bytes) and 40-byte records; the time-aware unit's nodes add the second key frame's child boxes
 // (6 planes per child at the format's offset bytes), its moving records the second key frame: a triangle's 9 grid
-// coordinates (36 bytes), a sphere's center and radius (32), a curve segment's end points and radii (32). The
-// interpolation's clocks are priced in the box and triangle units (MotionInterpolationClocks), not yet in the
-// sphere and curve units.
+// coordinates (36 bytes), a sphere's center and radius (32), a curve segment's end points and radii (32).
 uint64_t motion_node_bytes(const FixedFormat& f, MotionUnit u);
 // The image's layout for unit u: nodes, then records in leaf order (moving ones 76 or 72 bytes on the time-aware
 // unit).

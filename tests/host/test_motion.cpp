@@ -268,7 +268,11 @@ TEST_CASE("motion: timing never changes a hit, and each unit is priced as it is 
   const hw::TimingModel::Layout la = hw::motion_layout(aware, hw::MotionUnit::kTimeAware);
   for (size_t i = 0; i < aware.prim_ids.size(); ++i)
     REQUIRE(la.record_spans[i].bytes == (aware.moving[aware.prim_ids[i]] ? 76u : 40u));
-  CHECK(hw::motion_timing_config(c, hw::MotionUnit::kTimeAware).box_latency == c.box_latency + 1);
+  const hw::TimingConfig ta = hw::motion_timing_config(c, hw::MotionUnit::kTimeAware);
+  CHECK(ta.box_latency == c.box_latency + 1);
+  CHECK((ta.tri_latency == c.tri_latency + 2 && ta.sphere_latency == c.sphere_latency + 2 &&
+         ta.curve_latency == c.curve_latency + 2));
+  CHECK(hw::motion_timing_config(c, hw::MotionUnit::kTimeOblivious).curve_latency == c.curve_latency);
   // Each unit needs its image.
   CHECK_THROWS_WITH(hw::time_motion_rays(aware, hw::MotionUnit::kTimeOblivious, c, rays.rays, rays.times),
                     Catch::Contains("box_time_bits 0"));

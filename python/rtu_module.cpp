@@ -527,8 +527,10 @@ std::vector<hw::Vec3> points_from_numpy(const py::handle& obj, const char* name)
 // rtu.query: the job of rtusim query on numpy points; the answers as arrays.
 py::dict query(const py::handle& points, const py::handle& queries, float radius, const std::string& kind,
                uint32_t bound, bool timed, const std::string& format, const std::string& config,
-               const std::vector<std::string>& sets, int threads) {
+               const std::vector<std::string>& sets, int threads, const std::string& order) {
   host::QueryJobOptions o;
+  if (order != "input" && order != "morton") fail("order: '" + order + "' is not input or morton");
+  o.morton_order = order == "morton";
   o.points = points_from_numpy(points, "points");
   if (!queries.is_none()) o.queries = points_from_numpy(queries, "queries");
   if (kind != "radius" && kind != "count" && kind != "nearest")
@@ -753,7 +755,7 @@ PYBIND11_MODULE(_rtu, m) {
   m.def("diff", &diff, py::arg("a"), py::arg("b"));
   m.def("query", &query, py::arg("points"), py::arg("queries"), py::arg("radius"), py::arg("kind"),
         py::arg("bound"), py::arg("timed"), py::arg("format"), py::arg("config"), py::arg("sets"),
-        py::arg("threads"));
+        py::arg("threads"), py::arg("order"));
   m.def("join", &join, py::arg("segments"), py::arg("probes"), py::arg("polygons"), py::arg("points"),
         py::arg("timed"), py::arg("format"), py::arg("config"), py::arg("sets"), py::arg("threads"));
   m.def("motion", &motion, py::arg("scene"), py::arg("move"), py::arg("width"), py::arg("height"),

@@ -18,6 +18,7 @@ struct QueryArgs {
   uint32_t k = 0, max_results = 64;
   uint64_t seed = 1;
   int threads = 0;
+  std::string order = "input";
 };
 
 void run_query(const CLI::App& sub, const QueryArgs& a) {
@@ -39,6 +40,7 @@ void run_query(const CLI::App& sub, const QueryArgs& a) {
   o.timed = a.dev.device == "timed";
   if (o.timed) o.timing = timing_config_from(a.dev.config, a.dev.sets);
   o.threads = a.threads;
+  o.morton_order = a.order == "morton";
   check_output_files({a.out, a.json});
   const QueryJobResult r = run_query_job(o);
   const double q = double(std::max<uint64_t>(1, r.stats.queries));
@@ -93,6 +95,11 @@ void add_query(CLI::App& app) {
   sub->add_option("--seed", a->seed, "seed of uniform: and clustered: points")->capture_default_str();
   sub->add_option("--threads", a->threads, "host threads of the fixed unit (0: all); answers do not depend on it")
       ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+  sub->add_option("--order", a->order,
+                  "the order the unit takes the queries in: input, or morton (RTNN's reordering: by the Morton "
+                  "code of their positions, so neighbours share the node cache); answers stay in input order")
+      ->check(CLI::IsMember({"input", "morton"}))
       ->capture_default_str();
   sub->add_option("--out", a->out, "write the answers as CSV (query,id or query,count)");
   sub->add_option("--json", a->json, "write the figures as JSON");

@@ -1,6 +1,8 @@
 #include "host/jobs/query.h"
 
+#include <algorithm>
 #include <string>
+#include <utility>
 
 #include "host/cost/timing_json.h"
 #include "host/io/error.h"
@@ -45,9 +47,43 @@ std::vector<hw::Vec3> points_from_spec(const std::string& spec, uint64_t seed) {
   return pts;
 }
 
+std::vector<uint32_t> morton_query_order(const std::vector<hw::Vec3>& qs) {
+  hw::Aabb b;
+  for (const hw::Vec3& q : qs) b.extend(q);
+  const auto spread = [](uint64_t x) {  // 10 bits to every third of 30
+    x &= 0x3FF;
+    x = (x | (x << 16)) & 0x30000FF;
+    x = (x | (x << 8)) & 0x300F00F;
+    x = (x | (x << 4)) & 0x30C30C3;
+    return (x | (x << 2)) & 0x9249249;
+  };
+  std::vector<std::pair<uint64_t, uint32_t>> keyed(qs.size());
+  for (size_t i = 0; i < qs.size(); ++i) {
+    uint64_t code = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double extent = double(b.hi[a]) - double(b.lo[a]);
+      const double u = extent > 0.0 ? (double(qs[i][a]) - double(b.lo[a])) / extent : 0.0;
+      code |= spread(uint64_t(std::min(1023.0, std::max(0.0, u * 1024.0)))) << a;
+    }
+    keyed[i] = {code, uint32_t(i)};
+  }
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<uint32_t> order(qs.size());
+  for (size_t i = 0; i < qs.size(); ++i) order[i] = keyed[i].second;
+  return order;
+}
+
 QueryJobResult run_query_job(const QueryJobOptions& o) {
   const hw::PointIndex index(o.points, o.radius, o.format);
-  const std::vector<hw::Vec3>& qs = o.queries.empty() ? o.points : o.queries;
+  const std::vector<hw::Vec3>& input = o.queries.empty() ? o.points : o.queries;
+  std::vector<uint32_t> order;
+  std::vector<hw::Vec3> sorted;
+  if (o.morton_order) {
+    order = morton_query_order(input);
+    sorted.reserve(input.size());
+    for (const uint32_t i : order) sorted.push_back(input[i]);
+  }
+  const std::vector<hw::Vec3>& qs = o.morton_order ? sorted : input;
   QueryJobResult r;
   r.index_bytes = hw::query_layout(index, o.format).total_bytes;
   if (o.timed) {
@@ -58,6 +94,11 @@ QueryJobResult run_query_job(const QueryJobOptions& o) {
     r.timing = t.timing;
   } else {
     r.answers = index.query_batch(qs, o.what, o.threads, r.stats);
+  }
+  if (o.morton_order) {  // back to the input's order
+    std::vector<hw::PointAnswer> back(r.answers.size());
+    for (size_t k = 0; k < order.size(); ++k) back[order[k]] = std::move(r.answers[k]);
+    r.answers = std::move(back);
   }
   return r;
 }
@@ -77,6 +118,7 @@ Json query_json(const QueryJobOptions& o, const QueryJobResult& r) {
   j["nodes_visited"] = r.stats.nodes_visited;
   j["box_tests"] = r.stats.box_tests;
   j["index_bytes"] = r.index_bytes;
+  j["order"] = o.morton_order ? "morton" : "input";
   if (o.timed)
     probe_timing_json(j, "cycles_per_query", "queries_per_clock", r.stats.queries, r.cycles, r.timing, o.timing,
                       o.format);

@@ -23,6 +23,9 @@ struct QueryJobOptions {
   hw::PointQuery what;
   hw::FixedFormat format;
   bool timed = false;  // also the cycles on one unit of `timing`
+  // RTNN's query reordering: the queries issued in the Morton order of their positions (10 bits an axis in their
+  // bounds; ties by index), so that neighbouring queries share the node cache; answers stay in input order.
+  bool morton_order = false;
   hw::TimingConfig timing;
   int threads = 0;
 };
@@ -36,6 +39,8 @@ struct QueryJobResult {
 };
 
 QueryJobResult run_query_job(const QueryJobOptions& o);
+// The order in which morton_order issues the queries: indices into qs.
+std::vector<uint32_t> morton_query_order(const std::vector<hw::Vec3>& qs);
 // The figures of probes on the timed unit into j: cycles, cycles a probe (per_key), probes a clock (rate_key),
 // shader_calls (each candidate's exact check), dram_bytes, and "timing": the timing statistics of configuration c
 // and format f as `rtusim trace --stats` gives them (slot time, caches, L2, DRAM, energy).

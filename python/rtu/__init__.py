@@ -295,8 +295,8 @@ def motion(scene=None, *, move=(0.0, 0.0, 0.0), width=320, height=240, samples=4
 
 
 def query(points, queries=None, *, radius, kind="radius", k=None, max_results=64, device="fixed", format="default",
-          config="rdna2", set=None, threads=0):  # noqa: A002
-    """Neighbour queries on the unit, as `rtusim query`: every point of `points` ((N, 3) floats) within `radius`
+          config="rdna2", set=None, threads=0, order="input"):  # noqa: A002
+    """Neighbour queries on the unit, as `rtusim query` (order "morton": RTNN's reordering, as --order): every point of `points` ((N, 3) floats) within `radius`
     of each query point (`queries`, (M, 3); None: the points), exactly; kind "count" only their numbers,
     "nearest" the k nearest within the radius. device "timed" adds the cycles. Returns a dict: "ids" (the answers
     of all queries, concatenated), "offsets" (query i's are ids[offsets[i]:offsets[i+1]]), "counts" (every
@@ -319,7 +319,8 @@ def query(points, queries=None, *, radius, kind="radius", k=None, max_results=64
     return _rtu.query(_np.asarray(points), None if queries is None else _np.asarray(queries),
                       _number(radius, "radius"), kind, bound, device == "timed",
                       _str(format, "format", "a format spec such as 'default'"),
-                      _str(config, "config", "a timing preset name such as 'rdna2'"), sets, _int(threads, "threads"))
+                      _str(config, "config", "a timing preset name such as 'rdna2'"), sets, _int(threads, "threads"),
+                      _str(order, "order", "'input' or 'morton'"))
 
 
 def join(segments=None, probes=None, *, polygons=None, points=None, device="fixed", format="default",

@@ -324,7 +324,7 @@ def test_motion_equals_the_cli(tmp_path):
     # A loaded scene of triangles, set in motion.
     _, _, c = rtu.motion("builtin:cornell", move=(0.2, 0, 0), width=16, height=12, samples=1)
     assert c["moving_primitives"] == c["triangles"] > 0
-    with pytest.raises(rtu.Error, match="triangles and spheres only"):
+    with pytest.raises(rtu.Error, match="spheres and curve segments only"):
         rtu.motion(SEED, move=(1, 0, 0), width=8, height=6)
     with pytest.raises(rtu.Error, match="scene only"):
         rtu.motion(move=(1, 0, 0))
@@ -340,6 +340,8 @@ def test_query_equals_the_cli_and_brute_force(tmp_path):
     qs = rng.random((400, 3)).astype(np.float32) * 20
     r = rtu.query(pts, qs, radius=1.5, max_results=1000)
     assert r["offsets"].shape == (401,) and r["ids"].dtype == np.uint32
+    m = rtu.query(pts, qs, radius=1.5, max_results=1000, order="morton")  # the same answers in input order
+    assert np.array_equal(m["ids"], r["ids"]) and np.array_equal(m["offsets"], r["offsets"])
     d2 = ((qs[:, None, :].astype(np.float64) - pts[None, :, :]) ** 2).sum(axis=2)
     for i in range(len(qs)):
         want = np.flatnonzero(d2[i] <= 1.5 ** 2)  # no distance within 1e-9 of the radius here: double decides
@@ -350,10 +352,8 @@ def test_query_equals_the_cli_and_brute_force(tmp_path):
         got = near["ids"][near["offsets"][i]:near["offsets"][i + 1]]
         assert np.array_equal(got, np.argsort(d2[i], kind="stable")[:len(got)])
     # The CLI on the same points, as a PLY file; the timed unit's figures.
-    with open(tmp_path / "p.csv", "w") as f:
-        f.write("x,y,z\n" + "".join(f"{x!r},{y!r},{z!r}\n" for x, y, z in pts.astype(float)))
-    with open(tmp_path / "q.csv", "w") as f:
-        f.write("x,y,z\n" + "".join(f"{x!r},{y!r},{z!r}\n" for x, y, z in qs.astype(float)))
+    for name, a in (("p.csv", pts), ("q.csv", qs)):
+        (tmp_path / name).write_text("x,y,z\n" + "".join(f"{x!r},{y!r},{z!r}\n" for x, y, z in a.astype(float)))
     cli("query", "--points", tmp_path / "p.csv", "--queries", tmp_path / "q.csv", "--radius", 1.5, "--device",
         "timed", "--json", tmp_path / "q.json")
     s = json.loads((tmp_path / "q.json").read_text())

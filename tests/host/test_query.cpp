@@ -3,6 +3,8 @@
 // files and options.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+
 #include <fstream>
 
 #include "host/devices/device_settings.h"
@@ -103,6 +105,27 @@ TEST_CASE("query job: the same answers on the fixed and timed units and any thre
     CHECK(t.stats.results > 0);
   }
   CHECK(host::query_json(o, host::run_query_job(o))["queries_per_clock"].get<double>() > 0.0);
+  // RTNN's reordering: the queries in Morton order (a permutation, codes not decreasing), the same answers in the
+  // input's order on both units, the same work in another order.
+  const std::vector<uint32_t> order = host::morton_query_order(o.queries);
+  std::vector<uint32_t> sorted = order;
+  std::sort(sorted.begin(), sorted.end());
+  for (uint32_t i = 0; i < sorted.size(); ++i) REQUIRE(sorted[i] == i);
+  o.what = hw::PointQuery{hw::PointQuery::kRadius, 8};
+  for (const bool timed : {false, true}) {
+    o.timed = timed;
+    o.morton_order = false;
+    const host::QueryJobResult in = host::run_query_job(o);
+    o.morton_order = true;
+    const host::QueryJobResult m = host::run_query_job(o);
+    for (size_t i = 0; i < in.answers.size(); ++i) {
+      REQUIRE(in.answers[i].ids == m.answers[i].ids);
+      REQUIRE(in.answers[i].count == m.answers[i].count);
+    }
+    CHECK(in.stats.candidates == m.stats.candidates);
+    CHECK(in.stats.nodes_visited == m.stats.nodes_visited);
+    if (timed) CHECK(host::query_json(o, m)["order"] == "morton");
+  }
 }
 
 TEST_CASE("rtusim query: answers, figures and refusals", "[queries][cli]") {

@@ -48,6 +48,28 @@ double scale_of(const hw::Ray& r, const hw::Hit& h) {
                    std::abs(p.z)});
 }
 
+// 200,000 incoherent rays through g's bounds at random times (some exactly 0 and 1), traced by the float
+// reference and the fixed unit (default format and motion format).
+struct Traced {
+  std::vector<hw::Ray> rays;
+  std::vector<float> times;
+  std::vector<hw::Hit> fh, xh;
+};
+Traced trace_both(const hw::MotionGeometry& g, uint64_t seed, hw::Pcg32& rng) {
+  const hw::MotionBvh bvh = hw::MotionBvh::build(g);
+  hw::Aabb all = bvh.key_bounds[0];
+  all.extend(bvh.key_bounds[1]);
+  Traced t;
+  t.rays = host::incoherent_rays(all, 200000, seed);
+  t.times.resize(t.rays.size());
+  for (size_t i = 0; i < t.times.size(); ++i) t.times[i] = i % 101 == 0 ? float(i % 2) : rng.next_float();
+  hw::TraversalStats s;
+  hw::MotionFloatTracer(g, bvh).trace_batch(t.rays, t.times, t.fh, false, 0, s);
+  const hw::MotionImage img = hw::MotionImage::encode(g, bvh, hw::format_preset("default"), {});
+  hw::MotionFixedTracer(img).trace_batch(t.rays, t.times, t.xh, false, 0, s);
+  return t;
+}
+
 }  // namespace
 
 TEST_CASE("motion: the float reference agrees with Embree's motion blur at every ray time", "[motion][embree]") {
@@ -155,19 +177,11 @@ TEST_CASE("motion: moving spheres agree with Embree's, and the fixed unit with t
     s.radius[1] = i % 2 ? s.radius[0] : 0.1f + 0.4f * rng.next_float();
     g.spheres.push_back(s);
   }
-  const hw::MotionBvh bvh = hw::MotionBvh::build(g);
-  const hw::MotionFloatTracer flt(g, bvh);
   const oracle::EmbreeMotionScene embree(g);
-  hw::Aabb all = bvh.key_bounds[0];
-  all.extend(bvh.key_bounds[1]);
-  const std::vector<hw::Ray> rays = host::incoherent_rays(all, 200000, 5);
-  std::vector<float> times(rays.size());
-  for (size_t i = 0; i < times.size(); ++i) times[i] = i % 101 == 0 ? float(i % 2) : rng.next_float();
-  std::vector<hw::Hit> fh, xh;
-  hw::TraversalStats s;
-  flt.trace_batch(rays, times, fh, false, 0, s);
-  const hw::MotionImage img = hw::MotionImage::encode(g, bvh, hw::format_preset("default"), {});
-  hw::MotionFixedTracer(img).trace_batch(rays, times, xh, false, 0, s);
+  const Traced tr = trace_both(g, 5, rng);
+  const std::vector<hw::Ray>& rays = tr.rays;
+  const std::vector<float>& times = tr.times;
+  const std::vector<hw::Hit>&fh = tr.fh, &xh = tr.xh;
   uint64_t hit_miss = 0, t_off = 0, both = 0, fixed_agree = 0;
   for (size_t i = 0; i < rays.size(); ++i) {
     const hw::Hit e = embree.intersect(rays[i], times[i]);
@@ -214,19 +228,11 @@ TEST_CASE("motion: moving curve segments agree with Embree's, and the fixed unit
         hw::CurveSegment{p + move, i % 2 ? r0 : 0.05f + 0.3f * rng.next_float(), q + move, r1, hw::kCurveCapStart};
     g.curves.push_back(c);
   }
-  const hw::MotionBvh bvh = hw::MotionBvh::build(g);
-  const hw::MotionFloatTracer flt(g, bvh);
   const oracle::EmbreeMotionScene embree(g);
-  hw::Aabb all = bvh.key_bounds[0];
-  all.extend(bvh.key_bounds[1]);
-  const std::vector<hw::Ray> rays = host::incoherent_rays(all, 200000, 7);
-  std::vector<float> times(rays.size());
-  for (size_t i = 0; i < times.size(); ++i) times[i] = i % 101 == 0 ? float(i % 2) : rng.next_float();
-  std::vector<hw::Hit> fh, xh;
-  hw::TraversalStats s;
-  flt.trace_batch(rays, times, fh, false, 0, s);
-  const hw::MotionImage img = hw::MotionImage::encode(g, bvh, hw::format_preset("default"), {});
-  hw::MotionFixedTracer(img).trace_batch(rays, times, xh, false, 0, s);
+  const Traced tr = trace_both(g, 7, rng);
+  const std::vector<hw::Ray>& rays = tr.rays;
+  const std::vector<float>& times = tr.times;
+  const std::vector<hw::Hit>&fh = tr.fh, &xh = tr.xh;
   // Embree's start cap of an isolated segment is not the sphere at p0 (tests/oracle/test_swept_sphere.cpp: it
   // reaches up to 1.5 radii beyond it), so rays where either tracer's hit is on a start cap (u = 0) are counted
   // apart, not bounded.

@@ -45,42 +45,15 @@ void validate_shutter_times(const std::vector<float>& times, size_t rays) {
                                   " is not in [0, 1]");
 }
 
-MotionImage MotionImage::encode(const MotionGeometry& g, const MotionBvh& bvh, const FixedFormat& f,
-                                const MotionFormat& m) {
-  f.validate();
-  m.validate();
-  if (bvh.width != f.width)
-    throw std::invalid_argument("motion image: the BVH is " + std::to_string(bvh.width) + " wide, the format " +
-                                std::to_string(f.width));
-  MotionImage im;
-  im.format = f;
-  im.motion = m;
-  Aabb all = bvh.key_bounds[0];
-  all.extend(bvh.key_bounds[1]);
-  im.frame = QuantFrame::fit(all, f.coord_bits);
-  im.width = bvh.width;
-  im.root_ref = bvh.root_ref;
-  im.child = bvh.child;
-  im.prim_ids = bvh.prim_ids;
-  const int64_t top = im.frame.grid_max();
-  const int F = f.frac_bits;
+namespace {
+
+// A moving scene's spheres and curve segments as key records (MotionImage::spheres, curves, curve_round) and
+// their moving flags, after the triangles'.
+void encode_round_keys(const MotionGeometry& g, MotionImage& im) {
   const size_t nt = g.triangles.size();
-  im.vertices.resize(nt * 18);
-  im.moving.assign(g.num_prims(), 0);
-  for (size_t i = 0; i < nt; ++i)
-    for (int k = 0; k < 2; ++k) {
-      const Triangle& t = g.triangles[i].key[k];
-      const Vec3* v[3] = {&t.v0, &t.v1, &t.v2};
-      for (int j = 0; j < 3; ++j)
-        for (int a = 0; a < 3; ++a) {
-          const int64_t q = im.frame.to_grid((*v[j])[a], a, Round::kNearestEven);
-          if (q < 0 || q > top) throw std::invalid_argument("a moving triangle lies outside the frame");
-          im.vertices[i * 18 + size_t(9 * k + 3 * j + a)] = int32_t(q);
-        }
-    }
-  for (size_t i = 0; i < nt; ++i)
-    for (int j = 0; j < 9; ++j)
-      im.moving[i] |= uint8_t(im.vertices[i * 18 + size_t(j)] != im.vertices[i * 18 + 9 + size_t(j)]);
+  const int64_t top = im.frame.grid_max();
+  const int F = im.format.frac_bits;
+  const FixedFormat& f = im.format;
   im.spheres.resize(g.spheres.size() * 8);
   for (size_t i = 0; i < g.spheres.size(); ++i) {
     for (int k = 0; k < 2; ++k) {
@@ -121,6 +94,48 @@ MotionImage MotionImage::encode(const MotionGeometry& g, const MotionBvh& bvh, c
     for (int j = 0; j < 8; ++j)
       im.moving[nt + ns + i] |= uint8_t(im.curves[16 * i + size_t(j)] != im.curves[16 * i + 8 + size_t(j)]);
   }
+}
+
+}  // namespace
+
+MotionImage MotionImage::encode(const MotionGeometry& g, const MotionBvh& bvh, const FixedFormat& f,
+                                const MotionFormat& m) {
+  f.validate();
+  m.validate();
+  if (bvh.width != f.width)
+    throw std::invalid_argument("motion image: the BVH is " + std::to_string(bvh.width) + " wide, the format " +
+                                std::to_string(f.width));
+  MotionImage im;
+  im.format = f;
+  im.motion = m;
+  Aabb all = bvh.key_bounds[0];
+  all.extend(bvh.key_bounds[1]);
+  im.frame = QuantFrame::fit(all, f.coord_bits);
+  im.width = bvh.width;
+  im.root_ref = bvh.root_ref;
+  im.child = bvh.child;
+  im.prim_ids = bvh.prim_ids;
+  const int64_t top = im.frame.grid_max();
+  const int F = f.frac_bits;
+  const size_t nt = g.triangles.size();
+  im.vertices.resize(nt * 18);
+  im.moving.assign(g.num_prims(), 0);
+  for (size_t i = 0; i < nt; ++i)
+    for (int k = 0; k < 2; ++k) {
+      const Triangle& t = g.triangles[i].key[k];
+      const Vec3* v[3] = {&t.v0, &t.v1, &t.v2};
+      for (int j = 0; j < 3; ++j)
+        for (int a = 0; a < 3; ++a) {
+          const int64_t q = im.frame.to_grid((*v[j])[a], a, Round::kNearestEven);
+          if (q < 0 || q > top) throw std::invalid_argument("a moving triangle lies outside the frame");
+          im.vertices[i * 18 + size_t(9 * k + 3 * j + a)] = int32_t(q);
+        }
+    }
+  for (size_t i = 0; i < nt; ++i)
+    for (int j = 0; j < 9; ++j)
+      im.moving[i] |= uint8_t(im.vertices[i * 18 + size_t(j)] != im.vertices[i * 18 + 9 + size_t(j)]);
+  encode_round_keys(g, im);
+  const size_t ns = g.spheres.size();
   // Each slot's boxes: the integer bounds of the primitives below it, bottom up (children have larger indices
   // than their parent in the builder's order, so a reverse sweep sees every child first).
   const size_t slots = bvh.child.size(), W = size_t(bvh.width);

@@ -615,8 +615,24 @@ py::dict join(const py::object& segments, const py::object& probes, const py::ob
 // rtu.motion: the job of rtusim motion; scene None is the built-in moving scene.
 py::tuple motion(const py::object& scene, std::vector<float> move, int width, int height, int samples, int level,
                  float motion_scale, int time_bits, int box_time_bits, uint64_t seed, int threads,
-                 const std::string& format, const std::string& config, const std::vector<std::string>& sets) {
+                 const std::string& format, const std::string& config, const std::vector<std::string>& sets,
+                 const py::object& rays, const py::object& times) {
   host::MotionJobOptions o;
+  if (rays.is_none() != times.is_none()) fail("rays and times go together (a shutter time for every ray)");
+  if (!rays.is_none()) {
+    const RaysIn in = rays_from_numpy(rays);
+    o.rays.assign(in.rays.begin(), in.rays.end());
+    using F32 = py::array_t<float, py::array::c_style | py::array::forcecast>;
+    const F32 t = F32::ensure(times);
+    if (!t || t.ndim() != 1 || size_t(t.shape(0)) != o.rays.size())
+      fail("times: expected a 1-D array of " + std::to_string(o.rays.size()) + " shutter times, one a ray");
+    o.times.assign(t.data(), t.data() + t.shape(0));
+    try {
+      hw::validate_shutter_times(o.times, o.rays.size());
+    } catch (const std::invalid_argument& e) {
+      fail(std::string("times: ") + e.what());
+    }
+  }
   std::shared_ptr<const host::Scene> keep;
   if (!scene.is_none()) {
     keep = scene.cast<PyScene>().scene;
@@ -647,6 +663,9 @@ py::tuple motion(const py::object& scene, std::vector<float> move, int width, in
     py::gil_scoped_release nogil;
     r = host::run_motion_job(o);
   }
+  if (!o.rays.empty())
+    return py::make_tuple(py::none(), py::none(), to_python(host::motion_json(o, r)),
+                          hits_to_numpy(std::move(r.hits)));
   return py::make_tuple(image_to_numpy(std::move(r.float_image)), image_to_numpy(std::move(r.fixed_image)),
                         to_python(host::motion_json(o, r)));
 }
@@ -761,7 +780,7 @@ PYBIND11_MODULE(_rtu, m) {
   m.def("motion", &motion, py::arg("scene"), py::arg("move"), py::arg("width"), py::arg("height"),
         py::arg("samples"), py::arg("level"), py::arg("motion_scale"), py::arg("time_bits"),
         py::arg("box_time_bits"), py::arg("seed"), py::arg("threads"), py::arg("format"), py::arg("config"),
-        py::arg("sets"));
+        py::arg("sets"), py::arg("rays"), py::arg("times"));
   m.def(
       "read_png", [](const std::string& path) { return image_to_numpy(host::read_png(path)); }, py::arg("path"));
   m.def(

@@ -4,7 +4,9 @@
 #include <cstdio>
 
 #include "host/cli/common.h"
+#include "host/io/files.h"
 #include "host/io/image.h"
+#include "host/io/ray_io.h"
 #include "host/jobs/image_diff.h"
 #include "host/jobs/motion.h"
 
@@ -22,6 +24,7 @@ struct MotionArgs {
   uint64_t seed = 1;
   int threads = 0;
   std::string image, json;
+  std::string rays, times, out;  // the user's rays, their shutter times, the hit file
 };
 
 void run_motion(const MotionArgs& a) {
@@ -38,21 +41,28 @@ void run_motion(const MotionArgs& a) {
   o.format = a.dev.fixed_format();
   o.motion = hw::MotionFormat{a.time_bits, a.box_time_bits};
   o.timing = timing_config_from(a.dev.config, a.dev.sets);
+  check_output_files({a.out, a.json});
+  if (!a.rays.empty()) {
+    o.rays = read_rays(a.rays);
+    o.times = read_shutter_times(a.times, o.rays.size(), a.seed);
+  }
   const MotionJobResult r = run_motion_job(o);
-  const ImageDiff d = diff_images(r.float_image, r.fixed_image);
-  std::printf(
-      "scene        %s: %llu triangles, %llu spheres, %llu curve segments, %llu moving; %dx%d, %d shutter times "
-      "per "
-      "pixel\n",
-      o.scene.empty() ? "builtin motion" : o.scene.c_str(), (unsigned long long)r.triangles,
-      (unsigned long long)r.spheres, (unsigned long long)r.curves, (unsigned long long)r.moving, o.width, o.height,
-      o.samples);
+  const bool frame = a.rays.empty();
+  const ImageDiff d = frame ? diff_images(r.float_image, r.fixed_image) : ImageDiff{};
+  const std::string what = a.rays.empty() ? std::to_string(o.width) + "x" + std::to_string(o.height) + ", " +
+                                                std::to_string(o.samples) + " shutter times per pixel"
+                                          : std::to_string(r.rays) + " rays of " + a.rays + " at times " + a.times;
+  std::printf("scene        %s: %llu triangles, %llu spheres, %llu curve segments, %llu moving; %s\n",
+              o.scene.empty() ? "builtin motion" : o.scene.c_str(), (unsigned long long)r.triangles,
+              (unsigned long long)r.spheres, (unsigned long long)r.curves, (unsigned long long)r.moving,
+              what.c_str());
   std::printf("format       %s, %s\n", o.format.describe().c_str(), o.motion.describe().c_str());
-  std::printf(
-      "fixed/float  %llu of %llu rays agree on hit/miss; of %llu hits on both, %llu on the same triangle; "
-      "image PSNR %.2f dB, %llu pixels differ\n",
-      (unsigned long long)r.hits_agree, (unsigned long long)r.rays, (unsigned long long)r.both_hit,
-      (unsigned long long)r.same_prim, d.psnr_db, (unsigned long long)d.pixels_differing);
+  std::printf("fixed/float  %llu of %llu rays agree on hit/miss; of %llu hits on both, %llu on the same primitive",
+              (unsigned long long)r.hits_agree, (unsigned long long)r.rays, (unsigned long long)r.both_hit,
+              (unsigned long long)r.same_prim);
+  if (frame)
+    std::printf("; image PSNR %.2f dB, %llu pixels differ", d.psnr_db, (unsigned long long)d.pixels_differing);
+  std::printf("\n");
   std::printf("%-15s %12s %8s %10s %10s %10s %12s %10s\n", "unit", "cycles", "ratio", "nodes/ray", "tris/ray",
               "shader", "node bytes", "interp mm2");
   for (const MotionDesign& m : r.designs)
@@ -60,6 +70,10 @@ void run_motion(const MotionArgs& a) {
                 (unsigned long long)m.cycles, m.ratio, double(m.traversal.nodes_visited) / double(r.rays),
                 double(m.traversal.prim_tests) / double(r.rays), (unsigned long long)m.timing.any_hit_requests,
                 (unsigned long long)m.node_bytes, m.interp_mm2);
+  if (!a.out.empty()) {
+    write_hits(a.out, r.hits);
+    std::printf("wrote        %s (the fixed unit's hits)\n", a.out.c_str());
+  }
   if (!a.image.empty()) {
     write_png(a.image + "_float.png", r.float_image);
     write_png(a.image + "_fixed.png", r.fixed_image);
@@ -67,8 +81,12 @@ void run_motion(const MotionArgs& a) {
   }
   if (!a.json.empty()) {
     Json j = motion_json(o, r);
-    j["image_psnr_db"] = std::isinf(d.psnr_db) ? Json(nullptr) : Json(d.psnr_db);
+    if (frame) j["image_psnr_db"] = std::isinf(d.psnr_db) ? Json(nullptr) : Json(d.psnr_db);
     j["config"] = a.dev.config;
+    if (!a.rays.empty()) {
+      j["rays_file"] = a.rays;
+      j["times"] = a.times;
+    }
     write_json(a.json, j);
   }
 }
@@ -88,6 +106,13 @@ void add_motion(CLI::App& app) {
               "--motion-scale applies to the built-in scene only (use --move with --scene)");
         if (!a.scene.empty() && sub.count("--level") > 0)
           throw CLI::ValidationError("--level applies to the built-in scene only");
+        if (a.rays.empty() != a.times.empty())
+          throw CLI::ValidationError("--rays and --times go together (a shutter time for every ray)");
+        if (a.rays.empty() && !a.out.empty()) throw CLI::ValidationError("--out needs --rays");
+        if (!a.rays.empty() &&
+            (!a.image.empty() || sub.count("--width") || sub.count("--height") || sub.count("--samples")))
+          throw CLI::ValidationError(
+              "--rays traces the rays given: no frame (--image, --width, --height, --samples)");
         run_motion(a);
       });
   sub->add_option("--scene", a->scene,
@@ -120,6 +145,13 @@ void add_motion(CLI::App& app) {
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();
   sub->add_option("--image", a->image, "write PREFIX_float.png and PREFIX_fixed.png");
+  sub->add_option("--rays", a->rays,
+                  "trace this ray file (docs/file-formats.md) instead of the camera's frame, each ray at its "
+                  "--times shutter time, on the float and fixed units and the three timed units");
+  sub->add_option("--times", a->times,
+                  "with --rays: the rays' shutter times in [0, 1]: a file of float32 (one a ray) or CSV with a "
+                  "header 'time', 'uniform' (random, --seed), or one number for every ray");
+  sub->add_option("--out", a->out, "with --rays: write the fixed unit's hits (a hit file)");
   sub->add_option("--json", a->json, "write the figures as JSON");
 }
 

@@ -2,10 +2,17 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <fstream>
 #include <stdexcept>
+#include <string>
 
 #include "host/cost/cost_model.h"
+#include "host/io/error.h"
+#include "host/io/files.h"
+#include "host/io/ray_io.h"
 #include "host/scene/motion_scene.h"
+#include "hwmodel/numeric/rng.h"
 
 namespace rtu::host {
 
@@ -55,6 +62,51 @@ Image frame_image(const MotionScene& s, const MotionRays& rays, const std::vecto
 
 }  // namespace
 
+std::vector<float> read_shutter_times(const std::string& spec, size_t n, uint64_t seed) {
+  std::vector<float> t;
+  char* end = nullptr;
+  const float value = std::strtof(spec.c_str(), &end);
+  if (spec == "uniform") {
+    hw::Pcg32 rng(seed);
+    for (size_t i = 0; i < n; ++i) t.push_back(rng.next_float());
+  } else if (!spec.empty() && end == spec.c_str() + spec.size()) {
+    t.assign(n, value);
+  } else if (is_csv_path(spec)) {
+    check_input_file(spec);
+    std::ifstream in(spec);
+    std::string line;
+    if (!std::getline(in, line) || (line != "time" && line != "time\r"))
+      throw Error(spec + ": expected a header line 'time'");
+    for (size_t no = 2; std::getline(in, line); ++no) {
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      const float v = std::strtof(line.c_str(), &end);
+      if (line.empty() || end != line.c_str() + line.size())
+        throw Error(spec + ":" + std::to_string(no) + ": not a number: '" + line + "'");
+      if (t.size() >= n) throw Error(spec + ": more shutter times than the " + std::to_string(n) + " rays");
+      t.push_back(v);
+    }
+  } else {
+    check_input_file(spec);
+    std::ifstream in(spec, std::ios::binary | std::ios::ate);
+    const std::streamoff bytes = in.tellg();
+    if (bytes < 0 || uint64_t(bytes) != 4 * uint64_t(n))
+      throw Error(spec + ": " + std::to_string(bytes) + " bytes, not a float32 for each of the " +
+                  std::to_string(n) + " rays");
+    t.resize(n);
+    in.seekg(0);
+    if (n && !in.read(reinterpret_cast<char*>(t.data()), std::streamsize(4 * n)))
+      throw Error(spec + ": read error");
+  }
+  if (t.size() != n)
+    throw Error(spec + ": " + std::to_string(t.size()) + " shutter times for " + std::to_string(n) + " rays");
+  try {
+    hw::validate_shutter_times(t, n);
+  } catch (const std::invalid_argument& e) {
+    throw Error(spec + ": " + e.what());
+  }
+  return t;
+}
+
 MotionJobResult run_motion_job(const MotionJobOptions& o) {
   if (o.width < 1 || o.height < 1 || o.width > 8192 || o.height > 8192)
     throw std::invalid_argument("motion: width and height must be in 1..8192");
@@ -65,7 +117,10 @@ MotionJobResult run_motion_job(const MotionJobOptions& o) {
   const MotionScene scene = o.loaded          ? moving_scene(*o.loaded, o.move)
                             : o.scene.empty() ? builtin_motion_scene(o.level, o.motion_scale)
                                               : moving_scene(load_scene(o.scene), o.move);
-  const MotionRays rays = motion_frame_rays(scene.camera, o.width, o.height, o.samples, o.seed);
+  const bool user = !o.rays.empty();
+  if (user) hw::validate_shutter_times(o.times, o.rays.size());
+  const MotionRays rays =
+      user ? MotionRays{o.rays, o.times} : motion_frame_rays(scene.camera, o.width, o.height, o.samples, o.seed);
   hw::BvhBuildParams bp;
   bp.width = o.format.width;
   const hw::MotionBvh bvh = hw::MotionBvh::build(scene.geometry, bp);
@@ -87,8 +142,10 @@ MotionJobResult run_motion_job(const MotionJobOptions& o) {
     r.both_hit += fh[i].hit() && xh[i].hit();
     r.same_prim += fh[i].hit() && xh[i].hit() && fh[i].prim == xh[i].prim;
   }
-  r.float_image = frame_image(scene, rays, fh, o.width, o.height, o.samples);
-  r.fixed_image = frame_image(scene, rays, xh, o.width, o.height, o.samples);
+  if (!user) {
+    r.float_image = frame_image(scene, rays, fh, o.width, o.height, o.samples);
+    r.fixed_image = frame_image(scene, rays, xh, o.width, o.height, o.samples);
+  }
   // The three units. The static one sees the scene frozen at mid-shutter.
   hw::MotionGeometry frozen;
   for (const hw::MotionTriangle& t : scene.geometry.triangles) {
@@ -134,6 +191,7 @@ MotionJobResult run_motion_job(const MotionJobOptions& o) {
   }
   for (MotionDesign& m : r.designs)
     m.ratio = double(m.cycles) / double(std::max<uint64_t>(1, r.designs[0].cycles));
+  if (user) r.hits = std::move(xh);
   return r;
 }
 
@@ -144,9 +202,11 @@ Json motion_json(const MotionJobOptions& o, const MotionJobResult& r) {
                : builtin ? "builtin motion (level " + std::to_string(o.level) + ")"
                          : o.scene;
   if (!builtin) j["move"] = {o.move.x, o.move.y, o.move.z};
-  j["width"] = o.width;
-  j["height"] = o.height;
-  j["samples"] = o.samples;
+  if (o.rays.empty()) {
+    j["width"] = o.width;
+    j["height"] = o.height;
+    j["samples"] = o.samples;
+  }
   j["format"] = o.format.describe();
   j["motion_format"] = o.motion.describe();
   if (builtin) j["motion_scale"] = o.motion_scale;

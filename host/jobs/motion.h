@@ -32,6 +32,10 @@ struct MotionJobOptions {
   hw::MotionFormat motion;
   hw::TimingConfig timing;  // the default configuration
   int threads = 0;          // float and fixed frames' host threads (0: all); hits do not depend on it
+  // Rays of the user's with a shutter time each (read_shutter_times), traced instead of the camera's frame: no
+  // images; the hits of the fixed unit in MotionJobResult::hits. Empty: the frame.
+  std::vector<hw::Ray> rays;
+  std::vector<float> times;
 };
 
 struct MotionDesign {
@@ -46,12 +50,18 @@ struct MotionDesign {
 
 struct MotionJobResult {
   uint64_t triangles = 0, spheres = 0, curves = 0, moving = 0, rays = 0;  // moving: key frames that differ
-  uint64_t hits_agree = 0;  // rays on which float and fixed agree on hit or miss
-  uint64_t both_hit = 0;    // rays that hit on both
-  uint64_t same_prim = 0;   // of those, the same triangle
-  Image float_image, fixed_image;
-  MotionDesign designs[3];  // static, time-aware, time-oblivious
+  uint64_t hits_agree = 0;         // rays on which float and fixed agree on hit or miss
+  uint64_t both_hit = 0;           // rays that hit on both
+  uint64_t same_prim = 0;          // of those, the same triangle
+  Image float_image, fixed_image;  // the frame's (empty with the user's rays)
+  std::vector<hw::Hit> hits;       // the user's rays: the fixed unit's hits (the timed units' are the same)
+  MotionDesign designs[3];         // static, time-aware, time-oblivious
 };
+
+// Shutter times of n rays from a file: float32 a ray (any name but .csv), or CSV with a header "time" and a time a
+// line; or "uniform" (uniform in [0, 1] from seed) or a number in [0, 1] (every ray at that time). Throws Error
+// naming the file and the ray when the count differs from n or a time is not in [0, 1].
+std::vector<float> read_shutter_times(const std::string& spec, size_t n, uint64_t seed);
 
 // Throws std::invalid_argument for bad options (sizes, samples, formats).
 MotionJobResult run_motion_job(const MotionJobOptions& o);

@@ -276,10 +276,13 @@ def render(scene, device="float", *, mode="raytrace", width=0, height=0, spp=1, 
 
 
 def motion(scene=None, *, move=(0.0, 0.0, 0.0), width=320, height=240, samples=4, level=4, motion_scale=1.0,
-           time_bits=16, box_time_bits=6, seed=1, threads=0, format="default", config="rdna2", set=None):  # noqa: A002
+           time_bits=16, box_time_bits=6, seed=1, threads=0, format="default", config="rdna2", set=None,  # noqa: A002
+           rays=None, times=None):
     """Motion blur, as `rtusim motion`: the built-in moving scene (scene None; level, motion_scale) or a scene of
-    triangles moved by `move` between the key frames, on the float and fixed devices and timed on a static, a
-    time-aware and a time-oblivious unit. Returns (float image, fixed image, figures dict)."""
+    triangles, spheres and curves moved by `move` between the key frames, on the float and fixed devices and timed
+    on a static, a time-aware and a time-oblivious unit. Returns (float image, fixed image, figures dict). With
+    rays ((N, 8)) and times ((N,) shutter times in [0, 1]), as --rays and --times: those rays instead of the frame,
+    and (None, None, figures dict, the fixed unit's hits)."""
     if scene is not None:
         scene = load_scene(scene)
     try:
@@ -291,16 +294,17 @@ def motion(scene=None, *, move=(0.0, 0.0, 0.0), width=320, height=240, samples=4
                        _int(level, "level"), _number(motion_scale, "motion_scale"), _int(time_bits, "time_bits"),
                        _int(box_time_bits, "box_time_bits"), _int(seed, "seed"), _int(threads, "threads"),
                        _str(format, "format", "a format spec such as 'default'"),
-                       _str(config, "config", "a timing preset name such as 'rdna2'"), sets)
+                       _str(config, "config", "a timing preset name such as 'rdna2'"), sets, rays, times)
 
 
 def query(points, queries=None, *, radius, kind="radius", k=None, max_results=64, device="fixed", format="default",
           config="rdna2", set=None, threads=0, order="input"):  # noqa: A002
-    """Neighbour queries on the unit, as `rtusim query` (order "morton": RTNN's reordering, as --order): every point of `points` ((N, 3) floats) within `radius`
+    """Neighbour queries on the unit, as `rtusim query`: every point of `points` ((N, 3) floats) within `radius`
     of each query point (`queries`, (M, 3); None: the points), exactly; kind "count" only their numbers,
-    "nearest" the k nearest within the radius. device "timed" adds the cycles. Returns a dict: "ids" (the answers
-    of all queries, concatenated), "offsets" (query i's are ids[offsets[i]:offsets[i+1]]), "counts" (every
-    neighbour's count, also beyond the bound), "overflow" (more than max_results), "stats" (the --json dict)."""
+    "nearest" the k nearest within the radius. device "timed" adds the cycles; order "morton" issues the queries
+    in Morton order (RTNN's reordering, as --order). Returns a dict: "ids" (the answers of all queries,
+    concatenated), "offsets" (query i's are ids[offsets[i]:offsets[i+1]]), "counts" (every neighbour's count, also
+    beyond the bound), "overflow" (more than max_results), "stats" (the --json dict)."""
     kind = _str(kind, "kind", "radius, count or nearest")
     if kind == "nearest":
         if k is None:

@@ -5,8 +5,12 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
 
 #include "host/io/image.h"
+#include "host/io/ray_io.h"
 #include "host/scene/motion_scene.h"
 #include "host/scene/ray_gen.h"
 #include "hwmodel/datapath/float_tracer.h"
@@ -470,4 +474,61 @@ TEST_CASE("motion: moving curve segments lose no hit, at any box time bits", "[m
   hw::MotionGeometry bad = g;
   bad.curves[1].key[1].flags = hw::kCurveCapStart;
   CHECK_THROWS_WITH(hw::MotionBvh::build(bad), Catch::Contains("moving curve segment 1"));
+}
+
+TEST_CASE("rtusim motion --rays: the user's rays at their shutter times, the fixed unit's hits", "[motion][cli]") {
+  const test::TempDir d("motion_rays");
+  const host::Scene cornell = host::load_scene("builtin:cornell");
+  const std::vector<hw::Ray> rays = host::incoherent_rays(cornell.geometry.bounds(), 3000, 4);
+  const std::string rays_path = (d.path / "r.rays").string(), bin = (d.path / "t.f32").string();
+  const std::string csv = (d.path / "t.csv").string(), hits = (d.path / "h.hits").string();
+  host::write_rays(rays_path, rays);
+  hw::Pcg32 rng(9);
+  std::vector<float> times;
+  for (size_t i = 0; i < rays.size(); ++i) times.push_back(i % 50 == 0 ? float(i % 2) : rng.next_float());
+  {
+    std::ofstream b(bin, std::ios::binary);
+    b.write(reinterpret_cast<const char*>(times.data()), std::streamsize(times.size() * 4));
+    std::ofstream c(csv);
+    c << "time\n";
+    char buf[32];
+    for (const float t : times) {
+      std::snprintf(buf, sizeof buf, "%.9g", double(t));  // 9 digits: a float's exact round trip
+      c << buf << '\n';
+    }
+  }
+  // The moving scene and its fixed unit, traced here: what the command must write.
+  const host::MotionScene ms = host::moving_scene(cornell, hw::Vec3(0.2f, 0.0f, 0.1f));
+  hw::BvhBuildParams bp;
+  bp.width = hw::format_preset("default").width;
+  const hw::MotionBvh bvh = hw::MotionBvh::build(ms.geometry, bp);
+  const hw::MotionImage img = hw::MotionImage::encode(ms.geometry, bvh, hw::format_preset("default"), {});
+  std::vector<hw::Hit> want;
+  hw::TraversalStats s;
+  hw::MotionFixedTracer(img).trace_batch(rays, times, want, false, 1, s);
+  for (const std::string& t : {bin, csv}) {
+    const test::Run r = test::run_rtusim("motion --scene builtin:cornell --move 0.2 0 0.1 --rays " + rays_path +
+                                         " --times " + t + " --out " + hits);
+    INFO(r.output);
+    REQUIRE(r.status == 0);
+    const std::vector<hw::Hit> got = host::read_hits(hits);
+    REQUIRE(got.size() == want.size());
+    CHECK(std::memcmp(got.data(), want.data(), got.size() * sizeof(hw::Hit)) == 0);
+  }
+  // One time for every ray: as the file of that time.
+  REQUIRE(test::run_rtusim("motion --scene builtin:cornell --move 0.2 0 0.1 --rays " + rays_path +
+                           " --times 0.25 --out " + hits)
+              .status == 0);
+  std::vector<hw::Hit> quarter;
+  hw::MotionFixedTracer(img).trace_batch(rays, std::vector<float>(rays.size(), 0.25f), quarter, false, 1, s);
+  CHECK(std::memcmp(host::read_hits(hits).data(), quarter.data(), quarter.size() * sizeof(hw::Hit)) == 0);
+  {
+    std::ofstream c(csv);
+    c << "time\n0.5\n1.5\n";
+  }
+  test::check_refused({{"motion --rays " + rays_path, "--rays and --times go together"},
+                       {"motion --out " + hits, "--out needs --rays"},
+                       {"motion --rays " + rays_path + " --times " + csv, "2 shutter times for 3000 rays"},
+                       {"motion --rays " + rays_path + " --times 2", "not in [0, 1]"},
+                       {"motion --rays " + rays_path + " --times uniform --image x", "no frame"}});
 }

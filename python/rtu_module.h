@@ -1,11 +1,14 @@
-// What the files of the extension _rtu share (rtu_module.cpp, rtu_sweep.cpp): errors, Ctrl-C, JSON to Python,
-// argument checks, and the registration functions of the bindings kept outside rtu_module.cpp. Only they include
-// it.
+// What the files of the extension _rtu share (rtu_module.cpp, rtu_queries.cpp, rtu_sweep.cpp): errors, Ctrl-C,
+// JSON to Python, numpy arrays handed over, argument checks, and the registration functions of the bindings kept
+// outside rtu_module.cpp. Only they include it.
 #pragma once
 
+#include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "host/io/error.h"
 #include "host/io/json_io.h"
@@ -38,6 +41,17 @@ inline int check_threads(int threads) {
   return threads;
 }
 
+// A vector handed to numpy without a copy: the array owns it through a capsule.
+template <class T>
+py::array give(std::vector<T>&& v, const py::dtype& dt, std::vector<py::ssize_t> shape,
+               std::vector<py::ssize_t> strides) {
+  auto* owned = new std::vector<T>(std::move(v));
+  py::capsule owner(owned, [](void* p) { delete static_cast<std::vector<T>*>(p); });
+  return py::array(dt, std::move(shape), std::move(strides), owned->data(), owner);
+}
+
+// The query and join bindings (rtu_queries.cpp).
+void register_queries(py::module_& m);
 // The sweep, manifest, plan and Pareto bindings (rtu_sweep.cpp), added to `m` after the others.
 void register_sweep(py::module_& m);
 

@@ -264,9 +264,10 @@ struct FixedPolicy {
   bool leaf_refs = false;             // FixedTraceOptions::record_leaf_refs
   mutable int rec_depth[2] = {0, 0};  // each stack's entries, as the recorder counts them (traverse.h)
   RestartTrail* trail = nullptr;      // recording with FixedTraceOptions::record_restart: the restarts' costs
-  // All-hit traversal: each record's hit is collected with its own interval, the closest never narrowed; called
-  // with the hit's Closest. Null otherwise.
-  const std::function<void(uint32_t)>* all = nullptr;  // all-hit traversal: tests record i and keeps its hits
+  // All-hit traversal: called with each record index of a leaf, it tests the record with its own interval (an
+  // instance: its bottom level's all-hit traversal) and keeps its hits; the closest is never narrowed. Null
+  // otherwise.
+  const std::function<void(uint32_t)>* all = nullptr;
 
   // A constructor, not aggregate initialization: GCC 12 clears the whole object before an aggregate's fields
   // (rep stos, a stall once per ray).

@@ -1,10 +1,11 @@
 // Motion blur in the unit: rays with a shutter time through moving triangles, spheres and curve segments
-// (scene/motion.h), on the float reference and on the fixed-point datapath. The fixed unit quantizes the ray's time to MotionFormat::time_bits,
-// interpolates each triangle's grid vertices at that time (the triangle unit), and each node's key-frame grid
-// boxes at the top box_time_bits of it, widened to the whole interval those bits stand for (the box unit): so a
-// box contains every primitive below it at every time the box unit cannot tell apart, and no hit is lost
-// (docs/numerics.md, "Motion blur"). box_time_bits = 0 is a unit that does not interpolate boxes at all: it tests
-// the box over the whole shutter (the time-oblivious unit of docs/timing-model.md, "Motion blur").
+// (scene/motion.h), on the float reference and on the fixed-point datapath. The fixed unit quantizes the ray's
+// time to MotionFormat::time_bits, interpolates each triangle's grid vertices at that time (the triangle unit),
+// and each node's key-frame grid boxes at the top box_time_bits of it, widened to the whole interval those bits
+// stand for (the box unit): so a box contains every primitive below it at every time the box unit cannot tell
+// apart, and no hit is lost (docs/numerics.md, "Motion blur"). box_time_bits = 0 is a unit that does not
+// interpolate boxes at all: it tests the box over the whole shutter (the time-oblivious unit of
+// docs/timing-model.md, "Motion blur").
 #pragma once
 
 #include <cstdint>

@@ -179,11 +179,7 @@ void write_hits(const std::string& path, const std::vector<hw::Hit>& hits) {
 
 void write_hit_lists(const std::string& path, uint32_t k, const std::vector<hw::Hit>& lists,
                      const std::vector<uint64_t>& counts) {
-  auto header = [&](size_t i) {
-    const uint64_t n = counts[i];
-    return hw::cmd::HitListHeader{uint32_t(std::min<uint64_t>(n, UINT32_MAX)), uint32_t(std::min<uint64_t>(n, k)),
-                                  n > k ? hw::cmd::kHitListOverflow : 0u, 0u};
-  };
+  auto header = [&](size_t i) { return hw::cmd::hit_list_header(counts[i], k); };
   if (!is_csv_path(path)) {
     const size_t stride = size_t(hw::cmd::all_hits_list_bytes(k));
     std::vector<uint8_t> out(counts.size() * stride);

@@ -458,12 +458,7 @@ Hit FixedTracer::trace_recorded(const Ray& r, bool any_hit, TraversalStats& s,
 Hit FixedTracer::trace_world(const Ray& r, bool any_hit, TraversalStats& s, std::vector<TraceEvent>* rec,
                              WatchState* ws) const {
   FixedRay fr;
-  const RayStatus status = m_setup(r, fr);
-  if (status != RayStatus::kOk) {
-    ++s.invalid_rays;
-    ++s.invalid_by_reason[size_t(status)];
-    return Hit{};
-  }
+  if (s.rejected(m_setup(r, fr))) return Hit{};
   return trace_counted(&r, fr, any_hit, s, rec, ws);
 }
 
@@ -574,47 +569,55 @@ uint64_t FixedTracer::trace_all(const Ray& r, HitList& all, TraversalStats& s,
   if ((m_image.header().flags & kImageTopLevel) && !m_opt.bottom)
     throw std::invalid_argument("all-hit traversal of a top level needs its bottom levels");
   FixedRay fr;
-  const RayStatus status = m_setup(r, fr);
-  if (status != RayStatus::kOk) {
-    ++s.invalid_rays;
-    ++s.invalid_by_reason[size_t(status)];
-    return all.count;
-  }
+  if (s.rejected(m_setup(r, fr))) return all.count;
   ++s.rays;
   const uint64_t before = all.count;
   const ImageHeader& hd = m_image.header();
   if (fr.tmin > fr.tmax) return all.count;
-  const std::function<void(const Closest&)> collect = [&](const Closest& c) {
-    if (rec) rec->push_back(TraceEvent{TraceEvent::kHitOut, uint8_t(all.count < all.max), 0, 0, c.prim});
-    all.add(world_hit(c.t, c.prim, c.u, c.v, c.record, fr, &r));
+  // The walk's state: the callback below captures one pointer to it, which std::function holds in place (no
+  // allocation per ray).
+  struct Walk {
+    const FixedTracer& t;
+    const Ray& r;
+    const FixedRay& fr;
+    HitList& all;
+    TraversalStats& s;
+    std::vector<TraceEvent>* rec;
+    AlphaTest stage;
+    bool short_edges;
+    void collect(const Closest& c) const {
+      if (rec) rec->push_back(TraceEvent{TraceEvent::kHitOut, uint8_t(all.count < all.max), 0, 0, c.prim});
+      all.add(t.world_hit(c.t, c.prim, c.u, c.v, c.record, fr, &r));
+    }
+    // Record i: a primitive's hit kept, or an instance's bottom level traced for all of its own.
+    void one(uint32_t i) const {
+      const uint8_t* record = t.m_image.record(i);
+      if (record_kind(record) == RecordKind::kInstance) {
+        if (rec) rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(RecordKind::kInstance), 0, 0, i});
+        uint32_t word;
+        std::memcpy(&word, record + 36, 4);
+        if (t.m_opt.bottom) t.m_opt.bottom->trace_instance_all(word & kRecordPrimMask, r, all, s, rec);
+        return;
+      }
+      Closest c{fr.tmax};
+      if (test_recorded(record, i, fr, c, short_edges, t.m_opt.tri_unit, stage, s, &r, nullptr, false, rec))
+        collect(c);
+    }
   };
+  const AlphaTest stage{m_opt.any_hit, m_opt.micromaps};
+  const Walk walk{*this, r, fr, all, s, rec, stage, short_edges_known(fr, m_format.coord_bits)};
   const PlaneRecord* planes = m_image.planes();
   for (uint32_t i = 0; i < hd.plane_count; ++i) {
     FixedPrimHit h;
     ++s.prim_tests;
     if (rec) rec->push_back(TraceEvent{TraceEvent::kPlane, 0, 0, 0, i});
     if (PrimTest<PlanePrim>::test_fixed(fr, planes[i], fr.tmin, fr.tmax, h))
-      collect(Closest{h.t, planes[i].prim, 0.0f, 0.0f, nullptr});
+      walk.collect(Closest{h.t, planes[i].prim, 0.0f, 0.0f, nullptr});
   }
-  const AlphaTest stage{m_opt.any_hit, m_opt.micromaps};
-  const bool short_edges = short_edges_known(fr, m_format.coord_bits);
-  // Record i: a primitive's hit kept, or an instance's bottom level traced for all of its own.
-  const std::function<void(uint32_t)> one = [&](uint32_t i) {
-    const uint8_t* record = m_image.record(i);
-    if (record_kind(record) == RecordKind::kInstance) {
-      if (rec) rec->push_back(TraceEvent{TraceEvent::kPrim, uint8_t(RecordKind::kInstance), 0, 0, i});
-      uint32_t word;
-      std::memcpy(&word, record + 36, 4);
-      if (m_opt.bottom) m_opt.bottom->trace_instance_all(word & kRecordPrimMask, r, all, s, rec);
-      return;
-    }
-    Closest c{fr.tmax};
-    if (test_recorded(record, i, fr, c, short_edges, m_opt.tri_unit, stage, s, &r, nullptr, false, rec))
-      collect(c);
-  };
+  const std::function<void(uint32_t)> one = [w = &walk](uint32_t i) { w->one(i); };
   if (hd.record_count > 0 && (hd.flags & kImageNoBvh)) {
     if (!m_opt.bottom) s.prim_tests += hd.record_count;
-    for (uint32_t i = 0; i < hd.record_count; ++i) one(i);
+    for (uint32_t i = 0; i < hd.record_count; ++i) walk.one(i);
   } else if (hd.record_count > 0) {
     WatchState watch;
     Closest interval{fr.tmax};  // never narrowed: every subtree the ray enters in [tmin, tmax] is visited

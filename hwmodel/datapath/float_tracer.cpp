@@ -140,12 +140,7 @@ void FloatTracer::trace_bvh(const WideBvh<N>& t, const RayPrecomp& rp, float tmi
 
 Hit FloatTracer::trace(const Ray& r, bool any_hit, TraversalStats& s, const AnyHitStage* stage) const {
   Hit h;
-  const RayStatus status = validate_ray(r);
-  if (status != RayStatus::kOk) {
-    ++s.invalid_rays;
-    ++s.invalid_by_reason[size_t(status)];
-    return h;
-  }
+  if (s.rejected(validate_ray(r))) return h;
   ++s.rays;
   const RayPrecomp rp(r);
   h.t = r.tmax;
@@ -181,12 +176,7 @@ Hit FloatTracer::trace(const Ray& r, bool any_hit, TraversalStats& s, const AnyH
 }
 
 uint64_t FloatTracer::trace_all(const Ray& r, HitList& all, TraversalStats& s, const AnyHitStage* stage) const {
-  const RayStatus status = validate_ray(r);
-  if (status != RayStatus::kOk) {
-    ++s.invalid_rays;
-    ++s.invalid_by_reason[size_t(status)];
-    return all.count;
-  }
+  if (s.rejected(validate_ray(r))) return all.count;
   ++s.rays;
   const uint64_t before = all.count;
   const RayPrecomp rp(r);

@@ -398,10 +398,7 @@ void with_width(int width, F&& f) {
 bool count_invalid(const Ray& r, float time, TraversalStats& s) {
   RayStatus status = validate_ray(r);
   if (status == RayStatus::kOk && !valid_shutter_time(time)) status = RayStatus::kNanInterval;
-  if (status == RayStatus::kOk) return false;
-  ++s.invalid_rays;
-  ++s.invalid_by_reason[size_t(status)];
-  return true;
+  return s.rejected(status);
 }
 
 }  // namespace
@@ -447,12 +444,7 @@ Hit MotionFixedTracer::trace_impl(const Ray& r, float time, bool any_hit, Traver
                                   std::vector<TraceEvent>* rec, bool shader) const {
   if (count_invalid(r, time, s)) return Hit{};
   FixedRay fr;
-  const RayStatus status = setup_ray(r, m_image.frame, m_image.format, fr);
-  if (status != RayStatus::kOk) {
-    ++s.invalid_rays;
-    ++s.invalid_by_reason[size_t(status)];
-    return Hit{};
-  }
+  if (s.rejected(setup_ray(r, m_image.frame, m_image.format, fr))) return Hit{};
   ++s.rays;
   const uint32_t tq = quantize_time(time, m_image.motion.time_bits);
   FixedClosest c{fr.tmax};

@@ -32,6 +32,13 @@ struct TraversalStats {
   uint64_t watchdog_rays = 0;        // rays stopped by the traversal watchdog (step bound); traced as misses
 
   void add(const TraversalStats& o);
+  // A ray's setup status: false for kOk; else counts the ray as rejected for that reason and returns true.
+  bool rejected(RayStatus status) {
+    if (status == RayStatus::kOk) return false;
+    ++invalid_rays;
+    ++invalid_by_reason[size_t(status)];
+    return true;
+  }
   // What a bottom level's trace counts inside a top level's (instancing): work, not rays, hits or rejected rays
   // (the instanced ray is one ray, counted once by the top level).
   void add_work(const TraversalStats& o);

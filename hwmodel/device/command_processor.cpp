@@ -1,6 +1,5 @@
 #include "hwmodel/device/command_processor.h"
 
-#include <algorithm>
 #include <exception>
 #include <new>
 #include <string>
@@ -216,8 +215,7 @@ void CommandProcessor::write_hit_lists(uint64_t at, uint32_t k, const std::vecto
                                        const std::vector<uint64_t>& counts) {
   for (size_t i = 0; i < counts.size(); ++i, at += cmd::all_hits_list_bytes(k)) {
     const uint64_t n = counts[i];
-    cmd::HitListHeader h{uint32_t(std::min<uint64_t>(n, UINT32_MAX)), uint32_t(std::min<uint64_t>(n, k)),
-                         n > k ? cmd::kHitListOverflow : 0u, 0u};
+    const cmd::HitListHeader h = cmd::hit_list_header(n, k);
     m_mem.write(at, &h, sizeof h);
     if (h.kept) m_mem.write(at + sizeof h, hits.data() + i * k, uint64_t(h.kept) * cmd::kHitBytes);
     m_counters.all_hits_found += n;

@@ -55,6 +55,11 @@ static_assert(sizeof(HitListHeader) == 16);
 constexpr uint64_t all_hits_list_bytes(uint64_t k) {
   return (k + 1) * 16;
 }
+// The header of a ray's list that found `count` intersections, k kept at most.
+constexpr HitListHeader hit_list_header(uint64_t count, uint32_t k) {
+  return HitListHeader{uint32_t(count < 0xFFFFFFFFu ? count : 0xFFFFFFFFu), uint32_t(count < k ? count : k),
+                       count > k ? kHitListOverflow : 0u, 0u};
+}
 
 struct Packet {
   uint8_t opcode;    // Opcode

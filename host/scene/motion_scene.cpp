@@ -98,6 +98,70 @@ MotionScene builtin_motion_scene(int level, float motion_scale) {
   return s;
 }
 
+MotionInstanceScene builtin_motion_instances(int level, float motion_scale) {
+  const MotionScene ref = builtin_motion_scene(level, motion_scale);  // the balls' moves, the camera
+  MotionInstanceScene s;
+  s.camera = ref.camera;
+  std::vector<hw::Vec3> unit;
+  std::vector<std::array<uint32_t, 3>> idx;
+  unit_ball(level, unit, idx);
+  hw::Geometry ball, floor;
+  for (const auto& t : idx) ball.triangles.push_back(hw::Triangle{unit[t[0]], unit[t[1]], unit[t[2]]});
+  const uint32_t floor_first = ref.balls.back().first + ref.balls.back().count;
+  for (uint32_t i = floor_first; i < ref.geometry.triangles.size(); ++i)
+    floor.triangles.push_back(ref.geometry.triangles[i].key[0]);
+  s.set.set.meshes = {ball, floor};
+  const float turn = 60.0f * motion_scale * 3.14159265f / 180.0f;
+  for (size_t b = 0; b < ref.balls.size(); ++b) {
+    const MotionScene::Ball& m = ref.balls[b];
+    hw::Affine key[2];
+    for (int k = 0; k < 2; ++k) {
+      // Balls 1, 4 and 7 turn: r R_y(angle) at key frame 1, r I at 0.
+      const float a = (k == 1 && b % 3 == 1) ? turn : 0.0f, c = std::cos(a), sn = std::sin(a), r = m.radius[k];
+      key[k].m[0][0] = r * c;
+      key[k].m[0][2] = r * sn;
+      key[k].m[1][1] = r;
+      key[k].m[2][0] = -r * sn;
+      key[k].m[2][2] = r * c;
+      for (int ax = 0; ax < 3; ++ax) key[k].m[ax][3] = m.center[k][ax];
+    }
+    s.set.set.instances.push_back(hw::Instance{0, key[0]});
+    s.set.end.push_back(key[1]);
+  }
+  s.set.set.instances.push_back(hw::Instance{1, hw::Affine{}});
+  s.set.end.push_back(hw::Affine{});
+  s.set.set.finish();
+  s.set.validate();
+  for (size_t b = 0; b < ref.balls.size(); ++b) {
+    MotionScene::Ball m = ref.balls[b];
+    m.first = s.set.set.instances[b].tri_base;
+    s.balls.push_back(m);
+  }
+  return s;
+}
+
+hw::MotionInstanceSet moving_instances(const Scene& scene, const hw::Vec3& move) {
+  if (!scene.instanced()) throw Error(scene.name + ": the scene places no instances");
+  if (!scene.geometry.planes.empty())
+    throw Error(scene.name + ": moving instances hold no planes (this scene has " +
+                std::to_string(scene.geometry.planes.size()) + ")");
+  hw::MotionInstanceSet s;
+  s.set = scene.instances;
+  for (const hw::Instance& in : s.set.instances) {
+    hw::Affine e = in.to_world;
+    const hw::Geometry& m = s.set.meshes[in.mesh];
+    if (m.spheres.empty() && m.curves.empty())
+      for (int a = 0; a < 3; ++a) e.m[a][3] = float(double(e.m[a][3]) + double(move[a]));
+    s.end.push_back(e);
+  }
+  try {
+    s.validate();
+  } catch (const std::invalid_argument& e) {
+    throw Error(scene.name + " moved: " + e.what());
+  }
+  return s;
+}
+
 MotionScene moving_scene(const Scene& scene, const hw::Vec3& move) {
   const hw::Geometry& g = scene.geometry;
   if (!g.planes.empty())

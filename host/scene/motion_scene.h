@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "host/scene/scene.h"
+#include "hwmodel/datapath/motion_instances.h"
 #include "hwmodel/interface/ray.h"
 #include "hwmodel/scene/motion.h"
 
@@ -36,6 +37,24 @@ MotionScene builtin_motion_scene(int level = 4, float motion_scale = 1.0f);
 // `move` (world units), with the scene's camera. Throws Error when the scene holds curves or planes (moving
 // geometry is triangles and spheres) or when a moved coordinate leaves the range.
 MotionScene moving_scene(const Scene& scene, const hw::Vec3& move);
+
+// The built-in scene of moving instances: one unit ball mesh (as builtin_motion_scene's) placed nine times by two
+// transforms each, over a floor mesh placed once. The balls move as builtin_motion_scene's (translation and
+// uniform scale between the key frames, scaled by motion_scale) and three of them also turn about their vertical
+// axis by 60 degrees (the interpolated transform then shrinks them slightly mid-shutter, as Embree's does).
+// balls[i] names instance i's flattened triangles and its centers (the images of the mesh's origin) at both key
+// frames.
+struct MotionInstanceScene {
+  hw::MotionInstanceSet set;
+  Camera camera;
+  std::vector<MotionScene::Ball> balls;
+};
+MotionInstanceScene builtin_motion_instances(int level = 4, float motion_scale = 1.0f);
+
+// A loaded scene of instances set in motion: each instance's transform at key frame 1 its transform moved by
+// `move`; loose spheres and curves stay (instances holding them do not move). Throws Error when the scene has no
+// instances or planes, or when the moved set does not validate.
+hw::MotionInstanceSet moving_instances(const Scene& scene, const hw::Vec3& move);
 
 // Rays of a width x height frame with `samples` per pixel: pixel-center primary rays (primary_rays), pixel by
 // pixel, and per sample a shutter time stratified in [s / samples, (s + 1) / samples) with a jitter from `seed`.

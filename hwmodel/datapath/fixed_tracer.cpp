@@ -61,12 +61,6 @@ struct Closest {
   float world_t = 0.0f;             // a hit in an instance: its world t, as the bottom level found it
 };
 
-// t raw of world t, rounded up (the top level culls with it, so it must not cut off the hit it stands for).
-int64_t t_raw_up(float t, const FixedRay& r) {
-  const double raw = std::ceil(std::ldexp(double(t), r.t_exp));
-  return raw >= double(r.t_limit) ? r.t_limit : std::max<int64_t>(0, int64_t(raw));
-}
-
 // An instance record: its bottom level traced over what is left of the interval; a hit at or before the closest
 // so far (as the float reference's rule) becomes the closest.
 inline bool test_instance(const uint8_t* rec, const FixedRay& r, const Ray* world, Closest& c,

@@ -3,6 +3,8 @@
 // BVH, or every record when the image has none. Reads nothing but the image.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -28,6 +30,12 @@ namespace rtu::hw {
 // The count of a curve segment's kPrim event: its record kind (a round record with round word kRoundCurve), its
 // test the curve unit's.
 inline constexpr uint8_t kPrimCurve = uint8_t(RecordKind::kCurve);
+
+// t raw of world t, rounded up: a top level culls with it, so it must not cut off the hit it stands for.
+inline int64_t t_raw_up(float t, const FixedRay& r) {
+  const double raw = std::ceil(std::ldexp(double(t), r.t_exp));
+  return raw >= double(r.t_limit) ? r.t_limit : std::max<int64_t>(0, int64_t(raw));
+}
 
 struct TraceEvent {
   // kAnyHit follows the kPrim of a non-opaque triangle whose hit went to the any-hit stage (any_hit.h): the ray

@@ -301,7 +301,13 @@ bool InstancedFixedTracer::rebase(const Ray& o, uint32_t mesh, Ray& m, float& t0
 bool InstancedFixedTracer::trace_instance(uint32_t inst, const Ray& r, float tmax, bool any_hit, Hit& h,
                                           TraversalStats& s, std::vector<TraceEvent>* rec) const {
   if (inst >= m_xforms.size()) return false;  // cannot come from an image this tracer encoded
-  Ray o = m_xforms[inst].apply(r);
+  return trace_instance_as(inst, m_xforms[inst], r, tmax, any_hit, h, s, rec);
+}
+
+bool InstancedFixedTracer::trace_instance_as(uint32_t inst, const StoredXform& x, const Ray& r, float tmax,
+                                             bool any_hit, Hit& h, TraversalStats& s,
+                                             std::vector<TraceEvent>* rec) const {
+  Ray o = x.apply(r);
   o.tmax = tmax;
   const FixedTracer& tracer = *m_tracers[inst];
   const uint32_t mesh = m_info[inst].mesh;

@@ -151,6 +151,10 @@ class InstancedFixedTracer final : public BottomLevels {
                       std::vector<TraceEvent>* rec) const override;
   void trace_instance_all(uint32_t inst, const Ray& r, HitList& all, TraversalStats& s,
                           std::vector<TraceEvent>* rec) const override;
+  // trace_instance with world -> object transform x instead of the instance's stored one (an instance with two
+  // transforms, motion_instances.h: the transform at the ray's time); inst < instance_count().
+  bool trace_instance_as(uint32_t inst, const StoredXform& x, const Ray& r, float tmax, bool any_hit, Hit& h,
+                         TraversalStats& s, std::vector<TraceEvent>* rec) const;
 
  private:
   // A ray o (object space) whose origin is beyond mesh's frame guard range, started where it enters the mesh's

@@ -32,6 +32,13 @@ Vec3 Affine::vector(const Vec3& v) const {
 }
 
 bool invert(const Affine& a, AffineD& inv) {
+  AffineD d;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) d.m[r][c] = a.m[r][c];
+  return invert(d, inv);
+}
+
+bool invert(const AffineD& a, AffineD& inv) {
   double l[3][3], t[3];
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 4; ++c)
@@ -140,7 +147,13 @@ void InstanceSet::validate() const {
 
 Aabb InstanceSet::world_bounds(uint32_t inst) const {
   const Instance& in = instances[inst];
-  const Aabb ob = meshes[in.mesh].bounds();
+  AffineD x;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) x.m[r][c] = in.to_world.m[r][c];
+  return hw::world_bounds(meshes[in.mesh].bounds(), x);
+}
+
+Aabb world_bounds(const Aabb& ob, const AffineD& to_world) {
   Aabb w;
   if (ob.empty()) return w;
   double lo[3], hi[3];
@@ -151,8 +164,8 @@ Aabb InstanceSet::world_bounds(uint32_t inst) const {
   for (int k = 0; k < 8; ++k) {
     const double p[3] = {k & 1 ? ob.hi.x : ob.lo.x, k & 2 ? ob.hi.y : ob.lo.y, k & 4 ? ob.hi.z : ob.lo.z};
     for (int r = 0; r < 3; ++r) {
-      const double x = double(in.to_world.m[r][0]) * p[0] + double(in.to_world.m[r][1]) * p[1] +
-                       double(in.to_world.m[r][2]) * p[2] + double(in.to_world.m[r][3]);
+      const double x =
+          to_world.m[r][0] * p[0] + to_world.m[r][1] * p[1] + to_world.m[r][2] * p[2] + to_world.m[r][3];
       lo[r] = std::min(lo[r], x);
       hi[r] = std::max(hi[r], x);
     }
@@ -193,8 +206,6 @@ Geometry InstanceSet::flatten(const std::vector<Plane>& planes) const {
   return g;
 }
 
-namespace {
-
 Ray object_ray(const AffineD& x, const Ray& r) {
   Ray o = r;
   for (int k = 0; k < 3; ++k) {
@@ -203,6 +214,8 @@ Ray object_ray(const AffineD& x, const Ray& r) {
   }
   return o;
 }
+
+namespace {
 
 template <int N>
 struct TopPolicy {

@@ -43,6 +43,15 @@ struct AffineD {
 // The inverse of `a` in double. Returns false when a has a non-finite entry or is singular: |det L| at most
 // 2^-40 of the product of its rows' lengths (a scale that flat loses 40 bits of every coordinate).
 bool invert(const Affine& a, AffineD& inv);
+bool invert(const AffineD& a, AffineD& inv);
+
+// World ray r in the object space of an instance whose world -> object transform is x: origin and direction
+// transformed in double, rounded once to float; t unchanged (the direction is not normalized).
+Ray object_ray(const AffineD& x, const Ray& r);
+
+// An object-space box placed by to_world: the eight corners transformed in double, rounded outward, widened by
+// 2^-20 of the largest coordinate magnitude (InstanceSet::world_bounds). Empty for an empty box.
+Aabb world_bounds(const Aabb& object, const AffineD& to_world);
 
 // The largest depth of nested transforms a scene may have before flattening them into one per instance (node
 // hierarchies of imported files, instance groups of scene files): deeper is refused at import.

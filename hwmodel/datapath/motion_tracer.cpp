@@ -98,6 +98,39 @@ void encode_round_keys(const MotionGeometry& g, MotionImage& im) {
 
 }  // namespace
 
+void sweep_motion_boxes(const std::vector<uint32_t>& child, int width,
+                        const std::function<void(uint32_t ref, int32_t out[12])>& leaf,
+                        std::vector<int32_t>& boxes) {
+  const size_t slots = child.size(), W = size_t(width);
+  boxes.assign(slots * 12, 0);
+  for (size_t node = slots / W; node-- > 0;) {
+    for (size_t s = 0; s < W; ++s) {
+      const uint32_t ref = child[node * W + s];
+      int32_t* out = &boxes[(node * W + s) * 12];
+      if (ref == kEmptyChild) continue;
+      if (is_leaf(ref)) {
+        leaf(ref, out);
+        continue;
+      }
+      if (size_t(ref) <= node) throw std::logic_error("motion BVH: a child node before its parent");
+      for (int k = 0; k < 2; ++k)
+        for (int a = 0; a < 3; ++a) {
+          out[6 * k + a] = INT32_MAX;
+          out[6 * k + 3 + a] = INT32_MIN;
+        }
+      for (size_t c = 0; c < W; ++c) {
+        if (child[size_t(ref) * W + c] == kEmptyChild) continue;
+        const int32_t* in = &boxes[(size_t(ref) * W + c) * 12];
+        for (int k = 0; k < 2; ++k)
+          for (int a = 0; a < 3; ++a) {
+            out[6 * k + a] = std::min(out[6 * k + a], in[6 * k + a]);
+            out[6 * k + 3 + a] = std::max(out[6 * k + 3 + a], in[6 * k + 3 + a]);
+          }
+      }
+    }
+  }
+}
+
 MotionImage MotionImage::encode(const MotionGeometry& g, const MotionBvh& bvh, const FixedFormat& f,
                                 const MotionFormat& m) {
   f.validate();
@@ -138,8 +171,6 @@ MotionImage MotionImage::encode(const MotionGeometry& g, const MotionBvh& bvh, c
   const size_t ns = g.spheres.size();
   // Each slot's boxes: the integer bounds of the primitives below it, bottom up (children have larger indices
   // than their parent in the builder's order, so a reverse sweep sees every child first).
-  const size_t slots = bvh.child.size(), W = size_t(bvh.width);
-  im.boxes.assign(slots * 12, 0);
   const auto bounds_of_leaf = [&](uint32_t ref, int32_t out[12]) {
     for (int k = 0; k < 2; ++k)
       for (int a = 0; a < 3; ++a) {
@@ -179,43 +210,11 @@ MotionImage MotionImage::encode(const MotionGeometry& g, const MotionBvh& bvh, c
       }
     }
   };
-  for (size_t node = slots / W; node-- > 0;) {
-    for (size_t s = 0; s < W; ++s) {
-      const uint32_t ref = bvh.child[node * W + s];
-      int32_t* out = &im.boxes[(node * W + s) * 12];
-      if (ref == kEmptyChild) continue;
-      if (is_leaf(ref)) {
-        bounds_of_leaf(ref, out);
-        continue;
-      }
-      if (size_t(ref) <= node) throw std::logic_error("motion BVH: a child node before its parent");
-      for (int k = 0; k < 2; ++k)
-        for (int a = 0; a < 3; ++a) {
-          out[6 * k + a] = INT32_MAX;
-          out[6 * k + 3 + a] = INT32_MIN;
-        }
-      for (size_t c = 0; c < W; ++c) {
-        if (bvh.child[size_t(ref) * W + c] == kEmptyChild) continue;
-        const int32_t* in = &im.boxes[(size_t(ref) * W + c) * 12];
-        for (int k = 0; k < 2; ++k)
-          for (int a = 0; a < 3; ++a) {
-            out[6 * k + a] = std::min(out[6 * k + a], in[6 * k + a]);
-            out[6 * k + 3 + a] = std::max(out[6 * k + 3 + a], in[6 * k + 3 + a]);
-          }
-      }
-    }
-  }
+  sweep_motion_boxes(bvh.child, bvh.width, bounds_of_leaf, im.boxes);
   return im;
 }
 
 namespace {
-
-// Rounds a double to a float no greater (down) or no smaller (up) than it.
-float round_out(double x, bool up) {
-  float f = float(x);
-  if (up ? double(f) < x : double(f) > x) f = std::nextafter(f, up ? INFINITY : -INFINITY);
-  return f;
-}
 
 struct FloatClosest {
   float tmax;
@@ -237,18 +236,12 @@ struct MotionFloatPolicy {
 
   int expand(uint32_t node, uint32_t refs[N], float dists[N], int& tested) const {
     int k = 0;
-    const double w = time, r = 1.0 - w;
     for (int i = 0; i < N; ++i) {
       const size_t slot = size_t(node) * N + size_t(i);
       if (b.child[slot] == kEmptyChild) continue;
       ++tested;
-      const Aabb& b0 = b.key_box[0][slot];
-      const Aabb& b1 = b.key_box[1][slot];
       float lo[3], hi[3];
-      for (int a = 0; a < 3; ++a) {
-        lo[a] = round_out(r * b0.lo[a] + w * b1.lo[a], false);
-        hi[a] = round_out(r * b0.hi[a] + w * b1.hi[a], true);
-      }
+      b.box_at(slot, time, lo, hi);
       float t;
       if (intersect_box(lo, hi, rp, tmin, c.tmax, t)) {
         refs[k] = b.child[slot];
@@ -378,37 +371,20 @@ struct MotionFixedPolicy {
   }
 };
 
-// Calls f(std::integral_constant<int, N>) for the image's width.
-template <class F>
-void with_width(int width, F&& f) {
-  switch (width) {
-    case 2:
-      return f(std::integral_constant<int, 2>{});
-    case 4:
-      return f(std::integral_constant<int, 4>{});
-    case 6:
-      return f(std::integral_constant<int, 6>{});
-    case 8:
-      return f(std::integral_constant<int, 8>{});
-    default:
-      throw std::invalid_argument("motion BVH width must be 2, 4, 6 or 8");
-  }
-}
+}  // namespace
 
-bool count_invalid(const Ray& r, float time, TraversalStats& s) {
+bool reject_motion_ray(const Ray& r, float time, TraversalStats& s) {
   RayStatus status = validate_ray(r);
   if (status == RayStatus::kOk && !valid_shutter_time(time)) status = RayStatus::kNanInterval;
   return s.rejected(status);
 }
 
-}  // namespace
-
 Hit MotionFloatTracer::trace(const Ray& r, float time, bool any_hit, TraversalStats& s) const {
-  if (count_invalid(r, time, s)) return Hit{};
+  if (reject_motion_ray(r, time, s)) return Hit{};
   ++s.rays;
   const RayPrecomp rp(r);
   FloatClosest c{r.tmax};
-  with_width(m_bvh.width, [&](auto n) {
+  with_motion_width(m_bvh.width, [&](auto n) {
     MotionFloatPolicy<decltype(n)::value> p{m_geom, m_bvh, rp, time, r.tmin, any_hit, c, s};
     traverse(p, m_bvh.root_ref, any_hit, s);
   });
@@ -442,13 +418,13 @@ Hit MotionFixedTracer::trace_recorded(const Ray& r, float time, bool any_hit, Tr
 
 Hit MotionFixedTracer::trace_impl(const Ray& r, float time, bool any_hit, TraversalStats& s,
                                   std::vector<TraceEvent>* rec, bool shader) const {
-  if (count_invalid(r, time, s)) return Hit{};
+  if (reject_motion_ray(r, time, s)) return Hit{};
   FixedRay fr;
   if (s.rejected(setup_ray(r, m_image.frame, m_image.format, fr))) return Hit{};
   ++s.rays;
   const uint32_t tq = quantize_time(time, m_image.motion.time_bits);
   FixedClosest c{fr.tmax};
-  with_width(m_image.width, [&](auto n) {
+  with_motion_width(m_image.width, [&](auto n) {
     MotionFixedPolicy<decltype(n)::value> p{
         m_image, fr, box_time(tq, m_image.motion), tq, m_check, any_hit, c, s, rec, shader};
     traverse(p, m_image.root_ref, any_hit, s);

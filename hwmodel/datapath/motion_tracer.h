@@ -9,7 +9,10 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "hwmodel/datapath/fixed_tracer.h"
@@ -95,6 +98,13 @@ inline CurveRecord motion_curve(const int64_t key[16], uint32_t round, uint32_t 
   return c;
 }
 
+// Fills `boxes` (12 a child slot, motion_box's key) bottom up over a motion BVH's child array: a leaf slot's from
+// leaf(ref, out), an inner slot's the union of its child node's slots. Children must follow their parent (the
+// builder's order; std::logic_error otherwise).
+void sweep_motion_boxes(const std::vector<uint32_t>& child, int width,
+                        const std::function<void(uint32_t ref, int32_t out[12])>& leaf,
+                        std::vector<int32_t>& boxes);
+
 // The fixed-point image of a moving scene: the frame over both key frames, grid vertices and grid boxes at both.
 struct MotionImage {
   FixedFormat format;
@@ -124,6 +134,27 @@ struct MotionImage {
                             const MotionFormat& m);
   uint64_t node_count() const { return child.size() / uint64_t(width); }
 };
+
+// Counts a ray that is invalid (validate_ray) or whose shutter time is not in [0, 1] (as kNanInterval) in s's
+// rejections; true when it is.
+bool reject_motion_ray(const Ray& r, float time, TraversalStats& s);
+
+// Calls f(std::integral_constant<int, N>) for a motion BVH's width N; std::invalid_argument for another width.
+template <class F>
+void with_motion_width(int width, F&& f) {
+  switch (width) {
+    case 2:
+      return f(std::integral_constant<int, 2>{});
+    case 4:
+      return f(std::integral_constant<int, 4>{});
+    case 6:
+      return f(std::integral_constant<int, 6>{});
+    case 8:
+      return f(std::integral_constant<int, 8>{});
+    default:
+      throw std::invalid_argument("motion BVH width must be 2, 4, 6 or 8");
+  }
+}
 
 // Shutter times of a batch: empty (every ray at time 0) or one per ray. Throws std::invalid_argument naming the
 // first ray whose time is not in [0, 1].

@@ -125,9 +125,17 @@ struct MotionBvh {
   std::vector<uint32_t> prim_ids;  // leaf order -> triangle index
   Aabb key_bounds[2];              // the whole scene at each key frame
   uint64_t nodes() const { return child.size() / uint64_t(width); }
+  // Child slot `slot`'s box at shutter time `time`: its key boxes interpolated in double, rounded outward to
+  // float.
+  void box_at(size_t slot, float time, float lo[3], float hi[3]) const;
 
   // Throws std::invalid_argument for an empty scene, an invalid one (validate) or bad parameters.
   static MotionBvh build(const MotionGeometry& g, const BvhBuildParams& params = {});
+  // The same over items given by their boxes at both key frames (instances with two transforms,
+  // motion_instances.h): the topology over each item's union of both. Throws std::invalid_argument for no items,
+  // sizes that differ, an empty or non-finite box, or bad parameters.
+  static MotionBvh build(const std::vector<Aabb>& key0, const std::vector<Aabb>& key1,
+                         const BvhBuildParams& params = {});
 };
 
 }  // namespace rtu::hw

@@ -114,4 +114,64 @@ bool EmbreeMotionScene::occluded(const hw::Ray& r, float time) const {
   return ray.tfar < 0.0f;  // Embree sets tfar to -inf on a hit
 }
 
+EmbreeMotionInstances::EmbreeMotionInstances(const hw::MotionInstanceSet& s, const char* config) : m_set(s) {
+  m_device = rtcNewDevice(config);
+  if (!m_device) throw std::runtime_error("Embree: rtcNewDevice failed");
+  for (const hw::Geometry& g : s.set.meshes) {
+    if (!g.spheres.empty() || !g.curves.empty())
+      throw std::invalid_argument("EmbreeMotionInstances: meshes of triangles only");
+    RTCScene mesh = rtcNewScene(m_device);
+    RTCGeometry geom = rtcNewGeometry(m_device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    const size_t n = g.triangles.size();
+    auto* v = static_cast<float*>(
+        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3 * n));
+    for (size_t i = 0; i < n; ++i) {
+      const hw::Triangle& t = g.triangles[i];
+      const hw::Vec3* p[3] = {&t.v0, &t.v1, &t.v2};
+      for (int j = 0; j < 3; ++j)
+        for (int a = 0; a < 3; ++a) v[9 * i + size_t(3 * j + a)] = (*p[j])[a];
+    }
+    auto* idx = static_cast<unsigned*>(
+        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), n));
+    for (size_t i = 0; i < 3 * n; ++i) idx[i] = unsigned(i);
+    rtcCommitGeometry(geom);
+    rtcAttachGeometryByID(mesh, geom, 0);
+    rtcReleaseGeometry(geom);
+    rtcSetSceneFlags(mesh, RTC_SCENE_FLAG_ROBUST);
+    rtcCommitScene(mesh);
+    m_meshes.push_back(mesh);
+  }
+  m_scene = rtcNewScene(m_device);
+  for (uint32_t i = 0; i < s.set.instances.size(); ++i) {
+    RTCGeometry inst = rtcNewGeometry(m_device, RTC_GEOMETRY_TYPE_INSTANCE);
+    rtcSetGeometryInstancedScene(inst, m_meshes[s.set.instances[i].mesh]);
+    rtcSetGeometryTimeStepCount(inst, 2);
+    rtcSetGeometryTransform(inst, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, &s.set.instances[i].to_world.m[0][0]);
+    rtcSetGeometryTransform(inst, 1, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, &s.end[i].m[0][0]);
+    rtcCommitGeometry(inst);
+    rtcAttachGeometryByID(m_scene, inst, i);
+    rtcReleaseGeometry(inst);
+  }
+  rtcSetSceneFlags(m_scene, RTC_SCENE_FLAG_ROBUST);
+  rtcCommitScene(m_scene);
+}
+
+EmbreeMotionInstances::~EmbreeMotionInstances() {
+  rtcReleaseScene(m_scene);
+  for (RTCScene m : m_meshes) rtcReleaseScene(m);
+  rtcReleaseDevice(m_device);
+}
+
+hw::Hit EmbreeMotionInstances::intersect(const hw::Ray& r, float time) const {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  RTCRayHit rh{};
+  rh.ray = embree_ray(r, time);
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(m_scene, &ctx, &rh);
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hw::Hit{};
+  return hw::Hit{rh.ray.tfar, m_set.set.global_prim(rh.hit.instID[0], rh.hit.primID), rh.hit.u, rh.hit.v};
+}
+
 }  // namespace rtu::oracle

@@ -9,6 +9,9 @@
 
 #include <embree3/rtcore.h>
 
+#include <vector>
+
+#include "hwmodel/datapath/motion_instances.h"
 #include "hwmodel/interface/ray.h"
 #include "hwmodel/scene/motion.h"
 
@@ -28,6 +31,26 @@ class EmbreeMotionScene {
   RTCDevice m_device = nullptr;
   RTCScene m_scene = nullptr;
   unsigned m_triangles = 0, m_round = 0;  // triangles; triangles and spheres
+};
+
+// Instances with two transforms (hwmodel/datapath/motion_instances.h) as Embree 3's: each mesh's triangles a scene
+// of their own, each instance an RTC_GEOMETRY_TYPE_INSTANCE with two time steps (rtcSetGeometryTransform at steps
+// 0 and 1; Embree interpolates the matrices linearly, as rtu does). Meshes of triangles only. Hits in the
+// flattened numbering (InstanceSet::global_prim).
+class EmbreeMotionInstances {
+ public:
+  explicit EmbreeMotionInstances(const hw::MotionInstanceSet& s, const char* config = "threads=1");
+  ~EmbreeMotionInstances();
+  EmbreeMotionInstances(const EmbreeMotionInstances&) = delete;
+  EmbreeMotionInstances& operator=(const EmbreeMotionInstances&) = delete;
+
+  hw::Hit intersect(const hw::Ray& r, float time) const;
+
+ private:
+  const hw::MotionInstanceSet& m_set;
+  RTCDevice m_device = nullptr;
+  RTCScene m_scene = nullptr;
+  std::vector<RTCScene> m_meshes;
 };
 
 }  // namespace rtu::oracle

@@ -284,3 +284,63 @@ TEST_CASE("motion: moving curve segments agree with Embree's, and the fixed unit
   // As for triangles and spheres: hit/miss changes only within the fixed unit's roundings of a silhouette.
   CHECK(double(fixed_agree) >= 0.999 * double(rays.size()));
 }
+
+TEST_CASE("motion: instances with two transforms agree with Embree's, and the fixed unit with the float reference",
+          "[motion][instancing][embree]") {
+  const host::MotionInstanceScene scene = host::builtin_motion_instances(4);
+  const hw::MotionInstancedFloatTracer ours(scene.set);
+  const oracle::EmbreeMotionInstances embree(scene.set);
+  const hw::MotionGeometry flat = scene.set.flatten();  // numbers the triangles for cos_theta
+  host::MotionRays rays = host::motion_frame_rays(scene.camera, 320, 240, 2, 21);
+  hw::Aabb all;
+  for (uint32_t i = 0; i < scene.set.set.instances.size(); ++i)
+    for (int k = 0; k < 2; ++k) all.extend(scene.set.key_bounds(i, k));
+  const std::vector<hw::Ray> inc = host::incoherent_rays(all, 50000, 22);
+  hw::Pcg32 rng(23);
+  for (size_t i = 0; i < inc.size(); ++i) {
+    rays.rays.push_back(inc[i]);
+    rays.times.push_back(i % 101 == 0 ? float(i % 2) : rng.next_float());
+  }
+  std::vector<hw::Hit> hits, fixed;
+  hw::TraversalStats s;
+  ours.trace_batch(rays.rays, rays.times, hits, false, 0, s);
+  const hw::FixedFormat f = hw::format_preset("default");
+  hw::TracerOptions opt;
+  opt.bvh.width = f.width;
+  hw::MotionInstancedFixedTracer(scene.set, f, {}, opt).trace_batch(rays.rays, rays.times, fixed, false, 0, s);
+  uint64_t hit_miss = 0, t_off = 0, both = 0, fixed_hit_miss = 0;
+  double worst = 0.0;
+  for (size_t i = 0; i < hits.size(); ++i) {
+    const hw::Ray& r = rays.rays[i];
+    const hw::Hit e = embree.intersect(r, rays.times[i]);
+    fixed_hit_miss += fixed[i].hit() != hits[i].hit();
+    if (e.hit() != hits[i].hit()) {
+      ++hit_miss;
+      continue;
+    }
+    if (!e.hit()) continue;
+    ++both;
+    // As for static instances of similarities (test_embree.cpp: 64 eps S / cos): the interpolated transforms here
+    // stay similarities (a uniform scale and a turn about one axis, interpolated entrywise, are another such).
+    // Embree interpolates the matrix in float, two roundings an entry (2 eps of it), and inverts it in float:
+    // per tracer 3 x 2 eps S more per coordinate of the object ray, 18 eps S / cos at the hit; ours in double.
+    // 64 + 18 = 82: 96 used.
+    const double unit = kEps * scale_of(r, hits[i]) / cos_theta(flat, r, hits[i], rays.times[i]);
+    const double err = std::abs(double(hits[i].t) - double(e.t)) * glm::length(hw::DVec3(r.dir));
+    if (err > 96.0 * unit)
+      ++t_off;
+    else
+      worst = std::max(worst, err / unit);
+  }
+  std::printf(
+      "moving instances, float against Embree: %zu rays, %llu both hit, %llu hit/miss, %llu t beyond bound (worst "
+      "%.2f eps S/cos); fixed against float: %llu hit/miss\n",
+      hits.size(), (unsigned long long)both, (unsigned long long)hit_miss, (unsigned long long)t_off, worst,
+      (unsigned long long)fixed_hit_miss);
+  INFO(hits.size() << " rays, " << both << " both hit, " << hit_miss << " hit/miss, " << t_off << " t off");
+  CHECK(double(hit_miss) <= 1e-5 * double(hits.size()));
+  CHECK(double(t_off) <= 1e-5 * double(hits.size()));
+  CHECK(both > hits.size() / 4);
+  // The fixed unit: its grid is 2^-17 of the scene, far below a triangle of the balls; silhouette rays may differ.
+  CHECK(double(fixed_hit_miss) <= 1e-3 * double(hits.size()));
+}

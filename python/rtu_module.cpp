@@ -499,8 +499,10 @@ py::dict diff(const py::handle& a, const py::handle& b) {
 py::tuple motion(const py::object& scene, std::vector<float> move, int width, int height, int samples, int level,
                  float motion_scale, int time_bits, int box_time_bits, uint64_t seed, int threads,
                  const std::string& format, const std::string& config, const std::vector<std::string>& sets,
-                 const py::object& rays, const py::object& times) {
+                 const py::object& rays, const py::object& times, bool instances) {
   host::MotionJobOptions o;
+  if (instances && !scene.is_none()) fail("instances chooses the built-in moving instances (scene=None)");
+  o.instances = instances;
   if (rays.is_none() != times.is_none()) fail("rays and times go together (a shutter time for every ray)");
   if (!rays.is_none()) {
     const RaysIn in = rays_from_numpy(rays);
@@ -658,7 +660,7 @@ PYBIND11_MODULE(_rtu, m) {
   m.def("motion", &motion, py::arg("scene"), py::arg("move"), py::arg("width"), py::arg("height"),
         py::arg("samples"), py::arg("level"), py::arg("motion_scale"), py::arg("time_bits"),
         py::arg("box_time_bits"), py::arg("seed"), py::arg("threads"), py::arg("format"), py::arg("config"),
-        py::arg("sets"), py::arg("rays"), py::arg("times"));
+        py::arg("sets"), py::arg("rays"), py::arg("times"), py::arg("instances"));
   m.def(
       "read_png", [](const std::string& path) { return image_to_numpy(host::read_png(path)); }, py::arg("path"));
   m.def(

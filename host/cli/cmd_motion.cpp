@@ -18,6 +18,7 @@ struct MotionArgs {
   DeviceArgs dev;
   int width = 320, height = 240, samples = 4, level = 4;
   float motion_scale = 1.0f;
+  bool instances = false;
   std::string scene;
   std::vector<float> move;
   int time_bits = 16, box_time_bits = 6;
@@ -35,6 +36,7 @@ void run_motion(const MotionArgs& a) {
   o.level = a.level;
   o.motion_scale = a.motion_scale;
   o.scene = a.scene;
+  o.instances = a.instances;
   if (!a.move.empty()) o.move = hw::Vec3(a.move[0], a.move[1], a.move[2]);
   o.seed = a.seed;
   o.threads = a.threads;
@@ -52,10 +54,15 @@ void run_motion(const MotionArgs& a) {
   const std::string what = a.rays.empty() ? std::to_string(o.width) + "x" + std::to_string(o.height) + ", " +
                                                 std::to_string(o.samples) + " shutter times per pixel"
                                           : std::to_string(r.rays) + " rays of " + a.rays + " at times " + a.times;
+  const std::string name = !o.scene.empty() ? o.scene
+                           : o.instances    ? std::string("builtin moving instances")
+                                            : std::string("builtin motion");
+  if (r.instances > 0)
+    std::printf("instances    %llu, %llu of them with two transforms\n", (unsigned long long)r.instances,
+                (unsigned long long)r.moving_instances);
   std::printf("scene        %s: %llu triangles, %llu spheres, %llu curve segments, %llu moving; %s\n",
-              o.scene.empty() ? "builtin motion" : o.scene.c_str(), (unsigned long long)r.triangles,
-              (unsigned long long)r.spheres, (unsigned long long)r.curves, (unsigned long long)r.moving,
-              what.c_str());
+              name.c_str(), (unsigned long long)r.triangles, (unsigned long long)r.spheres,
+              (unsigned long long)r.curves, (unsigned long long)r.moving, what.c_str());
   std::printf("format       %s, %s\n", o.format.describe().c_str(), o.motion.describe().c_str());
   std::printf("fixed/float  %llu of %llu rays agree on hit/miss; of %llu hits on both, %llu on the same primitive",
               (unsigned long long)r.hits_agree, (unsigned long long)r.rays, (unsigned long long)r.both_hit,
@@ -106,6 +113,9 @@ void add_motion(CLI::App& app) {
               "--motion-scale applies to the built-in scene only (use --move with --scene)");
         if (!a.scene.empty() && sub.count("--level") > 0)
           throw CLI::ValidationError("--level applies to the built-in scene only");
+        if (!a.scene.empty() && a.instances)
+          throw CLI::ValidationError(
+              "--instances chooses the built-in moving instances; a scene with instances moves as instances");
         if (a.rays.empty() != a.times.empty())
           throw CLI::ValidationError("--rays and --times go together (a shutter time for every ray)");
         if (a.rays.empty() && !a.out.empty()) throw CLI::ValidationError("--out needs --rays");
@@ -118,8 +128,13 @@ void add_motion(CLI::App& app) {
   sub->add_option("--scene", a->scene,
                   "a scene of triangles to set in motion (scene file, mesh file or builtin:NAME; default: the "
                   "built-in moving scene)");
-  sub->add_option("--move", a->move, "with --scene: every triangle's move between the key frames, X Y Z (world)")
+  sub->add_option("--move", a->move,
+                  "with --scene: every triangle's move between the key frames, X Y Z (world); a scene with "
+                  "instances: every instance's (its transform at time 1 moved by it)")
       ->expected(3);
+  sub->add_flag(
+      "--instances", a->instances,
+      "the built-in moving instances: the balls as instances of one mesh, each placed by two transforms");
   add_format_args(*sub, a->dev);
   add_timing_args(*sub, a->dev);
   sub->add_option("--width", a->width, "image width")->check(CLI::Range(1, 8192))->capture_default_str();

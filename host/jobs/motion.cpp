@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -107,6 +108,104 @@ std::vector<float> read_shutter_times(const std::string& spec, size_t n, uint64_
   return t;
 }
 
+namespace {
+
+void count_agreement(const std::vector<hw::Hit>& fh, const std::vector<hw::Hit>& xh, MotionJobResult& r) {
+  for (size_t i = 0; i < fh.size(); ++i) {
+    r.hits_agree += fh[i].hit() == xh[i].hit();
+    r.both_hit += fh[i].hit() && xh[i].hit();
+    r.same_prim += fh[i].hit() && xh[i].hit() && fh[i].prim == xh[i].prim;
+  }
+}
+
+// Design d's figures from its timed run; the moving units' hits must be the fixed unit's.
+void fill_design(MotionDesign& m, int d, const hw::MotionTiming& t, const hw::TimingModel::Layout& l,
+                 const std::vector<hw::Hit>& xh) {
+  for (size_t i = 0; i < t.hits.size() && d > 0; ++i)
+    if (t.hits[i].t != xh[i].t)  // the same tests at the same times: the same closest t
+      throw std::logic_error("motion: a timed unit's hit differs from the fixed unit's");
+  m.unit = hw::MotionUnit(d);
+  m.cycles = t.cycles;
+  m.timing = t.timing;
+  m.traversal = t.traversal;
+  m.node_bytes = l.node_bytes;
+  m.image_bytes = l.total_bytes;
+}
+
+// The time-aware unit's box interpolators (all units) and, with `prims`, its triangle interpolators; their energy.
+void price_interpolators(const MotionJobOptions& o, MotionDesign& m, bool prims) {
+  const MotionInterpolators ip = motion_interpolators(o.format, o.motion.time_bits, o.motion.box_time_bits);
+  const hw::Technology& tech = hw::nangate45();
+  m.interp_mm2 = hw::logic_area_mm2(ip.box.nand2_eq * o.timing.box_rate * o.timing.box_units +
+                                        (prims ? ip.tri.nand2_eq * o.timing.tri_units : 0.0),
+                                    tech);
+  m.interp_pj = (double(m.traversal.box_tests) * ip.box.toggles_per_test +
+                 (prims ? double(m.traversal.prim_tests) * ip.tri.toggles_per_test : 0.0)) *
+                tech.pj_per_transition();
+}
+
+void finish_ratios(MotionJobResult& r) {
+  for (MotionDesign& m : r.designs)
+    m.ratio = double(m.cycles) / double(std::max<uint64_t>(1, r.designs[0].cycles));
+}
+
+// The job over instances with two transforms (the built-in moving instances, or a scene's instances moved):
+// two-level tracers, the static unit seeing every transform frozen at mid-shutter.
+MotionJobResult run_instances(const MotionJobOptions& o, const Scene* src) {
+  const MotionInstanceScene ms = src ? MotionInstanceScene{moving_instances(*src, o.move), src->camera, {}}
+                                     : builtin_motion_instances(o.level, o.motion_scale);
+  const MotionScene view{ms.set.flatten(), ms.camera, ms.balls};  // shading: triangles at the ray's time
+  const bool user = !o.rays.empty();
+  const MotionRays rays =
+      user ? MotionRays{o.rays, o.times} : motion_frame_rays(view.camera, o.width, o.height, o.samples, o.seed);
+  hw::TracerOptions opt;
+  opt.bvh.width = o.format.width;
+  MotionJobResult r;
+  r.triangles = view.geometry.triangles.size();
+  r.spheres = view.geometry.spheres.size();
+  r.curves = view.geometry.curves.size();
+  r.instances = ms.set.set.instances.size();
+  for (uint32_t i = 0; i < r.instances; ++i)
+    if (ms.set.moving(i)) {
+      ++r.moving_instances;
+      r.moving += ms.set.set.meshes[ms.set.set.instances[i].mesh].triangles.size();
+    }
+  r.rays = rays.rays.size();
+  const hw::MotionInstancedFixedTracer aware(ms.set, o.format, o.motion, opt);
+  std::vector<hw::Hit> fh, xh;
+  hw::TraversalStats fs, xs;
+  hw::MotionInstancedFloatTracer(ms.set, opt).trace_batch(rays.rays, rays.times, fh, false, o.threads, fs);
+  aware.trace_batch(rays.rays, rays.times, xh, false, o.threads, xs);
+  count_agreement(fh, xh, r);
+  if (!user) {
+    r.float_image = frame_image(view, rays, fh, o.width, o.height, o.samples);
+    r.fixed_image = frame_image(view, rays, xh, o.width, o.height, o.samples);
+  }
+  hw::MotionInstanceSet frozen = ms.set;
+  for (uint32_t i = 0; i < frozen.end.size(); ++i) {
+    const hw::AffineD mid = ms.set.at(i, 0.5);
+    for (int row = 0; row < 3; ++row)
+      for (int c = 0; c < 4; ++c) frozen.end[i].m[row][c] = float(mid.m[row][c]);
+    frozen.set.instances[i].to_world = frozen.end[i];
+  }
+  hw::MotionFormat whole = o.motion;
+  whole.box_time_bits = 0;
+  const hw::MotionInstancedFixedTracer still(frozen, o.format, o.motion, opt),
+      oblivious(ms.set, o.format, whole, opt);
+  const hw::MotionInstancedFixedTracer* units[3] = {&still, &aware, &oblivious};
+  for (int d = 0; d < 3; ++d) {
+    const hw::MotionTiming t =
+        hw::time_motion_instance_rays(*units[d], hw::MotionUnit(d), o.timing, rays.rays, rays.times);
+    fill_design(r.designs[d], d, t, hw::motion_instance_layout(*units[d], hw::MotionUnit(d)), xh);
+  }
+  price_interpolators(o, r.designs[1], false);
+  finish_ratios(r);
+  if (user) r.hits = std::move(xh);
+  return r;
+}
+
+}  // namespace
+
 MotionJobResult run_motion_job(const MotionJobOptions& o) {
   if (o.width < 1 || o.height < 1 || o.width > 8192 || o.height > 8192)
     throw std::invalid_argument("motion: width and height must be in 1..8192");
@@ -114,11 +213,13 @@ MotionJobResult run_motion_job(const MotionJobOptions& o) {
   o.motion.validate();
   o.timing.validate();
   hw::check_motion_config(o.timing);  // before the frames are traced
-  const MotionScene scene = o.loaded          ? moving_scene(*o.loaded, o.move)
-                            : o.scene.empty() ? builtin_motion_scene(o.level, o.motion_scale)
-                                              : moving_scene(load_scene(o.scene), o.move);
+  if (!o.rays.empty()) hw::validate_shutter_times(o.times, o.rays.size());
+  std::optional<Scene> own;
+  const Scene* src = o.loaded;
+  if (!src && !o.scene.empty()) src = &own.emplace(load_scene(o.scene));
+  if (o.instances || (src && src->instanced())) return run_instances(o, src);
+  const MotionScene scene = src ? moving_scene(*src, o.move) : builtin_motion_scene(o.level, o.motion_scale);
   const bool user = !o.rays.empty();
-  if (user) hw::validate_shutter_times(o.times, o.rays.size());
   const MotionRays rays =
       user ? MotionRays{o.rays, o.times} : motion_frame_rays(scene.camera, o.width, o.height, o.samples, o.seed);
   hw::BvhBuildParams bp;
@@ -137,60 +238,31 @@ MotionJobResult run_motion_job(const MotionJobOptions& o) {
   hw::TraversalStats fs, xs;
   flt.trace_batch(rays.rays, rays.times, fh, false, o.threads, fs);
   hw::MotionFixedTracer(aware).trace_batch(rays.rays, rays.times, xh, false, o.threads, xs);
-  for (size_t i = 0; i < fh.size(); ++i) {
-    r.hits_agree += fh[i].hit() == xh[i].hit();
-    r.both_hit += fh[i].hit() && xh[i].hit();
-    r.same_prim += fh[i].hit() && xh[i].hit() && fh[i].prim == xh[i].prim;
-  }
+  count_agreement(fh, xh, r);
   if (!user) {
     r.float_image = frame_image(scene, rays, fh, o.width, o.height, o.samples);
     r.fixed_image = frame_image(scene, rays, xh, o.width, o.height, o.samples);
   }
   // The three units. The static one sees the scene frozen at mid-shutter.
+  const hw::Geometry mid = scene.geometry.at(0.5f);
   hw::MotionGeometry frozen;
-  for (const hw::MotionTriangle& t : scene.geometry.triangles) {
-    const hw::Triangle m = t.at(0.5f);
-    frozen.triangles.push_back(hw::MotionTriangle{{m, m}});
-  }
-  for (const hw::MotionSphere& t : scene.geometry.spheres) {
-    const hw::Sphere m = t.at(0.5f);
-    frozen.spheres.push_back(hw::MotionSphere{{m.center, m.center}, {m.radius, m.radius}});
-  }
-  for (const hw::MotionCurve& t : scene.geometry.curves) {
-    const hw::CurveSegment m = t.at(0.5f);
-    frozen.curves.push_back(hw::MotionCurve{{m, m}});
-  }
+  for (const hw::Triangle& t : mid.triangles) frozen.triangles.push_back(hw::MotionTriangle{{t, t}});
+  for (const hw::Sphere& t : mid.spheres)
+    frozen.spheres.push_back(hw::MotionSphere{{t.center, t.center}, {t.radius, t.radius}});
+  for (const hw::CurveSegment& t : mid.curves) frozen.curves.push_back(hw::MotionCurve{{t, t}});
   const hw::MotionBvh frozen_bvh = hw::MotionBvh::build(frozen, bp);
   const hw::MotionImage still = hw::MotionImage::encode(frozen, frozen_bvh, o.format, o.motion);
   hw::MotionFormat whole = o.motion;
   whole.box_time_bits = 0;
   const hw::MotionImage oblivious = hw::MotionImage::encode(scene.geometry, bvh, o.format, whole);
   const hw::MotionImage* images[3] = {&still, &aware, &oblivious};
-  const MotionInterpolators ip = motion_interpolators(o.format, o.motion.time_bits, o.motion.box_time_bits);
-  const hw::Technology& tech = hw::nangate45();
   for (int d = 0; d < 3; ++d) {
-    MotionDesign& m = r.designs[d];
-    m.unit = hw::MotionUnit(d);
-    const hw::MotionTiming t = hw::time_motion_rays(*images[d], m.unit, o.timing, rays.rays, rays.times);
-    for (size_t i = 0; i < t.hits.size() && d > 0; ++i)
-      if (t.hits[i].t != xh[i].t)  // the same triangle tests at the same times: the same closest t
-        throw std::logic_error("motion: a timed unit's hit differs from the fixed unit's");
-    m.cycles = t.cycles;
-    m.timing = t.timing;
-    m.traversal = t.traversal;
-    const hw::TimingModel::Layout l = hw::motion_layout(*images[d], m.unit);
-    m.node_bytes = l.node_bytes;
-    m.image_bytes = l.total_bytes;
-    if (m.unit == hw::MotionUnit::kTimeAware) {
-      m.interp_mm2 = hw::logic_area_mm2(
-          ip.box.nand2_eq * o.timing.box_rate * o.timing.box_units + ip.tri.nand2_eq * o.timing.tri_units, tech);
-      m.interp_pj = (double(t.traversal.box_tests) * ip.box.toggles_per_test +
-                     double(t.traversal.prim_tests) * ip.tri.toggles_per_test) *
-                    tech.pj_per_transition();
-    }
+    const hw::MotionTiming t =
+        hw::time_motion_rays(*images[d], hw::MotionUnit(d), o.timing, rays.rays, rays.times);
+    fill_design(r.designs[d], d, t, hw::motion_layout(*images[d], hw::MotionUnit(d)), xh);
   }
-  for (MotionDesign& m : r.designs)
-    m.ratio = double(m.cycles) / double(std::max<uint64_t>(1, r.designs[0].cycles));
+  price_interpolators(o, r.designs[1], true);
+  finish_ratios(r);
   if (user) r.hits = std::move(xh);
   return r;
 }
@@ -199,7 +271,8 @@ Json motion_json(const MotionJobOptions& o, const MotionJobResult& r) {
   Json j;
   const bool builtin = o.scene.empty() && !o.loaded;
   j["scene"] = o.loaded  ? o.loaded->name
-               : builtin ? "builtin motion (level " + std::to_string(o.level) + ")"
+               : builtin ? std::string(o.instances ? "builtin moving instances" : "builtin motion") + " (level " +
+                               std::to_string(o.level) + ")"
                          : o.scene;
   if (!builtin) j["move"] = {o.move.x, o.move.y, o.move.z};
   if (o.rays.empty()) {
@@ -214,6 +287,10 @@ Json motion_json(const MotionJobOptions& o, const MotionJobResult& r) {
   j["spheres"] = r.spheres;
   j["curve_segments"] = r.curves;
   j["moving_primitives"] = r.moving;
+  if (r.instances > 0) {
+    j["instances"] = r.instances;
+    j["moving_instances"] = r.moving_instances;
+  }
   j["rays"] = r.rays;
   j["fixed_vs_float"] = {
       {"hit_miss_agree", r.hits_agree}, {"both_hit", r.both_hit}, {"same_triangle", r.same_prim}};

@@ -25,6 +25,10 @@ struct MotionJobOptions {
   // A scene to set in motion instead (load_scene's spec; empty: the built-in one): every triangle moved by `move`
   // between the key frames (moving_scene), seen by the scene's camera.
   std::string scene;
+  // The built-in moving instances (builtin_motion_instances: the balls as instances of one mesh, each placed by
+  // two transforms) instead of the built-in moving scene. A scene with instances is set in motion as instances
+  // (moving_instances: each instance's transform moved by `move`) whatever this says.
+  bool instances = false;
   const Scene* loaded = nullptr;  // or a scene already loaded (the Python module's); not owned
   hw::Vec3 move{0.0f};
   uint64_t seed = 1;
@@ -50,12 +54,13 @@ struct MotionDesign {
 
 struct MotionJobResult {
   uint64_t triangles = 0, spheres = 0, curves = 0, moving = 0, rays = 0;  // moving: key frames that differ
-  uint64_t hits_agree = 0;         // rays on which float and fixed agree on hit or miss
-  uint64_t both_hit = 0;           // rays that hit on both
-  uint64_t same_prim = 0;          // of those, the same triangle
-  Image float_image, fixed_image;  // the frame's (empty with the user's rays)
-  std::vector<hw::Hit> hits;       // the user's rays: the fixed unit's hits (the timed units' are the same)
-  MotionDesign designs[3];         // static, time-aware, time-oblivious
+  uint64_t instances = 0, moving_instances = 0;  // a scene of instances: instances, those with two transforms
+  uint64_t hits_agree = 0;                       // rays on which float and fixed agree on hit or miss
+  uint64_t both_hit = 0;                         // rays that hit on both
+  uint64_t same_prim = 0;                        // of those, the same triangle
+  Image float_image, fixed_image;                // the frame's (empty with the user's rays)
+  std::vector<hw::Hit> hits;  // the user's rays: the fixed unit's hits (the timed units' are the same)
+  MotionDesign designs[3];    // static, time-aware, time-oblivious
 };
 
 // Shutter times of n rays from a file: float32 a ray (any name but .csv), or CSV with a header "time" and a time a

@@ -95,6 +95,7 @@ class MotionInstancedFixedTracer {
 
   const InstancedFixedTracer& bottoms() const { return *m_bottoms; }
   const MotionFormat& motion() const { return m_motion; }
+  const FixedFormat& format() const { return m_format; }
   int width() const { return m_width; }
   uint64_t node_count() const { return m_child.size() / uint64_t(m_width); }
   uint32_t record_count() const { return uint32_t(m_prim_ids.size()); }

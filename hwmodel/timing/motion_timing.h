@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "hwmodel/datapath/motion_instances.h"
 #include "hwmodel/datapath/motion_tracer.h"
 #include "hwmodel/timing/timing_model.h"
 
@@ -28,14 +29,19 @@ const char* motion_unit_name(MotionUnit u);  // "static", "time-aware", "time-ob
 // clock, the triangle unit's a clock more for its wider product.
 // A sphere's center and radius and a curve segment's end points and radii are interpolated as a vertex is: the
 // triangle's clocks in the sphere and curve units.
+// An instance with two transforms (motion_instances.h): the transform unit interpolates the object -> world
+// transform (a multiply-add an entry, 1 clock) and inverts it: cofactors (2), determinant (1), its reciprocal (4,
+// as a ray setup's), the products and the translation (2): 10 clocks on every instance transform. This project's
+// estimate of such a unit, not a published figure.
 struct MotionInterpolationClocks {
   int box = 1;
   int triangle = 2;
   int round = 2;
+  int instance = 10;
 };
 
-// The configuration of unit u: c itself, or for the time-aware unit its box, triangle, sphere and curve latencies
-// plus the interpolation's clocks.
+// The configuration of unit u: c itself, or for the time-aware unit its box, triangle, sphere, curve and transform
+// latencies plus the interpolation's clocks.
 TimingConfig motion_timing_config(const TimingConfig& c, MotionUnit u, const MotionInterpolationClocks& k = {});
 
 // Bytes of one node and of one record in the image of unit u: a static node (the format's struct layout, as
@@ -62,5 +68,15 @@ struct MotionTiming {
 // recorded and replayed in chunks, so memory does not grow with the rays.
 MotionTiming time_motion_rays(const MotionImage& im, MotionUnit u, const TimingConfig& c,
                               const std::vector<Ray>& rays, const std::vector<float>& times, bool any_hit = false);
+
+// The layout of instances with two transforms on unit u: the top level's nodes (motion_node_bytes), its instance
+// records (40 bytes, the bottom level's address and one stored transform; on the time-aware unit both key
+// transforms), then every mesh's bottom image (as TimingModel::layout_of of a two-level scene).
+TimingModel::Layout motion_instance_layout(const MotionInstancedFixedTracer& t, MotionUnit u);
+// time_motion_rays over instances with two transforms: t built with box_time_bits 0 for the time-oblivious unit
+// (whose moving instances go to the shader for their transform, kAnyHit), no instance moving for the static one.
+MotionTiming time_motion_instance_rays(const MotionInstancedFixedTracer& t, MotionUnit u, const TimingConfig& c,
+                                       const std::vector<Ray>& rays, const std::vector<float>& times,
+                                       bool any_hit = false);
 
 }  // namespace rtu::hw

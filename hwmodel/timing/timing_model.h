@@ -132,6 +132,8 @@ class TimingModel final : private PendingWaiter {
   // (or `instance_bytes` each, when > 0: TimingConfig::instance_bytes), then each mesh's image, every image
   // starting on a 64-byte boundary (or `align`, when larger).
   static Layout layout_of(const InstancedFixedTracer& t, uint64_t align, uint64_t instance_bytes = 0);
+  // Places every mesh's image of t after `end` as layout_of(t, ...) does: bottoms and total_bytes of `top`.
+  static void append_bottoms(Layout& top, const InstancedFixedTracer& t, uint64_t end, uint64_t align);
   // `shared`: the memory behind the node cache when several units share it (a chip: TimedEngine with units > 1,
   // timed_engine.h); null: the unit's own. `unit`: the unit's index on the chip (where its slots' stacks spill).
   TimingModel(const TimingConfig& c, const Layout& layout, MemorySystem* shared = nullptr, uint32_t unit = 0);

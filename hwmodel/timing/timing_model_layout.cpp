@@ -63,7 +63,6 @@ TimingModel::Layout TimingModel::layout_of(const DeviceImage& image, uint64_t al
 
 TimingModel::Layout TimingModel::layout_of(const InstancedFixedTracer& t, uint64_t align,
                                            uint64_t instance_bytes) {
-  const uint64_t a = std::max<uint64_t>(64, align);
   auto up = [](uint64_t v, uint64_t to) { return (v + to - 1) / to * to; };
   Layout top = layout_of(t.top(), align);
   const ImageHeader& h = t.top().header();
@@ -74,7 +73,13 @@ TimingModel::Layout TimingModel::layout_of(const InstancedFixedTracer& t, uint64
   top.record_stride = align ? up(top.instance_bytes, align) : top.instance_bytes;
   const uint64_t planes = top.plane_stride ? top.plane_stride : sizeof(PlaneRecord);
   top.plane_offset = up(top.record_offset + uint64_t(h.record_count) * top.record_stride, align ? align : 8);
-  uint64_t end = top.plane_offset + uint64_t(h.plane_count) * planes;
+  append_bottoms(top, t, top.plane_offset + uint64_t(h.plane_count) * planes, align);
+  return top;
+}
+
+void TimingModel::append_bottoms(Layout& top, const InstancedFixedTracer& t, uint64_t end, uint64_t align) {
+  const uint64_t a = std::max<uint64_t>(64, align);
+  auto up = [](uint64_t v, uint64_t to) { return (v + to - 1) / to * to; };
   for (size_t m = 0; m < t.bottom_count(); ++m) {
     Layout b = layout_of(t.bottom(uint32_t(m)), align);
     const uint64_t base = up(end, a);
@@ -88,7 +93,6 @@ TimingModel::Layout TimingModel::layout_of(const InstancedFixedTracer& t, uint64
     top.bottoms.push_back(std::move(b));
   }
   top.total_bytes = end;
-  return top;
 }
 
 }  // namespace rtu::hw

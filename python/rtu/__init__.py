@@ -277,9 +277,11 @@ def render(scene, device="float", *, mode="raytrace", width=0, height=0, spp=1, 
 
 def motion(scene=None, *, move=(0.0, 0.0, 0.0), width=320, height=240, samples=4, level=4, motion_scale=1.0,
            time_bits=16, box_time_bits=6, seed=1, threads=0, format="default", config="rdna2", set=None,  # noqa: A002
-           rays=None, times=None):
-    """Motion blur, as `rtusim motion`: the built-in moving scene (scene None; level, motion_scale) or a scene of
-    triangles, spheres and curves moved by `move` between the key frames, on the float and fixed devices and timed
+           rays=None, times=None, instances=False):
+    """Motion blur, as `rtusim motion`: the built-in moving scene (scene None; level, motion_scale; instances=True:
+    the built-in moving instances, each placed by two transforms) or a scene of triangles, spheres and curves moved
+    by `move` between the key frames (a scene of instances: each instance's transform moved), on the float and
+    fixed devices and timed
     on a static, a time-aware and a time-oblivious unit. Returns (float image, fixed image, figures dict). With
     rays ((N, 8)) and times ((N,) shutter times in [0, 1]), as --rays and --times: those rays instead of the frame,
     and (None, None, figures dict, the fixed unit's hits)."""
@@ -294,7 +296,8 @@ def motion(scene=None, *, move=(0.0, 0.0, 0.0), width=320, height=240, samples=4
                        _int(level, "level"), _number(motion_scale, "motion_scale"), _int(time_bits, "time_bits"),
                        _int(box_time_bits, "box_time_bits"), _int(seed, "seed"), _int(threads, "threads"),
                        _str(format, "format", "a format spec such as 'default'"),
-                       _str(config, "config", "a timing preset name such as 'rdna2'"), sets, rays, times)
+                       _str(config, "config", "a timing preset name such as 'rdna2'"), sets, rays, times,
+                       bool(instances))
 
 
 def query(points, queries=None, *, radius, kind="radius", k=None, max_results=64, device="fixed", format="default",

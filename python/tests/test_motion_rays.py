@@ -35,3 +35,17 @@ def test_motion_rays_equal_the_cli(tmp_path):
         rtu.motion(scene, move=(0.2, 0, 0), rays=rays, times=times + 1.5)
     with pytest.raises(rtu.Error, match="one a ray"):
         rtu.motion(scene, move=(0.2, 0, 0), rays=rays, times=times[:10])
+
+
+def test_motion_instances_equal_the_cli(tmp_path):
+    p = subprocess.run([RTUSIM, "motion", "--instances", "--level", "2", "--width", "24", "--height", "16",
+                        "--samples", "1", "--image", tmp_path / "mi", "--json", tmp_path / "m.json"],
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    f, x, figures = rtu.motion(instances=True, level=2, width=24, height=16, samples=1)
+    s = json.loads((tmp_path / "m.json").read_text())
+    assert figures["moving_instances"] == s["moving_instances"] == 8
+    assert [d["cycles"] for d in figures["designs"]] == [d["cycles"] for d in s["designs"]]
+    assert np.array_equal(x, rtu.read_png(tmp_path / "mi_fixed.png"))
+    with pytest.raises(rtu.Error, match="scene=None"):
+        rtu.motion(rtu.load_scene("builtin:cornell"), instances=True)

@@ -6,10 +6,13 @@
 
 #include <cmath>
 
+#include "host/jobs/motion.h"
 #include "host/scene/motion_scene.h"
 #include "host/scene/ray_gen.h"
 #include "hwmodel/datapath/motion_instances.h"
 #include "hwmodel/numeric/rng.h"
+#include "hwmodel/timing/motion_timing.h"
+#include "tests/host/cli_checks.h"
 
 using namespace rtu;
 using hw::MotionFormat;
@@ -189,4 +192,70 @@ TEST_CASE("motion instances: bad sets are refused with the instance named", "[mo
       flt.trace(hw::Ray{hw::Vec3(0.0f, 4.0f, 14.0f), 0.0f, hw::Vec3(0, -0.2f, -1), INFINITY}, 1.5f, false, st)
           .hit());
   CHECK(st.rays == 0);
+}
+
+TEST_CASE("motion instances: timing never changes a hit, and each unit is priced as it is built",
+          "[motion][instancing][timing]") {
+  const host::MotionInstanceScene scene = host::builtin_motion_instances(2);
+  const host::MotionRays rays = host::motion_frame_rays(scene.camera, 48, 36, 2, 7);
+  const hw::FixedFormat f = hw::format_preset("default");
+  const hw::TracerOptions opt = bvh_options(f.width);
+  const hw::MotionInstancedFixedTracer aware(scene.set, f, {}, opt), oblivious(scene.set, f, {16, 0}, opt);
+  const hw::TimingConfig c = hw::timing_preset("rdna2");
+  std::vector<hw::Hit> want;
+  hw::TraversalStats s;
+  aware.trace_batch(rays.rays, rays.times, want, false, 1, s);
+  const hw::MotionTiming ta =
+      hw::time_motion_instance_rays(aware, hw::MotionUnit::kTimeAware, c, rays.rays, rays.times);
+  const hw::MotionTiming to =
+      hw::time_motion_instance_rays(oblivious, hw::MotionUnit::kTimeOblivious, c, rays.rays, rays.times);
+  for (size_t i = 0; i < want.size(); ++i) {
+    REQUIRE(ta.hits[i].t == want[i].t);
+    REQUIRE(to.hits[i].t == want[i].t);
+  }
+  // The time-aware unit transforms every instance with its interpolation's clocks and reads both key transforms;
+  // the time-oblivious one sends each moving instance it reaches to the shader and back.
+  CHECK(ta.timing.instance_transforms > 0);
+  CHECK(ta.timing.any_hit_requests == 0);
+  CHECK(to.timing.any_hit_requests > 0);
+  CHECK(to.timing.any_hit_requests <= to.timing.instance_transforms);
+  CHECK(hw::motion_instance_layout(aware, hw::MotionUnit::kTimeAware).instance_bytes >
+        hw::motion_instance_layout(oblivious, hw::MotionUnit::kTimeOblivious).instance_bytes);
+  CHECK(hw::motion_timing_config(c, hw::MotionUnit::kTimeAware).xform_latency > c.xform_latency);
+  // Refusals: the time-oblivious unit's boxes span the shutter; the static unit's instances do not move.
+  CHECK_THROWS_WITH(hw::time_motion_instance_rays(aware, hw::MotionUnit::kTimeOblivious, c, rays.rays, rays.times),
+                    Catch::Contains("box_time_bits 0"));
+  CHECK_THROWS_WITH(hw::time_motion_instance_rays(aware, hw::MotionUnit::kStatic, c, rays.rays, rays.times),
+                    Catch::Contains("must not move"));
+}
+
+TEST_CASE("rtusim motion --instances and a scene of instances set in motion", "[motion][instancing][cli]") {
+  const test::TempDir d("motion_instances");
+  const std::string prefix = (d.path / "mi").string(), json = (d.path / "mi.json").string();
+  const test::Run r = test::run_rtusim("motion --instances --width 40 --height 30 --samples 2 --level 2 --image " +
+                                       prefix + " --json " + json);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  CHECK(test::contains(r.output, "10, 8 of them with two transforms"));
+  const nlohmann::json j = test::read_json(json);
+  CHECK(j["instances"] == 10);
+  CHECK(j["moving_instances"] == 8);
+  CHECK(j["fixed_vs_float"]["hit_miss_agree"] == j["rays"]);
+  CHECK(j["designs"][2]["shader_calls"].get<uint64_t>() > 0);
+  CHECK(j["designs"][1]["ratio_to_static"].get<double>() < j["designs"][2]["ratio_to_static"].get<double>());
+  CHECK(host::read_png(prefix + "_fixed.png").width == 40);
+  // A mesh file whose node tree places meshes: every instance moved by --move.
+  const std::string j2 = (d.path / "engine.json").string();
+  REQUIRE(test::run_rtusim("motion --scene /usr/share/assimp/models"
+                           "/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb --move 20 0 0 --width 32 "
+                           "--height 24 --samples 1 --json " +
+                           j2)
+              .status == 0);
+  const nlohmann::json e = test::read_json(j2);
+  CHECK(e["instances"].get<uint64_t>() > 1);
+  CHECK(e["moving_instances"] == e["instances"]);
+  CHECK(e["moving_primitives"] == e["triangles"]);
+  test::check_refused(
+      {{"motion --instances --scene builtin:cornell", "--instances chooses the built-in"},
+       {"motion --scene " RTU_SOURCE_DIR "/scenes/instances.json --move 1 0 0", "hold no planes"}});
 }

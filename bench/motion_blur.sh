@@ -3,7 +3,7 @@
 # moving scene, timed on a static unit (the scene frozen at mid-shutter), a time-aware unit (boxes and vertices
 # interpolated in the unit) and a time-oblivious one (boxes over the whole shutter, moving triangles tested in the
 # shader at any_hit_latency), as the balls' moves are scaled; then the time-aware unit's cycles by the box unit's
-# time bits; then the time-oblivious unit by the shader's round trip.
+# time bits; then the time-oblivious unit by the shader's round trip; then the built-in moving instances.
 #
 #   bench/motion_blur.sh [RTUSIM] [WIDTH]
 #     RTUSIM  default build/default/rtusim;  WIDTH  default 320 (4:3, 4 shutter times per pixel);  CONFIG default
@@ -72,4 +72,13 @@ j = json.load(open(sys.argv[1]))
 d = j["designs"][2]
 print(f"| {sys.argv[2]} | {d['cycles']:,} | {d['ratio_to_static']:.2f}x |")
 PY
+done
+echo
+echo "### Instances with two transforms (rtusim motion --instances), by the size of the moves"
+echo
+echo "| motion scale | unit | cycles | vs static | nodes/ray | triangles/ray | shader calls | DRAM bytes |"
+echo "|---:|---|---:|---:|---:|---:|---:|---:|"
+for s in 1 0.1 0; do
+  run "inst$s" --instances --motion-scale "$s"
+  row "$tmp/inst$s.json" "$s"
 done

@@ -2,8 +2,8 @@
 # What opacity micromaps save the unit: a render of a scene with alpha-masked materials on the timed device,
 # without maps and with maps of each subdivision level (render --omm-level), with the maps' share of known
 # micro-triangles and bytes, the any-hit requests the unit still makes, the candidates the maps resolved, and the
-# cycles. The image must not change with the maps (the script checks it). Each lookup reads its state's line
-# through the node cache and waits omm_latency.
+# cycles, and the lookup's logic (one per triangle unit) and energy over the frame. The image must not change with
+# the maps (the script checks it). Each lookup reads its state's line through the node cache and waits omm_latency.
 #
 #   bench/omm_cost.sh [RTUSIM] [SCENE] [WIDTH]
 #     RTUSIM  default build/default/rtusim;  SCENE  default builtin:forest;  WIDTH  default 320 (4:3, 1 spp,
@@ -21,8 +21,8 @@ bench_need_count WIDTH "$width"
 bench_need_python
 bench_tmpdir
 height=$((width * 3 / 4))
-echo "| omm level | known micro-triangles | map bytes | any-hit requests | resolved by the maps (opaque / transparent) | cycles | cycles vs no maps |"
-echo "|---:|---:|---:|---:|---:|---:|---:|"
+echo "| omm level | known micro-triangles | map bytes | any-hit requests | resolved by the maps (opaque / transparent) | cycles | cycles vs no maps | lookup logic mm^2 | lookup energy nJ |"
+echo "|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
 first=""
 for lvl in "${levels[@]}"; do
   "$rtusim" render --scene "$scene" --device timed --config "$config" --omm-level "$lvl" \
@@ -44,7 +44,10 @@ m = j.get("micromaps")
 known = f"{100 * m['known']:.1f}%" if m else "-"
 size = f"{m['bytes']:,}" if m else "-"
 res = f"{unit.get('omm_opaque', 0):,} / {unit.get('omm_transparent', 0):,}"
+look = m["lookup"] if m else None
+area = f"{look['area_mm2']:.4f}" if look else "-"
+nj = f"{look['pj'] / 1000:.1f}" if look else "-"
 print(f"| {lvl if int(lvl) >= 0 else 'none'} | {known} | {size} | {t['any_hit_requests']:,} | {res} | "
-      f"{t['cycles']:,} | {t['cycles'] / t0['cycles']:.2f}x |")
+      f"{t['cycles']:,} | {t['cycles'] / t0['cycles']:.2f}x | {area} | {nj} |")
 PY
 done

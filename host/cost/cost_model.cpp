@@ -197,26 +197,43 @@ hw::CostInputs cost_inputs(const hw::FixedFormat& f, const hw::TimingConfig& c, 
   return in;
 }
 
-MotionInterpolators motion_interpolators(const hw::FixedFormat& f, int time_bits, int box_time_bits) {
+namespace {
+
+// A block of `muls` reference multiplies (32 x 32 bits) and `adds` reference adds (32 bits), its products and sums
+// scaled to their widths: area and toggles per operation from the synthesized reference operators (Horowitz's
+// figures where the tables lack them).
+hw::UnitCost fit_reference_ops(double muls, double adds, const std::string& what) {
   static const AreaTable area = AreaTable::shipped();
   static const ActivityTable activity = ActivityTable::shipped();
   const std::vector<ReferenceOp> ops = reference_ops(area, activity);
   const hw::Technology& t = hw::nangate45();
+  hw::UnitCost u;
+  double pj = 0.0;
+  for (const ReferenceOp& op : ops) {
+    const double n = op.key == "ref:mul32" ? muls : adds;
+    u.nand2_eq += n * (op.measured ? op.nand2_eq : op.horowitz_um2 / t.nand2_um2);
+    pj += n * (op.measured ? op.pj : op.horowitz_pj);
+  }
+  u.toggles_per_test = pj / t.pj_per_transition();
+  u.source = "fit: " + what + " x reference operators (" +
+             (ops[0].measured && ops[1].measured ? "synthesized" : "Horowitz ISSCC 2014") + ")";
+  return u;
+}
+
+}  // namespace
+
+MotionInterpolators motion_interpolators(const hw::FixedFormat& f, int time_bits, int box_time_bits) {
   const double b = f.coord_bits + 1.0;
   const auto fit = [&](double lanes, int bits) {
-    hw::UnitCost u;
-    double pj = 0.0;
-    for (const ReferenceOp& op : ops) {
-      const double n = op.key == "ref:mul32" ? lanes * b * bits / 1024.0 : lanes * b / 32.0;
-      u.nand2_eq += n * (op.measured ? op.nand2_eq : op.horowitz_um2 / t.nand2_um2);
-      pj += n * (op.measured ? op.pj : op.horowitz_pj);
-    }
-    u.toggles_per_test = pj / t.pj_per_transition();
-    u.source = std::string("fit: interpolation products x reference operators (") +
-               (ops[0].measured && ops[1].measured ? "synthesized" : "Horowitz ISSCC 2014") + ")";
-    return u;
+    return fit_reference_ops(lanes * b * bits / 1024.0, lanes * b / 32.0, "interpolation products");
   };
   return MotionInterpolators{fit(6.0, box_time_bits), fit(9.0, time_bits)};
+}
+
+hw::UnitCost omm_lookup_cost(int level) {
+  const double L = std::max(0, level);
+  return fit_reference_ops((L + 1.0) * (L + 2.0) / 1024.0, (4.0 * 24.0 + 2.0 * (2.0 * L + 1.0)) / 32.0,
+                           "lookup operators");
 }
 
 hw::CostInputs cost_inputs(const hw::FixedFormat& f, const hw::TimingConfig& c) {

@@ -39,6 +39,13 @@ struct MotionInterpolators {
 };
 MotionInterpolators motion_interpolators(const hw::FixedFormat& f, int time_bits, int box_time_bits);
 
+// The opacity micromap lookup of one triangle unit (hwmodel/format/micromap.h, micro_index), priced from the
+// reference operators as the interpolators are: the two barycentrics' truncations to `level` bits (a 24-bit
+// aligning shift each, priced as a 24-bit add), their fractions' sum and its compare with 1 (two 24-bit adds), the
+// row's base j (2N - j) (an (L + 1) x (L + 2)-bit product) and the index's sums (two (2L + 1)-bit adds).
+// toggles_per_test: per lookup. The state's fetch is the memory system's (timing-model.md).
+hw::UnitCost omm_lookup_cost(int level);
+
 // {technology, memory_type, area: {...mm^2, units: {box, tri}}, events: [{key, count, pj_each, pj}], total_pj,
 // pj_per_ray, rays_per_joule, watts}
 Json energy_json(const hw::EnergyReport& e, const hw::TimingConfig& c, const hw::CostInputs& in);

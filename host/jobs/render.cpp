@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "firmware/render_scene.h"
+#include "host/cost/cost_model.h"
 #include "host/cost/timing_json.h"
 #include "host/devices/firmware_device.h"
 #include "host/devices/grid_check.h"
@@ -642,6 +643,18 @@ Json render_json(const RenderResult& r, const RenderOptions& o) {
                       {"known", double(m.opaque + m.transparent) / double(m.micro_triangles)},
                       {"two_state", m.two_state},
                       {"bytes", r.micromap_bytes}};
+    // The lookup's logic, one in each triangle unit (host::omm_lookup_cost), and on the timed device its energy.
+    const hw::UnitCost c = omm_lookup_cost(o.omm_level);
+    const hw::Technology& tech = hw::nangate45();
+    Json l = {{"nand2_eq", c.nand2_eq},
+              {"area_mm2", hw::logic_area_mm2(c.nand2_eq * o.device.timing.tri_units, tech)},
+              {"pj_each", c.toggles_per_test * tech.pj_per_transition()},
+              {"source", c.source}};
+    if (r.timed) {
+      l["lookups"] = r.timing.omm_lookups;
+      l["pj"] = double(r.timing.omm_lookups) * c.toggles_per_test * tech.pj_per_transition();
+    }
+    j["micromaps"]["lookup"] = l;
   }
   if (r.fw.sorted) j["sort"] = sort_stats_json(r.fw.sort, hw::name_of(o.device.timing.ray_sort));
   j["paths"] = r.fw.paths;

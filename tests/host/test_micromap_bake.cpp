@@ -8,6 +8,7 @@
 #include <random>
 #include <vector>
 
+#include "host/cost/cost_model.h"
 #include "host/devices/direct_device.h"
 #include "host/jobs/trace_job.h"
 #include "host/scene/micromap_bake.h"
@@ -15,6 +16,7 @@
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"
 #include "hwmodel/timing/timing_config.h"
+#include "tests/host/cli_checks.h"
 
 using namespace rtu;
 
@@ -158,4 +160,27 @@ TEST_CASE("micromaps: trace --omm-level bakes them for the fixed device, not the
       CHECK(mapped.stats.any_hit_calls == plain.stats.any_hit_calls);
     }
   }
+}
+
+TEST_CASE("micromaps: the render's stats price the lookup: its logic by level, its energy by the lookups made",
+          "[micromap][alpha][energy]") {
+  const test::TempDir d("omm_cost");
+  double area[2] = {0.0, 0.0};
+  for (int k = 0; k < 2; ++k) {
+    const std::string stats = (d.path / ("s" + std::to_string(k) + ".json")).string();
+    const test::Run r =
+        test::run_rtusim("render --scene builtin:forest --device timed --config rdna2 --omm-level " +
+                         std::to_string(k == 0 ? 2 : 6) + " --width 32 --height 24 --max-depth 1 --out " +
+                         (d.path / "f.png").string() + " --stats " + stats);
+    INFO(r.output);
+    REQUIRE(r.status == 0);
+    const nlohmann::json l = test::read_json(stats)["micromaps"]["lookup"];
+    area[k] = l["area_mm2"].get<double>();
+    CHECK(area[k] > 0.0);
+    CHECK(l["lookups"].get<uint64_t>() > 0);
+    CHECK(l["pj"].get<double>() == Approx(l["lookups"].get<double>() * l["pj_each"].get<double>()));
+  }
+  // A finer map's index has wider products and sums.
+  CHECK(area[1] > area[0]);
+  CHECK(host::omm_lookup_cost(6).toggles_per_test > host::omm_lookup_cost(2).toggles_per_test);
 }

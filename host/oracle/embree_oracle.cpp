@@ -119,6 +119,7 @@ EmbreeScene::EmbreeScene(const hw::InstanceSet& set, const hw::Geometry& flat, c
     m.scene = rtcNewScene(m_device);
     rtcSetSceneFlags(m.scene, flags);
     attach(m_device, m.scene, g, m.tri_geom, m.sphere_geom);
+    if (!g.curves.empty()) m.curve_geom = attach_curves(m_device, m.scene, g);
     rtcCommitScene(m.scene);
     m_meshes.push_back(m);
   }
@@ -163,7 +164,9 @@ uint32_t EmbreeScene::prim_of(unsigned geom, unsigned prim, unsigned inst, bool&
   if (m_set) {
     const Mesh& m = m_meshes[m_set->instances[inst].mesh];
     const uint32_t ntri = uint32_t(m_set->meshes[m_set->instances[inst].mesh].triangles.size());
+    const uint32_t nsph = uint32_t(m_set->meshes[m_set->instances[inst].mesh].spheres.size());
     triangle = geom == m.tri_geom;
+    if (geom == m.curve_geom) return m_set->global_prim(inst, ntri + nsph + prim);
     return m_set->global_prim(inst, triangle ? prim : ntri + prim);
   }
   triangle = geom == m_tri_geom;
@@ -210,7 +213,8 @@ hw::Hit EmbreeScene::intersect(const hw::Ray& r) const {
   bool tri = false;
   const uint32_t prim = prim_of(rh.hit.geomID, rh.hit.primID, rh.hit.instID[0], tri);
   // Triangles: barycentrics; curve segments: u along the segment (ours is the s of the sphere the hit is on).
-  const bool curve = rh.hit.geomID == m_curve_geom;
+  const bool curve = m_set ? rh.hit.geomID == m_meshes[m_set->instances[rh.hit.instID[0]].mesh].curve_geom
+                           : rh.hit.geomID == m_curve_geom;
   return hw::Hit{rh.ray.tfar, prim, tri || curve ? rh.hit.u : 0.0f, tri ? rh.hit.v : 0.0f};
 }
 

@@ -42,7 +42,8 @@ class EmbreeScene {
 
   struct Mesh {
     RTCScene scene = nullptr;
-    unsigned tri_geom = RTC_INVALID_GEOMETRY_ID, sphere_geom = RTC_INVALID_GEOMETRY_ID;
+    unsigned tri_geom = RTC_INVALID_GEOMETRY_ID, sphere_geom = RTC_INVALID_GEOMETRY_ID,
+             curve_geom = RTC_INVALID_GEOMETRY_ID;
   };
   const hw::Geometry& m_geom;
   const hw::InstanceSet* m_set = nullptr;

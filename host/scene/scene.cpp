@@ -49,8 +49,6 @@ Scene load_mesh_scene(const std::string& path) {
   // Its lines, as strands of curve segments a thousandth of the file's size thick (a scene file's mesh entry
   // names the radius: `curve_radius`).
   if (!model.lines.empty()) {
-    if (!scene.instances.instances.empty())
-      throw Error(path + ": lines in a file whose node tree places a mesh more than once are not supported");
     hw::Aabb b = scene.geometry.bounds();
     for (const ImportedLine& l : model.lines) {
       b.extend(l.p0);
@@ -58,6 +56,13 @@ Scene load_mesh_scene(const std::string& path) {
     }
     add_lines(
         scene.geometry, model.lines, default_line_radius(b), [](const Vec3& v) { return v; }, path);
+    if (scene.instanced()) {  // two levels: the lines (world space) are one more mesh, under the identity
+      hw::Geometry loose;
+      loose.curves = scene.geometry.curves;
+      scene.instances.meshes.push_back(std::move(loose));
+      scene.instances.instances.push_back(hw::Instance{uint32_t(scene.instances.meshes.size() - 1), {}});
+      scene.instances.finish();
+    }
   }
   if (!model.materials.empty()) {  // the file's own materials
     scene.materials = std::move(model.materials);

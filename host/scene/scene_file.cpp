@@ -311,7 +311,7 @@ Scene load_scene_json(const nlohmann::ordered_json& root, const std::string& pat
                {"description", "camera", "textures", "materials", "meshes", "spheres", "curves", "planes",
                 "lights", "prototypes", "instances"});
 
-  Builder b{r, {}, {}, {}, {}, {}, {}, {}, std::vector<std::vector<uint32_t>>(1), {}, 0, {}, {}, {}, {}, {}};
+  Builder b{r, {}, {}, {}, {}, {}, {}, {}, std::vector<std::vector<uint32_t>>(1), {}, {}, {}, 0, {}, {}, {}, {}, {}};
   b.mesh_tri_uv.resize(1);
   b.scene.name = path;
   try {
@@ -354,6 +354,8 @@ Scene load_scene_json(const nlohmann::ordered_json& root, const std::string& pat
     set.finish();
     scene.geometry = set.flatten(scene.geometry.planes);
     b.tri_material.insert(b.tri_material.end(), b.instance_tri_material.begin(), b.instance_tri_material.end());
+    b.curve_material.insert(b.curve_material.end(), b.instance_curve_material.begin(),
+                            b.instance_curve_material.end());
     b.tri_uv.insert(b.tri_uv.end(), b.instance_tri_uv.begin(), b.instance_tri_uv.end());
   }
   // Texture coordinates only matter to textured materials.

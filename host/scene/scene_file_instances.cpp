@@ -40,8 +40,8 @@ void add_instance(Builder& b, uint32_t mesh, const Xform& x, const std::string& 
   if (!hw::invert(in.to_world, inv))
     r.fail(path, "the composed transform is not finite or is singular (in float)");
   const uint64_t before = b.instance_prims;
-  b.instance_prims += set.meshes[mesh].triangles.size();
-  if (b.instance_prims >= hw::kMaxBvhPrims) r.fail(path, "instances hold more than 2^27 - 1 triangles in all");
+  b.instance_prims += set.meshes[mesh].triangles.size() + set.meshes[mesh].curves.size();
+  if (b.instance_prims >= hw::kMaxBvhPrims) r.fail(path, "instances hold more than 2^27 - 1 primitives in all");
   // Each instance triangle takes its material and texture coordinates here and its world-space copy when the
   // scene is flattened: the flattened scene's budget (check_scene_size) is applied as the count grows, each time
   // it passes a multiple of 2^16 triangles (reading the limit is a file read), before that memory is taken.
@@ -57,6 +57,8 @@ void add_instance(Builder& b, uint32_t mesh, const Xform& x, const std::string& 
   b.instance_tri_material.insert(b.instance_tri_material.end(), mats.begin(), mats.end());
   const std::vector<TriangleUv>& uvs = b.mesh_tri_uv[mesh];
   b.instance_tri_uv.insert(b.instance_tri_uv.end(), uvs.begin(), uvs.end());
+  if (const auto it = b.mesh_curve_material.find(mesh); it != b.mesh_curve_material.end())
+    b.instance_curve_material.insert(b.instance_curve_material.end(), it->second.begin(), it->second.end());
 }
 
 // One instance entry at `path` under the transform `parent`, at nesting depth `depth` (1 at the top level).
@@ -110,9 +112,11 @@ void read_prototypes(Builder& b, const Json& j, const std::filesystem::path& bas
       hw::Geometry g;
       std::vector<uint32_t> mats;
       std::vector<TriangleUv> uvs;
-      read_mesh_entries(b, p["meshes"], join(path, "meshes"), base_dir, g.triangles, mats, uvs);
+      std::vector<uint32_t> curve_mats;
+      read_mesh_entries(b, p["meshes"], join(path, "meshes"), base_dir, g, mats, uvs, curve_mats);
       uvs.resize(g.triangles.size());
       proto.mesh = uint32_t(b.scene.instances.meshes.size());
+      if (!curve_mats.empty()) b.mesh_curve_material[proto.mesh] = std::move(curve_mats);
       b.scene.instances.meshes.push_back(std::move(g));
       b.mesh_tri_material.push_back(std::move(mats));
       b.mesh_tri_uv.push_back(std::move(uvs));

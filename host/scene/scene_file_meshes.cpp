@@ -142,8 +142,9 @@ Transform read_transform(const Reader& r, const Json& j, const std::string& path
 // With `keep_instances` (the scene's own "meshes"), a mesh file whose node tree places a mesh more than once is
 // kept two-level (Builder::instanced_files) instead of flattened into tris.
 void read_mesh_entries(Builder& b, const Json& j, const std::string& where, const std::filesystem::path& base_dir,
-                       std::vector<hw::Triangle>& tris, std::vector<uint32_t>& tri_material,
-                       std::vector<TriangleUv>& tri_uv, bool keep_instances) {
+                       hw::Geometry& g, std::vector<uint32_t>& tri_material, std::vector<TriangleUv>& tri_uv,
+                       std::vector<uint32_t>& curve_material, bool keep_instances) {
+  std::vector<hw::Triangle>& tris = g.triangles;
   const Reader& r = b.reader;
   r.array(j, where);
   for (size_t i = 0; i < j.size(); ++i) {
@@ -180,11 +181,8 @@ void read_mesh_entries(Builder& b, const Json& j, const std::string& where, cons
       if (m.contains("curve_radius") && model.lines.empty())
         r.fail(join(path, "curve_radius"), file.string() + " has no lines");
       if (!model.lines.empty()) {
-        // Its lines: strands of curve segments, after the triangles in the primitive order, of the entry's
-        // material (not the file's).
-        if (!model.instances.instances.empty())
-          r.fail(join(path, "file"),
-                 file.string() + ": lines in a file whose node tree places a mesh more than once");
+        // Its lines (in the file's world space, every placement of a line mesh flattened): strands of curve
+        // segments, after the triangles in the primitive order, of the entry's material (not the file's).
         const Transform t =
             m.contains("transform") ? read_transform(r, m["transform"], join(path, "transform")) : Transform{};
         hw::Aabb bounds;
@@ -198,11 +196,11 @@ void read_mesh_entries(Builder& b, const Json& j, const std::string& where, cons
                                                         : default_line_radius(bounds);
         try {
           add_lines(
-              b.scene.geometry, model.lines, radius, [&](const Vec3& v) { return t.apply(v); }, "lines");
+              g, model.lines, radius, [&](const Vec3& v) { return t.apply(v); }, "lines");
         } catch (const Error& e) {
           r.fail(join(path, "file"), e.what());
         }
-        b.curve_material.insert(b.curve_material.end(), model.lines.size(), material);
+        curve_material.insert(curve_material.end(), model.lines.size(), material);
         if (imported.empty()) continue;
       }
       if (keep_instances && !model.instances.instances.empty()) {
@@ -253,7 +251,7 @@ void read_mesh_entries(Builder& b, const Json& j, const std::string& where, cons
 }
 
 void read_meshes(Builder& b, const Json& j, const std::filesystem::path& base_dir) {
-  read_mesh_entries(b, j, "meshes", base_dir, b.scene.geometry.triangles, b.tri_material, b.tri_uv, true);
+  read_mesh_entries(b, j, "meshes", base_dir, b.scene.geometry, b.tri_material, b.tri_uv, b.curve_material, true);
 }
 
 }  // namespace rtu::host::scene_file_detail

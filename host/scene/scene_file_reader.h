@@ -157,6 +157,10 @@ struct Builder {
   std::map<std::string, Prototype> prototypes;
   std::vector<std::vector<uint32_t>> mesh_tri_material;
   std::vector<uint32_t> instance_tri_material;
+  // The curve segments' materials of prototype meshes with lines (by mesh), and of instance curves in instance
+  // order (after the loose curves' curve_material in the flattened scene).
+  std::map<uint32_t, std::vector<uint32_t>> mesh_curve_material;
+  std::vector<uint32_t> instance_curve_material;
   uint64_t instance_prims = 0;
   // Texture coordinates, as the materials: loose mesh triangles, per instance mesh, instance triangles.
   std::vector<TriangleUv> tri_uv;
@@ -188,14 +192,14 @@ struct Builder {
   }
 };
 
-// scene_file_meshes.cpp: a "transform" entry; "meshes" entries at `where` into tris, with their materials in
-// tri_material and texture coordinates in tri_uv. With `keep_instances` (the scene's own "meshes"), a mesh file
-// whose node tree places a mesh more than once is kept two-level (Builder::instanced_files) instead of flattened
-// into tris.
+// scene_file_meshes.cpp: a "transform" entry; "meshes" entries at `where` into g's triangles, with their
+// materials in tri_material and texture coordinates in tri_uv; a mesh file's lines into g's curve segments, their
+// materials in curve_material. With `keep_instances` (the scene's own "meshes"), a mesh file whose node tree
+// places a mesh more than once is kept two-level (Builder::instanced_files) instead of flattened into g.
 Transform read_transform(const Reader& r, const Json& j, const std::string& path);
 void read_mesh_entries(Builder& b, const Json& j, const std::string& where, const std::filesystem::path& base_dir,
-                       std::vector<hw::Triangle>& tris, std::vector<uint32_t>& tri_material,
-                       std::vector<TriangleUv>& tri_uv, bool keep_instances = false);
+                       hw::Geometry& g, std::vector<uint32_t>& tri_material, std::vector<TriangleUv>& tri_uv,
+                       std::vector<uint32_t>& curve_material, bool keep_instances = false);
 void read_meshes(Builder& b, const Json& j, const std::filesystem::path& base_dir);
 
 // scene_file_instances.cpp: instancing (scenes/README.md, "prototypes" and "instances"), and the mesh files kept

@@ -86,7 +86,7 @@ InstancedFixedTracer::InstancedFixedTracer(const InstanceSet& set, const Geometr
     AffineD inv;
     invert(in.to_world, inv);  // validate() has proven it invertible
     m_xforms.push_back(StoredXform::from_inverse(inv, f.xform_bits));
-    m_info.push_back(Info{in.mesh, in.tri_base, in.sphere_base});
+    m_info.push_back(Info{in.mesh, in.tri_base, in.sphere_base, in.curve_base});
     const Aabb b = set.world_bounds(i);
     if (b.empty()) continue;
     kept.push_back(b);
@@ -100,7 +100,22 @@ InstancedFixedTracer::InstancedFixedTracer(const InstanceSet& set, const Geometr
   make_tracers(trace_opt);
 }
 
+uint32_t InstancedFixedTracer::mesh_spheres(const DeviceImage& img) {
+  // The mesh's round records before the first curve segment's local index.
+  const ImageHeader& h = img.header();
+  uint32_t first_curve = h.num_triangles + h.num_spheres;
+  for (uint32_t r = 0; r < h.record_count; ++r)
+    if (record_kind(img.record(r)) == RecordKind::kCurve) {
+      uint32_t word;
+      std::memcpy(&word, img.record(r) + 36, 4);
+      first_curve = std::min(first_curve, word & kRecordPrimMask);
+    }
+  return first_curve >= h.num_triangles ? first_curve - h.num_triangles : 0;
+}
+
 void InstancedFixedTracer::make_tracers(const FixedTraceOptions& trace_opt) {
+  if (m_mesh_spheres.empty())
+    for (const auto& img : m_bottoms) m_mesh_spheres.push_back(mesh_spheres(*img));
   // A far origin moves to its mesh frame's grid box (inside the frame, so its setup succeeds).
   for (const auto& img : m_bottoms) {
     const QuantFrame q = img->frame();
@@ -176,6 +191,7 @@ std::vector<uint64_t> InstancedFixedTracer::encode() const {
     e.mesh = m_info[i].mesh;
     e.tri_base = m_info[i].tri_base;
     e.sphere_base = m_info[i].sphere_base;
+    e.curve_base = m_info[i].curve_base;
     std::memcpy(base + h.instance_offset + i * sizeof e, &e, sizeof e);
   }
   if (!meshes.empty()) std::memcpy(base + h.mesh_offset, meshes.data(), meshes.size() * sizeof(MeshEntry));
@@ -226,16 +242,20 @@ std::unique_ptr<InstancedFixedTracer> InstancedFixedTracer::from_bytes(const uin
     const ImageHeader& bh = t->m_bottoms.back()->header();
     if ((bh.flags & kImageTopLevel) || bh.plane_count != 0) bad_block(what + ": a top level, or planes");
   }
+  for (const auto& img : t->m_bottoms) t->m_mesh_spheres.push_back(mesh_spheres(*img));
   const uint64_t num_bounded = uint64_t(h.num_triangles) + h.num_spheres;
   for (uint32_t i = 0; i < h.instance_count; ++i) {
     InstanceEntry e;
     std::memcpy(&e, data + h.instance_offset + uint64_t(i) * sizeof e, sizeof e);
     const std::string what = "instance " + std::to_string(i);
-    if (e.mesh >= h.mesh_count || e.reserved != 0) bad_block(what + ": mesh out of range or reserved bits set");
+    if (e.mesh >= h.mesh_count) bad_block(what + ": mesh out of range");
     const ImageHeader& bh = t->m_bottoms[e.mesh]->header();
-    // Its triangles and spheres inside the flattened scene's: every hit it reports is numbered in range.
+    // Its triangles, spheres and curve segments inside the flattened scene's: every hit it reports is numbered in
+    // range.
+    const uint32_t ns = t->m_mesh_spheres[e.mesh], nc = bh.num_spheres - ns;
     if (uint64_t(e.tri_base) + bh.num_triangles > h.num_triangles || e.sphere_base < h.num_triangles ||
-        uint64_t(e.sphere_base) + bh.num_spheres > num_bounded)
+        uint64_t(e.sphere_base) + ns > num_bounded || e.curve_base < h.num_triangles ||
+        uint64_t(e.curve_base) + nc > num_bounded)
       bad_block(what + ": its primitives fall outside the flattened scene's");
     StoredXform x;
     std::memcpy(x.m, e.m, sizeof x.m);
@@ -244,7 +264,7 @@ std::unique_ptr<InstancedFixedTracer> InstancedFixedTracer::from_bytes(const uin
         if (!std::isfinite(v) || round_significant(v, h.xform_bits) != v)
           bad_block(what + ": a transform entry not finite or wider than xform_bits");
     t->m_xforms.push_back(x);
-    t->m_info.push_back(Info{e.mesh, e.tri_base, e.sphere_base});
+    t->m_info.push_back(Info{e.mesh, e.tri_base, e.sphere_base, e.curve_base});
   }
   // The top level's instance records name instances of the table.
   for (uint32_t r = 0; r < th.record_count; ++r) {

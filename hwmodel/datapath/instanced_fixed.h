@@ -16,8 +16,9 @@
 //
 // In device memory the two levels are one position-independent block (encode(), from_bytes()), which is what
 // BIND_SCENE names for an instanced scene: a TwoLevelHeader, the instance table (stored transform, mesh, the
-// instance's first flattened triangle and sphere), the mesh table (where each bottom image lies), the top image,
-// then the bottom images. Every image inside is an ordinary DeviceImage (device_image.h), checked as one.
+// instance's first flattened triangle, sphere and curve segment), the mesh table (where each bottom image lies),
+// the top image, then the bottom images. Every image inside is an ordinary DeviceImage (device_image.h), checked
+// as one.
 #pragma once
 
 #include <atomic>
@@ -57,7 +58,7 @@ struct StoredXform {
 };
 
 inline constexpr uint32_t kTwoLevelMagic = 0x32555452u;  // "RTU2" little-endian
-inline constexpr uint16_t kTwoLevelVersion = 1;
+inline constexpr uint16_t kTwoLevelVersion = 2;          // 2: curve_base in the instance table
 
 struct TwoLevelHeader {
   uint32_t magic;            // kTwoLevelMagic
@@ -81,7 +82,7 @@ struct InstanceEntry {
   uint32_t mesh;         // index into the mesh table
   uint32_t tri_base;     // flattened index of the instance's first triangle
   uint32_t sphere_base;  // flattened index of its first sphere
-  uint32_t reserved;     // 0
+  uint32_t curve_base;   // flattened index of its first curve segment
 };
 static_assert(sizeof(InstanceEntry) == 64);
 
@@ -161,17 +162,21 @@ class InstancedFixedTracer final : public BottomLevels {
   // bounds: m, t0 (o's t of m's origin); false when it misses the bounds.
   bool rebase(const Ray& o, uint32_t mesh, Ray& m, float& t0) const;
   InstancedFixedTracer() = default;
+  // A bottom image's spheres: its round records numbered before its first curve segment.
+  static uint32_t mesh_spheres(const DeviceImage& img);
   // The tracers over the images (after m_top, m_bottoms, m_xforms and m_info are set).
   void make_tracers(const FixedTraceOptions& trace_opt);
   // Flattened index of instance inst's primitive `local` (its mesh's: triangles, then spheres).
   uint32_t global_prim(uint32_t inst, uint32_t local) const {
     const Info& in = m_info[inst];
-    const uint32_t nt = m_bottoms[in.mesh]->header().num_triangles;
-    return local < nt ? in.tri_base + local : in.sphere_base + (local - nt);
+    const uint32_t nt = m_bottoms[in.mesh]->header().num_triangles, ns = m_mesh_spheres[in.mesh];
+    return local < nt        ? in.tri_base + local
+           : local < nt + ns ? in.sphere_base + (local - nt)
+                             : in.curve_base + (local - nt - ns);
   }
   class Stage;
   struct Info {
-    uint32_t mesh, tri_base, sphere_base;
+    uint32_t mesh, tri_base, sphere_base, curve_base;
   };
   FixedFormat m_format;
   Bvh m_top_bvh;
@@ -179,6 +184,7 @@ class InstancedFixedTracer final : public BottomLevels {
   std::unique_ptr<FixedTracer> m_top_tracer;
   std::vector<std::unique_ptr<DeviceImage>> m_bottoms;  // per mesh
   std::vector<Aabb> m_mesh_bounds;                      // per mesh: its frame's grid box, object space
+  std::vector<uint32_t> m_mesh_spheres;                 // per mesh: its spheres (its curve segments follow them)
   std::vector<StoredXform> m_xforms;                    // per instance
   std::vector<Info> m_info;                             // per instance
   std::vector<std::unique_ptr<Stage>> m_stages;         // per instance, when an any-hit stage is attached

@@ -85,6 +85,27 @@ void InstanceSet::finish() {
     in.sphere_base = sph;
     sph += in.mesh < meshes.size() ? uint32_t(meshes[in.mesh].spheres.size()) : 0;
   }
+  uint32_t cur = sph;
+  for (Instance& in : instances) {
+    in.curve_base = cur;
+    cur += in.mesh < meshes.size() ? uint32_t(meshes[in.mesh].curves.size()) : 0;
+  }
+}
+
+bool similarity_scale(const Affine& a, double& scale) {
+  // L L^T = s^2 I: rows of equal length, pairwise orthogonal, within 2^-20 of s^2 (float entries carry 2^-24).
+  double g[3][3];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      g[r][c] = double(a.m[r][0]) * a.m[c][0] + double(a.m[r][1]) * a.m[c][1] + double(a.m[r][2]) * a.m[c][2];
+  const double s2 = (g[0][0] + g[1][1] + g[2][2]) / 3.0;
+  if (!(s2 > 0.0) || !std::isfinite(s2)) return false;
+  const double tol = std::ldexp(s2, -20);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      if (!(std::fabs(g[r][c] - (r == c ? s2 : 0.0)) <= tol)) return false;
+  scale = std::sqrt(s2);
+  return true;
 }
 
 uint32_t InstanceSet::num_triangles() const {
@@ -115,10 +136,11 @@ void InstanceSet::validate() const {
     if (!invert(in.to_world, inv))
       throw std::invalid_argument(who + ": the transform is not finite or is singular");
     const Geometry& g = meshes[in.mesh];
-    if (!g.spheres.empty() && !in.to_world.is_identity())
-      throw std::invalid_argument(who + ": spheres may only be instanced with the identity transform");
-    if (!g.curves.empty() && !in.to_world.is_identity())
-      throw std::invalid_argument(who + ": curve segments may only be instanced with the identity transform");
+    double scale;
+    if ((!g.spheres.empty() || !g.curves.empty()) && !similarity_scale(in.to_world, scale))
+      throw std::invalid_argument(who +
+                                  ": spheres and curve segments may only be instanced with a similarity "
+                                  "transform (rotation, uniform scale, translation): they would not stay round");
     prims += g.num_bounded();
     if (prims >= kMaxBvhPrims) throw std::invalid_argument("instances hold more than 2^27 - 1 primitives in all");
     if (g.num_bounded() == 0) continue;
@@ -132,17 +154,13 @@ void InstanceSet::validate() const {
     if (in.tri_base != tri) throw std::invalid_argument("instance bases not set (InstanceSet::finish)");
     tri += uint32_t(meshes[in.mesh].triangles.size());
   }
-  // Curves follow every instance's spheres in the flattened scene, and an instance's round primitives are
-  // numbered from its sphere_base on (global_prim): so one instance alone may hold curves, and then spheres.
-  size_t with_curves = 0, with_round = 0;
+  uint32_t sph = tri, cur = num_triangles() + num_spheres();
   for (const Instance& in : instances) {
-    with_curves += !meshes[in.mesh].curves.empty();
-    with_round += !meshes[in.mesh].curves.empty() || !meshes[in.mesh].spheres.empty();
+    if (in.sphere_base != sph || in.curve_base != cur)
+      throw std::invalid_argument("instance bases not set (InstanceSet::finish)");
+    sph += uint32_t(meshes[in.mesh].spheres.size());
+    cur += uint32_t(meshes[in.mesh].curves.size());
   }
-  if (with_curves > 0 && with_round > 1)
-    throw std::invalid_argument(
-        "curve segments in an instance beside another instance's curves or spheres (curves and spheres are the "
-        "loose geometry of one instance)");
 }
 
 Aabb InstanceSet::world_bounds(uint32_t inst) const {
@@ -198,10 +216,22 @@ Geometry InstanceSet::flatten(const std::vector<Plane>& planes) const {
       for (uint32_t j = 0; j < m.triangles.size(); ++j) g.non_opaque.push_back(m.opaque(j) ? 0 : 1);
     }
   }
-  for (const Instance& in : instances)
-    for (const Sphere& s : meshes[in.mesh].spheres) g.spheres.push_back(s);  // identity transforms only
-  for (const Instance& in : instances)
-    for (const CurveSegment& c : meshes[in.mesh].curves) g.curves.push_back(c);  // likewise
+  // Round primitives under a similarity: centers and end points placed, radii scaled (both rounded to nearest).
+  for (const Instance& in : instances) {
+    const Affine& x = in.to_world;
+    double k = 1.0;
+    const bool id = x.is_identity() || !similarity_scale(x, k);  // validate() refuses the second
+    for (const Sphere& s : meshes[in.mesh].spheres)
+      g.spheres.push_back(id ? s : Sphere{x.point(s.center), float(k * s.radius)});
+  }
+  for (const Instance& in : instances) {
+    const Affine& x = in.to_world;
+    double k = 1.0;
+    const bool id = x.is_identity() || !similarity_scale(x, k);
+    for (const CurveSegment& c : meshes[in.mesh].curves)
+      g.curves.push_back(
+          id ? c : CurveSegment{x.point(c.p0), float(k * c.r0), x.point(c.p1), float(k * c.r1), c.flags});
+  }
   g.planes = planes;
   return g;
 }

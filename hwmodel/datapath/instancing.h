@@ -62,36 +62,45 @@ struct Instance {
   Affine to_world;           // object -> world
   uint32_t tri_base = 0;     // flattened index of its first triangle (set by InstanceSet::finish)
   uint32_t sphere_base = 0;  // flattened index of its first sphere
+  uint32_t curve_base = 0;   // flattened index of its first curve segment
 };
+
+// Whether a's linear part is a similarity (L L^T = s^2 I within 2^-20 of s^2: a rotation, maybe a reflection,
+// times a uniform scale), and its scale s. Spheres and curve segments stay round under a similarity, so they may
+// be instanced with one.
+bool similarity_scale(const Affine& a, double& scale);
 
 struct InstanceSet {
   std::vector<Geometry> meshes;  // object space; triangles, spheres and curve segments, no planes
   std::vector<Instance> instances;
 
-  // Sets every instance's tri_base and sphere_base (triangles of instance 0, 1, ..., then spheres in the same
-  // order). Call after filling meshes and instances.
+  // Sets every instance's tri_base, sphere_base and curve_base (triangles of instance 0, 1, ..., then spheres in
+  // the same order, then curve segments). Call after filling meshes and instances.
   void finish();
   // Throws std::invalid_argument naming the first problem: a mesh index out of range, a mesh with planes, a
-  // transform that is not finite or singular (invert), a sphere or curve segment under a transform other than the
-  // identity (it would be an ellipsoid), curve segments in an instance beside another instance's spheres or curves
-  // (the numbering below), a world coordinate beyond kMaxCoordinate, more than kMaxBvhPrims primitives.
+  // transform that is not finite or singular (invert), a sphere or curve segment under a transform that is not a
+  // similarity (similarity_scale: it would not stay round), a world coordinate beyond kMaxCoordinate, more than
+  // kMaxBvhPrims primitives, bases not set by finish().
   void validate() const;
 
   uint32_t num_triangles() const;
   uint32_t num_spheres() const;
   // Flattened index of instance i's primitive `local` (its mesh's index space: triangles, then spheres, then curve
-  // segments, which follow every sphere and so its own when it is the one instance with round primitives).
+  // segments).
   uint32_t global_prim(uint32_t inst, uint32_t local) const {
     const Instance& in = instances[inst];
-    const uint32_t nt = uint32_t(meshes[in.mesh].triangles.size());
-    return local < nt ? in.tri_base + local : in.sphere_base + (local - nt);
+    const Geometry& m = meshes[in.mesh];
+    const uint32_t nt = uint32_t(m.triangles.size()), ns = uint32_t(m.spheres.size());
+    return local < nt        ? in.tri_base + local
+           : local < nt + ns ? in.sphere_base + (local - nt)
+                             : in.curve_base + (local - nt - ns);
   }
   // World bounds of instance i: its mesh's bounds transformed (the eight corners, in double), rounded outward,
   // then widened by 2^-20 of its largest coordinate magnitude, for the rounding of transformed rays (each of
   // their coordinates within a few ulps of float, far below 2^-20).
   Aabb world_bounds(uint32_t inst) const;
-  // The flattened scene: every instance's primitives in world space (Affine::point), in the order above (curve
-  // segments after the spheres), then `planes`.
+  // The flattened scene: every instance's primitives in world space (Affine::point; a sphere's or curve segment's
+  // radius times the similarity's scale), in the order above, then `planes`.
   Geometry flatten(const std::vector<Plane>& planes) const;
 };
 

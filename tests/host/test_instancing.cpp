@@ -9,6 +9,7 @@
 #include "host/devices/device_settings.h"
 #include "host/devices/direct_device.h"
 #include "host/io/error.h"
+#include "host/io/json_io.h"
 #include "host/scene/ray_gen.h"
 #include "host/scene/scene.h"
 #include "hwmodel/datapath/instancing.h"
@@ -277,9 +278,13 @@ TEST_CASE("the hwmodel refuses instance sets it cannot trace", "[instancing][lim
   CHECK_THROWS_WITH(set.validate(), Catch::Matchers::Contains("not finite or is singular"));
   set.instances[0].to_world.m[1][1] = 1.0f;
   set.meshes[0].spheres.push_back({hw::Vec3(0), 1.0f});
-  set.instances[0].to_world.m[0][3] = 2.0f;
+  set.instances[0].to_world.m[0][3] = 2.0f;  // a translation keeps the sphere round
   set.finish();
-  CHECK_THROWS_WITH(set.validate(), Catch::Matchers::Contains("spheres may only be instanced with the identity"));
+  CHECK_NOTHROW(set.validate());
+  set.instances[0].to_world.m[0][0] = 3.0f;  // a scale along x alone would make it an ellipsoid
+  CHECK_THROWS_WITH(set.validate(),
+                    Catch::Matchers::Contains("may only be instanced with a similarity transform"));
+  set.instances[0].to_world.m[0][0] = 1.0f;
   set.instances[0].to_world.m[0][3] = 0.0f;
   set.meshes[0].planes.push_back({hw::Vec3(0, 1, 0), 0.0f});
   CHECK_THROWS_WITH(set.validate(), Catch::Matchers::Contains("has planes"));
@@ -417,4 +422,75 @@ TEST_CASE("a scene file's mesh entry keeps the file's placements as instances, u
     CHECK(a[i].prim == b.prim);
     CHECK(a[i].prim >= 2);
   }
+}
+
+TEST_CASE("lines of a mesh file whose node tree places meshes more than once: loose strands beside the instances",
+          "[scene][instancing][curve]") {
+  // A quad placed twice and a polyline of two segments placed twice (glTF LINES).
+  const std::filesystem::path dir = rtu::test::temp_dir("instancing") / "lines";
+  std::filesystem::create_directories(dir);
+  const float quad[12] = {-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0};
+  const uint16_t qidx[6] = {0, 1, 2, 0, 2, 3};
+  const float line[9] = {0, 0, 0, 0, 1, 0, 0.5f, 2, 0};
+  const uint16_t lidx[4] = {0, 1, 1, 2};
+  std::ofstream bin(dir / "m.bin", std::ios::binary);
+  bin.write(reinterpret_cast<const char*>(quad), sizeof quad);
+  bin.write(reinterpret_cast<const char*>(qidx), sizeof qidx);
+  bin.write(reinterpret_cast<const char*>(line), sizeof line);
+  bin.write(reinterpret_cast<const char*>(lidx), sizeof lidx);
+  bin.close();
+  std::ofstream(dir / "m.gltf") << R"({
+    "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0, 1, 2, 3]}],
+    "nodes": [{"mesh": 0}, {"mesh": 0, "translation": [4, 0, 0]},
+              {"mesh": 1, "translation": [0, 0, 1]}, {"mesh": 1, "translation": [3, 0, 1]}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]},
+               {"primitives": [{"attributes": {"POSITION": 2}, "indices": 3, "mode": 1}]}],
+    "buffers": [{"uri": "m.bin", "byteLength": 104}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48}, {"buffer": 0, "byteOffset": 48, "byteLength": 12},
+                    {"buffer": 0, "byteOffset": 60, "byteLength": 36}, {"buffer": 0, "byteOffset": 96, "byteLength": 8}],
+    "accessors": [
+      {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]},
+      {"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"},
+      {"bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [0.5, 2, 0]},
+      {"bufferView": 3, "componentType": 5123, "count": 4, "type": "SCALAR"}
+    ]
+  })";
+  const host::Scene s = host::load_scene((dir / "m.gltf").string());
+  REQUIRE(s.instanced());
+  REQUIRE(s.geometry.curves.size() == 4);  // two segments, placed twice, in world space
+  CHECK(s.geometry.curves[2].p0 == hw::Vec3(3, 0, 1));
+  // The two levels hold them as one more mesh under the identity, numbered after the triangles.
+  const hw::Instance& loose = s.instances.instances.back();
+  CHECK(s.instances.meshes[loose.mesh].curves.size() == 4);
+  CHECK(loose.curve_base == s.geometry.triangles.size());
+  // Rays at each segment's middle hit it, on both levels and every device.
+  std::vector<hw::Ray> rays;
+  for (const hw::CurveSegment& c : s.geometry.curves)
+    rays.push_back(hw::Ray{0.5f * (c.p0 + c.p1) + hw::Vec3(0, 0, 5), 0.0f, hw::Vec3(0, 0, -1),
+                           std::numeric_limits<float>::infinity()});
+  const hw::InstancedFloatTracer two(s.instances, s.geometry);
+  const std::vector<hw::Hit> a = instanced_trace(two, rays, false);
+  for (size_t i = 0; i < rays.size(); ++i) CHECK(a[i].prim == s.geometry.curve_prim(uint32_t(i)));
+  const hw::InstancedFixedTracer fixed(s.instances, s.geometry, hw::format_preset("default"), hw::TracerOptions{});
+  for (size_t i = 0; i < rays.size(); ++i) {
+    hw::TraversalStats st;
+    CHECK(fixed.trace(rays[i], false, st).prim == s.geometry.curve_prim(uint32_t(i)));
+  }
+}
+
+TEST_CASE("a prototype's mesh file with lines: each instance places its strands", "[scene][instancing][curve]") {
+  const std::filesystem::path dir = rtu::test::temp_dir("instancing") / "proto_lines";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "strands.obj")
+      << "v 0 0 0\nv 0 1 0\nv 0.2 2 0\nv 1 0 0\nv 1 1 0\nv 0 0 1\nv 1 0 1\nv 0 -1 1\n"
+         "l 1 2 3\nl 4 5\nf 6 7 8\n";
+  const std::string json = R"({"prototypes": {"p": {"meshes": [{"file": "strands.obj", "curve_radius": 0.05}]}},
+    "instances": [{"prototype": "p", "transform": {"translate": [10, 0, 0]}},
+                  {"prototype": "p", "transform": {"rotate": [0, 1, 0, 90], "scale": 2, "translate": [-10, 0, 0]}}]})";
+  const host::Scene s = host::load_scene_json(host::parse_json_limited(json, "p.json"), "p.json", dir.string());
+  REQUIRE(s.instanced());
+  REQUIRE(s.geometry.curves.size() == 6);  // 3 segments a placement
+  CHECK(s.geometry.curves[0].p0 == hw::Vec3(10, 0, 0));
+  CHECK(s.geometry.curves[3].r0 == 0.1f);  // the scaled placement's radius
+  CHECK(s.prim_material.size() == s.geometry.num_prims());
 }

@@ -34,6 +34,7 @@
 #include "host/scene/scene.h"
 #include "host/scene/shading.h"
 #include "hwmodel/datapath/float_tracer.h"
+#include "tests/common/round_prototypes.h"
 
 using namespace rtu;
 
@@ -193,6 +194,17 @@ TEST_CASE("float reference agrees with Embree: instances (scenes/instances.json,
   const hw::InstancedFloatTracer ours(scene.instances, scene.geometry);
   const oracle::EmbreeScene embree(scene.instances, scene.geometry);
   check_tracer(spec, scene, ours, embree, 1000000, 64.0);
+}
+
+TEST_CASE("float reference agrees with Embree: spheres and strands in prototypes under similarity transforms",
+          "[embree][float][curve][sphere]") {
+  // Every prototype mesh of scenes/instances.json with two spheres and two strands
+  // (tests/common/round_prototypes.h): each instance places its own, rotated and uniformly scaled. The bound is
+  // the instances' (64 eps S / cos; the curve unit of the top of this file where a strand is hit).
+  const host::Scene scene = test::round_prototypes_scene();
+  const hw::InstancedFloatTracer ours(scene.instances, scene.geometry);
+  const oracle::EmbreeScene embree(scene.instances, scene.geometry);
+  check_tracer("instances.json with round prototypes", scene, ours, embree, 200000, 64.0);
 }
 
 TEST_CASE("float reference agrees with Embree: alpha-tested cards (builtin:forest), both asking the any-hit stage",

@@ -2,6 +2,7 @@
 // static, a time-aware and a time-oblivious unit (host/jobs/motion.h).
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 
 #include "host/cli/common.h"
 #include "host/io/files.h"
@@ -44,7 +45,10 @@ void run_motion(const MotionArgs& a) {
   o.motion = hw::MotionFormat{a.time_bits, a.box_time_bits};
   o.timing = timing_config_from(a.dev.config, a.dev.sets);
   check_output_files({a.out, a.json});
-  if (!a.rays.empty()) {
+  if (!a.rays.empty() && !std::filesystem::exists(a.rays)) {  // generated rays, of the moving scene
+    o.ray_spec = a.rays;
+    o.time_spec = a.times;
+  } else if (!a.rays.empty()) {
     o.rays = read_rays(a.rays);
     o.times = read_shutter_times(a.times, o.rays.size(), a.seed);
   }
@@ -161,8 +165,9 @@ void add_motion(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--image", a->image, "write PREFIX_float.png and PREFIX_fixed.png");
   sub->add_option("--rays", a->rays,
-                  "trace this ray file (docs/file-formats.md) instead of the camera's frame, each ray at its "
-                  "--times shutter time, on the float and fixed units and the three timed units");
+                  "trace this ray file (docs/file-formats.md), or generated rays (primary[:N|:WxH], "
+                  "incoherent[:N]) of the moving scene, instead of the camera's frame, each ray at its --times "
+                  "shutter time, on the float and fixed units and the three timed units");
   sub->add_option("--times", a->times,
                   "with --rays: the rays' shutter times in [0, 1]: a file of float32 (one a ray) or CSV with a "
                   "header 'time', 'uniform' (random, --seed), or one number for every ray");

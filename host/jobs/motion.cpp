@@ -13,6 +13,7 @@
 #include "host/io/files.h"
 #include "host/io/ray_io.h"
 #include "host/scene/motion_scene.h"
+#include "host/scene/ray_spec.h"
 #include "hwmodel/numeric/rng.h"
 
 namespace rtu::host {
@@ -149,15 +150,31 @@ void finish_ratios(MotionJobResult& r) {
     m.ratio = double(m.cycles) / double(std::max<uint64_t>(1, r.designs[0].cycles));
 }
 
+// The rays of the job: the user's, generated ones (ray_spec, time_spec) of a scene of this camera and bounds, or
+// the camera's frame at stratified shutter times.
+MotionRays job_rays(const MotionJobOptions& o, const Camera& camera, const hw::Aabb& bounds) {
+  if (!o.rays.empty()) return MotionRays{o.rays, o.times};
+  if (o.ray_spec.empty()) return motion_frame_rays(camera, o.width, o.height, o.samples, o.seed);
+  Scene proxy;  // what rays_from_spec reads: the camera, and the bounds (one triangle spanning them)
+  proxy.camera = camera;
+  proxy.geometry.triangles.push_back(hw::Triangle{bounds.lo, bounds.hi, bounds.hi});
+  MotionRays r;
+  r.rays = rays_from_spec(o.ray_spec, proxy, o.seed);
+  r.times = read_shutter_times(o.time_spec, r.rays.size(), o.seed);
+  return r;
+}
+
 // The job over instances with two transforms (the built-in moving instances, or a scene's instances moved):
 // two-level tracers, the static unit seeing every transform frozen at mid-shutter.
 MotionJobResult run_instances(const MotionJobOptions& o, const Scene* src) {
   const MotionInstanceScene ms = src ? MotionInstanceScene{moving_instances(*src, o.move), src->camera, {}}
                                      : builtin_motion_instances(o.level, o.motion_scale);
   const MotionScene view{ms.set.flatten(), ms.camera, ms.balls};  // shading: triangles at the ray's time
-  const bool user = !o.rays.empty();
-  const MotionRays rays =
-      user ? MotionRays{o.rays, o.times} : motion_frame_rays(view.camera, o.width, o.height, o.samples, o.seed);
+  const bool user = o.user_rays();
+  hw::Aabb bounds;
+  for (uint32_t i = 0; i < ms.set.set.instances.size(); ++i)
+    for (int k = 0; k < 2; ++k) bounds.extend(ms.set.key_bounds(i, k));
+  const MotionRays rays = job_rays(o, view.camera, bounds);
   hw::TracerOptions opt;
   opt.bvh.width = o.format.width;
   MotionJobResult r;
@@ -219,9 +236,11 @@ MotionJobResult run_motion_job(const MotionJobOptions& o) {
   if (!src && !o.scene.empty()) src = &own.emplace(load_scene(o.scene));
   if (o.instances || (src && src->instanced())) return run_instances(o, src);
   const MotionScene scene = src ? moving_scene(*src, o.move) : builtin_motion_scene(o.level, o.motion_scale);
-  const bool user = !o.rays.empty();
-  const MotionRays rays =
-      user ? MotionRays{o.rays, o.times} : motion_frame_rays(scene.camera, o.width, o.height, o.samples, o.seed);
+  const bool user = o.user_rays();
+  hw::Aabb bounds;
+  for (uint32_t p = 0; p < scene.geometry.num_prims(); ++p)
+    for (int k = 0; k < 2; ++k) bounds.extend(scene.geometry.key_bounds(p, k));
+  const MotionRays rays = job_rays(o, scene.camera, bounds);
   hw::BvhBuildParams bp;
   bp.width = o.format.width;
   const hw::MotionBvh bvh = hw::MotionBvh::build(scene.geometry, bp);
@@ -275,7 +294,7 @@ Json motion_json(const MotionJobOptions& o, const MotionJobResult& r) {
                                std::to_string(o.level) + ")"
                          : o.scene;
   if (!builtin) j["move"] = {o.move.x, o.move.y, o.move.z};
-  if (o.rays.empty()) {
+  if (!o.user_rays()) {
     j["width"] = o.width;
     j["height"] = o.height;
     j["samples"] = o.samples;

@@ -40,6 +40,10 @@ struct MotionJobOptions {
   // images; the hits of the fixed unit in MotionJobResult::hits. Empty: the frame.
   std::vector<hw::Ray> rays;
   std::vector<float> times;
+  // Or generated rays (ray_spec.h's kinds: primary..., incoherent...) of the moving scene, its camera's or through
+  // its bounds over both key frames (seeded by `seed`), at shutter times time_spec (read_shutter_times).
+  std::string ray_spec, time_spec;
+  bool user_rays() const { return !rays.empty() || !ray_spec.empty(); }
 };
 
 struct MotionDesign {

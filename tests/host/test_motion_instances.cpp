@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <filesystem>
 
 #include "host/jobs/motion.h"
 #include "host/scene/motion_scene.h"
@@ -255,7 +256,16 @@ TEST_CASE("rtusim motion --instances and a scene of instances set in motion", "[
   CHECK(e["instances"].get<uint64_t>() > 1);
   CHECK(e["moving_instances"] == e["instances"]);
   CHECK(e["moving_primitives"] == e["triangles"]);
+  // Generated rays of the moving instances at uniform shutter times: the fixed unit's hits, one a ray.
+  const std::string hits = (d.path / "g.hits").string(), j3 = (d.path / "g.json").string();
+  REQUIRE(test::run_rtusim("motion --instances --level 2 --rays incoherent:500 --times uniform --out " + hits +
+                           " --json " + j3)
+              .status == 0);
+  CHECK(std::filesystem::file_size(hits) == 500 * sizeof(hw::Hit));
+  CHECK(test::read_json(j3)["rays"] == 500);
   test::check_refused(
       {{"motion --instances --scene builtin:cornell", "--instances chooses the built-in"},
+       {"motion --rays incoherent:10 --times 2", "not in [0, 1]"},
+       {"motion --rays nosuchfile.rays --times 0.5", "nosuchfile.rays"},
        {"motion --scene " RTU_SOURCE_DIR "/scenes/instances.json --move 1 0 0", "hold no planes"}});
 }

@@ -51,3 +51,29 @@ print(f"| {lvl if int(lvl) >= 0 else 'none'} | {known} | {size} | {t['any_hit_re
       f"{t['cycles']:,} | {t['cycles'] / t0['cycles']:.2f}x | {area} | {nj} |")
 PY
 done
+# A micromap cache of the maps' own (omm_cache_kib; CACHES, default "4 16 64" KiB) at the levels where the maps know
+# most, against the same frame without maps.
+read -r -a caches <<<"${CACHES:-4 16 64}"
+echo
+echo "With a micromap cache (omm_cache_kib) beside the node cache:"
+echo
+echo "| omm level | omm_cache_kib | any-hit requests | micromap cache hit rate | node cache hit rate | cycles | cycles vs no maps |"
+echo "|---:|---:|---:|---:|---:|---:|---:|"
+for lvl in 4 5 6; do
+  for kib in "${caches[@]}"; do
+    "$rtusim" render --scene "$scene" --device timed --config "$config" --omm-level "$lvl" \
+      --set "omm_cache_kib=$kib" --width "$width" --height "$height" --max-depth 2 --threads 1 \
+      --out "$tmp/c$lvl-$kib.png" --stats "$tmp/c$lvl-$kib.json" >/dev/null
+    if ! cmp -s "$tmp/$first.png" "$tmp/c$lvl-$kib.png"; then
+      echo "omm_cost.sh: the image changed with omm_cache_kib $kib" >&2
+      exit 1
+    fi
+    python3 - "$lvl" "$kib" "$tmp/c$lvl-$kib.json" "$tmp/$first.json" <<'PY'
+import json, sys
+lvl, kib, f, f0 = sys.argv[1:5]
+t, t0 = json.load(open(f))["timing"], json.load(open(f0))["timing"]
+print(f"| {lvl} | {kib} | {t['any_hit_requests']:,} | {t['omm_cache']['hit_rate']:.3f} | "
+      f"{t['cache']['hit_rate']:.3f} | {t['cycles']:,} | {t['cycles'] / t0['cycles']:.2f}x |")
+PY
+  done
+done

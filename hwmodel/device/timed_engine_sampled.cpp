@@ -32,6 +32,11 @@ void TimedEngine::set_sampling(const SampleOptions& o) {
   if (sample_step(o.fraction) >= 2 && m_c.prefetcher != PrefetcherId::kNone)
     throw std::invalid_argument("sampled timing: warming does not model prefetched lines; run prefetcher = " +
                                 std::string(name_of(m_c.prefetcher)) + " unsampled (no --sample)");
+  // The backward walk determines the node cache's lines only.
+  if (sample_step(o.fraction) >= 2 && m_c.omm_cache_kib > 0)
+    throw std::invalid_argument(
+        "sampled timing: its warming does not model the micromap cache; run omm_cache_kib = " +
+        std::to_string(m_c.omm_cache_kib) + " unsampled (no --sample)");
   // The gathering unit reorders a packet's rays across the units sampling measures one by one.
   if (sample_step(o.fraction) >= 2 && m_c.gather != GatherKey::kNone)
     throw std::invalid_argument("sampled timing: the units it measures do not model ray gathering; run gather = " +

@@ -20,6 +20,7 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
     : m_c((c.validate(), c)),
       m_layout(layout),
       m_cache(c),
+      m_omm_cache(omm_cache_config(c)),
       m_port(c.fetch_port_rate),
       m_own(shared ? nullptr : std::make_unique<MemorySystem>(c)),
       m_mem(shared ? shared : m_own.get()),
@@ -62,12 +63,20 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
   m_oriented = layout.node_cost == NodeCostClass::kOriented;
 }
 
+TimingConfig omm_cache_config(const TimingConfig& c) {
+  TimingConfig o = c;
+  o.cache_kib = c.omm_cache_kib;
+  o.prefetch_buffer = 0;
+  return o;
+}
+
 uint64_t TimingModel::state_bytes(const TimingConfig& c, bool walk) {
   // Per slot: the slot, its place in the queue, the free list, the age list and the waiting requests (a few
   // words each); the admission record per queued ray; a gathered ray's entry and bin (a few words).
   const uint64_t slots = uint64_t(c.ray_slots);
-  return NodeCache::state_bytes(c, walk) + slots * (sizeof(Slot) + 8 * sizeof(uint64_t)) +
-         uint64_t(c.queue_depth) * sizeof(uint64_t) + uint64_t(c.gather_buffer) * 8 * sizeof(uint64_t);
+  return NodeCache::state_bytes(c, walk) + NodeCache::state_bytes(omm_cache_config(c), false) +
+         slots * (sizeof(Slot) + 8 * sizeof(uint64_t)) + uint64_t(c.queue_depth) * sizeof(uint64_t) +
+         uint64_t(c.gather_buffer) * 8 * sizeof(uint64_t);
 }
 
 // The observer's port: fills at the fetch's cycle, into this unit's cache, from its memory.
@@ -206,11 +215,23 @@ void TimingModel::for_each_line(const Layout& l, const TraceEvent& e, F&& f) con
 }
 
 void TimingModel::warm(const std::vector<TraceEvent>* events, size_t m) {
-  if (!m_cache.enabled()) return;
+  if (!m_cache.enabled() && !m_omm_cache.enabled()) return;
   for (size_t i = 0; i < m; ++i)
     for_each_fetch<false>(events[i], [&](const Layout& l, const TraceEvent& e) {
-      for_each_line<false>(l, e, [&](uint64_t line) { m_cache.warm(line); });
+      NodeCache& c = e.kind == TraceEvent::kOmm && m_omm_cache.enabled() ? m_omm_cache : m_cache;
+      if (c.enabled()) for_each_line<false>(l, e, [&](uint64_t line) { c.warm(line); });
     });
+}
+
+uint64_t TimingModel::omm_access(uint64_t line, uint64_t t) {
+  // The node cache's hit and miss counters stay the nodes' and records'.
+  const uint64_t hits = m_s->cache_hits, misses = m_s->cache_misses;
+  const uint64_t ready = m_omm_cache.access(line, t, *m_mem, *m_s);
+  m_s->omm_cache_hits += m_s->cache_hits - hits;
+  m_s->omm_cache_misses += m_s->cache_misses - misses;
+  m_s->cache_hits = hits;
+  m_s->cache_misses = misses;
+  return ready;
 }
 
 void TimingModel::warm_memory(const std::vector<TraceEvent>* events, size_t m) {
@@ -428,9 +449,10 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
         uint64_t unqueued = t;
         uint64_t pending_wait = 0;  // waits on the way to a queued memory's lines (its own count at decisions)
         const uint64_t tr = m_port.request(t, m_s->port_request_waits);
+        const bool omm = e.kind == TraceEvent::kOmm && m_omm_cache.enabled();
         for_each_line<false>(*sl.layout, e, [&](uint64_t line) {
           const uint64_t before = m_s->mem_wait_cycles;
-          const uint64_t ready = m_cache.access(line, tr, *m_mem, *m_s);
+          const uint64_t ready = omm ? omm_access(line, tr) : m_cache.access(line, tr, *m_mem, *m_s);
           if (is_pending(ready)) [[unlikely]] {
             park(k, ready, t);
             pending_wait += m_s->mem_wait_cycles - before;

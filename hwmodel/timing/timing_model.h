@@ -87,6 +87,9 @@ struct PipelineTrace {
   }
 };
 
+// The micromap cache's configuration: c's node cache with omm_cache_kib KiB and no prefetch buffer.
+TimingConfig omm_cache_config(const TimingConfig& c);
+
 class TimingModel final : private PendingWaiter {
  public:
   // Where unit `unit` of a chip of `slots`-slot units spills its stacks: after `footprint` bytes of image (the
@@ -298,6 +301,8 @@ class TimingModel final : private PendingWaiter {
   class Port;
   // The layout a kEnter or kLeave event's mesh index names (std::logic_error for one the layout lacks).
   const Layout& bottom(uint32_t mesh) const;
+  // A micromap state line through the micromap cache (omm_cache_kib > 0) at cycle t: when its data is there.
+  uint64_t omm_access(uint64_t line, uint64_t t);
   // Calls f(layout, event) for every event that fetches, with the layout it addresses (kEnter, kLeave followed);
   // Reverse: last event first.
   template <bool Reverse, class F>
@@ -306,7 +311,8 @@ class TimingModel final : private PendingWaiter {
   TimingConfig m_c;
   Layout m_layout;
   NodeCache m_cache;
-  PortLimit m_port;                           // fetch_port_rate: one request and one answer a clock, or no limit
+  NodeCache m_omm_cache;  // omm_cache_kib > 0: the micromaps' state lines (kOmm), else empty and unused
+  PortLimit m_port;       // fetch_port_rate: one request and one answer a clock, or no limit
   std::unique_ptr<MemorySystem> m_own;        // the unit's own memory (null on a chip)
   MemorySystem* m_mem;                        // what the node cache fills from
   std::unique_ptr<FetchObserver> m_observer;  // null: none (the default)

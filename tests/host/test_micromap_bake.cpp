@@ -10,6 +10,7 @@
 
 #include "host/cost/cost_model.h"
 #include "host/devices/direct_device.h"
+#include "host/io/image.h"
 #include "host/jobs/trace_job.h"
 #include "host/scene/micromap_bake.h"
 #include "host/scene/ray_gen.h"
@@ -183,4 +184,43 @@ TEST_CASE("micromaps: the render's stats price the lookup: its logic by level, i
   // A finer map's index has wider products and sums.
   CHECK(area[1] > area[0]);
   CHECK(host::omm_lookup_cost(6).toggles_per_test > host::omm_lookup_cost(2).toggles_per_test);
+}
+
+TEST_CASE(
+    "micromaps: a micromap cache of their own keeps the image and takes the states' lines off the node cache",
+    "[micromap][alpha][timing]") {
+  const test::TempDir d("omm_cache");
+  nlohmann::json t[2];
+  uint64_t lookups = 0;
+  std::string png[2];
+  for (int k = 0; k < 2; ++k) {
+    const std::string stats = (d.path / ("s" + std::to_string(k) + ".json")).string();
+    png[k] = (d.path / ("f" + std::to_string(k) + ".png")).string();
+    const test::Run r = test::run_rtusim(
+        "render --scene builtin:forest --device timed --config rdna2 --omm-level 4 --width 48 --height 36 "
+        "--max-depth 1 --threads 1 --set omm_cache_kib=" +
+        std::string(k ? "8" : "0") + " --out " + png[k] + " --stats " + stats);
+    INFO(r.output);
+    REQUIRE(r.status == 0);
+    const nlohmann::json j = test::read_json(stats);
+    t[k] = j["timing"];
+    lookups = j["micromaps"]["lookup"]["lookups"].get<uint64_t>();
+  }
+  CHECK(host::read_png(png[0]).rgb == host::read_png(png[1]).rgb);  // timing never changes a hit
+  // Off (the default): no micromap cache counts. On: every state line access is the micromap cache's, one a
+  // lookup at most (a state is a byte of one line), and the node cache sees only nodes and records.
+  CHECK(t[0]["omm_cache"]["hits"] == 0);
+  CHECK(t[0]["omm_cache"]["misses"] == 0);
+  const uint64_t omm_lines =
+      t[1]["omm_cache"]["hits"].get<uint64_t>() + t[1]["omm_cache"]["misses"].get<uint64_t>();
+  CHECK(lookups > 0);
+  CHECK(omm_lines == lookups);
+  CHECK(t[1]["cache"]["line_accesses"].get<uint64_t>() + omm_lines ==
+        t[0]["cache"]["line_accesses"].get<uint64_t>());
+  test::check_refused(
+      {{"trace --scene builtin:forest --rays primary:64 --device timed --set cache_ways=64 --set omm_cache_kib=2",
+        "omm_cache_kib = 2 KiB is not a whole number of sets"},
+       {"trace --scene builtin:forest --rays primary:64 --device timed --omm-level 2 --set omm_cache_kib=8 "
+        "--sample 0.1",
+        "does not model the micromap cache"}});
 }

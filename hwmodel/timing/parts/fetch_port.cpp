@@ -31,6 +31,17 @@ const TimingKeyTable& fetch_keys() {
          return {};
        }},
       {"cache_latency", &C::cache_latency, 0, kMaxLatency, "cache hit latency in cycles"},
+      {"omm_cache_kib", &C::omm_cache_kib, 0, 65536,
+       "opacity micromap states through a cache of their own (KiB, cache_ways, line_bytes, cache_latency); 0: "
+       "through the node cache",
+       [](const C& c) -> std::string {
+         const long long set_bytes = static_cast<long long>(c.cache_ways) * c.line_bytes;
+         if (c.omm_cache_kib > 0 && (static_cast<long long>(c.omm_cache_kib) * 1024) % set_bytes != 0)
+           return "omm_cache_kib = " + std::to_string(c.omm_cache_kib) +
+                  " KiB is not a whole number of sets of cache_ways * line_bytes = " + std::to_string(set_bytes) +
+                  " bytes";
+         return {};
+       }},
       {"fetch_port_rate", &C::fetch_port_rate, 0, 1,
        "requests and read answers the memory port takes a clock: 0 no limit; 1 one of each, as the RTL traversal "
        "unit (rtl_sim/trav), whose refilled stack entries are decided the clock after their data",
@@ -45,7 +56,7 @@ const TimingKeyTable& fetch_keys() {
 
 std::span<const TimingCounter> fetch_counters() {
   using S = TimingStats;
-  static constexpr std::array<TimingCounter, 6> counters = {{
+  static constexpr std::array<TimingCounter, 8> counters = {{
       {"node_fetches", &S::node_fetches, "fetches", "node fetches (each one or more cache lines)", kPerRay},
       {"prim_fetches", &S::prim_fetches, "fetches", "primitive record and plane fetches", kPerRay},
       {"cache_hits", &S::cache_hits, "lines", "cache line accesses that hit (a line in flight counts as a hit)",
@@ -55,6 +66,10 @@ std::span<const TimingCounter> fetch_counters() {
        "fetch_port_rate 1: cycles requests waited for the memory port behind others", kPerRay},
       {"port_response_waits", &S::port_response_waits, "cycles",
        "fetch_port_rate 1: cycles read answers waited for the port behind others", kPerRay},
+      {"omm_cache_hits", &S::omm_cache_hits, "lines",
+       "omm_cache_kib > 0: micromap state line accesses that hit the micromap cache", kPerRay},
+      {"omm_cache_misses", &S::omm_cache_misses, "lines",
+       "omm_cache_kib > 0: micromap state line accesses that missed it and went to memory", kPerRay},
   }};
   return counter_table<FetchCounters>(counters);
 }

@@ -23,12 +23,16 @@ struct FetchConfig {
   // Requests and read answers the unit's memory port takes a clock (memory/port_limit.h): 0 no limit, 1 one of
   // each, as the RTL traversal unit's port (a refilled stack entry is then decided the clock after its data).
   int fetch_port_rate = 0;
+  // Opacity micromaps' states (kOmm fetches) through a cache of their own of this many KiB, cache_ways-way with
+  // line_bytes lines and cache_latency, beside the node cache; 0: through the node cache, as nodes and records.
+  int omm_cache_kib = 0;
 };
 
 struct FetchCounters {
   uint64_t node_fetches = 0, prim_fetches = 0;
   uint64_t cache_hits = 0, cache_misses = 0;                 // line accesses
   uint64_t port_request_waits = 0, port_response_waits = 0;  // fetch_port_rate 1: cycles behind other requests
+  uint64_t omm_cache_hits = 0, omm_cache_misses = 0;         // omm_cache_kib > 0: micromap state lines
 };
 
 const TimingKeyTable& fetch_keys();

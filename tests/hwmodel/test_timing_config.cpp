@@ -64,7 +64,7 @@ TEST_CASE("every timing preset validates and lists every key", "[timing][config]
     CHECK_NOTHROW(c.validate());
     CHECK_FALSE(timing_preset_description(name).empty());
     const auto keys = timing_keys(c);
-    CHECK(keys.size() == 83);  // every field of TimingConfig but `name`
+    CHECK(keys.size() == 84);  // every field of TimingConfig but `name`
     for (const TimingKey& k : keys) {
       CHECK_FALSE(k.key.empty());
       CHECK_FALSE(k.value.empty());

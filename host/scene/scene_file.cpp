@@ -173,24 +173,30 @@ void read_materials(Builder& b, const Json& j) {
   }
 }
 
-void read_spheres(Builder& b, const Json& j) {
+}  // namespace
+
+namespace scene_file_detail {
+
+void read_spheres(Builder& b, const Json& j, const std::string& where, hw::Geometry& g,
+                  std::vector<uint32_t>& material) {
   const Reader& r = b.reader;
-  r.each_object(j, "spheres", [&](const Json& s, const std::string& path) {
+  r.each_object(j, where, [&](const Json& s, const std::string& path) {
     r.check_keys(s, path, {"center", "radius", "material"});
     if (!s.contains("center")) r.fail(path, "missing key 'center'");
     if (!s.contains("radius")) r.fail(path, "missing key 'radius'");
     const Vec3 center = r.vec3(s["center"], join(path, "center"));
     const float radius = r.positive(s["radius"], join(path, "radius"));
-    b.sphere_material.push_back(b.material(s, path));
-    b.scene.geometry.spheres.push_back({center, radius});
+    material.push_back(b.material(s, path));
+    g.spheres.push_back({center, radius});
   });
 }
 
 // A curve set: points, a radius per point (or one for all) and segment starts (default: one strand through every
 // point), as Embree's round linear curves take them (curves.h).
-void read_curves(Builder& b, const Json& j) {
+void read_curves(Builder& b, const Json& j, const std::string& where, hw::Geometry& g,
+                 std::vector<uint32_t>& material) {
   const Reader& r = b.reader;
-  r.each_object(j, "curves", [&](const Json& c, const std::string& path) {
+  r.each_object(j, where, [&](const Json& c, const std::string& path) {
     r.check_keys(c, path, {"points", "radius", "radii", "segments", "material"});
     if (!c.contains("points")) r.fail(path, "missing key 'points'");
     if (c.contains("radius") == c.contains("radii")) r.fail(path, "give either 'radius' or 'radii'");
@@ -220,15 +226,19 @@ void read_curves(Builder& b, const Json& j) {
     } else {
       for (uint32_t k = 0; k + 1 < points.size(); ++k) starts.push_back(k);
     }
-    const uint32_t material = b.material(c, path);
+    const uint32_t mat = b.material(c, path);
     try {
-      add_curve_set(b.scene.geometry, points, radii, starts, "curve");
+      add_curve_set(g, points, radii, starts, "curve");
     } catch (const Error& e) {
       r.fail(path, e.what());
     }
-    b.curve_material.insert(b.curve_material.end(), starts.size(), material);
+    material.insert(material.end(), starts.size(), mat);
   });
 }
+
+}  // namespace scene_file_detail
+
+namespace {
 
 void read_planes(Builder& b, const Json& j) {
   const Reader& r = b.reader;
@@ -311,7 +321,8 @@ Scene load_scene_json(const nlohmann::ordered_json& root, const std::string& pat
                {"description", "camera", "textures", "materials", "meshes", "spheres", "curves", "planes",
                 "lights", "prototypes", "instances"});
 
-  Builder b{r, {}, {}, {}, {}, {}, {}, {}, std::vector<std::vector<uint32_t>>(1), {}, {}, {}, 0, {}, {}, {}, {}, {}};
+  Builder b{r,  {}, {}, {}, {}, {}, {}, {}, std::vector<std::vector<uint32_t>>(1), {}, {}, {},
+            {}, {}, 0,  {}, {}, {}, {}, {}};
   b.mesh_tri_uv.resize(1);
   b.scene.name = path;
   try {
@@ -322,8 +333,8 @@ Scene load_scene_json(const nlohmann::ordered_json& root, const std::string& pat
     const std::filesystem::path base_dir(base);
     if (root.contains("meshes")) read_meshes(b, root["meshes"], base_dir);
     if (root.contains("lights")) read_lights(b, root["lights"]);
-    if (root.contains("spheres")) read_spheres(b, root["spheres"]);
-    if (root.contains("curves")) read_curves(b, root["curves"]);
+    if (root.contains("spheres")) read_spheres(b, root["spheres"], "spheres", b.scene.geometry, b.sphere_material);
+    if (root.contains("curves")) read_curves(b, root["curves"], "curves", b.scene.geometry, b.curve_material);
     if (root.contains("planes")) read_planes(b, root["planes"]);
     b.scene.instances.meshes.emplace_back();  // mesh 0: the loose geometry, if instances follow
     add_file_instances(b);
@@ -354,6 +365,8 @@ Scene load_scene_json(const nlohmann::ordered_json& root, const std::string& pat
     set.finish();
     scene.geometry = set.flatten(scene.geometry.planes);
     b.tri_material.insert(b.tri_material.end(), b.instance_tri_material.begin(), b.instance_tri_material.end());
+    b.sphere_material.insert(b.sphere_material.end(), b.instance_sphere_material.begin(),
+                             b.instance_sphere_material.end());
     b.curve_material.insert(b.curve_material.end(), b.instance_curve_material.begin(),
                             b.instance_curve_material.end());
     b.tri_uv.insert(b.tri_uv.end(), b.instance_tri_uv.begin(), b.instance_tri_uv.end());

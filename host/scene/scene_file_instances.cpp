@@ -40,7 +40,7 @@ void add_instance(Builder& b, uint32_t mesh, const Xform& x, const std::string& 
   if (!hw::invert(in.to_world, inv))
     r.fail(path, "the composed transform is not finite or is singular (in float)");
   const uint64_t before = b.instance_prims;
-  b.instance_prims += set.meshes[mesh].triangles.size() + set.meshes[mesh].curves.size();
+  b.instance_prims += set.meshes[mesh].num_bounded();
   if (b.instance_prims >= hw::kMaxBvhPrims) r.fail(path, "instances hold more than 2^27 - 1 primitives in all");
   // Each instance triangle takes its material and texture coordinates here and its world-space copy when the
   // scene is flattened: the flattened scene's budget (check_scene_size) is applied as the count grows, each time
@@ -59,6 +59,8 @@ void add_instance(Builder& b, uint32_t mesh, const Xform& x, const std::string& 
   b.instance_tri_uv.insert(b.instance_tri_uv.end(), uvs.begin(), uvs.end());
   if (const auto it = b.mesh_curve_material.find(mesh); it != b.mesh_curve_material.end())
     b.instance_curve_material.insert(b.instance_curve_material.end(), it->second.begin(), it->second.end());
+  if (const auto it = b.mesh_sphere_material.find(mesh); it != b.mesh_sphere_material.end())
+    b.instance_sphere_material.insert(b.instance_sphere_material.end(), it->second.begin(), it->second.end());
 }
 
 // One instance entry at `path` under the transform `parent`, at nesting depth `depth` (1 at the top level).
@@ -103,20 +105,25 @@ void read_prototypes(Builder& b, const Json& j, const std::filesystem::path& bas
     const std::string path = join("prototypes", item.key());
     const Json& p = r.object(item.value(), path);
     if (item.key().empty()) r.fail(path, "prototype names must not be empty");
-    r.check_keys(p, path, {"meshes", "instances"});
-    if (!p.contains("meshes") && !p.contains("instances")) r.fail(path, "needs 'meshes' or 'instances'");
+    r.check_keys(p, path, {"meshes", "spheres", "curves", "instances"});
+    const bool own = p.contains("meshes") || p.contains("spheres") || p.contains("curves");
+    if (!own && !p.contains("instances")) r.fail(path, "needs 'meshes', 'spheres', 'curves' or 'instances'");
     Builder::Prototype proto;
     proto.json = &item.value();
     proto.path = path;
-    if (p.contains("meshes")) {
+    if (own) {  // its own geometry, in its object space: one mesh of the two levels
       hw::Geometry g;
       std::vector<uint32_t> mats;
       std::vector<TriangleUv> uvs;
-      std::vector<uint32_t> curve_mats;
-      read_mesh_entries(b, p["meshes"], join(path, "meshes"), base_dir, g, mats, uvs, curve_mats);
+      std::vector<uint32_t> curve_mats, sphere_mats;
+      if (p.contains("meshes"))
+        read_mesh_entries(b, p["meshes"], join(path, "meshes"), base_dir, g, mats, uvs, curve_mats);
+      if (p.contains("spheres")) read_spheres(b, p["spheres"], join(path, "spheres"), g, sphere_mats);
+      if (p.contains("curves")) read_curves(b, p["curves"], join(path, "curves"), g, curve_mats);
       uvs.resize(g.triangles.size());
       proto.mesh = uint32_t(b.scene.instances.meshes.size());
       if (!curve_mats.empty()) b.mesh_curve_material[proto.mesh] = std::move(curve_mats);
+      if (!sphere_mats.empty()) b.mesh_sphere_material[proto.mesh] = std::move(sphere_mats);
       b.scene.instances.meshes.push_back(std::move(g));
       b.mesh_tri_material.push_back(std::move(mats));
       b.mesh_tri_uv.push_back(std::move(uvs));

@@ -157,10 +157,12 @@ struct Builder {
   std::map<std::string, Prototype> prototypes;
   std::vector<std::vector<uint32_t>> mesh_tri_material;
   std::vector<uint32_t> instance_tri_material;
-  // The curve segments' materials of prototype meshes with lines (by mesh), and of instance curves in instance
-  // order (after the loose curves' curve_material in the flattened scene).
+  // The curve segments' materials of prototype meshes with strands (by mesh), and of instance curves in instance
+  // order (after the loose curves' curve_material in the flattened scene); the same for spheres.
   std::map<uint32_t, std::vector<uint32_t>> mesh_curve_material;
   std::vector<uint32_t> instance_curve_material;
+  std::map<uint32_t, std::vector<uint32_t>> mesh_sphere_material;
+  std::vector<uint32_t> instance_sphere_material;
   uint64_t instance_prims = 0;
   // Texture coordinates, as the materials: loose mesh triangles, per instance mesh, instance triangles.
   std::vector<TriangleUv> tri_uv;
@@ -201,6 +203,11 @@ void read_mesh_entries(Builder& b, const Json& j, const std::string& where, cons
                        hw::Geometry& g, std::vector<uint32_t>& tri_material, std::vector<TriangleUv>& tri_uv,
                        std::vector<uint32_t>& curve_material, bool keep_instances = false);
 void read_meshes(Builder& b, const Json& j, const std::filesystem::path& base_dir);
+// scene_file.cpp: "spheres" and "curves" entries at `where` into g, their materials appended to `material`.
+void read_spheres(Builder& b, const Json& j, const std::string& where, hw::Geometry& g,
+                  std::vector<uint32_t>& material);
+void read_curves(Builder& b, const Json& j, const std::string& where, hw::Geometry& g,
+                 std::vector<uint32_t>& material);
 
 // scene_file_instances.cpp: instancing (scenes/README.md, "prototypes" and "instances"), and the mesh files kept
 // two-level, added as instances once the loose geometry is read.

@@ -494,3 +494,51 @@ TEST_CASE("a prototype's mesh file with lines: each instance places its strands"
   CHECK(s.geometry.curves[3].r0 == 0.1f);  // the scaled placement's radius
   CHECK(s.prim_material.size() == s.geometry.num_prims());
 }
+
+TEST_CASE("a prototype's own spheres and curves: each instance places them, radii scaled",
+          "[scene][instancing][curve]") {
+  const std::string json = R"({
+    "materials": {"red": {"color": [1, 0, 0]}, "blue": {"color": [0, 0, 1]}},
+    "spheres": [{"center": [0, -5, 0], "radius": 1}],
+    "prototypes": {"tuft": {"spheres": [{"center": [0, 1, 0], "radius": 0.5, "material": "red"}],
+                            "curves": [{"points": [[0, 0, 0], [0, 1, 0], [0.5, 2, 0]], "radius": 0.1,
+                                        "material": "blue"}]}},
+    "instances": [{"prototype": "tuft", "transform": {"translate": [10, 0, 0]}},
+                  {"prototype": "tuft", "transform": {"rotate": [0, 0, 1, 90], "scale": 2, "translate": [-10, 0, 0]}}]})";
+  const host::Scene s = host::load_scene_json(host::parse_json_limited(json, "t.json"), "t.json", ".");
+  REQUIRE(s.instanced());
+  const hw::Geometry& g = s.geometry;
+  REQUIRE(g.spheres.size() == 3);  // the loose one, then one a placement
+  REQUIRE(g.curves.size() == 4);   // two segments a placement
+  CHECK(g.spheres[0].center == hw::Vec3(0, -5, 0));
+  CHECK(g.spheres[1].center == hw::Vec3(10, 1, 0));
+  CHECK(g.spheres[2].radius == 1.0f);                           // 0.5 scaled by 2
+  CHECK(g.spheres[2].center.x == Approx(-12.0f).margin(1e-5));  // (0, 1) turned to (-1, 0), doubled, moved
+  CHECK(g.curves[2].r0 == Approx(0.2f));
+  // Materials follow the flattened order: the loose sphere's default, then red, red; blue for every segment.
+  const uint32_t red = s.prim_material[g.sphere_prim(1)], blue = s.prim_material[g.curve_prim(3)];
+  CHECK(s.materials[red].name == "red");
+  CHECK(s.materials[blue].name == "blue");
+  CHECK(s.prim_material[g.sphere_prim(2)] == red);
+  // Two levels and flattened: rays at each placed sphere's and segment's middle hit it.
+  const hw::InstancedFloatTracer two(s.instances, g);
+  std::vector<hw::Ray> rays;
+  std::vector<uint32_t> want;
+  for (uint32_t i = 0; i < g.spheres.size(); ++i) {
+    rays.push_back(hw::Ray{g.spheres[i].center + hw::Vec3(0, 0, 20), 0.0f, hw::Vec3(0, 0, -1), INFINITY});
+    want.push_back(g.sphere_prim(i));
+  }
+  for (uint32_t i = 0; i < g.curves.size(); ++i) {
+    rays.push_back(hw::Ray{0.5f * (g.curves[i].p0 + g.curves[i].p1) + hw::Vec3(0, 0, 20), 0.0f, hw::Vec3(0, 0, -1),
+                           INFINITY});
+    want.push_back(g.curve_prim(i));
+  }
+  const std::vector<hw::Hit> hits = instanced_trace(two, rays, false);
+  for (size_t i = 0; i < rays.size(); ++i) CHECK(hits[i].prim == want[i]);
+  // A prototype with round primitives under a scale that is not uniform is refused, naming the rule.
+  std::string bad = json;
+  bad.replace(bad.find("\"scale\": 2"), 10, "\"scale\": [2, 1, 1]");
+  CHECK_THROWS_WITH(
+      host::validate_scene(host::load_scene_json(host::parse_json_limited(bad, "t.json"), "t.json", ".")),
+      Catch::Contains("similarity"));
+}

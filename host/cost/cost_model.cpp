@@ -227,7 +227,7 @@ MotionInterpolators motion_interpolators(const hw::FixedFormat& f, int time_bits
   const auto fit = [&](double lanes, int bits) {
     return fit_reference_ops(lanes * b * bits / 1024.0, lanes * b / 32.0, "interpolation products");
   };
-  return MotionInterpolators{fit(6.0, box_time_bits), fit(9.0, time_bits)};
+  return MotionInterpolators{fit(6.0, box_time_bits), fit(9.0, time_bits), fit(8.0, time_bits)};
 }
 
 hw::UnitCost omm_lookup_cost(int level) {

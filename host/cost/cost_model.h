@@ -33,9 +33,11 @@ hw::CostInputs cost_inputs(const hw::TimingConfig& c);
 // as the curve test is (a product of m by n bits costs m n / 32^2 reference 32-bit multiplies, a sum of m bits
 // m / 32 reference adds): `box` is one child box's interpolation (6 planes: a (B+1) x box_time_bits product and a
 // B+1-bit sum each), box_rate of them in each box unit; `tri` is one triangle's (9 coordinates: (B+1) x time_bits
-// and a B+1-bit sum each), one in each triangle unit. toggles_per_test: per box and per triangle interpolated.
+// and a B+1-bit sum each), one in each triangle unit; `round` a curve segment's (its end points' 6 coordinates and
+// 2 radii), one in each curve unit (with curve_units > 0; a triangle unit's serves the spheres it tests, 4
+// coordinates, and the curves without curve units). toggles_per_test: per box, triangle and curve segment.
 struct MotionInterpolators {
-  hw::UnitCost box, tri;
+  hw::UnitCost box, tri, round;
 };
 MotionInterpolators motion_interpolators(const hw::FixedFormat& f, int time_bits, int box_time_bits);
 

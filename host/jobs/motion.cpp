@@ -137,11 +137,15 @@ void fill_design(MotionDesign& m, int d, const hw::MotionTiming& t, const hw::Ti
 void price_interpolators(const MotionJobOptions& o, MotionDesign& m, bool prims) {
   const MotionInterpolators ip = motion_interpolators(o.format, o.motion.time_bits, o.motion.box_time_bits);
   const hw::Technology& tech = hw::nangate45();
-  m.interp_mm2 = hw::logic_area_mm2(ip.box.nand2_eq * o.timing.box_rate * o.timing.box_units +
-                                        (prims ? ip.tri.nand2_eq * o.timing.tri_units : 0.0),
-                                    tech);
-  m.interp_pj = (double(m.traversal.box_tests) * ip.box.toggles_per_test +
-                 (prims ? double(m.traversal.prim_tests) * ip.tri.toggles_per_test : 0.0)) *
+  m.interp_mm2 = hw::logic_area_mm2(
+      ip.box.nand2_eq * o.timing.box_rate * o.timing.box_units +
+          (prims ? ip.tri.nand2_eq * o.timing.tri_units + ip.round.nand2_eq * o.timing.curve_units : 0.0),
+      tech);
+  // A sphere interpolates 4 of the triangle interpolator's 9 lanes, a curve segment 8.
+  const hw::TimingStats& s = m.timing;
+  const double lanes =
+      double(s.tri_tests) + 4.0 / 9.0 * double(s.sphere_tests) + 8.0 / 9.0 * double(s.curve_tests);
+  m.interp_pj = (double(s.box_tests) * ip.box.toggles_per_test + (prims ? lanes * ip.tri.toggles_per_test : 0.0)) *
                 tech.pj_per_transition();
 }
 

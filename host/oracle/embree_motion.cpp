@@ -21,20 +21,17 @@ RTCRay embree_ray(const hw::Ray& r, float time) {
   return ray;
 }
 
-}  // namespace
-
-EmbreeMotionScene::EmbreeMotionScene(const hw::MotionGeometry& g, const char* config) {
-  m_device = rtcNewDevice(config);
-  if (!m_device) throw std::runtime_error("Embree: rtcNewDevice failed");
-  m_scene = rtcNewScene(m_device);
-  RTCGeometry geom = rtcNewGeometry(m_device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  rtcSetGeometryTimeStepCount(geom, 2);
-  const size_t n = g.triangles.size();
-  for (unsigned k = 0; k < 2; ++k) {
+// A triangle geometry of n unshared triangles (three vertices each, an index buffer 0, 1, 2, ...) with `steps`
+// time steps; tri(k, i) is triangle i at step k.
+template <class Tri>
+RTCGeometry triangle_geometry(RTCDevice device, unsigned steps, size_t n, Tri&& tri) {
+  RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  if (steps > 1) rtcSetGeometryTimeStepCount(geom, steps);
+  for (unsigned k = 0; k < steps; ++k) {
     auto* v = static_cast<float*>(
         rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, k, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3 * n));
     for (size_t i = 0; i < n; ++i) {
-      const hw::Triangle& t = g.triangles[i].key[k];
+      const hw::Triangle& t = tri(k, i);
       const hw::Vec3* p[3] = {&t.v0, &t.v1, &t.v2};
       for (int j = 0; j < 3; ++j)
         for (int a = 0; a < 3; ++a) v[9 * i + size_t(3 * j + a)] = (*p[j])[a];
@@ -44,6 +41,18 @@ EmbreeMotionScene::EmbreeMotionScene(const hw::MotionGeometry& g, const char* co
       rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), n));
   for (size_t i = 0; i < 3 * n; ++i) idx[i] = unsigned(i);
   rtcCommitGeometry(geom);
+  return geom;
+}
+
+}  // namespace
+
+EmbreeMotionScene::EmbreeMotionScene(const hw::MotionGeometry& g, const char* config) {
+  m_device = rtcNewDevice(config);
+  if (!m_device) throw std::runtime_error("Embree: rtcNewDevice failed");
+  m_scene = rtcNewScene(m_device);
+  const size_t n = g.triangles.size();
+  RTCGeometry geom = triangle_geometry(
+      m_device, 2, n, [&](unsigned k, size_t i) -> const hw::Triangle& { return g.triangles[i].key[k]; });
   rtcAttachGeometryByID(m_scene, geom, 0);
   rtcReleaseGeometry(geom);
   if (!g.spheres.empty()) {  // geometry 1: sphere points (center, radius) at two time steps
@@ -121,20 +130,9 @@ EmbreeMotionInstances::EmbreeMotionInstances(const hw::MotionInstanceSet& s, con
     if (!g.spheres.empty() || !g.curves.empty())
       throw std::invalid_argument("EmbreeMotionInstances: meshes of triangles only");
     RTCScene mesh = rtcNewScene(m_device);
-    RTCGeometry geom = rtcNewGeometry(m_device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    const size_t n = g.triangles.size();
-    auto* v = static_cast<float*>(
-        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3 * n));
-    for (size_t i = 0; i < n; ++i) {
-      const hw::Triangle& t = g.triangles[i];
-      const hw::Vec3* p[3] = {&t.v0, &t.v1, &t.v2};
-      for (int j = 0; j < 3; ++j)
-        for (int a = 0; a < 3; ++a) v[9 * i + size_t(3 * j + a)] = (*p[j])[a];
-    }
-    auto* idx = static_cast<unsigned*>(
-        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), n));
-    for (size_t i = 0; i < 3 * n; ++i) idx[i] = unsigned(i);
-    rtcCommitGeometry(geom);
+    RTCGeometry geom =
+        triangle_geometry(m_device, 1, g.triangles.size(),
+                          [&](unsigned, size_t i) -> const hw::Triangle& { return g.triangles[i]; });
     rtcAttachGeometryByID(mesh, geom, 0);
     rtcReleaseGeometry(geom);
     rtcSetSceneFlags(mesh, RTC_SCENE_FLAG_ROBUST);

@@ -271,11 +271,7 @@ Hit MotionInstancedFloatTracer::trace(const Ray& r, float time, bool any_hit, Tr
 void MotionInstancedFloatTracer::trace_batch(const std::vector<Ray>& rays, const std::vector<float>& times,
                                              std::vector<Hit>& hits, bool any_hit, int threads,
                                              TraversalStats& s) const {
-  validate_shutter_times(times, rays.size());
-  hits.assign(rays.size(), Hit{});
-  run_batch(rays.size(), threads, s, [&](size_t i, TraversalStats& ls) {
-    hits[i] = trace(rays[i], times.empty() ? 0.0f : times[i], any_hit, ls);
-  });
+  trace_motion_batch(*this, rays, times, hits, any_hit, threads, s);
 }
 
 namespace {
@@ -311,28 +307,7 @@ struct FixedTop {
   bool shader;
 
   int expand(uint32_t node, uint32_t refs[N], int64_t dists[N], int& tested) const {
-    int k = 0;
-    for (int i = 0; i < N; ++i) {
-      const size_t slot = size_t(node) * N + size_t(i);
-      if (v.child[slot] == kEmptyChild) continue;
-      ++tested;
-      int64_t lo[3], hi[3], tn = 0;
-      motion_box(&v.boxes[slot * 12], bt, lo, hi);
-      const bool accepted = box_test(r, lo, hi, r.tmin, c.t, tn);
-      if (check) {
-        ++s.box_checks;
-        const bool exact = box_test_exact(r, lo, hi, r.tmin, c.t);
-        s.box_false_negatives += exact && !accepted;
-        s.box_false_positives += accepted && !exact;
-      }
-      if (accepted) {
-        refs[k] = v.child[slot];
-        dists[k] = tn;
-        ++k;
-      }
-    }
-    if (rec) rec->push_back(TraceEvent{TraceEvent::kNode, uint8_t(tested), 0, 0, node});
-    return k;
+    return motion_expand<N>(v.child, v.boxes, node, bt, r, c.t, check, s, rec, refs, dists, tested);
   }
   bool leaf(uint32_t ref) const {
     bool found = false;
@@ -459,11 +434,7 @@ Hit MotionInstancedFixedTracer::trace_impl(const Ray& r, float time, bool any_hi
 void MotionInstancedFixedTracer::trace_batch(const std::vector<Ray>& rays, const std::vector<float>& times,
                                              std::vector<Hit>& hits, bool any_hit, int threads,
                                              TraversalStats& s) const {
-  validate_shutter_times(times, rays.size());
-  hits.assign(rays.size(), Hit{});
-  run_batch(rays.size(), threads, s, [&](size_t i, TraversalStats& ls) {
-    hits[i] = trace(rays[i], times.empty() ? 0.0f : times[i], any_hit, ls);
-  });
+  trace_motion_batch(*this, rays, times, hits, any_hit, threads, s);
 }
 
 Hit MotionInstancedFixedTracer::trace_all(const Ray& r, float time) const {

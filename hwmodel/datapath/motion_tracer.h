@@ -15,6 +15,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "hwmodel/datapath/batch.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/intersect_fixed.h"
 #include "hwmodel/datapath/stats.h"
@@ -55,6 +56,38 @@ inline void motion_box(const int32_t key[12], const BoxTime& t, int64_t lo[3], i
     lo[a] = key[a] + ((dl * (dl < 0 ? t.s1 : t.s0)) >> t.bits);       // floor: arithmetic shift
     hi[a] = key[3 + a] - ((-dh * (dh > 0 ? t.s1 : t.s0)) >> t.bits);  // ceil(x) = -floor(-x)
   }
+}
+
+// The box unit at a node of a motion BVH: each child's grid box at box time bt (motion_box) tested against r over
+// [r.tmin, tlim]; the accepted children's references and entry distances into refs and dists, their count
+// returned; `tested` counts the children tested. With `check`, each test is repeated exactly (box_test_exact) and
+// disagreements counted in s. Records the node's kNode event when `rec` is not null.
+template <int N>
+int motion_expand(const std::vector<uint32_t>& child, const std::vector<int32_t>& boxes, uint32_t node,
+                  const BoxTime& bt, const FixedRay& r, int64_t tlim, bool check, TraversalStats& s,
+                  std::vector<TraceEvent>* rec, uint32_t refs[N], int64_t dists[N], int& tested) {
+  int k = 0;
+  for (int i = 0; i < N; ++i) {
+    const size_t slot = size_t(node) * N + size_t(i);
+    if (child[slot] == kEmptyChild) continue;
+    ++tested;
+    int64_t lo[3], hi[3], tn = 0;
+    motion_box(&boxes[slot * 12], bt, lo, hi);
+    const bool accepted = box_test(r, lo, hi, r.tmin, tlim, tn);
+    if (check) {
+      ++s.box_checks;
+      const bool exact = box_test_exact(r, lo, hi, r.tmin, tlim);
+      s.box_false_negatives += exact && !accepted;
+      s.box_false_positives += accepted && !exact;
+    }
+    if (accepted) {
+      refs[k] = child[slot];
+      dists[k] = tn;
+      ++k;
+    }
+  }
+  if (rec) rec->push_back(TraceEvent{TraceEvent::kNode, uint8_t(tested), 0, 0, node});
+  return k;
 }
 
 // A triangle's grid vertices at time register tq: v0 + round((v1 - v0) tq / 2^time_bits), ties up. key: the
@@ -159,6 +192,18 @@ void with_motion_width(int width, F&& f) {
 // Shutter times of a batch: empty (every ray at time 0) or one per ray. Throws std::invalid_argument naming the
 // first ray whose time is not in [0, 1].
 void validate_shutter_times(const std::vector<float>& times, size_t rays);
+
+// A batch of rays at their shutter times (validate_shutter_times; empty: all at 0) traced by t.trace(ray, time,
+// any_hit, stats) on `threads` host threads (run_batch): hits in ray order, whatever the thread count.
+template <class Tracer>
+void trace_motion_batch(const Tracer& t, const std::vector<Ray>& rays, const std::vector<float>& times,
+                        std::vector<Hit>& hits, bool any_hit, int threads, TraversalStats& s) {
+  validate_shutter_times(times, rays.size());
+  hits.assign(rays.size(), Hit{});
+  run_batch(rays.size(), threads, s, [&](size_t i, TraversalStats& ls) {
+    hits[i] = t.trace(rays[i], times.empty() ? 0.0f : times[i], any_hit, ls);
+  });
+}
 
 // The float reference: boxes interpolated at the ray's time (in double, rounded outward), triangles at it
 // (lerp_point), the watertight float test.

@@ -42,28 +42,23 @@ double det3(const double m[3][3]) {
          m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
 }
 
-// Whether |det L(t)| of L(t) = (1 - t) L0 + t L1 stays above invert's bound (2^-40 of the product of the rows'
-// lengths, each at most the larger of its key frames') for every t in [0, 1]: the cubic's extremes in [0, 1] are
-// at its ends and the roots of its derivative, and it must not change sign between them.
+// Whether L(t) = (1 - t) L0 + t L1 is invertible by invert's rule (|det| above 2^-40 of the product of its rows'
+// lengths) at the extremes of det L(t) over [0, 1], and det keeps its sign between them: det L(t) is a cubic in t,
+// whose extremes lie at the ends and at the roots of its derivative; each is evaluated as the determinant of L(t)
+// itself (the expanded cubic would cancel where the scale changes much).
 bool invertible_over_shutter(const Affine& a0, const Affine& a1) {
-  double l0[3][3], d[3][3], rows = 1.0;
-  for (int r = 0; r < 3; ++r) {
-    double n0 = 0.0, n1 = 0.0;
+  double l0[3][3], d[3][3];
+  for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) {
       l0[r][c] = a0.m[r][c];
       d[r][c] = double(a1.m[r][c]) - double(a0.m[r][c]);
-      n0 += double(a0.m[r][c]) * a0.m[r][c];
-      n1 += double(a1.m[r][c]) * a1.m[r][c];
     }
-    rows *= std::sqrt(std::max(n0, n1));
-  }
   double adj0[3][3], adjd[3][3];
   adjugate(l0, adj0);
   adjugate(d, adjd);
-  const double c0 = det3(l0), c1 = trace_product(adj0, d), c2 = trace_product(adjd, l0), c3 = det3(d);
-  const auto p = [&](double t) { return ((c3 * t + c2) * t + c1) * t + c0; };
+  const double c1 = trace_product(adj0, d), c2 = trace_product(adjd, l0), c3 = det3(d);
   std::vector<double> ts = {0.0, 1.0};
-  // p'(t) = 3 c3 t^2 + 2 c2 t + c1.
+  // The derivative 3 c3 t^2 + 2 c2 t + c1.
   const double qa = 3.0 * c3, qb = 2.0 * c2, qc = c1;
   if (qa != 0.0) {
     const double disc = qb * qb - 4.0 * qa * qc;
@@ -73,13 +68,21 @@ bool invertible_over_shutter(const Affine& a0, const Affine& a1) {
     ts.push_back(-qc / qb);
   }
   std::sort(ts.begin(), ts.end());
-  const double bound = std::ldexp(rows, -40);
   double prev = 0.0;
   bool first = true;
   for (const double t : ts) {
     if (!(t >= 0.0 && t <= 1.0)) continue;
-    const double v = p(t);
-    if (!(std::fabs(v) > bound) || !std::isfinite(v)) return false;
+    double l[3][3], rows = 1.0;
+    for (int r = 0; r < 3; ++r) {
+      double n = 0.0;
+      for (int c = 0; c < 3; ++c) {
+        l[r][c] = (1.0 - t) * double(a0.m[r][c]) + t * double(a1.m[r][c]);  // as MotionInstanceSet::at
+        n += l[r][c] * l[r][c];
+      }
+      rows *= std::sqrt(n);
+    }
+    const double v = det3(l);
+    if (!(std::fabs(v) > std::ldexp(rows, -40)) || !std::isfinite(v)) return false;
     if (!first && (v > 0.0) != (prev > 0.0)) return false;
     prev = v;
     first = false;
@@ -398,8 +401,13 @@ StoredXform MotionInstancedFixedTracer::xform_at(uint32_t inst, uint32_t tq) con
     for (int c = 0; c < 4; ++c)
       x.m[r][c] =
           round_significant(double(a.m[r][c]) + (double(b.m[r][c]) - double(a.m[r][c])) * s, m_format.xform_bits);
+  // validate() bounds |det| away from 0; an inverse entry near the float range's end (a transform of tiny scale)
+  // leaves the transform unit's output zero, a ray every bottom level refuses (a miss), as rounding's edge would.
   AffineD inv;
-  if (!invert(x, inv)) return StoredXform{};  // validate() bounds |det| away from 0: only a rounding's edge
+  if (!invert(x, inv)) return StoredXform{};
+  for (const auto& row : inv.m)
+    for (const double e : row)
+      if (!(std::fabs(e) < 0x1p127)) return StoredXform{};  // rounded to xform_bits, still a finite float
   return StoredXform::from_inverse(inv, m_format.xform_bits);
 }
 

@@ -185,6 +185,20 @@ TEST_CASE("motion instances: bad sets are refused with the instance named", "[mo
   s = scene.set;
   s.end[0].m[1][1] = INFINITY;
   CHECK_THROWS_AS(hw::MotionInstancedFloatTracer(s), std::invalid_argument);
+  // An instance that shrinks to a tiny scale (its inverse beyond the float range at the end of the shutter) is
+  // traced without an error: near time 1 the transform unit's output is refused, a miss.
+  s = scene.set;
+  for (int a = 0; a < 3; ++a) s.end[0].m[a][a] = 1e-39f;
+  REQUIRE_NOTHROW(s.validate());
+  const hw::FixedFormat f = hw::format_preset("default");
+  const hw::MotionInstancedFixedTracer tiny(s, f, {}, bvh_options(f.width));
+  const host::MotionRays rays = random_instance_rays(s, 2000, 47);
+  std::vector<float> late(rays.rays.size(), 1.0f);
+  std::vector<hw::Hit> hits;
+  hw::TraversalStats ts;
+  REQUIRE_NOTHROW(tiny.trace_batch(rays.rays, late, hits, false, 2, ts));
+  for (const hw::Hit& h : hits)
+    CHECK_FALSE((h.hit() && s.set.global_prim(0, 0) <= h.prim && h.prim < s.set.instances[1].tri_base));
   // NaN rays and times outside [0, 1] are counted misses.
   const hw::MotionInstancedFloatTracer flt(scene.set);
   hw::TraversalStats st;

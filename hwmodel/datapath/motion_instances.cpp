@@ -204,20 +204,7 @@ struct FloatTop {
   TraversalStats& s;
 
   int expand(uint32_t node, uint32_t refs[N], float dists[N], int& tested) const {
-    int k = 0;
-    for (int i = 0; i < N; ++i) {
-      const size_t slot = size_t(node) * N + size_t(i);
-      if (b.child[slot] == kEmptyChild) continue;
-      ++tested;
-      float lo[3], hi[3], t;
-      b.box_at(slot, time, lo, hi);
-      if (intersect_box(lo, hi, rp, ray.tmin, closest.t, t)) {
-        refs[k] = b.child[slot];
-        dists[k] = t;
-        ++k;
-      }
-    }
-    return k;
+    return motion_expand_float<N>(b, node, time, rp, ray.tmin, closest.t, refs, dists, tested);
   }
   bool leaf(uint32_t ref) const {
     bool found = false;

@@ -235,21 +235,7 @@ struct MotionFloatPolicy {
   TraversalStats& s;
 
   int expand(uint32_t node, uint32_t refs[N], float dists[N], int& tested) const {
-    int k = 0;
-    for (int i = 0; i < N; ++i) {
-      const size_t slot = size_t(node) * N + size_t(i);
-      if (b.child[slot] == kEmptyChild) continue;
-      ++tested;
-      float lo[3], hi[3];
-      b.box_at(slot, time, lo, hi);
-      float t;
-      if (intersect_box(lo, hi, rp, tmin, c.tmax, t)) {
-        refs[k] = b.child[slot];
-        dists[k] = t;
-        ++k;
-      }
-    }
-    return k;
+    return motion_expand_float<N>(b, node, time, rp, tmin, c.tmax, refs, dists, tested);
   }
   bool leaf(uint32_t ref) const {
     bool found = false;

@@ -18,6 +18,7 @@
 #include "hwmodel/datapath/batch.h"
 #include "hwmodel/datapath/fixed_tracer.h"
 #include "hwmodel/datapath/intersect_fixed.h"
+#include "hwmodel/datapath/intersect_float.h"
 #include "hwmodel/datapath/stats.h"
 #include "hwmodel/format/prim_curve.h"
 #include "hwmodel/format/prim_sphere.h"
@@ -192,6 +193,28 @@ void with_motion_width(int width, F&& f) {
 // Shutter times of a batch: empty (every ray at time 0) or one per ray. Throws std::invalid_argument naming the
 // first ray whose time is not in [0, 1].
 void validate_shutter_times(const std::vector<float>& times, size_t rays);
+
+// The float reference at a node of a motion BVH: each child's box at `time` (MotionBvh::box_at, rounded outward)
+// tested against the ray over [tmin, tmax]; the accepted children's references and entry distances into refs and
+// dists, their count returned; `tested` counts the children tested.
+template <int N>
+int motion_expand_float(const MotionBvh& b, uint32_t node, float time, const RayPrecomp& rp, float tmin,
+                        float tmax, uint32_t refs[N], float dists[N], int& tested) {
+  int k = 0;
+  for (int i = 0; i < N; ++i) {
+    const size_t slot = size_t(node) * N + size_t(i);
+    if (b.child[slot] == kEmptyChild) continue;
+    ++tested;
+    float lo[3], hi[3], t;
+    b.box_at(slot, time, lo, hi);
+    if (intersect_box(lo, hi, rp, tmin, tmax, t)) {
+      refs[k] = b.child[slot];
+      dists[k] = t;
+      ++k;
+    }
+  }
+  return k;
+}
 
 // A batch of rays at their shutter times (validate_shutter_times; empty: all at 0) traced by t.trace(ray, time,
 // any_hit, stats) on `threads` host threads (run_batch): hits in ray order, whatever the thread count.

@@ -241,13 +241,12 @@ MotionJobResult run_motion_job(const MotionJobOptions& o) {
   if (o.instances || (src && src->instanced())) return run_instances(o, src);
   const MotionScene scene = src ? moving_scene(*src, o.move) : builtin_motion_scene(o.level, o.motion_scale);
   const bool user = o.user_rays();
-  hw::Aabb bounds;
-  for (uint32_t p = 0; p < scene.geometry.num_prims(); ++p)
-    for (int k = 0; k < 2; ++k) bounds.extend(scene.geometry.key_bounds(p, k));
-  const MotionRays rays = job_rays(o, scene.camera, bounds);
   hw::BvhBuildParams bp;
   bp.width = o.format.width;
   const hw::MotionBvh bvh = hw::MotionBvh::build(scene.geometry, bp);
+  hw::Aabb bounds = bvh.key_bounds[0];  // the scene over both key frames
+  bounds.extend(bvh.key_bounds[1]);
+  const MotionRays rays = job_rays(o, scene.camera, bounds);
   MotionJobResult r;
   r.triangles = scene.geometry.triangles.size();
   r.spheres = scene.geometry.spheres.size();

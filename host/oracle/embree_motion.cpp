@@ -21,6 +21,18 @@ RTCRay embree_ray(const hw::Ray& r, float time) {
   return ray;
 }
 
+// rtcIntersect1 of r at `time` in `scene`: the ray and hit, geomID RTC_INVALID_GEOMETRY_ID on a miss.
+RTCRayHit intersect_at(RTCScene scene, const hw::Ray& r, float time) {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  RTCRayHit rh{};
+  rh.ray = embree_ray(r, time);
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(scene, &ctx, &rh);
+  return rh;
+}
+
 // A triangle geometry of n unshared triangles (three vertices each, an index buffer 0, 1, 2, ...) with `steps`
 // time steps; tri(k, i) is triangle i at step k.
 template <class Tri>
@@ -102,13 +114,7 @@ EmbreeMotionScene::~EmbreeMotionScene() {
 }
 
 hw::Hit EmbreeMotionScene::intersect(const hw::Ray& r, float time) const {
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  RTCRayHit rh{};
-  rh.ray = embree_ray(r, time);
-  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(m_scene, &ctx, &rh);
+  const RTCRayHit rh = intersect_at(m_scene, r, time);
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hw::Hit{};
   if (rh.hit.geomID == 1) return hw::Hit{rh.ray.tfar, m_triangles + rh.hit.primID, 0.0f, 0.0f};
   if (rh.hit.geomID == 2) return hw::Hit{rh.ray.tfar, m_round + rh.hit.primID, rh.hit.u, 0.0f};
@@ -161,13 +167,7 @@ EmbreeMotionInstances::~EmbreeMotionInstances() {
 }
 
 hw::Hit EmbreeMotionInstances::intersect(const hw::Ray& r, float time) const {
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  RTCRayHit rh{};
-  rh.ray = embree_ray(r, time);
-  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(m_scene, &ctx, &rh);
+  const RTCRayHit rh = intersect_at(m_scene, r, time);
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hw::Hit{};
   return hw::Hit{rh.ray.tfar, m_set.set.global_prim(rh.hit.instID[0], rh.hit.primID), rh.hit.u, rh.hit.v};
 }

@@ -217,20 +217,26 @@ Geometry InstanceSet::flatten(const std::vector<Plane>& planes) const {
     }
   }
   // Round primitives under a similarity: centers and end points placed, radii scaled (both rounded to nearest).
-  for (const Instance& in : instances) {
-    const Affine& x = in.to_world;
-    double k = 1.0;
-    const bool id = x.is_identity() || !similarity_scale(x, k);  // validate() refuses the second
-    for (const Sphere& s : meshes[in.mesh].spheres)
-      g.spheres.push_back(id ? s : Sphere{x.point(s.center), float(k * s.radius)});
+  // Each instance's scale, 0 for the identity (and for what validate() refuses: not a similarity).
+  std::vector<double> scale(instances.size(), 0.0);
+  for (size_t i = 0; i < instances.size(); ++i) {
+    const Geometry& m = meshes[instances[i].mesh];
+    if ((!m.spheres.empty() || !m.curves.empty()) && !instances[i].to_world.is_identity() &&
+        !similarity_scale(instances[i].to_world, scale[i]))
+      scale[i] = 0.0;
   }
-  for (const Instance& in : instances) {
-    const Affine& x = in.to_world;
-    double k = 1.0;
-    const bool id = x.is_identity() || !similarity_scale(x, k);
-    for (const CurveSegment& c : meshes[in.mesh].curves)
+  for (size_t i = 0; i < instances.size(); ++i) {
+    const Affine& x = instances[i].to_world;
+    const double k = scale[i];
+    for (const Sphere& s : meshes[instances[i].mesh].spheres)
+      g.spheres.push_back(k == 0.0 ? s : Sphere{x.point(s.center), float(k * s.radius)});
+  }
+  for (size_t i = 0; i < instances.size(); ++i) {
+    const Affine& x = instances[i].to_world;
+    const double k = scale[i];
+    for (const CurveSegment& c : meshes[instances[i].mesh].curves)
       g.curves.push_back(
-          id ? c : CurveSegment{x.point(c.p0), float(k * c.r0), x.point(c.p1), float(k * c.r1), c.flags});
+          k == 0.0 ? c : CurveSegment{x.point(c.p0), float(k * c.r0), x.point(c.p1), float(k * c.r1), c.flags});
   }
   g.planes = planes;
   return g;
@@ -243,6 +249,16 @@ Ray object_ray(const AffineD& x, const Ray& r) {
     o.dir[k] = float(x.m[k][0] * r.dir.x + x.m[k][1] * r.dir.y + x.m[k][2] * r.dir.z);
   }
   return o;
+}
+
+bool trace_instance_float(const FloatTracer& mesh, const Ray& o, const InstanceSet& set, uint32_t inst,
+                          bool any_hit, const AnyHitStage* stage, Hit& closest, TraversalStats& s) {
+  TraversalStats inner;
+  const Hit h = mesh.trace(o, any_hit, inner, stage);
+  s.add_work(inner);
+  if (!h.hit() || !(h.t <= closest.t)) return false;
+  closest = Hit{h.t, set.global_prim(inst, h.prim), h.u, h.v};
+  return true;
 }
 
 namespace {
@@ -286,10 +302,7 @@ struct TopPolicy {
         for (uint64_t j = from; j < all->kept(); ++j) all->out[j].prim = set.global_prim(inst, all->out[j].prim);
         continue;
       }
-      const Hit h = mesh.trace(o, any_hit, inner, local ? &*local : nullptr);
-      s.add_work(inner);
-      if (h.hit() && h.t <= closest.t) {
-        closest = Hit{h.t, set.global_prim(inst, h.prim), h.u, h.v};
+      if (trace_instance_float(mesh, o, set, inst, any_hit, local ? &*local : nullptr, closest, s)) {
         found = true;
         if (any_hit) return true;
       }

@@ -120,6 +120,12 @@ class InstanceAnyHit final : public AnyHitStage {
   uint32_t m_inst;
 };
 
+// The float reference at an instance: object ray o (object_ray of the world ray, its tmax the closest hit so far)
+// traced by instance `inst`'s mesh tracer with `stage`; a hit at or before closest.t becomes the closest (the
+// flattened scene's index). The work (not a ray) goes to s. Returns whether the closest changed.
+bool trace_instance_float(const FloatTracer& mesh, const Ray& o, const InstanceSet& set, uint32_t inst,
+                          bool any_hit, const AnyHitStage* stage, Hit& closest, TraversalStats& s);
+
 // The float reference over an instance set: the top level (a BVH over the instances' world bounds) traversed as
 // every float BVH is (traverse.h); at an instance, the ray is transformed to object space in double, rounded to
 // float once, and traced by that mesh's FloatTracer (BVH or brute force by its own choice) over the interval

@@ -214,11 +214,8 @@ struct FloatTop {
       if (!invert(ms.at(inst, time), inv)) continue;  // validate() bounds |det| away from 0 over the shutter
       Ray o = object_ray(inv, ray);
       o.tmax = closest.t;
-      TraversalStats inner;
-      const Hit h = tracers[ms.set.instances[inst].mesh]->trace(o, any_hit, inner);
-      s.add_work(inner);
-      if (h.hit() && h.t <= closest.t) {
-        closest = Hit{h.t, ms.set.global_prim(inst, h.prim), h.u, h.v};
+      if (trace_instance_float(*tracers[ms.set.instances[inst].mesh], o, ms.set, inst, any_hit, nullptr, closest,
+                               s)) {
         found = true;
         if (any_hit) return true;
       }

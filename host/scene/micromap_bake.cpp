@@ -1,8 +1,11 @@
 #include "host/scene/micromap_bake.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstring>
 #include <map>
+#include <utility>
 
 namespace rtu::host {
 
@@ -77,6 +80,46 @@ hw::Micromap uniform(hw::MicroState s) {
   return hw::Micromap::pack(0, {s});
 }
 
+// One triangle's map at `level` from its texture's alpha (the header's argument): `big` is the largest magnitude
+// of its texture coordinates.
+hw::Micromap bake_texture(const AlphaPyramid& pyr, const fw::TextureRecord& tex, const fw::UvRecord& uv,
+                          double big, double alpha, double cutoff, int level) {
+  std::vector<hw::MicroState> states(size_t(1) << (2 * level));
+  const uint32_t count = uint32_t(states.size());
+  const double w = double(tex.width), h = double(tex.height), pad = std::ldexp(1.0 + big, -18);
+  for (uint32_t i = 0; i < count; ++i) {
+    double c[3][2];
+    hw::micro_corners(level, i, c);
+    double s0 = INFINITY, s1 = -INFINITY, t0 = INFINITY, t1 = -INFINITY;
+    for (const auto& p : c) {
+      const double b0 = 1.0 - p[0] - p[1];
+      const double s = b0 * uv.s[0] + p[0] * uv.s[1] + p[1] * uv.s[2];
+      const double t = b0 * uv.t[0] + p[0] * uv.t[1] + p[1] * uv.t[2];
+      s0 = std::min(s0, s), s1 = std::max(s1, s), t0 = std::min(t0, t), t1 = std::max(t1, t);
+    }
+    const double texel_pad = 1.0 / 256.0;
+    const int64_t c0 = int64_t(std::floor((s0 - pad) * w - 0.5 - texel_pad));
+    const int64_t c1 = int64_t(std::floor((s1 + pad) * w - 0.5 + texel_pad)) + 1;
+    const int64_t r0 = int64_t(std::floor((t0 - pad) * h - 0.5 - texel_pad));
+    const int64_t r1 = int64_t(std::floor((t1 + pad) * h - 0.5 + texel_pad)) + 1;
+    uint8_t lo, hi;
+    pyr.range(c0, c1, r0, r1, lo, hi);
+    const double a = double(lo) / 255.0 * (1.0 - std::ldexp(1.0, -19)) * alpha;
+    const double b = double(hi) / 255.0 * (1.0 + std::ldexp(1.0, -19)) * alpha;
+    const double least = std::min(a, b) - std::fabs(std::min(a, b)) * std::ldexp(1.0, -22);
+    const double most = std::max(a, b) + std::fabs(std::max(a, b)) * std::ldexp(1.0, -22);
+    states[i] = least >= cutoff ? hw::MicroState::kOpaque
+                : most < cutoff ? hw::MicroState::kTransparent
+                                : (2 * (cutoff - least) < most - least ? hw::MicroState::kUnknownOpaque
+                                                                       : hw::MicroState::kUnknownTransparent);
+  }
+  return hw::Micromap::pack(level, states);
+}
+
+// What a texture-masked triangle's map depends on, bit for bit: its texture, its coordinates, the material's alpha
+// and cutoff.
+using BakeKey = std::pair<const fw::TextureRecord*, std::array<uint32_t, 8>>;
+
 }  // namespace
 
 hw::MicromapSet bake_micromaps(const fw::ShadingTables& st, const std::vector<uint8_t>& non_opaque, int level,
@@ -86,8 +129,7 @@ hw::MicromapSet bake_micromaps(const fw::ShadingTables& st, const std::vector<ui
   set.map_of.assign(non_opaque.size(), hw::MicromapSet::kNoMap);
   std::map<const fw::TextureRecord*, AlphaPyramid> pyramids;
   MicromapStats local;
-  const uint32_t count = uint32_t(1) << (2 * level);
-  std::vector<hw::MicroState> states(count);
+  std::map<BakeKey, hw::Micromap> baked;
   for (uint32_t prim = 0; prim < non_opaque.size() && prim < st.num_prims; ++prim) {
     if (!non_opaque[prim] || st.surfaces[prim].kind != uint32_t(fw::SurfaceKind::kTriangle)) continue;
     const fw::MaterialRecord* m = st.material_of(prim);
@@ -112,37 +154,19 @@ hw::MicromapSet bake_micromaps(const fw::ShadingTables& st, const std::vector<ui
       if (!finite || big > kUvLimit || !std::isfinite(cutoff) || !std::isfinite(alpha)) {
         map = uniform(hw::MicroState::kUnknownOpaque);
       } else {
-        const AlphaPyramid& pyr =
-            pyramids.try_emplace(tex, st.mem + tex->texels, tex->width, tex->height).first->second;
-        const double w = double(tex->width), h = double(tex->height), pad = std::ldexp(1.0 + big, -18);
-        for (uint32_t i = 0; i < count; ++i) {
-          double c[3][2];
-          hw::micro_corners(level, i, c);
-          double s0 = INFINITY, s1 = -INFINITY, t0 = INFINITY, t1 = -INFINITY;
-          for (const auto& p : c) {
-            const double b0 = 1.0 - p[0] - p[1];
-            const double s = b0 * uv.s[0] + p[0] * uv.s[1] + p[1] * uv.s[2];
-            const double t = b0 * uv.t[0] + p[0] * uv.t[1] + p[1] * uv.t[2];
-            s0 = std::min(s0, s), s1 = std::max(s1, s), t0 = std::min(t0, t), t1 = std::max(t1, t);
-          }
-          const double texel_pad = 1.0 / 256.0;
-          const int64_t c0 = int64_t(std::floor((s0 - pad) * w - 0.5 - texel_pad));
-          const int64_t c1 = int64_t(std::floor((s1 + pad) * w - 0.5 + texel_pad)) + 1;
-          const int64_t r0 = int64_t(std::floor((t0 - pad) * h - 0.5 - texel_pad));
-          const int64_t r1 = int64_t(std::floor((t1 + pad) * h - 0.5 + texel_pad)) + 1;
-          uint8_t lo, hi;
-          pyr.range(c0, c1, r0, r1, lo, hi);
-          const double a = double(lo) / 255.0 * (1.0 - std::ldexp(1.0, -19)) * alpha;
-          const double b = double(hi) / 255.0 * (1.0 + std::ldexp(1.0, -19)) * alpha;
-          const double least = std::min(a, b) - std::fabs(std::min(a, b)) * std::ldexp(1.0, -22);
-          const double most = std::max(a, b) + std::fabs(std::max(a, b)) * std::ldexp(1.0, -22);
-          states[i] = least >= cutoff ? hw::MicroState::kOpaque
-                      : most < cutoff
-                          ? hw::MicroState::kTransparent
-                          : (2 * (cutoff - least) < most - least ? hw::MicroState::kUnknownOpaque
-                                                                 : hw::MicroState::kUnknownTransparent);
+        // Cards that repeat one texture's coordinates (a forest's leaves) bake once: the map is a function of
+        // the texture, the coordinates' bits, the material's alpha and cutoff.
+        BakeKey key{tex, {}};
+        std::memcpy(key.second.data(), &uv, sizeof uv);
+        std::memcpy(&key.second[6], &m->alpha, sizeof(float));
+        std::memcpy(&key.second[7], &m->alpha_cutoff, sizeof(float));
+        auto [it, fresh] = baked.try_emplace(key);
+        if (fresh) {
+          const AlphaPyramid& pyr =
+              pyramids.try_emplace(tex, st.mem + tex->texels, tex->width, tex->height).first->second;
+          it->second = bake_texture(pyr, *tex, uv, big, alpha, cutoff, level);
         }
-        map = hw::Micromap::pack(level, states);
+        map = it->second;
       }
     }
     set.map_of[prim] = uint32_t(set.maps.size());

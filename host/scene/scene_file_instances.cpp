@@ -1,8 +1,11 @@
 // Scene files: instancing (scenes/README.md, "prototypes" and "instances"): prototypes of meshes and instances,
 // instances nested in prototypes under composed transforms, and the mesh files whose node trees place a mesh more
 // than once, added as instances of their meshes.
+#include <algorithm>
 #include <cstdint>
 #include <filesystem>
+#include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -96,6 +99,28 @@ void expand_instance(Builder& b, const Json& e, const std::string& path, const X
   proto.empty = b.scene.instances.instances.size() == placed;
 }
 
+// How many instances the entry `e` places, counted from the prototypes' entries without placing them and
+// saturating above kMaxInstances, so that a fan of nested prototypes is refused before its instances are built.
+// Entries the expansion refuses (not objects, unknown prototypes, loops) count none here: it names them.
+uint64_t count_placements(const Builder& b, const Json& e, std::map<std::string, uint64_t>& memo,
+                          std::set<std::string>& visiting) {
+  if (!e.is_object() || !e.contains("prototype") || !e["prototype"].is_string()) return 0;
+  const std::string name = e["prototype"].get<std::string>();
+  const auto it = b.prototypes.find(name);
+  if (it == b.prototypes.end() || visiting.count(name)) return 0;
+  if (const auto m = memo.find(name); m != memo.end()) return m->second;
+  const Builder::Prototype& proto = it->second;
+  uint64_t n = proto.mesh != UINT32_MAX ? 1 : 0;
+  if (proto.json->contains("instances") && (*proto.json)["instances"].is_array()) {
+    visiting.insert(name);
+    for (const Json& sub : (*proto.json)["instances"])
+      n = std::min<uint64_t>(n + count_placements(b, sub, memo, visiting), kMaxInstances + 1);
+    visiting.erase(name);
+  }
+  memo[name] = n;
+  return n;
+}
+
 }  // namespace
 
 void read_prototypes(Builder& b, const Json& j, const std::filesystem::path& base_dir) {
@@ -160,6 +185,13 @@ void add_file_instances(Builder& b) {
 
 void read_instances(Builder& b, const Json& j) {
   b.reader.array(j, "instances");
+  std::map<std::string, uint64_t> memo;
+  std::set<std::string> visiting;
+  uint64_t total = b.scene.instances.instances.size();
+  for (const Json& e : j)
+    total = std::min<uint64_t>(total + count_placements(b, e, memo, visiting), kMaxInstances + 1);
+  if (total > kMaxInstances)
+    b.reader.fail("instances", "more than " + std::to_string(kMaxInstances) + " instances");
   for (size_t i = 0; i < j.size(); ++i) expand_instance(b, j[i], join("instances", i), Xform{}, 1);
 }
 

@@ -337,6 +337,7 @@ TEST_CASE("ray setup: the 64-bit fast paths equal the exact 128-bit code on odd 
   }
   CHECK(ok > 900000);
   CHECK(rejected > 10000);
+  CHECK(saturated == 0);
 }
 
 TEST_CASE("quantization frame: to_grid's 64-bit path equals the 128-bit code, every mode and frac",

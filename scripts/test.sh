@@ -38,7 +38,15 @@ cmake --preset asan >/dev/null
 cmake --build --preset asan -j "$(nproc)"
 ctest --preset asan
 # A fixed set of iterations (seeds 1..N), not a time budget: the same scenes on every run, however fast the machine.
-build/asan/rtusim soak --seconds 1e6 --iterations "${RTU_SOAK_ITERATIONS:-300}" --seed 1 --json build/asan/soak.json
+# One process on one core: it runs beside the first fuzz target (below), its status to a file.
+soak_status=build/asan/soak.status
+rm -f "$soak_status"
+(
+  status=0
+  build/asan/rtusim soak --seconds 1e6 --iterations "${RTU_SOAK_ITERATIONS:-300}" --seed 1 \
+    --json build/asan/soak.json >build/asan/soak.log 2>&1 || status=$?
+  echo "$status" >"$soak_status"
+) &
 
 mkdir -p build/asan/fuzz-artifacts
 : >build/asan/fuzz-summary.txt
@@ -71,6 +79,11 @@ for target in "${RTU_FUZZ_TARGETS[@]}"; do
 done
 wait
 failed=0
+cat build/asan/soak.log
+if [[ "$(cat "$soak_status" 2>/dev/null)" != 0 ]]; then
+  echo "rtusim soak: FAILED (log build/asan/soak.log)" >&2
+  failed=1
+fi
 for target in "${RTU_FUZZ_TARGETS[@]}"; do
   log=build/asan/fuzz-$target.log
   if [[ "$(cat "build/asan/fuzz-$target.status" 2>/dev/null)" != 0 ]]; then

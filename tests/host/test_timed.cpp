@@ -235,7 +235,7 @@ TEST_CASE("the summary names latency where the ray slots bind, and the slots are
 }
 
 TEST_CASE("a chip whose L2 ports queue: the bound and the notes name them, and L2 bandwidth is the lever",
-          "[timed][chip]") {
+          "[timed][chip][scale]") {
   // Incoherent rays on the 2CylinderEngine (its node cache misses about 40% of lines) over 8 units of
   // rdna4-chip whose L2 has 2 slices: the slices' ports are busy nearly all the time and the slots are full of
   // rays queued at them. The L2 term of the bound must name that (within 1.5x of the cycles), the notes must say

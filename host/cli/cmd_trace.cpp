@@ -28,6 +28,7 @@ struct TraceOptions {
   int threads = 0;
   int omm_level = -1;  // --omm-level: opacity micromaps of this level (-1: none)
   int all_hits = -1;   // --all-hits K: every intersection, K kept a ray (-1: closest or any hit)
+  size_t packet_rays = kTracePacketRays;  // --packet-rays: rays a TRACE packet
   DeviceArgs dev;
   PipelineTraceArgs pipeline;
   AgainstSpec against;  // --against-*: design point B of an A/B
@@ -76,6 +77,7 @@ void run_trace(const TraceOptions& o) {
   req.omm_level = o.omm_level;
   req.all_hits = o.all_hits;
   req.need_hits = !cycles_only;
+  req.packet_rays = o.packet_rays;
   req.pipeline = pt.make();
   const TraceRun run = host::run_trace(req);
   if (!run.grid_warning.empty()) std::fprintf(stderr, "rtusim: warning: %s\n", run.grid_warning.c_str());
@@ -178,6 +180,12 @@ void add_trace(CLI::App& app) {
                 "configuration (rtl_sim/trav/; builds with Verilator) and print its cycles beside the model's");
   sub->add_option("--threads", o->threads, "worker threads (0 = all cores); results do not depend on it")
       ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  sub->add_option("--packet-rays", o->packet_rays,
+                  "rays a TRACE packet: the rays go to the device in packets of this many, each filling and "
+                  "draining the timed device's ray slots (its cycles depend on it, the hits do not); a chip's "
+                  "--sample thins only packets long enough (docs/timing-model.md)")
+      ->check(CLI::Range(size_t(1), kMaxTracePacketRays))
       ->capture_default_str();
   sub->add_option("--stats", o->stats, "write statistics as JSON to this file");
   add_any_device_args(*sub, o->dev, o->pipeline);

@@ -167,7 +167,7 @@ std::vector<std::string> timing_notes(const hw::TimingStats& s, const hw::Timing
         "caches, every unit missing on the same nodes at once) and its end (the last units' tail) weigh "
         "on packets this short, so rays per clock still rise with the packet's size (rdna2-chip, "
         "builtin:atrium camera rays: 2.0 rays per clock at 26 rays a slot, 4.5 at 205); compare designs "
-        "on packets of your workload's size",
+        "on packets of your workload's size (trace --packet-rays)",
         per_packet, slots, per_packet / slots);
     notes.push_back(text);
   } else if (fill_drain > kShortPacketShare) {
@@ -176,7 +176,7 @@ std::vector<std::string> timing_notes(const hw::TimingStats& s, const hw::Timing
     std::snprintf(text, sizeof text,
                   "note: %.0f rays a packet for %.0f ray slots (%.1f a slot): filling and draining the slots (a "
                   "ray's mean lifetime, %.0f cycles) is about %.0f%% of the cycles, so rays per clock are below "
-                  "the steady state; compare designs on packets of at least %.0f rays",
+                  "the steady state; compare designs on packets of at least %.0f rays (trace --packet-rays)",
                   per_packet, slots, per_packet / slots, lifetime, 100.0 * std::min(1.0, fill_drain), enough);
     notes.push_back(text);
   }

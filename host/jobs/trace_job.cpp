@@ -42,15 +42,18 @@ int resolved_threads(int threads) {
 
 namespace {
 
-// Rays in chunks of 2^18 with a progress line: trace(begin, n, stats) for each, poll() before it. Returns the
-// seconds of tracing.
+// Rays in packets of `packet` with a progress line: trace(begin, n, stats) for each, poll() before it. Returns
+// the seconds of tracing.
 template <class Fn>
-double in_chunks(size_t rays, hw::TraversalStats& stats, const std::function<void()>& poll, Fn&& trace) {
-  constexpr size_t kChunk = size_t(1) << 18;
+double in_chunks(size_t rays, size_t packet, hw::TraversalStats& stats, const std::function<void()>& poll,
+                 Fn&& trace) {
+  if (packet == 0 || packet > kMaxTracePacketRays)
+    throw Error("rays a packet: " + std::to_string(packet) + " is not in 1 .. " +
+                std::to_string(kMaxTracePacketRays));
   Progress progress("trace", rays);
   const auto start = std::chrono::steady_clock::now();
-  for (size_t begin = 0; begin < rays; begin += kChunk) {
-    const size_t n = std::min(kChunk, rays - begin);
+  for (size_t begin = 0; begin < rays; begin += packet) {
+    const size_t n = std::min(packet, rays - begin);
     if (poll) poll();
     hw::TraversalStats chunk;
     trace(begin, n, chunk);
@@ -64,22 +67,22 @@ double in_chunks(size_t rays, hw::TraversalStats& stats, const std::function<voi
 }  // namespace
 
 double trace_with_progress(const DirectDevice& device, std::span<const hw::Ray> rays, std::vector<hw::Hit>& hits,
-                           bool any_hit, int threads, hw::TraversalStats& stats,
-                           const std::function<void()>& poll) {
+                           bool any_hit, int threads, hw::TraversalStats& stats, const std::function<void()>& poll,
+                           size_t packet_rays) {
   hits.resize(rays.size());
-  return in_chunks(rays.size(), stats, poll, [&](size_t begin, size_t n, hw::TraversalStats& chunk) {
+  return in_chunks(rays.size(), packet_rays, stats, poll, [&](size_t begin, size_t n, hw::TraversalStats& chunk) {
     device.trace_batch(rays.data() + begin, hits.data() + begin, n, any_hit, resolved_threads(threads), chunk);
   });
 }
 
 double trace_all_with_progress(const DirectDevice& device, std::span<const hw::Ray> rays, uint32_t k,
                                std::vector<hw::Hit>& lists, std::vector<uint64_t>& counts, int threads,
-                               hw::TraversalStats& stats, const std::function<void()>& poll) {
+                               hw::TraversalStats& stats, const std::function<void()>& poll, size_t packet_rays) {
   check_memory("all-hit lists of " + std::to_string(rays.size()) + " rays keeping " + std::to_string(k),
                uint64_t(rays.size()) * (uint64_t(k) * sizeof(hw::Hit) + sizeof(uint64_t)));
   lists.assign(rays.size() * size_t(k), hw::Hit{});
   counts.assign(rays.size(), 0);
-  return in_chunks(rays.size(), stats, poll, [&](size_t begin, size_t n, hw::TraversalStats& chunk) {
+  return in_chunks(rays.size(), packet_rays, stats, poll, [&](size_t begin, size_t n, hw::TraversalStats& chunk) {
     const hw::AllHitsOut out{k, lists.data() + begin * size_t(k), counts.data() + begin};
     device.trace_all_batch(rays.data() + begin, n, out, resolved_threads(threads), chunk);
   });
@@ -122,10 +125,10 @@ TraceRun run_trace(const TraceRequest& req) {
   run.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - build_start).count();
   if (req.all_hits >= 0)
     run.trace_seconds = trace_all_with_progress(*run.device, req.rays, uint32_t(req.all_hits), run.lists,
-                                                run.counts, req.threads, run.stats, req.poll);
+                                                run.counts, req.threads, run.stats, req.poll, req.packet_rays);
   else
-    run.trace_seconds =
-        trace_with_progress(*run.device, req.rays, run.hits, req.any_hit, req.threads, run.stats, req.poll);
+    run.trace_seconds = trace_with_progress(*run.device, req.rays, run.hits, req.any_hit, req.threads, run.stats,
+                                            req.poll, req.packet_rays);
   return run;
 }
 
@@ -158,6 +161,7 @@ Json trace_stats_json(const TraceRequest& req, const TraceRun& run, const std::s
   j["mode"] = req.all_hits >= 0 ? "all_hits" : req.any_hit ? "any_hit" : "closest_hit";
   if (req.all_hits >= 0) j["all_hits"] = all_hits_json(uint32_t(req.all_hits), run.counts);
   j["threads"] = resolved_threads(req.threads);
+  j["packet_rays"] = req.packet_rays;
   j.update(traversal_json(run.stats));
   j["trace_seconds"] = run.trace_seconds;
   j["rays_per_second"] = run.trace_seconds > 0 ? double(n) / run.trace_seconds : 0.0;

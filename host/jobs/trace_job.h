@@ -34,16 +34,23 @@ class Progress {
 
 int resolved_threads(int threads);
 
-// Traces rays into hits (same size), in chunks of 2^18 rays; returns the wall-clock seconds of tracing alone.
-// `poll`, when set, is called before each chunk: an exception it throws stops the job.
+// The rays of one TRACE packet (one trace_batch) when a ray set is traced in packets: on the timed device each
+// packet fills and drains the unit's slots, so the cycles depend on it; the hits do not.
+inline constexpr size_t kTracePacketRays = size_t(1) << 18;
+// The largest packet `rtusim trace --packet-rays` takes.
+inline constexpr size_t kMaxTracePacketRays = size_t(1) << 30;
+
+// Traces rays into hits (same size), in packets of `packet_rays` rays; returns the wall-clock seconds of tracing
+// alone. `poll`, when set, is called before each packet: an exception it throws stops the job.
 double trace_with_progress(const DirectDevice& device, std::span<const hw::Ray> rays, std::vector<hw::Hit>& hits,
                            bool any_hit, int threads, hw::TraversalStats& stats,
-                           const std::function<void()>& poll = nullptr);
+                           const std::function<void()>& poll = nullptr, size_t packet_rays = kTracePacketRays);
 
 // trace_with_progress for all-hit traversal keeping k hits a ray: lists (rays * k) and counts (rays).
 double trace_all_with_progress(const DirectDevice& device, std::span<const hw::Ray> rays, uint32_t k,
                                std::vector<hw::Hit>& lists, std::vector<uint64_t>& counts, int threads,
-                               hw::TraversalStats& stats, const std::function<void()>& poll = nullptr);
+                               hw::TraversalStats& stats, const std::function<void()>& poll = nullptr,
+                               size_t packet_rays = kTracePacketRays);
 
 // "N invalid rays reported as misses; the first is ray i (reason). Invalid: ..." when the device rejected any ray;
 // empty otherwise.
@@ -66,7 +73,8 @@ struct TraceRequest {
   int all_hits = -1;
   bool need_hits = true;  // false: sampled timing traces only the sampled rays (cycles only; hits not meaningful)
   hw::PipelineTrace* pipeline = nullptr;  // timed device: record pipeline spans here (or null)
-  // Called between chunks of rays (trace_with_progress); an exception it throws stops the job (Python: Ctrl-C).
+  size_t packet_rays = kTracePacketRays;  // rays a TRACE packet, 1 .. kMaxTracePacketRays
+  // Called between packets of rays (trace_with_progress); an exception it throws stops the job (Python: Ctrl-C).
   std::function<void()> poll;
 };
 struct TraceRun {

@@ -152,7 +152,7 @@ ChipThinning chip_thinning(size_t waves, size_t units, size_t k, size_t burst_tu
     t.why_not = packet + " holds " + std::to_string(bursts) + " bursts of " + std::to_string(burst_turns) +
                 " turns between its fill and drain; at 1 in " + std::to_string(k) + " that measures " +
                 std::to_string(measured) + ", fewer than the " + std::to_string(kChipMinBursts) +
-                " an interval needs: a larger --sample, or longer packets";
+                " an interval needs: a larger --sample, or longer packets (trace --packet-rays)";
     return t;
   }
   if (2 * simulated > waves) {

@@ -300,7 +300,7 @@ DeviceArgs device_args(const py::dict& kw) {
 // rtusim trace: (hits, stats, invalid message); with all_hits >= 0 (rtusim trace --all-hits) the hits are the
 // (N, all_hits) lists, unkept slots misses, and a fourth item the (N,) uint64 counts.
 py::tuple trace(const PyScene& scene, const py::handle& rays_obj, bool any_hit, int threads, bool need_hits,
-                const std::string& rays_name, int all_hits, const py::kwargs& kw) {
+                const std::string& rays_name, int all_hits, size_t packet_rays, const py::kwargs& kw) {
   const DeviceArgs d = device_args(kw);
   host::TraceRequest req;
   req.scene = scene.scene.get();
@@ -311,6 +311,7 @@ py::tuple trace(const PyScene& scene, const py::handle& rays_obj, bool any_hit, 
   req.omm_level = d.omm_level;
   req.need_hits = need_hits;
   req.all_hits = all_hits;
+  req.packet_rays = packet_rays;
   if (all_hits >= 0 && !need_hits) fail("hits=False does not apply to all_hits");
   if (!need_hits && !(req.kind == hw::DeviceKind::kTimed && d.sample > 0.0))
     fail("hits=False is allowed only with device='timed' and sample > 0 (cycles only)");
@@ -648,7 +649,7 @@ PYBIND11_MODULE(_rtu, m) {
       py::arg("path"), py::arg("hits"));
 
   m.def("trace", &trace, py::arg("scene"), py::arg("rays"), py::arg("any_hit"), py::arg("threads"),
-        py::arg("need_hits"), py::arg("rays_name"), py::arg("all_hits"));
+        py::arg("need_hits"), py::arg("rays_name"), py::arg("all_hits"), py::arg("packet_rays"));
   m.def("ab", &ab, py::arg("scene"), py::arg("rays"), py::arg("any_hit"), py::arg("threads"), py::arg("need_hits"),
         py::arg("rays_name"), py::arg("a"), py::arg("b"));
   m.def("compare", &compare, py::arg("scene"), py::arg("rays"), py::arg("rays_name"), py::arg("any_hit"),

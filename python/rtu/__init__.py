@@ -161,7 +161,7 @@ class TraceResult:
 
 
 def trace(scene, rays, device="float", *, any_hit=False, all_hits=None, threads=0, hits=True, invalid="raise", seed=1,
-          **device_options):
+          packet_rays=262144, **device_options):
     """Traces rays on a device, as `rtusim trace`.
 
     device: "float", "fixed" or "timed". Device options (those of rtusim's tracing commands): config (a preset
@@ -174,6 +174,8 @@ def trace(scene, rays, device="float", *, any_hit=False, all_hits=None, threads=
     "raise" (rtu.Error), "warn" (InvalidRayWarning; the CLI's behaviour) or "ignore"; the rejected rays are
     misses. all_hits=K (0..256): every intersection in [tmin, tmax] counted (result.counts) and the first K a ray
     kept, in the unit's order: result.hits is then an (N, K) array, misses after each ray's kept hits.
+    packet_rays (1..2^30): the rays a TRACE packet, as `rtusim trace --packet-rays` (the timed device's cycles
+    depend on it, the hits do not).
     """
     if invalid not in ("raise", "warn", "ignore"):
         raise Error(f"invalid: '{invalid}' is not raise, warn or ignore")
@@ -182,8 +184,11 @@ def trace(scene, rays, device="float", *, any_hit=False, all_hits=None, threads=
     k = -1 if all_hits is None else _int(all_hits, "all_hits")
     if all_hits is not None and not 0 <= k <= 256:
         raise Error(f"all_hits: {k} is not in 0..256")
+    packet = _int(packet_rays, "packet_rays")
+    if not 1 <= packet <= 2**30:
+        raise Error(f"packet_rays: {packet} is not in 1..{2**30}")
     out = _rtu.trace(scene, rays, _bool(any_hit, "any_hit"), _int(threads, "threads"), _bool(hits, "hits"), name, k,
-                     device=device, **device_options)
+                     packet, device=device, **device_options)
     h, stats, message = out[:3]
     for w in stats.get("warnings", []):
         _warnings.warn(w, AccuracyWarning, stacklevel=2)

@@ -129,7 +129,7 @@ hw::MicromapSet bake_micromaps(const fw::ShadingTables& st, const std::vector<ui
   set.map_of.assign(non_opaque.size(), hw::MicromapSet::kNoMap);
   std::map<const fw::TextureRecord*, AlphaPyramid> pyramids;
   MicromapStats local;
-  std::map<BakeKey, hw::Micromap> baked;
+  std::map<BakeKey, size_t> baked;  // the first map baked from each key, by its index in set.maps
   for (uint32_t prim = 0; prim < non_opaque.size() && prim < st.num_prims; ++prim) {
     if (!non_opaque[prim] || st.surfaces[prim].kind != uint32_t(fw::SurfaceKind::kTriangle)) continue;
     const fw::MaterialRecord* m = st.material_of(prim);
@@ -160,13 +160,15 @@ hw::MicromapSet bake_micromaps(const fw::ShadingTables& st, const std::vector<ui
         std::memcpy(key.second.data(), &uv, sizeof uv);
         std::memcpy(&key.second[6], &m->alpha, sizeof(float));
         std::memcpy(&key.second[7], &m->alpha_cutoff, sizeof(float));
-        auto [it, fresh] = baked.try_emplace(key);
+        // The index this triangle's map is about to take in set.maps (below), kept when the key is new.
+        const auto [it, fresh] = baked.try_emplace(key, set.maps.size());
         if (fresh) {
           const AlphaPyramid& pyr =
               pyramids.try_emplace(tex, st.mem + tex->texels, tex->width, tex->height).first->second;
-          it->second = bake_texture(pyr, *tex, uv, big, alpha, cutoff, level);
+          map = bake_texture(pyr, *tex, uv, big, alpha, cutoff, level);
+        } else {
+          map = set.maps[it->second];
         }
-        map = it->second;
       }
     }
     set.map_of[prim] = uint32_t(set.maps.size());

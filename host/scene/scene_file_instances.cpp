@@ -101,9 +101,11 @@ void expand_instance(Builder& b, const Json& e, const std::string& path, const X
 
 // How many instances the entry `e` places, counted from the prototypes' entries without placing them and
 // saturating above kMaxInstances, so that a fan of nested prototypes is refused before its instances are built.
-// Entries the expansion refuses (not objects, unknown prototypes, loops) count none here: it names them.
+// Entries the expansion refuses (not objects, unknown prototypes, loops, nesting deeper than its limit) count none
+// here: it names them. The count may then fall short; add_instance's own check stays the bound.
 uint64_t count_placements(const Builder& b, const Json& e, std::map<std::string, uint64_t>& memo,
-                          std::set<std::string>& visiting) {
+                          std::set<std::string>& visiting, int depth) {
+  if (depth > hw::kMaxInstanceNesting) return 0;
   if (!e.is_object() || !e.contains("prototype") || !e["prototype"].is_string()) return 0;
   const std::string name = e["prototype"].get<std::string>();
   const auto it = b.prototypes.find(name);
@@ -114,7 +116,7 @@ uint64_t count_placements(const Builder& b, const Json& e, std::map<std::string,
   if (proto.json->contains("instances") && (*proto.json)["instances"].is_array()) {
     visiting.insert(name);
     for (const Json& sub : (*proto.json)["instances"])
-      n = std::min<uint64_t>(n + count_placements(b, sub, memo, visiting), kMaxInstances + 1);
+      n = std::min<uint64_t>(n + count_placements(b, sub, memo, visiting, depth + 1), kMaxInstances + 1);
     visiting.erase(name);
   }
   memo[name] = n;
@@ -189,7 +191,7 @@ void read_instances(Builder& b, const Json& j) {
   std::set<std::string> visiting;
   uint64_t total = b.scene.instances.instances.size();
   for (const Json& e : j)
-    total = std::min<uint64_t>(total + count_placements(b, e, memo, visiting), kMaxInstances + 1);
+    total = std::min<uint64_t>(total + count_placements(b, e, memo, visiting, 1), kMaxInstances + 1);
   if (total > kMaxInstances)
     b.reader.fail("instances", "more than " + std::to_string(kMaxInstances) + " instances");
   for (size_t i = 0; i < j.size(); ++i) expand_instance(b, j[i], join("instances", i), Xform{}, 1);

@@ -74,6 +74,12 @@ Json parse_json_limited(const std::string& text, const std::string& what) {
           const std::string path = current_path();
           throw Error(what + ": duplicate key '" + path + "'");
         }
+        if (top.keys.size() > kMaxJsonKeys) {
+          frames.pop_back();  // the path of the object, not of its last key
+          const std::string path = current_path();
+          throw Error(what + ": " + (path.empty() ? "" : path + ": ") + "more than " +
+                      std::to_string(kMaxJsonKeys) + " keys in one object (the limit for JSON input)");
+        }
         break;
       }
       case Json::parse_event_t::object_end:

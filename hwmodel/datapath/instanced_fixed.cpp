@@ -77,6 +77,7 @@ InstancedFixedTracer::InstancedFixedTracer(const InstanceSet& set, const Geometr
   for (const Geometry& g : set.meshes) {
     const std::optional<Bvh> bvh = choose_accel(g, opt);
     m_bottoms.push_back(std::make_unique<DeviceImage>(encode_scene(g, f, bvh ? &*bvh : nullptr)));
+    m_mesh_spheres.push_back(uint32_t(g.spheres.size()));
   }
   // The top level as the float reference builds it (instancing.cpp): one instance per leaf, empty ones left out.
   std::vector<Aabb> kept;
@@ -114,8 +115,6 @@ uint32_t InstancedFixedTracer::mesh_spheres(const DeviceImage& img) {
 }
 
 void InstancedFixedTracer::make_tracers(const FixedTraceOptions& trace_opt) {
-  if (m_mesh_spheres.empty())
-    for (const auto& img : m_bottoms) m_mesh_spheres.push_back(mesh_spheres(*img));
   // A far origin moves to its mesh frame's grid box (inside the frame, so its setup succeeds).
   for (const auto& img : m_bottoms) {
     const QuantFrame q = img->frame();

@@ -162,9 +162,10 @@ class InstancedFixedTracer final : public BottomLevels {
   // bounds: m, t0 (o's t of m's origin); false when it misses the bounds.
   bool rebase(const Ray& o, uint32_t mesh, Ray& m, float& t0) const;
   InstancedFixedTracer() = default;
-  // A bottom image's spheres: its round records numbered before its first curve segment.
+  // A bottom image's spheres: its round records numbered before its first curve segment (from_bytes; the
+  // constructor takes them from the meshes).
   static uint32_t mesh_spheres(const DeviceImage& img);
-  // The tracers over the images (after m_top, m_bottoms, m_xforms and m_info are set).
+  // The tracers over the images (after m_top, m_bottoms, m_mesh_spheres, m_xforms and m_info are set).
   void make_tracers(const FixedTraceOptions& trace_opt);
   // Flattened index of instance inst's primitive `local` (its mesh's: triangles, then spheres).
   uint32_t global_prim(uint32_t inst, uint32_t local) const {

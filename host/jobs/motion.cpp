@@ -159,11 +159,8 @@ void finish_ratios(MotionJobResult& r) {
 MotionRays job_rays(const MotionJobOptions& o, const Camera& camera, const hw::Aabb& bounds) {
   if (!o.rays.empty()) return MotionRays{o.rays, o.times};
   if (o.ray_spec.empty()) return motion_frame_rays(camera, o.width, o.height, o.samples, o.seed);
-  Scene proxy;  // what rays_from_spec reads: the camera, and the bounds (one triangle spanning them)
-  proxy.camera = camera;
-  proxy.geometry.triangles.push_back(hw::Triangle{bounds.lo, bounds.hi, bounds.hi});
   MotionRays r;
-  r.rays = rays_from_spec(o.ray_spec, proxy, o.seed);
+  r.rays = rays_from_spec(o.ray_spec, camera, bounds, o.seed);
   r.times = read_shutter_times(o.time_spec, r.rays.size(), o.seed);
   return r;
 }

@@ -17,5 +17,8 @@ inline constexpr const char* kRaySpecKinds = "primary, primary:N, primary:WxH, i
 // many as "primary" has), "incoherent:N" (seeded by `seed`). Throws Error naming --rays for a bad count, a set of
 // rays too large for memory, or a spec that is neither a kind above nor an existing file.
 std::vector<hw::Ray> rays_from_spec(const std::string& spec, const Scene& scene, uint64_t seed);
+// The same for a scene known only by its camera (primary rays) and bounds (incoherent rays).
+std::vector<hw::Ray> rays_from_spec(const std::string& spec, const Camera& camera, const hw::Aabb& bounds,
+                                    uint64_t seed);
 
 }  // namespace rtu::host

@@ -4,8 +4,11 @@
 
 namespace rtu::hw {
 
-NodeCache::NodeCache(const TimingConfig& c)
-    : m_ways(uint64_t(c.cache_ways)), m_line_bytes(uint64_t(c.line_bytes)), m_latency(uint64_t(c.cache_latency)) {
+NodeCache::NodeCache(const TimingConfig& c, CacheCounters counters)
+    : m_ways(uint64_t(c.cache_ways)),
+      m_line_bytes(uint64_t(c.line_bytes)),
+      m_latency(uint64_t(c.cache_latency)),
+      m_counters(counters) {
   if (c.cache_kib > 0) {
     const uint64_t lines = uint64_t(c.cache_kib) * 1024 / m_line_bytes;
     m_sets = lines / m_ways;
@@ -38,7 +41,7 @@ void NodeCache::warm(uint64_t line) {
 }
 
 uint64_t NodeCache::from_buffer(Line& b, Line* victim, uint64_t t, TimingStats& s) {
-  ++s.cache_hits;
+  ++(s.*m_counters.hits);
   ++s.prefetch_useful;
   s.prefetch_late += b.ready > t;
   if (!m_prefetched.empty()) evict_prefetched(victim, s);

@@ -23,9 +23,16 @@
 
 namespace rtu::hw {
 
+// The TimingStats fields a cache counts its hits and misses in: the node cache's by default; the micromaps' own
+// cache (omm_cache_kib) counts in omm_cache_hits and omm_cache_misses.
+struct CacheCounters {
+  uint64_t TimingStats::*hits = &TimingStats::cache_hits;
+  uint64_t TimingStats::*misses = &TimingStats::cache_misses;
+};
+
 class NodeCache {
  public:
-  explicit NodeCache(const TimingConfig& c);
+  explicit NodeCache(const TimingConfig& c, CacheCounters counters = {});
   // Bytes a cache of configuration c holds: its lines, prefetch buffer and prefetch marks; with `walk`, also the
   // backward walk's scratch (walk_start: a seen line per way, a count and an open count per set). Not the walk's
   // marks, which grow with the image's lines.
@@ -33,17 +40,17 @@ class NodeCache {
   bool enabled() const { return !m_lines.empty(); }
   uint64_t latency() const { return m_latency; }
 
-  // An access to `line` at cycle t: returns the cycle its data is there. Counts a hit or a miss.
+  // An access to `line` at cycle t: returns the cycle its data is there. Counts a hit or a miss (CacheCounters).
   uint64_t access(uint64_t line, uint64_t t, MemorySystem& mem, TimingStats& s) {
     if (m_lines.empty()) {
-      ++s.cache_misses;
+      ++(s.*m_counters.misses);
       return mem.read_line(line, t, s);
     }
     Line* ways = set_ways(line);
     const int w = find_way(ways, line);
     if (w >= 0) {
       Line& l = ways[w];
-      ++s.cache_hits;
+      ++(s.*m_counters.hits);
       l.stamp = ++m_stamp;
       if (!m_prefetched.empty() && m_prefetched[size_t(&l - m_lines.data())]) [[unlikely]] {
         ++s.prefetch_useful;
@@ -58,7 +65,7 @@ class NodeCache {
     if (!m_buffer.empty()) [[unlikely]] {
       if (const int b = buffered(line); b >= 0) return from_buffer(m_buffer[size_t(b)], victim, t, s);
     }
-    ++s.cache_misses;
+    ++(s.*m_counters.misses);
     if (!m_prefetched.empty()) evict_prefetched(victim, s);
     victim->tag = line;
     victim->stamp = ++m_stamp;
@@ -129,6 +136,7 @@ class NodeCache {
   }
 
   uint64_t m_ways, m_line_bytes, m_latency;
+  CacheCounters m_counters;
   std::vector<Line> m_lines;
   uint64_t m_sets = 0, m_stamp = 0;
   uint64_t m_set_mask = 0;  // m_sets - 1 when m_sets is a power of two (else 0: a division)

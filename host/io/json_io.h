@@ -21,21 +21,16 @@ namespace rtu::host {
 // would fail there), so 64 leaves a wide margin for hand-written files while every recursion over a parsed value
 // stays below 64 frames of a few hundred bytes: a few tens of KiB of stack, even under AddressSanitizer.
 inline constexpr size_t kMaxJsonDepth = 64;
-// The most keys one object may hold. The parser keeps an object's members in file order in a vector and looks
-// each new key up in it, so reading n keys takes time growing with n^2: 65,536 keys took 5 s, so a 64 MB object
-// of short keys would take hours; 16,384 take a third of a second. Scene files (prototypes, materials), manifests
-// and rtusim's own JSON hold far fewer.
-inline constexpr size_t kMaxJsonKeys = 16384;
 
 // Parses `text` as JSON. `what` names the input in messages (a file name). Throws host::Error:
 //  - "WHAT: parse error at line L, column C: ..." for text that is not JSON;
 //  - "WHAT: PATH: nested deeper than 64 levels of arrays and objects (the limit for JSON input)" when an array or
 //    object opens at depth kMaxJsonDepth + 1, before it is built;
 //  - "WHAT: duplicate key 'PATH'" (nlohmann would keep the last one silently);
-//  - "WHAT: PATH: more than 16384 keys in one object (the limit for JSON input)" at the key past kMaxJsonKeys;
 //  - "WHAT: PATH: ... (not a finite number: NaN/Inf)" for a number beyond double range (1e999).
 // PATH is the key path of the offending value, e.g. "meshes[2].transform" (shortened when long). Comments
-// (// and /* */) are allowed, as in scene files.
+// (// and /* */) are allowed, as in scene files. Objects keep their members in file order; a parse takes time
+// about proportional to the text (n log n in an object's keys), whatever the number of keys.
 nlohmann::ordered_json parse_json_limited(const std::string& text, const std::string& what);
 
 // Reads the file `path` and parses it with parse_json_limited (path names it). Throws host::Error when the file

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "host/devices/direct_device.h"
+#include "host/devices/trav_units.h"
 #include "host/io/error.h"
 #include "host/jobs/render.h"
 #include "host/scene/ray_gen.h"
@@ -325,4 +326,31 @@ TEST_CASE("co-simulation: a configuration without a Verilated triangle unit is a
   CHECK_THROWS_WITH(rtu::hw::TimedEngine(rtu::hw::EngineOptions{}, options("rdna2", "cpp").timing, nullptr,
                                          rtu::rtl::make_rtl_tri_unit(options("rdna2", "cpp", "rtl").timing)),
                     Catch::Contains("tri_unit = cpp"));
+}
+
+// `rtusim trace --rtl-unit` through the runner rtusim registers (host/devices/trav_units.h): the configuration's
+// Verilated traversal unit runs the packet with the timed device's hits; a configuration no unit was verilated for
+// is refused with its parameters and the build option that adds one.
+TEST_CASE(
+    "trace --rtl-unit: a verilated configuration runs with the device's hits, another is refused with the fix",
+    "[rtl][cosim]") {
+  REQUIRE(rtu::host::have_rtl_trav_unit());
+  const rtu::host::Scene s = rtu::host::load_scene(kIfc);
+  const std::vector<Ray> rays = rtu::host::incoherent_rays(s.geometry.bounds(), 300, 5);
+  const DeviceOptions o = options("rdna2:ray_slots=4", "cpp");
+  const auto timed = rtu::host::make_device(s.geometry, o);
+  std::vector<Hit> h(rays.size());
+  rtu::hw::TraversalStats st;
+  timed->trace_batch(rays.data(), h.data(), rays.size(), false, 1, st);
+  const rtu::host::RtlTravRun r =
+      rtu::host::run_rtl_trav_unit(o.timing, *timed->image(), rays.data(), rays.size(), false);
+  CHECK(r.unit == "rdna2_s4");
+  REQUIRE(r.hits.size() == h.size());
+  CHECK(std::memcmp(r.hits.data(), h.data(), h.size() * sizeof(Hit)) == 0);
+  CHECK(r.cycles > 0);
+  // The rdna2 preset as it is (32 slots) is not among the units verilated by default.
+  CHECK_THROWS_WITH(rtu::host::run_rtl_trav_unit(options("rdna2", "cpp").timing, *timed->image(), rays.data(),
+                                                 rays.size(), false),
+                    Catch::Contains("no verilated traversal unit") && Catch::Contains("-GSLOTS=32") &&
+                        Catch::Contains("-DRTU_RTL_TRAV_EXTRA_UNITS="));
 }

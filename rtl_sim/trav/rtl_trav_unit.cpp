@@ -32,7 +32,9 @@ host::RtlTravRun run_rtl_trav_unit(const hw::TimingConfig& c, const hw::DeviceIm
   RTU_RTL_TRAV_MODELS(RTU_TRAV_RUN)
 #undef RTU_TRAV_RUN
   throw std::invalid_argument("no verilated traversal unit has this configuration's parameters (" + args +
-                              "); this build has " + built);
+                              "); this build has " + built +
+                              "; to build one: cmake --preset default -DRTU_RTL_TRAV_EXTRA_UNITS=NAME=SPEC, the "
+                              "SPEC a preset and its --set keys, e.g. rdna2:ray_slots=32 (docs/guide/rtl.md)");
 }
 
 }  // namespace rtu::rtl

@@ -10,6 +10,7 @@
 
 #include "host/cost/cost_model.h"
 #include "host/io/error.h"
+#include "rtl_sim/trav/trav_params.h"
 
 namespace rtu::host {
 
@@ -108,6 +109,21 @@ constexpr double kShortPacketShare = 0.1;
 // Rays a slot below which a chip's packet is short: rays per clock on rdna2-chip still rose from 3.6 to 4.5 when
 // builtin:atrium's camera rays went from 102 to 205 a slot (bench/results/chip-scaling.md, "Packet size").
 constexpr double kChipSteadyRaysPerSlot = 256;
+
+namespace {
+
+// What checks a configuration's cycles beyond the timing model's own tests: the RTL traversal unit, where it
+// models every part of the configuration (rtl_sim/trav/trav_params.h, trav_refusal).
+std::string checked_by(const hw::TimingConfig& c) {
+  const std::string why_not = rtl::trav_refusal(c);
+  if (why_not.empty())
+    return "checked by: the RTL traversal unit models every part of this configuration; trace --rtl-unit runs "
+           "these rays on it (one-level triangle scenes, its unit verilated: docs/guide/rtl.md) beside the model, "
+           "held to it in bench/results/rtl-correlation.md";
+  return "checked by: the timing model's own tests; no RTL checks these cycles, as " + why_not;
+}
+
+}  // namespace
 
 std::vector<std::string> timing_notes(const hw::TimingStats& s, const hw::TimingConfig& c,
                                       const hw::SampleStats* sampling) {
@@ -216,6 +232,7 @@ std::vector<std::string> timing_notes(const hw::TimingStats& s, const hw::Timing
       notes.push_back(text);
     }
   }
+  notes.push_back(checked_by(c));
   return notes;
 }
 

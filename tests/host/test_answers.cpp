@@ -218,6 +218,14 @@ TEST_CASE("a timed run's notes: queueing, far above the bound, spills, short pac
   CHECK(has(rtu::host::timing_notes(s, chip, nullptr), "(through the L2)"));
   CHECK(has(rtu::host::timing_notes(s, chip, nullptr), "(L2 ports, DRAM banks and channels)"));
   CHECK(has(rtu::host::timing_notes(s, chip, nullptr), "more L2 or DRAM bandwidth"));
+  // What checks the cycles: the RTL traversal unit models rdna2's single unit, not a chip or a prefetcher.
+  CHECK(has(n, "checked by: the RTL traversal unit models every part of this configuration"));
+  CHECK(has(rtu::host::timing_notes(s, chip, nullptr),
+            "no RTL checks these cycles, as the RTL traversal unit "
+            "needs units 1"));
+  rtu::hw::TimingConfig prefetching = c;
+  rtu::hw::set_timing_key(prefetching, "prefetcher", "next_line");
+  CHECK(has(rtu::host::timing_notes(s, prefetching, nullptr), "needs prefetcher none"));
   // Sampled: the interval is printed; an estimate below its own bound by more than the interval warns, one
   // within it does not; a warm-up longer than the packet warns.
   rtu::hw::SampleStats ss;

@@ -1,7 +1,8 @@
 // The traversal unit's parameters (trav/trav_unit.sv) from a timing configuration: its box unit's (rtl_params.h),
 // its triangle unit's (tri_params.h), and the slots, short stack and latencies the timing model reads from the
 // same keys. What the unit does not have (a second box or triangle unit, another node kind or layout, a
-// prefetcher, a ray scheduler, FR-FCFS memory) is refused by name: trav_refusal().
+// prefetcher, a ray scheduler, FR-FCFS memory, another traversal or child order) is refused by name:
+// trav_refusal().
 #pragma once
 
 #include <algorithm>
@@ -38,6 +39,9 @@ inline std::string trav_refusal(const hw::TimingConfig& c) {
   need(c.box_units == 1 && c.tri_units == 1 && c.tri_rate == 1, "box_units = tri_units = tri_rate = 1");
   need(c.curve_units == 0 && c.cluster_tri_rate == 0, "no curve units or cluster engine");
   need(c.stack_mode == hw::StackMode::kSpill, "stack_mode spill");
+  // The unit takes a node's children nearest first from one stack; other orders visit other nodes.
+  need(c.traversal == hw::TraversalOrder::kDepthFirst, "traversal depth_first");
+  need(c.child_order == hw::ChildOrder::kNearest, "child_order nearest");
   need(c.prefetcher == hw::PrefetcherId::kNone, "prefetcher none");
   need(c.gather == hw::GatherKey::kNone, "gather none");
   need(c.dram_scheduler == hw::DramScheduler::kFcfs, "dram_scheduler fcfs");

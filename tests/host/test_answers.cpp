@@ -226,6 +226,9 @@ TEST_CASE("a timed run's notes: queueing, far above the bound, spills, short pac
   rtu::hw::TimingConfig prefetching = c;
   rtu::hw::set_timing_key(prefetching, "prefetcher", "next_line");
   CHECK(has(rtu::host::timing_notes(s, prefetching, nullptr), "needs prefetcher none"));
+  rtu::hw::TimingConfig slot_order = c;
+  rtu::hw::set_timing_key(slot_order, "child_order", "slot");
+  CHECK(has(rtu::host::timing_notes(s, slot_order, nullptr), "needs child_order nearest"));
   // Sampled: the interval is printed; an estimate below its own bound by more than the interval warns, one
   // within it does not; a warm-up longer than the packet warns.
   rtu::hw::SampleStats ss;

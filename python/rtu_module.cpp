@@ -568,6 +568,9 @@ PYBIND11_MODULE(_rtu, m) {
   g_error = PyErr_NewExceptionWithDoc("rtu.Error", "An rtu error: bad input or a failed job (rtusim's message)",
                                       bases.ptr(), nullptr);
   m.attr("Error") = py::handle(g_error);
+  // trace(packet_rays=...): the default and the largest, as rtusim trace --packet-rays.
+  m.attr("TRACE_PACKET_RAYS") = host::kTracePacketRays;
+  m.attr("MAX_TRACE_PACKET_RAYS") = host::kMaxTracePacketRays;
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);

@@ -20,7 +20,7 @@ TimingModel::TimingModel(const TimingConfig& c, const Layout& layout, MemorySyst
     : m_c((c.validate(), c)),
       m_layout(layout),
       m_cache(c),
-      m_omm_cache(omm_cache_config(c), {&TimingStats::omm_cache_hits, &TimingStats::omm_cache_misses}),
+      m_omm_cache(omm_cache_config(c)),
       m_port(c.fetch_port_rate),
       m_own(shared ? nullptr : std::make_unique<MemorySystem>(c)),
       m_mem(shared ? shared : m_own.get()),
@@ -221,6 +221,10 @@ void TimingModel::warm(const std::vector<TraceEvent>* events, size_t m) {
       NodeCache& c = e.kind == TraceEvent::kOmm && m_omm_cache.enabled() ? m_omm_cache : m_cache;
       if (c.enabled()) for_each_line<false>(l, e, [&](uint64_t line) { c.warm(line); });
     });
+}
+
+uint64_t TimingModel::omm_access(uint64_t line, uint64_t t) {
+  return m_omm_cache.access<OmmCacheCounters>(line, t, *m_mem, *m_s);
 }
 
 void TimingModel::warm_memory(const std::vector<TraceEvent>* events, size_t m) {
@@ -441,7 +445,7 @@ void TimingModel::simulate(uint64_t limit, bool ahead) {
         const bool omm = e.kind == TraceEvent::kOmm && m_omm_cache.enabled();
         for_each_line<false>(*sl.layout, e, [&](uint64_t line) {
           const uint64_t before = m_s->mem_wait_cycles;
-          const uint64_t ready = (omm ? m_omm_cache : m_cache).access(line, tr, *m_mem, *m_s);
+          const uint64_t ready = omm ? omm_access(line, tr) : m_cache.access(line, tr, *m_mem, *m_s);
           if (is_pending(ready)) [[unlikely]] {
             park(k, ready, t);
             pending_wait += m_s->mem_wait_cycles - before;

@@ -301,6 +301,9 @@ class TimingModel final : private PendingWaiter {
   class Port;
   // The layout a kEnter or kLeave event's mesh index names (std::logic_error for one the layout lacks).
   const Layout& bottom(uint32_t mesh) const;
+  // A micromap state line through the micromap cache (omm_cache_kib > 0) at cycle t: when its data is there. Out
+  // of line, so that the timing loop keeps one inlined copy of the cache's access, the node cache's.
+  uint64_t omm_access(uint64_t line, uint64_t t);
   // Calls f(layout, event) for every event that fetches, with the layout it addresses (kEnter, kLeave followed);
   // Reverse: last event first.
   template <bool Reverse, class F>

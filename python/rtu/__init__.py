@@ -161,7 +161,7 @@ class TraceResult:
 
 
 def trace(scene, rays, device="float", *, any_hit=False, all_hits=None, threads=0, hits=True, invalid="raise", seed=1,
-          packet_rays=262144, **device_options):
+          packet_rays=_rtu.TRACE_PACKET_RAYS, **device_options):
     """Traces rays on a device, as `rtusim trace`.
 
     device: "float", "fixed" or "timed". Device options (those of rtusim's tracing commands): config (a preset
@@ -185,8 +185,8 @@ def trace(scene, rays, device="float", *, any_hit=False, all_hits=None, threads=
     if all_hits is not None and not 0 <= k <= 256:
         raise Error(f"all_hits: {k} is not in 0..256")
     packet = _int(packet_rays, "packet_rays")
-    if not 1 <= packet <= 2**30:
-        raise Error(f"packet_rays: {packet} is not in 1..{2**30}")
+    if not 1 <= packet <= _rtu.MAX_TRACE_PACKET_RAYS:  # checked here: a negative value cannot reach size_t
+        raise Error(f"packet_rays: {packet} is not in 1..{_rtu.MAX_TRACE_PACKET_RAYS}")
     out = _rtu.trace(scene, rays, _bool(any_hit, "any_hit"), _int(threads, "threads"), _bool(hits, "hits"), name, k,
                      packet, device=device, **device_options)
     h, stats, message = out[:3]

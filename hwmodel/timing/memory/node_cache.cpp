@@ -4,11 +4,8 @@
 
 namespace rtu::hw {
 
-NodeCache::NodeCache(const TimingConfig& c, CacheCounters counters)
-    : m_ways(uint64_t(c.cache_ways)),
-      m_line_bytes(uint64_t(c.line_bytes)),
-      m_latency(uint64_t(c.cache_latency)),
-      m_counters(counters) {
+NodeCache::NodeCache(const TimingConfig& c)
+    : m_ways(uint64_t(c.cache_ways)), m_line_bytes(uint64_t(c.line_bytes)), m_latency(uint64_t(c.cache_latency)) {
   if (c.cache_kib > 0) {
     const uint64_t lines = uint64_t(c.cache_kib) * 1024 / m_line_bytes;
     m_sets = lines / m_ways;
@@ -41,7 +38,6 @@ void NodeCache::warm(uint64_t line) {
 }
 
 uint64_t NodeCache::from_buffer(Line& b, Line* victim, uint64_t t, TimingStats& s) {
-  ++(s.*m_counters.hits);
   ++s.prefetch_useful;
   s.prefetch_late += b.ready > t;
   if (!m_prefetched.empty()) evict_prefetched(victim, s);

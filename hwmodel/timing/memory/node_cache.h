@@ -23,16 +23,20 @@
 
 namespace rtu::hw {
 
-// The TimingStats fields a cache counts its hits and misses in: the node cache's by default; the micromaps' own
-// cache (omm_cache_kib) counts in omm_cache_hits and omm_cache_misses.
-struct CacheCounters {
-  uint64_t TimingStats::*hits = &TimingStats::cache_hits;
-  uint64_t TimingStats::*misses = &TimingStats::cache_misses;
+// The TimingStats fields an access counts its hit or miss in, a template argument of access() so that the choice
+// costs the timing loop nothing: the node cache's, or those of the micromaps' own cache (omm_cache_kib).
+struct NodeCacheCounters {
+  static constexpr uint64_t TimingStats::*hits = &TimingStats::cache_hits;
+  static constexpr uint64_t TimingStats::*misses = &TimingStats::cache_misses;
+};
+struct OmmCacheCounters {
+  static constexpr uint64_t TimingStats::*hits = &TimingStats::omm_cache_hits;
+  static constexpr uint64_t TimingStats::*misses = &TimingStats::omm_cache_misses;
 };
 
 class NodeCache {
  public:
-  explicit NodeCache(const TimingConfig& c, CacheCounters counters = {});
+  explicit NodeCache(const TimingConfig& c);
   // Bytes a cache of configuration c holds: its lines, prefetch buffer and prefetch marks; with `walk`, also the
   // backward walk's scratch (walk_start: a seen line per way, a count and an open count per set). Not the walk's
   // marks, which grow with the image's lines.
@@ -40,17 +44,18 @@ class NodeCache {
   bool enabled() const { return !m_lines.empty(); }
   uint64_t latency() const { return m_latency; }
 
-  // An access to `line` at cycle t: returns the cycle its data is there. Counts a hit or a miss (CacheCounters).
+  // An access to `line` at cycle t: returns the cycle its data is there. Counts a hit or a miss in Counters'.
+  template <class Counters = NodeCacheCounters>
   uint64_t access(uint64_t line, uint64_t t, MemorySystem& mem, TimingStats& s) {
     if (m_lines.empty()) {
-      ++(s.*m_counters.misses);
+      ++(s.*Counters::misses);
       return mem.read_line(line, t, s);
     }
     Line* ways = set_ways(line);
     const int w = find_way(ways, line);
     if (w >= 0) {
       Line& l = ways[w];
-      ++(s.*m_counters.hits);
+      ++(s.*Counters::hits);
       l.stamp = ++m_stamp;
       if (!m_prefetched.empty() && m_prefetched[size_t(&l - m_lines.data())]) [[unlikely]] {
         ++s.prefetch_useful;
@@ -63,9 +68,12 @@ class NodeCache {
     }
     Line* victim = lru_way(ways);
     if (!m_buffer.empty()) [[unlikely]] {
-      if (const int b = buffered(line); b >= 0) return from_buffer(m_buffer[size_t(b)], victim, t, s);
+      if (const int b = buffered(line); b >= 0) {
+        ++(s.*Counters::hits);
+        return from_buffer(m_buffer[size_t(b)], victim, t, s);
+      }
     }
-    ++(s.*m_counters.misses);
+    ++(s.*Counters::misses);
     if (!m_prefetched.empty()) evict_prefetched(victim, s);
     victim->tag = line;
     victim->stamp = ++m_stamp;
@@ -136,7 +144,6 @@ class NodeCache {
   }
 
   uint64_t m_ways, m_line_bytes, m_latency;
-  CacheCounters m_counters;
   std::vector<Line> m_lines;
   uint64_t m_sets = 0, m_stamp = 0;
   uint64_t m_set_mask = 0;  // m_sets - 1 when m_sets is a power of two (else 0: a division)
@@ -150,8 +157,8 @@ class NodeCache {
       if (m_buffer[i].tag == line) return int(i);
     return -1;
   }
-  // A demand access at t that missed the cache found its line in the buffer: the line moves into the cache's
-  // victim way.
+  // A demand access at t that missed the cache found its line in the buffer (a hit, counted by the caller): the
+  // line moves into the cache's victim way.
   uint64_t from_buffer(Line& b, Line* victim, uint64_t t, TimingStats& s);
   // The victim's line leaves: a prefetched line no demand access hit counts as unused.
   void evict_prefetched(const Line* victim, TimingStats& s) {
